@@ -1,0 +1,24 @@
+//! The BYCOMS controller, as one piece of code for every shell.
+//!
+//! Everything here is sans-IO: inputs (and, where needed, time as an argument)
+//! go in, commands come out. No clocks, no randomness, no allocation, no
+//! `std`. The in-process simulator, the `sim-agent` process, the real-robot
+//! bridge and ESP32 firmware all call the same functions, which is what makes
+//! a lockstep run over processes bit-identical to the in-process simulator.
+//!
+//! * [`point`] — the point-robot controller of the paper's simulation (§IV):
+//!   mode 1 (head for the goal) / mode 2 (walk along a companion's field),
+//!   three motions (straight, turn cw, turn ccw).
+//! * [`acoustic`] — the pieces of the physical robot (§VI): gradient
+//!   estimation from a microphone ring, FFT tone isolation, and the
+//!   differential-drive controller.
+//! * [`angle`] — the angle arithmetic both share.
+#![cfg_attr(not(feature = "std"), no_std)]
+#![forbid(unsafe_code)]
+#![warn(clippy::std_instead_of_core, clippy::alloc_instead_of_core)]
+
+pub mod acoustic;
+pub mod angle;
+pub mod point;
+
+pub use point::{Controller, ControllerConfig, Input, Mode, Motion, Output};

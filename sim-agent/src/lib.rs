@@ -1,0 +1,10 @@
+//! The simulated BYCOMS world (paper §IV–V, design brief §3).
+//!
+//! Everything the paper's Python simulation did, as a library: the terrain
+//! grid and its text format, Perlin-noise generation, the minimum path width,
+//! the field physics, sensing noise, point kinematics and the sequential
+//! runner that deploys robots one at a time. The controller itself is not
+//! here: it is `bycoms_agent::point`, the same code every other shell runs.
+#![forbid(unsafe_code)]
+
+pub mod terrain;

@@ -1,0 +1,1 @@
+//! Terrain: placeholder filled in by the terrain work package.
