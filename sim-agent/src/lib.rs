@@ -7,4 +7,7 @@
 //! here: it is `bycoms_agent::point`, the same code every other shell runs.
 #![forbid(unsafe_code)]
 
+pub mod geom;
 pub mod terrain;
+
+pub use geom::Vec2;
