@@ -1,2 +1,0 @@
-//! The acoustic robot of the paper's experiments (§VI): placeholder filled in
-//! by the acoustic work package.
