@@ -1,1 +1,20 @@
-fn main() {}
+//! `orchestrator`: the commands BYCOMS users run.
+//!
+//! A thin `main` (ripgrep style): parse the command line, run one
+//! subcommand, turn its result into an explicit exit code. Each subcommand
+//! lives in its own file under `commands/`.
+
+use bycoms_orchestrator::{commands, exit};
+use clap::Parser;
+
+fn main() {
+    let cli = commands::Cli::parse();
+    let code = match commands::run(cli) {
+        Ok(code) => code,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            exit::ERROR
+        }
+    };
+    std::process::exit(code);
+}

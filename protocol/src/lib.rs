@@ -1,11 +1,34 @@
-//! Wire types and identifiers shared by every BYCOMS process.
+//! Wire types and identifiers shared by every BYCOMS process, and the bus
+//! that carries them.
 //!
-//! The core is `no_std` so the same types compile into ESP32 firmware. For now
-//! it holds the identifiers the simulator needs; the messages, the
-//! encode/decode pair and the bus arrive with the processes work (roadmap 2).
+//! Why one crate: the orchestrator, the simulated and real agents and the
+//! ESP32 firmware must agree byte for byte on what travels between them, so
+//! the messages ([`msg`]), their one encode/decode pair ([`codec`]) and the
+//! topic names ([`naming`]) live in a single place with golden-byte tests.
+//!
+//! The core is `no_std` and allocation-free so the same types compile into
+//! firmware. Behind features:
+//!
+//! * `std` (default): the transport interface [`bus`] with its in-memory
+//!   backend, and `encode_vec`;
+//! * `ipc`: the iceoryx2 shared-memory backend `bus::ipc`.
+//!
+//! Error types implement `core::error::Error` (the same trait as
+//! `std::error::Error`) with or without `std`.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![forbid(unsafe_code)]
+#![deny(missing_docs)]
 
+pub mod codec;
 pub mod ids;
+pub mod msg;
+pub mod naming;
 
+#[cfg(feature = "std")]
+pub mod bus;
+
+#[cfg(feature = "std")]
+pub use codec::encode_vec;
+pub use codec::{decode, encode, CodecError, Message, MAX_MESSAGE_LEN, PROTOCOL_VERSION};
 pub use ids::RobotId;
+pub use naming::{NameError, Swarm, Topic, TopicName};

@@ -7,7 +7,13 @@
 //! here: it is `bycoms_agent::point`, the same code every other shell runs.
 #![forbid(unsafe_code)]
 
+pub mod body;
+pub mod field;
 pub mod geom;
+pub mod robot;
+pub mod runner;
+pub mod sensing;
 pub mod terrain;
 
 pub use geom::Vec2;
+pub use runner::{run, Outcome, RunConfig, RunResult};

@@ -1,0 +1,102 @@
+//! `orchestrator merge`: combine the runs CSVs of a sharded sweep into the
+//! same runs.csv, tables and heatmaps a single `sweep` would have written.
+
+use super::sweep::{Meta, META_FILE};
+use crate::exit;
+use crate::sweep::rows::{read_rows, write_all, Row};
+use crate::sweep::table::{tabulate, to_text, write_outputs};
+use anyhow::{bail, Context, Result};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Combine shard outputs.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Shard output directories (each with sweep.json and runs-shard-*.csv).
+    #[arg(required = true, value_name = "DIR")]
+    pub inputs: Vec<PathBuf>,
+    /// Where to write the merged runs.csv, tables and heatmaps.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Write tables even if some runs are missing.
+    #[arg(long)]
+    pub allow_partial: bool,
+}
+
+pub fn run(args: Args) -> Result<i32> {
+    let mut meta: Option<Meta> = None;
+    let mut rows: BTreeMap<usize, Row> = BTreeMap::new();
+    for dir in &args.inputs {
+        let m = read_meta(dir)?;
+        match &meta {
+            None => meta = Some(m),
+            Some(first) if *first != m => {
+                bail!("{} belongs to a different sweep than {}", dir.display(), args.inputs[0].display())
+            }
+            Some(_) => {}
+        }
+        for file in runs_files(dir)? {
+            for row in read_rows(&file)? {
+                if let Some(old) = rows.get(&row.index) {
+                    if *old != row {
+                        bail!("run {} differs between shards (seen again in {})", row.index, file.display());
+                    }
+                }
+                rows.insert(row.index, row);
+            }
+        }
+    }
+    let Some(meta) = meta else { bail!("no input directories") };
+    let total = meta.axes.total_runs();
+    if let Some((&i, _)) = rows.iter().find(|(&i, _)| i >= total) {
+        bail!("run index {i} is outside this sweep's {total} runs");
+    }
+    let missing = total - rows.len();
+    if missing > 0 && !args.allow_partial {
+        let first = (0..total).find(|i| !rows.contains_key(i)).unwrap_or(0);
+        bail!("{missing} of {total} runs are missing (first: run {first}); finish the shards or pass --allow-partial");
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
+    let rows: Vec<Row> = rows.into_values().collect();
+    write_all(&args.out.join("runs.csv"), &rows)?;
+    let meta_path = args.out.join(META_FILE);
+    std::fs::write(&meta_path, serde_json::to_string_pretty(&meta)? + "\n")
+        .with_context(|| format!("cannot write {}", meta_path.display()))?;
+    let tables = tabulate(&meta.axes, &rows);
+    let files = write_outputs(&args.out, &meta.axes, &tables)?;
+    for t in &tables {
+        println!("{}", to_text(&meta.axes, t));
+    }
+    println!("merged {} runs into {}", rows.len(), args.out.join("runs.csv").display());
+    for f in files {
+        println!("wrote {}", f.display());
+    }
+    Ok(exit::SUCCESS)
+}
+
+fn read_meta(dir: &Path) -> Result<Meta> {
+    let path = dir.join(META_FILE);
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("cannot read {} (is {} a sweep output directory?)", path.display(), dir.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{} is not a sweep description", path.display()))
+}
+
+/// The shard CSVs of a directory, sorted; falls back to runs.csv.
+fn runs_files(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("cannot read {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("runs-shard-") && n.ends_with(".csv"))
+        })
+        .collect();
+    files.sort();
+    if files.is_empty() && dir.join("runs.csv").exists() {
+        files.push(dir.join("runs.csv"));
+    }
+    if files.is_empty() {
+        bail!("{} has no runs-shard-*.csv or runs.csv", dir.display());
+    }
+    Ok(files)
+}

@@ -1,0 +1,45 @@
+//! Command-line interface: one file per subcommand.
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+
+pub mod merge;
+pub mod simulate;
+pub mod sweep;
+pub mod terrain;
+pub mod world;
+
+/// BYCOMS swarm orchestrator: simulate runs, generate terrains, reproduce the
+/// paper's simulation study.
+///
+/// Exit codes: 0 success (for `simulate`: a robot reached the goal),
+/// 1 error, 2 usage error, 3 the run ended without any robot arriving,
+/// 130 interrupted (work done so far is kept).
+#[derive(Debug, Parser)]
+#[command(name = "orchestrator", version, about, long_about)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// One in-process run: summary, optional JSON, and an SVG snapshot.
+    Simulate(simulate::Args),
+    /// Generate terrains of a given minimum path width into a directory.
+    Terrain(terrain::Args),
+    /// The paper's study: success rate over ε × path width, with and without noise.
+    Sweep(sweep::Args),
+    /// Combine the CSVs of sharded sweeps into the same tables and heatmaps.
+    Merge(merge::Args),
+}
+
+/// Runs the parsed command; returns the process exit code.
+pub fn run(cli: Cli) -> Result<i32> {
+    match cli.command {
+        Command::Simulate(args) => simulate::run(args),
+        Command::Terrain(args) => terrain::run(args),
+        Command::Sweep(args) => sweep::run(args),
+        Command::Merge(args) => merge::run(args),
+    }
+}

@@ -1,0 +1,259 @@
+//! `orchestrator sweep`: the paper's simulation study (§V), resumable and
+//! shardable. See `crate::sweep` for how the pieces fit.
+
+use crate::exit;
+use crate::sweep::execute::{execute, Job};
+use crate::sweep::plan::{parse_axis, Axes, Shard};
+use crate::sweep::rows::RowWriter;
+use crate::sweep::table::{tabulate, to_text, write_outputs};
+use crate::sweep::terrains::{generate_bins, load_bins, SweepTerrain};
+use anyhow::{bail, Context, Result};
+use bycoms_sim::RunConfig;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::OnceLock;
+
+/// ε × width bin × terrains × noise; writes runs CSV, tables and heatmaps.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Circumferential radii ε: a list "1,2,3" or a range "start:end:step".
+    #[arg(long, default_value = "1:5:0.5", allow_hyphen_values = true)]
+    pub eps: String,
+    /// Width bins (bin w holds w ≤ width < w + 0.5): list or range.
+    #[arg(long, default_value = "1:5:0.5")]
+    pub widths: String,
+    /// Terrains per width bin.
+    #[arg(long, default_value_t = 100)]
+    pub terrains_per_bin: usize,
+    /// Noise settings to run.
+    #[arg(long, value_enum, default_value = "both")]
+    pub noise: NoiseAxis,
+    /// Seed of terrain generation and of the sensing noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Use the *.txt terrains of this directory (binned by their measured width) instead of generating.
+    #[arg(long, value_name = "DIR")]
+    pub terrains: Option<PathBuf>,
+    /// Output directory (created if needed); rerunning into it resumes.
+    #[arg(long, value_name = "DIR", default_value = "sweep-out")]
+    pub out: PathBuf,
+    /// Run only shard i of n (0-based, e.g. 0/4); combine the parts with `orchestrator merge`.
+    #[arg(long, value_name = "i/n")]
+    pub shard: Option<Shard>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// Robots per run (default: until the time limit).
+    #[arg(long, value_name = "N")]
+    pub max_robots: Option<u32>,
+    /// Simulated time limit per run, seconds.
+    #[arg(long, default_value_t = 10_000.0, value_name = "SECONDS")]
+    pub time_limit: f64,
+    /// Give up generating terrains after this many candidates.
+    #[arg(long, default_value_t = 2_000_000)]
+    pub max_candidates: u64,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum NoiseAxis {
+    Off,
+    On,
+    Both,
+}
+
+/// The sweep's identity, kept in `sweep.json`: a rerun (or another shard
+/// writing to the same directory) must match it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Meta {
+    pub axes: Axes,
+    pub seed: u64,
+    pub terrains: Option<PathBuf>,
+    pub max_robots: Option<u32>,
+    pub time_limit: f64,
+}
+
+pub const META_FILE: &str = "sweep.json";
+
+/// Name of a shard's runs CSV.
+pub fn runs_file(shard: Shard) -> String {
+    if shard.is_whole() {
+        "runs.csv".to_owned()
+    } else {
+        format!("runs-shard-{}-of-{}.csv", shard.index, shard.count)
+    }
+}
+
+/// Set by Ctrl-C; the handler is installed once per process.
+fn stop_flag() -> &'static AtomicBool {
+    static STOP: OnceLock<&'static AtomicBool> = OnceLock::new();
+    STOP.get_or_init(|| {
+        let flag: &'static AtomicBool = Box::leak(Box::new(AtomicBool::new(false)));
+        let _ = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst));
+        flag
+    })
+}
+
+pub fn run(args: Args) -> Result<i32> {
+    let axes = Axes {
+        eps: parse_axis(&args.eps).context("--eps")?,
+        widths: parse_axis(&args.widths).context("--widths")?,
+        terrains_per_bin: args.terrains_per_bin,
+        noise: match args.noise {
+            NoiseAxis::Off => vec![false],
+            NoiseAxis::On => vec![true],
+            NoiseAxis::Both => vec![false, true],
+        },
+    };
+    axes.validate()?;
+    if !(args.time_limit.is_finite() && args.time_limit > 0.0) {
+        bail!("--time-limit must be a positive number of seconds");
+    }
+    if args.max_robots == Some(0) {
+        bail!("--max-robots must be at least 1");
+    }
+    let shard = args.shard.unwrap_or(Shard::WHOLE);
+    let meta = Meta {
+        axes: axes.clone(),
+        seed: args.seed,
+        terrains: args.terrains.clone(),
+        max_robots: args.max_robots,
+        time_limit: args.time_limit,
+    };
+    prepare_out_dir(&args.out, &meta)?;
+
+    let terrains = load_terrains(&args, &axes)?;
+    write_terrain_list(&args.out, &axes, &terrains)?;
+
+    let runs_path = args.out.join(runs_file(shard));
+    let (mut writer, done) = RowWriter::open(&runs_path)?;
+    let planned: Vec<usize> = shard.runs(axes.total_runs()).collect();
+    if let Some((k, row)) = done.iter().enumerate().find(|(k, r)| planned.get(*k) != Some(&r.index)) {
+        bail!(
+            "{} does not belong to this sweep (row {} is run {}, expected {:?}); use another --out",
+            runs_path.display(),
+            k + 2,
+            row.index,
+            planned.get(k)
+        );
+    }
+    let pending = &planned[done.len()..];
+    if !done.is_empty() {
+        eprintln!("resuming: {} of {} runs already in {}", done.len(), planned.len(), runs_path.display());
+    }
+
+    let mut base = RunConfig::paper(1.0);
+    base.time_limit = args.time_limit;
+    base.max_robots = args.max_robots;
+    let job = Job { axes: &axes, terrains: &terrains, base, seed: args.seed };
+    let bar = ProgressBar::new(planned.len() as u64).with_position(done.len() as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} runs, {msg}, eta {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let stop = stop_flag();
+    stop.store(false, Ordering::SeqCst);
+    let threads = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let written = execute(&job, pending, &mut writer, threads, &bar, stop)?;
+    bar.finish_and_clear();
+    drop(writer);
+
+    if done.len() + written < planned.len() {
+        eprintln!(
+            "interrupted: {} of {} runs kept in {}; run the same command again to resume",
+            done.len() + written,
+            planned.len(),
+            runs_path.display()
+        );
+        return Ok(exit::INTERRUPTED);
+    }
+    if !shard.is_whole() {
+        println!(
+            "shard {}/{} done: {} runs in {}; combine the shards with `orchestrator merge`",
+            shard.index,
+            shard.count,
+            planned.len(),
+            runs_path.display()
+        );
+        return Ok(exit::SUCCESS);
+    }
+    let rows = crate::sweep::rows::read_rows(&runs_path)?;
+    let tables = tabulate(&axes, &rows);
+    let files = write_outputs(&args.out, &axes, &tables)?;
+    for t in &tables {
+        println!("{}", to_text(&axes, t));
+    }
+    println!("{} runs in {}", rows.len(), runs_path.display());
+    for f in files {
+        println!("wrote {}", f.display());
+    }
+    Ok(exit::SUCCESS)
+}
+
+/// Creates the output directory and records (or checks) the sweep's identity.
+fn prepare_out_dir(out: &Path, meta: &Meta) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
+    let path = out.join(META_FILE);
+    if path.exists() {
+        let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
+        let old: Meta = serde_json::from_str(&text).with_context(|| format!("{} is not a sweep description", path.display()))?;
+        if old != *meta {
+            bail!("{} holds a different sweep ({}); use another --out or delete it", out.display(), path.display());
+        }
+        return Ok(());
+    }
+    let text = serde_json::to_string_pretty(meta)?;
+    std::fs::write(&path, text + "\n").with_context(|| format!("cannot write to output directory {}", out.display()))
+}
+
+fn load_terrains(args: &Args, axes: &Axes) -> Result<Vec<Vec<SweepTerrain>>> {
+    let per_bin = axes.terrains_per_bin;
+    let bins = match &args.terrains {
+        Some(dir) => {
+            let bins = load_bins(dir, &axes.widths, per_bin)?;
+            let short: Vec<String> = axes
+                .widths
+                .iter()
+                .zip(&bins)
+                .filter(|(_, t)| t.len() < per_bin)
+                .map(|(w, t)| format!("bin {w}: {}", t.len()))
+                .collect();
+            if !short.is_empty() {
+                bail!(
+                    "{} has fewer than {per_bin} terrains in some width bins ({}); \
+                     lower --terrains-per-bin or choose --widths",
+                    dir.display(),
+                    short.join(", ")
+                );
+            }
+            bins
+        }
+        None => {
+            let bar = ProgressBar::new((axes.widths.len() * per_bin) as u64);
+            bar.set_style(
+                ProgressStyle::with_template("{elapsed_precise} generating terrains [{bar:40}] {pos}/{len}")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
+            let bins = generate_bins(args.seed, &axes.widths, per_bin, args.max_candidates, |done, _| {
+                bar.set_position(done as u64)
+            })?;
+            bar.finish_and_clear();
+            bins
+        }
+    };
+    Ok(bins)
+}
+
+/// `terrains.csv`: which terrain each bin used, with its measured width.
+fn write_terrain_list(out: &Path, axes: &Axes, terrains: &[Vec<SweepTerrain>]) -> Result<()> {
+    let mut s = String::from("width_bin,terrain,width,threshold\n");
+    for (bin, ts) in axes.widths.iter().zip(terrains) {
+        for t in ts {
+            let threshold = t.threshold.map(|a| a.to_string()).unwrap_or_default();
+            s.push_str(&format!("{bin},{},{},{threshold}\n", t.id, t.width));
+        }
+    }
+    let path = out.join("terrains.csv");
+    std::fs::write(&path, s).with_context(|| format!("cannot write {}", path.display()))
+}

@@ -1,0 +1,27 @@
+//! The paper's simulation study (§V, `fig:result_width` and
+//! `fig:result_width_noise`) as a resumable, shardable batch job.
+//!
+//! * [`plan`] — the axes (ε × width bin × terrains × noise) and the canonical
+//!   order of runs, split into shards for a cluster's array job;
+//! * [`terrains`] — the terrains: generated per width bin from one seed, or
+//!   read from a directory;
+//! * [`rows`] — one CSV row per run, written in canonical order, so a CSV is
+//!   always a prefix of the full one: resuming is "skip what is there";
+//! * [`execute`] — runs a plan on all cores with a progress bar and Ctrl-C;
+//! * [`table`] — success-rate tables and heatmaps from rows (also what
+//!   `merge` uses, so sharded and single runs give the same tables).
+
+pub mod execute;
+pub mod plan;
+pub mod rows;
+pub mod table;
+pub mod terrains;
+
+/// SplitMix64 mixing of two values: seeds of terrains and runs are derived
+/// from the sweep seed this way, so every run is reproducible on its own.
+pub fn mix(a: u64, b: u64) -> u64 {
+    let mut z = a ^ b.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(0x632B_E59B_D9B4_E019);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}

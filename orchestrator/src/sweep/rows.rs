@@ -1,0 +1,172 @@
+//! One CSV row per run, and the file that holds them.
+//!
+//! Rows are written in canonical order and flushed as they are written, so
+//! the file is always a prefix of the complete one: Ctrl-C loses nothing
+//! that was written, a torn last line (a crash mid-write) is cut off, and
+//! resuming means checking the prefix and carrying on from its end. Same
+//! plan and seed → the same bytes.
+
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+use std::fs::{File, OpenOptions};
+use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
+use std::path::Path;
+
+/// One run's result.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Row {
+    /// Canonical run index (see `plan`).
+    pub index: usize,
+    pub noise: bool,
+    pub eps: f64,
+    pub width_bin: f64,
+    pub terrain: String,
+    pub width: f64,
+    pub success: bool,
+    pub outcome: String,
+    pub time_s: f64,
+    pub robots_used: u32,
+    pub beacons: usize,
+}
+
+/// The header line every runs CSV starts with.
+pub const HEADER: &str =
+    "index,noise,eps,width_bin,terrain,width,success,outcome,time_s,robots_used,beacons\n";
+
+/// Reads all complete rows of a runs CSV.
+pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
+    let mut text = String::new();
+    File::open(path)
+        .and_then(|mut f| f.read_to_string(&mut text))
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    parse_rows(&text[..complete_len(&text)], path)
+}
+
+/// Length of the text up to and including its last newline.
+fn complete_len(text: &str) -> usize {
+    text.rfind('\n').map_or(0, |i| i + 1)
+}
+
+fn parse_rows(text: &str, path: &Path) -> Result<Vec<Row>> {
+    if text.is_empty() {
+        return Ok(Vec::new());
+    }
+    if !text.starts_with(HEADER) {
+        bail!("{} is not a bycoms runs CSV (unexpected header)", path.display());
+    }
+    let mut reader = csv::Reader::from_reader(text.as_bytes());
+    reader
+        .deserialize()
+        .enumerate()
+        .map(|(i, r)| r.with_context(|| format!("{}: bad row {}", path.display(), i + 2)))
+        .collect()
+}
+
+/// An append-only runs CSV.
+pub struct RowWriter {
+    out: BufWriter<File>,
+}
+
+impl RowWriter {
+    /// Opens `path` for appending after the rows already there (cutting off a
+    /// torn last line) and returns them; creates it with a header if absent.
+    pub fn open(path: &Path) -> Result<(Self, Vec<Row>)> {
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(path)
+            .with_context(|| format!("cannot open {} for writing", path.display()))?;
+        let mut text = String::new();
+        file.read_to_string(&mut text).with_context(|| format!("cannot read {}", path.display()))?;
+        let keep = complete_len(&text);
+        let rows = parse_rows(&text[..keep], path)?;
+        file.set_len(keep as u64).with_context(|| format!("cannot truncate {}", path.display()))?;
+        file.seek(SeekFrom::End(0))?;
+        let mut out = BufWriter::new(file);
+        if keep == 0 {
+            out.write_all(HEADER.as_bytes())?;
+            out.flush()?;
+        }
+        Ok((Self { out }, rows))
+    }
+
+    /// Appends one row and flushes it to the file.
+    pub fn write(&mut self, row: &Row) -> Result<()> {
+        let mut w = csv::WriterBuilder::new().has_headers(false).from_writer(Vec::new());
+        w.serialize(row)?;
+        let bytes = w.into_inner().map_err(|e| anyhow::anyhow!("csv: {e}"))?;
+        self.out.write_all(&bytes)?;
+        self.out.flush().context("cannot write the runs CSV")?;
+        Ok(())
+    }
+}
+
+/// Writes `rows` as a complete CSV (used by `merge`).
+pub fn write_all(path: &Path, rows: &[Row]) -> Result<()> {
+    let _ = std::fs::remove_file(path);
+    let (mut w, _) = RowWriter::open(path)?;
+    for r in rows {
+        w.write(r)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(i: usize) -> Row {
+        Row {
+            index: i,
+            noise: i % 2 == 1,
+            eps: 1.5,
+            width_bin: 2.0,
+            terrain: format!("c{i}"),
+            width: 2.25,
+            success: true,
+            outcome: "arrived".into(),
+            time_s: 123.4,
+            robots_used: 3,
+            beacons: 2,
+        }
+    }
+
+    #[test]
+    fn header_matches_row_fields() {
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.serialize(row(0)).unwrap();
+        let text = String::from_utf8(w.into_inner().unwrap()).unwrap();
+        assert!(text.starts_with(HEADER));
+    }
+
+    #[test]
+    fn appends_resumes_and_cuts_a_torn_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("runs.csv");
+        {
+            let (mut w, rows) = RowWriter::open(&path).unwrap();
+            assert!(rows.is_empty());
+            w.write(&row(0)).unwrap();
+            w.write(&row(1)).unwrap();
+        }
+        // A crash in the middle of the third row.
+        let mut f = OpenOptions::new().append(true).open(&path).unwrap();
+        f.write_all(b"2,false,1.5,2").unwrap();
+        drop(f);
+        let (mut w, rows) = RowWriter::open(&path).unwrap();
+        assert_eq!(rows, vec![row(0), row(1)]);
+        w.write(&row(2)).unwrap();
+        drop(w);
+        assert_eq!(read_rows(&path).unwrap(), vec![row(0), row(1), row(2)]);
+    }
+
+    #[test]
+    fn foreign_file_is_rejected() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("runs.csv");
+        std::fs::write(&path, "a,b\n1,2\n").unwrap();
+        assert!(RowWriter::open(&path).is_err());
+    }
+}

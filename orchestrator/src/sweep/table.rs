@@ -1,0 +1,114 @@
+//! Success-rate tables and heatmaps from run rows.
+//!
+//! Computed only from the rows, so a single sweep and the `merge` of its
+//! shards produce the same files byte for byte.
+
+use super::plan::Axes;
+use super::rows::Row;
+use crate::draw::heatmap::{render, Heatmap};
+use anyhow::{Context, Result};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Successes and runs per (width bin, ε) for one noise setting.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    pub noise: bool,
+    /// `cells[bin][eps] = (successes, runs)`.
+    pub cells: Vec<Vec<(usize, usize)>>,
+}
+
+impl Table {
+    pub fn rates(&self) -> Vec<Vec<Option<f64>>> {
+        self.cells
+            .iter()
+            .map(|row| row.iter().map(|&(s, n)| (n > 0).then(|| s as f64 / n as f64)).collect())
+            .collect()
+    }
+
+    pub fn label(&self) -> &'static str {
+        if self.noise { "noise-on" } else { "noise-off" }
+    }
+}
+
+/// One table per noise setting of the axes.
+pub fn tabulate(axes: &Axes, rows: &[Row]) -> Vec<Table> {
+    axes.noise
+        .iter()
+        .map(|&noise| {
+            let mut cells = vec![vec![(0, 0); axes.eps.len()]; axes.widths.len()];
+            for r in rows.iter().filter(|r| r.noise == noise) {
+                let b = axes.widths.iter().position(|&w| w == r.width_bin);
+                let e = axes.eps.iter().position(|&e| e == r.eps);
+                if let (Some(b), Some(e)) = (b, e) {
+                    cells[b][e].1 += 1;
+                    cells[b][e].0 += usize::from(r.success);
+                }
+            }
+            Table { noise, cells }
+        })
+        .collect()
+}
+
+/// The table as CSV: one row per width bin (widest first, as in the
+/// heatmap), one column per ε, success rates in percent.
+pub fn to_csv(axes: &Axes, t: &Table) -> String {
+    let mut s = String::from("width_bin");
+    for e in &axes.eps {
+        let _ = write!(s, ",eps_{e}");
+    }
+    s.push('\n');
+    for (b, row) in t.cells.iter().enumerate().rev() {
+        let _ = write!(s, "{}", axes.widths[b]);
+        for &(succ, n) in row {
+            if n == 0 {
+                s.push(',');
+            } else {
+                let _ = write!(s, ",{:.1}", 100.0 * succ as f64 / n as f64);
+            }
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// A fixed-width text table for the terminal.
+pub fn to_text(axes: &Axes, t: &Table) -> String {
+    let mut s = format!("success rate [%], noise {}\nwidth\\ε", if t.noise { "on" } else { "off" });
+    for e in &axes.eps {
+        let _ = write!(s, "{e:>6}");
+    }
+    s.push('\n');
+    for (b, row) in t.cells.iter().enumerate().rev() {
+        let _ = write!(s, "{:>7}", axes.widths[b]);
+        for &(succ, n) in row {
+            if n == 0 {
+                s.push_str("     -");
+            } else {
+                let _ = write!(s, "{:>6.0}", 100.0 * succ as f64 / n as f64);
+            }
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// Writes `success-<noise>.csv` and `heatmap-<noise>.svg` for every table;
+/// returns the files written.
+pub fn write_outputs(dir: &Path, axes: &Axes, tables: &[Table]) -> Result<Vec<PathBuf>> {
+    let mut written = Vec::new();
+    for t in tables {
+        let csv = dir.join(format!("success-{}.csv", t.label()));
+        std::fs::write(&csv, to_csv(axes, t)).with_context(|| format!("cannot write {}", csv.display()))?;
+        let rates = t.rates();
+        let title = format!(
+            "Success rate [%] vs. ε and minimum path width, noise {}",
+            if t.noise { "on" } else { "off" }
+        );
+        let svg = render(&Heatmap { title: &title, eps: &axes.eps, widths: &axes.widths, rates: &rates });
+        let path = dir.join(format!("heatmap-{}.svg", t.label()));
+        std::fs::write(&path, svg).with_context(|| format!("cannot write {}", path.display()))?;
+        written.extend([csv, path]);
+    }
+    Ok(written)
+}

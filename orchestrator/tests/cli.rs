@@ -1,0 +1,137 @@
+//! The `orchestrator` binary end to end: bad input, a reduced sweep that is
+//! byte-identical on a second run, resume, shards + merge.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn orchestrator(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_orchestrator")).args(args).output().expect("spawn orchestrator")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A reduced sweep: 2 radii × 2 width bins × 3 terrains × noise on/off = 24 runs.
+const REDUCED: &[&str] =
+    &["sweep", "--eps", "1,4", "--widths", "2,3", "--terrains-per-bin", "3", "--seed", "7", "--time-limit", "2000"];
+
+fn sweep_into(dir: &Path, extra: &[&str]) -> Output {
+    let mut args: Vec<&str> = REDUCED.to_vec();
+    let out = dir.to_str().unwrap();
+    args.extend(["--out", out]);
+    args.extend(extra);
+    orchestrator(&args)
+}
+
+#[test]
+fn reduced_sweep_is_byte_identical_on_a_second_run() {
+    let a = tempfile::tempdir().unwrap();
+    let b = tempfile::tempdir().unwrap();
+    let oa = sweep_into(a.path(), &[]);
+    assert!(oa.status.success(), "{}", stderr(&oa));
+    let ob = sweep_into(b.path(), &["--jobs", "1"]);
+    assert!(ob.status.success(), "{}", stderr(&ob));
+    let ca = std::fs::read(a.path().join("runs.csv")).unwrap();
+    let cb = std::fs::read(b.path().join("runs.csv")).unwrap();
+    assert_eq!(ca, cb, "same seed, different thread count: same bytes");
+    assert_eq!(String::from_utf8_lossy(&ca).lines().count(), 1 + 24);
+    for f in ["success-noise-off.csv", "success-noise-on.csv", "heatmap-noise-off.svg", "heatmap-noise-on.svg"] {
+        assert_eq!(
+            std::fs::read(a.path().join(f)).unwrap(),
+            std::fs::read(b.path().join(f)).unwrap(),
+            "{f}"
+        );
+    }
+}
+
+#[test]
+fn rerun_resumes_and_a_torn_row_is_redone() {
+    let a = tempfile::tempdir().unwrap();
+    assert!(sweep_into(a.path(), &[]).status.success());
+    let full = std::fs::read_to_string(a.path().join("runs.csv")).unwrap();
+    // Keep the header, 10 rows and half of the 11th, as an interrupted run would.
+    let lines: Vec<&str> = full.lines().collect();
+    let mut cut = lines[..11].join("\n");
+    cut.push('\n');
+    cut.push_str(&lines[11][..5]);
+    std::fs::write(a.path().join("runs.csv"), cut).unwrap();
+    let o = sweep_into(a.path(), &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("resuming: 10 of 24"), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(a.path().join("runs.csv")).unwrap(), full);
+}
+
+#[test]
+fn shards_merge_into_the_same_tables() {
+    let whole = tempfile::tempdir().unwrap();
+    assert!(sweep_into(whole.path(), &[]).status.success());
+    let parts = tempfile::tempdir().unwrap();
+    for shard in ["0/3", "1/3", "2/3"] {
+        let o = sweep_into(parts.path(), &["--shard", shard]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let merged = tempfile::tempdir().unwrap();
+    let o = orchestrator(&["merge", parts.path().to_str().unwrap(), "--out", merged.path().to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for f in ["runs.csv", "success-noise-off.csv", "success-noise-on.csv", "heatmap-noise-on.svg"] {
+        assert_eq!(
+            std::fs::read(whole.path().join(f)).unwrap(),
+            std::fs::read(merged.path().join(f)).unwrap(),
+            "{f}"
+        );
+    }
+}
+
+#[test]
+fn merge_of_an_incomplete_sweep_says_what_is_missing() {
+    let parts = tempfile::tempdir().unwrap();
+    assert!(sweep_into(parts.path(), &["--shard", "0/2"]).status.success());
+    let merged = tempfile::tempdir().unwrap();
+    let o = orchestrator(&["merge", parts.path().to_str().unwrap(), "--out", merged.path().to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("12 of 24 runs are missing"), "{}", stderr(&o));
+}
+
+#[test]
+fn bad_input_exits_non_zero_with_a_clear_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (&["simulate", "--terrain", "/nonexistent/t.txt", "--no-svg"], "cannot read terrain file /nonexistent/t.txt"),
+        (&["simulate", "--eps", "0", "--no-svg"], "must be a positive number"),
+        (&["simulate", "--eps", "-1", "--no-svg"], "must be a positive number"),
+        (&["sweep", "--eps", "", "--out", "/tmp/x"], "--eps is empty"),
+        (&["sweep", "--widths", "1,,2"], "--widths"),
+        (&["simulate", "--svg", "/nonexistent/dir/out.svg"], "cannot write the snapshot"),
+        (&["sweep", "--out", "/proc/forbidden"], "cannot create output directory"),
+    ];
+    for (args, expected) in cases {
+        let o = Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+            .args(*args)
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(expected), "{args:?}: {}", stderr(&o));
+    }
+    let bad = dir.path().join("bad.txt");
+    std::fs::write(&bad, "S..\n.#.\n..x\n").unwrap();
+    let o = orchestrator(&["simulate", "--terrain", bad.to_str().unwrap(), "--no-svg"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("line 3, column 3"), "{}", stderr(&o));
+}
+
+#[test]
+fn simulate_prints_json_and_draws_the_snapshot() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("snap.svg");
+    let o = orchestrator(&["simulate", "--json", "--svg", svg.to_str().unwrap()]);
+    assert!(matches!(o.status.code(), Some(0) | Some(3)), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON on stdout");
+    for key in ["success", "time_s", "robots_used", "beacons"] {
+        assert!(v.get(key).is_some(), "missing {key}: {v}");
+    }
+    assert_eq!(v["success"].as_bool().unwrap(), o.status.code() == Some(0));
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.starts_with("<svg") && text.contains("<polyline"));
+}

@@ -1,0 +1,281 @@
+//! One bus hop, ours against raw iceoryx2, in the same run.
+//!
+//! Why ping-pong: two threads of one process bounce a small message
+//! (an encoded `GoalBearing`, 13 bytes) over two topics; one hop is half a
+//! round trip, timed with one clock on one thread, so no clock skew enters.
+//! Every variant opens its own iceoryx2 node per thread, as two processes
+//! would. Figures are per-hop p50/p99/p99.9 over all samples after a
+//! warm-up; the harness is hand-written (not criterion) because the
+//! question is the latency distribution, not the mean.
+//!
+//! Variants:
+//! * `raw spin`: iceoryx2 publisher/subscriber, receiver busy-polls
+//!   `receive()`; the floor for any wrapper;
+//! * `raw event`: iceoryx2 publisher + notifier, receiver sleeps in
+//!   `Listener::timed_wait` (no spinning); the floor for a sleeping receiver;
+//! * `ours ...`: `IpcBus` through the byte traits (`publish` /
+//!   `recv_timeout_into`) with each wake strategy, and the typed layer
+//!   (encode + decode) with the default;
+//! * `memory`: the in-process backend, for reference.
+//!
+//! Run: `cargo bench -p bycoms-protocol --features ipc --bench bus_hop`
+//! (`BYCOMS_BENCH_SAMPLES=n` changes the sample count).
+
+use bycoms_protocol::bus::ipc::{IpcBus, IpcConfig, Wake};
+use bycoms_protocol::bus::memory::MemoryBus;
+use bycoms_protocol::bus::{Bus, BusExt, Limits, Publish, Subscribe};
+use bycoms_protocol::msg::{GoalBearing, ToAgent};
+use bycoms_protocol::{encode, RobotId, Swarm, TopicName, MAX_MESSAGE_LEN};
+use core::time::Duration;
+use iceoryx2::prelude::*;
+use std::sync::mpsc;
+use std::time::Instant;
+
+const WAIT: Duration = Duration::from_secs(5);
+const WARMUP: usize = 2_000;
+
+fn message() -> ToAgent {
+    ToAgent::GoalBearing(GoalBearing { robot: RobotId(1), bearing: 0.785, step: 42 })
+}
+
+fn payload() -> Vec<u8> {
+    let mut buf = [0u8; MAX_MESSAGE_LEN];
+    encode(&message(), &mut buf).map(<[u8]>::to_vec).unwrap_or_default()
+}
+
+fn names(tag: &str) -> (String, String) {
+    let base = format!("bycoms/bench{}-{tag}", std::process::id());
+    (format!("{base}/ping"), format!("{base}/pong"))
+}
+
+/// Runs `echo` on a second thread and `round_trip` `WARMUP + samples`
+/// times on this one; returns the per-hop latencies (round trip / 2).
+fn ping_pong<E, R>(samples: usize, echo: E, round_trip: R) -> Vec<Duration>
+where
+    E: FnOnce(usize, mpsc::Sender<()>) + Send,
+    R: FnOnce(usize, &mut dyn FnMut(Duration)),
+{
+    let total = WARMUP + samples;
+    let (ready_tx, ready_rx) = mpsc::channel();
+    let mut hops = Vec::with_capacity(total);
+    std::thread::scope(|s| {
+        s.spawn(move || echo(total, ready_tx));
+        if ready_rx.recv_timeout(WAIT).is_err() {
+            panic!("echo thread did not start");
+        }
+        round_trip(total, &mut |rtt| hops.push(rtt / 2));
+    });
+    hops.split_off(WARMUP.min(hops.len()))
+}
+
+fn ours<B: Bus, F: Fn() -> B + Sync>(make: &F, tag: &str, samples: usize) -> Vec<Duration> {
+    let (ping, pong) = names(tag);
+    let ping = TopicName::parse(&ping).expect("topic");
+    let pong = TopicName::parse(&pong).expect("topic");
+    let payload = payload();
+    let echo = |n: usize, ready: mpsc::Sender<()>| {
+        let bus = make();
+        let sub = bus.subscriber(&ping).expect("subscriber");
+        let publ = bus.publisher(&pong).expect("publisher");
+        ready.send(()).expect("ready");
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        for _ in 0..n {
+            let len = sub.recv_timeout_into(&mut buf, WAIT).expect("recv").expect("ping lost");
+            publ.publish(&buf[..len]).expect("publish");
+        }
+    };
+    let bus = make();
+    let sub = bus.subscriber(&pong).expect("subscriber");
+    let publ = bus.publisher(&ping).expect("publisher");
+    ping_pong(samples, echo, |n, record| {
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        for _ in 0..n {
+            let t0 = Instant::now();
+            publ.publish(&payload).expect("publish");
+            sub.recv_timeout_into(&mut buf, WAIT).expect("recv").expect("pong lost");
+            record(t0.elapsed());
+        }
+    })
+}
+
+fn ours_typed(tag: &str, samples: usize) -> Vec<Duration> {
+    let make = || IpcBus::new(IpcConfig::default()).expect("node");
+    let swarm = Swarm::new(&format!("bench{}-{tag}", std::process::id())).expect("swarm");
+    let (ping, pong) = (swarm.to_agent(RobotId(1)), swarm.to_agent(RobotId(2)));
+    let msg = message();
+    let echo = |n: usize, ready: mpsc::Sender<()>| {
+        let bus = make();
+        let sub = bus.typed_subscriber(&ping).expect("subscriber");
+        let publ = bus.typed_publisher(&pong).expect("publisher");
+        ready.send(()).expect("ready");
+        for _ in 0..n {
+            let m = sub.recv_timeout(WAIT).expect("recv").expect("ping lost");
+            publ.publish(&m).expect("publish");
+        }
+    };
+    let bus = make();
+    let sub = bus.typed_subscriber(&pong).expect("subscriber");
+    let publ = bus.typed_publisher(&ping).expect("publisher");
+    ping_pong(samples, echo, |n, record| {
+        for _ in 0..n {
+            let t0 = Instant::now();
+            publ.publish(&msg).expect("publish");
+            let back = sub.recv_timeout(WAIT).expect("recv").expect("pong lost");
+            record(t0.elapsed());
+            assert_eq!(back, msg);
+        }
+    })
+}
+
+/// Raw iceoryx2 ports of one node: what the wrapper is compared with.
+struct RawPorts {
+    publisher: iceoryx2::port::publisher::Publisher<ipc::Service, [u8], ()>,
+    subscriber: iceoryx2::port::subscriber::Subscriber<ipc::Service, [u8], ()>,
+    notifier: Option<iceoryx2::port::notifier::Notifier<ipc::Service>>,
+    listener: Option<iceoryx2::port::listener::Listener<ipc::Service>>,
+    _node: Node<ipc::Service>,
+}
+
+fn raw_ports(send: &str, recv: &str, event: bool) -> RawPorts {
+    let node = NodeBuilder::new()
+        .signal_handling_mode(SignalHandlingMode::Disabled)
+        .create::<ipc::Service>()
+        .expect("node");
+    let pubsub = |name: &str| {
+        node.service_builder(&ServiceName::new(name).expect("name"))
+            .publish_subscribe::<[u8]>()
+            .history_size(0)
+            .subscriber_max_buffer_size(64)
+            .open_or_create()
+            .expect("service")
+    };
+    let events = |name: &str| {
+        node.service_builder(&ServiceName::new(name).expect("name"))
+            .event()
+            .open_or_create()
+            .expect("event service")
+    };
+    let publisher = pubsub(send)
+        .publisher_builder()
+        .initial_max_slice_len(256)
+        .allocation_strategy(AllocationStrategy::Static)
+        .create()
+        .expect("publisher");
+    let subscriber = pubsub(recv).subscriber_builder().buffer_size(64).create().expect("subscriber");
+    let (notifier, listener) = if event {
+        (
+            Some(events(send).notifier_builder().create().expect("notifier")),
+            Some(events(recv).listener_builder().create().expect("listener")),
+        )
+    } else {
+        (None, None)
+    };
+    RawPorts { publisher, subscriber, notifier, listener, _node: node }
+}
+
+impl RawPorts {
+    fn send(&self, bytes: &[u8]) {
+        let sample = self.publisher.loan_slice_uninit(bytes.len()).expect("loan");
+        sample.write_from_slice(bytes).send().expect("send");
+        if let Some(n) = &self.notifier {
+            n.notify().expect("notify");
+        }
+    }
+
+    fn recv(&self, buf: &mut [u8]) -> usize {
+        let deadline = Instant::now() + WAIT;
+        loop {
+            if let Some(sample) = self.subscriber.receive().expect("receive") {
+                let p = sample.payload();
+                buf[..p.len()].copy_from_slice(p);
+                return p.len();
+            }
+            assert!(Instant::now() < deadline, "raw message lost");
+            match &self.listener {
+                Some(l) => {
+                    l.timed_wait(|_| {}, WAIT).expect("wait");
+                }
+                None => core::hint::spin_loop(),
+            }
+        }
+    }
+}
+
+fn raw(tag: &str, event: bool, samples: usize) -> Vec<Duration> {
+    let (ping, pong) = names(tag);
+    let payload = payload();
+    let echo = |n: usize, ready: mpsc::Sender<()>| {
+        let ports = raw_ports(&pong, &ping, event);
+        ready.send(()).expect("ready");
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        for _ in 0..n {
+            let len = ports.recv(&mut buf);
+            ports.send(&buf[..len]);
+        }
+    };
+    let ports = raw_ports(&ping, &pong, event);
+    ping_pong(samples, echo, |n, record| {
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        for _ in 0..n {
+            let t0 = Instant::now();
+            ports.send(&payload);
+            ports.recv(&mut buf);
+            record(t0.elapsed());
+        }
+    })
+}
+
+struct Figures {
+    p50: Duration,
+    p99: Duration,
+    p999: Duration,
+}
+
+fn figures(mut hops: Vec<Duration>) -> Figures {
+    hops.sort_unstable();
+    let at = |q: f64| {
+        let i = ((hops.len() as f64 * q) as usize).min(hops.len().saturating_sub(1));
+        hops.get(i).copied().unwrap_or_default()
+    };
+    Figures { p50: at(0.50), p99: at(0.99), p999: at(0.999) }
+}
+
+fn us(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e6
+}
+
+fn main() {
+    let samples =
+        std::env::var("BYCOMS_BENCH_SAMPLES").ok().and_then(|v| v.parse().ok()).unwrap_or(50_000usize);
+    let ipc_with =
+        |wake: Wake| move || IpcBus::new(IpcConfig { wake, ..IpcConfig::default() }).expect("node");
+    let event_spin = ipc_with(Wake::default());
+    let event_nospin = ipc_with(Wake::Event { spin: Duration::ZERO });
+    let poll = ipc_with(Wake::Poll { spin: Duration::from_micros(20), max_sleep: Duration::from_millis(1) });
+    let memory = MemoryBus::new(Limits::default()).expect("limits");
+    let memory = || memory.clone();
+
+    println!("bus hop latency, one way = round trip / 2, {samples} samples after {WARMUP} warm-up, 13-byte message");
+    let rows: Vec<(&str, Vec<Duration>)> = vec![
+        ("raw iceoryx2, spin", raw("raw-spin", false, samples)),
+        ("ours IpcBus, Event spin 20us (default)", ours(&event_spin, "ev", samples)),
+        ("ours IpcBus typed, Event spin 20us", ours_typed("typed", samples)),
+        ("ours IpcBus, Poll spin 20us", ours(&poll, "poll", samples)),
+        ("raw iceoryx2, event wait (no spin)", raw("raw-ev", true, samples)),
+        ("ours IpcBus, Event spin 0", ours(&event_nospin, "ev0", samples)),
+        ("ours MemoryBus", ours(&memory, "mem", samples)),
+        // The first row again, to expose drift (CPU frequency, other load).
+        ("raw iceoryx2, spin (repeat)", raw("raw-spin2", false, samples)),
+    ];
+    println!("{:<42} {:>9} {:>9} {:>9}", "variant", "p50 us", "p99 us", "p99.9 us");
+    let mut table = Vec::new();
+    for (name, hops) in rows {
+        let f = figures(hops);
+        println!("{name:<42} {:>9.2} {:>9.2} {:>9.2}", us(f.p50), us(f.p99), us(f.p999));
+        table.push((name, f));
+    }
+    let ratio = |a: usize, b: usize| us(table[a].1.p50) / us(table[b].1.p50).max(1e-9);
+    println!("ours default / raw spin, p50: {:.2}x", ratio(1, 0));
+    println!("ours typed / raw spin, p50: {:.2}x", ratio(2, 0));
+    println!("ours spin 0 / raw event, p50: {:.2}x", ratio(5, 4));
+}

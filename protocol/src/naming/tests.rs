@@ -1,0 +1,71 @@
+//! The naming scheme and its character rules.
+
+use super::*;
+
+fn swarm() -> Swarm {
+    Swarm::new("lab-1").expect("valid swarm")
+}
+
+#[test]
+fn builds_every_topic_name() {
+    let s = swarm();
+    let r = RobotId(3);
+    assert_eq!(s.to_agent(r).name().as_str(), "bycoms/lab-1/robot/3/to_agent");
+    assert_eq!(s.sensor(r).name().as_str(), "bycoms/lab-1/robot/3/sensor");
+    assert_eq!(s.pose(r).name().as_str(), "bycoms/lab-1/robot/3/pose");
+    assert_eq!(s.from_agents().name().as_str(), "bycoms/lab-1/from_agents");
+    assert_eq!(s.gate().name().as_str(), "bycoms/lab-1/gate");
+}
+
+#[test]
+fn longest_swarm_and_robot_id_still_fit() {
+    let long = "s".repeat(SWARM_NAME_MAX);
+    let s = Swarm::new(&long).expect("max-length swarm is valid");
+    let name = *s.to_agent(RobotId(u32::MAX)).name();
+    assert!(name.as_str().ends_with("/robot/4294967295/to_agent"));
+    assert!(name.as_str().len() <= TOPIC_NAME_MAX);
+}
+
+#[test]
+fn swarm_rejects_special_characters() {
+    for (bad, ch) in [
+        ("a*b", '*'),
+        ("a$b", '$'),
+        ("a#b", '#'),
+        ("a?b", '?'),
+        ("a b", ' '),
+        ("a@b", '@'),
+        ("a.b", '.'),
+        ("aéb", 'é'),
+        ("a\0b", '\0'),
+    ] {
+        assert_eq!(Swarm::new(bad), Err(NameError::InvalidChar { ch, at: 1 }), "{bad:?}");
+    }
+    assert_eq!(Swarm::new("a/b"), Err(NameError::InvalidChar { ch: '/', at: 1 }));
+    assert_eq!(Swarm::new(""), Err(NameError::Empty));
+    let too_long = "s".repeat(SWARM_NAME_MAX + 1);
+    assert_eq!(
+        Swarm::new(&too_long),
+        Err(NameError::TooLong { len: SWARM_NAME_MAX + 1, max: SWARM_NAME_MAX })
+    );
+    assert!(Swarm::new("Lab_2-west").is_ok());
+}
+
+#[test]
+fn topic_name_rejects_empty_chunks() {
+    for bad in ["/a", "a/", "a//b", "/"] {
+        assert_eq!(TopicName::parse(bad), Err(NameError::EmptyChunk), "{bad:?}");
+    }
+    assert_eq!(TopicName::parse(""), Err(NameError::Empty));
+    assert_eq!(TopicName::parse("a/**"), Err(NameError::InvalidChar { ch: '*', at: 2 }));
+    assert_eq!(TopicName::parse("iox2://x"), Err(NameError::InvalidChar { ch: ':', at: 4 }));
+    let long = "a".repeat(TOPIC_NAME_MAX + 1);
+    assert!(matches!(TopicName::parse(&long), Err(NameError::TooLong { .. })));
+    assert_eq!(TopicName::parse("a/b-c/d_1").map(|n| n.to_string()), Ok("a/b-c/d_1".into()));
+}
+
+#[test]
+fn errors_explain_themselves() {
+    let msg = NameError::InvalidChar { ch: '*', at: 1 }.to_string();
+    assert!(msg.contains("'*'") && msg.contains("byte 1"), "{msg}");
+}

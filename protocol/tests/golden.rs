@@ -1,0 +1,93 @@
+//! Golden bytes: the wire format of every message, pinned.
+//!
+//! Why hard-coded arrays: a change to a field's type or order, to the enum
+//! order, or to the envelope must break a test here, and then bump
+//! `PROTOCOL_VERSION`. Layout: `[version varint][variant index varint]`
+//! then the fields in order; integers are varints, f64 is 8 little-endian
+//! bytes, bool is one byte.
+
+use bycoms_protocol::msg::*;
+use bycoms_protocol::{decode, encode, encode_vec, Message, RobotId, PROTOCOL_VERSION};
+use core::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+use core::fmt::Debug;
+
+const F15_5: [u8; 8] = [0, 0, 0, 0, 0, 0, 0x2F, 0x40];
+const F0: [u8; 8] = [0; 8];
+const F_PI_4: [u8; 8] = [0x18, 0x2D, 0x44, 0x54, 0xFB, 0x21, 0xE9, 0x3F];
+const F_PI: [u8; 8] = [0x18, 0x2D, 0x44, 0x54, 0xFB, 0x21, 0x09, 0x40];
+const F_NEG_PI_2: [u8; 8] = [0x18, 0x2D, 0x44, 0x54, 0xFB, 0x21, 0xF9, 0xBF];
+const F1: [u8; 8] = [0, 0, 0, 0, 0, 0, 0xF0, 0x3F];
+const F_NEG_2_5: [u8; 8] = [0, 0, 0, 0, 0, 0, 0x04, 0xC0];
+const F0_25: [u8; 8] = [0, 0, 0, 0, 0, 0, 0xD0, 0x3F];
+const F44_5: [u8; 8] = [0, 0, 0, 0, 0, 0x40, 0x46, 0x40];
+const F44_25: [u8; 8] = [0, 0, 0, 0, 0, 0x20, 0x46, 0x40];
+
+fn cat(parts: &[&[u8]]) -> Vec<u8> {
+    parts.concat()
+}
+
+fn check<T: Message + PartialEq + Debug>(msg: T, expected: &[u8]) {
+    let mut buf = [0u8; 64];
+    let bytes = encode(&msg, &mut buf).expect("encodes");
+    assert_eq!(bytes, expected, "encoding of {msg:?}");
+    assert_eq!(encode_vec(&msg).expect("encodes"), expected, "encode_vec of {msg:?}");
+    assert_eq!(decode::<T>(expected).expect("decodes"), msg);
+}
+
+#[test]
+fn envelope_starts_with_the_version() {
+    assert_eq!(PROTOCOL_VERSION, 1, "bumping the version must update these tests");
+}
+
+#[test]
+fn to_agent() {
+    let deploy = Deploy { robot: RobotId(1), x: 15.5, y: 15.5, heading: 0.0 };
+    check(ToAgent::Deploy(deploy), &cat(&[&[1, 0, 1], &F15_5, &F15_5, &F0]));
+    let bearing = GoalBearing { robot: RobotId(2), bearing: FRAC_PI_4, step: 300 };
+    check(ToAgent::GoalBearing(bearing), &cat(&[&[1, 1, 2], &F_PI_4, &[0xAC, 0x02]]));
+    check(ToAgent::Tick(Tick { step: 7 }), &[1, 2, 7]);
+    check(ToAgent::Stop, &[1, 3]);
+    check(ToAgent::Shutdown, &[1, 4]);
+}
+
+#[test]
+fn from_agent() {
+    let register = Register { robot: RobotId(1), kind: AgentKind::Real, protocol_version: 1 };
+    check(FromAgent::Register(register), &[1, 0, 1, 1, 1]);
+    let register = Register { robot: RobotId(1), kind: AgentKind::Simulated, protocol_version: 1 };
+    check(FromAgent::Register(register), &[1, 0, 1, 0, 1]);
+    check(FromAgent::Heartbeat(Heartbeat { robot: RobotId(2), seq: 128 }), &[1, 1, 2, 0x80, 0x01]);
+    check(FromAgent::Status(Status { robot: RobotId(3), mode: 2, step: 10 }), &[1, 2, 3, 2, 10]);
+    check(FromAgent::TickDone(TickDone { robot: RobotId(4), step: 65_535 }), &[1, 3, 4, 0xFF, 0xFF, 0x03]);
+}
+
+fn pose() -> (Pose, Vec<u8>) {
+    let pose = Pose { robot: RobotId(1), x: 1.0, y: -2.5, heading: PI, step: 5, time_us: 500_000 };
+    let body = cat(&[&[1], &F1, &F_NEG_2_5, &F_PI, &[5], &[0xA0, 0xC2, 0x1E]]);
+    (pose, body)
+}
+
+#[test]
+fn mocap() {
+    let (pose, body) = pose();
+    check(pose, &cat(&[&[1], &body]));
+}
+
+#[test]
+fn sensor() {
+    let field = FieldSample { robot: RobotId(2), intensity: 0.25, direction: -FRAC_PI_2, step: 1 };
+    check(Sensor::Field(field), &cat(&[&[1, 0, 2], &F0_25, &F_NEG_PI_2, &[1]]));
+    let (pose, body) = pose();
+    check(Sensor::Pose(pose), &cat(&[&[1, 1], &body]));
+}
+
+#[test]
+fn gate() {
+    let event = |kind| GateEvent { robot: RobotId(2), kind, x: 44.5, y: 44.25, step: 1234 };
+    let tail = cat(&[&F44_5, &F44_25, &[0xD2, 0x09]]);
+    check(event(GateKind::Deployed), &cat(&[&[1, 2, 0], &tail]));
+    check(event(GateKind::Stopped { arrived: true }), &cat(&[&[1, 2, 1, 1], &tail]));
+    check(event(GateKind::Stopped { arrived: false }), &cat(&[&[1, 2, 1, 0], &tail]));
+    check(event(GateKind::Died), &cat(&[&[1, 2, 2], &tail]));
+    check(event(GateKind::Timeout), &cat(&[&[1, 2, 3], &tail]));
+}

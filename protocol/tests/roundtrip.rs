@@ -1,0 +1,145 @@
+//! Round trip of every message variant over arbitrary field values, and the
+//! proof that the largest encoding fits `MAX_MESSAGE_LEN`.
+
+use bycoms_protocol::msg::*;
+use bycoms_protocol::{decode, encode, Message, RobotId, MAX_MESSAGE_LEN};
+use core::fmt::Debug;
+use proptest::prelude::*;
+
+fn robot() -> impl Strategy<Value = RobotId> {
+    any::<u32>().prop_map(RobotId)
+}
+
+/// Any f64 bit pattern, NaNs and infinities included.
+fn float() -> impl Strategy<Value = f64> {
+    any::<u64>().prop_map(f64::from_bits)
+}
+
+fn pose() -> impl Strategy<Value = Pose> {
+    (robot(), float(), float(), float(), any::<u64>(), any::<u64>())
+        .prop_map(|(robot, x, y, heading, step, time_us)| Pose { robot, x, y, heading, step, time_us })
+}
+
+fn to_agent() -> impl Strategy<Value = ToAgent> {
+    prop_oneof![
+        (robot(), float(), float(), float()).prop_map(|(robot, x, y, heading)| ToAgent::Deploy(Deploy {
+            robot,
+            x,
+            y,
+            heading
+        })),
+        (robot(), float(), any::<u64>()).prop_map(|(robot, bearing, step)| {
+            ToAgent::GoalBearing(GoalBearing { robot, bearing, step })
+        }),
+        any::<u64>().prop_map(|step| ToAgent::Tick(Tick { step })),
+        Just(ToAgent::Stop),
+        Just(ToAgent::Shutdown),
+    ]
+}
+
+fn from_agent() -> impl Strategy<Value = FromAgent> {
+    let kind = prop_oneof![Just(AgentKind::Simulated), Just(AgentKind::Real)];
+    prop_oneof![
+        (robot(), kind, any::<u16>()).prop_map(|(robot, kind, protocol_version)| {
+            FromAgent::Register(Register { robot, kind, protocol_version })
+        }),
+        (robot(), any::<u64>()).prop_map(|(robot, seq)| FromAgent::Heartbeat(Heartbeat { robot, seq })),
+        (robot(), any::<u8>(), any::<u64>()).prop_map(|(robot, mode, step)| FromAgent::Status(Status {
+            robot,
+            mode,
+            step
+        })),
+        (robot(), any::<u64>()).prop_map(|(robot, step)| FromAgent::TickDone(TickDone { robot, step })),
+    ]
+}
+
+fn sensor() -> impl Strategy<Value = Sensor> {
+    prop_oneof![
+        (robot(), float(), float(), any::<u64>()).prop_map(|(robot, intensity, direction, step)| {
+            Sensor::Field(FieldSample { robot, intensity, direction, step })
+        }),
+        pose().prop_map(Sensor::Pose),
+    ]
+}
+
+fn gate() -> impl Strategy<Value = GateEvent> {
+    let kind = prop_oneof![
+        Just(GateKind::Deployed),
+        any::<bool>().prop_map(|arrived| GateKind::Stopped { arrived }),
+        Just(GateKind::Died),
+        Just(GateKind::Timeout),
+    ];
+    (robot(), kind, float(), float(), any::<u64>()).prop_map(|(robot, kind, x, y, step)| GateEvent {
+        robot,
+        kind,
+        x,
+        y,
+        step,
+    })
+}
+
+/// Decoding gives back the same bytes (exact even for NaN payloads) and,
+/// when the message has no NaN, an equal message.
+fn round_trip<T: Message + PartialEq + Debug>(msg: T) -> Result<(), TestCaseError> {
+    let mut buf = [0u8; MAX_MESSAGE_LEN];
+    let bytes = encode(&msg, &mut buf).map_err(|e| TestCaseError::fail(e.to_string()))?;
+    let back: T = decode(bytes).map_err(|e| TestCaseError::fail(e.to_string()))?;
+    let mut again = [0u8; MAX_MESSAGE_LEN];
+    let again = encode(&back, &mut again).map_err(|e| TestCaseError::fail(e.to_string()))?;
+    prop_assert_eq!(again, bytes);
+    #[allow(clippy::eq_op)]
+    if msg == msg {
+        prop_assert_eq!(back, msg);
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
+
+    #[test]
+    fn to_agent_round_trips(msg in to_agent()) { round_trip(msg)?; }
+
+    #[test]
+    fn from_agent_round_trips(msg in from_agent()) { round_trip(msg)?; }
+
+    #[test]
+    fn mocap_round_trips(msg in pose()) { round_trip(msg)?; }
+
+    #[test]
+    fn sensor_round_trips(msg in sensor()) { round_trip(msg)?; }
+
+    #[test]
+    fn gate_round_trips(msg in gate()) { round_trip(msg)?; }
+}
+
+#[test]
+fn largest_encodings_fit_max_message_len() {
+    let r = RobotId(u32::MAX);
+    let s = u64::MAX;
+    let f = f64::MAX;
+    let pose = Pose { robot: r, x: f, y: f, heading: f, step: s, time_us: s };
+    let largest: [(&str, usize); 5] = [
+        (
+            "to_agent",
+            len(&ToAgent::GoalBearing(GoalBearing { robot: r, bearing: f, step: s }))
+                .max(len(&ToAgent::Deploy(Deploy { robot: r, x: f, y: f, heading: f }))),
+        ),
+        ("from_agent", len(&FromAgent::Status(Status { robot: r, mode: u8::MAX, step: s }))),
+        ("mocap", len(&pose)),
+        ("sensor", len(&Sensor::Pose(pose))),
+        (
+            "gate",
+            len(&GateEvent { robot: r, kind: GateKind::Stopped { arrived: true }, x: f, y: f, step: s }),
+        ),
+    ];
+    for (name, n) in largest {
+        assert!(n <= MAX_MESSAGE_LEN, "{name}: {n} bytes");
+    }
+    assert_eq!(len(&Sensor::Pose(pose)), 51, "the largest message today");
+}
+
+fn len<T: Message>(msg: &T) -> usize {
+    let mut buf = [0u8; MAX_MESSAGE_LEN];
+    encode(msg, &mut buf).map(|b| b.len()).unwrap_or(usize::MAX)
+}

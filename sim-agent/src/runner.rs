@@ -1,0 +1,249 @@
+//! The sequential runner: the paper's simulation of one run (§IV–V).
+//!
+//! Robots are deployed one at a time at the start, facing the goal; each is
+//! deployed in the period after the previous one stopped. A robot stops when
+//! it enters an impassable cell or leaves the arena (it stays there, a beacon
+//! whose field steers the next ones) or when it comes within the success
+//! radius of the goal (the run is won). The run also ends at the time limit
+//! (10 000 s simulated) or when `max_robots` are spent.
+//!
+//! Same terrain, configuration and seed → the same result, bit for bit.
+//!
+//! ## Loop shortcut
+//! Without noise a robot's future is a function of its state (position bits,
+//! heading index, mode) and the fixed beacons. If that state ever repeats,
+//! the robot is on an exact cycle and will neither stop nor arrive: the run
+//! can jump straight to the time limit with the very same outcome. Brent's
+//! algorithm finds such cycles with one comparison per period. It is off
+//! when noise is on (the random stream is part of the state) and when
+//! trajectories are recorded (they would be cut short); a test checks the
+//! shortcut against the plain run.
+
+use crate::body::{HeadingTable, Kinematics};
+use crate::field::Beacons;
+use crate::robot::SimRobot;
+use crate::sensing::{robot_seed, NoiseModel, SensingNoise};
+use crate::terrain::Terrain;
+use crate::Vec2;
+use bycoms_agent::{ControllerConfig, Mode};
+use serde::{Deserialize, Serialize};
+
+/// Everything that parameterises a run besides the terrain.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunConfig {
+    /// Circumferential radius ε (g_th = c / ε²).
+    pub eps: f64,
+    /// Sensing noise, `None` for the noiseless study.
+    pub noise: Option<NoiseModel>,
+    /// Seed of the robots' noise streams.
+    pub seed: u64,
+    /// Stop after this many robots (`None`: as many as the time limit allows).
+    pub max_robots: Option<u32>,
+    /// Simulated time limit of the whole run, s.
+    pub time_limit: f64,
+    /// A robot within this distance of the goal has arrived.
+    pub success_radius: f64,
+    pub kinematics: Kinematics,
+    /// Field constant c of g = c / d².
+    pub field_constant: f64,
+    /// Keep every robot's trajectory (for pictures).
+    pub record_trajectories: bool,
+    /// Use the exact loop shortcut (see the module doc).
+    pub loop_shortcut: bool,
+}
+
+impl RunConfig {
+    /// The paper's settings with circumferential radius `eps`.
+    pub fn paper(eps: f64) -> Self {
+        Self {
+            eps,
+            noise: None,
+            seed: 0,
+            max_robots: None,
+            time_limit: 10_000.0,
+            success_radius: 0.5,
+            kinematics: Kinematics::paper(),
+            field_constant: 1.0,
+            record_trajectories: false,
+            loop_shortcut: true,
+        }
+    }
+
+    /// The controller parameters this run gives each robot.
+    pub fn controller(&self) -> ControllerConfig {
+        ControllerConfig {
+            g_th: self.field_constant / (self.eps * self.eps),
+            speed: self.kinematics.speed,
+            turn_rate: self.kinematics.turn_rate,
+            ..ControllerConfig::paper(self.eps)
+        }
+    }
+
+    /// Number of control periods in the time limit.
+    pub fn step_limit(&self) -> u64 {
+        libm::round(self.time_limit / self.kinematics.dt) as u64
+    }
+}
+
+/// Why a run ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Outcome {
+    /// A robot reached the goal.
+    Arrived,
+    /// Simulated time ran out.
+    TimeLimit,
+    /// `max_robots` robots were deployed and all got stuck.
+    RobotsExhausted,
+}
+
+/// How one robot's deployment ended.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RobotEnd {
+    Stuck,
+    Arrived,
+    /// Still moving when the run ended (time limit).
+    Moving,
+}
+
+/// One robot's deployment.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RobotRun {
+    /// 1-based deployment order.
+    pub id: u32,
+    pub end: RobotEnd,
+    /// Where it stopped (or was when the run ended).
+    pub position: Vec2,
+    /// Control periods it was deployed for.
+    pub steps: u64,
+    /// Positions after every period, starting with the start point (only when recorded).
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub trajectory: Vec<Vec2>,
+}
+
+/// The result of one run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunResult {
+    pub success: bool,
+    pub outcome: Outcome,
+    /// Control periods simulated in all.
+    pub steps: u64,
+    /// Simulated time, s.
+    pub time: f64,
+    /// Robots deployed.
+    pub robots_used: u32,
+    /// Positions of the stuck robots, in deployment order.
+    pub beacons: Vec<Vec2>,
+    pub robots: Vec<RobotRun>,
+}
+
+/// Runs the sequential deployment on `terrain`.
+pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
+    let goal = terrain.goal();
+    let start = terrain.start();
+    let theta0 = start.bearing_to(goal);
+    let table = HeadingTable::new(&cfg.kinematics, theta0)
+        .expect("the turn step must divide the full circle (validated by callers)");
+    let controller = cfg.controller();
+    let limit = cfg.step_limit();
+    let shortcut = cfg.loop_shortcut && cfg.noise.is_none() && !cfg.record_trajectories;
+    let r2 = cfg.success_radius * cfg.success_radius;
+
+    let mut beacons = Beacons::new(cfg.field_constant);
+    let mut robots = Vec::new();
+    let mut steps: u64 = 0;
+    let mut outcome = None;
+
+    while outcome.is_none() {
+        let id = robots.len() as u32 + 1;
+        if cfg.max_robots.is_some_and(|m| id > m) {
+            outcome = Some(Outcome::RobotsExhausted);
+            break;
+        }
+        if steps >= limit {
+            outcome = Some(Outcome::TimeLimit);
+            break;
+        }
+        let noise = cfg.noise.map(|m| SensingNoise::new(m, robot_seed(cfg.seed, id)));
+        let mut robot = SimRobot::new(start, controller, noise, cfg.kinematics.dt);
+        let mut trajectory = Vec::new();
+        if cfg.record_trajectories {
+            trajectory.push(start);
+        }
+        let mut cycle = CycleDetector::new(&robot);
+        let first_step = steps;
+        let end = loop {
+            if steps >= limit {
+                outcome = Some(Outcome::TimeLimit);
+                break RobotEnd::Moving;
+            }
+            let bearing = robot.body.pos.bearing_to(goal);
+            robot.step(&table, &beacons, bearing);
+            steps += 1;
+            let p = robot.body.pos;
+            if cfg.record_trajectories {
+                trajectory.push(p);
+            }
+            if terrain.is_blocked_at(p) {
+                beacons.push(p);
+                break RobotEnd::Stuck;
+            }
+            let (dx, dy) = (p.x - goal.x, p.y - goal.y);
+            if dx * dx + dy * dy <= r2 {
+                outcome = Some(Outcome::Arrived);
+                break RobotEnd::Arrived;
+            }
+            if shortcut && cycle.repeats(&robot) {
+                steps = limit;
+                outcome = Some(Outcome::TimeLimit);
+                break RobotEnd::Moving;
+            }
+        };
+        robots.push(RobotRun {
+            id,
+            end,
+            position: robot.body.pos,
+            steps: steps - first_step,
+            trajectory,
+        });
+    }
+    let outcome = outcome.unwrap_or(Outcome::TimeLimit);
+    RunResult {
+        success: outcome == Outcome::Arrived,
+        outcome,
+        steps,
+        time: steps as f64 * cfg.kinematics.dt,
+        robots_used: robots.len() as u32,
+        beacons: beacons.positions().collect(),
+        robots,
+    }
+}
+
+/// Brent's cycle detection on a robot's exact state.
+struct CycleDetector {
+    saved: (crate::body::BodyState, Mode),
+    power: u64,
+    lambda: u64,
+}
+
+impl CycleDetector {
+    fn new(robot: &SimRobot) -> Self {
+        Self { saved: (robot.body.state(), robot.mode()), power: 1, lambda: 0 }
+    }
+
+    #[inline]
+    fn repeats(&mut self, robot: &SimRobot) -> bool {
+        let now = (robot.body.state(), robot.mode());
+        if now == self.saved {
+            return true;
+        }
+        self.lambda += 1;
+        if self.lambda == self.power {
+            self.saved = now;
+            self.power *= 2;
+            self.lambda = 0;
+        }
+        false
+    }
+}

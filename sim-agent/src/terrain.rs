@@ -1,1 +1,0 @@
-//! Terrain: placeholder filled in by the terrain work package.

@@ -1,0 +1,22 @@
+//! The simulated world of the paper (§IV-A/B, design brief §3): a grid of
+//! unit cells, traversable or impassable, with a start and a goal.
+//!
+//! Robots are points that get stuck where they enter an impassable cell; the
+//! paper's experiments draw such worlds from Perlin noise and study success
+//! against the minimum path width. This module holds the grid ([`grid`]),
+//! the plain-text file format every tool reads and writes ([`mod@format`]), the
+//! Perlin generator with its feasibility check ([`mod@generate`]) and the
+//! minimum-path-width measure ([`width`]).
+
+pub mod format;
+pub mod generate;
+pub mod grid;
+pub mod width;
+
+#[cfg(test)]
+mod tests;
+
+pub use format::{parse, to_text, ParseError, ParseErrorKind};
+pub use generate::{generate, is_connected, GenParams, Generated};
+pub use grid::Terrain;
+pub use width::min_path_width;
