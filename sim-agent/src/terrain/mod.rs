@@ -19,4 +19,4 @@ mod tests;
 pub use format::{parse, to_text, ParseError, ParseErrorKind};
 pub use generate::{generate, is_connected, GenParams, Generated};
 pub use grid::Terrain;
-pub use width::min_path_width;
+pub use width::{min_path_width, min_path_width_of, WidthModel};

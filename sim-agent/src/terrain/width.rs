@@ -1,6 +1,20 @@
 //! Minimum path width (design brief §3): the largest diameter of a disc that
 //! can travel from start to goal without overlapping an impassable cell or
-//! leaving the arena. The paper's central result (§V, `fig:result_width`)
+//! leaving the arena.
+//!
+//! ## Two models of "an impassable cell", and why the default is discs
+//! * [`WidthModel::Squares`] — the literal reading: cells are unit squares.
+//!   Then every bottleneck is the distance between two squares, √(a² + b²)
+//!   for whole a, b, or a whole number to the border: 1, √2, 2, √5, √8, 3,
+//!   √10, √13, 4, √17, … No terrain of unit cells has a width in [1.5, 2) or
+//!   [4.5, 5), so the paper's bins 1.5 and 4.5 could never be filled.
+//! * [`WidthModel::Discs`] (default) — each impassable cell is the disc of
+//!   diameter 1 inscribed in it, i.e. the clearance is the distance to the
+//!   nearest impassable cell *centre* minus ½ (the border still counts as a
+//!   straight wall). Corridors keep their width (a 1-cell corridor → 1, a
+//!   2-cell one → 2), and diagonal gaps measure centre distance minus one
+//!   cell — √8 − 1 ≈ 1.83, √13 − 1 ≈ 2.61, √34 − 1 ≈ 4.83 — so every bin of
+//!   the paper's study 1, 1.5, …, 5 is reachable. The paper's central result (§V, `fig:result_width`)
 //! is success rate against this width and the robots' circumference radius
 //! ε, and the sweep bins thousands of candidate terrains by it, so it must be
 //! both exact and fast.
@@ -34,6 +48,17 @@
 
 use super::grid::Terrain;
 
+/// How impassable cells count as obstacles for the disc (see the module doc).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WidthModel {
+    /// Unit squares: the literal geometry.
+    Squares,
+    /// The disc of diameter 1 inscribed in each cell (default).
+    #[default]
+    Discs,
+}
+
 /// Lattice samples per cell along each axis (step 0.25).
 pub const SAMPLES_PER_CELL: usize = 4;
 
@@ -43,21 +68,42 @@ pub const MAX_CLEARANCE: f64 = 4.0;
 /// The minimum path width of `t` in cells: 0.0 if no disc of positive size
 /// can join start and goal, at most `2 × MAX_CLEARANCE`.
 pub fn min_path_width(t: &Terrain) -> f64 {
-    min_path_width_sampled(t, SAMPLES_PER_CELL)
+    min_path_width_of(t, WidthModel::default())
 }
 
-/// [`min_path_width`] on a lattice of `q` samples per cell (`1 ≤ q ≤ 32`);
-/// finer lattices are slower (∝ q²) and closer to the continuous width.
-pub fn min_path_width_sampled(t: &Terrain, q: usize) -> f64 {
+/// [`min_path_width`] under the given obstacle model.
+pub fn min_path_width_of(t: &Terrain, model: WidthModel) -> f64 {
+    min_path_width_sampled(t, SAMPLES_PER_CELL, model)
+}
+
+/// [`min_path_width_of`] on a lattice of `q` samples per cell (`1 ≤ q ≤ 32`,
+/// even for discs so cell centres are lattice points); finer lattices are
+/// slower (∝ q²) and closer to the continuous width.
+pub fn min_path_width_sampled(t: &Terrain, q: usize, model: WidthModel) -> f64 {
     assert!((1..=32).contains(&q), "samples per cell must be in 1..=32, got {q}");
-    let level = Lattice::new(t, q).bottleneck(t);
-    2.0 * (level as f64).sqrt() / q as f64
+    assert!(model == WidthModel::Squares || q % 2 == 0, "the disc model needs an even q, got {q}");
+    let lattice = Lattice::new(t, q, model);
+    let level = lattice.bottleneck(t);
+    if level == 0 {
+        return 0.0;
+    }
+    2.0 * ((level as f64).sqrt() - lattice.inset as f64) / q as f64
 }
 
 /// The sampling lattice: `q` samples per cell, clearances capped at `cap`
 /// lattice steps; `nx × ny` samples, row-major.
+///
+/// Keys are squared distances in lattice steps: to the nearest square for
+/// `Squares`; to the nearest cell centre for `Discs`, where the border's
+/// distance b enters as (b + inset)² and the clearance is √key − inset
+/// (inset = q/2, the disc radius). Either way a larger key is a larger
+/// clearance, and keys ≤ inset² are obstacles.
 struct Lattice {
     q: usize,
+    disc: bool,
+    /// Disc radius in lattice steps (0 for squares).
+    inset: i64,
+    /// Largest distance (lattice steps) the scan looks at.
     cap: i64,
     cap2: u16,
     nx: usize,
@@ -65,9 +111,11 @@ struct Lattice {
 }
 
 impl Lattice {
-    fn new(t: &Terrain, q: usize) -> Lattice {
-        let cap = (MAX_CLEARANCE * q as f64) as i64;
-        Lattice { q, cap, cap2: (cap * cap) as u16, nx: t.width() * q + 1, ny: t.height() * q + 1 }
+    fn new(t: &Terrain, q: usize, model: WidthModel) -> Lattice {
+        let disc = model == WidthModel::Discs;
+        let inset = if disc { (q / 2) as i64 } else { 0 };
+        let cap = (MAX_CLEARANCE * q as f64) as i64 + inset;
+        Lattice { q, disc, inset, cap, cap2: (cap * cap) as u16, nx: t.width() * q + 1, ny: t.height() * q + 1 }
     }
 
     /// Lattice index of a coordinate, rounded and clamped to `0..=max`.
@@ -88,6 +136,10 @@ impl Lattice {
         let mut out_all = vec![self.cap2; h * nx];
         for (row, out) in cells.chunks_exact(w).zip(out_all.chunks_exact_mut(nx)) {
             if !row.iter().any(|&b| b) {
+                continue;
+            }
+            if self.disc {
+                self.row_centre_distances(row, out);
                 continue;
             }
             let blocked_at = |i: usize| i % q == 0 && i / q < w && row[i / q];
@@ -118,13 +170,40 @@ impl Lattice {
         out_all
     }
 
-    /// The squared clearance (lattice steps², capped at `cap2`) of every sample.
+    /// Disc model: squared horizontal distance from each sample column to
+    /// the nearest impassable cell centre of `row`, capped.
+    fn row_centre_distances(&self, row: &[bool], out: &mut [u16]) {
+        let (q, half) = (self.q, self.q / 2);
+        let centre_at = |i: usize| i % q == half && i / q < row.len() && row[i / q];
+        let mut last: Option<i64> = None;
+        for (i, o) in out.iter_mut().enumerate() {
+            if centre_at(i) {
+                last = Some(i as i64);
+            }
+            if let Some(c) = last {
+                let d = (i as i64 - c).min(self.cap);
+                *o = (*o).min((d * d) as u16);
+            }
+        }
+        last = None;
+        for (i, o) in out.iter_mut().enumerate().rev() {
+            if centre_at(i) {
+                last = Some(i as i64);
+            }
+            if let Some(c) = last {
+                let d = (c - i as i64).min(self.cap);
+                *o = (*o).min((d * d) as u16);
+            }
+        }
+    }
+
+    /// The squared clearance key (lattice steps², capped at `cap2`) of every sample.
     fn clearances(&self, t: &Terrain) -> Vec<u16> {
         let (h, nx, ny, q) = (t.height(), self.nx, self.ny, self.q as i64);
         let row_dx2 = self.row_distances(t);
         // Squared distance to the arena border along one axis, capped.
         let border = |i: usize, n: usize| -> u16 {
-            let d = (i.min(n - 1 - i) as i64).min(self.cap);
+            let d = (i.min(n - 1 - i) as i64 + self.inset).min(self.cap);
             (d * d) as u16
         };
         let bx: Vec<u16> = (0..nx).map(|i| border(i, nx)).collect();
@@ -140,10 +219,22 @@ impl Lattice {
             let hi = (((j + self.cap) / q) as usize).min(h - 1);
             for (iy, dx2) in row_dx2.chunks_exact(nx).enumerate().take(hi + 1).skip(lo) {
                 let y0 = iy as i64 * q;
-                let dy = (y0 - j).max(j - y0 - q).clamp(0, self.cap);
+                let dy = if self.disc {
+                    (y0 + q / 2 - j).abs().min(self.cap)
+                } else {
+                    (y0 - j).max(j - y0 - q).clamp(0, self.cap)
+                };
                 let dy2 = (dy * dy) as u16;
                 for (o, &d) in out.iter_mut().zip(dx2) {
                     *o = (*o).min(dy2 + d);
+                }
+            }
+        }
+        if self.disc {
+            let solid = (self.inset * self.inset) as u16;
+            for k in &mut key {
+                if *k <= solid {
+                    *k = 0;
                 }
             }
         }

@@ -1,6 +1,6 @@
 use super::block;
 use crate::terrain::width::MAX_CLEARANCE;
-use crate::terrain::{is_connected, min_path_width, Terrain};
+use crate::terrain::{is_connected, min_path_width, min_path_width_of, Terrain, WidthModel};
 use crate::Vec2;
 
 /// A 1-cell-thick wall across the paper arena at row 30 with a gap of cells
@@ -17,13 +17,39 @@ fn near(w: f64, expected: f64, tol: f64) {
     assert!((w - expected).abs() <= tol, "width {w}, expected {expected} ± {tol}");
 }
 
+fn squares(t: &Terrain) -> f64 {
+    min_path_width_of(t, WidthModel::Squares)
+}
+
 #[test]
-fn axis_aligned_corridors_are_exact() {
-    near(min_path_width(&wall_with_gap(30..31)), 1.0, 1e-12);
-    near(min_path_width(&wall_with_gap(30..32)), 2.0, 1e-12);
-    near(min_path_width(&wall_with_gap(20..23)), 3.0, 1e-12);
-    // At the arena edge the border counts as an obstacle: gap cells 0..2.
-    near(min_path_width(&wall_with_gap(0..2)), 2.0, 1e-12);
+fn axis_aligned_corridors_are_exact_in_both_models() {
+    for model in [WidthModel::Squares, WidthModel::Discs] {
+        near(min_path_width_of(&wall_with_gap(30..31), model), 1.0, 1e-12);
+        near(min_path_width_of(&wall_with_gap(30..32), model), 2.0, 1e-12);
+        near(min_path_width_of(&wall_with_gap(20..23), model), 3.0, 1e-12);
+        // At the arena edge the border counts as an obstacle: gap cells 0..2.
+        near(min_path_width_of(&wall_with_gap(0..2), model), 2.0, 1e-12);
+    }
+}
+
+#[test]
+fn disc_model_reaches_the_half_bins() {
+    // Two blocks whose facing corner cells have centres offset by (2, 2):
+    // squares see a √2 gap, discs √8 − 1 ≈ 1.83 (bin 1.5).
+    let mut t = Terrain::paper();
+    block(&mut t, 0..30, 28..32);
+    block(&mut t, 31..60, 33..37);
+    near(squares(&t), 2f64.sqrt(), 0.25);
+    let w = min_path_width(&t);
+    near(w, 8f64.sqrt() - 1.0, 0.25);
+    assert!((1.5..2.0).contains(&w), "{w}");
+    // Centres offset (5, 3): √34 − 1 ≈ 4.83 (bin 4.5).
+    let mut t = Terrain::paper();
+    block(&mut t, 0..30, 26..30);
+    block(&mut t, 34..60, 32..36);
+    let w = min_path_width(&t);
+    near(w, 34f64.sqrt() - 1.0, 0.25);
+    assert!((4.5..5.0).contains(&w), "{w}");
 }
 
 #[test]
@@ -54,13 +80,18 @@ fn diagonal_bottleneck() {
     let mut t = Terrain::paper();
     block(&mut t, 0..30, 28..32);
     block(&mut t, 32..60, 35..39);
-    let w = min_path_width(&t);
+    let w = squares(&t);
     near(w, 13f64.sqrt(), 0.25);
     near(w, 12.5f64.sqrt(), 1e-12);
     assert!((3.5..4.0).contains(&w), "{w}");
     // A finer lattice gets closer to √13.
-    let fine = crate::terrain::width::min_path_width_sampled(&t, 16);
+    let fine = crate::terrain::width::min_path_width_sampled(&t, 16, WidthModel::Squares);
     assert!(fine > w && fine <= 13f64.sqrt() + 1e-12, "{fine}");
+    // Discs: the corner cells' centres are (3, 4) apart → 5 − 1 = 4; the
+    // lattice path cannot follow the gate's bisector exactly and reads 3.95.
+    let d = min_path_width(&t);
+    near(d, 4.0, 0.25);
+    assert!(d <= 4.0, "{d}");
 }
 
 #[test]
@@ -68,11 +99,14 @@ fn blocked_terrain_has_width_zero() {
     let t = wall_with_gap(0..0);
     assert!(!is_connected(&t));
     assert_eq!(min_path_width(&t), 0.0);
-    // A diagonal-only leak lets no disc of positive size through.
+    // A diagonal-only leak lets no disc of positive size through squares,
+    // and only a sub-unit one (√2 − 1) between inscribed discs.
     let mut u = Terrain::paper();
     block(&mut u, 0..30, 30..31);
     block(&mut u, 30..60, 31..32);
-    assert_eq!(min_path_width(&u), 0.0);
+    assert_eq!(squares(&u), 0.0);
+    let leak = min_path_width(&u);
+    assert!(leak > 0.0 && leak < 1.0, "{leak}");
 }
 
 #[test]
@@ -112,7 +146,7 @@ fn feasible_means_at_least_one() {
 
 /// Brute force on the same lattice: f64 distances to every blocked square and
 /// the border, then the largest level whose samples connect start and goal.
-fn brute_force_width(t: &Terrain, q: usize) -> f64 {
+fn brute_force_width(t: &Terrain, q: usize, model: WidthModel) -> f64 {
     let (nx, ny) = (t.width() * q + 1, t.height() * q + 1);
     let step = 1.0 / q as f64;
     let mut clear = vec![0.0f64; nx * ny];
@@ -123,9 +157,15 @@ fn brute_force_width(t: &Terrain, q: usize) -> f64 {
             for iy in 0..t.height() {
                 for ix in 0..t.width() {
                     if t.cell_blocked(ix, iy) {
-                        let dx = (ix as f64 - x).max(x - ix as f64 - 1.0).max(0.0);
-                        let dy = (iy as f64 - y).max(y - iy as f64 - 1.0).max(0.0);
-                        d = d.min(dx.hypot(dy));
+                        let c = match model {
+                            WidthModel::Squares => {
+                                let dx = (ix as f64 - x).max(x - ix as f64 - 1.0).max(0.0);
+                                let dy = (iy as f64 - y).max(y - iy as f64 - 1.0).max(0.0);
+                                dx.hypot(dy)
+                            }
+                            WidthModel::Discs => (ix as f64 + 0.5 - x).hypot(iy as f64 + 0.5 - y) - 0.5,
+                        };
+                        d = d.min(c.max(0.0));
                     }
                 }
             }
@@ -181,10 +221,16 @@ fn matches_brute_force_on_random_small_terrains() {
         };
         t.set_start(cell(&mut rng));
         t.set_goal(cell(&mut rng));
-        for q in [1, 2, 4] {
-            let fast = min_path_width_sampled(&t, q);
-            let slow = brute_force_width(&t, q);
-            assert!((fast - slow).abs() < 1e-9, "case {case}, q {q}: {fast} vs {slow}");
+        for (q, model) in [
+            (1, WidthModel::Squares),
+            (2, WidthModel::Squares),
+            (4, WidthModel::Squares),
+            (2, WidthModel::Discs),
+            (4, WidthModel::Discs),
+        ] {
+            let fast = min_path_width_sampled(&t, q, model);
+            let slow = brute_force_width(&t, q, model);
+            assert!((fast - slow).abs() < 1e-9, "case {case}, q {q}, {model:?}: {fast} vs {slow}");
             nonzero += usize::from(fast > 0.0);
         }
     }
