@@ -6,7 +6,7 @@
 //! not as a float that accumulates rounding: turning left then right gives
 //! back the very same heading, the table's cos/sin save two libm calls per
 //! straight step, and a robot's whole state is small and exactly comparable
-//! (the runner's loop detection relies on that). This needs δ to divide the
+//!. This needs δ to divide the
 //! full circle — true for the paper's π/60 (120 headings).
 
 use crate::Vec2;

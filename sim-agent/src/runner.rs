@@ -9,15 +9,11 @@
 //!
 //! Same terrain, configuration and seed → the same result, bit for bit.
 //!
-//! ## Loop shortcut
-//! Without noise a robot's future is a function of its state (position bits,
-//! heading index, mode) and the fixed beacons. If that state ever repeats,
-//! the robot is on an exact cycle and will neither stop nor arrive: the run
-//! can jump straight to the time limit with the very same outcome. Brent's
-//! algorithm finds such cycles with one comparison per period. It is off
-//! when noise is on (the random stream is part of the state) and when
-//! trajectories are recorded (they would be cut short); a test checks the
-//! shortcut against the plain run.
+//! No shortcuts: every period of every robot is simulated, up to the time
+//! limit. (An exact loop detector — Brent's algorithm on the robot's state
+//! bits — was tried and removed: orbiting robots drift by rounding and never
+//! repeat a state exactly, so it never fired; the full study meets its time
+//! budget without it.)
 
 use crate::body::{HeadingTable, Kinematics};
 use crate::field::Beacons;
@@ -25,7 +21,7 @@ use crate::robot::SimRobot;
 use crate::sensing::{robot_seed, NoiseModel, SensingNoise};
 use crate::terrain::Terrain;
 use crate::Vec2;
-use bycoms_agent::{ControllerConfig, Mode};
+use bycoms_agent::ControllerConfig;
 use serde::{Deserialize, Serialize};
 
 /// Everything that parameterises a run besides the terrain.
@@ -48,8 +44,6 @@ pub struct RunConfig {
     pub field_constant: f64,
     /// Keep every robot's trajectory (for pictures).
     pub record_trajectories: bool,
-    /// Use the exact loop shortcut (see the module doc).
-    pub loop_shortcut: bool,
 }
 
 impl RunConfig {
@@ -65,7 +59,6 @@ impl RunConfig {
             kinematics: Kinematics::paper(),
             field_constant: 1.0,
             record_trajectories: false,
-            loop_shortcut: true,
         }
     }
 
@@ -147,7 +140,6 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
         .expect("the turn step must divide the full circle (validated by callers)");
     let controller = cfg.controller();
     let limit = cfg.step_limit();
-    let shortcut = cfg.loop_shortcut && cfg.noise.is_none() && !cfg.record_trajectories;
     let r2 = cfg.success_radius * cfg.success_radius;
 
     let mut beacons = Beacons::new(cfg.field_constant);
@@ -171,7 +163,6 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
         if cfg.record_trajectories {
             trajectory.push(start);
         }
-        let mut cycle = CycleDetector::new(&robot);
         let first_step = steps;
         let end = loop {
             if steps >= limit {
@@ -194,11 +185,6 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
                 outcome = Some(Outcome::Arrived);
                 break RobotEnd::Arrived;
             }
-            if shortcut && cycle.repeats(&robot) {
-                steps = limit;
-                outcome = Some(Outcome::TimeLimit);
-                break RobotEnd::Moving;
-            }
         };
         robots.push(RobotRun {
             id,
@@ -217,33 +203,5 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
         robots_used: robots.len() as u32,
         beacons: beacons.positions().collect(),
         robots,
-    }
-}
-
-/// Brent's cycle detection on a robot's exact state.
-struct CycleDetector {
-    saved: (crate::body::BodyState, Mode),
-    power: u64,
-    lambda: u64,
-}
-
-impl CycleDetector {
-    fn new(robot: &SimRobot) -> Self {
-        Self { saved: (robot.body.state(), robot.mode()), power: 1, lambda: 0 }
-    }
-
-    #[inline]
-    fn repeats(&mut self, robot: &SimRobot) -> bool {
-        let now = (robot.body.state(), robot.mode());
-        if now == self.saved {
-            return true;
-        }
-        self.lambda += 1;
-        if self.lambda == self.power {
-            self.saved = now;
-            self.power *= 2;
-            self.lambda = 0;
-        }
-        false
     }
 }

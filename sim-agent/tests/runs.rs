@@ -41,8 +41,7 @@ fn gap_of_three_is_never_crossed_with_eps_four() {
     // Noiseless: the run is deterministic, so "never" is this one run to the
     // time limit. (With sensing noise a robot occasionally slips through —
     // the paper's §V-B observation that noise can raise the success rate.)
-    let mut cfg = RunConfig::paper(4.0);
-    cfg.loop_shortcut = false;
+    let cfg = RunConfig::paper(4.0);
     let r = run(&t, &cfg);
     assert!(!r.success, "crossed after {} robots", r.robots_used);
     assert_eq!(r.outcome, Outcome::TimeLimit);
