@@ -135,3 +135,55 @@ fn simulate_prints_json_and_draws_the_snapshot() {
     let text = std::fs::read_to_string(&svg).unwrap();
     assert!(text.starts_with("<svg") && text.contains("<polyline"));
 }
+
+#[test]
+fn ctrl_c_keeps_rows_and_a_rerun_resumes_to_the_same_bytes() {
+    let whole = tempfile::tempdir().unwrap();
+    let args = ["--eps", "1:5:0.5", "--widths", "2,3", "--terrains-per-bin", "5", "--seed", "3", "--jobs", "1"];
+    let run = |dir: &Path| {
+        let mut a = vec!["sweep", "--out", dir.to_str().unwrap()];
+        a.extend(args);
+        a.into_iter().map(String::from).collect::<Vec<_>>()
+    };
+    assert!(orchestrator(&run(whole.path()).iter().map(String::as_str).collect::<Vec<_>>()).status.success());
+    let expected = std::fs::read(whole.path().join("runs.csv")).unwrap();
+
+    let part = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .args(run(part.path()))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let csv = part.path().join("runs.csv");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    // Wait for a few rows, then Ctrl-C.
+    while std::fs::read_to_string(&csv).map_or(0, |t| t.lines().count()) < 4 {
+        assert!(std::time::Instant::now() < deadline, "sweep wrote no rows in time");
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let _ = Command::new("kill").args(["-INT", &child.id().to_string()]).status();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("sweep did not stop after Ctrl-C");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    };
+    let kept = std::fs::read(&csv).unwrap();
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(130), "{err}");
+    assert!(err.contains("run the same command again to resume"), "{err}");
+    assert!(kept.len() < expected.len(), "interrupted before the end");
+    assert!(expected.starts_with(&kept), "the rows kept are a prefix of the full CSV");
+    let o = orchestrator(&run(part.path()).iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&csv).unwrap(), expected);
+}

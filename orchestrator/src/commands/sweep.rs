@@ -43,8 +43,8 @@ pub struct Args {
     #[arg(long, value_name = "i/n")]
     pub shard: Option<Shard>,
     /// Worker threads (default: all cores).
-    #[arg(long)]
-    pub jobs: Option<usize>,
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
+    pub jobs: Option<u16>,
     /// Robots per run (default: until the time limit).
     #[arg(long, value_name = "N")]
     pub max_robots: Option<u32>,
@@ -122,8 +122,10 @@ pub fn run(args: Args) -> Result<i32> {
         time_limit: args.time_limit,
     };
     prepare_out_dir(&args.out, &meta)?;
+    let stop = stop_flag();
+    stop.store(false, Ordering::SeqCst);
 
-    let terrains = load_terrains(&args, &axes)?;
+    let terrains = load_terrains(&args, &axes, stop)?;
     write_terrain_list(&args.out, &axes, &terrains)?;
 
     let runs_path = args.out.join(runs_file(shard));
@@ -152,9 +154,8 @@ pub fn run(args: Args) -> Result<i32> {
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} runs, {msg}, eta {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let stop = stop_flag();
-    stop.store(false, Ordering::SeqCst);
-    let threads = args.jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let threads =
+        args.jobs.map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), usize::from);
     let written = execute(&job, pending, &mut writer, threads, &bar, stop)?;
     bar.finish_and_clear();
     drop(writer);
@@ -207,7 +208,7 @@ fn prepare_out_dir(out: &Path, meta: &Meta) -> Result<()> {
     std::fs::write(&path, text + "\n").with_context(|| format!("cannot write to output directory {}", out.display()))
 }
 
-fn load_terrains(args: &Args, axes: &Axes) -> Result<Vec<Vec<SweepTerrain>>> {
+fn load_terrains(args: &Args, axes: &Axes, stop: &AtomicBool) -> Result<Vec<Vec<SweepTerrain>>> {
     let per_bin = axes.terrains_per_bin;
     let bins = match &args.terrains {
         Some(dir) => {
@@ -235,7 +236,7 @@ fn load_terrains(args: &Args, axes: &Axes) -> Result<Vec<Vec<SweepTerrain>>> {
                 ProgressStyle::with_template("{elapsed_precise} generating terrains [{bar:40}] {pos}/{len}")
                     .unwrap_or_else(|_| ProgressStyle::default_bar()),
             );
-            let bins = generate_bins(args.seed, &axes.widths, per_bin, args.max_candidates, |done, _| {
+            let bins = generate_bins(args.seed, &axes.widths, per_bin, args.max_candidates, stop, |done, _| {
                 bar.set_position(done as u64)
             })?;
             bar.finish_and_clear();

@@ -36,7 +36,14 @@ pub fn run(args: Args) -> Result<i32> {
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
-    let bins = generate_bins(args.seed, &[args.width], args.count, args.max_candidates, |_, _| {})?;
+    let bins = generate_bins(
+        args.seed,
+        &[args.width],
+        args.count,
+        args.max_candidates,
+        &std::sync::atomic::AtomicBool::new(false),
+        |_, _| {},
+    )?;
     let mut index = String::from("file,terrain,width,threshold\n");
     for t in &bins[0] {
         let name = file_name(t, args.width);

@@ -12,6 +12,7 @@ use anyhow::{bail, Context, Result};
 use bycoms_sim::terrain::{generate, min_path_width, parse, GenParams, Generated, Terrain};
 use rayon::prelude::*;
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Width of a bin: bin w holds w ≤ width < w + BIN_SIZE.
 pub const BIN_SIZE: f64 = 0.5;
@@ -45,12 +46,14 @@ pub fn first_feasible(seed: u64, budget: u64) -> Option<(u64, Generated)> {
 }
 
 /// Fills every bin with `per_bin` generated terrains; `on_progress(filled, needed)`
-/// is called after each chunk. Fails if `budget` candidates do not suffice.
+/// is called after each chunk. Fails if `budget` candidates do not suffice,
+/// or if `stop` is raised (Ctrl-C).
 pub fn generate_bins(
     seed: u64,
     bins: &[f64],
     per_bin: usize,
     budget: u64,
+    stop: &AtomicBool,
     mut on_progress: impl FnMut(usize, usize),
 ) -> Result<Vec<Vec<SweepTerrain>>> {
     const CHUNK: u64 = 256;
@@ -59,6 +62,9 @@ pub fn generate_bins(
     let needed = bins.len() * per_bin;
     let mut next = 0u64;
     while out.iter().any(|b| b.len() < per_bin) {
+        if stop.load(Ordering::Relaxed) {
+            bail!("interrupted while generating terrains");
+        }
         if next >= budget {
             let fill: Vec<String> =
                 bins.iter().zip(&out).map(|(b, t)| format!("{b}: {}/{per_bin}", t.len())).collect();
@@ -154,8 +160,8 @@ mod tests {
     #[test]
     fn generation_is_deterministic_and_fills_bins() {
         let bins = [2.0, 3.0];
-        let a = generate_bins(5, &bins, 2, 100_000, |_, _| {}).unwrap();
-        let b = generate_bins(5, &bins, 2, 100_000, |_, _| {}).unwrap();
+        let a = generate_bins(5, &bins, 2, 100_000, &AtomicBool::new(false), |_, _| {}).unwrap();
+        let b = generate_bins(5, &bins, 2, 100_000, &AtomicBool::new(false), |_, _| {}).unwrap();
         for (x, y) in a.iter().zip(&b) {
             assert_eq!(x.len(), 2);
             for (s, t) in x.iter().zip(y) {
@@ -170,7 +176,7 @@ mod tests {
 
     #[test]
     fn budget_exhaustion_is_a_clear_error() {
-        let err = generate_bins(5, &[1.0], 1000, 10, |_, _| {}).unwrap_err();
+        let err = generate_bins(5, &[1.0], 1000, 10, &AtomicBool::new(false), |_, _| {}).unwrap_err();
         assert!(err.to_string().contains("did not fill every width bin"));
     }
 }
