@@ -34,7 +34,7 @@ impl Kinematics {
     pub fn headings_per_turn(&self) -> Option<u32> {
         let n = TAU / (self.turn_rate * self.dt);
         let r = libm::round(n);
-        (r >= 4.0 && r <= 100_000.0 && libm::fabs(n - r) < 1e-9).then_some(r as u32)
+        ((4.0..=100_000.0).contains(&r) && libm::fabs(n - r) < 1e-9).then_some(r as u32)
     }
 }
 

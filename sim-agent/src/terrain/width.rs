@@ -1,6 +1,9 @@
 //! Minimum path width (design brief §3): the largest diameter of a disc that
 //! can travel from start to goal without overlapping an impassable cell or
-//! leaving the arena.
+//! leaving the arena. The paper's central result (§V, `fig:result_width`)
+//! is success rate against this width and the robots' circumference radius
+//! ε, and the sweep bins thousands of candidate terrains by it, so it must be
+//! both exact and fast.
 //!
 //! ## Two models of "an impassable cell", and why the default is discs
 //! * [`WidthModel::Squares`] — the literal reading: cells are unit squares.
@@ -14,12 +17,9 @@
 //!   straight wall). Corridors keep their width (a 1-cell corridor → 1, a
 //!   2-cell one → 2), and diagonal gaps measure centre distance minus one
 //!   cell — √8 − 1 ≈ 1.83, √13 − 1 ≈ 2.61, √34 − 1 ≈ 4.83 — so every bin of
-//!   the paper's study 1, 1.5, …, 5 is reachable. The paper's central result (§V, `fig:result_width`)
-//! is success rate against this width and the robots' circumference radius
-//! ε, and the sweep bins thousands of candidate terrains by it, so it must be
-//! both exact and fast.
+//!   the paper's study 1, 1.5, …, 5 is reachable.
 //!
-//! Method:
+//! ## Method
 //! * Disc centres are sampled on a lattice of step 0.25 (4 samples per cell),
 //!   aligned with the grid, so cell edges and cell centres `k + 0.5` are
 //!   lattice points. Start and goal are rounded to the nearest lattice point
@@ -31,6 +31,8 @@
 //!   units, computed exactly in integer arithmetic by a separable scan
 //!   (per cell row, the horizontal distance to the nearest impassable cell of
 //!   that row; then per sample, the minimum of `dy² + dx²` over nearby rows).
+//!   For discs the same scan measures to cell centres (also lattice points),
+//!   and the key √key − ½ is still monotone in the clearance.
 //! * Clearances are capped at [`MAX_CLEARANCE`] = 4 cells, so widths ≥ 8 are
 //!   reported as 8.0. The cap bounds the row scan; the sweep bins only go up
 //!   to 5.5.
@@ -40,8 +42,8 @@
 //!   It is hand-written: the `pathfinding` crate has no widest-path search.
 //!
 //! Sampling is exact on axis-aligned corridors (a 1-cell corridor measures
-//! exactly 1.0) and reads diagonal bottlenecks slightly low: √13 ≈ 3.61 →
-//! 3.54, a (3, 4) gap of 5 → 4.95; over 377 generated terrains it never read
+//! exactly 1.0) and reads diagonal bottlenecks slightly low (squares: √13 ≈ 3.61 →
+//! 3.54; discs: 5 − 1 = 4 → 3.95), a (3, 4) gap of 5 → 4.95; over 377 generated terrains it never read
 //! higher than a 1/32-cell lattice and at most 0.16 lower.
 //! [`min_path_width_sampled`] takes a finer lattice when that matters.
 //! Cost: about 0.2 ms per 60 × 60 terrain in release (see `generate`).
@@ -81,7 +83,7 @@ pub fn min_path_width_of(t: &Terrain, model: WidthModel) -> f64 {
 /// slower (∝ q²) and closer to the continuous width.
 pub fn min_path_width_sampled(t: &Terrain, q: usize, model: WidthModel) -> f64 {
     assert!((1..=32).contains(&q), "samples per cell must be in 1..=32, got {q}");
-    assert!(model == WidthModel::Squares || q % 2 == 0, "the disc model needs an even q, got {q}");
+    assert!(model == WidthModel::Squares || q.is_multiple_of(2), "the disc model needs an even q, got {q}");
     let lattice = Lattice::new(t, q, model);
     let level = lattice.bottleneck(t);
     if level == 0 {
@@ -142,7 +144,7 @@ impl Lattice {
                 self.row_centre_distances(row, out);
                 continue;
             }
-            let blocked_at = |i: usize| i % q == 0 && i / q < w && row[i / q];
+            let blocked_at = |i: usize| i.is_multiple_of(q) && i / q < w && row[i / q];
             // Left pass: distance to the right edge of the last impassable
             // cell starting at or before the sample (0 inside or on it).
             let mut edge: Option<i64> = None;
