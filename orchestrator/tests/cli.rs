@@ -187,3 +187,43 @@ fn ctrl_c_keeps_rows_and_a_rerun_resumes_to_the_same_bytes() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(std::fs::read(&csv).unwrap(), expected);
 }
+
+#[test]
+fn terrain_command_writes_named_files_that_sweep_can_use() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    for w in ["2", "3"] {
+        let o = orchestrator(&["terrain", "--width", w, "--count", "2", "--seed", "5", "--out", d]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let mut names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".txt"))
+        .collect();
+    names.sort();
+    assert_eq!(names.len(), 4, "{names:?}");
+    for n in &names {
+        // w<bin>_<id>_width<measured>.txt, and the measured width is in the bin.
+        let measured: f64 = n.rsplit_once("_width").unwrap().1.trim_end_matches(".txt").parse().unwrap();
+        let bin: f64 = n[1..].split('_').next().unwrap().parse().unwrap();
+        assert!(bin <= measured && measured < bin + 0.5, "{n}");
+        let text = std::fs::read_to_string(dir.path().join(n)).unwrap();
+        bycoms_sim::terrain::parse(&text).unwrap();
+    }
+    let out = tempfile::tempdir().unwrap();
+    let o = orchestrator(&[
+        "sweep", "--terrains", d, "--widths", "2,3", "--terrains-per-bin", "2", "--eps", "1", "--noise", "off",
+        "--out", out.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(out.path().join("runs.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 4);
+    // Asking for more terrains than the directory has is a clear error.
+    let o = orchestrator(&[
+        "sweep", "--terrains", d, "--widths", "2,3", "--terrains-per-bin", "3", "--out",
+        out.path().join("x").to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("fewer than 3 terrains"), "{}", stderr(&o));
+}
