@@ -68,8 +68,13 @@ pub fn run(args: Args) -> Result<i32> {
     let width = min_path_width(&world.terrain);
 
     if !args.no_svg {
-        let title = format!("{} · ε = {} · {}", world.name, cfg.eps, summary_line(&result));
-        let svg = snapshot::render(&world.terrain, &result, cfg.eps, &title);
+        let line2 = format!(
+            "ε = {}, noise {}: {}",
+            cfg.eps,
+            if cfg.noise.is_some() { "on" } else { "off" },
+            summary_line(&result)
+        );
+        let svg = snapshot::render(&world.terrain, &result, cfg.eps, [&world.name, &line2]);
         std::fs::write(&args.svg, svg)
             .with_context(|| format!("cannot write the snapshot to {}", args.svg.display()))?;
     }

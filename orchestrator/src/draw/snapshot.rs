@@ -9,18 +9,19 @@ use bycoms_sim::Vec2;
 
 /// Pixels per cell.
 const SCALE: f64 = 10.0;
-/// Room for the title above the arena.
-const TOP: f64 = 30.0;
+/// Room for the two title lines above the arena.
+const TOP: f64 = 46.0;
 const MARGIN: f64 = 10.0;
 const PALETTE: &[&str] =
     &["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"];
 
-/// Renders the run as an SVG document.
-pub fn render(terrain: &Terrain, result: &RunResult, eps: f64, title: &str) -> String {
+/// Renders the run as an SVG document with a two-line title.
+pub fn render(terrain: &Terrain, result: &RunResult, eps: f64, title: [&str; 2]) -> String {
     let (w, h) = (terrain.width() as f64, terrain.height() as f64);
     let mut svg = Svg::new(w * SCALE + 2.0 * MARGIN, h * SCALE + TOP + MARGIN);
     let px = |p: Vec2| (MARGIN + p.x * SCALE, TOP + (h - p.y) * SCALE);
-    svg.text(MARGIN, 20.0, 13.0, "start", title);
+    svg.text(MARGIN, 18.0, 13.0, "start", title[0]);
+    svg.text(MARGIN, 36.0, 13.0, "start", title[1]);
     svg.rect(MARGIN, TOP, w * SCALE, h * SCALE, r##"fill="none" stroke="#444" stroke-width="1""##);
     // Impassable cells, one rectangle per horizontal run.
     for iy in 0..terrain.height() {
