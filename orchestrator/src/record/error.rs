@@ -1,0 +1,70 @@
+//! The one error type of the recorder and its reader.
+
+use std::io;
+use std::path::PathBuf;
+
+/// Everything that can go wrong while recording a run or reading a recording back.
+///
+/// Each variant names the file (or the topic) it is about, so a message printed by
+/// `launch` says which recording failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    /// The recording file could not be created (missing directory, permissions, …).
+    #[error("cannot create recording {}: {source}", path.display())]
+    Create {
+        /// The file that was to be created.
+        path: PathBuf,
+        /// What the operating system said.
+        source: io::Error,
+    },
+    /// The recording could not be opened for reading.
+    #[error("cannot open recording {}: {source}", path.display())]
+    Open {
+        /// The file that was to be read.
+        path: PathBuf,
+        /// What the operating system said.
+        source: io::Error,
+    },
+    /// Writing, flushing or finishing the recording failed (disk full, I/O error, …).
+    #[error("cannot write recording {}: {source}", path.display())]
+    Write {
+        /// The recording being written.
+        path: PathBuf,
+        /// The MCAP writer's error (I/O errors arrive wrapped in it).
+        source: mcap::McapError,
+    },
+    /// Making the finished recording durable (`fsync`) or sizing it failed.
+    #[error("cannot sync recording {}: {source}", path.display())]
+    Sync {
+        /// The recording being finished.
+        path: PathBuf,
+        /// What the operating system said.
+        source: io::Error,
+    },
+    /// The file does not start with the MCAP magic bytes: it is not a recording at all.
+    #[error("{} is not an MCAP file: {source}", path.display())]
+    NotMcap {
+        /// The file that was read.
+        path: PathBuf,
+        /// The reader's complaint.
+        source: mcap::McapError,
+    },
+    /// A JSON record could not be serialized.
+    #[error("cannot encode a JSON record for topic {topic:?}: {source}")]
+    Json {
+        /// The topic the record was meant for.
+        topic: String,
+        /// serde_json's error.
+        source: serde_json::Error,
+    },
+    /// A topic was first recorded with one encoding or schema and later with another.
+    #[error("topic {topic:?} is recorded as {existing}, not {requested}")]
+    TopicMismatch {
+        /// The topic.
+        topic: String,
+        /// `encoding/schema` of the channel already in the file.
+        existing: String,
+        /// `encoding/schema` of the rejected call.
+        requested: String,
+    },
+}

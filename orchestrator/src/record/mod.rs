@@ -1,0 +1,279 @@
+//! MCAP recordings of launch runs: every bus message and every gate event, in one file.
+//!
+//! # Why MCAP
+//!
+//! MCAP is the container the robotics tooling reads: Foxglove opens it directly, the `mcap` CLI
+//! (`mcap info`, `mcap cat`, `mcap recover`) and the Python/C++/TypeScript `mcap` libraries read
+//! it, and ROS 2 bags use it too. One self-describing file per run: each record carries its topic,
+//! its encoding, its log time (when the orchestrator saw it) and its publish time (when the sender
+//! stamped it), so a run can be replayed, plotted or compared with the in-process simulator later.
+//!
+//! # What is recorded
+//!
+//! * Bus traffic, byte for byte, with [`Recorder::record_bytes`]: the postcard-encoded protocol
+//!   messages exactly as they crossed the bus. Channel message encoding `postcard`; the schema
+//!   record carries the Rust type name given by the caller (e.g. `bycoms.ToAgent`) with an empty
+//!   schema encoding, since postcard has no self-describing schema format.
+//! * Human-readable events with [`Recorder::record_json`]: gate decisions, run metadata, lost
+//!   agents. Message encoding `json`, schema encoding `jsonschema` with empty schema data, which
+//!   Foxglove decodes as plain JSON (its JSON channels need `jsonschema` or no schema).
+//!
+//! # Topic naming
+//!
+//! Topics are the caller's: bus messages keep the protocol's own topic names (whatever
+//! `bycoms-protocol` calls the topic the message was published on), so a recording lists the same
+//! names the bus uses. Orchestrator events go on topics of the same tree, e.g.
+//! `bycoms/<swarm>/gate` for gate events and `bycoms/<swarm>/run` for run metadata. A channel is
+//! created the first time a topic is used; one topic keeps one encoding and schema for the whole
+//! run ([`RecordError::TopicMismatch`] otherwise).
+//!
+//! # Crash survival
+//!
+//! A run can end by `kill -9`, a panic or a power cut, and the recording must still hold
+//! everything up to the last second. The file is written **chunked, uncompressed, with chunks
+//! buffered in memory** (the `mcap` writer's `disable_seeking` mode):
+//!
+//! * messages go into an in-memory chunk; a chunk reaches the file only whole, as one record
+//!   followed by its message indexes, so the file on disk is always a valid MCAP prefix: header,
+//!   complete chunks, and at worst one torn chunk at the very end;
+//! * a chunk is closed and handed to the kernel when it passes [`CHUNK_SIZE`] bytes and, above
+//!   all, on every [`Recorder::flush`]. `record_*` flushes by itself when [`FLUSH_INTERVAL`] (1 s)
+//!   has passed since the last flush, and the caller should also call `flush` from its own 1 s
+//!   timer so that the tail of a quiet period is not held back until the next message;
+//! * after a crash the file has no summary or footer; [`read_counts`] / [`recover`] (and
+//!   `mcap recover`, or any streaming MCAP reader) read it front to back and keep every message
+//!   before the first damaged record. What is lost is at most what arrived since the last flush.
+//!
+//! Chunking rather than writing bare message records costs nothing in durability (the open chunk
+//! is the unflushed second either way) and gives a finished file chunk and message indexes, so
+//! Foxglove and `mcap info` can seek in long runs instead of scanning them. No compression: it
+//! would pull in C libraries for bus traffic of a few kB/s.
+//!
+//! `flush` hands the data to the kernel, which survives the death of the process (the kill-9
+//! case); it does not `fsync` every second. [`Recorder::finish`] writes the summary and footer and
+//! `fsync`s the file once.
+
+mod error;
+mod read;
+
+use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use mcap::records::MessageHeader;
+use mcap::{WriteOptions, Writer};
+
+pub use error::RecordError;
+pub use read::{read_counts, recover, Recovered};
+
+/// The longest time data may sit in memory before `record_*` flushes it on its own.
+pub const FLUSH_INTERVAL: Duration = Duration::from_secs(1);
+
+/// The uncompressed size past which a chunk is closed even before [`FLUSH_INTERVAL`].
+pub const CHUNK_SIZE: u64 = 256 * 1024;
+
+/// Message encoding of raw protocol bytes.
+pub const POSTCARD: &str = "postcard";
+
+/// Message encoding of [`Recorder::record_json`] records.
+pub const JSON: &str = "json";
+
+/// What [`Recorder::finish`] reports about the finished file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Summary {
+    /// The recording.
+    pub path: PathBuf,
+    /// Messages written per topic.
+    pub counts: BTreeMap<String, u64>,
+    /// All messages written.
+    pub messages: u64,
+    /// Chunks in the file.
+    pub chunks: u32,
+    /// The size of the finished file in bytes.
+    pub bytes: u64,
+}
+
+/// One channel of the file: its id, what it carries, and its next sequence number.
+struct Channel {
+    id: u16,
+    encoding: &'static str,
+    schema: String,
+    sequence: u32,
+}
+
+/// Writes one MCAP recording; see the [module documentation](self) for the format and the
+/// crash-survival design.
+pub struct Recorder {
+    path: PathBuf,
+    writer: Writer<File>,
+    channels: HashMap<String, Channel>,
+    counts: BTreeMap<String, u64>,
+    written: u64,
+    durable: u64,
+    last_flush: Instant,
+}
+
+impl Recorder {
+    /// Creates (or truncates) the recording at `path` and writes its header, already flushed,
+    /// so even a run killed at once leaves a readable, empty recording.
+    pub fn create(path: &Path) -> Result<Recorder, RecordError> {
+        let file =
+            File::create(path).map_err(|source| RecordError::Create { path: path.to_path_buf(), source })?;
+        let options = WriteOptions::new()
+            .compression(None)
+            .use_chunks(true)
+            .chunk_size(Some(CHUNK_SIZE))
+            .disable_seeking(true)
+            .library(format!(
+                "bycoms-orchestrator/{} {}",
+                env!("CARGO_PKG_VERSION"),
+                mcap::LIBRARY_IDENTIFIER
+            ));
+        let writer = Writer::with_options(file, options)
+            .map_err(|source| RecordError::Create { path: path.to_path_buf(), source: into_io(source) })?;
+        Ok(Recorder {
+            path: path.to_path_buf(),
+            writer,
+            channels: HashMap::new(),
+            counts: BTreeMap::new(),
+            written: 0,
+            durable: 0,
+            last_flush: Instant::now(),
+        })
+    }
+
+    /// Records one bus message as raw bytes (message encoding `postcard`).
+    ///
+    /// A channel per topic, created on first use; `schema_name` names the message type, e.g.
+    /// `bycoms.ToAgent` (empty: no schema record). Times are nanoseconds since the Unix epoch:
+    /// `log_time_ns` when the orchestrator received it, `publish_time_ns` when it was sent.
+    pub fn record_bytes(
+        &mut self,
+        topic: &str,
+        schema_name: &str,
+        log_time_ns: u64,
+        publish_time_ns: u64,
+        payload: &[u8],
+    ) -> Result<(), RecordError> {
+        self.write(topic, POSTCARD, schema_name, log_time_ns, publish_time_ns, payload)
+    }
+
+    /// Records one JSON-encoded value (message encoding `json`), for gate events and run
+    /// metadata that people read. Publish time is the log time.
+    pub fn record_json<T: serde::Serialize>(
+        &mut self,
+        topic: &str,
+        schema_name: &str,
+        log_time_ns: u64,
+        value: &T,
+    ) -> Result<(), RecordError> {
+        let payload = serde_json::to_vec(value)
+            .map_err(|source| RecordError::Json { topic: topic.to_string(), source })?;
+        self.write(topic, JSON, schema_name, log_time_ns, log_time_ns, &payload)
+    }
+
+    /// Messages written so far, per topic.
+    pub fn counts(&self) -> &BTreeMap<String, u64> {
+        &self.counts
+    }
+
+    /// Messages handed to the kernel by the last flush: what a crash from now on cannot lose.
+    pub fn durable_messages(&self) -> u64 {
+        self.durable
+    }
+
+    /// The recording's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Closes the open chunk and hands everything written so far to the kernel, so it survives
+    /// the death of this process. Cheap when nothing is pending; call it from a 1 s timer.
+    pub fn flush(&mut self) -> Result<(), RecordError> {
+        self.writer.flush().map_err(|source| self.write_error(source))?;
+        self.durable = self.written;
+        self.last_flush = Instant::now();
+        Ok(())
+    }
+
+    /// Writes the summary section and footer (indexes, statistics), `fsync`s the file and
+    /// reports what it holds.
+    pub fn finish(self) -> Result<Summary, RecordError> {
+        let Recorder { path, mut writer, counts, .. } = self;
+        let summary = writer.finish().map_err(|source| RecordError::Write { path: path.clone(), source })?;
+        let file = writer.into_inner();
+        let synced = file.sync_all().and_then(|()| file.metadata());
+        let bytes = synced.map_err(|source| RecordError::Sync { path: path.clone(), source })?.len();
+        let stats = summary.stats.unwrap_or_default();
+        Ok(Summary { path, messages: counts.values().sum(), counts, chunks: stats.chunk_count, bytes })
+    }
+
+    fn write(
+        &mut self,
+        topic: &str,
+        encoding: &'static str,
+        schema_name: &str,
+        log_time: u64,
+        publish_time: u64,
+        payload: &[u8],
+    ) -> Result<(), RecordError> {
+        let (channel_id, sequence) = self.channel(topic, encoding, schema_name)?;
+        let header = MessageHeader { channel_id, sequence, log_time, publish_time };
+        self.writer.write_to_known_channel(&header, payload).map_err(|source| self.write_error(source))?;
+        *self.counts.entry(topic.to_string()).or_insert(0) += 1;
+        self.written += 1;
+        if self.last_flush.elapsed() >= FLUSH_INTERVAL {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    /// The channel id for `topic` (created on first use) and the next sequence number on it.
+    fn channel(
+        &mut self,
+        topic: &str,
+        encoding: &'static str,
+        schema: &str,
+    ) -> Result<(u16, u32), RecordError> {
+        if let Some(channel) = self.channels.get_mut(topic) {
+            if channel.encoding != encoding || channel.schema != schema {
+                return Err(RecordError::TopicMismatch {
+                    topic: topic.to_string(),
+                    existing: format!("{}/{}", channel.encoding, channel.schema),
+                    requested: format!("{encoding}/{schema}"),
+                });
+            }
+            let sequence = channel.sequence;
+            channel.sequence = sequence.wrapping_add(1);
+            return Ok((channel.id, sequence));
+        }
+        let schema_id = match (schema.is_empty(), encoding) {
+            (true, _) => Ok(0),
+            // Foxglove decodes `json` channels only with a `jsonschema` schema (or none); empty
+            // schema data means "any JSON".
+            (false, JSON) => self.writer.add_schema(schema, "jsonschema", &[]),
+            (false, _) => self.writer.add_schema(schema, "", &[]),
+        }
+        .map_err(|source| self.write_error(source))?;
+        let id = self
+            .writer
+            .add_channel(schema_id, topic, encoding, &BTreeMap::new())
+            .map_err(|source| self.write_error(source))?;
+        let channel = Channel { id, encoding, schema: schema.to_string(), sequence: 1 };
+        self.channels.insert(topic.to_string(), channel);
+        Ok((id, 0))
+    }
+
+    fn write_error(&self, source: mcap::McapError) -> RecordError {
+        RecordError::Write { path: self.path.clone(), source }
+    }
+}
+
+/// The header write of a fresh file fails only on I/O; report it as the creation error it is.
+fn into_io(error: mcap::McapError) -> std::io::Error {
+    match error {
+        mcap::McapError::Io(io) => io,
+        other => std::io::Error::other(other),
+    }
+}

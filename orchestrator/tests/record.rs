@@ -1,0 +1,307 @@
+//! The MCAP recorder: round trip through the mcap crate's readers, survival of `kill -9`,
+//! and the Python `mcap` reader when it is installed.
+
+use std::collections::BTreeMap;
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use bycoms_orchestrator::record::{read_counts, recover, RecordError, Recorder};
+
+const TOPICS: [&str; 3] = ["bycoms/s1/agent/0/to_agent", "bycoms/s1/agent/0/pose", "bycoms/s1/tick"];
+const SCHEMAS: [&str; 3] = ["bycoms.ToAgent", "bycoms.Pose", "bycoms.Tick"];
+const GATE: &str = "bycoms/s1/gate";
+
+/// The payload of message `i`: varied lengths (including empty) and contents.
+fn payload(i: u64) -> Vec<u8> {
+    (0..(i % 97)).map(|k| (i.wrapping_mul(31).wrapping_add(k) % 251) as u8).collect()
+}
+
+#[derive(serde::Serialize, serde::Deserialize, Debug, PartialEq)]
+struct GateEvent {
+    robot: u32,
+    state: String,
+    t: f64,
+}
+
+/// Writes `n` messages round-robin on [`TOPICS`] and `events` gate events; returns the file.
+fn write_sample(dir: &Path, n: u64, events: u32) -> PathBuf {
+    let path = dir.join("run.mcap");
+    let mut recorder = Recorder::create(&path).expect("create recording");
+    for i in 0..n {
+        let k = (i % 3) as usize;
+        recorder.record_bytes(TOPICS[k], SCHEMAS[k], 1_000 + i * 10, 500 + i, &payload(i)).expect("record");
+    }
+    for robot in 0..events {
+        let event = GateEvent { robot, state: "arrived".into(), t: f64::from(robot) * 0.5 };
+        recorder.record_json(GATE, "bycoms.GateEvent", 2_000_000 + u64::from(robot), &event).expect("json");
+    }
+    assert_eq!(recorder.counts().values().sum::<u64>(), n + u64::from(events));
+    let summary = recorder.finish().expect("finish");
+    assert_eq!(summary.messages, n + u64::from(events));
+    // For looking at a sample with other tools (Foxglove, `mcap info`): BYCOMS_RECORD_KEEP=dir.
+    if let Some(keep) = std::env::var_os("BYCOMS_RECORD_KEEP") {
+        std::fs::copy(&path, Path::new(&keep).join(format!("sample-{n}.mcap"))).expect("keep a copy");
+    }
+    path
+}
+
+fn expected_counts(n: u64, events: u32) -> BTreeMap<String, u64> {
+    let mut counts: BTreeMap<String, u64> = TOPICS.iter().map(|t| (t.to_string(), n / 3)).collect();
+    for i in 0..n % 3 {
+        *counts.entry(TOPICS[i as usize].to_string()).or_default() += 1;
+    }
+    counts.insert(GATE.to_string(), u64::from(events));
+    counts
+}
+
+#[test]
+fn round_trip_through_the_mcap_readers() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (n, events) = (3_001, 7);
+    let path = write_sample(dir.path(), n, events);
+    let expected = expected_counts(n, events);
+
+    assert_eq!(read_counts(&path).expect("read_counts"), expected);
+    assert!(recover(&path).expect("recover").is_complete());
+
+    let bytes = std::fs::read(&path).expect("read file");
+    let summary = mcap::Summary::read(&bytes).expect("summary parses").expect("file has a summary");
+    let stats = summary.stats.as_ref().expect("statistics");
+    assert_eq!(stats.message_count, n + u64::from(events));
+    assert_eq!(stats.channel_count, 4);
+    assert_eq!(stats.schema_count, 4);
+    assert!(!summary.chunk_indexes.is_empty(), "the finished file is indexed");
+
+    let mut seen: BTreeMap<String, u64> = BTreeMap::new();
+    let (mut i, mut robot) = (0u64, 0u32);
+    for message in mcap::MessageStream::new(&bytes).expect("message stream") {
+        let message = message.expect("message");
+        let channel = &message.channel;
+        let schema = channel.schema.as_ref().expect("every channel has a schema");
+        *seen.entry(channel.topic.clone()).or_default() += 1;
+        if channel.topic == GATE {
+            assert_eq!((channel.message_encoding.as_str(), schema.encoding.as_str()), ("json", "jsonschema"));
+            assert_eq!(schema.name, "bycoms.GateEvent");
+            assert_eq!(message.log_time, 2_000_000 + u64::from(robot));
+            let event: GateEvent = serde_json::from_slice(&message.data).expect("gate event is JSON");
+            assert_eq!(event, GateEvent { robot, state: "arrived".into(), t: f64::from(robot) * 0.5 });
+            robot += 1;
+        } else {
+            let k = (i % 3) as usize;
+            assert_eq!(channel.topic, TOPICS[k], "messages come back in write order");
+            assert_eq!((channel.message_encoding.as_str(), schema.name.as_str()), ("postcard", SCHEMAS[k]));
+            assert_eq!((message.log_time, message.publish_time), (1_000 + i * 10, 500 + i));
+            assert_eq!(message.data.as_ref(), payload(i).as_slice(), "payload of message {i}");
+            i += 1;
+        }
+    }
+    assert_eq!((i, robot), (n, events));
+    assert_eq!(seen, expected);
+}
+
+#[test]
+fn errors_name_the_file_and_the_topic() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let missing = dir.path().join("no/such/dir/run.mcap");
+    let error = Recorder::create(&missing).err().expect("cannot create in a missing directory");
+    assert!(error.to_string().contains("no/such/dir/run.mcap"), "{error}");
+
+    let mut recorder = Recorder::create(&dir.path().join("run.mcap")).expect("create");
+    recorder.record_bytes("t", "bycoms.A", 1, 1, b"x").expect("first use");
+    let mismatch = recorder.record_json("t", "bycoms.A", 2, &1).expect_err("json on a postcard topic");
+    assert!(matches!(mismatch, RecordError::TopicMismatch { .. }), "{mismatch}");
+    recorder.finish().expect("finish");
+
+    let junk = dir.path().join("junk.mcap");
+    std::fs::write(&junk, b"definitely not an MCAP recording").expect("write junk");
+    let error = read_counts(&junk).expect_err("not MCAP");
+    assert!(
+        matches!(error, RecordError::NotMcap { .. }) && error.to_string().contains("junk.mcap"),
+        "{error}"
+    );
+}
+
+/// The environment variable that turns [`crash_child`] into the recording child.
+const CHILD_ENV: &str = "BYCOMS_RECORD_CHILD";
+
+/// Child mode: records until killed (or 20 s), printing `flushed N` each time the recorder's
+/// own 1 s auto-flush made N messages durable. Without [`CHILD_ENV`] it does nothing.
+#[test]
+fn crash_child() {
+    let Some(path) = std::env::var_os(CHILD_ENV) else { return };
+    let mut recorder = Recorder::create(Path::new(&path)).expect("child: create");
+    let mut stdout = std::io::stdout().lock();
+    writeln!(stdout, "started").and_then(|()| stdout.flush()).expect("child: stdout");
+    let (start, mut reported, mut i) = (Instant::now(), 0, 0u64);
+    while start.elapsed() < Duration::from_secs(20) {
+        let k = (i % 3) as usize;
+        recorder.record_bytes(TOPICS[k], SCHEMAS[k], i, i, &payload(i)).expect("child: record");
+        i += 1;
+        if recorder.durable_messages() != reported {
+            reported = recorder.durable_messages();
+            writeln!(stdout, "flushed {reported}").and_then(|()| stdout.flush()).expect("child: stdout");
+        }
+        if i % 10 == 0 {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+}
+
+/// Kills and reaps the child on every way out of the test.
+struct Reaper(Child);
+
+impl Drop for Reaper {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn kill_9_loses_at_most_the_last_second() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("crash.mcap");
+    let exe = std::env::current_exe().expect("test binary");
+    let child = Command::new(exe)
+        .args(["crash_child", "--exact", "--nocapture", "--test-threads=1"])
+        .env(CHILD_ENV, &path)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawn child");
+    let mut child = Reaper(child);
+    let stdout = child.0.stdout.take().expect("child stdout");
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+
+    // Wait for the child to start, then let it record ~1.5 s: one auto-flush at ~1 s, and half
+    // a second of unflushed messages that the kill may take with it.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let wait_for = |want: &dyn Fn(&str) -> bool| loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        match rx.recv_timeout(left) {
+            Ok(line) if want(&line) => return line,
+            Ok(_) => continue,
+            Err(error) => panic!("child said nothing useful before the deadline: {error}"),
+        }
+    };
+    // libtest prints "test crash_child ... " without a newline before the child's first line.
+    wait_for(&|line| line.ends_with("started"));
+    let started = Instant::now();
+    let first = wait_for(&|line| line.starts_with("flushed "));
+    std::thread::sleep(Duration::from_millis(1_500).saturating_sub(started.elapsed()));
+    child.0.kill().expect("kill -9 the child");
+    let status = child.0.wait().expect("reap the child");
+    assert!(!status.success(), "the child was killed, not finished: {status}");
+
+    // Every line the child printed happened before the kill, so each count it reported is durable.
+    let flushed = std::iter::once(first)
+        .chain(rx.try_iter())
+        .filter_map(|line| line.strip_prefix("flushed ")?.parse::<u64>().ok())
+        .max()
+        .expect("a flush count");
+    let recovered = recover(&path).expect("the crashed recording reads");
+    let size = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
+    eprintln!(
+        "kill -9 after {:?}: {} messages flushed, {} recovered ({size} bytes), stopped by {:?}",
+        started.elapsed(),
+        flushed,
+        recovered.messages,
+        recovered.stopped_by
+    );
+    assert!(!recovered.is_complete(), "a killed recording has no footer");
+    assert!(recovered.messages >= flushed, "recovered {} < flushed {flushed}", recovered.messages);
+    assert_eq!(recovered.counts.values().sum::<u64>(), recovered.messages);
+    if let Some(out) = python_mcap(PY_RECOVER, &path) {
+        let python: u64 = out.trim().parse().expect("python printed a count");
+        assert_eq!(python, recovered.messages, "the Python streaming reader recovers the same");
+    }
+}
+
+/// Counts the messages of a truncated file with the Python reader's streaming mode.
+const PY_RECOVER: &str = r#"
+import sys
+from mcap.reader import NonSeekingReader
+count = 0
+try:
+    with open(sys.argv[1], "rb") as f:
+        for _ in NonSeekingReader(f).iter_messages(log_time_order=False):
+            count += 1
+except Exception:
+    pass
+print(count)
+"#;
+
+/// Runs `python3 -c script args…`, or `None` if Python or its `mcap` package is missing.
+fn python_mcap(script: &str, arg: &Path) -> Option<String> {
+    let probe = Command::new("python3").args(["-c", "import mcap"]).stderr(Stdio::null()).status();
+    if !matches!(probe, Ok(status) if status.success()) {
+        eprintln!("note: python3 with the `mcap` package is not available; skipping the Python check");
+        return None;
+    }
+    let output = Command::new("python3").arg("-c").arg(script).arg(arg).output().expect("run python3");
+    assert!(output.status.success(), "python failed: {}", String::from_utf8_lossy(&output.stderr));
+    Some(String::from_utf8_lossy(&output.stdout).into_owned())
+}
+
+const PY_COUNT: &str = r#"
+import json, sys
+from mcap.reader import make_reader
+counts = {}
+with open(sys.argv[1], "rb") as f:
+    reader = make_reader(f)
+    for schema, channel, message in reader.iter_messages():
+        counts[channel.topic] = counts.get(channel.topic, 0) + 1
+    stats = reader.get_summary().statistics
+print(json.dumps({"counts": counts, "messages": stats.message_count}))
+"#;
+
+#[test]
+fn the_python_mcap_reader_agrees() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (n, events) = (1_000, 5);
+    let path = write_sample(dir.path(), n, events);
+    let Some(out) = python_mcap(PY_COUNT, &path) else { return };
+    let report: serde_json::Value = serde_json::from_str(out.trim()).expect("python printed JSON");
+    let counts: BTreeMap<String, u64> =
+        serde_json::from_value(report["counts"].clone()).expect("counts object");
+    assert_eq!(counts, expected_counts(n, events));
+    assert_eq!(report["messages"], n + u64::from(events));
+}
+
+/// Prints write throughput and file size per message; run with
+/// `cargo test --release -p bycoms-orchestrator --test record -- --ignored --nocapture`.
+#[test]
+#[ignore = "measurement, not a check"]
+fn throughput() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("throughput.mcap");
+    for size in [16usize, 64, 256] {
+        let n = 1_000_000u64;
+        let body = vec![0xA5u8; size];
+        let start = Instant::now();
+        let mut recorder = Recorder::create(&path).expect("create");
+        for i in 0..n {
+            let k = (i % 3) as usize;
+            recorder.record_bytes(TOPICS[k], SCHEMAS[k], i, i, &body).expect("record");
+        }
+        let summary = recorder.finish().expect("finish");
+        let secs = start.elapsed().as_secs_f64();
+        eprintln!(
+            "{size:>4} B payload: {:.2} M messages/s, {:.1} bytes/message in the file ({} chunks)",
+            n as f64 / secs / 1e6,
+            summary.bytes as f64 / n as f64,
+            summary.chunks
+        );
+        assert_eq!(read_counts(&path).expect("read back").values().sum::<u64>(), n);
+    }
+}
