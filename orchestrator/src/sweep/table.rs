@@ -50,21 +50,28 @@ pub fn tabulate(axes: &Axes, rows: &[Row]) -> Vec<Table> {
         .collect()
 }
 
-/// The table as CSV: one row per width bin (widest first, as in the
-/// heatmap), one column per ε, success rates in percent.
+/// Rows widest bin first (as in the heatmap): (width bin, success rate in % per ε).
+fn rows_widest_first<'a>(axes: &'a Axes, t: &Table) -> impl Iterator<Item = (f64, Vec<Option<f64>>)> + 'a {
+    let rates = t.rates();
+    axes.widths.iter().copied().zip(rates).rev().map(|(w, row)| (w, row.iter().map(|r| r.map(|r| 100.0 * r)).collect()))
+}
+
+/// The table as CSV: one row per width bin (widest first), one column per
+/// ε, success rates in percent (empty where there were no runs).
 pub fn to_csv(axes: &Axes, t: &Table) -> String {
     let mut s = String::from("width_bin");
     for e in &axes.eps {
         let _ = write!(s, ",eps_{e}");
     }
     s.push('\n');
-    for (b, row) in t.cells.iter().enumerate().rev() {
-        let _ = write!(s, "{}", axes.widths[b]);
-        for &(succ, n) in row {
-            if n == 0 {
-                s.push(',');
-            } else {
-                let _ = write!(s, ",{:.1}", 100.0 * succ as f64 / n as f64);
+    for (w, row) in rows_widest_first(axes, t) {
+        let _ = write!(s, "{w}");
+        for rate in row {
+            match rate {
+                Some(r) => {
+                    let _ = write!(s, ",{r:.1}");
+                }
+                None => s.push(','),
             }
         }
         s.push('\n');
@@ -79,13 +86,14 @@ pub fn to_text(axes: &Axes, t: &Table) -> String {
         let _ = write!(s, "{e:>6}");
     }
     s.push('\n');
-    for (b, row) in t.cells.iter().enumerate().rev() {
-        let _ = write!(s, "{:>7}", axes.widths[b]);
-        for &(succ, n) in row {
-            if n == 0 {
-                s.push_str("     -");
-            } else {
-                let _ = write!(s, "{:>6.0}", 100.0 * succ as f64 / n as f64);
+    for (w, row) in rows_widest_first(axes, t) {
+        let _ = write!(s, "{w:>7}");
+        for rate in row {
+            match rate {
+                Some(r) => {
+                    let _ = write!(s, "{r:>6.0}");
+                }
+                None => s.push_str("     -"),
             }
         }
         s.push('\n');
@@ -111,4 +119,40 @@ pub fn write_outputs(dir: &Path, axes: &Axes, tables: &[Table]) -> Result<Vec<Pa
         written.extend([csv, path]);
     }
     Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(noise: bool, eps: f64, width_bin: f64, success: bool) -> Row {
+        Row {
+            index: 0,
+            noise,
+            eps,
+            width_bin,
+            terrain: "t".into(),
+            width: width_bin,
+            success,
+            outcome: String::new(),
+            time_s: 0.0,
+            robots_used: 1,
+            beacons: 0,
+        }
+    }
+
+    #[test]
+    fn rates_per_cell_widest_first() {
+        let axes = Axes { eps: vec![1.0, 2.0], widths: vec![1.0, 3.0], terrains_per_bin: 2, noise: vec![false] };
+        let rows = vec![
+            row(false, 1.0, 3.0, true),
+            row(false, 1.0, 3.0, false),
+            row(false, 2.0, 1.0, false),
+            row(true, 2.0, 1.0, true), // other noise setting: not in this table
+        ];
+        let t = &tabulate(&axes, &rows)[0];
+        assert_eq!(t.cells, vec![vec![(0, 0), (0, 1)], vec![(1, 2), (0, 0)]]);
+        assert_eq!(to_csv(&axes, t), "width_bin,eps_1,eps_2\n3,50.0,\n1,,0.0\n");
+        assert!(to_text(&axes, t).contains("      3    50     -"));
+    }
 }
