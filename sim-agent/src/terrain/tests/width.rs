@@ -43,6 +43,12 @@ fn disc_model_reaches_the_half_bins() {
     let w = min_path_width(&t);
     near(w, 8f64.sqrt() - 1.0, 0.25);
     assert!((1.5..2.0).contains(&w), "{w}");
+    // Centres offset (4, 2): √20 − 1 ≈ 3.47, the "3.5 corridor" (bin 3 by a hair).
+    let mut t = Terrain::paper();
+    block(&mut t, 0..30, 26..30);
+    block(&mut t, 33..60, 31..35);
+    near(min_path_width(&t), 3.5, 0.25);
+    near(min_path_width(&t), 20f64.sqrt() - 1.0, 0.25);
     // Centres offset (5, 3): √34 − 1 ≈ 4.83 (bin 4.5).
     let mut t = Terrain::paper();
     block(&mut t, 0..30, 26..30);
