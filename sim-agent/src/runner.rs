@@ -72,10 +72,51 @@ impl RunConfig {
         }
     }
 
+    /// Checks the parameters [`run`] relies on.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if !positive(self.eps) {
+            return Err(ConfigError::Eps(self.eps));
+        }
+        if !positive(self.time_limit) {
+            return Err(ConfigError::TimeLimit(self.time_limit));
+        }
+        if !positive(self.success_radius) {
+            return Err(ConfigError::SuccessRadius(self.success_radius));
+        }
+        if !positive(self.field_constant) {
+            return Err(ConfigError::FieldConstant(self.field_constant));
+        }
+        if self.max_robots == Some(0) {
+            return Err(ConfigError::NoRobots);
+        }
+        if self.kinematics.headings_per_turn().is_none() || !positive(self.kinematics.speed) {
+            return Err(ConfigError::Kinematics);
+        }
+        Ok(())
+    }
+
     /// Number of control periods in the time limit.
     pub fn step_limit(&self) -> u64 {
         libm::round(self.time_limit / self.kinematics.dt) as u64
     }
+}
+
+/// A run configuration [`run`] cannot honour.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ConfigError {
+    #[error("the circumferential radius ε must be a positive number of cells, got {0}")]
+    Eps(f64),
+    #[error("the time limit must be a positive number of seconds, got {0}")]
+    TimeLimit(f64),
+    #[error("the success radius must be positive, got {0}")]
+    SuccessRadius(f64),
+    #[error("the field constant c must be positive, got {0}")]
+    FieldConstant(f64),
+    #[error("at least one robot is needed")]
+    NoRobots,
+    #[error("kinematics need a positive speed and a turn step (turn rate × dt) that divides the full circle")]
+    Kinematics,
 }
 
 /// Why a run ended.
@@ -132,12 +173,15 @@ pub struct RunResult {
 }
 
 /// Runs the sequential deployment on `terrain`.
+///
+/// Panics if `cfg` fails [`RunConfig::validate`]; callers taking the
+/// configuration from users validate it first.
 pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
     let goal = terrain.goal();
     let start = terrain.start();
     let theta0 = start.bearing_to(goal);
     let table = HeadingTable::new(&cfg.kinematics, theta0)
-        .expect("the turn step must divide the full circle (validated by callers)");
+        .expect("RunConfig::validate: the turn step must divide the full circle");
     let controller = cfg.controller();
     let limit = cfg.step_limit();
     let r2 = cfg.success_radius * cfg.success_radius;

@@ -110,3 +110,20 @@ fn same_inputs_same_result_bits() {
     };
     assert_eq!(bits(&a), bits(&b));
 }
+
+#[test]
+fn invalid_configurations_are_named() {
+    use bycoms_sim::runner::ConfigError;
+    let ok = RunConfig::paper(1.0);
+    assert_eq!(ok.validate(), Ok(()));
+    assert_eq!(RunConfig::paper(0.0).validate(), Err(ConfigError::Eps(0.0)));
+    let mut c = ok.clone();
+    c.max_robots = Some(0);
+    assert_eq!(c.validate(), Err(ConfigError::NoRobots));
+    let mut c = ok.clone();
+    c.kinematics.turn_rate = 1.0;
+    assert_eq!(c.validate(), Err(ConfigError::Kinematics));
+    let mut c = ok;
+    c.time_limit = f64::NAN;
+    assert!(matches!(c.validate(), Err(ConfigError::TimeLimit(_))));
+}

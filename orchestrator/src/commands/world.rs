@@ -45,6 +45,7 @@ impl RunArgs {
         cfg.max_robots = self.max_robots;
         cfg.time_limit = self.time_limit;
         cfg.success_radius = self.success_radius;
+        cfg.validate()?;
         Ok(cfg)
     }
 }
