@@ -227,3 +227,36 @@ fn terrain_command_writes_named_files_that_sweep_can_use() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("fewer than 3 terrains"), "{}", stderr(&o));
 }
+
+#[test]
+fn failed_start_does_not_claim_the_directory_and_odd_decimals_resume() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    // Cannot fill the bin with 10 candidates: fails before any run…
+    let o = orchestrator(&["sweep", "--widths", "3", "--terrains-per-bin", "5", "--max-candidates", "10", "--out", d]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    // …so the corrected command may use the same directory.
+    let args = [
+        "sweep", "--eps", "1:2:0.3", "--widths", "2", "--terrains-per-bin", "2", "--noise", "off", "--out", d,
+    ];
+    let o = orchestrator(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // ε = 1.9000000000000001 etc. survive sweep.json: the rerun resumes (nothing left to do).
+    let o = orchestrator(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("resuming: 8 of 8"), "{}", stderr(&o));
+    // A different sweep into the same directory is refused, and so is a merge over it.
+    let o = orchestrator(&["sweep", "--eps", "2", "--widths", "2", "--terrains-per-bin", "2", "--out", d]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("holds a different sweep"), "{}", stderr(&o));
+    let other = tempfile::tempdir().unwrap();
+    let o2 = other.path().to_str().unwrap();
+    assert!(orchestrator(&["sweep", "--eps", "3", "--widths", "2", "--terrains-per-bin", "1", "--noise", "off", "--out", o2])
+        .status
+        .success());
+    let before = std::fs::read(dir.path().join("runs.csv")).unwrap();
+    let o = orchestrator(&["merge", o2, "--out", d]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("holds a different sweep"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(dir.path().join("runs.csv")).unwrap(), before);
+}

@@ -30,6 +30,18 @@ impl Kinematics {
         Self { speed: 1.0, turn_rate: core::f64::consts::PI / 6.0, dt: 0.1 }
     }
 
+    /// Simulated time of `steps` periods, s. With a whole number of periods
+    /// per second (the paper's 10) it divides, so 6 periods print as 0.6 s
+    /// rather than 0.6000000000000001.
+    pub fn time_of(&self, steps: u64) -> f64 {
+        let per_second = 1.0 / self.dt;
+        if libm::fabs(per_second - libm::round(per_second)) < 1e-9 {
+            steps as f64 / libm::round(per_second)
+        } else {
+            steps as f64 * self.dt
+        }
+    }
+
     /// How many turn steps make a full circle, if that is a whole number.
     pub fn headings_per_turn(&self) -> Option<u32> {
         let n = TAU / (self.turn_rate * self.dt);
@@ -128,6 +140,12 @@ impl Body {
 mod tests {
     use super::*;
     use core::f64::consts::{FRAC_PI_4, PI};
+
+    #[test]
+    fn time_of_steps_is_exact_for_whole_rates() {
+        assert_eq!(Kinematics::paper().time_of(6).to_string(), "0.6");
+        assert_eq!(Kinematics::paper().time_of(100_000), 10_000.0);
+    }
 
     #[test]
     fn paper_kinematics_has_120_headings() {

@@ -75,7 +75,7 @@ impl RunConfig {
     /// Checks the parameters [`run`] relies on.
     pub fn validate(&self) -> Result<(), ConfigError> {
         let positive = |v: f64| v.is_finite() && v > 0.0;
-        if !positive(self.eps) {
+        if !positive(self.eps) || !positive(self.field_constant / (self.eps * self.eps)) {
             return Err(ConfigError::Eps(self.eps));
         }
         if !positive(self.time_limit) {
@@ -93,6 +93,9 @@ impl RunConfig {
         if self.kinematics.headings_per_turn().is_none() || !positive(self.kinematics.speed) {
             return Err(ConfigError::Kinematics);
         }
+        if self.step_limit() == 0 {
+            return Err(ConfigError::TimeLimit(self.time_limit));
+        }
         Ok(())
     }
 
@@ -105,9 +108,9 @@ impl RunConfig {
 /// A run configuration [`run`] cannot honour.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ConfigError {
-    #[error("the circumferential radius ε must be a positive number of cells, got {0}")]
+    #[error("the circumferential radius ε must be a positive number of cells (with c/ε² > 0), got {0}")]
     Eps(f64),
-    #[error("the time limit must be a positive number of seconds, got {0}")]
+    #[error("the time limit must be positive and at least one control period, got {0} s")]
     TimeLimit(f64),
     #[error("the success radius must be positive, got {0}")]
     SuccessRadius(f64),
@@ -243,7 +246,7 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
         success: outcome == Outcome::Arrived,
         outcome,
         steps,
-        time: steps as f64 * cfg.kinematics.dt,
+        time: cfg.kinematics.time_of(steps),
         robots_used: robots.len() as u32,
         beacons: beacons.positions().collect(),
         robots,

@@ -58,11 +58,13 @@ pub fn run(args: Args) -> Result<i32> {
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
+    if args.out.join(META_FILE).exists() && read_meta(&args.out)? != meta {
+        bail!("{} holds a different sweep; merge into another --out", args.out.display());
+    }
     let rows: Vec<Row> = rows.into_values().collect();
     write_all(&args.out.join("runs.csv"), &rows)?;
-    let meta_path = args.out.join(META_FILE);
-    std::fs::write(&meta_path, serde_json::to_string_pretty(&meta)? + "\n")
-        .with_context(|| format!("cannot write {}", meta_path.display()))?;
+    let meta_text = serde_json::to_string_pretty(&meta)? + "\n";
+    crate::sweep::rows::write_atomic(&args.out.join(META_FILE), meta_text.as_bytes())?;
     let tables = tabulate(&meta.axes, &rows);
     let files = write_outputs(&args.out, &meta.axes, &tables)?;
     for t in &tables {

@@ -64,6 +64,14 @@ pub fn run(args: Args) -> Result<i32> {
     let seed = args.noise_seed.or(args.seed).unwrap_or(0);
     let mut cfg = args.run.to_config(seed)?;
     cfg.record_trajectories = !args.no_svg;
+    if !args.no_svg {
+        // Fail before the run, not after it, if the picture cannot be written.
+        std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&args.svg)
+            .with_context(|| format!("cannot write the snapshot to {}", args.svg.display()))?;
+    }
     let result = run_world(&world.terrain, &cfg);
     let width = min_path_width(&world.terrain);
 

@@ -7,6 +7,7 @@ use crate::sweep::plan::{parse_axis, Axes, Shard};
 use crate::sweep::rows::RowWriter;
 use crate::sweep::table::{tabulate, to_text, write_outputs};
 use crate::sweep::terrains::{generate_bins, load_bins, SweepTerrain};
+use bycoms_sim::terrain::WidthModel;
 use anyhow::{bail, Context, Result};
 use bycoms_sim::RunConfig;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -67,6 +68,10 @@ pub enum NoiseAxis {
 /// writing to the same directory) must match it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Meta {
+    /// Format of this file and of the rows (bumped when results would change).
+    pub format: String,
+    /// How terrain widths were measured.
+    pub width_model: WidthModel,
     pub axes: Axes,
     pub seed: u64,
     pub terrains: Option<PathBuf>,
@@ -75,6 +80,9 @@ pub struct Meta {
 }
 
 pub const META_FILE: &str = "sweep.json";
+
+/// Current value of [`Meta::format`].
+pub const FORMAT: &str = "bycoms-sweep/1";
 
 /// Name of a shard's runs CSV.
 pub fn runs_file(shard: Shard) -> String {
@@ -115,30 +123,46 @@ pub fn run(args: Args) -> Result<i32> {
     }
     let shard = args.shard.unwrap_or(Shard::WHOLE);
     let meta = Meta {
+        format: FORMAT.to_owned(),
+        width_model: WidthModel::default(),
         axes: axes.clone(),
         seed: args.seed,
         terrains: args.terrains.clone(),
         max_robots: args.max_robots,
         time_limit: args.time_limit,
     };
-    prepare_out_dir(&args.out, &meta)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
+    check_meta(&args.out, &meta)?;
     let stop = stop_flag();
     stop.store(false, Ordering::SeqCst);
 
-    let terrains = load_terrains(&args, &axes, stop)?;
+    let terrains = match load_terrains(&args, &axes, stop) {
+        Err(_) if stop.load(Ordering::SeqCst) => {
+            eprintln!("interrupted while preparing terrains; nothing was run");
+            return Ok(exit::INTERRUPTED);
+        }
+        other => other?,
+    };
+    // Only now, with terrains in hand, does the directory become this sweep's.
+    write_meta(&args.out, &meta)?;
     write_terrain_list(&args.out, &axes, &terrains)?;
 
     let runs_path = args.out.join(runs_file(shard));
     let (mut writer, done) = RowWriter::open(&runs_path)?;
     let planned: Vec<usize> = shard.runs(axes.total_runs()).collect();
-    if let Some((k, row)) = done.iter().enumerate().find(|(k, r)| planned.get(*k) != Some(&r.index)) {
-        bail!(
-            "{} does not belong to this sweep (row {} is run {}, expected {:?}); use another --out",
-            runs_path.display(),
-            k + 2,
-            row.index,
-            planned.get(k)
-        );
+    let job_check = Job { axes: &axes, terrains: &terrains, base: RunConfig::paper(1.0), seed: args.seed };
+    for (k, row) in done.iter().enumerate() {
+        if planned.get(k) != Some(&row.index) || !job_check.matches(row) {
+            bail!(
+                "{} does not belong to this sweep (row {} is run {}, expected run {:?} of this plan); \
+                 use another --out",
+                runs_path.display(),
+                k + 2,
+                row.index,
+                planned.get(k)
+            );
+        }
     }
     let pending = &planned[done.len()..];
     if !done.is_empty() {
@@ -192,20 +216,31 @@ pub fn run(args: Args) -> Result<i32> {
     Ok(exit::SUCCESS)
 }
 
-/// Creates the output directory and records (or checks) the sweep's identity.
-fn prepare_out_dir(out: &Path, meta: &Meta) -> Result<()> {
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
+/// Errors if `out` already holds a different sweep.
+fn check_meta(out: &Path, meta: &Meta) -> Result<()> {
     let path = out.join(META_FILE);
-    if path.exists() {
-        let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
-        let old: Meta = serde_json::from_str(&text).with_context(|| format!("{} is not a sweep description", path.display()))?;
-        if old != *meta {
-            bail!("{} holds a different sweep ({}); use another --out or delete it", out.display(), path.display());
-        }
+    if !path.exists() {
         return Ok(());
     }
-    let text = serde_json::to_string_pretty(meta)?;
-    std::fs::write(&path, text + "\n").with_context(|| format!("cannot write to output directory {}", out.display()))
+    let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
+    let same = serde_json::from_str::<Meta>(&text).is_ok_and(|old| old == *meta);
+    // A directory whose sweep never wrote a row may be reused freely.
+    let has_rows = std::fs::read_dir(out)
+        .with_context(|| format!("cannot read {}", out.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "csv"))
+        .filter(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("runs")))
+        .any(|p| crate::sweep::rows::read_rows(&p).map_or(true, |rows| !rows.is_empty()));
+    if !same && has_rows {
+        bail!("{} holds a different sweep ({}); use another --out or delete it", out.display(), path.display());
+    }
+    Ok(())
+}
+
+/// Records the sweep's identity (atomically: shards may start together).
+fn write_meta(out: &Path, meta: &Meta) -> Result<()> {
+    let text = serde_json::to_string_pretty(meta)? + "\n";
+    crate::sweep::rows::write_atomic(&out.join(META_FILE), text.as_bytes())
 }
 
 fn load_terrains(args: &Args, axes: &Axes, stop: &AtomicBool) -> Result<Vec<Vec<SweepTerrain>>> {
@@ -252,9 +287,8 @@ fn write_terrain_list(out: &Path, axes: &Axes, terrains: &[Vec<SweepTerrain>]) -
     for (bin, ts) in axes.widths.iter().zip(terrains) {
         for t in ts {
             let threshold = t.threshold.map(|a| a.to_string()).unwrap_or_default();
-            s.push_str(&format!("{bin},{},{},{threshold}\n", t.id, t.width));
+            s.push_str(&format!("{bin},{},{},{threshold}\n", crate::sweep::rows::csv_field(&t.id), t.width));
         }
     }
-    let path = out.join("terrains.csv");
-    std::fs::write(&path, s).with_context(|| format!("cannot write {}", path.display()))
+    crate::sweep::rows::write_atomic(&out.join("terrains.csv"), s.as_bytes())
 }

@@ -29,12 +29,28 @@ pub struct Job<'a> {
 }
 
 impl Job<'_> {
-    /// The noise seed of a run: from the sweep seed, the terrain and ε.
+    /// The noise seed of a run: from the sweep seed, the terrain and the
+    /// value of ε (not its position on the axis, so adding radii to a sweep
+    /// does not change the others' results).
     fn run_seed(&self, spec: &RunSpec, terrain: &SweepTerrain) -> u64 {
         let id_hash = terrain.id.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
             (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
         });
-        mix(mix(self.seed, id_hash), spec.eps as u64)
+        mix(mix(self.seed, id_hash), self.axes.eps[spec.eps].to_bits())
+    }
+
+    /// Whether a row (e.g. from a CSV being resumed) is the run its index names in this plan.
+    pub fn matches(&self, row: &Row) -> bool {
+        if row.index >= self.axes.total_runs() {
+            return false;
+        }
+        let spec = self.axes.spec(row.index);
+        let terrain = &self.terrains[spec.bin][spec.terrain];
+        row.noise == spec.noise
+            && row.eps == self.axes.eps[spec.eps]
+            && row.width_bin == self.axes.widths[spec.bin]
+            && row.terrain == terrain.id
+            && row.seed == self.run_seed(&spec, terrain)
     }
 
     /// Runs one simulation and makes its row.
@@ -54,6 +70,7 @@ impl Job<'_> {
             width_bin: self.axes.widths[spec.bin],
             terrain: terrain.id.clone(),
             width: terrain.width,
+            seed: cfg.seed,
             success: r.success,
             outcome: serde_json::to_value(r.outcome)
                 .ok()

@@ -5,7 +5,9 @@
 //! robin rather than blocks, so every shard gets the same mix of easy and
 //! slow cells.
 
+use super::terrains::BIN_SIZE;
 use anyhow::{bail, Context, Result};
+use bycoms_sim::terrain::width::MAX_CLEARANCE;
 use serde::{Deserialize, Serialize};
 use std::str::FromStr;
 
@@ -35,8 +37,20 @@ impl Axes {
         if self.widths.is_empty() {
             bail!("--widths is empty: give at least one width bin");
         }
-        if let Some(w) = self.widths.iter().find(|w| !(w.is_finite() && **w > 0.0)) {
-            bail!("width bins (--widths) must be positive, got {w}");
+        // Feasible terrains measure at least 1, and widths are capped.
+        let top = 2.0 * MAX_CLEARANCE - BIN_SIZE;
+        if let Some(w) = self.widths.iter().find(|w| !(w.is_finite() && (1.0..=top).contains(*w))) {
+            bail!("width bins (--widths) must lie in [1, {top}] (a feasible terrain measures ≥ 1; widths are measured up to {}), got {w}", 2.0 * MAX_CLEARANCE);
+        }
+        for (i, a) in self.widths.iter().enumerate() {
+            if let Some(b) = self.widths[i + 1..].iter().find(|b| (*b - a).abs() < BIN_SIZE) {
+                bail!("width bins {a} and {b} overlap (each bin is {BIN_SIZE} wide)");
+            }
+        }
+        for (i, a) in self.eps.iter().enumerate() {
+            if self.eps[i + 1..].contains(a) {
+                bail!("--eps lists {a} twice");
+            }
         }
         if self.terrains_per_bin == 0 {
             bail!("--terrains-per-bin must be at least 1");
@@ -124,13 +138,24 @@ pub fn parse_axis(s: &str) -> Result<Vec<f64>> {
         if !(step > 0.0 && start.is_finite() && end.is_finite()) || end < start {
             bail!("range {s}: need start ≤ end and a positive step");
         }
-        let n = ((end - start) / step + 1e-9).floor() as usize;
-        return Ok((0..=n).map(|i| start + step * i as f64).collect());
+        let n = ((end - start) / step + 1e-9).floor();
+        if !(n < MAX_AXIS_LEN as f64) {
+            bail!("range {s} has more than {MAX_AXIS_LEN} values");
+        }
+        return Ok((0..=n as usize).map(|i| start + step * i as f64).collect());
     }
-    s.split(',')
+    let values: Vec<f64> = s
+        .split(',')
         .map(|v| v.trim().parse::<f64>().with_context(|| format!("{v:?} is not a number")))
-        .collect()
+        .collect::<Result<_>>()?;
+    if values.len() > MAX_AXIS_LEN {
+        bail!("more than {MAX_AXIS_LEN} values");
+    }
+    Ok(values)
 }
+
+/// Longest axis accepted (a guard against typos like `1:1e9:1`).
+pub const MAX_AXIS_LEN: usize = 10_000;
 
 #[cfg(test)]
 mod tests {
@@ -169,10 +194,21 @@ mod tests {
         assert_eq!(parse_axis("").unwrap(), Vec::<f64>::new());
         assert!(parse_axis("1,x").is_err());
         assert!(parse_axis("5:1:0.5").is_err());
+        assert!(parse_axis("1:1e18:1e-9").unwrap_err().to_string().contains("more than"));
+        assert!(parse_axis("0:1e300:1e-300").is_err());
         let mut a = Axes::paper();
         a.eps = vec![1.0, 0.0];
         assert!(a.validate().unwrap_err().to_string().contains("positive"));
         a.eps = vec![];
         assert!(a.validate().unwrap_err().to_string().contains("--eps is empty"));
+        a.eps = vec![1.0, 1.0];
+        assert!(a.validate().unwrap_err().to_string().contains("twice"));
+        a.eps = vec![1.0];
+        for bad in [vec![0.5], vec![9.0], vec![1.0, 1.2], vec![f64::NAN]] {
+            a.widths = bad.clone();
+            assert!(a.validate().is_err(), "{bad:?}");
+        }
+        a.widths = vec![1.0, 7.5];
+        assert!(a.validate().is_ok());
     }
 }

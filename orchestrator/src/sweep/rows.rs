@@ -22,6 +22,8 @@ pub struct Row {
     pub width_bin: f64,
     pub terrain: String,
     pub width: f64,
+    /// Seed of the robots' noise streams (replay with `simulate --noise-seed`).
+    pub seed: u64,
     pub success: bool,
     pub outcome: String,
     pub time_s: f64,
@@ -31,7 +33,7 @@ pub struct Row {
 
 /// The header line every runs CSV starts with.
 pub const HEADER: &str =
-    "index,noise,eps,width_bin,terrain,width,success,outcome,time_s,robots_used,beacons\n";
+    "index,noise,eps,width_bin,terrain,width,seed,success,outcome,time_s,robots_used,beacons\n";
 
 /// Reads all complete rows of a runs CSV.
 pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
@@ -80,6 +82,9 @@ impl RowWriter {
             .with_context(|| format!("cannot open {} for writing", path.display()))?;
         let mut text = String::new();
         file.read_to_string(&mut text).with_context(|| format!("cannot read {}", path.display()))?;
+        if !(text.starts_with(HEADER) || HEADER.starts_with(text.as_str())) {
+            bail!("{} is not a bycoms runs CSV (unexpected header); not touching it", path.display());
+        }
         let keep = complete_len(&text);
         let rows = parse_rows(&text[..keep], path)?;
         file.set_len(keep as u64).with_context(|| format!("cannot truncate {}", path.display()))?;
@@ -103,14 +108,35 @@ impl RowWriter {
     }
 }
 
-/// Writes `rows` as a complete CSV (used by `merge`).
+/// Writes `rows` as a complete CSV (used by `merge`), atomically: the old
+/// file stays whole until the new one is.
 pub fn write_all(path: &Path, rows: &[Row]) -> Result<()> {
-    let _ = std::fs::remove_file(path);
-    let (mut w, _) = RowWriter::open(path)?;
-    for r in rows {
-        w.write(r)?;
+    let mut w = csv::WriterBuilder::new().has_headers(true).from_writer(Vec::new());
+    if rows.is_empty() {
+        return write_atomic(path, HEADER.as_bytes());
     }
-    Ok(())
+    for r in rows {
+        w.serialize(r)?;
+    }
+    let bytes = w.into_inner().map_err(|e| anyhow::anyhow!("csv: {e}"))?;
+    write_atomic(path, &bytes)
+}
+
+/// Writes `bytes` to a temporary file beside `path`, then renames it over `path`.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// A value quoted for CSV if it needs to be.
+pub fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_owned()
+    }
 }
 
 #[cfg(test)]
@@ -125,6 +151,7 @@ mod tests {
             width_bin: 2.0,
             terrain: format!("c{i}"),
             width: 2.25,
+            seed: 42,
             success: true,
             outcome: "arrived".into(),
             time_s: 123.4,
@@ -163,10 +190,29 @@ mod tests {
     }
 
     #[test]
-    fn foreign_file_is_rejected() {
+    fn foreign_file_is_rejected_and_left_alone() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("runs.csv");
-        std::fs::write(&path, "a,b\n1,2\n").unwrap();
-        assert!(RowWriter::open(&path).is_err());
+        for text in ["a,b\n1,2\n", "no newline at all"] {
+            std::fs::write(&path, text).unwrap();
+            assert!(RowWriter::open(&path).is_err());
+            assert_eq!(std::fs::read_to_string(&path).unwrap(), text);
+        }
+    }
+
+    #[test]
+    fn write_all_matches_appended_rows() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a.csv"), dir.path().join("b.csv"));
+        let rows = vec![row(0), row(1)];
+        write_all(&a, &rows).unwrap();
+        let (mut w, _) = RowWriter::open(&b).unwrap();
+        for r in &rows {
+            w.write(r).unwrap();
+        }
+        drop(w);
+        assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+        assert_eq!(csv_field("a,b"), "\"a,b\"");
+        assert_eq!(csv_field("ab"), "ab");
     }
 }

@@ -37,12 +37,12 @@ pub fn tabulate(axes: &Axes, rows: &[Row]) -> Vec<Table> {
         .iter()
         .map(|&noise| {
             let mut cells = vec![vec![(0, 0); axes.eps.len()]; axes.widths.len()];
-            for r in rows.iter().filter(|r| r.noise == noise) {
-                let b = axes.widths.iter().position(|&w| w == r.width_bin);
-                let e = axes.eps.iter().position(|&e| e == r.eps);
-                if let (Some(b), Some(e)) = (b, e) {
-                    cells[b][e].1 += 1;
-                    cells[b][e].0 += usize::from(r.success);
+            // Cells by the run's index, not by comparing floats.
+            for r in rows.iter().filter(|r| r.index < axes.total_runs()) {
+                let spec = axes.spec(r.index);
+                if spec.noise == noise {
+                    cells[spec.bin][spec.eps].1 += 1;
+                    cells[spec.bin][spec.eps].0 += usize::from(r.success);
                 }
             }
             Table { noise, cells }
@@ -83,7 +83,7 @@ pub fn to_csv(axes: &Axes, t: &Table) -> String {
 pub fn to_text(axes: &Axes, t: &Table) -> String {
     let mut s = format!("success rate [%], noise {}\nwidth\\ε", if t.noise { "on" } else { "off" });
     for e in &axes.eps {
-        let _ = write!(s, "{e:>6}");
+        let _ = write!(s, " {e:>5}");
     }
     s.push('\n');
     for (w, row) in rows_widest_first(axes, t) {
@@ -125,14 +125,15 @@ pub fn write_outputs(dir: &Path, axes: &Axes, tables: &[Table]) -> Result<Vec<Pa
 mod tests {
     use super::*;
 
-    fn row(noise: bool, eps: f64, width_bin: f64, success: bool) -> Row {
+    fn row(index: usize, noise: bool, eps: f64, width_bin: f64, success: bool) -> Row {
         Row {
-            index: 0,
+            index,
             noise,
             eps,
             width_bin,
             terrain: "t".into(),
             width: width_bin,
+            seed: 0,
             success,
             outcome: String::new(),
             time_s: 0.0,
@@ -143,12 +144,14 @@ mod tests {
 
     #[test]
     fn rates_per_cell_widest_first() {
-        let axes = Axes { eps: vec![1.0, 2.0], widths: vec![1.0, 3.0], terrains_per_bin: 2, noise: vec![false] };
+        let axes =
+            Axes { eps: vec![1.0, 2.0], widths: vec![1.0, 3.0], terrains_per_bin: 2, noise: vec![false, true] };
+        // Canonical index: ((noise·bins + bin)·terrains + terrain)·eps + eps.
         let rows = vec![
-            row(false, 1.0, 3.0, true),
-            row(false, 1.0, 3.0, false),
-            row(false, 2.0, 1.0, false),
-            row(true, 2.0, 1.0, true), // other noise setting: not in this table
+            row(4, false, 1.0, 3.0, true),
+            row(6, false, 1.0, 3.0, false),
+            row(1, false, 2.0, 1.0, false),
+            row(9, true, 2.0, 1.0, true), // other noise setting: not in this table
         ];
         let t = &tabulate(&axes, &rows)[0];
         assert_eq!(t.cells, vec![vec![(0, 0), (0, 1)], vec![(1, 2), (0, 0)]]);
