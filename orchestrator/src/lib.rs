@@ -5,6 +5,7 @@
 
 pub mod commands;
 pub mod draw;
+pub mod launch;
 pub mod record;
 pub mod scenario;
 pub mod sweep;

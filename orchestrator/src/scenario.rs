@@ -23,6 +23,11 @@ pub const BUILT_IN: &[(&str, &str, &str)] = &[
         include_str!("../scenarios/short-wall.txt"),
     ),
     (
+        "long-obstacle",
+        "a long obstacle across the start→goal line, reaching far to one side: robots 1 and 2 get stuck, robot 3 goes around their fields (the paper's fig:exp_inside_long; `launch`'s default, ε = 3)",
+        include_str!("../scenarios/long-obstacle.txt"),
+    ),
+    (
         "gap3",
         "a wall with a gap of width 3 between start and goal",
         include_str!("../scenarios/gap3.txt"),

@@ -7,6 +7,8 @@
 //! here: it is `bycoms_agent::point`, the same code every other shell runs.
 #![forbid(unsafe_code)]
 
+#[cfg(feature = "process")]
+pub mod agent_process;
 pub mod body;
 pub mod field;
 pub mod geom;

@@ -1,1 +1,207 @@
-//! End-to-end tests live in `tests/tests/`; this library holds their shared helpers.
+//! End-to-end tests live in `tests/tests/`; this library holds their shared
+//! helpers.
+//!
+//! Why helpers for processes: every end-to-end test starts real processes
+//! (the `orchestrator` and its `sim-agent`s). Each must be bounded in time,
+//! must not collide with a test running in parallel, and must leave nothing
+//! behind even when it fails. So: [`swarm_name`] makes unique topic
+//! namespaces, [`Proc`] kills and reaps its process on drop, every wait has
+//! a deadline, and [`agents_of`] finds a swarm's agent processes in `/proc`
+//! (by their `--swarm` flag) so a test can kill one or prove none is left.
+
+use bycoms_protocol::bus::ipc::IpcBus;
+use bycoms_protocol::bus::BusExt;
+use bycoms_protocol::msg::Pose;
+use bycoms_protocol::{RobotId, Swarm};
+use bycoms_sim::agent_process::ipc_config;
+use serde_json::Value;
+use std::io::Read;
+use std::path::PathBuf;
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::{Duration, Instant};
+
+/// A swarm name no other test (or test process) uses: `t<pid>-<n>-<tag>`.
+pub fn swarm_name(tag: &str) -> String {
+    static NEXT: AtomicU32 = AtomicU32::new(0);
+    format!("t{}-{}-{tag}", std::process::id(), NEXT.fetch_add(1, Ordering::SeqCst))
+}
+
+/// A workspace binary (`orchestrator`, `sim-agent`) of the profile the tests
+/// were built with. `cargo test --workspace` builds them; running this
+/// crate's tests alone needs `cargo build --bins` first.
+pub fn bin(name: &str) -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    // target/<profile>/deps/<test> → target/<profile>/<name>
+    let dir = exe.parent().and_then(|deps| deps.parent()).expect("target/<profile> directory");
+    let path = dir.join(name);
+    assert!(path.is_file(), "{} is missing: run `cargo build --workspace --bins` first", path.display());
+    path
+}
+
+/// A child process that is killed and reaped when dropped.
+pub struct Proc {
+    child: Option<Child>,
+    stdout: Option<std::thread::JoinHandle<String>>,
+    stderr: Option<std::thread::JoinHandle<String>>,
+}
+
+/// What a finished process left.
+#[derive(Debug)]
+pub struct Finished {
+    pub status: ExitStatus,
+    pub stdout: String,
+    pub stderr: String,
+}
+
+impl Finished {
+    /// The stdout as JSON (the `--json` summary).
+    pub fn json(&self) -> Value {
+        serde_json::from_str(&self.stdout)
+            .unwrap_or_else(|e| panic!("stdout is not JSON ({e}): {}\nstderr: {}", self.stdout, self.stderr))
+    }
+}
+
+fn collect(mut r: impl Read + Send + 'static) -> std::thread::JoinHandle<String> {
+    std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = r.read_to_string(&mut s);
+        s
+    })
+}
+
+impl Proc {
+    /// Starts `program` with `args`, capturing stdout and stderr.
+    pub fn start(program: &PathBuf, args: &[String]) -> Proc {
+        let mut child = Command::new(program)
+            .args(args)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap_or_else(|e| panic!("cannot start {}: {e}", program.display()));
+        let stdout = child.stdout.take().map(collect);
+        let stderr = child.stderr.take().map(collect);
+        Proc { child: Some(child), stdout, stderr }
+    }
+
+    /// Starts the orchestrator with `args`.
+    pub fn orchestrator(args: &[&str]) -> Proc {
+        let args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+        Proc::start(&bin("orchestrator"), &args)
+    }
+
+    /// The process id.
+    pub fn pid(&self) -> u32 {
+        self.child.as_ref().map(Child::id).unwrap_or(0)
+    }
+
+    /// Sends SIGKILL.
+    pub fn kill(&mut self) {
+        if let Some(c) = self.child.as_mut() {
+            let _ = c.kill();
+        }
+    }
+
+    /// Waits up to `timeout` for the process to end; panics (after killing
+    /// it) if it does not.
+    pub fn wait(mut self, timeout: Duration) -> Finished {
+        let deadline = Instant::now() + timeout;
+        let mut child = self.child.take().expect("process not yet waited for");
+        let status = loop {
+            if let Some(status) = child.try_wait().expect("try_wait") {
+                break status;
+            }
+            if Instant::now() >= deadline {
+                let _ = child.kill();
+                let _ = child.wait();
+                let err = self.stderr.take().map(|h| h.join().unwrap_or_default()).unwrap_or_default();
+                panic!("process did not end within {timeout:?}; stderr:\n{err}");
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        };
+        let stdout = self.stdout.take().map(|h| h.join().unwrap_or_default()).unwrap_or_default();
+        let stderr = self.stderr.take().map(|h| h.join().unwrap_or_default()).unwrap_or_default();
+        Finished { status, stdout, stderr }
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        if let Some(mut c) = self.child.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+/// Live processes (not zombies) whose command line has `--swarm <swarm>`
+/// and `--robot <id>`: the swarm's agents, with their robot ids.
+pub fn agents_of(swarm: &str) -> Vec<(u32, u32)> {
+    let mut found = Vec::new();
+    let Ok(dir) = std::fs::read_dir("/proc") else { return found };
+    for entry in dir.flatten() {
+        let Some(pid) = entry.file_name().to_str().and_then(|s| s.parse::<u32>().ok()) else { continue };
+        let Ok(cmdline) = std::fs::read(entry.path().join("cmdline")) else { continue };
+        let args: Vec<&[u8]> = cmdline.split(|&b| b == 0).collect();
+        let flag = |name: &[u8]| args.windows(2).find(|w| w[0] == name).map(|w| w[1]);
+        if flag(b"--swarm") != Some(swarm.as_bytes()) || is_zombie(pid) {
+            continue;
+        }
+        if let Some(robot) = flag(b"--robot").and_then(|r| std::str::from_utf8(r).ok()?.parse().ok()) {
+            found.push((pid, robot));
+        }
+    }
+    found
+}
+
+/// Whether `pid` is a zombie (dead, waiting to be reaped) or gone.
+pub fn is_zombie(pid: u32) -> bool {
+    match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
+        // The state follows the command name in parentheses.
+        Ok(stat) => stat.rsplit_once(')').is_none_or(|(_, rest)| rest.trim_start().starts_with(['Z', 'X'])),
+        Err(_) => true,
+    }
+}
+
+/// Polls `f` every 10 ms until it returns `Some`, for at most `timeout`.
+pub fn wait_for<T>(timeout: Duration, mut f: impl FnMut() -> Option<T>) -> Option<T> {
+    let deadline = Instant::now() + timeout;
+    loop {
+        if let Some(v) = f() {
+            return Some(v);
+        }
+        if Instant::now() >= deadline {
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// Sends `sig` to `pid` (ignoring a process that is already gone).
+pub fn signal(pid: u32, sig: nix::sys::signal::Signal) {
+    let _ = nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid as i32), sig);
+}
+
+/// Watches robot `robot`'s pose topic in swarm `swarm` (of `robots`
+/// robots) until a pose satisfies `accept`, for at most `timeout`.
+pub fn wait_for_pose(
+    swarm: &str,
+    robots: u32,
+    robot: u32,
+    timeout: Duration,
+    mut accept: impl FnMut(&Pose) -> bool,
+) -> Option<Pose> {
+    let swarm = Swarm::new(swarm).expect("swarm name");
+    let bus = IpcBus::new(ipc_config(robots)).expect("bus");
+    let poses = bus.typed_subscriber(&swarm.pose(RobotId(robot))).expect("pose subscriber");
+    let deadline = Instant::now() + timeout;
+    while Instant::now() < deadline {
+        if let Ok(Some(p)) = poses.recv_timeout(Duration::from_millis(20)) {
+            if accept(&p) {
+                return Some(p);
+            }
+        }
+    }
+    None
+}

@@ -3,6 +3,8 @@
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 
+pub mod bench;
+pub mod launch;
 pub mod merge;
 pub mod simulate;
 pub mod sweep;
@@ -32,6 +34,13 @@ pub enum Command {
     Sweep(sweep::Args),
     /// Combine the CSVs of sharded sweeps into the same tables and heatmaps.
     Merge(merge::Args),
+    /// Deploy robots one at a time as agent processes over iceoryx2 (default: the paper's 3-robot experiment).
+    Launch(launch::Args),
+    /// Measure the process layer: gate reaction, lockstep speed, real-time scale.
+    Bench(bench::Args),
+    /// Run one simulated robot (what `launch` starts when no `sim-agent` binary sits next to it).
+    #[command(hide = true)]
+    SimAgent(bycoms_sim::agent_process::AgentArgs),
 }
 
 /// Runs the parsed command; returns the process exit code.
@@ -41,5 +50,8 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Terrain(args) => terrain::run(args),
         Command::Sweep(args) => sweep::run(args),
         Command::Merge(args) => merge::run(args),
+        Command::Launch(args) => launch::run(args),
+        Command::Bench(args) => bench::run(args),
+        Command::SimAgent(args) => Ok(bycoms_sim::agent_process::main_with(&args)),
     }
 }

@@ -1,0 +1,124 @@
+//! `orchestrator bench`: the process layer's figures, measured on this
+//! machine (run the release build: `cargo run --release --bin orchestrator
+//! -- bench ...`).
+//!
+//! * `bench launch` — the default `launch --robots 3` (lockstep) a few
+//!   times: gate reaction (from the decision that a robot stopped to the next
+//!   robot's first pose) and lockstep speed (simulated seconds per wall
+//!   second);
+//! * `bench scale` — N real-time agents at 10 Hz at once: missed periods
+//!   and memory per agent.
+//!
+//! Figures are printed, never asserted: speed is proven here, not in timed
+//! unit tests.
+
+use crate::commands::launch as launch_cmd;
+use crate::launch::{self, LaunchConfig, Outcome};
+use anyhow::{bail, Result};
+use std::path::PathBuf;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    pub what: What,
+    /// Print the figures as JSON.
+    #[arg(long, global = true)]
+    pub json: bool,
+    /// Agent executable [default: sim-agent next to orchestrator].
+    #[arg(long, global = true, value_name = "FILE")]
+    pub agent_bin: Option<PathBuf>,
+}
+
+#[derive(Debug, clap::Subcommand)]
+pub enum What {
+    /// Gate reaction and lockstep speed of the default `launch --robots 3`.
+    Launch {
+        /// Launches to run.
+        #[arg(long, default_value_t = 5)]
+        runs: u32,
+        /// Start each agent only when the gate opens (measures the process start).
+        #[arg(long)]
+        no_prespawn: bool,
+    },
+    /// The most real-time agents at 10 Hz: missed periods and memory.
+    Scale {
+        /// Agents running at once.
+        #[arg(long, default_value_t = 200)]
+        agents: u32,
+        /// Seconds to watch them.
+        #[arg(long, default_value_t = 20.0)]
+        seconds: f64,
+        /// Real-time speed-up (1 = 10 Hz).
+        #[arg(long, default_value_t = 1.0)]
+        speed: f64,
+    },
+}
+
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
+}
+
+pub fn run(args: Args) -> Result<i32> {
+    let agent = launch::agent_command(args.agent_bin.as_deref(), None)?;
+    match args.what {
+        What::Launch { runs, no_prespawn } => {
+            let (mut reactions, mut speeds, mut walls) = (Vec::new(), Vec::new(), Vec::new());
+            for i in 0..runs.max(1) {
+                let mut cfg = LaunchConfig {
+                    swarm: Some(format!("bench-{}-{i}", std::process::id())),
+                    ..Default::default()
+                };
+                cfg.gate.prespawn = !no_prespawn;
+                let world = launch_cmd::world(&cfg)?;
+                let s = launch::run(cfg, world, agent.clone())?;
+                if s.outcome != Outcome::Arrived {
+                    bail!("run {i} did not end as expected: {}", s.line());
+                }
+                reactions
+                    .extend(s.robots.iter().filter_map(|r| r.gate_reaction_us).map(|us| us as f64 / 1e3));
+                speeds.push(s.sim_speed);
+                walls.push(s.wall_s);
+            }
+            reactions.sort_by(f64::total_cmp);
+            speeds.sort_by(f64::total_cmp);
+            walls.sort_by(f64::total_cmp);
+            let figures = serde_json::json!({
+                "runs": runs, "prespawn": !no_prespawn,
+                "gate_reaction_ms": { "p50": percentile(&reactions, 0.5), "max": percentile(&reactions, 1.0), "n": reactions.len() },
+                "lockstep_sim_s_per_wall_s": { "p50": percentile(&speeds, 0.5), "min": percentile(&speeds, 0.0) },
+                "wall_s": { "p50": percentile(&walls, 0.5), "max": percentile(&walls, 1.0) },
+            });
+            if args.json {
+                println!("{}", serde_json::to_string_pretty(&figures)?);
+            } else {
+                println!(
+                    "launch --robots 3 (lockstep, prespawn {}), {runs} runs:\n  gate reaction p50 {:.3} ms, max {:.3} ms ({} deployments)\n  lockstep speed p50 {:.0} simulated s per wall s (min {:.0}); wall time p50 {:.2} s, max {:.2} s",
+                    !no_prespawn,
+                    percentile(&reactions, 0.5),
+                    percentile(&reactions, 1.0),
+                    reactions.len(),
+                    percentile(&speeds, 0.5),
+                    percentile(&speeds, 0.0),
+                    percentile(&walls, 0.5),
+                    percentile(&walls, 1.0)
+                );
+            }
+        }
+        What::Scale { agents, seconds, speed } => {
+            let r = launch::scale::run(agent, agents, seconds, speed)?;
+            if args.json {
+                println!("{}", serde_json::to_string_pretty(&r)?);
+            } else {
+                println!(
+                    "{} agents at {} Hz for {} s (all started in {:.1} s): {} of {} periods missed ({:.4} %, {} agents missed any)\n  memory per agent: RSS {} kB mean (anon {}, file {}, shmem {}), max {} kB; PSS {} kB mean, max {} kB",
+                    r.agents, 10.0 * speed, r.seconds, r.start_s, r.missed, r.periods, r.missed_percent, r.agents_with_misses,
+                    r.mean.rss_kb, r.mean.rss_anon_kb, r.mean.rss_file_kb, r.mean.rss_shmem_kb, r.max_rss_kb, r.mean.pss_kb, r.max_pss_kb
+                );
+            }
+        }
+    }
+    Ok(crate::exit::SUCCESS)
+}

@@ -1,0 +1,218 @@
+//! `orchestrator launch`: one robot per agent process, deployed one at a
+//! time through the gate (see `crate::launch`).
+//!
+//! This file only merges the settings (defaults < `--config` < flags),
+//! loads the world, runs the launch and turns its summary into output and
+//! an exit code.
+
+use crate::exit;
+use crate::launch::{self, Clock, LaunchConfig, OnDeath, Outcome, World};
+use crate::scenario::{self, WorldSource};
+use anyhow::Result;
+use bycoms_sim::terrain::to_text;
+use std::path::PathBuf;
+
+/// Deploy robots one at a time as separate agent processes over iceoryx2.
+///
+/// With no options, runs the built-in `long-obstacle` scenario (the paper's
+/// three-robot experiment) with 3 robots, ε = 3, on the lockstep clock:
+/// robots 1 and 2 get stuck, robot 3 goes around their fields to the goal.
+/// Every option can also be set in a config file (see deploy/launch.toml);
+/// flags override the file. Exit codes: 0 a robot arrived, 3 none arrived,
+/// 1 error, 130 interrupted.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Robots available (deployed one at a time) [default: 3].
+    #[arg(long)]
+    pub robots: Option<u32>,
+    /// Terrain file in the text format (overrides --scenario).
+    #[arg(long, value_name = "FILE", conflicts_with = "scenario")]
+    pub terrain: Option<PathBuf>,
+    /// Built-in scenario [default: long-obstacle].
+    #[arg(long, value_parser = scenario::names())]
+    pub scenario: Option<String>,
+    /// Circumferential radius ε in cells [default: 3].
+    #[arg(long, allow_negative_numbers = true)]
+    pub eps: Option<f64>,
+    /// Sensing noise on (`--noise`) or off (`--noise false`).
+    #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]
+    pub noise: Option<bool>,
+    /// Run seed of the robots' noise streams [default: 0].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Clock: lockstep (fast, bit-identical to `simulate`) or realtime [default: lockstep].
+    #[arg(long, value_enum)]
+    pub clock: Option<Clock>,
+    /// Real-time speed-up: 10 Hz × speed [default: 10].
+    #[arg(long, allow_negative_numbers = true)]
+    pub speed: Option<f64>,
+    /// Simulated time budget, seconds of robot motion [default: 10000].
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    pub time_limit: Option<f64>,
+    /// Arrival radius around the goal [default: 0.5].
+    #[arg(long)]
+    pub goal_radius: Option<f64>,
+    /// Swarm name (topic namespace) [default: `launch-<pid>`].
+    #[arg(long)]
+    pub swarm: Option<String>,
+    /// Record every message and gate event to this MCAP file [default: none].
+    #[arg(long, value_name = "FILE.mcap")]
+    pub record: Option<PathBuf>,
+    /// Print the summary as JSON on stdout (progress stays on stderr).
+    #[arg(long)]
+    pub json: bool,
+    /// Config file (TOML; every key documented in deploy/launch.toml).
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: Option<PathBuf>,
+    /// Agent executable [default: $BYCOMS_SIM_AGENT, else sim-agent next to orchestrator].
+    #[arg(long, value_name = "FILE")]
+    pub agent_bin: Option<PathBuf>,
+    /// Gate: a robot still this long (simulated s) has stopped [default: 20].
+    #[arg(long, value_name = "SECONDS")]
+    pub dwell: Option<f64>,
+    /// Gate: slower than this (cells/s) is still [default: 0.05]...
+    #[arg(long)]
+    pub stop_speed: Option<f64>,
+    /// ...if it also turns slower than this (rad/s; 0 ignores turning) [default: 0.05].
+    #[arg(long)]
+    pub stop_turn_rate: Option<f64>,
+    /// Do not start the next agent while the current robot moves.
+    #[arg(long)]
+    pub no_prespawn: bool,
+    /// What a dead agent means [default: beacon].
+    #[arg(long, value_enum)]
+    pub on_agent_death: Option<OnDeath>,
+    /// Seconds an agent has to register [default: 10].
+    #[arg(long, value_name = "SECONDS")]
+    pub register_timeout: Option<f64>,
+    /// Seconds of silence after which a live agent counts as hung [default: 2].
+    #[arg(long, value_name = "SECONDS")]
+    pub heartbeat_timeout: Option<f64>,
+}
+
+impl Args {
+    /// Defaults, then the config file, then the flags.
+    pub fn config(&self) -> Result<LaunchConfig> {
+        let mut cfg = match &self.config {
+            Some(path) => LaunchConfig::load(path)?,
+            None => LaunchConfig::default(),
+        };
+        if let Some(v) = &self.scenario {
+            cfg.scenario = v.clone();
+            cfg.terrain = None;
+        }
+        macro_rules! set {
+            ($($field:ident).+ = $value:expr) => {
+                if let Some(v) = $value.clone() {
+                    cfg.$($field).+ = v;
+                }
+            };
+        }
+        set!(robots = self.robots);
+        set!(eps = self.eps);
+        set!(noise = self.noise);
+        set!(seed = self.seed);
+        set!(clock = self.clock);
+        set!(speed = self.speed);
+        set!(time_limit = self.time_limit);
+        set!(goal_radius = self.goal_radius);
+        set!(gate.dwell = self.dwell);
+        set!(gate.stop_speed = self.stop_speed);
+        set!(gate.stop_turn_rate = self.stop_turn_rate);
+        set!(gate.on_agent_death = self.on_agent_death);
+        set!(supervision.register_timeout = self.register_timeout);
+        set!(supervision.heartbeat_timeout = self.heartbeat_timeout);
+        for (slot, value) in [(&mut cfg.terrain, &self.terrain), (&mut cfg.record, &self.record)] {
+            if value.is_some() {
+                slot.clone_from(value);
+            }
+        }
+        if self.swarm.is_some() {
+            cfg.swarm.clone_from(&self.swarm);
+        }
+        if self.no_prespawn {
+            cfg.gate.prespawn = false;
+        }
+        cfg.validate()?;
+        Ok(cfg)
+    }
+}
+
+/// The world of a launch config.
+pub fn world(cfg: &LaunchConfig) -> Result<World> {
+    let source = match &cfg.terrain {
+        Some(path) => WorldSource::File(path.clone()),
+        None => WorldSource::Scenario(cfg.scenario.clone()),
+    };
+    let w = scenario::load(&source)?;
+    Ok(World {
+        name: w.name,
+        terrain_text: to_text(&w.terrain),
+        start: w.terrain.start(),
+        goal: w.terrain.goal(),
+    })
+}
+
+pub fn run(args: Args) -> Result<i32> {
+    let cfg = args.config()?;
+    let world = world(&cfg)?;
+    let agent = launch::agent_command(args.agent_bin.as_deref(), cfg.agent_bin.as_deref())?;
+    let summary = launch::run(cfg, world, agent)?;
+    if args.json {
+        eprintln!("{}", summary.line());
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        println!("{}", summary.text());
+        if let Some(e) = &summary.error {
+            eprintln!("error: {e}");
+        }
+    }
+    Ok(match summary.outcome {
+        Outcome::Arrived => exit::SUCCESS,
+        Outcome::Interrupted => exit::INTERRUPTED,
+        Outcome::Error => exit::ERROR,
+        Outcome::RobotsExhausted | Outcome::TimeLimit => exit::NOT_ARRIVED,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::commands::{Cli, Command};
+    use crate::launch::{Clock, LaunchConfig};
+    use clap::Parser;
+
+    fn config(args: &[&str]) -> anyhow::Result<LaunchConfig> {
+        let cli = Cli::try_parse_from([&["orchestrator", "launch"], args].concat())?;
+        match cli.command {
+            Command::Launch(a) => a.config(),
+            _ => unreachable!("parsed a launch"),
+        }
+    }
+
+    #[test]
+    fn flags_override_the_config_file_which_overrides_the_defaults() {
+        assert_eq!(config(&[]).unwrap(), LaunchConfig::default());
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("launch.toml");
+        std::fs::write(&file, "eps = 2.0\nrobots = 7\nnoise = true\n[gate]\ndwell = 5.0\n").unwrap();
+        let path = file.to_str().unwrap();
+        let from_file = config(&["--config", path]).unwrap();
+        assert_eq!(
+            (from_file.eps, from_file.robots, from_file.noise, from_file.gate.dwell),
+            (2.0, 7, true, 5.0)
+        );
+        let both =
+            config(&["--config", path, "--eps", "4", "--noise", "false", "--clock", "realtime"]).unwrap();
+        assert_eq!((both.eps, both.robots, both.noise, both.clock), (4.0, 7, false, Clock::Realtime));
+    }
+
+    #[test]
+    fn bad_values_and_unknown_keys_are_errors() {
+        assert!(format!("{:#}", config(&["--eps", "-1"]).unwrap_err()).contains("eps"));
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("bad.toml");
+        std::fs::write(&file, "[gate]\nprespwan = false\n").unwrap();
+        let err = config(&["--config", file.to_str().unwrap()]).unwrap_err();
+        assert!(format!("{err:#}").contains("prespwan"), "{err:#}");
+    }
+}

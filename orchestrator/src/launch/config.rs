@@ -1,0 +1,245 @@
+//! `launch`'s configuration: the TOML file, its defaults, its validation.
+//!
+//! Why strict: a misspelt key in a lab's config file must be an error, not
+//! a silently ignored setting (`deny_unknown_fields` everywhere). Every key
+//! is documented in one file, `deploy/launch.toml`, whose values are exactly
+//! [`LaunchConfig::default`] (a test parses it and compares). Precedence:
+//! built-in defaults < `--config FILE` < command-line flags.
+
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// How simulated time advances.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Clock {
+    /// The orchestrator ticks every live agent and waits for all answers:
+    /// as fast as the agents answer, and bit-identical to `simulate`.
+    Lockstep,
+    /// Every agent steps on its own wall clock at 10 Hz × `speed`.
+    Realtime,
+}
+
+/// What the gate does when an agent process dies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum OnDeath {
+    /// The robot is physically where it was last seen: a beacon; go on.
+    Beacon,
+    /// End the launch with an error.
+    Abort,
+}
+
+/// Everything `orchestrator launch` can be configured with.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LaunchConfig {
+    /// Robots available; deployed one at a time.
+    pub robots: u32,
+    /// Built-in scenario used when no terrain file is given.
+    pub scenario: String,
+    /// Terrain file (overrides `scenario`).
+    pub terrain: Option<PathBuf>,
+    /// Circumferential radius ε, cells.
+    pub eps: f64,
+    /// The paper's sensing noise.
+    pub noise: bool,
+    /// Run seed of the noise streams.
+    pub seed: u64,
+    /// Lockstep or real time.
+    pub clock: Clock,
+    /// Real-time speed-up (real-time clock only).
+    pub speed: f64,
+    /// Simulated time budget, s (periods during which a robot moved).
+    pub time_limit: f64,
+    /// A robot within this distance of the goal has arrived.
+    pub goal_radius: f64,
+    /// Swarm name (topic namespace); default `launch-<pid>`.
+    pub swarm: Option<String>,
+    /// MCAP recording of every message and gate event.
+    pub record: Option<PathBuf>,
+    /// The agent executable; default `sim-agent` next to the orchestrator.
+    pub agent_bin: Option<PathBuf>,
+    /// The deployment gate.
+    pub gate: GateConfig,
+    /// Agent supervision.
+    pub supervision: SupervisionConfig,
+}
+
+/// The deployment gate's motion test.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GateConfig {
+    /// A robot slower than this (units/s) is still...
+    pub stop_speed: f64,
+    /// ...if it also turns slower than this (rad/s; 0: turning is ignored).
+    pub stop_turn_rate: f64,
+    /// A robot still for this long (simulated s) has stopped.
+    pub dwell: f64,
+    /// Start the next agent process while the current robot moves.
+    pub prespawn: bool,
+    /// What a dead agent means.
+    pub on_agent_death: OnDeath,
+}
+
+/// Timeouts of agent supervision (wall-clock seconds).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SupervisionConfig {
+    /// An agent must register within this long after it was spawned.
+    pub register_timeout: f64,
+    /// Agents send a heartbeat this often.
+    pub heartbeat_interval: f64,
+    /// A registered agent silent for this long is killed and treated as dead.
+    pub heartbeat_timeout: f64,
+    /// Every live agent must answer a lockstep tick within this long.
+    pub tick_timeout: f64,
+    /// Agents get this long to exit after `Shutdown` before being killed.
+    pub shutdown_grace: f64,
+}
+
+impl Default for LaunchConfig {
+    fn default() -> Self {
+        Self {
+            robots: 3,
+            scenario: "long-obstacle".into(),
+            terrain: None,
+            eps: 3.0,
+            noise: false,
+            seed: 0,
+            clock: Clock::Lockstep,
+            speed: 10.0,
+            time_limit: 10_000.0,
+            goal_radius: 0.5,
+            swarm: None,
+            record: None,
+            agent_bin: None,
+            gate: GateConfig::default(),
+            supervision: SupervisionConfig::default(),
+        }
+    }
+}
+
+impl Default for GateConfig {
+    fn default() -> Self {
+        Self {
+            stop_speed: 0.05,
+            stop_turn_rate: 0.05,
+            dwell: 20.0,
+            prespawn: true,
+            on_agent_death: OnDeath::Beacon,
+        }
+    }
+}
+
+impl Default for SupervisionConfig {
+    fn default() -> Self {
+        Self {
+            register_timeout: 10.0,
+            heartbeat_interval: 0.1,
+            heartbeat_timeout: 2.0,
+            tick_timeout: 5.0,
+            shutdown_grace: 1.0,
+        }
+    }
+}
+
+impl LaunchConfig {
+    /// Reads a config file; missing keys keep their defaults.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read config {}", path.display()))?;
+        Self::parse(&text).with_context(|| format!("bad config {}", path.display()))
+    }
+
+    /// Parses config text.
+    pub fn parse(text: &str) -> Result<Self> {
+        Ok(toml::from_str(text)?)
+    }
+
+    /// Checks every value; the message names the key.
+    pub fn validate(&self) -> Result<()> {
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        let checks: [(&str, f64); 10] = [
+            ("eps", self.eps),
+            ("speed", self.speed),
+            ("time_limit", self.time_limit),
+            ("goal_radius", self.goal_radius),
+            ("gate.dwell", self.gate.dwell),
+            ("supervision.register_timeout", self.supervision.register_timeout),
+            ("supervision.heartbeat_interval", self.supervision.heartbeat_interval),
+            ("supervision.heartbeat_timeout", self.supervision.heartbeat_timeout),
+            ("supervision.tick_timeout", self.supervision.tick_timeout),
+            ("supervision.shutdown_grace", self.supervision.shutdown_grace),
+        ];
+        for (key, value) in checks {
+            if !positive(value) {
+                bail!("{key} must be a positive number, got {value}");
+            }
+        }
+        for (key, value) in
+            [("gate.stop_speed", self.gate.stop_speed), ("gate.stop_turn_rate", self.gate.stop_turn_rate)]
+        {
+            if !(value.is_finite() && value >= 0.0) {
+                bail!("{key} must be a non-negative number, got {value}");
+            }
+        }
+        if self.robots == 0 {
+            bail!("robots must be at least 1");
+        }
+        if self.robots > MAX_ROBOTS {
+            bail!("robots must be at most {MAX_ROBOTS}, got {}", self.robots);
+        }
+        if self.supervision.heartbeat_timeout <= self.supervision.heartbeat_interval {
+            bail!("supervision.heartbeat_timeout must be longer than supervision.heartbeat_interval");
+        }
+        Ok(())
+    }
+
+    /// A duration from seconds (validated positive and finite).
+    pub fn secs(v: f64) -> Duration {
+        Duration::from_secs_f64(v)
+    }
+}
+
+/// Most robots one launch deploys (sizes the shared-memory services).
+pub const MAX_ROBOTS: u32 = 1000;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DEFAULT_FILE: &str = include_str!("../../../deploy/launch.toml");
+
+    #[test]
+    fn the_documented_default_file_is_the_default() {
+        let parsed = LaunchConfig::parse(DEFAULT_FILE).expect("deploy/launch.toml parses");
+        assert_eq!(parsed, LaunchConfig::default());
+        parsed.validate().expect("the defaults are valid");
+    }
+
+    #[test]
+    fn every_key_of_the_default_file_is_documented() {
+        // A key line `k = v` must follow a comment line.
+        let mut previous = "";
+        for line in DEFAULT_FILE.lines().map(str::trim) {
+            let is_key = !line.starts_with('#') && !line.starts_with('[') && line.contains('=');
+            assert!(!is_key || previous.starts_with('#'), "undocumented key: {line}");
+            previous = line;
+        }
+    }
+
+    #[test]
+    fn unknown_keys_and_bad_values_are_errors() {
+        let err = LaunchConfig::parse("robtos = 3").unwrap_err();
+        assert!(format!("{err:#}").contains("robtos"), "{err:#}");
+        let err = LaunchConfig::parse("[gate]\ndwel = 3.0").unwrap_err();
+        assert!(format!("{err:#}").contains("dwel"), "{err:#}");
+        let partial = LaunchConfig::parse("eps = 2.0\n[gate]\ndwell = 30.0").unwrap();
+        assert_eq!((partial.eps, partial.gate.dwell, partial.robots), (2.0, 30.0, 3));
+        let bad = LaunchConfig { eps: -1.0, ..LaunchConfig::default() };
+        assert!(format!("{:#}", bad.validate().unwrap_err()).contains("eps"));
+    }
+}

@@ -1,0 +1,205 @@
+//! The real-time scale benchmark: how many agent processes keep their 10 Hz.
+//!
+//! Why without the gate: the question is what the machine sustains, not
+//! what a run needs (a run moves one robot at a time). `N` agents are
+//! started on the real-time clock, all deployed at once on an empty arena
+//! with no peers (so each step is the controller plus its body, as in a
+//! run), and watched for a while. A period counts as missed when an agent's
+//! pose frame number jumps (the agent skips a period whose deadline passed
+//! before it got to it — as a real robot would). Memory is read from
+//! `/proc/<pid>/status` (RSS, split into anonymous, file and shared-memory
+//! pages) and `/proc/<pid>/smaps_rollup` (PSS: shared pages divided among
+//! the processes sharing them, the fair per-agent share).
+
+use super::supervise::{AgentCommand, Supervisor};
+use anyhow::{bail, Context, Result};
+use bycoms_protocol::bus::ipc::IpcBus;
+use bycoms_protocol::bus::{BusExt, TypedPublisher, TypedSubscriber};
+use bycoms_protocol::msg::{Deploy, FromAgent, GoalBearing, Pose, ToAgent};
+use bycoms_protocol::{RobotId, Swarm};
+use bycoms_sim::agent_process::{ipc_config, AgentArgs, ClockKind};
+use bycoms_sim::terrain::{to_text, Terrain};
+use serde::Serialize;
+use std::collections::BTreeSet;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+type Bus = IpcBus;
+
+/// Agents started at a time.
+const BATCH: u32 = 25;
+type Sub<M> = TypedSubscriber<<Bus as bycoms_protocol::bus::Bus>::Subscriber, M>;
+type Pub<M> = TypedPublisher<<Bus as bycoms_protocol::bus::Bus>::Publisher, M>;
+
+/// Memory of one process, kB.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Memory {
+    pub rss_kb: u64,
+    pub rss_anon_kb: u64,
+    pub rss_file_kb: u64,
+    pub rss_shmem_kb: u64,
+    pub pss_kb: u64,
+}
+
+/// What the scale benchmark measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct ScaleReport {
+    pub agents: u32,
+    pub seconds: f64,
+    pub periods: u64,
+    pub missed: u64,
+    pub missed_percent: f64,
+    pub agents_with_misses: u32,
+    pub mean: Memory,
+    pub max_rss_kb: u64,
+    pub max_pss_kb: u64,
+    pub start_s: f64,
+}
+
+fn field(text: &str, key: &str) -> u64 {
+    text.lines()
+        .find_map(|l| l.strip_prefix(key))
+        .and_then(|rest| rest.split_whitespace().next()?.parse().ok())
+        .unwrap_or(0)
+}
+
+/// Reads a process's memory from `/proc`.
+pub fn memory(pid: u32) -> Memory {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+    let rollup = std::fs::read_to_string(format!("/proc/{pid}/smaps_rollup")).unwrap_or_default();
+    Memory {
+        rss_kb: field(&status, "VmRSS:"),
+        rss_anon_kb: field(&status, "RssAnon:"),
+        rss_file_kb: field(&status, "RssFile:"),
+        rss_shmem_kb: field(&status, "RssShmem:"),
+        pss_kb: field(&rollup, "Pss:"),
+    }
+}
+
+/// Runs `agents` real-time agents at 10 Hz × `speed` for `seconds`.
+pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result<ScaleReport> {
+    if agents == 0 || seconds.is_nan() || seconds <= 0.0 || speed.is_nan() || speed <= 0.0 {
+        bail!("--agents, --seconds and --speed must be positive");
+    }
+    let stop = super::interrupt_flag();
+    bycoms_sim::agent_process::cli::quiet_iceoryx2();
+    let name = format!("scale-{}", std::process::id());
+    let swarm = Swarm::new(&name)?;
+    let mut cfg = ipc_config(agents);
+    cfg.cleanup_on_start = true;
+    let bus = IpcBus::new(cfg).context("cannot open the iceoryx2 bus")?;
+    let reports: Sub<FromAgent> = bus.typed_subscriber(&swarm.from_agents())?;
+    let mut commands: Vec<Pub<ToAgent>> = Vec::new();
+    let mut poses: Vec<Sub<Pose>> = Vec::new();
+    for id in 1..=agents {
+        commands.push(bus.typed_publisher(&swarm.to_agent(RobotId(id)))?);
+        poses.push(bus.typed_subscriber(&swarm.pose(RobotId(id)))?);
+    }
+    let mut sup = Supervisor::new(agent, Duration::from_secs(600), Duration::from_secs(60));
+    let terrain = Terrain::paper();
+    let text = to_text(&terrain);
+    let started = Instant::now();
+    let mut registered = BTreeSet::new();
+    // Started in batches: hundreds of processes opening the same iceoryx2
+    // services at once contend for them and slow every start down.
+    for first in (1..=agents).step_by(BATCH as usize) {
+        let last = (first + BATCH - 1).min(agents);
+        for id in first..=last {
+            let args = AgentArgs {
+                swarm: name.clone(),
+                robot: id,
+                terrain: PathBuf::from("-"),
+                eps: 2.0,
+                noise: false,
+                seed: 0,
+                clock: ClockKind::Realtime,
+                speed,
+                swarm_size: Some(agents),
+                peers: Some(0),
+                parent_pid: Some(std::process::id() as i32),
+                heartbeat_ms: 100,
+            };
+            sup.spawn(id, &args.to_flags(), &text)?;
+        }
+        let deadline = Instant::now() + Duration::from_secs(60);
+        while registered.len() < last as usize {
+            if Instant::now() > deadline || stop.load(std::sync::atomic::Ordering::SeqCst) {
+                bail!("only {} of the first {last} agents registered within 60 s", registered.len());
+            }
+            if let Some((id, gone)) = sup.poll(true).into_iter().next() {
+                bail!("agent {id} is gone: {gone}");
+            }
+            if let Ok(Some(msg)) = reports.recv_timeout(Duration::from_millis(10)) {
+                sup.heard(msg.robot().0);
+                if let FromAgent::Register(r) = msg {
+                    registered.insert(r.robot.0);
+                }
+            }
+        }
+    }
+    let start_s = started.elapsed().as_secs_f64();
+    let (start, goal) = (terrain.start(), terrain.goal());
+    let heading = start.bearing_to(goal);
+    for (i, c) in commands.iter().enumerate() {
+        let robot = RobotId(i as u32 + 1);
+        c.publish(&ToAgent::Deploy(Deploy { robot, x: start.x, y: start.y, heading }))?;
+        c.publish(&ToAgent::GoalBearing(GoalBearing { robot, bearing: heading, step: 0 }))?;
+    }
+    // Let every agent take its deployment, then count from a clean slate.
+    std::thread::sleep(Duration::from_secs_f64(0.5));
+    let mut last: Vec<Option<u64>> = vec![None; agents as usize];
+    let (mut periods, mut missed) = (0u64, vec![0u64; agents as usize]);
+    let end = Instant::now() + Duration::from_secs_f64(seconds);
+    let mut memories = Vec::new();
+    let drain = |last: &mut Vec<Option<u64>>, missed: &mut Vec<u64>, periods: &mut u64| {
+        for (i, sub) in poses.iter().enumerate() {
+            while let Ok(Some(p)) = sub.try_recv() {
+                if let Some(prev) = last[i] {
+                    *periods += p.step.saturating_sub(prev);
+                    missed[i] += p.step.saturating_sub(prev).saturating_sub(1);
+                }
+                last[i] = Some(p.step);
+            }
+        }
+    };
+    while Instant::now() < end && !stop.load(std::sync::atomic::Ordering::SeqCst) {
+        drain(&mut last, &mut missed, &mut periods);
+        while let Ok(Some(msg)) = reports.try_recv() {
+            sup.heard(msg.robot().0);
+        }
+        if let Some((id, gone)) = sup.poll(false).into_iter().next() {
+            bail!("agent {id} is gone: {gone}");
+        }
+        if memories.is_empty() && end.saturating_duration_since(Instant::now()) < Duration::from_secs(2) {
+            memories = (1..=agents).filter_map(|id| sup.pid(id)).map(memory).collect();
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    // What was published while the loop read /proc is still queued.
+    drain(&mut last, &mut missed, &mut periods);
+    for c in &commands {
+        let _ = c.publish(&ToAgent::Shutdown);
+    }
+    sup.wind_down(Duration::from_secs(5));
+    let n = memories.len().max(1) as u64;
+    let sum = |f: fn(&Memory) -> u64| memories.iter().map(f).sum::<u64>() / n;
+    let total_missed: u64 = missed.iter().sum();
+    Ok(ScaleReport {
+        agents,
+        seconds,
+        periods,
+        missed: total_missed,
+        missed_percent: if periods > 0 { 100.0 * total_missed as f64 / periods as f64 } else { 0.0 },
+        agents_with_misses: missed.iter().filter(|&&m| m > 0).count() as u32,
+        mean: Memory {
+            rss_kb: sum(|m| m.rss_kb),
+            rss_anon_kb: sum(|m| m.rss_anon_kb),
+            rss_file_kb: sum(|m| m.rss_file_kb),
+            rss_shmem_kb: sum(|m| m.rss_shmem_kb),
+            pss_kb: sum(|m| m.pss_kb),
+        },
+        max_rss_kb: memories.iter().map(|m| m.rss_kb).max().unwrap_or(0),
+        max_pss_kb: memories.iter().map(|m| m.pss_kb).max().unwrap_or(0),
+        start_s,
+    })
+}

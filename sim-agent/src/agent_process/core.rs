@@ -1,0 +1,243 @@
+//! One simulated robot as a state machine, without any IO.
+//!
+//! Why sans-IO: the bus loop (`run`) only moves messages; everything that
+//! decides *what* the robot does lives here, where a test can drive it
+//! message by message against the in-process runner. The step itself is
+//! [`SimRobot::step`] — the very code `runner::run` calls — so a lockstep run
+//! over processes reproduces the runner bit for bit as long as this module
+//! hands it the same inputs:
+//!
+//! * the body starts at the deploy pose with the heading table built on the
+//!   deploy heading (the runner uses start → goal bearing for both);
+//! * the noise stream is `robot_seed(run seed, robot id)`, fresh at deploy;
+//! * the beacons are the other robots' latest poses summed **in robot-id
+//!   order** (the runner's deployment order);
+//! * the goal bearing is the one the orchestrator computed from this robot's
+//!   latest pose with `Vec2::bearing_to` (the runner's own function).
+//!
+//! Physics of stopping: when the body enters an impassable cell (or leaves
+//! the arena) it freezes there. The controller never sees the terrain; only
+//! this shell does, exactly as in the runner.
+
+use crate::body::HeadingTable;
+use crate::field::Beacons;
+use crate::robot::SimRobot;
+use crate::sensing::{robot_seed, SensingNoise};
+use crate::terrain::Terrain;
+use crate::{RunConfig, Vec2};
+use bycoms_agent::Mode;
+use bycoms_protocol::msg::{Deploy, GoalBearing, Pose};
+use bycoms_protocol::RobotId;
+use std::collections::BTreeMap;
+
+/// Where the robot is in its life.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    /// Running, registered, not deployed: not in the arena yet.
+    Idle,
+    /// Deployed and moving under its controller.
+    Moving,
+    /// Entered an impassable cell (or left the arena): physically stuck.
+    Frozen,
+    /// Told to stop (it arrived, or the run ended): stays where it is.
+    Stopped,
+}
+
+/// Why a message was refused (counted and logged by the shell, never fatal).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reject {
+    /// The message names another robot than this agent's.
+    WrongRobot {
+        /// The robot named in the message.
+        got: RobotId,
+    },
+    /// A second `Deploy`.
+    AlreadyDeployed,
+    /// A value is NaN or infinite.
+    NotFinite,
+    /// The heading table cannot be built (turn step does not divide 2π).
+    BadKinematics,
+    /// A pose arrived on another robot's topic than the one it names.
+    PoseOnWrongTopic {
+        /// The topic's robot.
+        topic: RobotId,
+        /// The robot named in the pose.
+        got: RobotId,
+    },
+}
+
+impl core::fmt::Display for Reject {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::WrongRobot { got } => write!(f, "message for {got}"),
+            Self::AlreadyDeployed => write!(f, "second Deploy ignored"),
+            Self::NotFinite => write!(f, "non-finite value"),
+            Self::BadKinematics => write!(f, "the turn step does not divide the full circle"),
+            Self::PoseOnWrongTopic { topic, got } => write!(f, "pose of {got} on the topic of {topic}"),
+        }
+    }
+}
+
+struct Deployed {
+    robot: SimRobot,
+    table: HeadingTable,
+}
+
+/// One simulated robot: body, controller, noise, the field of its peers.
+pub struct AgentCore {
+    id: RobotId,
+    terrain: Terrain,
+    cfg: RunConfig,
+    phase: Phase,
+    body: Option<Deployed>,
+    bearing: Option<GoalBearing>,
+    peers: BTreeMap<u32, Vec2>,
+    beacons: Beacons,
+    beacons_stale: bool,
+    steps: u64,
+}
+
+impl AgentCore {
+    /// An idle robot `id` in `terrain`, with the run's parameters (ε, noise,
+    /// seed, kinematics, field constant) taken from `cfg` as the runner does.
+    pub fn new(id: RobotId, terrain: Terrain, cfg: RunConfig) -> Self {
+        let beacons = Beacons::new(cfg.field_constant);
+        Self {
+            id,
+            terrain,
+            cfg,
+            phase: Phase::Idle,
+            body: None,
+            bearing: None,
+            peers: BTreeMap::new(),
+            beacons,
+            beacons_stale: false,
+            steps: 0,
+        }
+    }
+
+    /// This agent's robot.
+    pub fn id(&self) -> RobotId {
+        self.id
+    }
+
+    /// Where the robot is in its life.
+    pub fn phase(&self) -> Phase {
+        self.phase
+    }
+
+    /// Control periods stepped since deployment.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// The controller's mode (1 before deployment).
+    pub fn mode(&self) -> Mode {
+        self.body.as_ref().map_or(Mode::Goal, |d| d.robot.mode())
+    }
+
+    /// The latest goal bearing received.
+    pub fn bearing(&self) -> Option<GoalBearing> {
+        self.bearing
+    }
+
+    /// Places the robot at the deploy pose and starts it.
+    pub fn deploy(&mut self, d: &Deploy) -> Result<(), Reject> {
+        self.check_robot(d.robot)?;
+        if self.body.is_some() {
+            return Err(Reject::AlreadyDeployed);
+        }
+        if !(d.x.is_finite() && d.y.is_finite() && d.heading.is_finite()) {
+            return Err(Reject::NotFinite);
+        }
+        let table = HeadingTable::new(&self.cfg.kinematics, d.heading).ok_or(Reject::BadKinematics)?;
+        let noise = self.cfg.noise.map(|m| SensingNoise::new(m, robot_seed(self.cfg.seed, self.id.0)));
+        let robot = SimRobot::new(Vec2::new(d.x, d.y), self.cfg.controller(), noise, self.cfg.kinematics.dt);
+        self.body = Some(Deployed { robot, table });
+        self.phase = Phase::Moving;
+        Ok(())
+    }
+
+    /// Takes a new goal bearing.
+    pub fn set_bearing(&mut self, b: &GoalBearing) -> Result<(), Reject> {
+        self.check_robot(b.robot)?;
+        if !b.bearing.is_finite() {
+            return Err(Reject::NotFinite);
+        }
+        self.bearing = Some(*b);
+        Ok(())
+    }
+
+    /// Stops the robot where it is (it stays in the arena as a beacon).
+    pub fn stop(&mut self) {
+        if self.phase == Phase::Moving {
+            self.phase = Phase::Stopped;
+        }
+    }
+
+    /// Takes the latest pose of another robot, seen on `topic`'s pose topic.
+    pub fn observe_peer(&mut self, topic: RobotId, pose: &Pose) -> Result<(), Reject> {
+        if pose.robot != topic {
+            return Err(Reject::PoseOnWrongTopic { topic, got: pose.robot });
+        }
+        if pose.robot == self.id {
+            return Err(Reject::WrongRobot { got: pose.robot });
+        }
+        if !(pose.x.is_finite() && pose.y.is_finite()) {
+            return Err(Reject::NotFinite);
+        }
+        let p = Vec2::new(pose.x, pose.y);
+        if self.peers.insert(pose.robot.0, p) != Some(p) {
+            self.beacons_stale = true;
+        }
+        Ok(())
+    }
+
+    /// One control period, if the robot is moving and has a goal bearing:
+    /// sense, decide, move, and freeze on entering an impassable cell.
+    /// Returns whether it stepped.
+    pub fn step(&mut self) -> bool {
+        if self.phase != Phase::Moving {
+            return false;
+        }
+        let Some(bearing) = self.bearing else {
+            return false;
+        };
+        if self.beacons_stale {
+            // Rebuilt in robot-id order (BTreeMap), the runner's deployment
+            // order, so the float sum is the same bits.
+            self.beacons = Beacons::new(self.cfg.field_constant);
+            for p in self.peers.values() {
+                self.beacons.push(*p);
+            }
+            self.beacons_stale = false;
+        }
+        let Some(d) = self.body.as_mut() else {
+            return false;
+        };
+        d.robot.step(&d.table, &self.beacons, bearing.bearing);
+        self.steps += 1;
+        if self.terrain.is_blocked_at(d.robot.body.pos) {
+            self.phase = Phase::Frozen;
+        }
+        true
+    }
+
+    /// The robot's pose as motion capture sees it (`None` before deployment).
+    pub fn pose(&self, step: u64, time_us: u64) -> Option<Pose> {
+        let d = self.body.as_ref()?;
+        let p = d.robot.body.pos;
+        Some(Pose { robot: self.id, x: p.x, y: p.y, heading: d.robot.body.heading(&d.table), step, time_us })
+    }
+
+    fn check_robot(&self, got: RobotId) -> Result<(), Reject> {
+        if got == self.id {
+            Ok(())
+        } else {
+            Err(Reject::WrongRobot { got })
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,60 @@
+//! One simulated robot as its own process: the `sim-agent` binary.
+//!
+//! Why a process per robot: the design (§5) makes every robot, simulated or
+//! real, an independent agent that is given only its goal bearing and a
+//! local field sample, so the orchestrator cannot tell a simulated robot
+//! from a real one. A `sim-agent` is the simulated robot *and* its
+//! simulated sensors: it listens to the other robots' poses (the sources of
+//! its field), simulates its own body in the terrain, and publishes its pose
+//! as motion capture would.
+//!
+//! * [`core`] — the robot as a sans-IO state machine around
+//!   [`crate::robot::SimRobot`], the same step the in-process runner takes;
+//! * [`run`] — the single-threaded bus loop (lockstep or real time);
+//! * [`lifeline`] — why an agent never outlives the orchestrator;
+//! * [`traffic`] — bad messages are counted, never fatal;
+//! * [`options`] / [`cli`] — the command line and `main`.
+//!
+//! [`ipc_config`] sizes the shared-memory services; every process of one
+//! swarm (orchestrator, agents, test tools) must call it with the same
+//! swarm size, since iceoryx2 services are created by the first process and
+//! opened with the same limits by the others.
+
+pub mod cli;
+pub mod core;
+pub mod lifeline;
+pub mod options;
+pub mod run;
+pub mod traffic;
+
+pub use self::core::{AgentCore, Phase, Reject};
+pub use cli::{main_with, AgentError};
+pub use lifeline::{ExitCause, Lifeline};
+pub use options::{AgentArgs, ClockKind};
+pub use traffic::{BadKind, Traffic};
+
+use bycoms_protocol::bus::ipc::IpcConfig;
+use bycoms_protocol::bus::Limits;
+use bycoms_protocol::MAX_MESSAGE_LEN;
+
+/// Unread messages a subscriber keeps per publisher.
+pub const BUS_BUFFER: usize = 64;
+
+/// The iceoryx2 configuration of a swarm of `swarm_size` robots.
+///
+/// Payloads are at most one protocol message; `from_agents` has one
+/// publisher per agent and each robot's pose topic one subscriber per later
+/// robot, so both limits grow with the swarm (plus headroom for the
+/// orchestrator, a monitor and test tools). Stale resources are cleaned by
+/// the orchestrator at start, not by every agent.
+pub fn ipc_config(swarm_size: u32) -> IpcConfig {
+    let n = swarm_size as usize;
+    IpcConfig {
+        limits: Limits { max_payload: MAX_MESSAGE_LEN, buffer: BUS_BUFFER },
+        max_publishers: n + 4,
+        max_subscribers: n + 4,
+        max_nodes: n + 8,
+        cleanup_on_start: false,
+        ..IpcConfig::default()
+    }
+}

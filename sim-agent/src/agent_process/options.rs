@@ -1,0 +1,188 @@
+//! The `sim-agent` command line.
+//!
+//! Why in the library: the orchestrator spawns agents with exactly these
+//! flags, and falls back to running the same code as its hidden
+//! `orchestrator sim-agent` subcommand when no `sim-agent` binary sits next
+//! to it (e.g. after `cargo run --bin orchestrator`, which builds only the
+//! orchestrator). One definition keeps the two spellings identical.
+
+use crate::sensing::NoiseModel;
+use crate::RunConfig;
+use std::path::PathBuf;
+
+/// How the agent's control periods are clocked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ClockKind {
+    /// Step only on the orchestrator's `Tick`, answer each with `TickDone`.
+    Lockstep,
+    /// Step every 0.1 s of wall time divided by `--speed`.
+    Realtime,
+}
+
+/// One simulated BYCOMS robot as its own process on the iceoryx2 bus.
+///
+/// It registers, waits for its deployment, then senses the field of the
+/// other robots (their poses, summed in robot-id order), runs the BYCOMS
+/// controller on its goal bearing, moves its simulated body and publishes its
+/// pose as simulated motion capture. It freezes where it enters an
+/// impassable cell. It exits on `Shutdown`, on SIGTERM/SIGINT, and within
+/// 2 s of its parent (the orchestrator) dying.
+#[derive(Clone, Debug, clap::Args)]
+pub struct AgentArgs {
+    /// Swarm name: the namespace of the run's topics.
+    #[arg(long)]
+    pub swarm: String,
+    /// This agent's robot id (1-based deployment order).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub robot: u32,
+    /// Terrain file in the text format; `-` reads it from stdin.
+    #[arg(long, value_name = "FILE")]
+    pub terrain: PathBuf,
+    /// Circumferential radius ε (threshold g_th = 1/ε²).
+    #[arg(long)]
+    pub eps: f64,
+    /// Add the paper's sensing noise.
+    #[arg(long)]
+    pub noise: bool,
+    /// Run seed; this robot's noise stream is `robot_seed(seed, robot)`.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Clock of the control periods.
+    #[arg(long, value_enum, default_value_t = ClockKind::Lockstep)]
+    pub clock: ClockKind,
+    /// Real-time speed-up: periods of 0.1 s / speed (realtime clock only).
+    #[arg(long, default_value_t = 1.0)]
+    pub speed: f64,
+    /// Robots in the swarm: sizes the shared-memory services, and must be the
+    /// same for every process of the swarm (default: this robot's id).
+    #[arg(long)]
+    pub swarm_size: Option<u32>,
+    /// Listen to the poses of robots 1..=P, except itself (default: the
+    /// robots deployed before it, 1..id-1: in sequential deployment only
+    /// they can be beacons while it moves).
+    #[arg(long)]
+    pub peers: Option<u32>,
+    /// The orchestrator's pid; the agent exits when its parent is no longer
+    /// this process (default: its parent at start).
+    #[arg(long)]
+    pub parent_pid: Option<i32>,
+    /// Heartbeat period, milliseconds of wall time.
+    #[arg(long, default_value_t = 100)]
+    pub heartbeat_ms: u64,
+}
+
+impl AgentArgs {
+    /// The run parameters the in-process runner would use for the same flags.
+    pub fn run_config(&self) -> RunConfig {
+        let mut cfg = RunConfig::paper(self.eps);
+        cfg.noise = self.noise.then(NoiseModel::paper);
+        cfg.seed = self.seed;
+        cfg
+    }
+
+    /// Robots in the swarm as the bus is sized for.
+    pub fn swarm_size(&self) -> u32 {
+        self.swarm_size.unwrap_or(self.robot).max(self.robot)
+    }
+
+    /// The robot ids whose poses this agent listens to.
+    pub fn peer_ids(&self) -> impl Iterator<Item = u32> + '_ {
+        let last = self.peers.unwrap_or(self.robot.saturating_sub(1));
+        (1..=last).filter(move |&id| id != self.robot)
+    }
+
+    /// Checks the values clap cannot.
+    pub fn validate(&self) -> Result<(), &'static str> {
+        if self.run_config().validate().is_err() {
+            return Err("--eps must be a positive number of cells");
+        }
+        if !(self.speed.is_finite() && self.speed > 0.0) {
+            return Err("--speed must be positive");
+        }
+        if self.heartbeat_ms == 0 {
+            return Err("--heartbeat-ms must be at least 1");
+        }
+        Ok(())
+    }
+
+    /// The command-line flags that reproduce these arguments (what the
+    /// orchestrator passes when it spawns an agent).
+    pub fn to_flags(&self) -> Vec<String> {
+        let mut v = vec![
+            "--swarm".into(),
+            self.swarm.clone(),
+            "--robot".into(),
+            self.robot.to_string(),
+            "--terrain".into(),
+            self.terrain.display().to_string(),
+            "--eps".into(),
+            format!("{:?}", self.eps),
+            "--seed".into(),
+            self.seed.to_string(),
+            "--clock".into(),
+            match self.clock {
+                ClockKind::Lockstep => "lockstep".into(),
+                ClockKind::Realtime => "realtime".into(),
+            },
+            "--speed".into(),
+            format!("{:?}", self.speed),
+            "--heartbeat-ms".into(),
+            self.heartbeat_ms.to_string(),
+        ];
+        if self.noise {
+            v.push("--noise".into());
+        }
+        for (flag, value) in [("--swarm-size", self.swarm_size), ("--peers", self.peers)] {
+            if let Some(n) = value {
+                v.push(flag.into());
+                v.push(n.to_string());
+            }
+        }
+        if let Some(p) = self.parent_pid {
+            v.push("--parent-pid".into());
+            v.push(p.to_string());
+        }
+        v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        agent: AgentArgs,
+    }
+
+    #[test]
+    fn flags_round_trip_exactly() {
+        let eps = 0.1 + 0.2; // not a short decimal: must survive the round trip
+        let args = AgentArgs {
+            swarm: "s".into(),
+            robot: 4,
+            terrain: "-".into(),
+            eps,
+            noise: true,
+            seed: u64::MAX,
+            clock: ClockKind::Realtime,
+            speed: 2.5,
+            swarm_size: Some(9),
+            peers: None,
+            parent_pid: Some(77),
+            heartbeat_ms: 50,
+        };
+        let flags = args.to_flags();
+        let parsed =
+            Cli::try_parse_from(std::iter::once("sim-agent".to_string()).chain(flags)).unwrap().agent;
+        assert_eq!(parsed.eps.to_bits(), eps.to_bits());
+        assert_eq!(parsed.to_flags(), args.to_flags());
+        assert_eq!(parsed.peer_ids().collect::<Vec<_>>(), [1, 2, 3]);
+        assert_eq!(parsed.swarm_size(), 9);
+        assert!(parsed.validate().is_ok());
+        let bad = AgentArgs { eps: f64::NAN, ..parsed };
+        assert!(bad.validate().is_err());
+    }
+}

@@ -1,0 +1,321 @@
+//! The agent's bus loop: move messages between the bus and [`AgentCore`].
+//!
+//! Why one thread and bounded waits: an iceoryx2 bus is confined to the
+//! thread that opened it, and an agent must notice a dead parent or a
+//! signal within a bounded time, so the loop never waits longer than
+//! [`SLICE`] before checking its [`Lifeline`] and its heartbeat timer.
+//!
+//! Per control period the agent drains its peers' pose topics (latest pose
+//! per robot), steps the core, then publishes, in this order, its pose
+//! (simulated motion capture), a `Status` with its mode (when it stepped)
+//! and, in lockstep, `TickDone`. Publishing is synchronous into shared
+//! memory, so once the orchestrator holds `TickDone(t)` the pose of step `t`
+//! is already in its queue.
+//!
+//! Lockstep: a period is a `Tick` from the orchestrator; the goal bearing for
+//! step `t` precedes `Tick(t)` on the same topic. Real time: a period is due
+//! every `0.1 s / speed` of wall time; a period whose deadline has passed
+//! before the agent got to it is skipped and counted as missed (the frame
+//! number in the pose jumps), as it would be on a real robot.
+
+use super::core::{AgentCore, Phase, Reject};
+use super::lifeline::{ExitCause, Lifeline};
+use super::options::ClockKind;
+use super::traffic::{BadKind, Traffic};
+use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
+use bycoms_protocol::msg::{AgentKind, FromAgent, Heartbeat, Pose, Register, Status, TickDone, ToAgent};
+use bycoms_protocol::{RobotId, Swarm, PROTOCOL_VERSION};
+use std::time::{Duration, Instant};
+
+/// Longest single wait before the loop checks its lifeline and timers.
+pub const SLICE: Duration = Duration::from_millis(50);
+
+/// Below this much time to a real-time deadline the agent sleeps precisely
+/// instead of waiting on the event listener (see `run_realtime`).
+pub const PRECISE: Duration = Duration::from_millis(12);
+
+/// What one receive did.
+enum Received {
+    Nothing,
+    Handled,
+    Exit(ExitCause),
+}
+
+/// The agent's ports on the bus.
+pub struct AgentPorts<B: Bus> {
+    commands: TypedSubscriber<B::Subscriber, ToAgent>,
+    pose: TypedPublisher<B::Publisher, Pose>,
+    report: TypedPublisher<B::Publisher, FromAgent>,
+    peers: Vec<(RobotId, TypedSubscriber<B::Subscriber, Pose>)>,
+}
+
+impl<B: Bus> AgentPorts<B> {
+    /// Opens every port, subscribers first, so nothing sent after the
+    /// agent's `Register` can be missed.
+    pub fn open(
+        bus: &B,
+        swarm: &Swarm,
+        id: RobotId,
+        peers: impl Iterator<Item = u32>,
+    ) -> Result<Self, BusError> {
+        let commands = bus.typed_subscriber(&swarm.to_agent(id))?;
+        let peers = peers
+            .map(|p| Ok((RobotId(p), bus.typed_subscriber(&swarm.pose(RobotId(p)))?)))
+            .collect::<Result<Vec<_>, BusError>>()?;
+        let pose = bus.typed_publisher(&swarm.pose(id))?;
+        let report = bus.typed_publisher(&swarm.from_agents())?;
+        Ok(Self { commands, pose, report, peers })
+    }
+}
+
+/// Timing of the loop.
+#[derive(Clone, Copy, Debug)]
+pub struct Timing {
+    /// Lockstep or real time.
+    pub clock: ClockKind,
+    /// Wall time of one period in real time (0.1 s / speed).
+    pub period: Duration,
+    /// Simulated duration of one period, µs (the poses' `time_us` step).
+    pub dt_us: u64,
+    /// Heartbeat period.
+    pub heartbeat: Duration,
+}
+
+/// Counters an agent reports when it exits.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct AgentStats {
+    /// Bad messages received.
+    pub traffic: Traffic,
+    /// Real-time periods run.
+    pub periods: u64,
+    /// Real-time periods skipped because the agent was late.
+    pub missed: u64,
+    /// Lockstep periods whose goal bearing was not for that period.
+    pub stale_bearings: u64,
+}
+
+/// One agent process's loop.
+pub struct Agent<B: Bus> {
+    core: AgentCore,
+    ports: AgentPorts<B>,
+    timing: Timing,
+    who: String,
+    stats: AgentStats,
+    heartbeat_seq: u64,
+    next_heartbeat: Instant,
+    tick: u64,
+}
+
+impl<B: Bus> Agent<B> {
+    /// An agent around `core` on `ports`.
+    pub fn new(core: AgentCore, ports: AgentPorts<B>, timing: Timing) -> Self {
+        let who = format!("sim-agent[robot {}]", core.id().0);
+        Self {
+            core,
+            ports,
+            timing,
+            who,
+            stats: AgentStats::default(),
+            heartbeat_seq: 0,
+            next_heartbeat: Instant::now(),
+            tick: 0,
+        }
+    }
+
+    /// What the agent counted so far.
+    pub fn stats(&self) -> AgentStats {
+        self.stats
+    }
+
+    /// Registers, then runs until `Shutdown`, a signal or the parent's death.
+    pub fn run(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, BusError> {
+        let robot = self.core.id();
+        self.report(FromAgent::Register(Register {
+            robot,
+            kind: AgentKind::Simulated,
+            protocol_version: PROTOCOL_VERSION,
+        }))?;
+        match self.timing.clock {
+            ClockKind::Lockstep => self.run_lockstep(lifeline),
+            ClockKind::Realtime => self.run_realtime(lifeline),
+        }
+    }
+
+    fn run_lockstep(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, BusError> {
+        loop {
+            if let Some(cause) = lifeline.check() {
+                return Ok(cause);
+            }
+            self.heartbeat_if_due()?;
+            if let Received::Exit(cause) = self.receive(SLICE)? {
+                return Ok(cause);
+            }
+        }
+    }
+
+    /// Real time: a period is due every `period` from the start. Waiting on
+    /// the bus's event listener is woken at once by a message but times out
+    /// only to the kernel's jiffy (it oversleeps by up to ~8 ms), so the
+    /// listener is used only while the deadline is more than [`PRECISE`]
+    /// away, and the last stretch is a precise sleep with the commands that
+    /// came meanwhile handled right after it.
+    fn run_realtime(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, BusError> {
+        let period_ns = self.timing.period.as_nanos().max(1);
+        let t0 = Instant::now();
+        let mut next: u64 = 1;
+        loop {
+            if let Some(cause) = lifeline.check() {
+                return Ok(cause);
+            }
+            self.heartbeat_if_due()?;
+            let due =
+                t0 + Duration::from_nanos(u64::try_from(period_ns * u128::from(next)).unwrap_or(u64::MAX));
+            let now = Instant::now();
+            if now >= due {
+                let index = u64::try_from(now.duration_since(t0).as_nanos() / period_ns).unwrap_or(u64::MAX);
+                self.stats.missed += index.saturating_sub(next);
+                self.stats.periods += 1;
+                self.period(index)?;
+                next = index.saturating_add(1);
+                continue;
+            }
+            let left = due.duration_since(now);
+            if left > PRECISE {
+                if let Received::Exit(cause) = self.receive((left - PRECISE).min(SLICE))? {
+                    return Ok(cause);
+                }
+            } else {
+                loop {
+                    match self.receive(Duration::ZERO)? {
+                        Received::Nothing => break,
+                        Received::Handled => {}
+                        Received::Exit(cause) => return Ok(cause),
+                    }
+                }
+                std::thread::sleep(due.saturating_duration_since(Instant::now()));
+            }
+        }
+    }
+
+    /// Waits up to `timeout` for one command and handles it.
+    fn receive(&mut self, timeout: Duration) -> Result<Received, BusError> {
+        match self.ports.commands.recv_timeout(timeout) {
+            Ok(Some(cmd)) => Ok(match self.handle(cmd)? {
+                Some(cause) => Received::Exit(cause),
+                None => Received::Handled,
+            }),
+            Ok(None) => Ok(Received::Nothing),
+            Err(e) => match self.stats.traffic.absorb(&self.who, "to_agent", e) {
+                None => Ok(Received::Handled),
+                Some(fatal) => Err(fatal),
+            },
+        }
+    }
+
+    fn handle(&mut self, cmd: ToAgent) -> Result<Option<ExitCause>, BusError> {
+        match cmd {
+            ToAgent::Deploy(d) => match self.core.deploy(&d) {
+                // Motion capture sees the robot at its start at once: this
+                // pose is the gate's "deployed" acknowledgement, and the
+                // status after it wakes an orchestrator waiting on reports.
+                Ok(()) => {
+                    self.publish_pose(self.tick)?;
+                    let status =
+                        Status { robot: self.core.id(), mode: self.core.mode() as u8, step: self.tick };
+                    self.report(FromAgent::Status(status))?;
+                }
+                Err(r) => self.refuse(r),
+            },
+            ToAgent::GoalBearing(b) => {
+                if let Err(r) = self.core.set_bearing(&b) {
+                    self.refuse(r);
+                }
+            }
+            ToAgent::Tick(t) => match self.timing.clock {
+                ClockKind::Lockstep => {
+                    if self.core.phase() == Phase::Moving
+                        && self.core.bearing().is_some_and(|b| b.step != t.step)
+                    {
+                        self.stats.stale_bearings += 1;
+                    }
+                    self.period(t.step)?;
+                    self.report(FromAgent::TickDone(TickDone { robot: self.core.id(), step: t.step }))?;
+                }
+                ClockKind::Realtime => {
+                    self.stats.traffic.count(&self.who, BadKind::Refused, &"Tick on a real-time agent")
+                }
+            },
+            ToAgent::Stop => self.core.stop(),
+            ToAgent::Shutdown => return Ok(Some(ExitCause::Shutdown)),
+        }
+        Ok(None)
+    }
+
+    /// One control period numbered `step`.
+    fn period(&mut self, step: u64) -> Result<(), BusError> {
+        self.tick = step;
+        self.drain_peers();
+        let stepped = self.core.step();
+        self.publish_pose(step)?;
+        if stepped {
+            let status = Status { robot: self.core.id(), mode: self.core.mode() as u8, step };
+            self.report(FromAgent::Status(status))?;
+        }
+        Ok(())
+    }
+
+    fn publish_pose(&mut self, step: u64) -> Result<(), BusError> {
+        match self.core.pose(step, step.saturating_mul(self.timing.dt_us)) {
+            Some(pose) => self.ports.pose.publish(&pose),
+            None => Ok(()),
+        }
+    }
+
+    fn drain_peers(&mut self) {
+        for (topic, sub) in &self.ports.peers {
+            loop {
+                match sub.try_recv() {
+                    Ok(Some(pose)) => {
+                        if let Err(r) = self.core.observe_peer(*topic, &pose) {
+                            count_reject(&mut self.stats.traffic, &self.who, r);
+                        }
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        if let Some(fatal) = self.stats.traffic.absorb(&self.who, "peer pose", e) {
+                            eprintln!("{}: cannot read the pose of {topic}: {fatal}", self.who);
+                            break;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn heartbeat_if_due(&mut self) -> Result<(), BusError> {
+        let now = Instant::now();
+        if now < self.next_heartbeat {
+            return Ok(());
+        }
+        self.next_heartbeat = now + self.timing.heartbeat;
+        self.heartbeat_seq += 1;
+        self.report(FromAgent::Heartbeat(Heartbeat { robot: self.core.id(), seq: self.heartbeat_seq }))
+    }
+
+    fn report(&self, msg: FromAgent) -> Result<(), BusError> {
+        self.ports.report.publish(&msg)
+    }
+
+    fn refuse(&mut self, r: Reject) {
+        count_reject(&mut self.stats.traffic, &self.who, r);
+    }
+}
+
+fn count_reject(traffic: &mut Traffic, who: &str, r: Reject) {
+    let kind = match r {
+        Reject::WrongRobot { .. } | Reject::PoseOnWrongTopic { .. } => BadKind::UnknownRobot,
+        Reject::AlreadyDeployed => BadKind::Duplicate,
+        Reject::NotFinite | Reject::BadKinematics => BadKind::Refused,
+    };
+    traffic.count(who, kind, &r);
+}

@@ -1,0 +1,17 @@
+//! `sim-agent`: one simulated BYCOMS robot as its own process (see
+//! `bycoms_sim::agent_process`). Thin `main`: parse, run, exit code.
+
+use bycoms_sim::agent_process::{main_with, AgentArgs};
+use clap::Parser;
+
+#[derive(Parser)]
+#[command(name = "sim-agent", version, about, long_about)]
+struct Cli {
+    #[command(flatten)]
+    agent: AgentArgs,
+}
+
+fn main() {
+    let cli = Cli::parse();
+    std::process::exit(main_with(&cli.agent));
+}

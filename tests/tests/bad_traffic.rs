@@ -1,0 +1,71 @@
+//! Bad traffic is counted and logged, never fatal: while a launch runs, this
+//! test publishes garbage bytes, a message of another protocol version, a
+//! report from an unknown robot and a duplicate registration to the
+//! orchestrator, and garbage and a foreign command to robot 1's agent. The
+//! launch must still finish with the same result as without the noise, and
+//! report what it saw.
+
+use bycoms_protocol::bus::ipc::IpcBus;
+use bycoms_protocol::bus::{Bus, Publish};
+use bycoms_protocol::msg::{AgentKind, Deploy, FromAgent, GoalBearing, Heartbeat, Register, ToAgent};
+use bycoms_protocol::{encode_vec, RobotId, Swarm, PROTOCOL_VERSION};
+use bycoms_sim::agent_process::ipc_config;
+use bycoms_tests::{swarm_name, wait_for_pose, Proc};
+use std::time::Duration;
+
+#[test]
+fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() {
+    let name = swarm_name("junk");
+    let swarm = Swarm::new(&name).expect("swarm name");
+    // Real time at 10×: robot 1 registers at once and the run lasts seconds.
+    let launch = Proc::orchestrator(&[
+        "launch", "--clock", "realtime", "--speed", "10", "--dwell", "3", "--swarm", &name, "--json",
+    ]);
+    // Robot 1 moving: its agent has registered and subscribed.
+    wait_for_pose(&name, 3, 1, Duration::from_secs(30), |p| p.x > 16.0).expect("robot 1 moves");
+
+    // The same service sizes as the launch (3 robots), or the topics would not open.
+    let bus = IpcBus::new(ipc_config(3)).expect("bus");
+    let report = bus.publisher(swarm.from_agents().name()).expect("report publisher");
+    let command = bus.publisher(swarm.to_agent(RobotId(1)).name()).expect("command publisher");
+    let register = FromAgent::Register(Register {
+        robot: RobotId(1),
+        kind: AgentKind::Simulated,
+        protocol_version: PROTOCOL_VERSION,
+    });
+    let mut other_version = encode_vec(&register).expect("encode");
+    other_version[0] = 9; // the envelope's version varint
+    let stranger = FromAgent::Heartbeat(Heartbeat { robot: RobotId(99), seq: 1 });
+    let foreign = ToAgent::GoalBearing(GoalBearing { robot: RobotId(2), bearing: 0.0, step: 0 });
+    let again = ToAgent::Deploy(Deploy { robot: RobotId(1), x: 1.0, y: 1.0, heading: 0.0 });
+    for _ in 0..3 {
+        report.publish(&[0xff, 0xff, 0xff, 0xff]).expect("garbage");
+        report.publish(&other_version).expect("other version");
+        report.publish(&encode_vec(&stranger).expect("encode")).expect("unknown robot");
+        report.publish(&encode_vec(&register).expect("encode")).expect("duplicate");
+        command.publish(&[0x01, 0xee, 0x07]).expect("garbage command");
+        command.publish(&encode_vec(&foreign).expect("encode")).expect("foreign command");
+        command.publish(&encode_vec(&again).expect("encode")).expect("second deploy");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    drop((report, command, bus));
+
+    let out = launch.wait(Duration::from_secs(60));
+    assert_eq!(out.status.code(), Some(0), "the run still succeeds:\n{}", out.stderr);
+    let j = out.json();
+    let seen = &j["bad_traffic"];
+    for kind in ["garbage", "wrong_version", "unknown_robot", "duplicate"] {
+        assert_eq!(seen[kind], 3, "orchestrator {kind}: {seen}");
+    }
+    // The agent logged its own counts when it exited.
+    let agent_line = out
+        .stderr
+        .lines()
+        .find(|l| l.starts_with("sim-agent[robot 1]: exiting"))
+        .unwrap_or_else(|| panic!("robot 1's agent reported nothing:\n{}", out.stderr));
+    for count in ["garbage: 3", "unknown_robot: 3", "duplicate: 3"] {
+        assert!(agent_line.contains(count), "{count} in {agent_line}");
+    }
+    assert_eq!(j["robots"][0]["end"], "stuck", "robot 1 went on as if nothing happened");
+    assert_eq!(j["robots"][2]["end"], "arrived");
+}

@@ -1,0 +1,166 @@
+//! A lockstep `orchestrator launch` over processes gives exactly the
+//! in-process simulator's result: same outcome, same robots, the same stuck
+//! and final positions bit for bit (`x_bits`/`y_bits` against
+//! `f64::to_bits`) and the same step counts.
+//!
+//! Step mapping (documented in `orchestrator/src/launch/gate.rs`): a
+//! robot's `steps` in the launch summary are its *active* periods — from its
+//! start pose to its last change of pose — which is the runner's
+//! `RobotRun::steps`; the gate's dwell and settle ticks move no robot and
+//! are only in `ticks`. The summary's `steps` (their sum) is the runner's
+//! `steps`, so the arrival step is the same too.
+//!
+//! Cases: the built-in scenarios and two generated Perlin terrains, with and
+//! without sensing noise, ending by arrival, by robots exhausted and by the
+//! time limit.
+
+use bycoms_orchestrator::scenario::{load, WorldSource};
+use bycoms_sim::runner::RobotEnd;
+use bycoms_sim::sensing::NoiseModel;
+use bycoms_sim::terrain::{generate, to_text, GenParams, Terrain};
+use bycoms_sim::{run, Outcome, RunConfig};
+use bycoms_tests::{swarm_name, Proc};
+use std::time::Duration;
+
+struct Case {
+    name: String,
+    terrain: Terrain,
+    eps: f64,
+    noise: Option<u64>,
+    robots: u32,
+    time_limit: f64,
+}
+
+fn scenario(name: &str) -> Terrain {
+    load(&WorldSource::Scenario(name.into())).expect("built-in scenario").terrain
+}
+
+fn config(case: &Case) -> RunConfig {
+    let mut cfg = RunConfig::paper(case.eps);
+    cfg.noise = case.noise.map(|_| NoiseModel::paper());
+    cfg.seed = case.noise.unwrap_or(0);
+    cfg.max_robots = Some(case.robots);
+    cfg.time_limit = case.time_limit;
+    cfg
+}
+
+fn check(case: &Case) -> Outcome {
+    let expected = run(&case.terrain, &config(case));
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("terrain.txt");
+    std::fs::write(&path, to_text(&case.terrain)).expect("write terrain");
+    let swarm = swarm_name("parity");
+    let (eps, robots, limit) = (case.eps.to_string(), case.robots.to_string(), case.time_limit.to_string());
+    let seed = case.noise.unwrap_or(0).to_string();
+    let mut args = vec!["launch", "--clock", "lockstep", "--json", "--swarm", &swarm];
+    args.extend(["--terrain", path.to_str().expect("utf-8 path"), "--eps", &eps, "--robots", &robots]);
+    args.extend(["--time-limit", &limit, "--seed", &seed]);
+    if case.noise.is_some() {
+        args.push("--noise");
+    }
+    let out = Proc::orchestrator(&args).wait(Duration::from_secs(180));
+    let j = out.json();
+    let name = &case.name;
+    let outcome = match expected.outcome {
+        Outcome::Arrived => "arrived",
+        Outcome::RobotsExhausted => "robots_exhausted",
+        Outcome::TimeLimit => "time_limit",
+    };
+    assert_eq!(j["outcome"], outcome, "{name}: outcome; stderr:\n{}", out.stderr);
+    assert_eq!(out.status.code(), Some(if expected.success { 0 } else { 3 }), "{name}: exit code");
+    assert_eq!(j["steps"], expected.steps, "{name}: total active steps (the runner's steps)");
+    assert_eq!(j["robots_used"], expected.robots_used, "{name}: robots used");
+    let robots = j["robots"].as_array().expect("robots array");
+    assert_eq!(robots.len() as u32, case.robots, "{name}");
+    for (r, got) in expected.robots.iter().zip(robots) {
+        let end = match r.end {
+            RobotEnd::Stuck => "stuck",
+            RobotEnd::Arrived => "arrived",
+            RobotEnd::Moving => "moving",
+        };
+        let id = r.id;
+        assert_eq!(got["end"], end, "{name}: robot {id} end");
+        assert_eq!(got["x_bits"], r.position.x.to_bits(), "{name}: robot {id} x = {}", r.position.x);
+        assert_eq!(got["y_bits"], r.position.y.to_bits(), "{name}: robot {id} y = {}", r.position.y);
+        assert_eq!(got["steps"], r.steps, "{name}: robot {id} steps");
+    }
+    for got in &robots[expected.robots.len()..] {
+        assert_eq!(got["end"], "not_deployed", "{name}: robot {} was never deployed", got["id"]);
+    }
+    assert_eq!(j["bad_traffic"]["garbage"], 0, "{name}");
+    expected.outcome
+}
+
+fn case(name: &str, terrain: Terrain, eps: f64, noise: Option<u64>, robots: u32, time_limit: f64) -> Case {
+    Case { name: name.into(), terrain, eps, noise, robots, time_limit }
+}
+
+#[test]
+fn the_default_launch_is_the_papers_three_robot_experiment() {
+    // Robots 1 and 2 get stuck, robot 3 goes around their fields.
+    let c = case("long-obstacle ε3", scenario("long-obstacle"), 3.0, None, 3, 10_000.0);
+    let expected = run(&c.terrain, &config(&c));
+    let ends: Vec<RobotEnd> = expected.robots.iter().map(|r| r.end).collect();
+    assert_eq!(ends, [RobotEnd::Stuck, RobotEnd::Stuck, RobotEnd::Arrived]);
+    assert_eq!(check(&c), Outcome::Arrived);
+}
+
+#[test]
+fn built_in_scenarios_without_noise() {
+    let cases = [
+        case("long-wall ε3", scenario("long-wall"), 3.0, None, 6, 10_000.0),
+        case("gap3 ε1", scenario("gap3"), 1.0, None, 4, 10_000.0),
+        case("gap3 ε2 (robots exhausted)", scenario("gap3"), 2.0, None, 3, 10_000.0),
+        case("long-wall ε1 (time limit)", scenario("long-wall"), 1.0, None, 20, 150.0),
+    ];
+    let outcomes: Vec<Outcome> = cases.iter().map(check).collect();
+    for o in [Outcome::Arrived, Outcome::RobotsExhausted, Outcome::TimeLimit] {
+        assert!(outcomes.contains(&o), "no case ends with {o:?}: {outcomes:?}");
+    }
+}
+
+#[test]
+fn built_in_scenarios_with_noise() {
+    for seed in [1, 2] {
+        check(&case(
+            &format!("long-obstacle ε3 noise seed {seed}"),
+            scenario("long-obstacle"),
+            3.0,
+            Some(seed),
+            3,
+            10_000.0,
+        ));
+    }
+    check(&case("short-wall ε2.5 noise seed 3", scenario("short-wall"), 2.5, Some(3), 5, 3_000.0));
+}
+
+/// The first feasible generated terrains (from a fixed seed) on which the
+/// runner leaves at least one beacon within a few robots.
+fn generated(count: usize, eps: f64) -> Vec<Terrain> {
+    let mut found = Vec::new();
+    for seed in 1000.. {
+        let g = generate(seed, &GenParams::default());
+        if !g.feasible {
+            continue;
+        }
+        let mut cfg = RunConfig::paper(eps);
+        cfg.max_robots = Some(4);
+        cfg.time_limit = 1_500.0;
+        if !run(&g.terrain, &cfg).beacons.is_empty() {
+            found.push(g.terrain);
+            if found.len() == count {
+                return found;
+            }
+        }
+        assert!(seed < 1200, "no suitable generated terrain in 200 seeds");
+    }
+    found
+}
+
+#[test]
+fn generated_terrains_with_and_without_noise() {
+    for (i, terrain) in generated(2, 2.0).into_iter().enumerate() {
+        check(&case(&format!("generated #{i} ε2"), terrain.clone(), 2.0, None, 4, 1_500.0));
+        check(&case(&format!("generated #{i} ε2 noise seed 7"), terrain, 2.0, Some(7), 4, 1_500.0));
+    }
+}
