@@ -70,7 +70,7 @@ impl Launch {
             error,
             robots_used: robots.iter().filter(|r| r.deployed_tick.is_some()).count() as u32,
             steps: self.spent,
-            time_s: self.spent as f64 * dt,
+            time_s: self.template.run_config().kinematics.time_of(self.spent),
             ticks: self.ticks,
             wall_s,
             sim_speed: match self.cfg.clock {
