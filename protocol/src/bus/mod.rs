@@ -164,7 +164,9 @@ pub trait Subscribe {
     fn try_recv_into(&self, buf: &mut [u8]) -> Result<Option<usize>, BusError>;
 
     /// Like [`Subscribe::try_recv_into`] but waits up to `timeout` for a
-    /// message; `None` means the timeout passed.
+    /// message; `None` means the timeout passed — or, with backends that
+    /// sleep in the kernel, that a signal interrupted the wait early (so a
+    /// Ctrl-C flag gets looked at promptly); callers loop on their deadline.
     fn recv_timeout_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError>;
 
     /// [`Subscribe::try_recv_into`] into a new vector.

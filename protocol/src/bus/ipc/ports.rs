@@ -13,7 +13,7 @@ use super::{IpcConfig, Wake};
 use crate::bus::{copy_out, BusError, Publish, Subscribe};
 use crate::naming::TopicName;
 use core::time::Duration;
-use iceoryx2::port::listener::Listener;
+use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
@@ -186,11 +186,14 @@ impl<S: IoxService> Subscribe for IpcSubscriber<S> {
                 continue;
             }
             match &self.waker {
-                Waker::Event { listener, .. } => {
-                    listener
-                        .timed_wait(|_| {}, left.min(EVENT_WAIT_SLICE))
-                        .map_err(|e| BusError::backend("wait for event", Some(&self.topic), e))?;
-                }
+                Waker::Event { listener, .. } => match listener.timed_wait(|_| {}, left.min(EVENT_WAIT_SLICE)) {
+                    Ok(_) => {}
+                    // A signal (e.g. Ctrl-C handled by a flag) cut the wait
+                    // short: not a failure. Return early so the caller can
+                    // look at its flags, like a wait that timed out.
+                    Err(ListenerWaitError::InterruptSignal) => return self.try_recv_into(buf),
+                    Err(e) => return Err(BusError::backend("wait for event", Some(&self.topic), e)),
+                },
                 Waker::Poll { max_sleep, .. } => {
                     std::thread::sleep(sleep.min(left));
                     sleep = (sleep * 2).min(*max_sleep);
