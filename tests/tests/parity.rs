@@ -120,6 +120,21 @@ fn built_in_scenarios_without_noise() {
 }
 
 #[test]
+fn a_robot_stopping_in_the_very_last_period_is_a_beacon_in_both() {
+    // Robot 1 of long-obstacle ε3 enters the obstacle on its 206th period;
+    // with a 20.6 s limit that is the last budgeted period.
+    let c = case("long-obstacle ε3, limit 20.6 s", scenario("long-obstacle"), 3.0, None, 3, 20.6);
+    let expected = run(&c.terrain, &config(&c));
+    assert_eq!(expected.robots[0].steps, 206);
+    assert_eq!(expected.robots[0].end, RobotEnd::Stuck);
+    assert_eq!(check(&c), Outcome::TimeLimit);
+    // One period earlier the robot is still moving at the limit.
+    let c = case("long-obstacle ε3, limit 20.5 s", scenario("long-obstacle"), 3.0, None, 3, 20.5);
+    assert_eq!(run(&c.terrain, &config(&c)).robots[0].end, RobotEnd::Moving);
+    assert_eq!(check(&c), Outcome::TimeLimit);
+}
+
+#[test]
 fn built_in_scenarios_with_noise() {
     for seed in [1, 2] {
         check(&case(

@@ -54,6 +54,12 @@ impl Launch {
 
     /// Whether the moving robot has used up the time budget (then it is
     /// marked unfinished and the run ends).
+    ///
+    /// A robot whose active steps exactly reach the budget may have stopped
+    /// on its very last period (the runner then counts it stuck, a beacon):
+    /// the gate keeps watching it, without charging anything, until it
+    /// either changes pose once more (it was still moving: unfinished, at
+    /// its pose at the limit) or is judged stopped.
     pub fn budget_spent(&mut self) -> Result<bool> {
         let mut run = self.template.run_config();
         run.time_limit = self.cfg.time_limit;
@@ -61,10 +67,14 @@ impl Launch {
         let Some((id, watch)) = &self.watch else {
             return Ok(self.spent >= limit);
         };
-        let (id, steps, pose) = (*id, watch.active_steps(), watch.last());
-        if self.spent + steps < limit {
+        let budget = limit.saturating_sub(self.spent);
+        let (id, steps) = (*id, watch.active_steps());
+        if steps <= budget {
             return Ok(false);
         }
+        // One change past the budget: the pose at the limit is the one before.
+        let pose = if steps == budget + 1 { watch.previous() } else { watch.last() };
+        let steps = budget;
         self.watch = None;
         self.spent += steps;
         if let Some(slot) = self.slot(id) {

@@ -63,6 +63,8 @@ pub struct Watch {
     params: GateParams,
     start: Pose,
     last: Pose,
+    /// The pose before `last`.
+    previous: Pose,
     last_change: u64,
     still_since_us: Option<u64>,
     verdict: Option<Verdict>,
@@ -71,12 +73,25 @@ pub struct Watch {
 impl Watch {
     /// Starts watching a robot deployed at `start` (its first pose).
     pub fn new(params: GateParams, start: Pose) -> Self {
-        Self { params, start, last: start, last_change: start.step, still_since_us: None, verdict: None }
+        Self {
+            params,
+            start,
+            last: start,
+            previous: start,
+            last_change: start.step,
+            still_since_us: None,
+            verdict: None,
+        }
     }
 
     /// The robot's latest pose.
     pub fn last(&self) -> Pose {
         self.last
+    }
+
+    /// The pose before the latest one.
+    pub fn previous(&self) -> Pose {
+        self.previous
     }
 
     /// Periods from the start pose to the last change of pose.
@@ -96,6 +111,7 @@ impl Watch {
             return None;
         }
         let prev = self.last;
+        self.previous = prev;
         self.last = pose;
         let same = pose.x.to_bits() == prev.x.to_bits()
             && pose.y.to_bits() == prev.y.to_bits()
