@@ -12,9 +12,9 @@ pub mod terrain;
 pub mod world;
 
 /// BYCOMS swarm orchestrator: simulate runs, generate terrains, reproduce the
-/// paper's simulation study.
+/// paper's simulation study, and deploy robots as agent processes (`launch`).
 ///
-/// Exit codes: 0 success (for `simulate`: a robot reached the goal),
+/// Exit codes: 0 success (for `simulate` and `launch`: a robot reached the goal),
 /// 1 error, 2 usage error, 3 the run ended without any robot arriving,
 /// 130 interrupted (work done so far is kept).
 #[derive(Debug, Parser)]
