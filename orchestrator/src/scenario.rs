@@ -60,13 +60,13 @@ pub fn load(source: &WorldSource) -> Result<World> {
         WorldSource::File(path) => {
             let text = std::fs::read_to_string(path)
                 .with_context(|| format!("cannot read terrain file {}", path.display()))?;
-            let terrain =
-                parse(&text).with_context(|| format!("bad terrain file {}", path.display()))?;
+            let terrain = parse(&text).with_context(|| format!("bad terrain file {}", path.display()))?;
             Ok(World { name: path.display().to_string(), terrain })
         }
         WorldSource::Generated(seed) => {
-            let (index, g) = first_feasible(*seed, 10_000)
-                .with_context(|| format!("no feasible terrain in the first 10000 candidates of seed {seed}"))?;
+            let (index, g) = first_feasible(*seed, 10_000).with_context(|| {
+                format!("no feasible terrain in the first 10000 candidates of seed {seed}")
+            })?;
             Ok(World { name: format!("generated (seed {seed}, candidate {index})"), terrain: g.terrain })
         }
         WorldSource::Scenario(name) => {

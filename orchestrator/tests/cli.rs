@@ -13,8 +13,19 @@ fn stderr(o: &Output) -> String {
 }
 
 /// A reduced sweep: 2 radii × 2 width bins × 3 terrains × noise on/off = 24 runs.
-const REDUCED: &[&str] =
-    &["sweep", "--eps", "1,4", "--widths", "2,3", "--terrains-per-bin", "3", "--seed", "7", "--time-limit", "2000"];
+const REDUCED: &[&str] = &[
+    "sweep",
+    "--eps",
+    "1,4",
+    "--widths",
+    "2,3",
+    "--terrains-per-bin",
+    "3",
+    "--seed",
+    "7",
+    "--time-limit",
+    "2000",
+];
 
 fn sweep_into(dir: &Path, extra: &[&str]) -> Output {
     let mut args: Vec<&str> = REDUCED.to_vec();
@@ -36,12 +47,10 @@ fn reduced_sweep_is_byte_identical_on_a_second_run() {
     let cb = std::fs::read(b.path().join("runs.csv")).unwrap();
     assert_eq!(ca, cb, "same seed, different thread count: same bytes");
     assert_eq!(String::from_utf8_lossy(&ca).lines().count(), 1 + 24);
-    for f in ["success-noise-off.csv", "success-noise-on.csv", "heatmap-noise-off.svg", "heatmap-noise-on.svg"] {
-        assert_eq!(
-            std::fs::read(a.path().join(f)).unwrap(),
-            std::fs::read(b.path().join(f)).unwrap(),
-            "{f}"
-        );
+    for f in
+        ["success-noise-off.csv", "success-noise-on.csv", "heatmap-noise-off.svg", "heatmap-noise-on.svg"]
+    {
+        assert_eq!(std::fs::read(a.path().join(f)).unwrap(), std::fs::read(b.path().join(f)).unwrap(), "{f}");
     }
 }
 
@@ -72,7 +81,8 @@ fn shards_merge_into_the_same_tables() {
         assert!(o.status.success(), "{}", stderr(&o));
     }
     let merged = tempfile::tempdir().unwrap();
-    let o = orchestrator(&["merge", parts.path().to_str().unwrap(), "--out", merged.path().to_str().unwrap()]);
+    let o =
+        orchestrator(&["merge", parts.path().to_str().unwrap(), "--out", merged.path().to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     for f in ["runs.csv", "success-noise-off.csv", "success-noise-on.csv", "heatmap-noise-on.svg"] {
         assert_eq!(
@@ -88,7 +98,8 @@ fn merge_of_an_incomplete_sweep_says_what_is_missing() {
     let parts = tempfile::tempdir().unwrap();
     assert!(sweep_into(parts.path(), &["--shard", "0/2"]).status.success());
     let merged = tempfile::tempdir().unwrap();
-    let o = orchestrator(&["merge", parts.path().to_str().unwrap(), "--out", merged.path().to_str().unwrap()]);
+    let o =
+        orchestrator(&["merge", parts.path().to_str().unwrap(), "--out", merged.path().to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("12 of 24 runs are missing"), "{}", stderr(&o));
 }
@@ -97,7 +108,10 @@ fn merge_of_an_incomplete_sweep_says_what_is_missing() {
 fn bad_input_exits_non_zero_with_a_clear_message() {
     let dir = tempfile::tempdir().unwrap();
     let cases: &[(&[&str], &str)] = &[
-        (&["simulate", "--terrain", "/nonexistent/t.txt", "--no-svg"], "cannot read terrain file /nonexistent/t.txt"),
+        (
+            &["simulate", "--terrain", "/nonexistent/t.txt", "--no-svg"],
+            "cannot read terrain file /nonexistent/t.txt",
+        ),
         (&["simulate", "--eps", "0", "--no-svg"], "must be a positive number"),
         (&["simulate", "--eps", "-1", "--no-svg"], "must be a positive number"),
         (&["sweep", "--eps", "", "--out", "/tmp/x"], "--eps is empty"),
@@ -139,7 +153,8 @@ fn simulate_prints_json_and_draws_the_snapshot() {
 #[test]
 fn ctrl_c_keeps_rows_and_a_rerun_resumes_to_the_same_bytes() {
     let whole = tempfile::tempdir().unwrap();
-    let args = ["--eps", "1:5:0.5", "--widths", "2,3", "--terrains-per-bin", "5", "--seed", "3", "--jobs", "1"];
+    let args =
+        ["--eps", "1:5:0.5", "--widths", "2,3", "--terrains-per-bin", "5", "--seed", "3", "--jobs", "1"];
     let run = |dir: &Path| {
         let mut a = vec!["sweep", "--out", dir.to_str().unwrap()];
         a.extend(args);
@@ -213,15 +228,33 @@ fn terrain_command_writes_named_files_that_sweep_can_use() {
     }
     let out = tempfile::tempdir().unwrap();
     let o = orchestrator(&[
-        "sweep", "--terrains", d, "--widths", "2,3", "--terrains-per-bin", "2", "--eps", "1", "--noise", "off",
-        "--out", out.path().to_str().unwrap(),
+        "sweep",
+        "--terrains",
+        d,
+        "--widths",
+        "2,3",
+        "--terrains-per-bin",
+        "2",
+        "--eps",
+        "1",
+        "--noise",
+        "off",
+        "--out",
+        out.path().to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let csv = std::fs::read_to_string(out.path().join("runs.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 4);
     // Asking for more terrains than the directory has is a clear error.
     let o = orchestrator(&[
-        "sweep", "--terrains", d, "--widths", "2,3", "--terrains-per-bin", "3", "--out",
+        "sweep",
+        "--terrains",
+        d,
+        "--widths",
+        "2,3",
+        "--terrains-per-bin",
+        "3",
+        "--out",
         out.path().join("x").to_str().unwrap(),
     ]);
     assert_eq!(o.status.code(), Some(1));
@@ -233,11 +266,31 @@ fn failed_start_does_not_claim_the_directory_and_odd_decimals_resume() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path().to_str().unwrap();
     // Cannot fill the bin with 10 candidates: fails before any run…
-    let o = orchestrator(&["sweep", "--widths", "3", "--terrains-per-bin", "5", "--max-candidates", "10", "--out", d]);
+    let o = orchestrator(&[
+        "sweep",
+        "--widths",
+        "3",
+        "--terrains-per-bin",
+        "5",
+        "--max-candidates",
+        "10",
+        "--out",
+        d,
+    ]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     // …so the corrected command may use the same directory.
     let args = [
-        "sweep", "--eps", "1:2:0.3", "--widths", "2", "--terrains-per-bin", "2", "--noise", "off", "--out", d,
+        "sweep",
+        "--eps",
+        "1:2:0.3",
+        "--widths",
+        "2",
+        "--terrains-per-bin",
+        "2",
+        "--noise",
+        "off",
+        "--out",
+        d,
     ];
     let o = orchestrator(&args);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -251,9 +304,21 @@ fn failed_start_does_not_claim_the_directory_and_odd_decimals_resume() {
     assert!(stderr(&o).contains("holds a different sweep"), "{}", stderr(&o));
     let other = tempfile::tempdir().unwrap();
     let o2 = other.path().to_str().unwrap();
-    assert!(orchestrator(&["sweep", "--eps", "3", "--widths", "2", "--terrains-per-bin", "1", "--noise", "off", "--out", o2])
-        .status
-        .success());
+    assert!(orchestrator(&[
+        "sweep",
+        "--eps",
+        "3",
+        "--widths",
+        "2",
+        "--terrains-per-bin",
+        "1",
+        "--noise",
+        "off",
+        "--out",
+        o2
+    ])
+    .status
+    .success());
     let before = std::fs::read(dir.path().join("runs.csv")).unwrap();
     let o = orchestrator(&["merge", o2, "--out", d]);
     assert_eq!(o.status.code(), Some(1));

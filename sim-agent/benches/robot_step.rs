@@ -4,13 +4,13 @@
 //! bearing, field sample over all beacons (+ noise when on), controller,
 //! kinematics, terrain check. Run: `cargo bench -p bycoms-sim --bench robot_step`.
 
+use bycoms_agent::ControllerConfig;
 use bycoms_sim::body::{HeadingTable, Kinematics};
 use bycoms_sim::field::Beacons;
 use bycoms_sim::robot::SimRobot;
 use bycoms_sim::sensing::{NoiseModel, SensingNoise};
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::Vec2;
-use bycoms_agent::ControllerConfig;
 use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 

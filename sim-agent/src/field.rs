@@ -117,11 +117,9 @@ mod tests {
         }
         let p = Vec2::new(0.3, 0.2);
         let h = 1e-6;
-        let fx = (b.sample(Vec2::new(p.x + h, p.y)).intensity
-            - b.sample(Vec2::new(p.x - h, p.y)).intensity)
+        let fx = (b.sample(Vec2::new(p.x + h, p.y)).intensity - b.sample(Vec2::new(p.x - h, p.y)).intensity)
             / (2.0 * h);
-        let fy = (b.sample(Vec2::new(p.x, p.y + h)).intensity
-            - b.sample(Vec2::new(p.x, p.y - h)).intensity)
+        let fy = (b.sample(Vec2::new(p.x, p.y + h)).intensity - b.sample(Vec2::new(p.x, p.y - h)).intensity)
             / (2.0 * h);
         let s = b.sample(p);
         assert!((libm::atan2(fy, fx) - s.direction()).abs() < 1e-6);

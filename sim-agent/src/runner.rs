@@ -118,7 +118,9 @@ pub enum ConfigError {
     FieldConstant(f64),
     #[error("at least one robot is needed")]
     NoRobots,
-    #[error("kinematics need a positive speed and a turn step (turn rate × dt) that divides the full circle")]
+    #[error(
+        "kinematics need a positive speed and a turn step (turn rate × dt) that divides the full circle"
+    )]
     Kinematics,
 }
 
@@ -233,13 +235,7 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
                 break RobotEnd::Arrived;
             }
         };
-        robots.push(RobotRun {
-            id,
-            end,
-            position: robot.body.pos,
-            steps: steps - first_step,
-            trajectory,
-        });
+        robots.push(RobotRun { id, end, position: robot.body.pos, steps: steps - first_step, trajectory });
     }
     let outcome = outcome.unwrap_or(Outcome::TimeLimit);
     RunResult {

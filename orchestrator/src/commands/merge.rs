@@ -79,8 +79,9 @@ pub fn run(args: Args) -> Result<i32> {
 
 fn read_meta(dir: &Path) -> Result<Meta> {
     let path = dir.join(META_FILE);
-    let text = std::fs::read_to_string(&path)
-        .with_context(|| format!("cannot read {} (is {} a sweep output directory?)", path.display(), dir.display()))?;
+    let text = std::fs::read_to_string(&path).with_context(|| {
+        format!("cannot read {} (is {} a sweep output directory?)", path.display(), dir.display())
+    })?;
     serde_json::from_str(&text).with_context(|| format!("{} is not a sweep description", path.display()))
 }
 
@@ -90,7 +91,9 @@ fn runs_files(dir: &Path) -> Result<Vec<PathBuf>> {
         .with_context(|| format!("cannot read {}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| {
-            p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("runs-shard-") && n.ends_with(".csv"))
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("runs-shard-") && n.ends_with(".csv"))
         })
         .collect();
     files.sort();

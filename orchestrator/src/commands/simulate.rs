@@ -127,10 +127,9 @@ pub fn summary_line(r: &RunResult) -> String {
             beacons,
             if beacons == 1 { "" } else { "s" }
         ),
-        Outcome::TimeLimit => format!(
-            "no robot arrived within {:.0} s ({} robots, {} beacons)",
-            r.time, r.robots_used, beacons
-        ),
+        Outcome::TimeLimit => {
+            format!("no robot arrived within {:.0} s ({} robots, {} beacons)", r.time, r.robots_used, beacons)
+        }
         Outcome::RobotsExhausted => {
             format!("all {} robots got stuck after {:.1} s", r.robots_used, r.time)
         }

@@ -7,8 +7,8 @@ use crate::sweep::plan::{parse_axis, Axes, Shard};
 use crate::sweep::rows::RowWriter;
 use crate::sweep::table::{tabulate, to_text, write_outputs};
 use crate::sweep::terrains::{generate_bins, load_bins, SweepTerrain};
-use bycoms_sim::terrain::WidthModel;
 use anyhow::{bail, Context, Result};
+use bycoms_sim::terrain::WidthModel;
 use bycoms_sim::RunConfig;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
@@ -232,7 +232,11 @@ fn check_meta(out: &Path, meta: &Meta) -> Result<()> {
         .filter(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("runs")))
         .any(|p| crate::sweep::rows::read_rows(&p).map_or(true, |rows| !rows.is_empty()));
     if !same && has_rows {
-        bail!("{} holds a different sweep ({}); use another --out or delete it", out.display(), path.display());
+        bail!(
+            "{} holds a different sweep ({}); use another --out or delete it",
+            out.display(),
+            path.display()
+        );
     }
     Ok(())
 }
@@ -271,9 +275,10 @@ fn load_terrains(args: &Args, axes: &Axes, stop: &AtomicBool) -> Result<Vec<Vec<
                 ProgressStyle::with_template("{elapsed_precise} generating terrains [{bar:40}] {pos}/{len}")
                     .unwrap_or_else(|_| ProgressStyle::default_bar()),
             );
-            let bins = generate_bins(args.seed, &axes.widths, per_bin, args.max_candidates, stop, |done, _| {
-                bar.set_position(done as u64)
-            })?;
+            let bins =
+                generate_bins(args.seed, &axes.widths, per_bin, args.max_candidates, stop, |done, _| {
+                    bar.set_position(done as u64)
+                })?;
             bar.finish_and_clear();
             bins
         }

@@ -30,7 +30,10 @@ pub struct Args {
 pub fn run(args: Args) -> Result<i32> {
     let top = 2.0 * bycoms_sim::terrain::width::MAX_CLEARANCE - crate::sweep::terrains::BIN_SIZE;
     if !(args.width.is_finite() && (1.0..=top).contains(&args.width)) {
-        bail!("--width must lie in [1, {top}] cells (feasible terrains measure at least 1), got {}", args.width);
+        bail!(
+            "--width must lie in [1, {top}] cells (feasible terrains measure at least 1), got {}",
+            args.width
+        );
     }
     if args.count == 0 {
         bail!("--count must be at least 1");
@@ -49,7 +52,8 @@ pub fn run(args: Args) -> Result<i32> {
     for t in &bins[0] {
         let name = file_name(t, args.width);
         let path = args.out.join(&name);
-        std::fs::write(&path, to_text(&t.terrain)).with_context(|| format!("cannot write {}", path.display()))?;
+        std::fs::write(&path, to_text(&t.terrain))
+            .with_context(|| format!("cannot write {}", path.display()))?;
         let threshold = t.threshold.map(|a| a.to_string()).unwrap_or_default();
         index.push_str(&format!("{name},{},{},{threshold}\n", crate::sweep::rows::csv_field(&t.id), t.width));
     }

@@ -51,7 +51,13 @@ pub fn render(h: &Heatmap) -> String {
         let x = LEFT + c as f64 * CELL + CELL / 2.0;
         svg.text(x, TOP + rows * CELL + 20.0, 13.0, "middle", &format!("{eps}"));
     }
-    svg.text(LEFT + cols * CELL / 2.0, TOP + rows * CELL + 45.0, 14.0, "middle", "circumferential radius ε [cells]");
+    svg.text(
+        LEFT + cols * CELL / 2.0,
+        TOP + rows * CELL + 45.0,
+        14.0,
+        "middle",
+        "circumferential radius ε [cells]",
+    );
     svg.vtext(24.0, TOP + rows * CELL / 2.0, 14.0, "minimum path width [cells]");
     svg.finish()
 }

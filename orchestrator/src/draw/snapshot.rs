@@ -48,7 +48,12 @@ pub fn render(terrain: &Terrain, result: &RunResult, eps: f64, title: [&str; 2])
         let colour = PALETTE[i % PALETTE.len()];
         let (x, y) = px(robot.position);
         if robot.end == RobotEnd::Stuck {
-            svg.circle(x, y, eps * SCALE, &format!(r#"fill="none" stroke="{colour}" stroke-dasharray="4 3""#));
+            svg.circle(
+                x,
+                y,
+                eps * SCALE,
+                &format!(r#"fill="none" stroke="{colour}" stroke-dasharray="4 3""#),
+            );
         }
         svg.circle(x, y, 3.5, &format!(r##"fill="{colour}" stroke="#000" stroke-width="0.5""##));
     }

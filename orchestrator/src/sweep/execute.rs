@@ -6,10 +6,10 @@
 //! workers finish the run in hand and stop taking new ones; every row that
 //! could be written in order is kept.
 
+use super::mix;
 use super::plan::{Axes, RunSpec};
 use super::rows::{Row, RowWriter};
 use super::terrains::SweepTerrain;
-use super::mix;
 use anyhow::Result;
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::{run, RunConfig};
@@ -33,9 +33,10 @@ impl Job<'_> {
     /// value of ε (not its position on the axis, so adding radii to a sweep
     /// does not change the others' results).
     fn run_seed(&self, spec: &RunSpec, terrain: &SweepTerrain) -> u64 {
-        let id_hash = terrain.id.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-            (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
-        });
+        let id_hash = terrain
+            .id
+            .bytes()
+            .fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3));
         mix(mix(self.seed, id_hash), self.axes.eps[spec.eps].to_bits())
     }
 

@@ -27,7 +27,11 @@ impl Table {
     }
 
     pub fn label(&self) -> &'static str {
-        if self.noise { "noise-on" } else { "noise-off" }
+        if self.noise {
+            "noise-on"
+        } else {
+            "noise-off"
+        }
     }
 }
 
@@ -53,7 +57,12 @@ pub fn tabulate(axes: &Axes, rows: &[Row]) -> Vec<Table> {
 /// Rows widest bin first (as in the heatmap): (width bin, success rate in % per ε).
 fn rows_widest_first<'a>(axes: &'a Axes, t: &Table) -> impl Iterator<Item = (f64, Vec<Option<f64>>)> + 'a {
     let rates = t.rates();
-    axes.widths.iter().copied().zip(rates).rev().map(|(w, row)| (w, row.iter().map(|r| r.map(|r| 100.0 * r)).collect()))
+    axes.widths
+        .iter()
+        .copied()
+        .zip(rates)
+        .rev()
+        .map(|(w, row)| (w, row.iter().map(|r| r.map(|r| 100.0 * r)).collect()))
 }
 
 /// The table as CSV: one row per width bin (widest first), one column per
@@ -144,8 +153,12 @@ mod tests {
 
     #[test]
     fn rates_per_cell_widest_first() {
-        let axes =
-            Axes { eps: vec![1.0, 2.0], widths: vec![1.0, 3.0], terrains_per_bin: 2, noise: vec![false, true] };
+        let axes = Axes {
+            eps: vec![1.0, 2.0],
+            widths: vec![1.0, 3.0],
+            terrains_per_bin: 2,
+            noise: vec![false, true],
+        };
         // Canonical index: ((noise·bins + bin)·terrains + terrain)·eps + eps.
         let rows = vec![
             row(4, false, 1.0, 3.0, true),

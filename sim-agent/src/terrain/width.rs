@@ -117,7 +117,15 @@ impl Lattice {
         let disc = model == WidthModel::Discs;
         let inset = if disc { (q / 2) as i64 } else { 0 };
         let cap = (MAX_CLEARANCE * q as f64) as i64 + inset;
-        Lattice { q, disc, inset, cap, cap2: (cap * cap) as u16, nx: t.width() * q + 1, ny: t.height() * q + 1 }
+        Lattice {
+            q,
+            disc,
+            inset,
+            cap,
+            cap2: (cap * cap) as u16,
+            nx: t.width() * q + 1,
+            ny: t.height() * q + 1,
+        }
     }
 
     /// Lattice index of a coordinate, rounded and clamped to `0..=max`.

@@ -67,9 +67,8 @@ fn one_to_two_needs_loud_field_ahead_and_strictly_so() {
 #[test]
 fn two_to_one_when_past_the_field_and_strictly_so() {
     let c = cfg();
-    let at = |heading: f64, grad: Option<f64>, v: f64| {
-        next_mode(Mode::Bypass, &input(0.0, heading, grad, v), &c)
-    };
+    let at =
+        |heading: f64, grad: Option<f64>, v: f64| next_mode(Mode::Bypass, &input(0.0, heading, grad, v), &c);
     // Field behind, facing the goal: back to mode 1, however loud.
     assert_eq!(at(0.3, Some(PI), 30_000.0), Mode::Goal);
     assert_eq!(at(0.3, Some(FRAC_PI_2 + 1e-9), 30_000.0), Mode::Goal);

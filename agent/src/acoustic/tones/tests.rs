@@ -8,8 +8,7 @@ struct Lcg(u64);
 
 impl Lcg {
     fn next(&mut self) -> f64 {
-        self.0 =
-            self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        self.0 = self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
         (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
     }
 }
@@ -45,15 +44,13 @@ fn paper_tones_fall_on_bins() {
 fn recovers_on_bin_amplitudes_and_excludes_own() {
     let iso = isolator();
     // Own tone 100× louder than the quieter of the others.
-    let mut f =
-        frame(4096.0, 0.0, &[(224.0, 10.0, 0.3), (320.0, 1000.0, 1.1), (512.0, 25.0, 2.0)], 0.0, 0);
+    let mut f = frame(4096.0, 0.0, &[(224.0, 10.0, 0.3), (320.0, 1000.0, 1.1), (512.0, 25.0, 2.0)], 0.0, 0);
     let a = iso.tones(&mut f);
     assert!(rel(a.others[0], 10.0) < 1e-3, "{a:?}");
     assert!(rel(a.others[1], 25.0) < 1e-3, "{a:?}");
     assert!(rel(a.own, 1000.0) < 1e-3, "{a:?}");
     assert!(rel(a.sum_others(), 35.0) < 1e-3);
-    let mut f =
-        frame(4096.0, 0.0, &[(224.0, 10.0, 0.3), (320.0, 1000.0, 1.1), (512.0, 25.0, 2.0)], 0.0, 0);
+    let mut f = frame(4096.0, 0.0, &[(224.0, 10.0, 0.3), (320.0, 1000.0, 1.1), (512.0, 25.0, 2.0)], 0.0, 0);
     assert!(rel(iso.amplitude(&mut f), 35.0) < 1e-3);
 }
 
@@ -112,8 +109,7 @@ fn loud_off_bin_own_tone_does_not_leak() {
     // The own tone half a bin off (324 Hz = bin 40.5), 100× louder: the
     // Hann window keeps its leakage out of bins 28 and 64.
     let iso = ToneIsolator::new(ToneConfig::default(), 324.0, [224.0, 512.0]).unwrap();
-    let mut f =
-        frame(4096.0, 0.0, &[(224.0, 10.0, 0.0), (324.0, 1000.0, 0.5), (512.0, 10.0, 1.0)], 0.0, 0);
+    let mut f = frame(4096.0, 0.0, &[(224.0, 10.0, 0.0), (324.0, 1000.0, 0.5), (512.0, 10.0, 1.0)], 0.0, 0);
     let a = iso.tones(&mut f);
     assert!(rel(a.others[0], 10.0) < 0.01, "{a:?}");
     assert!(rel(a.others[1], 10.0) < 0.01, "{a:?}");
@@ -169,14 +165,8 @@ fn rejects_unusable_tones() {
     let c = ToneConfig::default();
     assert_eq!(ToneIsolator::new(c, 320.0, [8.0]).unwrap_err(), ToneError::OutOfBand(8.0));
     assert_eq!(ToneIsolator::new(c, 2040.0, [224.0]).unwrap_err(), ToneError::OutOfBand(2040.0));
-    assert_eq!(
-        ToneIsolator::new(c, 320.0, [300.0]).unwrap_err(),
-        ToneError::TooClose(300.0, 320.0)
-    );
-    assert_eq!(
-        ToneIsolator::new(c, 512.0, [224.0, 250.0]).unwrap_err(),
-        ToneError::TooClose(224.0, 250.0)
-    );
+    assert_eq!(ToneIsolator::new(c, 320.0, [300.0]).unwrap_err(), ToneError::TooClose(300.0, 320.0));
+    assert_eq!(ToneIsolator::new(c, 512.0, [224.0, 250.0]).unwrap_err(), ToneError::TooClose(224.0, 250.0));
     let bad = ToneConfig { sample_rate: 0.0, gain: 1.0 };
     assert_eq!(ToneIsolator::new(bad, 320.0, [224.0]).unwrap_err(), ToneError::BadSampleRate(0.0));
     // Exactly MIN_SEPARATION_BINS apart is allowed.

@@ -186,14 +186,16 @@ impl<S: IoxService> Subscribe for IpcSubscriber<S> {
                 continue;
             }
             match &self.waker {
-                Waker::Event { listener, .. } => match listener.timed_wait(|_| {}, left.min(EVENT_WAIT_SLICE)) {
-                    Ok(_) => {}
-                    // A signal (e.g. Ctrl-C handled by a flag) cut the wait
-                    // short: not a failure. Return early so the caller can
-                    // look at its flags, like a wait that timed out.
-                    Err(ListenerWaitError::InterruptSignal) => return self.try_recv_into(buf),
-                    Err(e) => return Err(BusError::backend("wait for event", Some(&self.topic), e)),
-                },
+                Waker::Event { listener, .. } => {
+                    match listener.timed_wait(|_| {}, left.min(EVENT_WAIT_SLICE)) {
+                        Ok(_) => {}
+                        // A signal (e.g. Ctrl-C handled by a flag) cut the wait
+                        // short: not a failure. Return early so the caller can
+                        // look at its flags, like a wait that timed out.
+                        Err(ListenerWaitError::InterruptSignal) => return self.try_recv_into(buf),
+                        Err(e) => return Err(BusError::backend("wait for event", Some(&self.topic), e)),
+                    }
+                }
                 Waker::Poll { max_sleep, .. } => {
                     std::thread::sleep(sleep.min(left));
                     sleep = (sleep * 2).min(*max_sleep);
