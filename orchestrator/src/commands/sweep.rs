@@ -277,7 +277,7 @@ fn load_terrains(args: &Args, axes: &Axes, stop: &AtomicBool) -> Result<Vec<Vec<
             );
             let bins =
                 generate_bins(args.seed, &axes.widths, per_bin, args.max_candidates, stop, |done, _| {
-                    bar.set_position(done as u64)
+                    bar.set_position(done as u64);
                 })?;
             bar.finish_and_clear();
             bins

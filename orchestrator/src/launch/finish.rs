@@ -94,7 +94,7 @@ impl Launch {
                     path: rec.path.display().to_string(),
                     messages: rec.messages,
                     counts: rec.counts,
-                })
+                });
             }
             Ok(None) => {}
             Err(e) => {

@@ -139,7 +139,7 @@ pub fn parse_axis(s: &str) -> Result<Vec<f64>> {
             bail!("range {s}: need start ≤ end and a positive step");
         }
         let n = ((end - start) / step + 1e-9).floor();
-        if !(n < MAX_AXIS_LEN as f64) {
+        if n.is_nan() || n >= MAX_AXIS_LEN as f64 {
             bail!("range {s} has more than {MAX_AXIS_LEN} values");
         }
         return Ok((0..=n as usize).map(|i| start + step * i as f64).collect());

@@ -242,7 +242,7 @@ impl<B: Bus> Agent<B> {
                     self.report(FromAgent::TickDone(TickDone { robot: self.core.id(), step: t.step }))?;
                 }
                 ClockKind::Realtime => {
-                    self.stats.traffic.count(&self.who, BadKind::Refused, &"Tick on a real-time agent")
+                    self.stats.traffic.count(&self.who, BadKind::Refused, &"Tick on a real-time agent");
                 }
             },
             ToAgent::Stop => self.core.stop(),
