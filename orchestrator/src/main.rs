@@ -9,10 +9,11 @@ use clap::Parser;
 
 fn main() {
     let cli = commands::Cli::parse();
+    bycoms_logging::init(cli.log.log_format);
     let code = match commands::run(cli) {
         Ok(code) => code,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            tracing::error!("{err:#}");
             exit::ERROR
         }
     };

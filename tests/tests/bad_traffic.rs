@@ -61,7 +61,7 @@ fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() 
     let agent_line = out
         .stderr
         .lines()
-        .find(|l| l.starts_with("sim-agent[robot 1]: exiting"))
+        .find(|l| l.contains("sim-agent{robot=1}") && l.contains("exiting"))
         .unwrap_or_else(|| panic!("robot 1's agent reported nothing:\n{}", out.stderr));
     for count in ["garbage: 3", "unknown_robot: 3", "duplicate: 3"] {
         assert!(agent_line.contains(count), "{count} in {agent_line}");

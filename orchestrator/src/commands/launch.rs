@@ -159,12 +159,12 @@ pub fn run(args: Args) -> Result<i32> {
     let agent = launch::agent_command(args.agent_bin.as_deref(), cfg.agent_bin.as_deref())?;
     let summary = launch::run(cfg, world, agent)?;
     if args.json {
-        eprintln!("{}", summary.line());
+        bycoms_logging::status_line(&summary.line());
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {
         println!("{}", summary.text());
         if let Some(e) = &summary.error {
-            eprintln!("error: {e}");
+            tracing::error!("{e}");
         }
     }
     Ok(match summary.outcome {

@@ -4,6 +4,7 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 
 pub mod bench;
+pub mod completions;
 pub mod launch;
 pub mod merge;
 pub mod simulate;
@@ -22,6 +23,9 @@ pub mod world;
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
+    /// Logging flags (global: accepted after any subcommand).
+    #[command(flatten)]
+    pub log: bycoms_logging::LogArgs,
 }
 
 #[derive(Debug, Subcommand)]
@@ -38,6 +42,8 @@ pub enum Command {
     Launch(launch::Args),
     /// Measure the process layer: gate reaction, lockstep speed, real-time scale.
     Bench(bench::Args),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell) on stdout.
+    Completions(completions::Args),
     /// Run one simulated robot (what `launch` starts when no `sim-agent` binary sits next to it).
     #[command(hide = true)]
     SimAgent(bycoms_sim::agent_process::AgentArgs),
@@ -45,6 +51,7 @@ pub enum Command {
 
 /// Runs the parsed command; returns the process exit code.
 pub fn run(cli: Cli) -> Result<i32> {
+    tracing::debug!(version = env!("CARGO_PKG_VERSION"), command = ?cli.command, "orchestrator starts");
     match cli.command {
         Command::Simulate(args) => simulate::run(args),
         Command::Terrain(args) => terrain::run(args),
@@ -52,6 +59,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Merge(args) => merge::run(args),
         Command::Launch(args) => launch::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Completions(args) => completions::run(&args),
         Command::SimAgent(args) => Ok(bycoms_sim::agent_process::main_with(&args)),
     }
 }

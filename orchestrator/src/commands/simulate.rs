@@ -108,7 +108,7 @@ pub fn run(args: Args) -> Result<i32> {
         if args.no_svg { String::new() } else { format!("\nsnapshot: {}", args.svg.display()) }
     );
     if args.json {
-        eprintln!("{summary}");
+        bycoms_logging::status_line(&summary);
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         println!("{summary}");

@@ -139,7 +139,7 @@ pub fn run(args: Args) -> Result<i32> {
 
     let terrains = match load_terrains(&args, &axes, stop) {
         Err(_) if stop.load(Ordering::SeqCst) => {
-            eprintln!("interrupted while preparing terrains; nothing was run");
+            tracing::warn!("interrupted while preparing terrains; nothing was run");
             return Ok(exit::INTERRUPTED);
         }
         other => other?,
@@ -166,7 +166,7 @@ pub fn run(args: Args) -> Result<i32> {
     }
     let pending = &planned[done.len()..];
     if !done.is_empty() {
-        eprintln!("resuming: {} of {} runs already in {}", done.len(), planned.len(), runs_path.display());
+        tracing::info!("resuming: {} of {} runs already in {}", done.len(), planned.len(), runs_path.display());
     }
 
     let mut base = RunConfig::paper(1.0);
@@ -185,7 +185,7 @@ pub fn run(args: Args) -> Result<i32> {
     drop(writer);
 
     if done.len() + written < planned.len() {
-        eprintln!(
+        tracing::warn!(
             "interrupted: {} of {} runs kept in {}; run the same command again to resume",
             done.len() + written,
             planned.len(),

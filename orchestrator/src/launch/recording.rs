@@ -82,7 +82,7 @@ impl Recording {
         }
         if let Some(r) = self.recorder.as_mut() {
             if let Err(e) = f(r) {
-                eprintln!("launch: recording failed, recording stops here: {e}");
+                tracing::error!("recording failed, recording stops here: {e}");
                 self.error = Some(e.to_string());
             }
         }

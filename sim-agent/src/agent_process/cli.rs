@@ -53,11 +53,15 @@ pub enum AgentError {
 /// Runs one agent with `args`; returns the process exit code.
 pub fn main_with(args: &AgentArgs) -> i32 {
     quiet_iceoryx2();
-    let who = format!("sim-agent[robot {}]", args.robot);
+    // Every event of this agent carries its robot id (text: `sim-agent{robot=3}: …`).
+    let _span = tracing::info_span!("sim-agent", robot = args.robot).entered();
     match run(args) {
-        Ok(_) => 0,
+        Ok(cause) => {
+            tracing::debug!(?cause, "agent exits");
+            0
+        }
         Err(e) => {
-            eprintln!("{who}: error: {e}");
+            tracing::error!("{e}");
             1
         }
     }
@@ -95,6 +99,7 @@ fn run(args: &AgentArgs) -> Result<ExitCause, AgentError> {
     config.node_name = Some(format!("bycoms-{}-robot-{}", swarm.as_str(), id.0));
     let bus = IpcBus::new(config)?;
     let ports = AgentPorts::open(&bus, &swarm, id, args.peer_ids())?;
+    tracing::debug!(swarm = swarm.as_str(), clock = ?args.clock, speed = args.speed, "agent on the bus");
     let cfg = args.run_config();
     let dt = cfg.kinematics.dt;
     let timing = Timing {
@@ -117,7 +122,14 @@ fn run(args: &AgentArgs) -> Result<ExitCause, AgentError> {
         notes.push(format!("{} of {} real-time periods missed", s.missed, s.missed + s.periods));
     }
     if !notes.is_empty() {
-        eprintln!("sim-agent[robot {}]: exiting ({cause:?}): {}", id.0, notes.join(", "));
+        tracing::warn!(
+            ?cause,
+            bad_messages = s.traffic.total(),
+            stale_bearings = s.stale_bearings,
+            missed_periods = s.missed,
+            "exiting: {}",
+            notes.join(", ")
+        );
     }
     Ok(cause)
 }

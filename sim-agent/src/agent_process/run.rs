@@ -283,7 +283,7 @@ impl<B: Bus> Agent<B> {
                     Ok(None) => break,
                     Err(e) => {
                         if let Some(fatal) = self.stats.traffic.absorb(&self.who, "peer pose", e) {
-                            eprintln!("{}: cannot read the pose of {topic}: {fatal}", self.who);
+                            tracing::error!(who = %self.who, %topic, "cannot read a peer's pose: {fatal}");
                             break;
                         }
                     }

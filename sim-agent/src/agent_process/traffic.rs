@@ -64,7 +64,7 @@ impl Traffic {
         *slot += 1;
         let n = *slot;
         if n <= LOG_FIRST || n % 1000 == 0 {
-            eprintln!("{who}: bad message #{n} ({kind:?}): {what}");
+            tracing::warn!(who, n, ?kind, "bad message: {what}");
         }
     }
 

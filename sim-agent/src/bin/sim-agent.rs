@@ -9,9 +9,12 @@ use clap::Parser;
 struct Cli {
     #[command(flatten)]
     agent: AgentArgs,
+    #[command(flatten)]
+    log: bycoms_logging::LogArgs,
 }
 
 fn main() {
     let cli = Cli::parse();
+    bycoms_logging::init(cli.log.log_format);
     std::process::exit(main_with(&cli.agent));
 }

@@ -1,0 +1,135 @@
+//! One logging setup shared by every BYCOMS binary (`orchestrator`,
+//! `sim-agent`, and any later gateway): diagnostics are `tracing` events,
+//! written to stderr, filtered by `RUST_LOG`, as text or as JSON lines.
+//!
+//! Why a crate of its own: the binaries live in different crates and a
+//! gateway for real robots should not have to depend on the simulator to
+//! log the same way. Why stderr: stdout carries the programs' results
+//! (summaries, tables, JSON), which must stay parseable.
+//!
+//! * `RUST_LOG` takes `tracing-subscriber`'s `EnvFilter` syntax
+//!   (`debug`, `bycoms_sim=trace,info`, …). Unset, or for targets it does
+//!   not name, the level is [`DEFAULT_LEVEL`]. Invalid directives are
+//!   skipped with a note on stderr rather than silencing the program.
+//! * `--log-format text|json` (flatten [`LogArgs`] into a clap parser, it is
+//!   `global`) or the environment variable [`FORMAT_ENV`]. [`init`] exports
+//!   the chosen format in [`FORMAT_ENV`] so that child processes (the
+//!   `sim-agent`s that `launch` starts) log in the same format.
+//! * [`status_line`] is for the human-facing lines a program prints on
+//!   stderr besides its logs (the launch's plain progress lines, a summary
+//!   line next to JSON on stdout): unchanged text in the text format, an
+//!   `info` event of target [`STATUS_TARGET`] in the JSON format, so that a
+//!   log shipper reading stderr sees nothing but JSON lines.
+//! * Text lines have no timestamp (a terminal or journald adds its own);
+//!   JSON lines have one, plus the level, target, fields and spans, as log
+//!   shippers expect.
+
+use std::io::IsTerminal;
+use std::sync::OnceLock;
+use tracing_subscriber::filter::{EnvFilter, LevelFilter};
+
+/// The level of every target that `RUST_LOG` does not mention.
+pub const DEFAULT_LEVEL: LevelFilter = LevelFilter::INFO;
+
+/// The environment variable that carries the format to child processes
+/// (and that a user may set instead of the flag).
+pub const FORMAT_ENV: &str = "BYCOMS_LOG_FORMAT";
+
+/// The target of the events [`status_line`] emits in the JSON format.
+pub const STATUS_TARGET: &str = "status";
+
+static FORMAT: OnceLock<LogFormat> = OnceLock::new();
+
+/// How log lines look on stderr.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum LogFormat {
+    /// One human-readable line per event: `LEVEL span{fields}: message key=value`.
+    #[default]
+    Text,
+    /// One JSON object per line (timestamp, level, target, fields, spans).
+    Json,
+}
+
+impl LogFormat {
+    /// The flag's spelling (`text` or `json`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            LogFormat::Text => "text",
+            LogFormat::Json => "json",
+        }
+    }
+}
+
+/// The logging flags of a binary; flatten into its clap parser.
+#[derive(Debug, Clone, Copy, Default, clap::Args)]
+pub struct LogArgs {
+    /// Log line format on stderr (filter lines with RUST_LOG, e.g. RUST_LOG=debug).
+    #[arg(long, global = true, value_enum, env = FORMAT_ENV, default_value_t = LogFormat::Text)]
+    pub log_format: LogFormat,
+}
+
+/// Installs the global subscriber for `format`; call once, first thing in
+/// `main`, before any thread starts (it exports [`FORMAT_ENV`]). A second
+/// call (e.g. a command run in-process by a test) leaves the first in place.
+pub fn init(format: LogFormat) {
+    // Before any thread exists: children inherit the format.
+    std::env::set_var(FORMAT_ENV, format.as_str());
+    let _ = FORMAT.set(format);
+    let rust_log = std::env::var("RUST_LOG").unwrap_or_default();
+    let filter = EnvFilter::builder().parse_lossy(filter_directives(&rust_log));
+    let builder = tracing_subscriber::fmt().with_writer(std::io::stderr).with_env_filter(filter);
+    let installed = match format {
+        LogFormat::Text => builder
+            .without_time()
+            .with_target(false)
+            .with_ansi(std::io::stderr().is_terminal())
+            .try_init(),
+        LogFormat::Json => builder.json().with_current_span(true).with_span_list(false).try_init(),
+    };
+    // Err only when a subscriber is already installed: keep that one.
+    drop(installed);
+}
+
+/// The directives for `rust_log` (the value of `RUST_LOG`): as given, with
+/// [`DEFAULT_LEVEL`] in front unless it sets a level for all targets, so
+/// that `RUST_LOG=iceoryx2=debug` adds a target instead of silencing the rest.
+pub fn filter_directives(rust_log: &str) -> String {
+    let sets_global_level = rust_log
+        .split(',')
+        .any(|d| d.trim().parse::<LevelFilter>().is_ok() && !d.trim().is_empty());
+    if sets_global_level {
+        rust_log.to_owned()
+    } else if rust_log.trim().is_empty() {
+        DEFAULT_LEVEL.to_string()
+    } else {
+        format!("{DEFAULT_LEVEL},{rust_log}")
+    }
+}
+
+/// The format [`init`] installed (text if it was never called).
+pub fn format() -> LogFormat {
+    FORMAT.get().copied().unwrap_or_default()
+}
+
+/// Writes one human-facing status line to stderr: as it is in the text
+/// format, as an `info` event (target [`STATUS_TARGET`]) in the JSON format.
+pub fn status_line(text: &str) {
+    match format() {
+        LogFormat::Text => eprintln!("{text}"),
+        LogFormat::Json => tracing::info!(target: STATUS_TARGET, "{text}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::filter_directives;
+
+    #[test]
+    fn the_default_level_applies_unless_rust_log_sets_one() {
+        assert_eq!(filter_directives(""), "info");
+        assert_eq!(filter_directives("debug"), "debug");
+        assert_eq!(filter_directives("iceoryx2=trace,WARN"), "iceoryx2=trace,WARN");
+        assert_eq!(filter_directives("iceoryx2=trace"), "info,iceoryx2=trace");
+        assert_eq!(filter_directives("bycoms_sim"), "info,bycoms_sim");
+    }
+}
