@@ -79,11 +79,9 @@ pub fn init(format: LogFormat) {
     let filter = EnvFilter::builder().parse_lossy(filter_directives(&rust_log));
     let builder = tracing_subscriber::fmt().with_writer(std::io::stderr).with_env_filter(filter);
     let installed = match format {
-        LogFormat::Text => builder
-            .without_time()
-            .with_target(false)
-            .with_ansi(std::io::stderr().is_terminal())
-            .try_init(),
+        LogFormat::Text => {
+            builder.without_time().with_target(false).with_ansi(std::io::stderr().is_terminal()).try_init()
+        }
         LogFormat::Json => builder.json().with_current_span(true).with_span_list(false).try_init(),
     };
     // Err only when a subscriber is already installed: keep that one.
@@ -94,9 +92,8 @@ pub fn init(format: LogFormat) {
 /// [`DEFAULT_LEVEL`] in front unless it sets a level for all targets, so
 /// that `RUST_LOG=iceoryx2=debug` adds a target instead of silencing the rest.
 pub fn filter_directives(rust_log: &str) -> String {
-    let sets_global_level = rust_log
-        .split(',')
-        .any(|d| d.trim().parse::<LevelFilter>().is_ok() && !d.trim().is_empty());
+    let sets_global_level =
+        rust_log.split(',').any(|d| d.trim().parse::<LevelFilter>().is_ok() && !d.trim().is_empty());
     if sets_global_level {
         rust_log.to_owned()
     } else if rust_log.trim().is_empty() {

@@ -54,7 +54,8 @@ fn has(lines: &[Value], level: &str, message_part: &str) -> bool {
 
 #[test]
 fn json_format_with_rust_log_debug_gives_json_lines_only() {
-    let o = orchestrator(&["--log-format", "json", "simulate", "--terrain", "/nonexistent/t.txt"], Some("debug"));
+    let o =
+        orchestrator(&["--log-format", "json", "simulate", "--terrain", "/nonexistent/t.txt"], Some("debug"));
     assert_eq!(o.status.code(), Some(1));
     assert!(o.stdout.is_empty(), "stdout is for results only");
     let lines = json_lines(&o);
@@ -98,7 +99,18 @@ fn an_unknown_format_is_a_usage_error() {
 #[test]
 fn a_launch_in_json_format_logs_json_from_orchestrator_and_agents() {
     let swarm = format!("logjson{}", std::process::id());
-    let args = ["--log-format", "json", "launch", "--robots", "2", "--time-limit", "30", "--json", "--swarm", &swarm];
+    let args = [
+        "--log-format",
+        "json",
+        "launch",
+        "--robots",
+        "2",
+        "--time-limit",
+        "30",
+        "--json",
+        "--swarm",
+        &swarm,
+    ];
     let o = orchestrator(&args, Some("debug"));
     assert!(matches!(o.status.code(), Some(0) | Some(3)), "{}", String::from_utf8_lossy(&o.stderr));
     let summary: Value = serde_json::from_slice(&o.stdout).expect("stdout is the JSON summary");

@@ -166,7 +166,12 @@ pub fn run(args: Args) -> Result<i32> {
     }
     let pending = &planned[done.len()..];
     if !done.is_empty() {
-        tracing::info!("resuming: {} of {} runs already in {}", done.len(), planned.len(), runs_path.display());
+        tracing::info!(
+            "resuming: {} of {} runs already in {}",
+            done.len(),
+            planned.len(),
+            runs_path.display()
+        );
     }
 
     let mut base = RunConfig::paper(1.0);
