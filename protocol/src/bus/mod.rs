@@ -26,6 +26,7 @@
 //! The typed layer ([`typed`]) encodes and decodes [`crate::Message`]s with
 //! the one codec over these byte channels.
 
+pub mod fault;
 pub mod memory;
 pub mod typed;
 
