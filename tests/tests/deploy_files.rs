@@ -1,0 +1,208 @@
+//! The deployment files in `deploy/systemd/` and `deploy/k8s/` stay true to
+//! the program: every command line they run parses with the orchestrator's
+//! real command-line parser (after substituting what systemd or Kubernetes
+//! would), the exit codes they accept exist, and the Kubernetes Job is an
+//! Indexed Job whose shard count matches its completions.
+
+use bycoms_orchestrator::commands::{Cli, Command};
+use bycoms_orchestrator::exit;
+use clap::Parser;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use yaml_rust2::{Yaml, YamlLoader};
+
+fn deploy() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../deploy")
+}
+
+fn read(rel: &str) -> String {
+    let path = deploy().join(rel);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// A unit file as `section → key → values` (keys may repeat).
+type Unit = HashMap<String, HashMap<String, Vec<String>>>;
+
+fn parse_unit(text: &str) -> Unit {
+    let mut unit = Unit::new();
+    let mut section = String::new();
+    for line in text.lines().map(str::trim).filter(|l| !l.is_empty() && !l.starts_with('#')) {
+        if let Some(name) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
+            section = name.to_owned();
+            continue;
+        }
+        let (key, value) = line.split_once('=').unwrap_or_else(|| panic!("not key=value: {line}"));
+        assert!(!section.is_empty(), "key outside a section: {line}");
+        unit.entry(section.clone()).or_default().entry(key.to_owned()).or_default().push(value.to_owned());
+    }
+    unit
+}
+
+fn one<'u>(unit: &'u Unit, section: &str, key: &str) -> &'u str {
+    let values = unit.get(section).and_then(|s| s.get(key)).unwrap_or_else(|| panic!("no {section}.{key}"));
+    assert_eq!(values.len(), 1, "{section}.{key} given {} times", values.len());
+    &values[0]
+}
+
+/// The orchestrator's arguments in a unit's `ExecStart=`, with systemd's
+/// `%i`, `%%` and `${VAR}` and the shell's `$VAR`/`$(…)` substituted.
+fn exec_args(exec: &str, instance: &str, env: &HashMap<String, String>) -> Vec<String> {
+    let mut line = exec.replace("%%", "%").replace("%i", instance);
+    for (k, v) in env {
+        line = line.replace(&format!("${{{k}}}"), v);
+    }
+    line = line.replace("$STATE_DIRECTORY", "/var/lib/bycoms");
+    // The shell's command substitution (the recording's time stamp).
+    while let Some(start) = line.find("$(") {
+        let end = line[start..].find(')').map(|e| start + e + 1).expect("closed $(");
+        line.replace_range(start..end, "20260101T000000Z");
+    }
+    let words: Vec<String> =
+        line.split_whitespace().map(|w| w.trim_matches(|c| c == '\'' || c == '"').to_owned()).collect();
+    let at = words.iter().position(|w| w == "/usr/local/bin/orchestrator").expect("runs the orchestrator");
+    words[at..].to_vec()
+}
+
+fn env_file(text: &str) -> HashMap<String, String> {
+    text.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .map(|l| {
+            let (k, v) = l.split_once('=').unwrap_or_else(|| panic!("not KEY=value: {l}"));
+            (k.to_owned(), v.to_owned())
+        })
+        .collect()
+}
+
+fn parse_cli(args: &[String]) -> Cli {
+    Cli::try_parse_from(args).unwrap_or_else(|e| panic!("{args:?} does not parse:\n{e}"))
+}
+
+fn success_codes(unit: &Unit) -> Vec<i32> {
+    one(unit, "Service", "SuccessExitStatus")
+        .split_whitespace()
+        .map(|c| c.parse().expect("numeric exit status"))
+        .collect()
+}
+
+#[test]
+fn the_launch_unit_runs_a_valid_launch_command() {
+    let unit = parse_unit(&read("systemd/bycoms-launch@.service"));
+    assert!(!one(&unit, "Unit", "Description").is_empty());
+    assert_eq!(one(&unit, "Install", "WantedBy"), "multi-user.target");
+    let args = exec_args(one(&unit, "Service", "ExecStart"), "exp1", &HashMap::new());
+    let cli = parse_cli(&args);
+    let Command::Launch(launch) = cli.command else { panic!("not a launch: {args:?}") };
+    assert_eq!(launch.config.as_deref(), Some(Path::new("/etc/bycoms/exp1.toml")));
+    let record = launch.record.expect("the unit records every run");
+    assert!(record.starts_with("/var/lib/bycoms") && record.extension().is_some_and(|e| e == "mcap"));
+    assert_eq!(cli.log.log_format, bycoms_logging::LogFormat::Json);
+    assert_eq!(success_codes(&unit), [exit::NOT_ARRIVED, exit::INTERRUPTED]);
+    assert_eq!(one(&unit, "Service", "KillMode"), "mixed", "SIGINT to the orchestrator, not its agents");
+}
+
+#[test]
+fn the_sweep_unit_runs_shard_i_of_the_env_files_count() {
+    let unit = parse_unit(&read("systemd/bycoms-sweep@.service"));
+    assert_eq!(one(&unit, "Service", "EnvironmentFile"), "/etc/bycoms/sweep.env");
+    let env = env_file(&read("systemd/sweep.env"));
+    let shards: usize = env["SHARDS"].parse().expect("SHARDS is a number");
+    let exec = one(&unit, "Service", "ExecStart");
+    for var in ["SHARDS", "OUT", "SEED", "JOBS"] {
+        assert!(exec.contains(&format!("${{{var}}}")), "ExecStart uses {var}");
+    }
+    let last = (shards - 1).to_string();
+    let cli = parse_cli(&exec_args(exec, &last, &env));
+    let Command::Sweep(sweep) = cli.command else { panic!("not a sweep") };
+    let shard = sweep.shard.expect("a shard");
+    assert_eq!((shard.index, shard.count), (shards - 1, shards));
+    assert_eq!(sweep.out, Path::new(&env["OUT"]));
+    // The instance must be a shard index below SHARDS: one past is refused.
+    let past = Cli::try_parse_from(exec_args(exec, &shards.to_string(), &env));
+    assert!(past.is_err(), "shard {shards}/{shards} must not parse");
+    assert_eq!(success_codes(&unit), [exit::INTERRUPTED]);
+}
+
+fn yaml(rel: &str) -> Yaml {
+    let docs = YamlLoader::load_from_str(&read(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"));
+    assert_eq!(docs.len(), 1, "{rel}: one document");
+    docs.into_iter().next().expect("one document")
+}
+
+fn str_of<'y>(y: &'y Yaml, what: &str) -> &'y str {
+    y.as_str().unwrap_or_else(|| panic!("{what} is not a string: {y:?}"))
+}
+
+/// The only container of a Job, and its claim.
+fn container(job: &Yaml) -> (&Yaml, &str) {
+    assert_eq!(str_of(&job["apiVersion"], "apiVersion"), "batch/v1");
+    assert_eq!(str_of(&job["kind"], "kind"), "Job");
+    let pod = &job["spec"]["template"]["spec"];
+    assert!(matches!(str_of(&pod["restartPolicy"], "restartPolicy"), "Never" | "OnFailure"));
+    let containers = pod["containers"].as_vec().expect("containers");
+    assert_eq!(containers.len(), 1);
+    let claim = str_of(&pod["volumes"][0]["persistentVolumeClaim"]["claimName"], "claimName");
+    (&containers[0], claim)
+}
+
+/// A container's command line with Kubernetes' `$(VAR)` expanded from `env`.
+fn container_args(c: &Yaml, env: &HashMap<String, String>) -> Vec<String> {
+    let words = c["command"].as_vec().into_iter().flatten().chain(c["args"].as_vec().into_iter().flatten());
+    words
+        .map(|w| {
+            let mut s = str_of(w, "argument").to_owned();
+            for (k, v) in env {
+                s = s.replace(&format!("$({k})"), v);
+            }
+            assert!(!s.contains("$("), "unexpanded variable in {s}");
+            s
+        })
+        .collect()
+}
+
+#[test]
+fn the_kubernetes_job_is_indexed_and_its_shards_cover_the_completions() {
+    let job = yaml("k8s/sweep-job.yaml");
+    assert_eq!(str_of(&job["spec"]["completionMode"], "completionMode"), "Indexed");
+    let completions = job["spec"]["completions"].as_i64().expect("completions");
+    let parallelism = job["spec"]["parallelism"].as_i64().expect("parallelism");
+    assert!(completions >= 1 && (1..=completions).contains(&parallelism));
+    let (c, claim) = container(&job);
+    let mut env: HashMap<String, String> = c["env"]
+        .as_vec()
+        .expect("env")
+        .iter()
+        .filter_map(|e| Some((e["name"].as_str()?.to_owned(), e["value"].as_str()?.to_owned())))
+        .collect();
+    let shards: i64 = env["SHARDS"].parse().expect("SHARDS is a number");
+    assert_eq!(shards, completions, "one shard per completion index");
+    let args = c["args"].as_vec().expect("args");
+    assert!(args.iter().any(|a| a.as_str() == Some("$(JOB_COMPLETION_INDEX)/$(SHARDS)")));
+    // Every index the Job controller hands out gives a valid shard of the same sweep.
+    for index in [0, completions - 1] {
+        env.insert("JOB_COMPLETION_INDEX".into(), index.to_string());
+        let cli = parse_cli(&container_args(c, &env));
+        let Command::Sweep(sweep) = cli.command else { panic!("not a sweep") };
+        let shard = sweep.shard.expect("a shard");
+        assert_eq!((shard.index as i64, shard.count as i64), (index, completions));
+        let mount = str_of(&c["volumeMounts"][0]["mountPath"], "mountPath");
+        assert_eq!(sweep.out, Path::new(mount), "shards write to the shared volume");
+    }
+    let pvc = yaml("k8s/study-pvc.yaml");
+    assert_eq!(str_of(&pvc["metadata"]["name"], "claim name"), claim);
+    assert_eq!(str_of(&pvc["spec"]["accessModes"][0], "access mode"), "ReadWriteMany");
+}
+
+#[test]
+fn the_merge_job_reads_and_writes_the_same_volume() {
+    let job = yaml("k8s/merge-job.yaml");
+    let (c, claim) = container(&job);
+    let sweep_job = yaml("k8s/sweep-job.yaml");
+    let (_, sweep_claim) = container(&sweep_job);
+    assert_eq!(claim, sweep_claim);
+    let cli = parse_cli(&container_args(c, &HashMap::new()));
+    let Command::Merge(merge) = cli.command else { panic!("not a merge") };
+    let mount = Path::new(str_of(&c["volumeMounts"][0]["mountPath"], "mountPath"));
+    assert_eq!(merge.inputs, [mount]);
+    assert_eq!(merge.out, mount);
+}
