@@ -31,7 +31,7 @@ conformance_suite!(fault_layer_all_rates_zero, crate::transparent);
 conformance_suite!(fault_layer_all_rates_zero_small_limits, crate::transparent_small);
 
 /// Messages sent in one go.
-const N: u32 = 10_000;
+const N: u32 = 4_000;
 /// The rate of the fault under test.
 const P: f64 = 0.1;
 
@@ -48,7 +48,7 @@ fn deliver(config: FaultConfig) -> (Vec<u32>, FaultStats) {
     }
     let mut got = Vec::new();
     // Quiet for longer than `delay_by`: everything held has been released.
-    while let Some(bytes) = sub.recv_timeout(config.delay_by * 5).expect("receive") {
+    while let Some(bytes) = sub.recv_timeout(config.delay_by + Duration::from_millis(200)).expect("receive") {
         got.push(u32::from_le_bytes(bytes.try_into().expect("4 bytes")));
     }
     (got, sub.stats())
@@ -56,6 +56,14 @@ fn deliver(config: FaultConfig) -> (Vec<u32>, FaultStats) {
 
 fn config(seed: u64) -> FaultConfig {
     FaultConfig { delay_by: Duration::from_millis(2), ..FaultConfig::none(seed) }
+}
+
+/// For reordering: a held message is released after `delay_by` even without
+/// a successor, which would depend on scheduling; every successor here is
+/// already published, so a long `delay_by` makes each swap certain (only
+/// the very last message may wait it out).
+fn patient(seed: u64) -> FaultConfig {
+    FaultConfig { delay_by: Duration::from_millis(500), ..FaultConfig::none(seed) }
 }
 
 /// `count` is a plausible draw of Binomial(N, P): within 5 standard deviations.
@@ -94,7 +102,7 @@ fn duplicate_repeats_messages_at_the_rate() {
 
 #[test]
 fn reorder_swaps_messages_with_their_successor_at_the_rate() {
-    let (got, stats) = deliver(FaultConfig { reorder: P, ..config(3) });
+    let (got, stats) = deliver(FaultConfig { reorder: P, ..patient(3) });
     assert_rate("reordered", stats.reordered);
     assert_eq!(inversions(&got) as u64, stats.reordered, "one inversion per swap");
     let mut sorted = got.clone();
@@ -130,7 +138,7 @@ fn a_delayed_message_arrives_no_earlier_than_delay_by() {
 
 #[test]
 fn the_same_seed_gives_the_same_faults_and_another_seed_others() {
-    let faults = |seed| FaultConfig { drop: P, duplicate: P, reorder: P, ..config(seed) };
+    let faults = |seed| FaultConfig { drop: P, duplicate: P, reorder: P, ..patient(seed) };
     let (a, stats_a) = deliver(faults(11));
     let (b, stats_b) = deliver(faults(11));
     assert_eq!((&a, stats_a), (&b, stats_b), "same seed, same run");
