@@ -9,6 +9,9 @@
 //! The core is `no_std` and allocation-free so the same types compile into
 //! firmware. Behind features:
 //!
+//! The robot link ([`link`]: authenticated UDP frames between an ESP32
+//! robot and its gateway) is part of the no_std core.
+//!
 //! * `std` (default): the transport interface [`bus`] with its in-memory
 //!   backend, and `encode_vec`;
 //! * `ipc`: the iceoryx2 shared-memory backend `bus::ipc`.
@@ -22,6 +25,7 @@
 
 pub mod codec;
 pub mod ids;
+pub mod link;
 pub mod msg;
 pub mod naming;
 
