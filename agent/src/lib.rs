@@ -12,6 +12,8 @@
 //! * [`acoustic`] — the pieces of the physical robot (§VI): gradient
 //!   estimation from a microphone ring, FFT tone isolation, and the
 //!   differential-drive controller.
+//! * [`firmware`] — the real robot's firmware core: link frames and
+//!   microphone frames in, motor commands, its tone and link frames out.
 //! * [`angle`] — the angle arithmetic both share.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![forbid(unsafe_code)]
@@ -19,6 +21,7 @@
 
 pub mod acoustic;
 pub mod angle;
+pub mod firmware;
 pub mod point;
 
 pub use point::{Controller, ControllerConfig, Input, Mode, Motion, Output};

@@ -153,6 +153,13 @@ impl RobotLink {
         self.session.map(|s| s.id)
     }
 
+    /// Leaves the session and any handshake (e.g. after a silent link);
+    /// frames of the old session are refused from now on.
+    pub fn leave(&mut self) {
+        self.session = None;
+        self.hello = None;
+    }
+
     /// Whether a handshake is in progress (hello sent, no welcome yet).
     pub fn handshaking(&self) -> bool {
         self.hello.is_some()
