@@ -110,9 +110,16 @@ pub fn format() -> LogFormat {
 
 /// Writes one human-facing status line to stderr: as it is in the text
 /// format, as an `info` event (target [`STATUS_TARGET`]) in the JSON format.
+///
+/// Never panics: a closed stderr (`orchestrator launch 2>&1 | head -1`)
+/// drops the line, as `tracing`'s writer drops events, so the program still
+/// ends in order (`eprintln!` would panic on `EPIPE`).
 pub fn status_line(text: &str) {
+    use std::io::Write;
     match format() {
-        LogFormat::Text => eprintln!("{text}"),
+        LogFormat::Text => {
+            let _ = writeln!(std::io::stderr().lock(), "{text}");
+        }
         LogFormat::Json => tracing::info!(target: STATUS_TARGET, "{text}"),
     }
 }

@@ -6,12 +6,34 @@
 pub mod commands;
 pub mod draw;
 pub mod launch;
+pub mod out;
 pub mod record;
 pub mod scenario;
 pub mod sweep;
 
 /// Exit codes of every subcommand.
 pub mod exit {
+    /// A bad value given by the user (a flag or a config key): the command
+    /// did nothing and exits with [`USAGE`], like clap's own usage errors.
+    #[derive(Debug, thiserror::Error)]
+    #[error("{0}")]
+    pub struct UsageError(pub String);
+
+    /// Wraps any message as a [`UsageError`].
+    pub fn usage(message: impl std::fmt::Display) -> anyhow::Error {
+        UsageError(message.to_string()).into()
+    }
+
+    /// The exit code of an error that ended a command: [`USAGE`] if a
+    /// [`UsageError`] is anywhere in its chain, else [`ERROR`].
+    pub fn code_of(err: &anyhow::Error) -> i32 {
+        if err.chain().any(|e| e.is::<UsageError>()) {
+            USAGE
+        } else {
+            ERROR
+        }
+    }
+
     /// The run (or command) succeeded; for `simulate`, a robot arrived.
     pub const SUCCESS: i32 = 0;
     /// Bad input or a failure: the message says which.

@@ -14,7 +14,7 @@ fn main() {
         Ok(code) => code,
         Err(err) => {
             tracing::error!("{err:#}");
-            exit::ERROR
+            exit::code_of(&err)
         }
     };
     std::process::exit(code);

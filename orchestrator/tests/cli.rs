@@ -107,25 +107,35 @@ fn merge_of_an_incomplete_sweep_says_what_is_missing() {
 #[test]
 fn bad_input_exits_non_zero_with_a_clear_message() {
     let dir = tempfile::tempdir().unwrap();
-    let cases: &[(&[&str], &str)] = &[
+    // Bad values are usage errors (2, like clap's); failures are errors (1).
+    let cases: &[(&[&str], &str, i32)] = &[
         (
             &["simulate", "--terrain", "/nonexistent/t.txt", "--no-svg"],
             "cannot read terrain file /nonexistent/t.txt",
+            1,
         ),
-        (&["simulate", "--eps", "0", "--no-svg"], "must be a positive number"),
-        (&["simulate", "--eps", "-1", "--no-svg"], "must be a positive number"),
-        (&["sweep", "--eps", "", "--out", "/tmp/x"], "--eps is empty"),
-        (&["sweep", "--widths", "1,,2"], "--widths"),
-        (&["simulate", "--svg", "/nonexistent/dir/out.svg"], "cannot write the snapshot"),
-        (&["sweep", "--out", "/proc/forbidden"], "cannot create output directory"),
+        (&["simulate", "--eps", "0", "--no-svg"], "must be a positive number", 2),
+        (&["simulate", "--eps", "-1", "--no-svg"], "must be a positive number", 2),
+        (&["simulate", "--eps", "1e-300", "--no-svg"], "bad --eps", 2),
+        (&["launch", "--eps", "1e-300"], "bad --eps", 2),
+        (&["launch", "--eps", "0"], "bad --eps", 2),
+        (&["launch", "--clock", "realtime", "--speed", "1e9"], "speed-up must be a number in", 2),
+        (&["sweep", "--eps", "", "--out", "/tmp/x"], "--eps is empty", 2),
+        (&["sweep", "--eps", "1e-300", "--out", "/tmp/x"], "bad --eps", 2),
+        (&["sweep", "--widths", "1,,2"], "--widths", 2),
+        (&["sweep", "--shard", "5/4"], "need 0 ≤ i < n", 2),
+        (&["terrain", "--width", "0", "--count", "1", "--out", "/tmp/x"], "--width must lie", 2),
+        (&["bench", "scale", "--speed", "0"], "speed-up must be a number in", 2),
+        (&["simulate", "--svg", "/nonexistent/dir/out.svg"], "cannot write the snapshot", 1),
+        (&["sweep", "--out", "/proc/forbidden"], "cannot create output directory", 1),
     ];
-    for (args, expected) in cases {
+    for (args, expected, code) in cases {
         let o = Command::new(env!("CARGO_BIN_EXE_orchestrator"))
             .args(*args)
             .current_dir(dir.path())
             .output()
             .unwrap();
-        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+        assert_eq!(o.status.code(), Some(*code), "{args:?}: {}", stderr(&o));
         assert!(stderr(&o).contains(expected), "{args:?}: {}", stderr(&o));
     }
     let bad = dir.path().join("bad.txt");

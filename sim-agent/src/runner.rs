@@ -108,7 +108,7 @@ impl RunConfig {
 /// A run configuration [`run`] cannot honour.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ConfigError {
-    #[error("the circumferential radius ε must be a positive number of cells (with c/ε² > 0), got {0}")]
+    #[error("the circumferential radius ε must be a positive number of cells (with c/ε² > 0), got {0:?}")]
     Eps(f64),
     #[error("the time limit must be positive and at least one control period, got {0} s")]
     TimeLimit(f64),

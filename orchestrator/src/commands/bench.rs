@@ -92,9 +92,9 @@ pub fn run(args: Args) -> Result<i32> {
                 "wall_s": { "p50": percentile(&walls, 0.5), "max": percentile(&walls, 1.0) },
             });
             if args.json {
-                println!("{}", serde_json::to_string_pretty(&figures)?);
+                crate::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
             } else {
-                println!(
+                crate::outln!(
                     "launch --robots 3 (lockstep, prespawn {}), {runs} runs:\n  gate reaction p50 {:.3} ms, max {:.3} ms ({} deployments)\n  lockstep speed p50 {:.0} simulated s per wall s (min {:.0}); wall time p50 {:.2} s, max {:.2} s",
                     !no_prespawn,
                     percentile(&reactions, 0.5),
@@ -104,19 +104,19 @@ pub fn run(args: Args) -> Result<i32> {
                     percentile(&speeds, 0.0),
                     percentile(&walls, 0.5),
                     percentile(&walls, 1.0)
-                );
+                )?;
             }
         }
         What::Scale { agents, seconds, speed } => {
             let r = launch::scale::run(agent, agents, seconds, speed)?;
             if args.json {
-                println!("{}", serde_json::to_string_pretty(&r)?);
+                crate::outln!("{}", serde_json::to_string_pretty(&r)?)?;
             } else {
-                println!(
+                crate::outln!(
                     "{} agents at {} Hz for {} s (all started in {:.1} s): {} of {} periods missed ({:.4} %, {} agents missed any)\n  memory per agent: RSS {} kB mean (anon {}, file {}, shmem {}), max {} kB; PSS {} kB mean, max {} kB",
                     r.agents, 10.0 * speed, r.seconds, r.start_s, r.missed, r.periods, r.missed_percent, r.agents_with_misses,
                     r.mean.rss_kb, r.mean.rss_anon_kb, r.mean.rss_file_kb, r.mean.rss_shmem_kb, r.max_rss_kb, r.mean.pss_kb, r.max_pss_kb
-                );
+                )?;
             }
         }
     }

@@ -160,9 +160,9 @@ pub fn run(args: Args) -> Result<i32> {
     let summary = launch::run(cfg, world, agent)?;
     if args.json {
         bycoms_logging::status_line(&summary.line());
-        println!("{}", serde_json::to_string_pretty(&summary)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&summary)?)?;
     } else {
-        println!("{}", summary.text());
+        crate::outln!("{}", summary.text())?;
         if let Some(e) = &summary.error {
             tracing::error!("{e}");
         }

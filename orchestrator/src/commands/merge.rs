@@ -68,11 +68,11 @@ pub fn run(args: Args) -> Result<i32> {
     let tables = tabulate(&meta.axes, &rows);
     let files = write_outputs(&args.out, &meta.axes, &tables)?;
     for t in &tables {
-        println!("{}", to_text(&meta.axes, t));
+        crate::outln!("{}", to_text(&meta.axes, t))?;
     }
-    println!("merged {} runs into {}", rows.len(), args.out.join("runs.csv").display());
+    crate::outln!("merged {} runs into {}", rows.len(), args.out.join("runs.csv").display())?;
     for f in files {
-        println!("wrote {}", f.display());
+        crate::outln!("wrote {}", f.display())?;
     }
     Ok(exit::SUCCESS)
 }

@@ -109,9 +109,9 @@ pub fn run(args: Args) -> Result<i32> {
     );
     if args.json {
         bycoms_logging::status_line(&summary);
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&report)?)?;
     } else {
-        println!("{summary}");
+        crate::outln!("{summary}")?;
     }
     Ok(if result.success { exit::SUCCESS } else { exit::NOT_ARRIVED })
 }

@@ -103,10 +103,15 @@ fn stop_flag() -> &'static AtomicBool {
     })
 }
 
+/// A bad option value: exit code 2 (see `crate::exit`).
+fn usage(e: impl std::fmt::Display) -> anyhow::Error {
+    exit::usage(format!("{e:#}"))
+}
+
 pub fn run(args: Args) -> Result<i32> {
     let axes = Axes {
-        eps: parse_axis(&args.eps).context("--eps")?,
-        widths: parse_axis(&args.widths).context("--widths")?,
+        eps: parse_axis(&args.eps).context("--eps").map_err(usage)?,
+        widths: parse_axis(&args.widths).context("--widths").map_err(usage)?,
         terrains_per_bin: args.terrains_per_bin,
         noise: match args.noise {
             NoiseAxis::Off => vec![false],
@@ -114,12 +119,12 @@ pub fn run(args: Args) -> Result<i32> {
             NoiseAxis::Both => vec![false, true],
         },
     };
-    axes.validate()?;
+    axes.validate().map_err(usage)?;
     if !(args.time_limit.is_finite() && args.time_limit > 0.0) {
-        bail!("--time-limit must be a positive number of seconds");
+        return Err(usage("--time-limit must be a positive number of seconds"));
     }
     if args.max_robots == Some(0) {
-        bail!("--max-robots must be at least 1");
+        return Err(usage("--max-robots must be at least 1"));
     }
     let shard = args.shard.unwrap_or(Shard::WHOLE);
     let meta = Meta {
@@ -199,24 +204,24 @@ pub fn run(args: Args) -> Result<i32> {
         return Ok(exit::INTERRUPTED);
     }
     if !shard.is_whole() {
-        println!(
+        crate::outln!(
             "shard {}/{} done: {} runs in {}; combine the shards with `orchestrator merge`",
             shard.index,
             shard.count,
             planned.len(),
             runs_path.display()
-        );
+        )?;
         return Ok(exit::SUCCESS);
     }
     let rows = crate::sweep::rows::read_rows(&runs_path)?;
     let tables = tabulate(&axes, &rows);
     let files = write_outputs(&args.out, &axes, &tables)?;
     for t in &tables {
-        println!("{}", to_text(&axes, t));
+        crate::outln!("{}", to_text(&axes, t))?;
     }
-    println!("{} runs in {}", rows.len(), runs_path.display());
+    crate::outln!("{} runs in {}", rows.len(), runs_path.display())?;
     for f in files {
-        println!("wrote {}", f.display());
+        crate::outln!("wrote {}", f.display())?;
     }
     Ok(exit::SUCCESS)
 }

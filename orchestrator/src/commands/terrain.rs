@@ -3,7 +3,7 @@
 
 use crate::exit;
 use crate::sweep::terrains::{file_name, generate_bins};
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use bycoms_sim::terrain::to_text;
 use std::path::PathBuf;
 
@@ -30,13 +30,13 @@ pub struct Args {
 pub fn run(args: Args) -> Result<i32> {
     let top = 2.0 * bycoms_sim::terrain::width::MAX_CLEARANCE - crate::sweep::terrains::BIN_SIZE;
     if !(args.width.is_finite() && (1.0..=top).contains(&args.width)) {
-        bail!(
+        return Err(exit::usage(format!(
             "--width must lie in [1, {top}] cells (feasible terrains measure at least 1), got {}",
             args.width
-        );
+        )));
     }
     if args.count == 0 {
-        bail!("--count must be at least 1");
+        return Err(exit::usage("--count must be at least 1"));
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
@@ -59,6 +59,6 @@ pub fn run(args: Args) -> Result<i32> {
     }
     let index_path = args.out.join("terrains.csv");
     std::fs::write(&index_path, index).with_context(|| format!("cannot write {}", index_path.display()))?;
-    println!("wrote {} terrains of width bin {} to {}", bins[0].len(), args.width, args.out.display());
+    crate::outln!("wrote {} terrains of width bin {} to {}", bins[0].len(), args.width, args.out.display())?;
     Ok(exit::SUCCESS)
 }

@@ -1,7 +1,9 @@
 //! Options shared by the commands that run the simulated world, and their
 //! validation (every bad value gets a message naming the option).
 
-use anyhow::{bail, Result};
+use crate::exit::usage;
+use anyhow::Result;
+use bycoms_sim::runner::ConfigError;
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::RunConfig;
 use clap::Args as ClapArgs;
@@ -29,31 +31,36 @@ pub struct RunArgs {
 impl RunArgs {
     /// The run configuration, or a clear error for a bad value.
     pub fn to_config(&self, seed: u64) -> Result<RunConfig> {
-        check_eps(self.eps)?;
-        if !(self.time_limit.is_finite() && self.time_limit > 0.0) {
-            bail!("--time-limit must be a positive number of seconds, got {}", self.time_limit);
-        }
-        if !(self.success_radius.is_finite() && self.success_radius > 0.0) {
-            bail!("--success-radius must be positive, got {}", self.success_radius);
-        }
-        if self.max_robots == Some(0) {
-            bail!("--max-robots must be at least 1");
-        }
         let mut cfg = RunConfig::paper(self.eps);
         cfg.noise = self.noise.then(NoiseModel::paper);
         cfg.seed = seed;
         cfg.max_robots = self.max_robots;
         cfg.time_limit = self.time_limit;
         cfg.success_radius = self.success_radius;
-        cfg.validate()?;
+        check_run(&cfg)?;
         Ok(cfg)
     }
 }
 
-/// ε must be a positive, finite number of cells.
+/// The one validation of run parameters, [`RunConfig::validate`] — the very
+/// check a `sim-agent` makes — as a usage error (exit code 2). Every command
+/// that runs the world (`simulate`, `sweep`, `launch`) goes through it, so a
+/// value one accepts none of the others (or an agent) refuses later.
+pub fn check_run(cfg: &RunConfig) -> Result<()> {
+    cfg.validate().map_err(|e| {
+        let option = match e {
+            ConfigError::Eps(_) => "--eps",
+            ConfigError::TimeLimit(_) => "--time-limit",
+            ConfigError::SuccessRadius(_) => "the goal radius",
+            ConfigError::NoRobots => "--max-robots",
+            ConfigError::FieldConstant(_) | ConfigError::Kinematics => "run parameters",
+        };
+        usage(format!("bad {option}: {e}"))
+    })
+}
+
+/// ε must be a positive, finite number of cells with a finite threshold
+/// 1/ε² (see [`check_run`]).
 pub fn check_eps(eps: f64) -> Result<()> {
-    if !(eps.is_finite() && eps > 0.0) {
-        bail!("ε (--eps) must be a positive number of cells, got {eps}");
-    }
-    Ok(())
+    check_run(&RunConfig::paper(eps))
 }

@@ -6,7 +6,12 @@
 //! [`LaunchConfig::default`] (a test parses it and compares). Precedence:
 //! built-in defaults < `--config FILE` < command-line flags.
 
-use anyhow::{bail, Context, Result};
+use crate::commands::world::check_run;
+use crate::exit::usage;
+use anyhow::{Context, Result};
+use bycoms_sim::agent_process::check_speed;
+use bycoms_sim::sensing::NoiseModel;
+use bycoms_sim::RunConfig;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -151,7 +156,7 @@ impl LaunchConfig {
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read config {}", path.display()))?;
-        Self::parse(&text).with_context(|| format!("bad config {}", path.display()))
+        Self::parse(&text).map_err(|e| usage(format!("bad config {}: {e:#}", path.display())))
     }
 
     /// Parses config text.
@@ -159,14 +164,25 @@ impl LaunchConfig {
         Ok(toml::from_str(text)?)
     }
 
-    /// Checks every value; the message names the key.
+    /// The run parameters of the robots: the runner's, with this config's
+    /// ε, noise, seed, time limit and goal radius.
+    pub fn run_config(&self) -> RunConfig {
+        let mut run = RunConfig::paper(self.eps);
+        run.noise = self.noise.then(NoiseModel::paper);
+        run.seed = self.seed;
+        run.time_limit = self.time_limit;
+        run.success_radius = self.goal_radius;
+        run
+    }
+
+    /// Checks every value; the message names the key. Every error is a
+    /// usage error (exit code 2). The run parameters go through the one
+    /// check every command and every agent makes ([`check_run`]).
     pub fn validate(&self) -> Result<()> {
+        check_run(&self.run_config())?;
+        check_speed(self.speed).map_err(usage)?;
         let positive = |v: f64| v.is_finite() && v > 0.0;
-        let checks: [(&str, f64); 10] = [
-            ("eps", self.eps),
-            ("speed", self.speed),
-            ("time_limit", self.time_limit),
-            ("goal_radius", self.goal_radius),
+        let checks: [(&str, f64); 6] = [
             ("gate.dwell", self.gate.dwell),
             ("supervision.register_timeout", self.supervision.register_timeout),
             ("supervision.heartbeat_interval", self.supervision.heartbeat_interval),
@@ -176,24 +192,26 @@ impl LaunchConfig {
         ];
         for (key, value) in checks {
             if !positive(value) {
-                bail!("{key} must be a positive number, got {value}");
+                return Err(usage(format!("{key} must be a positive number, got {value}")));
             }
         }
         for (key, value) in
             [("gate.stop_speed", self.gate.stop_speed), ("gate.stop_turn_rate", self.gate.stop_turn_rate)]
         {
             if !(value.is_finite() && value >= 0.0) {
-                bail!("{key} must be a non-negative number, got {value}");
+                return Err(usage(format!("{key} must be a non-negative number, got {value}")));
             }
         }
         if self.robots == 0 {
-            bail!("robots must be at least 1");
+            return Err(usage("robots must be at least 1"));
         }
         if self.robots > MAX_ROBOTS {
-            bail!("robots must be at most {MAX_ROBOTS}, got {}", self.robots);
+            return Err(usage(format!("robots must be at most {MAX_ROBOTS}, got {}", self.robots)));
         }
         if self.supervision.heartbeat_timeout <= self.supervision.heartbeat_interval {
-            bail!("supervision.heartbeat_timeout must be longer than supervision.heartbeat_interval");
+            return Err(usage(
+                "supervision.heartbeat_timeout must be longer than supervision.heartbeat_interval",
+            ));
         }
         Ok(())
     }

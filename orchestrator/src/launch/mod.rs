@@ -15,6 +15,7 @@
 //! * [`lockstep`] / [`realtime`] — the two clocks;
 //! * [`finish`] / [`summary`] / [`progress`] / [`recording`] — the ending,
 //!   the report, the terminal, the MCAP file;
+//! * [`swarm_lock`] — one live launch per swarm name;
 //! * [`scale`] — the real-time scale benchmark (`orchestrator bench scale`).
 
 pub mod config;
@@ -31,6 +32,7 @@ pub mod recording;
 pub mod scale;
 pub mod summary;
 pub mod supervise;
+pub mod swarm_lock;
 
 pub use config::{Clock, LaunchConfig, OnDeath};
 pub use engine::World;
@@ -94,6 +96,8 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
     bycoms_sim::agent_process::cli::quiet_iceoryx2();
     let swarm_name = cfg.swarm.clone().unwrap_or_else(|| format!("launch-{}", std::process::id()));
     let swarm = Swarm::new(&swarm_name).with_context(|| format!("bad swarm name {swarm_name:?}"))?;
+    // Held until the launch has ended (dropped last): one live launch per swarm.
+    let _swarm_lock = swarm_lock::SwarmLock::acquire(&swarm_name)?;
     let recording = match &cfg.record {
         Some(path) => Recording::create(path)?,
         None => Recording::off(),

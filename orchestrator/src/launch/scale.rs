@@ -78,9 +78,10 @@ pub fn memory(pid: u32) -> Memory {
 
 /// Runs `agents` real-time agents at 10 Hz × `speed` for `seconds`.
 pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result<ScaleReport> {
-    if agents == 0 || seconds.is_nan() || seconds <= 0.0 || speed.is_nan() || speed <= 0.0 {
-        bail!("--agents, --seconds and --speed must be positive");
+    if agents == 0 || !(seconds.is_finite() && seconds > 0.0) {
+        return Err(crate::exit::usage("--agents and --seconds must be positive"));
     }
+    bycoms_sim::agent_process::check_speed(speed).map_err(crate::exit::usage)?;
     let stop = super::interrupt_flag();
     bycoms_sim::agent_process::cli::quiet_iceoryx2();
     let name = format!("scale-{}", std::process::id());

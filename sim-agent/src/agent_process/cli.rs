@@ -2,8 +2,8 @@
 //! with a code that says how it ended.
 //!
 //! Exit codes: 0 after `Shutdown`, a signal or the parent's death (all
-//! orderly ends), 1 for an error (bad flags, unreadable terrain, bus
-//! failure), printed on stderr first.
+//! orderly ends), 2 for a usage error (bad flags or values), 1 for any other
+//! error (unreadable terrain, bus failure), printed on stderr first.
 
 use super::lifeline::{ExitCause, Lifeline, LifelineError};
 use super::options::AgentArgs;
@@ -22,7 +22,7 @@ use std::time::Duration;
 pub enum AgentError {
     /// A flag has an unusable value.
     #[error("{0}")]
-    Args(&'static str),
+    Args(String),
     /// The terrain could not be read.
     #[error("cannot read terrain {}: {source}", path.display())]
     ReadTerrain {
@@ -62,7 +62,12 @@ pub fn main_with(args: &AgentArgs) -> i32 {
         }
         Err(e) => {
             tracing::error!("{e}");
-            1
+            // Bad values are usage errors, like clap's own (exit code 2).
+            if matches!(e, AgentError::Args(_)) {
+                2
+            } else {
+                1
+            }
         }
     }
 }

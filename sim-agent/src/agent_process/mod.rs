@@ -30,7 +30,7 @@ pub mod traffic;
 pub use self::core::{AgentCore, Phase, Reject};
 pub use cli::{main_with, AgentError};
 pub use lifeline::{ExitCause, Lifeline};
-pub use options::{AgentArgs, ClockKind};
+pub use options::{check_speed, AgentArgs, ClockKind, MAX_SPEED};
 pub use traffic::{BadKind, Traffic};
 
 use bycoms_protocol::bus::ipc::IpcConfig;

@@ -10,6 +10,20 @@ use crate::sensing::NoiseModel;
 use crate::RunConfig;
 use std::path::PathBuf;
 
+/// Fastest real-time speed-up: a control period of 0.1 s / speed must stay
+/// at least 1 µs of wall time (no process keeps up with more; see the
+/// summary's achieved speed for what a machine really does).
+pub const MAX_SPEED: f64 = 100_000.0;
+
+/// The real-time speed-up must be positive, finite and at most [`MAX_SPEED`]
+/// (shared by `launch`, `bench scale` and the agent).
+pub fn check_speed(speed: f64) -> Result<(), String> {
+    if !(speed.is_finite() && speed > 0.0 && speed <= MAX_SPEED) {
+        return Err(format!("the real-time speed-up must be a number in (0, {MAX_SPEED}], got {speed}"));
+    }
+    Ok(())
+}
+
 /// How the agent's control periods are clocked.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum ClockKind {
@@ -91,16 +105,14 @@ impl AgentArgs {
         (1..=last).filter(move |&id| id != self.robot)
     }
 
-    /// Checks the values clap cannot.
-    pub fn validate(&self) -> Result<(), &'static str> {
-        if self.run_config().validate().is_err() {
-            return Err("--eps must be a positive number of cells");
-        }
-        if !(self.speed.is_finite() && self.speed > 0.0) {
-            return Err("--speed must be positive");
-        }
+    /// Checks the values clap cannot: the run parameters with the one check
+    /// every command makes ([`RunConfig::validate`]), the speed with
+    /// [`check_speed`].
+    pub fn validate(&self) -> Result<(), String> {
+        self.run_config().validate().map_err(|e| format!("bad run parameters: {e}"))?;
+        check_speed(self.speed)?;
         if self.heartbeat_ms == 0 {
-            return Err("--heartbeat-ms must be at least 1");
+            return Err("--heartbeat-ms must be at least 1".into());
         }
         Ok(())
     }
