@@ -77,7 +77,12 @@ pub fn init(format: LogFormat) {
     let _ = FORMAT.set(format);
     let rust_log = std::env::var("RUST_LOG").unwrap_or_default();
     let filter = EnvFilter::builder().parse_lossy(filter_directives(&rust_log));
-    let builder = tracing_subscriber::fmt().with_writer(std::io::stderr).with_env_filter(filter);
+    // A closed stderr drops events quietly: by default tracing-subscriber
+    // reports its own write failures with `eprintln!`, which panics on EPIPE.
+    let builder = tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_env_filter(filter)
+        .log_internal_errors(false);
     let installed = match format {
         LogFormat::Text => {
             builder.without_time().with_target(false).with_ansi(std::io::stderr().is_terminal()).try_init()
