@@ -296,14 +296,24 @@ fn load_terrains(args: &Args, axes: &Axes, stop: &AtomicBool) -> Result<Vec<Vec<
     Ok(bins)
 }
 
+/// One line of `terrains.csv`.
+#[derive(Serialize)]
+struct TerrainEntry<'a> {
+    width_bin: f64,
+    terrain: &'a str,
+    width: f64,
+    threshold: Option<f64>,
+}
+
 /// `terrains.csv`: which terrain each bin used, with its measured width.
 fn write_terrain_list(out: &Path, axes: &Axes, terrains: &[Vec<SweepTerrain>]) -> Result<()> {
-    let mut s = String::from("width_bin,terrain,width,threshold\n");
-    for (bin, ts) in axes.widths.iter().zip(terrains) {
-        for t in ts {
-            let threshold = t.threshold.map(|a| a.to_string()).unwrap_or_default();
-            s.push_str(&format!("{bin},{},{},{threshold}\n", crate::sweep::rows::csv_field(&t.id), t.width));
-        }
-    }
-    crate::sweep::rows::write_atomic(&out.join("terrains.csv"), s.as_bytes())
+    let entries = axes.widths.iter().zip(terrains).flat_map(|(&width_bin, ts)| {
+        ts.iter().map(move |t| TerrainEntry {
+            width_bin,
+            terrain: &t.id,
+            width: t.width,
+            threshold: t.threshold,
+        })
+    });
+    crate::sweep::rows::write_atomic(&out.join("terrains.csv"), &crate::sweep::rows::to_csv_bytes(entries)?)
 }

@@ -1,10 +1,16 @@
 //! `orchestrator terrain`: generate terrains of one width bin, as text files
 //! named with their measured minimum path width, plus an index CSV.
+//!
+//! When the candidate budget runs out first, the terrains found are still
+//! written (generation is the slow part) and the command says how many are
+//! missing and fails, so a script notices.
 
 use crate::exit;
-use crate::sweep::terrains::{file_name, generate_bins};
-use anyhow::{Context, Result};
+use crate::sweep::rows::to_csv_bytes;
+use crate::sweep::terrains::{file_name, search_bins};
+use anyhow::{bail, Context, Result};
 use bycoms_sim::terrain::to_text;
+use serde::Serialize;
 use std::path::PathBuf;
 
 /// Generate `--count` terrains whose minimum path width lies in [w, w + 0.5).
@@ -22,9 +28,18 @@ pub struct Args {
     /// Output directory (created if needed).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Give up after this many candidates.
+    /// Give up after this many candidates (the terrains found so far are still written).
     #[arg(long, default_value_t = 2_000_000)]
     pub max_candidates: u64,
+}
+
+/// One line of the index `terrains.csv`.
+#[derive(Serialize)]
+struct IndexEntry<'a> {
+    file: &'a str,
+    terrain: &'a str,
+    width: f64,
+    threshold: Option<f64>,
 }
 
 pub fn run(args: Args) -> Result<i32> {
@@ -40,7 +55,7 @@ pub fn run(args: Args) -> Result<i32> {
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
-    let bins = generate_bins(
+    let bins = search_bins(
         args.seed,
         &[args.width],
         args.count,
@@ -48,17 +63,33 @@ pub fn run(args: Args) -> Result<i32> {
         &std::sync::atomic::AtomicBool::new(false),
         |_, _| {},
     )?;
-    let mut index = String::from("file,terrain,width,threshold\n");
-    for t in &bins[0] {
-        let name = file_name(t, args.width);
-        let path = args.out.join(&name);
+    let found = &bins[0];
+    let names: Vec<String> = found.iter().map(|t| file_name(t, args.width)).collect();
+    for (t, name) in found.iter().zip(&names) {
+        let path = args.out.join(name);
         std::fs::write(&path, to_text(&t.terrain))
             .with_context(|| format!("cannot write {}", path.display()))?;
-        let threshold = t.threshold.map(|a| a.to_string()).unwrap_or_default();
-        index.push_str(&format!("{name},{},{},{threshold}\n", crate::sweep::rows::csv_field(&t.id), t.width));
     }
+    let index = found.iter().zip(&names).map(|(t, name)| IndexEntry {
+        file: name,
+        terrain: &t.id,
+        width: t.width,
+        threshold: t.threshold,
+    });
     let index_path = args.out.join("terrains.csv");
-    std::fs::write(&index_path, index).with_context(|| format!("cannot write {}", index_path.display()))?;
-    crate::outln!("wrote {} terrains of width bin {} to {}", bins[0].len(), args.width, args.out.display())?;
+    std::fs::write(&index_path, to_csv_bytes(index)?)
+        .with_context(|| format!("cannot write {}", index_path.display()))?;
+    let plural = if found.len() == 1 { "" } else { "s" };
+    crate::outln!("wrote {} terrain{plural} of width bin {} to {}", found.len(), args.width, args.out.display())?;
+    if found.len() < args.count {
+        bail!(
+            "{} of the {} terrains asked for are missing: {} candidates gave only {}; \
+             raise --max-candidates or choose another --width",
+            args.count - found.len(),
+            args.count,
+            args.max_candidates,
+            found.len()
+        );
+    }
     Ok(exit::SUCCESS)
 }

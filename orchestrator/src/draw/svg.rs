@@ -1,4 +1,4 @@
-//! A minimal SVG writer: just what the snapshot and heatmap need.
+//! A minimal SVG writer: just what the snapshots, heatmaps and plots need.
 
 use std::fmt::Write;
 
@@ -7,6 +7,25 @@ pub struct Svg {
     body: String,
     width: f64,
     height: f64,
+}
+
+/// Estimated width of `text` at font size `size` in a sans-serif font: 0.62
+/// em per character, a little above the average of common sans fonts, so
+/// layouts that reserve this much room do not clip labels.
+pub fn text_width(text: &str, size: f64) -> f64 {
+    text.chars().count() as f64 * 0.62 * size
+}
+
+/// A number for a label: at most three decimals, no trailing zeros
+/// (so ε = 1.9000000000000001 reads "1.9").
+pub fn number(x: f64) -> String {
+    let s = format!("{x:.3}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".to_owned()
+    } else {
+        s.to_owned()
+    }
 }
 
 /// Escapes text for SVG content and attribute values.
@@ -71,6 +90,24 @@ impl Svg {
         );
     }
 
+    /// Opens a group `<g id="…">` (close it with [`Svg::close_group`]), so
+    /// a reader or a test can find a part of the picture by name.
+    pub fn open_group(&mut self, id: &str) {
+        let _ = writeln!(self.body, r#"<g id="{}">"#, escape(id));
+    }
+
+    pub fn close_group(&mut self) {
+        self.body.push_str("</g>\n");
+    }
+
+    /// Appends raw SVG markup (for elements this writer has no method for).
+    pub fn raw(&mut self, markup: &str) {
+        self.body.push_str(markup);
+        if !markup.ends_with('\n') {
+            self.body.push('\n');
+        }
+    }
+
     pub fn finish(self) -> String {
         format!(
             "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n{}</svg>\n",
@@ -93,5 +130,13 @@ mod tests {
         assert!(out.starts_with("<svg "));
         assert!(out.contains("a&lt;b &amp; &quot;c&quot;"));
         assert!(out.trim_end().ends_with("</svg>"));
+    }
+
+    #[test]
+    fn numbers_are_short() {
+        assert_eq!(number(1.9000000000000001), "1.9");
+        assert_eq!(number(2.0), "2");
+        assert_eq!(number(0.125), "0.125");
+        assert_eq!(number(-0.0001), "0");
     }
 }

@@ -130,13 +130,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
 }
 
-/// A value quoted for CSV if it needs to be.
-pub fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_owned()
+/// `records` as CSV bytes with a header from their field names (the
+/// `csv` crate does the quoting), for the small index files beside the runs.
+pub fn to_csv_bytes<T: Serialize>(records: impl IntoIterator<Item = T>) -> Result<Vec<u8>> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    for r in records {
+        w.serialize(r)?;
     }
+    w.into_inner().map_err(|e| anyhow::anyhow!("csv: {e}"))
 }
 
 #[cfg(test)]
@@ -212,7 +213,16 @@ mod tests {
         }
         drop(w);
         assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
-        assert_eq!(csv_field("a,b"), "\"a,b\"");
-        assert_eq!(csv_field("ab"), "ab");
+    }
+
+    #[test]
+    fn index_files_are_quoted_by_the_csv_crate() {
+        #[derive(Serialize)]
+        struct Entry<'a> {
+            name: &'a str,
+            value: Option<f64>,
+        }
+        let bytes = to_csv_bytes([Entry { name: "a,\"b\"", value: None }, Entry { name: "c", value: Some(0.5) }]);
+        assert_eq!(String::from_utf8(bytes.unwrap()).unwrap(), "name,value\n\"a,\"\"b\"\"\",\nc,0.5\n");
     }
 }

@@ -67,25 +67,16 @@ fn rows_widest_first<'a>(axes: &'a Axes, t: &Table) -> impl Iterator<Item = (f64
 
 /// The table as CSV: one row per width bin (widest first), one column per
 /// ε, success rates in percent (empty where there were no runs).
-pub fn to_csv(axes: &Axes, t: &Table) -> String {
-    let mut s = String::from("width_bin");
-    for e in &axes.eps {
-        let _ = write!(s, ",eps_{e}");
+pub fn to_csv(axes: &Axes, t: &Table) -> Result<String> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let header = std::iter::once("width_bin".to_owned()).chain(axes.eps.iter().map(|e| format!("eps_{e}")));
+    w.write_record(header.collect::<Vec<_>>())?;
+    for (width, row) in rows_widest_first(axes, t) {
+        let rates = row.iter().map(|r| r.map(|r| format!("{r:.1}")).unwrap_or_default());
+        w.write_record(std::iter::once(width.to_string()).chain(rates).collect::<Vec<_>>())?;
     }
-    s.push('\n');
-    for (w, row) in rows_widest_first(axes, t) {
-        let _ = write!(s, "{w}");
-        for rate in row {
-            match rate {
-                Some(r) => {
-                    let _ = write!(s, ",{r:.1}");
-                }
-                None => s.push(','),
-            }
-        }
-        s.push('\n');
-    }
-    s
+    let bytes = w.into_inner().map_err(|e| anyhow::anyhow!("csv: {e}"))?;
+    Ok(String::from_utf8(bytes)?)
 }
 
 /// A fixed-width text table for the terminal.
@@ -116,13 +107,17 @@ pub fn write_outputs(dir: &Path, axes: &Axes, tables: &[Table]) -> Result<Vec<Pa
     let mut written = Vec::new();
     for t in tables {
         let csv = dir.join(format!("success-{}.csv", t.label()));
-        std::fs::write(&csv, to_csv(axes, t)).with_context(|| format!("cannot write {}", csv.display()))?;
-        let rates = t.rates();
-        let title = format!(
-            "Success rate [%] vs. ε and minimum path width, noise {}",
-            if t.noise { "on" } else { "off" }
-        );
-        let svg = render(&Heatmap { title: &title, eps: &axes.eps, widths: &axes.widths, rates: &rates });
+        std::fs::write(&csv, to_csv(axes, t)?).with_context(|| format!("cannot write {}", csv.display()))?;
+        let title = format!("Success rate [%], noise {}", if t.noise { "on" } else { "off" });
+        let runs: usize = t.cells.iter().flatten().map(|&(_, n)| n).sum();
+        let subtitle = format!("by ε and minimum path width; n = runs per cell ({runs} in all)");
+        let svg = render(&Heatmap {
+            title: &title,
+            subtitle: &subtitle,
+            eps: &axes.eps,
+            widths: &axes.widths,
+            cells: &t.cells,
+        });
         let path = dir.join(format!("heatmap-{}.svg", t.label()));
         std::fs::write(&path, svg).with_context(|| format!("cannot write {}", path.display()))?;
         written.extend([csv, path]);
@@ -168,7 +163,7 @@ mod tests {
         ];
         let t = &tabulate(&axes, &rows)[0];
         assert_eq!(t.cells, vec![vec![(0, 0), (0, 1)], vec![(1, 2), (0, 0)]]);
-        assert_eq!(to_csv(&axes, t), "width_bin,eps_1,eps_2\n3,50.0,\n1,,0.0\n");
+        assert_eq!(to_csv(&axes, t).unwrap(), "width_bin,eps_1,eps_2\n3,50.0,\n1,,0.0\n");
         assert!(to_text(&axes, t).contains("      3    50     -"));
     }
 }

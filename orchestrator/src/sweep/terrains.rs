@@ -9,7 +9,7 @@
 
 use super::mix;
 use anyhow::{bail, Context, Result};
-use bycoms_sim::terrain::{generate, min_path_width, parse, GenParams, Generated, Terrain};
+use bycoms_sim::terrain::{generate, min_path_width, read_terrain_file, GenParams, Generated, Terrain};
 use rayon::prelude::*;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -54,6 +54,30 @@ pub fn generate_bins(
     per_bin: usize,
     budget: u64,
     stop: &AtomicBool,
+    on_progress: impl FnMut(usize, usize),
+) -> Result<Vec<Vec<SweepTerrain>>> {
+    let found = search_bins(seed, bins, per_bin, budget, stop, on_progress)?;
+    if found.iter().any(|b| b.len() < per_bin) {
+        let fill: Vec<String> =
+            bins.iter().zip(&found).map(|(b, t)| format!("{b}: {}/{per_bin}", t.len())).collect();
+        bail!(
+            "{budget} candidate terrains did not fill every width bin ({}); \
+             narrow --widths, lower --terrains-per-bin or raise --max-candidates",
+            fill.join(", ")
+        );
+    }
+    Ok(found)
+}
+
+/// Like [`generate_bins`], but when `budget` candidates run out it returns
+/// what it found (some bins hold fewer than `per_bin`) instead of failing,
+/// so `orchestrator terrain` can keep the terrains it did find.
+pub fn search_bins(
+    seed: u64,
+    bins: &[f64],
+    per_bin: usize,
+    budget: u64,
+    stop: &AtomicBool,
     mut on_progress: impl FnMut(usize, usize),
 ) -> Result<Vec<Vec<SweepTerrain>>> {
     const CHUNK: u64 = 256;
@@ -61,18 +85,9 @@ pub fn generate_bins(
     let mut out: Vec<Vec<SweepTerrain>> = vec![Vec::new(); bins.len()];
     let needed = bins.len() * per_bin;
     let mut next = 0u64;
-    while out.iter().any(|b| b.len() < per_bin) {
+    while out.iter().any(|b| b.len() < per_bin) && next < budget {
         if stop.load(Ordering::Relaxed) {
             bail!("interrupted while generating terrains");
-        }
-        if next >= budget {
-            let fill: Vec<String> =
-                bins.iter().zip(&out).map(|(b, t)| format!("{b}: {}/{per_bin}", t.len())).collect();
-            bail!(
-                "{budget} candidate terrains did not fill every width bin ({}); \
-                 narrow --widths, lower --terrains-per-bin or raise --max-candidates",
-                fill.join(", ")
-            );
         }
         let end = (next + CHUNK).min(budget);
         let found: Vec<(u64, Generated, f64)> = (next..end)
@@ -118,8 +133,7 @@ pub fn load_bins(dir: &Path, bins: &[f64], per_bin: usize) -> Result<Vec<Vec<Swe
     let loaded: Vec<Result<SweepTerrain>> = paths
         .par_iter()
         .map(|p| {
-            let text = std::fs::read_to_string(p).with_context(|| format!("cannot read {}", p.display()))?;
-            let terrain = parse(&text).with_context(|| format!("bad terrain file {}", p.display()))?;
+            let terrain = read_terrain_file(p).map_err(|e| crate::scenario::file_error(p, e))?;
             let width = min_path_width(&terrain);
             let id = p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
             Ok(SweepTerrain { id, terrain, width, threshold: None })
@@ -178,5 +192,10 @@ mod tests {
     fn budget_exhaustion_is_a_clear_error() {
         let err = generate_bins(5, &[1.0], 1000, 10, &AtomicBool::new(false), |_, _| {}).unwrap_err();
         assert!(err.to_string().contains("did not fill every width bin"));
+        let some = search_bins(5, &[2.0], 1000, 300, &AtomicBool::new(false), |_, _| {}).unwrap();
+        assert!(!some[0].is_empty() && some[0].len() < 1000, "{}", some[0].len());
+        let first = generate_bins(5, &[2.0], some[0].len(), 300, &AtomicBool::new(false), |_, _| {}).unwrap();
+        let ids = |b: &[SweepTerrain]| b.iter().map(|t| t.id.clone()).collect::<Vec<_>>();
+        assert_eq!(ids(&first[0]), ids(&some[0]), "what was found is what a smaller count finds");
     }
 }

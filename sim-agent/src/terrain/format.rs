@@ -5,13 +5,18 @@
 //! One line per row, the FIRST line is the HIGHEST y row; `#` impassable,
 //! `.` free, `S` start cell, `G` goal cell. Start and goal are the centres of
 //! their cells; when a letter is absent the default of [`Terrain::new`] is
-//! used. A trailing newline and `\r\n` line ends are accepted; nothing else
-//! is (no comments, no blank lines): a typo should be an error with a line and
-//! column, not a silently different world.
+//! used. Accepted besides: `\r\n` line ends, a UTF-8 byte-order mark (as
+//! some editors write), a missing final newline and blank lines at the end.
+//! Nothing else is (no comments, no blank lines between rows): a typo should
+//! be an error with a line and column, not a silently different world. A
+//! grid is at most [`MAX_SIDE`] cells wide and tall (see [`super::read`]).
 
 use super::grid::{cell_centre, default_goal_cell, default_start_cell, Terrain};
 use std::fmt;
 use std::str::FromStr;
+
+/// Most cells a terrain may have along either side.
+pub const MAX_SIDE: usize = 1000;
 
 /// What is wrong with a terrain file.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -32,6 +37,10 @@ pub enum ParseErrorKind {
     GoalBlocked,
     /// Start and goal are the same cell.
     StartIsGoal,
+    /// More than [`MAX_SIDE`] cells across.
+    TooWide,
+    /// More than [`MAX_SIDE`] rows.
+    TooTall { rows: usize },
 }
 
 impl fmt::Display for ParseErrorKind {
@@ -53,6 +62,8 @@ impl fmt::Display for ParseErrorKind {
             Self::StartBlocked => write!(f, "no 'S', and the default start cell is impassable"),
             Self::GoalBlocked => write!(f, "no 'G', and the default goal cell is impassable"),
             Self::StartIsGoal => write!(f, "the start and the goal are the same cell"),
+            Self::TooWide => write!(f, "more than the limit of {MAX_SIDE} cells across"),
+            Self::TooTall { rows } => write!(f, "{rows} rows, more than the limit of {MAX_SIDE}"),
         }
     }
 }
@@ -72,13 +83,21 @@ fn err(line: usize, column: usize, kind: ParseErrorKind) -> ParseError {
 
 /// Reads a terrain from the text format.
 pub fn parse(text: &str) -> Result<Terrain, ParseError> {
-    let text = text.strip_suffix('\n').unwrap_or(text);
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    // Blank lines at the end (and the final newline) are no rows.
+    let text = text.trim_end_matches(['\n', '\r']);
     let lines: Vec<&str> = text.split('\n').map(|l| l.strip_suffix('\r').unwrap_or(l)).collect();
-    let width = lines.first().map_or(0, |l| l.chars().count());
+    let width = lines.first().map_or(0, |l| l.chars().take(MAX_SIDE + 1).count());
     if width == 0 {
         return Err(err(1, 1, ParseErrorKind::Empty));
     }
+    if width > MAX_SIDE {
+        return Err(err(1, MAX_SIDE + 1, ParseErrorKind::TooWide));
+    }
     let height = lines.len();
+    if height > MAX_SIDE {
+        return Err(err(MAX_SIDE + 1, 1, ParseErrorKind::TooTall { rows: height }));
+    }
     let mut t = Terrain::new(width, height);
     let mut start: Option<(usize, usize)> = None;
     let mut goal: Option<(usize, usize)> = None;

@@ -78,7 +78,6 @@ fn ragged_names_the_lines() {
     assert_eq!(e.to_string(), "line 4, column 60: line 4 has 59 cells, line 1 has 60");
     let long = kind("S..\n....\n..G\n");
     assert_eq!(long, (2, 4, ParseErrorKind::Ragged { line: 2, cells: 4, expected: 3 }));
-    assert!(matches!(kind("S..\n...\n..G\n\n").2, ParseErrorKind::Ragged { line: 4, cells: 0, .. }));
 }
 
 #[test]
@@ -120,4 +119,26 @@ fn start_equal_to_goal() {
     assert_eq!(kind(".\n"), (1, 1, ParseErrorKind::StartIsGoal));
     // An explicit start on the default goal cell.
     assert_eq!(kind(&text_with(60, 60, &[(16, 45, 'S')])), (16, 45, ParseErrorKind::StartIsGoal));
+}
+
+#[test]
+fn byte_order_mark_and_trailing_blank_lines_are_accepted() {
+    let plain = parse("S.\n.G\n").unwrap();
+    for text in ["\u{feff}S.\n.G\n", "S.\n.G\n\n", "S.\r\n.G\r\n\r\n\r\n", "\u{feff}S.\n.G\n\n\n"] {
+        assert_eq!(parse(text).unwrap(), plain, "{text:?}");
+    }
+    // A blank line between rows is still an error, and so is a BOM anywhere else.
+    assert!(matches!(kind("S.\n\n.G\n").2, ParseErrorKind::Ragged { line: 2, cells: 0, .. }));
+    assert_eq!(kind("S.\n\u{feff}.G\n").2, ParseErrorKind::UnknownChar('\u{feff}'));
+}
+
+#[test]
+fn grids_beyond_the_side_limit_are_refused() {
+    use crate::terrain::MAX_SIDE;
+    let wide = "S".to_string() + &".".repeat(MAX_SIDE) + "G\n";
+    assert_eq!(kind(&wide), (1, MAX_SIDE + 1, ParseErrorKind::TooWide));
+    let tall = "S.\n".to_string() + &"..\n".repeat(MAX_SIDE - 1) + ".G\n";
+    assert_eq!(kind(&tall), (MAX_SIDE + 1, 1, ParseErrorKind::TooTall { rows: MAX_SIDE + 1 }));
+    let at_limit = text_with(MAX_SIDE, MAX_SIDE, &[]);
+    assert_eq!(parse(&at_limit).unwrap().width(), MAX_SIDE);
 }

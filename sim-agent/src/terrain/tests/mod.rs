@@ -4,6 +4,7 @@ mod format;
 mod generate;
 mod grid;
 mod histogram;
+mod read;
 mod width;
 
 use super::Terrain;
