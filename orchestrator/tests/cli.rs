@@ -74,7 +74,8 @@ fn rerun_resumes_and_a_torn_row_is_redone() {
 #[test]
 fn shards_merge_into_the_same_tables() {
     let whole = tempfile::tempdir().unwrap();
-    assert!(sweep_into(whole.path(), &[]).status.success());
+    let ow = sweep_into(whole.path(), &[]);
+    assert!(ow.status.success(), "{}", stderr(&ow));
     let parts = tempfile::tempdir().unwrap();
     for shard in ["0/3", "1/3", "2/3"] {
         let o = sweep_into(parts.path(), &["--shard", shard]);
@@ -84,7 +85,28 @@ fn shards_merge_into_the_same_tables() {
     let o =
         orchestrator(&["merge", parts.path().to_str().unwrap(), "--out", merged.path().to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    for f in ["runs.csv", "success-noise-off.csv", "success-noise-on.csv", "heatmap-noise-on.svg"] {
+    // The printed tables (success rates, then robot budgets) are the same too.
+    let tables = |o: &Output, end: &str| {
+        let text = String::from_utf8_lossy(&o.stdout).into_owned();
+        // Everything before the line that holds `end`.
+        let head = &text[..text.find(end).unwrap_or(text.len())];
+        head[..head.rfind('\n').map_or(0, |i| i + 1)].to_owned()
+    };
+    let printed = tables(&ow, " runs in ");
+    assert!(printed.contains("success within a robot budget N [%], noise on"), "{printed}");
+    assert_eq!(printed, tables(&o, "merged "));
+    for f in [
+        "runs.csv",
+        "success-noise-off.csv",
+        "success-noise-on.csv",
+        "heatmap-noise-on.svg",
+        "budget-noise-off.csv",
+        "budget-noise-on.csv",
+        "robots-noise-off.csv",
+        "robots-noise-on.csv",
+        "budget-noise-off.svg",
+        "budget-noise-on.svg",
+    ] {
         assert_eq!(
             std::fs::read(whole.path().join(f)).unwrap(),
             std::fs::read(merged.path().join(f)).unwrap(),

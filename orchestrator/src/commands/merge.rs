@@ -3,6 +3,7 @@
 
 use super::sweep::{Meta, META_FILE};
 use crate::exit;
+use crate::sweep::budget;
 use crate::sweep::rows::{read_rows, write_all, Row};
 use crate::sweep::table::{tabulate, to_text, write_outputs};
 use anyhow::{bail, Context, Result};
@@ -66,9 +67,14 @@ pub fn run(args: Args) -> Result<i32> {
     let meta_text = serde_json::to_string_pretty(&meta)? + "\n";
     crate::sweep::rows::write_atomic(&args.out.join(META_FILE), meta_text.as_bytes())?;
     let tables = tabulate(&meta.axes, &rows);
-    let files = write_outputs(&args.out, &meta.axes, &tables)?;
+    let mut files = write_outputs(&args.out, &meta.axes, &tables)?;
     for t in &tables {
         crate::outln!("{}", to_text(&meta.axes, t))?;
+    }
+    let budgets = budget::tabulate(&meta.axes, &rows, meta.max_robots);
+    files.extend(budget::write_outputs(&args.out, &meta.axes, &budgets)?);
+    for t in &budgets {
+        crate::outln!("{}", budget::to_text(&meta.axes, t))?;
     }
     crate::outln!("merged {} runs into {}", rows.len(), args.out.join("runs.csv").display())?;
     for f in files {

@@ -1,13 +1,20 @@
 //! `orchestrator simulate`: one in-process run, like one panel of the
-//! paper's `fig:sim_result`.
+//! paper's `fig:sim_result` (or, with `--snapshots`, a strip of moments;
+//! with `--animate`, a movie like Movie1/Movie2).
+//!
+//! The result is printed before any picture is written: a picture that
+//! cannot be written is reported (exit 1) after the result, never instead
+//! of it.
 
 use crate::commands::world::RunArgs;
-use crate::draw::snapshot;
+use crate::draw::{animate, snapshot, timeline};
 use crate::exit;
 use crate::scenario::{self, WorldSource};
 use anyhow::{Context, Result};
+use bycoms_sim::runner::RobotEnd;
 use bycoms_sim::terrain::min_path_width;
-use bycoms_sim::{run as run_world, Outcome, RunResult, Vec2};
+use bycoms_sim::terrain::Terrain;
+use bycoms_sim::{run as run_world, Outcome, RunConfig, RunResult, Vec2};
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -32,11 +39,36 @@ pub struct Args {
     #[arg(long, value_name = "FILE", default_value = "simulate.svg")]
     pub svg: PathBuf,
     /// Do not draw the snapshot.
-    #[arg(long, conflicts_with = "svg")]
+    #[arg(long, conflicts_with_all = ["svg", "snapshots"])]
     pub no_svg: bool,
-    /// Print the result as JSON on stdout (the summary goes to stderr).
+    /// Draw a strip of moments instead of the end alone: simulated times in
+    /// seconds, e.g. "10,60,120" (as the panels of the paper's fig:sim_result).
+    #[arg(long, value_name = "T1,T2,…", value_delimiter = ',', num_args = 1..)]
+    pub snapshots: Option<Vec<f64>>,
+    /// Also write the run as a movie: an animated SVG that loops in a browser.
+    #[arg(long, value_name = "FILE")]
+    pub animate: Option<PathBuf>,
+    /// Length of the movie in seconds (the whole run is fitted into it).
+    #[arg(long, value_name = "SECONDS", default_value_t = 20.0, requires = "animate")]
+    pub animate_seconds: f64,
+    /// Print the result as JSON on stdout, with every robot's trajectory
+    /// (the summary goes to stderr).
     #[arg(long)]
     pub json: bool,
+}
+
+/// One robot in `--json`: how it ended and every position it took.
+#[derive(Debug, Serialize)]
+pub struct RobotReport<'a> {
+    /// 1-based deployment order.
+    pub id: u32,
+    pub end: RobotEnd,
+    /// Control periods it was deployed for.
+    pub steps: u64,
+    /// Where it stopped (or was at the end).
+    pub position: Vec2,
+    /// Position after each control period (every `dt_s`), starting at the start point.
+    pub trajectory: &'a [Vec2],
 }
 
 /// What `--json` prints.
@@ -52,6 +84,9 @@ pub struct Report<'a> {
     pub steps: u64,
     pub robots_used: u32,
     pub beacons: &'a [Vec2],
+    /// Control period, s (trajectory points are this far apart in time).
+    pub dt_s: f64,
+    pub robots: Vec<RobotReport<'a>>,
 }
 
 pub fn run(args: Args) -> Result<i32> {
@@ -60,32 +95,14 @@ pub fn run(args: Args) -> Result<i32> {
         (None, Some(seed)) => WorldSource::Generated(seed),
         (None, None) => WorldSource::Scenario(args.scenario.clone()),
     };
+    check_picture_args(&args)?;
     let world = scenario::load(&source)?;
     let seed = args.noise_seed.or(args.seed).unwrap_or(0);
     let mut cfg = args.run.to_config(seed)?;
-    cfg.record_trajectories = !args.no_svg;
-    if !args.no_svg {
-        // Fail before the run, not after it, if the picture cannot be written.
-        std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(&args.svg)
-            .with_context(|| format!("cannot write the snapshot to {}", args.svg.display()))?;
-    }
+    cfg.record_trajectories = !args.no_svg || args.animate.is_some() || args.json;
     let result = run_world(&world.terrain, &cfg);
     let width = min_path_width(&world.terrain);
 
-    if !args.no_svg {
-        let line2 = format!(
-            "ε = {}, noise {}: {}",
-            cfg.eps,
-            if cfg.noise.is_some() { "on" } else { "off" },
-            summary_line(&result)
-        );
-        let svg = snapshot::render(&world.terrain, &result, cfg.eps, [&world.name, &line2]);
-        std::fs::write(&args.svg, svg)
-            .with_context(|| format!("cannot write the snapshot to {}", args.svg.display()))?;
-    }
     let report = Report {
         terrain: &world.name,
         min_path_width: width,
@@ -97,15 +114,26 @@ pub fn run(args: Args) -> Result<i32> {
         steps: result.steps,
         robots_used: result.robots_used,
         beacons: &result.beacons,
+        dt_s: cfg.kinematics.dt,
+        robots: result
+            .robots
+            .iter()
+            .map(|r| RobotReport {
+                id: r.id,
+                end: r.end,
+                steps: r.steps,
+                position: r.position,
+                trajectory: &r.trajectory,
+            })
+            .collect(),
     };
     let summary = format!(
-        "terrain {} (min path width {:.2}), ε = {}, noise {}: {}{}",
+        "terrain {} (min path width {:.2}), ε = {}, noise {}: {}",
         world.name,
         width,
         cfg.eps,
         if report.noise { "on" } else { "off" },
         summary_line(&result),
-        if args.no_svg { String::new() } else { format!("\nsnapshot: {}", args.svg.display()) }
     );
     if args.json {
         bycoms_logging::status_line(&summary);
@@ -113,7 +141,80 @@ pub fn run(args: Args) -> Result<i32> {
     } else {
         crate::outln!("{summary}")?;
     }
+    // Pictures last: the result above is never lost to a picture's error.
+    for written in draw_pictures(&args, &world, &cfg, &result)? {
+        if args.json {
+            bycoms_logging::status_line(&written);
+        } else {
+            crate::outln!("{written}")?;
+        }
+    }
     Ok(if result.success { exit::SUCCESS } else { exit::NOT_ARRIVED })
+}
+
+/// Picture options that can be checked before the run.
+fn check_picture_args(args: &Args) -> Result<()> {
+    if let Some(times) = &args.snapshots {
+        if let Some(t) = times.iter().find(|t| !(t.is_finite() && **t >= 0.0)) {
+            return Err(exit::usage(format!("--snapshots takes simulated times in seconds (≥ 0), got {t}")));
+        }
+    }
+    if !(args.animate_seconds.is_finite() && args.animate_seconds > 0.0) {
+        return Err(exit::usage(format!(
+            "--animate-seconds must be a positive number of seconds, got {}",
+            args.animate_seconds
+        )));
+    }
+    Ok(())
+}
+
+/// Writes the snapshot (or strip) and the movie; returns "snapshot: FILE" lines.
+fn draw_pictures(
+    args: &Args,
+    world: &scenario::World,
+    cfg: &RunConfig,
+    result: &RunResult,
+) -> Result<Vec<String>> {
+    let line2 = format!(
+        "ε = {}, noise {}: {}",
+        cfg.eps,
+        if cfg.noise.is_some() { "on" } else { "off" },
+        summary_line(result)
+    );
+    let title = [world.name.as_str(), line2.as_str()];
+    let terrain: &Terrain = &world.terrain;
+    let opts = snapshot::Options { contours: true, field_constant: cfg.field_constant };
+    let mut written = Vec::new();
+    if !args.no_svg {
+        let svg = match &args.snapshots {
+            Some(times) => {
+                let dt = cfg.kinematics.dt;
+                if let Some(t) = times.iter().find(|&&t| timeline::step_of(t, dt) > result.steps) {
+                    anyhow::bail!(
+                        "--snapshots {t}: the run ended at {:.1} s; no snapshot written to {}",
+                        result.time,
+                        args.svg.display()
+                    );
+                }
+                let moments: Vec<(u64, String)> = times
+                    .iter()
+                    .map(|&t| (timeline::step_of(t, dt), format!("t = {} s", crate::draw::svg::number(t))))
+                    .collect();
+                snapshot::render_strip(terrain, result, cfg.eps, title, &moments, &opts)
+            }
+            None => snapshot::render_with(terrain, result, cfg.eps, title, &opts),
+        };
+        std::fs::write(&args.svg, svg)
+            .with_context(|| format!("cannot write the snapshot to {}", args.svg.display()))?;
+        written.push(format!("snapshot: {}", args.svg.display()));
+    }
+    if let Some(path) = &args.animate {
+        let movie = animate::Movie { seconds: args.animate_seconds, field_constant: cfg.field_constant };
+        std::fs::write(path, animate::render(terrain, result, cfg.eps, title, &movie))
+            .with_context(|| format!("cannot write the animation to {}", path.display()))?;
+        written.push(format!("animation: {}", path.display()));
+    }
+    Ok(written)
 }
 
 /// "robot 4 arrived after 123.4 s (3 beacons)" and the like.

@@ -2,6 +2,7 @@
 //! shardable. See `crate::sweep` for how the pieces fit.
 
 use crate::exit;
+use crate::sweep::budget;
 use crate::sweep::execute::{execute, Job};
 use crate::sweep::plan::{parse_axis, Axes, Shard};
 use crate::sweep::rows::RowWriter;
@@ -215,9 +216,14 @@ pub fn run(args: Args) -> Result<i32> {
     }
     let rows = crate::sweep::rows::read_rows(&runs_path)?;
     let tables = tabulate(&axes, &rows);
-    let files = write_outputs(&args.out, &axes, &tables)?;
+    let mut files = write_outputs(&args.out, &axes, &tables)?;
     for t in &tables {
         crate::outln!("{}", to_text(&axes, t))?;
+    }
+    let budgets = budget::tabulate(&axes, &rows, args.max_robots);
+    files.extend(budget::write_outputs(&args.out, &axes, &budgets)?);
+    for t in &budgets {
+        crate::outln!("{}", budget::to_text(&axes, t))?;
     }
     crate::outln!("{} runs in {}", rows.len(), runs_path.display())?;
     for f in files {

@@ -80,7 +80,12 @@ pub fn run(args: Args) -> Result<i32> {
     std::fs::write(&index_path, to_csv_bytes(index)?)
         .with_context(|| format!("cannot write {}", index_path.display()))?;
     let plural = if found.len() == 1 { "" } else { "s" };
-    crate::outln!("wrote {} terrain{plural} of width bin {} to {}", found.len(), args.width, args.out.display())?;
+    crate::outln!(
+        "wrote {} terrain{plural} of width bin {} to {}",
+        found.len(),
+        args.width,
+        args.out.display()
+    )?;
     if found.len() < args.count {
         bail!(
             "{} of the {} terrains asked for are missing: {} candidates gave only {}; \

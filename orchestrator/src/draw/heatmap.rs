@@ -71,7 +71,14 @@ fn layout(h: &Heatmap) -> Layout {
     ]
     .into_iter()
     .fold(0.0, f64::max);
-    Layout { left, plot_top, region_top, region_h, width: right + PAD, height: region_top + region_h + 52.0 + PAD }
+    Layout {
+        left,
+        plot_top,
+        region_top,
+        region_h,
+        width: right + PAD,
+        height: region_top + region_h + 52.0 + PAD,
+    }
 }
 
 /// Centre of the horizontal axis title: under the plot, but never cut at the left.
@@ -97,7 +104,13 @@ pub fn render(h: &Heatmap) -> String {
                 continue;
             }
             let rate = successes as f64 / runs as f64;
-            svg.rect(x, y, CELL, CELL, &format!(r##"fill="{}" stroke="#bbb" stroke-width="0.5""##, colour(rate)));
+            svg.rect(
+                x,
+                y,
+                CELL,
+                CELL,
+                &format!(r##"fill="{}" stroke="#bbb" stroke-width="0.5""##, colour(rate)),
+            );
             let ink = if rate > 0.55 { "white" } else { "black" };
             let label = format!("{:.0}", rate * 100.0);
             svg.text_coloured(x + CELL / 2.0, y + CELL / 2.0 + 2.0, 14.0, "middle", ink, &label);

@@ -6,6 +6,10 @@
 //! rectangles, circles and polylines; plain SVG with the viewer's own fonts
 //! is smaller, dependency-free and opens in every browser.
 
+pub mod animate;
+pub mod budget;
+pub mod contour;
 pub mod heatmap;
 pub mod snapshot;
 pub mod svg;
+pub mod timeline;

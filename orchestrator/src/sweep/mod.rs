@@ -9,8 +9,11 @@
 //!   always a prefix of the full one: resuming is "skip what is there";
 //! * [`execute`] — runs a plan on all cores with a progress bar and Ctrl-C;
 //! * [`table`] — success-rate tables and heatmaps from rows (also what
-//!   `merge` uses, so sharded and single runs give the same tables).
+//!   `merge` uses, so sharded and single runs give the same tables);
+//! * [`budget`] — the robot-budget study (success within N robots), from
+//!   the same rows.
 
+pub mod budget;
 pub mod execute;
 pub mod plan;
 pub mod rows;

@@ -222,7 +222,8 @@ mod tests {
             name: &'a str,
             value: Option<f64>,
         }
-        let bytes = to_csv_bytes([Entry { name: "a,\"b\"", value: None }, Entry { name: "c", value: Some(0.5) }]);
+        let bytes =
+            to_csv_bytes([Entry { name: "a,\"b\"", value: None }, Entry { name: "c", value: Some(0.5) }]);
         assert_eq!(String::from_utf8(bytes.unwrap()).unwrap(), "name,value\n\"a,\"\"b\"\"\",\nc,0.5\n");
     }
 }

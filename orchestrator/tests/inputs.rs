@@ -1,0 +1,140 @@
+//! What a user gives and gets back, end to end: terrain files beyond the
+//! size limit are refused before they are read, harmless oddities (a byte
+//! order mark, blank lines at the end) are accepted, and nothing computed
+//! is lost to a later error (an unwritable picture, too few terrains).
+
+use std::process::{Command, Output};
+
+fn orchestrator(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_orchestrator")).args(args).output().expect("spawn orchestrator")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+#[test]
+fn a_huge_terrain_file_is_refused_before_it_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let big = dir.path().join("big.txt");
+    // 300 MB on paper (sparse: nothing on disk), as in the report of 22.4 GB used.
+    std::fs::File::create(&big).unwrap().set_len(300_000_000).unwrap();
+    let o = orchestrator(&["simulate", "--terrain", big.to_str().unwrap(), "--no-svg"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let expected = format!(
+        "cannot read terrain file {}: 300000000 bytes, more than the limit of 2097152 bytes",
+        big.display()
+    );
+    assert!(stderr(&o).contains(&expected), "{}", stderr(&o));
+    // The same file among a sweep's terrains.
+    let out = tempfile::tempdir().unwrap();
+    let o = orchestrator(&[
+        "sweep",
+        "--terrains",
+        dir.path().to_str().unwrap(),
+        "--out",
+        out.path().to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("more than the limit"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_byte_order_mark_and_trailing_blank_lines_are_accepted() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.txt");
+    let mut text = String::from("\u{feff}");
+    for row in 0..20 {
+        let line: String = (0..20)
+            .map(|col| {
+                if (row, col) == (15, 4) {
+                    'S'
+                } else if (row, col) == (4, 15) {
+                    'G'
+                } else {
+                    '.'
+                }
+            })
+            .collect();
+        text.push_str(&line);
+        text.push_str("\r\n");
+    }
+    text.push_str("\r\n\r\n");
+    std::fs::write(&path, text).unwrap();
+    let o = orchestrator(&["simulate", "--terrain", path.to_str().unwrap(), "--no-svg"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stdout(&o).contains("robot 1 arrived"), "{}", stdout(&o));
+}
+
+#[test]
+fn an_unwritable_snapshot_is_reported_after_the_result() {
+    let o = orchestrator(&["simulate", "--svg", "/nonexistent/dir/out.svg"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stdout(&o).contains("terrain scenario long-wall") && stdout(&o).contains("arrived after"),
+        "{}",
+        stdout(&o)
+    );
+    assert!(stderr(&o).contains("cannot write the snapshot to /nonexistent/dir/out.svg"), "{}", stderr(&o));
+    // With --json the result is on stdout, complete, before the error.
+    let o = orchestrator(&["simulate", "--json", "--svg", "/nonexistent/dir/out.svg"]);
+    assert_eq!(o.status.code(), Some(1));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("the result as JSON");
+    assert_eq!(report["success"], true);
+    assert!(stderr(&o).contains("cannot write the snapshot"), "{}", stderr(&o));
+}
+
+#[test]
+fn terrain_keeps_what_it_found_when_the_candidates_run_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let o = orchestrator(&[
+        "terrain",
+        "--width",
+        "2",
+        "--count",
+        "50",
+        "--seed",
+        "5",
+        "--max-candidates",
+        "300",
+        "--out",
+        d,
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let files: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".txt"))
+        .collect();
+    let found = files.len();
+    assert!(found > 0 && found < 50, "{found} terrains");
+    let index = std::fs::read_to_string(dir.path().join("terrains.csv")).unwrap();
+    assert!(index.starts_with("file,terrain,width,threshold\n"), "{index}");
+    assert_eq!(index.lines().count(), 1 + found);
+    assert!(stdout(&o).contains(&format!("wrote {found} terrain")), "{}", stdout(&o));
+    let missing = format!("{} of the 50 terrains asked for are missing", 50 - found);
+    assert!(stderr(&o).contains(&missing), "{}", stderr(&o));
+    // What was kept is what a request for exactly that many writes.
+    let again = tempfile::tempdir().unwrap();
+    let count = found.to_string();
+    let o = orchestrator(&[
+        "terrain",
+        "--width",
+        "2",
+        "--count",
+        &count,
+        "--seed",
+        "5",
+        "--max-candidates",
+        "300",
+        "--out",
+        again.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(again.path().join("terrains.csv")).unwrap(), index);
+}
