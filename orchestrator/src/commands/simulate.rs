@@ -219,20 +219,60 @@ fn draw_pictures(
 
 /// "robot 4 arrived after 123.4 s (3 beacons)" and the like.
 pub fn summary_line(r: &RunResult) -> String {
-    let beacons = r.beacons.len();
+    let beacons = count(r.beacons.len(), "beacon");
     match r.outcome {
-        Outcome::Arrived => format!(
-            "robot {} arrived after {:.1} s ({} beacon{})",
-            r.robots_used,
-            r.time,
-            beacons,
-            if beacons == 1 { "" } else { "s" }
-        ),
+        Outcome::Arrived => format!("robot {} arrived after {:.1} s ({beacons})", r.robots_used, r.time),
         Outcome::TimeLimit => {
-            format!("no robot arrived within {:.0} s ({} robots, {} beacons)", r.time, r.robots_used, beacons)
+            let robots = count(r.robots_used as usize, "robot");
+            format!("no robot arrived within {:.0} s ({robots}, {beacons})", r.time)
         }
-        Outcome::RobotsExhausted => {
-            format!("all {} robots got stuck after {:.1} s", r.robots_used, r.time)
+        Outcome::RobotsExhausted if r.robots_used == 1 => {
+            format!("the only robot got stuck after {:.1} s", r.time)
         }
+        Outcome::RobotsExhausted => format!("all {} robots got stuck after {:.1} s", r.robots_used, r.time),
+    }
+}
+
+/// "1 robot", "3 robots".
+fn count(n: usize, noun: &str) -> String {
+    format!("{n} {noun}{}", if n == 1 { "" } else { "s" })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn result(outcome: Outcome, robots_used: u32, beacons: usize) -> RunResult {
+        RunResult {
+            success: outcome == Outcome::Arrived,
+            outcome,
+            steps: 10,
+            time: 1.0,
+            robots_used,
+            beacons: vec![Vec2::new(0.0, 0.0); beacons],
+            robots: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn summaries_count_in_words_with_the_right_plural() {
+        assert_eq!(summary_line(&result(Outcome::Arrived, 2, 1)), "robot 2 arrived after 1.0 s (1 beacon)");
+        assert_eq!(summary_line(&result(Outcome::Arrived, 1, 0)), "robot 1 arrived after 1.0 s (0 beacons)");
+        assert_eq!(
+            summary_line(&result(Outcome::TimeLimit, 1, 0)),
+            "no robot arrived within 1 s (1 robot, 0 beacons)"
+        );
+        assert_eq!(
+            summary_line(&result(Outcome::TimeLimit, 3, 2)),
+            "no robot arrived within 1 s (3 robots, 2 beacons)"
+        );
+        assert_eq!(
+            summary_line(&result(Outcome::RobotsExhausted, 1, 1)),
+            "the only robot got stuck after 1.0 s"
+        );
+        assert_eq!(
+            summary_line(&result(Outcome::RobotsExhausted, 4, 4)),
+            "all 4 robots got stuck after 1.0 s"
+        );
     }
 }
