@@ -12,6 +12,7 @@ pub mod agent_process;
 pub mod body;
 pub mod field;
 pub mod geom;
+pub mod lab;
 pub mod robot;
 pub mod runner;
 pub mod sensing;

@@ -1,0 +1,144 @@
+//! The lab world: bodies, sound and one emulated ESP32 per robot, on the
+//! lab's own clock.
+//!
+//! Why one loop: physics (5 ms steps), sound (one 125 ms microphone window
+//! per control period) and the robots' link must see one consistent time.
+//! [`Lab::step`] advances it by [`PHYSICS_DT`]: every robot's socket is
+//! pumped, the emulated operator places a robot at the start the first time
+//! its firmware is enabled (until then it waits off the arena, silent and
+//! out of the way), control periods feed each placed robot's microphones
+//! with the sound of every placed robot's speaker, and bodies move. A
+//! caller that wants real time sleeps between steps; tests don't.
+
+use super::body::Crawler;
+use super::esp32::{EmulatedEsp32, LISTENED};
+use super::scenario::Scenario;
+use super::sound::{mic_positions, sample_frames, Room, Speaker};
+use bycoms_agent::firmware::FirmwareConfig;
+use bycoms_protocol::link::LinkKey;
+use bycoms_protocol::RobotId;
+use core::time::Duration;
+use rand::{Rng, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
+use std::io;
+use std::net::SocketAddr;
+
+/// Physics step.
+pub const PHYSICS_DT: Duration = Duration::from_millis(5);
+/// Control period: 512 samples at 4096 Hz.
+pub const CONTROL_PERIOD: Duration = Duration::from_millis(125);
+
+/// One robot of the lab.
+#[derive(Debug)]
+pub struct LabRobot {
+    /// Its microcontroller.
+    pub esp: EmulatedEsp32,
+    /// Its body, once the operator has placed it.
+    pub body: Option<Crawler>,
+    phase: f64,
+}
+
+/// The emulated lab.
+#[derive(Debug)]
+pub struct Lab {
+    scenario: Scenario,
+    robots: Vec<LabRobot>,
+    now: Duration,
+    next_control: Duration,
+    rng: Xoshiro256PlusPlus,
+}
+
+impl Lab {
+    /// Boots one emulated ESP32 per scenario tone; robot k (1-based) uses
+    /// `keys[k-1]` and sends to `gateways[k-1]`.
+    pub fn new(scenario: Scenario, keys: &[LinkKey], gateways: &[SocketAddr], seed: u64) -> io::Result<Self> {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+        let tones = scenario.tones.clone();
+        let mut robots = Vec::with_capacity(tones.len());
+        for (i, (&own, (key, gateway))) in tones.iter().zip(keys.iter().zip(gateways)).enumerate() {
+            let mut others = [0.0; LISTENED];
+            let listened: Vec<f64> = tones.iter().copied().filter(|&t| t != own).collect();
+            // Fewer than LISTENED other robots: listen to unused paper tones too (silent).
+            let spare: Vec<f64> =
+                [224.0, 320.0, 512.0, 416.0].into_iter().filter(|t| *t != own && !listened.contains(t)).collect();
+            for (slot, t) in others.iter_mut().zip(listened.into_iter().chain(spare)) {
+                *slot = t;
+            }
+            let mut config = FirmwareConfig::paper(RobotId(i as u32 + 1), own, others);
+            config.tones.sample_rate = scenario.sound.sample_rate;
+            config.tones.gain = scenario.sound.gain;
+            let entropy: [u8; 32] = rng.gen();
+            let esp = EmulatedEsp32::bind(config, key.clone(), entropy, *gateway)?;
+            robots.push(LabRobot { esp, body: None, phase: rng.gen_range(0.0..core::f64::consts::TAU) });
+        }
+        if robots.len() != tones.len() {
+            return Err(io::Error::new(io::ErrorKind::InvalidInput, "one key and gateway address per robot"));
+        }
+        Ok(Self { scenario, robots, now: Duration::ZERO, next_control: CONTROL_PERIOD, rng })
+    }
+
+    /// The scenario.
+    pub fn scenario(&self) -> &Scenario {
+        &self.scenario
+    }
+
+    /// Lab time.
+    pub fn now(&self) -> Duration {
+        self.now
+    }
+
+    /// The robots, in id order.
+    pub fn robots(&self) -> &[LabRobot] {
+        &self.robots
+    }
+
+    /// Advances the lab by one physics step.
+    pub fn step(&mut self) -> io::Result<()> {
+        let now = self.now;
+        for r in &mut self.robots {
+            r.esp.pump(now)?;
+            if r.body.is_none() && r.esp.tone().is_some() {
+                let s = self.scenario.start;
+                r.body = Some(Crawler::new(s.x, s.y, s.heading));
+            }
+        }
+        if now >= self.next_control {
+            self.control(now)?;
+            self.next_control += CONTROL_PERIOD;
+        }
+        let dt = PHYSICS_DT.as_secs_f64();
+        let centres: Vec<Option<(f64, f64)>> = self.robots.iter().map(|r| r.body.map(|b| (b.x, b.y))).collect();
+        for (i, r) in self.robots.iter_mut().enumerate() {
+            let others: Vec<(f64, f64)> =
+                centres.iter().enumerate().filter(|&(j, _)| j != i).filter_map(|(_, c)| *c).collect();
+            let m = r.esp.motors();
+            if let Some(b) = r.body.as_mut() {
+                b.step(&self.scenario.body, (m.left, m.right), dt, &self.scenario.obstacles, &others);
+            }
+        }
+        self.now += PHYSICS_DT;
+        Ok(())
+    }
+
+    fn control(&mut self, now: Duration) -> io::Result<()> {
+        let speakers: Vec<Speaker> = self
+            .robots
+            .iter()
+            .filter_map(|r| {
+                let (b, f) = (r.body?, r.esp.tone()?);
+                Some(Speaker { x: b.x, y: b.y, freq: f, phase: r.phase })
+            })
+            .collect();
+        let room = Room { width: self.scenario.width, height: self.scenario.height };
+        let t0 = now.saturating_sub(CONTROL_PERIOD).as_secs_f64();
+        for r in &mut self.robots {
+            let Some(b) = r.body else { continue };
+            let mics = mic_positions(b.x, b.y, b.heading, 0.1);
+            let motor = r.esp.motors().left.abs().max(r.esp.motors().right.abs());
+            let mut frames =
+                sample_frames(&self.scenario.sound, &room, &speakers, &mics, motor, t0, &mut self.rng);
+            r.esp.control(&mut frames, now)?;
+        }
+        Ok(())
+    }
+}
