@@ -50,8 +50,8 @@ pub fn characterise(config: &SoundConfig, distances: &[f64], trials: usize, seed
                 let bearing: f64 = rng.gen_range(-core::f64::consts::PI..core::f64::consts::PI);
                 let heading: f64 = rng.gen_range(-core::f64::consts::PI..core::f64::consts::PI);
                 let (x, y) = (source.x + d * bearing.cos(), source.y + d * bearing.sin());
-                let own = Speaker { x, y, freq: 320.0, phase: rng.gen_range(0.0..6.28) };
-                let other = Speaker { phase: rng.gen_range(0.0..6.28), ..source };
+                let own = Speaker { x, y, freq: 320.0, phase: rng.gen_range(0.0..core::f64::consts::TAU) };
+                let other = Speaker { phase: rng.gen_range(0.0..core::f64::consts::TAU), ..source };
                 let mics = mic_positions(x, y, heading, ring.radius);
                 let t0 = rng.gen_range(0.0..10.0);
                 let mut frames = sample_frames(config, &room, &[other, own], &mics, 120.0, t0, &mut rng);

@@ -4,13 +4,23 @@
 //!
 //! * [`sound`] — each speaker's tone at each microphone, falling with
 //!   distance, with wall echoes, motor vibration and ADC noise, sampled as
-//!   the robot's ADC would;
+//!   the robot's ADC would; calibrated so V_ave = V_target 0.5 m from a
+//!   lone speaker;
+//! * [`body`] — crawler bodies: differential drive with saturation and lag,
+//!   stuck on contact with a frame or another body;
+//! * [`scenario`] — lab scenario files (`deploy/lab/`, `exp-short` and
+//!   `exp-long` built in);
+//! * [`esp32`] — one emulated ESP32: the firmware core behind its own UDP
+//!   socket (port 0);
+//! * [`world`] — the lab clock tying them together, with the emulated
+//!   operator who places a robot at the start when it is first enabled;
 //! * [`characterise`] — gradient direction error and V_ave against distance
-//!   to a speaker (`cargo bench -p bycoms-sim --bench lab_sensing` prints it).
+//!   to a speaker (`cargo bench -p bycoms-sim --bench lab_sensing`).
 //!
-//! Status: the crawler bodies, the scenarios (`deploy/lab/`) and the
-//! emulated ESP32s behind UDP sockets are in [`body`], [`scenario`] and
-//! [`esp32`] as far as they exist; see each module's doc.
+//! Not here yet: a lab *process* (`sim-agent lab --scenario …`), publishing
+//! true poses on the bus as mocap, and a NatNet server. The experiments are
+//! run in tests with a test gateway standing in for the `agent` gateway and
+//! the orchestrator (`tests/udp.rs`).
 
 pub mod body;
 pub mod characterise;

@@ -59,8 +59,10 @@ impl Lab {
             let mut others = [0.0; LISTENED];
             let listened: Vec<f64> = tones.iter().copied().filter(|&t| t != own).collect();
             // Fewer than LISTENED other robots: listen to unused paper tones too (silent).
-            let spare: Vec<f64> =
-                [224.0, 320.0, 512.0, 416.0].into_iter().filter(|t| *t != own && !listened.contains(t)).collect();
+            let spare: Vec<f64> = [224.0, 320.0, 512.0, 416.0]
+                .into_iter()
+                .filter(|t| *t != own && !listened.contains(t))
+                .collect();
             for (slot, t) in others.iter_mut().zip(listened.into_iter().chain(spare)) {
                 *slot = t;
             }
@@ -107,7 +109,8 @@ impl Lab {
             self.next_control += CONTROL_PERIOD;
         }
         let dt = PHYSICS_DT.as_secs_f64();
-        let centres: Vec<Option<(f64, f64)>> = self.robots.iter().map(|r| r.body.map(|b| (b.x, b.y))).collect();
+        let centres: Vec<Option<(f64, f64)>> =
+            self.robots.iter().map(|r| r.body.map(|b| (b.x, b.y))).collect();
         for (i, r) in self.robots.iter_mut().enumerate() {
             let others: Vec<(f64, f64)> =
                 centres.iter().enumerate().filter(|&(j, _)| j != i).filter_map(|(_, c)| *c).collect();

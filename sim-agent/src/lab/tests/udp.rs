@@ -134,3 +134,70 @@ fn an_emulated_robot_connects_drives_and_fails_safe_over_udp() {
     }
     assert!((lab.robots()[0].body.unwrap().x - x).abs() < 1e-3, "the body has stopped");
 }
+
+/// Runs a scenario as the paper's lab did: deploy robot k, send it goal
+/// bearings every 100 ms from its true pose, and when it has stood still
+/// for 1 s (the gate's rule, from poses alone) stop it (a beacon) and
+/// deploy the next. Returns (stuck robots, arrived robot) and logs poses.
+fn run_experiment(name: &str, limit: Duration) -> (Vec<usize>, Option<usize>, Lab) {
+    let (mut lab, mut gws) = lab(name);
+    let n = gws.len();
+    let goal = lab.scenario().goal;
+    let radius = lab.scenario().goal_radius;
+    let (mut current, mut stuck) = (0usize, vec![]);
+    let mut enabled = false;
+    let (mut last_goal, mut still_since, mut last_pos) = (Duration::ZERO, Duration::ZERO, (0.0, 0.0));
+    while lab.now() < limit {
+        for g in gws.iter_mut() {
+            g.pump();
+        }
+        let gw = &mut gws[current];
+        if !enabled && gw.link.session().is_some() {
+            enabled = gw.send(Payload::Enable).is_some();
+            still_since = lab.now();
+        }
+        if enabled && lab.now() >= last_goal + Duration::from_millis(100) {
+            if let Some(b) = bearing(&lab, current) {
+                gw.send(Payload::Goal { bearing: b });
+            }
+            last_goal = lab.now();
+        }
+        if let Some(b) = lab.robots()[current].body {
+            if (b.x - goal.x).hypot(b.y - goal.y) < radius {
+                return (stuck, Some(current + 1), lab);
+            }
+            if (b.x - last_pos.0).hypot(b.y - last_pos.1) > 0.005 {
+                last_pos = (b.x, b.y);
+                still_since = lab.now();
+            } else if lab.now() > still_since + Duration::from_secs(1) {
+                gws[current].send(Payload::Stop);
+                stuck.push(current + 1);
+                current += 1;
+                enabled = false;
+                if current == n {
+                    return (stuck, None, lab);
+                }
+            }
+        }
+        lab.step().unwrap();
+    }
+    (stuck, None, lab)
+}
+
+#[test]
+fn exp_short_robot_1_sticks_at_the_frame_and_robot_2_reaches_the_goal() {
+    let (stuck, arrived, lab) = run_experiment("exp-short", Duration::from_secs(120));
+    let poses: Vec<_> = lab.robots().iter().map(|r| r.body).collect();
+    assert_eq!((stuck, arrived), (vec![1], Some(2)), "{poses:?} at {:?}", lab.now());
+    let r1 = poses[0].unwrap();
+    assert!(r1.stuck && (1.3..1.5).contains(&r1.x), "robot 1 at the frame: {r1:?}");
+}
+
+#[test]
+fn exp_long_robots_1_and_2_stick_and_robot_3_reaches_the_goal() {
+    let (stuck, arrived, lab) = run_experiment("exp-long", Duration::from_secs(240));
+    let poses: Vec<_> = lab.robots().iter().map(|r| r.body).collect();
+    assert_eq!((stuck, arrived), (vec![1, 2], Some(3)), "{poses:?} at {:?}", lab.now());
+    let (r1, r2) = (poses[0].unwrap(), poses[1].unwrap());
+    assert!(r1.stuck && r2.stuck && r2.y > r1.y + 0.3, "robot 2 bypassed robot 1, then stuck: {r2:?}");
+}
