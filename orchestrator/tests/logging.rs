@@ -1,6 +1,7 @@
 //! Logging through `tracing`: `RUST_LOG` filters, `--log-format json` (or
 //! `BYCOMS_LOG_FORMAT=json`) makes every stderr line a JSON object, also
-//! the lines of the agents a launch starts, while stdout keeps the result.
+//! the lines of the agents a launch starts and iceoryx2's own, while stdout
+//! keeps the result.
 
 use serde_json::Value;
 use std::process::{Command, Output, Stdio};
@@ -111,7 +112,11 @@ fn a_launch_in_json_format_logs_json_from_orchestrator_and_agents() {
         "--swarm",
         &swarm,
     ];
-    let o = orchestrator(&args, Some("debug"));
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_orchestrator"));
+    cmd.args(args).env("RUST_LOG", "debug").env_remove("BYCOMS_LOG_FORMAT");
+    // iceoryx2's own warnings (no config file) must come through as JSON too.
+    cmd.env("IOX2_LOG_LEVEL", "warn");
+    let o = run(cmd);
     assert!(matches!(o.status.code(), Some(0) | Some(3)), "{}", String::from_utf8_lossy(&o.stderr));
     let summary: Value = serde_json::from_slice(&o.stdout).expect("stdout is the JSON summary");
     assert!(summary["outcome"].is_string());
@@ -124,6 +129,13 @@ fn a_launch_in_json_format_logs_json_from_orchestrator_and_agents() {
         });
         assert!(agent, "no JSON debug line of robot {robot}'s agent: {lines:?}");
     }
+    // iceoryx2's lines, from the orchestrator and from the agents.
+    let iceoryx2 = |agent: bool| {
+        lines
+            .iter()
+            .any(|v| v["target"] == "iceoryx2" && v["level"] == "WARN" && v["span"].is_object() == agent)
+    };
+    assert!(iceoryx2(false) && iceoryx2(true), "iceoryx2 warnings as JSON from both: {lines:?}");
     // The launch's plain progress lines became status events.
     assert!(lines.iter().any(|v| v["target"] == "status"
         && v["fields"]["message"].as_str().is_some_and(|m| m.starts_with("robot 1: deployed"))));

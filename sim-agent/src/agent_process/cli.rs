@@ -74,9 +74,11 @@ pub fn main_with(args: &AgentArgs) -> i32 {
 
 /// iceoryx2 warns on every process start that it runs without a config
 /// file (by design here: the defaults are what we want). Show only errors,
-/// unless `IOX2_LOG_LEVEL` asks for more.
+/// unless `IOX2_LOG_LEVEL` asks for more; as `tracing` events (target
+/// `iceoryx2`), so they follow `--log-format`.
 pub fn quiet_iceoryx2() {
     use iceoryx2::prelude::{set_log_level_from_env_or, LogLevel};
+    bycoms_logging::iceoryx2::forward_to_tracing();
     set_log_level_from_env_or(LogLevel::Error);
 }
 
