@@ -3,7 +3,8 @@
 //! noise (echo, vibration, ADC noise) and without.
 //!
 //! Run: `cargo bench -p bycoms-sim --bench lab_sensing`
-//! (`BYCOMS_LAB_TRIALS=n` sets the placements per distance, default 200).
+//! (`BYCOMS_LAB_TRIALS=n` sets the placements per distance, default 200;
+//! `--profile dev` reuses the debug build when a release build is too costly).
 
 use bycoms_sim::lab::characterise::{characterise, table};
 use bycoms_sim::lab::sound::SoundConfig;
