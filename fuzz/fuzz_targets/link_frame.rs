@@ -9,7 +9,9 @@
 //! parsing behind the tag check.
 #![no_main]
 
-use bycoms_protocol::link::{decode, encode, Direction, LinkKey, DropReason, HEADER_LEN, MAX_FRAME_LEN, TAG_LEN};
+use bycoms_protocol::link::{
+    decode, encode, Direction, DropReason, LinkKey, HEADER_LEN, MAX_FRAME_LEN, TAG_LEN,
+};
 use bycoms_protocol::RobotId;
 use hmac::{Hmac, Mac};
 use libfuzzer_sys::fuzz_target;
