@@ -14,7 +14,8 @@
 //!
 //! * `std` (default): the transport interface [`bus`] with its in-memory
 //!   backend, and `encode_vec`;
-//! * `ipc`: the iceoryx2 shared-memory backend `bus::ipc`.
+//! * `ipc`: the iceoryx2 shared-memory backend `bus::ipc`;
+//! * `natnet`: the OptiTrack NatNet 4.x codec [`natnet`] (motion capture).
 //!
 //! Error types implement `core::error::Error` (the same trait as
 //! `std::error::Error`) with or without `std`.
@@ -31,6 +32,8 @@ pub mod naming;
 
 #[cfg(feature = "std")]
 pub mod bus;
+#[cfg(feature = "natnet")]
+pub mod natnet;
 
 #[cfg(feature = "std")]
 pub use codec::encode_vec;
