@@ -13,6 +13,7 @@ pub mod body;
 pub mod field;
 pub mod geom;
 pub mod lab;
+pub mod natnet_server;
 pub mod robot;
 pub mod runner;
 pub mod sensing;
