@@ -171,8 +171,13 @@ fn serve_commands(socket: &UdpSocket, shared: &Shared, server_info: &[u8], model
         };
         let reply = match parse_packet(&buf[..n]) {
             Ok(Packet::Connect(_)) => {
+                // Server info first: a client parses frames in the version
+                // it announces, so no frame may overtake it.
+                if let Err(e) = socket.send_to(server_info, from) {
+                    tracing::warn!(%from, error = %e, "NatNet server info not sent");
+                }
                 subscribe(shared, from);
-                Some(server_info.to_vec())
+                None
             }
             Ok(Packet::KeepAlive) => {
                 subscribe(shared, from);
