@@ -6,6 +6,7 @@
 pub mod commands;
 pub mod draw;
 pub mod launch;
+pub mod mocap;
 pub mod out;
 pub mod record;
 pub mod scenario;
