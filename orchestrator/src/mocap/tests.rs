@@ -116,7 +116,10 @@ fn twenty_percent_loss_and_a_one_second_occlusion_of_the_moving_robot_give_no_fa
         assert!((0.75..0.85).contains(&lost), "{mode:?}: {lost} of frames kept");
         let verdict = judge(batches.iter().flat_map(|b| b.poses.clone()), RobotId(1));
         let Some((Verdict::Stuck(at), us)) = verdict else { panic!("{mode:?}: {verdict:?}") };
-        assert!(us >= 6_500_000 && us < 6_600_000, "{mode:?}: judged at {us} µs, not during the occlusion");
+        assert!(
+            (6_500_000..6_600_000).contains(&us),
+            "{mode:?}: judged at {us} µs, not during the occlusion"
+        );
         assert!(
             (at.x - clean_at.x).abs() < 1e-6 && (at.y - clean_at.y).abs() < 1e-6,
             "same outcome: stuck at 6.0"

@@ -173,6 +173,9 @@ pub enum Error {
 }
 
 /// One NatNet message, either direction.
+// A frame is most of the traffic; boxing it would add an allocation per
+// datagram to save stack on the rare small messages.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum Packet {
     /// `NAT_CONNECT`.
