@@ -13,6 +13,8 @@ use std::time::Duration;
 #[derive(Parser)]
 #[command(name = "natnet-serve", version, about)]
 struct Cli {
+    #[command(flatten)]
+    log: bycoms_logging::LogArgs,
     /// The server's TOML config (bodies, rate, faults).
     #[arg(long)]
     config: std::path::PathBuf,
@@ -46,8 +48,8 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
 }
 
 fn main() {
-    tracing_subscriber::fmt().with_writer(std::io::stderr).init();
     let cli = Cli::parse();
+    bycoms_logging::init(cli.log.log_format);
     if let Err(e) = run(&cli) {
         tracing::error!("{e:#}");
         std::process::exit(1);
