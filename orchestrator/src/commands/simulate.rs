@@ -217,25 +217,10 @@ fn draw_pictures(
     Ok(written)
 }
 
-/// "robot 4 arrived after 123.4 s (3 beacons)" and the like.
+/// "robot 4 arrived after 123.4 s (3 beacons)" and the like: the verdict
+/// `launch` prints too ([`crate::commands::world::verdict`]).
 pub fn summary_line(r: &RunResult) -> String {
-    let beacons = count(r.beacons.len(), "beacon");
-    match r.outcome {
-        Outcome::Arrived => format!("robot {} arrived after {:.1} s ({beacons})", r.robots_used, r.time),
-        Outcome::TimeLimit => {
-            let robots = count(r.robots_used as usize, "robot");
-            format!("no robot arrived within {:.0} s ({robots}, {beacons})", r.time)
-        }
-        Outcome::RobotsExhausted if r.robots_used == 1 => {
-            format!("the only robot got stuck after {:.1} s", r.time)
-        }
-        Outcome::RobotsExhausted => format!("all {} robots got stuck after {:.1} s", r.robots_used, r.time),
-    }
-}
-
-/// "1 robot", "3 robots".
-fn count(n: usize, noun: &str) -> String {
-    format!("{n} {noun}{}", if n == 1 { "" } else { "s" })
+    crate::commands::world::verdict(r.outcome, r.robots_used, r.time, r.beacons.len())
 }
 
 #[cfg(test)]

@@ -64,3 +64,48 @@ pub fn check_run(cfg: &RunConfig) -> Result<()> {
 pub fn check_eps(eps: f64) -> Result<()> {
     check_run(&RunConfig::paper(eps))
 }
+
+/// `n` and the noun, singular or plural: "1 robot", "3 robots".
+pub fn count(n: u64, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
+
+/// The one verdict sentence of a run, for `simulate` and `launch` alike:
+/// "robot 4 arrived after 123.4 s (3 beacons)" and the like.
+pub fn verdict(outcome: bycoms_sim::Outcome, robots_used: u32, time_s: f64, beacons: usize) -> String {
+    use bycoms_sim::Outcome;
+    let beacons = count(beacons as u64, "beacon");
+    match outcome {
+        Outcome::Arrived => format!("robot {robots_used} arrived after {time_s:.1} s ({beacons})"),
+        Outcome::RobotsExhausted if robots_used == 1 => {
+            format!("the only robot got stuck after {time_s:.1} s")
+        }
+        Outcome::RobotsExhausted => format!("all {robots_used} robots got stuck after {time_s:.1} s"),
+        Outcome::TimeLimit => format!(
+            "no robot arrived within {time_s:.0} s ({}, {beacons})",
+            count(u64::from(robots_used), "robot")
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bycoms_sim::Outcome;
+
+    #[test]
+    fn the_verdict_counts_in_words() {
+        assert_eq!(verdict(Outcome::Arrived, 3, 98.25, 2), "robot 3 arrived after 98.2 s (2 beacons)");
+        assert_eq!(verdict(Outcome::Arrived, 2, 5.0, 1), "robot 2 arrived after 5.0 s (1 beacon)");
+        assert_eq!(
+            verdict(Outcome::TimeLimit, 1, 60.0, 0),
+            "no robot arrived within 60 s (1 robot, 0 beacons)"
+        );
+        assert_eq!(verdict(Outcome::RobotsExhausted, 1, 7.0, 1), "the only robot got stuck after 7.0 s");
+        assert_eq!(verdict(Outcome::RobotsExhausted, 3, 7.0, 3), "all 3 robots got stuck after 7.0 s");
+    }
+}

@@ -6,7 +6,9 @@
 //! Stopped agents republish their pose every period (and the orchestrator
 //! republishes dead robots'), so it is enough that one full period has run
 //! since the new agent registered: in lockstep one tick started after its
-//! registration, in real time two periods of wall time. With `prespawn`
+//! registration (always exactly one settle tick per deployment, so tick
+//! numbers do not depend on how fast an agent starts), in real time two
+//! periods of wall time. With `prespawn`
 //! (the default) the next agent registers while the current robot moves,
 //! so by the time the gate opens this has long happened and deploying costs
 //! one `Deploy` and one pose.
@@ -113,13 +115,13 @@ impl Launch {
     /// Makes sure robot `id` has heard every beacon (see the module docs).
     fn settle(&mut self, id: u32) -> Result<()> {
         let Some(slot) = self.slot(id) else { return Ok(()) };
-        let (registered_before, registered_at) = (slot.registered_before_tick, slot.registered_at);
+        let registered_at = slot.registered_at;
         match self.cfg.clock {
-            Clock::Lockstep => {
-                if registered_before.is_some_and(|r| r >= self.ticks_started) {
-                    self.tick()?;
-                }
-            }
+            // Always exactly one tick, even when a prespawned agent has
+            // long heard every beacon: whether it registered in time depends
+            // on the machine, and the tick numbers a launch prints (and
+            // records) must not. The tick moves no robot.
+            Clock::Lockstep => self.tick()?,
             Clock::Realtime => {
                 let period = Duration::from_secs_f64(0.1 / self.cfg.speed);
                 let ready = registered_at.map(|t| t + 2 * period).unwrap_or_else(Instant::now);
@@ -153,7 +155,7 @@ impl Launch {
             let now = Instant::now();
             if now >= deadline {
                 self.sup.kill(id);
-                self.on_death(id, Gone::NoTickReply);
+                self.on_death(id, Gone::NoStartPose);
                 return Ok(false);
             }
             self.pump(SLICE.min(deadline - now))?;

@@ -67,6 +67,24 @@ pub enum SlotState {
     Lost,
 }
 
+impl SlotState {
+    /// The state in words, for the live lines.
+    pub fn words(self) -> &'static str {
+        match self {
+            Self::Waiting => "waiting",
+            Self::Spawned => "starting",
+            Self::Registered => "ready",
+            Self::Deploying => "deploying",
+            Self::Moving => "moving",
+            Self::Stuck => "stuck",
+            Self::Arrived => "arrived",
+            Self::Died => "lost while moving",
+            Self::Unfinished => "still moving",
+            Self::Lost => "lost",
+        }
+    }
+}
+
 /// One robot's bookkeeping.
 #[derive(Clone, Debug)]
 pub struct Slot {
@@ -84,6 +102,33 @@ pub struct Slot {
     pub steps: u64,
     pub reaction: Option<Duration>,
     pub death: Option<Death>,
+    /// Real time: periods this robot's agent stepped since its deployment
+    /// (poses seen) and periods it skipped (gaps in the frame numbers).
+    pub frames: FrameCount,
+}
+
+/// Real-time periods of one agent as its poses show them.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FrameCount {
+    /// Poses seen (periods stepped).
+    pub seen: u64,
+    /// Frame numbers skipped between them (periods missed).
+    pub missed: u64,
+    last: Option<u64>,
+}
+
+impl FrameCount {
+    /// Counts the pose of frame `step`.
+    pub fn observe(&mut self, step: u64) {
+        if let Some(last) = self.last {
+            if step <= last {
+                return;
+            }
+            self.missed += step - last - 1;
+        }
+        self.seen += 1;
+        self.last = Some(step);
+    }
 }
 
 /// Something the drivers must act on after a pump.
@@ -162,6 +207,7 @@ impl Launch {
                 steps: 0,
                 reaction: None,
                 death: None,
+                frames: FrameCount::default(),
             })
             .collect();
         Self {
@@ -281,6 +327,9 @@ impl Launch {
             return Ok(());
         }
         slot.last_pose = Some(pose);
+        if !lockstep && slot.state != SlotState::Deploying {
+            slot.frames.observe(pose.step);
+        }
         if slot.state == SlotState::Deploying && self.watch.is_none() {
             // The start pose: the robot is deployed and under watch. In
             // lockstep its periods are counted from the last completed tick.
@@ -383,7 +432,7 @@ impl Launch {
         for s in &self.slots {
             let at = s.last_pose.map(|p| format!("({:6.2}, {:6.2})", p.x, p.y)).unwrap_or_default();
             let mode = if s.state == SlotState::Moving { format!(" mode {}", s.mode) } else { String::new() };
-            self.progress.robot(s.id, format!("{:?}{mode} {at}", s.state));
+            self.progress.robot(s.id, format!("{}{mode} {at}", s.state.words()));
         }
     }
 }

@@ -8,7 +8,7 @@
 
 use super::config::Clock;
 use super::engine::{Launch, SlotState};
-use super::summary::{Outcome, RecordingSummary, RobotEnd, RobotSummary, Summary};
+use super::summary::{Outcome, RealtimeReport, RecordingSummary, RobotEnd, RobotSummary, Summary};
 use bycoms_protocol::msg::ToAgent;
 use bycoms_sim::Vec2;
 use std::time::Duration;
@@ -41,7 +41,12 @@ impl Launch {
         }
         let killed = self.sup.wind_down(Duration::from_secs_f64(self.cfg.supervision.shutdown_grace));
         if !killed.is_empty() {
-            self.progress.event(&format!("agents of robots {killed:?} did not exit after Shutdown: killed"));
+            let ids: Vec<String> = killed.iter().map(u32::to_string).collect();
+            let whose = if ids.len() == 1 { "robot" } else { "robots" };
+            self.progress.event(&format!(
+                "the agents of {whose} {} did not exit after Shutdown: killed",
+                ids.join(", ")
+            ));
         }
         self.redraw();
         self.progress.finish();
@@ -54,6 +59,24 @@ impl Launch {
             .collect();
         let dt = self.template.run_config().kinematics.dt;
         let wall_s = self.started.elapsed().as_secs_f64();
+        let realtime = (self.cfg.clock == Clock::Realtime).then(|| {
+            let (seen, missed) =
+                self.slots.iter().fold((0, 0), |(s, m), slot| (s + slot.frames.seen, m + slot.frames.missed));
+            RealtimeReport::new(self.cfg.speed, seen, missed)
+        });
+        if let Some(rt) = realtime.as_ref().filter(|rt| !rt.faithful) {
+            tracing::warn!(
+                missed_periods = rt.missed_periods,
+                periods = rt.periods,
+                achieved_speed = rt.achieved_speed,
+                "the agents could not keep up with {}× real time: {} of {} periods missed, \
+                 achieved {:.1}×; the run is not faithful (lower --speed)",
+                self.cfg.speed,
+                rt.missed_periods,
+                rt.periods + rt.missed_periods,
+                rt.achieved_speed
+            );
+        }
         let mut summary = Summary {
             swarm: self.template.swarm.clone(),
             terrain: self.world.name.clone(),
@@ -76,8 +99,9 @@ impl Launch {
             sim_speed: match self.cfg.clock {
                 Clock::Lockstep if wall_s > 0.0 => self.ticks as f64 * dt / wall_s,
                 Clock::Lockstep => 0.0,
-                Clock::Realtime => self.cfg.speed,
+                Clock::Realtime => realtime.as_ref().map_or(self.cfg.speed, |rt| rt.achieved_speed),
             },
+            realtime,
             beacons,
             robots,
             bad_traffic: self.ports.traffic,

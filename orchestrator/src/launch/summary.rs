@@ -5,6 +5,7 @@
 //! launch with `simulate`) can check "bit for bit" without trusting a
 //! decimal round trip.
 
+use crate::commands::world::{count, verdict};
 use bycoms_sim::agent_process::Traffic;
 use bycoms_sim::Vec2;
 use serde::Serialize;
@@ -49,6 +50,54 @@ pub struct Death {
     pub reason: String,
     /// When the orchestrator noticed, ms since the Unix epoch.
     pub noticed_unix_ms: u64,
+}
+
+impl RobotEnd {
+    /// How it ended, in words for the terminal.
+    pub fn words(self) -> &'static str {
+        match self {
+            Self::NotDeployed => "not deployed",
+            Self::Stuck => "stuck",
+            Self::Arrived => "arrived",
+            Self::Died => "lost (agent died)",
+            Self::Moving => "still moving",
+        }
+    }
+}
+
+/// How faithful a real-time run was: control periods the agents stepped
+/// and the ones they were too late for (as their poses' frame numbers
+/// show), over the deployed robots.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RealtimeReport {
+    /// Periods stepped (poses seen).
+    pub periods: u64,
+    /// Periods skipped because an agent was late.
+    pub missed_periods: u64,
+    /// Simulated seconds actually computed per wall second:
+    /// `speed × periods / (periods + missed_periods)`.
+    pub achieved_speed: f64,
+    /// Whether at most [`FAITHFUL_MISS`] of the periods were missed; a run
+    /// that was not faithful skipped control steps, so its motion (and its
+    /// `time_s`, which counts frames) is not what the speed-up promises.
+    pub faithful: bool,
+}
+
+/// Largest share of missed periods of a faithful real-time run (1 %).
+pub const FAITHFUL_MISS: f64 = 0.01;
+
+impl RealtimeReport {
+    /// The report for `periods` stepped and `missed` skipped at `speed`.
+    pub fn new(speed: f64, periods: u64, missed: u64) -> Self {
+        let all = periods + missed;
+        let share = if all == 0 { 0.0 } else { missed as f64 / all as f64 };
+        Self {
+            periods,
+            missed_periods: missed,
+            achieved_speed: speed * (1.0 - share),
+            faithful: share <= FAITHFUL_MISS,
+        }
+    }
 }
 
 /// One robot.
@@ -128,8 +177,11 @@ pub struct Summary {
     /// Wall-clock duration, s.
     pub wall_s: f64,
     /// Simulated seconds per wall second: over the whole launch in lockstep
-    /// (ticks × dt / wall), the nominal speed-up in real time.
+    /// (ticks × dt / wall), the achieved speed-up in real time (see
+    /// `realtime`).
     pub sim_speed: f64,
+    /// Real time only: periods stepped and missed, achieved speed-up.
+    pub realtime: Option<RealtimeReport>,
     /// Positions of the beacons (stuck and dead robots), in robot order.
     pub beacons: Vec<Vec2>,
     /// Every robot.
@@ -141,33 +193,23 @@ pub struct Summary {
 }
 
 impl Summary {
-    /// The one-line verdict, like `simulate`'s.
+    /// The one-line verdict, the same sentence as `simulate`'s.
     pub fn line(&self) -> String {
-        let beacons = self.beacons.len();
-        let plural = if beacons == 1 { "" } else { "s" };
-        match self.outcome {
-            Outcome::Arrived => format!(
-                "robot {} arrived after {:.1} s ({beacons} beacon{plural})",
-                self.robots_used, self.time_s
-            ),
-            Outcome::RobotsExhausted => {
-                format!(
-                    "all {} robots stopped short of the goal after {:.1} s",
-                    self.robots_used, self.time_s
-                )
-            }
-            Outcome::TimeLimit => format!(
-                "no robot arrived within {:.0} s ({} robots, {beacons} beacon{plural})",
-                self.time_s, self.robots_used
-            ),
+        let sim = match self.outcome {
+            Outcome::Arrived => bycoms_sim::Outcome::Arrived,
+            Outcome::RobotsExhausted => bycoms_sim::Outcome::RobotsExhausted,
+            Outcome::TimeLimit => bycoms_sim::Outcome::TimeLimit,
             Outcome::Interrupted => {
-                format!("interrupted after {:.1} s ({} robots deployed)", self.time_s, self.robots_used)
+                let deployed = count(u64::from(self.robots_used), "robot");
+                return format!("interrupted after {:.1} s ({deployed} deployed)", self.time_s);
             }
-            Outcome::Error => format!("error: {}", self.error.as_deref().unwrap_or("unknown")),
-        }
+            Outcome::Error => return format!("error: {}", self.error.as_deref().unwrap_or("unknown")),
+        };
+        verdict(sim, self.robots_used, self.time_s, self.beacons.len())
     }
 
-    /// The human-readable summary: the verdict, then one line per robot.
+    /// The human-readable summary: the verdict, one line per deployed
+    /// robot, one line for all robots never deployed.
     pub fn text(&self) -> String {
         let mut out = format!(
             "launch {} on {}, ε = {}, noise {}, {} clock: {}\n",
@@ -178,27 +220,150 @@ impl Summary {
             self.clock,
             self.line()
         );
+        let mut idle = Vec::new();
         for r in &self.robots {
+            if r.end == RobotEnd::NotDeployed && r.death.is_none() {
+                idle.push(r.id);
+                continue;
+            }
             let at = match (r.x, r.y) {
-                (Some(x), Some(y)) => format!("at ({x:.2}, {y:.2})"),
+                (Some(x), Some(y)) => format!(" at ({x:.2}, {y:.2})"),
                 _ => String::new(),
             };
             let died = r.death.as_ref().map(|d| format!(" — {}", d.reason)).unwrap_or_default();
-            out.push_str(&format!("  robot {}: {:?} {at} after {} steps{died}\n", r.id, r.end, r.steps));
+            let steps = count(r.steps, "step");
+            out.push_str(&format!("  robot {}: {}{at} after {steps}{died}\n", r.id, r.end.words()));
         }
-        out.push_str(&match self.speed {
-            None => format!(
-                "  {} ticks in {:.2} s wall ({:.0} simulated s per wall s)",
-                self.ticks, self.wall_s, self.sim_speed
+        if let Some(text) = id_ranges(&idle) {
+            let noun = if idle.len() == 1 { "robot" } else { "robots" };
+            out.push_str(&format!("  {noun} {text}: not deployed\n"));
+        }
+        out.push_str(&match (&self.speed, &self.realtime) {
+            (Some(speed), Some(rt)) => {
+                let mut line = format!(
+                    "  {:.2} s wall at {speed}× real time: achieved {:.1}× ({} of {} missed)",
+                    self.wall_s,
+                    rt.achieved_speed,
+                    rt.missed_periods,
+                    count(rt.periods + rt.missed_periods, "period")
+                );
+                if !rt.faithful {
+                    line.push_str(" — not faithful: the agents could not keep up; lower --speed");
+                }
+                line
+            }
+            (Some(speed), None) => format!("  {:.2} s wall at {speed}× real time", self.wall_s),
+            (None, _) => format!(
+                "  {} in {:.2} s wall ({:.0} simulated s per wall s)",
+                count(self.ticks, "tick"),
+                self.wall_s,
+                self.sim_speed
             ),
-            Some(speed) => format!("  {:.2} s wall at {speed}× real time", self.wall_s),
         });
         if self.bad_traffic.total() > 0 {
-            out.push_str(&format!("\n  bad messages: {:?}", self.bad_traffic));
+            out.push_str(&format!("\n  bad messages: {}", self.bad_traffic));
         }
         if let Some(rec) = &self.recording {
-            out.push_str(&format!("\n  recorded {} messages to {}", rec.messages, rec.path));
+            out.push_str(&format!("\n  recorded {} to {}", count(rec.messages, "message"), rec.path));
         }
         out
+    }
+}
+
+/// "4", "4–6", "4–6, 9": sorted ids as ranges; `None` when empty.
+fn id_ranges(ids: &[u32]) -> Option<String> {
+    let mut parts: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < ids.len() {
+        let start = ids[i];
+        let mut end = start;
+        while i + 1 < ids.len() && ids[i + 1] == end + 1 {
+            i += 1;
+            end = ids[i];
+        }
+        parts.push(if end == start { start.to_string() } else { format!("{start}–{end}") });
+        i += 1;
+    }
+    (!parts.is_empty()).then(|| parts.join(", "))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn robot(id: u32, end: RobotEnd, steps: u64) -> RobotSummary {
+        let deployed = end != RobotEnd::NotDeployed;
+        RobotSummary {
+            id,
+            pid: None,
+            end,
+            x: deployed.then_some(1.0),
+            y: deployed.then_some(2.0),
+            x_bits: None,
+            y_bits: None,
+            steps,
+            deployed_tick: None,
+            decided_tick: None,
+            mode: 1,
+            gate_reaction_us: None,
+            death: None,
+        }
+    }
+
+    fn summary(robots: Vec<RobotSummary>, realtime: Option<RealtimeReport>) -> Summary {
+        Summary {
+            swarm: "s".into(),
+            terrain: "t".into(),
+            eps: 3.0,
+            noise: false,
+            seed: 0,
+            clock: if realtime.is_some() { "realtime" } else { "lockstep" }.into(),
+            speed: realtime.as_ref().map(|_| 1000.0),
+            outcome: Outcome::Arrived,
+            success: true,
+            error: None,
+            robots_used: 2,
+            steps: 11,
+            time_s: 1.1,
+            ticks: 1,
+            wall_s: 0.5,
+            sim_speed: 2.0,
+            realtime,
+            beacons: vec![Vec2::new(1.0, 2.0)],
+            robots,
+            bad_traffic: Traffic { garbage: 2, ..Traffic::default() },
+            recording: None,
+        }
+    }
+
+    #[test]
+    fn the_text_speaks_words_and_summarises_undeployed_robots_in_one_line() {
+        let mut robots = vec![robot(1, RobotEnd::Stuck, 1), robot(2, RobotEnd::Arrived, 10)];
+        robots.extend((3..=159).map(|id| robot(id, RobotEnd::NotDeployed, 0)));
+        let text = summary(robots, None).text();
+        assert!(text.contains("robot 1: stuck at (1.00, 2.00) after 1 step\n"), "{text}");
+        assert!(text.contains("robot 2: arrived at (1.00, 2.00) after 10 steps\n"), "{text}");
+        assert!(text.contains("  robots 3–159: not deployed\n"), "{text}");
+        assert!(text.contains("1 tick in 0.50 s wall"), "{text}");
+        assert!(text.contains("bad messages: 2 undecodable"), "{text}");
+        assert!(text.contains("robot 2 arrived after 1.1 s (1 beacon)"), "{text}");
+        assert_eq!(text.lines().count(), 6, "{text}");
+        for rust in ["NotDeployed", "Traffic", "{", "1 robots", "1 steps", "1 beacons"] {
+            assert!(!text.contains(rust), "{rust:?} in {text}");
+        }
+        assert_eq!(id_ranges(&[1, 2, 3, 5, 7, 8]).as_deref(), Some("1–3, 5, 7–8"));
+    }
+
+    #[test]
+    fn a_realtime_run_that_missed_periods_says_so() {
+        let slow = RealtimeReport::new(1000.0, 726, 44);
+        assert!(!slow.faithful);
+        assert!((slow.achieved_speed - 1000.0 * 726.0 / 770.0).abs() < 1e-9);
+        let text = summary(vec![robot(1, RobotEnd::Arrived, 3)], Some(slow)).text();
+        assert!(text.contains("achieved 942.9× (44 of 770 periods missed) — not faithful"), "{text}");
+        let fine = RealtimeReport::new(10.0, 1000, 1);
+        assert!(fine.faithful);
+        let text = summary(vec![robot(1, RobotEnd::Arrived, 3)], Some(fine)).text();
+        assert!(text.contains("(1 of 1001 periods missed)") && !text.contains("not faithful"), "{text}");
     }
 }

@@ -42,6 +42,8 @@ pub enum Gone {
     NeverRegistered,
     /// Did not answer a lockstep tick in time (killed).
     NoTickReply,
+    /// Did not report its start pose in time after `Deploy` (killed).
+    NoStartPose,
 }
 
 impl std::fmt::Display for Gone {
@@ -51,6 +53,9 @@ impl std::fmt::Display for Gone {
             Self::Silent => write!(f, "it fell silent (no heartbeat) and was killed"),
             Self::NeverRegistered => write!(f, "it did not register in time and was killed"),
             Self::NoTickReply => write!(f, "it did not answer a lockstep tick in time and was killed"),
+            Self::NoStartPose => {
+                write!(f, "it did not report its start pose in time after being deployed and was killed")
+            }
         }
     }
 }

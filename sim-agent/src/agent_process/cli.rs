@@ -120,7 +120,7 @@ fn run(args: &AgentArgs) -> Result<ExitCause, AgentError> {
     let s = agent.stats();
     let mut notes = Vec::new();
     if s.traffic.total() > 0 {
-        notes.push(format!("bad messages {:?}", s.traffic));
+        notes.push(format!("bad messages: {}", s.traffic));
     }
     if s.stale_bearings > 0 {
         notes.push(format!("{} stale goal bearings", s.stale_bearings));

@@ -177,6 +177,11 @@ impl<B: Bus> Agent<B> {
                 self.stats.periods += 1;
                 self.period(index)?;
                 next = index.saturating_add(1);
+                // An agent that is always late would otherwise never read
+                // its commands (no bearing, no `Shutdown`): take what came.
+                if let Some(cause) = self.drain_commands()? {
+                    return Ok(cause);
+                }
                 continue;
             }
             let left = due.duration_since(now);
@@ -185,14 +190,21 @@ impl<B: Bus> Agent<B> {
                     return Ok(cause);
                 }
             } else {
-                loop {
-                    match self.receive(Duration::ZERO)? {
-                        Received::Nothing => break,
-                        Received::Handled => {}
-                        Received::Exit(cause) => return Ok(cause),
-                    }
+                if let Some(cause) = self.drain_commands()? {
+                    return Ok(cause);
                 }
                 std::thread::sleep(due.saturating_duration_since(Instant::now()));
+            }
+        }
+    }
+
+    /// Handles every command already waiting; the exit cause if one says so.
+    fn drain_commands(&mut self) -> Result<Option<ExitCause>, BusError> {
+        loop {
+            match self.receive(Duration::ZERO)? {
+                Received::Nothing => return Ok(None),
+                Received::Handled => {}
+                Received::Exit(cause) => return Ok(Some(cause)),
             }
         }
     }

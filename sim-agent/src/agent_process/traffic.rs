@@ -97,6 +97,29 @@ impl Traffic {
     }
 }
 
+/// "2 undecodable, 1 duplicate registration": the non-zero counts, in words.
+impl core::fmt::Display for Traffic {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let parts = [
+            (self.garbage, "undecodable"),
+            (self.wrong_version, "of another protocol version"),
+            (self.unknown_robot, "about an unknown robot"),
+            (self.duplicate, "duplicate registration"),
+            (self.refused, "refused"),
+        ];
+        let mut first = true;
+        for (n, what) in parts.into_iter().filter(|(n, _)| *n > 0) {
+            let sep = if first { "" } else { ", " };
+            first = false;
+            write!(f, "{sep}{n} {what}")?;
+        }
+        if first {
+            write!(f, "none")?;
+        }
+        Ok(())
+    }
+}
+
 /// Whether `e` is a wait cut short by a signal (not a failure).
 pub fn is_interrupt(e: &BusError) -> bool {
     matches!(e, BusError::Backend { detail, .. } if detail.contains("InterruptSignal"))
@@ -119,5 +142,7 @@ mod tests {
         assert_eq!(t.absorb("test", "x", fatal.clone()), Some(fatal));
         t.count("test", BadKind::Duplicate, &"again");
         assert_eq!((t.wrong_version, t.garbage, t.duplicate, t.total()), (1, 2, 1, 4));
+        assert_eq!(t.to_string(), "2 undecodable, 1 of another protocol version, 1 duplicate registration");
+        assert_eq!(Traffic::default().to_string(), "none");
     }
 }
