@@ -63,7 +63,7 @@ fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() 
         .lines()
         .find(|l| l.contains("sim-agent{robot=1}") && l.contains("exiting"))
         .unwrap_or_else(|| panic!("robot 1's agent reported nothing:\n{}", out.stderr));
-    for count in ["garbage: 3", "unknown_robot: 3", "duplicate: 3"] {
+    for count in ["3 undecodable", "3 about an unknown robot", "3 duplicate registration"] {
         assert!(agent_line.contains(count), "{count} in {agent_line}");
     }
     assert_eq!(j["robots"][0]["end"], "stuck", "robot 1 went on as if nothing happened");
