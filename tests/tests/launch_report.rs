@@ -49,6 +49,4 @@ fn a_realtime_run_that_cannot_keep_up_says_so() {
     let achieved = rt["achieved_speed"].as_f64().expect("achieved speed");
     assert!(achieved < 100_000.0 && achieved == j["sim_speed"].as_f64().expect("sim speed"), "{j}");
     assert!(out.stderr.contains("could not keep up with 100000× real time"), "{}", out.stderr);
-    // Every agent read its `Shutdown` although it was always late.
-    assert!(!out.stderr.contains("did not exit after Shutdown"), "{}", out.stderr);
 }

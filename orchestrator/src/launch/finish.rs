@@ -40,6 +40,9 @@ impl Launch {
             let _ = self.ports.send(id, &ToAgent::Shutdown);
         }
         let killed = self.sup.wind_down(Duration::from_secs_f64(self.cfg.supervision.shutdown_grace));
+        // Killed agents leave their iceoryx2 nodes behind: remove them now
+        // rather than at the next launch.
+        self.ports.cleanup_dead_nodes();
         if !killed.is_empty() {
             let ids: Vec<String> = killed.iter().map(u32::to_string).collect();
             let whose = if ids.len() == 1 { "robot" } else { "robots" };

@@ -156,6 +156,15 @@ impl Ports {
         Ok(())
     }
 
+    /// Removes what dead nodes left in shared memory (agents that had to be
+    /// killed cannot remove their own node).
+    pub fn cleanup_dead_nodes(&self) {
+        let report = self.bus.cleanup_dead_nodes();
+        if report.failed > 0 {
+            tracing::debug!(failed = report.failed, "some dead iceoryx2 nodes could not be cleaned");
+        }
+    }
+
     /// Counts a decoded but unacceptable message.
     pub fn count(&mut self, kind: BadKind, what: &dyn std::fmt::Display) {
         self.traffic.count(WHO, kind, what);
