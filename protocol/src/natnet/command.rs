@@ -127,13 +127,17 @@ impl Response {
     pub(crate) fn write(&self, w: &mut Writer) -> Result<(), Error> {
         match self {
             Self::Code(code) => w.i32(*code),
-            Self::Text(text) => {
-                // A 3-character text plus its NUL would read back as a code.
-                if text.len() == 3 {
-                    return Err(Error::TooLarge { what: "3-byte response text (ambiguous with a code)" });
+            // A 3-byte text plus its NUL would read back as a code: it goes
+            // without the NUL (3 bytes), which `read_text` reads to the end.
+            // (Found by the `natnet` fuzz target: a parsed 3-byte text
+            // response could not be encoded.)
+            Self::Text(text) if text.len() == 3 => {
+                if text.as_bytes().contains(&0) {
+                    return Err(Error::InteriorNul { what: "response" });
                 }
-                w.cstr(text, "response")?;
+                text.bytes().for_each(|b| w.u8(b));
             }
+            Self::Text(text) => w.cstr(text, "response")?,
         }
         Ok(())
     }

@@ -296,3 +296,22 @@ proptest! {
         }
     }
 }
+
+/// Found by the `natnet` fuzz target: a 3-byte text response (no NUL; a
+/// NUL would make it 4 bytes, a code) parsed but could not be encoded.
+#[test]
+fn a_three_byte_text_response_round_trips_without_its_nul() {
+    let datagram = [3, 0, 3, 0, 0x01, 0x08, 0x1b];
+    let parsed = parse_packet(&datagram).expect("parses");
+    assert_eq!(parsed, Packet::Response(Response::Text("\u{1}\u{8}\u{1b}".into())));
+    let encoded = encode_packet(&parsed, Version::V4_1).expect("encodes");
+    assert_eq!(encoded, datagram, "3 bytes, no NUL");
+    assert_eq!(parse_packet(&encoded), Ok(parsed));
+    for text in ["abc", "ab", "abcd"] {
+        let packet = Packet::Response(Response::Text(text.into()));
+        let bytes = encode_packet(&packet, Version::V4_1).expect("encodes");
+        assert_eq!(parse_packet(&bytes), Ok(packet), "{text}");
+    }
+    let bad = Packet::Response(Response::Text("a\0b".into()));
+    assert!(matches!(encode_packet(&bad, Version::V4_1), Err(Error::InteriorNul { .. })));
+}
