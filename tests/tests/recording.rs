@@ -32,6 +32,7 @@ fn the_recording_reads_back_with_what_the_launch_wrote() {
     let count = |leaf: &str| counts.get(&format!("bycoms/{swarm}/{leaf}")).copied().unwrap_or(0);
     // Gate: 3 deployments, 2 stuck, 1 arrival.
     assert_eq!(count("gate"), 6);
+    assert_eq!(count("gate/json"), 6, "every gate event also as JSON");
     assert_eq!((count("run"), count("summary")), (1, 1));
     assert_eq!(count("events"), 3, "one spawn event per agent");
     // Each robot's pose topic: its start pose, then one pose per tick it

@@ -99,7 +99,12 @@ impl Ports {
     /// Publishes a gate event.
     pub fn publish_gate(&mut self, event: &GateEvent) -> Result<(), BusError> {
         let (name, publisher) = &self.gate;
-        send_recorded(&mut self.recording, name, publisher, schema::GATE, event)
+        send_recorded(&mut self.recording, name, publisher, schema::GATE, event)?;
+        // The same event as JSON, for people and Foxglove (the bytes above
+        // are what crossed the bus).
+        let json_topic = format!("{}/json", name.as_str());
+        self.recording.json(&json_topic, schema::GATE, event);
+        Ok(())
     }
 
     /// Publishes a dead robot's last pose on its pose topic, as motion
