@@ -3,13 +3,17 @@
 //! Kept as a library so the end-to-end tests can call the same code the
 //! binary runs.
 
+pub mod certs;
 pub mod commands;
 pub mod draw;
 pub mod launch;
+pub mod live;
 pub mod mocap;
 pub mod out;
 pub mod record;
+pub mod replay;
 pub mod scenario;
+pub mod scene;
 pub mod sweep;
 
 /// Exit codes of every subcommand.

@@ -305,3 +305,31 @@ fn throughput() {
         assert_eq!(read_counts(&path).expect("read back").values().sum::<u64>(), n);
     }
 }
+
+#[test]
+fn every_cut_of_a_recording_rewrites_into_a_complete_one_with_the_same_messages() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = write_sample(dir.path(), 500, 3);
+    let bytes = std::fs::read(&path).expect("read");
+    let (cut, fixed) = (dir.path().join("cut.mcap"), dir.path().join("fixed.mcap"));
+    for len in (8..bytes.len()).step_by(997).chain([bytes.len() - 1, bytes.len()]) {
+        std::fs::write(&cut, &bytes[..len]).expect("write cut");
+        let streamed = recover(&cut).expect("the cut streams");
+        let rewritten = bycoms_orchestrator::record::rewrite(&cut, &fixed).expect("rewrite");
+        assert_eq!(
+            (rewritten.messages, &rewritten.counts),
+            (streamed.messages, &streamed.counts),
+            "cut at {len}"
+        );
+        assert_eq!(rewritten.is_complete(), len == bytes.len(), "cut at {len}: {:?}", rewritten.stopped_by);
+        let whole = recover(&fixed).expect("the copy reads");
+        assert!(whole.is_complete(), "cut at {len}: {:?}", whole.stopped_by);
+        assert_eq!(whole.counts, streamed.counts, "cut at {len}");
+        let copy = std::fs::read(&fixed).expect("read copy");
+        let summary = mcap::Summary::read(&copy).expect("summary").expect("the copy has a summary");
+        assert_eq!(summary.stats.map(|s| s.message_count), Some(streamed.messages));
+    }
+    let junk = dir.path().join("junk");
+    std::fs::write(&junk, b"not a recording at all").expect("junk");
+    assert!(matches!(bycoms_orchestrator::record::rewrite(&junk, &fixed), Err(RecordError::NotMcap { .. })));
+}

@@ -21,82 +21,17 @@
 //! Run: `cargo bench -p bycoms-protocol --features ipc --bench bus_hop`
 //! (`BYCOMS_BENCH_SAMPLES=n` changes the sample count).
 
+mod common;
+
 use bycoms_protocol::bus::ipc::{IpcBus, IpcConfig, Wake};
 use bycoms_protocol::bus::memory::MemoryBus;
-use bycoms_protocol::bus::{Bus, BusExt, Limits, Publish, Subscribe};
-use bycoms_protocol::msg::{GoalBearing, ToAgent};
-use bycoms_protocol::{encode, RobotId, Swarm, TopicName, MAX_MESSAGE_LEN};
+use bycoms_protocol::bus::{BusExt, Limits};
+use bycoms_protocol::{RobotId, Swarm, MAX_MESSAGE_LEN};
+use common::{figures, message, names, ours, payload, ping_pong, us, WAIT, WARMUP};
 use core::time::Duration;
 use iceoryx2::prelude::*;
 use std::sync::mpsc;
 use std::time::Instant;
-
-const WAIT: Duration = Duration::from_secs(5);
-const WARMUP: usize = 2_000;
-
-fn message() -> ToAgent {
-    ToAgent::GoalBearing(GoalBearing { robot: RobotId(1), bearing: 0.785, step: 42 })
-}
-
-fn payload() -> Vec<u8> {
-    let mut buf = [0u8; MAX_MESSAGE_LEN];
-    encode(&message(), &mut buf).map(<[u8]>::to_vec).unwrap_or_default()
-}
-
-fn names(tag: &str) -> (String, String) {
-    let base = format!("bycoms/bench{}-{tag}", std::process::id());
-    (format!("{base}/ping"), format!("{base}/pong"))
-}
-
-/// Runs `echo` on a second thread and `round_trip` `WARMUP + samples`
-/// times on this one; returns the per-hop latencies (round trip / 2).
-fn ping_pong<E, R>(samples: usize, echo: E, round_trip: R) -> Vec<Duration>
-where
-    E: FnOnce(usize, mpsc::Sender<()>) + Send,
-    R: FnOnce(usize, &mut dyn FnMut(Duration)),
-{
-    let total = WARMUP + samples;
-    let (ready_tx, ready_rx) = mpsc::channel();
-    let mut hops = Vec::with_capacity(total);
-    std::thread::scope(|s| {
-        s.spawn(move || echo(total, ready_tx));
-        if ready_rx.recv_timeout(WAIT).is_err() {
-            panic!("echo thread did not start");
-        }
-        round_trip(total, &mut |rtt| hops.push(rtt / 2));
-    });
-    hops.split_off(WARMUP.min(hops.len()))
-}
-
-fn ours<B: Bus, F: Fn() -> B + Sync>(make: &F, tag: &str, samples: usize) -> Vec<Duration> {
-    let (ping, pong) = names(tag);
-    let ping = TopicName::parse(&ping).expect("topic");
-    let pong = TopicName::parse(&pong).expect("topic");
-    let payload = payload();
-    let echo = |n: usize, ready: mpsc::Sender<()>| {
-        let bus = make();
-        let sub = bus.subscriber(&ping).expect("subscriber");
-        let publ = bus.publisher(&pong).expect("publisher");
-        ready.send(()).expect("ready");
-        let mut buf = [0u8; MAX_MESSAGE_LEN];
-        for _ in 0..n {
-            let len = sub.recv_timeout_into(&mut buf, WAIT).expect("recv").expect("ping lost");
-            publ.publish(&buf[..len]).expect("publish");
-        }
-    };
-    let bus = make();
-    let sub = bus.subscriber(&pong).expect("subscriber");
-    let publ = bus.publisher(&ping).expect("publisher");
-    ping_pong(samples, echo, |n, record| {
-        let mut buf = [0u8; MAX_MESSAGE_LEN];
-        for _ in 0..n {
-            let t0 = Instant::now();
-            publ.publish(&payload).expect("publish");
-            sub.recv_timeout_into(&mut buf, WAIT).expect("recv").expect("pong lost");
-            record(t0.elapsed());
-        }
-    })
-}
 
 fn ours_typed(tag: &str, samples: usize) -> Vec<Duration> {
     let make = || IpcBus::new(IpcConfig::default()).expect("node");
@@ -223,25 +158,6 @@ fn raw(tag: &str, event: bool, samples: usize) -> Vec<Duration> {
             record(t0.elapsed());
         }
     })
-}
-
-struct Figures {
-    p50: Duration,
-    p99: Duration,
-    p999: Duration,
-}
-
-fn figures(mut hops: Vec<Duration>) -> Figures {
-    hops.sort_unstable();
-    let at = |q: f64| {
-        let i = ((hops.len() as f64 * q) as usize).min(hops.len().saturating_sub(1));
-        hops.get(i).copied().unwrap_or_default()
-    };
-    Figures { p50: at(0.50), p99: at(0.99), p999: at(0.999) }
-}
-
-fn us(d: Duration) -> f64 {
-    d.as_secs_f64() * 1e6
 }
 
 fn main() {

@@ -32,6 +32,8 @@ pub mod naming;
 
 #[cfg(feature = "std")]
 pub mod bus;
+#[cfg(feature = "std")]
+pub mod fault;
 #[cfg(feature = "natnet")]
 pub mod natnet;
 

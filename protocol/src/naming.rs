@@ -11,6 +11,7 @@
 //! | mocap → orchestrator | `bycoms/<swarm>/robot/<id>/pose` | [`Pose`] |
 //! | agents → orchestrator | `bycoms/<swarm>/from_agents` | [`FromAgent`] |
 //! | gate events | `bycoms/<swarm>/gate` | [`GateEvent`] |
+//! | orchestrator → lab operator | `bycoms/<swarm>/operator` | [`Deploy`] (place robot at) |
 //!
 //! `<id>` is the decimal [`RobotId`]. A [`Topic<M>`] carries its message
 //! type, so the typed bus layer cannot put a pose on a command topic.
@@ -26,7 +27,7 @@
 //! special meaning. Spaces and everything else are rejected too, so a name
 //! is also a safe file name component and needs no quoting in a shell.
 
-use crate::msg::{FromAgent, GateEvent, Pose, Sensor, ToAgent};
+use crate::msg::{Deploy, FromAgent, GateEvent, Pose, Sensor, ToAgent};
 use crate::RobotId;
 use core::fmt::Write as _;
 use core::marker::PhantomData;
@@ -251,6 +252,15 @@ impl Swarm {
     pub fn gate(&self) -> Topic<GateEvent> {
         self.build(format_args!("{ROOT}/{}/gate", self.as_str()))
     }
+
+    /// `bycoms/<swarm>/operator`: the orchestrator asks the lab's operator
+    /// to place a robot at a pose (the start) before enabling it; a
+    /// [`Deploy`] names the robot and the pose. Real robots only: a person
+    /// reads the same request on the terminal, the emulated lab's operator
+    /// reads it here.
+    pub fn operator(&self) -> Topic<Deploy> {
+        self.build(format_args!("{ROOT}/{}/operator", self.as_str()))
+    }
 }
 
 impl core::fmt::Debug for Swarm {
@@ -258,6 +268,11 @@ impl core::fmt::Debug for Swarm {
         write!(f, "Swarm({:?})", self.as_str())
     }
 }
+
+mod alive;
+mod keys;
+pub use alive::Member;
+pub use keys::{KeyPattern, Route};
 
 #[cfg(test)]
 mod tests;

@@ -93,3 +93,68 @@ mod ipc_config {
         }
     }
 }
+
+#[cfg(feature = "zenoh")]
+mod zenoh_backends {
+    use bycoms_protocol::bus::zenoh::{Mode, ZenohBus, ZenohConfig};
+    use bycoms_protocol::bus::Limits;
+    use std::net::TcpListener;
+    use std::sync::OnceLock;
+
+    /// One router-mode session without links, shared by every call: all
+    /// deliveries stay inside the session (zenoh's local routing).
+    pub fn one_session() -> ZenohBus {
+        static BUS: OnceLock<ZenohBus> = OnceLock::new();
+        let open = || ZenohBus::open(ZenohConfig { mode: Mode::Router, ..ZenohConfig::default() });
+        BUS.get_or_init(|| open().expect("zenoh session")).clone()
+    }
+
+    pub fn one_session_small() -> ZenohBus {
+        static BUS: OnceLock<ZenohBus> = OnceLock::new();
+        let limits = Limits { max_payload: 32, buffer: 4 };
+        let open = || ZenohBus::open(ZenohConfig { limits, mode: Mode::Router, ..ZenohConfig::default() });
+        BUS.get_or_init(|| open().expect("zenoh session")).clone()
+    }
+
+    /// The router the client sessions below meet at: tcp on a free
+    /// loopback port (asked of the kernel, retried if taken meanwhile).
+    fn router_endpoint() -> &'static str {
+        static ROUTER: OnceLock<(ZenohBus, String)> = OnceLock::new();
+        let (_, endpoint) = ROUTER.get_or_init(|| {
+            let mut last = None;
+            for _ in 0..5 {
+                let port = TcpListener::bind("127.0.0.1:0")
+                    .and_then(|l| l.local_addr())
+                    .expect("a free port")
+                    .port();
+                let endpoint = format!("tcp/127.0.0.1:{port}");
+                let config = ZenohConfig {
+                    mode: Mode::Router,
+                    listen: vec![endpoint.clone()],
+                    ..ZenohConfig::default()
+                };
+                match ZenohBus::open(config) {
+                    Ok(bus) => return (bus, endpoint),
+                    Err(e) => last = Some(e),
+                }
+            }
+            panic!("no router could listen: {last:?}")
+        });
+        endpoint
+    }
+
+    /// Each call opens a new client session of the shared router, so the
+    /// two-thread check crosses a TCP link and the router.
+    pub fn client_of_router() -> ZenohBus {
+        let config = ZenohConfig {
+            mode: Mode::Client,
+            connect: vec![router_endpoint().to_owned()],
+            ..ZenohConfig::default()
+        };
+        ZenohBus::open(config).expect("zenoh client session")
+    }
+
+    crate::conformance_suite!(zenoh_one_session, crate::zenoh_backends::one_session);
+    crate::conformance_suite!(zenoh_small_limits, crate::zenoh_backends::one_session_small);
+    crate::conformance_suite!(zenoh_clients_of_router, crate::zenoh_backends::client_of_router);
+}

@@ -4,7 +4,7 @@ use bycoms_protocol::msg::*;
 use bycoms_protocol::{decode, encode, CodecError, RobotId, PROTOCOL_VERSION};
 
 fn tick_bytes() -> Vec<u8> {
-    vec![1, 2, 7] // ToAgent::Tick { step: 7 }
+    vec![2, 2, 7] // ToAgent::Tick { step: 7 }
 }
 
 #[test]
@@ -17,8 +17,8 @@ fn buffer_too_small() {
 #[test]
 fn truncated() {
     assert_eq!(decode::<ToAgent>(&[]), Err(CodecError::Truncated));
-    assert_eq!(decode::<ToAgent>(&[1]), Err(CodecError::Truncated));
-    let bearing = [1, 1, 2, 0, 0, 0, 0]; // GoalBearing cut inside the f64
+    assert_eq!(decode::<ToAgent>(&[2]), Err(CodecError::Truncated));
+    let bearing = [2, 1, 2, 0, 0, 0, 0]; // GoalBearing cut inside the f64
     assert_eq!(decode::<ToAgent>(&bearing), Err(CodecError::Truncated));
 }
 
@@ -32,7 +32,7 @@ fn trailing_bytes() {
 #[test]
 fn unsupported_version() {
     let supported = PROTOCOL_VERSION;
-    assert_eq!(decode::<ToAgent>(&[2, 2, 7]), Err(CodecError::UnsupportedVersion { found: 2, supported }));
+    assert_eq!(decode::<ToAgent>(&[1, 2, 7]), Err(CodecError::UnsupportedVersion { found: 1, supported }));
     assert_eq!(
         decode::<ToAgent>(&[0x80, 0x01, 2, 7]),
         Err(CodecError::UnsupportedVersion { found: 128, supported })
@@ -42,10 +42,14 @@ fn unsupported_version() {
 
 #[test]
 fn unknown_variant() {
-    assert_eq!(decode::<ToAgent>(&[1, 9]), Err(CodecError::UnknownVariant));
-    assert_eq!(decode::<FromAgent>(&[1, 4, 1, 1]), Err(CodecError::UnknownVariant));
-    assert_eq!(decode::<FromAgent>(&[1, 0, 1, 7, 1]), Err(CodecError::UnknownVariant)); // AgentKind 7
-    let mut gate = vec![1, 1, 9]; // GateKind 9
+    assert_eq!(decode::<ToAgent>(&[2, 9]), Err(CodecError::UnknownVariant));
+    assert_eq!(decode::<FromAgent>(&[2, 6, 1, 1]), Err(CodecError::UnknownVariant));
+    // Telemetry with DriveState 4.
+    let mut telemetry = vec![2, 4, 1, 1, 4, 1];
+    telemetry.extend_from_slice(&[0; 40]);
+    assert_eq!(decode::<FromAgent>(&telemetry), Err(CodecError::UnknownVariant));
+    assert_eq!(decode::<FromAgent>(&[2, 0, 1, 7, 2, 0]), Err(CodecError::UnknownVariant)); // AgentKind 7
+    let mut gate = vec![2, 1, 9]; // GateKind 9
     gate.extend_from_slice(&[0; 17]);
     assert_eq!(decode::<GateEvent>(&gate), Err(CodecError::UnknownVariant));
 }
@@ -53,21 +57,21 @@ fn unknown_variant() {
 #[test]
 fn malformed() {
     // Stopped { arrived } with a bool byte of 2.
-    let mut gate = vec![1, 1, 1, 2];
+    let mut gate = vec![2, 1, 1, 2];
     gate.extend_from_slice(&[0; 17]);
     assert_eq!(decode::<GateEvent>(&gate), Err(CodecError::Malformed));
     // A version varint that never terminates within a u16.
     assert_eq!(decode::<ToAgent>(&[0xFF, 0xFF, 0xFF, 0xFF]), Err(CodecError::Malformed));
     // A robot id varint that overflows u32.
-    let too_big = [1, 1, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F];
+    let too_big = [2, 1, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F];
     assert_eq!(decode::<FromAgent>(&too_big), Err(CodecError::Malformed));
 }
 
 #[test]
 fn errors_explain_themselves() {
     let err: &dyn core::error::Error =
-        &CodecError::UnsupportedVersion { found: 2, supported: PROTOCOL_VERSION };
-    assert_eq!(err.to_string(), "unsupported protocol version 2 (this build speaks 1)");
+        &CodecError::UnsupportedVersion { found: 1, supported: PROTOCOL_VERSION };
+    assert_eq!(err.to_string(), "unsupported protocol version 1 (this build speaks 2)");
     for e in [
         CodecError::BufferTooSmall,
         CodecError::Truncated,

@@ -4,15 +4,19 @@
 //! publisher and a subscriber, then kills it with SIGKILL so it cannot
 //! clean up. The node must then show up as dead, and
 //! `cleanup_stale_resources` must remove it; afterwards the topic still
-//! works. Every wait is bounded.
+//! works. Every wait is bounded. Parent and child use their own iceoryx2
+//! root (an isolation tag), so no other run's leftovers are seen and
+//! nothing is left behind.
 #![cfg(feature = "ipc")]
 
-use bycoms_protocol::bus::ipc::{cleanup_stale_resources, IpcBus, IpcConfig};
+use bycoms_protocol::bus::ipc::root::{self, Isolated, ISOLATION_ENV};
+use bycoms_protocol::bus::ipc::{cleanup_stale_resources_in, IpcBus, IpcConfig};
+
 use bycoms_protocol::bus::{Bus, Publish, Subscribe};
 use bycoms_protocol::TopicName;
 use core::time::Duration;
 use iceoryx2::node::NodeView;
-use iceoryx2::prelude::{ipc, CallbackProgression, Config, Node, NodeState};
+use iceoryx2::prelude::{ipc, CallbackProgression, Node, NodeState};
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::sync::mpsc;
@@ -27,6 +31,8 @@ fn child_holds_a_node_until_killed() {
         return;
     };
     let topic = TopicName::parse(&topic).expect("topic from parent");
+    // The tag comes from the parent through the environment (the default).
+    assert!(root::tag_from_env().is_some(), "child without an isolation tag");
     let bus = IpcBus::new(IpcConfig::default()).expect("node");
     let _publisher = bus.publisher(&topic).expect("publisher");
     let _subscriber = bus.subscriber(&topic).expect("subscriber");
@@ -42,9 +48,10 @@ enum Seen {
     Dead,
 }
 
-fn node_of(pid: u32) -> Seen {
+fn node_of(tag: &str, pid: u32) -> Seen {
     let mut seen = Seen::Absent;
-    Node::<ipc::Service>::list(Config::global_config(), |state| {
+    let config = root::config(Some(tag)).expect("isolated config");
+    Node::<ipc::Service>::list(&config, |state| {
         let (details, dead) = match &state {
             NodeState::Alive(view) => (view.details().clone(), false),
             NodeState::Dead(view) => (view.details().clone(), true),
@@ -61,10 +68,13 @@ fn node_of(pid: u32) -> Seen {
 
 #[test]
 fn dead_nodes_are_cleaned_up() {
+    let iso = Isolated::new("ipccleanup");
+    let tag = iso.tag().to_string();
     let topic = format!("bycoms/t{}-cleanup/raw", std::process::id());
     let mut child = Command::new(std::env::current_exe().expect("test binary"))
         .args(["--exact", "child_holds_a_node_until_killed", "--nocapture"])
         .env(CHILD_ENV, &topic)
+        .env(ISOLATION_ENV, &tag)
         .stdout(Stdio::piped())
         .spawn()
         .expect("spawn child");
@@ -83,14 +93,15 @@ fn dead_nodes_are_cleaned_up() {
     child.wait().expect("reap child");
     ready.expect("child opened its node in time");
 
-    assert_eq!(node_of(pid), Seen::Dead, "a killed process leaves a dead node");
-    let report = cleanup_stale_resources::<ipc::Service>().expect("cleanup");
-    // Another process may have cleaned it concurrently; either way it is gone.
-    assert_eq!(report.failed, 0, "{report:?}");
-    assert_eq!(node_of(pid), Seen::Absent, "cleanup removed the dead node");
+    assert_eq!(node_of(&tag, pid), Seen::Dead, "a killed process leaves a dead node");
+    let config = root::config(Some(&tag)).expect("isolated config");
+    let report = cleanup_stale_resources_in::<ipc::Service>(&config).expect("cleanup");
+    // Only this test's nodes live under its tag: exactly the child's.
+    assert_eq!((report.cleaned, report.failed), (1, 0), "{report:?}");
+    assert_eq!(node_of(&tag, pid), Seen::Absent, "cleanup removed the dead node");
 
     let topic = TopicName::parse(&topic).expect("topic");
-    let bus = IpcBus::new(IpcConfig::default()).expect("node");
+    let bus = IpcBus::new(IpcConfig { isolation: Some(tag.clone()), ..IpcConfig::default() }).expect("node");
     let sub = bus.subscriber(&topic).expect("subscriber after cleanup");
     let publ = bus.publisher(&topic).expect("publisher after cleanup");
     publ.publish(b"alive").expect("publish");

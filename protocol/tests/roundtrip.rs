@@ -34,14 +34,52 @@ fn to_agent() -> impl Strategy<Value = ToAgent> {
         any::<u64>().prop_map(|step| ToAgent::Tick(Tick { step })),
         Just(ToAgent::Stop),
         Just(ToAgent::Shutdown),
+        (robot(), any::<u64>()).prop_map(|(robot, instance)| ToAgent::Refused(Refused { robot, instance })),
     ]
+}
+
+/// Any f32 bit pattern, NaNs and infinities included.
+fn float32() -> impl Strategy<Value = f32> {
+    any::<u32>().prop_map(f32::from_bits)
+}
+
+fn telemetry() -> impl Strategy<Value = Telemetry> {
+    let state = prop_oneof![
+        Just(DriveState::Idle),
+        Just(DriveState::Driving),
+        Just(DriveState::Failsafe),
+        Just(DriveState::Stopped),
+    ];
+    let head = (robot(), any::<u32>(), state, any::<u8>(), prop::array::uniform6(float32()), float32());
+    let tail = (prop::option::of(float32()), float32(), float32(), any::<u16>(), any::<u8>(), any::<u32>());
+    (head, tail).prop_map(
+        |(
+            (robot, period, state, mode, mics, v_ave),
+            (gradient, left, right, battery_mv, health, robot_drops),
+        )| {
+            Telemetry {
+                robot,
+                period,
+                state,
+                mode,
+                mics,
+                v_ave,
+                gradient,
+                left,
+                right,
+                battery_mv,
+                health,
+                robot_drops,
+            }
+        },
+    )
 }
 
 fn from_agent() -> impl Strategy<Value = FromAgent> {
     let kind = prop_oneof![Just(AgentKind::Simulated), Just(AgentKind::Real)];
     prop_oneof![
-        (robot(), kind, any::<u16>()).prop_map(|(robot, kind, protocol_version)| {
-            FromAgent::Register(Register { robot, kind, protocol_version })
+        (robot(), kind, any::<u16>(), any::<u64>()).prop_map(|(robot, kind, protocol_version, instance)| {
+            FromAgent::Register(Register { robot, kind, protocol_version, instance })
         }),
         (robot(), any::<u64>()).prop_map(|(robot, seq)| FromAgent::Heartbeat(Heartbeat { robot, seq })),
         (robot(), any::<u8>(), any::<u64>()).prop_map(|(robot, mode, step)| FromAgent::Status(Status {
@@ -50,6 +88,10 @@ fn from_agent() -> impl Strategy<Value = FromAgent> {
             step
         })),
         (robot(), any::<u64>()).prop_map(|(robot, step)| FromAgent::TickDone(TickDone { robot, step })),
+        telemetry().prop_map(FromAgent::Telemetry),
+        (robot(), any::<bool>(), any::<u32>(), any::<u32>()).prop_map(|(robot, up, silent_ms, refused)| {
+            FromAgent::Link(LinkStatus { robot, up, silent_ms, refused })
+        }),
     ]
 }
 
@@ -119,13 +161,18 @@ fn largest_encodings_fit_max_message_len() {
     let s = u64::MAX;
     let f = f64::MAX;
     let pose = Pose { robot: r, x: f, y: f, heading: f, step: s, time_us: s };
-    let largest: [(&str, usize); 5] = [
+    let largest: [(&str, usize); 7] = [
         (
             "to_agent",
             len(&ToAgent::GoalBearing(GoalBearing { robot: r, bearing: f, step: s }))
                 .max(len(&ToAgent::Deploy(Deploy { robot: r, x: f, y: f, heading: f }))),
         ),
         ("from_agent", len(&FromAgent::Status(Status { robot: r, mode: u8::MAX, step: s }))),
+        ("telemetry", len(&FromAgent::Telemetry(largest_telemetry()))),
+        (
+            "link",
+            len(&FromAgent::Link(LinkStatus { robot: r, up: true, silent_ms: u32::MAX, refused: u32::MAX })),
+        ),
         ("mocap", len(&pose)),
         ("sensor", len(&Sensor::Pose(pose))),
         (
@@ -136,7 +183,24 @@ fn largest_encodings_fit_max_message_len() {
     for (name, n) in largest {
         assert!(n <= MAX_MESSAGE_LEN, "{name}: {n} bytes");
     }
-    assert_eq!(len(&Sensor::Pose(pose)), 51, "the largest message today");
+    assert_eq!(len(&FromAgent::Telemetry(largest_telemetry())), 64, "the largest message today");
+}
+
+fn largest_telemetry() -> Telemetry {
+    Telemetry {
+        robot: RobotId(u32::MAX),
+        period: u32::MAX,
+        state: DriveState::Stopped,
+        mode: u8::MAX,
+        mics: [f32::MAX; 6],
+        v_ave: f32::MAX,
+        gradient: Some(f32::MAX),
+        left: f32::MAX,
+        right: f32::MAX,
+        battery_mv: u16::MAX,
+        health: u8::MAX,
+        robot_drops: u32::MAX,
+    }
 }
 
 fn len<T: Message>(msg: &T) -> usize {

@@ -12,10 +12,13 @@ pub mod agent_process;
 pub mod body;
 pub mod field;
 pub mod geom;
+#[cfg(feature = "process")]
+pub mod interrupt;
 pub mod lab;
 pub mod natnet_server;
 pub mod robot;
 pub mod runner;
+pub mod seed;
 pub mod sensing;
 pub mod terrain;
 

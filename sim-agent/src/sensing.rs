@@ -36,13 +36,10 @@ pub struct SensingNoise {
     rng: Xoshiro256PlusPlus,
 }
 
-/// The seed of robot `robot` (1-based) in a run seeded `run_seed`
-/// (SplitMix64 finaliser of the pair, so neighbouring ids get unrelated streams).
+/// The seed of robot `robot` (1-based) in a run seeded `run_seed`:
+/// [`crate::seed::mix`] of the pair, so neighbouring ids get unrelated streams.
 pub fn robot_seed(run_seed: u64, robot: u32) -> u64 {
-    let mut z = run_seed ^ (u64::from(robot)).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+    crate::seed::mix(run_seed, u64::from(robot))
 }
 
 impl SensingNoise {

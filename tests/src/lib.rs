@@ -9,6 +9,8 @@
 //! a deadline, and [`agents_of`] finds a swarm's agent processes in `/proc`
 //! (by their `--swarm` flag) so a test can kill one or prove none is left.
 
+pub mod netns;
+
 use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::BusExt;
 use bycoms_protocol::msg::Pose;
@@ -20,6 +22,13 @@ use std::path::PathBuf;
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
+
+/// The iceoryx2 configuration the launched processes use: their own root
+/// when `$BYCOMS_IPC_ISOLATION` is set (CI sets it for the whole run).
+pub fn iox_config() -> bycoms_protocol::bus::ipc::root::Config {
+    use bycoms_protocol::bus::ipc::root;
+    root::config(root::tag_from_env().as_deref()).expect("valid $BYCOMS_IPC_ISOLATION")
+}
 
 /// A swarm name no other test (or test process) uses: `t<pid>-<n>-<tag>`.
 pub fn swarm_name(tag: &str) -> String {
@@ -44,6 +53,8 @@ pub struct Proc {
     child: Option<Child>,
     stdout: Option<std::thread::JoinHandle<String>>,
     stderr: Option<std::thread::JoinHandle<String>>,
+    /// Each stderr line as it comes (the whole text is also kept).
+    stderr_lines: std::sync::mpsc::Receiver<String>,
 }
 
 /// What a finished process left.
@@ -60,6 +71,25 @@ impl Finished {
         serde_json::from_str(&self.stdout)
             .unwrap_or_else(|e| panic!("stdout is not JSON ({e}): {}\nstderr: {}", self.stdout, self.stderr))
     }
+}
+
+/// Collects `r` whole and sends each line on `lines` as it comes.
+fn collect_lines(
+    r: impl Read + Send + 'static,
+    lines: std::sync::mpsc::Sender<String>,
+) -> std::thread::JoinHandle<String> {
+    std::thread::spawn(move || {
+        use std::io::BufRead;
+        let mut s = String::new();
+        for line in std::io::BufReader::new(r).lines() {
+            let Ok(line) = line else { break };
+            s.push_str(&line);
+            s.push('\n');
+            // The receiver may be gone; the text is still collected.
+            let _ = lines.send(line);
+        }
+        s
+    })
 }
 
 fn collect(mut r: impl Read + Send + 'static) -> std::thread::JoinHandle<String> {
@@ -81,8 +111,26 @@ impl Proc {
             .spawn()
             .unwrap_or_else(|e| panic!("cannot start {}: {e}", program.display()));
         let stdout = child.stdout.take().map(collect);
-        let stderr = child.stderr.take().map(collect);
-        Proc { child: Some(child), stdout, stderr }
+        let (tx, stderr_lines) = std::sync::mpsc::channel();
+        let stderr = child.stderr.take().map(|e| collect_lines(e, tx));
+        Proc { child: Some(child), stdout, stderr, stderr_lines }
+    }
+
+    /// Waits up to `timeout` for a stderr line that `accept` maps to a
+    /// value (lines before it are skipped, and stay in the final text).
+    pub fn stderr_line<T>(&self, timeout: Duration, mut accept: impl FnMut(&str) -> Option<T>) -> Option<T> {
+        let deadline = Instant::now() + timeout;
+        while let Some(left) = deadline.checked_duration_since(Instant::now()) {
+            match self.stderr_lines.recv_timeout(left) {
+                Ok(line) => {
+                    if let Some(v) = accept(&line) {
+                        return Some(v);
+                    }
+                }
+                Err(_) => return None,
+            }
+        }
+        None
     }
 
     /// Starts the orchestrator with `args`.
@@ -204,4 +252,19 @@ pub fn wait_for_pose(
         }
     }
     None
+}
+
+/// Pre-shared link keys of robots 1, 2, 3 for the tests' robots files
+/// (64 hex digits each; test keys only).
+pub const TEST_KEYS: [&str; 3] = [
+    "1111111111111111111111111111111111111111111111111111111111111111",
+    "2222222222222222222222222222222222222222222222222222222222222222",
+    "3333333333333333333333333333333333333333333333333333333333333333",
+];
+
+/// A free loopback UDP address: bound on port 0, then released (a robots
+/// file names fixed addresses, so a bound socket cannot be handed over;
+/// the small race is accepted).
+pub fn free_udp_port() -> std::net::SocketAddr {
+    std::net::UdpSocket::bind(("127.0.0.1", 0)).and_then(|s| s.local_addr()).expect("a free UDP port")
 }

@@ -32,6 +32,8 @@ fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() 
         robot: RobotId(1),
         kind: AgentKind::Simulated,
         protocol_version: PROTOCOL_VERSION,
+        // Not robot 1's agent (whose instance is random): a second agent.
+        instance: 0,
     });
     let mut other_version = encode_vec(&register).expect("encode");
     other_version[0] = 9; // the envelope's version varint
@@ -43,7 +45,7 @@ fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() 
         report.publish(&other_version).expect("other version");
         report.publish(&encode_vec(&stranger).expect("encode")).expect("unknown robot");
         report.publish(&encode_vec(&register).expect("encode")).expect("duplicate");
-        command.publish(&[0x01, 0xee, 0x07]).expect("garbage command");
+        command.publish(&[0x02, 0xee, 0x07]).expect("garbage command");
         command.publish(&encode_vec(&foreign).expect("encode")).expect("foreign command");
         command.publish(&encode_vec(&again).expect("encode")).expect("second deploy");
         std::thread::sleep(Duration::from_millis(50));

@@ -43,10 +43,10 @@ fn run_into_closed_pipe(args: &[&str], lines: usize) -> Option<i32> {
 /// Whether an iceoryx2 node of `swarm` (alive or dead) still exists.
 fn nodes_of(swarm: &str) -> Vec<String> {
     use iceoryx2::node::NodeView;
-    use iceoryx2::prelude::{ipc, CallbackProgression, Config, Node, NodeState};
+    use iceoryx2::prelude::{ipc, CallbackProgression, Node, NodeState};
     let prefix = format!("bycoms-{swarm}-");
     let mut found = Vec::new();
-    Node::<ipc::Service>::list(Config::global_config(), |state| {
+    Node::<ipc::Service>::list(&bycoms_tests::iox_config(), |state| {
         let details = match &state {
             NodeState::Alive(view) => view.details().clone(),
             NodeState::Dead(view) => view.details().clone(),

@@ -12,7 +12,8 @@
 //!
 //! Cases: the built-in scenarios and two generated Perlin terrains, with and
 //! without sensing noise, ending by arrival, by robots exhausted and by the
-//! time limit.
+//! time limit; and the same over zenoh (loopback tcp, port 0) instead of
+//! iceoryx2.
 
 use bycoms_orchestrator::scenario::{load, WorldSource};
 use bycoms_sim::runner::RobotEnd;
@@ -45,6 +46,11 @@ fn config(case: &Case) -> RunConfig {
 }
 
 fn check(case: &Case) -> Outcome {
+    check_over(case, &[])
+}
+
+/// [`check`] with extra launch flags (e.g. another transport).
+fn check_over(case: &Case, extra: &[&str]) -> Outcome {
     let expected = run(&case.terrain, &config(case));
     let dir = tempfile::tempdir().expect("temp dir");
     let path = dir.path().join("terrain.txt");
@@ -58,6 +64,7 @@ fn check(case: &Case) -> Outcome {
     if case.noise.is_some() {
         args.push("--noise");
     }
+    args.extend(extra);
     let out = Proc::orchestrator(&args).wait(Duration::from_secs(180));
     let j = out.json();
     let name = &case.name;
@@ -178,4 +185,17 @@ fn generated_terrains_with_and_without_noise() {
         check(&case(&format!("generated #{i} ε2"), terrain.clone(), 2.0, None, 4, 1_500.0));
         check(&case(&format!("generated #{i} ε2 noise seed 7"), terrain, 2.0, Some(7), 4, 1_500.0));
     }
+}
+
+#[test]
+fn over_zenoh_too() {
+    // The orchestrator listens on a free loopback port; the agents it
+    // spawns are told that endpoint.
+    let zenoh = ["--transport", "zenoh", "--listen", "tcp/127.0.0.1:0"];
+    let c = case("long-obstacle ε3 over zenoh", scenario("long-obstacle"), 3.0, None, 3, 10_000.0);
+    assert_eq!(check_over(&c, &zenoh), Outcome::Arrived);
+    let c = case("short-wall ε2.5 noise seed 3 over zenoh", scenario("short-wall"), 2.5, Some(3), 5, 3_000.0);
+    check_over(&c, &zenoh);
+    let c = case("gap3 ε2 over zenoh (robots exhausted)", scenario("gap3"), 2.0, None, 3, 10_000.0);
+    assert_eq!(check_over(&c, &zenoh), Outcome::RobotsExhausted);
 }

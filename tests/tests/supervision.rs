@@ -90,9 +90,9 @@ fn killing_the_orchestrator_leaves_no_agent_and_a_readable_recording() {
 }
 
 fn has_dead_node(pid: u32) -> bool {
-    use iceoryx2::prelude::{ipc, CallbackProgression, Config, Node, NodeState};
+    use iceoryx2::prelude::{ipc, CallbackProgression, Node, NodeState};
     let mut found = false;
-    Node::<ipc::Service>::list(Config::global_config(), |state| {
+    Node::<ipc::Service>::list(&bycoms_tests::iox_config(), |state| {
         if let NodeState::Dead(view) = &state {
             found |= view.details().as_ref().is_some_and(|d| d.process_id().value() as u32 == pid);
         }

@@ -13,6 +13,7 @@
 //! unit tests.
 
 use crate::commands::launch as launch_cmd;
+use crate::launch::config::Transport;
 use crate::launch::{self, LaunchConfig, Outcome};
 use anyhow::{bail, Result};
 use std::path::PathBuf;
@@ -36,6 +37,9 @@ pub enum What {
         /// Launches to run.
         #[arg(long, default_value_t = 5)]
         runs: u32,
+        /// The bus the launches run over.
+        #[arg(long, value_enum, default_value_t = Transport::Ipc)]
+        transport: Transport,
         /// Start each agent only when the gate opens (measures the process start).
         #[arg(long)]
         no_prespawn: bool,
@@ -64,14 +68,16 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
 pub fn run(args: Args) -> Result<i32> {
     let agent = launch::agent_command(args.agent_bin.as_deref(), None)?;
     match args.what {
-        What::Launch { runs, no_prespawn } => {
+        What::Launch { runs, no_prespawn, transport } => {
             let (mut reactions, mut speeds, mut walls) = (Vec::new(), Vec::new(), Vec::new());
+            let mut first_moving = Vec::new();
             for i in 0..runs.max(1) {
                 let mut cfg = LaunchConfig {
                     swarm: Some(format!("bench-{}-{i}", std::process::id())),
                     ..Default::default()
                 };
                 cfg.gate.prespawn = !no_prespawn;
+                cfg.transport.kind = transport;
                 let world = launch_cmd::world(&cfg)?;
                 let s = launch::run(cfg, world, agent.clone())?;
                 if s.outcome != Outcome::Arrived {
@@ -81,12 +87,15 @@ pub fn run(args: Args) -> Result<i32> {
                     .extend(s.robots.iter().filter_map(|r| r.gate_reaction_us).map(|us| us as f64 / 1e3));
                 speeds.push(s.sim_speed);
                 walls.push(s.wall_s);
+                first_moving.extend(s.first_moving_s);
             }
+            first_moving.sort_by(f64::total_cmp);
             reactions.sort_by(f64::total_cmp);
             speeds.sort_by(f64::total_cmp);
             walls.sort_by(f64::total_cmp);
             let figures = serde_json::json!({
-                "runs": runs, "prespawn": !no_prespawn,
+                "runs": runs, "prespawn": !no_prespawn, "transport": transport.as_str(),
+                "first_moving_s": { "p50": percentile(&first_moving, 0.5), "max": percentile(&first_moving, 1.0) },
                 "gate_reaction_ms": { "p50": percentile(&reactions, 0.5), "max": percentile(&reactions, 1.0), "n": reactions.len() },
                 "lockstep_sim_s_per_wall_s": { "p50": percentile(&speeds, 0.5), "min": percentile(&speeds, 0.0) },
                 "wall_s": { "p50": percentile(&walls, 0.5), "max": percentile(&walls, 1.0) },
@@ -95,8 +104,11 @@ pub fn run(args: Args) -> Result<i32> {
                 crate::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
             } else {
                 crate::outln!(
-                    "launch --robots 3 (lockstep, prespawn {}), {runs} runs:\n  gate reaction p50 {:.3} ms, max {:.3} ms ({} deployments)\n  lockstep speed p50 {:.0} simulated s per wall s (min {:.0}); wall time p50 {:.2} s, max {:.2} s",
+                    "launch --robots 3 (lockstep, {}, prespawn {}), {runs} runs:\n  launch → first robot moving p50 {:.3} s, max {:.3} s\n  gate reaction p50 {:.3} ms, max {:.3} ms ({} deployments)\n  lockstep speed p50 {:.0} simulated s per wall s (min {:.0}); wall time p50 {:.2} s, max {:.2} s",
+                    transport.as_str(),
                     !no_prespawn,
+                    percentile(&first_moving, 0.5),
+                    percentile(&first_moving, 1.0),
                     percentile(&reactions, 0.5),
                     percentile(&reactions, 1.0),
                     reactions.len(),

@@ -6,13 +6,14 @@
 //! an exit code.
 
 use crate::exit;
+use crate::launch::config::{AgentsKind, Transport};
 use crate::launch::{self, Clock, LaunchConfig, OnDeath, Outcome, World};
 use crate::scenario::{self, WorldSource};
 use anyhow::Result;
 use bycoms_sim::terrain::to_text;
 use std::path::PathBuf;
 
-/// Deploy robots one at a time as separate agent processes over iceoryx2.
+/// Deploy robots one at a time as separate agent processes (over iceoryx2 or zenoh).
 ///
 /// With no options, runs the built-in `long-obstacle` scenario (the paper's
 /// three-robot experiment) with 3 robots, ε = 3, on the lockstep clock:
@@ -55,9 +56,22 @@ pub struct Args {
     /// Swarm name (topic namespace) [default: `launch-<pid>`].
     #[arg(long)]
     pub swarm: Option<String>,
-    /// Record every message and gate event to this MCAP file [default: none].
+    /// Record every bus message (raw bytes) and decoded channels Foxglove shows (scene, frames,
+    /// log, per-robot JSON) to this MCAP file [default: none]. Lockstep runs are logged at
+    /// simulated time. An existing recording is replaced only with --force; a file that is
+    /// not an MCAP recording is never overwritten.
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<PathBuf>,
+    /// Let --record replace an existing MCAP recording.
+    #[arg(long)]
+    pub force: bool,
+    /// Draw the run as an SVG snapshot (trajectories, beacons, ε circles) when it ends [default: none].
+    #[arg(long, value_name = "FILE.svg")]
+    pub svg: Option<PathBuf>,
+    /// Serve the live view on host:port: Foxglove connects to ws://host:port,
+    /// a browser opens http://host:port/ (port 0 picks a free port; printed).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub serve: Option<String>,
     /// Print the summary as JSON on stdout (progress stays on stderr).
     #[arg(long)]
     pub json: bool,
@@ -88,6 +102,42 @@ pub struct Args {
     /// Seconds of silence after which a live agent counts as hung [default: 2].
     #[arg(long, value_name = "SECONDS")]
     pub heartbeat_timeout: Option<f64>,
+    /// Remote agents: seconds one may be unreachable (link cut, silent)
+    /// before it counts as dead; the run waits for it meanwhile and resumes
+    /// when it is back; 0: dead at once [default: 2].
+    #[arg(long, value_name = "SECONDS")]
+    pub link_grace: Option<f64>,
+    /// The bus: ipc (iceoryx2, this host) or zenoh (tcp/tls, any host) [default: ipc].
+    #[arg(long, value_enum)]
+    pub transport: Option<Transport>,
+    /// zenoh: endpoint to listen on, tcp/HOST:PORT or tls/HOST:PORT; port 0
+    /// takes a free one (repeatable) [default: tcp/127.0.0.1:0].
+    #[arg(long, value_name = "ENDPOINT")]
+    pub listen: Vec<String>,
+    /// zenoh: endpoint to connect to as well, e.g. a zenohd router (repeatable).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+    /// zenoh: a zenoh JSON5 config file read first (TLS, access control).
+    #[arg(long, value_name = "FILE")]
+    pub zenoh_config: Option<PathBuf>,
+    /// zenoh: the config file each started agent reads first, `{robot}`
+    /// replaced by its id (e.g. certs/robot-{robot}.json5 from `orchestrator
+    /// certs`, for tls/ endpoints).
+    #[arg(long, value_name = "FILE")]
+    pub agent_zenoh_config: Option<PathBuf>,
+    /// Where agents come from: spawned (a sim-agent per robot, here),
+    /// remote (started by hand on other hosts with `sim-agent --transport
+    /// zenoh --connect ...`; the launch waits for all) or real (an `agent`
+    /// gateway per robot of --robots-file) [default: spawned].
+    #[arg(long, value_enum)]
+    pub agents: Option<AgentsKind>,
+    /// Real robots: the lab's robots file (addresses and key files).
+    #[arg(long, value_name = "FILE")]
+    pub robots_file: Option<PathBuf>,
+    /// Real robots: the lab scenario (exp-short, exp-long or a scenario
+    /// file, see deploy/lab/): start, goal and arena in metres.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub lab_scenario: Option<String>,
 }
 
 impl Args {
@@ -122,13 +172,39 @@ impl Args {
         set!(gate.on_agent_death = self.on_agent_death);
         set!(supervision.register_timeout = self.register_timeout);
         set!(supervision.heartbeat_timeout = self.heartbeat_timeout);
-        for (slot, value) in [(&mut cfg.terrain, &self.terrain), (&mut cfg.record, &self.record)] {
+        set!(supervision.link_grace = self.link_grace);
+        set!(transport.kind = self.transport);
+        set!(agents.source = self.agents);
+        if self.robots_file.is_some() {
+            cfg.agents.robots_file.clone_from(&self.robots_file);
+        }
+        if self.lab_scenario.is_some() {
+            cfg.agents.scenario.clone_from(&self.lab_scenario);
+        }
+        if !self.listen.is_empty() {
+            cfg.transport.listen.clone_from(&self.listen);
+        }
+        if !self.connect.is_empty() {
+            cfg.transport.connect.clone_from(&self.connect);
+        }
+        if self.zenoh_config.is_some() {
+            cfg.transport.zenoh_config.clone_from(&self.zenoh_config);
+        }
+        if self.agent_zenoh_config.is_some() {
+            cfg.transport.agent_zenoh_config.clone_from(&self.agent_zenoh_config);
+        }
+        for (slot, value) in
+            [(&mut cfg.terrain, &self.terrain), (&mut cfg.record, &self.record), (&mut cfg.svg, &self.svg)]
+        {
             if value.is_some() {
                 slot.clone_from(value);
             }
         }
         if self.swarm.is_some() {
             cfg.swarm.clone_from(&self.swarm);
+        }
+        if self.serve.is_some() {
+            cfg.serve.clone_from(&self.serve);
         }
         if self.no_prespawn {
             cfg.gate.prespawn = false;
@@ -140,6 +216,9 @@ impl Args {
 
 /// The world of a launch config.
 pub fn world(cfg: &LaunchConfig) -> Result<World> {
+    if let Some(lab) = &cfg.agents.scenario {
+        return launch::lab::lab_world(lab, cfg.robots);
+    }
     let source = match &cfg.terrain {
         Some(path) => WorldSource::File(path.clone()),
         None => WorldSource::Scenario(cfg.scenario.clone()),
@@ -155,8 +234,13 @@ pub fn world(cfg: &LaunchConfig) -> Result<World> {
 
 pub fn run(args: Args) -> Result<i32> {
     let cfg = args.config()?;
+    if let Some(path) = &cfg.record {
+        // Refused before anything starts (see `record::check_target`).
+        crate::record::check_target(path, args.force).map_err(exit::usage)?;
+    }
     let world = world(&cfg)?;
     let agent = launch::agent_command(args.agent_bin.as_deref(), cfg.agent_bin.as_deref())?;
+    let cfg_svg = cfg.svg.clone();
     let summary = launch::run(cfg, world, agent)?;
     if args.json {
         bycoms_logging::status_line(&summary.line());
@@ -167,12 +251,27 @@ pub fn run(args: Args) -> Result<i32> {
             tracing::error!("{e}");
         }
     }
-    Ok(match summary.outcome {
+    // The result is printed first: a picture that cannot be written loses nothing else.
+    let mut code = None;
+    if let Some(path) = &cfg_svg {
+        match summary.picture.as_deref().map(|svg| std::fs::write(path, svg)) {
+            Some(Ok(())) => bycoms_logging::status_line(&format!("picture: {}", path.display())),
+            Some(Err(e)) => {
+                tracing::error!("cannot write the picture to {}: {e}", path.display());
+                code = Some(exit::ERROR);
+            }
+            None => {
+                tracing::error!("no picture of the run was made");
+                code = Some(exit::ERROR);
+            }
+        }
+    }
+    Ok(code.unwrap_or(match summary.outcome {
         Outcome::Arrived => exit::SUCCESS,
         Outcome::Interrupted => exit::INTERRUPTED,
         Outcome::Error => exit::ERROR,
         Outcome::RobotsExhausted | Outcome::TimeLimit => exit::NOT_ARRIVED,
-    })
+    }))
 }
 
 #[cfg(test)]
@@ -204,11 +303,18 @@ mod tests {
         let both =
             config(&["--config", path, "--eps", "4", "--noise", "false", "--clock", "realtime"]).unwrap();
         assert_eq!((both.eps, both.robots, both.noise, both.clock), (4.0, 7, false, Clock::Realtime));
+        let zenoh = config(&["--transport", "zenoh", "--listen", "tcp/0.0.0.0:7447"]).unwrap();
+        assert_eq!(zenoh.transport.kind, crate::launch::config::Transport::Zenoh);
+        assert_eq!(zenoh.transport.listen, ["tcp/0.0.0.0:7447"]);
     }
 
     #[test]
     fn bad_values_and_unknown_keys_are_errors() {
         assert!(format!("{:#}", config(&["--eps", "-1"]).unwrap_err()).contains("eps"));
+        for bad in ["8765", ":8765", "localhost:http", "127.0.0.1:70000"] {
+            assert!(format!("{:#}", config(&["--serve", bad]).unwrap_err()).contains("serve"), "{bad}");
+        }
+        assert_eq!(config(&["--serve", "127.0.0.1:0"]).unwrap().serve.as_deref(), Some("127.0.0.1:0"));
         let dir = tempfile::tempdir().unwrap();
         let file = dir.path().join("bad.toml");
         std::fs::write(&file, "[gate]\nprespwan = false\n").unwrap();

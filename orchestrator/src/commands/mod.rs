@@ -4,9 +4,14 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 
 pub mod bench;
+pub mod bridge;
+pub mod certs;
 pub mod completions;
+pub mod draw;
 pub mod launch;
 pub mod merge;
+pub mod record;
+pub mod replay;
 pub mod simulate;
 pub mod sweep;
 pub mod terrain;
@@ -39,11 +44,21 @@ pub enum Command {
     /// Combine the CSVs of sharded sweeps into the same tables and heatmaps.
     Merge(merge::Args),
     /// Deploy robots one at a time as agent processes over iceoryx2 (default: the paper's 3-robot experiment).
-    Launch(launch::Args),
+    Launch(Box<launch::Args>),
+    /// Draw a recorded launch (FILE.mcap) as the snapshot picture (SVG).
+    Draw(draw::Args),
+    /// Tools for recordings: `record recover FILE` completes a recording cut short.
+    Record(record::Args),
+    /// Re-run the gate from a launch recording's poses; exit 1 unless it reaches the recorded decisions.
+    Replay(replay::Args),
     /// Measure the process layer: gate reaction, lockstep speed, real-time scale.
     Bench(bench::Args),
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell) on stdout.
     Completions(completions::Args),
+    /// Republish a local iceoryx2 swarm on zenoh, to watch a launch from another host.
+    Bridge(bridge::Args),
+    /// Make a lab CA, orchestrator and robot certificates, and zenoh configs with the ACL.
+    Certs(certs::Args),
     /// Run one simulated robot (what `launch` starts when no `sim-agent` binary sits next to it).
     #[command(hide = true)]
     SimAgent(bycoms_sim::agent_process::AgentArgs),
@@ -57,9 +72,14 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Terrain(args) => terrain::run(args),
         Command::Sweep(args) => sweep::run(args),
         Command::Merge(args) => merge::run(args),
-        Command::Launch(args) => launch::run(args),
+        Command::Launch(args) => launch::run(*args),
+        Command::Draw(args) => draw::run(args),
+        Command::Record(args) => record::run(args),
+        Command::Replay(args) => replay::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Completions(args) => completions::run(&args),
+        Command::Bridge(args) => bridge::run(args),
+        Command::Certs(args) => certs::run(args),
         Command::SimAgent(args) => Ok(bycoms_sim::agent_process::main_with(&args)),
     }
 }

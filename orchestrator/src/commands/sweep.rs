@@ -15,7 +15,6 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::OnceLock;
 
 /// ε × width bin × terrains × noise; writes runs CSV, tables and heatmaps.
 #[derive(Debug, clap::Args)]
@@ -94,16 +93,6 @@ pub fn runs_file(shard: Shard) -> String {
     }
 }
 
-/// Set by Ctrl-C; the handler is installed once per process.
-fn stop_flag() -> &'static AtomicBool {
-    static STOP: OnceLock<&'static AtomicBool> = OnceLock::new();
-    STOP.get_or_init(|| {
-        let flag: &'static AtomicBool = Box::leak(Box::new(AtomicBool::new(false)));
-        let _ = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst));
-        flag
-    })
-}
-
 /// A bad option value: exit code 2 (see `crate::exit`).
 fn usage(e: impl std::fmt::Display) -> anyhow::Error {
     exit::usage(format!("{e:#}"))
@@ -140,7 +129,8 @@ pub fn run(args: Args) -> Result<i32> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     check_meta(&args.out, &meta)?;
-    let stop = stop_flag();
+    let stop_handle = crate::launch::interrupt_flag();
+    let stop: &AtomicBool = &stop_handle;
     stop.store(false, Ordering::SeqCst);
 
     let terrains = match load_terrains(&args, &axes, stop) {

@@ -10,6 +10,8 @@ pub mod animate;
 pub mod budget;
 pub mod contour;
 pub mod heatmap;
+pub mod measurements;
 pub mod snapshot;
 pub mod svg;
 pub mod timeline;
+pub mod trace;

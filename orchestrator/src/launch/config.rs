@@ -4,8 +4,13 @@
 //! a silently ignored setting (`deny_unknown_fields` everywhere). Every key
 //! is documented in one file, `deploy/launch.toml`, whose values are exactly
 //! [`LaunchConfig::default`] (a test parses it and compares). Precedence:
-//! built-in defaults < `--config FILE` < command-line flags.
+//! built-in defaults < `--config FILE` < command-line flags. Relative
+//! paths in a config file are relative to the file's directory (a lab keeps
+//! its config beside its terrain), those on the command line to the working
+//! directory.
 
+pub use super::agents::choice::{AgentsConfig, AgentsKind};
+use super::faults::FaultsConfig;
 use crate::commands::world::check_run;
 use crate::exit::usage;
 use anyhow::{Context, Result};
@@ -16,16 +21,10 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-/// How simulated time advances.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "snake_case")]
-pub enum Clock {
-    /// The orchestrator ticks every live agent and waits for all answers:
-    /// as fast as the agents answer, and bit-identical to `simulate`.
-    Lockstep,
-    /// Every agent steps on its own wall clock at 10 Hz × `speed`.
-    Realtime,
-}
+/// How simulated time advances: the one clock enum, shared with the agents.
+pub use bycoms_sim::agent_process::Clock;
+/// The bus kind, shared with the agents (`--transport`).
+pub use bycoms_sim::agent_process::Transport;
 
 /// What the gate does when an agent process dies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -65,12 +64,65 @@ pub struct LaunchConfig {
     pub swarm: Option<String>,
     /// MCAP recording of every message and gate event.
     pub record: Option<PathBuf>,
+    /// SVG snapshot of the run (trajectories, beacons, ε circles) written at the end.
+    pub svg: Option<PathBuf>,
+    /// Serve the live view (Foxglove WebSocket + the page) on `host:port`.
+    pub serve: Option<String>,
     /// The agent executable; default `sim-agent` next to the orchestrator.
     pub agent_bin: Option<PathBuf>,
     /// The deployment gate.
     pub gate: GateConfig,
     /// Agent supervision.
     pub supervision: SupervisionConfig,
+    /// Fault injection into the orchestrator's bus (off by default).
+    pub faults: FaultsConfig,
+    /// The bus: iceoryx2 on this host, or zenoh across hosts.
+    pub transport: TransportConfig,
+    /// Where the gate's poses come from (`crate::mocap::MocapConfig`).
+    pub mocap: crate::mocap::MocapConfig,
+    /// Where the agents come from (`super::agents::choice`).
+    pub agents: AgentsConfig,
+}
+
+/// The bus of a launch (`[transport]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TransportConfig {
+    /// `ipc` (iceoryx2, this host) or `zenoh` (tcp/tls, any host).
+    pub kind: Transport,
+    /// zenoh: endpoints the orchestrator's router session listens on
+    /// (`tcp/HOST:PORT`, `tls/HOST:PORT`; port 0 takes a free port).
+    pub listen: Vec<String>,
+    /// zenoh: endpoints it connects to as well (e.g. a standalone zenohd).
+    pub connect: Vec<String>,
+    /// zenoh: a zenoh JSON5 config file read first (TLS, access control).
+    pub zenoh_config: Option<PathBuf>,
+    /// zenoh: the config file each agent this launch starts reads first,
+    /// `{robot}` replaced by its robot id: e.g. `certs/robot-{robot}.json5`
+    /// as `orchestrator certs` writes them, so spawned agents can join a
+    /// `tls/` endpoint with their own certificate.
+    pub agent_zenoh_config: Option<PathBuf>,
+}
+
+impl TransportConfig {
+    /// The zenoh config file robot `id`'s agent reads first, if any
+    /// (`agent_zenoh_config` with `{robot}` replaced).
+    pub fn agent_config_of(&self, id: u32) -> Option<PathBuf> {
+        let template = self.agent_zenoh_config.as_ref()?;
+        Some(PathBuf::from(template.to_string_lossy().replace("{robot}", &id.to_string())))
+    }
+}
+
+impl Default for TransportConfig {
+    fn default() -> Self {
+        Self {
+            kind: Transport::Ipc,
+            listen: vec!["tcp/127.0.0.1:0".into()],
+            connect: Vec::new(),
+            zenoh_config: None,
+            agent_zenoh_config: None,
+        }
+    }
 }
 
 /// The deployment gate's motion test.
@@ -103,6 +155,11 @@ pub struct SupervisionConfig {
     pub tick_timeout: f64,
     /// Agents get this long to exit after `Shutdown` before being killed.
     pub shutdown_grace: f64,
+    /// Remote agents (zenoh): how long one may be unreachable (its link
+    /// cut, or silent) before it is treated as dead; the launch holds it
+    /// meanwhile and resumes when it is back. 0: dead at once. Keep it no
+    /// longer than the agents' `--orchestrator-grace`.
+    pub link_grace: f64,
 }
 
 impl Default for LaunchConfig {
@@ -120,9 +177,15 @@ impl Default for LaunchConfig {
             goal_radius: 0.5,
             swarm: None,
             record: None,
+            svg: None,
+            serve: None,
             agent_bin: None,
             gate: GateConfig::default(),
             supervision: SupervisionConfig::default(),
+            faults: FaultsConfig::default(),
+            transport: TransportConfig::default(),
+            mocap: crate::mocap::MocapConfig::default(),
+            agents: AgentsConfig::default(),
         }
     }
 }
@@ -147,16 +210,42 @@ impl Default for SupervisionConfig {
             heartbeat_timeout: 2.0,
             tick_timeout: 5.0,
             shutdown_grace: 1.0,
+            link_grace: 2.0,
         }
     }
 }
 
 impl LaunchConfig {
-    /// Reads a config file; missing keys keep their defaults.
+    /// Reads a config file; missing keys keep their defaults, relative
+    /// paths in it are resolved against the file's directory.
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read config {}", path.display()))?;
-        Self::parse(&text).map_err(|e| usage(format!("bad config {}: {e:#}", path.display())))
+        let mut cfg =
+            Self::parse(&text).map_err(|e| usage(format!("bad config {}: {e:#}", path.display())))?;
+        let base = path.parent().unwrap_or(Path::new(""));
+        for field in [
+            &mut cfg.terrain,
+            &mut cfg.record,
+            &mut cfg.svg,
+            &mut cfg.agent_bin,
+            &mut cfg.transport.zenoh_config,
+            &mut cfg.transport.agent_zenoh_config,
+            &mut cfg.agents.robots_file,
+            &mut cfg.agents.gateway_bin,
+        ] {
+            if let Some(p) = field.as_mut().filter(|p| p.is_relative()) {
+                *p = base.join(&*p);
+            }
+        }
+        // A lab scenario is a built-in name or a file beside the config.
+        if let Some(s) = cfg.agents.scenario.as_mut() {
+            let beside = base.join(&*s);
+            if Path::new(s.as_str()).is_relative() && beside.is_file() {
+                *s = beside.display().to_string();
+            }
+        }
+        Ok(cfg)
     }
 
     /// Parses config text.
@@ -175,11 +264,28 @@ impl LaunchConfig {
         run
     }
 
+    /// The control period dt, s: the robots' kinematics' (one constant for
+    /// the simulator, the agents and the launch).
+    pub fn dt(&self) -> f64 {
+        self.run_config().kinematics.dt
+    }
+
+    /// One control period in wall time on the real-time clock (dt / speed).
+    pub fn wall_period(&self) -> Duration {
+        Duration::from_secs_f64(self.dt() / self.speed)
+    }
+
+    /// One control period in simulated µs (the poses' `time_us` step).
+    pub fn dt_us(&self) -> u64 {
+        (self.dt() * 1e6).round() as u64
+    }
+
     /// Checks every value; the message names the key. Every error is a
     /// usage error (exit code 2). The run parameters go through the one
     /// check every command and every agent makes ([`check_run`]).
     pub fn validate(&self) -> Result<()> {
         check_run(&self.run_config())?;
+        self.faults.validate()?;
         check_speed(self.speed).map_err(usage)?;
         let positive = |v: f64| v.is_finite() && v > 0.0;
         let checks: [(&str, f64); 6] = [
@@ -195,12 +301,34 @@ impl LaunchConfig {
                 return Err(usage(format!("{key} must be a positive number, got {value}")));
             }
         }
-        for (key, value) in
-            [("gate.stop_speed", self.gate.stop_speed), ("gate.stop_turn_rate", self.gate.stop_turn_rate)]
-        {
+        for (key, value) in [
+            ("gate.stop_speed", self.gate.stop_speed),
+            ("gate.stop_turn_rate", self.gate.stop_turn_rate),
+            ("supervision.link_grace", self.supervision.link_grace),
+        ] {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(usage(format!("{key} must be a non-negative number, got {value}")));
             }
+        }
+        if self.transport.kind == Transport::Zenoh
+            && self.transport.listen.is_empty()
+            && self.transport.zenoh_config.is_none()
+        {
+            return Err(usage("transport.listen needs an endpoint (e.g. tcp/0.0.0.0:7447) with zenoh"));
+        }
+        let tls = self.transport.listen.iter().any(|e| e.starts_with("tls/"));
+        if self.transport.kind == Transport::Zenoh
+            && tls
+            && self.agents.source != AgentsKind::Remote
+            && self.transport.agent_zenoh_config.is_none()
+        {
+            return Err(usage(
+                "the agents this launch starts cannot join a tls/ endpoint without their certificates: \
+                 set transport.agent_zenoh_config (--agent-zenoh-config), e.g. certs/robot-{robot}.json5",
+            ));
+        }
+        if let Some(addr) = &self.serve {
+            check_serve(addr)?;
         }
         if self.robots == 0 {
             return Err(usage("robots must be at least 1"));
@@ -208,6 +336,10 @@ impl LaunchConfig {
         if self.robots > MAX_ROBOTS {
             return Err(usage(format!("robots must be at most {MAX_ROBOTS}, got {}", self.robots)));
         }
+        self.mocap.validate(self.robots).map_err(usage)?;
+        self.agents
+            .validate(self.robots, self.transport.kind == Transport::Zenoh, self.clock == Clock::Lockstep)
+            .map_err(usage)?;
         if self.supervision.heartbeat_timeout <= self.supervision.heartbeat_interval {
             return Err(usage(
                 "supervision.heartbeat_timeout must be longer than supervision.heartbeat_interval",
@@ -224,6 +356,16 @@ impl LaunchConfig {
 
 /// Most robots one launch deploys (sizes the shared-memory services).
 pub const MAX_ROBOTS: u32 = 1000;
+
+/// `serve` must be `host:port` (port 0 picks a free port).
+fn check_serve(addr: &str) -> Result<()> {
+    let bad = || usage(format!("serve must be host:port (e.g. 127.0.0.1:8765, 0.0.0.0:0), got {addr:?}"));
+    let (host, port) = addr.rsplit_once(':').ok_or_else(bad)?;
+    if host.is_empty() || port.parse::<u16>().is_err() {
+        return Err(bad());
+    }
+    Ok(())
+}
 
 #[cfg(test)]
 mod tests {
@@ -259,5 +401,17 @@ mod tests {
         assert_eq!((partial.eps, partial.gate.dwell, partial.robots), (2.0, 30.0, 3));
         let bad = LaunchConfig { eps: -1.0, ..LaunchConfig::default() };
         assert!(format!("{:#}", bad.validate().unwrap_err()).contains("eps"));
+    }
+
+    #[test]
+    fn relative_paths_in_a_config_file_are_relative_to_the_file() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let file = dir.path().join("lab.toml");
+        let text = "terrain = \"maps/t.txt\"\nrecord = \"run.mcap\"\nagent_bin = \"/opt/sim-agent\"\n";
+        std::fs::write(&file, text).expect("write config");
+        let cfg = LaunchConfig::load(&file).expect("loads");
+        assert_eq!(cfg.terrain, Some(dir.path().join("maps/t.txt")));
+        assert_eq!(cfg.record, Some(dir.path().join("run.mcap")));
+        assert_eq!(cfg.agent_bin, Some(PathBuf::from("/opt/sim-agent")), "absolute paths stay");
     }
 }

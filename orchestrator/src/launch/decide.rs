@@ -42,8 +42,14 @@ impl Launch {
                 slot.decided_tick = Some(pose.step);
             }
             self.announce(id, kind, &pose)?;
+            // A stuck real robot would keep pushing against what holds it:
+            // motors off; it stays a beacon (its speaker keeps playing).
+            let real = self.cfg.agents.source == super::config::AgentsKind::Real;
+            if state == SlotState::Stuck && real && self.agents.is_running(id) {
+                self.ports.send(id, &ToAgent::Stop)?;
+            }
             if state == SlotState::Arrived {
-                if self.sup.is_running(id) {
+                if self.agents.is_running(id) {
                     self.ports.send(id, &ToAgent::Stop)?;
                 }
                 return Ok(Some(Outcome::Arrived));

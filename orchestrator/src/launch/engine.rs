@@ -3,23 +3,28 @@
 //! Why one state machine for both clocks: lockstep and real time differ only
 //! in *when* periods happen (the orchestrator's tick vs. each agent's wall
 //! clock); what a registration, a pose, a death or a verdict means is the
-//! same. [`Launch::pump`] takes in everything the bus and the supervisor
-//! have, updates the robots' slots and queues the gate's verdicts; the
-//! drivers (`lockstep`, `realtime`) decide when to tick, deploy and settle
-//! verdicts.
+//! same. [`Launch::pump`] takes in everything the bus, the pose source and
+//! the agent source have, updates the robots' slots and queues the gate's
+//! verdicts; the drivers (`lockstep`, `realtime`) decide when to tick,
+//! deploy and settle verdicts.
+//!
+//! The engine knows none of the concrete kinds behind its three seams: the
+//! transport ([`Ports`] on any bus backend), where agents come from
+//! ([`AgentSource`]) and where poses come from ([`PoseSource`]).
 
+use super::agents::{AgentSource, Gone};
 use super::config::{Clock, LaunchConfig, OnDeath};
+use super::events::{EventKind, LaunchEvent, EVENT_SCHEMA};
 use super::gate::{GateParams, Verdict, Watch};
 use super::ports::Ports;
+use super::poses::{PoseSink, PoseSource};
 use super::progress::Progress;
-use super::summary::Death;
-use super::supervise::{Gone, Supervisor};
+use super::summary::{Death, Outage};
 use anyhow::anyhow;
-use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, GoalBearing, Pose, ToAgent};
+use bycoms_protocol::msg::{Deploy, FromAgent, GateEvent, GateKind, GoalBearing, Pose, Refused, ToAgent};
 use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
 use bycoms_sim::agent_process::{AgentArgs, BadKind};
 use bycoms_sim::Vec2;
-use serde_json::json;
 use std::collections::{BTreeSet, VecDeque};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -94,6 +99,8 @@ pub struct Slot {
     pub alive: bool,
     /// Lockstep ticks started when its registration was handled.
     pub registered_before_tick: Option<u64>,
+    /// The instance of the agent that registered it (the one kept).
+    pub instance: Option<u64>,
     pub registered_at: Option<Instant>,
     pub mode: u8,
     pub last_pose: Option<Pose>,
@@ -105,6 +112,8 @@ pub struct Slot {
     /// Real time: periods this robot's agent stepped since its deployment
     /// (poses seen) and periods it skipped (gaps in the frame numbers).
     pub frames: FrameCount,
+    /// Times its agent was unreachable; the last is open while it is.
+    pub outages: Vec<Outage>,
 }
 
 /// Real-time periods of one agent as its poses show them.
@@ -145,7 +154,10 @@ pub struct Launch {
     pub cfg: LaunchConfig,
     pub world: World,
     pub ports: Ports,
-    pub sup: Supervisor,
+    /// Where the agents come from.
+    pub agents: Box<dyn AgentSource>,
+    /// Where the gate's poses come from.
+    pub pose_source: Box<dyn PoseSource>,
     pub template: AgentArgs,
     pub slots: Vec<Slot>,
     pub watch: Option<(u32, Watch)>,
@@ -165,13 +177,31 @@ pub struct Launch {
     pub progress: Progress,
     pub stop: Arc<AtomicBool>,
     pub started: Instant,
+    /// When `launch::run` was called (before the bus was opened).
+    pub begun: Instant,
+    /// From `begun` to the first robot's start pose (deployed, moving).
+    pub first_moving: Option<Duration>,
+    /// zenoh: where the orchestrator listens (empty over ipc).
+    pub endpoints: Vec<String>,
     pub decided_at: Option<Instant>,
     /// The next robot to deploy.
     pub next: u32,
+    /// The `Deploy` whose start pose is awaited (re-sent if it was lost).
+    pub pending_deploy: Option<Deploy>,
+    /// The last goal bearing sent (re-sent with its tick).
+    pub last_bearing: Option<GoalBearing>,
+    /// Commands sent again (`partition`).
+    pub resends: u64,
     poses: Vec<(u32, Pose)>,
 }
 
-fn unix_ms() -> u64 {
+/// The instance that registered robot `id`, if any.
+fn slot_instance(slots: &[Slot], id: u32) -> Option<u64> {
+    id.checked_sub(1).and_then(|i| slots.get(i as usize)).and_then(|s| s.instance)
+}
+
+/// Now, in ms since the Unix epoch (0 if the clock is before it).
+pub(super) fn unix_ms() -> u64 {
     SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_millis() as u64).unwrap_or(0)
 }
 
@@ -181,16 +211,18 @@ impl Launch {
         cfg: LaunchConfig,
         world: World,
         ports: Ports,
-        sup: Supervisor,
+        sources: (Box<dyn AgentSource>, Box<dyn PoseSource>),
         template: AgentArgs,
         stop: Arc<AtomicBool>,
     ) -> Self {
+        let (agents, pose_source) = sources;
         let params = GateParams {
             goal: world.goal,
             goal_radius: cfg.goal_radius,
             stop_speed: cfg.gate.stop_speed,
             stop_turn_rate: cfg.gate.stop_turn_rate,
             dwell_us: (cfg.gate.dwell * 1e6).round() as u64,
+            period_us: cfg.dt_us(),
         };
         let slots = (1..=cfg.robots)
             .map(|id| Slot {
@@ -199,6 +231,7 @@ impl Launch {
                 pid: None,
                 alive: false,
                 registered_before_tick: None,
+                instance: None,
                 registered_at: None,
                 mode: 1,
                 last_pose: None,
@@ -208,6 +241,7 @@ impl Launch {
                 reaction: None,
                 death: None,
                 frames: FrameCount::default(),
+                outages: Vec::new(),
             })
             .collect();
         Self {
@@ -215,7 +249,8 @@ impl Launch {
             cfg,
             world,
             ports,
-            sup,
+            agents,
+            pose_source,
             template,
             slots,
             watch: None,
@@ -229,8 +264,14 @@ impl Launch {
             fatal: None,
             stop,
             started: Instant::now(),
+            begun: Instant::now(),
+            first_moving: None,
+            endpoints: Vec::new(),
             decided_at: None,
             next: 1,
+            pending_deploy: None,
+            last_bearing: None,
+            resends: 0,
             poses: Vec::new(),
         }
     }
@@ -255,14 +296,25 @@ impl Launch {
             }
         }
         let mut poses = std::mem::take(&mut self.poses);
-        self.ports.drain_poses(|robot, pose| poses.push((robot, pose)))?;
+        let record_decoded = !self.pose_source.on_the_bus();
+        let (recording, traffic, swarm) = self.ports.intake();
+        let mut sink = PoseSink::new(recording, traffic, swarm, &mut poses, record_decoded);
+        self.pose_source.drain(&mut sink)?;
+        // Real robots' gateways turn bearings into the robot's frame with
+        // its mocap heading: a source off the bus is passed on to them.
+        let forward = record_decoded && self.cfg.agents.source == super::config::AgentsKind::Real;
         for (robot, pose) in poses.drain(..) {
+            self.ports.observe_pose(robot, &pose);
+            if forward && pose.robot.0 == robot {
+                self.ports.forward_pose(&pose)?;
+            }
             self.on_pose(robot, pose)?;
         }
         self.poses = poses;
-        for (robot, gone) in self.sup.poll(false) {
+        for (robot, gone) in self.agents.poll(false) {
             self.on_death(robot, gone);
         }
+        self.take_reach()?;
         self.ports.recording.tick();
         if self.progress.due() {
             self.redraw();
@@ -279,25 +331,53 @@ impl Launch {
             self.ports.count(BadKind::UnknownRobot, &format_args!("{msg:?} from an unknown robot"));
             return;
         }
-        self.sup.heard(id);
         let Some(slot) = self.slot(id) else { return };
-        match msg {
-            FromAgent::Register(r) if r.protocol_version != PROTOCOL_VERSION => {
+        let registered = slot.registered_before_tick.is_some();
+        // Until its `Register` arrives an agent is not heard from: a
+        // registration that was lost must not be hidden by heartbeats (the
+        // agent repeats it with every heartbeat until it is answered, and
+        // the registration timeout still applies).
+        if !registered && !matches!(msg, FromAgent::Register(_)) {
+            tracing::debug!(robot = id, "a report before the agent's registration, ignored");
+            return;
+        }
+        if let FromAgent::Register(r) = &msg {
+            if r.protocol_version != PROTOCOL_VERSION {
                 let v = r.protocol_version;
                 self.ports
                     .count(BadKind::WrongVersion, &format_args!("robot {id} registers with protocol {v}"));
-                self.fatal = Some(anyhow!(
-                    "robot {id}'s agent speaks protocol version {v}, this orchestrator speaks {PROTOCOL_VERSION}"
-                ));
+                // An agent spawned here is ours: a mismatch is a broken
+                // install. Agents that exist on their own (remote, robots)
+                // may be anyone's: refused and counted, the robot still
+                // awaited (its registration timeout applies).
+                if !self.agents.all_at_once() {
+                    self.fatal = Some(anyhow!(
+                        "robot {id}'s agent speaks protocol version {v}, this orchestrator speaks {PROTOCOL_VERSION}"
+                    ));
+                }
+                return;
             }
-            FromAgent::Register(_) if slot.registered_before_tick.is_some() => {
-                self.ports.count(BadKind::Duplicate, &format_args!("second registration of robot {id}"));
+            if registered && slot_instance(&self.slots, id) != Some(r.instance) {
+                self.refuse_duplicate(id, r.instance);
+                return;
             }
-            FromAgent::Register(_) => {
+        }
+        self.agents.heard(id);
+        let Some(slot) = self.slot(id) else { return };
+        match msg {
+            // A repeat: the agent had not heard from us yet when it sent it.
+            FromAgent::Register(_) if registered => {}
+            FromAgent::Register(r) => {
+                slot.instance = Some(r.instance);
                 slot.registered_before_tick = Some(ticks_started);
                 slot.registered_at = Some(Instant::now());
                 if slot.state == SlotState::Spawned {
                     slot.state = SlotState::Registered;
+                }
+                // Agents that come on their own: say who came, and which one.
+                if self.agents.all_at_once() {
+                    let instance = r.instance;
+                    self.progress.event(&format!("robot {id}: agent registered (instance {instance:016x})"));
                 }
             }
             FromAgent::Heartbeat(_) => {}
@@ -307,6 +387,38 @@ impl Launch {
                     self.awaiting.remove(&id);
                 }
             }
+            // A real robot's telemetry is for recorders and monitors.
+            FromAgent::Telemetry(_) => {}
+            FromAgent::Link(l) => {
+                if !l.up {
+                    tracing::warn!(robot = id, silent_ms = l.silent_ms, "robot {id}'s link is lost");
+                }
+                self.agents.robot_link(id, l.up);
+            }
+        }
+    }
+
+    /// A second agent (another instance) registers for robot `id`, which
+    /// already has one: counted, logged and told to leave; the first agent
+    /// stays. Its later reports cannot be told from the first's (only
+    /// `Register` carries the instance): the refused agent exits on the
+    /// `Refused`, one round trip later.
+    fn refuse_duplicate(&mut self, id: u32, instance: u64) {
+        let kept = slot_instance(&self.slots, id).unwrap_or_default();
+        self.ports.count(
+            BadKind::Duplicate,
+            &format_args!(
+                "robot {id} registered again by another agent (instance {instance:016x}, kept {kept:016x})"
+            ),
+        );
+        tracing::warn!(
+            robot = id,
+            instance = format_args!("{instance:016x}"),
+            "a second agent for robot {id} refused"
+        );
+        let refused = ToAgent::Refused(Refused { robot: RobotId(id), instance });
+        if let Err(e) = self.ports.send(id, &refused) {
+            tracing::warn!(robot = id, "cannot tell the refused agent: {e:#}");
         }
     }
 
@@ -318,6 +430,7 @@ impl Launch {
         }
         let lockstep = self.cfg.clock == Clock::Lockstep;
         let ticks = self.ticks;
+        let dt_us = self.cfg.dt_us();
         let index = topic.checked_sub(1).map_or(usize::MAX, |i| i as usize);
         // Borrow the slot through its field, not `self`, so the watch and
         // the ports stay usable below.
@@ -336,10 +449,12 @@ impl Launch {
             let mut start = pose;
             if lockstep {
                 start.step = ticks;
+                start.time_us = ticks * dt_us;
             }
             slot.state = SlotState::Moving;
             slot.deployed_tick = Some(start.step + 1);
             slot.reaction = self.decided_at.map(|d| d.elapsed());
+            self.first_moving.get_or_insert_with(|| self.begun.elapsed());
             self.watch = Some((topic, Watch::new(self.params, start)));
             let event = GateEvent {
                 robot: pose.robot,
@@ -366,7 +481,9 @@ impl Launch {
     /// Sends robot `id` its goal bearing from `pose` (the runner's function).
     pub fn send_bearing(&mut self, id: u32, pose: &Pose, step: u64) -> anyhow::Result<()> {
         let bearing = Vec2::new(pose.x, pose.y).bearing_to(self.world.goal);
-        self.ports.send(id, &ToAgent::GoalBearing(GoalBearing { robot: RobotId(id), bearing, step }))?;
+        let msg = GoalBearing { robot: RobotId(id), bearing, step };
+        self.last_bearing = Some(msg);
+        self.ports.send(id, &ToAgent::GoalBearing(msg))?;
         Ok(())
     }
 
@@ -382,9 +499,16 @@ impl Launch {
         let pose = slot.last_pose;
         let text = format!("robot {id}: agent lost — {}", death.reason);
         self.progress.event(&text);
-        let event = json!({ "robot": id, "event": "agent_lost", "reason": death.reason, "state": format!("{state:?}") });
+        let event = LaunchEvent {
+            robot: id,
+            event: EventKind::AgentLost,
+            pid: None,
+            source: None,
+            reason: Some(death.reason.clone()),
+            state: Some(format!("{state:?}")),
+        };
         let topic = format!("bycoms/{}/events", self.template.swarm);
-        self.ports.recording.json(&topic, "bycoms.LaunchEvent", &event);
+        self.ports.recording.json(&topic, EVENT_SCHEMA, &event);
         match state {
             SlotState::Spawned => {
                 self.fatal = Some(anyhow!("robot {id}'s agent never registered: {}", death.reason));

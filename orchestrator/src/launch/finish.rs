@@ -34,20 +34,25 @@ impl Launch {
             }
         }
         let running: Vec<u32> =
-            self.slots.iter().filter(|s| self.sup.is_running(s.id)).map(|s| s.id).collect();
+            self.slots.iter().filter(|s| self.agents.is_running(s.id)).map(|s| s.id).collect();
         for id in running {
             // A failure to send only means it is killed after the grace period.
             let _ = self.ports.send(id, &ToAgent::Shutdown);
         }
-        let killed = self.sup.wind_down(Duration::from_secs_f64(self.cfg.supervision.shutdown_grace));
+        let killed = self.agents.wind_down(Duration::from_secs_f64(self.cfg.supervision.shutdown_grace));
         // Killed agents leave their iceoryx2 nodes behind: remove them now
         // rather than at the next launch.
         self.ports.cleanup_dead_nodes();
         if !killed.is_empty() {
             let ids: Vec<String> = killed.iter().map(u32::to_string).collect();
             let whose = if ids.len() == 1 { "robot" } else { "robots" };
+            // Remote agents cannot be killed from here: they are dropped.
+            let fate = match self.agents.kind() {
+                "remote" => "still alive on their hosts, dropped from the launch",
+                _ => "killed",
+            };
             self.progress.event(&format!(
-                "the agents of {whose} {} did not exit after Shutdown: killed",
+                "the agents of {whose} {} did not exit after Shutdown: {fate}",
                 ids.join(", ")
             ));
         }
@@ -86,10 +91,7 @@ impl Launch {
             eps: self.cfg.eps,
             noise: self.cfg.noise,
             seed: self.cfg.seed,
-            clock: match self.cfg.clock {
-                Clock::Lockstep => "lockstep".into(),
-                Clock::Realtime => "realtime".into(),
-            },
+            clock: self.cfg.clock.as_str().into(),
             speed: (self.cfg.clock == Clock::Realtime).then_some(self.cfg.speed),
             success: outcome == Outcome::Arrived,
             outcome,
@@ -109,10 +111,18 @@ impl Launch {
             robots,
             bad_traffic: self.ports.traffic,
             recording: None,
+            picture: None,
+            transport: self.cfg.transport.kind.as_str().into(),
+            endpoints: std::mem::take(&mut self.endpoints),
+            first_moving_s: self.first_moving.map(|d| d.as_secs_f64()),
+            resends: self.resends,
         };
+        if let Some(trace) = self.ports.recording.take_trace() {
+            summary.picture = self.picture(&trace, &summary);
+        }
         if self.ports.recording.is_on() {
             let topic = format!("bycoms/{}/summary", summary.swarm);
-            self.ports.recording.json(&topic, "bycoms.LaunchSummary", &summary);
+            self.ports.recording.json(&topic, super::events::SUMMARY_SCHEMA, &summary);
         }
         let recording = std::mem::replace(&mut self.ports.recording, super::recording::Recording::off());
         match recording.finish() {
@@ -131,6 +141,28 @@ impl Launch {
             }
         }
         summary
+    }
+}
+
+impl Launch {
+    /// The snapshot picture of the run from what crossed the bus (`--svg`).
+    fn picture(&self, trace: &crate::draw::trace::Trace, summary: &Summary) -> Option<String> {
+        let heading = format!(
+            "{} — ε = {}, {} launch, swarm {}",
+            summary.terrain, summary.eps, summary.clock, summary.swarm
+        );
+        let dt = self.template.run_config().kinematics.dt;
+        match bycoms_sim::terrain::parse(&self.world.terrain_text) {
+            Ok(mut terrain) => {
+                terrain.set_start(self.world.start);
+                terrain.set_goal(self.world.goal);
+                Some(crate::draw::trace::picture(&terrain, trace, self.cfg.eps, dt, &heading))
+            }
+            Err(e) => {
+                tracing::error!("no picture: the launch's terrain does not parse: {e}");
+                None
+            }
+        }
     }
 }
 
@@ -158,5 +190,6 @@ fn robot_summary(s: &super::engine::Slot) -> RobotSummary {
         mode: s.mode,
         gate_reaction_us: s.reaction.map(|d| d.as_micros() as u64),
         death: s.death.clone(),
+        outages: s.outages.clone(),
     }
 }

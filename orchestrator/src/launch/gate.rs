@@ -25,7 +25,12 @@
 //! from its start pose to the last pose that differed from the one before —
 //! exactly the runner's `RobotRun::steps`, however long the gate then
 //! watched it stand still. The run's time budget is charged with active
-//! steps only, as the runner's is.
+//! steps only, as the runner's is. Steps are counted in control periods of
+//! pose time (`period_us`), not in poses: a simulated agent publishes one
+//! pose per period (pose time = step × period, so this is its step count
+//! exactly), but motion capture streams at its own rate (20 Hz from the
+//! emulated lab's bus, 120 Hz over NatNet), and counting its frames would
+//! make `time_limit` and the summary's steps wrong in a lab.
 //!
 //! Sans-IO: poses in, verdicts out; the launch loop owns the bus.
 
@@ -55,6 +60,8 @@ pub struct GateParams {
     pub stop_turn_rate: f64,
     /// Still for this long has stopped, simulated µs.
     pub dwell_us: u64,
+    /// The control period, µs: active steps are pose time over this.
+    pub period_us: u64,
 }
 
 /// The gate's view of the one moving robot.
@@ -65,7 +72,8 @@ pub struct Watch {
     last: Pose,
     /// The pose before `last`.
     previous: Pose,
-    last_change: u64,
+    /// Pose time of the last change of pose, µs.
+    last_change_us: u64,
     still_since_us: Option<u64>,
     verdict: Option<Verdict>,
 }
@@ -78,7 +86,7 @@ impl Watch {
             start,
             last: start,
             previous: start,
-            last_change: start.step,
+            last_change_us: start.time_us,
             still_since_us: None,
             verdict: None,
         }
@@ -94,9 +102,12 @@ impl Watch {
         self.previous
     }
 
-    /// Periods from the start pose to the last change of pose.
+    /// Control periods from the start pose to the last change of pose
+    /// (pose time, rounded to whole periods).
     pub fn active_steps(&self) -> u64 {
-        self.last_change.saturating_sub(self.start.step)
+        let active_us = self.last_change_us.saturating_sub(self.start.time_us);
+        let period = self.params.period_us.max(1);
+        (active_us + period / 2) / period
     }
 
     /// The verdict, once reached.
@@ -117,7 +128,7 @@ impl Watch {
             && pose.y.to_bits() == prev.y.to_bits()
             && pose.heading.to_bits() == prev.heading.to_bits();
         if !same {
-            self.last_change = pose.step;
+            self.last_change_us = pose.time_us;
         }
         let (dx, dy) = (pose.x - self.params.goal.x, pose.y - self.params.goal.y);
         let r = self.params.goal_radius;
@@ -159,6 +170,7 @@ mod tests {
             stop_speed: 0.05,
             stop_turn_rate: 0.0,
             dwell_us: 2_000_000,
+            period_us: 100_000,
         }
     }
 
@@ -213,6 +225,30 @@ mod tests {
         assert_eq!(w.observe(pose(1, 9.4, 0.0)), None);
         assert!(matches!(w.observe(pose(2, 9.5, 0.0)), Some(Verdict::Arrived(p)) if p.step == 2));
         assert_eq!(w.active_steps(), 2);
+    }
+
+    #[test]
+    fn active_steps_are_control_periods_of_pose_time_not_mocap_frames() {
+        // Motion capture at 120 Hz (frame numbers from 1000, 8333 µs apart):
+        // 3 s of driving, then still. 3 s are 30 periods of 0.1 s, not 360.
+        let frame = |n: u64, x: f64| Pose {
+            robot: RobotId(1),
+            x,
+            y: 0.0,
+            heading: 0.0,
+            step: 1000 + n,
+            time_us: n * 8_333,
+        };
+        let mut w = Watch::new(params(), frame(0, 0.0));
+        for n in 1..=360 {
+            assert_eq!(w.observe(frame(n, 0.001 * n as f64)), None);
+        }
+        let mut verdict = None;
+        for n in 361..=700 {
+            verdict = verdict.or(w.observe(frame(n, 0.36)));
+        }
+        assert!(matches!(verdict, Some(Verdict::Stuck(_))), "{verdict:?}");
+        assert_eq!(w.active_steps(), 30, "360 frames over 3.0 s");
     }
 
     #[test]

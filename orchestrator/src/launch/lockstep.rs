@@ -11,10 +11,11 @@
 //! robot (the dwell) and settle ticks move no robot and are not charged to
 //! the runner's step count (see `gate`).
 
+use super::agents::Gone;
 use super::deploy::Next;
-use super::engine::{Launch, SlotState, SLICE};
+use super::engine::{Launch, SlotState};
+use super::partition::AnswerWait;
 use super::summary::Outcome;
-use super::supervise::Gone;
 use anyhow::Result;
 use bycoms_protocol::msg::{Tick, ToAgent};
 use std::time::{Duration, Instant};
@@ -54,13 +55,18 @@ impl Launch {
 
     /// One lockstep tick: bearing, relays, `Tick` to every live agent, and
     /// the wait for all their answers (an agent that does not answer within
-    /// `tick_timeout` is killed and treated as dead).
+    /// `tick_timeout` is killed and treated as dead; what is unanswered is
+    /// re-sent every [`RESEND`](super::partition::RESEND), and an unreachable agent is waited for,
+    /// see `partition`).
     pub fn tick(&mut self) -> Result<()> {
         let t = self.ticks + 1;
+        // Everything of tick t is logged at its simulated time t × dt.
+        let dt = self.template.run_config().kinematics.dt;
+        self.ports.recording.set_simulated_time((t as f64 * dt * 1e9).round() as u64);
         if let Some((id, pose)) = self.watch.as_ref().map(|(id, w)| (*id, w.last())) {
             self.send_bearing(id, &pose, t)?;
         }
-        self.relay_dead(t, t * 100_000)?;
+        self.relay_dead(t, t * self.cfg.dt_us())?;
         self.current_tick = t;
         self.ticks_started += 1;
         self.awaiting.clear();
@@ -74,18 +80,24 @@ impl Launch {
             self.ports.send(id, &ToAgent::Tick(Tick { step: t }))?;
             self.awaiting.insert(id);
         }
-        let deadline = Instant::now() + Duration::from_secs_f64(self.cfg.supervision.tick_timeout);
+        let mut wait = AnswerWait::new(Duration::from_secs_f64(self.cfg.supervision.tick_timeout));
         while !self.awaiting.is_empty() && !self.must_end() {
             let now = Instant::now();
-            if now >= deadline {
+            // An unreachable agent is held, not timed out (`partition`):
+            // the tick's deadline runs only while every awaited one is there.
+            if wait.resend_due(now, self.any_unreachable(self.awaiting.iter().copied())) {
+                let ids: Vec<u32> = self.awaiting.iter().copied().collect();
+                self.resend(&ids)?;
+            }
+            if wait.expired(now) {
                 let late: Vec<u32> = self.awaiting.iter().copied().collect();
                 for id in late {
-                    self.sup.kill(id);
+                    self.agents.kill(id);
                     self.on_death(id, Gone::NoTickReply);
                 }
                 break;
             }
-            self.pump(SLICE.min(deadline - now))?;
+            self.pump(wait.slice(now))?;
         }
         // Every answer is in, so every pose of tick t is in its queue.
         self.pump(Duration::ZERO)?;

@@ -1,5 +1,5 @@
-//! `orchestrator launch`: every robot its own agent process, deployed one at
-//! a time through the gate, over iceoryx2 shared memory.
+//! `orchestrator launch`: every robot its own agent, deployed one at a time
+//! through the gate.
 //!
 //! Why this shape (design §5): the orchestrator knows no terrain. It hands
 //! the world to the simulated agents (a lab has the real one), then sees
@@ -8,48 +8,66 @@
 //!
 //! * [`config`] — the TOML config (`deploy/launch.toml`) and its defaults;
 //! * [`gate`] — the motion test: stopped, arrived or stuck, from poses;
-//! * [`supervise`] — agent processes: spawn, poll, heartbeats, kill;
+//! * three seams, so that the engine and the gate know no concrete kind:
+//!   [`transport`] (the bus: iceoryx2, zenoh or in-memory), [`agents`]
+//!   (where agents come from: spawned here, remote, real robots behind
+//!   gateways) and [`poses`] (where the
+//!   gate's poses come from: the agents' simulated mocap on the bus, ...);
 //! * [`ports`] — the bus, with recording and bad-traffic counting;
 //! * [`engine`] — the launch's state and message handling;
 //! * [`deploy`] / [`decide`] — opening and closing a robot's deployment;
+//! * [`lab`] — a lab's world in metres from its scenario file, and the
+//!   operator's placement of each real robot at the start;
 //! * [`lockstep`] / [`realtime`] — the two clocks;
 //! * [`finish`] / [`summary`] / [`progress`] / [`recording`] — the ending,
 //!   the report, the terminal, the MCAP file;
+//! * [`events`] — the typed JSON channels of a recording (run, events,
+//!   summary), each with its JSON schema;
+//! * [`observe`] — observers that see every pose and gate event (the live
+//!   view, `crate::live`);
 //! * [`swarm_lock`] — one live launch per swarm name;
 //! * [`scale`] — the real-time scale benchmark (`orchestrator bench scale`).
 
+pub mod agents;
 pub mod config;
 pub mod decide;
 pub mod deploy;
 pub mod engine;
+pub mod events;
+pub mod faults;
 pub mod finish;
 pub mod gate;
+pub mod lab;
 pub mod lockstep;
+pub mod observe;
+pub mod partition;
 pub mod ports;
+pub mod poses;
 pub mod progress;
 pub mod realtime;
 pub mod recording;
 pub mod scale;
 pub mod summary;
-pub mod supervise;
 pub mod swarm_lock;
+pub mod transport;
 
+pub use agents::spawned::AgentCommand;
 pub use config::{Clock, LaunchConfig, OnDeath};
 pub use engine::World;
 pub use summary::{Outcome, RobotEnd, Summary};
-pub use supervise::AgentCommand;
 
 use anyhow::{Context, Result};
-use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::Swarm;
-use bycoms_sim::agent_process::{ipc_config, AgentArgs, ClockKind};
+use bycoms_sim::agent_process::AgentArgs;
 use engine::Launch;
 use ports::Ports;
+use poses::bus::BusPoses;
 use recording::Recording;
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, OnceLock};
-use supervise::Supervisor;
+use std::sync::Arc;
+use transport::SharedBus;
 
 /// Environment variable naming the agent executable.
 pub const AGENT_BIN_ENV: &str = "BYCOMS_SIM_AGENT";
@@ -75,41 +93,49 @@ pub fn agent_command(explicit: Option<&Path>, configured: Option<&Path>) -> Resu
     Ok(AgentCommand { program: me, prefix: vec!["sim-agent".into()] })
 }
 
-/// The process-wide Ctrl-C flag (the handler is installed once).
+/// The process-wide Ctrl-C flag (`bycoms_sim::interrupt`: one handler per
+/// process, shared by every command and the agents' lifeline).
 pub fn interrupt_flag() -> Arc<AtomicBool> {
-    static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
-    FLAG.get_or_init(|| {
-        let flag = Arc::new(AtomicBool::new(false));
-        let handler_flag = Arc::clone(&flag);
-        // Another handler (a second subcommand in-process) only means Ctrl-C
-        // keeps its default effect.
-        let _ = ctrlc::set_handler(move || handler_flag.store(true, Ordering::SeqCst));
-        flag
-    })
-    .clone()
+    bycoms_sim::interrupt::flag_or_default()
 }
 
 /// Runs one launch to its end. Errors before the first agent starts are
 /// returned; anything after ends in the summary (outcome `error`).
 pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summary> {
+    let begun = std::time::Instant::now();
     cfg.validate()?;
     bycoms_sim::agent_process::cli::quiet_iceoryx2();
     let swarm_name = cfg.swarm.clone().unwrap_or_else(|| format!("launch-{}", std::process::id()));
     let swarm = Swarm::new(&swarm_name).with_context(|| format!("bad swarm name {swarm_name:?}"))?;
     // Held until the launch has ended (dropped last): one live launch per swarm.
     let _swarm_lock = swarm_lock::SwarmLock::acquire(&swarm_name)?;
-    let recording = match &cfg.record {
-        Some(path) => Recording::create(path)?,
-        None => Recording::off(),
+    // The file (run metadata, scene world) and the picture's trace, if asked for.
+    let recording = Recording::start(&swarm_name, &world, &cfg)?;
+    let opened = transport::open(&cfg.transport, &cfg.faults, cfg.robots, &swarm_name)?;
+    let (bus, endpoints): (SharedBus, _) = (opened.bus, opened.endpoints);
+    // zenoh: the orchestrator's liveliness token lives as long as the
+    // launch (agents watch it); the swarm's tokens go to the agent source.
+    let (_orchestrator_alive, alive_watch) = match opened.liveliness {
+        Some(l) => (Some(l.token), l.watch),
+        None => (None, None),
     };
-    let mut ipc = ipc_config(cfg.robots);
-    ipc.cleanup_on_start = true;
-    ipc.node_name = Some(format!("bycoms-{swarm_name}-orchestrator"));
-    let bus = IpcBus::new(ipc).context("cannot open the iceoryx2 bus")?;
+    let pose_source: Box<dyn poses::PoseSource> = match (&cfg.mocap.source, &cfg.mocap.natnet) {
+        (crate::mocap::MocapSource::Natnet, Some(natnet)) => Box::new(crate::mocap::NatNetPoses::new(
+            crate::mocap::NatNetPoseSource::connect(&natnet.for_robots(cfg.robots))
+                .context("cannot use the NatNet mocap")?,
+        )),
+        _ => Box::new(BusPoses::new(Rc::clone(&bus), swarm)),
+    };
     let mut ports = Ports::open(bus, swarm, recording).context("cannot open the orchestrator's ports")?;
-    let meta =
-        serde_json::json!({ "terrain": world.name, "start": world.start, "goal": world.goal, "config": cfg });
-    ports.recording.json(&format!("bycoms/{swarm_name}/run"), "bycoms.LaunchConfig", &meta);
+    let live = match &cfg.serve {
+        Some(addr) => Some(crate::live::LiveView::start(addr)?),
+        None => None,
+    };
+    if let Some(live) = &live {
+        bycoms_logging::status_line(&live.banner());
+        ports.observers.push(Box::new(live.clone()));
+    }
+    ports.observers.iter_mut().for_each(|o| o.world(&swarm_name, &world, &cfg));
     let template = AgentArgs {
         swarm: swarm_name,
         robot: 1,
@@ -117,28 +143,43 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
         eps: cfg.eps,
         noise: cfg.noise,
         seed: cfg.seed,
-        clock: match cfg.clock {
-            Clock::Lockstep => ClockKind::Lockstep,
-            Clock::Realtime => ClockKind::Realtime,
-        },
+        clock: cfg.clock,
         speed: cfg.speed,
         swarm_size: Some(cfg.robots),
         peers: None,
         parent_pid: Some(std::process::id() as i32),
         heartbeat_ms: (cfg.supervision.heartbeat_interval * 1000.0).round().max(1.0) as u64,
+        transport: cfg.transport.kind,
+        // Spawned agents connect to where this orchestrator actually listens.
+        connect: endpoints.clone(),
+        zenoh_config: None,
+        failsafe: Default::default(),
     };
-    let sup = Supervisor::new(
+    let agents = cfg.agents.open(
         agent,
         LaunchConfig::secs(cfg.supervision.register_timeout),
         LaunchConfig::secs(cfg.supervision.heartbeat_timeout),
-    );
+        LaunchConfig::secs(cfg.supervision.link_grace),
+        alive_watch,
+    )?;
     let stop = interrupt_flag();
     stop.store(false, Ordering::SeqCst);
     let clock = cfg.clock;
-    let mut launch = Launch::new(cfg, world, ports, sup, template, stop);
-    let result = match clock {
-        Clock::Lockstep => launch.run_lockstep(),
-        Clock::Realtime => launch.run_realtime(),
+    let mut launch = Launch::new(cfg, world, ports, (agents, pose_source), template, stop);
+    launch.begun = begun;
+    launch.endpoints = endpoints;
+    let result = match launch.await_everyone() {
+        Ok(true) => match clock {
+            Clock::Lockstep => launch.run_lockstep(),
+            Clock::Realtime => launch.run_realtime(),
+        },
+        Ok(false) => Ok(Outcome::Interrupted),
+        Err(e) => Err(e),
     };
-    Ok(launch.finish(result))
+    let summary = launch.finish(result);
+    if let Some(live) = live {
+        live.ended(&summary);
+        live.shutdown();
+    }
+    Ok(summary)
 }

@@ -6,21 +6,24 @@
 //! does not decode — so bytes are recorded first and decoded second. Every
 //! message the orchestrator sends is encoded once, recorded, published.
 //!
-//! Ports to a robot (its command topic, its pose topic) are opened before
-//! its agent is spawned, so nothing the agent publishes after it starts can
-//! be missed (the bus keeps no history).
+//! A robot's command port is opened before its agent is started (as its
+//! pose source is), so nothing sent after it starts can be missed (the bus
+//! keeps no history). The ports are on a [`SharedBus`]: any backend (see
+//! `transport`). Poses are not read here but by the launch's pose source
+//! (`poses`), which may not be the bus at all.
 
+use super::observe::Observer;
 use super::recording::Recording;
-use bycoms_protocol::bus::ipc::IpcBus;
-use bycoms_protocol::bus::{Bus, BusError, Publish, Subscribe};
-use bycoms_protocol::msg::{FromAgent, GateEvent, Pose, ToAgent};
+use super::transport::{AnyPublisher, AnySubscriber, SharedBus};
+use bycoms_protocol::bus::BusError;
+use bycoms_protocol::msg::{Deploy, FromAgent, GateEvent, Pose, ToAgent};
 use bycoms_protocol::{decode, encode, Message, RobotId, Swarm, TopicName, MAX_MESSAGE_LEN};
 use bycoms_sim::agent_process::{BadKind, Traffic};
 use std::collections::BTreeMap;
 use std::time::Duration;
 
-type Pub = <IpcBus as Bus>::Publisher;
-type Sub = <IpcBus as Bus>::Subscriber;
+type Pub = AnyPublisher;
+type Sub = AnySubscriber;
 
 const WHO: &str = "launch";
 
@@ -34,19 +37,24 @@ pub mod schema {
     pub const POSE: &str = "bycoms.Pose";
     /// Gate decisions.
     pub const GATE: &str = "bycoms.GateEvent";
+    /// Placement requests to the lab's operator.
+    pub const OPERATOR: &str = "bycoms.Deploy";
 }
 
 /// Every port the orchestrator uses, and what it counted.
 pub struct Ports {
-    bus: IpcBus,
+    bus: SharedBus,
     swarm: Swarm,
     to_agent: BTreeMap<u32, (TopicName, Pub)>,
-    poses: BTreeMap<u32, (TopicName, Sub)>,
     relays: BTreeMap<u32, Pub>,
     from_agents: (TopicName, Sub),
     gate: (TopicName, Pub),
+    /// Opened at the first placement request (real robots only).
+    operator: Option<(TopicName, Pub)>,
     /// The recording everything goes into.
     pub recording: Recording,
+    /// Who else sees every pose and gate event (e.g. the live view).
+    pub observers: Vec<Box<dyn Observer>>,
     /// Bad messages seen.
     pub traffic: Traffic,
     buf: Vec<u8>,
@@ -54,7 +62,7 @@ pub struct Ports {
 
 impl Ports {
     /// Opens the shared ports on `bus`.
-    pub fn open(bus: IpcBus, swarm: Swarm, recording: Recording) -> Result<Self, BusError> {
+    pub fn open(bus: SharedBus, swarm: Swarm, recording: Recording) -> Result<Self, BusError> {
         let from = *swarm.from_agents().name();
         let gate = *swarm.gate().name();
         let from_agents = (from, bus.subscriber(&from)?);
@@ -64,28 +72,39 @@ impl Ports {
             bus,
             swarm,
             to_agent: BTreeMap::new(),
-            poses: BTreeMap::new(),
             relays: BTreeMap::new(),
             from_agents,
             gate,
+            operator: None,
             recording,
+            observers: Vec::new(),
             traffic: Traffic::default(),
             buf,
         })
     }
 
-    /// Opens robot `robot`'s command and pose ports (before its agent starts).
+    /// Opens robot `robot`'s command port (before its agent starts).
     pub fn open_robot(&mut self, robot: u32) -> Result<(), BusError> {
-        let id = RobotId(robot);
         if !self.to_agent.contains_key(&robot) {
-            let name = *self.swarm.to_agent(id).name();
+            let name = *self.swarm.to_agent(RobotId(robot)).name();
             self.to_agent.insert(robot, (name, self.bus.publisher(&name)?));
         }
-        if !self.poses.contains_key(&robot) {
-            let name = *self.swarm.pose(id).name();
-            self.poses.insert(robot, (name, self.bus.subscriber(&name)?));
-        }
         Ok(())
+    }
+
+    /// The bus the ports are on (a bus pose source opens its own there).
+    pub fn bus(&self) -> &SharedBus {
+        &self.bus
+    }
+
+    /// What a pose source's sink records into and counts in.
+    pub fn intake(&mut self) -> (&mut Recording, &mut Traffic, &Swarm) {
+        (&mut self.recording, &mut self.traffic, &self.swarm)
+    }
+
+    /// The swarm the ports are of.
+    pub fn swarm(&self) -> &Swarm {
+        &self.swarm
     }
 
     /// Sends a command to robot `robot` (whose ports are open).
@@ -99,12 +118,24 @@ impl Ports {
     /// Publishes a gate event.
     pub fn publish_gate(&mut self, event: &GateEvent) -> Result<(), BusError> {
         let (name, publisher) = &self.gate;
+        // The recording adds the decoded event (`gate/json`, the log, the scene).
         send_recorded(&mut self.recording, name, publisher, schema::GATE, event)?;
-        // The same event as JSON, for people and Foxglove (the bytes above
-        // are what crossed the bus).
-        let json_topic = format!("{}/json", name.as_str());
-        self.recording.json(&json_topic, schema::GATE, event);
+        self.observers.iter_mut().for_each(|o| o.gate(event));
         Ok(())
+    }
+
+    /// Asks the lab's operator to place a robot (`bycoms/<swarm>/operator`).
+    pub fn ask_operator(&mut self, request: &Deploy) -> Result<(), BusError> {
+        if self.operator.is_none() {
+            let name = *self.swarm.operator().name();
+            self.operator = Some((name, self.bus.publisher(&name)?));
+        }
+        match &self.operator {
+            Some((name, publisher)) => {
+                send_recorded(&mut self.recording, name, publisher, schema::OPERATOR, request)
+            }
+            None => Ok(()),
+        }
     }
 
     /// Publishes a dead robot's last pose on its pose topic, as motion
@@ -121,6 +152,23 @@ impl Ports {
         }
     }
 
+    /// Publishes a pose from a pose source off the bus (NatNet) on its
+    /// robot's pose topic, for the robot's gateway; not recorded again
+    /// (the pose sink recorded it).
+    pub fn forward_pose(&mut self, pose: &Pose) -> Result<(), BusError> {
+        let robot = pose.robot.0;
+        if !self.relays.contains_key(&robot) {
+            let name = *self.swarm.pose(pose.robot).name();
+            self.relays.insert(robot, self.bus.publisher(&name)?);
+        }
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        let bytes = encode(pose, &mut buf)?;
+        match self.relays.get(&robot) {
+            Some(publisher) => publisher.publish(bytes),
+            None => Ok(()),
+        }
+    }
+
     /// The next agent report, waiting up to `timeout`: `None` when nothing
     /// came, `Some(None)` when a message came that does not decode (it was
     /// recorded, counted and skipped).
@@ -133,41 +181,33 @@ impl Ports {
         if matches!(got, Ok(None)) {
             return Ok(None);
         }
-        receive_recorded(&mut self.recording, &mut self.traffic, name, schema::FROM_AGENT, got, &self.buf)
-            .map(Some)
+        let report: Option<FromAgent> = receive_recorded(
+            &mut self.recording,
+            &mut self.traffic,
+            name,
+            schema::FROM_AGENT,
+            got,
+            &self.buf,
+        )?;
+        if let Some(r) = &report {
+            self.observers.iter_mut().for_each(|o| o.report(r));
+        }
+        Ok(Some(report))
     }
 
-    /// Takes every pending pose of every open pose topic, in robot order,
-    /// and hands each (with its topic's robot) to `f`.
-    pub fn drain_poses(&mut self, mut f: impl FnMut(u32, Pose)) -> Result<(), BusError> {
-        for (&robot, (name, sub)) in &self.poses {
-            loop {
-                let got = sub.try_recv_into(&mut self.buf);
-                let idle = matches!(got, Ok(None));
-                if let Some(pose) = receive_recorded(
-                    &mut self.recording,
-                    &mut self.traffic,
-                    name,
-                    schema::POSE,
-                    got,
-                    &self.buf,
-                )? {
-                    f(robot, pose);
-                } else if idle {
-                    break;
-                }
-            }
+    /// Shows the observers a pose the pose source delivered for `robot`
+    /// (one reported on another robot's topic is left out: it is counted
+    /// as bad traffic, not shown).
+    pub fn observe_pose(&mut self, robot: u32, pose: &Pose) {
+        if pose.robot.0 == robot {
+            self.observers.iter_mut().for_each(|o| o.pose(pose));
         }
-        Ok(())
     }
 
     /// Removes what dead nodes left in shared memory (agents that had to be
     /// killed cannot remove their own node).
     pub fn cleanup_dead_nodes(&self) {
-        let report = self.bus.cleanup_dead_nodes();
-        if report.failed > 0 {
-            tracing::debug!(failed = report.failed, "some dead iceoryx2 nodes could not be cleaned");
-        }
+        self.bus.cleanup_dead_nodes();
     }
 
     /// Counts a decoded but unacceptable message.

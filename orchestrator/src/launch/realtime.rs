@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 impl Launch {
     /// Runs the launch on the real-time clock until it ends.
     pub fn run_realtime(&mut self) -> Result<Outcome> {
-        let period = Duration::from_secs_f64(0.1 / self.cfg.speed);
+        let period = self.cfg.wall_period();
         let mut next_relay = Instant::now();
         let mut frame: u64 = 0;
         loop {

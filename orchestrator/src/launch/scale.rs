@@ -11,13 +11,14 @@
 //! pages) and `/proc/<pid>/smaps_rollup` (PSS: shared pages divided among
 //! the processes sharing them, the fair per-agent share).
 
-use super::supervise::{AgentCommand, Supervisor};
+use super::agents::spawned::{AgentCommand, Spawned};
+use super::agents::AgentSource;
 use anyhow::{bail, Context, Result};
 use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::{BusExt, TypedPublisher, TypedSubscriber};
 use bycoms_protocol::msg::{Deploy, FromAgent, GoalBearing, Pose, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::{ipc_config, AgentArgs, ClockKind};
+use bycoms_sim::agent_process::{ipc_config, AgentArgs, Clock, Transport};
 use bycoms_sim::terrain::{to_text, Terrain};
 use serde::Serialize;
 use std::collections::BTreeSet;
@@ -96,7 +97,7 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
         commands.push(bus.typed_publisher(&swarm.to_agent(RobotId(id)))?);
         poses.push(bus.typed_subscriber(&swarm.pose(RobotId(id)))?);
     }
-    let mut sup = Supervisor::new(agent, Duration::from_secs(600), Duration::from_secs(60));
+    let mut sup = Spawned::new(agent, Duration::from_secs(600), Duration::from_secs(60));
     let terrain = Terrain::paper();
     let text = to_text(&terrain);
     let started = Instant::now();
@@ -113,12 +114,16 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
                 eps: 2.0,
                 noise: false,
                 seed: 0,
-                clock: ClockKind::Realtime,
+                clock: Clock::Realtime,
                 speed,
                 swarm_size: Some(agents),
                 peers: Some(0),
                 parent_pid: Some(std::process::id() as i32),
                 heartbeat_ms: 100,
+                transport: Transport::Ipc,
+                connect: Vec::new(),
+                zenoh_config: None,
+                failsafe: Default::default(),
             };
             sup.spawn(id, &args.to_flags(), &text)?;
         }

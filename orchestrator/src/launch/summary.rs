@@ -8,11 +8,22 @@
 use crate::commands::world::{count, verdict};
 use bycoms_sim::agent_process::Traffic;
 use bycoms_sim::Vec2;
+use schemars::JsonSchema;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
+/// A position as the summary writes it (the schema of `bycoms_sim::Vec2`).
+#[derive(JsonSchema)]
+#[allow(dead_code)]
+pub struct Point {
+    /// x, grid cells.
+    pub x: f64,
+    /// y, grid cells.
+    pub y: f64,
+}
+
 /// Why the launch ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Outcome {
     /// A robot reached the goal.
@@ -28,7 +39,7 @@ pub enum Outcome {
 }
 
 /// How one robot's part in the run ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum RobotEnd {
     /// Never deployed (the run ended first, or its agent was lost before).
@@ -44,12 +55,23 @@ pub enum RobotEnd {
 }
 
 /// A supervision event about one agent.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, JsonSchema)]
 pub struct Death {
     /// Why it is gone.
     pub reason: String,
     /// When the orchestrator noticed, ms since the Unix epoch.
     pub noticed_unix_ms: u64,
+}
+
+/// A time a remote agent could not be reached (its link cut, or silent):
+/// the launch held the robot until it was back, or until the link grace
+/// was over and it was treated as dead.
+#[derive(Clone, Debug, PartialEq, Serialize, JsonSchema)]
+pub struct Outage {
+    /// When the orchestrator noticed, ms since the Unix epoch.
+    pub lost_unix_ms: u64,
+    /// When it was heard from again (none: it never was).
+    pub back_unix_ms: Option<u64>,
 }
 
 impl RobotEnd {
@@ -68,7 +90,7 @@ impl RobotEnd {
 /// How faithful a real-time run was: control periods the agents stepped
 /// and the ones they were too late for (as their poses' frame numbers
 /// show), over the deployed robots.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, JsonSchema)]
 pub struct RealtimeReport {
     /// Periods stepped (poses seen).
     pub periods: u64,
@@ -101,7 +123,7 @@ impl RealtimeReport {
 }
 
 /// One robot.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, JsonSchema)]
 pub struct RobotSummary {
     /// Robot id (deployment order).
     pub id: u32,
@@ -130,10 +152,12 @@ pub struct RobotSummary {
     pub gate_reaction_us: Option<u64>,
     /// Set when its agent died.
     pub death: Option<Death>,
+    /// Times its agent was unreachable (remote agents), in order.
+    pub outages: Vec<Outage>,
 }
 
 /// The recording, when one was made.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, JsonSchema)]
 pub struct RecordingSummary {
     /// The file.
     pub path: String,
@@ -144,7 +168,7 @@ pub struct RecordingSummary {
 }
 
 /// Everything `launch` reports.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, JsonSchema)]
 pub struct Summary {
     /// Swarm name.
     pub swarm: String,
@@ -183,13 +207,29 @@ pub struct Summary {
     /// Real time only: periods stepped and missed, achieved speed-up.
     pub realtime: Option<RealtimeReport>,
     /// Positions of the beacons (stuck and dead robots), in robot order.
+    #[schemars(with = "Vec<Point>")]
     pub beacons: Vec<Vec2>,
     /// Every robot.
     pub robots: Vec<RobotSummary>,
     /// Bad messages received by the orchestrator.
+    #[schemars(with = "BTreeMap<String, u64>")]
     pub bad_traffic: Traffic,
     /// The recording.
     pub recording: Option<RecordingSummary>,
+    /// The SVG picture of the run (`--svg`), for the command to write.
+    #[serde(skip)]
+    pub picture: Option<String>,
+    /// The bus: `ipc` or `zenoh`.
+    pub transport: String,
+    /// zenoh: the endpoints the orchestrator listened on.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub endpoints: Vec<String>,
+    /// Wall seconds from the start of the launch (before the bus opened)
+    /// to the first robot's start pose: "launch → first robot moving".
+    pub first_moving_s: Option<f64>,
+    /// Commands sent again because their answer did not come (a lost
+    /// message, an unreachable agent back; `launch/partition.rs`).
+    pub resends: u64,
 }
 
 impl Summary {
@@ -307,6 +347,7 @@ mod tests {
             mode: 1,
             gate_reaction_us: None,
             death: None,
+            outages: Vec::new(),
         }
     }
 
@@ -333,6 +374,11 @@ mod tests {
             robots,
             bad_traffic: Traffic { garbage: 2, ..Traffic::default() },
             recording: None,
+            picture: None,
+            transport: "ipc".into(),
+            endpoints: Vec::new(),
+            first_moving_s: None,
+            resends: 0,
         }
     }
 

@@ -13,10 +13,10 @@
 //! a positive heading). Z-up: arena x = X, arena y = Y.
 
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// Which mocap axis points up.
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
 pub enum UpAxis {
     /// Motive's default.
     #[default]
@@ -28,7 +28,7 @@ pub enum UpAxis {
 }
 
 /// How mocap coordinates map into the arena.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ArenaTransform {
     /// The up axis of the mocap frame.

@@ -10,7 +10,7 @@ use bycoms_protocol::natnet::{
     encode_packet, parse_packet_versioned, ConnectRequest, Error as NatNetError, FrameOfData,
     ModelDefinitions, Packet, ServerInfo, Version,
 };
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::net::{IpAddr, Ipv4Addr, SocketAddr, SocketAddrV4, UdpSocket};
 use std::time::{Duration, Instant};
 
@@ -19,7 +19,7 @@ const KEEPALIVE_EVERY: Duration = Duration::from_secs(1);
 const MAX_DATAGRAM: usize = 65_540;
 
 /// Where and how to reach the NatNet server.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ClientConfig {
     /// The server's command channel (Motive: port 1510).
@@ -73,8 +73,53 @@ pub struct NatNetClient {
     info: ServerInfo,
     reply_timeout: Duration,
     last_keepalive: Instant,
+    inbox: Inbox,
+}
+
+/// The receive buffer, what the last datagram was and when it came.
+struct Inbox {
     buf: Vec<u8>,
+    /// Length of the last datagram that parsed.
+    len: usize,
+    /// When it was received (before parsing).
+    at: Instant,
     bad_packets: u64,
+}
+
+impl Inbox {
+    fn recv(
+        &mut self,
+        socket: &UdpSocket,
+        timeout: Duration,
+        version: Version,
+    ) -> Result<Option<Packet>, ClientError> {
+        // Zero: only what has already arrived (a read timeout of zero
+        // would mean "forever").
+        socket.set_nonblocking(timeout.is_zero())?;
+        if !timeout.is_zero() {
+            socket.set_read_timeout(Some(timeout))?;
+        }
+        match socket.recv_from(&mut self.buf) {
+            Ok((n, _)) => {
+                let at = Instant::now();
+                match parse_packet_versioned(&self.buf[..n], version) {
+                    Ok(p) => {
+                        (self.len, self.at) = (n, at);
+                        Ok(Some(p))
+                    }
+                    Err(e) => {
+                        self.bad_packets += 1;
+                        tracing::warn!(error = %e, "bad NatNet packet ignored");
+                        Ok(None)
+                    }
+                }
+            }
+            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {
+                Ok(None)
+            }
+            Err(e) => Err(e.into()),
+        }
+    }
 }
 
 impl NatNetClient {
@@ -110,8 +155,7 @@ impl NatNetClient {
             info: placeholder,
             reply_timeout,
             last_keepalive: Instant::now(),
-            buf: vec![0; MAX_DATAGRAM],
-            bad_packets: 0,
+            inbox: Inbox { buf: vec![0; MAX_DATAGRAM], len: 0, at: Instant::now(), bad_packets: 0 },
         };
         let request = ConnectRequest { requested_version: Some([4, 1, 0, 0]) };
         let info = client.ask(&Packet::Connect(request), "NAT_CONNECT", |p| match p {
@@ -135,7 +179,14 @@ impl NatNetClient {
 
     /// Packets that failed to parse so far.
     pub fn bad_packets(&self) -> u64 {
-        self.bad_packets
+        self.inbox.bad_packets
+    }
+
+    /// The datagram of the frame [`NatNetClient::next_frame`] returned
+    /// last, byte for byte (to record it), and when it was received —
+    /// before parsing, so latencies measured from it include the parse.
+    pub fn last_frame(&self) -> (&[u8], Instant) {
+        (&self.inbox.buf[..self.inbox.len], self.inbox.at)
     }
 
     /// Asks for and returns the model definitions (names of the bodies).
@@ -174,32 +225,7 @@ impl NatNetClient {
     }
 
     fn recv_on_command(&mut self, timeout: Duration) -> Result<Option<Packet>, ClientError> {
-        let socket = &self.command;
-        Self::recv(socket, &mut self.buf, timeout, self.info.version(), &mut self.bad_packets)
-    }
-
-    fn recv(
-        socket: &UdpSocket,
-        buf: &mut [u8],
-        timeout: Duration,
-        version: Version,
-        bad_packets: &mut u64,
-    ) -> Result<Option<Packet>, ClientError> {
-        socket.set_read_timeout(Some(timeout.max(Duration::from_millis(1))))?;
-        match socket.recv_from(buf) {
-            Ok((n, _)) => match parse_packet_versioned(&buf[..n], version) {
-                Ok(p) => Ok(Some(p)),
-                Err(e) => {
-                    *bad_packets += 1;
-                    tracing::warn!(error = %e, "bad NatNet packet ignored");
-                    Ok(None)
-                }
-            },
-            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {
-                Ok(None)
-            }
-            Err(e) => Err(e.into()),
-        }
+        self.inbox.recv(&self.command, timeout, self.info.version())
     }
 
     /// The next frame of data, or `None` if none came within `timeout`.
@@ -210,14 +236,15 @@ impl NatNetClient {
                 self.send(&Packet::KeepAlive)?;
                 self.last_keepalive = Instant::now();
             }
-            let Some(left) = deadline.checked_duration_since(Instant::now()) else { return Ok(None) };
-            let left = left.min(KEEPALIVE_EVERY);
+            let left = deadline.saturating_duration_since(Instant::now()).min(KEEPALIVE_EVERY);
             let version = self.info.version();
             let socket = self.data.as_ref().unwrap_or(&self.command);
-            if let Some(Packet::FrameOfData(frame)) =
-                Self::recv(socket, &mut self.buf, left, version, &mut self.bad_packets)?
-            {
-                return Ok(Some(frame));
+            match self.inbox.recv(socket, left, version)? {
+                Some(Packet::FrameOfData(frame)) => return Ok(Some(frame)),
+                // Another packet: look again (within the deadline).
+                Some(_) => {}
+                None if Instant::now() >= deadline => return Ok(None),
+                None => {}
             }
         }
     }

@@ -14,6 +14,7 @@ use std::collections::BTreeMap;
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct BodyMap {
     by_streaming_id: BTreeMap<i32, RobotId>,
+    names: BTreeMap<RobotId, String>,
     /// Configured names the definitions lack.
     pub missing: Vec<String>,
     /// Defined bodies no robot is mapped to.
@@ -28,6 +29,7 @@ impl BodyMap {
             match robots.get(&rb.name) {
                 Some(&robot) => {
                     map.by_streaming_id.insert(rb.id, robot);
+                    map.names.insert(robot, rb.name.clone());
                 }
                 None => {
                     tracing::warn!(name = %rb.name, id = rb.id, "mocap body not mapped to a robot: ignored");
@@ -47,6 +49,11 @@ impl BodyMap {
     /// The robot streamed under `id`, if any.
     pub fn robot(&self, streaming_id: i32) -> Option<RobotId> {
         self.by_streaming_id.get(&streaming_id).copied()
+    }
+
+    /// The rigid-body name robot `robot` is tracked by ("?" if none).
+    pub fn name(&self, robot: RobotId) -> &str {
+        self.names.get(&robot).map_or("?", String::as_str)
     }
 }
 
@@ -75,6 +82,7 @@ mod tests {
         let map = BodyMap::resolve(&defs, &robots);
         assert_eq!((map.robot(7), map.robot(3), map.robot(9)), (Some(RobotId(1)), Some(RobotId(2)), None));
         assert_eq!(map.missing, ["robot3"]);
+        assert_eq!((map.name(RobotId(2)), map.name(RobotId(3))), ("robot2", "?"));
         assert_eq!(map.unknown, ["goal"]);
     }
 }

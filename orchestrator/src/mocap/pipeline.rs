@@ -9,6 +9,7 @@ use super::names::BodyMap;
 use super::tracker::{PoseTracker, Sighting, TrackEvent};
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::natnet::FrameOfData;
+use bycoms_protocol::RobotId;
 use std::collections::BTreeSet;
 
 /// The trusted poses of one frame, and what went wrong.
@@ -68,6 +69,32 @@ impl FramePipeline {
             sightings.push((robot, sighting));
         }
         let poses = self.tracker.frame(step, time_us, &sightings);
-        PoseBatch { step, time_us, poses, events: self.tracker.drain_events() }
+        let events = self.tracker.drain_events();
+        for event in &events {
+            self.report(event);
+        }
+        PoseBatch { step, time_us, poses, events }
+    }
+
+    /// The rigid-body name of `robot`, as the operator knows it.
+    pub fn body_name(&self, robot: RobotId) -> &str {
+        self.bodies.name(robot)
+    }
+
+    /// Says what went wrong, naming the body as Motive does.
+    fn report(&self, event: &TrackEvent) {
+        match *event {
+            TrackEvent::Lost { robot, since_us } => {
+                let name = self.bodies.name(robot);
+                tracing::warn!(body = name, %robot, since_us, "mocap body {name} ({robot}) lost: no trusted pose for longer than the lost-body time");
+            }
+            TrackEvent::Recovered { robot, at_us } => {
+                tracing::info!(body = self.bodies.name(robot), %robot, at_us, "mocap body tracked again");
+            }
+            TrackEvent::JumpRejected { robot, distance, allowed, at_us, .. } => {
+                let name = self.bodies.name(robot);
+                tracing::warn!(body = name, %robot, distance, allowed, at_us, "mocap pose of {name} ({robot}) jumped farther than it can drive: rejected (identity swap?)");
+            }
+        }
     }
 }

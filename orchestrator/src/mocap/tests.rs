@@ -9,10 +9,13 @@ use bycoms_protocol::msg::Pose;
 use bycoms_protocol::natnet::{
     encode_packet, parse_packet, DataDescription, ModelDefinitions, Packet, Version,
 };
+use bycoms_protocol::RobotId;
 use bycoms_sim::natnet_server::{
     model_definitions, BodyConfig, BodyPose, Faults, FrameMaker, Occlusion, OcclusionMode, ServerConfig, Swap,
 };
 use bycoms_sim::Vec2;
+use std::collections::BTreeMap;
+use std::time::Duration;
 
 const RATE: f64 = 120.0;
 const SCALE: f64 = 10.0; // arena units per metre
@@ -80,6 +83,7 @@ fn gate() -> GateParams {
         stop_speed: 0.2,
         stop_turn_rate: 0.0,
         dwell_us: 500_000,
+        period_us: 100_000,
     }
 }
 
@@ -215,10 +219,11 @@ fn the_natnet_source_reads_the_emulated_lab_over_udp() {
         arena: ArenaTransform { scale: SCALE, ..ArenaTransform::default() },
         bodies: BTreeMap::from([("robot1".to_string(), RobotId(1)), ("robot2".to_string(), RobotId(2))]),
         tracker: TrackerConfig { max_speed: 1.5, jump_slack: 0.2, lost_after_us: 500_000 },
+        placement: Default::default(),
     };
     let mut source = NatNetPoseSource::connect(&config).unwrap();
     let batch = (0..50)
-        .find_map(|_| source.next_batch(Duration::from_millis(200)).unwrap().filter(|b| b.poses.len() == 2))
+        .find_map(|_| source.poll(Duration::from_millis(200)).unwrap().filter(|b| b.poses.len() == 2))
         .expect("a frame with both robots within 10 s");
     assert_eq!((batch.poses[0].robot, batch.poses[0].x, batch.poses[0].y), (RobotId(1), 0.0, 0.0));
     assert_eq!((batch.poses[1].robot, batch.poses[1].x), (RobotId(2), 20.0));
@@ -226,4 +231,66 @@ fn the_natnet_source_reads_the_emulated_lab_over_udp() {
         NatNetSourceConfig { bodies: BTreeMap::from([("robot7".to_string(), RobotId(7))]), ..config };
     let err = NatNetPoseSource::connect(&missing).err().expect("robot7 is not defined");
     assert!(err.to_string().contains("robot7"), "{err}");
+}
+
+fn udp_source(server: &bycoms_sim::natnet_server::NatNetServer) -> NatNetPoseSource {
+    use std::net::Ipv4Addr;
+    let config = NatNetSourceConfig {
+        client: ClientConfig {
+            server: server.command_addr(),
+            local: Ipv4Addr::LOCALHOST.into(),
+            multicast: None,
+            reply_timeout_ms: 1000,
+        },
+        arena: ArenaTransform { scale: SCALE, ..ArenaTransform::default() },
+        bodies: BTreeMap::from([("robot1".to_string(), RobotId(1)), ("robot2".to_string(), RobotId(2))]),
+        tracker: TrackerConfig { max_speed: 1.5, jump_slack: 0.2, lost_after_us: 500_000 },
+        placement: Default::default(),
+    };
+    NatNetPoseSource::connect(&config).unwrap()
+}
+
+/// The operator prompt over real sockets: robot 2 stands at (20, 0); an
+/// emulated operator carries it by hand (faster than a robot drives) to the
+/// start (5, −3), and the robot counts as placed only after holding there.
+#[test]
+fn the_robot_is_enabled_once_mocap_sees_it_placed_at_the_start() {
+    use bycoms_sim::natnet_server::NatNetServer;
+    use std::net::Ipv4Addr;
+    let server = NatNetServer::start_any_port(lab(Faults::default()), Ipv4Addr::LOCALHOST.into()).unwrap();
+    let mut source = udp_source(&server);
+    let start = Vec2::new(5.0, -3.0);
+    let cfg = PlacementConfig { radius: 0.5, hold: 0.3, timeout: 10.0 };
+    let began = std::time::Instant::now();
+    let placed = std::thread::scope(|s| {
+        s.spawn(|| {
+            // Arena (x, y) = (10 X, −10 Z): carried from X = 2 to X = 0.5, Z = 0.3.
+            for k in 0..=10 {
+                std::thread::sleep(Duration::from_millis(50));
+                let f = k as f32 / 10.0;
+                server.set_pose(12, BodyPose::yawed([2.0 - 1.5 * f, 0.0, 0.3 * f], 0.0));
+            }
+        });
+        await_placement(&mut source, RobotId(2), start, cfg).unwrap()
+    });
+    assert!(began.elapsed() >= Duration::from_millis(800), "carried 0.55 s, then held 0.3 s");
+    assert!(Vec2::new(placed.x, placed.y).distance(start) < 1e-3, "{placed:?}");
+    // Anchored: a pose far from the start is now rejected as a swap.
+    let anchored = source.pipeline_mut().tracker_mut().last(RobotId(2)).unwrap().0;
+    assert!((anchored.x - 5.0).abs() < 1e-3);
+}
+
+#[test]
+fn a_robot_never_placed_is_an_error_naming_its_body() {
+    use bycoms_sim::natnet_server::NatNetServer;
+    use std::net::Ipv4Addr;
+    let server = NatNetServer::start_any_port(lab(Faults::default()), Ipv4Addr::LOCALHOST.into()).unwrap();
+    let mut source = udp_source(&server);
+    let cfg = PlacementConfig { radius: 0.5, hold: 0.3, timeout: 0.5 };
+    let err = await_placement(&mut source, RobotId(2), Vec2::new(5.0, -3.0), cfg).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        text.contains("robot 2") && text.contains("robot2") && text.contains("last seen: (20.00,"),
+        "{text}"
+    );
 }

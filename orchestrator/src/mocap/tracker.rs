@@ -25,11 +25,11 @@
 use super::arena::ArenaPose;
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::RobotId;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// The tracker's limits.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct TrackerConfig {
     /// Fastest a robot can drive, arena units per second.
@@ -110,6 +110,15 @@ impl PoseTracker {
         }
     }
 
+    /// Forgets where `robot` was: its next pose is trusted as a first
+    /// sighting (while the operator carries it to the start by hand, when
+    /// any speed is plausible).
+    pub fn forget(&mut self, robot: RobotId) {
+        if let Some(t) = self.tracks.get_mut(&robot) {
+            *t = Track { last: None, reported_lost: false };
+        }
+    }
+
     /// The last trusted pose of `robot` and its time.
     pub fn last(&self, robot: RobotId) -> Option<(ArenaPose, u64)> {
         self.tracks.get(&robot).and_then(|t| t.last)
@@ -135,7 +144,7 @@ impl PoseTracker {
                         let distance = (pose.x - last.x).hypot(pose.y - last.y);
                         let ok = distance <= allowed;
                         if !ok {
-                            tracing::warn!(%robot, distance, allowed, "mocap pose jump rejected (identity swap?)");
+                            tracing::debug!(%robot, distance, allowed, "mocap pose jump rejected");
                             self.events.push(TrackEvent::JumpRejected {
                                 robot,
                                 pose,
@@ -150,7 +159,7 @@ impl PoseTracker {
                 if accepted {
                     if track.reported_lost {
                         track.reported_lost = false;
-                        tracing::info!(%robot, "mocap body tracked again");
+                        tracing::debug!(%robot, "mocap body tracked again");
                         self.events.push(TrackEvent::Recovered { robot, at_us: time_us });
                     }
                     track.last = Some((pose, time_us));
@@ -162,7 +171,7 @@ impl PoseTracker {
             if let Some((_, since_us)) = track.last {
                 if !track.reported_lost && time_us.saturating_sub(since_us) > self.config.lost_after_us {
                     track.reported_lost = true;
-                    tracing::warn!(%robot, since_us, "mocap body lost");
+                    tracing::debug!(%robot, since_us, "mocap body lost");
                     self.events.push(TrackEvent::Lost { robot, since_us });
                 }
             }

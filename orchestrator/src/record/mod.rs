@@ -18,6 +18,15 @@
 //!   agents. Message encoding `json`, schema encoding `jsonschema` with empty schema data, which
 //!   Foxglove decodes as plain JSON (its JSON channels need `jsonschema` or no schema).
 //!
+//! * Decoded channels with [`Recorder::record_encoded`]: messages already encoded (protobuf or
+//!   JSON) with a real schema (Foxglove's well-known protobuf schemas, JSON schemas) — what
+//!   `crate::scene` makes of the bus traffic, so Foxglove shows a run without a plugin.
+//! * Metadata records ([`Recorder::write_metadata`]), e.g. `bycoms.clock`: what the log times
+//!   mean (simulated time in lockstep, wall clock in real time).
+//!
+//! A cut recording is completed by [`rewrite`] (`orchestrator record recover`); which files a
+//! recording may replace is [`check_target`]'s rule.
+//!
 //! # Topic naming
 //!
 //! Topics are the caller's: bus messages keep the protocol's own topic names (whatever
@@ -55,6 +64,9 @@
 
 mod error;
 mod read;
+mod rewrite;
+pub mod run;
+mod target;
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
@@ -66,6 +78,8 @@ use mcap::{WriteOptions, Writer};
 
 pub use error::RecordError;
 pub use read::{read_counts, recover, Recovered};
+pub use rewrite::rewrite;
+pub use target::{check_target, TargetError};
 
 /// The longest time data may sit in memory before `record_*` flushes it on its own.
 pub const FLUSH_INTERVAL: Duration = Duration::from_secs(1);
@@ -97,7 +111,7 @@ pub struct Summary {
 /// One channel of the file: its id, what it carries, and its next sequence number.
 struct Channel {
     id: u16,
-    encoding: &'static str,
+    encoding: String,
     schema: String,
     sequence: u32,
 }
@@ -173,6 +187,52 @@ impl Recorder {
         self.write(topic, JSON, schema_name, log_time_ns, log_time_ns, &payload)
     }
 
+    /// Records one message already encoded as `encoding` (e.g. `protobuf`, `json`) with the
+    /// schema `schema` gives (asked for only when the topic's channel is created): the decoded
+    /// channels Foxglove reads (`crate::scene`).
+    pub fn record_encoded(
+        &mut self,
+        topic: &str,
+        encoding: &str,
+        schema: impl FnOnce() -> Option<foxglove::Schema>,
+        log_time_ns: u64,
+        payload: &[u8],
+    ) -> Result<(), RecordError> {
+        match self.channels.get(topic) {
+            Some(channel) if channel.encoding != encoding => {
+                return Err(RecordError::TopicMismatch {
+                    topic: topic.to_string(),
+                    existing: format!("{}/{}", channel.encoding, channel.schema),
+                    requested: encoding.to_string(),
+                });
+            }
+            Some(_) => {}
+            None => {
+                let schema = schema();
+                let schema_id = match &schema {
+                    Some(s) => self.writer.add_schema(&s.name, &s.encoding, &s.data),
+                    None => Ok(0),
+                }
+                .map_err(|source| self.write_error(source))?;
+                let name = schema.map(|s| s.name).unwrap_or_default();
+                self.add_channel(topic, encoding, &name, schema_id)?;
+            }
+        }
+        let (channel_id, sequence) = self.next_sequence(topic)?;
+        let header = MessageHeader { channel_id, sequence, log_time: log_time_ns, publish_time: log_time_ns };
+        self.write_message(topic, &header, payload)
+    }
+
+    /// Writes a metadata record (a name and string pairs), e.g. what the log times mean.
+    pub fn write_metadata(
+        &mut self,
+        name: &str,
+        metadata: BTreeMap<String, String>,
+    ) -> Result<(), RecordError> {
+        let record = mcap::records::Metadata { name: name.to_string(), metadata };
+        self.writer.write_metadata(&record).map_err(|source| self.write_error(source))
+    }
+
     /// Messages written so far, per topic.
     pub fn counts(&self) -> &BTreeMap<String, u64> {
         &self.counts
@@ -220,7 +280,16 @@ impl Recorder {
     ) -> Result<(), RecordError> {
         let (channel_id, sequence) = self.channel(topic, encoding, schema_name)?;
         let header = MessageHeader { channel_id, sequence, log_time, publish_time };
-        self.writer.write_to_known_channel(&header, payload).map_err(|source| self.write_error(source))?;
+        self.write_message(topic, &header, payload)
+    }
+
+    fn write_message(
+        &mut self,
+        topic: &str,
+        header: &MessageHeader,
+        payload: &[u8],
+    ) -> Result<(), RecordError> {
+        self.writer.write_to_known_channel(header, payload).map_err(|source| self.write_error(source))?;
         *self.counts.entry(topic.to_string()).or_insert(0) += 1;
         self.written += 1;
         if self.last_flush.elapsed() >= FLUSH_INTERVAL {
@@ -256,13 +325,36 @@ impl Recorder {
             (false, _) => self.writer.add_schema(schema, "", &[]),
         }
         .map_err(|source| self.write_error(source))?;
+        let id = self.add_channel(topic, encoding, schema, schema_id)?;
+        self.next_sequence(topic).map(|(_, sequence)| (id, sequence))
+    }
+
+    fn add_channel(
+        &mut self,
+        topic: &str,
+        encoding: &str,
+        schema: &str,
+        schema_id: u16,
+    ) -> Result<u16, RecordError> {
         let id = self
             .writer
             .add_channel(schema_id, topic, encoding, &BTreeMap::new())
             .map_err(|source| self.write_error(source))?;
-        let channel = Channel { id, encoding, schema: schema.to_string(), sequence: 1 };
+        let channel = Channel { id, encoding: encoding.to_string(), schema: schema.to_string(), sequence: 0 };
         self.channels.insert(topic.to_string(), channel);
-        Ok((id, 0))
+        Ok(id)
+    }
+
+    /// The channel of `topic` (which exists) and its next sequence number.
+    fn next_sequence(&mut self, topic: &str) -> Result<(u16, u32), RecordError> {
+        let channel = self.channels.get_mut(topic).ok_or_else(|| RecordError::TopicMismatch {
+            topic: topic.to_string(),
+            existing: "no channel".into(),
+            requested: "a message".into(),
+        })?;
+        let sequence = channel.sequence;
+        channel.sequence = sequence.wrapping_add(1);
+        Ok((channel.id, sequence))
     }
 
     fn write_error(&self, source: mcap::McapError) -> RecordError {

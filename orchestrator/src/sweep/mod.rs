@@ -20,11 +20,6 @@ pub mod rows;
 pub mod table;
 pub mod terrains;
 
-/// SplitMix64 mixing of two values: seeds of terrains and runs are derived
-/// from the sweep seed this way, so every run is reproducible on its own.
-pub fn mix(a: u64, b: u64) -> u64 {
-    let mut z = a ^ b.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(0x632B_E59B_D9B4_E019);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
+/// Seeds of terrains and runs are derived from the sweep seed with the
+/// one mixing function of bycoms, so every run is reproducible on its own.
+pub use bycoms_sim::seed::mix;

@@ -36,9 +36,11 @@
 //!
 //! A process that crashes leaves its node's shared memory and its ports
 //! behind; [`cleanup_stale_resources`] removes what dead nodes left, and
-//! [`IceoryxBus::new`] calls it first unless told not to.
+//! [`IceoryxBus::new`] calls it first unless told not to. Where iceoryx2
+//! keeps those files, and how a run isolates its own, is [`root`].
 
 mod ports;
+pub mod root;
 
 pub use ports::{IpcPublisher, IpcSubscriber};
 
@@ -92,6 +94,9 @@ pub struct IpcConfig {
     pub node_name: Option<String>,
     /// Remove dead nodes' resources when the bus is opened.
     pub cleanup_on_start: bool,
+    /// Isolation tag: this run's own iceoryx2 root and prefix (see
+    /// [`root`]). Default: `$BYCOMS_IPC_ISOLATION`, else machine-wide.
+    pub isolation: Option<String>,
 }
 
 impl Default for IpcConfig {
@@ -104,6 +109,7 @@ impl Default for IpcConfig {
             wake: Wake::default(),
             node_name: None,
             cleanup_on_start: true,
+            isolation: root::tag_from_env(),
         }
     }
 }
@@ -121,8 +127,14 @@ pub struct CleanupReport {
 /// that crashed or was killed) of service flavour `S`. Call it at start;
 /// nodes being cleaned by another process at the same time are skipped.
 pub fn cleanup_stale_resources<S: IoxService>() -> Result<CleanupReport, BusError> {
+    cleanup_stale_resources_in::<S>(&root::config(root::tag_from_env().as_deref())?)
+}
+
+/// [`cleanup_stale_resources`] under the iceoryx2 configuration `config`
+/// (see [`root::config`]).
+pub fn cleanup_stale_resources_in<S: IoxService>(config: &Config) -> Result<CleanupReport, BusError> {
     let mut report = CleanupReport::default();
-    let listed = Node::<S>::list(Config::global_config(), |state| {
+    let listed = Node::<S>::list(config, |state| {
         if let NodeState::Dead(view) = state {
             match view.try_remove_stale_resources() {
                 Ok(()) => report.cleaned += 1,
@@ -163,10 +175,11 @@ impl<S: IoxService> IceoryxBus<S> {
                 "max_publishers, max_subscribers and max_nodes must be at least 1",
             ));
         }
+        let iox = root::config(config.isolation.as_deref())?;
         if config.cleanup_on_start {
-            cleanup_stale_resources::<S>()?;
+            cleanup_stale_resources_in::<S>(&iox)?;
         }
-        let mut builder = NodeBuilder::new().signal_handling_mode(SignalHandlingMode::Disabled);
+        let mut builder = NodeBuilder::new().config(&iox).signal_handling_mode(SignalHandlingMode::Disabled);
         if let Some(name) = &config.node_name {
             let name = NodeName::new(name).map_err(|e| BusError::backend("name node", None, e))?;
             builder = builder.name(&name);

@@ -14,44 +14,18 @@
 //! messages in an inbox, its oldest is dropped, like iceoryx2's safe
 //! overflow.
 
-use super::{copy_out, Bus, BusError, Limits, Publish, Subscribe};
+use super::inbox::{lock, Inbox};
+use super::{Bus, BusError, Limits, Publish, Subscribe};
 use crate::naming::TopicName;
 use core::sync::atomic::{AtomicU64, Ordering};
 use core::time::Duration;
-use std::collections::{HashMap, VecDeque};
-use std::sync::{Arc, Condvar, Mutex, MutexGuard, Weak};
-use std::time::Instant;
-
-/// Locks a mutex even if a panicking thread poisoned it: the inbox and the
-/// topic table stay consistent at every await point, so the data is usable.
-fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
-}
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, Weak};
 
 #[derive(Default)]
 struct Hub {
     topics: Mutex<HashMap<TopicName, Vec<Weak<Inbox>>>>,
     next_publisher: AtomicU64,
-}
-
-struct Inbox {
-    queue: Mutex<VecDeque<(u64, Vec<u8>)>>,
-    ready: Condvar,
-    buffer: usize,
-}
-
-impl Inbox {
-    fn push(&self, publisher: u64, payload: &[u8]) {
-        let mut queue = lock(&self.queue);
-        let pending = queue.iter().filter(|(p, _)| *p == publisher).count();
-        if pending >= self.buffer {
-            if let Some(oldest) = queue.iter().position(|(p, _)| *p == publisher) {
-                queue.remove(oldest);
-            }
-        }
-        queue.push_back((publisher, payload.to_vec()));
-        self.ready.notify_all();
-    }
 }
 
 /// The in-memory bus. Clones share the same topics.
@@ -88,11 +62,7 @@ impl Bus for MemoryBus {
     }
 
     fn subscriber(&self, topic: &TopicName) -> Result<MemorySubscriber, BusError> {
-        let inbox = Arc::new(Inbox {
-            queue: Mutex::new(VecDeque::new()),
-            ready: Condvar::new(),
-            buffer: self.limits.buffer,
-        });
+        let inbox = Arc::new(Inbox::new(self.limits.buffer));
         lock(&self.hub.topics).entry(*topic).or_default().push(Arc::downgrade(&inbox));
         Ok(MemorySubscriber { inbox, max_payload: self.limits.max_payload })
     }
@@ -141,32 +111,10 @@ impl Subscribe for MemorySubscriber {
     }
 
     fn try_recv_into(&self, buf: &mut [u8]) -> Result<Option<usize>, BusError> {
-        match lock(&self.inbox.queue).pop_front() {
-            Some((_, payload)) => copy_out(&payload, buf).map(Some),
-            None => Ok(None),
-        }
+        self.inbox.try_pop_into(buf)
     }
 
     fn recv_timeout_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError> {
-        let deadline = Instant::now().checked_add(timeout);
-        let mut queue = lock(&self.inbox.queue);
-        loop {
-            if let Some((_, payload)) = queue.pop_front() {
-                return copy_out(&payload, buf).map(Some);
-            }
-            let now = Instant::now();
-            let left = match deadline {
-                Some(d) if d <= now => return Ok(None),
-                Some(d) => d - now,
-                // A timeout too large for `Instant`: wait in long slices.
-                None => Duration::from_secs(3600),
-            };
-            queue = self
-                .inbox
-                .ready
-                .wait_timeout(queue, left)
-                .map(|(guard, _)| guard)
-                .unwrap_or_else(|poisoned| poisoned.into_inner().0);
-        }
+        self.inbox.pop_timeout_into(buf, timeout)
     }
 }

@@ -15,7 +15,9 @@
 //! * [`session`] — the stateful part: the hello/welcome handshake with fresh
 //!   nonces, session ids and replay windows, one state machine per side
 //!   ([`RobotLink`], [`GatewayLink`]), sans-IO (time is an argument);
-//! * [`drop`] — the typed drop reasons and their counters.
+//! * [`drop`] — the typed drop reasons and their counters;
+//! * `proxy` (std) — a UDP fault proxy between a robot and its gateway:
+//!   seeded drop/delay/duplicate/reorder and cuts, for tests and soak runs.
 //!
 //! # Why HMAC-SHA256 (RustCrypto `hmac` + `sha2`)
 //!
@@ -50,6 +52,8 @@
 
 pub mod drop;
 pub mod frame;
+#[cfg(feature = "std")]
+pub mod proxy;
 pub mod session;
 
 pub use drop::{DropCounters, DropReason};

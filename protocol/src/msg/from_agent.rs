@@ -3,8 +3,10 @@
 //! Why no pose here: the orchestrator learns where a robot is from motion
 //! capture ([`crate::msg::Pose`]), exactly as a lab would; an agent only
 //! says that it exists, that it is alive, which mode it is in, and that it
-//! has finished a lockstep tick. All agents share one `from_agents` topic,
-//! so every message carries the sender's [`RobotId`].
+//! has finished a lockstep tick. A real robot's gateway adds what only a
+//! real robot has: its telemetry and the state of its WiFi link. All agents
+//! share one `from_agents` topic, so every message carries the sender's
+//! [`RobotId`].
 
 use crate::RobotId;
 use serde::{Deserialize, Serialize};
@@ -28,6 +30,11 @@ pub struct Register {
     /// The agent's [`crate::PROTOCOL_VERSION`], so a mismatch is reported
     /// by name even when the envelope check already passed.
     pub protocol_version: u16,
+    /// A random number drawn once per agent process: who is speaking for
+    /// the robot. The orchestrator takes the first instance that registers
+    /// a robot; the same instance again is a repeat, another one a refused
+    /// duplicate (answered with [`crate::msg::ToAgent::Refused`]).
+    pub instance: u64,
 }
 
 /// Periodic liveness signal; `seq` increases by one per heartbeat.
@@ -59,8 +66,102 @@ pub struct TickDone {
     pub step: u64,
 }
 
-/// Everything an agent tells the orchestrator.
+/// What a real robot's firmware is doing (the link's telemetry state).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum DriveState {
+    /// Not enabled: motors off, speaker off.
+    Idle,
+    /// Enabled and commanded: the controller drives the motors.
+    Driving,
+    /// Enabled, but no valid command for 500 ms: motors off (failsafe).
+    Failsafe,
+    /// Stopped by command: motors off, speaker on (a beacon).
+    Stopped,
+}
+
+/// One control period of a real robot, as its firmware measured and
+/// decided it (relayed by its gateway from the robot link's telemetry).
+///
+/// Why f32 and the robot frame: these are the robot's own numbers, passed
+/// on unchanged (the link carries f32), so a recording shows exactly what
+/// the robot saw; turning the gradient into the world frame needs the
+/// robot's heading, which motion capture ([`crate::msg::Pose`]) has.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Telemetry {
+    /// The robot.
+    pub robot: RobotId,
+    /// The robot's control period counter since its boot.
+    pub period: u32,
+    /// What the firmware is doing.
+    pub state: DriveState,
+    /// Controller mode: 1 (goal) or 2 (bypass).
+    pub mode: u8,
+    /// V_1..V_6: the other robots' summed tone amplitude per microphone.
+    pub mics: [f32; 6],
+    /// V_ave, the mean of `mics`.
+    pub v_ave: f32,
+    /// Gradient direction in the robot frame (rad, counter-clockwise from
+    /// the heading); `None` where the firmware did not compute it.
+    pub gradient: Option<f32>,
+    /// Left motor command.
+    pub left: f32,
+    /// Right motor command.
+    pub right: f32,
+    /// Battery voltage, mV.
+    pub battery_mv: u16,
+    /// Health flags: bit 0 low battery, bit 1 microphone clipping.
+    pub health: u8,
+    /// Link frames the robot has refused since its boot.
+    pub robot_drops: u32,
+}
+
+impl Telemetry {
+    /// The bus form of one link telemetry frame of `robot`.
+    pub fn from_link(robot: RobotId, t: &crate::link::Telemetry) -> Self {
+        use crate::link::RobotState as S;
+        let state = match t.state {
+            S::Idle => DriveState::Idle,
+            S::Driving => DriveState::Driving,
+            S::Failsafe => DriveState::Failsafe,
+            S::Stopped => DriveState::Stopped,
+        };
+        Self {
+            robot,
+            period: t.step,
+            state,
+            mode: t.mode,
+            mics: t.mics,
+            v_ave: t.v_ave,
+            gradient: t.gradient,
+            left: t.left,
+            right: t.right,
+            battery_mv: t.battery_mv,
+            health: t.health.0,
+            robot_drops: t.link_drops,
+        }
+    }
+}
+
+/// The state of a real robot's link, from its gateway: sent when the link
+/// is lost (no valid robot frame for the gateway's timeout, at most 500 ms)
+/// or restored, and when the count of refused frames has grown (at most
+/// once a second).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LinkStatus {
+    /// The robot.
+    pub robot: RobotId,
+    /// True while valid frames arrive; false once the link is lost.
+    pub up: bool,
+    /// Time since the last valid robot frame, ms (saturating).
+    pub silent_ms: u32,
+    /// Link frames the gateway has refused so far (forged, replayed,
+    /// foreign, garbage: every drop reason).
+    pub refused: u32,
+}
+
+/// Everything an agent tells the orchestrator. (Not `Eq`: telemetry
+/// carries floats.)
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum FromAgent {
     /// Announce the agent.
     Register(Register),
@@ -70,6 +171,10 @@ pub enum FromAgent {
     Status(Status),
     /// Lockstep reply.
     TickDone(TickDone),
+    /// A real robot's control period (gateways only).
+    Telemetry(Telemetry),
+    /// A real robot's link lost, restored, or refusing frames (gateways only).
+    Link(LinkStatus),
 }
 
 impl FromAgent {
@@ -80,6 +185,8 @@ impl FromAgent {
             Self::Heartbeat(m) => m.robot,
             Self::Status(m) => m.robot,
             Self::TickDone(m) => m.robot,
+            Self::Telemetry(m) => m.robot,
+            Self::Link(m) => m.robot,
         }
     }
 }

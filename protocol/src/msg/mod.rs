@@ -24,14 +24,18 @@ pub mod mocap;
 pub mod sensor;
 pub mod to_agent;
 
-pub use from_agent::{AgentKind, FromAgent, Heartbeat, Register, Status, TickDone};
+pub use from_agent::{
+    AgentKind, DriveState, FromAgent, Heartbeat, LinkStatus, Register, Status, Telemetry, TickDone,
+};
 pub use gate::{GateEvent, GateKind};
 pub use mocap::Pose;
 pub use sensor::{FieldSample, Sensor};
-pub use to_agent::{Deploy, GoalBearing, Tick, ToAgent};
+pub use to_agent::{Deploy, GoalBearing, Refused, Tick, ToAgent};
 
 impl crate::Message for ToAgent {}
 impl crate::Message for FromAgent {}
 impl crate::Message for Pose {}
 impl crate::Message for Sensor {}
 impl crate::Message for GateEvent {}
+/// On its own (topic `operator`): a request to place a robot at a pose.
+impl crate::Message for Deploy {}

@@ -41,6 +41,17 @@ pub struct Tick {
     pub step: u64,
 }
 
+/// The orchestrator refuses an agent: another agent (another `instance`)
+/// already holds this robot. Every agent on the robot's topic hears it;
+/// only the one whose [`crate::msg::Register::instance`] matches leaves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Refused {
+    /// The robot the agent registered for.
+    pub robot: RobotId,
+    /// The refused agent's instance.
+    pub instance: u64,
+}
+
 /// Everything the orchestrator tells one agent.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum ToAgent {
@@ -54,4 +65,6 @@ pub enum ToAgent {
     Stop,
     /// Exit the agent process.
     Shutdown,
+    /// The agent with this instance is refused (a duplicate): it must exit.
+    Refused(Refused),
 }

@@ -69,3 +69,40 @@ fn errors_explain_themselves() {
     let msg = NameError::InvalidChar { ch: '*', at: 1 }.to_string();
     assert!(msg.contains("'*'") && msg.contains("byte 1"), "{msg}");
 }
+
+#[test]
+fn everything_pattern_covers_the_swarm() {
+    assert_eq!(swarm().everything().as_str(), "bycoms/lab-1/**");
+    let long = "s".repeat(SWARM_NAME_MAX);
+    let s = Swarm::new(&long).expect("max-length swarm is valid");
+    assert_eq!(s.everything().as_str(), format!("bycoms/{long}/**"));
+}
+
+#[test]
+fn route_reads_every_topic_back() {
+    let s = swarm();
+    let r = RobotId(42);
+    assert_eq!(s.route(s.to_agent(r).name().as_str()), Some(Route::ToAgent(r)));
+    assert_eq!(s.route(s.sensor(r).name().as_str()), Some(Route::Sensor(r)));
+    assert_eq!(s.route(s.pose(r).name().as_str()), Some(Route::Pose(r)));
+    assert_eq!(s.route(s.from_agents().name().as_str()), Some(Route::FromAgents));
+    assert_eq!(s.route(s.gate().name().as_str()), Some(Route::Gate));
+    assert_eq!(s.route(s.operator().name().as_str()), Some(Route::Operator));
+}
+
+#[test]
+fn route_rejects_foreign_and_malformed_names() {
+    let s = swarm();
+    for name in [
+        "bycoms/lab-2/gate",
+        "bycoms/lab-1x/gate",
+        "bycoms/lab-1/robot/007/pose",
+        "bycoms/lab-1/robot/4294967296/pose",
+        "bycoms/lab-1/robot/3/other",
+        "bycoms/lab-1/robot//pose",
+        "other/lab-1/gate",
+        "bycoms/lab-1",
+    ] {
+        assert_eq!(s.route(name), None, "{name}");
+    }
+}

@@ -15,6 +15,17 @@ const KIND_SKELETON: i32 = 2;
 const KIND_CAMERA: i32 = 5;
 const KIND_ASSET: i32 = 6;
 
+/// Smallest rigid-body description: empty name (its NUL), id, parent id,
+/// offset, marker count.
+const RIGID_BODY_DESCRIPTION_MIN_LEN: usize = 1 + 4 + 4 + 12 + 4;
+/// Smallest asset marker description: empty name (its NUL), id, position,
+/// size, params. (Once 27, more than a real one needs: a 4.0 packet whose
+/// last description is an asset with short marker names was refused after
+/// its own encoding, the fuzz finding of `fuzz/README.md`.)
+const ASSET_MARKER_MIN_LEN: usize = 1 + 4 + 12 + 4 + 2;
+/// Smallest rigid-body marker: offset, active label, empty name's NUL.
+const RIGID_BODY_MARKER_MIN_LEN: usize = 12 + 4 + 1;
+
 /// A marker set's name and its markers' names.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MarkerSetDescription {
@@ -158,7 +169,7 @@ impl ModelDefinitions {
                 KIND_SKELETON => {
                     let name = r.cstr("skeleton name")?;
                     let id = r.i32("skeleton id")?;
-                    let b = r.count("skeleton bone", 25)?;
+                    let b = r.count("skeleton bone", RIGID_BODY_DESCRIPTION_MIN_LEN)?;
                     let rigid_bodies = read_many(r, b, read_rigid_body)?;
                     DataDescription::Skeleton(SkeletonDescription { name, id, rigid_bodies })
                 }
@@ -171,9 +182,9 @@ impl ModelDefinitions {
                     let name = r.cstr("asset name")?;
                     let asset_type = r.i32("asset type")?;
                     let id = r.i32("asset id")?;
-                    let b = r.count("asset rigid body", 25)?;
+                    let b = r.count("asset rigid body", RIGID_BODY_DESCRIPTION_MIN_LEN)?;
                     let rigid_bodies = read_many(r, b, read_rigid_body)?;
-                    let m = r.count("asset marker", 27)?;
+                    let m = r.count("asset marker", ASSET_MARKER_MIN_LEN)?;
                     let markers = read_many(r, m, |r| {
                         Ok(MarkerDescription {
                             name: r.cstr("marker name")?,
@@ -273,7 +284,7 @@ fn read_rigid_body(r: &mut Reader<'_>) -> Result<RigidBodyDescription, Error> {
     let id = r.i32("rigid body id")?;
     let parent_id = r.i32("rigid body parent id")?;
     let offset = r.vec3("rigid body offset")?;
-    let n = r.count("rigid body marker", 12 + 4 + 1)?;
+    let n = r.count("rigid body marker", RIGID_BODY_MARKER_MIN_LEN)?;
     let offsets = read_many(r, n, |r| r.vec3("marker offset"))?;
     let labels = read_many(r, n, |r| r.i32("marker active label"))?;
     let mut markers = Vec::with_capacity(n);

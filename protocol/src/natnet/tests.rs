@@ -315,3 +315,63 @@ fn a_three_byte_text_response_round_trips_without_its_nul() {
     let bad = Packet::Response(Response::Text("a\0b".into()));
     assert!(matches!(encode_packet(&bad, Version::V4_1), Err(Error::InteriorNul { .. })));
 }
+
+/// The `natnet` fuzz finding: a 4.0 model definition ending with an asset
+/// whose markers have one-letter names encoded to bytes the parser refused
+/// (`BadCount { what: "asset marker" }`: it asked 27 bytes per marker, a
+/// marker with an empty name takes 23). Exact-length packets, both versions.
+#[test]
+fn an_asset_with_minimal_markers_as_the_last_description_round_trips() {
+    let marker =
+        |name: &str| MarkerDescription { name: name.into(), id: 1, position: [0.0; 3], size: 0.0, params: 0 };
+    for names in [["", ""], ["a", "b"]] {
+        let defs = ModelDefinitions {
+            descriptions: vec![DataDescription::Asset(AssetDescription {
+                name: "a".into(),
+                asset_type: 0,
+                id: 0,
+                rigid_bodies: vec![],
+                markers: names.iter().map(|n| marker(n)).collect(),
+            })],
+        };
+        for version in [Version::V4_0, Version::V4_1] {
+            let bytes = encode_packet(&Packet::ModelDef(defs.clone()), version).unwrap();
+            let parsed = parse_packet_versioned(&bytes, version).unwrap();
+            assert_eq!(parsed, Packet::ModelDef(defs.clone()), "{version:?} {names:?}");
+        }
+    }
+    // A rigid body with one unnamed marker, last, is exactly long enough too.
+    let defs = ModelDefinitions {
+        descriptions: vec![DataDescription::RigidBody(RigidBodyDescription {
+            name: String::new(),
+            id: 1,
+            parent_id: -1,
+            offset: [0.0; 3],
+            markers: vec![RigidBodyMarkerDescription {
+                offset: [0.0; 3],
+                active_label: 0,
+                name: String::new(),
+            }],
+        })],
+    };
+    let bytes = encode_packet(&Packet::ModelDef(defs.clone()), Version::V4_0).unwrap();
+    assert_eq!(parse_packet_versioned(&bytes, Version::V4_0).unwrap(), Packet::ModelDef(defs));
+}
+
+/// The second `natnet` fuzz finding: a server info whose 256-byte name
+/// field holds no NUL parsed (the whole field as the name) but could not be
+/// encoded again. It is refused now, as C readers would overrun it.
+#[test]
+fn a_server_name_without_its_nul_is_refused() {
+    let mut bytes = encode_packet(&every_packet()[2], Version::V4_1).unwrap();
+    bytes[4..4 + 256].fill(b'W');
+    assert!(
+        matches!(parse_packet(&bytes), Err(Error::Unterminated { what: "server name", at: 0 })),
+        "{:?}",
+        parse_packet(&bytes)
+    );
+    // 255 characters and the NUL: the longest name, and it round trips.
+    bytes[4 + 255] = 0;
+    let parsed = parse_packet(&bytes).unwrap();
+    assert_eq!(encode_packet(&parsed, Version::V4_1).unwrap(), bytes);
+}

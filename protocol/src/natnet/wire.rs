@@ -104,12 +104,14 @@ impl<'a> Reader<'a> {
         Ok(text.to_owned())
     }
 
-    /// A fixed-size field holding a NUL-padded string (e.g. the 256-byte
-    /// application name of the server info).
+    /// A fixed-size field holding a NUL-terminated, NUL-padded string (e.g.
+    /// the 256-byte application name of the server info). A field without
+    /// a NUL is refused: C readers would run past it, and it could not be
+    /// encoded again (the writer keeps one byte for the NUL).
     pub(crate) fn fixed_str(&mut self, len: usize, what: &'static str) -> Result<String, Error> {
         let at = self.pos;
         let field = self.take(len, what)?;
-        let end = field.iter().position(|&b| b == 0).unwrap_or(field.len());
+        let end = field.iter().position(|&b| b == 0).ok_or(Error::Unterminated { what, at })?;
         core::str::from_utf8(&field[..end]).map(str::to_owned).map_err(|_| Error::NotUtf8 { what, at })
     }
 }

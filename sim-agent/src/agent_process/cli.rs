@@ -2,19 +2,23 @@
 //! with a code that says how it ended.
 //!
 //! Exit codes: 0 after `Shutdown`, a signal or the parent's death (all
-//! orderly ends), 2 for a usage error (bad flags or values), 1 for any other
-//! error (unreadable terrain, bus failure), printed on stderr first.
+//! orderly ends), 2 for a usage error (bad flags or values), 3 when the
+//! orchestrator refused the agent (its robot already has one), 4 when the
+//! failsafe stopped the robot and exited (orchestrator lost), 1 for any
+//! other error (unreadable terrain, bus failure), printed on stderr first.
 
+use super::failsafe::Failsafe;
 use super::lifeline::{ExitCause, Lifeline, LifelineError};
-use super::options::AgentArgs;
+use super::options::{AgentArgs, Transport};
 use super::run::{Agent, AgentPorts, Timing};
-use super::{ipc_config, AgentCore};
-use crate::terrain::{parse, ParseError};
+use super::{ipc_config, zenoh_config, AgentCore};
+use crate::terrain::{self, ReadError, Terrain};
 use bycoms_protocol::bus::ipc::IpcBus;
-use bycoms_protocol::bus::BusError;
+use bycoms_protocol::bus::zenoh::{AliveWatch, Mode, ZenohBus};
+use bycoms_protocol::bus::{Bus, BusError};
+use bycoms_protocol::naming::Member;
 use bycoms_protocol::{NameError, RobotId, Swarm};
-use std::io::Read;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 /// Why an agent could not run.
@@ -23,21 +27,14 @@ pub enum AgentError {
     /// A flag has an unusable value.
     #[error("{0}")]
     Args(String),
-    /// The terrain could not be read.
+    /// The terrain could not be read: unreadable, too large, not text, or
+    /// malformed (the size limit is the terrain module's, as everywhere).
     #[error("cannot read terrain {}: {source}", path.display())]
-    ReadTerrain {
-        /// The file (`-` for stdin).
-        path: PathBuf,
-        /// What the OS said.
-        source: std::io::Error,
-    },
-    /// The terrain text is malformed.
-    #[error("bad terrain {}: {source}", path.display())]
     Terrain {
         /// The file (`-` for stdin).
         path: PathBuf,
-        /// Where and what.
-        source: ParseError,
+        /// What went wrong.
+        source: ReadError,
     },
     /// The swarm name is not a valid topic chunk.
     #[error("bad swarm name: {0}")]
@@ -56,6 +53,8 @@ pub fn main_with(args: &AgentArgs) -> i32 {
     // Every event of this agent carries its robot id (text: `sim-agent{robot=3}: …`).
     let _span = tracing::info_span!("sim-agent", robot = args.robot).entered();
     match run(args) {
+        Ok(ExitCause::Refused) => 3,
+        Ok(ExitCause::OrchestratorLost) => 4,
         Ok(cause) => {
             tracing::debug!(?cause, "agent exits");
             0
@@ -82,30 +81,55 @@ pub fn quiet_iceoryx2() {
     set_log_level_from_env_or(LogLevel::Error);
 }
 
-fn read_terrain(path: &PathBuf) -> Result<String, AgentError> {
-    let read_error = |source| AgentError::ReadTerrain { path: path.clone(), source };
-    if path.as_os_str() == "-" {
-        let mut text = String::new();
-        std::io::stdin().read_to_string(&mut text).map_err(read_error)?;
-        Ok(text)
+fn read_terrain(path: &Path) -> Result<Terrain, AgentError> {
+    let read = if path.as_os_str() == "-" {
+        terrain::read_terrain(std::io::stdin().lock())
     } else {
-        std::fs::read_to_string(path).map_err(read_error)
-    }
+        terrain::read_terrain_file(path)
+    };
+    read.map_err(|source| AgentError::Terrain { path: path.to_path_buf(), source })
 }
 
 fn run(args: &AgentArgs) -> Result<ExitCause, AgentError> {
     // First, before anything slow: never outlive the orchestrator.
     let mut lifeline = Lifeline::install(args.parent_pid)?;
     args.validate().map_err(AgentError::Args)?;
-    let text = read_terrain(&args.terrain)?;
-    let terrain =
-        parse(&text).map_err(|source| AgentError::Terrain { path: args.terrain.clone(), source })?;
+    let terrain = read_terrain(&args.terrain)?;
     let swarm = Swarm::new(&args.swarm)?;
     let id = RobotId(args.robot);
-    let mut config = ipc_config(args.swarm_size());
-    config.node_name = Some(format!("bycoms-{}-robot-{}", swarm.as_str(), id.0));
-    let bus = IpcBus::new(config)?;
-    let ports = AgentPorts::open(&bus, &swarm, id, args.peer_ids())?;
+    match args.transport {
+        Transport::Ipc => {
+            let mut config = ipc_config(args.swarm_size());
+            config.node_name = Some(format!("bycoms-{}-robot-{}", swarm.as_str(), id.0));
+            run_on(&IpcBus::new(config)?, args, &swarm, terrain, &mut lifeline, None)
+        }
+        Transport::Zenoh => {
+            let config =
+                zenoh_config(Mode::Client, Vec::new(), args.connect.clone(), args.zenoh_config.clone());
+            let bus = ZenohBus::open(config)?;
+            tracing::debug!(connect = ?args.connect, "agent connected over zenoh");
+            // The orchestrator sees this agent go (process ended, link cut)
+            // when the token is withdrawn; it lives until the agent returns.
+            let _alive = bus.declare_alive(&swarm, Member::Agent(id))?;
+            // ... and this agent sees the orchestrator go (the failsafe).
+            let failsafe = args.failsafe.failsafe().map_err(AgentError::Args)?;
+            let watch = bus.watch_alive(&swarm)?;
+            run_on(&bus, args, &swarm, terrain, &mut lifeline, Some((failsafe, watch)))
+        }
+    }
+}
+
+/// The agent's loop on `bus`, whatever its backend.
+fn run_on<B: Bus>(
+    bus: &B,
+    args: &AgentArgs,
+    swarm: &Swarm,
+    terrain: Terrain,
+    lifeline: &mut Lifeline,
+    failsafe: Option<(Failsafe, AliveWatch)>,
+) -> Result<ExitCause, AgentError> {
+    let id = RobotId(args.robot);
+    let ports = AgentPorts::open(bus, swarm, id, args.peer_ids())?;
     tracing::debug!(swarm = swarm.as_str(), clock = ?args.clock, speed = args.speed, "agent on the bus");
     let cfg = args.run_config();
     let dt = cfg.kinematics.dt;
@@ -116,7 +140,10 @@ fn run(args: &AgentArgs) -> Result<ExitCause, AgentError> {
         heartbeat: Duration::from_millis(args.heartbeat_ms),
     };
     let mut agent = Agent::new(AgentCore::new(id, terrain, cfg), ports, timing);
-    let cause = agent.run(&mut lifeline)?;
+    if let Some((failsafe, watch)) = failsafe {
+        agent.watch_orchestrator(failsafe, watch);
+    }
+    let cause = agent.run(lifeline)?;
     let s = agent.stats();
     let mut notes = Vec::new();
     if s.traffic.total() > 0 {

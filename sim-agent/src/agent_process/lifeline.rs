@@ -33,6 +33,12 @@ pub enum ExitCause {
     ParentGone,
     /// SIGTERM, SIGINT or SIGHUP.
     Signal,
+    /// The orchestrator refused this agent: another agent already holds
+    /// its robot (`ToAgent::Refused`).
+    Refused,
+    /// The orchestrator's liveliness token was gone for longer than the
+    /// failsafe's grace period (zenoh); the robot was stopped first.
+    OrchestratorLost,
 }
 
 /// Why the lifeline could not be installed.
@@ -42,8 +48,8 @@ pub enum LifelineError {
     #[error("cannot ask to be signalled when the parent dies: {0}")]
     Pdeathsig(nix::Error),
     /// The signal handler could not be installed.
-    #[error("cannot install the termination handler: {0}")]
-    Handler(#[from] ctrlc::Error),
+    #[error(transparent)]
+    Handler(#[from] crate::interrupt::HandlerError),
 }
 
 /// The agent's link to its parent; see the module docs.
@@ -60,9 +66,7 @@ impl Lifeline {
     /// agent must stay the child of (default: its parent now).
     pub fn install(parent: Option<i32>) -> Result<Self, LifelineError> {
         nix::sys::prctl::set_pdeathsig(Signal::SIGTERM).map_err(LifelineError::Pdeathsig)?;
-        let signalled = Arc::new(AtomicBool::new(false));
-        let flag = Arc::clone(&signalled);
-        ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst))?;
+        let signalled = crate::interrupt::flag()?;
         let parent = parent.map(Pid::from_raw).unwrap_or_else(getppid);
         let parent_gone = getppid() != parent;
         Ok(Self { parent, signalled, last_check: Instant::now(), parent_gone })

@@ -12,6 +12,8 @@
 //!   [`crate::robot::SimRobot`], the same step the in-process runner takes;
 //! * [`run`] — the single-threaded bus loop (lockstep or real time);
 //! * [`lifeline`] — why an agent never outlives the orchestrator;
+//! * [`instance`] — which process speaks for a robot (its `Register`);
+//! * [`failsafe`] — a robot whose orchestrator is gone (zenoh liveliness) stops;
 //! * [`traffic`] — bad messages are counted, never fatal;
 //! * [`options`] / [`cli`] — the command line and `main`.
 //!
@@ -22,6 +24,8 @@
 
 pub mod cli;
 pub mod core;
+pub mod failsafe;
+pub mod instance;
 pub mod lifeline;
 pub mod options;
 pub mod run;
@@ -29,13 +33,16 @@ pub mod traffic;
 
 pub use self::core::{AgentCore, Phase, Reject};
 pub use cli::{main_with, AgentError};
+pub use instance::instance;
 pub use lifeline::{ExitCause, Lifeline};
-pub use options::{check_speed, AgentArgs, ClockKind, MAX_SPEED};
+pub use options::{check_speed, AgentArgs, Clock, Transport, MAX_SPEED};
 pub use traffic::{BadKind, Traffic};
 
 use bycoms_protocol::bus::ipc::IpcConfig;
+use bycoms_protocol::bus::zenoh::{Congestion, Liveness, Mode, ZenohConfig};
 use bycoms_protocol::bus::Limits;
 use bycoms_protocol::MAX_MESSAGE_LEN;
+use std::path::PathBuf;
 
 /// Unread messages a subscriber keeps per publisher.
 pub const BUS_BUFFER: usize = 64;
@@ -56,5 +63,36 @@ pub fn ipc_config(swarm_size: u32) -> IpcConfig {
         max_nodes: n + 8,
         cleanup_on_start: false,
         ..IpcConfig::default()
+    }
+}
+
+/// The zenoh configuration of every process of a launch over zenoh: the
+/// orchestrator in `Mode::Router` (the rendezvous; it listens), agents in
+/// `Mode::Client` (they connect to it, and fail at once with a clear error
+/// when it is not there).
+///
+/// Same payload and buffer limits as over iceoryx2. Publishers block
+/// instead of dropping under congestion: the lockstep clock needs every
+/// `Tick` and `TickDone`, and the launch's traffic is a few small messages
+/// per period, far below any link's capacity.
+///
+/// Every session uses [`Liveness::FAST`] (lease 400 ms, fast reconnect), so
+/// a lost agent or orchestrator shows within 500 ms on the other side's
+/// liveliness watch (this overrides a `base` file's lease settings).
+pub fn zenoh_config(
+    mode: Mode,
+    listen: Vec<String>,
+    connect: Vec<String>,
+    base: Option<PathBuf>,
+) -> ZenohConfig {
+    ZenohConfig {
+        limits: Limits { max_payload: MAX_MESSAGE_LEN, buffer: BUS_BUFFER },
+        mode,
+        listen,
+        connect,
+        congestion: Congestion::Block,
+        base_config: base,
+        liveness: Some(Liveness::FAST),
+        ..ZenohConfig::default()
     }
 }

@@ -6,6 +6,7 @@
 //! to it (e.g. after `cargo run --bin orchestrator`, which builds only the
 //! orchestrator). One definition keeps the two spellings identical.
 
+use super::failsafe::FailsafeArgs;
 use crate::sensing::NoiseModel;
 use crate::RunConfig;
 use std::path::PathBuf;
@@ -24,13 +25,52 @@ pub fn check_speed(speed: f64) -> Result<(), String> {
     Ok(())
 }
 
-/// How the agent's control periods are clocked.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum ClockKind {
-    /// Step only on the orchestrator's `Tick`, answer each with `TickDone`.
+/// How simulated time advances: the one clock setting of a launch, shared
+/// by the orchestrator (`launch --clock`, `clock = ...` in its config) and
+/// every agent (`sim-agent --clock`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Clock {
+    /// The orchestrator ticks every live agent and waits for all answers:
+    /// as fast as the agents answer, and bit-identical to `simulate`. An
+    /// agent steps only on `Tick` and answers each with `TickDone`.
     Lockstep,
-    /// Step every 0.1 s of wall time divided by `--speed`.
+    /// Every agent steps on its own wall clock at 10 Hz × `speed`.
     Realtime,
+}
+
+impl Clock {
+    /// The clock's name as on the command line and in summaries.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Lockstep => "lockstep",
+            Self::Realtime => "realtime",
+        }
+    }
+}
+
+/// The bus every process of a launch talks over.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Transport {
+    /// iceoryx2 shared memory: every process on this host (the default).
+    #[default]
+    Ipc,
+    /// zenoh over tcp or tls: processes on any host; the orchestrator's
+    /// session is the rendezvous (router), agents connect to it.
+    Zenoh,
+}
+
+impl Transport {
+    /// The transport's name as on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Ipc => "ipc",
+            Self::Zenoh => "zenoh",
+        }
+    }
 }
 
 /// One simulated BYCOMS robot as its own process on the iceoryx2 bus.
@@ -40,7 +80,10 @@ pub enum ClockKind {
 /// controller on its goal bearing, moves its simulated body and publishes its
 /// pose as simulated motion capture. It freezes where it enters an
 /// impassable cell. It exits on `Shutdown`, on SIGTERM/SIGINT, and within
-/// 2 s of its parent (the orchestrator) dying.
+/// 2 s of its parent (the orchestrator) dying. Over zenoh (an orchestrator
+/// on another host) it watches the orchestrator's liveliness: gone for
+/// longer than `--orchestrator-grace`, the robot stops, then the agent
+/// exits (status 4) or waits, by `--on-orchestrator-lost`.
 #[derive(Clone, Debug, clap::Args)]
 pub struct AgentArgs {
     /// Swarm name: the namespace of the run's topics.
@@ -62,8 +105,8 @@ pub struct AgentArgs {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Clock of the control periods.
-    #[arg(long, value_enum, default_value_t = ClockKind::Lockstep)]
-    pub clock: ClockKind,
+    #[arg(long, value_enum, default_value_t = Clock::Lockstep)]
+    pub clock: Clock,
     /// Real-time speed-up: periods of 0.1 s / speed (realtime clock only).
     #[arg(long, default_value_t = 1.0)]
     pub speed: f64,
@@ -83,6 +126,20 @@ pub struct AgentArgs {
     /// Heartbeat period, milliseconds of wall time.
     #[arg(long, default_value_t = 100)]
     pub heartbeat_ms: u64,
+    /// The bus: `ipc` (this host) or `zenoh` (connect to the orchestrator).
+    #[arg(long, value_enum, default_value_t = Transport::Ipc)]
+    pub transport: Transport,
+    /// zenoh: the orchestrator's endpoint, e.g. `tcp/10.0.0.5:7447` or
+    /// `tls/lab-host:7447` (repeatable).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+    /// zenoh: a zenoh JSON5 config file read first (TLS certificates,
+    /// access control; see deploy/zenoh/).
+    #[arg(long, value_name = "FILE")]
+    pub zenoh_config: Option<PathBuf>,
+    /// zenoh: the failsafe when the orchestrator is lost.
+    #[command(flatten)]
+    pub failsafe: FailsafeArgs,
 }
 
 impl AgentArgs {
@@ -114,7 +171,16 @@ impl AgentArgs {
         if self.heartbeat_ms == 0 {
             return Err("--heartbeat-ms must be at least 1".into());
         }
-        Ok(())
+        self.failsafe.grace()?;
+        match self.transport {
+            Transport::Ipc if !self.connect.is_empty() || self.zenoh_config.is_some() => {
+                Err("--connect and --zenoh-config need --transport zenoh".into())
+            }
+            Transport::Zenoh if self.connect.is_empty() && self.zenoh_config.is_none() => {
+                Err("--transport zenoh needs the orchestrator's endpoint: --connect tcp/HOST:PORT".into())
+            }
+            _ => Ok(()),
+        }
     }
 
     /// The command-line flags that reproduce these arguments (what the
@@ -132,10 +198,7 @@ impl AgentArgs {
             "--seed".into(),
             self.seed.to_string(),
             "--clock".into(),
-            match self.clock {
-                ClockKind::Lockstep => "lockstep".into(),
-                ClockKind::Realtime => "realtime".into(),
-            },
+            self.clock.as_str().into(),
             "--speed".into(),
             format!("{:?}", self.speed),
             "--heartbeat-ms".into(),
@@ -154,6 +217,19 @@ impl AgentArgs {
             v.push("--parent-pid".into());
             v.push(p.to_string());
         }
+        if self.transport != Transport::Ipc {
+            v.push("--transport".into());
+            v.push(self.transport.as_str().into());
+        }
+        for endpoint in &self.connect {
+            v.push("--connect".into());
+            v.push(endpoint.clone());
+        }
+        if let Some(file) = &self.zenoh_config {
+            v.push("--zenoh-config".into());
+            v.push(file.display().to_string());
+        }
+        v.extend(self.failsafe.to_flags());
         v
     }
 }
@@ -161,6 +237,7 @@ impl AgentArgs {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::agent_process::failsafe::OnOrchestratorLost;
     use clap::Parser;
 
     #[derive(Parser)]
@@ -179,12 +256,16 @@ mod tests {
             eps,
             noise: true,
             seed: u64::MAX,
-            clock: ClockKind::Realtime,
+            clock: Clock::Realtime,
             speed: 2.5,
             swarm_size: Some(9),
             peers: None,
             parent_pid: Some(77),
             heartbeat_ms: 50,
+            transport: Transport::Zenoh,
+            connect: vec!["tcp/127.0.0.1:7447".into(), "tls/lab:7448".into()],
+            zenoh_config: None,
+            failsafe: FailsafeArgs { grace_s: 0.1 + 0.4, on_lost: OnOrchestratorLost::Wait },
         };
         let flags = args.to_flags();
         let parsed =
@@ -194,6 +275,15 @@ mod tests {
         assert_eq!(parsed.peer_ids().collect::<Vec<_>>(), [1, 2, 3]);
         assert_eq!(parsed.swarm_size(), 9);
         assert!(parsed.validate().is_ok());
+        assert_eq!(parsed.connect, args.connect);
+        let no_endpoint = AgentArgs { connect: Vec::new(), ..parsed.clone() };
+        assert!(no_endpoint.validate().unwrap_err().contains("--connect"));
+        let ipc_with_endpoint = AgentArgs { transport: Transport::Ipc, ..parsed.clone() };
+        assert!(ipc_with_endpoint.validate().unwrap_err().contains("--transport zenoh"));
+        assert_eq!(parsed.failsafe, args.failsafe);
+        let bad_grace =
+            AgentArgs { failsafe: FailsafeArgs { grace_s: -1.0, ..args.failsafe }, ..parsed.clone() };
+        assert!(bad_grace.validate().unwrap_err().contains("--orchestrator-grace"));
         let bad = AgentArgs { eps: f64::NAN, ..parsed };
         assert!(bad.validate().is_err());
     }

@@ -19,11 +19,14 @@
 //! number in the pose jumps), as it would be on a real robot.
 
 use super::core::{AgentCore, Phase, Reject};
+use super::failsafe::{Failsafe, Verdict};
 use super::lifeline::{ExitCause, Lifeline};
-use super::options::ClockKind;
+use super::options::Clock;
 use super::traffic::{BadKind, Traffic};
+use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
 use bycoms_protocol::msg::{AgentKind, FromAgent, Heartbeat, Pose, Register, Status, TickDone, ToAgent};
+use bycoms_protocol::naming::Member;
 use bycoms_protocol::{RobotId, Swarm, PROTOCOL_VERSION};
 use std::time::{Duration, Instant};
 
@@ -72,7 +75,7 @@ impl<B: Bus> AgentPorts<B> {
 #[derive(Clone, Copy, Debug)]
 pub struct Timing {
     /// Lockstep or real time.
-    pub clock: ClockKind,
+    pub clock: Clock,
     /// Wall time of one period in real time (0.1 s / speed).
     pub period: Duration,
     /// Simulated duration of one period, µs (the poses' `time_us` step).
@@ -104,6 +107,15 @@ pub struct Agent<B: Bus> {
     heartbeat_seq: u64,
     next_heartbeat: Instant,
     tick: u64,
+    /// Whether the orchestrator has sent this agent anything yet; until it
+    /// has, every heartbeat repeats the `Register` (it may have been lost).
+    heard_orchestrator: bool,
+    /// The `Deploy` taken (a repeat of it is answered, another refused).
+    deployed: Option<bycoms_protocol::msg::Deploy>,
+    /// This process's instance ([`super::instance`]), sent in `Register`.
+    instance: u64,
+    /// zenoh: the failsafe and the liveliness watch that feeds it.
+    failsafe: Option<(Failsafe, AliveWatch)>,
 }
 
 impl<B: Bus> Agent<B> {
@@ -119,6 +131,43 @@ impl<B: Bus> Agent<B> {
             heartbeat_seq: 0,
             next_heartbeat: Instant::now(),
             tick: 0,
+            heard_orchestrator: false,
+            deployed: None,
+            instance: super::instance(),
+            failsafe: None,
+        }
+    }
+
+    /// Watches the orchestrator's liveliness on `watch`: once it has been
+    /// gone for longer than the failsafe's grace, the robot stops, and the
+    /// loop ends with [`ExitCause::OrchestratorLost`] or goes on, by policy.
+    pub fn watch_orchestrator(&mut self, failsafe: Failsafe, watch: AliveWatch) {
+        self.failsafe = Some((failsafe, watch));
+    }
+
+    /// Feeds the failsafe what zenoh saw and acts on its verdict.
+    fn check_failsafe(&mut self) -> Option<ExitCause> {
+        let (failsafe, watch) = self.failsafe.as_mut()?;
+        while let Some(event) = watch.try_recv() {
+            if event.member == Member::Orchestrator {
+                match event.presence {
+                    Presence::Alive => failsafe.orchestrator_alive(event.at),
+                    Presence::Lost => failsafe.orchestrator_lost(event.at),
+                }
+            }
+        }
+        match failsafe.check(Instant::now()) {
+            Verdict::Run => None,
+            Verdict::Stop { lost_for } => {
+                self.core.stop();
+                tracing::error!(?lost_for, "orchestrator lost past the grace period: robot stopped, waiting");
+                None
+            }
+            Verdict::StopAndExit { lost_for } => {
+                self.core.stop();
+                tracing::error!(?lost_for, "orchestrator lost past the grace period: robot stopped, exiting");
+                Some(ExitCause::OrchestratorLost)
+            }
         }
     }
 
@@ -129,21 +178,16 @@ impl<B: Bus> Agent<B> {
 
     /// Registers, then runs until `Shutdown`, a signal or the parent's death.
     pub fn run(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, BusError> {
-        let robot = self.core.id();
-        self.report(FromAgent::Register(Register {
-            robot,
-            kind: AgentKind::Simulated,
-            protocol_version: PROTOCOL_VERSION,
-        }))?;
+        self.register()?;
         match self.timing.clock {
-            ClockKind::Lockstep => self.run_lockstep(lifeline),
-            ClockKind::Realtime => self.run_realtime(lifeline),
+            Clock::Lockstep => self.run_lockstep(lifeline),
+            Clock::Realtime => self.run_realtime(lifeline),
         }
     }
 
     fn run_lockstep(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, BusError> {
         loop {
-            if let Some(cause) = lifeline.check() {
+            if let Some(cause) = lifeline.check().or_else(|| self.check_failsafe()) {
                 return Ok(cause);
             }
             self.heartbeat_if_due()?;
@@ -164,7 +208,7 @@ impl<B: Bus> Agent<B> {
         let t0 = Instant::now();
         let mut next: u64 = 1;
         loop {
-            if let Some(cause) = lifeline.check() {
+            if let Some(cause) = lifeline.check().or_else(|| self.check_failsafe()) {
                 return Ok(cause);
             }
             self.heartbeat_if_due()?;
@@ -225,12 +269,36 @@ impl<B: Bus> Agent<B> {
     }
 
     fn handle(&mut self, cmd: ToAgent) -> Result<Option<ExitCause>, BusError> {
+        if let ToAgent::Refused(r) = cmd {
+            // Every agent on this robot's topic hears a refusal; only the
+            // refused instance leaves, the one the orchestrator kept stays.
+            if r.instance == self.instance {
+                tracing::error!(
+                    robot = r.robot.0,
+                    "refused by the orchestrator: another agent already holds robot {}",
+                    r.robot.0
+                );
+                return Ok(Some(ExitCause::Refused));
+            }
+            return Ok(None);
+        }
+        self.heard_orchestrator = true;
         match cmd {
             ToAgent::Deploy(d) => match self.core.deploy(&d) {
                 // Motion capture sees the robot at its start at once: this
                 // pose is the gate's "deployed" acknowledgement, and the
                 // status after it wakes an orchestrator waiting on reports.
                 Ok(()) => {
+                    self.deployed = Some(d);
+                    self.publish_pose(self.tick)?;
+                    let status =
+                        Status { robot: self.core.id(), mode: self.core.mode() as u8, step: self.tick };
+                    self.report(FromAgent::Status(status))?;
+                }
+                // The same `Deploy` again (re-sent when its answer was
+                // lost): answered again with where the robot is. Another
+                // one is refused and counted.
+                Err(Reject::AlreadyDeployed) if self.deployed == Some(d) => {
                     self.publish_pose(self.tick)?;
                     let status =
                         Status { robot: self.core.id(), mode: self.core.mode() as u8, step: self.tick };
@@ -244,7 +312,18 @@ impl<B: Bus> Agent<B> {
                 }
             }
             ToAgent::Tick(t) => match self.timing.clock {
-                ClockKind::Lockstep => {
+                // A tick already stepped is a repeat (the orchestrator
+                // re-sends what went unanswered, e.g. across a cut link):
+                // answered again, never stepped twice.
+                Clock::Lockstep if t.step <= self.tick => {
+                    if t.step == self.tick {
+                        self.publish_pose(self.tick)?;
+                        self.report(FromAgent::TickDone(TickDone { robot: self.core.id(), step: t.step }))?;
+                    } else {
+                        tracing::debug!(who = %self.who, step = t.step, at = self.tick, "an old tick, ignored");
+                    }
+                }
+                Clock::Lockstep => {
                     if self.core.phase() == Phase::Moving
                         && self.core.bearing().is_some_and(|b| b.step != t.step)
                     {
@@ -253,12 +332,13 @@ impl<B: Bus> Agent<B> {
                     self.period(t.step)?;
                     self.report(FromAgent::TickDone(TickDone { robot: self.core.id(), step: t.step }))?;
                 }
-                ClockKind::Realtime => {
+                Clock::Realtime => {
                     self.stats.traffic.count(&self.who, BadKind::Refused, &"Tick on a real-time agent");
                 }
             },
             ToAgent::Stop => self.core.stop(),
             ToAgent::Shutdown => return Ok(Some(ExitCause::Shutdown)),
+            ToAgent::Refused(_) => {}
         }
         Ok(None)
     }
@@ -311,7 +391,21 @@ impl<B: Bus> Agent<B> {
         }
         self.next_heartbeat = now + self.timing.heartbeat;
         self.heartbeat_seq += 1;
+        // A lost `Register` would leave the agent heard (heartbeats) but
+        // never registered: repeat it until the orchestrator answers.
+        if !self.heard_orchestrator && self.heartbeat_seq > 1 {
+            self.register()?;
+        }
         self.report(FromAgent::Heartbeat(Heartbeat { robot: self.core.id(), seq: self.heartbeat_seq }))
+    }
+
+    fn register(&self) -> Result<(), BusError> {
+        self.report(FromAgent::Register(Register {
+            robot: self.core.id(),
+            kind: AgentKind::Simulated,
+            protocol_version: PROTOCOL_VERSION,
+            instance: self.instance,
+        }))
     }
 
     fn report(&self, msg: FromAgent) -> Result<(), BusError> {
@@ -331,3 +425,6 @@ fn count_reject(traffic: &mut Traffic, who: &str, r: Reject) {
     };
     traffic.count(who, kind, &r);
 }
+
+#[cfg(test)]
+mod tests;

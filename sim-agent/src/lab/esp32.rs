@@ -29,16 +29,18 @@ pub struct EmulatedEsp32 {
 }
 
 impl EmulatedEsp32 {
-    /// Boots the firmware and binds 127.0.0.1:0; frames go to `gateway`.
+    /// Boots the firmware and binds `local` (port 0: any free port);
+    /// frames go to `gateway`.
     pub fn bind(
         config: FirmwareConfig<LISTENED>,
         key: LinkKey,
         entropy: [u8; 32],
+        local: SocketAddr,
         gateway: SocketAddr,
     ) -> io::Result<Self> {
         let firmware = Firmware::new(config, key, entropy)
             .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
-        let socket = UdpSocket::bind(("127.0.0.1", 0))?;
+        let socket = UdpSocket::bind(local)?;
         socket.set_nonblocking(true)?;
         Ok(Self { socket, gateway, firmware, received: 0 })
     }

@@ -15,17 +15,30 @@
 //! * [`world`] — the lab clock tying them together, with the emulated
 //!   operator who places a robot at the start when it is first enabled;
 //! * [`characterise`] — gradient direction error and V_ave against distance
-//!   to a speaker (`cargo bench -p bycoms-sim --bench lab_sensing`).
+//!   to a speaker (`cargo bench -p bycoms-sim --bench lab_sensing`), and
+//!   [`sensing_plot`] its picture;
+//! * [`robots`] — the robots file (`deploy/lab/robots.toml`): each robot's
+//!   UDP address, its gateway's, its key file;
+//! * [`process`] (feature `process`) — `sim-agent lab`: the lab as a
+//!   process, paced at `--speed`, publishing true poses on the bus as
+//!   simulated motion capture;
+//! * [`natnet_out`] (feature `process`) — `sim-agent lab --natnet ADDR`:
+//!   the bodies served by NatNet (OptiTrack's format) instead.
 //!
-//! Not here yet: a lab *process* (`sim-agent lab --scenario …`), publishing
-//! true poses on the bus as mocap, and a NatNet server. The experiments are
-//! run in tests with a test gateway standing in for the `agent` gateway and
-//! the orchestrator (`tests/udp.rs`).
+//! In-process tests run the experiments with a test gateway standing in for
+//! the `agent` gateway and the orchestrator (`tests/udp.rs`); `tests/` at
+//! the workspace root runs them through the real processes.
 
 pub mod body;
 pub mod characterise;
 pub mod esp32;
+#[cfg(feature = "process")]
+pub mod natnet_out;
+#[cfg(feature = "process")]
+pub mod process;
+pub mod robots;
 pub mod scenario;
+pub mod sensing_plot;
 pub mod sound;
 pub mod world;
 

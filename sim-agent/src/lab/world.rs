@@ -4,9 +4,9 @@
 //! Why one loop: physics (5 ms steps), sound (one 125 ms microphone window
 //! per control period) and the robots' link must see one consistent time.
 //! [`Lab::step`] advances it by [`PHYSICS_DT`]: every robot's socket is
-//! pumped, the emulated operator places a robot at the start the first time
-//! its firmware is enabled (until then it waits off the arena, silent and
-//! out of the way), control periods feed each placed robot's microphones
+//! pumped, the emulated operator places a robot at the start when asked
+//! ([`Lab::place`]) or at the latest the first time its firmware is enabled
+//! (until then it waits off the arena, silent and out of the way), control periods feed each placed robot's microphones
 //! with the sound of every placed robot's speaker, and bodies move. A
 //! caller that wants real time sleeps between steps; tests don't.
 
@@ -38,6 +38,18 @@ pub struct LabRobot {
     phase: f64,
 }
 
+/// How one emulated robot is wired: its key, the UDP address it binds
+/// (port 0: any free port) and the gateway it talks to.
+#[derive(Clone, Debug)]
+pub struct Wiring {
+    /// The robot's pre-shared link key.
+    pub key: LinkKey,
+    /// The robot's own UDP address.
+    pub bind: SocketAddr,
+    /// Its gateway's UDP address.
+    pub gateway: SocketAddr,
+}
+
 /// The emulated lab.
 #[derive(Debug)]
 pub struct Lab {
@@ -49,13 +61,25 @@ pub struct Lab {
 }
 
 impl Lab {
-    /// Boots one emulated ESP32 per scenario tone; robot k (1-based) uses
-    /// `keys[k-1]` and sends to `gateways[k-1]`.
+    /// Boots one emulated ESP32 per scenario tone on 127.0.0.1:0; robot k
+    /// (1-based) uses `keys[k-1]` and sends to `gateways[k-1]`.
     pub fn new(scenario: Scenario, keys: &[LinkKey], gateways: &[SocketAddr], seed: u64) -> io::Result<Self> {
+        let any = SocketAddr::from(([127, 0, 0, 1], 0));
+        let wiring: Vec<Wiring> = keys
+            .iter()
+            .zip(gateways)
+            .map(|(key, &gateway)| Wiring { key: key.clone(), bind: any, gateway })
+            .collect();
+        Self::wired(scenario, &wiring, seed)
+    }
+
+    /// Boots one emulated ESP32 per scenario tone; robot k (1-based) is
+    /// wired as `wiring[k-1]` says.
+    pub fn wired(scenario: Scenario, wiring: &[Wiring], seed: u64) -> io::Result<Self> {
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
         let tones = scenario.tones.clone();
         let mut robots = Vec::with_capacity(tones.len());
-        for (i, (&own, (key, gateway))) in tones.iter().zip(keys.iter().zip(gateways)).enumerate() {
+        for (i, (&own, w)) in tones.iter().zip(wiring).enumerate() {
             let mut others = [0.0; LISTENED];
             let listened: Vec<f64> = tones.iter().copied().filter(|&t| t != own).collect();
             // Fewer than LISTENED other robots: listen to unused paper tones too (silent).
@@ -70,11 +94,13 @@ impl Lab {
             config.tones.sample_rate = scenario.sound.sample_rate;
             config.tones.gain = scenario.sound.gain;
             let entropy: [u8; 32] = rng.gen();
-            let esp = EmulatedEsp32::bind(config, key.clone(), entropy, *gateway)?;
+            let esp = EmulatedEsp32::bind(config, w.key.clone(), entropy, w.bind, w.gateway)?;
             robots.push(LabRobot { esp, body: None, phase: rng.gen_range(0.0..core::f64::consts::TAU) });
         }
         if robots.len() != tones.len() {
-            return Err(io::Error::new(io::ErrorKind::InvalidInput, "one key and gateway address per robot"));
+            let why =
+                format!("the scenario has {} robots (tones) but {} are wired", tones.len(), wiring.len());
+            return Err(io::Error::new(io::ErrorKind::InvalidInput, why));
         }
         Ok(Self { scenario, robots, now: Duration::ZERO, next_control: CONTROL_PERIOD, rng })
     }
@@ -92,6 +118,21 @@ impl Lab {
     /// The robots, in id order.
     pub fn robots(&self) -> &[LabRobot] {
         &self.robots
+    }
+
+    /// The emulated operator puts robot `index` (0-based) on the start mark,
+    /// as the orchestrator's placement request asks (`bycoms/<swarm>/operator`):
+    /// a still, silent body until its firmware is enabled. False when there
+    /// is no such robot or it is already in the arena (a body is placed once).
+    pub fn place(&mut self, index: usize) -> bool {
+        let s = self.scenario.start;
+        match self.robots.get_mut(index) {
+            Some(r) if r.body.is_none() => {
+                r.body = Some(Crawler::new(s.x, s.y, s.heading));
+                true
+            }
+            _ => false,
+        }
     }
 
     /// Advances the lab by one physics step.

@@ -88,6 +88,14 @@ impl FrameMaker {
     /// The next frame for the bodies' true poses (in config order), or
     /// `None` when the frame is lost. The frame counter advances either way.
     pub fn next_frame(&mut self, poses: &[BodyPose]) -> Option<FrameOfData> {
+        self.next_frame_seen(poses, &[])
+    }
+
+    /// [`FrameMaker::next_frame`] where body `k` (config order) is only
+    /// seen when `seen[k]` is true (missing entries: seen); an unseen body
+    /// is sent as Motive sends a body out of the volume: tracking-valid
+    /// off, zero pose (the emulated lab's robots waiting off the arena).
+    pub fn next_frame_seen(&mut self, poses: &[BodyPose], seen: &[bool]) -> Option<FrameOfData> {
         let t = self.time_s();
         let frame_number = i32::try_from(self.index).unwrap_or(i32::MAX);
         self.index += 1;
@@ -96,7 +104,7 @@ impl FrameMaker {
         let noise = faults.marker_noise_m;
         let mut rigid_bodies = Vec::with_capacity(poses.len());
         let mut marker_sets = Vec::with_capacity(poses.len());
-        for (body, pose) in self.config.bodies.iter().zip(poses) {
+        for (k, (body, pose)) in self.config.bodies.iter().zip(poses).enumerate() {
             // Draw the noise even for a lost frame: the sequence stays the same.
             let jitter: [f32; 3] = [gauss(&mut self.rng), gauss(&mut self.rng), gauss(&mut self.rng)];
             let occlusion =
@@ -115,7 +123,7 @@ impl FrameMaker {
                 })
                 .unwrap_or(body.id);
             let position: [f32; 3] = core::array::from_fn(|k| pose.position[k] + noise * jitter[k]);
-            if occlusion.is_some() {
+            if occlusion.is_some() || !seen.get(k).copied().unwrap_or(true) {
                 rigid_bodies.push(RigidBody {
                     id,
                     position: [0.0; 3],

@@ -43,6 +43,8 @@ pub enum ServerError {
 
 struct Shared {
     poses: Mutex<Vec<BodyPose>>,
+    /// Per body (config order): in the cameras' view.
+    seen: Mutex<Vec<bool>>,
     clients: Mutex<Vec<(SocketAddr, Instant)>>,
     last_frame: Mutex<Option<Vec<u8>>>,
     stop: AtomicBool,
@@ -61,7 +63,25 @@ impl NatNetServer {
     /// Binds the command socket at `command` (port 0: any) and a data
     /// socket on the same address, and starts serving `config`'s bodies.
     pub fn start(config: ServerConfig, command: SocketAddr) -> Result<Self, ServerError> {
+        Self::start_at_speed(config, command, 1.0)
+    }
+
+    /// [`NatNetServer::start`] for a world running `speed` times faster
+    /// than real time (the emulated lab at `--speed`): frames leave every
+    /// 1 / (rate × speed) s of wall time and are stamped in the world's
+    /// time (frame k at k / rate s), so a client sees the world's rate and
+    /// clock.
+    pub fn start_at_speed(
+        config: ServerConfig,
+        command: SocketAddr,
+        speed: f64,
+    ) -> Result<Self, ServerError> {
         config.validate().map_err(ServerError::Config)?;
+        if !(speed.is_finite() && speed > 0.0 && config.rate_hz * speed <= 10_000.0) {
+            return Err(ServerError::Config(format!(
+                "speed must be positive and rate × speed ≤ 10000, got {speed}"
+            )));
+        }
         let command_socket = UdpSocket::bind(command)?;
         command_socket.set_read_timeout(Some(POLL))?;
         let data_socket = UdpSocket::bind(SocketAddr::new(command.ip(), 0))?;
@@ -84,6 +104,7 @@ impl NatNetServer {
         let poses =
             config.bodies.iter().map(|b| BodyPose::yawed(b.position, b.yaw_deg.to_radians())).collect();
         let shared = Arc::new(Shared {
+            seen: Mutex::new(vec![true; config.bodies.len()]),
             poses: Mutex::new(poses),
             clients: Mutex::new(Vec::new()),
             last_frame: Mutex::new(None),
@@ -100,7 +121,7 @@ impl NatNetServer {
             let shared = Arc::clone(&shared);
             std::thread::Builder::new()
                 .name("natnet-stream".into())
-                .spawn(move || stream(&data_socket, &shared, config))?
+                .spawn(move || stream(&data_socket, &shared, config, speed))?
         };
         tracing::info!(%command_addr, %data_addr, "NatNet server started");
         Ok(Self { command_addr, data_addr, ids, shared, threads: vec![command_thread, stream_thread] })
@@ -126,6 +147,14 @@ impl NatNetServer {
         let Some(k) = self.ids.iter().position(|&b| b == id) else { return false };
         let mut poses = self.shared.poses.lock().unwrap_or_else(PoisonError::into_inner);
         poses[k] = pose;
+        true
+    }
+
+    /// Puts body `id` in the cameras' view or takes it out (then it is
+    /// streamed untracked); false if no such body.
+    pub fn set_seen(&self, id: i32, seen: bool) -> bool {
+        let Some(k) = self.ids.iter().position(|&b| b == id) else { return false };
+        self.shared.seen.lock().unwrap_or_else(PoisonError::into_inner)[k] = seen;
         true
     }
 
@@ -216,8 +245,8 @@ fn serve_commands(socket: &UdpSocket, shared: &Shared, server_info: &[u8], model
     }
 }
 
-fn stream(socket: &UdpSocket, shared: &Shared, config: ServerConfig) {
-    let period = Duration::from_secs_f64(1.0 / config.rate_hz);
+fn stream(socket: &UdpSocket, shared: &Shared, config: ServerConfig, speed: f64) {
+    let period = Duration::from_secs_f64(1.0 / (config.rate_hz * speed));
     let group = config.multicast;
     let mut maker = FrameMaker::new(config);
     let start = Instant::now();
@@ -229,7 +258,8 @@ fn stream(socket: &UdpSocket, shared: &Shared, config: ServerConfig) {
             std::thread::sleep(wait);
         }
         let poses = shared.poses.lock().unwrap_or_else(PoisonError::into_inner).clone();
-        let Some(frame) = maker.next_frame(&poses) else { continue };
+        let seen = shared.seen.lock().unwrap_or_else(PoisonError::into_inner).clone();
+        let Some(frame) = maker.next_frame_seen(&poses, &seen) else { continue };
         let bytes = match encode_packet(&Packet::FrameOfData(frame), SERVED_VERSION) {
             Ok(bytes) => bytes,
             Err(e) => {

@@ -23,6 +23,20 @@ fn poses(c: &ServerConfig) -> Vec<BodyPose> {
 }
 
 #[test]
+fn a_body_out_of_view_is_streamed_untracked_and_comes_back_when_seen() {
+    let c = config(Faults::default());
+    let mut maker = FrameMaker::new(c.clone());
+    let f = maker.next_frame_seen(&poses(&c), &[true, false]).expect("no loss configured");
+    assert!(f.rigid_bodies[0].tracking_valid());
+    assert!(!f.rigid_bodies[1].tracking_valid(), "robot 2 is off the arena");
+    assert_eq!(f.rigid_bodies[1].position, [0.0; 3]);
+    let f = maker.next_frame_seen(&poses(&c), &[true, true]).expect("no loss configured");
+    assert!(f.rigid_bodies[1].tracking_valid() && f.rigid_bodies[1].position == [3.0, 0.0, 4.0]);
+    let t = maker.time_s();
+    assert!((t - 0.02).abs() < 1e-12, "stamped in the world's time: frame k at k / rate, {t}");
+}
+
+#[test]
 fn without_faults_every_frame_carries_every_body_exactly() {
     let c = config(Faults::default());
     let mut maker = FrameMaker::new(c.clone());

@@ -1,0 +1,210 @@
+//! The `agent` command line and `main`.
+//!
+//! Exit codes as `sim-agent`'s: 0 after `Shutdown`, a signal or the
+//! parent's death; 2 for a usage error (bad flags, values, key file); 1 for
+//! any other error (socket, bus), printed first.
+
+use crate::core::{GatewayCore, Timers};
+use crate::run::{quantile, Gateway, GatewayPorts, RunError};
+use bycoms_protocol::bus::ipc::{IpcBus, IpcConfig};
+use bycoms_protocol::bus::BusError;
+use bycoms_protocol::{NameError, RobotId, Swarm};
+use bycoms_sim::agent_process::cli::quiet_iceoryx2;
+use bycoms_sim::agent_process::lifeline::LifelineError;
+use bycoms_sim::agent_process::{check_speed, ipc_config, ExitCause, Lifeline};
+use bycoms_sim::lab::robots::{read_key, RobotsError};
+use std::net::{SocketAddr, UdpSocket};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// Longest link timeout: the gateway must report a lost link within 500 ms.
+pub const MAX_LINK_TIMEOUT_MS: u64 = 500;
+
+/// The gateway of one real robot: owns the robot's UDP link and appears on
+/// the bus as an agent of kind `Real`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct GatewayArgs {
+    /// Swarm name: the namespace of the run's topics.
+    #[arg(long)]
+    pub swarm: String,
+    /// The robot's id (1-based deployment order).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub robot: u32,
+    /// The UDP address to listen on: where the robot sends (its flashed
+    /// gateway address).
+    #[arg(long, value_name = "ADDR")]
+    pub bind: SocketAddr,
+    /// The robot's key file: 64 hexadecimal digits.
+    #[arg(long, value_name = "FILE")]
+    pub key_file: PathBuf,
+    /// Robots in the swarm: sizes the shared-memory services, the same for
+    /// every process of the swarm (default: this robot's id).
+    #[arg(long)]
+    pub swarm_size: Option<u32>,
+    /// Speed-up of the robot's clock (an emulated lab running faster than
+    /// real time): every link timer is divided by it.
+    #[arg(long, default_value_t = 1.0)]
+    pub speed: f64,
+    /// Report the link lost after this long without an authentic robot
+    /// frame, ms at speed 1 (at most 500).
+    #[arg(long, default_value_t = 300)]
+    pub link_timeout_ms: u64,
+    /// Bus heartbeat period, ms of wall time.
+    #[arg(long, default_value_t = 100)]
+    pub heartbeat_ms: u64,
+    /// The orchestrator's pid; the gateway exits when its parent is no
+    /// longer this process (default: its parent at start).
+    #[arg(long)]
+    pub parent_pid: Option<i32>,
+}
+
+impl GatewayArgs {
+    /// Checks what clap cannot.
+    pub fn validate(&self) -> Result<(), String> {
+        check_speed(self.speed)?;
+        if !(1..=MAX_LINK_TIMEOUT_MS).contains(&self.link_timeout_ms) {
+            return Err(format!(
+                "--link-timeout-ms must be in 1..={MAX_LINK_TIMEOUT_MS}, got {}",
+                self.link_timeout_ms
+            ));
+        }
+        if self.heartbeat_ms == 0 {
+            return Err("--heartbeat-ms must be at least 1".into());
+        }
+        Ok(())
+    }
+
+    /// The link timers for these flags.
+    pub fn timers(&self) -> Timers {
+        let link_timeout = Duration::from_secs_f64(self.link_timeout_ms as f64 / 1000.0 / self.speed);
+        Timers { link_timeout, ..Timers::paper(self.speed) }
+    }
+
+    /// The flags that reproduce these arguments (what a launcher passes).
+    pub fn to_flags(&self) -> Vec<String> {
+        let mut v = vec![
+            "--swarm".into(),
+            self.swarm.clone(),
+            "--robot".into(),
+            self.robot.to_string(),
+            "--bind".into(),
+            self.bind.to_string(),
+            "--key-file".into(),
+            self.key_file.display().to_string(),
+            "--speed".into(),
+            format!("{:?}", self.speed),
+            "--link-timeout-ms".into(),
+            self.link_timeout_ms.to_string(),
+            "--heartbeat-ms".into(),
+            self.heartbeat_ms.to_string(),
+        ];
+        for (flag, value) in [
+            ("--swarm-size", self.swarm_size.map(i64::from)),
+            ("--parent-pid", self.parent_pid.map(i64::from)),
+        ] {
+            if let Some(n) = value {
+                v.push(flag.into());
+                v.push(n.to_string());
+            }
+        }
+        v
+    }
+}
+
+/// Why a gateway could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum GatewayError {
+    /// A flag has an unusable value.
+    #[error("{0}")]
+    Args(String),
+    /// The key file is unreadable or malformed.
+    #[error(transparent)]
+    Key(#[from] RobotsError),
+    /// The swarm name is not a valid topic chunk.
+    #[error("bad swarm name: {0}")]
+    Swarm(#[from] NameError),
+    /// The robot's socket could not be bound.
+    #[error("cannot listen for robot {robot} on {addr}: {source}")]
+    Bind {
+        /// The robot.
+        robot: u32,
+        /// The address.
+        addr: SocketAddr,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// The OS random source failed.
+    #[error("no randomness for session ids: {0}")]
+    Random(getrandom::Error),
+    /// The bus failed.
+    #[error("bus: {0}")]
+    Bus(#[from] BusError),
+    /// The loop failed.
+    #[error(transparent)]
+    Run(#[from] RunError),
+    /// The parent-death link could not be set up.
+    #[error(transparent)]
+    Lifeline(#[from] LifelineError),
+}
+
+/// Runs one gateway; returns the process exit code.
+pub fn main_with(args: &GatewayArgs) -> i32 {
+    quiet_iceoryx2();
+    let _span = tracing::info_span!("agent", robot = args.robot).entered();
+    match run(args) {
+        // Another gateway already holds the robot (same code as sim-agent).
+        Ok(ExitCause::Refused) => 3,
+        Ok(cause) => {
+            tracing::debug!(?cause, "gateway exits");
+            0
+        }
+        Err(e) => {
+            tracing::error!("{e}");
+            if matches!(e, GatewayError::Args(_) | GatewayError::Key(_)) {
+                2
+            } else {
+                1
+            }
+        }
+    }
+}
+
+fn run(args: &GatewayArgs) -> Result<ExitCause, GatewayError> {
+    let mut lifeline = Lifeline::install(args.parent_pid)?;
+    args.validate().map_err(GatewayError::Args)?;
+    let key = read_key(&args.key_file)?;
+    let swarm = Swarm::new(&args.swarm)?;
+    let id = RobotId(args.robot);
+    let socket = UdpSocket::bind(args.bind).map_err(|source| GatewayError::Bind {
+        robot: id.0,
+        addr: args.bind,
+        source,
+    })?;
+    let mut seed = [0u8; 8];
+    getrandom::fill(&mut seed).map_err(GatewayError::Random)?;
+    let size = args.swarm_size.unwrap_or(args.robot).max(args.robot);
+    let config = IpcConfig {
+        node_name: Some(format!("bycoms-{}-gateway-{}", swarm.as_str(), id.0)),
+        ..ipc_config(size)
+    };
+    let bus = IpcBus::new(config)?;
+    let ports = GatewayPorts::open(&bus, &swarm, id)?;
+    let core = GatewayCore::new(id, key, args.timers(), u64::from_le_bytes(seed), Instant::now());
+    let heartbeat = Duration::from_millis(args.heartbeat_ms);
+    let mut gateway = Gateway::new(core, ports, socket, heartbeat).map_err(RunError::from)?;
+    tracing::info!(bind = %args.bind, speed = args.speed, "gateway listening for its robot");
+    let cause = gateway.run(&mut lifeline)?;
+    let drops: Vec<String> =
+        gateway.core().drops().nonzero().map(|(why, n)| format!("{}={n}", why.name())).collect();
+    let s = gateway.stats();
+    tracing::info!(
+        ?cause,
+        relayed = s.relayed,
+        relay_p50_us = quantile(&s.relay_ns, 0.5).map(|n| n / 1000),
+        relay_p99_us = quantile(&s.relay_ns, 0.99).map(|n| n / 1000),
+        bad_messages = s.traffic.total(),
+        refused_frames = %drops.join(" "),
+        "gateway exits"
+    );
+    Ok(cause)
+}

@@ -1,0 +1,236 @@
+//! The gateway's loop: one UDP socket, the bus, and [`GatewayCore`].
+//!
+//! Why one thread with a short receive timeout: an iceoryx2 bus is confined
+//! to the thread that opened it, and the robot's datagrams must be relayed
+//! at once (the added latency is a figure of merit: `agent bench`). So the
+//! loop blocks on the socket for at most [`SLICE`], relays every datagram
+//! as it comes, and between datagrams drains the bus (commands, the robot's
+//! own pose), runs the core's timers and checks its [`Lifeline`]. A
+//! command therefore waits at most one slice before it goes to the robot.
+
+use crate::core::{GatewayCore, Output};
+use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
+use bycoms_protocol::msg::{AgentKind, FromAgent, Heartbeat, Pose, Register, ToAgent};
+use bycoms_protocol::{RobotId, Swarm, PROTOCOL_VERSION};
+use bycoms_sim::agent_process::{instance, BadKind, ExitCause, Lifeline, Traffic};
+use std::io;
+use std::net::UdpSocket;
+use std::time::{Duration, Instant};
+
+/// Longest wait on the socket before the bus and the timers are served.
+pub const SLICE: Duration = Duration::from_millis(2);
+
+/// The gateway's ports on the bus.
+pub struct GatewayPorts<B: Bus> {
+    commands: TypedSubscriber<B::Subscriber, ToAgent>,
+    own_pose: TypedSubscriber<B::Subscriber, Pose>,
+    report: TypedPublisher<B::Publisher, FromAgent>,
+}
+
+impl<B: Bus> GatewayPorts<B> {
+    /// Opens every port, subscribers first (nothing sent after the
+    /// gateway's `Register` can be missed).
+    pub fn open(bus: &B, swarm: &Swarm, id: RobotId) -> Result<Self, BusError> {
+        let commands = bus.typed_subscriber(&swarm.to_agent(id))?;
+        let own_pose = bus.typed_subscriber(&swarm.pose(id))?;
+        let report = bus.typed_publisher(&swarm.from_agents())?;
+        Ok(Self { commands, own_pose, report })
+    }
+}
+
+/// Why the loop stopped with an error.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The bus failed.
+    #[error("bus: {0}")]
+    Bus(#[from] BusError),
+    /// The robot's socket failed.
+    #[error("robot socket: {0}")]
+    Io(#[from] io::Error),
+}
+
+/// What a gateway counted.
+#[derive(Clone, Debug, Default)]
+pub struct GatewayStats {
+    /// Bad bus messages.
+    pub traffic: Traffic,
+    /// Telemetry frames relayed.
+    pub relayed: u64,
+    /// Per relayed telemetry frame: socket receive returned → its bus
+    /// messages published, ns (the first million).
+    pub relay_ns: Vec<u64>,
+}
+
+/// One gateway process's loop.
+pub struct Gateway<B: Bus> {
+    core: GatewayCore,
+    ports: GatewayPorts<B>,
+    socket: UdpSocket,
+    heartbeat_every: Duration,
+    who: String,
+    stats: GatewayStats,
+}
+
+impl<B: Bus> Gateway<B> {
+    /// A gateway around `core`, serving the robot on `socket`.
+    pub fn new(
+        core: GatewayCore,
+        ports: GatewayPorts<B>,
+        socket: UdpSocket,
+        heartbeat_every: Duration,
+    ) -> io::Result<Self> {
+        socket.set_read_timeout(Some(SLICE))?;
+        let who = format!("agent[robot {}]", core.robot().0);
+        Ok(Self { core, ports, socket, heartbeat_every, who, stats: GatewayStats::default() })
+    }
+
+    /// The core (drop counters, link state).
+    pub fn core(&self) -> &GatewayCore {
+        &self.core
+    }
+
+    /// What was counted so far.
+    pub fn stats(&self) -> &GatewayStats {
+        &self.stats
+    }
+
+    /// Registers, then runs until `Shutdown`, a signal or the parent's death.
+    pub fn run(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, RunError> {
+        let robot = self.core.robot();
+        let register = Register {
+            robot,
+            kind: AgentKind::Real,
+            protocol_version: PROTOCOL_VERSION,
+            instance: instance(),
+        };
+        self.ports.report.publish(&FromAgent::Register(register))?;
+        let (mut seq, mut next_heartbeat) = (0u64, Instant::now());
+        // Until the orchestrator sends a command, every heartbeat repeats
+        // the `Register` (a lost one would leave the robot never enabled).
+        let mut heard_orchestrator = false;
+        let mut buf = [0u8; 2048];
+        loop {
+            if let Some(cause) = lifeline.check() {
+                self.core.on_command(&ToAgent::Stop, Instant::now()).ok();
+                self.flush(None)?;
+                return Ok(cause);
+            }
+            let now = Instant::now();
+            if now >= next_heartbeat {
+                seq += 1;
+                next_heartbeat = now + self.heartbeat_every;
+                if !heard_orchestrator && seq > 1 {
+                    self.ports.report.publish(&FromAgent::Register(register))?;
+                }
+                self.ports.report.publish(&FromAgent::Heartbeat(Heartbeat { robot, seq }))?;
+            }
+            match self.socket.recv_from(&mut buf) {
+                Ok((n, from)) => {
+                    let got = Instant::now();
+                    if let Err(reason) = self.core.on_datagram(&buf[..n], from, got) {
+                        tracing::debug!(robot = robot.0, %from, %reason, "link frame refused");
+                    }
+                    self.flush(Some(got))?;
+                }
+                Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut) => {}
+                // An earlier send to a robot that is not listening (ICMP).
+                Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => {}
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(e.into()),
+            }
+            let (exit, commanded) = self.drain_bus()?;
+            heard_orchestrator |= commanded;
+            if let Some(cause) = exit {
+                self.flush(None)?;
+                return Ok(cause);
+            }
+            self.core.poll(Instant::now());
+            self.flush(None)?;
+        }
+    }
+
+    /// Handles every waiting command and pose: (why to exit, if `Shutdown`
+    /// or this gateway's refusal came; whether any command came).
+    fn drain_bus(&mut self) -> Result<(Option<ExitCause>, bool), BusError> {
+        let mut commanded = false;
+        loop {
+            match self.ports.own_pose.try_recv() {
+                Ok(Some(pose)) => self.core.on_pose(&pose),
+                Ok(None) => break,
+                Err(e) => self.absorb("pose", e)?,
+            }
+        }
+        loop {
+            match self.ports.commands.try_recv() {
+                // Another gateway holds this robot: leave (a refusal of
+                // another instance is not for us).
+                Ok(Some(ToAgent::Refused(r))) if r.instance == instance() => {
+                    tracing::error!(
+                        robot = r.robot.0,
+                        "refused: another agent already holds robot {}",
+                        r.robot.0
+                    );
+                    self.core.on_command(&ToAgent::Stop, Instant::now()).ok();
+                    return Ok((Some(ExitCause::Refused), commanded));
+                }
+                Ok(Some(ToAgent::Refused(_))) => {}
+                Ok(Some(cmd)) => {
+                    commanded = true;
+                    match self.core.on_command(&cmd, Instant::now()) {
+                        Ok(true) => return Ok((Some(ExitCause::Shutdown), true)),
+                        Ok(false) => {}
+                        Err(r) => self.stats.traffic.count(&self.who, BadKind::Refused, &r),
+                    }
+                }
+                Ok(None) => return Ok((None, commanded)),
+                Err(e) => self.absorb("to_agent", e)?,
+            }
+        }
+    }
+
+    fn absorb(&mut self, topic: &str, e: BusError) -> Result<(), BusError> {
+        match self.stats.traffic.absorb(&self.who, topic, e) {
+            None => Ok(()),
+            Some(fatal) => Err(fatal),
+        }
+    }
+
+    /// Sends and publishes everything the core queued; `received` is when
+    /// the datagram that caused it arrived (for the relay latency).
+    fn flush(&mut self, received: Option<Instant>) -> Result<(), RunError> {
+        let mut relayed = false;
+        while let Some(out) = self.core.poll_output() {
+            match out {
+                Output::Datagram(bytes, to) => match self.socket.send_to(&bytes, to) {
+                    Ok(_) => {}
+                    // WiFi loses datagrams too; the link copes.
+                    Err(e)
+                        if matches!(
+                            e.kind(),
+                            io::ErrorKind::ConnectionRefused | io::ErrorKind::WouldBlock
+                        ) => {}
+                    Err(e) => return Err(e.into()),
+                },
+                Output::Report(msg) => {
+                    relayed |= matches!(msg, FromAgent::Telemetry(_));
+                    self.ports.report.publish(&msg)?;
+                }
+            }
+        }
+        if let (true, Some(t)) = (relayed, received) {
+            self.stats.relayed += 1;
+            if self.stats.relay_ns.len() < 1_000_000 {
+                self.stats.relay_ns.push(t.elapsed().as_nanos() as u64);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The `q`-quantile of `values` (sorted copy; `None` when empty).
+pub fn quantile(values: &[u64], q: f64) -> Option<u64> {
+    let mut v = values.to_vec();
+    v.sort_unstable();
+    let i = ((v.len() as f64 - 1.0) * q).round() as usize;
+    v.get(i).copied()
+}

@@ -1,0 +1,143 @@
+//! `orchestrator bridge`: republish a local iceoryx2 swarm on zenoh, so a
+//! launch on this host can be watched from another one without changing
+//! its agents.
+//!
+//! Why our own bridge and not iceoryx2's tunnel crates: the newest
+//! `iceoryx2-tunnel-zenoh` (0.8.1) is built on iceoryx2 0.8 while this
+//! workspace uses iceoryx2 0.10, and services of different iceoryx2
+//! releases cannot see each other; the tunnel also mirrors services under
+//! its own key scheme, whereas a watcher here subscribes to the protocol's
+//! names (`bycoms/<swarm>/**`, `protocol/PROTOCOL.md`). This bridge is a
+//! loop over the bus traits: one iceoryx2 subscriber and one zenoh
+//! publisher per topic of the swarm, bytes copied unchanged.
+//!
+//! Direction: iceoryx2 → zenoh only (watching). Joining from another host
+//! (zenoh → iceoryx2) needs loop suppression and is left to the launch's
+//! zenoh transport.
+//!
+//! Pacing: iceoryx2 has no wildcard subscription and our bus no wait over
+//! many subscribers, so the loop polls every subscriber (a few tens of ns
+//! each), and sleeps 1 ms after a round that moved nothing. A message may
+//! thus wait up to ~1 ms; a lockstep burst faster than the bridge drains
+//! loses the oldest samples of a topic past its buffer (64), like any slow
+//! iceoryx2 subscriber — the launch itself never waits for the bridge.
+
+use crate::exit;
+use crate::launch::interrupt_flag;
+use anyhow::{Context, Result};
+use bycoms_protocol::bus::ipc::{IpcBus, IpcSubscriber};
+use bycoms_protocol::bus::zenoh::{Congestion, Mode, ZenohBus, ZenohConfig, ZenohPublisher};
+use bycoms_protocol::bus::{Bus, Limits, Publish, Subscribe};
+use bycoms_protocol::{RobotId, Swarm, TopicName, MAX_MESSAGE_LEN};
+use bycoms_sim::agent_process::ipc_config;
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+/// Republish a local (iceoryx2) swarm on zenoh for watchers on other hosts.
+///
+/// Start it before `orchestrator launch --swarm NAME --robots N` with the
+/// same name and robot count (iceoryx2 services are sized by the robot
+/// count); then connect e.g. `deploy/clients/watch.py --connect
+/// tcp/THIS_HOST:7447 --swarm NAME`. Runs until Ctrl-C or --duration.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The launch's swarm name.
+    #[arg(long)]
+    pub swarm: String,
+    /// The launch's robot count (robots 1..=N are bridged).
+    #[arg(long, default_value_t = 3)]
+    pub robots: u32,
+    /// zenoh endpoint(s) to listen on (router mode: the rendezvous).
+    #[arg(long, value_name = "ENDPOINT", default_value = "tcp/0.0.0.0:7447")]
+    pub listen: Vec<String>,
+    /// zenoh endpoint(s) to connect to, e.g. a lab router.
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+    /// zenoh JSON5 config read first (TLS, access control; deploy/zenoh/).
+    #[arg(long, value_name = "FILE.json5")]
+    pub zenoh_config: Option<PathBuf>,
+    /// Stop after this many seconds [default: until Ctrl-C].
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+}
+
+/// One bridged topic.
+struct Lane {
+    from: IpcSubscriber<iceoryx2::prelude::ipc::Service>,
+    to: ZenohPublisher,
+    topic: TopicName,
+    forwarded: u64,
+}
+
+fn topics(swarm: &Swarm, robots: u32) -> Vec<TopicName> {
+    let mut names = vec![*swarm.gate().name(), *swarm.from_agents().name()];
+    for id in 1..=robots {
+        let r = RobotId(id);
+        names.extend([*swarm.pose(r).name(), *swarm.to_agent(r).name(), *swarm.sensor(r).name()]);
+    }
+    names
+}
+
+pub fn run(args: Args) -> Result<i32> {
+    let swarm = Swarm::new(&args.swarm).with_context(|| format!("bad swarm name {:?}", args.swarm))?;
+    anyhow::ensure!(args.robots >= 1, "--robots must be at least 1");
+    let duration = match args.duration {
+        Some(s) if !(s.is_finite() && s > 0.0) => {
+            anyhow::bail!("--duration must be a positive number of seconds")
+        }
+        Some(s) => Some(Duration::from_secs_f64(s)),
+        None => None,
+    };
+    bycoms_sim::agent_process::cli::quiet_iceoryx2();
+    let mut ipc = ipc_config(args.robots);
+    ipc.node_name = Some(format!("bycoms-{}-bridge", args.swarm));
+    let local = IpcBus::new(ipc).context("cannot open the iceoryx2 bus")?;
+    let remote = ZenohBus::open(ZenohConfig {
+        limits: Limits { max_payload: MAX_MESSAGE_LEN, buffer: 64 },
+        mode: Mode::Router,
+        listen: args.listen.clone(),
+        connect: args.connect.clone(),
+        base_config: args.zenoh_config.clone(),
+        // A slow watcher stalls the bridge, never the launch; iceoryx2
+        // then drops the oldest local samples of busy topics (poses),
+        // while rare ones (gate events) still get through.
+        congestion: Congestion::Block,
+        ..ZenohConfig::default()
+    })
+    .context("cannot open the zenoh session")?;
+    let mut lanes = Vec::new();
+    for topic in topics(&swarm, args.robots) {
+        let from =
+            local.subscriber(&topic).with_context(|| format!("cannot subscribe to {topic} (iceoryx2)"))?;
+        let to = remote.publisher(&topic).with_context(|| format!("cannot publish {topic} (zenoh)"))?;
+        lanes.push(Lane { from, to, topic, forwarded: 0 });
+    }
+    bycoms_logging::status_line(&format!(
+        "bridge: bycoms/{}/** (robots 1..={}) from iceoryx2 to zenoh, listening on {}",
+        args.swarm,
+        args.robots,
+        args.listen.join(", ")
+    ));
+    let stop = interrupt_flag();
+    let started = Instant::now();
+    let mut buf = [0u8; MAX_MESSAGE_LEN];
+    while !stop.load(Ordering::SeqCst) && duration.is_none_or(|d| started.elapsed() < d) {
+        let mut moved = false;
+        for lane in &mut lanes {
+            while let Some(n) =
+                lane.from.try_recv_into(&mut buf).with_context(|| format!("receive {}", lane.topic))?
+            {
+                lane.to.publish(&buf[..n]).with_context(|| format!("republish {}", lane.topic))?;
+                lane.forwarded += 1;
+                moved = true;
+            }
+        }
+        if !moved {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+    let total: u64 = lanes.iter().map(|l| l.forwarded).sum();
+    bycoms_logging::status_line(&format!("bridge: forwarded {total} messages"));
+    Ok(if stop.load(Ordering::SeqCst) { exit::INTERRUPTED } else { exit::SUCCESS })
+}

@@ -1,0 +1,48 @@
+//! `orchestrator certs`: a lab's CA, certificates and zenoh configs for
+//! TLS with mutual authentication and an access-control list, so a lab
+//! does not have to learn openssl to deploy securely (see `crate::certs`).
+
+use crate::certs::{generate, Plan};
+use crate::exit;
+use anyhow::Result;
+use std::path::PathBuf;
+
+/// Make a lab CA, the orchestrator's certificate, one per robot, and the
+/// matching zenoh configs (orchestrator.json5 with the ACL, robot-K.json5).
+///
+/// Robot K may then publish only under its own id (`bycoms/*/robot/K/**`,
+/// plus the shared `from_agents`). Keep ca-key.pem offline: it signs new
+/// certificates. Private keys are written with mode 0600.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Robots 1..=N get a certificate each.
+    #[arg(long)]
+    pub robots: u32,
+    /// Output directory (created; existing files are overwritten).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Host names / IP addresses robots reach the orchestrator at (its certificate's names).
+    #[arg(long = "host", value_name = "NAME", default_values_t = ["localhost".to_string(), "127.0.0.1".to_string()])]
+    pub hosts: Vec<String>,
+    /// The orchestrator's listen endpoint.
+    #[arg(long, value_name = "ENDPOINT", default_value = "tls/0.0.0.0:7447")]
+    pub listen: String,
+    /// The endpoint robots connect to [default: tls/<first --host>:7447].
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Option<String>,
+}
+
+pub fn run(args: Args) -> Result<i32> {
+    let first = args.hosts.first().cloned().unwrap_or_else(|| "localhost".into());
+    let connect = args.connect.unwrap_or_else(|| format!("tls/{first}:7447"));
+    let plan = Plan { robots: args.robots, hosts: args.hosts, listen: args.listen, connect, out: args.out };
+    let made = generate(&plan)?;
+    bycoms_logging::status_line(&format!(
+        "certs: CA {}, orchestrator config {}, {} robot configs in {}",
+        made.ca.display(),
+        made.orchestrator_config.display(),
+        made.robot_configs.len(),
+        plan.out.display()
+    ));
+    Ok(exit::SUCCESS)
+}

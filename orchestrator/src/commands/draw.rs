@@ -1,0 +1,81 @@
+//! `orchestrator draw FILE.mcap`: a recorded launch as the snapshot picture
+//! (terrain, start, goal, every robot's trajectory and number, beacons with
+//! their ε circles, potential contours), so anyone can see a run without
+//! Foxglove. Terrain, start, goal and ε come from the recording's run
+//! metadata channel, trajectories from the recorded poses, beacons from the
+//! gate decisions (`record::run`, `draw::trace`).
+
+use crate::draw::trace::picture;
+use crate::exit::usage;
+use crate::record::run::read_run;
+use anyhow::{Context, Result};
+use bycoms_sim::terrain::parse;
+use bycoms_sim::RunConfig;
+use std::path::PathBuf;
+
+/// Draw a recorded launch (`launch --record FILE.mcap`) as an SVG snapshot.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The recording (a finished one, or one cut short by a crash).
+    #[arg(value_name = "FILE.mcap")]
+    pub file: PathBuf,
+    /// Where to write the picture [default: FILE with the extension .svg].
+    #[arg(long, value_name = "FILE.svg")]
+    pub out: Option<PathBuf>,
+    /// Draw the measurements instead (like the paper's fig:bag_3robots):
+    /// each robot's positions in its own colour, the goal, and the measured
+    /// gradient as arrows whose length is V_ave (real robots' telemetry).
+    #[arg(long)]
+    pub measurements: bool,
+}
+
+pub fn run(args: Args) -> Result<i32> {
+    let run = read_run(&args.file)?;
+    let meta = run.meta.ok_or_else(|| {
+        usage(format!(
+            "{} has no run metadata (bycoms/<swarm>/run): not a launch recording",
+            args.file.display()
+        ))
+    })?;
+    if args.measurements {
+        if !run.measurements.has_telemetry() {
+            tracing::warn!(
+                "{} holds no robot telemetry (simulated agents send none): drawing positions only",
+                args.file.display()
+            );
+        }
+        let swarm = meta.swarm.as_deref().unwrap_or("?");
+        let title = format!("{} — measurements, swarm {swarm}", meta.terrain);
+        let svg = run.measurements.picture(meta.goal, &title);
+        return write(&args, &svg);
+    }
+    let text = meta.terrain_text.as_deref().ok_or_else(|| {
+        usage(format!(
+            "{} records no terrain (made by an older orchestrator); it cannot be drawn",
+            args.file.display()
+        ))
+    })?;
+    let mut terrain =
+        parse(text).with_context(|| format!("the terrain recorded in {}", args.file.display()))?;
+    terrain.set_start(meta.start);
+    terrain.set_goal(meta.goal);
+    let eps = meta.eps().context("the recorded configuration has no ε")?;
+    if let Some(why) = &run.stopped_by {
+        tracing::warn!("{} ends early ({why}); drawing what it holds", args.file.display());
+    }
+    if run.trace.is_empty() {
+        tracing::warn!("{} holds no pose: drawing the arena only", args.file.display());
+    }
+    let dt = RunConfig::paper(eps).kinematics.dt;
+    let swarm = meta.swarm.as_deref().unwrap_or("?");
+    let heading = format!("{} — ε = {eps}, {} launch, swarm {swarm}", meta.terrain, meta.clock());
+    let svg = picture(&terrain, &run.trace, eps, dt, &heading);
+    write(&args, &svg)
+}
+
+fn write(args: &Args, svg: &str) -> Result<i32> {
+    let out = args.out.clone().unwrap_or_else(|| args.file.with_extension("svg"));
+    std::fs::write(&out, svg).with_context(|| format!("cannot write the picture to {}", out.display()))?;
+    crate::outln!("picture: {}", out.display())?;
+    Ok(crate::exit::SUCCESS)
+}

@@ -1,0 +1,159 @@
+//! Real robots behind `agent` gateways: one gateway process per robot of a
+//! lab's robots file (`deploy/lab/robots.toml`).
+//!
+//! Why a thin wrapper around [`Spawned`]: a gateway is a child process like
+//! a `sim-agent` — same process group, same `--parent-pid` lifeline, same
+//! polling and heartbeat watchdog — only its program and flags differ: it
+//! is bound to the robot's gateway address with the robot's key, and needs
+//! no terrain (the robot lives in the real world). Robots exist
+//! independently of the launch, so every gateway is started at the
+//! beginning ([`AgentSource::all_at_once`]): each robot connects while it
+//! waits, and the engine enables them one at a time with `Deploy`.
+//!
+//! A robot whose link is lost (its gateway reports `Link { up: false }`
+//! after 300 ms of silence) and stays lost for [`LINK_GRACE`] more is gone
+//! for the launch: [`AgentSource::poll`] reports it
+//! ([`Gone::RobotLinkLost`]) and ends its gateway, and the gate applies its
+//! lost-robot policy (`gate.on_agent_death`: a beacon where it was last
+//! seen, as a physically stranded robot is) — within 500 ms of the cut.
+//! The grace lets a WiFi hiccup, or an emulated lab that stalled for a
+//! moment on a busy machine, heal (`Link { up: true }`) without costing a
+//! robot. The robot's own failsafe stops its motors 500 ms after its last
+//! command either way.
+
+use super::spawned::{AgentCommand, Spawned};
+use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
+use bycoms_sim::lab::robots::RobotsFile;
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+/// One `agent` gateway per robot of a robots file.
+pub struct Gateways {
+    robots: RobotsFile,
+    inner: Spawned,
+    link_timeout_ms: u64,
+    /// Robots whose link was reported lost, since when (not yet reported
+    /// by `poll`, not restored).
+    lost_links: BTreeMap<u32, Instant>,
+}
+
+/// How long a robot link reported lost must stay lost before the robot is
+/// gone (wall time): with the gateway's 300 ms timeout, 450 ms after the
+/// cut at real-time speed, under the 500 ms the gate allows itself.
+pub const LINK_GRACE: Duration = Duration::from_millis(150);
+
+impl Gateways {
+    /// Gateways run by `agent` (the `agent` executable) for `robots`.
+    pub fn new(
+        agent: AgentCommand,
+        robots: RobotsFile,
+        register_timeout: Duration,
+        heartbeat_timeout: Duration,
+    ) -> Self {
+        Self {
+            robots,
+            inner: Spawned::new(agent, register_timeout, heartbeat_timeout),
+            link_timeout_ms: 300,
+            lost_links: BTreeMap::new(),
+        }
+    }
+
+    /// The gateway flags of robot `id`.
+    pub fn flags(&self, id: u32, plan: &AgentPlan<'_>) -> Result<Vec<String>, AgentError> {
+        let entry =
+            self.robots.robots.iter().find(|r| r.id == id).ok_or_else(|| AgentError::NoSuchRobot {
+                robot: id,
+                why: format!("the robots file names robots 1..={}", self.robots.robots.len()),
+            })?;
+        let a = plan.args;
+        let mut v = vec![
+            "--swarm".into(),
+            a.swarm.clone(),
+            "--robot".into(),
+            id.to_string(),
+            "--bind".into(),
+            entry.gateway.to_string(),
+            "--key-file".into(),
+            self.robots.key_path(entry).display().to_string(),
+            "--speed".into(),
+            format!("{:?}", a.speed),
+            "--link-timeout-ms".into(),
+            self.link_timeout_ms.to_string(),
+            "--heartbeat-ms".into(),
+            a.heartbeat_ms.to_string(),
+        ];
+        if let Some(n) = a.swarm_size {
+            v.extend(["--swarm-size".into(), n.to_string()]);
+        }
+        if let Some(p) = a.parent_pid {
+            v.extend(["--parent-pid".into(), p.to_string()]);
+        }
+        Ok(v)
+    }
+}
+
+impl AgentSource for Gateways {
+    fn kind(&self) -> &'static str {
+        "gateway"
+    }
+
+    fn all_at_once(&self) -> bool {
+        true
+    }
+
+    fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {
+        let flags = self.flags(id, plan)?;
+        let pid = self.inner.spawn(id, &flags, "")?;
+        Ok(Started::Process { pid })
+    }
+
+    fn heard(&mut self, id: u32) {
+        self.inner.heard(id);
+    }
+
+    fn is_running(&self, id: u32) -> bool {
+        self.inner.is_running(id)
+    }
+
+    fn pid(&self, id: u32) -> Option<u32> {
+        self.inner.pid(id)
+    }
+
+    fn poll(&mut self, force: bool) -> Vec<(u32, Gone)> {
+        let mut gone = self.inner.poll(force);
+        let now = Instant::now();
+        let due: Vec<u32> = self
+            .lost_links
+            .iter()
+            .filter(|(_, since)| now.duration_since(**since) >= LINK_GRACE)
+            .map(|(id, _)| *id)
+            .collect();
+        for id in due {
+            self.lost_links.remove(&id);
+            // Ended here, so never reported twice (nor by `inner` later).
+            if self.inner.kill(id) {
+                gone.push((id, Gone::RobotLinkLost));
+            }
+        }
+        gone
+    }
+
+    fn robot_link(&mut self, id: u32, up: bool) {
+        if up {
+            if self.lost_links.remove(&id).is_some() {
+                tracing::info!(robot = id, "robot {id}'s link is back within the grace: it stays");
+            }
+        } else if self.inner.is_running(id) {
+            self.lost_links.entry(id).or_insert_with(Instant::now);
+        }
+    }
+
+    fn kill(&mut self, id: u32) -> bool {
+        self.lost_links.remove(&id);
+        self.inner.kill(id)
+    }
+
+    fn wind_down(&mut self, grace: Duration) -> Vec<u32> {
+        self.inner.wind_down(grace)
+    }
+}

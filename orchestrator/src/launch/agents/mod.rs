@@ -1,0 +1,226 @@
+//! The agents seam: where a launch's agents come from.
+//!
+//! Why a trait: the engine and the gate care that robot `k` has an agent
+//! that registers, answers and may die — not whether that agent is a
+//! process spawned here ([`spawned::Spawned`], today's default), a
+//! `sim-agent` started by hand on another host (remote agents), or a real
+//! robot behind an `agent` gateway process. Each kind implements
+//! [`AgentSource`]; the engine holds a `Box<dyn AgentSource>` and nothing
+//! else about them. Messages never go through a source: every agent,
+//! whatever its kind, talks to the orchestrator over the launch's bus
+//! (`launch/ports.rs`); a source only starts agents, watches their
+//! liveness and ends them. The kinds: [`spawned::Spawned`] (default),
+//! [`remote::Remote`] (`--agents remote`), [`gateways::Gateways`]
+//! (`--agents real`); [`choice`] picks one from the config.
+//!
+//! Contract (checked for every implementation by the one conformance suite,
+//! `orchestrator/tests/agent_source_suite.rs`):
+//!
+//! * [`AgentSource::start`] makes robot `id`'s agent exist or expected;
+//!   from then on [`AgentSource::is_running`] is true until the agent is
+//!   reported gone by [`AgentSource::poll`], killed, or wound down;
+//! * [`AgentSource::poll`] is the **single place** where a lost agent is
+//!   reported, each loss exactly once, with its [`Gone`] reason: its process
+//!   ended, it never registered within the registration timeout (counted
+//!   from `start`), it fell silent past the heartbeat timeout (counted from
+//!   the last [`AgentSource::heard`]), or its link was lost. An agent the
+//!   engine killed itself ([`AgentSource::kill`]) is not reported again;
+//! * [`AgentSource::wind_down`] (after the engine sent `Shutdown`) gives
+//!   the agents `grace` to end, then ends the rest and names them; after it
+//!   nothing is running. Dropping a source ends whatever is still running.
+//!
+//! The trait is object-safe and not `Send` (the launch runs on one thread:
+//! spawned children must be spawned from the main thread, see `spawned`).
+
+pub mod choice;
+pub mod gateways;
+pub mod remote;
+pub mod spawned;
+pub mod watchdog;
+
+use bycoms_sim::agent_process::AgentArgs;
+use std::process::ExitStatus;
+use std::time::Duration;
+
+/// What an agent needs to be started: its flags and the world.
+#[derive(Clone, Copy, Debug)]
+pub struct AgentPlan<'a> {
+    /// The agent's arguments (robot id, swarm, run parameters, clock,
+    /// transport endpoints).
+    pub args: &'a AgentArgs,
+    /// The terrain in the text format (simulated agents build their world
+    /// from it; real robots have the real one).
+    pub terrain_text: &'a str,
+}
+
+/// What [`AgentSource::start`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Started {
+    /// A process was started on this host.
+    Process {
+        /// Its pid.
+        pid: u32,
+    },
+    /// Nothing was started here: the agent is expected to come and register
+    /// (a remote agent, a robot's gateway started elsewhere).
+    Awaited,
+}
+
+impl std::fmt::Display for Started {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Process { pid } => write!(f, "agent started (pid {pid})"),
+            Self::Awaited => write!(f, "awaiting its agent"),
+        }
+    }
+}
+
+/// Why an agent is gone.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Gone {
+    /// The process exited (or was killed by a signal).
+    Exited(ExitStatus),
+    /// Registered, alive, but silent past the heartbeat timeout (killed).
+    Silent,
+    /// Never registered within the registration timeout (killed).
+    NeverRegistered,
+    /// Did not answer a lockstep tick in time (killed).
+    NoTickReply,
+    /// Did not report its start pose in time after `Deploy` (killed).
+    NoStartPose,
+    /// Its link to the orchestrator was lost (a remote agent or gateway).
+    Disconnected,
+    /// No contact with it (its link was lost, or it fell silent) for longer
+    /// than the launch's link grace (`supervision.link_grace`, seconds ×
+    /// 1000): it was unreachable and did not come back.
+    Unreachable {
+        /// The grace it had, in milliseconds.
+        grace_ms: u64,
+    },
+    /// A real robot's own link (robot ↔ gateway) was lost: its gateway
+    /// reported `Link { up: false }`; the gateway was ended.
+    RobotLinkLost,
+}
+
+impl std::fmt::Display for Gone {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Exited(status) => write!(f, "its process ended ({status})"),
+            Self::Silent => write!(f, "it fell silent (no heartbeat) and was killed"),
+            Self::NeverRegistered => write!(f, "it did not register in time and was killed"),
+            Self::NoTickReply => write!(f, "it did not answer a lockstep tick in time and was killed"),
+            Self::NoStartPose => {
+                write!(f, "it did not report its start pose in time after being deployed and was killed")
+            }
+            Self::Disconnected => write!(f, "its link to the orchestrator was lost"),
+            Self::Unreachable { grace_ms } => write!(
+                f,
+                "its link to the orchestrator was lost and did not come back within the {} s link grace",
+                *grace_ms as f64 / 1000.0
+            ),
+            Self::RobotLinkLost => write!(f, "the robot's link to its gateway was lost"),
+        }
+    }
+}
+
+/// A change in whether an agent can be reached (see [`AgentSource::reach`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reach {
+    /// No contact any more (liveliness token gone, or silent past the
+    /// heartbeat timeout): the engine holds the robot until it is back or
+    /// the grace is over.
+    Lost,
+    /// Heard from again within the grace.
+    Back,
+}
+
+/// Why an agent could not be started.
+#[derive(Debug, thiserror::Error)]
+pub enum AgentError {
+    /// The agent executable could not be started.
+    #[error("cannot start the agent {program}: {source}")]
+    Spawn {
+        /// The executable.
+        program: String,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// The terrain could not be handed to the agent.
+    #[error("cannot hand the terrain to robot {robot}'s agent: {source}")]
+    Handoff {
+        /// The robot.
+        robot: u32,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// The robot is not one this source can provide.
+    #[error("robot {robot} has no agent in this launch: {why}")]
+    NoSuchRobot {
+        /// The robot.
+        robot: u32,
+        /// Why not.
+        why: String,
+    },
+    /// Any other failure of a source (its own typed error, boxed).
+    #[error(transparent)]
+    Other(Box<dyn std::error::Error + Send + Sync>),
+}
+
+/// Where agents come from; see the module docs for the contract.
+pub trait AgentSource {
+    /// The kind of source (`spawned`, `remote`, `gateway`), for logs.
+    fn kind(&self) -> &'static str;
+
+    /// Whether the agents exist independently of the launch (remote agents,
+    /// robots): then the engine starts every robot's agent at the beginning
+    /// and waits for all registrations before the first deployment, instead
+    /// of starting each when (or just before) its robot is needed.
+    fn all_at_once(&self) -> bool {
+        false
+    }
+
+    /// Starts robot `id`'s agent, or starts expecting it. The engine opens
+    /// the robot's ports first, so nothing the agent sends is missed.
+    fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError>;
+
+    /// Notes that robot `id`'s agent sent something (registration,
+    /// heartbeat, any report): it is alive and registered.
+    fn heard(&mut self, id: u32);
+
+    /// Whether robot `id`'s agent is started and not yet gone.
+    fn is_running(&self, id: u32) -> bool;
+
+    /// The pid of robot `id`'s agent when it is a process on this host.
+    fn pid(&self, id: u32) -> Option<u32>;
+
+    /// The agents that are gone since the last poll, each reported once
+    /// (the only place where losses are reported). At most one sweep per
+    /// few milliseconds unless `force`.
+    fn poll(&mut self, force: bool) -> Vec<(u32, Gone)>;
+
+    /// Notes what robot `id`'s gateway reported about its robot's link
+    /// (`FromAgent::Link { up }`). A source of real robots reports a robot
+    /// whose link stays lost gone ([`Gone::RobotLinkLost`]) from
+    /// [`poll`]; others ignore it (default).
+    ///
+    /// [`poll`]: AgentSource::poll
+    fn robot_link(&mut self, _id: u32, _up: bool) {}
+
+    /// The changes in reachability since the last call: an agent that was
+    /// lost for a moment ([`Reach::Lost`], its link cut or silent) and one
+    /// that is back ([`Reach::Back`]). Only sources whose agents can come
+    /// back report them (remote agents with a link grace); an agent that
+    /// stays unreachable past the grace is then reported gone by `poll`.
+    /// Default: none.
+    fn reach(&mut self) -> Vec<(u32, Reach)> {
+        Vec::new()
+    }
+
+    /// Ends robot `id`'s agent now (kill a process, drop a remote agent);
+    /// whether it was running. It is not reported by `poll` afterwards.
+    fn kill(&mut self, id: u32) -> bool;
+
+    /// After `Shutdown` was sent: waits up to `grace` for every agent to
+    /// end, then ends the rest; returns those it had to end.
+    fn wind_down(&mut self, grace: Duration) -> Vec<u32>;
+}

@@ -1,0 +1,188 @@
+//! Agents spawned here: one child process per robot (the default source).
+//!
+//! Why polling and heartbeats both: a child that exits, crashes or is
+//! killed (even by `kill -9`) is seen by `try_wait` the next time the loop
+//! polls — every few milliseconds — while a child that is alive but hung
+//! only shows by its silence, so a registered agent that sends nothing for
+//! `heartbeat_timeout` is killed and treated as dead too ([`Watchdog`]).
+//!
+//! Agents are spawned from the thread that runs the launch (the main
+//! thread), in their own process group (a Ctrl-C in the terminal reaches the
+//! orchestrator only, which then shuts them down in order), with
+//! `--parent-pid` so they exit if the orchestrator dies. Dropping the
+//! [`Spawned`] source kills and reaps every child still running: whatever
+//! way the launch ends, it leaves no process behind.
+
+use super::watchdog::Watchdog;
+use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::os::unix::process::CommandExt;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// How an agent executable is invoked.
+#[derive(Clone, Debug)]
+pub struct AgentCommand {
+    /// The executable.
+    pub program: PathBuf,
+    /// Arguments before the agent's flags (`["sim-agent"]` when the
+    /// orchestrator runs agents itself).
+    pub prefix: Vec<String>,
+}
+
+/// The running agent processes, by robot id.
+pub struct Spawned {
+    command: AgentCommand,
+    children: BTreeMap<u32, Child>,
+    watchdog: Watchdog,
+    last_poll: Instant,
+}
+
+/// The name it had before the agents seam (`bench scale` still uses it).
+pub type Supervisor = Spawned;
+
+/// Least time between two `try_wait` sweeps.
+const POLL_EVERY: Duration = Duration::from_millis(5);
+
+impl Spawned {
+    /// A source starting agents with `command`.
+    pub fn new(command: AgentCommand, register_timeout: Duration, heartbeat_timeout: Duration) -> Self {
+        Self {
+            command,
+            children: BTreeMap::new(),
+            watchdog: Watchdog::new(register_timeout, heartbeat_timeout),
+            last_poll: Instant::now(),
+        }
+    }
+
+    /// Starts robot `robot`'s agent with `flags`, writing `stdin_text` (the
+    /// terrain) to its standard input. Returns its pid.
+    pub fn spawn(&mut self, robot: u32, flags: &[String], stdin_text: &str) -> Result<u32, AgentError> {
+        let mut child = Command::new(&self.command.program)
+            .args(&self.command.prefix)
+            .args(flags)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::null())
+            .stderr(Stdio::inherit())
+            .process_group(0)
+            .spawn()
+            .map_err(|source| AgentError::Spawn {
+                program: self.command.program.display().to_string(),
+                source,
+            })?;
+        let pid = child.id();
+        let written = match child.stdin.take() {
+            Some(mut stdin) => stdin.write_all(stdin_text.as_bytes()),
+            None => Ok(()),
+        };
+        self.children.insert(robot, child);
+        self.watchdog.start(robot);
+        // A child that died at once closes the pipe; that shows up as its
+        // exit in the next poll, with its own message on stderr.
+        if let Err(source) = written {
+            if source.kind() != std::io::ErrorKind::BrokenPipe {
+                return Err(AgentError::Handoff { robot, source });
+            }
+        }
+        Ok(pid)
+    }
+
+    fn end(&mut self, robot: u32) -> bool {
+        self.watchdog.forget(robot);
+        match self.children.remove(&robot) {
+            Some(mut child) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                true
+            }
+            None => false,
+        }
+    }
+
+    fn kill_all(&mut self) {
+        let ids: Vec<u32> = self.children.keys().copied().collect();
+        for id in ids {
+            self.end(id);
+        }
+    }
+}
+
+impl AgentSource for Spawned {
+    fn kind(&self) -> &'static str {
+        "spawned"
+    }
+
+    fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {
+        let mut args = plan.args.clone();
+        args.robot = id;
+        let pid = self.spawn(id, &args.to_flags(), plan.terrain_text)?;
+        Ok(Started::Process { pid })
+    }
+
+    fn heard(&mut self, id: u32) {
+        self.watchdog.heard(id);
+    }
+
+    fn is_running(&self, id: u32) -> bool {
+        self.children.contains_key(&id)
+    }
+
+    fn pid(&self, id: u32) -> Option<u32> {
+        self.children.get(&id).map(Child::id)
+    }
+
+    /// Finds the agents that are gone (exited, silent, never registered);
+    /// kills and reaps the hung ones.
+    fn poll(&mut self, force: bool) -> Vec<(u32, Gone)> {
+        let now = Instant::now();
+        if !force && now.duration_since(self.last_poll) < POLL_EVERY {
+            return Vec::new();
+        }
+        self.last_poll = now;
+        let mut gone = Vec::new();
+        for (&robot, child) in &mut self.children {
+            let verdict = match child.try_wait() {
+                Ok(Some(status)) => Some(Gone::Exited(status)),
+                Ok(None) | Err(_) => self.watchdog.overdue(robot, now),
+            };
+            if let Some(v) = verdict {
+                gone.push((robot, v));
+            }
+        }
+        for (robot, _) in &gone {
+            // Kills the hung ones; reaps (or re-reaps, harmlessly) the exited.
+            self.end(*robot);
+        }
+        gone
+    }
+
+    fn kill(&mut self, id: u32) -> bool {
+        self.end(id)
+    }
+
+    fn wind_down(&mut self, grace: Duration) -> Vec<u32> {
+        let deadline = Instant::now() + grace;
+        while !self.children.is_empty() && Instant::now() < deadline {
+            let exited: Vec<u32> = self
+                .children
+                .iter_mut()
+                .filter_map(|(id, c)| (!matches!(c.try_wait(), Ok(None))).then_some(*id))
+                .collect();
+            for id in exited {
+                self.end(id);
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        let killed: Vec<u32> = self.children.keys().copied().collect();
+        self.kill_all();
+        killed
+    }
+}
+
+impl Drop for Spawned {
+    fn drop(&mut self) {
+        self.kill_all();
+    }
+}

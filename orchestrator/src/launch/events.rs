@@ -1,0 +1,76 @@
+//! The launch's own JSON channels in a recording, each with a JSON schema:
+//! the run's metadata (`bycoms/<swarm>/run`), the agents' comings and
+//! goings (`bycoms/<swarm>/events`) and the summary
+//! (`bycoms/<swarm>/summary`, [`super::Summary`]).
+//!
+//! Why typed and not `json!`: a channel's schema comes from the type
+//! (`schemars`, like the scene's JSON channels in `crate::scene::json`), so
+//! what is written and what the schema says cannot drift, and Foxglove or
+//! any script reads the fields by name.
+
+use super::summary::Point;
+use schemars::JsonSchema;
+use serde::Serialize;
+
+/// Schema name of the run metadata channel.
+pub const RUN_SCHEMA: &str = "bycoms.LaunchConfig";
+/// Schema name of the events channel.
+pub const EVENT_SCHEMA: &str = "bycoms.LaunchEvent";
+/// Schema name of the summary channel.
+pub const SUMMARY_SCHEMA: &str = "bycoms.LaunchSummary";
+
+/// What happened to a robot's agent.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum EventKind {
+    /// Its agent was started here, or is awaited (remote, a robot's gateway).
+    Spawned,
+    /// Its agent was lost (see `reason`).
+    AgentLost,
+    /// Its agent could not be reached any more (link cut or silent); the
+    /// launch holds it for the link grace.
+    LinkLost,
+    /// Its agent was heard from again within the link grace.
+    LinkBack,
+}
+
+/// One event of a robot's agent.
+#[derive(Clone, Debug, PartialEq, Serialize, JsonSchema)]
+pub struct LaunchEvent {
+    /// The robot.
+    pub robot: u32,
+    /// What happened.
+    pub event: EventKind,
+    /// `spawned`: the agent's pid when it is a process on this host.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pid: Option<u32>,
+    /// `spawned`: the agent source (`spawned`, `remote`, `gateway`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub source: Option<String>,
+    /// `agent_lost`: why.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+    /// `agent_lost`: the robot's state in the launch when it was lost.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub state: Option<String>,
+}
+
+/// The run's metadata, written first: enough to draw and replay the run.
+#[derive(Clone, Debug, Serialize, JsonSchema)]
+pub struct RunMeta<'a> {
+    /// The swarm name (topic namespace).
+    pub swarm: &'a str,
+    /// Where the terrain came from (a file or a built-in scenario).
+    pub terrain: &'a str,
+    /// The terrain in the text format.
+    pub terrain_text: &'a str,
+    /// The start.
+    #[schemars(with = "Point")]
+    pub start: bycoms_sim::Vec2,
+    /// The goal.
+    #[schemars(with = "Point")]
+    pub goal: bycoms_sim::Vec2,
+    /// The launch configuration, as `deploy/launch.toml` documents it.
+    #[schemars(with = "serde_json::Map<String, serde_json::Value>")]
+    pub config: &'a super::LaunchConfig,
+}

@@ -1,0 +1,117 @@
+//! Fault injection into a launch's own bus: the `[faults]` section of the
+//! launch config (all rates 0 by default: off).
+//!
+//! Why in the launch and not only in tests: a lab wants to see how its
+//! swarm copes with a lossy network before it has one, and the soak test
+//! (`tests/tests/soak.rs`) drives hundreds of launches through the very
+//! same knob. The faults are the protocol crate's seeded fault layer
+//! ([`FaultBus`]) on the orchestrator's receiving side: agent reports and
+//! poses are dropped, delayed, duplicated or reordered, the same ones for
+//! the same seed.
+
+use super::transport::{Backend, LaunchBus};
+use crate::exit::usage;
+use anyhow::Result;
+use bycoms_protocol::bus::fault::{FaultBus, FaultConfig};
+use serde::{Deserialize, Serialize};
+use std::rc::Rc;
+use std::time::Duration;
+
+/// The `[faults]` section: probabilities per received message.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FaultsConfig {
+    /// Probability that a message is lost.
+    pub drop: f64,
+    /// Probability that a message is delivered twice.
+    pub duplicate: f64,
+    /// Probability that a message is held back for `delay_ms`.
+    pub delay: f64,
+    /// How long a delayed message is held, ms.
+    pub delay_ms: u64,
+    /// Probability that a message is swapped with its successor.
+    pub reorder: f64,
+    /// Seed of the fault decisions.
+    pub seed: u64,
+}
+
+impl Default for FaultsConfig {
+    fn default() -> Self {
+        Self { drop: 0.0, duplicate: 0.0, delay: 0.0, delay_ms: 10, reorder: 0.0, seed: 0 }
+    }
+}
+
+impl FaultsConfig {
+    /// Whether any fault is enabled.
+    pub fn is_on(&self) -> bool {
+        [self.drop, self.duplicate, self.delay, self.reorder].iter().any(|&p| p != 0.0)
+    }
+
+    /// The protocol crate's form.
+    pub fn fault_config(&self) -> FaultConfig {
+        FaultConfig {
+            drop: self.drop,
+            duplicate: self.duplicate,
+            delay: self.delay,
+            delay_by: Duration::from_millis(self.delay_ms),
+            reorder: self.reorder,
+            seed: self.seed,
+        }
+    }
+
+    /// Checks every rate lies in 0..=1 (a usage error otherwise).
+    pub fn validate(&self) -> Result<()> {
+        self.fault_config().validate().map_err(|why| usage(format!("faults: {why}")))
+    }
+
+    /// `bus` as the launch's transport: wrapped in the fault layer when a
+    /// fault is enabled, as it is otherwise.
+    pub fn wrap<B>(&self, bus: B) -> Result<Rc<dyn LaunchBus>>
+    where
+        B: Backend + 'static,
+        B::Publisher: 'static,
+        B::Subscriber: 'static,
+    {
+        if !self.is_on() {
+            return Ok(Rc::new(bus));
+        }
+        tracing::warn!(faults = ?self, "fault injection on: received messages are dropped, delayed, duplicated or reordered");
+        Ok(Rc::new(FaultBus::new(bus, self.fault_config())?))
+    }
+}
+
+impl<B: Backend> Backend for FaultBus<B> {
+    const KIND: &'static str = B::KIND;
+    fn cleanup(&self) {
+        self.inner().cleanup();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bycoms_protocol::bus::memory::MemoryBus;
+    use bycoms_protocol::bus::Limits;
+    use bycoms_protocol::TopicName;
+
+    #[test]
+    fn off_by_default_and_lossy_when_on() {
+        assert!(!FaultsConfig::default().is_on());
+        let topic = TopicName::parse("bycoms/faults/raw").expect("topic");
+        let count = |faults: FaultsConfig| {
+            let bus = faults.wrap(MemoryBus::new(Limits::default()).expect("bus")).expect("wrap");
+            let sub = bus.subscriber(&topic).expect("sub");
+            let publ = bus.publisher(&topic).expect("pub");
+            // Fewer than the bus's buffer holds: only the faults lose messages.
+            for i in 0..50u8 {
+                publ.publish(&[i]).expect("publish");
+            }
+            let mut buf = [0u8; 8];
+            std::iter::from_fn(|| sub.try_recv_into(&mut buf).expect("recv")).count()
+        };
+        assert_eq!(count(FaultsConfig::default()), 50);
+        let lossy = count(FaultsConfig { drop: 0.5, seed: 3, ..FaultsConfig::default() });
+        assert!((10..40).contains(&lossy), "{lossy} of 50 got through");
+        assert!(FaultsConfig { reorder: 1.5, ..FaultsConfig::default() }.validate().is_err());
+    }
+}

@@ -1,0 +1,25 @@
+//! Observers of a launch: who else sees the run as the gate sees it.
+//!
+//! Why a tap and not a second pass over the recording: a live view must see
+//! the run while it happens, and it must see exactly what the gate judged —
+//! the world the launch was given, every agent report, every decoded pose of a robot on its own
+//! topic, every gate event — at the very place they are recorded
+//! ([`super::ports::Ports`]), so the recording and what a viewer shows
+//! cannot disagree. Observers must not block: the launch loop calls them
+//! inline (the live view only queues the message for its own threads).
+
+use super::config::LaunchConfig;
+use super::engine::World;
+use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
+
+/// Something that watches a launch; every method has an empty default.
+pub trait Observer: Send {
+    /// The run's swarm name, world and settings, once, before any agent starts.
+    fn world(&mut self, _swarm: &str, _world: &World, _cfg: &LaunchConfig) {}
+    /// An agent's report (registration, heartbeat, status, tick done).
+    fn report(&mut self, _report: &FromAgent) {}
+    /// A robot's pose, as motion capture reported it on its own topic.
+    fn pose(&mut self, _pose: &Pose) {}
+    /// A gate decision, as published.
+    fn gate(&mut self, _event: &GateEvent) {}
+}

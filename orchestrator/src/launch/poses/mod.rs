@@ -1,0 +1,138 @@
+//! The poses seam: where the gate's poses come from.
+//!
+//! Why a trait: the gate judges motion from poses only, and a lab has
+//! several ways to see its robots. Today the simulated agents publish
+//! their own simulated motion capture on the bus ([`bus::BusPoses`]); a lab
+//! has OptiTrack (NatNet) and a replay of a recorded session. Each kind
+//! implements [`PoseSource`]; the engine holds a `Box<dyn PoseSource>` and
+//! knows none of them. A source needs no bus.
+//!
+//! Contract (checked for every implementation by the one conformance suite,
+//! `orchestrator/tests/pose_source_suite.rs`):
+//!
+//! * [`PoseSource::open_robot`] is called for robot `id` before its agent
+//!   is started; from then on every pose of that robot the source sees is
+//!   handed over; poses of robots not opened are not;
+//! * [`PoseSource::drain`] never waits: it hands every pose that arrived
+//!   since the last drain to [`PoseSink::pose`], robots in id order, each
+//!   robot's poses in arrival order, tagged with the robot the source saw
+//!   it for (the bus: the topic's robot; mocap: the rigid body's robot);
+//! * **recording**: a source that reads the bus ([`PoseSource::on_the_bus`]
+//!   true) hands every message's bytes to [`PoseSink::raw`] *before*
+//!   decoding them, garbage included, so the MCAP file holds exactly what
+//!   crossed the bus (as before the seam). For any other source the sink
+//!   records each pose it is handed, encoded with the one codec, on the
+//!   robot's pose topic (`bycoms/<swarm>/robot/<id>/pose`): the file then
+//!   holds what the gate saw, in the same schema, whatever its origin;
+//! * what a source cannot use (bytes that do not decode, a bus error that
+//!   is not fatal) goes to [`PoseSink::bad`] and is counted, never fatal; a
+//!   fatal failure is returned as an error and ends the launch.
+
+pub mod bus;
+
+use super::ports::schema;
+use super::recording::Recording;
+use bycoms_protocol::bus::BusError;
+use bycoms_protocol::msg::Pose;
+use bycoms_protocol::{encode, RobotId, Swarm, MAX_MESSAGE_LEN};
+use bycoms_sim::agent_process::Traffic;
+
+/// Why a pose source failed (fatally: the launch ends).
+#[derive(Debug, thiserror::Error)]
+pub enum PoseError {
+    /// The bus failed.
+    #[error("pose source: {0}")]
+    Bus(#[from] BusError),
+    /// Any other failure of a source (its own typed error, boxed).
+    #[error(transparent)]
+    Other(Box<dyn std::error::Error + Send + Sync>),
+}
+
+/// Where the gate's poses come from; see the module docs for the contract.
+pub trait PoseSource {
+    /// The kind of source (`bus`, `natnet`, `replay`), for logs.
+    fn kind(&self) -> &'static str;
+    /// Whether the source reads the launch's bus and records the raw bytes
+    /// itself ([`PoseSink::raw`]); otherwise the sink records decoded poses.
+    fn on_the_bus(&self) -> bool;
+    /// Starts handing over robot `id`'s poses (before its agent starts).
+    fn open_robot(&mut self, id: u32) -> Result<(), PoseError>;
+    /// Hands every pose that arrived since the last call to `sink`; never
+    /// waits.
+    fn drain(&mut self, sink: &mut PoseSink<'_>) -> Result<(), PoseError>;
+}
+
+/// Where a source hands its poses: the engine's intake, with the recording
+/// and the bad-traffic counters of the launch.
+pub struct PoseSink<'a> {
+    recording: &'a mut Recording,
+    traffic: &'a mut Traffic,
+    swarm: &'a Swarm,
+    poses: &'a mut Vec<(u32, Pose)>,
+    record_decoded: bool,
+    recorded: u64,
+}
+
+const WHO: &str = "launch";
+
+impl<'a> PoseSink<'a> {
+    /// A sink appending to `poses`. `record_decoded`: record each handed
+    /// pose (for sources that are not on the bus; see the module docs).
+    pub fn new(
+        recording: &'a mut Recording,
+        traffic: &'a mut Traffic,
+        swarm: &'a Swarm,
+        poses: &'a mut Vec<(u32, Pose)>,
+        record_decoded: bool,
+    ) -> Self {
+        Self { recording, traffic, swarm, poses, record_decoded, recorded: 0 }
+    }
+
+    /// One pose of robot `robot` as the source saw it.
+    pub fn pose(&mut self, robot: u32, pose: Pose) {
+        if self.record_decoded {
+            let mut buf = [0u8; MAX_MESSAGE_LEN];
+            match encode(&pose, &mut buf) {
+                Ok(bytes) => {
+                    let topic = self.swarm.pose(RobotId(robot));
+                    self.recording.bytes(topic.name().as_str(), schema::POSE, bytes);
+                    self.recorded += 1;
+                }
+                // A pose always fits one message; should it not, it is
+                // still judged, and the failure shows in the log.
+                Err(e) => tracing::warn!(robot, "cannot record a pose: {e}"),
+            }
+        }
+        self.poses.push((robot, pose));
+    }
+
+    /// The bytes of one message as they crossed the bus on `topic`, before
+    /// decoding (bus sources only).
+    pub fn raw(&mut self, topic: &str, bytes: &[u8]) {
+        self.recording.bytes(topic, schema::POSE, bytes);
+        self.recorded += 1;
+    }
+
+    /// Something the source could not use, from `topic`: counted (and
+    /// logged, thinned) if it is bad traffic, returned if it is fatal.
+    pub fn bad(&mut self, topic: &str, error: BusError) -> Result<(), PoseError> {
+        match self.traffic.absorb(WHO, topic, error) {
+            None => Ok(()),
+            Some(fatal) => Err(fatal.into()),
+        }
+    }
+
+    /// Records what a source received that is not a pose — e.g. a mocap
+    /// frame's datagram, so a replay can derive the poses again — on
+    /// `bycoms/<swarm>/<leaf>` with `schema`. Not counted in
+    /// [`PoseSink::recorded`] (which counts poses).
+    pub fn record_source_bytes(&mut self, leaf: &str, schema: &str, bytes: &[u8]) {
+        let topic = format!("bycoms/{}/{leaf}", self.swarm.as_str());
+        self.recording.bytes(&topic, schema, bytes);
+    }
+
+    /// Messages recorded through this sink (raw or decoded).
+    pub fn recorded(&self) -> u64 {
+        self.recorded
+    }
+}

@@ -1,0 +1,213 @@
+//! The live view's Foxglove channels, and what a viewer gets when it
+//! subscribes.
+//!
+//! Two kinds of channel, all under `bycoms/<swarm>/`:
+//!
+//! * **The scene** — exactly what the recording's decoded channels carry
+//!   ([`crate::scene`]: `scene` SceneUpdate, `tf`, `log`, `gate/json`,
+//!   `robot/<k>/pose/json`, `robot/<k>/mode`, `robot/<k>/telemetry`), one
+//!   SDK channel per topic, created when its first message comes. Foxglove's
+//!   3D, Log, Plot and Raw Messages panels show them as they are.
+//! * **The page's two** — `live/world` (terrain rows, start, goal, ε) and
+//!   `live/state` ([`LiveState`]: robots, trails, beacons, the gate, the
+//!   verdict), JSON with JSON schemas, because a self-contained page cannot
+//!   ship a protobuf decoder for the SceneUpdate. The page also reads the
+//!   scene's `gate/json` and `robot/<k>/pose/json`: one live stream for both.
+//!
+//! Why "latched" by hand: the protocol has no history, so on every
+//! subscription to `live/world`, `live/state` or `scene` the current value
+//! (for `scene`: [`Scene::snapshot`]) is sent to that subscriber only
+//! (`log_to_sink`); the SDK registers the subscription before it calls the
+//! listener, so nothing falls between the two.
+
+use super::state::{LiveState, WorldView};
+use crate::launch::recording::now_ns;
+use crate::launch::{LaunchConfig, World};
+use crate::scene::json::json_schema;
+use crate::scene::{Out, Scene, SceneWorld};
+use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
+use foxglove::websocket::{ChannelView, Client, ServerListener};
+use foxglove::{Context, RawChannel, Schema, SinkId};
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex, MutexGuard};
+
+/// The page's topic of the world, for swarm `swarm`.
+pub fn world_topic(swarm: &str) -> String {
+    format!("bycoms/{swarm}/live/world")
+}
+
+/// The page's topic of the whole state, for swarm `swarm`.
+pub fn state_topic(swarm: &str) -> String {
+    format!("bycoms/{swarm}/live/state")
+}
+
+/// The channels and the state behind them.
+pub struct Channels {
+    context: Arc<Context>,
+    inner: Mutex<Inner>,
+}
+
+#[derive(Default)]
+struct Inner {
+    channels: BTreeMap<String, Arc<RawChannel>>,
+    /// Set by [`Channels::world`]; nothing is sent before.
+    run: Option<Run>,
+    state: LiveState,
+}
+
+struct Run {
+    world_topic: String,
+    state_topic: String,
+    world: Vec<u8>,
+    /// `None` when the terrain text did not parse (the page still works).
+    scene: Option<Scene>,
+}
+
+fn to_json<T: Serialize>(value: &T) -> Option<Vec<u8>> {
+    serde_json::to_vec(value).map_err(|e| tracing::warn!("live view: a message did not serialise: {e}")).ok()
+}
+
+impl Inner {
+    /// The channel of `topic`, created with `schema` on first use.
+    fn channel(
+        &mut self,
+        context: &Arc<Context>,
+        topic: &str,
+        encoding: &str,
+        schema: Option<Schema>,
+    ) -> Option<Arc<RawChannel>> {
+        if let Some(c) = self.channels.get(topic) {
+            return Some(Arc::clone(c));
+        }
+        let built = context.channel_builder(topic).message_encoding(encoding).schema(schema).build_raw();
+        match built {
+            Ok(c) => {
+                self.channels.insert(topic.to_owned(), Arc::clone(&c));
+                Some(c)
+            }
+            Err(e) => {
+                tracing::warn!("live view: no channel {topic}: {e}");
+                None
+            }
+        }
+    }
+
+    /// Sends scene messages (to `sink` only, or to every subscriber).
+    fn send_scene(&mut self, context: &Arc<Context>, outs: Vec<Out>, sink: Option<SinkId>) {
+        for out in outs {
+            let Some(channel) =
+                self.channel(context, &out.topic, &out.message.encoding(), out.message.schema())
+            else {
+                continue;
+            };
+            if !channel.has_sinks() {
+                continue;
+            }
+            match out.message.encode() {
+                Ok(bytes) => channel.log_to_sink(&bytes, sink),
+                Err(e) => tracing::warn!("live view: {e}"),
+            }
+        }
+    }
+
+    fn send_state(&mut self, context: &Arc<Context>, sink: Option<SinkId>) {
+        let Some(topic) = self.run.as_ref().map(|r| r.state_topic.clone()) else { return };
+        let schema = Schema::new("bycoms.live.State", "jsonschema", json_schema::<LiveState>());
+        let (Some(channel), Some(bytes)) =
+            (self.channel(context, &topic, "json", Some(schema)), to_json(&self.state))
+        else {
+            return;
+        };
+        channel.log_to_sink(&bytes, sink);
+    }
+}
+
+impl Channels {
+    /// No channel yet: they come with the world.
+    pub fn new(context: &Arc<Context>) -> Self {
+        Self { context: Arc::clone(context), inner: Mutex::new(Inner::default()) }
+    }
+
+    fn inner(&self) -> MutexGuard<'_, Inner> {
+        // A panic while holding the lock leaves plain data: keep using it.
+        self.inner.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// The run's world: opens the page's channels and the scene.
+    pub fn world(&self, swarm: &str, world: &World, cfg: &LaunchConfig) {
+        let Some(bytes) = to_json(&WorldView::new(world, cfg)) else { return };
+        let scene = match bycoms_sim::terrain::parse(&world.terrain_text) {
+            Ok(mut terrain) => {
+                terrain.set_start(world.start);
+                terrain.set_goal(world.goal);
+                Some(Scene::new(swarm, SceneWorld { terrain, eps: cfg.eps, goal_radius: cfg.goal_radius }))
+            }
+            Err(e) => {
+                tracing::warn!("live view: no 3D scene (the terrain does not parse: {e})");
+                None
+            }
+        };
+        let mut inner = self.inner();
+        let run =
+            Run { world_topic: world_topic(swarm), state_topic: state_topic(swarm), world: bytes, scene };
+        let schema = Schema::new("bycoms.live.World", "jsonschema", json_schema::<WorldView>());
+        if let Some(channel) = inner.channel(&self.context, &run.world_topic, "json", Some(schema)) {
+            channel.log(&run.world);
+        }
+        let outs = run.scene.as_ref().map(|s| s.world(now_ns())).unwrap_or_default();
+        inner.run = Some(run);
+        inner.send_scene(&self.context, outs, None);
+        inner.send_state(&self.context, None);
+    }
+
+    /// One pose.
+    pub fn pose(&self, pose: &Pose) {
+        let mut inner = self.inner();
+        inner.state.pose(pose);
+        let outs = inner.run.as_mut().and_then(|r| r.scene.as_mut()).map(|s| s.pose(pose, now_ns()));
+        inner.send_scene(&self.context, outs.unwrap_or_default(), None);
+    }
+
+    /// One agent report (mode and telemetry for Foxglove).
+    pub fn report(&self, report: &FromAgent) {
+        let mut inner = self.inner();
+        let outs = inner.run.as_mut().and_then(|r| r.scene.as_mut()).map(|s| s.report(report, now_ns()));
+        inner.send_scene(&self.context, outs.unwrap_or_default(), None);
+    }
+
+    /// One gate event; the new state follows it.
+    pub fn gate(&self, event: &GateEvent) {
+        let mut inner = self.inner();
+        inner.state.gate(event);
+        let outs = inner.run.as_mut().and_then(|r| r.scene.as_mut()).map(|s| s.gate(event, now_ns()));
+        inner.send_scene(&self.context, outs.unwrap_or_default(), None);
+        inner.send_state(&self.context, None);
+    }
+
+    /// The run ended.
+    pub fn ended(&self, success: bool, verdict: &str) {
+        let mut inner = self.inner();
+        inner.state.ended(success, verdict);
+        inner.send_state(&self.context, None);
+    }
+}
+
+impl ServerListener for Channels {
+    fn on_subscribe(&self, client: Client, channel: ChannelView) {
+        let Some(sink) = client.sink_id() else { return };
+        let topic = channel.topic();
+        let mut inner = self.inner();
+        let Some(run) = inner.run.as_ref() else { return };
+        if topic == run.world_topic {
+            if let Some(c) = inner.channels.get(topic) {
+                c.log_to_sink(&run.world, Some(sink));
+            }
+        } else if topic == run.state_topic {
+            inner.send_state(&self.context, Some(sink));
+        } else if let Some(scene) = run.scene.as_ref().filter(|s| s.topics().scene() == topic) {
+            let outs = scene.snapshot(now_ns()).into_iter().filter(|o| o.topic == topic).collect();
+            inner.send_scene(&self.context, outs, Some(sink));
+        }
+    }
+}

@@ -1,0 +1,216 @@
+//! The live view without a launch: its state, its front's request
+//! classification, and a real server on port 0 read by a Foxglove-protocol
+//! client (tungstenite) and by plain HTTP.
+
+use super::front::{classify, Request};
+use super::state::{LiveState, RobotState, TRAIL_STEP};
+use super::{state_topic, world_topic, LiveView};
+use crate::launch::observe::Observer;
+use crate::launch::{LaunchConfig, World};
+use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
+use bycoms_protocol::RobotId;
+use bycoms_sim::Vec2;
+use foxglove::messages::SceneUpdate;
+use foxglove::Decode;
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
+use std::io::{Read, Write};
+use std::net::{SocketAddr, TcpStream};
+use std::time::{Duration, Instant};
+use tungstenite::client::IntoClientRequest;
+use tungstenite::Message;
+
+fn pose(robot: u32, x: f64, y: f64, step: u64) -> Pose {
+    Pose { robot: RobotId(robot), x, y, heading: 0.5, step, time_us: step * 100_000 }
+}
+
+fn event(robot: u32, kind: GateKind, x: f64, y: f64) -> GateEvent {
+    GateEvent { robot: RobotId(robot), kind, x, y, step: 7 }
+}
+
+fn world() -> World {
+    World {
+        name: "tiny".into(),
+        terrain_text: "..G\n.#.\nS..\n".into(),
+        start: Vec2::new(0.5, 0.5),
+        goal: Vec2::new(2.5, 2.5),
+    }
+}
+
+#[test]
+fn the_state_follows_poses_and_the_gate() {
+    let mut s = LiveState::default();
+    s.pose(&pose(2, 1.0, 1.0, 0));
+    s.pose(&pose(1, 0.5, 0.5, 0));
+    assert_eq!(s.robots.iter().map(|r| r.id).collect::<Vec<_>>(), [1, 2], "id order");
+    // A small move is not a trail point; a move of TRAIL_STEP is.
+    s.pose(&pose(1, 0.5 + TRAIL_STEP / 2.0, 0.5, 1));
+    s.pose(&pose(1, 0.5 + TRAIL_STEP, 0.5, 2));
+    assert_eq!(s.robots[0].trail, [[0.5, 0.5], [0.5 + TRAIL_STEP, 0.5]]);
+    assert_eq!(s.robots[0].x, 0.5 + TRAIL_STEP);
+    s.gate(&event(1, GateKind::Deployed, 0.5, 0.5));
+    assert_eq!((s.robots[0].state, s.moving), (RobotState::Moving, Some(1)));
+    s.gate(&event(1, GateKind::Stopped { arrived: false }, 3.0, 4.0));
+    assert_eq!((s.robots[0].state, s.moving), (RobotState::Stuck, None));
+    assert_eq!((s.beacons.len(), s.beacons[0].x, s.beacons[0].y), (1, 3.0, 4.0));
+    s.gate(&event(2, GateKind::Deployed, 1.0, 1.0));
+    s.gate(&event(2, GateKind::Died, 1.5, 1.5));
+    s.gate(&event(3, GateKind::Deployed, 0.5, 0.5));
+    s.gate(&event(3, GateKind::Stopped { arrived: true }, 2.5, 2.5));
+    let states: Vec<_> = s.robots.iter().map(|r| r.state).collect();
+    assert_eq!(states, [RobotState::Stuck, RobotState::Lost, RobotState::Arrived]);
+    assert_eq!((s.beacons.len(), s.gate_events), (2, 6), "stuck and lost robots are beacons");
+    s.ended(true, "arrived");
+    let j = serde_json::to_value(&s).unwrap();
+    assert_eq!(j["ended"], json!({ "success": true, "verdict": "arrived" }));
+    assert_eq!(j["robots"][1]["state"], "lost");
+}
+
+#[test]
+fn the_front_tells_pages_from_upgrades() {
+    let get = b"GET / HTTP/1.1\r\nHost: x\r\n\r\n";
+    assert_eq!(classify(get).unwrap(), Some(Request::Page { head_only: false }));
+    assert_eq!(classify(b"GET / HTTP/1.1\r\nHost: x\r\n").unwrap(), None, "incomplete head");
+    let ws = b"GET / HTTP/1.1\r\nHost: x\r\nConnection: Upgrade\r\nUpgrade: WebSocket\r\n\r\n";
+    assert_eq!(classify(ws).unwrap(), Some(Request::Upgrade));
+    assert_eq!(
+        classify(b"HEAD /index.html?x=1 HTTP/1.1\r\n\r\n").unwrap(),
+        Some(Request::Page { head_only: true })
+    );
+    assert_eq!(classify(b"GET /etc/passwd HTTP/1.1\r\n\r\n").unwrap(), Some(Request::NotFound));
+    assert_eq!(classify(b"POST / HTTP/1.1\r\n\r\n").unwrap(), Some(Request::BadMethod));
+    assert!(classify(b"\x16\x03\x01 not http\r\n\r\n").is_err());
+}
+
+fn http(addr: SocketAddr, request: &str) -> String {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    s.write_all(request.as_bytes()).unwrap();
+    let mut out = String::new();
+    s.read_to_string(&mut out).unwrap();
+    out
+}
+
+type Ws = tungstenite::WebSocket<TcpStream>;
+
+fn foxglove_client(addr: SocketAddr) -> Ws {
+    let mut req = format!("ws://{addr}/").into_client_request().unwrap();
+    req.headers_mut().insert("Sec-WebSocket-Protocol", "foxglove.sdk.v1".parse().unwrap());
+    let stream = TcpStream::connect(addr).unwrap();
+    stream.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    let (ws, response) = tungstenite::client(req, stream).unwrap();
+    let protocol = response.headers().get("sec-websocket-protocol").map(|v| v.to_str().unwrap().to_owned());
+    assert_eq!(protocol.as_deref(), Some("foxglove.sdk.v1"));
+    ws
+}
+
+/// Reads messages until `want` accepts one (5 s per read, 10 s in all).
+fn next<T>(ws: &mut Ws, mut want: impl FnMut(&Message) -> Option<T>) -> T {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while Instant::now() < deadline {
+        let msg = ws.read().expect("a message within 5 s");
+        if let Some(v) = want(&msg) {
+            return v;
+        }
+    }
+    panic!("no wanted message within 10 s");
+}
+
+/// A message-data frame's subscription id and payload.
+fn payload(msg: &Message) -> Option<(u32, Vec<u8>)> {
+    let Message::Binary(b) = msg else { return None };
+    if b.len() < 13 || b[0] != 1 {
+        return None;
+    }
+    let sub = u32::from_le_bytes(b[1..5].try_into().ok()?);
+    Some((sub, b[13..].to_vec()))
+}
+
+#[test]
+fn one_port_serves_the_page_and_the_foxglove_stream() {
+    let live = LiveView::start("127.0.0.1:0").unwrap();
+    let addr = live.local_addr();
+    assert_ne!(addr.port(), 0, "port 0 becomes a real port");
+    let mut tap: Box<dyn Observer> = Box::new(live.clone());
+    let cfg = LaunchConfig { eps: 2.0, ..LaunchConfig::default() };
+    tap.world("t", &world(), &cfg);
+    tap.pose(&pose(1, 0.5, 0.5, 0));
+    tap.gate(&event(1, GateKind::Deployed, 0.5, 0.5));
+
+    let page = http(addr, "GET / HTTP/1.1\r\nHost: t\r\n\r\n");
+    assert!(page.starts_with("HTTP/1.1 200 OK"), "{page:.200}");
+    assert!(page.contains("foxglove.sdk.v1") && page.ends_with("</html>\n"), "the whole page");
+    assert!(http(addr, "GET /nope HTTP/1.1\r\n\r\n").starts_with("HTTP/1.1 404"));
+
+    // A viewer that connects now gets the channels, then the world and the
+    // state so far as soon as it subscribes.
+    let mut ws = foxglove_client(addr);
+    let channels: BTreeMap<String, u64> = next(&mut ws, |m| {
+        let Message::Text(t) = m else { return None };
+        let j: Value = serde_json::from_str(t).ok()?;
+        (j["op"] == "advertise").then(|| {
+            j["channels"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|c| (c["topic"].as_str().unwrap().to_owned(), c["id"].as_u64().unwrap()))
+                .collect()
+        })
+    });
+    let (world_t, state_t, pose_t, scene_t) = (
+        world_topic("t"),
+        state_topic("t"),
+        "bycoms/t/robot/1/pose/json".to_owned(),
+        "bycoms/t/scene".to_owned(),
+    );
+    for topic in [&world_t, &state_t, &pose_t, &scene_t, &"bycoms/t/gate/json".to_owned()] {
+        assert!(channels.contains_key(topic), "{topic} advertised: {channels:?}");
+    }
+    let subscriptions: Vec<Value> = [&world_t, &state_t, &pose_t, &scene_t]
+        .iter()
+        .enumerate()
+        .map(|(i, t)| json!({ "id": i + 1, "channelId": channels[*t] }))
+        .collect();
+    ws.send(Message::text(json!({ "op": "subscribe", "subscriptions": subscriptions }).to_string())).unwrap();
+    // The 3D scene so far comes as SceneUpdates (the world, then the
+    // robots), decoded here as Foxglove decodes them.
+    let mut got: BTreeMap<u32, Vec<u8>> = BTreeMap::new();
+    let mut entities: Vec<String> = Vec::new();
+    next(&mut ws, |m| {
+        let (sub, bytes) = payload(m)?;
+        if sub == 4 {
+            let scene = <SceneUpdate as Decode>::decode(bytes.as_slice()).expect("a SceneUpdate");
+            entities.extend(scene.entities.into_iter().map(|e| e.id));
+        } else {
+            got.insert(sub, bytes);
+        }
+        (got.len() == 2 && entities.iter().any(|e| e == "robot/1")).then_some(())
+    });
+    for id in ["arena", "terrain", "start", "goal", "robot/1"] {
+        assert!(entities.iter().any(|e| e == id), "{id} in the snapshot: {entities:?}");
+    }
+    let json_of = |b: &[u8]| serde_json::from_slice::<Value>(b).expect("JSON payload");
+    let (w, state) = (json_of(&got[&1]), json_of(&got[&2]));
+    assert_eq!(w["rows"], json!(["..G", ".#.", "S.."]));
+    assert_eq!((w["eps"].as_f64(), w["width"].as_u64()), (Some(2.0), Some(3)));
+    assert_eq!(state["moving"], 1, "the state so far: {state}");
+    // Live: a pose and a stop as they happen.
+    tap.pose(&pose(1, 1.5, 0.5, 1));
+    let p = next(&mut ws, |m| payload(m).filter(|(s, _)| *s == 3).map(|(_, b)| json_of(&b)));
+    assert_eq!((p["robot"].as_u64(), p["x"].as_f64()), (Some(1), Some(1.5)));
+    tap.gate(&event(1, GateKind::Stopped { arrived: false }, 1.5, 0.5));
+    let state = next(&mut ws, |m| payload(m).filter(|(s, _)| *s == 2).map(|(_, b)| json_of(&b)));
+    assert_eq!(state["beacons"], json!([{ "robot": 1, "x": 1.5, "y": 0.5 }]));
+    assert_eq!(state["robots"][0]["state"], "stuck");
+    drop(tap);
+    live.shutdown();
+    assert!(TcpStream::connect(addr).is_err(), "the port is closed after shutdown");
+}
+
+#[test]
+fn a_busy_address_is_a_clear_error() {
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = taken.local_addr().unwrap().to_string();
+    let err = LiveView::start(&addr).err().expect("bind fails");
+    assert!(err.to_string().contains(&addr), "{err}");
+}

@@ -1,0 +1,98 @@
+//! The NatNet and replay sources behind the launch's poses seam
+//! (`launch::poses::PoseSource`).
+//!
+//! Why an adapter and not the types themselves: the seam's contract is
+//! "hand every pose since the last drain, never wait, only opened robots,
+//! tagged with the robot", while [`NatNetPoseSource`] and
+//! [`ReplayPoseSource`] are usable on their own (placement, the benchmark,
+//! `orchestrator replay`). NatNet also records what it used: the model
+//! definitions once and every frame's datagram (`mocap/natnet_modeldef`,
+//! `mocap/natnet`), besides the trusted poses the sink records on the
+//! robots' pose topics — so a lab run replays from its poses and its
+//! frames alike.
+
+use super::natnet_source::NatNetPoseSource;
+use super::replay_source::ReplayPoseSource;
+use crate::launch::poses::{PoseError, PoseSink, PoseSource};
+use crate::replay::read::{NATNET_FRAME_SCHEMA, NATNET_MODELDEF_SCHEMA};
+use std::collections::BTreeSet;
+use std::time::Duration;
+
+/// Recording leaf of the frames.
+pub const FRAME_LEAF: &str = "mocap/natnet";
+/// Recording leaf of the model definitions.
+pub const MODELDEF_LEAF: &str = "mocap/natnet_modeldef";
+
+/// NatNet behind the seam.
+pub struct NatNetPoses {
+    source: NatNetPoseSource,
+    opened: BTreeSet<u32>,
+    defs_recorded: bool,
+}
+
+impl NatNetPoses {
+    /// Wraps a connected source.
+    pub fn new(source: NatNetPoseSource) -> Self {
+        Self { source, opened: BTreeSet::new(), defs_recorded: false }
+    }
+
+    /// The source (placement needs it).
+    pub fn source_mut(&mut self) -> &mut NatNetPoseSource {
+        &mut self.source
+    }
+}
+
+impl PoseSource for NatNetPoses {
+    fn kind(&self) -> &'static str {
+        "natnet"
+    }
+
+    fn on_the_bus(&self) -> bool {
+        false
+    }
+
+    fn open_robot(&mut self, id: u32) -> Result<(), PoseError> {
+        self.opened.insert(id);
+        Ok(())
+    }
+
+    fn drain(&mut self, sink: &mut PoseSink<'_>) -> Result<(), PoseError> {
+        if !self.defs_recorded {
+            self.defs_recorded = true;
+            sink.record_source_bytes(
+                MODELDEF_LEAF,
+                NATNET_MODELDEF_SCHEMA,
+                &self.source.model_definitions_packet(),
+            );
+        }
+        while let Some(batch) = self.source.poll(Duration::ZERO).map_err(|e| PoseError::Other(Box::new(e)))? {
+            sink.record_source_bytes(FRAME_LEAF, NATNET_FRAME_SCHEMA, self.source.last_frame().0);
+            for pose in batch.poses.iter().filter(|p| self.opened.contains(&p.robot.0)) {
+                sink.pose(pose.robot.0, *pose);
+            }
+        }
+        Ok(())
+    }
+}
+
+impl PoseSource for ReplayPoseSource {
+    fn kind(&self) -> &'static str {
+        "replay"
+    }
+
+    fn on_the_bus(&self) -> bool {
+        false
+    }
+
+    fn open_robot(&mut self, id: u32) -> Result<(), PoseError> {
+        self.open(id);
+        Ok(())
+    }
+
+    fn drain(&mut self, sink: &mut PoseSink<'_>) -> Result<(), PoseError> {
+        while let Some(pose) = self.next_opened() {
+            sink.pose(pose.robot.0, pose);
+        }
+        Ok(())
+    }
+}

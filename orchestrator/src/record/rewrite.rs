@@ -1,0 +1,148 @@
+//! `orchestrator record recover`: a complete copy of a recording cut short.
+//!
+//! Why: a recording cut by `kill -9` (or a power cut) is a valid MCAP
+//! prefix without summary and footer. Streaming readers read it (Foxglove,
+//! `mcap recover`, Python's `NonSeekingReader`, our [`super::recover`]), but
+//! Python `mcap`'s `make_reader` seeks to the footer first and fails. This
+//! copies every schema, channel, message (log and publish times, sequence
+//! numbers, bytes) and metadata record up to the first damaged record into
+//! a new file, finished with summary and footer, so every reader opens it.
+//! It streams through the `mcap` crate's sans-IO linear reader (chunks are
+//! opened by the reader) and writes with the crate's writer: nothing of the
+//! format is hand-written here.
+
+use std::collections::HashMap;
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Read};
+use std::path::Path;
+
+use mcap::records::{MessageHeader, Record};
+use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
+use mcap::{McapError, WriteOptions, Writer};
+
+use super::{RecordError, Recovered, CHUNK_SIZE};
+
+/// Copies every complete record of `input` into a finished recording at
+/// `output` (created or truncated: the caller checks the target). Returns
+/// what was kept and why reading stopped (`None`: the input was complete).
+pub fn rewrite(input: &Path, output: &Path) -> Result<Recovered, RecordError> {
+    let open_error = |source| RecordError::Open { path: input.to_path_buf(), source };
+    let file = File::open(input).map_err(open_error)?;
+    let len = file.metadata().map_err(open_error)?.len();
+    let out =
+        File::create(output).map_err(|source| RecordError::Create { path: output.to_path_buf(), source })?;
+    let write_error = |source| RecordError::Write { path: output.to_path_buf(), source };
+    let options = WriteOptions::new().compression(None).use_chunks(true).chunk_size(Some(CHUNK_SIZE));
+    let mut writer = Writer::with_options(BufWriter::new(out), options).map_err(write_error)?;
+    let recovered = copy(BufReader::new(file), len, &mut writer).map_err(|e| match e {
+        Failure::Read(source) => RecordError::NotMcap { path: input.to_path_buf(), source },
+        Failure::Write(source) => RecordError::Write { path: output.to_path_buf(), source },
+    })?;
+    writer.finish().map_err(write_error)?;
+    let file = writer
+        .into_inner()
+        .into_inner()
+        .map_err(|e| RecordError::Sync { path: output.to_path_buf(), source: e.into_error() })?;
+    file.sync_all().map_err(|source| RecordError::Sync { path: output.to_path_buf(), source })?;
+    Ok(recovered)
+}
+
+enum Failure {
+    /// The input is not MCAP at all.
+    Read(McapError),
+    /// The output could not be written.
+    Write(McapError),
+}
+
+/// Streams the records of `source` into `writer`.
+fn copy<R: Read, W: std::io::Write + std::io::Seek>(
+    mut source: R,
+    len: u64,
+    writer: &mut Writer<W>,
+) -> Result<Recovered, Failure> {
+    let limit = usize::try_from(len).unwrap_or(usize::MAX);
+    let mut reader =
+        LinearReader::new_with_options(LinearReaderOptions::default().with_record_length_limit(limit));
+    let mut schemas: HashMap<u16, (String, String, Vec<u8>)> = HashMap::new();
+    let mut schema_ids: HashMap<u16, u16> = HashMap::new();
+    let mut channels: HashMap<u16, (u16, String)> = HashMap::new();
+    let mut recovered = Recovered::default();
+    let mut complete = false;
+    let stop = |recovered: &mut Recovered, error: McapError| -> Result<(), Failure> {
+        match (&error, recovered.messages) {
+            (McapError::BadMagic, 0) => Err(Failure::Read(error)),
+            _ => {
+                recovered.stopped_by = Some(error.to_string());
+                Ok(())
+            }
+        }
+    };
+    while let Some(event) = reader.next_event() {
+        let (opcode, data) = match event {
+            Ok(LinearReadEvent::ReadRequest(need)) => {
+                let read = loop {
+                    match source.read(reader.insert(need)) {
+                        Ok(n) => break n,
+                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                        Err(e) => {
+                            stop(&mut recovered, e.into())?;
+                            return Ok(recovered);
+                        }
+                    }
+                };
+                reader.notify_read(read);
+                continue;
+            }
+            Ok(LinearReadEvent::Record { opcode, data }) => (opcode, data),
+            Err(error) => {
+                stop(&mut recovered, error)?;
+                return Ok(recovered);
+            }
+        };
+        let record = match mcap::parse_record(opcode, data) {
+            Ok(record) => record,
+            Err(error) => {
+                stop(&mut recovered, error)?;
+                return Ok(recovered);
+            }
+        };
+        match record {
+            Record::Schema { header, data } => {
+                schemas.insert(header.id, (header.name, header.encoding, data.into_owned()));
+            }
+            Record::Channel(channel) => {
+                let schema_id = match channel.schema_id {
+                    0 => 0,
+                    id => match (schema_ids.get(&id), schemas.get(&id)) {
+                        (Some(&new), _) => new,
+                        (None, Some((name, encoding, data))) => {
+                            let new = writer.add_schema(name, encoding, data).map_err(Failure::Write)?;
+                            schema_ids.insert(id, new);
+                            new
+                        }
+                        // A channel whose schema record was lost: keep it without one.
+                        (None, None) => 0,
+                    },
+                };
+                let new = writer
+                    .add_channel(schema_id, &channel.topic, &channel.message_encoding, &channel.metadata)
+                    .map_err(Failure::Write)?;
+                channels.insert(channel.id, (new, channel.topic));
+            }
+            Record::Message { header, data } => {
+                let Some((channel_id, topic)) = channels.get(&header.channel_id) else { continue };
+                let header = MessageHeader { channel_id: *channel_id, ..header };
+                writer.write_to_known_channel(&header, &data).map_err(Failure::Write)?;
+                *recovered.counts.entry(topic.clone()).or_insert(0) += 1;
+                recovered.messages += 1;
+            }
+            Record::Metadata(metadata) => writer.write_metadata(&metadata).map_err(Failure::Write)?,
+            Record::Footer(_) => complete = true,
+            _ => {}
+        }
+    }
+    if !complete && recovered.stopped_by.is_none() {
+        recovered.stopped_by = Some("the file ends without a footer".into());
+    }
+    Ok(recovered)
+}

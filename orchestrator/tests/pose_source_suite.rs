@@ -1,0 +1,266 @@
+//! The poses seam's conformance suite (`suites/poses.rs`) against every
+//! [`PoseSource`]: add a fixture and one `#[test]` per implementation.
+//!
+//! [`PoseSource`]: bycoms_orchestrator::launch::poses::PoseSource
+
+mod suites;
+
+use bycoms_orchestrator::launch::poses::bus::BusPoses;
+use bycoms_orchestrator::launch::poses::{PoseSink, PoseSource};
+use bycoms_orchestrator::launch::recording::Recording;
+use bycoms_orchestrator::launch::transport::{AnyPublisher, SharedBus};
+use bycoms_protocol::bus::memory::MemoryBus;
+use bycoms_protocol::bus::Limits;
+use bycoms_protocol::msg::Pose;
+use bycoms_protocol::{encode, RobotId, Swarm, MAX_MESSAGE_LEN};
+use bycoms_sim::agent_process::Traffic;
+use std::collections::BTreeMap;
+use std::rc::Rc;
+use std::time::Duration;
+use suites::poses::{run_all, PoseFixture};
+
+/// The agents' simulated mocap: poses published on the (in-memory) bus.
+struct BusFixture {
+    bus: SharedBus,
+    swarm: Swarm,
+    publishers: BTreeMap<u32, AnyPublisher>,
+}
+
+impl BusFixture {
+    fn new() -> Self {
+        let bus: SharedBus = Rc::new(MemoryBus::new(Limits::default()).expect("memory bus"));
+        Self { bus, swarm: Swarm::new("suite").expect("swarm"), publishers: BTreeMap::new() }
+    }
+
+    fn publish(&mut self, robot: u32, bytes: &[u8]) {
+        let (bus, swarm) = (&self.bus, self.swarm);
+        let publisher = self
+            .publishers
+            .entry(robot)
+            .or_insert_with(|| bus.publisher(swarm.pose(RobotId(robot)).name()).expect("publisher"));
+        publisher.publish(bytes).expect("publish");
+    }
+}
+
+impl PoseFixture for BusFixture {
+    fn source(&mut self) -> (Box<dyn PoseSource>, Swarm) {
+        (Box::new(BusPoses::new(Rc::clone(&self.bus), self.swarm)), self.swarm)
+    }
+
+    fn emit(&mut self, robot: u32, pose: &Pose) {
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        let bytes = encode(pose, &mut buf).expect("encode").to_vec();
+        self.publish(robot, &bytes);
+    }
+
+    fn tolerance(&self) -> f64 {
+        0.0
+    }
+}
+
+#[test]
+fn bus_poses_pass_the_suite() {
+    run_all(&mut BusFixture::new());
+}
+
+#[test]
+fn bus_poses_record_and_count_garbage_and_go_on() {
+    let mut fixture = BusFixture::new();
+    let (mut source, swarm) = fixture.source();
+    assert!(source.on_the_bus(), "the bus source records raw bytes itself");
+    source.open_robot(1).expect("open");
+    fixture.publish(1, &[0xff, 0x00, 0x13]);
+    let good = Pose { robot: RobotId(1), x: 1.5, y: 2.5, heading: 0.0, step: 7, time_us: 700_000 };
+    fixture.emit(1, &good);
+    let (mut recording, mut traffic, mut got) = (Recording::off(), Traffic::default(), Vec::new());
+    let mut sink = PoseSink::new(&mut recording, &mut traffic, &swarm, &mut got, false);
+    source.drain(&mut sink).expect("garbage is not fatal");
+    assert_eq!(sink.recorded(), 2, "the garbage is recorded byte for byte too");
+    assert_eq!(got, [(1, good)], "the pose after the garbage still arrives");
+    assert_eq!(traffic.total(), 1, "counted as bad traffic: {traffic:?}");
+}
+
+/// OptiTrack NatNet: a scripted NatNet server on loopback answers the
+/// client's connect and model-definition requests, then sends one frame per
+/// emitted pose (frame number = the pose's step; the body's Motive pose is
+/// the arena pose mapped back: X = x, Z = −y, yaw about Y = heading).
+struct NatNetFixture {
+    socket: std::net::UdpSocket,
+    client: std::sync::Arc<std::sync::Mutex<Option<std::net::SocketAddr>>>,
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+mod natnet_fixture {
+    use bycoms_protocol::natnet::{encode_packet, parse_packet, Packet, ServerInfo, Version};
+    use bycoms_sim::natnet_server::{model_definitions, BodyConfig, Faults, ServerConfig};
+
+    pub fn server_info() -> Packet {
+        Packet::ServerInfo(ServerInfo {
+            app_name: "suite".into(),
+            app_version: [1, 0, 0, 0],
+            natnet_version: [4, 1, 0, 0],
+            clock_frequency: 1_000_000,
+            data_port: 0,
+            multicast: false,
+            multicast_group: [0; 4],
+        })
+    }
+
+    pub fn defs() -> Packet {
+        let bodies = (1..=3)
+            .map(|k| BodyConfig { name: format!("robot{k}"), id: 100 + k, position: [0.0; 3], yaw_deg: 0.0 })
+            .collect();
+        let config = ServerConfig {
+            rate_hz: 120.0,
+            app_name: "suite".into(),
+            multicast: None,
+            bodies,
+            faults: Faults::default(),
+        };
+        Packet::ModelDef(model_definitions(&config))
+    }
+
+    pub fn reply(request: &[u8]) -> Option<Vec<u8>> {
+        match parse_packet(request).ok()? {
+            Packet::Connect(_) => encode_packet(&server_info(), Version::V4_1).ok(),
+            Packet::RequestModelDef => encode_packet(&defs(), Version::V4_1).ok(),
+            _ => None,
+        }
+    }
+}
+
+impl NatNetFixture {
+    fn new() -> Self {
+        let socket = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
+        socket.set_read_timeout(Some(Duration::from_millis(20))).expect("timeout");
+        let client = std::sync::Arc::new(std::sync::Mutex::new(None));
+        let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let (sock, who, halt) = (socket.try_clone().expect("clone"), client.clone(), stop.clone());
+        let thread = std::thread::spawn(move || {
+            let mut buf = [0u8; 2048];
+            while !halt.load(std::sync::atomic::Ordering::Relaxed) {
+                let Ok((n, from)) = sock.recv_from(&mut buf) else { continue };
+                if let Some(bytes) = natnet_fixture::reply(&buf[..n]) {
+                    *who.lock().expect("lock") = Some(from);
+                    sock.send_to(&bytes, from).expect("reply");
+                }
+            }
+        });
+        Self { socket, client, stop, thread: Some(thread) }
+    }
+}
+
+impl Drop for NatNetFixture {
+    fn drop(&mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl PoseFixture for NatNetFixture {
+    fn source(&mut self) -> (Box<dyn PoseSource>, Swarm) {
+        use bycoms_orchestrator::mocap::{
+            ArenaTransform, ClientConfig, NatNetPoseSource, NatNetPoses, NatNetSourceConfig, TrackerConfig,
+        };
+        let config = NatNetSourceConfig {
+            client: ClientConfig {
+                server: self.socket.local_addr().expect("addr"),
+                local: std::net::Ipv4Addr::LOCALHOST.into(),
+                multicast: None,
+                reply_timeout_ms: 1000,
+            },
+            arena: ArenaTransform::default(),
+            bodies: (1..=3).map(|k| (format!("robot{k}"), RobotId(k))).collect(),
+            // The suite's poses are far apart in time and space: no swap test here.
+            tracker: TrackerConfig { max_speed: 1000.0, jump_slack: 1.0, lost_after_us: 10_000_000 },
+            placement: Default::default(),
+        };
+        let source = NatNetPoseSource::connect(&config).expect("connect");
+        (Box::new(NatNetPoses::new(source)), Swarm::new("suite").expect("swarm"))
+    }
+
+    fn emit(&mut self, robot: u32, pose: &Pose) {
+        use bycoms_protocol::natnet::{encode_packet, FrameOfData, Packet, RigidBody, Version};
+        use bycoms_sim::natnet_server::BodyPose;
+        let body = BodyPose::yawed([pose.x as f32, 0.0, -pose.y as f32], pose.heading as f32);
+        let mut frame = FrameOfData { frame_number: pose.step as i32, ..FrameOfData::default() };
+        frame.rigid_bodies.push(RigidBody {
+            id: 100 + robot as i32,
+            position: body.position,
+            orientation: body.orientation,
+            mean_error: 0.0001,
+            params: 1,
+        });
+        frame.suffix.timestamp = pose.time_us as f64 * 1e-6;
+        let bytes = encode_packet(&Packet::FrameOfData(frame), Version::V4_1).expect("encode");
+        let to = self.client.lock().expect("lock").expect("the client connected");
+        self.socket.send_to(&bytes, to).expect("send");
+    }
+
+    fn tolerance(&self) -> f64 {
+        1e-5 * 30.0 // f32 on the wire
+    }
+}
+
+#[test]
+fn natnet_poses_pass_the_suite() {
+    run_all(&mut NatNetFixture::new());
+}
+
+#[test]
+fn natnet_poses_record_the_model_definitions_and_every_frame() {
+    let mut fixture = NatNetFixture::new();
+    let (mut source, swarm) = fixture.source();
+    source.open_robot(1).expect("open");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("natnet.mcap");
+    let mut recording = Recording::create(&path).expect("recording");
+    let (mut traffic, mut got) = (Traffic::default(), Vec::new());
+    for k in 1..=4 {
+        fixture.emit(
+            1,
+            &Pose { robot: RobotId(1), x: k as f64, y: 2.0, heading: 0.5, step: k, time_us: k * 100_000 },
+        );
+    }
+    let deadline = std::time::Instant::now() + Duration::from_secs(5);
+    while got.len() < 4 && std::time::Instant::now() < deadline {
+        let mut sink = PoseSink::new(&mut recording, &mut traffic, &swarm, &mut got, true);
+        source.drain(&mut sink).expect("drain");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert_eq!(got.len(), 4, "{got:?}");
+    recording.finish().expect("finish");
+    let counts = bycoms_orchestrator::record::read_counts(&path).expect("read back");
+    assert_eq!(counts.get("bycoms/suite/mocap/natnet_modeldef"), Some(&1), "{counts:?}");
+    assert_eq!(counts.get("bycoms/suite/mocap/natnet"), Some(&4), "{counts:?}");
+    assert_eq!(counts.get("bycoms/suite/robot/1/pose"), Some(&4), "the trusted poses: {counts:?}");
+}
+
+/// Replay: poses fed through the source's channel as a reader would.
+struct ReplayFixture {
+    feed: Option<std::sync::mpsc::Sender<Pose>>,
+}
+
+impl PoseFixture for ReplayFixture {
+    fn source(&mut self) -> (Box<dyn PoseSource>, Swarm) {
+        let (tx, source) = bycoms_orchestrator::mocap::ReplayPoseSource::channel();
+        self.feed = Some(tx);
+        (Box::new(source), Swarm::new("suite").expect("swarm"))
+    }
+
+    fn emit(&mut self, _robot: u32, pose: &Pose) {
+        self.feed.as_ref().expect("source made").send(*pose).expect("feed");
+    }
+
+    fn tolerance(&self) -> f64 {
+        0.0
+    }
+}
+
+#[test]
+fn replayed_poses_pass_the_suite() {
+    run_all(&mut ReplayFixture { feed: None });
+}

@@ -1,0 +1,232 @@
+//! The agent's failsafe: a robot whose orchestrator is gone stops.
+//!
+//! Why: across hosts (zenoh), an agent can lose its orchestrator without
+//! losing its parent process — a cut link, a crashed orchestrator host.
+//! A robot that kept driving on its last goal bearing would leave the
+//! arena or hit something no one watches any more. So each agent watches
+//! the orchestrator's liveliness token; once it has been gone for longer
+//! than a grace period (long enough to ride out a link that flaps for a
+//! moment), the robot stops for good (its core's `Stopped` phase: no more
+//! motion, the pose stays where the robot is) and the agent then exits or
+//! waits for the orchestrator to come back and shut it down, by policy.
+//!
+//! Why latched: when the orchestrator returns, the gate has already
+//! applied its dead-robot policy to the robot (its loss was seen by the
+//! orchestrator too, within one lease); a robot that silently resumed
+//! would contradict that. It stays stopped until `Shutdown`.
+//!
+//! The watch arms only once the orchestrator was seen alive: a remote agent
+//! started before its orchestrator waits for it rather than giving up.
+//!
+//! Sans-IO: the shell feeds liveliness changes and the time in, and acts
+//! on the [`Verdict`]; the tests below drive it with made-up instants.
+
+use std::time::{Duration, Instant};
+
+/// The failsafe's flags (zenoh only: over iceoryx2 the agent's lifeline
+/// already ties it to the orchestrator's process).
+#[derive(Clone, Copy, Debug, PartialEq, clap::Args)]
+pub struct FailsafeArgs {
+    /// zenoh: how long the orchestrator's liveliness token may be gone
+    /// (link cut, orchestrator host down) before the robot stops for good.
+    #[arg(long = "orchestrator-grace", value_name = "SECONDS", default_value_t = DEFAULT_GRACE_S)]
+    pub grace_s: f64,
+    /// zenoh: what the agent does once the failsafe stopped its robot:
+    /// `exit` (status 4) or `wait` for the orchestrator to return and shut
+    /// it down (the robot stays stopped).
+    #[arg(long = "on-orchestrator-lost", value_enum, default_value_t = OnOrchestratorLost::Exit)]
+    pub on_lost: OnOrchestratorLost,
+}
+
+/// Default grace period, seconds: rides out a link that flaps for a moment.
+pub const DEFAULT_GRACE_S: f64 = 2.0;
+
+impl Default for FailsafeArgs {
+    fn default() -> Self {
+        Self { grace_s: DEFAULT_GRACE_S, on_lost: OnOrchestratorLost::Exit }
+    }
+}
+
+impl FailsafeArgs {
+    /// The grace period, if the value is usable.
+    pub fn grace(&self) -> Result<Duration, String> {
+        Duration::try_from_secs_f64(self.grace_s).map_err(|_| {
+            format!("--orchestrator-grace must be a finite number of seconds ≥ 0, not {}", self.grace_s)
+        })
+    }
+
+    /// The failsafe these flags describe.
+    pub fn failsafe(&self) -> Result<Failsafe, String> {
+        Ok(Failsafe::new(self.grace()?, self.on_lost))
+    }
+
+    /// The flags that reproduce these values.
+    pub fn to_flags(&self) -> Vec<String> {
+        let policy = match self.on_lost {
+            OnOrchestratorLost::Exit => "exit",
+            OnOrchestratorLost::Wait => "wait",
+        };
+        vec![
+            "--orchestrator-grace".into(),
+            format!("{:?}", self.grace_s),
+            "--on-orchestrator-lost".into(),
+            policy.into(),
+        ]
+    }
+}
+
+/// What an agent does after its robot was stopped by the failsafe.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum OnOrchestratorLost {
+    /// End the agent process (exit status 4).
+    #[default]
+    Exit,
+    /// Keep the process (robot stopped) until the orchestrator is back and
+    /// shuts it down, or a signal ends it.
+    Wait,
+}
+
+/// What the agent must do now.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// Carry on.
+    Run,
+    /// Stop the robot now (reported once), then keep running.
+    Stop {
+        /// How long the orchestrator had been gone.
+        lost_for: Duration,
+    },
+    /// Stop the robot now (reported once), then exit.
+    StopAndExit {
+        /// How long the orchestrator had been gone.
+        lost_for: Duration,
+    },
+}
+
+/// The failsafe state machine; see the module docs.
+#[derive(Clone, Debug)]
+pub struct Failsafe {
+    grace: Duration,
+    policy: OnOrchestratorLost,
+    armed: bool,
+    lost_since: Option<Instant>,
+    tripped: bool,
+}
+
+impl Failsafe {
+    /// A failsafe that trips after the orchestrator has been gone for
+    /// `grace`, then follows `policy`.
+    pub fn new(grace: Duration, policy: OnOrchestratorLost) -> Self {
+        Self { grace, policy, armed: false, lost_since: None, tripped: false }
+    }
+
+    /// The orchestrator's token appeared (or reappeared) at `at`.
+    pub fn orchestrator_alive(&mut self, at: Instant) {
+        if self.lost_since.is_some() && !self.tripped {
+            tracing::info!(after = ?self.lost_since.map(|t| at.saturating_duration_since(t)), "orchestrator back within the grace period");
+        }
+        self.armed = true;
+        self.lost_since = None;
+    }
+
+    /// The orchestrator's token disappeared at `at`.
+    pub fn orchestrator_lost(&mut self, at: Instant) {
+        if self.armed && self.lost_since.is_none() {
+            tracing::warn!(grace = ?self.grace, "orchestrator lost; the robot stops if it is not back within the grace period");
+            self.lost_since = Some(at);
+        }
+    }
+
+    /// Whether the robot was stopped by the failsafe.
+    pub fn tripped(&self) -> bool {
+        self.tripped
+    }
+
+    /// What to do at `now`. `Stop` / `StopAndExit` is returned once, when
+    /// the grace period has run out; `Run` before and after.
+    pub fn check(&mut self, now: Instant) -> Verdict {
+        let Some(since) = self.lost_since else { return Verdict::Run };
+        let lost_for = now.saturating_duration_since(since);
+        if self.tripped || lost_for <= self.grace {
+            return Verdict::Run;
+        }
+        self.tripped = true;
+        match self.policy {
+            OnOrchestratorLost::Exit => Verdict::StopAndExit { lost_for },
+            OnOrchestratorLost::Wait => Verdict::Stop { lost_for },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GRACE: Duration = Duration::from_millis(1000);
+
+    fn ms(n: u64) -> Duration {
+        Duration::from_millis(n)
+    }
+
+    #[test]
+    fn trips_once_after_the_grace_period() {
+        let t0 = Instant::now();
+        let mut f = Failsafe::new(GRACE, OnOrchestratorLost::Wait);
+        f.orchestrator_alive(t0);
+        f.orchestrator_lost(t0 + ms(100));
+        assert_eq!(f.check(t0 + ms(1100)), Verdict::Run, "exactly the grace period is still fine");
+        assert_eq!(f.check(t0 + ms(1101)), Verdict::Stop { lost_for: ms(1001) });
+        assert!(f.tripped());
+        assert_eq!(f.check(t0 + ms(5000)), Verdict::Run, "reported once");
+    }
+
+    #[test]
+    fn exit_policy_says_exit() {
+        let t0 = Instant::now();
+        let mut f = Failsafe::new(GRACE, OnOrchestratorLost::Exit);
+        f.orchestrator_alive(t0);
+        f.orchestrator_lost(t0);
+        assert_eq!(f.check(t0 + ms(1500)), Verdict::StopAndExit { lost_for: ms(1500) });
+    }
+
+    #[test]
+    fn a_return_within_the_grace_period_cancels() {
+        let t0 = Instant::now();
+        let mut f = Failsafe::new(GRACE, OnOrchestratorLost::Exit);
+        f.orchestrator_alive(t0);
+        f.orchestrator_lost(t0 + ms(10));
+        f.orchestrator_alive(t0 + ms(900));
+        assert_eq!(f.check(t0 + ms(3000)), Verdict::Run);
+        // A second loss starts a new grace period.
+        f.orchestrator_lost(t0 + ms(3000));
+        assert_eq!(f.check(t0 + ms(3900)), Verdict::Run);
+        assert_eq!(f.check(t0 + ms(4100)), Verdict::StopAndExit { lost_for: ms(1100) });
+    }
+
+    #[test]
+    fn a_return_after_tripping_does_not_resume() {
+        let t0 = Instant::now();
+        let mut f = Failsafe::new(GRACE, OnOrchestratorLost::Wait);
+        f.orchestrator_alive(t0);
+        f.orchestrator_lost(t0);
+        assert!(matches!(f.check(t0 + ms(2000)), Verdict::Stop { .. }));
+        f.orchestrator_alive(t0 + ms(2500));
+        assert!(f.tripped(), "latched");
+        f.orchestrator_lost(t0 + ms(3000));
+        assert_eq!(f.check(t0 + ms(9000)), Verdict::Run, "never reported twice");
+    }
+
+    #[test]
+    fn unarmed_until_the_orchestrator_was_seen() {
+        let t0 = Instant::now();
+        let mut f = Failsafe::new(GRACE, OnOrchestratorLost::Exit);
+        f.orchestrator_lost(t0);
+        assert_eq!(f.check(t0 + ms(60_000)), Verdict::Run);
+        f.orchestrator_alive(t0 + ms(60_000));
+        f.orchestrator_lost(t0 + ms(60_001));
+        assert!(matches!(f.check(t0 + ms(61_002)), Verdict::StopAndExit { .. }));
+    }
+}

@@ -1,0 +1,223 @@
+//! Two "hosts" on one machine: Linux network namespaces joined by a veth
+//! pair, for tests and benchmarks of what crosses a network (zenoh
+//! sessions, liveliness, partitions).
+//!
+//! Why namespaces: each namespace has its own interfaces, addresses and
+//! routes, so a process started inside one (`ip netns exec`) talks to the
+//! other only over the veth link, exactly as two hosts over a cable — and
+//! the test can cut that cable (`ip link set … down`) and plug it back in.
+//! Nothing touches the machine's real interfaces: the veth ends live only
+//! inside the two namespaces, with private addresses `10.231.N.1/30` and
+//! `10.231.N.2/30` (N per pair; the namespaces are isolated, so pairs of
+//! parallel tests never see each other).
+//!
+//! Why `ip` (iproute2) and not netlink from Rust: it is the tool every
+//! admin reads, its errors are clear, and a test creates a handful of
+//! objects, so a process per command costs nothing. A cut is a link set
+//! down on both ends (the kernel's `netem` qdisc, which could drop 100 %,
+//! is not available on every CI kernel); for TCP that is silence, as on a
+//! cut cable: established sockets stay open, packets go nowhere.
+//!
+//! Clean-up: names are unique per test process (`bycoms-<pid>-<n>-a`);
+//! [`TwoHosts`] kills every process still inside its namespaces and
+//! deletes them on drop, also when the test panics. Namespaces left by a
+//! test process that was killed (no drop ran) are removed by the next
+//! [`TwoHosts::create`] once their pid is gone.
+//!
+//! Where namespaces are not permitted (not root, no `ip`), tests skip with
+//! a printed reason ([`two_hosts_or_skip`]) — except under CI (`CI` set),
+//! where that is a failure, so a CI that stopped running them is noticed.
+
+mod pair;
+mod peer;
+pub use pair::{seqs, Pair, PORT, START};
+pub use peer::{mono_ns, PeerEvent, PeerProc};
+
+use std::net::Ipv4Addr;
+use std::process::Command;
+use std::sync::atomic::{AtomicU32, Ordering};
+
+/// Prefix of every namespace this module creates.
+const PREFIX: &str = "bycoms-";
+
+/// Why a namespace operation failed.
+#[derive(Debug, thiserror::Error)]
+pub enum NetnsError {
+    /// `ip` could not be started.
+    #[error("cannot run `{command}`: {source}")]
+    Spawn {
+        /// The command line.
+        command: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// `ip` ran and failed.
+    #[error("`{command}` failed ({status}): {stderr}")]
+    Failed {
+        /// The command line.
+        command: String,
+        /// Its exit status.
+        status: std::process::ExitStatus,
+        /// What it printed on stderr.
+        stderr: String,
+    },
+}
+
+/// Runs `ip ARGS` (or `tc`, …) and returns its stdout.
+fn run(program: &str, args: &[&str]) -> Result<String, NetnsError> {
+    let command = format!("{program} {}", args.join(" "));
+    let out = Command::new(program)
+        .args(args)
+        .output()
+        .map_err(|source| NetnsError::Spawn { command: command.clone(), source })?;
+    if !out.status.success() {
+        return Err(NetnsError::Failed {
+            command,
+            status: out.status,
+            stderr: String::from_utf8_lossy(&out.stderr).trim().to_owned(),
+        });
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+/// Why namespaces cannot be used here, or `None` when they can.
+pub fn not_permitted() -> Option<String> {
+    if !nix::unistd::geteuid().is_root() {
+        return Some("not running as root (network namespaces need CAP_SYS_ADMIN)".into());
+    }
+    if let Err(e) = run("ip", &["netns", "list"]) {
+        return Some(format!("iproute2 is not usable: {e}"));
+    }
+    None
+}
+
+/// Two namespaces joined by a veth pair, or `None` (after printing why)
+/// where namespaces are not permitted. Under CI (`CI` set) that is a
+/// panic instead: CI must run these tests.
+pub fn two_hosts_or_skip(tag: &str) -> Option<TwoHosts> {
+    if let Some(reason) = not_permitted() {
+        assert!(std::env::var_os("CI").is_none(), "CI must permit network namespaces, but: {reason}");
+        println!("SKIPPED {tag}: {reason}");
+        return None;
+    }
+    Some(TwoHosts::create(tag).unwrap_or_else(|e| panic!("cannot create namespaces for {tag}: {e}")))
+}
+
+/// One end of the pair: a namespace with its veth and address.
+#[derive(Clone, Debug)]
+pub struct Host {
+    /// The namespace's name (`ip netns exec NAME …`).
+    pub netns: String,
+    /// Its veth interface.
+    pub veth: String,
+    /// Its address on the link.
+    pub addr: Ipv4Addr,
+}
+
+impl Host {
+    /// `program args…` to run inside this host's namespace.
+    pub fn command(&self, program: &std::path::Path) -> Command {
+        let mut c = Command::new("ip");
+        c.args(["netns", "exec", &self.netns]).arg(program);
+        c
+    }
+
+    /// A zenoh tcp endpoint on this host's address.
+    pub fn endpoint(&self, port: u16) -> String {
+        format!("tcp/{}:{port}", self.addr)
+    }
+
+    fn set_link(&self, state: &str) -> Result<(), NetnsError> {
+        run("ip", &["-n", &self.netns, "link", "set", &self.veth, state]).map(drop)
+    }
+}
+
+/// Two namespaces `a` and `b` joined by one veth link; removed on drop.
+pub struct TwoHosts {
+    /// First host (`10.231.N.1`).
+    pub a: Host,
+    /// Second host (`10.231.N.2`).
+    pub b: Host,
+}
+
+impl TwoHosts {
+    /// Creates the namespaces, the veth pair and the addresses, links up.
+    pub fn create(tag: &str) -> Result<Self, NetnsError> {
+        static NEXT: AtomicU32 = AtomicU32::new(0);
+        remove_leftovers();
+        let pid = std::process::id();
+        let n = NEXT.fetch_add(1, Ordering::SeqCst);
+        // Interface names are at most 15 bytes: "bc" + pid (≤ 7) + "x" + n + end.
+        let host = |end: char, last: u8| Host {
+            netns: format!("{PREFIX}{pid}-{n}-{end}"),
+            veth: format!("bc{pid}x{}{end}", n % 1000),
+            addr: Ipv4Addr::new(10, 231, (n % 250) as u8, last),
+        };
+        let hosts = TwoHosts { a: host('a', 1), b: host('b', 2) };
+        tracing::debug!(tag, a = %hosts.a.netns, b = %hosts.b.netns, "creating namespaces");
+        // From here on, drop removes whatever was made.
+        for h in [&hosts.a, &hosts.b] {
+            run("ip", &["netns", "add", &h.netns])?;
+        }
+        run("ip", &["link", "add", &hosts.a.veth, "type", "veth", "peer", "name", &hosts.b.veth])?;
+        for h in [&hosts.a, &hosts.b] {
+            run("ip", &["link", "set", &h.veth, "netns", &h.netns])?;
+            run("ip", &["-n", &h.netns, "addr", "add", &format!("{}/30", h.addr), "dev", &h.veth])?;
+            run("ip", &["-n", &h.netns, "link", "set", "lo", "up"])?;
+            h.set_link("up")?;
+        }
+        Ok(hosts)
+    }
+
+    /// Cuts the link (both ends down): from now on nothing crosses it.
+    pub fn cut(&self) -> Result<(), NetnsError> {
+        self.a.set_link("down")?;
+        self.b.set_link("down")
+    }
+
+    /// Plugs the link back in (both ends up).
+    pub fn restore(&self) -> Result<(), NetnsError> {
+        self.a.set_link("up")?;
+        self.b.set_link("up")
+    }
+}
+
+impl Drop for TwoHosts {
+    fn drop(&mut self) {
+        for h in [&self.a, &self.b] {
+            remove_netns(&h.netns);
+        }
+        // Only left in the root namespace if creation failed before moving it.
+        if run("ip", &["link", "show", &self.a.veth]).is_ok() {
+            let _ = run("ip", &["link", "del", &self.a.veth]);
+        }
+    }
+}
+
+/// Kills the processes still inside `netns` (only ours: the namespace is
+/// ours) and deletes it; its veth end goes with it, and so the peer end.
+fn remove_netns(netns: &str) {
+    if let Ok(pids) = run("ip", &["netns", "pids", netns]) {
+        for pid in pids.split_whitespace().filter_map(|p| p.parse::<i32>().ok()) {
+            let _ =
+                nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid), nix::sys::signal::Signal::SIGKILL);
+        }
+    }
+    if let Err(e) = run("ip", &["netns", "del", netns]) {
+        // Absent already (creation failed half-way) is fine.
+        tracing::debug!(netns, "not deleted: {e}");
+    }
+}
+
+/// Deletes namespaces of this module whose creating process is gone.
+fn remove_leftovers() {
+    let Ok(list) = run("ip", &["netns", "list"]) else { return };
+    for name in list.lines().filter_map(|l| l.split_whitespace().next()) {
+        let Some(pid) = name.strip_prefix(PREFIX).and_then(|r| r.split('-').next()) else { continue };
+        let Ok(pid) = pid.parse::<u32>() else { continue };
+        if pid != std::process::id() && !std::path::Path::new(&format!("/proc/{pid}")).exists() {
+            tracing::info!(netns = name, "removing a namespace left by a dead test process");
+            remove_netns(name);
+        }
+    }
+}

@@ -1,0 +1,223 @@
+//! `orchestrator launch --agents remote` across two "hosts" (network
+//! namespaces joined by a veth link, `bycoms_tests::netns`): the
+//! orchestrator in `a`, the three `sim-agent`s in `b`.
+//!
+//! * lockstep over the link gives exactly the in-process `simulate` result;
+//! * a short cut during a lockstep run (within the link grace): the
+//!   orchestrator records each agent's outage, the clock waits, and once the
+//!   link is back the run resumes and still gives exactly the `simulate`
+//!   result, every robot deployed once;
+//! * a cut longer than the link grace: every loss is recorded, then the
+//!   gate's dead-robot policy applies (the moving robot is a beacon where
+//!   last seen, the others are never deployed), no robot is deployed twice,
+//!   the launch ends with a clear outcome instead of hanging, and the
+//!   agents, past their `--orchestrator-grace`, stop their robots.
+//!
+//! Skips (printing why) where namespaces are not permitted; fails instead
+//! under CI.
+
+use bycoms_orchestrator::scenario::{load, WorldSource};
+use bycoms_sim::runner::RobotEnd;
+use bycoms_sim::terrain::to_text;
+use bycoms_sim::{run, RunConfig, RunResult};
+use bycoms_tests::netns::{two_hosts_or_skip, Host};
+use bycoms_tests::{bin, swarm_name, Proc};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// The paper's three-robot case (long-obstacle, ε 3): expected result and terrain file.
+fn world(dir: &Path) -> (RunResult, PathBuf) {
+    let terrain = load(&WorldSource::Scenario("long-obstacle".into())).expect("built-in scenario").terrain;
+    let mut cfg = RunConfig::paper(3.0);
+    cfg.max_robots = Some(3);
+    cfg.time_limit = 10_000.0;
+    let path = dir.join("terrain.txt");
+    std::fs::write(&path, to_text(&terrain)).expect("write terrain");
+    (run(&terrain, &cfg), path)
+}
+
+/// `program args…` inside `host`'s namespace (`ip netns exec` execs it, so
+/// the process is the program itself).
+fn start_in(host: &Host, program: &str, args: &[&str]) -> Proc {
+    let mut all: Vec<String> = vec!["netns".into(), "exec".into(), host.netns.clone()];
+    all.push(bin(program).display().to_string());
+    all.extend(args.iter().map(|s| s.to_string()));
+    Proc::start(&PathBuf::from("ip"), &all)
+}
+
+/// The orchestrator in `host`, listening on its address (free port), and
+/// the endpoint it logged.
+fn orchestrator_in(host: &Host, swarm: &str, terrain: &Path, extra: &[&str]) -> (Proc, String) {
+    let listen = host.endpoint(0);
+    let terrain = terrain.to_str().expect("utf-8 path");
+    let mut args = vec!["launch", "--agents", "remote", "--transport", "zenoh", "--listen", &listen];
+    args.extend(["--clock", "lockstep", "--json", "--swarm", swarm, "--robots", "3", "--eps", "3"]);
+    args.extend(["--terrain", terrain, "--time-limit", "10000"]);
+    args.extend(extra);
+    let orch = start_in(host, "orchestrator", &args);
+    let prefix = format!("tcp/{}:", host.addr);
+    let endpoint = orch
+        .stderr_line(Duration::from_secs(20), |line| {
+            let at = line.find(&prefix)?;
+            let port: String = line[at + prefix.len()..].chars().take_while(char::is_ascii_digit).collect();
+            (!port.is_empty()).then(|| format!("{prefix}{port}"))
+        })
+        .expect("the orchestrator logs its endpoint");
+    (orch, endpoint)
+}
+
+/// Robot `robot`'s agent in `host`, connecting to `endpoint`.
+fn agent_in(host: &Host, endpoint: &str, swarm: &str, terrain: &Path, robot: u32, extra: &[&str]) -> Proc {
+    let robot = robot.to_string();
+    let terrain = terrain.to_str().expect("utf-8 path");
+    let mut args = vec!["--transport", "zenoh", "--connect", endpoint, "--swarm", swarm, "--swarm-size", "3"];
+    args.extend(["--robot", &robot, "--terrain", terrain, "--eps", "3"]);
+    args.extend(extra);
+    start_in(host, "sim-agent", &args)
+}
+
+fn end_name(end: RobotEnd) -> &'static str {
+    match end {
+        RobotEnd::Stuck => "stuck",
+        RobotEnd::Arrived => "arrived",
+        RobotEnd::Moving => "moving",
+    }
+}
+
+#[test]
+fn lockstep_across_two_hosts_gives_the_simulate_result() {
+    let Some(hosts) = two_hosts_or_skip("remote-parity") else { return };
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (expected, terrain) = world(dir.path());
+    let swarm = swarm_name("netns-parity");
+    let (orch, endpoint) = orchestrator_in(&hosts.a, &swarm, &terrain, &[]);
+    let agents: Vec<Proc> =
+        (1..=3).map(|k| agent_in(&hosts.b, &endpoint, &swarm, &terrain, k, &[])).collect();
+    let out = orch.wait(Duration::from_secs(180));
+    assert_simulate_result(&expected, &out.json(), &out.stderr);
+    assert_eq!(out.status.code(), Some(0));
+    for (i, a) in agents.into_iter().enumerate() {
+        let done = a.wait(Duration::from_secs(20));
+        assert_eq!(done.status.code(), Some(0), "agent {}: {}", i + 1, done.stderr);
+    }
+}
+
+/// The launch's summary `j` is the in-process result, bit for bit.
+fn assert_simulate_result(expected: &RunResult, j: &serde_json::Value, stderr: &str) {
+    assert_eq!(j["outcome"], "arrived", "stderr:\n{stderr}");
+    assert_eq!(j["steps"], expected.steps, "stderr:\n{stderr}");
+    assert_eq!(j["robots_used"], expected.robots_used);
+    for (r, got) in expected.robots.iter().zip(j["robots"].as_array().expect("robots")) {
+        assert_eq!(got["end"], end_name(r.end), "robot {}", r.id);
+        assert_eq!(got["x_bits"], r.position.x.to_bits(), "robot {} x", r.id);
+        assert_eq!(got["y_bits"], r.position.y.to_bits(), "robot {} y", r.id);
+        assert_eq!(got["steps"], r.steps, "robot {} steps", r.id);
+    }
+}
+
+#[test]
+fn a_short_cut_is_ridden_out_and_the_run_still_gives_the_simulate_result() {
+    let Some(hosts) = two_hosts_or_skip("remote-heal") else { return };
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (expected, terrain) = world(dir.path());
+    let swarm = swarm_name("netns-heal");
+    // Both sides ride out 20 s; the cut lasts 1.5 s.
+    let (orch, endpoint) = orchestrator_in(&hosts.a, &swarm, &terrain, &["--link-grace", "20"]);
+    let grace = ["--orchestrator-grace", "20"];
+    let agents: Vec<Proc> =
+        (1..=3).map(|k| agent_in(&hosts.b, &endpoint, &swarm, &terrain, k, &grace)).collect();
+    orch.stderr_line(Duration::from_secs(30), |l| l.contains("robot 1: deployed at").then_some(()))
+        .expect("robot 1 deployed");
+    let cut_unix_ms = unix_ms();
+    hosts.cut().expect("cut");
+    std::thread::sleep(Duration::from_millis(1500));
+    hosts.restore().expect("restore");
+    let restored_unix_ms = unix_ms();
+    let out = orch.wait(Duration::from_secs(180));
+    let j = out.json();
+    assert_simulate_result(&expected, &j, &out.stderr);
+    assert_eq!(out.status.code(), Some(0), "stderr:\n{}", out.stderr);
+    // The outage was seen and recorded, and it ended after the link did.
+    let robots = j["robots"].as_array().expect("robots");
+    let outages: Vec<&serde_json::Value> =
+        robots.iter().flat_map(|r| r["outages"].as_array().expect("outages")).collect();
+    assert!(!outages.is_empty(), "no outage recorded:\n{}", out.stderr);
+    for o in &outages {
+        let lost = o["lost_unix_ms"].as_u64().expect("lost");
+        let back = o["back_unix_ms"].as_u64().expect("every outage ended");
+        println!(
+            "outage noticed {} ms after the cut, over {} ms after the link was restored",
+            lost.saturating_sub(cut_unix_ms),
+            back.saturating_sub(restored_unix_ms)
+        );
+        assert!(lost >= cut_unix_ms && back >= restored_unix_ms, "{o}");
+    }
+    assert!(j["resends"].as_u64().expect("resends") >= 1, "what was lost in the cut was sent again: {j}");
+    for k in 1..=3 {
+        let deployed = out.stderr.matches(&format!("robot {k}: deployed at")).count();
+        assert!(deployed <= 1, "robot {k} deployed {deployed} times:\n{}", out.stderr);
+    }
+    for (i, a) in agents.into_iter().enumerate() {
+        let done = a.wait(Duration::from_secs(20));
+        assert_eq!(done.status.code(), Some(0), "agent {}: {}", i + 1, done.stderr);
+        assert!(!done.stderr.contains("stale goal bearings"), "agent {}: {}", i + 1, done.stderr);
+    }
+}
+
+#[test]
+fn a_cut_longer_than_the_grace_is_recorded_and_ends_the_run_cleanly() {
+    let Some(hosts) = two_hosts_or_skip("remote-cut") else { return };
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (_, terrain) = world(dir.path());
+    let swarm = swarm_name("netns-cut");
+    let (orch, endpoint) = orchestrator_in(&hosts.a, &swarm, &terrain, &["--link-grace", "0.5"]);
+    let grace = ["--orchestrator-grace", "0.5"];
+    let agents: Vec<Proc> =
+        (1..=3).map(|k| agent_in(&hosts.b, &endpoint, &swarm, &terrain, k, &grace)).collect();
+    orch.stderr_line(Duration::from_secs(30), |l| l.contains("robot 1: deployed at").then_some(()))
+        .expect("robot 1 deployed");
+    let cut_at = Instant::now();
+    let cut_unix_ms = unix_ms();
+    hosts.cut().expect("cut");
+    // Cut for 4 s: past both graces, even when a loss is only seen by the
+    // 2 s heartbeat timeout (zenoh may close a dead transport late).
+    std::thread::sleep(Duration::from_secs(4));
+    hosts.restore().expect("restore");
+    let out = orch.wait(Duration::from_secs(60));
+    println!("launch ended {:?} after the cut", cut_at.elapsed());
+    let j = out.json();
+    // A clear outcome: every agent was lost, no robot is left to deploy.
+    assert_eq!(j["outcome"], "robots_exhausted", "stderr:\n{}", out.stderr);
+    for (i, robot) in j["robots"].as_array().expect("robots").iter().enumerate() {
+        let death = &robot["death"];
+        let reason = death["reason"].as_str().unwrap_or_default();
+        assert!(reason.contains("link to the orchestrator was lost"), "robot {}: {death}", i + 1);
+        let lost = robot["outages"][0]["lost_unix_ms"].as_u64().expect("the outage is recorded");
+        assert!(robot["outages"][0]["back_unix_ms"].is_null(), "robot {}: {robot}", i + 1);
+        let after = lost.saturating_sub(cut_unix_ms);
+        println!("robot {}: loss noticed {after} ms after the cut", i + 1);
+        // The lease is 400 ms (the heartbeat timeout 2 s when zenoh is late).
+        assert!(after < 2500, "robot {}: noticed {after} ms after the cut", i + 1);
+    }
+    assert_eq!(j["robots"][0]["end"], "died", "the moving robot is a beacon where last seen: {j}");
+    for k in 1..=3 {
+        let deployed = out.stderr.matches(&format!("robot {k}: deployed at")).count();
+        assert!(deployed <= 1, "robot {k} deployed {deployed} times:\n{}", out.stderr);
+    }
+    for (i, a) in agents.into_iter().enumerate() {
+        let done = a.wait(Duration::from_secs(20));
+        // Past its grace an agent stops its robot and exits (4). One whose
+        // own side did not see the link go (zenoh closing late) is shut
+        // down by the orchestrator once the link is back (0).
+        let code = done.status.code();
+        assert!(matches!(code, Some(4) | Some(0)), "agent {}: {code:?} {}", i + 1, done.stderr);
+        if code == Some(4) {
+            assert!(done.stderr.contains("robot stopped, exiting"), "agent {}: {}", i + 1, done.stderr);
+        }
+        assert!(!done.stderr.contains("stale goal bearings"), "agent {}: {}", i + 1, done.stderr);
+    }
+}
+
+fn unix_ms() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).expect("clock").as_millis() as u64
+}

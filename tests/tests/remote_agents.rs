@@ -1,0 +1,294 @@
+//! `orchestrator launch --agents remote` with `sim-agent`s started by hand
+//! (as on other hosts, here on loopback over zenoh):
+//!
+//! * a lockstep launch gives exactly the in-process `simulate` result, and
+//!   every agent exits on `Shutdown` (none is reported as left behind);
+//! * a robot whose agent never comes ends the launch (exit 1) with an error
+//!   naming it, within the registration timeout;
+//! * an agent of a robot outside the launch is counted and refused, and the
+//!   launch goes on undisturbed;
+//! * a second agent for an already registered robot is refused (exit 3),
+//!   counted, and never replaces the first;
+//! * liveliness: a killed agent is reported lost (its link) within 500 ms;
+//!   agents whose orchestrator is gone past `--orchestrator-grace` stop
+//!   their robot and exit (status 4) or wait, by `--on-orchestrator-lost`.
+//!
+//! The orchestrator listens on `tcp/127.0.0.1:0`: it picks a free port and
+//! logs it; the test reads the endpoint from that log line before starting
+//! the agents.
+
+use bycoms_orchestrator::scenario::{load, WorldSource};
+use bycoms_sim::runner::RobotEnd;
+use bycoms_sim::terrain::to_text;
+use bycoms_sim::{run, RunConfig, RunResult};
+use bycoms_tests::{bin, swarm_name, Finished, Proc};
+use serde_json::Value;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+const EPS: &str = "3";
+const TIME_LIMIT: &str = "10000";
+
+/// The paper's three-robot case: the expected result and its terrain file.
+struct World {
+    expected: RunResult,
+    dir: tempfile::TempDir,
+}
+
+impl World {
+    fn long_obstacle() -> Self {
+        let terrain =
+            load(&WorldSource::Scenario("long-obstacle".into())).expect("built-in scenario").terrain;
+        let mut cfg = RunConfig::paper(3.0);
+        cfg.max_robots = Some(3);
+        cfg.time_limit = 10_000.0;
+        let expected = run(&terrain, &cfg);
+        let dir = tempfile::tempdir().expect("temp dir");
+        std::fs::write(dir.path().join("terrain.txt"), to_text(&terrain)).expect("write terrain");
+        Self { expected, dir }
+    }
+
+    fn terrain(&self) -> PathBuf {
+        self.dir.path().join("terrain.txt")
+    }
+}
+
+/// An orchestrator awaiting 3 remote agents, and the endpoint it listens on.
+fn orchestrator(world: &World, swarm: &str, extra: &[&str]) -> (Proc, String) {
+    let terrain = world.terrain();
+    let mut args =
+        vec!["launch", "--agents", "remote", "--transport", "zenoh", "--listen", "tcp/127.0.0.1:0"];
+    args.extend(["--clock", "lockstep", "--json", "--swarm", swarm, "--robots", "3", "--eps", EPS]);
+    args.extend(["--terrain", terrain.to_str().expect("utf-8 path"), "--time-limit", TIME_LIMIT]);
+    args.extend(extra);
+    let orch = Proc::orchestrator(&args);
+    let endpoint = orch
+        .stderr_line(Duration::from_secs(20), |line| {
+            let at = line.find("tcp/127.0.0.1:")?;
+            let rest = &line[at..];
+            let end = rest.find(|c: char| c != '/' && c != '.' && c != ':' && !c.is_ascii_alphanumeric())?;
+            Some(rest[..end].to_string())
+        })
+        .expect("the orchestrator logs its endpoint");
+    (orch, endpoint)
+}
+
+/// A hand-started agent of robot `robot` in a swarm of `size`.
+fn agent(world: &World, endpoint: &str, swarm: &str, robot: u32, size: u32) -> Proc {
+    agent_with(world, endpoint, swarm, robot, size, &[])
+}
+
+/// [`agent`] with extra flags.
+fn agent_with(world: &World, endpoint: &str, swarm: &str, robot: u32, size: u32, extra: &[&str]) -> Proc {
+    let args: Vec<String> = [
+        "--transport",
+        "zenoh",
+        "--connect",
+        endpoint,
+        "--swarm",
+        swarm,
+        "--swarm-size",
+        &size.to_string(),
+        "--robot",
+        &robot.to_string(),
+        "--terrain",
+        world.terrain().to_str().expect("utf-8 path"),
+        "--eps",
+        EPS,
+    ]
+    .iter()
+    .chain(extra)
+    .map(|s| s.to_string())
+    .collect();
+    Proc::start(&bin("sim-agent"), &args)
+}
+
+/// Waits for the orchestrator's line saying robot `id`'s agent registered.
+fn registered(orch: &Proc, id: u32) {
+    let needle = format!("robot {id}: agent registered");
+    orch.stderr_line(Duration::from_secs(20), |l| l.contains(&needle).then_some(()))
+        .unwrap_or_else(|| panic!("robot {id}'s agent did not register"));
+}
+
+/// The launch's summary equals the in-process run, robot by robot, bit for bit.
+fn assert_same_as_simulate(out: &Finished, expected: &RunResult) {
+    let j = out.json();
+    assert_eq!(j["outcome"], "arrived", "stderr:\n{}", out.stderr);
+    assert_eq!(out.status.code(), Some(0), "exit code; stderr:\n{}", out.stderr);
+    assert_eq!(j["steps"], expected.steps, "total active steps");
+    assert_eq!(j["robots_used"], expected.robots_used);
+    let robots = j["robots"].as_array().expect("robots array");
+    assert_eq!(robots.len(), expected.robots.len());
+    for (r, got) in expected.robots.iter().zip(robots) {
+        let end = match r.end {
+            RobotEnd::Stuck => "stuck",
+            RobotEnd::Arrived => "arrived",
+            RobotEnd::Moving => "moving",
+        };
+        assert_eq!(got["end"], end, "robot {} end", r.id);
+        assert_eq!(got["x_bits"], r.position.x.to_bits(), "robot {} x = {}", r.id, r.position.x);
+        assert_eq!(got["y_bits"], r.position.y.to_bits(), "robot {} y = {}", r.id, r.position.y);
+        assert_eq!(got["steps"], r.steps, "robot {} steps", r.id);
+    }
+    assert!(
+        !out.stderr.contains("did not exit after Shutdown"),
+        "every remote agent exits on Shutdown and is seen to go:\n{}",
+        out.stderr
+    );
+}
+
+/// Each agent ends on its own (after `Shutdown`) with exit code 0.
+fn assert_exit_cleanly(agents: Vec<Proc>) {
+    for (i, a) in agents.into_iter().enumerate() {
+        let out = a.wait(Duration::from_secs(20));
+        assert_eq!(out.status.code(), Some(0), "agent #{i}: stderr:\n{}", out.stderr);
+    }
+}
+
+fn bad(j: &Value, kind: &str) -> u64 {
+    j["bad_traffic"][kind].as_u64().unwrap_or_else(|| panic!("bad_traffic.{kind} in {j}"))
+}
+
+#[test]
+fn lockstep_with_remote_agents_gives_the_simulate_result() {
+    let world = World::long_obstacle();
+    let ends: Vec<RobotEnd> = world.expected.robots.iter().map(|r| r.end).collect();
+    assert_eq!(ends, [RobotEnd::Stuck, RobotEnd::Stuck, RobotEnd::Arrived]);
+    let swarm = swarm_name("remote");
+    let (orch, endpoint) = orchestrator(&world, &swarm, &[]);
+    let agents: Vec<Proc> = (1..=3).map(|k| agent(&world, &endpoint, &swarm, k, 3)).collect();
+    let out = orch.wait(Duration::from_secs(180));
+    assert_same_as_simulate(&out, &world.expected);
+    let j = out.json();
+    assert_eq!(j["endpoints"][0], endpoint.as_str(), "the summary names the endpoint");
+    assert_eq!(bad(&j, "duplicate") + bad(&j, "unknown_robot") + bad(&j, "wrong_version"), 0, "{j}");
+    assert_exit_cleanly(agents);
+}
+
+#[test]
+fn a_robot_whose_agent_never_comes_is_named_within_the_timeout() {
+    let world = World::long_obstacle();
+    let swarm = swarm_name("remote-missing");
+    let started = Instant::now();
+    let (orch, endpoint) = orchestrator(&world, &swarm, &["--register-timeout", "3"]);
+    let agents: Vec<Proc> = (1..=2).map(|k| agent(&world, &endpoint, &swarm, k, 3)).collect();
+    let out = orch.wait(Duration::from_secs(60));
+    let took = started.elapsed();
+    assert_eq!(out.status.code(), Some(1), "stderr:\n{}", out.stderr);
+    let j = out.json();
+    assert_eq!(j["outcome"], "error");
+    let error = j["error"].as_str().expect("an error");
+    assert!(error.contains("robots 3 never registered within 3 s"), "{error}");
+    // The registration timeout (3 s) plus start-up and the shutdown grace.
+    assert!(took < Duration::from_secs(20), "took {took:?}");
+    assert_eq!(j["robots"][0]["end"], "not_deployed", "{j}");
+    assert_exit_cleanly(agents);
+}
+
+#[test]
+fn an_agent_of_a_robot_outside_the_launch_is_counted_and_ignored() {
+    let world = World::long_obstacle();
+    let swarm = swarm_name("remote-stranger");
+    let (orch, endpoint) = orchestrator(&world, &swarm, &[]);
+    // Robot 5 of a swarm of 5: a valid agent, but the launch has 3 robots.
+    let mut stranger = agent(&world, &endpoint, &swarm, 5, 5);
+    orch.stderr_line(Duration::from_secs(20), |l| l.contains("from an unknown robot").then_some(()))
+        .expect("the orchestrator reports the stranger");
+    let agents: Vec<Proc> = (1..=3).map(|k| agent(&world, &endpoint, &swarm, k, 3)).collect();
+    let out = orch.wait(Duration::from_secs(180));
+    assert_same_as_simulate(&out, &world.expected);
+    assert!(bad(&out.json(), "unknown_robot") >= 1, "{}", out.json());
+    assert_exit_cleanly(agents);
+    // The stranger was never anyone's agent: it is still there, unharmed.
+    assert!(!bycoms_tests::is_zombie(stranger.pid()), "the stranger crashed");
+    stranger.kill();
+}
+
+#[test]
+fn a_second_agent_for_a_registered_robot_is_refused() {
+    let world = World::long_obstacle();
+    let swarm = swarm_name("remote-twice");
+    let (orch, endpoint) = orchestrator(&world, &swarm, &[]);
+    let first = agent(&world, &endpoint, &swarm, 1, 3);
+    registered(&orch, 1);
+    let second = agent(&world, &endpoint, &swarm, 1, 3).wait(Duration::from_secs(20));
+    assert_eq!(second.status.code(), Some(3), "the second agent is refused:\n{}", second.stderr);
+    assert!(second.stderr.contains("another agent already holds robot 1"), "{}", second.stderr);
+    let mut agents = vec![first];
+    agents.extend((2..=3).map(|k| agent(&world, &endpoint, &swarm, k, 3)));
+    let out = orch.wait(Duration::from_secs(180));
+    // The first agent stayed robot 1's: the run is the paper's, unchanged.
+    assert_same_as_simulate(&out, &world.expected);
+    assert!(bad(&out.json(), "duplicate") >= 1, "{}", out.json());
+    assert!(out.stderr.contains("a second agent for robot 1 refused"), "{}", out.stderr);
+    assert_exit_cleanly(agents);
+}
+
+fn unix_ms() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).expect("clock").as_millis() as u64
+}
+
+/// Waits for the orchestrator's line saying robot `id` was deployed.
+fn deployed(orch: &Proc, id: u32) {
+    let needle = format!("robot {id}: deployed at");
+    orch.stderr_line(Duration::from_secs(30), |l| l.contains(&needle).then_some(()))
+        .unwrap_or_else(|| panic!("robot {id} was not deployed"));
+}
+
+#[test]
+fn a_killed_remote_agent_is_lost_within_half_a_second() {
+    let world = World::long_obstacle();
+    let swarm = swarm_name("remote-killed");
+    // Heartbeats alone would take 5 s: only the liveliness token can be this fast.
+    let (orch, endpoint) = orchestrator(&world, &swarm, &["--heartbeat-timeout", "5"]);
+    let mut agents: Vec<Proc> = (1..=3).map(|k| agent(&world, &endpoint, &swarm, k, 3)).collect();
+    deployed(&orch, 1);
+    let killed_at = unix_ms();
+    agents[0].kill();
+    let out = orch.wait(Duration::from_secs(180));
+    let j = out.json();
+    let death = &j["robots"][0]["death"];
+    assert!(
+        death["reason"].as_str().is_some_and(|r| r.contains("link to the orchestrator was lost")),
+        "{death}; stderr:\n{}",
+        out.stderr
+    );
+    // Seen at once (the outage), treated as dead after the link grace
+    // (default 2 s: it might have come back).
+    let lost = j["robots"][0]["outages"][0]["lost_unix_ms"].as_u64().expect("the outage is recorded");
+    let after = lost.saturating_sub(killed_at);
+    assert!(after < 500, "robot 1's loss noticed {after} ms after the kill");
+    let noticed = death["noticed_unix_ms"].as_u64().expect("noticed_unix_ms");
+    assert!(noticed >= lost + 2000, "dead only after the 2 s grace: lost {lost}, dead {noticed}");
+    assert!(death["reason"].as_str().is_some_and(|r| r.contains("within the 2 s link grace")), "{death}");
+    // The gate's dead-robot policy (beacon where last seen) then applies.
+    assert_eq!(j["robots"][0]["end"], "died", "{j}");
+    assert_exit_cleanly(agents.split_off(1));
+}
+
+#[test]
+fn agents_stop_their_robot_when_the_orchestrator_is_gone() {
+    let world = World::long_obstacle();
+    let swarm = swarm_name("remote-orphans");
+    let (mut orch, endpoint) = orchestrator(&world, &swarm, &[]);
+    let grace = ["--orchestrator-grace", "0.5"];
+    let exiting: Vec<Proc> = (1..=2).map(|k| agent_with(&world, &endpoint, &swarm, k, 3, &grace)).collect();
+    let wait = ["--orchestrator-grace", "0.5", "--on-orchestrator-lost", "wait"];
+    let mut waiting = agent_with(&world, &endpoint, &swarm, 3, 3, &wait);
+    deployed(&orch, 1);
+    orch.kill();
+    let lost_at = Instant::now();
+    for (i, a) in exiting.into_iter().enumerate() {
+        let out = a.wait(Duration::from_secs(10));
+        assert_eq!(out.status.code(), Some(4), "agent {}: stderr:\n{}", i + 1, out.stderr);
+        assert!(out.stderr.contains("robot stopped, exiting"), "{}", out.stderr);
+    }
+    // Lease (≤ 0.4 s, or at once: the socket closed) + grace (0.5 s) + slack.
+    assert!(lost_at.elapsed() < Duration::from_secs(5), "took {:?}", lost_at.elapsed());
+    waiting
+        .stderr_line(Duration::from_secs(10), |l| l.contains("robot stopped, waiting").then_some(()))
+        .expect("the waiting agent stopped its robot");
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(!bycoms_tests::is_zombie(waiting.pid()), "the `wait` agent stays");
+    waiting.kill();
+}

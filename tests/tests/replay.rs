@@ -1,0 +1,91 @@
+//! `orchestrator replay FILE.mcap` on real lockstep launch recordings: the
+//! gate re-run from the recorded poses reaches every recorded decision at
+//! the same step and position (exit 0); a recording whose decision was
+//! moved by one step is a mismatch (exit 1, the line named).
+
+use bycoms_protocol::msg::{GateEvent, GateKind};
+use bycoms_protocol::{decode, encode, MAX_MESSAGE_LEN};
+use bycoms_tests::{swarm_name, Proc};
+use std::borrow::Cow;
+use std::path::Path;
+use std::time::Duration;
+
+fn record_launch(path: &Path, extra: &[&str]) {
+    let swarm = swarm_name("replay");
+    let mut args = vec!["launch", "--swarm", &swarm, "--record", path.to_str().expect("utf-8")];
+    args.extend_from_slice(extra);
+    let out = Proc::orchestrator(&args).wait(Duration::from_secs(90));
+    assert!(matches!(out.status.code(), Some(0 | 3)), "{}", out.stderr);
+}
+
+fn replay(path: &Path) -> bycoms_tests::Finished {
+    Proc::orchestrator(&["replay", path.to_str().expect("utf-8")]).wait(Duration::from_secs(60))
+}
+
+/// Copies a recording, moving the first "stuck" gate event one step later.
+fn tamper(from: &Path, to: &Path) -> GateEvent {
+    let bytes = std::fs::read(from).expect("read recording");
+    let out = std::fs::File::create(to).expect("create copy");
+    let mut writer = mcap::WriteOptions::new().create(std::io::BufWriter::new(out)).expect("writer");
+    let mut moved = None;
+    for message in mcap::MessageStream::new(&bytes).expect("mcap") {
+        let mut message = message.expect("message");
+        let is_gate = message.channel.schema.as_ref().is_some_and(|s| s.name == "bycoms.GateEvent")
+            && message.channel.message_encoding == "postcard";
+        if is_gate && moved.is_none() {
+            let mut event: GateEvent = decode(&message.data).expect("gate event");
+            if event.kind == (GateKind::Stopped { arrived: false }) {
+                event.step += 1;
+                let mut buf = [0u8; MAX_MESSAGE_LEN];
+                message.data = Cow::Owned(encode(&event, &mut buf).expect("encode").to_vec());
+                moved = Some(event);
+            }
+        }
+        writer.write(&message).expect("write");
+    }
+    writer.finish().expect("finish");
+    moved.expect("the run has a stuck robot")
+}
+
+#[test]
+fn a_lockstep_launch_replays_to_the_same_decisions_and_a_moved_one_is_caught() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("launch.mcap");
+    // The paper's 3-robot run: 2 stuck, 1 arrival.
+    record_launch(&path, &[]);
+    let out = replay(&path);
+    assert_eq!(out.status.code(), Some(0), "{}\n{}", out.stdout, out.stderr);
+    assert!(out.stdout.contains("MATCH:"), "{}", out.stdout);
+    assert_eq!(out.stdout.matches("  same ").count(), 6, "3 deployments, 3 decisions:\n{}", out.stdout);
+
+    let tampered = dir.path().join("tampered.mcap");
+    let moved = tamper(&path, &tampered);
+    let out = replay(&tampered);
+    assert_eq!(out.status.code(), Some(1), "{}\n{}", out.stdout, out.stderr);
+    assert!(out.stdout.contains("MISMATCH: 1 of 6"), "{}", out.stdout);
+    let line = out.stdout.lines().find(|l| l.contains("MISMATCH  recorded")).expect("a mismatch line");
+    assert!(line.contains(&format!("step {}", moved.step)), "{line}");
+}
+
+#[test]
+fn a_noisy_launch_with_a_time_limit_replays_too() {
+    // Sensing noise and a budget the second robot runs out of: timeouts and
+    // noisy turning go through the same replay.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("noisy.mcap");
+    record_launch(&path, &["--noise", "--seed", "7", "--time-limit", "60"]);
+    let out = replay(&path);
+    assert_eq!(out.status.code(), Some(0), "{}\n{}", out.stdout, out.stderr);
+    assert!(out.stdout.contains("MATCH:"), "{}", out.stdout);
+    assert!(out.stdout.contains(" timeout at "), "the budget runs out:\n{}", out.stdout);
+}
+
+#[test]
+fn a_file_that_is_not_a_recording_is_an_error() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("junk.mcap");
+    std::fs::write(&path, b"not an mcap file").expect("write");
+    let out = replay(&path);
+    assert_eq!(out.status.code(), Some(1), "{}", out.stderr);
+    assert!(out.stderr.contains("not an MCAP recording"), "{}", out.stderr);
+}

@@ -1,0 +1,82 @@
+//! A launch that spawns its agents over a `tls/` endpoint, with the lab's
+//! certificates and access-control list from `orchestrator certs`: each
+//! agent reads its own `robot-K.json5` (`--agent-zenoh-config
+//! DIR/robot-{robot}.json5`) and the run gives the same result as the
+//! same launch over iceoryx2. Without the agents' configs the launch refuses to start (exit 2)
+//! instead of spawning agents that cannot connect. Certificates are
+//! generated into a temporary directory; the port is the kernel's.
+
+use bycoms_tests::{swarm_name, Proc};
+use std::net::TcpListener;
+use std::time::Duration;
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).expect("free port").port()
+}
+
+#[test]
+fn spawned_agents_join_a_tls_launch_with_their_own_certificates() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().to_str().expect("utf-8 path");
+    let endpoint = format!("tls/127.0.0.1:{}", free_port());
+    let certs = Proc::orchestrator(&[
+        "certs",
+        "--robots",
+        "3",
+        "--out",
+        out,
+        "--listen",
+        &endpoint,
+        "--connect",
+        &endpoint,
+    ])
+    .wait(Duration::from_secs(30));
+    assert_eq!(certs.status.code(), Some(0), "certs: {}", certs.stderr);
+    let orchestrator_config = dir.path().join("orchestrator.json5");
+    let agent_config = dir.path().join("robot-{robot}.json5");
+    let (orchestrator_config, agent_config) =
+        (orchestrator_config.to_str().expect("utf-8"), agent_config.to_str().expect("utf-8"));
+    let common =
+        ["launch", "--transport", "zenoh", "--listen", &endpoint, "--zenoh-config", orchestrator_config];
+
+    // Without the agents' certificates: refused before anything starts.
+    let swarm = swarm_name("tls-refused");
+    let mut args = common.to_vec();
+    args.extend(["--swarm", &swarm, "--json"]);
+    let refused = Proc::orchestrator(&args).wait(Duration::from_secs(30));
+    assert_eq!(refused.status.code(), Some(2), "{}", refused.stderr);
+    assert!(refused.stderr.contains("agent_zenoh_config"), "{}", refused.stderr);
+
+    // With them: three robots over TLS, as over iceoryx2. The first 5 s of
+    // the run only: a lockstep tick over TLS costs about 40 ms here
+    // (over tcp under 1 ms), so the whole run would take a minute.
+    let swarm = swarm_name("tls");
+    let mut args = common.to_vec();
+    args.extend(["--agent-zenoh-config", agent_config, "--clock", "lockstep", "--swarm", &swarm, "--json"]);
+    args.extend(["--time-limit", "5"]);
+    let run = Proc::orchestrator(&args).wait(Duration::from_secs(120));
+    // Exit 3: no robot arrived (within the 5 s).
+    assert_eq!(run.status.code(), Some(3), "{}", run.stderr);
+    let j = run.json();
+    assert_eq!(j["transport"], "zenoh");
+    assert_eq!(j["endpoints"][0], endpoint.as_str(), "{j}");
+    assert_eq!(j["outcome"], "time_limit", "{}", run.stderr);
+    assert_eq!(j["bad_traffic"]["garbage"], 0, "{j}");
+
+    let swarm = swarm_name("plain");
+    let plain = Proc::orchestrator(&[
+        "launch",
+        "--clock",
+        "lockstep",
+        "--swarm",
+        &swarm,
+        "--json",
+        "--time-limit",
+        "5",
+    ])
+    .wait(Duration::from_secs(120));
+    let t = plain.json();
+    for key in ["outcome", "steps", "ticks", "robots_used", "beacons"] {
+        assert_eq!(j[key], t[key], "{key}: tls {} vs ipc {}", j[key], t[key]);
+    }
+}
