@@ -24,17 +24,20 @@ pub struct Args {
     /// Host names / IP addresses robots reach the orchestrator at (its certificate's names).
     #[arg(long = "host", value_name = "NAME", default_values_t = ["localhost".to_string(), "127.0.0.1".to_string()])]
     pub hosts: Vec<String>,
-    /// The orchestrator's listen endpoint.
-    #[arg(long, value_name = "ENDPOINT", default_value = "tls/0.0.0.0:7447")]
+    /// The orchestrator's listen endpoint: quic/HOST:PORT, or tls/HOST:PORT
+    /// where UDP is blocked (zenoh's tls/ link can drop under traffic; see
+    /// the README).
+    #[arg(long, value_name = "ENDPOINT", default_value = "quic/0.0.0.0:7447")]
     pub listen: String,
-    /// The endpoint robots connect to [default: tls/<first --host>:7447].
+    /// The endpoint robots connect to [default: the listen protocol, <first --host>:7447].
     #[arg(long, value_name = "ENDPOINT")]
     pub connect: Option<String>,
 }
 
 pub fn run(args: Args) -> Result<i32> {
     let first = args.hosts.first().cloned().unwrap_or_else(|| "localhost".into());
-    let connect = args.connect.unwrap_or_else(|| format!("tls/{first}:7447"));
+    let proto = if args.listen.starts_with("tls/") { "tls" } else { "quic" };
+    let connect = args.connect.unwrap_or_else(|| format!("{proto}/{first}:7447"));
     let plan = Plan { robots: args.robots, hosts: args.hosts, listen: args.listen, connect, out: args.out };
     let made = generate(&plan)?;
     bycoms_logging::status_line(&format!(

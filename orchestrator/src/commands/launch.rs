@@ -107,11 +107,12 @@ pub struct Args {
     /// when it is back; 0: dead at once [default: 2].
     #[arg(long, value_name = "SECONDS")]
     pub link_grace: Option<f64>,
-    /// The bus: ipc (iceoryx2, this host) or zenoh (tcp/tls, any host) [default: ipc].
+    /// The bus: ipc (iceoryx2, this host) or zenoh (tcp/quic/tls, any host) [default: ipc].
     #[arg(long, value_enum)]
     pub transport: Option<Transport>,
-    /// zenoh: endpoint to listen on, tcp/HOST:PORT or tls/HOST:PORT; port 0
-    /// takes a free one (repeatable) [default: tcp/127.0.0.1:0].
+    /// zenoh: endpoint to listen on, tcp/HOST:PORT, or quic/HOST:PORT (tls/)
+    /// with certificates; port 0 takes a free one (repeatable) [default:
+    /// tcp/127.0.0.1:0].
     #[arg(long, value_name = "ENDPOINT")]
     pub listen: Vec<String>,
     /// zenoh: endpoint to connect to as well, e.g. a zenohd router (repeatable).
@@ -122,7 +123,7 @@ pub struct Args {
     pub zenoh_config: Option<PathBuf>,
     /// zenoh: the config file each started agent reads first, `{robot}`
     /// replaced by its id (e.g. certs/robot-{robot}.json5 from `orchestrator
-    /// certs`, for tls/ endpoints).
+    /// certs`, for quic/ and tls/ endpoints).
     #[arg(long, value_name = "FILE")]
     pub agent_zenoh_config: Option<PathBuf>,
     /// Where agents come from: spawned (a sim-agent per robot, here),

@@ -88,10 +88,11 @@ pub struct LaunchConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TransportConfig {
-    /// `ipc` (iceoryx2, this host) or `zenoh` (tcp/tls, any host).
+    /// `ipc` (iceoryx2, this host) or `zenoh` (tcp/quic/tls, any host).
     pub kind: Transport,
     /// zenoh: endpoints the orchestrator's router session listens on
-    /// (`tcp/HOST:PORT`, `tls/HOST:PORT`; port 0 takes a free port).
+    /// (`tcp/HOST:PORT`, `quic/HOST:PORT`, `tls/HOST:PORT`; port 0 takes a
+    /// free port).
     pub listen: Vec<String>,
     /// zenoh: endpoints it connects to as well (e.g. a standalone zenohd).
     pub connect: Vec<String>,
@@ -100,7 +101,7 @@ pub struct TransportConfig {
     /// zenoh: the config file each agent this launch starts reads first,
     /// `{robot}` replaced by its robot id: e.g. `certs/robot-{robot}.json5`
     /// as `orchestrator certs` writes them, so spawned agents can join a
-    /// `tls/` endpoint with their own certificate.
+    /// secured (`quic/`, `tls/`) endpoint with their own certificate.
     pub agent_zenoh_config: Option<PathBuf>,
 }
 
@@ -316,16 +317,18 @@ impl LaunchConfig {
         {
             return Err(usage("transport.listen needs an endpoint (e.g. tcp/0.0.0.0:7447) with zenoh"));
         }
-        let tls = self.transport.listen.iter().any(|e| e.starts_with("tls/"));
+        let secured = self.transport.listen.iter().find(|e| crate::certs::is_secured(e));
         if self.transport.kind == Transport::Zenoh
-            && tls
+            && secured.is_some()
             && self.agents.source != AgentsKind::Remote
             && self.transport.agent_zenoh_config.is_none()
         {
-            return Err(usage(
-                "the agents this launch starts cannot join a tls/ endpoint without their certificates: \
-                 set transport.agent_zenoh_config (--agent-zenoh-config), e.g. certs/robot-{robot}.json5",
-            ));
+            let endpoint = secured.map_or("", String::as_str);
+            return Err(usage(format!(
+                "the agents this launch starts cannot join the secured endpoint {endpoint} without their \
+                 certificates: set transport.agent_zenoh_config (--agent-zenoh-config), e.g. \
+                 certs/robot-{{robot}}.json5"
+            )));
         }
         if let Some(addr) = &self.serve {
             check_serve(addr)?;

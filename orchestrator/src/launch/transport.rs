@@ -114,7 +114,7 @@ pub enum TransportError {
     #[error("fault injection: {0:#}")]
     Faults(anyhow::Error),
     /// A listen endpoint is not `PROTO/HOST:PORT`.
-    #[error("bad listen endpoint {0:?}: expected tcp/HOST:PORT or tls/HOST:PORT")]
+    #[error("bad listen endpoint {0:?}: expected tcp/HOST:PORT, quic/HOST:PORT or tls/HOST:PORT")]
     Endpoint(String),
     /// The swarm name is not a valid topic chunk.
     #[error("bad swarm name: {0}")]
@@ -231,7 +231,8 @@ fn port_of(endpoint: &str) -> Option<&str> {
     split(endpoint).and_then(|(_, addr, _)| addr.rsplit_once(':')).map(|(_, port)| port)
 }
 
-/// `endpoint` with a port 0 replaced by a free TCP port of its host.
+/// `endpoint` with a port 0 replaced by a free port of its host: a UDP
+/// port for `quic/` (QUIC runs over UDP), a TCP port otherwise.
 fn with_free_port(endpoint: &str) -> Result<String, TransportError> {
     let (proto, addr, tail) = split(endpoint).ok_or_else(|| TransportError::Endpoint(endpoint.into()))?;
     let (host, port) = addr.rsplit_once(':').ok_or_else(|| TransportError::Endpoint(endpoint.into()))?;
@@ -240,8 +241,11 @@ fn with_free_port(endpoint: &str) -> Result<String, TransportError> {
     }
     let free = |source| TransportError::FreePort { endpoint: endpoint.into(), source };
     let bind_host = host.trim_start_matches('[').trim_end_matches(']');
-    let listener = std::net::TcpListener::bind((bind_host, 0)).map_err(free)?;
-    let port = listener.local_addr().map_err(free)?.port();
+    let port = if proto == "quic/" {
+        std::net::UdpSocket::bind((bind_host, 0)).and_then(|s| s.local_addr()).map_err(free)?.port()
+    } else {
+        std::net::TcpListener::bind((bind_host, 0)).and_then(|l| l.local_addr()).map_err(free)?.port()
+    };
     Ok(format!("{proto}{host}:{port}{tail}"))
 }
 
@@ -261,6 +265,9 @@ mod tests {
         let port: u16 = port_of(&e).expect("port").parse().expect("number");
         assert!(port > 0 && e.starts_with("tcp/127.0.0.1:"), "{e}");
         assert_eq!(with_free_port("tls/lab:7447").expect("unchanged"), "tls/lab:7447");
+        let q = with_free_port("quic/127.0.0.1:0").expect("free UDP port");
+        let port: u16 = q.rsplit_once(':').and_then(|(_, p)| p.parse().ok()).expect("a port");
+        assert!(port > 0 && q.starts_with("quic/127.0.0.1:"), "{q}");
         assert!(with_free_port("tcp/127.0.0.1:0?x=1").expect("tail kept").ends_with("?x=1"));
         assert!(matches!(with_free_port("nonsense"), Err(TransportError::Endpoint(_))));
         assert_eq!(reachable("tcp/0.0.0.0:7447"), "tcp/127.0.0.1:7447");

@@ -1,9 +1,9 @@
-//! zenoh backend: the bus across machines (tcp or tls links).
+//! zenoh backend: the bus across machines (tcp, quic or tls links).
 //!
 //! Why zenoh: a lab runs the orchestrator, robot gateways and monitors on
 //! different hosts, over WiFi or a cluster network that blocks multicast.
 //! zenoh routes publish-subscribe over explicit endpoints (`tcp/HOST:PORT`,
-//! `tls/HOST:PORT`), its key expressions give a watcher the whole swarm with
+//! `quic/HOST:PORT`, `tls/HOST:PORT`), its key expressions give a watcher the whole swarm with
 //! one subscription (`bycoms/<swarm>/**`, see [`Swarm::everything`]), and a
 //! session in router mode is the rendezvous, so no separate `zenohd` has to
 //! run.

@@ -130,7 +130,7 @@ pub struct AgentArgs {
     #[arg(long, value_enum, default_value_t = Transport::Ipc)]
     pub transport: Transport,
     /// zenoh: the orchestrator's endpoint, e.g. `tcp/10.0.0.5:7447` or
-    /// `tls/lab-host:7447` (repeatable).
+    /// `quic/lab-host:7447` (repeatable).
     #[arg(long, value_name = "ENDPOINT")]
     pub connect: Vec<String>,
     /// zenoh: a zenoh JSON5 config file read first (TLS certificates,
