@@ -80,8 +80,20 @@ pub enum Placed {
 
 impl Launch {
     /// Asks the operator to place robot `id` at the start and waits until
-    /// motion capture sees it there (see the module docs).
+    /// motion capture sees it there (see the module docs). Meanwhile the
+    /// pose source knows the robot is carried by hand
+    /// ([`PoseSource::carried`]), so a hand-speed move to the start is not
+    /// rejected as an identity swap.
+    ///
+    /// [`PoseSource::carried`]: super::poses::PoseSource::carried
     pub fn place(&mut self, id: u32, config: PlacementConfig) -> Result<Placed> {
+        self.pose_source.carried(id, true);
+        let placed = self.await_placed(id, config);
+        self.pose_source.carried(id, false);
+        placed
+    }
+
+    fn await_placed(&mut self, id: u32, config: PlacementConfig) -> Result<Placed> {
         let start = self.world.start;
         let request =
             Deploy { robot: RobotId(id), x: start.x, y: start.y, heading: start.bearing_to(self.world.goal) };

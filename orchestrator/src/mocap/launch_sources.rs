@@ -13,9 +13,12 @@
 
 use super::natnet_source::NatNetPoseSource;
 use super::replay_source::ReplayPoseSource;
+use super::ArenaPose;
 use crate::launch::poses::{PoseError, PoseSink, PoseSource};
 use crate::replay::read::{NATNET_FRAME_SCHEMA, NATNET_MODELDEF_SCHEMA};
-use std::collections::BTreeSet;
+use bycoms_protocol::msg::Pose;
+use bycoms_protocol::RobotId;
+use std::collections::{BTreeMap, BTreeSet};
 use std::time::Duration;
 
 /// Recording leaf of the frames.
@@ -27,18 +30,30 @@ pub const MODELDEF_LEAF: &str = "mocap/natnet_modeldef";
 pub struct NatNetPoses {
     source: NatNetPoseSource,
     opened: BTreeSet<u32>,
+    /// Robots the operator is carrying to the start, with the last pose
+    /// handed over for each: their track is forgotten before every frame,
+    /// so no hand-speed move is taken for an identity swap, and anchored at
+    /// that last pose once the robot is placed.
+    carried: BTreeMap<u32, Option<Pose>>,
     defs_recorded: bool,
 }
 
 impl NatNetPoses {
     /// Wraps a connected source.
     pub fn new(source: NatNetPoseSource) -> Self {
-        Self { source, opened: BTreeSet::new(), defs_recorded: false }
+        Self { source, opened: BTreeSet::new(), carried: BTreeMap::new(), defs_recorded: false }
     }
 
-    /// The source (placement needs it).
+    /// The source.
     pub fn source_mut(&mut self) -> &mut NatNetPoseSource {
         &mut self.source
+    }
+
+    fn forget_carried(&mut self) {
+        let tracker = self.source.pipeline_mut().tracker_mut();
+        for &id in self.carried.keys() {
+            tracker.forget(RobotId(id));
+        }
     }
 }
 
@@ -65,13 +80,30 @@ impl PoseSource for NatNetPoses {
                 &self.source.model_definitions_packet(),
             );
         }
-        while let Some(batch) = self.source.poll(Duration::ZERO).map_err(|e| PoseError::Other(Box::new(e)))? {
+        loop {
+            self.forget_carried();
+            let Some(batch) = self.source.poll(Duration::ZERO).map_err(|e| PoseError::Other(Box::new(e)))?
+            else {
+                break;
+            };
             sink.record_source_bytes(FRAME_LEAF, NATNET_FRAME_SCHEMA, self.source.last_frame().0);
             for pose in batch.poses.iter().filter(|p| self.opened.contains(&p.robot.0)) {
+                if let Some(last) = self.carried.get_mut(&pose.robot.0) {
+                    *last = Some(*pose);
+                }
                 sink.pose(pose.robot.0, *pose);
             }
         }
         Ok(())
+    }
+
+    fn carried(&mut self, id: u32, by_hand: bool) {
+        if by_hand {
+            self.carried.insert(id, None);
+        } else if let Some(Some(p)) = self.carried.remove(&id) {
+            let at = ArenaPose { x: p.x, y: p.y, heading: p.heading };
+            self.source.pipeline_mut().tracker_mut().anchor(RobotId(id), at, p.time_us);
+        }
     }
 }
 

@@ -35,7 +35,7 @@ pub use launch_sources::NatNetPoses;
 pub use names::BodyMap;
 pub use natnet_source::{NatNetPoseSource, SourceError};
 pub use pipeline::{FramePipeline, PoseBatch};
-pub use placement::{await_placement, PlacementError, PlacementWatch};
+pub use placement::PlacementWatch;
 pub use replay_source::ReplayPoseSource;
 pub use tracker::{PoseTracker, Sighting, TrackEvent, TrackerConfig};
 

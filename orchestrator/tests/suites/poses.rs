@@ -57,6 +57,29 @@ fn pose(robot: u32, k: u64) -> Pose {
 /// Runs every check against `fixture`.
 pub fn run_all(fixture: &mut dyn PoseFixture) {
     opened_robots_poses_arrive_in_order_and_are_recorded(fixture);
+    a_robot_carried_by_hand_is_handed_every_move(fixture);
+}
+
+/// `carried`: while the operator carries a robot, any move is handed over,
+/// however fast (a source with a jump check must not take it for a swap);
+/// once placed, a plausible move from there is handed over too.
+fn a_robot_carried_by_hand_is_handed_every_move(fixture: &mut dyn PoseFixture) {
+    let (mut source, swarm) = fixture.source();
+    source.open_robot(1).expect("open robot 1");
+    fixture.emit(1, &pose(1, 1));
+    let (first, _, _) = drain_until(&mut *source, &swarm, 1, Duration::from_secs(5));
+    assert_eq!(first.len(), 1, "{first:?}");
+    source.carried(1, true);
+    // 10 km in 0.1 s: no robot drives that fast; a hand carry is not judged.
+    let lifted = Pose { x: 10_000.0, y: -10_000.0, ..pose(1, 2) };
+    fixture.emit(1, &lifted);
+    let (carried, _, _) = drain_until(&mut *source, &swarm, 1, Duration::from_secs(5));
+    assert_eq!(carried.len(), 1, "the carried robot's move is handed over: {carried:?}");
+    source.carried(1, false);
+    let nudged = Pose { x: lifted.x + 0.01, ..pose(1, 3) };
+    fixture.emit(1, &Pose { y: lifted.y, ..nudged });
+    let (placed, _, _) = drain_until(&mut *source, &swarm, 1, Duration::from_secs(5));
+    assert_eq!(placed.len(), 1, "tracked on from where it was placed: {placed:?}");
 }
 
 fn opened_robots_poses_arrive_in_order_and_are_recorded(fixture: &mut dyn PoseFixture) {

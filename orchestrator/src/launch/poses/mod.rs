@@ -60,6 +60,13 @@ pub trait PoseSource {
     /// Hands every pose that arrived since the last call to `sink`; never
     /// waits.
     fn drain(&mut self, sink: &mut PoseSink<'_>) -> Result<(), PoseError>;
+    /// Robot `id` is being carried to the start by hand (`true`), or has
+    /// been placed there (`false`). While it is carried any speed is
+    /// plausible: a source that rejects moves faster than a robot drives
+    /// (motion capture's identity-swap check) must hand them over; once it
+    /// is placed, that check starts again from where it was placed. Sources
+    /// without such a check ignore it (the default).
+    fn carried(&mut self, _id: u32, _by_hand: bool) {}
 }
 
 /// Where a source hands its poses: the engine's intake, with the recording
