@@ -6,12 +6,15 @@
 //! on a loopback tcp port and a peer connected to it. One hop = round trip
 //! / 2 over the tcp link, timed on one thread's clock.
 //!
-//! Variants:
+//! Variants, all in the runtime our binaries use
+//! (`bus::zenoh::tune_runtime`, unless `ZENOH_RUNTIME` is set) and on the
+//! low-latency transport our sessions offer (`ZenohConfig::low_latency`):
 //! * `raw zenoh`: declared publishers (express, as ours) and subscribers
 //!   with zenoh's default FIFO channel handler, `recv_timeout`; the floor;
 //! * `ours ZenohBus`: the byte traits (`publish` / `recv_timeout_into`);
 //!   the typed layer adds the same encode + decode as in `bus_hop`;
-//! * `raw zenoh (repeat)`: the first row again, to expose drift.
+//! * `raw zenoh (repeat)`: the first row again, to expose drift;
+//! * the same two on zenoh's standard (batching) transport, for comparison.
 //!
 //! Join: from `ZenohBus::open` of a peer that connects to a running router
 //! to the first message it published being received by the router's
@@ -34,12 +37,16 @@ use std::time::Instant;
 use zenoh::Wait as _;
 
 /// A router on a free loopback port and its endpoint.
-fn router() -> (ZenohBus, String) {
+fn router(low_latency: bool) -> (ZenohBus, String) {
     for _ in 0..5 {
         let port = TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).expect("free port").port();
         let endpoint = format!("tcp/127.0.0.1:{port}");
-        let config =
-            ZenohConfig { mode: Mode::Router, listen: vec![endpoint.clone()], ..ZenohConfig::default() };
+        let config = ZenohConfig {
+            mode: Mode::Router,
+            listen: vec![endpoint.clone()],
+            low_latency,
+            ..ZenohConfig::default()
+        };
         if let Ok(bus) = ZenohBus::open(config) {
             return (bus, endpoint);
         }
@@ -47,18 +54,23 @@ fn router() -> (ZenohBus, String) {
     panic!("no router could listen");
 }
 
-fn peer_config(endpoint: &str) -> ZenohConfig {
-    ZenohConfig { mode: Mode::Peer, connect: vec![endpoint.to_owned()], ..ZenohConfig::default() }
+fn peer_config(endpoint: &str, low_latency: bool) -> ZenohConfig {
+    ZenohConfig {
+        mode: Mode::Peer,
+        connect: vec![endpoint.to_owned()],
+        low_latency,
+        ..ZenohConfig::default()
+    }
 }
 
 /// Hands out the router's bus to the first caller and a connected peer to
 /// the next: the two sides of the ping-pong.
-fn two_hosts() -> impl Fn() -> ZenohBus + Sync {
-    let (router, endpoint) = router();
+fn two_hosts(low_latency: bool) -> impl Fn() -> ZenohBus + Sync {
+    let (router, endpoint) = router(low_latency);
     let taken = std::sync::Mutex::new(Some(router));
     move || match taken.lock().map(|mut t| t.take()) {
         Ok(Some(router)) => router,
-        _ => ZenohBus::open(peer_config(&endpoint)).expect("peer"),
+        _ => ZenohBus::open(peer_config(&endpoint, low_latency)).expect("peer"),
     }
 }
 
@@ -101,8 +113,13 @@ fn ours_side(bus: &ZenohBus, send: &str, recv: &str) -> Side {
 /// Ping-pong between a router and a peer session; `side` builds each end.
 /// Declarations travel asynchronously, so the first ping is re-sent until
 /// one comes back (outside the clock); an empty payload stops the echo.
-fn hop(tag: &str, samples: usize, side: fn(&ZenohBus, &str, &str) -> Side) -> Vec<Duration> {
-    let make = two_hosts();
+fn hop(
+    tag: &str,
+    samples: usize,
+    low_latency: bool,
+    side: fn(&ZenohBus, &str, &str) -> Side,
+) -> Vec<Duration> {
+    let make = two_hosts(low_latency);
     let (ping, pong) = names(tag);
     let payload = payload();
     let echo = |_: usize, ready: mpsc::Sender<()>| {
@@ -143,16 +160,16 @@ fn hop(tag: &str, samples: usize, side: fn(&ZenohBus, &str, &str) -> Side) -> Ve
 /// Milliseconds from opening a peer to its first message arriving at the
 /// router, `reps` times; the router and its subscriber are up first.
 fn join(reps: usize, scouting_delay_ms: Option<u64>) -> Vec<Duration> {
-    let (router, endpoint) = router();
+    let (router, endpoint) = router(true);
     let topic = TopicName::parse(&format!("bycoms/bench{}-join/gate", std::process::id())).expect("topic");
     let sub = router.subscriber(&topic).expect("subscriber");
     (0..reps)
         .map(|_| {
             let t0 = Instant::now();
             let peer = match scouting_delay_ms {
-                None => ZenohBus::open(peer_config(&endpoint)).expect("peer"),
+                None => ZenohBus::open(peer_config(&endpoint, true)).expect("peer"),
                 Some(ms) => {
-                    let mut z = peer_config(&endpoint).to_zenoh().expect("config");
+                    let mut z = peer_config(&endpoint, true).to_zenoh().expect("config");
                     z.insert_json5("scouting/delay", &ms.to_string()).expect("delay");
                     let session = zenoh::open(z).wait().expect("peer");
                     let publ = session.declare_publisher(topic.as_str().to_owned()).wait().expect("pub");
@@ -177,15 +194,20 @@ fn join(reps: usize, scouting_delay_ms: Option<u64>) -> Vec<Duration> {
 }
 
 fn main() {
+    bycoms_protocol::bus::zenoh::tune_runtime();
     let samples =
         std::env::var("BYCOMS_BENCH_SAMPLES").ok().and_then(|v| v.parse().ok()).unwrap_or(20_000usize);
     println!(
         "zenoh hop latency over tcp loopback, router <-> peer, one way = round trip / 2, {samples} samples"
     );
+    let runtime = std::env::var("ZENOH_RUNTIME").unwrap_or_default();
+    println!("ZENOH_RUNTIME={runtime}; low-latency transport unless the row says otherwise");
     let rows: Vec<(&str, Vec<Duration>)> = vec![
-        ("raw zenoh, FIFO handler", hop("zraw", samples, raw_side)),
-        ("ours ZenohBus", hop("zours", samples, ours_side)),
-        ("raw zenoh, FIFO handler (repeat)", hop("zraw2", samples, raw_side)),
+        ("raw zenoh, FIFO handler", hop("zraw", samples, true, raw_side)),
+        ("ours ZenohBus", hop("zours", samples, true, ours_side)),
+        ("raw zenoh, FIFO handler (repeat)", hop("zraw2", samples, true, raw_side)),
+        ("raw zenoh, standard transport", hop("zrawstd", samples, false, raw_side)),
+        ("ours ZenohBus, standard transport", hop("zoursstd", samples, false, ours_side)),
     ];
     println!("{:<42} {:>9} {:>9} {:>9}", "variant", "p50 us", "p99 us", "p99.9 us");
     let mut table = Vec::new();

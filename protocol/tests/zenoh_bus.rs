@@ -101,6 +101,33 @@ fn messages_cross_sessions_in_order_both_ways() {
     }
 }
 
+/// Our sessions offer zenoh's low-latency transport; a session that does
+/// not (a default outside client, e.g. Python's) still joins: the link falls
+/// back to the standard transport, and messages cross both ways.
+#[test]
+fn a_session_without_the_low_latency_transport_still_joins() {
+    assert!(ZenohConfig::default().low_latency, "offered by default");
+    let config = ZenohConfig::default().to_zenoh().expect("config");
+    assert_eq!(config.get_json("transport/unicast/lowlatency").expect("key"), "true");
+    let (router, endpoint) = router();
+    let standard = ZenohBus::open(ZenohConfig {
+        mode: Mode::Peer,
+        congestion: BLOCK,
+        connect: vec![endpoint],
+        low_latency: false,
+        ..ZenohConfig::default()
+    })
+    .expect("a standard-transport peer joins");
+    let topic = TopicName::parse(&format!("bycoms/{}/raw", swarm("mixed").as_str())).expect("topic");
+    for (from, to) in [(&standard, &router), (&router, &standard)] {
+        let sub = to.subscriber(&topic).expect("subscriber");
+        let publ = from.publisher(&topic).expect("publisher");
+        await_route(&publ, &sub, b"probe");
+        publ.publish(b"hello").expect("publish");
+        assert_eq!(recv_skipping(&sub, b"probe"), b"hello");
+    }
+}
+
 #[test]
 fn swarm_subscriber_sees_every_topic_of_its_swarm_only() {
     let (router, endpoint) = router();

@@ -43,5 +43,6 @@ fn main() {
     }
     let cli = Cli::parse_from(args);
     bycoms_logging::init(cli.log.log_format);
+    bycoms_sim::agent_process::cli::tune_zenoh_runtime();
     std::process::exit(main_with(&cli.gateway));
 }

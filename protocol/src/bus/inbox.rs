@@ -47,7 +47,11 @@ impl Inbox {
             }
         }
         queue.push_back((publisher, payload.to_vec()));
-        self.ready.notify_all();
+        // Wake after unlocking: a waiter woken under the lock would only
+        // block again on the mutex (one more sleep and wake per message).
+        // Every waiter takes one message, so one wake per message suffices.
+        drop(queue);
+        self.ready.notify_one();
     }
 
     /// Takes the oldest message into `buf`, if there is one.

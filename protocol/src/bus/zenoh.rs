@@ -137,6 +137,13 @@ pub struct ZenohConfig {
     /// Lease and reconnection timing; `None` keeps zenoh's (10 s lease,
     /// reconnect after 1..4 s) or the base file's.
     pub liveness: Option<Liveness>,
+    /// Offer zenoh's low-latency transport (`transport/unicast/lowlatency`,
+    /// QoS off): no transmission queue and batching task between `put`
+    /// and the socket. Negotiated per link: used when both ends offer it,
+    /// the standard transport otherwise (e.g. a default Python client).
+    /// On by default: the swarm's messages are small and few, so batching
+    /// buys nothing and costs latency (`benches/zenoh_hop.rs`).
+    pub low_latency: bool,
 }
 
 impl Default for ZenohConfig {
@@ -150,6 +157,7 @@ impl Default for ZenohConfig {
             express: true,
             base_config: None,
             liveness: None,
+            low_latency: true,
         }
     }
 }
@@ -191,7 +199,32 @@ impl ZenohConfig {
             let retry = format!("{{period_init_ms:{first},period_max_ms:{max},period_increase_factor:2}}");
             set("connect/retry", retry)?;
         }
+        if self.low_latency {
+            set("transport/unicast/lowlatency", "true".into())?;
+            set("transport/unicast/qos/enabled", "false".into())?;
+        }
         Ok(config)
+    }
+}
+
+/// The zenoh runtime our processes use unless `ZENOH_RUNTIME` says
+/// otherwise: one receive worker instead of zenoh's two.
+pub const RUNTIME: &str = "(rx: (worker_threads: 1))";
+
+/// Sets `ZENOH_RUNTIME` to [`RUNTIME`] unless the user set it; call first
+/// thing in `main`, before any thread starts (zenoh reads it once, when its
+/// first runtime starts).
+///
+/// Why: with two receive workers tokio hands a woken link from one worker
+/// thread to the other, and each message pays that thread hop; on a small
+/// host (a lab laptop, a robot's single-board computer) one hop is the
+/// largest part of the latency: one hop on loopback went from ~80 to
+/// ~55 µs p50 on a 2-core machine (`benches/zenoh_hop.rs`). The swarm's
+/// traffic (a few hundred small messages per second) never needs a second
+/// worker.
+pub fn tune_runtime() {
+    if std::env::var_os("ZENOH_RUNTIME").is_none() {
+        std::env::set_var("ZENOH_RUNTIME", RUNTIME);
     }
 }
 

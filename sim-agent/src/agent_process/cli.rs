@@ -71,6 +71,13 @@ pub fn main_with(args: &AgentArgs) -> i32 {
     }
 }
 
+/// The zenoh runtime of our processes (see
+/// [`bycoms_protocol::bus::zenoh::tune_runtime`]), for binaries that reach
+/// zenoh through this crate.
+pub fn tune_zenoh_runtime() {
+    bycoms_protocol::bus::zenoh::tune_runtime();
+}
+
 /// iceoryx2 warns on every process start that it runs without a config
 /// file (by design here: the defaults are what we want). Show only errors,
 /// unless `IOX2_LOG_LEVEL` asks for more; as `tracing` events (target

@@ -39,9 +39,11 @@ fn main() {
         args.remove(1);
         let cli = LabCli::parse_from(args);
         bycoms_logging::init(cli.log.log_format);
+        bycoms_sim::agent_process::cli::tune_zenoh_runtime();
         std::process::exit(bycoms_sim::lab::process::main_with(&cli.lab));
     }
     let cli = Cli::parse_from(args);
     bycoms_logging::init(cli.log.log_format);
+    bycoms_sim::agent_process::cli::tune_zenoh_runtime();
     std::process::exit(main_with(&cli.agent));
 }
