@@ -8,8 +8,9 @@
 //! v_max · clamp(command / 255, −1, 1) with a first-order lag τ; the body
 //! integrates v = (v_l + v_r)/2, ω = (v_r − v_l)/W (more left → clockwise).
 //! The footprint is the microphone plate's disc (radius 0.128 m, the paper's
-//! 256 mm plate); touching an obstacle rectangle or another body's disc
-//! sticks the body where it is, for good.
+//! 256 mm plate); touching an obstacle rectangle, the arena's wall
+//! ([`arena_walls`]) or another body's disc sticks the body where it is,
+//! for good.
 
 use serde::{Deserialize, Serialize};
 
@@ -54,6 +55,20 @@ impl Obstacle {
         let dy = (self.y0 - y).max(y - self.y1).max(0.0);
         dx.hypot(dy)
     }
+}
+
+/// The arena's wall, `width` × `height` m from the origin, as four
+/// obstacles just outside it (1 m thick): a crawler stops against it as
+/// against a frame, and never leaves the arena (whose motion capture would
+/// lose it).
+pub fn arena_walls(width: f64, height: f64) -> [Obstacle; 4] {
+    const T: f64 = 1.0;
+    [
+        Obstacle { x0: -T, y0: -T, x1: 0.0, y1: height + T },
+        Obstacle { x0: width, y0: -T, x1: width + T, y1: height + T },
+        Obstacle { x0: -T, y0: -T, x1: width + T, y1: 0.0 },
+        Obstacle { x0: -T, y0: height, x1: width + T, y1: height + T },
+    ]
 }
 
 /// One crawler.
@@ -147,5 +162,20 @@ mod tests {
             b.step(&c, (120.0, 120.0), 0.01, &[], &[(1.0, 0.0)]);
         }
         assert!(b.stuck && (1.0 - b.x - 2.0 * c.radius).abs() < 0.01, "{b:?}");
+    }
+
+    #[test]
+    fn the_arena_wall_stops_a_crawler_inside_the_arena_on_every_side() {
+        let c = BodyConfig::default();
+        let walls = arena_walls(3.5, 2.5);
+        for heading in [0.0, 0.5, 1.6, 3.1, -1.6, -2.5] {
+            let mut b = Crawler::new(1.75, 1.25, heading);
+            for _ in 0..3000 {
+                b.step(&c, (255.0, 255.0), 0.01, &walls, &[]);
+            }
+            assert!(b.stuck, "heading {heading}: {b:?}");
+            let margin = (b.x).min(3.5 - b.x).min(b.y).min(2.5 - b.y);
+            assert!(margin >= c.radius - 0.01 && margin < c.radius + 0.01, "heading {heading}: {b:?}");
+        }
     }
 }

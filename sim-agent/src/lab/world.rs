@@ -10,7 +10,7 @@
 //! with the sound of every placed robot's speaker, and bodies move. A
 //! caller that wants real time sleeps between steps; tests don't.
 
-use super::body::Crawler;
+use super::body::{arena_walls, Crawler, Obstacle};
 use super::esp32::{EmulatedEsp32, LISTENED};
 use super::scenario::Scenario;
 use super::sound::{mic_positions, sample_frames, Room, Speaker};
@@ -54,6 +54,8 @@ pub struct Wiring {
 #[derive(Debug)]
 pub struct Lab {
     scenario: Scenario,
+    /// The scenario's frames and the arena's wall.
+    obstacles: Vec<Obstacle>,
     robots: Vec<LabRobot>,
     now: Duration,
     next_control: Duration,
@@ -102,7 +104,9 @@ impl Lab {
                 format!("the scenario has {} robots (tones) but {} are wired", tones.len(), wiring.len());
             return Err(io::Error::new(io::ErrorKind::InvalidInput, why));
         }
-        Ok(Self { scenario, robots, now: Duration::ZERO, next_control: CONTROL_PERIOD, rng })
+        let mut obstacles = scenario.obstacles.clone();
+        obstacles.extend(arena_walls(scenario.width, scenario.height));
+        Ok(Self { scenario, obstacles, robots, now: Duration::ZERO, next_control: CONTROL_PERIOD, rng })
     }
 
     /// The scenario.
@@ -157,7 +161,7 @@ impl Lab {
                 centres.iter().enumerate().filter(|&(j, _)| j != i).filter_map(|(_, c)| *c).collect();
             let m = r.esp.motors();
             if let Some(b) = r.body.as_mut() {
-                b.step(&self.scenario.body, (m.left, m.right), dt, &self.scenario.obstacles, &others);
+                b.step(&self.scenario.body, (m.left, m.right), dt, &self.obstacles, &others);
             }
         }
         self.now += PHYSICS_DT;
