@@ -48,7 +48,7 @@ fn spawned_agents_join_a_secured_launch_with_their_own_certificates() {
     assert!(refused.stderr.contains("agent_zenoh_config"), "{}", refused.stderr);
 
     // With them: the whole run of three robots over QUIC, as over iceoryx2
-    // (about 3 s in a debug build; over tls/ a lockstep tick cost ~40 ms).
+    // (about 3 s in a debug build).
     let swarm = swarm_name("quic");
     let mut args = common.to_vec();
     args.extend(["--agent-zenoh-config", agent_config, "--clock", "lockstep", "--swarm", &swarm, "--json"]);
