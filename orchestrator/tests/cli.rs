@@ -150,6 +150,8 @@ fn bad_input_exits_non_zero_with_a_clear_message() {
         (&["bench", "scale", "--speed", "0"], "speed-up must be a number in", 2),
         (&["simulate", "--svg", "/nonexistent/dir/out.svg"], "cannot write the snapshot", 1),
         (&["sweep", "--out", "/proc/forbidden"], "cannot create output directory", 1),
+        (&["certs", "--robots", "1", "--out", "c", "--listen", "tcp/0.0.0.0:7447"], "--listen tcp/", 2),
+        (&["certs", "--robots", "1", "--out", "c", "--connect", "tcp/lab:7447"], "--connect tcp/", 2),
     ];
     for (args, expected, code) in cases {
         let o = Command::new(env!("CARGO_BIN_EXE_orchestrator"))

@@ -38,6 +38,13 @@ pub fn run(args: Args) -> Result<i32> {
     let first = args.hosts.first().cloned().unwrap_or_else(|| "localhost".into());
     let proto = if args.listen.starts_with("tls/") { "tls" } else { "quic" };
     let connect = args.connect.unwrap_or_else(|| format!("{proto}/{first}:7447"));
+    for (flag, endpoint) in [("--listen", &args.listen), ("--connect", &connect)] {
+        if !crate::certs::is_secured(endpoint) {
+            return Err(exit::usage(format!(
+                "{flag} {endpoint}: certificates are for secured endpoints, quic/HOST:PORT or tls/HOST:PORT"
+            )));
+        }
+    }
     let plan = Plan { robots: args.robots, hosts: args.hosts, listen: args.listen, connect, out: args.out };
     let made = generate(&plan)?;
     bycoms_logging::status_line(&format!(
