@@ -13,6 +13,9 @@
 //!   the launch ends with a clear outcome instead of hanging, and the
 //!   agents, past their `--orchestrator-grace`, stop their robots.
 //!
+//! * a short cut during a real-time run: recorded, ridden out, a clear
+//!   outcome (real time is not exact).
+//!
 //! Skips (printing why) where namespaces are not permitted; fails instead
 //! under CI.
 
@@ -45,13 +48,23 @@ fn start_in(host: &Host, program: &str, args: &[&str]) -> Proc {
     Proc::start(&PathBuf::from("ip"), &all)
 }
 
-/// The orchestrator in `host`, listening on its address (free port), and
-/// the endpoint it logged.
-fn orchestrator_in(host: &Host, swarm: &str, terrain: &Path, extra: &[&str]) -> (Proc, String) {
+/// The clock of a lockstep launch (the agents' default).
+const LOCKSTEP: &[&str] = &["--clock", "lockstep"];
+
+/// The orchestrator in `host`, listening on its address (free port), on
+/// `clock`, and the endpoint it logged.
+fn orchestrator_in(
+    host: &Host,
+    swarm: &str,
+    terrain: &Path,
+    clock: &[&str],
+    extra: &[&str],
+) -> (Proc, String) {
     let listen = host.endpoint(0);
     let terrain = terrain.to_str().expect("utf-8 path");
     let mut args = vec!["launch", "--agents", "remote", "--transport", "zenoh", "--listen", &listen];
-    args.extend(["--clock", "lockstep", "--json", "--swarm", swarm, "--robots", "3", "--eps", "3"]);
+    args.extend(clock);
+    args.extend(["--json", "--swarm", swarm, "--robots", "3", "--eps", "3"]);
     args.extend(["--terrain", terrain, "--time-limit", "10000"]);
     args.extend(extra);
     let orch = start_in(host, "orchestrator", &args);
@@ -90,7 +103,7 @@ fn lockstep_across_two_hosts_gives_the_simulate_result() {
     let dir = tempfile::tempdir().expect("temp dir");
     let (expected, terrain) = world(dir.path());
     let swarm = swarm_name("netns-parity");
-    let (orch, endpoint) = orchestrator_in(&hosts.a, &swarm, &terrain, &[]);
+    let (orch, endpoint) = orchestrator_in(&hosts.a, &swarm, &terrain, LOCKSTEP, &[]);
     let agents: Vec<Proc> =
         (1..=3).map(|k| agent_in(&hosts.b, &endpoint, &swarm, &terrain, k, &[])).collect();
     let out = orch.wait(Duration::from_secs(180));
@@ -122,7 +135,7 @@ fn a_short_cut_is_ridden_out_and_the_run_still_gives_the_simulate_result() {
     let (expected, terrain) = world(dir.path());
     let swarm = swarm_name("netns-heal");
     // Both sides ride out 20 s; the cut lasts 1.5 s.
-    let (orch, endpoint) = orchestrator_in(&hosts.a, &swarm, &terrain, &["--link-grace", "20"]);
+    let (orch, endpoint) = orchestrator_in(&hosts.a, &swarm, &terrain, LOCKSTEP, &["--link-grace", "20"]);
     let grace = ["--orchestrator-grace", "20"];
     let agents: Vec<Proc> =
         (1..=3).map(|k| agent_in(&hosts.b, &endpoint, &swarm, &terrain, k, &grace)).collect();
@@ -170,7 +183,7 @@ fn a_cut_longer_than_the_grace_is_recorded_and_ends_the_run_cleanly() {
     let dir = tempfile::tempdir().expect("temp dir");
     let (_, terrain) = world(dir.path());
     let swarm = swarm_name("netns-cut");
-    let (orch, endpoint) = orchestrator_in(&hosts.a, &swarm, &terrain, &["--link-grace", "0.5"]);
+    let (orch, endpoint) = orchestrator_in(&hosts.a, &swarm, &terrain, LOCKSTEP, &["--link-grace", "0.5"]);
     let grace = ["--orchestrator-grace", "0.5"];
     let agents: Vec<Proc> =
         (1..=3).map(|k| agent_in(&hosts.b, &endpoint, &swarm, &terrain, k, &grace)).collect();
@@ -215,6 +228,63 @@ fn a_cut_longer_than_the_grace_is_recorded_and_ends_the_run_cleanly() {
             assert!(done.stderr.contains("robot stopped, exiting"), "agent {}: {}", i + 1, done.stderr);
         }
         assert!(!done.stderr.contains("stale goal bearings"), "agent {}: {}", i + 1, done.stderr);
+    }
+}
+
+/// Real time (at 10×) across a short cut: the agents drive on by
+/// themselves meanwhile, with the last bearing they had; the orchestrator
+/// records each outage, judges the poses that come once the link is back,
+/// and the run still ends with a clear outcome, every robot deployed at
+/// most once, every agent shut down cleanly. (Real time is not exact, so
+/// the outcome is not compared with `simulate`.)
+#[test]
+fn a_short_cut_in_real_time_is_ridden_out() {
+    let Some(hosts) = two_hosts_or_skip("remote-rt") else { return };
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (_, terrain) = world(dir.path());
+    let swarm = swarm_name("netns-rt");
+    let clock = ["--clock", "realtime", "--speed", "10"];
+    let (orch, endpoint) = orchestrator_in(&hosts.a, &swarm, &terrain, &clock, &["--link-grace", "20"]);
+    let mut flags = vec!["--orchestrator-grace", "20"];
+    flags.extend(clock);
+    let agents: Vec<Proc> =
+        (1..=3).map(|k| agent_in(&hosts.b, &endpoint, &swarm, &terrain, k, &flags)).collect();
+    orch.stderr_line(Duration::from_secs(30), |l| l.contains("robot 1: deployed at").then_some(()))
+        .expect("robot 1 deployed");
+    std::thread::sleep(Duration::from_millis(500));
+    let cut_unix_ms = unix_ms();
+    hosts.cut().expect("cut");
+    std::thread::sleep(Duration::from_millis(1500));
+    hosts.restore().expect("restore");
+    let out = orch.wait(Duration::from_secs(180));
+    let j = out.json();
+    let outcome = j["outcome"].as_str().unwrap_or_default();
+    assert!(matches!(outcome, "arrived" | "robots_exhausted"), "outcome {outcome}:\n{}", out.stderr);
+    assert_eq!(out.status.code(), Some(if outcome == "arrived" { 0 } else { 3 }), "{}", out.stderr);
+    let robots = j["robots"].as_array().expect("robots");
+    let outages: Vec<&serde_json::Value> =
+        robots.iter().flat_map(|r| r["outages"].as_array().expect("outages")).collect();
+    assert!(!outages.is_empty(), "no outage recorded:\n{}", out.stderr);
+    println!(
+        "real time across a cut: {outcome}, {} steps, {} robots, {} outages",
+        j["steps"],
+        j["robots_used"],
+        outages.len()
+    );
+    for o in &outages {
+        assert!(o["lost_unix_ms"].as_u64().expect("lost") >= cut_unix_ms, "{o}");
+        assert!(o["back_unix_ms"].as_u64().is_some(), "every outage ended: {o}");
+    }
+    for (i, robot) in robots.iter().enumerate() {
+        assert!(robot["death"].is_null(), "robot {} died: {robot}", i + 1);
+    }
+    for k in 1..=3 {
+        let deployed = out.stderr.matches(&format!("robot {k}: deployed at")).count();
+        assert!(deployed <= 1, "robot {k} deployed {deployed} times:\n{}", out.stderr);
+    }
+    for (i, a) in agents.into_iter().enumerate() {
+        let done = a.wait(Duration::from_secs(20));
+        assert_eq!(done.status.code(), Some(0), "agent {}: {}", i + 1, done.stderr);
     }
 }
 
