@@ -23,8 +23,8 @@ use bycoms_orchestrator::scenario::{load, WorldSource};
 use bycoms_sim::runner::RobotEnd;
 use bycoms_sim::terrain::to_text;
 use bycoms_sim::{run, RunConfig, RunResult};
-use bycoms_tests::netns::{two_hosts_or_skip, Host};
-use bycoms_tests::{bin, swarm_name, Proc};
+use bycoms_tests::netns::{two_hosts_or_skip, Host, TwoHosts};
+use bycoms_tests::{bin, swarm_name, Finished, Proc};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -134,47 +134,87 @@ fn a_short_cut_is_ridden_out_and_the_run_still_gives_the_simulate_result() {
     let dir = tempfile::tempdir().expect("temp dir");
     let (expected, terrain) = world(dir.path());
     let swarm = swarm_name("netns-heal");
-    // Both sides ride out 20 s; the cut lasts 1.5 s.
-    let (orch, endpoint) = orchestrator_in(&hosts.a, &swarm, &terrain, LOCKSTEP, &["--link-grace", "20"]);
-    let grace = ["--orchestrator-grace", "20"];
-    let agents: Vec<Proc> =
-        (1..=3).map(|k| agent_in(&hosts.b, &endpoint, &swarm, &terrain, k, &grace)).collect();
-    orch.stderr_line(Duration::from_secs(30), |l| l.contains("robot 1: deployed at").then_some(()))
-        .expect("robot 1 deployed");
-    let cut_unix_ms = unix_ms();
-    hosts.cut().expect("cut");
-    std::thread::sleep(Duration::from_millis(1500));
-    hosts.restore().expect("restore");
-    let restored_unix_ms = unix_ms();
-    let out = orch.wait(Duration::from_secs(180));
+    let (orch, agents) = ride_out_a_short_cut(&hosts, &swarm, &terrain, LOCKSTEP);
+    let out = orch.out;
     let j = out.json();
     assert_simulate_result(&expected, &j, &out.stderr);
     assert_eq!(out.status.code(), Some(0), "stderr:\n{}", out.stderr);
-    // The outage was seen and recorded, and it ended after the link did.
+    assert_outages_ended_after_the_link(&j, &out.stderr, &orch.cut);
+    assert!(j["resends"].as_u64().expect("resends") >= 1, "what was lost in the cut was sent again: {j}");
+    assert_deployed_at_most_once(&out.stderr);
+    for (i, done) in agents_done(agents).iter().enumerate() {
+        assert_eq!(done.status.code(), Some(0), "agent {}: {}", i + 1, done.stderr);
+        assert!(!done.stderr.contains("stale goal bearings"), "agent {}: {}", i + 1, done.stderr);
+    }
+}
+
+/// When the link was cut and restored, unix ms.
+struct Cut {
+    at_ms: u64,
+    restored_ms: u64,
+}
+
+/// A finished launch and its cut.
+struct CutRun {
+    out: Finished,
+    cut: Cut,
+}
+
+/// The orchestrator in `a` and three agents in `b` on `clock`, both sides
+/// riding out 20 s; once robot 1 is deployed the link is cut for 1.5 s.
+/// The finished launch and the still running agents.
+fn ride_out_a_short_cut(
+    hosts: &TwoHosts,
+    swarm: &str,
+    terrain: &Path,
+    clock: &[&str],
+) -> (CutRun, Vec<Proc>) {
+    let (orch, endpoint) = orchestrator_in(&hosts.a, swarm, terrain, clock, &["--link-grace", "20"]);
+    let mut flags = vec!["--orchestrator-grace", "20"];
+    flags.extend(clock);
+    let agents: Vec<Proc> =
+        (1..=3).map(|k| agent_in(&hosts.b, &endpoint, swarm, terrain, k, &flags)).collect();
+    orch.stderr_line(Duration::from_secs(30), |l| l.contains("robot 1: deployed at").then_some(()))
+        .expect("robot 1 deployed");
+    let at_ms = unix_ms();
+    hosts.cut().expect("cut");
+    std::thread::sleep(Duration::from_millis(1500));
+    hosts.restore().expect("restore");
+    let restored_ms = unix_ms();
+    let out = orch.wait(Duration::from_secs(180));
+    (CutRun { out, cut: Cut { at_ms, restored_ms } }, agents)
+}
+
+/// Outages were seen and recorded, each after the cut, and each ended
+/// after the link did.
+fn assert_outages_ended_after_the_link(j: &serde_json::Value, stderr: &str, cut: &Cut) -> usize {
     let robots = j["robots"].as_array().expect("robots");
     let outages: Vec<&serde_json::Value> =
         robots.iter().flat_map(|r| r["outages"].as_array().expect("outages")).collect();
-    assert!(!outages.is_empty(), "no outage recorded:\n{}", out.stderr);
+    assert!(!outages.is_empty(), "no outage recorded:\n{stderr}");
     for o in &outages {
         let lost = o["lost_unix_ms"].as_u64().expect("lost");
         let back = o["back_unix_ms"].as_u64().expect("every outage ended");
         println!(
             "outage noticed {} ms after the cut, over {} ms after the link was restored",
-            lost.saturating_sub(cut_unix_ms),
-            back.saturating_sub(restored_unix_ms)
+            lost.saturating_sub(cut.at_ms),
+            back.saturating_sub(cut.restored_ms)
         );
-        assert!(lost >= cut_unix_ms && back >= restored_unix_ms, "{o}");
+        assert!(lost >= cut.at_ms && back >= cut.restored_ms, "{o}");
     }
-    assert!(j["resends"].as_u64().expect("resends") >= 1, "what was lost in the cut was sent again: {j}");
+    outages.len()
+}
+
+fn assert_deployed_at_most_once(stderr: &str) {
     for k in 1..=3 {
-        let deployed = out.stderr.matches(&format!("robot {k}: deployed at")).count();
-        assert!(deployed <= 1, "robot {k} deployed {deployed} times:\n{}", out.stderr);
+        let deployed = stderr.matches(&format!("robot {k}: deployed at")).count();
+        assert!(deployed <= 1, "robot {k} deployed {deployed} times:\n{stderr}");
     }
-    for (i, a) in agents.into_iter().enumerate() {
-        let done = a.wait(Duration::from_secs(20));
-        assert_eq!(done.status.code(), Some(0), "agent {}: {}", i + 1, done.stderr);
-        assert!(!done.stderr.contains("stale goal bearings"), "agent {}: {}", i + 1, done.stderr);
-    }
+}
+
+/// Each agent, once it ended (20 s at most).
+fn agents_done(agents: Vec<Proc>) -> Vec<Finished> {
+    agents.into_iter().map(|a| a.wait(Duration::from_secs(20))).collect()
 }
 
 #[test]
@@ -213,12 +253,8 @@ fn a_cut_longer_than_the_grace_is_recorded_and_ends_the_run_cleanly() {
         assert!(after < 2500, "robot {}: noticed {after} ms after the cut", i + 1);
     }
     assert_eq!(j["robots"][0]["end"], "died", "the moving robot is a beacon where last seen: {j}");
-    for k in 1..=3 {
-        let deployed = out.stderr.matches(&format!("robot {k}: deployed at")).count();
-        assert!(deployed <= 1, "robot {k} deployed {deployed} times:\n{}", out.stderr);
-    }
-    for (i, a) in agents.into_iter().enumerate() {
-        let done = a.wait(Duration::from_secs(20));
+    assert_deployed_at_most_once(&out.stderr);
+    for (i, done) in agents_done(agents).iter().enumerate() {
         // Past its grace an agent stops its robot and exits (4). One whose
         // own side did not see the link go (zenoh closing late) is shut
         // down by the orchestrator once the link is back (0).
@@ -243,47 +279,23 @@ fn a_short_cut_in_real_time_is_ridden_out() {
     let dir = tempfile::tempdir().expect("temp dir");
     let (_, terrain) = world(dir.path());
     let swarm = swarm_name("netns-rt");
-    let clock = ["--clock", "realtime", "--speed", "10"];
-    let (orch, endpoint) = orchestrator_in(&hosts.a, &swarm, &terrain, &clock, &["--link-grace", "20"]);
-    let mut flags = vec!["--orchestrator-grace", "20"];
-    flags.extend(clock);
-    let agents: Vec<Proc> =
-        (1..=3).map(|k| agent_in(&hosts.b, &endpoint, &swarm, &terrain, k, &flags)).collect();
-    orch.stderr_line(Duration::from_secs(30), |l| l.contains("robot 1: deployed at").then_some(()))
-        .expect("robot 1 deployed");
-    std::thread::sleep(Duration::from_millis(500));
-    let cut_unix_ms = unix_ms();
-    hosts.cut().expect("cut");
-    std::thread::sleep(Duration::from_millis(1500));
-    hosts.restore().expect("restore");
-    let out = orch.wait(Duration::from_secs(180));
+    let (run, agents) =
+        ride_out_a_short_cut(&hosts, &swarm, &terrain, &["--clock", "realtime", "--speed", "10"]);
+    let out = run.out;
     let j = out.json();
     let outcome = j["outcome"].as_str().unwrap_or_default();
     assert!(matches!(outcome, "arrived" | "robots_exhausted"), "outcome {outcome}:\n{}", out.stderr);
     assert_eq!(out.status.code(), Some(if outcome == "arrived" { 0 } else { 3 }), "{}", out.stderr);
-    let robots = j["robots"].as_array().expect("robots");
-    let outages: Vec<&serde_json::Value> =
-        robots.iter().flat_map(|r| r["outages"].as_array().expect("outages")).collect();
-    assert!(!outages.is_empty(), "no outage recorded:\n{}", out.stderr);
+    let outages = assert_outages_ended_after_the_link(&j, &out.stderr, &run.cut);
     println!(
-        "real time across a cut: {outcome}, {} steps, {} robots, {} outages",
-        j["steps"],
-        j["robots_used"],
-        outages.len()
+        "real time across a cut: {outcome}, {} steps, {} robots, {outages} outages",
+        j["steps"], j["robots_used"]
     );
-    for o in &outages {
-        assert!(o["lost_unix_ms"].as_u64().expect("lost") >= cut_unix_ms, "{o}");
-        assert!(o["back_unix_ms"].as_u64().is_some(), "every outage ended: {o}");
-    }
-    for (i, robot) in robots.iter().enumerate() {
+    for (i, robot) in j["robots"].as_array().expect("robots").iter().enumerate() {
         assert!(robot["death"].is_null(), "robot {} died: {robot}", i + 1);
     }
-    for k in 1..=3 {
-        let deployed = out.stderr.matches(&format!("robot {k}: deployed at")).count();
-        assert!(deployed <= 1, "robot {k} deployed {deployed} times:\n{}", out.stderr);
-    }
-    for (i, a) in agents.into_iter().enumerate() {
-        let done = a.wait(Duration::from_secs(20));
+    assert_deployed_at_most_once(&out.stderr);
+    for (i, done) in agents_done(agents).iter().enumerate() {
         assert_eq!(done.status.code(), Some(0), "agent {}: {}", i + 1, done.stderr);
     }
 }

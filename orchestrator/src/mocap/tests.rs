@@ -209,18 +209,7 @@ fn the_natnet_source_reads_the_emulated_lab_over_udp() {
     use bycoms_sim::natnet_server::NatNetServer;
     use std::net::Ipv4Addr;
     let server = NatNetServer::start_any_port(lab(Faults::default()), Ipv4Addr::LOCALHOST.into()).unwrap();
-    let config = NatNetSourceConfig {
-        client: ClientConfig {
-            server: server.command_addr(),
-            local: Ipv4Addr::LOCALHOST.into(),
-            multicast: None,
-            reply_timeout_ms: 1000,
-        },
-        arena: ArenaTransform { scale: SCALE, ..ArenaTransform::default() },
-        bodies: BTreeMap::from([("robot1".to_string(), RobotId(1)), ("robot2".to_string(), RobotId(2))]),
-        tracker: TrackerConfig { max_speed: 1.5, jump_slack: 0.2, lost_after_us: 500_000 },
-        placement: Default::default(),
-    };
+    let config = udp_config(&server);
     let mut source = NatNetPoseSource::connect(&config).unwrap();
     let batch = (0..50)
         .find_map(|_| source.poll(Duration::from_millis(200)).unwrap().filter(|b| b.poses.len() == 2))
@@ -233,9 +222,10 @@ fn the_natnet_source_reads_the_emulated_lab_over_udp() {
     assert!(err.to_string().contains("robot7"), "{err}");
 }
 
-fn udp_source(server: &bycoms_sim::natnet_server::NatNetServer) -> NatNetPoseSource {
+/// The lab's two robots read from `server` over loopback UDP.
+fn udp_config(server: &bycoms_sim::natnet_server::NatNetServer) -> NatNetSourceConfig {
     use std::net::Ipv4Addr;
-    let config = NatNetSourceConfig {
+    NatNetSourceConfig {
         client: ClientConfig {
             server: server.command_addr(),
             local: Ipv4Addr::LOCALHOST.into(),
@@ -246,8 +236,11 @@ fn udp_source(server: &bycoms_sim::natnet_server::NatNetServer) -> NatNetPoseSou
         bodies: BTreeMap::from([("robot1".to_string(), RobotId(1)), ("robot2".to_string(), RobotId(2))]),
         tracker: TrackerConfig { max_speed: 1.5, jump_slack: 0.2, lost_after_us: 500_000 },
         placement: Default::default(),
-    };
-    NatNetPoseSource::connect(&config).unwrap()
+    }
+}
+
+fn udp_source(server: &bycoms_sim::natnet_server::NatNetServer) -> NatNetPoseSource {
+    NatNetPoseSource::connect(&udp_config(server)).unwrap()
 }
 
 /// Drains `source` for `wait` (or until `until` holds for a handed pose)
