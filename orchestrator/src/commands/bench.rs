@@ -7,7 +7,10 @@
 //!   robot's first pose) and lockstep speed (simulated seconds per wall
 //!   second);
 //! * `bench scale` — N real-time agents at 10 Hz at once: missed periods
-//!   and memory per agent.
+//!   and memory per agent;
+//! * `bench schedules` — the launch core's simulation testing
+//!   (`launch::harness`): seeded fault schedules played in virtual time,
+//!   schedules per second and robot-ticks per second, each schedule checked.
 //!
 //! Figures are printed, never asserted: speed is proven here, not in timed
 //! unit tests.
@@ -56,6 +59,15 @@ pub enum What {
         #[arg(long, default_value_t = 1.0)]
         speed: f64,
     },
+    /// Seeded fault schedules of the launch core in virtual time, per second.
+    Schedules {
+        /// Schedules to play (seeds 0..N, as the test suite draws them).
+        #[arg(long, default_value_t = 10_000)]
+        count: u64,
+        /// Rounds to time (the median is reported).
+        #[arg(long, default_value_t = 5)]
+        rounds: u32,
+    },
 }
 
 fn percentile(sorted: &[f64], p: f64) -> f64 {
@@ -66,8 +78,12 @@ fn percentile(sorted: &[f64], p: f64) -> f64 {
 }
 
 pub fn run(args: Args) -> Result<i32> {
+    if let What::Schedules { count, rounds } = args.what {
+        return schedules(count, rounds, args.json);
+    }
     let agent = launch::agent_command(args.agent_bin.as_deref(), None)?;
     match args.what {
+        What::Schedules { .. } => unreachable!("handled above"),
         What::Launch { runs, no_prespawn, transport } => {
             let (mut reactions, mut speeds, mut walls) = (Vec::new(), Vec::new(), Vec::new());
             let mut first_moving = Vec::new();
@@ -133,4 +149,48 @@ pub fn run(args: Args) -> Result<i32> {
         }
     }
     Ok(crate::exit::SUCCESS)
+}
+
+/// `bench schedules`: plays seeds `0..count` (the test suite's schedules)
+/// `rounds` times and reports the median rate; every schedule is checked.
+fn schedules(count: u64, rounds: u32, json: bool) -> Result<i32> {
+    use crate::launch::harness::{self, Case, Schedule};
+    let mut rates = Vec::new();
+    let mut ticks = 0u64;
+    let mut tick_rates = Vec::new();
+    for _ in 0..rounds.max(1) {
+        let started = std::time::Instant::now();
+        ticks = 0;
+        for seed in 0..count {
+            let case = Case::small(seed);
+            let schedule = Schedule::draw(seed, case.robots, 400);
+            let report = harness::run(&case, &schedule);
+            if let Err(e) = harness::check(&report, &schedule) {
+                bail!("schedule {seed} broke a property: {e}");
+            }
+            ticks += report.ticks * u64::from(case.robots);
+        }
+        let s = started.elapsed().as_secs_f64();
+        rates.push(count as f64 / s);
+        tick_rates.push(ticks as f64 / s);
+    }
+    rates.sort_by(f64::total_cmp);
+    tick_rates.sort_by(f64::total_cmp);
+    let (p50, min, max) = (percentile(&rates, 0.5), percentile(&rates, 0.0), percentile(&rates, 1.0));
+    let ticks_p50 = percentile(&tick_rates, 0.5);
+    if json {
+        let figures = serde_json::json!({
+            "schedules": count, "rounds": rounds,
+            "schedules_per_s": { "p50": p50, "min": min, "max": max },
+            "robot_ticks_per_s": { "p50": ticks_p50 },
+            "robot_ticks_per_round": ticks,
+        });
+        crate::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
+    } else {
+        crate::outln!(
+            "{count} schedules × {rounds} rounds: median {p50:.0} schedules/s (min {min:.0}, max {max:.0}); \
+             {ticks_p50:.0} robot-ticks/s ({ticks} robot-ticks per round)"
+        )?;
+    }
+    Ok(0)
 }

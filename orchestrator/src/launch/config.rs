@@ -140,6 +140,10 @@ pub struct GateConfig {
     pub prespawn: bool,
     /// What a dead agent means.
     pub on_agent_death: OnDeath,
+    /// A pose that moved faster than this (units/s of simulated time) from
+    /// the robot's last one is refused as implausible (a forged or swapped
+    /// pose; see `launch/core/plausible.rs`).
+    pub max_speed: f64,
 }
 
 /// Timeouts of agent supervision (wall-clock seconds).
@@ -199,6 +203,7 @@ impl Default for GateConfig {
             dwell: 20.0,
             prespawn: true,
             on_agent_death: OnDeath::Beacon,
+            max_speed: 5.0,
         }
     }
 }
@@ -289,8 +294,9 @@ impl LaunchConfig {
         self.faults.validate()?;
         check_speed(self.speed).map_err(usage)?;
         let positive = |v: f64| v.is_finite() && v > 0.0;
-        let checks: [(&str, f64); 6] = [
+        let checks: [(&str, f64); 7] = [
             ("gate.dwell", self.gate.dwell),
+            ("gate.max_speed", self.gate.max_speed),
             ("supervision.register_timeout", self.supervision.register_timeout),
             ("supervision.heartbeat_interval", self.supervision.heartbeat_interval),
             ("supervision.heartbeat_timeout", self.supervision.heartbeat_timeout),

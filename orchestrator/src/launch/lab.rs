@@ -13,7 +13,7 @@
 //! with the exact start and goal, which the recording, the picture and the
 //! live view draw as they draw any terrain.
 //!
-//! Placement ([`Launch::place`]): before robot k is enabled, the operator
+//! Placement (the launch core's `Placing` phase): before robot k is enabled, the operator
 //! is asked — on the terminal, in the log and on the bus
 //! (`bycoms/<swarm>/operator`, where the emulated lab's operator reads it)
 //! — to put it on the start, and the launch waits until motion capture
@@ -21,21 +21,13 @@
 //! (`mocap::PlacementWatch`). A robot enabled elsewhere would be judged
 //! from the wrong start.
 
-use super::engine::{Launch, SlotState, World, SLICE};
+use super::World;
 use crate::exit::usage;
-use crate::mocap::{PlacementConfig, PlacementWatch};
-use anyhow::{anyhow, Context, Result};
-use bycoms_protocol::msg::Deploy;
-use bycoms_protocol::RobotId;
+use anyhow::{Context, Result};
 use bycoms_sim::lab::process::load_scenario;
 use bycoms_sim::lab::scenario::Scenario;
 use bycoms_sim::terrain::{to_text, Terrain};
 use bycoms_sim::Vec2;
-use std::time::{Duration, Instant};
-
-/// How often the request is repeated (and the terminal reminded) while
-/// the operator has not placed the robot.
-const REMIND_EVERY: Duration = Duration::from_secs(2);
 
 /// The launch's world from lab scenario `name` (a built-in name or a
 /// file), for a launch of `robots` robots: as many as the scenario has (one
@@ -64,89 +56,6 @@ pub fn world_of(s: &Scenario) -> Result<World> {
         format!("lab scenario {}: start and goal must lie in different square metres of the arena", s.name)
     })?;
     Ok(World { name: format!("lab scenario {}", s.name), terrain_text: text, start, goal })
-}
-
-/// What became of a placement request.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Placed {
-    /// Motion capture saw the robot at the start: enable it.
-    Yes,
-    /// Its agent was lost meanwhile (e.g. its link): go on with the next.
-    Lost,
-    /// The launch must end (Ctrl-C, a fatal error, or the operator did not
-    /// place it in time: then a fatal error names the robot).
-    End,
-}
-
-impl Launch {
-    /// Asks the operator to place robot `id` at the start and waits until
-    /// motion capture sees it there (see the module docs). Meanwhile the
-    /// pose source knows the robot is carried by hand
-    /// ([`PoseSource::carried`]), so a hand-speed move to the start is not
-    /// rejected as an identity swap.
-    ///
-    /// [`PoseSource::carried`]: super::poses::PoseSource::carried
-    pub fn place(&mut self, id: u32, config: PlacementConfig) -> Result<Placed> {
-        self.pose_source.carried(id, true);
-        let placed = self.await_placed(id, config);
-        self.pose_source.carried(id, false);
-        placed
-    }
-
-    fn await_placed(&mut self, id: u32, config: PlacementConfig) -> Result<Placed> {
-        let start = self.world.start;
-        let request =
-            Deploy { robot: RobotId(id), x: start.x, y: start.y, heading: start.bearing_to(self.world.goal) };
-        let prompt = format!(
-            "OPERATOR: place robot {id} at the start ({:.2}, {:.2}) — it is enabled once motion capture sees it there",
-            start.x, start.y
-        );
-        self.progress.event(&prompt);
-        tracing::info!(
-            robot = id,
-            x = start.x,
-            y = start.y,
-            "operator asked to place the robot at the start"
-        );
-        self.ports.ask_operator(&request)?;
-        let mut watch = PlacementWatch::new(RobotId(id), start, config);
-        let began = Instant::now();
-        let timeout = Duration::from_secs_f64(config.timeout);
-        let (mut reminded, mut seen_us) = (Instant::now(), None);
-        loop {
-            if self.must_end() {
-                return Ok(Placed::End);
-            }
-            if self.slot(id).is_none_or(|s| s.state != SlotState::Registered) {
-                return Ok(Placed::Lost);
-            }
-            let pose = self.slot(id).and_then(|s| s.last_pose);
-            if let Some(p) = pose.filter(|p| seen_us != Some(p.time_us)) {
-                seen_us = Some(p.time_us);
-                if watch.observe(&p) {
-                    self.progress
-                        .event(&format!("robot {id}: at the start ({:.2}, {:.2}), enabling it", p.x, p.y));
-                    return Ok(Placed::Yes);
-                }
-            }
-            if began.elapsed() >= timeout {
-                let last = watch.last().map_or("never".into(), |p| format!("at ({:.2}, {:.2})", p.x, p.y));
-                self.fatal = Some(anyhow!(
-                    "robot {id} was not seen at the start ({:.2}, {:.2}) within {} s (last seen: {last})",
-                    start.x,
-                    start.y,
-                    config.timeout
-                ));
-                return Ok(Placed::End);
-            }
-            if reminded.elapsed() >= REMIND_EVERY {
-                reminded = Instant::now();
-                self.ports.ask_operator(&request)?;
-                tracing::info!(robot = id, "still waiting for the robot at the start");
-            }
-            self.pump(SLICE)?;
-        }
-    }
 }
 
 #[cfg(test)]

@@ -7,20 +7,24 @@
 //! the gate's decisions. Modules:
 //!
 //! * [`config`] — the TOML config (`deploy/launch.toml`) and its defaults;
-//! * [`gate`] — the motion test: stopped, arrived or stuck, from poses;
-//! * three seams, so that the engine and the gate know no concrete kind:
+//! * [`core`] — the launch itself as a deterministic state machine, no IO:
+//!   inputs with their time in, outputs and the next deadline out; the
+//!   gate ([`gate`]), the budget, registration, settling, placement,
+//!   partitions and re-sends, the dead-robot policy live there once;
+//! * [`driver`] — the IO shell that feeds the core from the bus, the pose
+//!   source and the agent source on the wall clock and carries out its
+//!   outputs, then ends the launch in order and builds the summary;
+//!   [`setup`] turns the config and the seams' properties into the core's
+//!   settings;
+//! * three seams, so that the core and the gate know no concrete kind:
 //!   [`transport`] (the bus: iceoryx2, zenoh or in-memory), [`agents`]
 //!   (where agents come from: spawned here, remote, real robots behind
-//!   gateways) and [`poses`] (where the
-//!   gate's poses come from: the agents' simulated mocap on the bus, ...);
+//!   gateways) and [`poses`] (where the gate's poses come from: the agents'
+//!   simulated mocap on the bus, NatNet, a replay);
 //! * [`ports`] — the bus, with recording and bad-traffic counting;
-//! * [`engine`] — the launch's state and message handling;
-//! * [`deploy`] / [`decide`] — opening and closing a robot's deployment;
-//! * [`lab`] — a lab's world in metres from its scenario file, and the
-//!   operator's placement of each real robot at the start;
-//! * [`lockstep`] / [`realtime`] — the two clocks;
-//! * [`finish`] / [`summary`] / [`progress`] / [`recording`] — the ending,
-//!   the report, the terminal, the MCAP file;
+//! * [`lab`] — a lab's world in metres from its scenario file;
+//! * [`summary`] / [`progress`] / [`recording`] — the report, the terminal,
+//!   the MCAP file;
 //! * [`events`] — the typed JSON channels of a recording (run, events,
 //!   summary), each with its JSON schema;
 //! * [`observe`] — observers that see every pose and gate event (the live
@@ -30,36 +34,34 @@
 
 pub mod agents;
 pub mod config;
-pub mod decide;
-pub mod deploy;
-pub mod engine;
+pub mod core;
+pub mod driver;
 pub mod events;
 pub mod faults;
-pub mod finish;
 pub mod gate;
+pub mod harness;
 pub mod lab;
-pub mod lockstep;
 pub mod observe;
-pub mod partition;
 pub mod ports;
 pub mod poses;
 pub mod progress;
-pub mod realtime;
 pub mod recording;
 pub mod scale;
+pub mod setup;
 pub mod summary;
 pub mod swarm_lock;
 pub mod transport;
 
+#[doc(inline)]
+pub use self::core::Core;
 pub use agents::spawned::AgentCommand;
 pub use config::{Clock, LaunchConfig, OnDeath};
-pub use engine::World;
 pub use summary::{Outcome, RobotEnd, Summary};
 
 use anyhow::{Context, Result};
 use bycoms_protocol::Swarm;
 use bycoms_sim::agent_process::AgentArgs;
-use engine::Launch;
+use bycoms_sim::Vec2;
 use ports::Ports;
 use poses::bus::BusPoses;
 use recording::Recording;
@@ -68,6 +70,20 @@ use std::rc::Rc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use transport::SharedBus;
+
+/// The world as the orchestrator knows it: where robots start and the goal.
+/// The terrain text is only handed on to the simulated agents.
+#[derive(Clone, Debug)]
+pub struct World {
+    /// Where the terrain came from.
+    pub name: String,
+    /// The terrain in the text format, for the agents' simulated bodies.
+    pub terrain_text: String,
+    /// Start position.
+    pub start: Vec2,
+    /// Goal position.
+    pub goal: Vec2,
+}
 
 /// Environment variable naming the agent executable.
 pub const AGENT_BIN_ENV: &str = "BYCOMS_SIM_AGENT";
@@ -164,19 +180,18 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
     )?;
     let stop = interrupt_flag();
     stop.store(false, Ordering::SeqCst);
-    let clock = cfg.clock;
-    let mut launch = Launch::new(cfg, world, ports, (agents, pose_source), template, stop);
-    launch.begun = begun;
-    launch.endpoints = endpoints;
-    let result = match launch.await_everyone() {
-        Ok(true) => match clock {
-            Clock::Lockstep => launch.run_lockstep(),
-            Clock::Realtime => launch.run_realtime(),
-        },
-        Ok(false) => Ok(Outcome::Interrupted),
-        Err(e) => Err(e),
-    };
-    let summary = launch.finish(result);
+    let driver = driver::Driver::new(driver::Parts {
+        cfg,
+        world,
+        ports,
+        agents,
+        pose_source,
+        template,
+        stop,
+        begun,
+        endpoints,
+    });
+    let summary = driver.run();
     if let Some(live) = live {
         live.ended(&summary);
         live.shutdown();

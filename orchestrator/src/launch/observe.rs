@@ -9,7 +9,7 @@
 //! inline (the live view only queues the message for its own threads).
 
 use super::config::LaunchConfig;
-use super::engine::World;
+use super::World;
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 
 /// Something that watches a launch; every method has an empty default.

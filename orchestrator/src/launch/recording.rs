@@ -22,9 +22,9 @@
 //! metadata record.
 
 use super::config::{Clock, LaunchConfig};
-use super::engine::World;
 use super::events::{RunMeta, RUN_SCHEMA};
 use super::ports::schema;
+use super::World;
 use crate::draw::trace::Trace;
 use crate::record::{RecordError, Recorder, Summary, FLUSH_INTERVAL};
 use crate::scene::json::json_schema;

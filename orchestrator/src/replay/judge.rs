@@ -1,17 +1,18 @@
-//! The gate, re-run over a recording's poses.
+//! The launch's referee, fed a recording's poses.
 //!
-//! Why re-derive the deployments too: a deployment is the launch acting on
-//! an earlier decision (robot k stopped → robot k+1 goes), so the replay
-//! opens the gate exactly as the launch does — robot k's first pose after
-//! its `Deploy` command is its start pose, counted in lockstep from the
-//! last tick sent (`launch::engine`'s `on_pose`) — and compares the
-//! `Deployed` events as well. From the start pose on, the robot's poses go
-//! through the launch's own [`Watch`] and time-budget rule
-//! (`launch::decide`'s `budget_spent`). An agent's death is not a pose: a
-//! recorded `Died` event is taken as given (the watch closes there).
+//! Why the launch's own referee (`launch::core::Referee`) and no copy of
+//! its rules: a replay must reach the launch's decisions by the same rules,
+//! and a copy drifts. What is left here is only how a recording becomes the
+//! referee's inputs: a deployment is the launch acting on an earlier
+//! decision (robot k stopped → robot k+1 goes), so robot k's first pose
+//! after its `Deploy` command is its start pose (in lockstep counted from
+//! the last tick sent); from then on its poses go to the referee, whose
+//! verdicts and budget rule give the gate events. An agent's death is not a
+//! pose: a recorded `Died` event is taken as given (the watch closes there).
 
 use super::read::{Entry, Recorded};
-use crate::launch::gate::{GateParams, Verdict, Watch};
+use crate::launch::core::{Closed, Referee};
+use crate::launch::gate::{GateParams, Verdict};
 use crate::launch::Clock;
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose, ToAgent};
 use bycoms_protocol::RobotId;
@@ -19,14 +20,7 @@ use bycoms_protocol::RobotId;
 /// The gate parameters and step budget of a recorded run.
 pub fn gate_params(recorded: &Recorded) -> (GateParams, u64) {
     let cfg = &recorded.run.config;
-    let params = GateParams {
-        goal: recorded.run.goal,
-        goal_radius: cfg.goal_radius,
-        stop_speed: cfg.gate.stop_speed,
-        stop_turn_rate: cfg.gate.stop_turn_rate,
-        dwell_us: (cfg.gate.dwell * 1e6).round() as u64,
-        period_us: cfg.dt_us(),
-    };
+    let params = crate::launch::setup::gate_params(cfg, recorded.run.goal);
     let mut run = bycoms_sim::RunConfig::paper(cfg.eps);
     run.time_limit = cfg.time_limit;
     (params, run.step_limit())
@@ -35,38 +29,33 @@ pub fn gate_params(recorded: &Recorded) -> (GateParams, u64) {
 /// The gate events a replay reaches from `recorded`'s poses, in order.
 pub fn rejudge(recorded: &Recorded) -> Vec<GateEvent> {
     let (params, limit) = gate_params(recorded);
-    let mut gate = ReplayGate {
-        params,
-        limit,
-        lockstep: recorded.run.config.clock == Clock::Lockstep,
+    let lockstep = recorded.run.config.clock == Clock::Lockstep;
+    let mut feed = Feed {
+        lockstep,
+        referee: Referee::new(params, limit, lockstep),
         ticks: 0,
         deploying: None,
-        watch: None,
-        spent: 0,
         out: Vec::new(),
     };
     for entry in &recorded.entries {
-        gate.on_entry(entry);
+        feed.on_entry(entry);
     }
-    gate.out
+    feed.out
 }
 
-struct ReplayGate {
-    params: GateParams,
-    limit: u64,
+struct Feed {
     lockstep: bool,
+    referee: Referee,
     /// Lockstep ticks sent so far (all completed when a start pose comes).
     ticks: u64,
     deploying: Option<RobotId>,
-    watch: Option<(RobotId, Watch)>,
-    spent: u64,
     out: Vec<GateEvent>,
 }
 
-impl ReplayGate {
+impl Feed {
     fn on_entry(&mut self, entry: &Entry) {
         match entry {
-            Entry::Command { robot, command: ToAgent::Deploy(_) } if self.watch.is_none() => {
+            Entry::Command { robot, command: ToAgent::Deploy(_) } if self.referee.watched().is_none() => {
                 self.deploying = Some(*robot);
             }
             Entry::Command { command: ToAgent::Tick(t), .. } => self.ticks = self.ticks.max(t.step),
@@ -77,11 +66,8 @@ impl ReplayGate {
             Entry::Pose(pose) => self.on_pose(*pose),
             Entry::Gate(event) if event.kind == GateKind::Died => {
                 // Not a pose decision: taken from the recording.
-                if self.watch.as_ref().is_some_and(|(id, _)| *id == event.robot) {
-                    if let Some((_, watch)) = self.watch.take() {
-                        self.spent += watch.active_steps();
-                        self.emit(GateKind::Died, &watch.last());
-                    }
+                if let Some(closed) = self.referee.close(event.robot.0) {
+                    self.emit(GateKind::Died, &closed.pose);
                 }
             }
             Entry::Gate(_) => {}
@@ -90,44 +76,27 @@ impl ReplayGate {
 
     fn on_pose(&mut self, pose: Pose) {
         let robot = pose.robot;
-        if self.deploying == Some(robot) && self.watch.is_none() {
+        if self.deploying == Some(robot) && self.referee.watched().is_none() {
             self.deploying = None;
-            let mut start = pose;
-            if self.lockstep {
-                start.step = self.ticks;
-            }
-            self.watch = Some((robot, Watch::new(self.params, start)));
+            let start = self.referee.open(robot.0, pose, self.ticks);
             self.emit(GateKind::Deployed, &start);
             return;
         }
-        let Some((_, watch)) = self.watch.as_mut().filter(|(id, _)| *id == robot) else { return };
-        match watch.observe(pose) {
+        match self.referee.observe(robot.0, pose) {
             Some(verdict) => {
-                let steps = watch.active_steps();
-                self.spent += steps;
-                self.watch = None;
+                self.referee.close(robot.0);
                 let (kind, at) = match verdict {
                     Verdict::Arrived(p) => (GateKind::Stopped { arrived: true }, p),
                     Verdict::Stuck(p) => (GateKind::Stopped { arrived: false }, p),
                 };
                 self.emit(kind, &at);
             }
-            None => self.check_budget(),
+            None => {
+                if let Err(Closed { pose, .. }) = self.referee.budget_spent() {
+                    self.emit(GateKind::Timeout, &pose);
+                }
+            }
         }
-    }
-
-    /// `launch::decide`'s `budget_spent`, rule for rule.
-    fn check_budget(&mut self) {
-        let Some((_, watch)) = &self.watch else { return };
-        let budget = self.limit.saturating_sub(self.spent);
-        let steps = watch.active_steps();
-        if steps <= budget {
-            return;
-        }
-        let pose = if steps == budget + 1 { watch.previous() } else { watch.last() };
-        self.watch = None;
-        self.spent += budget;
-        self.emit(GateKind::Timeout, &pose);
     }
 
     fn emit(&mut self, kind: GateKind, pose: &Pose) {

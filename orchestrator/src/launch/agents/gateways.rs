@@ -93,6 +93,18 @@ impl Gateways {
 }
 
 impl AgentSource for Gateways {
+    fn needs_placement(&self) -> bool {
+        true
+    }
+
+    fn stop_when_stuck(&self) -> bool {
+        true
+    }
+
+    fn wants_poses(&self) -> bool {
+        true
+    }
+
     fn kind(&self) -> &'static str {
         "gateway"
     }

@@ -179,6 +179,38 @@ pub trait AgentSource {
         false
     }
 
+    /// Whether an operator puts each robot at the start (confirmed by
+    /// motion capture) before it is enabled: real robots. Default: no
+    /// (simulated agents are put there by `Deploy` itself).
+    fn needs_placement(&self) -> bool {
+        false
+    }
+
+    /// Whether a robot judged stuck is told to `Stop`: a real robot would
+    /// keep pushing against what holds it. Default: no.
+    fn stop_when_stuck(&self) -> bool {
+        false
+    }
+
+    /// Whether the agents want the poses the launch sees when those do not
+    /// come over the bus (a gateway turns bearings into its robot's frame
+    /// with them). Default: no.
+    fn wants_poses(&self) -> bool {
+        false
+    }
+
+    /// How to start an agent that never came, for the error that names the
+    /// robots whose agents never registered (empty: nothing to say).
+    fn start_hint(&self) -> &'static str {
+        ""
+    }
+
+    /// What [`AgentSource::wind_down`] does to agents that do not exit, in
+    /// words for the terminal. Default: they are killed.
+    fn ended_by(&self) -> &'static str {
+        "killed"
+    }
+
     /// Starts robot `id`'s agent, or starts expecting it. The engine opens
     /// the robot's ports first, so nothing the agent sends is missed.
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError>;

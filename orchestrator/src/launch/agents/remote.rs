@@ -132,6 +132,15 @@ impl Remote {
 }
 
 impl AgentSource for Remote {
+    fn start_hint(&self) -> &'static str {
+        " (start each with `sim-agent --transport zenoh --connect ENDPOINT --robot K` \
+         and the launch's swarm, swarm size, terrain and run flags)"
+    }
+
+    fn ended_by(&self) -> &'static str {
+        "still alive on their hosts, dropped from the launch"
+    }
+
     fn kind(&self) -> &'static str {
         "remote"
     }

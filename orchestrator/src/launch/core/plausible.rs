@@ -1,0 +1,221 @@
+//! Whether a pose can follow the last one accepted for its robot.
+//!
+//! Why: the gate keeps the newest step it has seen and judges arrival from a
+//! single pose, so one forged message could stall a run for ever (a step of
+//! `u64::MAX`: every later real pose looks old) or win it (a pose at the
+//! goal). A robot's poses cannot jump: its steps advance with its clock, its
+//! pose time with the launch's time, and it cannot move faster than it
+//! drives. A pose that breaks one of these is refused and counted as bad
+//! traffic, never applied. The rules, per robot, against the last accepted
+//! pose (the *anchor*):
+//!
+//! * every coordinate is finite;
+//! * lockstep: its step is not ahead of the tick in flight, its pose time
+//!   not ahead of that step's end (a simulated agent's pose time is its
+//!   step × the period);
+//! * real time: its pose time is not ahead of the anchor's by more than
+//!   twice the launch time since the anchor arrived, plus two periods (an
+//!   agent's clock runs at the launch's speed; mocap frames come in bursts);
+//!   its step advances at most once per millisecond of pose time (no clock
+//!   we know of runs faster than 1 kHz), so a huge step cannot pass with a
+//!   small time;
+//! * it moved no faster than `max_speed` from the anchor (over at least one
+//!   period), unless the anchor was dropped: a deployment puts a robot at
+//!   the start, an operator carries a robot there ([`Anchors::release`]).
+
+use bycoms_protocol::msg::Pose;
+
+/// Why a pose was refused.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Implausible {
+    /// A coordinate is NaN or infinite.
+    NotFinite,
+    /// A step or time ahead of what the clock allows.
+    FromTheFuture,
+    /// A jump faster than a robot drives (units per simulated second).
+    TooFast(f64),
+}
+
+impl std::fmt::Display for Implausible {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::NotFinite => write!(f, "a coordinate is not a finite number"),
+            Self::FromTheFuture => write!(f, "its step or time is ahead of the launch's clock"),
+            Self::TooFast(v) => write!(f, "it would have moved at {v:.2} units/s"),
+        }
+    }
+}
+
+/// The clock a pose is checked against.
+#[derive(Clone, Copy, Debug)]
+pub enum Clock {
+    /// Lockstep: the newest tick a pose may carry.
+    Lockstep {
+        /// The tick in flight (or the last completed one).
+        newest_step: u64,
+    },
+    /// Real time: launch time now (µs) and the speed-up.
+    Realtime {
+        /// Launch time, µs.
+        now_us: u64,
+        /// Simulated seconds per wall second.
+        speed: f64,
+    },
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Anchor {
+    pose: Pose,
+    /// Launch time it was accepted at, µs.
+    at_us: u64,
+    /// Whether the speed check applies from it.
+    speed_checked: bool,
+}
+
+/// The last accepted pose of every robot.
+#[derive(Clone, Debug)]
+pub struct Anchors {
+    period_us: u64,
+    max_speed: f64,
+    anchors: Vec<Option<Anchor>>,
+}
+
+impl Anchors {
+    /// No pose seen yet for `robots` robots.
+    pub fn new(robots: u32, period_us: u64, max_speed: f64) -> Self {
+        Self { period_us: period_us.max(1), max_speed, anchors: vec![None; robots as usize] }
+    }
+
+    /// The next pose of robot `id` may jump (deployed at the start, carried
+    /// by hand): no speed check from the current anchor.
+    pub fn release(&mut self, id: u32) {
+        if let Some(Some(a)) = self.slot(id) {
+            a.speed_checked = false;
+        }
+    }
+
+    fn slot(&mut self, id: u32) -> Option<&mut Option<Anchor>> {
+        id.checked_sub(1).and_then(|i| self.anchors.get_mut(i as usize))
+    }
+
+    /// Checks robot `id`'s `pose` and, if it is plausible, makes it the
+    /// anchor. `carried`: the robot is being carried (any speed goes).
+    pub fn accept(&mut self, id: u32, pose: &Pose, clock: Clock, carried: bool) -> Result<(), Implausible> {
+        let (period, max_speed) = (self.period_us, self.max_speed);
+        let Some(slot) = self.slot(id) else { return Ok(()) };
+        if !(pose.x.is_finite() && pose.y.is_finite() && pose.heading.is_finite()) {
+            return Err(Implausible::NotFinite);
+        }
+        let anchor = *slot;
+        match clock {
+            Clock::Lockstep { newest_step } => {
+                let end_us = newest_step.saturating_add(1).saturating_mul(period);
+                if pose.step > newest_step || pose.time_us > end_us {
+                    return Err(Implausible::FromTheFuture);
+                }
+            }
+            Clock::Realtime { now_us, speed } => {
+                if let Some(a) = anchor {
+                    let waited = now_us.saturating_sub(a.at_us) as f64 * speed * 2.0;
+                    let allowed = a.pose.time_us as f64 + waited + 2.0 * period as f64;
+                    if pose.time_us as f64 > allowed {
+                        return Err(Implausible::FromTheFuture);
+                    }
+                    let steps = pose.step.saturating_sub(a.pose.step);
+                    let ms = pose.time_us.saturating_sub(a.pose.time_us) / 1000;
+                    if steps > ms + 1 {
+                        return Err(Implausible::FromTheFuture);
+                    }
+                }
+            }
+        }
+        if let Some(a) = anchor.filter(|a| a.speed_checked && !carried && pose.step > a.pose.step) {
+            let dt_us = pose.time_us.saturating_sub(a.pose.time_us).max(period);
+            let distance = (pose.x - a.pose.x).hypot(pose.y - a.pose.y);
+            let speed = distance / (dt_us as f64 * 1e-6);
+            if speed > max_speed {
+                return Err(Implausible::TooFast(speed));
+            }
+        }
+        let at_us = match clock {
+            Clock::Realtime { now_us, .. } => now_us,
+            Clock::Lockstep { .. } => 0,
+        };
+        // An older pose (a repeat, a late sample) is plausible but does not
+        // move the anchor back.
+        if anchor.is_none_or(|a| pose.step > a.pose.step) {
+            *slot = Some(Anchor { pose: *pose, at_us, speed_checked: !carried });
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bycoms_protocol::RobotId;
+
+    fn pose(step: u64, x: f64) -> Pose {
+        Pose { robot: RobotId(1), x, y: 0.0, heading: 0.0, step, time_us: step.saturating_mul(100_000) }
+    }
+
+    fn lockstep(newest_step: u64) -> Clock {
+        Clock::Lockstep { newest_step }
+    }
+
+    #[test]
+    fn lockstep_refuses_steps_and_times_ahead_of_the_tick() {
+        let mut a = Anchors::new(2, 100_000, 5.0);
+        assert_eq!(a.accept(1, &pose(3, 0.0), lockstep(3), false), Ok(()));
+        assert_eq!(a.accept(1, &pose(u64::MAX, 0.0), lockstep(4), false), Err(Implausible::FromTheFuture));
+        let mut late = pose(4, 0.1);
+        late.time_us = 10_000_000_000;
+        assert_eq!(a.accept(1, &late, lockstep(4), false), Err(Implausible::FromTheFuture));
+        assert_eq!(a.accept(1, &pose(4, 0.1), lockstep(4), false), Ok(()));
+    }
+
+    #[test]
+    fn a_jump_faster_than_a_robot_drives_is_refused_unless_released_or_carried() {
+        let mut a = Anchors::new(1, 100_000, 5.0);
+        a.accept(1, &pose(1, 0.0), lockstep(1), false).unwrap();
+        assert!(
+            matches!(a.accept(1, &pose(2, 20.0), lockstep(2), false), Err(Implausible::TooFast(v)) if v > 100.0)
+        );
+        assert_eq!(a.accept(1, &pose(2, 0.1), lockstep(2), false), Ok(()), "1 unit/s");
+        assert_eq!(a.accept(1, &pose(3, 20.0), lockstep(3), true), Ok(()), "carried");
+        a.release(1);
+        assert_eq!(
+            a.accept(1, &pose(4, 0.0), lockstep(4), false),
+            Ok(()),
+            "released: the next pose may jump"
+        );
+        assert!(a.accept(1, &pose(5, 20.0), lockstep(5), false).is_err(), "checked again after that");
+    }
+
+    #[test]
+    fn non_finite_coordinates_are_refused() {
+        let mut a = Anchors::new(1, 100_000, 5.0);
+        for bad in [f64::NAN, f64::INFINITY] {
+            let mut p = pose(1, 0.0);
+            p.y = bad;
+            assert_eq!(a.accept(1, &p, lockstep(1), false), Err(Implausible::NotFinite));
+            p.y = 0.0;
+            p.heading = bad;
+            assert_eq!(a.accept(1, &p, lockstep(1), false), Err(Implausible::NotFinite));
+        }
+    }
+
+    #[test]
+    fn real_time_refuses_a_huge_step_or_a_time_ahead_of_the_clock() {
+        let mut a = Anchors::new(1, 100_000, 5.0);
+        let rt = |now_us| Clock::Realtime { now_us, speed: 5.0 };
+        assert_eq!(a.accept(1, &pose(10, 0.0), rt(0), false), Ok(()));
+        // 20 ms of launch time at 5x: 0.2 s of pose time allowed (+0.2 s).
+        assert_eq!(a.accept(1, &pose(11, 0.1), rt(20_000), false), Ok(()));
+        let mut huge = pose(12, 0.2);
+        huge.step = u64::MAX;
+        assert_eq!(a.accept(1, &huge, rt(40_000), false), Err(Implausible::FromTheFuture));
+        assert_eq!(a.accept(1, &pose(100, 0.2), rt(40_000), false), Err(Implausible::FromTheFuture));
+        assert_eq!(a.accept(1, &pose(12, 0.2), rt(40_000), false), Ok(()));
+    }
+}

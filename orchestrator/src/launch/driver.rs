@@ -1,0 +1,407 @@
+//! The IO shell around the launch core: the real bus, agents, poses and
+//! wall clock.
+//!
+//! Why a shell that decides nothing: every rule of a launch lives in
+//! [`Core`], which is tested in virtual time without processes. This
+//! driver only carries inputs in (reports from the bus, poses from the pose
+//! source, losses and reachability from the agent source, Ctrl-C, the time
+//! since the launch began) and the core's outputs out (messages, agent
+//! starts and kills, gate events, the recording, the terminal), waiting for
+//! IO until the core's next deadline. At the end it sends `Shutdown`, winds
+//! the agents down and builds the summary from the core's slots.
+
+use super::agents::{AgentPlan, AgentSource, Started};
+use super::config::{Clock, LaunchConfig};
+use super::core::{Core, Ending, Input, Output, Slot, SlotState};
+use super::events::EVENT_SCHEMA;
+use super::ports::Ports;
+use super::poses::{PoseSink, PoseSource};
+use super::progress::Progress;
+use super::summary::{Outcome, RealtimeReport, RecordingSummary, RobotEnd, RobotSummary, Summary};
+use super::World;
+use bycoms_protocol::msg::{Pose, ToAgent};
+use bycoms_sim::agent_process::AgentArgs;
+use bycoms_sim::Vec2;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Longest single wait for IO before the driver looks at the interrupt
+/// flag and the terminal again.
+pub const SLICE: Duration = Duration::from_millis(10);
+
+/// One launch's shell: the core and the real things it drives.
+pub struct Driver {
+    core: Core,
+    cfg: LaunchConfig,
+    world: World,
+    ports: Ports,
+    agents: Box<dyn AgentSource>,
+    pose_source: Box<dyn PoseSource>,
+    template: AgentArgs,
+    progress: Progress,
+    stop: Arc<AtomicBool>,
+    /// Launch time 0 (when the core was made).
+    epoch: Instant,
+    /// When `launch::run` was called (before the bus was opened).
+    begun: Instant,
+    endpoints: Vec<String>,
+    poses: Vec<(u32, Pose)>,
+}
+
+/// What a driver is built from.
+pub struct Parts {
+    /// The launch's settings.
+    pub cfg: LaunchConfig,
+    /// Start, goal and the terrain handed to simulated agents.
+    pub world: World,
+    /// The bus, with recording and bad-traffic counting.
+    pub ports: Ports,
+    /// Where agents come from.
+    pub agents: Box<dyn AgentSource>,
+    /// Where the gate's poses come from.
+    pub pose_source: Box<dyn PoseSource>,
+    /// Every agent's flags (the robot id is set per agent).
+    pub template: AgentArgs,
+    /// The Ctrl-C flag.
+    pub stop: Arc<AtomicBool>,
+    /// When the launch command began.
+    pub begun: Instant,
+    /// zenoh: where the orchestrator listens.
+    pub endpoints: Vec<String>,
+}
+
+impl Driver {
+    /// A driver around a new core for `parts`.
+    pub fn new(parts: Parts) -> Self {
+        let Parts { cfg, world, ports, agents, pose_source, template, stop, begun, endpoints } = parts;
+        let setup = super::setup::setup(&cfg, &world, &template, agents.as_ref(), pose_source.as_ref());
+        Self {
+            core: Core::new(setup),
+            progress: Progress::new(cfg.robots),
+            cfg,
+            world,
+            ports,
+            agents,
+            pose_source,
+            template,
+            stop,
+            epoch: Instant::now(),
+            begun,
+            endpoints,
+            poses: Vec::new(),
+        }
+    }
+
+    fn now(&self) -> u64 {
+        self.epoch.elapsed().as_micros() as u64
+    }
+
+    /// Runs the launch until the core says it has ended, then ends it in
+    /// order and returns the summary.
+    pub fn run(mut self) -> Summary {
+        let ending = loop {
+            let now = self.now();
+            if self.stop.load(Ordering::SeqCst) {
+                self.core.handle(now, Input::Interrupt);
+            }
+            self.core.advance(now);
+            let acted = self.carry_out();
+            if let Some(ending) = self.core.ending() {
+                break ending.clone();
+            }
+            let wait = if acted {
+                Duration::ZERO
+            } else {
+                let due =
+                    self.core.deadline().map_or(SLICE, |d| Duration::from_micros(d.saturating_sub(now)));
+                due.min(SLICE)
+            };
+            if let Err(e) = self.pump(wait) {
+                let now = self.now();
+                self.core.handle(now, Input::Failed(format!("{e:#}")));
+            }
+        };
+        self.finish(ending)
+    }
+
+    /// Hands one input to the core and carries out what it asks at once.
+    fn feed(&mut self, input: Input) {
+        let now = self.now();
+        self.core.handle(now, input);
+        self.carry_out();
+    }
+
+    /// Carries out every output of the core; whether there was any.
+    fn carry_out(&mut self) -> bool {
+        let mut acted = false;
+        while let Some(out) = self.core.poll_output() {
+            acted = true;
+            if let Err(e) = self.carry(out) {
+                let now = self.now();
+                self.core.handle(now, Input::Failed(format!("{e:#}")));
+            }
+        }
+        acted
+    }
+
+    fn carry(&mut self, out: Output) -> anyhow::Result<()> {
+        match out {
+            Output::Start(id) => {
+                let started = self.start(id);
+                let now = self.now();
+                match started {
+                    Ok(s) => {
+                        let pid = match s {
+                            Started::Process { pid } => Some(pid),
+                            Started::Awaited => None,
+                        };
+                        self.core.handle(now, Input::Started { robot: id, pid, how: s.to_string() });
+                    }
+                    Err(e) => self.core.handle(now, Input::Failed(format!("{e:#}"))),
+                }
+            }
+            Output::Send(id, msg) => self.ports.send(id, &msg)?,
+            Output::Relay(pose) => self.ports.relay(&pose)?,
+            Output::Forward(pose) => self.ports.forward_pose(&pose)?,
+            Output::Gate(event) => self.ports.publish_gate(&event)?,
+            Output::Event(event) => {
+                let topic = format!("bycoms/{}/events", self.template.swarm);
+                self.ports.recording.json(&topic, EVENT_SCHEMA, &event);
+            }
+            Output::Note(text) => self.progress.event(&text),
+            Output::Bad(kind, text) => self.ports.count(kind, &text),
+            Output::Kill(id) => {
+                self.agents.kill(id);
+            }
+            Output::Heard(id) => self.agents.heard(id),
+            Output::RobotLink(id, up) => self.agents.robot_link(id, up),
+            Output::SimTime(ns) => self.ports.recording.set_simulated_time(ns),
+            Output::AskOperator(request) => self.ports.ask_operator(&request)?,
+            Output::Carried(id, by_hand) => self.pose_source.carried(id, by_hand),
+        }
+        Ok(())
+    }
+
+    /// Opens robot `id`'s ports and poses (so nothing it sends is missed)
+    /// and starts its agent.
+    fn start(&mut self, id: u32) -> anyhow::Result<Started> {
+        self.ports.open_robot(id)?;
+        self.pose_source.open_robot(id)?;
+        let mut args = self.template.clone();
+        args.robot = id;
+        args.zenoh_config = self.cfg.transport.agent_config_of(id);
+        let plan = AgentPlan { args: &args, terrain_text: &self.world.terrain_text };
+        Ok(self.agents.start(id, &plan)?)
+    }
+
+    /// Takes in everything pending, waiting up to `timeout` for the first
+    /// agent report: reports, poses, losses, reachability.
+    fn pump(&mut self, timeout: Duration) -> anyhow::Result<()> {
+        let mut wait = timeout;
+        while let Some(got) = self.ports.recv_report(wait)? {
+            wait = Duration::ZERO;
+            if let Some(msg) = got {
+                self.feed(Input::Report(msg));
+            }
+        }
+        let mut poses = std::mem::take(&mut self.poses);
+        let record_decoded = !self.pose_source.on_the_bus();
+        let (recording, traffic, swarm) = self.ports.intake();
+        let mut sink = PoseSink::new(recording, traffic, swarm, &mut poses, record_decoded);
+        self.pose_source.drain(&mut sink)?;
+        for (topic, pose) in poses.drain(..) {
+            self.ports.observe_pose(topic, &pose);
+            self.feed(Input::Pose { topic, pose });
+        }
+        self.poses = poses;
+        for (robot, gone) in self.agents.poll(false) {
+            self.feed(Input::Gone(robot, gone));
+        }
+        for (robot, change) in self.agents.reach() {
+            self.feed(Input::Reach(robot, change));
+        }
+        self.ports.recording.tick();
+        if self.progress.due() {
+            self.redraw();
+        }
+        Ok(())
+    }
+
+    /// Redraws every robot's live line.
+    fn redraw(&self) {
+        for s in self.core.slots() {
+            let at = s.last_pose().map(|p| format!("({:6.2}, {:6.2})", p.x, p.y)).unwrap_or_default();
+            let mode =
+                if s.state() == SlotState::Moving { format!(" mode {}", s.mode()) } else { String::new() };
+            self.progress.robot(s.id(), format!("{}{mode} {at}", s.state().words()));
+        }
+    }
+
+    /// Shuts every agent down, finishes the recording, builds the summary.
+    ///
+    /// Why always the same path: a won run, a time limit, Ctrl-C and an
+    /// error all leave agents and an open recording behind. Each ends the
+    /// same way: `Shutdown` to every agent still running, a grace period,
+    /// an end for the ones that did not exit, the recording finished.
+    fn finish(mut self, ending: Ending) -> Summary {
+        let Ending { outcome, error } = ending;
+        let running: Vec<u32> =
+            self.core.slots().iter().filter(|s| self.agents.is_running(s.id())).map(Slot::id).collect();
+        for id in running {
+            // A failure to send only means it is ended after the grace period.
+            let _ = self.ports.send(id, &ToAgent::Shutdown);
+        }
+        let killed = self.agents.wind_down(Duration::from_secs_f64(self.cfg.supervision.shutdown_grace));
+        // Killed agents may leave transport state behind (iceoryx2 nodes):
+        // the transport removes it now rather than at the next launch.
+        self.ports.cleanup_dead_nodes();
+        if !killed.is_empty() {
+            let ids: Vec<String> = killed.iter().map(u32::to_string).collect();
+            let whose = if ids.len() == 1 { "robot" } else { "robots" };
+            let fate = self.agents.ended_by();
+            self.progress.event(&format!(
+                "the agents of {whose} {} did not exit after Shutdown: {fate}",
+                ids.join(", ")
+            ));
+        }
+        self.redraw();
+        self.progress.finish();
+        let slots = self.core.slots();
+        let robots: Vec<RobotSummary> = slots.iter().map(robot_summary).collect();
+        let beacons = slots
+            .iter()
+            .filter(|s| matches!(s.state(), SlotState::Stuck | SlotState::Died))
+            .filter_map(|s| s.last_pose().map(|p| Vec2::new(p.x, p.y)))
+            .collect();
+        let dt = self.template.run_config().kinematics.dt;
+        let wall_s = self.epoch.elapsed().as_secs_f64();
+        let realtime = (self.cfg.clock == Clock::Realtime).then(|| {
+            let (seen, missed) =
+                slots.iter().fold((0, 0), |(s, m), slot| (s + slot.frames().seen, m + slot.frames().missed));
+            RealtimeReport::new(self.cfg.speed, seen, missed)
+        });
+        if let Some(rt) = realtime.as_ref().filter(|rt| !rt.faithful) {
+            tracing::warn!(
+                missed_periods = rt.missed_periods,
+                periods = rt.periods,
+                achieved_speed = rt.achieved_speed,
+                "the agents could not keep up with {}× real time: {} of {} periods missed, \
+                 achieved {:.1}×; the run is not faithful (lower --speed)",
+                self.cfg.speed,
+                rt.missed_periods,
+                rt.periods + rt.missed_periods,
+                rt.achieved_speed
+            );
+        }
+        let spent = self.core.spent();
+        let ticks = self.core.ticks();
+        let first_moving = self.core.first_moving_us().map(|us| {
+            (self.epoch.saturating_duration_since(self.begun) + Duration::from_micros(us)).as_secs_f64()
+        });
+        let mut summary = Summary {
+            swarm: self.template.swarm.clone(),
+            terrain: self.world.name.clone(),
+            eps: self.cfg.eps,
+            noise: self.cfg.noise,
+            seed: self.cfg.seed,
+            clock: self.cfg.clock.as_str().into(),
+            speed: (self.cfg.clock == Clock::Realtime).then_some(self.cfg.speed),
+            success: outcome == Outcome::Arrived,
+            outcome,
+            error,
+            robots_used: robots.iter().filter(|r| r.deployed_tick.is_some()).count() as u32,
+            steps: spent,
+            time_s: self.template.run_config().kinematics.time_of(spent),
+            ticks,
+            wall_s,
+            sim_speed: match self.cfg.clock {
+                Clock::Lockstep if wall_s > 0.0 => ticks as f64 * dt / wall_s,
+                Clock::Lockstep => 0.0,
+                Clock::Realtime => realtime.as_ref().map_or(self.cfg.speed, |rt| rt.achieved_speed),
+            },
+            realtime,
+            beacons,
+            robots,
+            bad_traffic: self.ports.traffic,
+            recording: None,
+            picture: None,
+            transport: self.cfg.transport.kind.as_str().into(),
+            endpoints: std::mem::take(&mut self.endpoints),
+            first_moving_s: first_moving,
+            resends: self.core.resends(),
+        };
+        if let Some(trace) = self.ports.recording.take_trace() {
+            summary.picture = self.picture(&trace, &summary);
+        }
+        if self.ports.recording.is_on() {
+            let topic = format!("bycoms/{}/summary", summary.swarm);
+            self.ports.recording.json(&topic, super::events::SUMMARY_SCHEMA, &summary);
+        }
+        let recording = std::mem::replace(&mut self.ports.recording, super::recording::Recording::off());
+        match recording.finish() {
+            Ok(Some(rec)) => {
+                summary.recording = Some(RecordingSummary {
+                    path: rec.path.display().to_string(),
+                    messages: rec.messages,
+                    counts: rec.counts,
+                });
+            }
+            Ok(None) => {}
+            Err(e) => {
+                summary.outcome = Outcome::Error;
+                summary.success = false;
+                summary.error.get_or_insert(format!("recording failed: {e}"));
+            }
+        }
+        summary
+    }
+
+    /// The snapshot picture of the run from what crossed the bus (`--svg`).
+    fn picture(&self, trace: &crate::draw::trace::Trace, summary: &Summary) -> Option<String> {
+        let heading = format!(
+            "{} — ε = {}, {} launch, swarm {}",
+            summary.terrain, summary.eps, summary.clock, summary.swarm
+        );
+        let dt = self.template.run_config().kinematics.dt;
+        match bycoms_sim::terrain::parse(&self.world.terrain_text) {
+            Ok(mut terrain) => {
+                terrain.set_start(self.world.start);
+                terrain.set_goal(self.world.goal);
+                Some(crate::draw::trace::picture(&terrain, trace, self.cfg.eps, dt, &heading))
+            }
+            Err(e) => {
+                tracing::error!("no picture: the launch's terrain does not parse: {e}");
+                None
+            }
+        }
+    }
+}
+
+fn robot_summary(s: &Slot) -> RobotSummary {
+    let end = match s.state() {
+        SlotState::Stuck => RobotEnd::Stuck,
+        SlotState::Arrived => RobotEnd::Arrived,
+        SlotState::Died => RobotEnd::Died,
+        SlotState::Unfinished | SlotState::Moving => RobotEnd::Moving,
+        _ => RobotEnd::NotDeployed,
+    };
+    let deployed = end != RobotEnd::NotDeployed;
+    let pose = s.last_pose().filter(|_| deployed);
+    RobotSummary {
+        id: s.id(),
+        pid: s.pid(),
+        end,
+        x: pose.map(|p| p.x),
+        y: pose.map(|p| p.y),
+        x_bits: pose.map(|p| p.x.to_bits()),
+        y_bits: pose.map(|p| p.y.to_bits()),
+        steps: s.steps(),
+        deployed_tick: s.deployed_tick().filter(|_| deployed),
+        decided_tick: s.decided_tick(),
+        mode: s.mode(),
+        gate_reaction_us: s.reaction_us(),
+        death: s.death().cloned(),
+        outages: s.outages().to_vec(),
+    }
+}

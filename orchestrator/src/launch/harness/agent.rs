@@ -1,0 +1,169 @@
+//! A simulated robot's agent in virtual time: the `sim-agent` process's
+//! lockstep rules around the same [`AgentCore`].
+//!
+//! Why the same core: the harness must reproduce `simulate` bit for bit
+//! without faults, so the robot is the very `AgentCore`/`SimRobot` the
+//! `sim-agent` process runs. What this file adds is the process's message
+//! rules (`sim-agent/src/agent_process/run.rs`): register until heard from,
+//! heartbeats, `Deploy` answered with the start pose (a repeat of it too),
+//! a `Tick` stepped once and a repeated one answered without stepping, and
+//! the pose and `TickDone` after each period. Those rules are restated here
+//! in a dozen lines because the process keeps them inside its bus loop.
+
+use bycoms_protocol::msg::{
+    AgentKind, Deploy, FromAgent, Heartbeat, Pose, Register, Status, TickDone, ToAgent,
+};
+use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
+use bycoms_sim::agent_process::core::AgentCore;
+use bycoms_sim::terrain::Terrain;
+use bycoms_sim::RunConfig;
+
+/// What an agent sends: a report, or a pose on its own topic.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Sent {
+    /// A report to the orchestrator.
+    Report(FromAgent),
+    /// Its pose.
+    Pose(Pose),
+}
+
+/// One simulated agent.
+pub struct Agent {
+    id: u32,
+    instance: u64,
+    core: AgentCore,
+    tick: u64,
+    heard: bool,
+    deployed: Option<Deploy>,
+    period_us: u64,
+    /// Ticks stepped (each exactly once).
+    pub stepped: u64,
+    /// Alive (not crashed, killed or shut down).
+    pub alive: bool,
+    /// When it next registers or beats, µs (none: it never registers).
+    pub next_beat: Option<u64>,
+    heartbeat_us: u64,
+    beats: u64,
+}
+
+impl Agent {
+    /// Robot `id`'s agent, registering first at `register_at` (never if none).
+    pub fn new(id: u32, instance: u64, terrain: Terrain, run: RunConfig, register_at: Option<u64>) -> Self {
+        let period_us = (run.kinematics.dt * 1e6).round() as u64;
+        Self {
+            id,
+            instance,
+            core: AgentCore::new(RobotId(id), terrain, run),
+            tick: 0,
+            heard: false,
+            deployed: None,
+            period_us,
+            stepped: 0,
+            alive: true,
+            next_beat: register_at,
+            heartbeat_us: 500_000,
+            beats: 0,
+        }
+    }
+
+    /// The robot.
+    pub fn id(&self) -> u32 {
+        self.id
+    }
+
+    /// Its timer fired at `now`: a registration (repeated until heard from)
+    /// and a heartbeat.
+    pub fn beat(&mut self, now: u64, out: &mut Vec<Sent>) {
+        if !self.alive {
+            return;
+        }
+        let robot = RobotId(self.id);
+        if !self.heard {
+            let r = Register {
+                robot,
+                kind: AgentKind::Simulated,
+                protocol_version: PROTOCOL_VERSION,
+                instance: self.instance,
+            };
+            out.push(Sent::Report(FromAgent::Register(r)));
+        }
+        self.beats += 1;
+        out.push(Sent::Report(FromAgent::Heartbeat(Heartbeat { robot, seq: self.beats })));
+        self.next_beat = Some(now + self.heartbeat_us);
+    }
+
+    /// Another robot's pose on its topic.
+    pub fn peer_pose(&mut self, topic: u32, pose: &Pose) {
+        if self.alive && topic < self.id {
+            // Refused poses are counted by the process; nothing to do here.
+            let _ = self.core.observe_peer(RobotId(topic), pose);
+        }
+    }
+
+    /// A command from the orchestrator.
+    pub fn command(&mut self, cmd: &ToAgent, out: &mut Vec<Sent>) {
+        if !self.alive {
+            return;
+        }
+        if let ToAgent::Refused(r) = cmd {
+            if r.instance == self.instance {
+                self.alive = false;
+            }
+            return;
+        }
+        self.heard = true;
+        match cmd {
+            ToAgent::Deploy(d) => {
+                let again = self.deployed == Some(*d);
+                if again || self.core.deploy(d).is_ok() {
+                    self.deployed = Some(*d);
+                    self.answer_deploy(out);
+                }
+            }
+            ToAgent::GoalBearing(b) => {
+                let _ = self.core.set_bearing(b);
+            }
+            ToAgent::Tick(t) if t.step <= self.tick => {
+                if t.step == self.tick {
+                    self.publish(out);
+                    out.push(Sent::Report(FromAgent::TickDone(TickDone {
+                        robot: RobotId(self.id),
+                        step: t.step,
+                    })));
+                }
+            }
+            ToAgent::Tick(t) => {
+                self.tick = t.step;
+                if self.core.step() {
+                    self.stepped += 1;
+                    self.publish(out);
+                    out.push(Sent::Report(FromAgent::Status(self.status())));
+                } else {
+                    self.publish(out);
+                }
+                out.push(Sent::Report(FromAgent::TickDone(TickDone {
+                    robot: RobotId(self.id),
+                    step: t.step,
+                })));
+            }
+            ToAgent::Stop => self.core.stop(),
+            ToAgent::Shutdown => self.alive = false,
+            ToAgent::Refused(_) => {}
+        }
+    }
+
+    fn answer_deploy(&mut self, out: &mut Vec<Sent>) {
+        self.publish(out);
+        out.push(Sent::Report(FromAgent::Status(self.status())));
+    }
+
+    fn status(&self) -> Status {
+        Status { robot: RobotId(self.id), mode: self.core.mode() as u8, step: self.tick }
+    }
+
+    fn publish(&mut self, out: &mut Vec<Sent>) {
+        if let Some(p) = self.core.pose(self.tick, self.tick.saturating_mul(self.period_us)) {
+            out.push(Sent::Pose(p));
+        }
+    }
+}

@@ -1,0 +1,141 @@
+//! A seeded simulated network in virtual time.
+//!
+//! Why its own: the launch core is tested without sockets or shared memory,
+//! so the harness needs a bus whose every delay, loss, duplicate and
+//! partition comes from one seed and happens at an exact virtual time. Each
+//! message is a [`Packet`] with a delivery time; messages due at the same
+//! time are delivered in the order they were sent. A partition cuts one
+//! robot's agent off in both directions for an interval.
+
+use bycoms_protocol::msg::{FromAgent, Pose, ToAgent};
+use rand::{Rng, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+/// What travels.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Packet {
+    /// A command to robot `.0`'s agent.
+    ToAgent(u32, ToAgent),
+    /// A report to the orchestrator.
+    Report(FromAgent),
+    /// A pose on robot `topic`'s pose topic (the orchestrator and later
+    /// robots' agents hear it). `relay`: republished by the orchestrator.
+    Pose {
+        /// The topic's robot.
+        topic: u32,
+        /// The pose.
+        pose: Pose,
+        /// The orchestrator's relay of a dead robot.
+        relay: bool,
+    },
+}
+
+/// The network's faults.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Link {
+    /// Shortest one-way delay, µs.
+    pub delay_min_us: u64,
+    /// Longest one-way delay, µs (a spread reorders messages).
+    pub delay_max_us: u64,
+    /// Probability a message is lost.
+    pub drop: f64,
+    /// Probability a message arrives twice.
+    pub duplicate: f64,
+}
+
+impl Link {
+    /// A perfect link: every message after `delay_us`, in order.
+    pub fn perfect(delay_us: u64) -> Self {
+        Self { delay_min_us: delay_us, delay_max_us: delay_us, drop: 0.0, duplicate: 0.0 }
+    }
+}
+
+/// Robot `robot`'s agent is cut off from `from_us` until `until_us`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Partition {
+    /// The robot.
+    pub robot: u32,
+    /// Start, µs.
+    pub from_us: u64,
+    /// End, µs.
+    pub until_us: u64,
+}
+
+impl Partition {
+    /// Whether robot `robot` is cut off at `at`.
+    pub fn cuts(&self, robot: u32, at: u64) -> bool {
+        self.robot == robot && (self.from_us..self.until_us).contains(&at)
+    }
+}
+
+/// The network: packets in flight, ordered by delivery time then sending order.
+pub struct Net {
+    link: Link,
+    partitions: Vec<Partition>,
+    rng: Xoshiro256PlusPlus,
+    queue: BinaryHeap<Reverse<(u64, u64, usize)>>,
+    packets: Vec<Option<Packet>>,
+    seq: u64,
+    /// Packets lost (drops and partitions).
+    pub lost: u64,
+}
+
+impl Net {
+    /// A network with `link`'s faults and `partitions`, drawing from `seed`.
+    pub fn new(link: Link, partitions: Vec<Partition>, seed: u64) -> Self {
+        Self {
+            link,
+            partitions,
+            rng: Xoshiro256PlusPlus::seed_from_u64(seed),
+            queue: BinaryHeap::new(),
+            packets: Vec::new(),
+            seq: 0,
+            lost: 0,
+        }
+    }
+
+    /// Whether robot `robot`'s agent is cut off at `at`.
+    pub fn cut(&self, robot: u32, at: u64) -> bool {
+        self.partitions.iter().any(|p| p.cuts(robot, at))
+    }
+
+    /// Sends `packet` at `now`; `robot` is the agent at the other end.
+    pub fn send(&mut self, now: u64, robot: u32, packet: Packet) {
+        if self.cut(robot, now) || self.rng.gen_bool(self.link.drop.clamp(0.0, 1.0)) {
+            self.lost += 1;
+            return;
+        }
+        let copies = if self.rng.gen_bool(self.link.duplicate.clamp(0.0, 1.0)) { 2 } else { 1 };
+        for _ in 0..copies {
+            let delay = self
+                .rng
+                .gen_range(self.link.delay_min_us..=self.link.delay_max_us.max(self.link.delay_min_us));
+            let at = now + delay;
+            // A message that would arrive while its receiver is cut off is lost.
+            if self.cut(robot, at) {
+                self.lost += 1;
+                continue;
+            }
+            self.seq += 1;
+            self.packets.push(Some(packet.clone()));
+            self.queue.push(Reverse((at, self.seq, self.packets.len() - 1)));
+        }
+    }
+
+    /// When the next packet arrives.
+    pub fn next_at(&self) -> Option<u64> {
+        self.queue.peek().map(|Reverse((at, _, _))| *at)
+    }
+
+    /// The next packet due at or before `now`.
+    pub fn pop_due(&mut self, now: u64) -> Option<Packet> {
+        let Reverse((at, _, index)) = *self.queue.peek()?;
+        if at > now {
+            return None;
+        }
+        self.queue.pop();
+        self.packets[index].take()
+    }
+}

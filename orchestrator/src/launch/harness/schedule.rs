@@ -1,0 +1,164 @@
+//! A fault schedule, drawn from one seed.
+//!
+//! Why one seed: a failing schedule must be replayed exactly, so every
+//! choice (network faults, partitions, crashes, registrations, forgeries,
+//! Ctrl-C) comes from one seeded generator, and the schedule is printed
+//! with its seed.
+
+use super::net::{Link, Partition};
+use rand::{Rng, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+/// An agent's crash.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Crash {
+    /// The robot.
+    pub robot: u32,
+    /// When, µs of virtual time.
+    pub at_us: u64,
+}
+
+/// Foreign or forged traffic.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Foreign {
+    /// A robot's pose with step and time `u64::MAX`.
+    StepFromTheFuture(u32),
+    /// A robot's pose with step `u64::MAX` and a plausible time.
+    HugeStep(u32),
+    /// A robot's pose with a NaN coordinate.
+    NotFinite(u32),
+    /// A robot's pose at the goal, far from where it is.
+    AtTheGoal(u32),
+    /// A pose of robot `robot` on robot `topic`'s topic.
+    OtherRobotsPose {
+        /// The topic's robot.
+        topic: u32,
+        /// The robot named.
+        robot: u32,
+    },
+    /// A `Register` of another protocol version.
+    WrongVersion(u32),
+    /// A report from a robot that is not in the launch.
+    UnknownRobot,
+}
+
+/// Everything that goes wrong in one harness launch.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Schedule {
+    /// The seed it was drawn from (also the network's).
+    pub seed: u64,
+    /// Robots in the launch.
+    pub robots: u32,
+    /// Agents exist on their own (remote): all awaited at the start, their
+    /// partitions reported as unreachable and back.
+    pub remote: bool,
+    /// Delays, losses and duplicates.
+    pub link: Link,
+    /// Partitions.
+    pub partitions: Vec<Partition>,
+    /// Crashes.
+    pub crashes: Vec<Crash>,
+    /// Per robot, from its start to its first registration, µs (none: it
+    /// never registers).
+    pub register_delay_us: Vec<Option<u64>>,
+    /// Second agents for a robot, and when they register.
+    pub second_agents: Vec<(u32, u64)>,
+    /// Forged and foreign traffic, and when.
+    pub foreign: Vec<(u64, Foreign)>,
+    /// Ctrl-C, and when.
+    pub interrupt_at_us: Option<u64>,
+}
+
+impl Schedule {
+    /// Nothing goes wrong: a perfect 50 µs link, prompt registrations.
+    pub fn clean(seed: u64, robots: u32) -> Self {
+        Self {
+            seed,
+            robots,
+            remote: false,
+            link: Link::perfect(50),
+            partitions: Vec::new(),
+            crashes: Vec::new(),
+            register_delay_us: vec![Some(20_000); robots as usize],
+            second_agents: Vec::new(),
+            foreign: Vec::new(),
+            interrupt_at_us: None,
+        }
+    }
+
+    /// Only forged and foreign traffic, drawn from `seed`, on a perfect link.
+    pub fn forgeries(seed: u64, robots: u32, horizon_us: u64) -> Self {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed ^ 0xf0f0);
+        let mut s = Self::clean(seed, robots);
+        s.foreign = (0..rng.gen_range(1..12))
+            .map(|_| (rng.gen_range(0..horizon_us), foreign(&mut rng, robots)))
+            .collect();
+        s.foreign.sort_by_key(|f| f.0);
+        s.second_agents = (0..rng.gen_range(0..3))
+            .map(|_| (rng.gen_range(1..=robots), rng.gen_range(0..horizon_us)))
+            .collect();
+        s
+    }
+
+    /// Anything, drawn from `seed`. Faults fall within the first
+    /// `ticks` lockstep ticks (their virtual length follows the link's
+    /// delays) or the first second, whichever is longer.
+    pub fn draw(seed: u64, robots: u32, ticks: u64) -> Self {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+        let mut s = Self::clean(seed, robots);
+        let r = robots;
+        s.remote = rng.gen_bool(0.3);
+        let spread = [0, 200, 5_000, 50_000][rng.gen_range(0..4)];
+        let min = rng.gen_range(10..2_000);
+        s.link = Link {
+            delay_min_us: min,
+            delay_max_us: min + spread,
+            drop: [0.0, 0.0, 0.01, 0.05][rng.gen_range(0..4)],
+            duplicate: [0.0, 0.01, 0.1][rng.gen_range(0..3)],
+        };
+        let horizon_us = (ticks * 2 * (s.link.delay_max_us + 50)).max(1_000_000);
+        if s.remote {
+            for _ in 0..rng.gen_range(0..3) {
+                let from_us = rng.gen_range(0..horizon_us);
+                let length = [300_000, 1_500_000, 2_300_000, 6_000_000][rng.gen_range(0..4)];
+                s.partitions.push(Partition {
+                    robot: rng.gen_range(1..=r),
+                    from_us,
+                    until_us: from_us + length,
+                });
+            }
+        }
+        for _ in 0..rng.gen_range(0..3) {
+            s.crashes.push(Crash { robot: rng.gen_range(1..=r), at_us: rng.gen_range(0..horizon_us) });
+        }
+        for d in s.register_delay_us.iter_mut() {
+            *d = match rng.gen_range(0..20) {
+                0 => None,
+                1 | 2 => Some(rng.gen_range(1_000_000..9_000_000)),
+                _ => Some(rng.gen_range(1_000..300_000)),
+            };
+        }
+        let forged = Self::forgeries(rng.gen(), robots, horizon_us);
+        if rng.gen_bool(0.5) {
+            s.foreign = forged.foreign;
+            s.second_agents = forged.second_agents;
+        }
+        if rng.gen_bool(0.05) {
+            s.interrupt_at_us = Some(rng.gen_range(0..horizon_us));
+        }
+        s
+    }
+}
+
+fn foreign(rng: &mut Xoshiro256PlusPlus, robots: u32) -> Foreign {
+    let id = rng.gen_range(1..=robots);
+    match rng.gen_range(0..7) {
+        0 => Foreign::StepFromTheFuture(id),
+        1 => Foreign::HugeStep(id),
+        2 => Foreign::NotFinite(id),
+        3 => Foreign::AtTheGoal(id),
+        4 => Foreign::OtherRobotsPose { topic: id, robot: id % robots + 1 },
+        5 => Foreign::WrongVersion(id),
+        _ => Foreign::UnknownRobot,
+    }
+}

@@ -1,0 +1,303 @@
+//! The launch core under simulation testing: whole launches with simulated
+//! agents over a seeded simulated network, in virtual time
+//! (`orchestrator/src/launch/harness/`).
+//!
+//! * every drawn schedule keeps the properties of `harness::check` (the
+//!   launch ends with a clear outcome; no robot deployed twice; verdicts in
+//!   deployment order; nothing charged twice; re-sends bounded);
+//! * without faults a lockstep launch equals `simulate` bit for bit;
+//! * forged and foreign traffic, and partitions shorter than the link
+//!   grace, change nothing;
+//! * the defects found by hand (a step of `u64::MAX`, a forged pose at the
+//!   goal, a stray `Register` of another protocol version, an agent dying
+//!   before it registers or while it is deployed) each have a case.
+//!
+//! A failing schedule prints its seed; replay it exactly with
+//! `BYCOMS_SIM_SEED=<seed> cargo test -p bycoms-orchestrator --test launch_sim -- one_seed --nocapture`.
+//! `BYCOMS_SIM_SCHEDULES` sets how many schedules `schedules_keep_the_properties` draws
+//! (default 10 000).
+
+use bycoms_orchestrator::launch::config::OnDeath;
+use bycoms_orchestrator::launch::core::SlotState;
+use bycoms_orchestrator::launch::harness::{self, Case, Crash, Foreign, Partition, Report, Schedule};
+use bycoms_orchestrator::launch::Outcome;
+use bycoms_protocol::msg::GateKind;
+use bycoms_sim::runner::RobotEnd;
+
+/// Lockstep ticks a small case runs at most (faults fall within them).
+const TICKS: u64 = 400;
+
+fn replay_hint(seed: u64) -> String {
+    format!(
+        "replay: BYCOMS_SIM_SEED={seed} cargo test -p bycoms-orchestrator --test launch_sim -- one_seed --nocapture"
+    )
+}
+
+fn one(seed: u64) -> (Case, Schedule, Report) {
+    let case = Case::small(seed);
+    let schedule = Schedule::draw(seed, case.robots, TICKS);
+    let report = harness::run(&case, &schedule);
+    (case, schedule, report)
+}
+
+#[test]
+fn schedules_keep_the_properties() {
+    let count: u64 =
+        std::env::var("BYCOMS_SIM_SCHEDULES").ok().and_then(|v| v.parse().ok()).unwrap_or(10_000);
+    let mut outcomes = std::collections::BTreeMap::new();
+    let (mut bad, mut resends) = (0u64, 0u64);
+    for seed in 0..count {
+        let (_, schedule, report) = one(seed);
+        if let Err(e) = harness::check(&report, &schedule) {
+            panic!("schedule {seed} broke a property: {e}\n{}\nschedule: {schedule:?}", replay_hint(seed));
+        }
+        let ending = report.ending.expect("checked");
+        *outcomes.entry(format!("{:?}", ending.outcome)).or_insert(0u64) += 1;
+        bad += report.bad;
+        resends += report.resends;
+    }
+    eprintln!("{count} schedules: outcomes {outcomes:?}, bad traffic counted {bad}, re-sends {resends}");
+    // The schedules reach every kind of ending, or they test too little.
+    if count >= 1000 {
+        for o in ["Arrived", "RobotsExhausted", "TimeLimit", "Interrupted"] {
+            assert!(outcomes.contains_key(o), "no schedule ended {o}: {outcomes:?}");
+        }
+    }
+}
+
+#[test]
+fn one_seed() {
+    let seed: u64 = std::env::var("BYCOMS_SIM_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
+    let (case, schedule, report) = one(seed);
+    eprintln!("case: {case:?}\nschedule: {schedule:?}\nreport: {report:#?}");
+    harness::check(&report, &schedule).unwrap_or_else(|e| panic!("schedule {seed}: {e}"));
+}
+
+/// Without faults, the launch's result is `simulate`'s, bit for bit.
+#[test]
+fn without_faults_lockstep_equals_simulate_bit_for_bit() {
+    for seed in 0..432 {
+        let case = Case::small(seed);
+        let expected = bycoms_sim::run(&case.terrain, &case.run_config());
+        let report = harness::run(&case, &Schedule::clean(seed, case.robots));
+        let ending = report.ending.as_ref().unwrap_or_else(|| panic!("seed {seed}: {:?}", report.failure));
+        let outcome = match expected.outcome {
+            bycoms_sim::Outcome::Arrived => Outcome::Arrived,
+            bycoms_sim::Outcome::TimeLimit => Outcome::TimeLimit,
+            bycoms_sim::Outcome::RobotsExhausted => Outcome::RobotsExhausted,
+        };
+        assert_eq!(ending.outcome, outcome, "seed {seed}");
+        assert_eq!(report.spent, expected.steps, "seed {seed}: steps");
+        for run in &expected.robots {
+            let (state, steps, pose) = report.robots[run.id as usize - 1];
+            let want = match run.end {
+                RobotEnd::Stuck => SlotState::Stuck,
+                RobotEnd::Arrived => SlotState::Arrived,
+                RobotEnd::Moving => SlotState::Unfinished,
+            };
+            assert_eq!(state, want, "seed {seed} robot {}", run.id);
+            assert_eq!(steps, run.steps, "seed {seed} robot {}", run.id);
+            let pose = pose.expect("a deployed robot has a pose");
+            assert_eq!(
+                (pose.x.to_bits(), pose.y.to_bits()),
+                (run.position.x.to_bits(), run.position.y.to_bits()),
+                "seed {seed} robot {}",
+                run.id
+            );
+        }
+        let deployed = report.gates.iter().filter(|g| g.kind == GateKind::Deployed).count();
+        assert_eq!(deployed as u32, expected.robots_used, "seed {seed}");
+    }
+}
+
+fn same_run(a: &Report, b: &Report, what: &str) {
+    assert_eq!(a.ending, b.ending, "{what}: ending");
+    assert_eq!(a.gates, b.gates, "{what}: gate events");
+    let ends = |r: &Report| {
+        r.robots
+            .iter()
+            .map(|(s, n, p)| (*s, *n, p.map(|p| (p.x.to_bits(), p.y.to_bits()))))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(ends(a), ends(b), "{what}: robots");
+}
+
+#[test]
+fn forged_and_foreign_traffic_changes_nothing_and_is_counted() {
+    let mut counted = 0;
+    for seed in 0..300 {
+        let case = Case::small(seed);
+        let clean = harness::run(&case, &Schedule::clean(seed, case.robots));
+        let forged = Schedule::forgeries(seed, case.robots, clean.end_us);
+        let report = harness::run(&case, &forged);
+        harness::check(&report, &forged).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        same_run(&clean, &report, &format!("seed {seed}, {:?}", forged.foreign));
+        counted += report.bad;
+    }
+    assert!(counted > 300, "forgeries were delivered and counted: {counted}");
+}
+
+#[test]
+fn a_partition_shorter_than_the_link_grace_ends_as_without_it() {
+    for seed in 0..200 {
+        let case = Case::small(seed);
+        let mut clean = Schedule::clean(seed, case.robots);
+        clean.remote = true;
+        clean.link = harness::Link::perfect(20_000);
+        let base = harness::run(&case, &clean);
+        let mut cut = clean.clone();
+        let robot = 1 + (seed % u64::from(case.robots)) as u32;
+        let from_us = base.end_us * (seed % 7 + 1) / 9;
+        cut.partitions = vec![Partition { robot, from_us, until_us: from_us + 1_500_000 }];
+        let report = harness::run(&case, &cut);
+        harness::check(&report, &cut).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        same_run(&base, &report, &format!("seed {seed}, robot {robot} cut at {from_us} µs"));
+    }
+}
+
+/// The case where robot 1 moves for a while first (a wall far away).
+fn long_case() -> Case {
+    let mut case = Case::small(0);
+    case.robots = 3;
+    case
+}
+
+#[test]
+fn a_pose_with_step_u64_max_neither_stalls_nor_changes_the_run() {
+    let case = long_case();
+    let clean = harness::run(&case, &Schedule::clean(1, 3));
+    for forgery in [Foreign::StepFromTheFuture(1), Foreign::HugeStep(1)] {
+        let mut s = Schedule::clean(1, 3);
+        s.foreign = vec![(clean.end_us / 10, forgery)];
+        let report = harness::run(&case, &s);
+        harness::check(&report, &s).unwrap();
+        same_run(&clean, &report, &format!("{forgery:?}"));
+        assert_eq!(report.bad, 1, "refused and counted");
+    }
+}
+
+#[test]
+fn a_forged_pose_at_the_goal_does_not_win() {
+    let case = long_case();
+    let clean = harness::run(&case, &Schedule::clean(1, 3));
+    let mut s = Schedule::clean(1, 3);
+    s.foreign = vec![(clean.end_us / 10, Foreign::AtTheGoal(1))];
+    let report = harness::run(&case, &s);
+    same_run(&clean, &report, "forged pose at the goal");
+    assert_eq!(report.bad, 1);
+}
+
+#[test]
+fn a_stray_register_of_another_protocol_is_counted_and_never_fatal() {
+    let case = long_case();
+    let clean = harness::run(&case, &Schedule::clean(1, 3));
+    let mut s = Schedule::clean(1, 3);
+    s.foreign =
+        vec![(clean.end_us / 10, Foreign::WrongVersion(1)), (clean.end_us / 5, Foreign::WrongVersion(3))];
+    let report = harness::run(&case, &s);
+    same_run(&clean, &report, "stray registers");
+    assert_eq!(report.bad, 2);
+}
+
+#[test]
+fn an_agent_dying_before_it_registers_or_while_deployed_costs_one_robot() {
+    let case = long_case();
+    // Robot 1 never registers: robots 2 and 3 carry on (policy "beacon").
+    let mut s = Schedule::clean(1, 3);
+    s.register_delay_us[0] = None;
+    let report = harness::run(&case, &s);
+    harness::check(&report, &s).unwrap();
+    assert_eq!(report.robots[0].0, SlotState::Lost);
+    assert!(
+        report.gates.iter().any(|g| g.robot.0 == 2 && g.kind == GateKind::Deployed),
+        "{:?}",
+        report.gates
+    );
+    assert_ne!(report.ending.as_ref().unwrap().outcome, Outcome::Error);
+    // Robot 1 crashes before it registers (after 10 ms; it registers at 20 ms).
+    let mut s = Schedule::clean(1, 3);
+    s.crashes = vec![Crash { robot: 1, at_us: 10_000 }];
+    let report = harness::run(&case, &s);
+    harness::check(&report, &s).unwrap();
+    assert_eq!(report.robots[0].0, SlotState::Lost);
+    assert_ne!(report.ending.as_ref().unwrap().outcome, Outcome::Error);
+    // With "abort" the same death ends the launch with an error naming it.
+    let mut strict = case.clone();
+    strict.on_death = OnDeath::Abort;
+    let report = harness::run(&strict, &s);
+    let ending = report.ending.unwrap();
+    assert_eq!(ending.outcome, Outcome::Error);
+    assert!(ending.error.unwrap().contains("robot 1"));
+}
+
+#[test]
+fn when_no_agent_ever_registers_the_launch_ends_with_an_error_naming_the_first() {
+    let case = long_case();
+    let mut s = Schedule::clean(1, 3);
+    s.register_delay_us = vec![None; 3];
+    let report = harness::run(&case, &s);
+    harness::check(&report, &s).unwrap();
+    let ending = report.ending.unwrap();
+    assert_eq!(ending.outcome, Outcome::Error);
+    let error = ending.error.unwrap();
+    assert!(
+        error.contains("robot 1's agent never registered") && error.contains("did not register in time"),
+        "{error}"
+    );
+    assert!(
+        report.robots.iter().all(|r| r.0 == SlotState::Lost),
+        "every robot was tried: {:?}",
+        report.robots
+    );
+}
+
+#[test]
+fn a_second_agent_for_a_registered_robot_is_refused_and_changes_nothing() {
+    let case = long_case();
+    let clean = harness::run(&case, &Schedule::clean(1, 3));
+    let mut s = Schedule::clean(1, 3);
+    s.second_agents = vec![(1, clean.end_us / 3), (2, clean.end_us / 2)];
+    let report = harness::run(&case, &s);
+    same_run(&clean, &report, "second agents");
+    assert!(report.bad >= 2, "duplicates counted: {}", report.bad);
+}
+
+#[test]
+#[ignore = "debugging aid"]
+fn debug_parity_seed() {
+    let seed: u64 = std::env::var("BYCOMS_SIM_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(58);
+    let case = Case::small(seed);
+    let expected = bycoms_sim::run(&case.terrain, &case.run_config());
+    let report = harness::run(&case, &Schedule::clean(seed, case.robots));
+    eprintln!(
+        "case {case:?}\nexpected {:?} steps {} limit {}",
+        expected.outcome,
+        expected.steps,
+        case.run_config().step_limit()
+    );
+    for r in &expected.robots {
+        eprintln!("  runner robot {} {:?} steps {} at {:?}", r.id, r.end, r.steps, r.position);
+    }
+    eprintln!("harness {:?} spent {} ticks {}", report.ending, report.spent, report.ticks);
+    for (i, r) in report.robots.iter().enumerate() {
+        eprintln!("  robot {} {:?}", i + 1, r);
+    }
+    for g in &report.gates {
+        eprintln!("  gate {g:?}");
+    }
+}
+
+#[test]
+#[ignore = "debugging aid"]
+fn debug_forgery_seed() {
+    let seed: u64 = std::env::var("BYCOMS_SIM_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(111);
+    let case = Case::small(seed);
+    let clean = harness::run(&case, &Schedule::clean(seed, case.robots));
+    let forged = Schedule::forgeries(seed, case.robots, clean.end_us);
+    let report = harness::run(&case, &forged);
+    eprintln!(
+        "forged {:?} {:?}\nclean end {} forged end {}",
+        forged.foreign, forged.second_agents, clean.end_us, report.end_us
+    );
+    eprintln!("clean {:?}\nforged {:?}", clean.robots, report.robots);
+}
