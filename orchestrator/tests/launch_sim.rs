@@ -45,6 +45,7 @@ fn schedules_keep_the_properties() {
     let count: u64 =
         std::env::var("BYCOMS_SIM_SCHEDULES").ok().and_then(|v| v.parse().ok()).unwrap_or(10_000);
     let mut outcomes = std::collections::BTreeMap::new();
+    let mut errors = std::collections::BTreeMap::new();
     let (mut bad, mut resends) = (0u64, 0u64);
     for seed in 0..count {
         let (_, schedule, report) = one(seed);
@@ -53,10 +54,16 @@ fn schedules_keep_the_properties() {
         }
         let ending = report.ending.expect("checked");
         *outcomes.entry(format!("{:?}", ending.outcome)).or_insert(0u64) += 1;
+        if let Some(e) = &ending.error {
+            // The kind of error, without the robot numbers.
+            let kind: String = e.chars().filter(|c| !c.is_ascii_digit()).take(60).collect();
+            *errors.entry(kind).or_insert(0u64) += 1;
+        }
         bad += report.bad;
         resends += report.resends;
     }
     eprintln!("{count} schedules: outcomes {outcomes:?}, bad traffic counted {bad}, re-sends {resends}");
+    eprintln!("errors: {errors:#?}");
     // The schedules reach every kind of ending, or they test too little.
     if count >= 1000 {
         for o in ["Arrived", "RobotsExhausted", "TimeLimit", "Interrupted"] {
