@@ -1,8 +1,8 @@
 //! The format proven against a client nobody here wrote: OptiTrack's own
 //! Python `NatNetClient` (PyPI `natnetsdk`, installed by `.ci/run`) reads
 //! the emulated lab's NatNet server and must see the same bodies, names
-//! and positions. Outside CI, without `natnetsdk`, the test says so and
-//! skips; in CI (`CI` set) a missing package fails it.
+//! and positions. It is `#[ignore = "needs …"]`: `.ci/run` installs the
+//! package and runs it with `--include-ignored`; without it, it fails.
 
 use bycoms_sim::natnet_server::{BodyConfig, Faults, NatNetServer, ServerConfig};
 use std::io::Read;
@@ -20,12 +20,9 @@ fn natnetsdk_available() -> bool {
 }
 
 #[test]
+#[ignore = "needs python3 with natnetsdk==4.1.1"]
 fn the_sdk_python_client_sees_our_bodies_names_and_positions() {
-    if !natnetsdk_available() {
-        assert!(std::env::var_os("CI").is_none(), "CI must have natnetsdk (see .ci/run)");
-        eprintln!("note: python3 natnetsdk not installed; SDK cross-check skipped");
-        return;
-    }
+    assert!(natnetsdk_available(), "python3 cannot import natnetsdk (pip install natnetsdk==4.1.1)");
     let bodies = vec![
         BodyConfig { name: "robot1".into(), id: 1, position: [0.25, 0.0, -0.5], yaw_deg: 0.0 },
         BodyConfig { name: "robot2".into(), id: 2, position: [1.5, 0.0, 0.75], yaw_deg: 30.0 },

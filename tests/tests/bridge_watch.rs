@@ -3,9 +3,9 @@
 //! `eclipse-zenoh`): the Python client, decoding the wire format by hand,
 //! prints what the launch reports about the same run.
 //!
-//! Needs `python3 -c "import zenoh"`; `.ci/run` installs it. Outside CI the
-//! test skips with a message when it is missing; under CI (`CI` set) it
-//! fails instead, so a broken install cannot pass silently.
+//! Needs `python3 -c "import zenoh"`: `#[ignore = "needs …"]`, run by
+//! `.ci/run` (which installs it) with `--include-ignored`; asked for without
+//! it the test fails, saying so.
 
 use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::BusExt;
@@ -112,12 +112,9 @@ impl Drop for Watch {
 }
 
 #[test]
+#[ignore = "needs python3 with eclipse-zenoh==1.10.2"]
 fn python_client_watches_a_launch_through_the_bridge() {
-    if !python_has_zenoh() {
-        assert!(std::env::var_os("CI").is_none(), "CI must install eclipse-zenoh (see .ci/run)");
-        eprintln!("skipped: python3 cannot import zenoh (pip install eclipse-zenoh==1.10.2)");
-        return;
-    }
+    assert!(python_has_zenoh(), "python3 cannot import zenoh (pip install eclipse-zenoh==1.10.2)");
     let swarm = swarm_name("watch");
     let port = TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).expect("free port").port();
     let endpoint = format!("tcp/127.0.0.1:{port}");

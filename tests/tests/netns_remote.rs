@@ -23,7 +23,7 @@ use bycoms_orchestrator::scenario::{load, WorldSource};
 use bycoms_sim::runner::RobotEnd;
 use bycoms_sim::terrain::to_text;
 use bycoms_sim::{run, RunConfig, RunResult};
-use bycoms_tests::netns::{two_hosts_or_skip, Host, TwoHosts};
+use bycoms_tests::netns::{two_hosts, Host, TwoHosts};
 use bycoms_tests::{bin, swarm_name, Finished, Proc};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -98,8 +98,9 @@ fn end_name(end: RobotEnd) -> &'static str {
 }
 
 #[test]
+#[ignore = "needs root and iproute2 (network namespaces)"]
 fn lockstep_across_two_hosts_gives_the_simulate_result() {
-    let Some(hosts) = two_hosts_or_skip("remote-parity") else { return };
+    let hosts = two_hosts("remote-parity");
     let dir = tempfile::tempdir().expect("temp dir");
     let (expected, terrain) = world(dir.path());
     let swarm = swarm_name("netns-parity");
@@ -129,8 +130,9 @@ fn assert_simulate_result(expected: &RunResult, j: &serde_json::Value, stderr: &
 }
 
 #[test]
+#[ignore = "needs root and iproute2 (network namespaces)"]
 fn a_short_cut_is_ridden_out_and_the_run_still_gives_the_simulate_result() {
-    let Some(hosts) = two_hosts_or_skip("remote-heal") else { return };
+    let hosts = two_hosts("remote-heal");
     let dir = tempfile::tempdir().expect("temp dir");
     let (expected, terrain) = world(dir.path());
     let swarm = swarm_name("netns-heal");
@@ -218,8 +220,9 @@ fn agents_done(agents: Vec<Proc>) -> Vec<Finished> {
 }
 
 #[test]
+#[ignore = "needs root and iproute2 (network namespaces)"]
 fn a_cut_longer_than_the_grace_is_recorded_and_ends_the_run_cleanly() {
-    let Some(hosts) = two_hosts_or_skip("remote-cut") else { return };
+    let hosts = two_hosts("remote-cut");
     let dir = tempfile::tempdir().expect("temp dir");
     let (_, terrain) = world(dir.path());
     let swarm = swarm_name("netns-cut");
@@ -274,8 +277,9 @@ fn a_cut_longer_than_the_grace_is_recorded_and_ends_the_run_cleanly() {
 /// most once, every agent shut down cleanly. (Real time is not exact, so
 /// the outcome is not compared with `simulate`.)
 #[test]
+#[ignore = "needs root and iproute2 (network namespaces)"]
 fn a_short_cut_in_real_time_is_ridden_out() {
-    let Some(hosts) = two_hosts_or_skip("remote-rt") else { return };
+    let hosts = two_hosts("remote-rt");
     let dir = tempfile::tempdir().expect("temp dir");
     let (_, terrain) = world(dir.path());
     let swarm = swarm_name("netns-rt");
