@@ -71,3 +71,45 @@ fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() 
     assert_eq!(j["robots"][0]["end"], "stuck", "robot 1 went on as if nothing happened");
     assert_eq!(j["robots"][2]["end"], "arrived");
 }
+
+/// A forged pose cannot stall, win or change a real launch (the harness
+/// pins every rule in virtual time, `orchestrator/tests/launch_sim.rs`;
+/// this is the same through the bus and the driver): a pose of robot 1 with
+/// step `u64::MAX` and one with a NaN coordinate, published on robot 1's
+/// pose topic while it moves, are refused and counted; one at the goal
+/// either jumps too fast (refused) or is older than what robot 1 has
+/// published meanwhile (ignored): either way robot 1 does not win by it.
+#[test]
+fn forged_poses_are_refused_counted_and_change_nothing() {
+    use bycoms_protocol::msg::Pose;
+    let name = swarm_name("forged");
+    let swarm = Swarm::new(&name).expect("swarm name");
+    let launch = Proc::orchestrator(&[
+        "launch", "--clock", "realtime", "--speed", "10", "--dwell", "3", "--swarm", &name, "--json",
+    ]);
+    let moving = wait_for_pose(&name, 3, 1, Duration::from_secs(30), |p| p.x > 16.0).expect("robot 1 moves");
+    let bus = IpcBus::new(ipc_config(3)).expect("bus");
+    let pose_topic = bus.publisher(swarm.pose(RobotId(1)).name()).expect("pose publisher");
+    let future = Pose { step: u64::MAX, ..moving };
+    let world = bycoms_orchestrator::scenario::load(&bycoms_orchestrator::scenario::WorldSource::Scenario(
+        bycoms_orchestrator::scenario::DEFAULT.into(),
+    ))
+    .expect("the default scenario");
+    let goal = world.terrain.goal();
+    let at_goal =
+        Pose { x: goal.x, y: goal.y, step: moving.step + 1, time_us: moving.time_us + 100_000, ..moving };
+    let not_a_number = Pose { x: f64::NAN, step: moving.step + 2, ..moving };
+    for forged in [future, at_goal, not_a_number] {
+        pose_topic.publish(&encode_vec(&forged).expect("encode")).expect("forged pose");
+    }
+    // The publisher stays until the launch ends: a subscriber drops what a
+    // publisher that has gone left unread.
+    let out = launch.wait(Duration::from_secs(60));
+    drop((pose_topic, bus));
+    assert_eq!(out.status.code(), Some(0), "the run still succeeds:\n{}", out.stderr);
+    let j = out.json();
+    let refused = j["bad_traffic"]["refused"].as_u64().expect("a count");
+    assert!((2..=3).contains(&refused), "{}", j["bad_traffic"]);
+    assert_eq!(j["robots"][0]["end"], "stuck", "robot 1 did not win by a forged pose");
+    assert_eq!(j["robots"][2]["end"], "arrived");
+}

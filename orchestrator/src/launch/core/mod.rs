@@ -527,10 +527,15 @@ impl Core {
             plausible::Clock::Realtime { now_us: now, speed: self.setup.speed }
         };
         let carried = matches!(self.phase, Phase::Placing(id, _) if id == topic);
-        if let Err(why) = self.anchors.accept(topic, &pose, clock, carried) {
-            let text = format!("pose of robot {topic} at step {} refused: {why}", pose.step);
-            self.outputs.push_back(Output::Bad(BadKind::Refused, text));
-            return;
+        match self.anchors.accept(topic, &pose, clock, carried) {
+            Ok(true) => {}
+            // A repeat or a late sample: nothing new (the gate has seen it).
+            Ok(false) => return,
+            Err(why) => {
+                let text = format!("pose of robot {topic} at step {} refused: {why}", pose.step);
+                self.outputs.push_back(Output::Bad(BadKind::Refused, text));
+                return;
+            }
         }
         if self.setup.agents.forward_poses {
             self.outputs.push_back(Output::Forward(pose));

@@ -98,11 +98,14 @@ impl Anchors {
         id.checked_sub(1).and_then(|i| self.anchors.get_mut(i as usize))
     }
 
-    /// Checks robot `id`'s `pose` and, if it is plausible, makes it the
-    /// anchor. `carried`: the robot is being carried (any speed goes).
-    pub fn accept(&mut self, id: u32, pose: &Pose, clock: Clock, carried: bool) -> Result<(), Implausible> {
+    /// Checks robot `id`'s `pose` and, if it is plausible and newer than
+    /// the anchor, makes it the anchor: `Ok(true)`. A plausible pose that
+    /// is not newer (a repeat, a late sample) is `Ok(false)`: not an error,
+    /// but nothing to apply. `carried`: the robot is being carried (any
+    /// speed goes).
+    pub fn accept(&mut self, id: u32, pose: &Pose, clock: Clock, carried: bool) -> Result<bool, Implausible> {
         let (period, max_speed) = (self.period_us, self.max_speed);
-        let Some(slot) = self.slot(id) else { return Ok(()) };
+        let Some(slot) = self.slot(id) else { return Ok(false) };
         if !(pose.x.is_finite() && pose.y.is_finite() && pose.heading.is_finite()) {
             return Err(Implausible::NotFinite);
         }
@@ -143,10 +146,11 @@ impl Anchors {
         };
         // An older pose (a repeat, a late sample) is plausible but does not
         // move the anchor back.
-        if anchor.is_none_or(|a| pose.step > a.pose.step) {
+        let newer = anchor.is_none_or(|a| pose.step > a.pose.step);
+        if newer {
             *slot = Some(Anchor { pose: *pose, at_us, speed_checked: !carried });
         }
-        Ok(())
+        Ok(newer)
     }
 }
 
@@ -166,12 +170,12 @@ mod tests {
     #[test]
     fn lockstep_refuses_steps_and_times_ahead_of_the_tick() {
         let mut a = Anchors::new(2, 100_000, 5.0);
-        assert_eq!(a.accept(1, &pose(3, 0.0), lockstep(3), false), Ok(()));
+        assert_eq!(a.accept(1, &pose(3, 0.0), lockstep(3), false), Ok(true));
         assert_eq!(a.accept(1, &pose(u64::MAX, 0.0), lockstep(4), false), Err(Implausible::FromTheFuture));
         let mut late = pose(4, 0.1);
         late.time_us = 10_000_000_000;
         assert_eq!(a.accept(1, &late, lockstep(4), false), Err(Implausible::FromTheFuture));
-        assert_eq!(a.accept(1, &pose(4, 0.1), lockstep(4), false), Ok(()));
+        assert_eq!(a.accept(1, &pose(4, 0.1), lockstep(4), false), Ok(true));
     }
 
     #[test]
@@ -181,12 +185,12 @@ mod tests {
         assert!(
             matches!(a.accept(1, &pose(2, 20.0), lockstep(2), false), Err(Implausible::TooFast(v)) if v > 100.0)
         );
-        assert_eq!(a.accept(1, &pose(2, 0.1), lockstep(2), false), Ok(()), "1 unit/s");
-        assert_eq!(a.accept(1, &pose(3, 20.0), lockstep(3), true), Ok(()), "carried");
+        assert_eq!(a.accept(1, &pose(2, 0.1), lockstep(2), false), Ok(true), "1 unit/s");
+        assert_eq!(a.accept(1, &pose(3, 20.0), lockstep(3), true), Ok(true), "carried");
         a.release(1);
         assert_eq!(
             a.accept(1, &pose(4, 0.0), lockstep(4), false),
-            Ok(()),
+            Ok(true),
             "released: the next pose may jump"
         );
         assert!(a.accept(1, &pose(5, 20.0), lockstep(5), false).is_err(), "checked again after that");
@@ -209,13 +213,13 @@ mod tests {
     fn real_time_refuses_a_huge_step_or_a_time_ahead_of_the_clock() {
         let mut a = Anchors::new(1, 100_000, 5.0);
         let rt = |now_us| Clock::Realtime { now_us, speed: 5.0 };
-        assert_eq!(a.accept(1, &pose(10, 0.0), rt(0), false), Ok(()));
+        assert_eq!(a.accept(1, &pose(10, 0.0), rt(0), false), Ok(true));
         // 20 ms of launch time at 5x: 0.2 s of pose time allowed (+0.2 s).
-        assert_eq!(a.accept(1, &pose(11, 0.1), rt(20_000), false), Ok(()));
+        assert_eq!(a.accept(1, &pose(11, 0.1), rt(20_000), false), Ok(true));
         let mut huge = pose(12, 0.2);
         huge.step = u64::MAX;
         assert_eq!(a.accept(1, &huge, rt(40_000), false), Err(Implausible::FromTheFuture));
         assert_eq!(a.accept(1, &pose(100, 0.2), rt(40_000), false), Err(Implausible::FromTheFuture));
-        assert_eq!(a.accept(1, &pose(12, 0.2), rt(40_000), false), Ok(()));
+        assert_eq!(a.accept(1, &pose(12, 0.2), rt(40_000), false), Ok(true));
     }
 }
