@@ -1,8 +1,8 @@
 //! The `agent` command line and `main`.
 //!
 //! Exit codes as `sim-agent`'s: 0 after `Shutdown`, a signal or the
-//! parent's death; 2 for a usage error (bad flags, values, key file); 1 for
-//! any other error (socket, bus), printed first.
+//! parent's death; 2 for a usage error (bad flags, values, key file, swarm
+//! name); 1 for any other error (socket, bus), printed first.
 
 use crate::core::{GatewayCore, Timers};
 use crate::run::{quantile, Gateway, GatewayPorts, RunError};
@@ -160,7 +160,7 @@ pub fn main_with(args: &GatewayArgs) -> i32 {
         }
         Err(e) => {
             tracing::error!("{e}");
-            if matches!(e, GatewayError::Args(_) | GatewayError::Key(_)) {
+            if matches!(e, GatewayError::Args(_) | GatewayError::Key(_) | GatewayError::Swarm(_)) {
                 2
             } else {
                 1
@@ -172,8 +172,8 @@ pub fn main_with(args: &GatewayArgs) -> i32 {
 fn run(args: &GatewayArgs) -> Result<ExitCause, GatewayError> {
     let mut lifeline = Lifeline::install(args.parent_pid)?;
     args.validate().map_err(GatewayError::Args)?;
-    let key = read_key(&args.key_file)?;
     let swarm = Swarm::new(&args.swarm)?;
+    let key = read_key(&args.key_file)?;
     let id = RobotId(args.robot);
     let socket = UdpSocket::bind(args.bind).map_err(|source| GatewayError::Bind {
         robot: id.0,

@@ -42,3 +42,11 @@ fn robot_zero_and_a_bad_address_are_usage_errors() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("--bind"), "{err}");
 }
+
+#[test]
+fn a_bad_swarm_name_is_a_usage_error() {
+    let (code, err) =
+        agent(&["--swarm", "a/b", "--robot", "1", "--bind", "127.0.0.1:0", "--key-file", "/nonexistent/k"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("bad swarm name"), "{err}");
+}

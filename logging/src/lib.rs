@@ -20,14 +20,19 @@
 //!   line next to JSON on stdout): unchanged text in the text format, an
 //!   `info` event of target [`STATUS_TARGET`] in the JSON format, so that a
 //!   log shipper reading stderr sees nothing but JSON lines.
+//! * [`error_text`] renders the error that ends a program: its causes
+//!   joined, each said once (the one place that formats an error chain).
 //! * Feature `iceoryx2`: [`iceoryx2::forward_to_tracing`] routes iceoryx2's
 //!   own log lines through the same subscriber.
 //! * Text lines have no timestamp (a terminal or journald adds its own);
 //!   JSON lines have one, plus the level, target, fields and spans, as log
 //!   shippers expect.
 
+mod error_text;
 #[cfg(feature = "iceoryx2")]
 pub mod iceoryx2;
+
+pub use error_text::error_text;
 
 use std::io::IsTerminal;
 use std::sync::OnceLock;
