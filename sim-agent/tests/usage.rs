@@ -36,3 +36,23 @@ fn a_bad_connect_endpoint_is_a_usage_error() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("bad --connect endpoint \"foo/bar\""), "{}", stderr(&o));
 }
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+#[test]
+fn help_lists_the_lab_and_the_lab_has_its_own_usage_line() {
+    let top = sim_agent(&["--help"]);
+    assert_eq!(top.status.code(), Some(0), "{}", stderr(&top));
+    let text = stdout(&top);
+    assert!(text.lines().any(|l| l.trim_start().starts_with("lab ")), "`lab` listed: {text}");
+    let lab = sim_agent(&["lab", "--help"]);
+    assert_eq!(lab.status.code(), Some(0), "{}", stderr(&lab));
+    let text = stdout(&lab);
+    assert!(text.contains("Usage: sim-agent lab [OPTIONS] --scenario <SCENARIO>"), "{text}");
+    // A lab flag missing: the error's usage line is the lab's too (exit 2).
+    let missing = sim_agent(&["lab", "--swarm", "x"]);
+    assert_eq!(missing.status.code(), Some(2));
+    assert!(stderr(&missing).contains("Usage: sim-agent lab "), "{}", stderr(&missing));
+}
