@@ -184,20 +184,6 @@ pub fn exit_code(cause: ExitCause) -> i32 {
     }
 }
 
-#[cfg(test)]
-mod exit_code_tests {
-    use super::*;
-
-    #[test]
-    fn a_signal_is_an_interruption_and_the_rest_as_sim_agent() {
-        assert_eq!(exit_code(ExitCause::Signal), 130);
-        assert_eq!(exit_code(ExitCause::Refused), 3);
-        assert_eq!(exit_code(ExitCause::OrchestratorLost), 4);
-        assert_eq!(exit_code(ExitCause::Shutdown), 0);
-        assert_eq!(exit_code(ExitCause::ParentGone), 0);
-    }
-}
-
 fn run(args: &GatewayArgs) -> Result<ExitCause, GatewayError> {
     let mut lifeline = Lifeline::install(args.parent_pid)?;
     args.validate().map_err(GatewayError::Args)?;
@@ -236,4 +222,18 @@ fn run(args: &GatewayArgs) -> Result<ExitCause, GatewayError> {
         "gateway exits"
     );
     Ok(cause)
+}
+
+#[cfg(test)]
+mod exit_code_tests {
+    use super::*;
+
+    #[test]
+    fn a_signal_is_an_interruption_and_the_rest_as_sim_agent() {
+        assert_eq!(exit_code(ExitCause::Signal), 130);
+        assert_eq!(exit_code(ExitCause::Refused), 3);
+        assert_eq!(exit_code(ExitCause::OrchestratorLost), 4);
+        assert_eq!(exit_code(ExitCause::Shutdown), 0);
+        assert_eq!(exit_code(ExitCause::ParentGone), 0);
+    }
 }

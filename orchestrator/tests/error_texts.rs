@@ -51,7 +51,8 @@ fn a_parse_error_position_is_said_once() {
     let dir = tempfile::tempdir().expect("tempdir");
     let bad = dir.path().join("bad.txt");
     std::fs::write(&bad, "x\n").expect("write");
-    let err = check(&["simulate", "--terrain", bad.to_str().expect("utf-8"), "--no-svg"], 1, &["line 1, column 1"]);
+    let err =
+        check(&["simulate", "--terrain", bad.to_str().expect("utf-8"), "--no-svg"], 1, &["line 1, column 1"]);
     assert!(err.contains("unknown character 'x'"), "{err}");
 }
 
@@ -60,10 +61,13 @@ fn a_run_parameter_is_named_as_the_user_wrote_it() {
     check(&["simulate", "--success-radius", "0", "--no-svg"], 2, &["bad --success-radius: "]);
     check(&["simulate", "--eps", "0", "--no-svg"], 2, &["bad --eps: "]);
     let dir = tempfile::tempdir().expect("tempdir");
-    for (text, key) in [("eps = -1\n", "eps"), ("goal_radius = -1\n", "goal_radius"), ("time_limit = 0\n", "time_limit")] {
+    for (text, key) in
+        [("eps = -1\n", "eps"), ("goal_radius = -1\n", "goal_radius"), ("time_limit = 0\n", "time_limit")]
+    {
         let config = dir.path().join("launch.toml");
         std::fs::write(&config, text).expect("write");
-        let err = check(&["launch", "--config", config.to_str().expect("utf-8")], 2, &[&format!("bad {key} (--")]);
+        let err =
+            check(&["launch", "--config", config.to_str().expect("utf-8")], 2, &[&format!("bad {key} (--")]);
         assert!(!err.contains("bad the"), "{err}");
     }
     check(&["launch", "--goal-radius", "0"], 2, &["bad goal_radius (--goal-radius): "]);
@@ -89,7 +93,11 @@ fn a_bad_zenoh_endpoint_is_a_usage_error() {
             2,
             &[&format!("bad transport.connect endpoint {endpoint:?}")],
         );
-        check(&["bridge", "--swarm", "s", "--listen", endpoint], 2, &[&format!("bad --listen endpoint {endpoint:?}")]);
+        check(
+            &["bridge", "--swarm", "s", "--listen", endpoint],
+            2,
+            &[&format!("bad --listen endpoint {endpoint:?}")],
+        );
     }
 }
 

@@ -382,7 +382,8 @@ pub fn check_swarm(name: &str) -> Result<bycoms_protocol::Swarm> {
 /// `LINK/HOST:PORT` ([`bycoms_protocol::bus::zenoh::check_endpoint`]).
 pub fn check_endpoints(what: &str, endpoints: &[String]) -> Result<()> {
     for endpoint in endpoints {
-        bycoms_protocol::bus::zenoh::check_endpoint(endpoint).map_err(|e| usage(format!("bad {what} {e}")))?;
+        bycoms_protocol::bus::zenoh::check_endpoint(endpoint)
+            .map_err(|e| usage(format!("bad {what} {e}")))?;
     }
     Ok(())
 }

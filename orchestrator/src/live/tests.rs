@@ -74,7 +74,8 @@ fn the_front_tells_pages_from_upgrades() {
     let ws = b"GET / HTTP/1.1\r\nHost: x\r\nConnection: Upgrade\r\nUpgrade: WebSocket\r\n\
                Sec-WebSocket-Protocol: x, foxglove.sdk.v1.1\r\n\r\n";
     assert_eq!(classify(ws).unwrap(), Some(Request::Upgrade));
-    let old = b"GET / HTTP/1.1\r\nUpgrade: websocket\r\nSec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n";
+    let old =
+        b"GET / HTTP/1.1\r\nUpgrade: websocket\r\nSec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n";
     assert_eq!(classify(old).unwrap(), Some(Request::NoSubprotocol));
     let none = b"GET / HTTP/1.1\r\nUpgrade: websocket\r\n\r\n";
     assert_eq!(classify(none).unwrap(), Some(Request::NoSubprotocol));
@@ -257,7 +258,8 @@ fn a_client_of_the_old_subprotocol_name_gets_a_refusal_that_says_what_is_served(
         let refused = response_head(addr, &upgrade(offered));
         assert!(refused.starts_with("HTTP/1.1 400 Bad Request"), "{offered:?}: {refused}");
         assert!(
-            refused.contains("foxglove.sdk.v1 or foxglove.sdk.v1.1") && refused.contains("foxglove.websocket.v1"),
+            refused.contains("foxglove.sdk.v1 or foxglove.sdk.v1.1")
+                && refused.contains("foxglove.websocket.v1"),
             "names what is served and what is not: {refused}"
         );
     }

@@ -173,7 +173,8 @@ impl AgentArgs {
         }
         self.failsafe.grace()?;
         for endpoint in &self.connect {
-            bycoms_protocol::bus::zenoh::check_endpoint(endpoint).map_err(|e| format!("bad --connect {e}"))?;
+            bycoms_protocol::bus::zenoh::check_endpoint(endpoint)
+                .map_err(|e| format!("bad --connect {e}"))?;
         }
         match self.transport {
             Transport::Ipc if !self.connect.is_empty() || self.zenoh_config.is_some() => {

@@ -19,7 +19,8 @@ const FOREIGN_PUBLISHER: u64 = 0;
 
 fn key_expr(topic: &TopicName) -> Result<KeyExpr<'static>, BusError> {
     // Topic names are valid key expressions by construction (naming rules).
-    KeyExpr::try_from(topic.as_str().to_owned()).map_err(|e| super::text::backend("name key", Some(topic.as_str().to_owned()), None, &e))
+    KeyExpr::try_from(topic.as_str().to_owned())
+        .map_err(|e| super::text::backend("name key", Some(topic.as_str().to_owned()), None, &e))
 }
 
 /// The publisher id carried in a sample's attachment, if it has one.
@@ -75,9 +76,11 @@ pub(super) fn open_swarm_subscriber(
     // Every robot's topics share this one queue: room for `buffer` each of
     // a few hundred topics before the oldest message is dropped.
     let capacity = config.limits.buffer.saturating_mul(256);
-    let inner = session.declare_subscriber(key).with(RingChannel::new(capacity)).wait().map_err(|e| {
-        super::text::backend("open subscriber", None, Some(&pattern), &e)
-    })?;
+    let inner = session
+        .declare_subscriber(key)
+        .with(RingChannel::new(capacity))
+        .wait()
+        .map_err(|e| super::text::backend("open subscriber", None, Some(&pattern), &e))?;
     Ok(SwarmSubscriber { inner, swarm: *swarm })
 }
 

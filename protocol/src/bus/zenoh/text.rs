@@ -27,7 +27,7 @@ impl fmt::Display for EndpointError {
     }
 }
 
-impl std::error::Error for EndpointError {}
+impl core::error::Error for EndpointError {}
 
 /// Checks that `endpoint` is `LINK/HOST:PORT` (optionally followed by
 /// zenoh's `?metadata` or `#config`), LINK one of [`LINKS`], HOST not empty
@@ -55,7 +55,12 @@ pub fn zenoh_error(e: &dyn fmt::Display) -> String {
 
 /// [`BusError::Backend`] for a zenoh error `e` while doing `op`; `what`
 /// (a topic, a key, a file) goes before zenoh's words when given.
-pub(crate) fn backend(op: &'static str, topic: Option<String>, what: Option<&dyn fmt::Display>, e: &dyn fmt::Display) -> BusError {
+pub(crate) fn backend(
+    op: &'static str,
+    topic: Option<String>,
+    what: Option<&dyn fmt::Display>,
+    e: &dyn fmt::Display,
+) -> BusError {
     let said = zenoh_error(e);
     let detail = match what {
         Some(w) => format!("{w}: {said}"),
@@ -128,12 +133,22 @@ mod tests {
         ] {
             assert_eq!(check_endpoint(good), Ok(()), "{good}");
         }
-        for bad in
-            ["foo/bar", "tcp/", "udp/127.0.0.1:7447", "tcp/127.0.0.1:99999", "tcp/127.0.0.1", "tcp/:7447", "", "tcp"]
-        {
+        for bad in [
+            "foo/bar",
+            "tcp/",
+            "udp/127.0.0.1:7447",
+            "tcp/127.0.0.1:99999",
+            "tcp/127.0.0.1",
+            "tcp/:7447",
+            "",
+            "tcp",
+        ] {
             assert!(check_endpoint(bad).is_err(), "{bad}");
         }
         let e = check_endpoint("foo/bar").unwrap_err();
-        assert_eq!(e.to_string(), "endpoint \"foo/bar\": expected tcp/HOST:PORT, quic/HOST:PORT or tls/HOST:PORT");
+        assert_eq!(
+            e.to_string(),
+            "endpoint \"foo/bar\": expected tcp/HOST:PORT, quic/HOST:PORT or tls/HOST:PORT"
+        );
     }
 }
