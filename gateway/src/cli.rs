@@ -1,8 +1,12 @@
 //! The `agent` command line and `main`.
 //!
-//! Exit codes as `sim-agent`'s: 0 after `Shutdown`, a signal or the
-//! parent's death; 2 for a usage error (bad flags, values, key file); 1 for
-//! any other error (socket, bus), printed first.
+//! Exit codes: 0 after `Shutdown` or the parent's death; 130 after Ctrl-C
+//! (SIGINT, or SIGTERM / SIGHUP: one handler), as the orchestrator (a
+//! gateway is started by hand in a lab, so a person sees this code; a
+//! `sim-agent`, started by the orchestrator, exits 0 on a signal); 3 when
+//! another gateway holds the robot; 2 for a usage error (bad flags, values,
+//! key file, swarm name); 1 for any other error (socket, bus), printed
+//! first.
 
 use crate::core::{GatewayCore, Timers};
 use crate::run::{quantile, Gateway, GatewayPorts, RunError};
@@ -152,15 +156,13 @@ pub fn main_with(args: &GatewayArgs) -> i32 {
     quiet_iceoryx2();
     let _span = tracing::info_span!("agent", robot = args.robot).entered();
     match run(args) {
-        // Another gateway already holds the robot (same code as sim-agent).
-        Ok(ExitCause::Refused) => 3,
         Ok(cause) => {
             tracing::debug!(?cause, "gateway exits");
-            0
+            exit_code(cause)
         }
         Err(e) => {
             tracing::error!("{e}");
-            if matches!(e, GatewayError::Args(_) | GatewayError::Key(_)) {
+            if matches!(e, GatewayError::Args(_) | GatewayError::Key(_) | GatewayError::Swarm(_)) {
                 2
             } else {
                 1
@@ -169,11 +171,24 @@ pub fn main_with(args: &GatewayArgs) -> i32 {
     }
 }
 
+/// The exit code of a gateway that ended for `cause` (see the module doc).
+pub fn exit_code(cause: ExitCause) -> i32 {
+    match cause {
+        // Another gateway already holds the robot (same code as sim-agent).
+        ExitCause::Refused => 3,
+        // Interrupted, as the orchestrator reports it.
+        ExitCause::Signal => 130,
+        // Not reached over ipc; the code sim-agent gives it.
+        ExitCause::OrchestratorLost => 4,
+        ExitCause::Shutdown | ExitCause::ParentGone => 0,
+    }
+}
+
 fn run(args: &GatewayArgs) -> Result<ExitCause, GatewayError> {
     let mut lifeline = Lifeline::install(args.parent_pid)?;
     args.validate().map_err(GatewayError::Args)?;
-    let key = read_key(&args.key_file)?;
     let swarm = Swarm::new(&args.swarm)?;
+    let key = read_key(&args.key_file)?;
     let id = RobotId(args.robot);
     let socket = UdpSocket::bind(args.bind).map_err(|source| GatewayError::Bind {
         robot: id.0,
@@ -207,4 +222,18 @@ fn run(args: &GatewayArgs) -> Result<ExitCause, GatewayError> {
         "gateway exits"
     );
     Ok(cause)
+}
+
+#[cfg(test)]
+mod exit_code_tests {
+    use super::*;
+
+    #[test]
+    fn a_signal_is_an_interruption_and_the_rest_as_sim_agent() {
+        assert_eq!(exit_code(ExitCause::Signal), 130);
+        assert_eq!(exit_code(ExitCause::Refused), 3);
+        assert_eq!(exit_code(ExitCause::OrchestratorLost), 4);
+        assert_eq!(exit_code(ExitCause::Shutdown), 0);
+        assert_eq!(exit_code(ExitCause::ParentGone), 0);
+    }
 }

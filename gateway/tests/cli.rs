@@ -42,3 +42,62 @@ fn robot_zero_and_a_bad_address_are_usage_errors() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("--bind"), "{err}");
 }
+
+#[test]
+fn a_bad_swarm_name_is_a_usage_error() {
+    let (code, err) =
+        agent(&["--swarm", "a/b", "--robot", "1", "--bind", "127.0.0.1:0", "--key-file", "/nonexistent/k"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("bad swarm name"), "{err}");
+}
+
+/// Ctrl-C ends a gateway as it ends the orchestrator: exit 130 (interrupted).
+#[test]
+fn sigint_exits_130_like_the_orchestrator() {
+    use std::io::{BufRead, BufReader};
+    use std::time::{Duration, Instant};
+    let dir = tempfile::tempdir().expect("tempdir");
+    let key = dir.path().join("robot-1.key");
+    std::fs::write(&key, "ab".repeat(32)).expect("key file");
+    let swarm = format!("gwsigint{}", std::process::id());
+    let mut child = Command::new(env!("CARGO_BIN_EXE_agent"))
+        .args(["--swarm", &swarm, "--robot", "1", "--bind", "127.0.0.1:0", "--key-file"])
+        .arg(&key)
+        .env("RUST_LOG", "info")
+        .env_remove("BYCOMS_LOG_FORMAT")
+        .stdin(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn agent");
+    // Wait (10 s at most) for the gateway to say it listens: its handler is in place.
+    let (tx, rx) = std::sync::mpsc::channel();
+    let stderr = child.stderr.take().expect("stderr");
+    let reader = std::thread::spawn(move || {
+        let mut seen = Vec::new();
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            if line.contains("gateway listening") {
+                let _ = tx.send(());
+            }
+            seen.push(line);
+        }
+        seen
+    });
+    let listening = rx.recv_timeout(Duration::from_secs(10));
+    let pid = child.id().to_string();
+    let sent = Command::new("kill").args(["-INT", &pid]).status().expect("run kill");
+    assert!(sent.success());
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait") {
+            break Some(status);
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let lines = reader.join().expect("reader");
+    assert!(listening.is_ok(), "the gateway started: {lines:?}");
+    assert_eq!(status.and_then(|s| s.code()), Some(130), "{lines:?}");
+}

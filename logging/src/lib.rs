@@ -20,14 +20,19 @@
 //!   line next to JSON on stdout): unchanged text in the text format, an
 //!   `info` event of target [`STATUS_TARGET`] in the JSON format, so that a
 //!   log shipper reading stderr sees nothing but JSON lines.
+//! * [`error_text`] renders the error that ends a program: its causes
+//!   joined, each said once (the one place that formats an error chain).
 //! * Feature `iceoryx2`: [`iceoryx2::forward_to_tracing`] routes iceoryx2's
 //!   own log lines through the same subscriber.
 //! * Text lines have no timestamp (a terminal or journald adds its own);
 //!   JSON lines have one, plus the level, target, fields and spans, as log
 //!   shippers expect.
 
+mod error_text;
 #[cfg(feature = "iceoryx2")]
 pub mod iceoryx2;
+
+pub use error_text::error_text;
 
 use std::io::IsTerminal;
 use std::sync::OnceLock;
@@ -98,19 +103,37 @@ pub fn init(format: LogFormat) {
     drop(installed);
 }
 
+/// Targets whose `info` lines mislead at the default level, with the
+/// level they get unless `RUST_LOG` names them or sets a level for all.
+///
+/// The Foxglove SDK's WebSocket server runs behind the live view's front
+/// (`orchestrator launch --serve`) on an internal loopback port: its
+/// "Started server on 127.0.0.1:PORT" names a port no viewer should use,
+/// and it sees every viewer as 127.0.0.1. The front logs the real ones.
+pub const QUIET_TARGETS: [(&str, LevelFilter); 1] = [("foxglove::websocket", LevelFilter::WARN)];
+
 /// The directives for `rust_log` (the value of `RUST_LOG`): as given, with
 /// [`DEFAULT_LEVEL`] in front unless it sets a level for all targets, so
-/// that `RUST_LOG=iceoryx2=debug` adds a target instead of silencing the rest.
+/// that `RUST_LOG=iceoryx2=debug` adds a target instead of silencing the
+/// rest, and then [`QUIET_TARGETS`] that `rust_log` does not mention.
 pub fn filter_directives(rust_log: &str) -> String {
     let sets_global_level =
         rust_log.split(',').any(|d| d.trim().parse::<LevelFilter>().is_ok() && !d.trim().is_empty());
     if sets_global_level {
-        rust_log.to_owned()
-    } else if rust_log.trim().is_empty() {
+        return rust_log.to_owned();
+    }
+    let mut directives = if rust_log.trim().is_empty() {
         DEFAULT_LEVEL.to_string()
     } else {
         format!("{DEFAULT_LEVEL},{rust_log}")
+    };
+    let crate_of = |target: &str| target.split("::").next().unwrap_or_default().to_owned();
+    for (target, level) in QUIET_TARGETS {
+        if !rust_log.contains(&crate_of(target)) {
+            directives.push_str(&format!(",{target}={level}"));
+        }
     }
+    directives
 }
 
 /// The format [`init`] installed (text if it was never called).
@@ -140,10 +163,18 @@ mod tests {
 
     #[test]
     fn the_default_level_applies_unless_rust_log_sets_one() {
-        assert_eq!(filter_directives(""), "info");
+        let quiet = ",foxglove::websocket=warn";
+        assert_eq!(filter_directives(""), format!("info{quiet}"));
         assert_eq!(filter_directives("debug"), "debug");
         assert_eq!(filter_directives("iceoryx2=trace,WARN"), "iceoryx2=trace,WARN");
-        assert_eq!(filter_directives("iceoryx2=trace"), "info,iceoryx2=trace");
-        assert_eq!(filter_directives("bycoms_sim"), "info,bycoms_sim");
+        assert_eq!(filter_directives("iceoryx2=trace"), format!("info,iceoryx2=trace{quiet}"));
+        assert_eq!(filter_directives("bycoms_sim"), format!("info,bycoms_sim{quiet}"));
+    }
+
+    #[test]
+    fn the_live_views_internal_server_is_quiet_unless_asked_for() {
+        // Its "Started server on 127.0.0.1:PORT" names an internal port.
+        assert!(filter_directives("").ends_with(",foxglove::websocket=warn"));
+        assert_eq!(filter_directives("foxglove=info"), "info,foxglove=info");
     }
 }

@@ -29,6 +29,12 @@ pub mod exit {
         UsageError(message.to_string()).into()
     }
 
+    /// The text of an error that ends a command (or is shown as a cause):
+    /// its chain with every cause said once ([`bycoms_logging::error_text`]).
+    pub fn message(err: &anyhow::Error) -> String {
+        bycoms_logging::error_text(err.as_ref())
+    }
+
     /// The exit code of an error that ended a command: [`USAGE`] if a
     /// [`UsageError`] is anywhere in its chain, else [`ERROR`].
     pub fn code_of(err: &anyhow::Error) -> i32 {

@@ -14,7 +14,7 @@ fn main() {
     let code = match commands::run(cli) {
         Ok(code) => code,
         Err(err) => {
-            tracing::error!("{err:#}");
+            tracing::error!("{}", exit::message(&err));
             exit::code_of(&err)
         }
     };

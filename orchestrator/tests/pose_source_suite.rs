@@ -80,6 +80,26 @@ fn bus_poses_record_and_count_garbage_and_go_on() {
     assert_eq!(traffic.total(), 1, "counted as bad traffic: {traffic:?}");
 }
 
+#[test]
+fn bus_poses_refuse_a_respelled_pose_as_bad_traffic() {
+    // The same pose as `good`, its robot id spelled `81 00` instead of `01`:
+    // one message has one encoding, so it is garbage, not a second copy.
+    let mut fixture = BusFixture::new();
+    let (mut source, swarm) = fixture.source();
+    source.open_robot(1).expect("open");
+    let good = Pose { robot: RobotId(1), x: 1.5, y: 2.5, heading: 0.0, step: 7, time_us: 700_000 };
+    let mut buf = [0u8; MAX_MESSAGE_LEN];
+    let canonical = encode(&good, &mut buf).expect("encode").to_vec();
+    assert_eq!(&canonical[..2], [2, 1], "version 2, robot 1");
+    let respelled = [&[2, 0x81, 0x00], &canonical[2..]].concat();
+    fixture.publish(1, &respelled);
+    let (mut recording, mut traffic, mut got) = (Recording::off(), Traffic::default(), Vec::new());
+    let mut sink = PoseSink::new(&mut recording, &mut traffic, &swarm, &mut got, false);
+    source.drain(&mut sink).expect("garbage is not fatal");
+    assert_eq!(got, [], "the respelled pose is not delivered");
+    assert_eq!((traffic.garbage, traffic.total()), (1, 1), "counted as undecodable: {traffic:?}");
+}
+
 /// OptiTrack NatNet: a scripted NatNet server on loopback answers the
 /// client's connect and model-definition requests, then sends one frame per
 /// emitted pose (frame number = the pose's step; the body's Motive pose is

@@ -5,7 +5,9 @@
 //! poses instead of a clear error. Every message therefore travels inside
 //! the same envelope, `[version: u16 varint][body: postcard]`, and
 //! [`decode`] checks the version first, then the body, then that nothing is
-//! left over. Only types that implement [`Message`] (the per-direction
+//! left over; it refuses any spelling but the one [`encode`] writes (one
+//! message, one encoding: an overlong varint such as `82 00` for 2 is
+//! [`CodecError::NonCanonical`]). Only types that implement [`Message`] (the per-direction
 //! enums in [`crate::msg`]) can be encoded, so a topic never carries a stray
 //! integer or a half message.
 //!
@@ -52,6 +54,10 @@ pub enum CodecError {
     UnknownVariant,
     /// The bytes are not a valid encoding (bad varint, bool, or the like).
     Malformed,
+    /// The bytes spell a valid message, but not the way [`encode`] writes
+    /// it (an overlong varint such as `82 00` for 2): one message has one
+    /// encoding.
+    NonCanonical,
     /// The serializer failed for a reason other than a full buffer.
     Serialize,
 }
@@ -69,6 +75,7 @@ impl core::fmt::Display for CodecError {
             }
             Self::UnknownVariant => write!(f, "unknown message variant"),
             Self::Malformed => write!(f, "malformed message bytes"),
+            Self::NonCanonical => write!(f, "non-canonical encoding (an overlong varint)"),
             Self::Serialize => write!(f, "message could not be serialized"),
         }
     }
@@ -119,16 +126,39 @@ pub fn encode_vec<T: Message>(msg: &T) -> Result<Vec<u8>, CodecError> {
     Ok(postcard::to_allocvec(&envelope)?)
 }
 
-/// Decodes one whole message: checks the version, the body, and that no
-/// bytes are left over.
+/// Decodes one whole message: checks the version, the body, that both are
+/// spelled canonically, and that no bytes are left over.
 pub fn decode<T: Message>(bytes: &[u8]) -> Result<T, CodecError> {
-    let (found, rest) = postcard::take_from_bytes::<u16>(bytes)?;
+    let (found, rest) = take_canonical::<u16>(bytes)?;
     if found != PROTOCOL_VERSION {
         return Err(CodecError::UnsupportedVersion { found, supported: PROTOCOL_VERSION });
     }
-    let (msg, rest) = postcard::take_from_bytes::<T>(rest)?;
+    let (msg, rest) = take_canonical::<T>(rest)?;
     if !rest.is_empty() {
         return Err(CodecError::TrailingBytes { extra: rest.len() });
     }
     Ok(msg)
+}
+
+/// Decodes one value from the front of `bytes` and refuses it unless
+/// encoding it again gives exactly the bytes it was read from.
+///
+/// Why re-encode and compare: postcard's reader accepts overlong varints
+/// (`82 00` reads as 2), and varints are in every field kind that has more
+/// than one spelling (integers, robot ids, enum discriminants; a bool or an
+/// option tag is one byte that postcard already checks, and no message has
+/// a length prefix). Postcard's encoder writes the one shortest spelling,
+/// so "re-encodes to the same bytes" is exactly "canonical", for every
+/// field present and future, with no field-by-field reader to keep in step
+/// with the types. It costs one encode into a stack buffer of
+/// [`MAX_MESSAGE_LEN`] bytes (no allocation, `no_std`); every value that
+/// decodes re-encodes within it (a test proves the bound).
+fn take_canonical<T: Serialize + DeserializeOwned>(bytes: &[u8]) -> Result<(T, &[u8]), CodecError> {
+    let (value, rest) = postcard::take_from_bytes::<T>(bytes)?;
+    let read = &bytes[..bytes.len() - rest.len()];
+    let mut buf = [0u8; MAX_MESSAGE_LEN];
+    match postcard::to_slice(&value, &mut buf) {
+        Ok(written) if written == read => Ok((value, rest)),
+        _ => Err(CodecError::NonCanonical),
+    }
 }

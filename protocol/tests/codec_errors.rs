@@ -78,6 +78,7 @@ fn errors_explain_themselves() {
         CodecError::TrailingBytes { extra: 1 },
         CodecError::UnknownVariant,
         CodecError::Malformed,
+        CodecError::NonCanonical,
         CodecError::Serialize,
     ] {
         assert!(!e.to_string().is_empty());

@@ -218,11 +218,12 @@ fn a_dead_lab_is_reported_as_a_lost_link_within_500_ms_and_nothing_is_left_behin
     assert!(status.silent_ms >= 300, "after its 300 ms timeout: {status:?}");
     drop(lab);
     assert!(is_zombie(lab_pid), "the lab is gone");
-    // The gateway exits on SIGTERM (status 0) and leaves no process.
+    // The gateway exits on SIGTERM (status 130, interrupted, as the
+    // orchestrator) and leaves no process.
     let gw_pid = gw.pid();
     signal(gw_pid, Signal::SIGTERM);
     let out = gw.wait(Duration::from_secs(10));
-    assert_eq!(out.status.code(), Some(0), "{}", out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{}", out.stderr);
     assert!(wait_for(Duration::from_secs(2), || is_zombie(gw_pid).then_some(())).is_some());
     orch.bus.cleanup_dead_nodes();
 }

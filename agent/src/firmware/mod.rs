@@ -28,7 +28,9 @@
 //! * the motors run only while enabled, with a goal, and with a valid
 //!   (authentic, in-session, fresh) Enable or Goal less than
 //!   [`FirmwareConfig::failsafe`] (500 ms) old; otherwise they are off
-//!   ([`RobotState::Failsafe`]) until the next valid command;
+//!   ([`RobotState::Failsafe`] when the commands went stale; `Idle` while
+//!   an enabled robot waits for its first goal) until the next valid
+//!   command;
 //! * Stop turns the motors off until the next Enable; the speaker keeps
 //!   playing (a stuck robot is a beacon);
 //! * a new session (gateway restart, relink) starts disabled: the gateway
@@ -179,10 +181,14 @@ impl<const K: usize> Firmware<K> {
     }
 
     /// What the robot is doing, as of the latest `now` it was given.
+    /// Enabled but still waiting for its first goal (the gateway sends it
+    /// right after Enable) is `Idle`, motors off: `Failsafe` is only for
+    /// commands gone stale, so an enable reads Idle → Driving.
     pub fn state(&self) -> RobotState {
         match (self.enabled, self.stopped) {
-            (true, _) if self.goal.is_some() && self.command_fresh() => RobotState::Driving,
-            (true, _) => RobotState::Failsafe,
+            (true, _) if !self.command_fresh() => RobotState::Failsafe,
+            (true, _) if self.goal.is_some() => RobotState::Driving,
+            (true, _) => RobotState::Idle,
             (false, true) => RobotState::Stopped,
             (false, false) => RobotState::Idle,
         }

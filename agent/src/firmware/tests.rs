@@ -265,3 +265,32 @@ fn nonces_differ_across_boots_and_attempts() {
     assert_ne!(hello_nonce([1; 32]), hello_nonce([2; 32]));
     assert_eq!(hello_nonce([1; 32]), hello_nonce([1; 32]), "deterministic for a given entropy");
 }
+
+#[test]
+fn an_enable_goes_idle_to_driving_without_a_failsafe_in_between() {
+    // The gateway enables, then sends the first goal bearing: the robot is
+    // waiting for that goal (motors off, Idle), not in failsafe; failsafe
+    // is only for commands gone stale.
+    let mut rig = Rig::new();
+    rig.connect(ms(0));
+    let mut states = vec![rig.fw.state()];
+    let mut record = |s: RobotState| {
+        if states.last() != Some(&s) {
+            states.push(s);
+        }
+    };
+    rig.deliver(Payload::Enable, ms(100));
+    record(rig.fw.state());
+    rig.control(ms(150), 40.0, 0.0, 0.0);
+    record(rig.fw.state());
+    assert_eq!(rig.fw.motors(), Motors::default(), "no goal yet: motors off");
+    rig.deliver(Payload::Goal { bearing: 0.0 }, ms(200));
+    record(rig.fw.state());
+    assert_eq!(states, [RobotState::Idle, RobotState::Driving]);
+    // Enabled, no goal, and no command for 500 ms: that is a failsafe.
+    let mut rig = Rig::new();
+    rig.connect(ms(0));
+    rig.deliver(Payload::Enable, ms(100));
+    rig.fw.handle_timeout(ms(600));
+    assert_eq!(rig.fw.state(), RobotState::Failsafe);
+}

@@ -36,7 +36,7 @@ fn main() {
         bycoms_logging::init(cli.log.log_format);
         bycoms_sim::agent_process::cli::quiet_iceoryx2();
         if let Err(e) = bycoms_gateway::bench::run(&cli.bench) {
-            tracing::error!("{e:#}");
+            tracing::error!("{}", bycoms_logging::error_text(e.as_ref()));
             std::process::exit(1);
         }
         return;

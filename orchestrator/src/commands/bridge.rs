@@ -23,6 +23,7 @@
 //! iceoryx2 subscriber — the launch itself never waits for the bridge.
 
 use crate::exit;
+use crate::launch::config::{check_endpoints, check_swarm};
 use crate::launch::interrupt_flag;
 use anyhow::{Context, Result};
 use bycoms_protocol::bus::ipc::{IpcBus, IpcSubscriber};
@@ -80,11 +81,15 @@ fn topics(swarm: &Swarm, robots: u32) -> Vec<TopicName> {
 }
 
 pub fn run(args: Args) -> Result<i32> {
-    let swarm = Swarm::new(&args.swarm).with_context(|| format!("bad swarm name {:?}", args.swarm))?;
-    anyhow::ensure!(args.robots >= 1, "--robots must be at least 1");
+    let swarm = check_swarm(&args.swarm)?;
+    check_endpoints("--listen", &args.listen)?;
+    check_endpoints("--connect", &args.connect)?;
+    if args.robots == 0 {
+        return Err(exit::usage("--robots must be at least 1"));
+    }
     let duration = match args.duration {
         Some(s) if !(s.is_finite() && s > 0.0) => {
-            anyhow::bail!("--duration must be a positive number of seconds")
+            return Err(exit::usage("--duration must be a positive number of seconds"));
         }
         Some(s) => Some(Duration::from_secs_f64(s)),
         None => None,

@@ -37,22 +37,46 @@ impl RunArgs {
         cfg.max_robots = self.max_robots;
         cfg.time_limit = self.time_limit;
         cfg.success_radius = self.success_radius;
-        check_run(&cfg)?;
+        check_run(&cfg, &FLAGS)?;
         Ok(cfg)
     }
 }
 
+/// How a command's user spells each run parameter, for its messages: a
+/// flag (`--eps`) where only flags set it, a config key with its flag
+/// (`eps (--eps)`) where a config file may set it too.
+#[derive(Clone, Copy, Debug)]
+pub struct RunNames {
+    /// ε.
+    pub eps: &'static str,
+    /// The simulated time limit.
+    pub time_limit: &'static str,
+    /// The arrival (success) radius.
+    pub success_radius: &'static str,
+    /// The robot budget.
+    pub max_robots: &'static str,
+}
+
+/// The flags of `simulate` and `sweep` ([`RunArgs`]).
+pub const FLAGS: RunNames = RunNames {
+    eps: "--eps",
+    time_limit: "--time-limit",
+    success_radius: "--success-radius",
+    max_robots: "--max-robots",
+};
+
 /// The one validation of run parameters, [`RunConfig::validate`] — the very
-/// check a `sim-agent` makes — as a usage error (exit code 2). Every command
-/// that runs the world (`simulate`, `sweep`, `launch`) goes through it, so a
-/// value one accepts none of the others (or an agent) refuses later.
-pub fn check_run(cfg: &RunConfig) -> Result<()> {
+/// check a `sim-agent` makes — as a usage error (exit code 2) naming the
+/// value as `names` spell it. Every command that runs the world
+/// (`simulate`, `sweep`, `launch`) goes through it, so a value one accepts
+/// none of the others (or an agent) refuses later.
+pub fn check_run(cfg: &RunConfig, names: &RunNames) -> Result<()> {
     cfg.validate().map_err(|e| {
         let option = match e {
-            ConfigError::Eps(_) => "--eps",
-            ConfigError::TimeLimit(_) => "--time-limit",
-            ConfigError::SuccessRadius(_) => "the goal radius",
-            ConfigError::NoRobots => "--max-robots",
+            ConfigError::Eps(_) => names.eps,
+            ConfigError::TimeLimit(_) => names.time_limit,
+            ConfigError::SuccessRadius(_) => names.success_radius,
+            ConfigError::NoRobots => names.max_robots,
             ConfigError::FieldConstant(_) | ConfigError::Kinematics => "run parameters",
         };
         usage(format!("bad {option}: {e}"))
@@ -60,9 +84,9 @@ pub fn check_run(cfg: &RunConfig) -> Result<()> {
 }
 
 /// ε must be a positive, finite number of cells with a finite threshold
-/// 1/ε² (see [`check_run`]).
+/// 1/ε² (see [`check_run`]); named `--eps`.
 pub fn check_eps(eps: f64) -> Result<()> {
-    check_run(&RunConfig::paper(eps))
+    check_run(&RunConfig::paper(eps), &FLAGS)
 }
 
 /// `n` and the noun, singular or plural: "1 robot", "3 robots".

@@ -11,7 +11,7 @@
 
 pub use super::agents::choice::{AgentsConfig, AgentsKind};
 use super::faults::FaultsConfig;
-use crate::commands::world::check_run;
+use crate::commands::world::{check_run, RunNames};
 use crate::exit::usage;
 use anyhow::{Context, Result};
 use bycoms_sim::agent_process::check_speed;
@@ -290,7 +290,7 @@ impl LaunchConfig {
     /// usage error (exit code 2). The run parameters go through the one
     /// check every command and every agent makes ([`check_run`]).
     pub fn validate(&self) -> Result<()> {
-        check_run(&self.run_config())?;
+        check_run(&self.run_config(), &CONFIG_KEYS)?;
         self.faults.validate()?;
         check_speed(self.speed).map_err(usage)?;
         let positive = |v: f64| v.is_finite() && v > 0.0;
@@ -339,6 +339,11 @@ impl LaunchConfig {
         if let Some(addr) = &self.serve {
             check_serve(addr)?;
         }
+        if let Some(name) = &self.swarm {
+            check_swarm(name)?;
+        }
+        check_endpoints("transport.listen", &self.transport.listen)?;
+        check_endpoints("transport.connect", &self.transport.connect)?;
         if self.robots == 0 {
             return Err(usage("robots must be at least 1"));
         }
@@ -361,6 +366,32 @@ impl LaunchConfig {
     pub fn secs(v: f64) -> Duration {
         Duration::from_secs_f64(v)
     }
+}
+
+/// The run parameters by their config keys (and flags): a launch's value
+/// comes from the config file or a flag.
+const CONFIG_KEYS: RunNames = RunNames {
+    eps: "eps (--eps)",
+    time_limit: "time_limit (--time-limit)",
+    success_radius: "goal_radius (--goal-radius)",
+    max_robots: "robots (--robots)",
+};
+
+/// A swarm name from the user (flag or config): the swarm, or a usage
+/// error naming it.
+pub fn check_swarm(name: &str) -> Result<bycoms_protocol::Swarm> {
+    bycoms_protocol::Swarm::new(name).map_err(|e| usage(format!("bad swarm name {name:?}: {e}")))
+}
+
+/// zenoh endpoints from the user, named `what` (`--listen`,
+/// `transport.listen`): a usage error for the first one that is not
+/// `LINK/HOST:PORT` ([`bycoms_protocol::bus::zenoh::check_endpoint`]).
+pub fn check_endpoints(what: &str, endpoints: &[String]) -> Result<()> {
+    for endpoint in endpoints {
+        bycoms_protocol::bus::zenoh::check_endpoint(endpoint)
+            .map_err(|e| usage(format!("bad {what} {e}")))?;
+    }
+    Ok(())
 }
 
 /// Most robots one launch deploys (sizes the shared-memory services).

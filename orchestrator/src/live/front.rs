@@ -8,6 +8,17 @@
 //! directions until either side closes — to the SDK server on loopback;
 //! `GET /` gets the page; anything else a short error. One request per
 //! connection (`Connection: close`): the page is one response.
+//!
+//! Subprotocols: the SDK's server negotiates only [`SUBPROTOCOLS`]
+//! (`foxglove.sdk.v1`, `foxglove.sdk.v1.1`). Older clients offer only
+//! `foxglove.websocket.v1`, the former name of the protocol; the SDK
+//! refuses them, and so does this front, but with a 400 that says which
+//! subprotocols are served (the SDK's own 400 says only "missing expected
+//! sec-websocket-protocol header"). Why not rename on the fly: Foxglove
+//! keeps the two names apart on purpose (the same protocol today, not
+//! promised to stay so), and a view that half works is worse than a clear
+//! refusal. Each accepted viewer is logged here, with its real address
+//! (the SDK sees every client as 127.0.0.1).
 
 use std::net::SocketAddr;
 use std::time::Duration;
@@ -19,13 +30,22 @@ pub const MAX_HEAD: usize = 16 * 1024;
 /// A client must send its request head within this long.
 pub const HEAD_TIMEOUT: Duration = Duration::from_secs(10);
 
+/// The WebSocket subprotocols the SDK's server negotiates (foxglove 0.30:
+/// `websocket::handshake`).
+pub const SUBPROTOCOLS: [&str; 2] = ["foxglove.sdk.v1", "foxglove.sdk.v1.1"];
+
+/// The body of the refusal of an upgrade that offers none of [`SUBPROTOCOLS`].
+pub const REFUSAL: &str = "this live view speaks the Foxglove WebSocket subprotocol foxglove.sdk.v1 or \
+                           foxglove.sdk.v1.1; the client offered neither (foxglove.websocket.v1, the \
+                           older name, is not served): use a current Foxglove app or the page at /\n";
+
 /// Accepts connections on `listener` until the runtime ends.
 pub async fn serve(listener: TcpListener, backend: SocketAddr) {
     loop {
         match listener.accept().await {
             Ok((stream, peer)) => {
                 tokio::spawn(async move {
-                    if let Err(e) = connection(stream, backend).await {
+                    if let Err(e) = connection(stream, peer, backend).await {
                         tracing::debug!(%peer, "live view connection ended: {e}");
                     }
                 });
@@ -42,8 +62,10 @@ pub async fn serve(listener: TcpListener, backend: SocketAddr) {
 /// What a request head asks for.
 #[derive(Debug, PartialEq, Eq)]
 pub enum Request {
-    /// A WebSocket upgrade: forward to the SDK server.
+    /// A WebSocket upgrade offering one of [`SUBPROTOCOLS`]: forward to the SDK server.
     Upgrade,
+    /// A WebSocket upgrade offering none of [`SUBPROTOCOLS`].
+    NoSubprotocol,
     /// The page (`GET /` or `HEAD /`; `head_only` for HEAD).
     Page { head_only: bool },
     /// A path we do not serve.
@@ -64,23 +86,31 @@ pub fn classify(head: &[u8]) -> Result<Option<Request>, httparse::Error> {
         .headers
         .iter()
         .any(|h| h.name.eq_ignore_ascii_case("upgrade") && h.value.eq_ignore_ascii_case(b"websocket"));
+    let served = req
+        .headers
+        .iter()
+        .filter(|h| h.name.eq_ignore_ascii_case("sec-websocket-protocol"))
+        .flat_map(|h| std::str::from_utf8(h.value).unwrap_or_default().split(','))
+        .any(|p| SUBPROTOCOLS.contains(&p.trim()));
     let method = req.method.unwrap_or_default();
     let path = req.path.unwrap_or_default().split('?').next().unwrap_or_default();
     Ok(Some(match (method, path) {
-        _ if upgrade => Request::Upgrade,
+        _ if upgrade && served => Request::Upgrade,
+        _ if upgrade => Request::NoSubprotocol,
         ("GET" | "HEAD", "/" | "/index.html") => Request::Page { head_only: method == "HEAD" },
         ("GET" | "HEAD", _) => Request::NotFound,
         _ => Request::BadMethod,
     }))
 }
 
-async fn connection(mut stream: TcpStream, backend: SocketAddr) -> std::io::Result<()> {
+async fn connection(mut stream: TcpStream, peer: SocketAddr, backend: SocketAddr) -> std::io::Result<()> {
     let mut head = Vec::with_capacity(1024);
     let request = tokio::time::timeout(HEAD_TIMEOUT, read_head(&mut stream, &mut head))
         .await
         .map_err(|_| std::io::Error::new(std::io::ErrorKind::TimedOut, "no request head in time"))??;
     match request {
         Some(Request::Upgrade) => {
+            tracing::info!(%peer, "live view: a viewer connected");
             let mut sdk = TcpStream::connect(backend).await?;
             sdk.write_all(&head).await?;
             tokio::io::copy_bidirectional(&mut stream, &mut sdk).await?;
@@ -89,6 +119,10 @@ async fn connection(mut stream: TcpStream, backend: SocketAddr) -> std::io::Resu
         Some(Request::Page { head_only }) => {
             let body = if head_only { "" } else { super::PAGE };
             respond(&mut stream, "200 OK", "text/html; charset=utf-8", super::PAGE.len(), body).await
+        }
+        Some(Request::NoSubprotocol) => {
+            tracing::info!(%peer, "live view: refused a WebSocket client that offers no foxglove.sdk.v1");
+            respond(&mut stream, "400 Bad Request", "text/plain", REFUSAL.len(), REFUSAL).await
         }
         Some(Request::NotFound) => {
             respond(&mut stream, "404 Not Found", "text/plain", 10, "not found\n").await

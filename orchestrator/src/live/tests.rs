@@ -71,8 +71,14 @@ fn the_front_tells_pages_from_upgrades() {
     let get = b"GET / HTTP/1.1\r\nHost: x\r\n\r\n";
     assert_eq!(classify(get).unwrap(), Some(Request::Page { head_only: false }));
     assert_eq!(classify(b"GET / HTTP/1.1\r\nHost: x\r\n").unwrap(), None, "incomplete head");
-    let ws = b"GET / HTTP/1.1\r\nHost: x\r\nConnection: Upgrade\r\nUpgrade: WebSocket\r\n\r\n";
+    let ws = b"GET / HTTP/1.1\r\nHost: x\r\nConnection: Upgrade\r\nUpgrade: WebSocket\r\n\
+               Sec-WebSocket-Protocol: x, foxglove.sdk.v1.1\r\n\r\n";
     assert_eq!(classify(ws).unwrap(), Some(Request::Upgrade));
+    let old =
+        b"GET / HTTP/1.1\r\nUpgrade: websocket\r\nSec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n";
+    assert_eq!(classify(old).unwrap(), Some(Request::NoSubprotocol));
+    let none = b"GET / HTTP/1.1\r\nUpgrade: websocket\r\n\r\n";
+    assert_eq!(classify(none).unwrap(), Some(Request::NoSubprotocol));
     assert_eq!(
         classify(b"HEAD /index.html?x=1 HTTP/1.1\r\n\r\n").unwrap(),
         Some(Request::Page { head_only: true })
@@ -213,4 +219,52 @@ fn a_busy_address_is_a_clear_error() {
     let addr = taken.local_addr().unwrap().to_string();
     let err = LiveView::start(&addr).err().expect("bind fails");
     assert!(err.to_string().contains(&addr), "{err}");
+}
+
+/// A WebSocket upgrade request for `/` offering `protocols`.
+fn upgrade(protocols: Option<&str>) -> String {
+    let offer = protocols.map(|p| format!("Sec-WebSocket-Protocol: {p}\r\n")).unwrap_or_default();
+    format!(
+        "GET / HTTP/1.1\r\nHost: t\r\nConnection: Upgrade\r\nUpgrade: websocket\r\n\
+         Sec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n{offer}\r\n"
+    )
+}
+
+/// The response head to `request` (up to its blank line).
+fn response_head(addr: SocketAddr, request: &str) -> String {
+    let mut s = TcpStream::connect(addr).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    s.write_all(request.as_bytes()).unwrap();
+    let mut out = Vec::new();
+    let mut byte = [0u8; 1];
+    while !out.ends_with(b"\r\n\r\n") {
+        match s.read(&mut byte) {
+            Ok(1) => out.push(byte[0]),
+            _ => break,
+        }
+    }
+    let mut rest = String::new();
+    if !out.starts_with(b"HTTP/1.1 101") {
+        let _ = s.read_to_string(&mut rest);
+    }
+    String::from_utf8_lossy(&out).into_owned() + &rest
+}
+
+#[test]
+fn a_client_of_the_old_subprotocol_name_gets_a_refusal_that_says_what_is_served() {
+    let live = LiveView::start("127.0.0.1:0").unwrap();
+    let addr = live.local_addr();
+    for offered in [Some("foxglove.websocket.v1"), None] {
+        let refused = response_head(addr, &upgrade(offered));
+        assert!(refused.starts_with("HTTP/1.1 400 Bad Request"), "{offered:?}: {refused}");
+        assert!(
+            refused.contains("foxglove.sdk.v1 or foxglove.sdk.v1.1")
+                && refused.contains("foxglove.websocket.v1"),
+            "names what is served and what is not: {refused}"
+        );
+    }
+    let accepted = response_head(addr, &upgrade(Some("foxglove.websocket.v1, foxglove.sdk.v1")));
+    assert!(accepted.starts_with("HTTP/1.1 101"), "{accepted}");
+    assert!(accepted.to_ascii_lowercase().contains("sec-websocket-protocol: foxglove.sdk.v1"), "{accepted}");
+    live.shutdown();
 }

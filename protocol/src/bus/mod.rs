@@ -97,7 +97,7 @@ pub enum BusError {
 }
 
 impl BusError {
-    #[cfg_attr(not(any(feature = "ipc", feature = "zenoh")), allow(dead_code))]
+    #[cfg_attr(not(feature = "ipc"), allow(dead_code))]
     pub(crate) fn backend(op: &'static str, topic: Option<&TopicName>, e: impl core::fmt::Debug) -> Self {
         Self::Backend { op, topic: topic.map(|t| t.as_str().to_owned()), detail: format!("{e:?}") }
     }

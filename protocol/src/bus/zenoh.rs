@@ -43,9 +43,11 @@
 
 mod liveliness;
 mod ports;
+mod text;
 
 pub use liveliness::{AliveToken, AliveWatch, Presence, PresenceEvent};
 pub use ports::{SwarmMessage, SwarmSubscriber, ZenohPublisher, ZenohSubscriber};
+pub use text::{check_endpoint, zenoh_error, EndpointError, LINKS};
 
 use super::{Bus, BusError, Limits};
 use crate::naming::{Swarm, TopicName};
@@ -166,18 +168,13 @@ impl ZenohConfig {
     /// The zenoh configuration this describes.
     pub fn to_zenoh(&self) -> Result<::zenoh::Config, BusError> {
         let mut config = match &self.base_config {
-            Some(path) => ::zenoh::Config::from_file(path).map_err(|e| BusError::Backend {
-                op: "read zenoh config",
-                topic: None,
-                detail: format!("{}: {e}", path.display()),
-            })?,
+            Some(path) => ::zenoh::Config::from_file(path)
+                .map_err(|e| text::backend("read zenoh config", None, Some(&path.display()), &e))?,
             None => ::zenoh::Config::default(),
         };
         let mut set = |key: &'static str, value: String| {
-            config.insert_json5(key, &value).map_err(|e| BusError::Backend {
-                op: "configure zenoh",
-                topic: None,
-                detail: format!("{key} = {value}: {e}"),
+            config.insert_json5(key, &value).map_err(|e| {
+                text::backend("configure zenoh", None, Some(&format_args!("{key} = {value}")), &e)
             })
         };
         set("mode", format!("{:?}", self.mode.as_str()))?;
@@ -254,11 +251,9 @@ impl ZenohBus {
             return Err(BusError::InvalidConfig("max_payload and buffer must be at least 1"));
         }
         let zenoh_config = config.to_zenoh()?;
-        let session = ::zenoh::open(zenoh_config).wait().map_err(|e| BusError::Backend {
-            op: "open zenoh session",
-            topic: None,
-            detail: e.to_string(),
-        })?;
+        let session = ::zenoh::open(zenoh_config)
+            .wait()
+            .map_err(|e| text::backend("open zenoh session", None, None, &e))?;
         let session_tag = hash_of(&session.zid().to_string());
         tracing::debug!(zid = %session.zid(), mode = config.mode.as_str(), "zenoh session open");
         Ok(Self { session, config: Arc::new(config), next_publisher: Arc::default(), session_tag })

@@ -111,7 +111,8 @@ pub struct Header {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[repr(u8)]
 pub enum RobotState {
-    /// Not enabled: motors off, speaker off.
+    /// Motors off: not enabled (speaker off until the first Enable), or
+    /// enabled and waiting for its first goal bearing.
     Idle = 0,
     /// Enabled and commanded: the controller drives the motors.
     Driving = 1,

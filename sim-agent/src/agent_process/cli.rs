@@ -2,7 +2,8 @@
 //! with a code that says how it ended.
 //!
 //! Exit codes: 0 after `Shutdown`, a signal or the parent's death (all
-//! orderly ends), 2 for a usage error (bad flags or values), 3 when the
+//! orderly ends), 2 for a usage error (bad flags or values, a bad swarm
+//! name or `--connect` endpoint), 3 when the
 //! orchestrator refused the agent (its robot already has one), 4 when the
 //! failsafe stopped the robot and exited (orchestrator lost), 1 for any
 //! other error (unreadable terrain, bus failure), printed on stderr first.
@@ -62,7 +63,7 @@ pub fn main_with(args: &AgentArgs) -> i32 {
         Err(e) => {
             tracing::error!("{e}");
             // Bad values are usage errors, like clap's own (exit code 2).
-            if matches!(e, AgentError::Args(_)) {
+            if matches!(e, AgentError::Args(_) | AgentError::Swarm(_)) {
                 2
             } else {
                 1
@@ -101,8 +102,8 @@ fn run(args: &AgentArgs) -> Result<ExitCause, AgentError> {
     // First, before anything slow: never outlive the orchestrator.
     let mut lifeline = Lifeline::install(args.parent_pid)?;
     args.validate().map_err(AgentError::Args)?;
-    let terrain = read_terrain(&args.terrain)?;
     let swarm = Swarm::new(&args.swarm)?;
+    let terrain = read_terrain(&args.terrain)?;
     let id = RobotId(args.robot);
     match args.transport {
         Transport::Ipc => {

@@ -172,6 +172,10 @@ impl AgentArgs {
             return Err("--heartbeat-ms must be at least 1".into());
         }
         self.failsafe.grace()?;
+        for endpoint in &self.connect {
+            bycoms_protocol::bus::zenoh::check_endpoint(endpoint)
+                .map_err(|e| format!("bad --connect {e}"))?;
+        }
         match self.transport {
             Transport::Ipc if !self.connect.is_empty() || self.zenoh_config.is_some() => {
                 Err("--connect and --zenoh-config need --transport zenoh".into())

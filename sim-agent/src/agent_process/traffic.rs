@@ -19,7 +19,7 @@ const LOG_FIRST: u64 = 5;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BadKind {
     /// Bytes that do not decode (malformed, truncated, trailing bytes,
-    /// unknown variant, too long for the buffer).
+    /// unknown variant, non-canonical, too long for the buffer).
     Garbage,
     /// A well-framed message of another protocol version.
     WrongVersion,
@@ -135,14 +135,16 @@ mod tests {
         let v = BusError::Codec(CodecError::UnsupportedVersion { found: 9, supported: 1 });
         assert!(t.absorb("test", "x", v).is_none());
         assert!(t.absorb("test", "x", BusError::Codec(CodecError::Malformed)).is_none());
+        // A non-canonical spelling (an overlong varint) is garbage too.
+        assert!(t.absorb("test", "x", BusError::Codec(CodecError::NonCanonical)).is_none());
         assert!(t.absorb("test", "x", BusError::BufferTooSmall { len: 99, capacity: 64 }).is_none());
         let eintr = BusError::Backend { op: "wait for event", topic: None, detail: "InterruptSignal".into() };
         assert!(t.absorb("test", "x", eintr).is_none());
         let fatal = BusError::InvalidConfig("x");
         assert_eq!(t.absorb("test", "x", fatal.clone()), Some(fatal));
         t.count("test", BadKind::Duplicate, &"again");
-        assert_eq!((t.wrong_version, t.garbage, t.duplicate, t.total()), (1, 2, 1, 4));
-        assert_eq!(t.to_string(), "2 undecodable, 1 of another protocol version, 1 duplicate registration");
+        assert_eq!((t.wrong_version, t.garbage, t.duplicate, t.total()), (1, 3, 1, 5));
+        assert_eq!(t.to_string(), "3 undecodable, 1 of another protocol version, 1 duplicate registration");
         assert_eq!(Traffic::default().to_string(), "none");
     }
 }

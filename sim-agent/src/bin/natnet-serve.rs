@@ -51,7 +51,7 @@ fn main() {
     let cli = Cli::parse();
     bycoms_logging::init(cli.log.log_format);
     if let Err(e) = run(&cli) {
-        tracing::error!("{e:#}");
+        tracing::error!("{}", bycoms_logging::error_text(e.as_ref()));
         std::process::exit(1);
     }
 }

@@ -3,47 +3,57 @@
 //! of real robots (see `bycoms_sim::lab::process`). Thin `main`: parse, run,
 //! exit code.
 //!
-//! Why `lab` is dispatched by hand: the robot's flags are required and
-//! flattened at the top level (the orchestrator spawns `sim-agent --swarm …
-//! --robot …`), which clap cannot mix with a subcommand that has other
-//! required flags; the first argument decides.
+//! The robot's flags stay at the top level (the orchestrator spawns
+//! `sim-agent --swarm … --robot …`) next to the `lab` subcommand: one clap
+//! command where a subcommand lifts the top level's required flags
+//! (`subcommand_negates_reqs`) and the two exclude each other
+//! (`args_conflicts_with_subcommands`), so `--help` lists `lab` and
+//! `sim-agent lab --help` has the lab's own usage line. The command is
+//! assembled from the argument structs rather than derived as one struct:
+//! clap's derive cannot leave out a flattened struct that itself flattens
+//! another (the robot's failsafe flags) when the subcommand is used.
 
+use bycoms_logging::LogArgs;
 use bycoms_sim::agent_process::{main_with, AgentArgs};
 use bycoms_sim::lab::process::LabArgs;
-use clap::Parser;
+use clap::{Args, Command, FromArgMatches};
 
-#[derive(Parser)]
-#[command(name = "sim-agent", version, about, long_about)]
-struct Cli {
-    #[command(flatten)]
-    agent: AgentArgs,
-    #[command(flatten)]
-    log: bycoms_logging::LogArgs,
+/// The whole command line: the robot's flags, the logging flags, `lab`.
+/// (The about lines are set last: `augment_args` applies each struct's doc
+/// comment as the command's about.)
+fn command() -> Command {
+    let lab = LabArgs::augment_args(Command::new("lab"));
+    let top = Command::new("sim-agent")
+        .args_conflicts_with_subcommands(true)
+        .subcommand_negates_reqs(true)
+        .subcommand(lab);
+    LogArgs::augment_args(AgentArgs::augment_args(top))
+        .version(env!("CARGO_PKG_VERSION"))
+        .about(env!("CARGO_PKG_DESCRIPTION"))
+        .long_about(None::<&str>)
 }
 
-/// The emulated lab: one emulated ESP32 per robot behind its own UDP
-/// socket, crawler bodies, sound, and true poses on the bus as simulated
-/// motion capture.
-#[derive(Parser)]
-#[command(name = "sim-agent lab", version)]
-struct LabCli {
-    #[command(flatten)]
-    lab: LabArgs,
-    #[command(flatten)]
-    log: bycoms_logging::LogArgs,
+/// The value, or clap's error (with this command's usage) and exit 2.
+fn parsed<T>(result: Result<T, clap::Error>) -> T {
+    result.unwrap_or_else(|e| e.format(&mut command()).exit())
 }
 
 fn main() {
-    let mut args: Vec<std::ffi::OsString> = std::env::args_os().collect();
-    if args.get(1).is_some_and(|a| a == "lab") {
-        args.remove(1);
-        let cli = LabCli::parse_from(args);
-        bycoms_logging::init(cli.log.log_format);
-        bycoms_sim::agent_process::cli::tune_zenoh_runtime();
-        std::process::exit(bycoms_sim::lab::process::main_with(&cli.lab));
-    }
-    let cli = Cli::parse_from(args);
-    bycoms_logging::init(cli.log.log_format);
+    let matches = command().get_matches();
+    let log: LogArgs = parsed(LogArgs::from_arg_matches(&matches));
+    bycoms_logging::init(log.log_format);
     bycoms_sim::agent_process::cli::tune_zenoh_runtime();
-    std::process::exit(main_with(&cli.agent));
+    let code = match matches.subcommand() {
+        Some(("lab", lab)) => bycoms_sim::lab::process::main_with(&parsed(LabArgs::from_arg_matches(lab))),
+        _ => main_with(&parsed(AgentArgs::from_arg_matches(&matches))),
+    };
+    std::process::exit(code);
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_command_is_consistent() {
+        super::command().debug_assert();
+    }
 }

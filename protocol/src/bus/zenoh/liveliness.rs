@@ -121,11 +121,7 @@ impl ZenohBus {
         let name = swarm.alive(member);
         let token =
             self.session().liveliness().declare_token(name.as_str().to_owned()).wait().map_err(|e| {
-                BusError::Backend {
-                    op: "declare liveliness token",
-                    topic: Some(name.to_string()),
-                    detail: e.to_string(),
-                }
+                super::text::backend("declare liveliness token", Some(name.to_string()), None, &e)
             })?;
         Ok(AliveToken { _token: token, member })
     }
@@ -147,11 +143,7 @@ impl ZenohBus {
                 }
             })
             .wait()
-            .map_err(|e| BusError::Backend {
-                op: "watch liveliness",
-                topic: None,
-                detail: format!("{pattern}: {e}"),
-            })?;
+            .map_err(|e| super::text::backend("watch liveliness", None, Some(&pattern), &e))?;
         Ok(AliveWatch { _subscriber: subscriber, events })
     }
 }

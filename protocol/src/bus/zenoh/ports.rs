@@ -19,7 +19,8 @@ const FOREIGN_PUBLISHER: u64 = 0;
 
 fn key_expr(topic: &TopicName) -> Result<KeyExpr<'static>, BusError> {
     // Topic names are valid key expressions by construction (naming rules).
-    KeyExpr::try_from(topic.as_str().to_owned()).map_err(|e| BusError::backend("name key", Some(topic), e))
+    KeyExpr::try_from(topic.as_str().to_owned())
+        .map_err(|e| super::text::backend("name key", Some(topic.as_str().to_owned()), None, &e))
 }
 
 /// The publisher id carried in a sample's attachment, if it has one.
@@ -45,7 +46,7 @@ pub(super) fn open_publisher(
         .congestion_control(congestion)
         .express(config.express)
         .wait()
-        .map_err(|e| BusError::backend("open publisher", Some(topic), e))?;
+        .map_err(|e| super::text::backend("open publisher", Some(topic.as_str().to_owned()), None, &e))?;
     Ok(ZenohPublisher { inner, id: id.to_le_bytes(), topic: *topic, max_payload: config.limits.max_payload })
 }
 
@@ -60,7 +61,7 @@ pub(super) fn open_subscriber(
         .declare_subscriber(key_expr(topic)?)
         .callback(move |sample: Sample| sink.push(publisher_of(&sample), &sample.payload().to_bytes()))
         .wait()
-        .map_err(|e| BusError::backend("open subscriber", Some(topic), e))?;
+        .map_err(|e| super::text::backend("open subscriber", Some(topic.as_str().to_owned()), None, &e))?;
     Ok(ZenohSubscriber { _inner: inner, inbox, max_payload: config.limits.max_payload })
 }
 
@@ -70,17 +71,16 @@ pub(super) fn open_swarm_subscriber(
     swarm: &Swarm,
 ) -> Result<SwarmSubscriber, BusError> {
     let pattern = swarm.everything();
-    let key = KeyExpr::try_from(pattern.as_str().to_owned()).map_err(|e| BusError::Backend {
-        op: "name key",
-        topic: None,
-        detail: format!("{pattern}: {e}"),
-    })?;
+    let key = KeyExpr::try_from(pattern.as_str().to_owned())
+        .map_err(|e| super::text::backend("name key", None, Some(&pattern), &e))?;
     // Every robot's topics share this one queue: room for `buffer` each of
     // a few hundred topics before the oldest message is dropped.
     let capacity = config.limits.buffer.saturating_mul(256);
-    let inner = session.declare_subscriber(key).with(RingChannel::new(capacity)).wait().map_err(|e| {
-        BusError::Backend { op: "open subscriber", topic: None, detail: format!("{pattern}: {e}") }
-    })?;
+    let inner = session
+        .declare_subscriber(key)
+        .with(RingChannel::new(capacity))
+        .wait()
+        .map_err(|e| super::text::backend("open subscriber", None, Some(&pattern), &e))?;
     Ok(SwarmSubscriber { inner, swarm: *swarm })
 }
 
@@ -101,7 +101,7 @@ impl Publish for ZenohPublisher {
             .put(payload)
             .attachment(self.id)
             .wait()
-            .map_err(|e| BusError::backend("publish", Some(&self.topic), e))
+            .map_err(|e| super::text::backend("publish", Some(self.topic.as_str().to_owned()), None, &e))
     }
 }
 
@@ -154,7 +154,7 @@ impl SwarmSubscriber {
     pub fn recv_timeout(&self, timeout: Duration) -> Result<Option<SwarmMessage>, BusError> {
         match self.inner.handler().recv_timeout(timeout) {
             Ok(sample) => Ok(sample.map(|s| self.convert(s))),
-            Err(e) => Err(BusError::Backend { op: "receive", topic: None, detail: e.to_string() }),
+            Err(e) => Err(super::text::backend("receive", None, None, &e)),
         }
     }
 
@@ -162,7 +162,7 @@ impl SwarmSubscriber {
     pub fn try_recv(&self) -> Result<Option<SwarmMessage>, BusError> {
         match self.inner.handler().try_recv() {
             Ok(sample) => Ok(sample.map(|s| self.convert(s))),
-            Err(e) => Err(BusError::Backend { op: "receive", topic: None, detail: e.to_string() }),
+            Err(e) => Err(super::text::backend("receive", None, None, &e)),
         }
     }
 }
