@@ -119,7 +119,7 @@ impl Driver {
             };
             if let Err(e) = self.pump(wait) {
                 let now = self.now();
-                self.core.handle(now, Input::Failed(format!("{e:#}")));
+                self.core.handle(now, Input::Failed(crate::exit::message(&e)));
             }
         };
         self.finish(ending)
@@ -139,7 +139,7 @@ impl Driver {
             acted = true;
             if let Err(e) = self.carry(out) {
                 let now = self.now();
-                self.core.handle(now, Input::Failed(format!("{e:#}")));
+                self.core.handle(now, Input::Failed(crate::exit::message(&e)));
             }
         }
         acted
@@ -158,7 +158,7 @@ impl Driver {
                         };
                         self.core.handle(now, Input::Started { robot: id, pid, how: s.to_string() });
                     }
-                    Err(e) => self.core.handle(now, Input::Failed(format!("{e:#}"))),
+                    Err(e) => self.core.handle(now, Input::Failed(crate::exit::message(&e))),
                 }
             }
             Output::Send(id, msg) => self.ports.send(id, &msg)?,
