@@ -1,5 +1,5 @@
 //! A simulated robot's agent in virtual time: the `sim-agent` process's
-//! lockstep rules around the same [`AgentCore`].
+//! rules, on either clock, around the same [`AgentCore`].
 //!
 //! Why the same core: the harness must reproduce `simulate` bit for bit
 //! without faults, so the robot is the very `AgentCore`/`SimRobot` the
@@ -7,8 +7,10 @@
 //! rules (`sim-agent/src/agent_process/run.rs`): register until heard from,
 //! heartbeats, `Deploy` answered with the start pose (a repeat of it too),
 //! a `Tick` stepped once and a repeated one answered without stepping, and
-//! the pose and `TickDone` after each period. Those rules are restated here
-//! in a dozen lines because the process keeps them inside its bus loop.
+//! the pose and `TickDone` after each period; in real time, a period every
+//! `period` of its own clock (started when it registers), numbered from that
+//! start, whatever came. Those rules are restated here in a few dozen lines
+//! because the process keeps them inside its bus loop.
 
 use bycoms_protocol::msg::{
     AgentKind, Deploy, FromAgent, Heartbeat, Pose, Register, Status, TickDone, ToAgent,
@@ -44,11 +46,31 @@ pub struct Agent {
     pub next_beat: Option<u64>,
     heartbeat_us: u64,
     beats: u64,
+    /// Real time: its own clock's start and period (wall µs), once it runs.
+    realtime: Option<RealTime>,
+    /// Real time: when its next period is due, µs.
+    pub next_period: Option<u64>,
+}
+
+/// An agent's own real-time clock.
+#[derive(Clone, Copy, Debug)]
+struct RealTime {
+    period_us: u64,
+    t0: Option<u64>,
 }
 
 impl Agent {
-    /// Robot `id`'s agent, registering first at `register_at` (never if none).
-    pub fn new(id: u32, instance: u64, terrain: Terrain, run: RunConfig, register_at: Option<u64>) -> Self {
+    /// Robot `id`'s agent, registering first at `register_at` (never if
+    /// none); on the real-time clock with a period of `wall_period_us` when
+    /// given, else lockstep.
+    pub fn new(
+        id: u32,
+        instance: u64,
+        terrain: Terrain,
+        run: RunConfig,
+        register_at: Option<u64>,
+        wall_period_us: Option<u64>,
+    ) -> Self {
         let period_us = (run.kinematics.dt * 1e6).round() as u64;
         Self {
             id,
@@ -63,6 +85,8 @@ impl Agent {
             next_beat: register_at,
             heartbeat_us: 500_000,
             beats: 0,
+            realtime: wall_period_us.map(|period_us| RealTime { period_us: period_us.max(1), t0: None }),
+            next_period: None,
         }
     }
 
@@ -78,6 +102,11 @@ impl Agent {
             return;
         }
         let robot = RobotId(self.id);
+        if let Some(rt) = self.realtime.as_mut().filter(|rt| rt.t0.is_none()) {
+            // Its clock starts when it registers, as the process's does.
+            rt.t0 = Some(now);
+            self.next_period = Some(now + rt.period_us);
+        }
         if !self.heard {
             let r = Register {
                 robot,
@@ -90,6 +119,26 @@ impl Agent {
         self.beats += 1;
         out.push(Sent::Report(FromAgent::Heartbeat(Heartbeat { robot, seq: self.beats })));
         self.next_beat = Some(now + self.heartbeat_us);
+    }
+
+    /// Real time: its period due at `now` (late periods are skipped, as the
+    /// process skips what it was late for).
+    pub fn period(&mut self, now: u64, out: &mut Vec<Sent>) {
+        let Some(RealTime { period_us, t0: Some(t0) }) = self.realtime else { return };
+        if !self.alive {
+            self.next_period = None;
+            return;
+        }
+        let index = (now - t0) / period_us;
+        self.tick = index;
+        if self.core.step() {
+            self.stepped += 1;
+            self.publish(out);
+            out.push(Sent::Report(FromAgent::Status(self.status())));
+        } else {
+            self.publish(out);
+        }
+        self.next_period = Some(t0 + (index + 1) * period_us);
     }
 
     /// Another robot's pose on its topic.
@@ -123,6 +172,9 @@ impl Agent {
             ToAgent::GoalBearing(b) => {
                 let _ = self.core.set_bearing(b);
             }
+            // A real-time agent steps on its own clock (the process counts a
+            // `Tick` as refused traffic).
+            ToAgent::Tick(_) if self.realtime.is_some() => {}
             ToAgent::Tick(t) if t.step <= self.tick => {
                 if t.step == self.tick {
                     self.publish(out);
@@ -147,7 +199,10 @@ impl Agent {
                 })));
             }
             ToAgent::Stop => self.core.stop(),
-            ToAgent::Shutdown => self.alive = false,
+            ToAgent::Shutdown => {
+                self.alive = false;
+                self.next_period = None;
+            }
             ToAgent::Refused(_) => {}
         }
     }

@@ -14,9 +14,12 @@
 //! replayed exactly from its seed:
 //! `BYCOMS_SIM_SEED=<seed> cargo test -p bycoms-orchestrator --test launch_sim -- one_seed`.
 //!
-//! The agents run the lockstep clock (the clock whose rules the core
-//! owns: ticks, answers, re-sends); forged poses reach the core only (the
-//! simulated agents' own handling of peers' poses is the agent's business).
+//! The agents run either clock: lockstep (the core is the clock: ticks,
+//! answers, re-sends) or real time at a drawn speed (each agent steps on
+//! its own clock from its registration; the core answers poses with
+//! bearings and relays dead robots once a period). Forged poses reach the
+//! core only (the simulated agents' own handling of peers' poses is the
+//! agent's business).
 
 mod agent;
 mod net;
@@ -153,14 +156,16 @@ struct World<'a> {
     link_grace_us: u64,
 }
 
-/// The core's setup for `case` with agents of `schedule`'s kind.
-pub fn setup(case: &Case, remote: bool) -> super::core::Setup {
+/// The core's setup for `case` with agents of `schedule`'s kind and clock.
+pub fn setup(case: &Case, schedule: &Schedule) -> super::core::Setup {
+    let remote = schedule.remote;
+    let speed = schedule.realtime.unwrap_or(1.0);
     let cfg = LaunchConfig::default();
     let run = case.run_config();
     let period_us = (run.kinematics.dt * 1e6).round() as u64;
     super::core::Setup {
         robots: case.robots,
-        lockstep: true,
+        lockstep: schedule.realtime.is_none(),
         params: GateParams {
             goal: case.terrain.goal(),
             goal_radius: run.success_radius,
@@ -170,8 +175,8 @@ pub fn setup(case: &Case, remote: bool) -> super::core::Setup {
             period_us,
         },
         step_limit: run.step_limit(),
-        wall_period_us: period_us,
-        speed: 1.0,
+        wall_period_us: (period_us as f64 / speed) as u64,
+        speed,
         tick_timeout_us: (cfg.supervision.tick_timeout * 1e6) as u64,
         on_death: case.on_death,
         prespawn: true,
@@ -199,7 +204,7 @@ pub fn run(case: &Case, schedule: &Schedule) -> Report {
     let mut world = World {
         case,
         schedule,
-        core: Core::new(setup(case, schedule.remote)),
+        core: Core::new(setup(case, schedule)),
         net: Net::new(schedule.link.clone(), schedule.partitions.clone(), schedule.seed),
         agents: (0..n).map(|_| None).collect(),
         impostors: Vec::new(),
@@ -289,6 +294,7 @@ impl World<'_> {
                 self.net.next_at(),
                 self.events.peek().map(|Reverse((at, _, _))| *at),
                 self.agents.iter().flatten().filter(|a| a.alive).filter_map(|a| a.next_beat).min(),
+                self.agents.iter().flatten().filter(|a| a.alive).filter_map(|a| a.next_period).min(),
                 self.watchdog_due(),
             ]
             .into_iter()
@@ -357,6 +363,11 @@ impl World<'_> {
         }
     }
 
+    /// Real time: one control period in wall µs.
+    fn wall_period_us(&self) -> Option<u64> {
+        self.schedule.realtime.map(|speed| (self.case.run_config().kinematics.dt * 1e6 / speed) as u64)
+    }
+
     fn start(&mut self, id: u32) {
         let i = id as usize - 1;
         let delay = self.schedule.register_delay_us.get(i).copied().unwrap_or(Some(50_000));
@@ -367,6 +378,7 @@ impl World<'_> {
             self.case.terrain.clone(),
             self.case.run_config(),
             delay.map(|d| self.now + d),
+            self.wall_period_us(),
         );
         self.agents[i] = Some(agent);
         self.started_at[i] = Some(self.now);
@@ -427,9 +439,14 @@ impl World<'_> {
         for a in self.agents.iter_mut().flatten().filter(|a| a.alive) {
             if a.next_beat.is_some_and(|t| t <= now) {
                 a.beat(now, &mut sent);
-                for s in sent.drain(..) {
-                    Self::send_from(&mut self.net, now, a.id(), s);
-                }
+            }
+            if a.next_period.is_some_and(|t| t <= now) {
+                let before = a.stepped;
+                a.period(now, &mut sent);
+                self.report.stepped[a.id() as usize - 1] += a.stepped - before;
+            }
+            for s in sent.drain(..) {
+                Self::send_from(&mut self.net, now, a.id(), s);
             }
         }
         self.watchdog();
@@ -497,6 +514,7 @@ impl World<'_> {
                     self.case.terrain.clone(),
                     self.case.run_config(),
                     Some(now),
+                    self.wall_period_us(),
                 );
                 let mut sent = Vec::new();
                 a.beat(now, &mut sent);
@@ -586,7 +604,7 @@ impl Foreign {
             Foreign::NotFinite(id) => {
                 let mut p = w.true_pose(id)?;
                 p.x = f64::NAN;
-                p.step = tick + 1;
+                p.step += 1;
                 Some(Input::Pose { topic: id, pose: p })
             }
             Foreign::AtTheGoal(id) => {
@@ -596,7 +614,7 @@ impl Foreign {
                     return None;
                 }
                 let forged =
-                    Pose { x: goal.x, y: goal.y, step: tick + 1, time_us: (tick + 1) * 100_000, ..p };
+                    Pose { x: goal.x, y: goal.y, step: p.step + 1, time_us: p.time_us + 100_000, ..p };
                 Some(Input::Pose { topic: id, pose: forged })
             }
             Foreign::OtherRobotsPose { topic, robot } => {
@@ -685,9 +703,14 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
     if sum != report.spent {
         return Err(format!("spent {} but the robots' steps sum to {sum}", report.spent));
     }
+    // Periods that ran: lockstep ticks, or real time's wall time × speed.
+    let periods = match schedule.realtime {
+        None => report.ticks,
+        Some(speed) => (report.end_us as f64 * speed / 100_000.0) as u64 + 2,
+    };
     for (i, r) in report.robots.iter().enumerate() {
-        if r.1 > report.ticks {
-            return Err(format!("robot {} charged {} steps in {} ticks", i + 1, r.1, report.ticks));
+        if r.1 > periods {
+            return Err(format!("robot {} charged {} steps in {periods} periods", i + 1, r.1));
         }
         if let Some(p) = r.2 {
             if !(p.x.is_finite() && p.y.is_finite()) {

@@ -52,6 +52,8 @@ pub struct Schedule {
     /// Agents exist on their own (remote): all awaited at the start, their
     /// partitions reported as unreachable and back.
     pub remote: bool,
+    /// The real-time clock at this speed-up (none: lockstep).
+    pub realtime: Option<f64>,
     /// Delays, losses and duplicates.
     pub link: Link,
     /// Partitions.
@@ -76,6 +78,7 @@ impl Schedule {
             seed,
             robots,
             remote: false,
+            realtime: None,
             link: Link::perfect(50),
             partitions: Vec::new(),
             crashes: Vec::new(),
@@ -108,6 +111,7 @@ impl Schedule {
         let mut s = Self::clean(seed, robots);
         let r = robots;
         s.remote = rng.gen_bool(0.3);
+        s.realtime = rng.gen_bool(0.3).then(|| [1.0, 5.0, 10.0][rng.gen_range(0..3)]);
         let spread = [0, 200, 5_000, 50_000][rng.gen_range(0..4)];
         let min = rng.gen_range(10..2_000);
         s.link = Link {
@@ -116,7 +120,11 @@ impl Schedule {
             drop: [0.0, 0.0, 0.01, 0.05][rng.gen_range(0..4)],
             duplicate: [0.0, 0.01, 0.1][rng.gen_range(0..3)],
         };
-        let horizon_us = (ticks * 2 * (s.link.delay_max_us + 50)).max(1_000_000);
+        let tick_us = match s.realtime {
+            Some(speed) => (100_000.0 / speed) as u64,
+            None => 2 * (s.link.delay_max_us + 50),
+        };
+        let horizon_us = (ticks * tick_us).max(1_000_000);
         if s.remote {
             for _ in 0..rng.gen_range(0..3) {
                 let from_us = rng.gen_range(0..horizon_us);
