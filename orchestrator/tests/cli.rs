@@ -418,3 +418,25 @@ fn merge_refuses_a_shard_of_another_sweep_and_names_it() {
     assert!(stderr(&o).contains("success=true with outcome=time_limit"), "{}", stderr(&o));
     assert!(stderr(&o).contains("runs-shard-0-of-2.csv: row 2"), "{}", stderr(&o));
 }
+
+#[test]
+fn a_live_swarm_is_refused_whatever_the_temp_dir_with_a_usage_error() {
+    use bycoms_orchestrator::launch::swarm_lock::SwarmLock;
+    // The swarm held as a live launch holds it (this process, its TMPDIR;
+    // the isolation tag, if any, is inherited by the launch below).
+    let swarm = format!("lockscope{}", std::process::id());
+    let held = SwarmLock::acquire(&swarm).expect("lock the swarm");
+    // Another TMPDIR (another shell, or systemd's PrivateTmp=yes) still
+    // shares the machine's shared memory, so the swarm is still in use.
+    let other_tmp = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .args(["launch", "--robots", "1", "--time-limit", "5", "--swarm", &swarm, "--json"])
+        .env("TMPDIR", other_tmp.path())
+        .output()
+        .expect("spawn orchestrator");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let said = stderr(&o);
+    assert!(said.contains(&format!("swarm \"{swarm}\" is in use by a running launch")), "{said}");
+    assert!(o.stdout.is_empty(), "nothing ran: {}", String::from_utf8_lossy(&o.stdout));
+    drop(held);
+}
