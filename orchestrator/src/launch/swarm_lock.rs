@@ -113,13 +113,16 @@ impl SwarmLock {
         let io = |source| SwarmLockError::Io { swarm: swarm.to_string(), path: path.clone(), source };
         std::fs::create_dir_all(dir).map_err(io)?;
         loop {
-            let mut file = OpenOptions::new()
-                .read(true)
-                .write(true)
-                .create(true)
-                .truncate(false)
-                .open(&path)
-                .map_err(io)?;
+            let opened = OpenOptions::new().read(true).write(true).create(true).truncate(false).open(&path);
+            let (mut file, writable) = match opened {
+                Ok(file) => (file, true),
+                // Another user's lock file (the shared memory is every
+                // user's): `flock` needs no write access to lock it.
+                Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied => {
+                    (File::open(&path).map_err(io)?, false)
+                }
+                Err(e) => return Err(io(e)),
+            };
             match file.try_lock() {
                 Ok(()) => {}
                 Err(TryLockError::WouldBlock) => {
@@ -135,9 +138,11 @@ impl SwarmLock {
                 Ok(now) if now.ino() == locked.ino() && now.dev() == locked.dev() => {}
                 _ => continue,
             }
-            file.set_len(0).map_err(io)?;
-            file.rewind().map_err(io)?;
-            write!(file, "{}", std::process::id()).map_err(io)?;
+            if writable {
+                file.set_len(0).map_err(io)?;
+                file.rewind().map_err(io)?;
+                write!(file, "{}", std::process::id()).map_err(io)?;
+            }
             return Ok(Self { file, path });
         }
     }
