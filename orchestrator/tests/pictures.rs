@@ -321,3 +321,36 @@ fn the_animation_moves_each_robot_over_its_own_time() {
     let beacons = r["beacons"].as_array().unwrap().len();
     assert_eq!(elements(group(&svg, "potential-contours"), "path").len(), beacons);
 }
+
+#[test]
+fn the_summary_the_launch_picture_and_the_recordings_picture_give_one_run_time() {
+    // The default launch (lockstep, long-obstacle, 3 robots: two get stuck
+    // and stand still for the gate's dwell, the third arrives).
+    let dir = tempfile::tempdir().unwrap();
+    let (rec, launch_svg, draw_svg) =
+        (dir.path().join("run.mcap"), dir.path().join("launch.svg"), dir.path().join("draw.svg"));
+    let swarm = format!("onetime{}", std::process::id());
+    let o = orchestrator(&[
+        "launch",
+        "--swarm",
+        &swarm,
+        "--json",
+        "--record",
+        rec.to_str().unwrap(),
+        "--svg",
+        launch_svg.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let summary: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON summary");
+    let o = orchestrator(&["draw", rec.to_str().unwrap(), "--out", draw_svg.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let arrived = summary["robots"].as_array().unwrap().iter().find(|r| r["end"] == "arrived").unwrap();
+    let time = summary["time_s"].as_f64().unwrap();
+    assert!(summary["ticks"].as_u64().unwrap() as f64 * 0.1 > time + 2.0, "the dwell is not run time");
+    let verdict = format!("robot {} arrived after {time:.1} s (2 beacons)", arrived["id"]);
+    for svg in [&launch_svg, &draw_svg] {
+        let text = std::fs::read_to_string(svg).unwrap();
+        let titles: Vec<String> = text_boxes(&text).into_iter().map(|(_, t)| t).collect();
+        assert!(titles.contains(&verdict), "{} says {titles:?}, the summary {verdict:?}", svg.display());
+    }
+}
