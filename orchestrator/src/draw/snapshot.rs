@@ -131,7 +131,8 @@ fn panel(
     }
     for robot in &robots {
         let colour = PALETTE[(robot.id as usize - 1) % PALETTE.len()];
-        if let Some(run) = result.robots.get(robot.id as usize - 1) {
+        // By number: a robot lost before deployment leaves a gap in the ids.
+        if let Some(run) = result.robots.iter().find(|r| r.id == robot.id) {
             let walked = &run.trajectory[..robot.trail.min(run.trajectory.len())];
             let pts = decimate(walked, 0.2);
             svg.polyline(pts.iter().map(|&p| px(p)), &format!(r#"stroke="{colour}" stroke-width="1.2""#));

@@ -28,7 +28,6 @@ use std::collections::BTreeMap;
 /// One robot's track so far.
 #[derive(Debug, Clone, Default)]
 struct Track {
-    path: Vec<Vec2>,
     end: Option<GateKind>,
     /// Where the gate decided (a beacon's position).
     at: Option<Vec2>,
@@ -41,7 +40,7 @@ struct Track {
 }
 
 /// A deployed robot's start and last change of pose, as the gate counts them.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 struct Active {
     /// The step the gate deployed it at.
     start_step: u64,
@@ -52,6 +51,10 @@ struct Active {
     last: Pose,
     /// Pose time of the last change of pose; `None`: none since the start.
     last_change_us: Option<u64>,
+    /// Where it was at the start pose.
+    start_at: Vec2,
+    /// Every later pose taken: pose time and position.
+    moves: Vec<(u64, Vec2)>,
 }
 
 impl Active {
@@ -61,12 +64,20 @@ impl Active {
     fn start(latest: Pose, deployed: &GateEvent) -> Self {
         let start_us = (latest.step == deployed.step).then_some(latest.time_us);
         let last = Pose { step: deployed.step, ..latest };
-        Self { start_step: deployed.step, start_us, last, last_change_us: None }
+        let start_at = Vec2::new(latest.x, latest.y);
+        Self { start_step: deployed.step, start_us, last, last_change_us: None, start_at, moves: Vec::new() }
     }
 
     /// From a robot's first pose.
     fn first(pose: Pose) -> Self {
-        Self { start_step: pose.step, start_us: Some(pose.time_us), last: pose, last_change_us: None }
+        Self {
+            start_step: pose.step,
+            start_us: Some(pose.time_us),
+            last: pose,
+            last_change_us: None,
+            start_at: Vec2::new(pose.x, pose.y),
+            moves: Vec::new(),
+        }
     }
 
     fn observe(&mut self, pose: &Pose) {
@@ -77,12 +88,38 @@ impl Active {
             self.last_change_us = Some(pose.time_us);
         }
         self.last = *pose;
+        self.moves.push((pose.time_us, Vec2::new(pose.x, pose.y)));
+    }
+
+    fn start_us(&self, period_us: u64) -> u64 {
+        self.start_us.unwrap_or(self.start_step.saturating_mul(period_us))
     }
 
     /// Active control periods of `period_us`.
     fn periods(&self, period_us: u64) -> u64 {
-        let start_us = self.start_us.unwrap_or(self.start_step.saturating_mul(period_us));
+        let start_us = self.start_us(period_us);
         active_periods(start_us, self.last_change_us.unwrap_or(start_us), period_us)
+    }
+
+    /// Its trajectory as a simulated run's: the start, then where it was
+    /// after each active period (the latest pose by then), the last point
+    /// where it last moved to. Motion capture's frames and the still poses
+    /// of the dwell thus fall out, and the timeline of the pictures holds.
+    fn trajectory(&self, period_us: u64) -> Vec<Vec2> {
+        let (start_us, steps) = (self.start_us(period_us), self.periods(period_us));
+        let mut out = Vec::with_capacity(steps as usize + 1);
+        let (mut at, mut next) = (self.start_at, self.moves.iter().peekable());
+        for k in 0..steps {
+            let by = start_us + k * period_us;
+            while let Some(&(_, p)) = next.next_if(|(t, _)| *t <= by) {
+                at = p;
+            }
+            out.push(at);
+        }
+        let end = self.last_change_us.unwrap_or(start_us);
+        let last = self.moves.iter().take_while(|(t, _)| *t <= end).last().map_or(self.start_at, |m| m.1);
+        out.push(last);
+        out
     }
 }
 
@@ -104,7 +141,6 @@ impl Trace {
         if track.end.is_some() {
             return;
         }
-        track.path.push(Vec2::new(pose.x, pose.y));
         if !track.deployed {
             track.latest = Some(*pose);
         }
@@ -130,12 +166,8 @@ impl Trace {
             track.deployed = true;
             return;
         }
-        let at = Vec2::new(event.x, event.y);
-        if track.path.is_empty() {
-            track.path.push(at);
-        }
         track.end = Some(event.kind);
-        track.at = Some(at);
+        track.at = Some(Vec2::new(event.x, event.y));
     }
 
     /// Whether any robot was seen.
@@ -150,18 +182,22 @@ impl Trace {
         let period_us = (dt * 1e6).round() as u64;
         let mut robots = Vec::new();
         let mut beacons = Vec::new();
-        for (&id, track) in self.robots.iter().filter(|(_, t)| !t.path.is_empty()) {
+        for (&id, track) in self.robots.iter().filter(|(_, t)| t.active.is_some() || t.at.is_some()) {
             let end = match track.end {
                 Some(GateKind::Stopped { arrived: true }) => RobotEnd::Arrived,
                 Some(GateKind::Stopped { arrived: false } | GateKind::Died) => RobotEnd::Stuck,
                 _ => RobotEnd::Moving,
             };
-            let position = track.at.or(track.path.last().copied()).unwrap_or(Vec2::new(0.0, 0.0));
+            let trajectory = match (&track.active, track.at) {
+                (Some(active), _) => active.trajectory(period_us),
+                (None, at) => at.into_iter().collect(),
+            };
+            let position = track.at.or(trajectory.last().copied()).unwrap_or(Vec2::new(0.0, 0.0));
             if end == RobotEnd::Stuck {
                 beacons.push(position);
             }
-            let steps = track.active.map_or(0, |a| a.periods(period_us));
-            robots.push(RobotRun { id, end, position, steps, trajectory: track.path.clone() });
+            let steps = track.active.as_ref().map_or(0, |a| a.periods(period_us));
+            robots.push(RobotRun { id, end, position, steps, trajectory });
         }
         let success = robots.iter().any(|r| r.end == RobotEnd::Arrived);
         let timed_out = self.robots.values().any(|t| t.end == Some(GateKind::Timeout));
@@ -228,7 +264,8 @@ mod tests {
             [2, 1, 1],
             "the still pose is no step"
         );
-        assert_eq!(r.robots[0].trajectory.len(), 4, "every pose up to the decision is drawn");
+        let points = [Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(2.0, 1.0)];
+        assert_eq!(r.robots[0].trajectory, points, "one point per period, the still pose none");
         assert_eq!(r.steps, 4);
         assert_eq!(r.time, 0.4);
         assert_eq!(r.beacons, [Vec2::new(2.0, 1.0), Vec2::new(0.5, 1.0)]);
@@ -296,6 +333,12 @@ mod tests {
         trace.gate(&event(1, GateKind::Stopped { arrived: false }, 0.36));
         let r = trace.result(0.1);
         assert_eq!((r.robots[0].steps, r.time), (30, 3.0));
+        // The picture shows it where it stopped, its whole way there: one
+        // point per period, as a simulated run's trajectory.
+        let now = crate::draw::timeline::robots_at(&r, r.steps);
+        assert!(now[0].position.distance(Vec2::new(0.36, 1.0)) < 1e-9, "{:?}", now[0].position);
+        assert_eq!(r.robots[0].trajectory.len(), 31);
+        assert!(r.robots[0].trajectory[15].distance(Vec2::new(0.18, 1.0)) < 1e-9, "1.5 s = 180 frames in");
     }
 
     #[test]
@@ -303,5 +346,7 @@ mod tests {
         let terrain = bycoms_sim::terrain::parse(&"..........\n".repeat(10)).expect("terrain");
         let svg = picture(&terrain, &lockstep_trace(), 3.0, 0.1, "heading");
         assert!(svg.contains("robot 3 arrived after 2.2 s (1 beacon)"), "{svg}");
+        // Robot 3 (the second robot that ran) is drawn with its own way.
+        assert!(svg.contains(r##"fill="none" stroke="#2ca02c" stroke-width="1.2"/>"##), "{svg}");
     }
 }
