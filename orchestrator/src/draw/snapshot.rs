@@ -1,5 +1,5 @@
 //! The snapshot of one run as the paper draws it (`fig:exp_sample`,
-//! `fig:sim_result`): terrain (impassable cells light blue), start (cross),
+//! `fig:sim_result`): terrain (impassable cells dark slate), start (cross),
 //! goal (star), every robot's trajectory and number, the beacons with their
 //! ε circles, and the purple contours of the beacons' potential field
 //! g = c Σ 1/d² — the field a moving robot senses (the threshold contour
@@ -26,7 +26,8 @@ const GAP: f64 = 16.0;
 const PALETTE: &[&str] =
     &["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"];
 const CONTOUR: &str = "#7b2fbe";
-const BLOCKED: &str = "#a6d8f0";
+/// Impassable cells: dark slate, so a wall reads as a wall under the contours.
+pub const BLOCKED: &str = "#4d5d6e";
 /// Contour levels as multiples of the threshold g_th (1 is drawn bold).
 const LEVELS: [f64; 3] = [0.25, 1.0, 4.0];
 const LEGEND_FONT: f64 = 11.0;
@@ -146,15 +147,35 @@ fn panel(
             svg.circle(x, y, eps * SCALE, &style);
         }
         svg.circle(x, y, 3.5, &format!(r##"fill="{colour}" stroke="#000" stroke-width="0.5""##));
+        let label = robot.id.to_string();
+        let (lx, ly) = number_spot((x, y), &label, px(terrain.goal()));
         svg.raw(&format!(
-            r#"<text x="{:.2}" y="{:.2}" font-family="sans-serif" font-size="9" fill="black" stroke="white" stroke-width="2" paint-order="stroke" class="robot-number">{}</text>"#,
-            x + 4.5,
-            y - 4.5,
-            robot.id
+            r#"<text x="{lx:.2}" y="{ly:.2}" font-family="sans-serif" font-size="{NUMBER_FONT}" fill="black" stroke="white" stroke-width="2" paint-order="stroke" class="robot-number">{label}</text>"#,
         ));
     }
     start_mark(svg, px(terrain.start()));
     goal_mark(svg, px(terrain.goal()));
+}
+
+/// Font size of the robot numbers.
+const NUMBER_FONT: f64 = 9.0;
+/// Outer radius of the goal star, px.
+const STAR: f64 = 9.0;
+
+/// Where a robot's number goes: up and right of the robot, or, if that
+/// would cover the goal star (the robot that arrived sits on it), the
+/// first other corner that does not; else beside the star.
+fn number_spot((x, y): (f64, f64), label: &str, (gx, gy): (f64, f64)) -> (f64, f64) {
+    let w = text_width(label, NUMBER_FONT);
+    let clear = |(lx, ly): (f64, f64)| {
+        // The label's box (baseline at ly) against the star's, with 1 px to spare.
+        let (x0, y0, x1, y1) = (lx, ly - NUMBER_FONT, lx + w, ly + 0.25 * NUMBER_FONT);
+        x1 < gx - STAR - 1.0 || x0 > gx + STAR + 1.0 || y1 < gy - STAR - 1.0 || y0 > gy + STAR + 1.0
+    };
+    [(x + 4.5, y - 4.5), (x - 4.5 - w, y - 4.5), (x + 4.5, y + 12.0), (x - 4.5 - w, y + 12.0)]
+        .into_iter()
+        .find(|&spot| clear(spot))
+        .unwrap_or((gx + STAR + 2.0, gy - STAR - 2.0))
 }
 
 /// Impassable cells, one rectangle per horizontal run.
@@ -217,7 +238,7 @@ fn start_mark(svg: &mut Svg, (sx, sy): (f64, f64)) {
 }
 
 fn goal_mark(svg: &mut Svg, (gx, gy): (f64, f64)) {
-    svg.polygon(star(gx, gy, 9.0, 4.0), r##"fill="#ffd700" stroke="black" stroke-width="1""##);
+    svg.polygon(star(gx, gy, STAR, 4.0), r##"fill="#ffd700" stroke="black" stroke-width="1""##);
 }
 
 const LEGEND: [&str; 7] = [
