@@ -5,7 +5,8 @@
 //! metadata channel, trajectories from the recorded poses, beacons from the
 //! gate decisions (`record::run`, `draw::trace`).
 
-use crate::draw::trace::picture;
+use crate::draw::snapshot::Unit;
+use crate::draw::trace::picture_in;
 use crate::exit::usage;
 use crate::record::run::read_run;
 use anyhow::{Context, Result};
@@ -69,8 +70,17 @@ pub fn run(args: Args) -> Result<i32> {
     let dt = RunConfig::paper(eps).kinematics.dt;
     let swarm = meta.swarm.as_deref().unwrap_or("?");
     let heading = format!("{} — ε = {eps}, {} launch, swarm {swarm}", meta.terrain, meta.clock());
-    let svg = picture(&terrain, &run.trace, eps, dt, &heading);
+    let svg = picture_in(&terrain, &run.trace, eps, dt, &heading, unit_of(&meta.config));
     write(&args, &svg)
+}
+
+/// Metres for a run of real robots (a lab: `agents.source = "real"`), else
+/// cells.
+fn unit_of(config: &serde_json::Value) -> Unit {
+    match config["agents"]["source"].as_str() {
+        Some("real") => Unit::Metre,
+        _ => Unit::Cell,
+    }
 }
 
 fn write(args: &Args, svg: &str) -> Result<i32> {
@@ -78,4 +88,20 @@ fn write(args: &Args, svg: &str) -> Result<i32> {
     std::fs::write(&out, svg).with_context(|| format!("cannot write the picture to {}", out.display()))?;
     crate::outln!("picture: {}", out.display())?;
     Ok(crate::exit::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_recording_of_real_robots_is_drawn_in_metres() {
+        let lab = serde_json::json!({ "eps": 3.0, "agents": { "source": "real", "scenario": "exp-short" } });
+        assert_eq!(unit_of(&lab), Unit::Metre);
+        assert_eq!(
+            unit_of(&serde_json::json!({ "eps": 3.0, "agents": { "source": "spawned" } })),
+            Unit::Cell
+        );
+        assert_eq!(unit_of(&serde_json::json!({ "eps": 3.0 })), Unit::Cell, "older recordings");
+    }
 }

@@ -183,7 +183,7 @@ fn draw_pictures(
     );
     let title = [world.name.as_str(), line2.as_str()];
     let terrain: &Terrain = &world.terrain;
-    let opts = snapshot::Options { contours: true, field_constant: cfg.field_constant };
+    let opts = snapshot::Options { field_constant: cfg.field_constant, ..snapshot::Options::default() };
     let mut written = Vec::new();
     if !args.no_svg {
         let svg = match &args.snapshots {

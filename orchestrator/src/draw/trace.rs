@@ -16,6 +16,7 @@
 //! the `Deployed` decision names by its step (in lockstep that step is the
 //! tick the robot started at, its time the tick's).
 
+use super::snapshot::{Options, Unit};
 use crate::commands::simulate::summary_line;
 use crate::launch::gate::{active_periods, same_pose};
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
@@ -222,8 +223,14 @@ impl Trace {
 /// The snapshot picture of a traced run on `terrain` (start and goal set):
 /// `heading` on the first title line, the verdict on the second.
 pub fn picture(terrain: &Terrain, trace: &Trace, eps: f64, dt: f64, heading: &str) -> String {
+    picture_in(terrain, trace, eps, dt, heading, Unit::Cell)
+}
+
+/// [`picture`] of a world in `unit` (a lab's run: metres).
+pub fn picture_in(terrain: &Terrain, trace: &Trace, eps: f64, dt: f64, heading: &str, unit: Unit) -> String {
     let result = trace.result(dt);
-    super::snapshot::render(terrain, &result, eps, [heading, &summary_line(&result)])
+    let verdict = summary_line(&result);
+    super::snapshot::render_with(terrain, &result, eps, [heading, &verdict], &Options::in_unit(unit))
 }
 
 #[cfg(test)]
