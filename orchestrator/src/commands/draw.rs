@@ -47,7 +47,8 @@ pub fn run(args: Args) -> Result<i32> {
         }
         let swarm = meta.swarm.as_deref().unwrap_or("?");
         let title = format!("{} — measurements, swarm {swarm}", meta.terrain);
-        let svg = run.measurements.picture(meta.goal, &title);
+        let room = lab_room(&meta.config);
+        let svg = run.measurements.picture_in(meta.goal, &title, room.as_ref());
         return write(&args, &svg);
     }
     let text = meta.terrain_text.as_deref().ok_or_else(|| {
@@ -72,6 +73,21 @@ pub fn run(args: Args) -> Result<i32> {
     let heading = format!("{} — ε = {eps}, {} launch, swarm {swarm}", meta.terrain, meta.clock());
     let svg = picture_in(&terrain, &run.trace, eps, dt, &heading, unit_of(&meta.config));
     write(&args, &svg)
+}
+
+/// The lab scenario of a run of real robots (its room, frames and start),
+/// if the recording names one that can be loaded here.
+fn lab_room(config: &serde_json::Value) -> Option<bycoms_sim::lab::scenario::Scenario> {
+    let name = config["agents"]["scenario"].as_str()?;
+    match bycoms_sim::lab::process::load_scenario(name) {
+        Ok(scenario) => Some(scenario),
+        Err(e) => {
+            tracing::warn!(
+                "cannot load the lab scenario {name:?} the recording names ({e}): drawing no room"
+            );
+            None
+        }
+    }
 }
 
 /// Metres for a run of real robots (a lab: `agents.source = "real"`), else
