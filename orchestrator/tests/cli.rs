@@ -359,3 +359,84 @@ fn failed_start_does_not_claim_the_directory_and_odd_decimals_resume() {
     assert!(stderr(&o).contains("holds a different sweep"), "{}", stderr(&o));
     assert_eq!(std::fs::read(dir.path().join("runs.csv")).unwrap(), before);
 }
+
+/// A tiny sweep (2 runs: ε = 3, one width bin, two terrains, noise off) of
+/// `seed` in two shards into `dir`.
+fn tiny_shards(dir: &Path, seed: &str) {
+    for shard in ["0/2", "1/2"] {
+        let o = orchestrator(&[
+            "sweep",
+            "--eps",
+            "3",
+            "--widths",
+            "3",
+            "--terrains-per-bin",
+            "2",
+            "--noise",
+            "off",
+            "--time-limit",
+            "300",
+            "--seed",
+            seed,
+            "--shard",
+            shard,
+            "--out",
+            dir.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+}
+
+#[test]
+fn merge_refuses_a_shard_of_another_sweep_and_names_it() {
+    let (ours, theirs, merged) =
+        (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    tiny_shards(ours.path(), "7");
+    tiny_shards(theirs.path(), "8");
+    // Shard 1 of the seed-8 sweep copied over ours: same columns, other runs.
+    let copied = ours.path().join("runs-shard-1-of-2.csv");
+    std::fs::copy(theirs.path().join("runs-shard-1-of-2.csv"), &copied).unwrap();
+    let out = merged.path().to_str().unwrap();
+    let o = orchestrator(&["merge", ours.path().to_str().unwrap(), "--out", out]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let said = stderr(&o);
+    assert!(said.contains(&format!("{} does not belong to the sweep", copied.display())), "{said}");
+    assert!(said.contains("is it a shard of another sweep?"), "{said}");
+    assert!(!merged.path().join("runs.csv").exists(), "nothing merged");
+
+    // A row that contradicts itself: arrived in the outcome, not in `success`.
+    tiny_shards(theirs.path(), "8");
+    let file = theirs.path().join("runs-shard-0-of-2.csv");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let (header, row) = text.split_once('\n').unwrap();
+    let mut fields: Vec<String> = row.trim_end().split(',').map(str::to_owned).collect();
+    fields[7] = "true".into();
+    fields[8] = "time_limit".into();
+    std::fs::write(&file, format!("{header}\n{}\n", fields.join(","))).unwrap();
+    let o = orchestrator(&["merge", theirs.path().to_str().unwrap(), "--out", out]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("success=true with outcome=time_limit"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("runs-shard-0-of-2.csv: row 2"), "{}", stderr(&o));
+}
+
+#[test]
+fn a_live_swarm_is_refused_whatever_the_temp_dir_with_a_usage_error() {
+    use bycoms_orchestrator::launch::swarm_lock::SwarmLock;
+    // The swarm held as a live launch holds it (this process, its TMPDIR;
+    // the isolation tag, if any, is inherited by the launch below).
+    let swarm = format!("lockscope{}", std::process::id());
+    let held = SwarmLock::acquire(&swarm).expect("lock the swarm");
+    // Another TMPDIR (another shell, or systemd's PrivateTmp=yes) still
+    // shares the machine's shared memory, so the swarm is still in use.
+    let other_tmp = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .args(["launch", "--robots", "1", "--time-limit", "5", "--swarm", &swarm, "--json"])
+        .env("TMPDIR", other_tmp.path())
+        .output()
+        .expect("spawn orchestrator");
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let said = stderr(&o);
+    assert!(said.contains(&format!("swarm \"{swarm}\" is in use by a running launch")), "{said}");
+    assert!(o.stdout.is_empty(), "nothing ran: {}", String::from_utf8_lossy(&o.stdout));
+    drop(held);
+}

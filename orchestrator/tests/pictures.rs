@@ -321,3 +321,71 @@ fn the_animation_moves_each_robot_over_its_own_time() {
     let beacons = r["beacons"].as_array().unwrap().len();
     assert_eq!(elements(group(&svg, "potential-contours"), "path").len(), beacons);
 }
+
+#[test]
+fn the_summary_the_launch_picture_and_the_recordings_picture_give_one_run_time() {
+    // The default launch (lockstep, long-obstacle, 3 robots: two get stuck
+    // and stand still for the gate's dwell, the third arrives).
+    let dir = tempfile::tempdir().unwrap();
+    let (rec, launch_svg, draw_svg) =
+        (dir.path().join("run.mcap"), dir.path().join("launch.svg"), dir.path().join("draw.svg"));
+    let swarm = format!("onetime{}", std::process::id());
+    let o = orchestrator(&[
+        "launch",
+        "--swarm",
+        &swarm,
+        "--json",
+        "--record",
+        rec.to_str().unwrap(),
+        "--svg",
+        launch_svg.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let summary: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON summary");
+    let o = orchestrator(&["draw", rec.to_str().unwrap(), "--out", draw_svg.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let arrived = summary["robots"].as_array().unwrap().iter().find(|r| r["end"] == "arrived").unwrap();
+    let time = summary["time_s"].as_f64().unwrap();
+    assert!(summary["ticks"].as_u64().unwrap() as f64 * 0.1 > time + 2.0, "the dwell is not run time");
+    let verdict = format!("robot {} arrived after {time:.1} s (2 beacons)", arrived["id"]);
+    for svg in [&launch_svg, &draw_svg] {
+        let text = std::fs::read_to_string(svg).unwrap();
+        let titles: Vec<String> = text_boxes(&text).into_iter().map(|(_, t)| t).collect();
+        assert!(titles.contains(&verdict), "{} says {titles:?}, the summary {verdict:?}", svg.display());
+    }
+}
+
+/// Relative luminance (0 black … 1 white) of a `#rrggbb` colour.
+fn luminance(hex: &str) -> f64 {
+    let c = |i: usize| f64::from(u8::from_str_radix(&hex[i..i + 2], 16).unwrap()) / 255.0;
+    0.2126 * c(1) + 0.7152 * c(3) + 0.0722 * c(5)
+}
+
+#[test]
+fn walls_read_as_walls_and_no_robot_number_covers_the_goal() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, svg, _) = simulate(dir.path(), &[]);
+    // The impassable cells: solid and dark enough to stand out under the contours.
+    let legend = group(&svg, "legend");
+    let wall = elements(legend, "rect").into_iter().next().expect("legend swatch of the wall");
+    let fill = attr(wall, "fill").unwrap();
+    assert!(luminance(fill) < 0.45, "wall colour {fill} is too pale");
+    // The goal star (the polygon filled gold) and the robot numbers.
+    let star = elements(&svg, "polygon").into_iter().find(|p| p.contains("#ffd700")).unwrap();
+    let xs: Vec<(f64, f64)> = attr(star, "points")
+        .unwrap()
+        .split(' ')
+        .map(|p| {
+            let (x, y) = p.split_once(',').unwrap();
+            (x.parse().unwrap(), y.parse().unwrap())
+        })
+        .collect();
+    let bbox = xs.iter().fold((f64::MAX, f64::MAX, f64::MIN, f64::MIN), |b, &(x, y)| {
+        (b.0.min(x), b.1.min(y), b.2.max(x), b.3.max(y))
+    });
+    let numbers: Vec<_> = text_boxes(&svg).into_iter().filter(|(_, t)| t.parse::<u32>().is_ok()).collect();
+    assert!(!numbers.is_empty());
+    for (rect, n) in numbers {
+        assert!(!overlap(rect, bbox), "robot number {n} at {rect:?} covers the goal star {bbox:?}");
+    }
+}

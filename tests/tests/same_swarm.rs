@@ -16,7 +16,7 @@ fn a_second_launch_of_a_live_swarm_is_refused_and_a_dead_one_is_reused() {
         .expect("the first launch started its agents");
 
     let second = Proc::orchestrator(&["launch", "--swarm", &swarm, "--json"]).wait(Duration::from_secs(20));
-    assert_eq!(second.status.code(), Some(1), "{}", second.stderr);
+    assert_eq!(second.status.code(), Some(2), "a usage error: {}", second.stderr);
     let expected =
         format!("swarm \"{swarm}\" is in use by a running launch (orchestrator pid {})", first.pid());
     assert!(second.stderr.contains(&expected), "{}", second.stderr);

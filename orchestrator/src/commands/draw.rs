@@ -5,7 +5,8 @@
 //! metadata channel, trajectories from the recorded poses, beacons from the
 //! gate decisions (`record::run`, `draw::trace`).
 
-use crate::draw::trace::picture;
+use crate::draw::snapshot::Unit;
+use crate::draw::trace::picture_in;
 use crate::exit::usage;
 use crate::record::run::read_run;
 use anyhow::{Context, Result};
@@ -46,7 +47,8 @@ pub fn run(args: Args) -> Result<i32> {
         }
         let swarm = meta.swarm.as_deref().unwrap_or("?");
         let title = format!("{} — measurements, swarm {swarm}", meta.terrain);
-        let svg = run.measurements.picture(meta.goal, &title);
+        let room = lab_room(&meta.config);
+        let svg = run.measurements.picture_in(meta.goal, &title, room.as_ref());
         return write(&args, &svg);
     }
     let text = meta.terrain_text.as_deref().ok_or_else(|| {
@@ -69,8 +71,32 @@ pub fn run(args: Args) -> Result<i32> {
     let dt = RunConfig::paper(eps).kinematics.dt;
     let swarm = meta.swarm.as_deref().unwrap_or("?");
     let heading = format!("{} — ε = {eps}, {} launch, swarm {swarm}", meta.terrain, meta.clock());
-    let svg = picture(&terrain, &run.trace, eps, dt, &heading);
+    let svg = picture_in(&terrain, &run.trace, eps, dt, &heading, unit_of(&meta.config));
     write(&args, &svg)
+}
+
+/// The lab scenario of a run of real robots (its room, frames and start),
+/// if the recording names one that can be loaded here.
+fn lab_room(config: &serde_json::Value) -> Option<bycoms_sim::lab::scenario::Scenario> {
+    let name = config["agents"]["scenario"].as_str()?;
+    match bycoms_sim::lab::process::load_scenario(name) {
+        Ok(scenario) => Some(scenario),
+        Err(e) => {
+            tracing::warn!(
+                "cannot load the lab scenario {name:?} the recording names ({e}): drawing no room"
+            );
+            None
+        }
+    }
+}
+
+/// Metres for a run of real robots (a lab: `agents.source = "real"`), else
+/// cells.
+fn unit_of(config: &serde_json::Value) -> Unit {
+    match config["agents"]["source"].as_str() {
+        Some("real") => Unit::Metre,
+        _ => Unit::Cell,
+    }
 }
 
 fn write(args: &Args, svg: &str) -> Result<i32> {
@@ -78,4 +104,20 @@ fn write(args: &Args, svg: &str) -> Result<i32> {
     std::fs::write(&out, svg).with_context(|| format!("cannot write the picture to {}", out.display()))?;
     crate::outln!("picture: {}", out.display())?;
     Ok(crate::exit::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_recording_of_real_robots_is_drawn_in_metres() {
+        let lab = serde_json::json!({ "eps": 3.0, "agents": { "source": "real", "scenario": "exp-short" } });
+        assert_eq!(unit_of(&lab), Unit::Metre);
+        assert_eq!(
+            unit_of(&serde_json::json!({ "eps": 3.0, "agents": { "source": "spawned" } })),
+            Unit::Cell
+        );
+        assert_eq!(unit_of(&serde_json::json!({ "eps": 3.0 })), Unit::Cell, "older recordings");
+    }
 }

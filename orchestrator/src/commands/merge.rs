@@ -1,11 +1,18 @@
 //! `orchestrator merge`: combine the runs CSVs of a sharded sweep into the
 //! same runs.csv, tables and heatmaps a single `sweep` would have written.
+//!
+//! Every row is checked against its directory's sweep (`sweep.json`,
+//! `terrains.csv`; see `crate::sweep::verify`) before anything is written:
+//! a shard file of another sweep, or a row that contradicts itself, is
+//! refused with the file and row named (exit 1), so the tables are never
+//! computed from foreign rows.
 
 use super::sweep::{Meta, META_FILE};
 use crate::exit;
 use crate::sweep::budget;
 use crate::sweep::rows::{read_rows, write_all, Row};
 use crate::sweep::table::{tabulate, to_text, write_outputs};
+use crate::sweep::verify::{read_terrain_list, Expected, ListedTerrain, TERRAIN_LIST};
 use anyhow::{bail, Context, Result};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -26,18 +33,52 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<i32> {
     let mut meta: Option<Meta> = None;
+    let mut terrains: Option<(Vec<Vec<ListedTerrain>>, &Path)> = None;
     let mut rows: BTreeMap<usize, Row> = BTreeMap::new();
     for dir in &args.inputs {
         let m = read_meta(dir)?;
         match &meta {
-            None => meta = Some(m),
+            None => meta = Some(m.clone()),
             Some(first) if *first != m => {
                 bail!("{} belongs to a different sweep than {}", dir.display(), args.inputs[0].display())
             }
             Some(_) => {}
         }
+        if let Some(list) = read_terrain_list(dir, &m.axes)? {
+            if let Some((first, from)) = &terrains {
+                if *first != list {
+                    bail!(
+                        "{} lists other terrains than {}: they belong to different sweeps",
+                        dir.join(TERRAIN_LIST).display(),
+                        from.join(TERRAIN_LIST).display()
+                    );
+                }
+            } else {
+                terrains = Some((list, dir));
+            }
+        }
+        let expected = Expected {
+            axes: &m.axes,
+            seed: m.seed,
+            time_limit: m.time_limit,
+            max_robots: m.max_robots,
+            terrains: terrains.as_ref().map(|(t, _)| t.as_slice()),
+        };
         for file in runs_files(dir)? {
-            for row in read_rows(&file)? {
+            for (k, row) in read_rows(&file)?.into_iter().enumerate() {
+                let line = k + 2;
+                if let Some(why) = expected.foreign(&row) {
+                    bail!(
+                        "{} does not belong to the sweep of {} (row {line}, run {}: {why}); \
+                         is it a shard of another sweep? Remove it or merge it with its own sweep",
+                        file.display(),
+                        dir.join(META_FILE).display(),
+                        row.index
+                    );
+                }
+                if let Some(why) = expected.inconsistent(&row) {
+                    bail!("{}: row {line} (run {}) contradicts itself: {why}", file.display(), row.index);
+                }
                 if let Some(old) = rows.get(&row.index) {
                     if *old != row {
                         bail!("run {} differs between shards (seen again in {})", row.index, file.display());
@@ -49,9 +90,6 @@ pub fn run(args: Args) -> Result<i32> {
     }
     let Some(meta) = meta else { bail!("no input directories") };
     let total = meta.axes.total_runs();
-    if let Some((&i, _)) = rows.iter().find(|(&i, _)| i >= total) {
-        bail!("run index {i} is outside this sweep's {total} runs");
-    }
     let missing = total - rows.len();
     if missing > 0 && !args.allow_partial {
         let first = (0..total).find(|i| !rows.contains_key(i)).unwrap_or(0);

@@ -183,7 +183,7 @@ fn draw_pictures(
     );
     let title = [world.name.as_str(), line2.as_str()];
     let terrain: &Terrain = &world.terrain;
-    let opts = snapshot::Options { contours: true, field_constant: cfg.field_constant };
+    let opts = snapshot::Options { field_constant: cfg.field_constant, ..snapshot::Options::default() };
     let mut written = Vec::new();
     if !args.no_svg {
         let svg = match &args.snapshots {
@@ -218,9 +218,11 @@ fn draw_pictures(
 }
 
 /// "robot 4 arrived after 123.4 s (3 beacons)" and the like: the verdict
-/// `launch` prints too ([`crate::commands::world::verdict`]).
+/// `launch` prints too ([`crate::commands::world::verdict`]), naming the
+/// robot that arrived by its number.
 pub fn summary_line(r: &RunResult) -> String {
-    crate::commands::world::verdict(r.outcome, r.robots_used, r.time, r.beacons.len())
+    let arrived = r.robots.iter().find(|k| k.end == RobotEnd::Arrived).map(|k| k.id);
+    crate::commands::world::verdict(r.outcome, r.robots_used, arrived, r.time, r.beacons.len())
 }
 
 #[cfg(test)]

@@ -98,13 +98,25 @@ pub fn count(n: u64, noun: &str) -> String {
     }
 }
 
-/// The one verdict sentence of a run, for `simulate` and `launch` alike:
-/// "robot 4 arrived after 123.4 s (3 beacons)" and the like.
-pub fn verdict(outcome: bycoms_sim::Outcome, robots_used: u32, time_s: f64, beacons: usize) -> String {
+/// The one verdict sentence of a run, for `simulate`, `launch` and the
+/// pictures alike: "robot 4 arrived after 123.4 s (3 beacons)" and the
+/// like. `arrived` is the number of the robot that arrived: not always
+/// `robots_used`, since a robot whose agent died before it was deployed
+/// keeps its number but is not used.
+pub fn verdict(
+    outcome: bycoms_sim::Outcome,
+    robots_used: u32,
+    arrived: Option<u32>,
+    time_s: f64,
+    beacons: usize,
+) -> String {
     use bycoms_sim::Outcome;
     let beacons = count(beacons as u64, "beacon");
     match outcome {
-        Outcome::Arrived => format!("robot {robots_used} arrived after {time_s:.1} s ({beacons})"),
+        Outcome::Arrived => {
+            let robot = arrived.unwrap_or(robots_used);
+            format!("robot {robot} arrived after {time_s:.1} s ({beacons})")
+        }
         Outcome::RobotsExhausted if robots_used == 1 => {
             format!("the only robot got stuck after {time_s:.1} s")
         }
@@ -123,13 +135,19 @@ mod tests {
 
     #[test]
     fn the_verdict_counts_in_words() {
-        assert_eq!(verdict(Outcome::Arrived, 3, 98.25, 2), "robot 3 arrived after 98.2 s (2 beacons)");
-        assert_eq!(verdict(Outcome::Arrived, 2, 5.0, 1), "robot 2 arrived after 5.0 s (1 beacon)");
         assert_eq!(
-            verdict(Outcome::TimeLimit, 1, 60.0, 0),
+            verdict(Outcome::Arrived, 3, Some(4), 98.25, 2),
+            "robot 4 arrived after 98.2 s (2 beacons)"
+        );
+        assert_eq!(verdict(Outcome::Arrived, 2, None, 5.0, 1), "robot 2 arrived after 5.0 s (1 beacon)");
+        assert_eq!(
+            verdict(Outcome::TimeLimit, 1, None, 60.0, 0),
             "no robot arrived within 60 s (1 robot, 0 beacons)"
         );
-        assert_eq!(verdict(Outcome::RobotsExhausted, 1, 7.0, 1), "the only robot got stuck after 7.0 s");
-        assert_eq!(verdict(Outcome::RobotsExhausted, 3, 7.0, 3), "all 3 robots got stuck after 7.0 s");
+        assert_eq!(
+            verdict(Outcome::RobotsExhausted, 1, None, 7.0, 1),
+            "the only robot got stuck after 7.0 s"
+        );
+        assert_eq!(verdict(Outcome::RobotsExhausted, 3, None, 7.0, 3), "all 3 robots got stuck after 7.0 s");
     }
 }

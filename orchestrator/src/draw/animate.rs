@@ -48,7 +48,7 @@ pub fn render(terrain: &Terrain, result: &RunResult, eps: f64, title: [&str; 2],
         for ix in 0..terrain.width() {
             if terrain.cell_blocked(ix, iy) {
                 let (x, y) = px(Vec2::new(ix as f64, iy as f64 + 1.0));
-                svg.rect(x, y, SCALE, SCALE, r##"fill="#a6d8f0""##);
+                svg.rect(x, y, SCALE, SCALE, &format!(r#"fill="{}""#, super::snapshot::BLOCKED));
             }
         }
     }

@@ -13,6 +13,7 @@
 
 use super::svg::{escape, number, Svg};
 use bycoms_protocol::msg::{FromAgent, Pose};
+use bycoms_sim::lab::scenario::Scenario;
 use bycoms_sim::Vec2;
 use std::collections::BTreeMap;
 
@@ -77,9 +78,21 @@ impl Measurements {
 
     /// The picture (SVG), with `goal` as a star and `title` above.
     pub fn picture(&self, goal: Vec2, title: &str) -> String {
-        let points = self.positions.values().flatten().chain(std::iter::once(&goal));
+        self.picture_in(goal, title, None)
+    }
+
+    /// [`Self::picture`] in the lab's room (`room`: its outline, its
+    /// obstacles such as the paper's frames, and the start), with metric
+    /// axes. Arrows are thinned to one per [`ARROW_SPACING`] travelled, so a
+    /// robot standing still (stuck) gets one arrow, not a fan.
+    pub fn picture_in(&self, goal: Vec2, title: &str, room: Option<&Scenario>) -> String {
+        let mut points: Vec<Vec2> = self.positions.values().flatten().copied().collect();
+        points.push(goal);
+        if let Some(r) = room {
+            points.extend([Vec2::new(0.0, 0.0), Vec2::new(r.width, r.height)]);
+        }
         let (mut lo, mut hi) = (Vec2::new(f64::MAX, f64::MAX), Vec2::new(f64::MIN, f64::MIN));
-        for p in points {
+        for p in &points {
             lo = Vec2::new(lo.x.min(p.x), lo.y.min(p.y));
             hi = Vec2::new(hi.x.max(p.x), hi.y.max(p.y));
         }
@@ -87,18 +100,35 @@ impl Measurements {
         // Arrows: the largest V_ave is a tenth of the picture.
         let v_max = self.samples.values().flatten().map(|s| s.v_ave).fold(0.0, f64::max);
         let arrow_per_v = if v_max > 0.0 { 0.1 * span / v_max } else { 0.0 };
-        let margin = 0.12 * span;
+        let margin = 0.06 * span;
         let (lo, hi) = (Vec2::new(lo.x - margin, lo.y - margin), Vec2::new(hi.x + margin, hi.y + margin));
         // The plot keeps the run's aspect (1 m is as long across as up),
-        // between a quarter and 1.25 of its width high.
-        let (size, top) = (640.0, 40.0);
-        let scale = (size / (hi.x - lo.x)).min(1.25 * size / (hi.y - lo.y));
-        let plot_h = ((hi.y - lo.y) * scale).max(0.25 * size);
-        let px = |p: Vec2| ((p.x - lo.x) * scale, top + plot_h / 2.0 - (p.y - (lo.y + hi.y) / 2.0) * scale);
-        let size_h = plot_h;
-        let mut svg = Svg::new(size, size_h + top + 30.0);
-        svg.rect(0.0, 0.0, size, size_h + top + 30.0, r#"fill="white""#);
+        // between a quarter and 1.25 of its width high; axes left and below.
+        let (size, top, left, bottom) = (640.0, 40.0, 56.0, 70.0);
+        let plot_w = size - left - 16.0;
+        let scale = (plot_w / (hi.x - lo.x)).min(1.25 * plot_w / (hi.y - lo.y));
+        let plot_h = ((hi.y - lo.y) * scale).max(0.25 * plot_w);
+        let mid_y = (lo.y + hi.y) / 2.0;
+        let px = |p: Vec2| (left + (p.x - lo.x) * scale, top + plot_h / 2.0 - (p.y - mid_y) * scale);
+        let height = top + plot_h + bottom;
+        let mut svg = Svg::new(size, height);
+        svg.rect(0.0, 0.0, size, height, r#"fill="white""#);
         svg.text(size / 2.0, 24.0, 15.0, "middle", &escape(title));
+        axes(&mut svg, &px, (lo, hi), (top, top + plot_h), span);
+        if let Some(r) = room {
+            svg.open_group("room");
+            let ((x0, y0), (x1, y1)) = (px(Vec2::new(0.0, r.height)), px(Vec2::new(r.width, 0.0)));
+            svg.rect(x0, y0, x1 - x0, y1 - y0, r##"fill="none" stroke="#444" stroke-width="1.2""##);
+            for o in &r.obstacles {
+                let ((x0, y0), (x1, y1)) = (px(Vec2::new(o.x0, o.y1)), px(Vec2::new(o.x1, o.y0)));
+                svg.rect(x0, y0, x1 - x0, y1 - y0, r##"class="obstacle" fill="#4d5d6e""##);
+            }
+            let (sx, sy) = px(Vec2::new(r.start.x, r.start.y));
+            let d = 6.0;
+            svg.line(sx - d, sy - d, sx + d, sy + d, r#"class="start" stroke="black" stroke-width="2""#);
+            svg.line(sx - d, sy + d, sx + d, sy - d, r#"class="start" stroke="black" stroke-width="2""#);
+            svg.close_group();
+        }
         for (&id, positions) in &self.positions {
             let colour = COLOURS[(id as usize).saturating_sub(1) % COLOURS.len()];
             svg.open_group(&format!("robot-{id}"));
@@ -106,7 +136,7 @@ impl Measurements {
                 let (x, y) = px(p);
                 svg.circle(x, y, 1.6, &format!(r#"fill="{colour}""#));
             }
-            for s in self.samples(id) {
+            for s in thinned(self.samples(id)) {
                 let Some(dir) = s.direction else { continue };
                 let tip = Vec2::new(
                     s.at.x + dir.cos() * s.v_ave * arrow_per_v,
@@ -132,16 +162,82 @@ impl Measurements {
             (gx + r * a.cos(), gy - r * a.sin())
         });
         svg.polygon(star, r#"id="goal" fill="gold" stroke="black" stroke-width="0.8""#);
-        let legend: Vec<String> = self.positions.keys().map(|id| format!("robot {id}")).collect();
-        for (i, (id, label)) in self.positions.keys().zip(&legend).enumerate() {
+        let legend_y = height - 12.0;
+        for (i, id) in self.positions.keys().enumerate() {
             let colour = COLOURS[(*id as usize).saturating_sub(1) % COLOURS.len()];
-            svg.text_coloured(10.0 + 90.0 * i as f64, size_h + top + 20.0, 12.0, "start", colour, label);
+            svg.text_coloured(
+                10.0 + 70.0 * i as f64,
+                legend_y,
+                12.0,
+                "start",
+                colour,
+                &format!("robot {id}"),
+            );
         }
-        let note = format!("arrows: measured gradient, length V_ave (max {})", number(v_max));
-        svg.text(size - 10.0, size_h + top + 20.0, 11.0, "end", &escape(&note));
+        let cm = number(ARROW_SPACING * 100.0);
+        let note = format!(
+            "arrows: measured gradient, length V_ave (max {}), one arrow per {cm} cm travelled",
+            number(v_max)
+        );
+        svg.text(size - 10.0, legend_y, 11.0, "end", &escape(&note));
         svg.raw(r#"<defs><marker id="head" markerWidth="6" markerHeight="6" refX="5" refY="3" orient="auto"><path d="M0,0 L6,3 L0,6 z" fill="context-stroke"/></marker></defs>"#);
         svg.finish()
     }
+}
+
+/// Distance a robot travels between two arrows of the measurement picture, m.
+pub const ARROW_SPACING: f64 = 0.05;
+
+/// The samples to draw as arrows: the first, then each one taken at least
+/// [`ARROW_SPACING`] from where the last drawn one was.
+fn thinned(samples: &[Sample]) -> impl Iterator<Item = &Sample> {
+    let mut last: Option<Vec2> = None;
+    samples.iter().filter(move |s| {
+        let keep = last.is_none_or(|l| l.distance(s.at) >= ARROW_SPACING - 1e-9);
+        if keep {
+            last = Some(s.at);
+        }
+        keep
+    })
+}
+
+/// Metric axes along the plot's left and bottom edges: ticks at a round
+/// step (a fifth of the span or less), labelled in metres.
+fn axes(
+    svg: &mut Svg,
+    px: &impl Fn(Vec2) -> (f64, f64),
+    (lo, hi): (Vec2, Vec2),
+    (y_top, y_bottom): (f64, f64),
+    span: f64,
+) {
+    let step = [0.05, 0.1, 0.2, 0.25, 0.5, 1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .find(|&s| span / s <= 8.0)
+        .unwrap_or(10.0);
+    let (x_left, _) = px(lo);
+    let (x_right, _) = px(hi);
+    svg.open_group("axes");
+    let axis = r##"stroke="#444" stroke-width="1""##;
+    svg.line(x_left, y_bottom, x_right, y_bottom, axis);
+    svg.line(x_left, y_top, x_left, y_bottom, axis);
+    let ticks = |from: f64, to: f64| {
+        let first = (from / step).ceil() as i64;
+        let last = (to / step).floor() as i64;
+        (first..=last).map(move |k| k as f64 * step)
+    };
+    for x in ticks(lo.x, hi.x) {
+        let (tx, _) = px(Vec2::new(x, 0.0));
+        svg.line(tx, y_bottom, tx, y_bottom + 5.0, axis);
+        svg.text(tx, y_bottom + 17.0, 11.0, "middle", &number(x));
+    }
+    for y in ticks(lo.y, hi.y) {
+        let (_, ty) = px(Vec2::new(0.0, y));
+        svg.line(x_left - 5.0, ty, x_left, ty, axis);
+        svg.text(x_left - 8.0, ty + 4.0, 11.0, "end", &number(y));
+    }
+    svg.text((x_left + x_right) / 2.0, y_bottom + 33.0, 12.0, "middle", "x [m]");
+    svg.text(x_left - 40.0, (y_top + y_bottom) / 2.0, 12.0, "middle", "y [m]");
+    svg.close_group();
 }
 
 #[cfg(test)]
@@ -216,5 +312,42 @@ mod tests {
             })
             .collect();
         assert!((lengths[2] / lengths[0] - 5.0).abs() < 0.05, "{lengths:?}");
+    }
+
+    #[test]
+    fn a_robot_standing_still_gets_one_arrow_and_the_plot_has_metric_axes() {
+        let mut m = Measurements::new();
+        // 2 m driven in 1 cm steps, a sample each, then 300 samples stuck.
+        for k in 0..=200 {
+            m.pose(&pose(1, 0.01 * f64::from(k), 0.0, 0.0));
+            m.report(&telemetry(1, Some(0.1), 5.0));
+        }
+        for _ in 0..300 {
+            m.report(&telemetry(1, Some(2.0), 5.0));
+        }
+        let svg = m.picture(Vec2::new(2.5, 0.0), "exp-short");
+        let arrows = svg.matches(r#"class="gradient""#).count();
+        assert_eq!(arrows, 41, "one per 5 cm travelled over 2 m, none more where it stood");
+        assert!(svg.contains("one arrow per 5 cm travelled"), "the caption says so");
+        for tick in [">0<", ">0.5<", ">1<", ">1.5<", ">2<"] {
+            assert!(svg.contains(tick), "x axis tick {tick}");
+        }
+        assert!(svg.contains(">x [m]<") && svg.contains(">y [m]<"), "axis titles");
+    }
+
+    #[test]
+    fn the_lab_room_its_frames_and_the_start_are_drawn() {
+        let room = bycoms_sim::lab::process::load_scenario("exp-short").expect("built-in scenario");
+        let mut m = Measurements::new();
+        m.pose(&pose(1, room.start.x, room.start.y, 0.0));
+        let svg = m.picture_in(Vec2::new(room.goal.x, room.goal.y), "exp-short", Some(&room));
+        assert!(!room.obstacles.is_empty());
+        assert_eq!(svg.matches(r#"class="obstacle""#).count(), room.obstacles.len(), "every frame");
+        assert_eq!(svg.matches(r#"class="start""#).count(), 2, "the start cross");
+        assert!(svg.contains(r#"<g id="room">"#));
+        // The whole room is on the axes: 0 to its width (3 m) along x.
+        for tick in [">0<", ">3<"] {
+            assert!(svg.contains(tick), "tick {tick}");
+        }
     }
 }

@@ -1,5 +1,5 @@
 //! The snapshot of one run as the paper draws it (`fig:exp_sample`,
-//! `fig:sim_result`): terrain (impassable cells light blue), start (cross),
+//! `fig:sim_result`): terrain (impassable cells dark slate), start (cross),
 //! goal (star), every robot's trajectory and number, the beacons with their
 //! ε circles, and the purple contours of the beacons' potential field
 //! g = c Σ 1/d² — the field a moving robot senses (the threshold contour
@@ -17,8 +17,11 @@ use bycoms_sim::runner::RunResult;
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::Vec2;
 
-/// Pixels per cell.
+/// Pixels per unit (cell or metre) at least: the paper's 60-cell grid at 600 px.
 const SCALE: f64 = 10.0;
+/// A small arena (a lab's room of a few metres) is enlarged to about this
+/// many pixels on its longer side.
+const ARENA_PX: f64 = 600.0;
 /// Room for the two title lines above the arena.
 const TOP: f64 = 46.0;
 const MARGIN: f64 = 10.0;
@@ -26,11 +29,23 @@ const GAP: f64 = 16.0;
 const PALETTE: &[&str] =
     &["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"];
 const CONTOUR: &str = "#7b2fbe";
-const BLOCKED: &str = "#a6d8f0";
+/// Impassable cells: dark slate, so a wall reads as a wall under the contours.
+pub const BLOCKED: &str = "#4d5d6e";
 /// Contour levels as multiples of the threshold g_th (1 is drawn bold).
 const LEVELS: [f64; 3] = [0.25, 1.0, 4.0];
 const LEGEND_FONT: f64 = 11.0;
 const LEGEND_ROW: f64 = 18.0;
+
+/// What a unit of the world is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Unit {
+    /// A grid cell of the simulated world (ε, contours: the simulator's).
+    #[default]
+    Cell,
+    /// A metre of a lab: real robots, whose fields are their own, so no ε
+    /// circles or contours of the simulator's field are drawn.
+    Metre,
+}
 
 /// What to draw besides the run itself.
 #[derive(Debug, Clone, Copy)]
@@ -39,12 +54,32 @@ pub struct Options {
     pub contours: bool,
     /// The field constant c of g = c/d² (the paper's c = 1).
     pub field_constant: f64,
+    /// Cells or metres.
+    pub unit: Unit,
 }
 
 impl Default for Options {
     fn default() -> Self {
-        Self { contours: true, field_constant: 1.0 }
+        Self { contours: true, field_constant: 1.0, unit: Unit::Cell }
     }
+}
+
+impl Options {
+    /// The options of a run in `unit`.
+    pub fn in_unit(unit: Unit) -> Self {
+        Self { contours: unit == Unit::Cell, unit, ..Self::default() }
+    }
+}
+
+/// Pixels per unit for `terrain`: 10, or more for a small arena.
+fn scale_of(terrain: &Terrain) -> f64 {
+    let longer = terrain.width().max(terrain.height()).max(1) as f64;
+    (ARENA_PX / longer).floor().max(SCALE)
+}
+
+/// The width the two title lines need.
+fn title_width(title: [&str; 2]) -> f64 {
+    title.iter().map(|t| text_width(t, 13.0)).fold(0.0, f64::max)
 }
 
 /// Renders the run as an SVG document with a two-line title (the end of the run).
@@ -60,15 +95,16 @@ pub fn render_with(
     title: [&str; 2],
     opts: &Options,
 ) -> String {
-    let arena_w = terrain.width() as f64 * SCALE;
-    let width = arena_w.max(legend_width()) + 2.0 * MARGIN;
-    let legend_top = TOP + terrain.height() as f64 * SCALE + GAP;
-    let height = legend_top + legend_height(width - 2.0 * MARGIN) + MARGIN;
+    let scale = scale_of(terrain);
+    let arena_w = terrain.width() as f64 * scale;
+    let width = arena_w.max(legend_width(opts)).max(title_width(title)) + 2.0 * MARGIN;
+    let legend_top = TOP + terrain.height() as f64 * scale + GAP;
+    let height = legend_top + legend_height(width - 2.0 * MARGIN, opts) + MARGIN;
     let mut svg = Svg::new(width, height);
     svg.text(MARGIN, 18.0, 13.0, "start", title[0]);
     svg.text(MARGIN, 36.0, 13.0, "start", title[1]);
-    panel(&mut svg, MARGIN, TOP, terrain, result, eps, result.steps, opts);
-    scale_and_legend(&mut svg, MARGIN, legend_top, width - 2.0 * MARGIN, terrain, eps);
+    panel(&mut svg, (MARGIN, TOP, scale), terrain, result, eps, result.steps, opts);
+    scale_and_legend(&mut svg, (MARGIN, legend_top, scale), width - 2.0 * MARGIN, terrain, eps, opts);
     svg.finish()
 }
 
@@ -82,14 +118,15 @@ pub fn render_strip(
     moments: &[(u64, String)],
     opts: &Options,
 ) -> String {
-    let arena_w = terrain.width() as f64 * SCALE;
-    let arena_h = terrain.height() as f64 * SCALE;
+    let scale = scale_of(terrain);
+    let arena_w = terrain.width() as f64 * scale;
+    let arena_h = terrain.height() as f64 * scale;
     let panels = moments.len().max(1) as f64;
     let strip_w = panels * arena_w + (panels - 1.0) * GAP;
-    let width = strip_w.max(legend_width()) + 2.0 * MARGIN;
+    let width = strip_w.max(legend_width(opts)).max(title_width(title)) + 2.0 * MARGIN;
     let caption = 18.0;
     let legend_top = TOP + caption + arena_h + GAP;
-    let height = legend_top + legend_height(width - 2.0 * MARGIN) + MARGIN;
+    let height = legend_top + legend_height(width - 2.0 * MARGIN, opts) + MARGIN;
     let mut svg = Svg::new(width, height);
     svg.text(MARGIN, 18.0, 13.0, "start", title[0]);
     svg.text(MARGIN, 36.0, 13.0, "start", title[1]);
@@ -97,24 +134,24 @@ pub fn render_strip(
         let x = MARGIN + i as f64 * (arena_w + GAP);
         svg.open_group(&format!("moment-{}", i + 1));
         svg.text(x + arena_w / 2.0, TOP + 12.0, 12.0, "middle", label);
-        panel(&mut svg, x, TOP + caption, terrain, result, eps, *step, opts);
+        panel(&mut svg, (x, TOP + caption, scale), terrain, result, eps, *step, opts);
         svg.close_group();
     }
-    scale_and_legend(&mut svg, MARGIN, legend_top, width - 2.0 * MARGIN, terrain, eps);
+    scale_and_legend(&mut svg, (MARGIN, legend_top, scale), width - 2.0 * MARGIN, terrain, eps, opts);
     svg.finish()
 }
 
-/// Maps world points into the panel whose top-left corner is (ox, oy).
-fn to_px(ox: f64, oy: f64, height: f64) -> impl Fn(Vec2) -> (f64, f64) {
-    move |p: Vec2| (ox + p.x * SCALE, oy + (height - p.y) * SCALE)
+/// Maps world points into the panel whose top-left corner is (ox, oy), at
+/// `scale` pixels per unit.
+fn to_px(ox: f64, oy: f64, height: f64, scale: f64) -> impl Fn(Vec2) -> (f64, f64) {
+    move |p: Vec2| (ox + p.x * scale, oy + (height - p.y) * scale)
 }
 
-/// One arena at global step `step`, top-left corner at (ox, oy).
-#[allow(clippy::too_many_arguments)]
+/// One arena at global step `step`, top-left corner at (ox, oy), `scale`
+/// pixels per unit.
 fn panel(
     svg: &mut Svg,
-    ox: f64,
-    oy: f64,
+    (ox, oy, scale): (f64, f64, f64),
     terrain: &Terrain,
     result: &RunResult,
     eps: f64,
@@ -122,16 +159,17 @@ fn panel(
     opts: &Options,
 ) {
     let (w, h) = (terrain.width() as f64, terrain.height() as f64);
-    let px = to_px(ox, oy, h);
-    svg.rect(ox, oy, w * SCALE, h * SCALE, r##"fill="none" stroke="#444" stroke-width="1""##);
-    blocked_cells(svg, terrain, &px);
+    let px = to_px(ox, oy, h, scale);
+    svg.rect(ox, oy, w * scale, h * scale, r##"fill="none" stroke="#444" stroke-width="1""##);
+    blocked_cells(svg, terrain, &px, scale);
     let robots = robots_at(result, step);
     if opts.contours {
         contours(svg, terrain, &robots, eps, opts.field_constant, &px);
     }
     for robot in &robots {
         let colour = PALETTE[(robot.id as usize - 1) % PALETTE.len()];
-        if let Some(run) = result.robots.get(robot.id as usize - 1) {
+        // By number: a robot lost before deployment leaves a gap in the ids.
+        if let Some(run) = result.robots.iter().find(|r| r.id == robot.id) {
             let walked = &run.trajectory[..robot.trail.min(run.trajectory.len())];
             let pts = decimate(walked, 0.2);
             svg.polyline(pts.iter().map(|&p| px(p)), &format!(r#"stroke="{colour}" stroke-width="1.2""#));
@@ -140,24 +178,44 @@ fn panel(
     for robot in &robots {
         let colour = PALETTE[(robot.id as usize - 1) % PALETTE.len()];
         let (x, y) = px(robot.position);
-        if robot.stuck {
+        if robot.stuck && opts.unit == Unit::Cell {
             let style = format!(r#"fill="none" stroke="{colour}" stroke-dasharray="4 3""#);
-            svg.circle(x, y, eps * SCALE, &style);
+            svg.circle(x, y, eps * scale, &style);
         }
         svg.circle(x, y, 3.5, &format!(r##"fill="{colour}" stroke="#000" stroke-width="0.5""##));
+        let label = robot.id.to_string();
+        let (lx, ly) = number_spot((x, y), &label, px(terrain.goal()));
         svg.raw(&format!(
-            r#"<text x="{:.2}" y="{:.2}" font-family="sans-serif" font-size="9" fill="black" stroke="white" stroke-width="2" paint-order="stroke" class="robot-number">{}</text>"#,
-            x + 4.5,
-            y - 4.5,
-            robot.id
+            r#"<text x="{lx:.2}" y="{ly:.2}" font-family="sans-serif" font-size="{NUMBER_FONT}" fill="black" stroke="white" stroke-width="2" paint-order="stroke" class="robot-number">{label}</text>"#,
         ));
     }
     start_mark(svg, px(terrain.start()));
     goal_mark(svg, px(terrain.goal()));
 }
 
+/// Font size of the robot numbers.
+const NUMBER_FONT: f64 = 9.0;
+/// Outer radius of the goal star, px.
+const STAR: f64 = 9.0;
+
+/// Where a robot's number goes: up and right of the robot, or, if that
+/// would cover the goal star (the robot that arrived sits on it), the
+/// first other corner that does not; else beside the star.
+fn number_spot((x, y): (f64, f64), label: &str, (gx, gy): (f64, f64)) -> (f64, f64) {
+    let w = text_width(label, NUMBER_FONT);
+    let clear = |(lx, ly): (f64, f64)| {
+        // The label's box (baseline at ly) against the star's, with 1 px to spare.
+        let (x0, y0, x1, y1) = (lx, ly - NUMBER_FONT, lx + w, ly + 0.25 * NUMBER_FONT);
+        x1 < gx - STAR - 1.0 || x0 > gx + STAR + 1.0 || y1 < gy - STAR - 1.0 || y0 > gy + STAR + 1.0
+    };
+    [(x + 4.5, y - 4.5), (x - 4.5 - w, y - 4.5), (x + 4.5, y + 12.0), (x - 4.5 - w, y + 12.0)]
+        .into_iter()
+        .find(|&spot| clear(spot))
+        .unwrap_or((gx + STAR + 2.0, gy - STAR - 2.0))
+}
+
 /// Impassable cells, one rectangle per horizontal run.
-fn blocked_cells(svg: &mut Svg, terrain: &Terrain, px: &impl Fn(Vec2) -> (f64, f64)) {
+fn blocked_cells(svg: &mut Svg, terrain: &Terrain, px: &impl Fn(Vec2) -> (f64, f64), scale: f64) {
     for iy in 0..terrain.height() {
         let mut ix = 0;
         while ix < terrain.width() {
@@ -167,7 +225,7 @@ fn blocked_cells(svg: &mut Svg, terrain: &Terrain, px: &impl Fn(Vec2) -> (f64, f
                     ix += 1;
                 }
                 let (x, y) = px(Vec2::new(start as f64, iy as f64 + 1.0));
-                svg.rect(x, y, (ix - start) as f64 * SCALE, SCALE, &format!(r#"fill="{BLOCKED}""#));
+                svg.rect(x, y, (ix - start) as f64 * scale, scale, &format!(r#"fill="{BLOCKED}""#));
             } else {
                 ix += 1;
             }
@@ -216,7 +274,7 @@ fn start_mark(svg: &mut Svg, (sx, sy): (f64, f64)) {
 }
 
 fn goal_mark(svg: &mut Svg, (gx, gy): (f64, f64)) {
-    svg.polygon(star(gx, gy, 9.0, 4.0), r##"fill="#ffd700" stroke="black" stroke-width="1""##);
+    svg.polygon(star(gx, gy, STAR, 4.0), r##"fill="#ffd700" stroke="black" stroke-width="1""##);
 }
 
 const LEGEND: [&str; 7] = [
@@ -229,46 +287,69 @@ const LEGEND: [&str; 7] = [
     "potential contours (bold: g = 1/ε²)",
 ];
 
-fn legend_item_width() -> f64 {
-    LEGEND.iter().map(|l| text_width(l, LEGEND_FONT)).fold(0.0, f64::max) + 32.0
+/// The legend's entries (index into [`LEGEND`] for the swatch, label): a
+/// lab's run has no ε circles, cells or contours of the simulator.
+fn legend(opts: &Options) -> Vec<(usize, &'static str)> {
+    match opts.unit {
+        Unit::Cell => LEGEND.iter().copied().enumerate().filter(|&(i, _)| i != 6 || opts.contours).collect(),
+        Unit::Metre => {
+            vec![(0, LEGEND[0]), (1, LEGEND[1]), (2, LEGEND[2]), (3, LEGEND[3]), (4, "stuck robot (beacon)")]
+        }
+    }
 }
 
-fn legend_width() -> f64 {
-    legend_item_width()
+fn legend_item_width(opts: &Options) -> f64 {
+    legend(opts).iter().map(|(_, l)| text_width(l, LEGEND_FONT)).fold(0.0, f64::max) + 32.0
 }
 
-fn legend_columns(width: f64) -> usize {
-    ((width / legend_item_width()).floor() as usize).clamp(1, LEGEND.len())
+fn legend_width(opts: &Options) -> f64 {
+    legend_item_width(opts)
+}
+
+fn legend_columns(width: f64, opts: &Options) -> usize {
+    ((width / legend_item_width(opts)).floor() as usize).clamp(1, legend(opts).len())
 }
 
 /// Scale bar row plus legend rows.
-fn legend_height(width: f64) -> f64 {
-    let rows = LEGEND.len().div_ceil(legend_columns(width));
+fn legend_height(width: f64, opts: &Options) -> f64 {
+    let rows = legend(opts).len().div_ceil(legend_columns(width, opts));
     LEGEND_ROW * (1 + rows) as f64
 }
 
-/// A scale bar of a round number of cells, then the legend in columns.
-fn scale_and_legend(svg: &mut Svg, x: f64, y: f64, width: f64, terrain: &Terrain, eps: f64) {
-    let cells = [1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0]
+/// A scale bar of a round length (a third of the arena at most), then the
+/// legend in columns.
+fn scale_and_legend(
+    svg: &mut Svg,
+    (x, y, scale): (f64, f64, f64),
+    width: f64,
+    terrain: &Terrain,
+    eps: f64,
+    opts: &Options,
+) {
+    let length = [0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0]
         .into_iter()
         .rfind(|&c| c <= terrain.width() as f64 / 3.0)
         .unwrap_or(1.0);
     svg.open_group("scale-bar");
     let (bx, by) = (x, y + 6.0);
-    svg.line(bx, by, bx + cells * SCALE, by, r#"stroke="black" stroke-width="2""#);
-    for tick in [bx, bx + cells * SCALE] {
+    svg.line(bx, by, bx + length * scale, by, r#"stroke="black" stroke-width="2""#);
+    for tick in [bx, bx + length * scale] {
         svg.line(tick, by - 4.0, tick, by + 4.0, r#"stroke="black" stroke-width="1.5""#);
     }
-    let label =
-        format!("{} cell{} (ε = {})", number(cells), if cells == 1.0 { "" } else { "s" }, number(eps));
-    svg.text(bx + cells * SCALE + 8.0, by + 4.0, LEGEND_FONT, "start", &label);
+    let label = match opts.unit {
+        Unit::Cell => {
+            format!("{} cell{} (ε = {})", number(length), if length == 1.0 { "" } else { "s" }, number(eps))
+        }
+        Unit::Metre => format!("{} m", number(length)),
+    };
+    svg.text(bx + length * scale + 8.0, by + 4.0, LEGEND_FONT, "start", &label);
     svg.close_group();
     svg.open_group("legend");
-    let columns = legend_columns(width);
-    let item_w = legend_item_width();
-    for (i, label) in LEGEND.iter().enumerate() {
-        let ix = x + (i % columns) as f64 * item_w;
-        let iy = y + LEGEND_ROW * (1 + i / columns) as f64 + 4.0;
+    let columns = legend_columns(width, opts);
+    let item_w = legend_item_width(opts);
+    for (k, (i, label)) in legend(opts).into_iter().enumerate() {
+        let ix = x + (k % columns) as f64 * item_w;
+        let iy = y + LEGEND_ROW * (1 + k / columns) as f64 + 4.0;
         let (cx, cy) = (ix + 10.0, iy);
         match i {
             0 => {
@@ -348,5 +429,67 @@ mod tests {
         assert_eq!(d.first(), pts.first());
         assert_eq!(d.last(), pts.last());
         assert!(d.len() <= 7, "{}", d.len());
+    }
+
+    /// The arena frame's (x, y, width, height) in `svg`.
+    fn arena(svg: &str) -> (f64, f64, f64, f64) {
+        let tag = svg.split("<rect ").find(|r| r.contains(r##"fill="none" stroke="#444""##)).unwrap();
+        let num = |k: &str| {
+            let at = tag.find(&format!(" {k}=\"")).or_else(|| tag.find(&format!("{k}=\""))).unwrap();
+            let rest = &tag[at..];
+            let v = &rest[rest.find('"').unwrap() + 1..];
+            v[..v.find('"').unwrap()].parse::<f64>().unwrap()
+        };
+        (num("x"), num("y"), num("width"), num("height"))
+    }
+
+    #[test]
+    fn a_small_arena_is_drawn_large_enough_to_see() {
+        // A lab's 3 m × 2 m room, in whole metres.
+        let terrain = bycoms_sim::terrain::parse("...\n...\n").unwrap();
+        let result = RunResult {
+            success: false,
+            outcome: bycoms_sim::Outcome::RobotsExhausted,
+            steps: 0,
+            time: 0.0,
+            robots_used: 0,
+            beacons: Vec::new(),
+            robots: Vec::new(),
+        };
+        let svg =
+            render(&terrain, &result, 3.0, ["a heading long enough to be clipped in a narrow picture", "v"]);
+        let (_, _, w, h) = arena(&svg);
+        assert!(w >= 400.0 && (w / h - 1.5).abs() < 1e-9, "arena {w} × {h} px");
+    }
+
+    #[test]
+    fn a_lab_run_is_drawn_in_metres_without_the_simulators_field() {
+        let terrain = bycoms_sim::terrain::parse("...\n...\n").unwrap();
+        let stuck = bycoms_sim::runner::RobotRun {
+            id: 1,
+            end: bycoms_sim::runner::RobotEnd::Stuck,
+            position: Vec2::new(1.4, 1.0),
+            steps: 2,
+            trajectory: vec![Vec2::new(0.4, 1.0), Vec2::new(0.9, 1.0), Vec2::new(1.4, 1.0)],
+        };
+        let result = RunResult {
+            success: false,
+            outcome: bycoms_sim::Outcome::RobotsExhausted,
+            steps: 2,
+            time: 0.2,
+            robots_used: 1,
+            beacons: vec![stuck.position],
+            robots: vec![stuck],
+        };
+        let title = ["a lab run's heading, long enough to be clipped in a narrow picture", "v"];
+        let svg = render_with(&terrain, &result, 3.0, title, &Options::in_unit(Unit::Metre));
+        let bar = &svg[svg.find(r#"<g id="scale-bar">"#).unwrap()..];
+        assert!(bar[..bar.find("</g>").unwrap()].contains(">1 m<"), "{svg}");
+        assert!(!svg.contains("cell") && !svg.contains("ε"), "no cells, no ε: {svg}");
+        assert!(!svg.contains("stroke-dasharray=\"4 3\"") && !svg.contains("potential-contours"), "{svg}");
+        let width: f64 = svg[svg.find("width=\"").unwrap() + 7..].split('"').next().unwrap().parse().unwrap();
+        assert!(width >= text_width(title[0], 13.0) + 2.0 * MARGIN, "the title fits in {width} px");
+        let (_, _, w, _) = arena(&svg);
+        assert_eq!(w, 600.0, "3 m at 200 px per metre");
     }
 }

@@ -7,9 +7,20 @@
 //! run are the same picture. A robot's trajectory runs from its first pose
 //! (its start pose) to the pose at its gate decision; the frozen poses a
 //! beacon keeps publishing afterwards add nothing.
+//!
+//! The run's time in the title is the summary's: each robot's active
+//! periods from its start pose to its last change of pose, counted in pose
+//! time by the gate's own rule (`launch::gate::active_periods`), summed over
+//! the robots. Counting poses instead would add the gate's dwell and count
+//! every motion-capture frame as a control period. The start pose is the one
+//! the `Deployed` decision names by its step (in lockstep that step is the
+//! tick the robot started at, its time the tick's).
 
-use crate::commands::world::verdict;
+use super::snapshot::{Options, Unit};
+use crate::commands::simulate::summary_line;
+use crate::launch::gate::{active_periods, same_pose};
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
+use bycoms_sim::body::Kinematics;
 use bycoms_sim::runner::{Outcome, RobotEnd, RobotRun, RunResult};
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::Vec2;
@@ -18,10 +29,99 @@ use std::collections::BTreeMap;
 /// One robot's track so far.
 #[derive(Debug, Clone, Default)]
 struct Track {
-    path: Vec<Vec2>,
     end: Option<GateKind>,
     /// Where the gate decided (a beacon's position).
     at: Option<Vec2>,
+    /// Its latest pose before its `Deployed` decision: the start pose.
+    latest: Option<Pose>,
+    /// Whether the gate's `Deployed` decision was seen.
+    deployed: bool,
+    /// From its start pose on: the active-time count.
+    active: Option<Active>,
+}
+
+/// A deployed robot's start and last change of pose, as the gate counts them.
+#[derive(Debug, Clone)]
+struct Active {
+    /// The step the gate deployed it at.
+    start_step: u64,
+    /// Pose time of the start pose; `None`: the start tick's time (step ×
+    /// period), known once the period is.
+    start_us: Option<u64>,
+    /// The latest pose taken (poses of older steps are ignored).
+    last: Pose,
+    /// Pose time of the last change of pose; `None`: none since the start.
+    last_change_us: Option<u64>,
+    /// Where it was at the start pose.
+    start_at: Vec2,
+    /// Every later pose taken: pose time and position.
+    moves: Vec<(u64, Vec2)>,
+}
+
+impl Active {
+    /// From the robot's latest pose when the gate deployed it: the start
+    /// pose, at the step the decision names (in lockstep the tick it starts
+    /// at; an agent's first pose may still carry an older step).
+    fn start(latest: Pose, deployed: &GateEvent) -> Self {
+        let start_us = (latest.step == deployed.step).then_some(latest.time_us);
+        let last = Pose { step: deployed.step, ..latest };
+        let start_at = Vec2::new(latest.x, latest.y);
+        Self { start_step: deployed.step, start_us, last, last_change_us: None, start_at, moves: Vec::new() }
+    }
+
+    /// From a robot's first pose.
+    fn first(pose: Pose) -> Self {
+        Self {
+            start_step: pose.step,
+            start_us: Some(pose.time_us),
+            last: pose,
+            last_change_us: None,
+            start_at: Vec2::new(pose.x, pose.y),
+            moves: Vec::new(),
+        }
+    }
+
+    fn observe(&mut self, pose: &Pose) {
+        if pose.step <= self.last.step {
+            return;
+        }
+        if !same_pose(pose, &self.last) {
+            self.last_change_us = Some(pose.time_us);
+        }
+        self.last = *pose;
+        self.moves.push((pose.time_us, Vec2::new(pose.x, pose.y)));
+    }
+
+    fn start_us(&self, period_us: u64) -> u64 {
+        self.start_us.unwrap_or(self.start_step.saturating_mul(period_us))
+    }
+
+    /// Active control periods of `period_us`.
+    fn periods(&self, period_us: u64) -> u64 {
+        let start_us = self.start_us(period_us);
+        active_periods(start_us, self.last_change_us.unwrap_or(start_us), period_us)
+    }
+
+    /// Its trajectory as a simulated run's: the start, then where it was
+    /// after each active period (the latest pose by then), the last point
+    /// where it last moved to. Motion capture's frames and the still poses
+    /// of the dwell thus fall out, and the timeline of the pictures holds.
+    fn trajectory(&self, period_us: u64) -> Vec<Vec2> {
+        let (start_us, steps) = (self.start_us(period_us), self.periods(period_us));
+        let mut out = Vec::with_capacity(steps as usize + 1);
+        let (mut at, mut next) = (self.start_at, self.moves.iter().peekable());
+        for k in 0..steps {
+            let by = start_us + k * period_us;
+            while let Some(&(_, p)) = next.next_if(|(t, _)| *t <= by) {
+                at = p;
+            }
+            out.push(at);
+        }
+        let end = self.last_change_us.unwrap_or(start_us);
+        let last = self.moves.iter().take_while(|(t, _)| *t <= end).last().map_or(self.start_at, |m| m.1);
+        out.push(last);
+        out
+    }
 }
 
 /// Poses and gate decisions of one run, in the order they crossed the bus.
@@ -39,23 +139,36 @@ impl Trace {
     /// A pose: extends its robot's trajectory until the gate has decided on it.
     pub fn pose(&mut self, pose: &Pose) {
         let track = self.robots.entry(pose.robot.0).or_default();
-        if track.end.is_none() {
-            track.path.push(Vec2::new(pose.x, pose.y));
+        if track.end.is_some() {
+            return;
+        }
+        if !track.deployed {
+            track.latest = Some(*pose);
+        }
+        // Until a `Deployed` decision (none in a recording cut before it),
+        // the first pose is the start.
+        match &mut track.active {
+            Some(active) => active.observe(pose),
+            None => track.active = Some(Active::first(*pose)),
         }
     }
 
-    /// A gate decision: ends its robot's trajectory (deployments only mark it).
+    /// A gate decision: ends its robot's trajectory (a deployment starts
+    /// its active time).
     pub fn gate(&mut self, event: &GateEvent) {
         let track = self.robots.entry(event.robot.0).or_default();
-        if event.kind == GateKind::Deployed || track.end.is_some() {
+        if track.end.is_some() {
             return;
         }
-        let at = Vec2::new(event.x, event.y);
-        if track.path.is_empty() {
-            track.path.push(at);
+        if event.kind == GateKind::Deployed {
+            if let Some(start) = track.latest.take() {
+                track.active = Some(Active::start(start, event));
+            }
+            track.deployed = true;
+            return;
         }
         track.end = Some(event.kind);
-        track.at = Some(at);
+        track.at = Some(Vec2::new(event.x, event.y));
     }
 
     /// Whether any robot was seen.
@@ -67,20 +180,25 @@ impl Trace {
     /// (deployment) order; a robot that died counts as stuck (a beacon
     /// where last seen); `dt` converts steps to time.
     pub fn result(&self, dt: f64) -> RunResult {
+        let period_us = (dt * 1e6).round() as u64;
         let mut robots = Vec::new();
         let mut beacons = Vec::new();
-        for (&id, track) in self.robots.iter().filter(|(_, t)| !t.path.is_empty()) {
+        for (&id, track) in self.robots.iter().filter(|(_, t)| t.active.is_some() || t.at.is_some()) {
             let end = match track.end {
                 Some(GateKind::Stopped { arrived: true }) => RobotEnd::Arrived,
                 Some(GateKind::Stopped { arrived: false } | GateKind::Died) => RobotEnd::Stuck,
                 _ => RobotEnd::Moving,
             };
-            let position = track.at.or(track.path.last().copied()).unwrap_or(Vec2::new(0.0, 0.0));
+            let trajectory = match (&track.active, track.at) {
+                (Some(active), _) => active.trajectory(period_us),
+                (None, at) => at.into_iter().collect(),
+            };
+            let position = track.at.or(trajectory.last().copied()).unwrap_or(Vec2::new(0.0, 0.0));
             if end == RobotEnd::Stuck {
                 beacons.push(position);
             }
-            let steps = track.path.len().saturating_sub(1) as u64;
-            robots.push(RobotRun { id, end, position, steps, trajectory: track.path.clone() });
+            let steps = track.active.as_ref().map_or(0, |a| a.periods(period_us));
+            robots.push(RobotRun { id, end, position, steps, trajectory });
         }
         let success = robots.iter().any(|r| r.end == RobotEnd::Arrived);
         let timed_out = self.robots.values().any(|t| t.end == Some(GateKind::Timeout));
@@ -94,7 +212,7 @@ impl Trace {
             success,
             outcome,
             steps,
-            time: steps as f64 * dt,
+            time: Kinematics { dt, ..Kinematics::paper() }.time_of(steps),
             robots_used: robots.len() as u32,
             beacons,
             robots,
@@ -105,9 +223,14 @@ impl Trace {
 /// The snapshot picture of a traced run on `terrain` (start and goal set):
 /// `heading` on the first title line, the verdict on the second.
 pub fn picture(terrain: &Terrain, trace: &Trace, eps: f64, dt: f64, heading: &str) -> String {
+    picture_in(terrain, trace, eps, dt, heading, Unit::Cell)
+}
+
+/// [`picture`] of a world in `unit` (a lab's run: metres).
+pub fn picture_in(terrain: &Terrain, trace: &Trace, eps: f64, dt: f64, heading: &str, unit: Unit) -> String {
     let result = trace.result(dt);
-    let verdict = verdict(result.outcome, result.robots_used, result.time, result.beacons.len());
-    super::snapshot::render(terrain, &result, eps, [heading, &verdict])
+    let verdict = summary_line(&result);
+    super::snapshot::render_with(terrain, &result, eps, [heading, &verdict], &Options::in_unit(unit))
 }
 
 #[cfg(test)]
@@ -126,24 +249,32 @@ mod tests {
     #[test]
     fn trajectories_end_at_the_decision_and_beacons_are_the_stuck_and_the_dead() {
         let mut trace = Trace::new();
-        trace.pose(&pose(1, 0.0));
+        let t = |s: u64| s * 100_000;
+        trace.pose(&at(1, 0, 0.0, 0));
         trace.gate(&event(1, GateKind::Deployed, 0.0));
-        for x in [1.0, 2.0, 2.0] {
-            trace.pose(&pose(1, x));
+        for (s, x) in [(1, 1.0), (2, 2.0), (3, 2.0)] {
+            trace.pose(&at(1, s, x, t(s)));
         }
         trace.gate(&event(1, GateKind::Stopped { arrived: false }, 2.0));
-        trace.pose(&pose(1, 2.0)); // republished frozen pose: ignored
-        trace.pose(&pose(2, 0.0));
-        trace.pose(&pose(2, 0.5));
+        trace.pose(&at(1, 4, 2.0, t(4))); // republished frozen pose: ignored
+                                          // Without a `Deployed` decision the first pose is the start.
+        trace.pose(&at(2, 3, 0.0, t(3)));
+        trace.pose(&at(2, 4, 0.5, t(4)));
         trace.gate(&event(2, GateKind::Died, 0.5));
-        trace.pose(&pose(3, 0.0));
-        trace.pose(&pose(3, 3.0));
+        trace.pose(&at(3, 4, 0.0, t(4)));
+        trace.pose(&at(3, 5, 3.0, t(5)));
         trace.gate(&event(3, GateKind::Stopped { arrived: true }, 3.0));
         let r = trace.result(0.1);
         assert_eq!(r.outcome, Outcome::Arrived);
-        assert_eq!(r.robots.iter().map(|r| r.steps).collect::<Vec<_>>(), [3, 1, 1]);
-        assert_eq!(r.steps, 5);
-        assert!((r.time - 0.5).abs() < 1e-12);
+        assert_eq!(
+            r.robots.iter().map(|r| r.steps).collect::<Vec<_>>(),
+            [2, 1, 1],
+            "the still pose is no step"
+        );
+        let points = [Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(2.0, 1.0)];
+        assert_eq!(r.robots[0].trajectory, points, "one point per period, the still pose none");
+        assert_eq!(r.steps, 4);
+        assert_eq!(r.time, 0.4);
         assert_eq!(r.beacons, [Vec2::new(2.0, 1.0), Vec2::new(0.5, 1.0)]);
         assert_eq!(r.robots[2].end, RobotEnd::Arrived);
     }
@@ -157,5 +288,72 @@ mod tests {
         assert_eq!((r.outcome, r.robots[0].end), (Outcome::RobotsExhausted, RobotEnd::Moving));
         trace.gate(&event(1, GateKind::Timeout, 1.0));
         assert_eq!(trace.result(0.1).outcome, Outcome::TimeLimit);
+    }
+
+    fn at(k: u32, step: u64, x: f64, time_us: u64) -> Pose {
+        Pose { robot: RobotId(k), x, y: 1.0, heading: 0.0, step, time_us }
+    }
+
+    /// The lockstep launch as the gate sees it: robot 1 moves 10 periods,
+    /// stands still for the 2 s dwell and is judged stuck; robot 2's agent
+    /// died before it was deployed; robot 3 starts at tick 30 (its start
+    /// pose still carries its agent's stale step 0) and arrives after 12.
+    fn lockstep_trace() -> Trace {
+        let mut trace = Trace::new();
+        trace.pose(&at(1, 0, 0.0, 0));
+        trace.gate(&event(1, GateKind::Deployed, 0.0));
+        for s in 1..=30u64 {
+            trace.pose(&at(1, s, 0.1 * s.min(10) as f64, s * 100_000));
+        }
+        trace.gate(&event(1, GateKind::Stopped { arrived: false }, 1.0));
+        trace.pose(&at(3, 0, 0.0, 0));
+        trace.gate(&GateEvent { step: 30, ..event(3, GateKind::Deployed, 0.0) });
+        for s in 31..=42u64 {
+            trace.pose(&at(3, s, 0.1 * (s - 30) as f64, s * 100_000));
+        }
+        trace.gate(&event(3, GateKind::Stopped { arrived: true }, 1.2));
+        trace
+    }
+
+    #[test]
+    fn the_run_time_is_the_gates_active_periods_not_every_pose() {
+        let r = lockstep_trace().result(0.1);
+        assert_eq!(
+            r.robots.iter().map(|r| r.steps).collect::<Vec<_>>(),
+            [10, 12],
+            "the dwell is not counted"
+        );
+        assert_eq!(r.time, 2.2);
+    }
+
+    #[test]
+    fn mocap_frames_are_not_periods() {
+        // 120 Hz motion capture (frame numbers from 5000): 3 s of driving,
+        // then 2 s still: 3.0 s of run time, not 600 frames × 0.1 s.
+        let mut trace = Trace::new();
+        let frame = |n: u64, x: f64| at(1, 5000 + n, x, 1_000_000 + n * 8_333);
+        trace.pose(&frame(0, 0.0));
+        trace.gate(&GateEvent { step: 5000, ..event(1, GateKind::Deployed, 0.0) });
+        for n in 1..=600u64 {
+            trace.pose(&frame(n, 0.001 * n.min(360) as f64));
+        }
+        trace.gate(&event(1, GateKind::Stopped { arrived: false }, 0.36));
+        let r = trace.result(0.1);
+        assert_eq!((r.robots[0].steps, r.time), (30, 3.0));
+        // The picture shows it where it stopped, its whole way there: one
+        // point per period, as a simulated run's trajectory.
+        let now = crate::draw::timeline::robots_at(&r, r.steps);
+        assert!(now[0].position.distance(Vec2::new(0.36, 1.0)) < 1e-9, "{:?}", now[0].position);
+        assert_eq!(r.robots[0].trajectory.len(), 31);
+        assert!(r.robots[0].trajectory[15].distance(Vec2::new(0.18, 1.0)) < 1e-9, "1.5 s = 180 frames in");
+    }
+
+    #[test]
+    fn the_title_names_the_robot_that_arrived_not_the_count() {
+        let terrain = bycoms_sim::terrain::parse(&"..........\n".repeat(10)).expect("terrain");
+        let svg = picture(&terrain, &lockstep_trace(), 3.0, 0.1, "heading");
+        assert!(svg.contains("robot 3 arrived after 2.2 s (1 beacon)"), "{svg}");
+        // Robot 3 (the second robot that ran) is drawn with its own way.
+        assert!(svg.contains(r##"fill="none" stroke="#2ca02c" stroke-width="1.2"/>"##), "{svg}");
     }
 }

@@ -38,6 +38,25 @@ use bycoms_agent::angle::wrap;
 use bycoms_protocol::msg::Pose;
 use bycoms_sim::Vec2;
 
+/// A robot's active steps: control periods of pose time from its start
+/// pose (`start_us`) to its last change of pose (`last_change_us`), rounded
+/// to whole periods. The one definition of a run's time: the summary's
+/// steps come from it through [`Watch`], and the picture's title
+/// (`draw::trace`) from the same poses in the recording.
+pub fn active_periods(start_us: u64, last_change_us: u64, period_us: u64) -> u64 {
+    let active_us = last_change_us.saturating_sub(start_us);
+    let period = period_us.max(1);
+    (active_us + period / 2) / period
+}
+
+/// Whether two poses are the same pose (bit for bit): a robot whose pose
+/// does not change is standing still.
+pub fn same_pose(a: &Pose, b: &Pose) -> bool {
+    a.x.to_bits() == b.x.to_bits()
+        && a.y.to_bits() == b.y.to_bits()
+        && a.heading.to_bits() == b.heading.to_bits()
+}
+
 /// What the gate concluded about a moving robot.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Verdict {
@@ -105,9 +124,7 @@ impl Watch {
     /// Control periods from the start pose to the last change of pose
     /// (pose time, rounded to whole periods).
     pub fn active_steps(&self) -> u64 {
-        let active_us = self.last_change_us.saturating_sub(self.start.time_us);
-        let period = self.params.period_us.max(1);
-        (active_us + period / 2) / period
+        active_periods(self.start.time_us, self.last_change_us, self.params.period_us)
     }
 
     /// The verdict, once reached.
@@ -124,10 +141,7 @@ impl Watch {
         let prev = self.last;
         self.previous = prev;
         self.last = pose;
-        let same = pose.x.to_bits() == prev.x.to_bits()
-            && pose.y.to_bits() == prev.y.to_bits()
-            && pose.heading.to_bits() == prev.heading.to_bits();
-        if !same {
+        if !same_pose(&pose, &prev) {
             self.last_change_us = pose.time_us;
         }
         let (dx, dy) = (pose.x - self.params.goal.x, pose.y - self.params.goal.y);

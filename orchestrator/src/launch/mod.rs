@@ -124,7 +124,7 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
     let swarm_name = cfg.swarm.clone().unwrap_or_else(|| format!("launch-{}", std::process::id()));
     let swarm = Swarm::new(&swarm_name).with_context(|| format!("bad swarm name {swarm_name:?}"))?;
     // Held until the launch has ended (dropped last): one live launch per swarm.
-    let _swarm_lock = swarm_lock::SwarmLock::acquire(&swarm_name)?;
+    let _swarm_lock = swarm_lock::SwarmLock::for_launch(&swarm_name)?;
     // The file (run metadata, scene world) and the picture's trace, if asked for.
     let recording = Recording::start(&swarm_name, &world, &cfg)?;
     let opened = transport::open(&cfg.transport, &cfg.faults, cfg.robots, &swarm_name)?;

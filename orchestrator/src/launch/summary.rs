@@ -97,7 +97,8 @@ pub struct RealtimeReport {
     /// Periods skipped because an agent was late.
     pub missed_periods: u64,
     /// Simulated seconds actually computed per wall second:
-    /// `speed × periods / (periods + missed_periods)`.
+    /// `speed × periods / (periods + missed_periods)`; 0 when no period ran
+    /// (nothing was computed, so no speed-up is claimed).
     pub achieved_speed: f64,
     /// Whether at most [`FAITHFUL_MISS`] of the periods were missed; a run
     /// that was not faithful skipped control steps, so its motion (and its
@@ -116,7 +117,7 @@ impl RealtimeReport {
         Self {
             periods,
             missed_periods: missed,
-            achieved_speed: speed * (1.0 - share),
+            achieved_speed: if all == 0 { 0.0 } else { speed * (1.0 - share) },
             faithful: share <= FAITHFUL_MISS,
         }
     }
@@ -245,7 +246,8 @@ impl Summary {
             }
             Outcome::Error => return format!("error: {}", self.error.as_deref().unwrap_or("unknown")),
         };
-        verdict(sim, self.robots_used, self.time_s, self.beacons.len())
+        let arrived = self.robots.iter().find(|r| r.end == RobotEnd::Arrived).map(|r| r.id);
+        verdict(sim, self.robots_used, arrived, self.time_s, self.beacons.len())
     }
 
     /// The human-readable summary: the verdict, one line per deployed
@@ -279,6 +281,9 @@ impl Summary {
             out.push_str(&format!("  {noun} {text}: not deployed\n"));
         }
         out.push_str(&match (&self.speed, &self.realtime) {
+            (Some(speed), Some(rt)) if rt.periods + rt.missed_periods == 0 => {
+                format!("  {:.2} s wall at {speed}× real time: no control period ran", self.wall_s)
+            }
             (Some(speed), Some(rt)) => {
                 let mut line = format!(
                     "  {:.2} s wall at {speed}× real time: achieved {:.1}× ({} of {} missed)",
@@ -411,5 +416,31 @@ mod tests {
         assert!(fine.faithful);
         let text = summary(vec![robot(1, RobotEnd::Arrived, 3)], Some(fine)).text();
         assert!(text.contains("(1 of 1001 periods missed)") && !text.contains("not faithful"), "{text}");
+    }
+
+    #[test]
+    fn the_headline_names_the_robot_that_arrived_when_an_earlier_agent_died_undeployed() {
+        let mut lost = robot(3, RobotEnd::NotDeployed, 0);
+        lost.death = Some(Death { reason: "agent exited (status 1)".into(), noticed_unix_ms: 0 });
+        let robots = vec![
+            robot(1, RobotEnd::Stuck, 5),
+            robot(2, RobotEnd::Stuck, 5),
+            lost,
+            robot(4, RobotEnd::Arrived, 9),
+        ];
+        let s = Summary { robots_used: 3, beacons: vec![Vec2::new(1.0, 2.0); 2], ..summary(robots, None) };
+        let text = s.text();
+        assert!(text.contains("robot 4 arrived after 1.1 s (2 beacons)"), "{text}");
+        assert!(text.contains("robot 4: arrived"), "{text}");
+        assert!(!text.contains("robot 3 arrived"), "{text}");
+    }
+
+    #[test]
+    fn a_realtime_launch_that_never_ran_claims_no_speed() {
+        let never = RealtimeReport::new(5.0, 0, 0);
+        assert_eq!((never.achieved_speed, never.faithful), (0.0, true), "nothing computed, nothing missed");
+        let text = summary(vec![robot(1, RobotEnd::NotDeployed, 0)], Some(never)).text();
+        assert!(!text.contains("achieved"), "{text}");
+        assert!(text.contains("no control period ran"), "{text}");
     }
 }

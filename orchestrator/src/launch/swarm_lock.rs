@@ -4,12 +4,25 @@
 //! launches under one name would share their robots' command and pose
 //! topics and silently corrupt each other (robots deployed twice, poses of
 //! one run judged by the other). So a launch takes an exclusive lock on
-//! `<temp dir>/bycoms-swarms/<swarm>.lock` before it touches the bus and
-//! holds it until it ends; a second launch of a live swarm is refused with
-//! the first one's pid. The lock is an OS file lock (`flock`), so it goes
-//! away with its process however that process ends, even by `kill -9`: a
-//! dead launch never blocks the name, and its shared-memory leftovers are
-//! cleaned when the next launch opens the bus, as before.
+//! the swarm before it touches the bus and holds it until it ends; a second
+//! launch of a live swarm is refused with the first one's pid (a usage
+//! error, exit 2: nothing has started). The lock is an OS file lock
+//! (`flock`), so it goes away with its process however that process ends,
+//! even by `kill -9`: a dead launch never blocks the name, and its
+//! shared-memory leftovers are cleaned when the next launch opens the bus,
+//! as before.
+//!
+//! Where: the lock must be exactly as shared as the bus. iceoryx2's
+//! segments live in the machine's shared memory (`/dev/shm`), which every
+//! process sees whatever its `TMPDIR` and also under systemd's
+//! `PrivateTmp=yes`; a lock in the temporary directory let a launch with
+//! another `TMPDIR` run on top of a live swarm. So the lock file is
+//! `/dev/shm/bycoms-swarm.[<tag>.]<swarm>.lock`, keyed like the bus: an
+//! iceoryx2 isolation tag (`BYCOMS_IPC_ISOLATION`, `bus::ipc::root`) gives
+//! a bus of its own, so the same swarm name under another tag is another
+//! swarm. Without `/dev/shm` (not Linux) it falls back to the temporary
+//! directory. Swarm names and tags are letters, digits, `-` and `_`, so the
+//! dots keep the two apart.
 //!
 //! The file is removed when the launch ends. A launch that locked a file
 //! which was removed meanwhile (the previous owner ending between our open
@@ -55,30 +68,61 @@ pub struct SwarmLock {
     path: PathBuf,
 }
 
-/// The directory of the swarm lock files.
+/// The machine's shared memory, where iceoryx2 keeps its segments.
+const SHARED_MEMORY: &str = "/dev/shm";
+
+/// The directory of the swarm lock files: the machine's shared memory, or
+/// the temporary directory where there is none.
 pub fn lock_dir() -> PathBuf {
-    std::env::temp_dir().join("bycoms-swarms")
+    let shm = Path::new(SHARED_MEMORY);
+    if shm.is_dir() {
+        shm.to_path_buf()
+    } else {
+        std::env::temp_dir().join("bycoms-swarms")
+    }
+}
+
+/// The lock file's name of `swarm` on the bus of isolation tag `tag`.
+pub fn lock_name(tag: Option<&str>, swarm: &str) -> String {
+    match tag {
+        Some(tag) => format!("bycoms-swarm.{tag}.{swarm}.lock"),
+        None => format!("bycoms-swarm.{swarm}.lock"),
+    }
 }
 
 impl SwarmLock {
-    /// Locks `swarm` for this process, or says who holds it.
+    /// Locks `swarm` on this process's bus (its isolation tag, from the
+    /// environment) for this process, or says who holds it.
     pub fn acquire(swarm: &str) -> Result<Self, SwarmLockError> {
-        Self::acquire_in(&lock_dir(), swarm)
+        let tag = bycoms_protocol::bus::ipc::root::tag_from_env();
+        Self::acquire_in(&lock_dir(), &lock_name(tag.as_deref(), swarm), swarm)
     }
 
-    /// [`Self::acquire`] with the lock files in `dir`.
-    pub fn acquire_in(dir: &Path, swarm: &str) -> Result<Self, SwarmLockError> {
-        let path = dir.join(format!("{swarm}.lock"));
+    /// [`Self::acquire`] as an error of the launch: a swarm in use is a
+    /// usage error (exit 2), refused before anything started.
+    pub fn for_launch(swarm: &str) -> anyhow::Result<Self> {
+        Self::acquire(swarm).map_err(|e| match e {
+            SwarmLockError::InUse { .. } => crate::exit::usage(e),
+            SwarmLockError::Io { .. } => e.into(),
+        })
+    }
+
+    /// [`Self::acquire`] with the lock file `dir/name`.
+    pub fn acquire_in(dir: &Path, name: &str, swarm: &str) -> Result<Self, SwarmLockError> {
+        let path = dir.join(name);
         let io = |source| SwarmLockError::Io { swarm: swarm.to_string(), path: path.clone(), source };
         std::fs::create_dir_all(dir).map_err(io)?;
         loop {
-            let mut file = OpenOptions::new()
-                .read(true)
-                .write(true)
-                .create(true)
-                .truncate(false)
-                .open(&path)
-                .map_err(io)?;
+            let opened = OpenOptions::new().read(true).write(true).create(true).truncate(false).open(&path);
+            let (mut file, writable) = match opened {
+                Ok(file) => (file, true),
+                // Another user's lock file (the shared memory is every
+                // user's): `flock` needs no write access to lock it.
+                Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied => {
+                    (File::open(&path).map_err(io)?, false)
+                }
+                Err(e) => return Err(io(e)),
+            };
             match file.try_lock() {
                 Ok(()) => {}
                 Err(TryLockError::WouldBlock) => {
@@ -94,9 +138,11 @@ impl SwarmLock {
                 Ok(now) if now.ino() == locked.ino() && now.dev() == locked.dev() => {}
                 _ => continue,
             }
-            file.set_len(0).map_err(io)?;
-            file.rewind().map_err(io)?;
-            write!(file, "{}", std::process::id()).map_err(io)?;
+            if writable {
+                file.set_len(0).map_err(io)?;
+                file.rewind().map_err(io)?;
+                write!(file, "{}", std::process::id()).map_err(io)?;
+            }
             return Ok(Self { file, path });
         }
     }
@@ -118,17 +164,37 @@ mod tests {
     #[test]
     fn a_held_swarm_is_refused_with_its_owner_and_free_again_once_released() {
         let dir = tempfile::tempdir().expect("temp dir");
-        let first = SwarmLock::acquire_in(dir.path(), "s1").expect("first lock");
-        match SwarmLock::acquire_in(dir.path(), "s1") {
+        let lock = |swarm: &str| SwarmLock::acquire_in(dir.path(), &lock_name(None, swarm), swarm);
+        let first = lock("s1").expect("first lock");
+        match lock("s1") {
             Err(SwarmLockError::InUse { swarm, owner }) => {
                 assert_eq!((swarm.as_str(), owner), ("s1", Some(std::process::id())));
             }
             other => panic!("second lock of a held swarm: {other:?}"),
         }
-        let other_name = SwarmLock::acquire_in(dir.path(), "s2").expect("another name is free");
+        let other_name = lock("s2").expect("another name is free");
         drop(first);
-        assert!(!dir.path().join("s1.lock").exists(), "the lock file is removed");
-        let again = SwarmLock::acquire_in(dir.path(), "s1").expect("free after release");
+        assert!(!dir.path().join(lock_name(None, "s1")).exists(), "the lock file is removed");
+        let again = lock("s1").expect("free after release");
         drop((again, other_name));
+    }
+
+    #[test]
+    fn the_lock_is_where_the_bus_is_keyed_like_the_bus() {
+        // iceoryx2's segments are in /dev/shm on Linux: so is the lock,
+        // whatever TMPDIR says.
+        if Path::new(SHARED_MEMORY).is_dir() {
+            assert_eq!(lock_dir(), Path::new("/dev/shm"));
+        }
+        assert_eq!(lock_name(None, "lab"), "bycoms-swarm.lab.lock");
+        assert_eq!(lock_name(Some("ci-1"), "lab"), "bycoms-swarm.ci-1.lab.lock");
+    }
+
+    #[test]
+    fn a_swarm_in_use_is_a_usage_error() {
+        let swarm = format!("usage-{}", std::process::id());
+        let _held = SwarmLock::acquire(&swarm).expect("lock");
+        let err = SwarmLock::for_launch(&swarm).expect_err("in use");
+        assert_eq!(crate::exit::code_of(&err), crate::exit::USAGE, "{err:#}");
     }
 }

@@ -18,6 +18,17 @@ use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 
+/// The noise seed of a run: from the sweep seed, the terrain's name and
+/// the value of ε (not its position on the axis, so adding radii to a
+/// sweep does not change the others' results). `merge` recomputes it to
+/// tell a row of another sweep (`super::verify`).
+pub fn run_seed(sweep_seed: u64, terrain_id: &str, eps: f64) -> u64 {
+    let id_hash = terrain_id
+        .bytes()
+        .fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3));
+    mix(mix(sweep_seed, id_hash), eps.to_bits())
+}
+
 /// Everything needed to turn a run index into a row.
 pub struct Job<'a> {
     pub axes: &'a Axes,
@@ -29,15 +40,9 @@ pub struct Job<'a> {
 }
 
 impl Job<'_> {
-    /// The noise seed of a run: from the sweep seed, the terrain and the
-    /// value of ε (not its position on the axis, so adding radii to a sweep
-    /// does not change the others' results).
+    /// The noise seed of run `spec` (see [`run_seed`]).
     fn run_seed(&self, spec: &RunSpec, terrain: &SweepTerrain) -> u64 {
-        let id_hash = terrain
-            .id
-            .bytes()
-            .fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3));
-        mix(mix(self.seed, id_hash), self.axes.eps[spec.eps].to_bits())
+        run_seed(self.seed, &terrain.id, self.axes.eps[spec.eps])
     }
 
     /// Whether a row (e.g. from a CSV being resumed) is the run its index names in this plan.

@@ -11,7 +11,9 @@
 //! * [`table`] — success-rate tables and heatmaps from rows (also what
 //!   `merge` uses, so sharded and single runs give the same tables);
 //! * [`budget`] — the robot-budget study (success within N robots), from
-//!   the same rows.
+//!   the same rows;
+//! * [`verify`] — whether a row belongs to a sweep and agrees with itself
+//!   (what `merge` checks of every row).
 
 pub mod budget;
 pub mod execute;
@@ -19,6 +21,7 @@ pub mod plan;
 pub mod rows;
 pub mod table;
 pub mod terrains;
+pub mod verify;
 
 /// Seeds of terrains and runs are derived from the sweep seed with the
 /// one mixing function of bycoms, so every run is reproducible on its own.
