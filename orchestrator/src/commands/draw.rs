@@ -7,6 +7,7 @@
 
 use crate::draw::trace::picture;
 use crate::exit::usage;
+use crate::out::{usage_unless_io, Kind, Outputs};
 use crate::record::run::read_run;
 use anyhow::{Context, Result};
 use bycoms_sim::terrain::parse;
@@ -27,9 +28,23 @@ pub struct Args {
     /// gradient as arrows whose length is V_ave (real robots' telemetry).
     #[arg(long)]
     pub measurements: bool,
+    /// Replace --out if it is already an SVG picture (never anything else, never FILE itself).
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Where the picture goes: --out, or FILE with the extension .svg.
+fn out_path(args: &Args) -> PathBuf {
+    args.out.clone().unwrap_or_else(|| args.file.with_extension("svg"))
 }
 
 pub fn run(args: Args) -> Result<i32> {
+    // Refused before anything is read: the picture never replaces the recording or another file.
+    Outputs::new(args.force)
+        .input(&args.file)
+        .output("--out", out_path(&args), Kind::Svg)
+        .check()
+        .map_err(usage_unless_io)?;
     let run = read_run(&args.file)?;
     let meta = run.meta.ok_or_else(|| {
         usage(format!(
@@ -74,8 +89,8 @@ pub fn run(args: Args) -> Result<i32> {
 }
 
 fn write(args: &Args, svg: &str) -> Result<i32> {
-    let out = args.out.clone().unwrap_or_else(|| args.file.with_extension("svg"));
-    std::fs::write(&out, svg).with_context(|| format!("cannot write the picture to {}", out.display()))?;
+    let out = out_path(args);
+    crate::out::write(&out, Kind::Svg, args.force, svg.as_bytes()).map_err(usage_unless_io)?;
     crate::outln!("picture: {}", out.display())?;
     Ok(crate::exit::SUCCESS)
 }
