@@ -178,3 +178,71 @@ fn a_file_that_is_not_a_recording_is_one_error_for_every_reader() {
         }
     }
 }
+
+/// The certificate in a PEM file.
+fn cert_der(path: &Path) -> Vec<u8> {
+    let bytes = std::fs::read(path).expect("read pem");
+    let (_, pem) = x509_parser::pem::parse_x509_pem(&bytes).expect("a PEM");
+    pem.contents
+}
+
+/// Whether the certificate at `cert` is signed by the CA at `ca`.
+fn signed_by(cert: &Path, ca: &Path) -> bool {
+    let (cert, ca) = (cert_der(cert), cert_der(ca));
+    let (_, cert) = x509_parser::parse_x509_certificate(&cert).expect("certificate");
+    let (_, ca) = x509_parser::parse_x509_certificate(&ca).expect("CA certificate");
+    cert.verify_signature(Some(ca.public_key())).is_ok()
+}
+
+#[test]
+fn certs_never_replaces_a_lab_ca_unasked_and_adds_robots_to_it() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let made = |extra: &[&str]| orchestrator_in(dir.path(), &[&["certs", "--out", "c"], extra].concat());
+    let o = made(&["--robots", "2"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let c = dir.path().join("c");
+    let files = |names: &[&str]| -> Vec<(std::path::PathBuf, Vec<u8>)> {
+        names.iter().map(|n| (c.join(n), std::fs::read(c.join(n)).expect(n))).collect()
+    };
+    let set = [
+        "ca.pem",
+        "ca-key.pem",
+        "orchestrator.pem",
+        "orchestrator-key.pem",
+        "robot-1.pem",
+        "robot-1-key.pem",
+    ];
+    let before = files(&set);
+    let kept: Vec<(&Path, &[u8])> = before.iter().map(|(p, b)| (p.as_path(), b.as_slice())).collect();
+
+    // Run again: refused, nothing written.
+    let o = made(&["--robots", "2"]);
+    refused(&o, "already holds a lab CA", &kept);
+    assert!(stderr(&o).contains("--add-robots") && stderr(&o).contains("--force"), "{}", stderr(&o));
+
+    // More robots for the same CA: the old files stay, the new ones are signed by the kept CA.
+    let o = made(&["--robots", "4", "--add-robots"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    for (path, bytes) in &kept {
+        assert_eq!(std::fs::read(path).expect("kept"), *bytes, "{} changed", path.display());
+    }
+    for k in [3, 4] {
+        assert!(signed_by(&c.join(format!("robot-{k}.pem")), &c.join("ca.pem")), "robot {k}");
+        let key = c.join(format!("robot-{k}-key.pem"));
+        use std::os::unix::fs::PermissionsExt;
+        assert_eq!(std::fs::metadata(&key).expect("key").permissions().mode() & 0o777, 0o600);
+        assert!(c.join(format!("robot-{k}.json5")).is_file());
+    }
+    let acl = std::fs::read_to_string(c.join("orchestrator.json5")).expect("orchestrator.json5");
+    assert!(acl.contains("\"robot-4\"") && acl.contains("quic/0.0.0.0:7447"), "{acl}");
+
+    // --force makes a new CA (the old robots' certificates no longer verify).
+    let o = made(&["--robots", "1", "--force"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_ne!(std::fs::read(c.join("ca-key.pem")).expect("new key"), before[1].1, "a new CA key");
+    assert!(!signed_by(&c.join("robot-3.pem"), &c.join("ca.pem")), "robot 3 belonged to the old CA");
+
+    // Adding robots to a directory without a CA is a usage error.
+    let o = orchestrator_in(dir.path(), &["certs", "--out", "none", "--robots", "1", "--add-robots"]);
+    refused(&o, "ca.pem is missing", &[]);
+}

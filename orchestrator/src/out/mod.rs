@@ -3,7 +3,7 @@
 //! follows, and the atomic write that goes with it).
 
 pub mod files;
-mod kind;
+pub mod kind;
 pub mod stdout;
 
 pub use files::{
