@@ -74,7 +74,7 @@ pub enum OutputError {
         found: String,
     },
     /// The file could not be inspected.
-    #[error("cannot inspect {}: {source}", path.display())]
+    #[error("cannot inspect {}", path.display())]
     Inspect {
         /// The file.
         path: PathBuf,
@@ -82,7 +82,7 @@ pub enum OutputError {
         source: std::io::Error,
     },
     /// Writing the file failed (the old one, if any, is untouched).
-    #[error("cannot write {}: {source}", path.display())]
+    #[error("cannot write {}", path.display())]
     Write {
         /// The file.
         path: PathBuf,
@@ -236,7 +236,7 @@ pub fn write_private(path: &Path, kind: Kind, force: bool, bytes: &[u8]) -> Resu
 /// The temporary-file-and-rename half of [`write`], for callers that write
 /// into a directory they own (a sweep's output directory).
 pub fn write_atomic(path: &Path, bytes: &[u8], mode: u32) -> Result<(), OutputError> {
-    let failed = |source| OutputError::Write { path: path.to_path_buf(), source };
+    let failed = |e| OutputError::Write { path: path.to_path_buf(), source: without_temp_path(e) };
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let mut tmp = tempfile::Builder::new()
         .prefix(&format!(".{name}."))
@@ -257,7 +257,7 @@ pub fn write_with<T, E>(
     path: &Path,
     fill: impl FnOnce(File) -> Result<(T, File), E>,
 ) -> Result<Result<T, E>, OutputError> {
-    let failed = |source| OutputError::Write { path: path.to_path_buf(), source };
+    let failed = |e| OutputError::Write { path: path.to_path_buf(), source: without_temp_path(e) };
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp = tempfile::Builder::new()
         .prefix(&format!(".{name}."))
@@ -273,6 +273,16 @@ pub fn write_with<T, E>(
             Ok(Ok(value))
         }
         Err(e) => Ok(Err(e)),
+    }
+}
+
+/// The operating system's error without the temporary file's name that
+/// `tempfile` adds ("… at path /dir/.x.svg.tmp"): the user named the target.
+fn without_temp_path(e: std::io::Error) -> std::io::Error {
+    let text = e.to_string();
+    match (e.get_ref().is_some(), text.split_once(" at path \"")) {
+        (true, Some((what, _))) => std::io::Error::new(e.kind(), what.to_string()),
+        _ => e,
     }
 }
 
