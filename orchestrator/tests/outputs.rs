@@ -246,3 +246,24 @@ fn certs_never_replaces_a_lab_ca_unasked_and_adds_robots_to_it() {
     let o = orchestrator_in(dir.path(), &["certs", "--out", "none", "--robots", "1", "--add-robots"]);
     refused(&o, "ca.pem is missing", &[]);
 }
+
+#[test]
+fn terrain_replaces_its_own_files_only_with_force() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let make = |extra: &[&str]| {
+        orchestrator_in(
+            dir.path(),
+            &[&["terrain", "--width", "3", "--count", "1", "--out", "t"], extra].concat(),
+        )
+    };
+    let o = make(&[]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let index = dir.path().join("t/terrains.csv");
+    let bytes = std::fs::read(&index).expect("index");
+    refused(&make(&[]), "give --force to replace it", &[(&index, &bytes)]);
+    assert_eq!(make(&["--force"]).status.code(), Some(0));
+    // Never over a file of another kind, even with --force.
+    launch_recording(&index);
+    let rec = std::fs::read(&index).expect("recording");
+    refused(&make(&["--force"]), "is an MCAP recording, not a CSV table", &[(&index, &rec)]);
+}

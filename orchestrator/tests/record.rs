@@ -356,15 +356,18 @@ fn zstd_and_lz4_recordings_read_like_uncompressed_ones() {
     for (name, compression) in [("zstd", mcap::Compression::Zstd), ("lz4", mcap::Compression::Lz4)] {
         let packed = dir.path().join(format!("{name}.mcap"));
         compressed_copy(&plain, &packed, compression);
-        let header = mcap::Summary::read(&std::fs::read(&packed).expect("read")).expect("summary").expect("summary");
+        let header =
+            mcap::Summary::read(&std::fs::read(&packed).expect("read")).expect("summary").expect("summary");
         assert!(header.chunk_indexes.iter().all(|c| c.compression == name), "{name}: the copy is compressed");
         let read = recover(&packed).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(read.is_complete(), "{name}: {:?}", read.stopped_by);
         assert_eq!(read.counts, expected, "{name}");
-        let run = bycoms_orchestrator::record::run::read_run(&packed).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let run =
+            bycoms_orchestrator::record::run::read_run(&packed).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(run.stopped_by.is_none(), "{name}: {:?}", run.stopped_by);
         let fixed = dir.path().join(format!("{name}.recovered.mcap"));
-        let copied = bycoms_orchestrator::record::rewrite(&packed, &fixed).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let copied =
+            bycoms_orchestrator::record::rewrite(&packed, &fixed).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(copied.counts, expected, "{name}: record recover copies every message");
     }
 }
