@@ -114,7 +114,8 @@ fn zstd_and_lz4_copies_of_a_launch_replay_and_draw() {
         let out = replay(&packed);
         assert_eq!(out.status.code(), Some(0), "{name}: {}\n{}", out.stdout, out.stderr);
         assert!(out.stdout.contains("MATCH:"), "{name}: {}", out.stdout);
-        let drawn = Proc::orchestrator(&["draw", packed.to_str().expect("utf-8")]).wait(Duration::from_secs(60));
+        let drawn =
+            Proc::orchestrator(&["draw", packed.to_str().expect("utf-8")]).wait(Duration::from_secs(60));
         assert_eq!(drawn.status.code(), Some(0), "{name}: {}", drawn.stderr);
         assert!(dir.path().join(format!("{name}.svg")).is_file(), "{name}");
     }
