@@ -150,7 +150,7 @@ fn bad_input_exits_non_zero_with_a_clear_message() {
         (&["bench", "scale", "--speed", "0"], "speed-up must be a number in", 2),
         (
             &["simulate", "--svg", "/nonexistent/dir/out.svg"],
-            "cannot write /nonexistent/dir/out.svg: No such file",
+            "cannot write the snapshot to /nonexistent/dir/out.svg: No such file",
             1,
         ),
         (&["sweep", "--out", "/proc/forbidden"], "cannot create output directory", 1),

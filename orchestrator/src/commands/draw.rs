@@ -7,7 +7,7 @@
 
 use crate::draw::trace::picture;
 use crate::exit::usage;
-use crate::out::{usage_unless_io, Kind, Outputs};
+use crate::out::{usage_unless_io, writing, Kind, Outputs};
 use crate::record::run::read_run;
 use anyhow::{Context, Result};
 use bycoms_sim::terrain::parse;
@@ -90,7 +90,7 @@ pub fn run(args: Args) -> Result<i32> {
 
 fn write(args: &Args, svg: &str) -> Result<i32> {
     let out = out_path(args);
-    crate::out::write(&out, Kind::Svg, args.force, svg.as_bytes()).map_err(usage_unless_io)?;
+    crate::out::write(&out, Kind::Svg, args.force, svg.as_bytes()).map_err(writing("the picture"))?;
     crate::outln!("picture: {}", out.display())?;
     Ok(crate::exit::SUCCESS)
 }

@@ -9,7 +9,7 @@
 use crate::commands::world::RunArgs;
 use crate::draw::{animate, snapshot, timeline};
 use crate::exit;
-use crate::out::{usage_unless_io, Kind, Outputs};
+use crate::out::{usage_unless_io, writing, Kind, Outputs};
 use crate::scenario::{self, WorldSource};
 use anyhow::Result;
 use bycoms_sim::runner::RobotEnd;
@@ -220,13 +220,14 @@ fn draw_pictures(
             }
             None => snapshot::render_with(terrain, result, cfg.eps, title, &opts),
         };
-        crate::out::write(&args.svg, Kind::Svg, args.force, svg.as_bytes()).map_err(usage_unless_io)?;
+        crate::out::write(&args.svg, Kind::Svg, args.force, svg.as_bytes())
+            .map_err(writing("the snapshot"))?;
         written.push(format!("snapshot: {}", args.svg.display()));
     }
     if let Some(path) = &args.animate {
         let movie = animate::Movie { seconds: args.animate_seconds, field_constant: cfg.field_constant };
         let svg = animate::render(terrain, result, cfg.eps, title, &movie);
-        crate::out::write(path, Kind::Svg, args.force, svg.as_bytes()).map_err(usage_unless_io)?;
+        crate::out::write(path, Kind::Svg, args.force, svg.as_bytes()).map_err(writing("the animation"))?;
         written.push(format!("animation: {}", path.display()));
     }
     Ok(written)

@@ -100,6 +100,17 @@ pub fn usage_unless_io(error: OutputError) -> anyhow::Error {
     }
 }
 
+/// [`usage_unless_io`], with a failed write said as "cannot write `what` to
+/// PATH: cause" ("the snapshot", "the picture").
+pub fn writing(what: &str) -> impl Fn(OutputError) -> anyhow::Error + '_ {
+    move |error| match error {
+        OutputError::Write { path, source } => {
+            anyhow::Error::new(source).context(format!("cannot write {what} to {}", path.display()))
+        }
+        other => usage_unless_io(other),
+    }
+}
+
 /// Checks that a file of `kind` may be written to `path` (see the module
 /// documentation); `force` allows replacing a file of the same kind.
 pub fn check_target(path: &Path, kind: Kind, force: bool) -> Result<(), OutputError> {
