@@ -25,11 +25,22 @@
 //! certificate common name, default deny) lets robot `k` publish only on
 //! `bycoms/*/robot/<k>/**` and on the shared `bycoms/*/from_agents`, and
 //! lets every robot subscribe to and receive anything under `bycoms/**`.
+//! A lab's CA is its trust: every robot provisioned with it is locked out
+//! once it is replaced, and without `ca-key.pem` no more robots can join.
+//! So [`generate`] never replaces an existing CA unless told to
+//! (`--force`), and [`add_robots`] issues certificates for more robots with
+//! the CA already there (`--add-robots`). Every file goes through the
+//! overwrite rule of all outputs (`crate::out::files`): all are checked
+//! before the first is written, and each is written whole or not at all.
+//!
 //! Limit: `from_agents` is one key for all agents, so the ACL cannot stop
 //! robot 1 from putting robot 2's id *inside* a `FromAgent` payload; the
 //! orchestrator has to check the id against the sender (or the naming has
 //! to give each agent its own `from_agents` key) — not done yet.
 
+use crate::exit;
+use crate::out::kind::ZENOH_CONFIG_MARK;
+use crate::out::{self, usage_unless_io, Kind, Outputs};
 use anyhow::{Context, Result};
 use rcgen::{BasicConstraints, CertificateParams, DnType, ExtendedKeyUsagePurpose, IsCa, Issuer, KeyPair};
 use serde_json::{json, Value};
@@ -57,6 +68,8 @@ pub struct Plan {
     pub connect: String,
     /// Output directory (created).
     pub out: PathBuf,
+    /// Replace an existing CA and every file of the set (`--force`).
+    pub force: bool,
 }
 
 /// The files [`generate`] wrote.
@@ -67,7 +80,7 @@ pub struct Generated {
     /// zenoh config of the orchestrator (router, TLS listener, ACL).
     pub orchestrator_config: PathBuf,
     /// zenoh config of each robot's host (client of the orchestrator), in
-    /// robot order 1..=N.
+    /// robot order 1..=N ([`add_robots`]: the new robots' only).
     pub robot_configs: Vec<PathBuf>,
 }
 
@@ -76,21 +89,21 @@ struct Pair {
     key: PathBuf,
 }
 
-fn write_private(path: &Path, text: &str) -> Result<()> {
-    use std::io::Write as _;
-    use std::os::unix::fs::OpenOptionsExt as _;
-    let mut f = std::fs::OpenOptions::new()
-        .write(true)
-        .create(true)
-        .truncate(true)
-        .mode(0o600)
-        .open(path)
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    f.write_all(text.as_bytes()).with_context(|| format!("cannot write {}", path.display()))
+fn write_private(path: &Path, text: &str, force: bool) -> Result<()> {
+    out::write_private(path, Kind::Pem, force, text.as_bytes()).map_err(usage_unless_io)
 }
 
-fn write_public(path: &Path, text: &str) -> Result<()> {
-    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+fn write_public(path: &Path, kind: Kind, text: &str, force: bool) -> Result<()> {
+    out::write(path, kind, force, text.as_bytes()).map_err(usage_unless_io)
+}
+
+/// The files of the orchestrator's (`name` = [`ORCHESTRATOR_CN`]) or a robot's set.
+fn files_of(out: &Path, name: &str) -> [(PathBuf, Kind); 3] {
+    [
+        (out.join(format!("{name}.pem")), Kind::Pem),
+        (out.join(format!("{name}-key.pem")), Kind::Pem),
+        (out.join(format!("{name}.json5")), Kind::ZenohConfig),
+    ]
 }
 
 fn leaf(
@@ -99,6 +112,7 @@ fn leaf(
     name: &str,
     sans: Vec<String>,
     usages: Vec<ExtendedKeyUsagePurpose>,
+    force: bool,
 ) -> Result<Pair> {
     let mut params = CertificateParams::new(sans).context("bad subject alternative name")?;
     params.distinguished_name.push(DnType::CommonName, name);
@@ -106,8 +120,8 @@ fn leaf(
     let key = KeyPair::generate().context("cannot generate a key")?;
     let cert = params.signed_by(&key, issuer).context("cannot sign a certificate")?;
     let pair = Pair { cert: out.join(format!("{name}.pem")), key: out.join(format!("{name}-key.pem")) };
-    write_public(&pair.cert, &cert.pem())?;
-    write_private(&pair.key, &key.serialize_pem())?;
+    write_public(&pair.cert, Kind::Pem, &cert.pem(), force)?;
+    write_private(&pair.key, &key.serialize_pem(), force)?;
     Ok(pair)
 }
 
@@ -153,12 +167,20 @@ fn tls(ca: &Path, me: &Pair) -> Value {
     } } })
 }
 
-fn write_config(path: &Path, header: &str, config: &Value) -> Result<()> {
+fn write_config(path: &Path, header: &str, config: &Value, force: bool) -> Result<()> {
     let text = serde_json::to_string_pretty(config).context("cannot format a zenoh config")?;
-    write_public(
-        path,
-        &format!("// {header}\n// Written by `orchestrator certs`; JSON5 for zenoh 1.10.\n{text}\n"),
-    )
+    let text = format!("// {header}\n{ZENOH_CONFIG_MARK}; JSON5 for zenoh 1.10.\n{text}\n");
+    write_public(path, Kind::ZenohConfig, &text, force)
+}
+
+/// A zenoh config this module wrote, read back: its comment lines dropped,
+/// the rest is JSON.
+fn read_config(path: &Path) -> Result<Value> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let json: String =
+        text.lines().filter(|l| !l.trim_start().starts_with("//")).collect::<Vec<_>>().join("\n");
+    serde_json::from_str(&json)
+        .with_context(|| format!("{} is not a config written by `orchestrator certs`", path.display()))
 }
 
 /// Whether zenoh authenticates and encrypts `endpoint` with the TLS
@@ -167,9 +189,8 @@ pub fn is_secured(endpoint: &str) -> bool {
     endpoint.starts_with("quic/") || endpoint.starts_with("tls/")
 }
 
-/// Writes the lab CA, the orchestrator's and every robot's certificate and
-/// key, and the zenoh configs (see the module doc).
-pub fn generate(plan: &Plan) -> Result<Generated> {
+/// Checks what every call checks: robots, hosts, secured endpoints.
+fn check_plan(plan: &Plan) -> Result<()> {
     anyhow::ensure!(plan.robots >= 1, "--robots must be at least 1");
     anyhow::ensure!(!plan.hosts.is_empty(), "the orchestrator needs at least one host name or address");
     for (flag, endpoint) in [("--listen", &plan.listen), ("--connect", &plan.connect)] {
@@ -178,6 +199,37 @@ pub fn generate(plan: &Plan) -> Result<Generated> {
             "{flag} {endpoint}: certificates are for secured endpoints, quic/HOST:PORT or tls/HOST:PORT"
         );
     }
+    Ok(())
+}
+
+/// The lab CA's certificate and key in `out`.
+fn ca_files(out: &Path) -> [PathBuf; 2] {
+    [out.join("ca.pem"), out.join("ca-key.pem")]
+}
+
+/// Writes the lab CA, the orchestrator's and every robot's certificate and
+/// key, and the zenoh configs (see the module doc). An existing CA in the
+/// output directory is replaced only with [`Plan::force`] (a usage error
+/// otherwise, before anything is written).
+pub fn generate(plan: &Plan) -> Result<Generated> {
+    check_plan(plan)?;
+    let [ca, ca_key] = ca_files(&plan.out);
+    if !plan.force && [&ca, &ca_key].iter().any(|p| p.metadata().is_ok_and(|m| m.len() > 0)) {
+        return Err(exit::usage(format!(
+            "{} already holds a lab CA (ca.pem, ca-key.pem): replacing it locks out every robot \
+             provisioned with it. Add robots to it with --add-robots, or give --force to make a new \
+             CA (keep a copy of ca-key.pem first)",
+            plan.out.display()
+        )));
+    }
+    let mut rule =
+        Outputs::new(plan.force).output("--out", &ca, Kind::Pem).output("--out", &ca_key, Kind::Pem);
+    for name in std::iter::once(ORCHESTRATOR_CN.to_string()).chain((1..=plan.robots).map(robot_cn)) {
+        for (path, kind) in files_of(&plan.out, &name) {
+            rule = rule.output("--out", path, kind);
+        }
+    }
+    rule.check().map_err(usage_unless_io)?;
     std::fs::create_dir_all(&plan.out).with_context(|| format!("cannot create {}", plan.out.display()))?;
     let out = plan.out.canonicalize().with_context(|| format!("cannot resolve {}", plan.out.display()))?;
 
@@ -186,9 +238,9 @@ pub fn generate(plan: &Plan) -> Result<Generated> {
     ca_params.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
     let ca_key = KeyPair::generate().context("cannot generate the CA key")?;
     let ca_cert = ca_params.self_signed(&ca_key).context("cannot self-sign the CA")?;
-    let ca = out.join("ca.pem");
-    write_public(&ca, &ca_cert.pem())?;
-    write_private(&out.join("ca-key.pem"), &ca_key.serialize_pem())?;
+    let [ca, ca_key_path] = ca_files(&out);
+    write_private(&ca_key_path, &ca_key.serialize_pem(), plan.force)?;
+    write_public(&ca, Kind::Pem, &ca_cert.pem(), plan.force)?;
     let issuer = Issuer::new(ca_params, ca_key);
 
     let orchestrator = leaf(
@@ -201,11 +253,12 @@ pub fn generate(plan: &Plan) -> Result<Generated> {
             // It also connects out (to a lab router) with the same pair.
             ExtendedKeyUsagePurpose::ClientAuth,
         ],
+        plan.force,
     )?;
     let orchestrator_config = out.join("orchestrator.json5");
     write_config(
         &orchestrator_config,
-        "The orchestrator's zenoh session: router (the rendezvous), mutual TLS authentication, ACL.",
+        ORCHESTRATOR_HEADER,
         &json!({
             "mode": "router",
             "listen": { "endpoints": [plan.listen] },
@@ -213,25 +266,96 @@ pub fn generate(plan: &Plan) -> Result<Generated> {
             "transport": tls(&ca, &orchestrator),
             "access_control": access_control(plan.robots),
         }),
+        plan.force,
     )?;
-    let mut robot_configs = Vec::new();
-    for k in 1..=plan.robots {
-        let cn = robot_cn(k);
-        let pair = leaf(&issuer, &out, &cn, vec![cn.clone()], vec![ExtendedKeyUsagePurpose::ClientAuth])?;
-        let path = out.join(format!("{cn}.json5"));
-        write_config(
-            &path,
-            &format!(
-                "Robot {k}'s host (agent / bridge): a client of the orchestrator, mutual TLS authentication."
-            ),
-            &json!({
-                "mode": "client",
-                "connect": { "endpoints": [plan.connect] },
-                "scouting": { "multicast": { "enabled": false } },
-                "transport": tls(&ca, &pair),
-            }),
-        )?;
-        robot_configs.push(path);
+    let robot_configs = (1..=plan.robots)
+        .map(|k| robot(&issuer, &out, &ca, k, &plan.connect, plan.force))
+        .collect::<Result<_>>()?;
+    Ok(Generated { ca, orchestrator_config, robot_configs })
+}
+
+const ORCHESTRATOR_HEADER: &str =
+    "The orchestrator's zenoh session: router (the rendezvous), mutual TLS authentication, ACL.";
+
+/// Robot `k`'s certificate, key and zenoh config; returns the config's path.
+fn robot(
+    issuer: &Issuer<'_, KeyPair>,
+    out: &Path,
+    ca: &Path,
+    k: u32,
+    connect: &str,
+    force: bool,
+) -> Result<PathBuf> {
+    let cn = robot_cn(k);
+    let pair = leaf(issuer, out, &cn, vec![cn.clone()], vec![ExtendedKeyUsagePurpose::ClientAuth], force)?;
+    let path = out.join(format!("{cn}.json5"));
+    write_config(
+        &path,
+        &format!(
+            "Robot {k}'s host (agent / bridge): a client of the orchestrator, mutual TLS authentication."
+        ),
+        &json!({
+            "mode": "client",
+            "connect": { "endpoints": [connect] },
+            "scouting": { "multicast": { "enabled": false } },
+            "transport": tls(ca, &pair),
+        }),
+        force,
+    )?;
+    Ok(path)
+}
+
+/// Adds robots to the lab CA already in [`Plan::out`] (`certs
+/// --add-robots`): robots of `1..=plan.robots` without a certificate get
+/// one, signed by `ca-key.pem`, with their config; robots that have one
+/// keep it, as do the CA and the orchestrator's certificate. The
+/// orchestrator's config keeps its settings and gets an ACL for all robots
+/// (restart the orchestrator with it). New robots connect to the endpoint
+/// the existing robot configs name (else [`Plan::connect`]).
+pub fn add_robots(plan: &Plan) -> Result<Generated> {
+    check_plan(plan)?;
+    let [ca, ca_key] = ca_files(&plan.out);
+    for file in [&ca, &ca_key] {
+        if !file.is_file() {
+            return Err(exit::usage(format!(
+                "--add-robots: {} is missing; make the lab's CA first (`orchestrator certs` without --add-robots)",
+                file.display()
+            )));
+        }
     }
+    let out = plan.out.canonicalize().with_context(|| format!("cannot resolve {}", plan.out.display()))?;
+    let [ca, ca_key] = ca_files(&out);
+    let orchestrator_config = out.join("orchestrator.json5");
+    let mut config = read_config(&orchestrator_config)?;
+    let has_cert = |k: u32| out.join(format!("{}.pem", robot_cn(k))).exists();
+    let existing = (1..=u32::MAX).take_while(|&k| has_cert(k)).last().unwrap_or(0);
+    let new: Vec<u32> = (1..=plan.robots).filter(|&k| !has_cert(k)).collect();
+    let mut rule = Outputs::new(plan.force).input(&ca).input(&ca_key);
+    for &k in &new {
+        for (path, kind) in files_of(&out, &robot_cn(k)) {
+            rule = rule.output("--out", path, kind);
+        }
+    }
+    rule.check().map_err(usage_unless_io)?;
+    // The orchestrator's config is ours to update (its own kind, replaced), nothing else is.
+    out::check_target(&orchestrator_config, Kind::ZenohConfig, true).map_err(usage_unless_io)?;
+    let connect = (1..=existing)
+        .find_map(|k| read_config(&out.join(format!("{}.json5", robot_cn(k)))).ok())
+        .and_then(|c| c["connect"]["endpoints"][0].as_str().map(str::to_string))
+        .unwrap_or_else(|| plan.connect.clone());
+
+    let key_pem =
+        std::fs::read_to_string(&ca_key).with_context(|| format!("cannot read {}", ca_key.display()))?;
+    let key =
+        KeyPair::from_pem(&key_pem).with_context(|| format!("{} is not a private key", ca_key.display()))?;
+    let ca_pem = std::fs::read_to_string(&ca).with_context(|| format!("cannot read {}", ca.display()))?;
+    let issuer = Issuer::from_ca_cert_pem(&ca_pem, key)
+        .with_context(|| format!("{} is not a CA certificate", ca.display()))?;
+    let robot_configs = new
+        .iter()
+        .map(|&k| robot(&issuer, &out, &ca, k, &connect, plan.force))
+        .collect::<Result<Vec<_>>>()?;
+    config["access_control"] = access_control(plan.robots.max(existing));
+    write_config(&orchestrator_config, ORCHESTRATOR_HEADER, &config, true)?;
     Ok(Generated { ca, orchestrator_config, robot_configs })
 }

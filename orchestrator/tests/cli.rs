@@ -148,7 +148,11 @@ fn bad_input_exits_non_zero_with_a_clear_message() {
         (&["sweep", "--shard", "5/4"], "need 0 ≤ i < n", 2),
         (&["terrain", "--width", "0", "--count", "1", "--out", "/tmp/x"], "--width must lie", 2),
         (&["bench", "scale", "--speed", "0"], "speed-up must be a number in", 2),
-        (&["simulate", "--svg", "/nonexistent/dir/out.svg"], "cannot write the snapshot", 1),
+        (
+            &["simulate", "--svg", "/nonexistent/dir/out.svg"],
+            "cannot write the snapshot to /nonexistent/dir/out.svg: No such file",
+            1,
+        ),
         (&["sweep", "--out", "/proc/forbidden"], "cannot create output directory", 1),
         (&["certs", "--robots", "1", "--out", "c", "--listen", "tcp/0.0.0.0:7447"], "--listen tcp/", 2),
         (&["certs", "--robots", "1", "--out", "c", "--connect", "tcp/lab:7447"], "--connect tcp/", 2),

@@ -333,3 +333,41 @@ fn every_cut_of_a_recording_rewrites_into_a_complete_one_with_the_same_messages(
     std::fs::write(&junk, b"not a recording at all").expect("junk");
     assert!(matches!(bycoms_orchestrator::record::rewrite(&junk, &fixed), Err(RecordError::NotMcap { .. })));
 }
+
+/// A copy of `from` written by the mcap crate's writer with `compression`
+/// (what the `mcap` CLI and the Python writer produce by default).
+fn compressed_copy(from: &Path, to: &Path, compression: mcap::Compression) {
+    let bytes = std::fs::read(from).expect("read recording");
+    let out = std::fs::File::create(to).expect("create copy");
+    let options = mcap::WriteOptions::new().compression(Some(compression)).chunk_size(Some(4096));
+    let mut writer = options.create(std::io::BufWriter::new(out)).expect("writer");
+    for message in mcap::MessageStream::new(&bytes).expect("mcap") {
+        writer.write(&message.expect("message")).expect("write");
+    }
+    writer.finish().expect("finish");
+}
+
+#[test]
+fn zstd_and_lz4_recordings_read_like_uncompressed_ones() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (n, events) = (2_000, 5);
+    let plain = write_sample(dir.path(), n, events);
+    let expected = expected_counts(n, events);
+    for (name, compression) in [("zstd", mcap::Compression::Zstd), ("lz4", mcap::Compression::Lz4)] {
+        let packed = dir.path().join(format!("{name}.mcap"));
+        compressed_copy(&plain, &packed, compression);
+        let header =
+            mcap::Summary::read(&std::fs::read(&packed).expect("read")).expect("summary").expect("summary");
+        assert!(header.chunk_indexes.iter().all(|c| c.compression == name), "{name}: the copy is compressed");
+        let read = recover(&packed).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(read.is_complete(), "{name}: {:?}", read.stopped_by);
+        assert_eq!(read.counts, expected, "{name}");
+        let run =
+            bycoms_orchestrator::record::run::read_run(&packed).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(run.stopped_by.is_none(), "{name}: {:?}", run.stopped_by);
+        let fixed = dir.path().join(format!("{name}.recovered.mcap"));
+        let copied =
+            bycoms_orchestrator::record::rewrite(&packed, &fixed).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(copied.counts, expected, "{name}: record recover copies every message");
+    }
+}

@@ -36,6 +36,7 @@ fn lab(dir: &Path, endpoint: &str) -> Generated {
         listen: endpoint.into(),
         connect: endpoint.into(),
         out: dir.to_path_buf(),
+        force: false,
     })
     .expect("certificates")
 }
@@ -161,6 +162,7 @@ fn certificates_are_refused_for_an_unsecured_endpoint() {
         listen: "tcp/0.0.0.0:7447".into(),
         connect: "quic/127.0.0.1:7447".into(),
         out: dir.path().to_path_buf(),
+        force: false,
     })
     .expect_err("tcp/ carries no TLS");
     assert!(err.to_string().contains("--listen tcp/0.0.0.0:7447"), "{err}");

@@ -89,3 +89,34 @@ fn a_file_that_is_not_a_recording_is_an_error() {
     assert_eq!(out.status.code(), Some(1), "{}", out.stderr);
     assert!(out.stderr.contains("not an MCAP recording"), "{}", out.stderr);
 }
+
+/// A copy of a recording compressed by the mcap crate's writer (as the
+/// `mcap` CLI and the Python writer write by default).
+fn compressed(from: &Path, to: &Path, compression: mcap::Compression) {
+    let bytes = std::fs::read(from).expect("read recording");
+    let out = std::fs::File::create(to).expect("create copy");
+    let options = mcap::WriteOptions::new().compression(Some(compression));
+    let mut writer = options.create(std::io::BufWriter::new(out)).expect("writer");
+    for message in mcap::MessageStream::new(&bytes).expect("mcap") {
+        writer.write(&message.expect("message")).expect("write");
+    }
+    writer.finish().expect("finish");
+}
+
+#[test]
+fn zstd_and_lz4_copies_of_a_launch_replay_and_draw() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("launch.mcap");
+    record_launch(&path, &[]);
+    for (name, compression) in [("zstd", mcap::Compression::Zstd), ("lz4", mcap::Compression::Lz4)] {
+        let packed = dir.path().join(format!("{name}.mcap"));
+        compressed(&path, &packed, compression);
+        let out = replay(&packed);
+        assert_eq!(out.status.code(), Some(0), "{name}: {}\n{}", out.stdout, out.stderr);
+        assert!(out.stdout.contains("MATCH:"), "{name}: {}", out.stdout);
+        let drawn =
+            Proc::orchestrator(&["draw", packed.to_str().expect("utf-8")]).wait(Duration::from_secs(60));
+        assert_eq!(drawn.status.code(), Some(0), "{name}: {}", drawn.stderr);
+        assert!(dir.path().join(format!("{name}.svg")).is_file(), "{name}");
+    }
+}

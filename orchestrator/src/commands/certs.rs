@@ -2,7 +2,7 @@
 //! TLS with mutual authentication and an access-control list, so a lab
 //! does not have to learn openssl to deploy securely (see `crate::certs`).
 
-use crate::certs::{generate, Plan};
+use crate::certs::{add_robots, generate, Plan};
 use crate::exit;
 use anyhow::Result;
 use std::path::PathBuf;
@@ -13,14 +13,29 @@ use std::path::PathBuf;
 /// Robot K may then publish only under its own id (`bycoms/*/robot/K/**`,
 /// plus the shared `from_agents`). Keep ca-key.pem offline: it signs new
 /// certificates. Private keys are written with mode 0600.
+///
+/// An existing CA in DIR is never replaced without --force (every robot
+/// provisioned with it would be locked out); --add-robots issues
+/// certificates for more robots with it instead.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Robots 1..=N get a certificate each.
     #[arg(long)]
     pub robots: u32,
-    /// Output directory (created; existing files are overwritten).
+    /// Output directory (created). A CA already there is kept: see --add-robots and --force.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+    /// Keep the CA in DIR (ca.pem, ca-key.pem) and every certificate there;
+    /// make certificates and configs for the robots of 1..=N that have none,
+    /// and update orchestrator.json5's ACL to all of them (restart the
+    /// orchestrator with it).
+    #[arg(long, conflicts_with = "force")]
+    pub add_robots: bool,
+    /// Make a new CA even though DIR holds one, replacing every certificate,
+    /// key and config of the set (robots provisioned with the old CA are
+    /// locked out; keep a copy of ca-key.pem first).
+    #[arg(long)]
+    pub force: bool,
     /// Host names / IP addresses robots reach the orchestrator at (its certificate's names).
     #[arg(long = "host", value_name = "NAME", default_values_t = ["localhost".to_string(), "127.0.0.1".to_string()])]
     pub hosts: Vec<String>,
@@ -45,10 +60,20 @@ pub fn run(args: Args) -> Result<i32> {
             )));
         }
     }
-    let plan = Plan { robots: args.robots, hosts: args.hosts, listen: args.listen, connect, out: args.out };
-    let made = generate(&plan)?;
+    let plan = Plan {
+        robots: args.robots,
+        hosts: args.hosts,
+        listen: args.listen,
+        connect,
+        out: args.out,
+        force: args.force,
+    };
+    let (made, what) = match args.add_robots {
+        true => (add_robots(&plan)?, "kept CA"),
+        false => (generate(&plan)?, "CA"),
+    };
     bycoms_logging::status_line(&format!(
-        "certs: CA {}, orchestrator config {}, {} robot configs in {}",
+        "certs: {what} {}, orchestrator config {}, {} new robot configs in {}",
         made.ca.display(),
         made.orchestrator_config.display(),
         made.robot_configs.len(),

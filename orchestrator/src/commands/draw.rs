@@ -8,6 +8,7 @@
 use crate::draw::snapshot::Unit;
 use crate::draw::trace::picture_in;
 use crate::exit::usage;
+use crate::out::{usage_unless_io, writing, Kind, Outputs};
 use crate::record::run::read_run;
 use anyhow::{Context, Result};
 use bycoms_sim::terrain::parse;
@@ -28,9 +29,23 @@ pub struct Args {
     /// gradient as arrows whose length is V_ave (real robots' telemetry).
     #[arg(long)]
     pub measurements: bool,
+    /// Replace --out if it is already an SVG picture (never anything else, never FILE itself).
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Where the picture goes: --out, or FILE with the extension .svg.
+fn out_path(args: &Args) -> PathBuf {
+    args.out.clone().unwrap_or_else(|| args.file.with_extension("svg"))
 }
 
 pub fn run(args: Args) -> Result<i32> {
+    // Refused before anything is read: the picture never replaces the recording or another file.
+    Outputs::new(args.force)
+        .input(&args.file)
+        .output("--out", out_path(&args), Kind::Svg)
+        .check()
+        .map_err(usage_unless_io)?;
     let run = read_run(&args.file)?;
     let meta = run.meta.ok_or_else(|| {
         usage(format!(
@@ -100,8 +115,8 @@ fn unit_of(config: &serde_json::Value) -> Unit {
 }
 
 fn write(args: &Args, svg: &str) -> Result<i32> {
-    let out = args.out.clone().unwrap_or_else(|| args.file.with_extension("svg"));
-    std::fs::write(&out, svg).with_context(|| format!("cannot write the picture to {}", out.display()))?;
+    let out = out_path(args);
+    crate::out::write(&out, Kind::Svg, args.force, svg.as_bytes()).map_err(writing("the picture"))?;
     crate::outln!("picture: {}", out.display())?;
     Ok(crate::exit::SUCCESS)
 }

@@ -8,6 +8,7 @@
 use crate::exit;
 use crate::launch::config::{AgentsKind, Transport};
 use crate::launch::{self, Clock, LaunchConfig, OnDeath, Outcome, World};
+use crate::out::{Kind, Outputs};
 use crate::scenario::{self, WorldSource};
 use anyhow::Result;
 use bycoms_sim::terrain::to_text;
@@ -62,10 +63,12 @@ pub struct Args {
     /// not an MCAP recording is never overwritten.
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<PathBuf>,
-    /// Let --record replace an existing MCAP recording.
+    /// Let --record replace an existing MCAP recording and --svg an existing
+    /// SVG picture (never another kind of file, never an input).
     #[arg(long)]
     pub force: bool,
     /// Draw the run as an SVG snapshot (trajectories, beacons, ε circles) when it ends [default: none].
+    /// An existing picture is replaced only with --force; checked before anything starts.
     #[arg(long, value_name = "FILE.svg")]
     pub svg: Option<PathBuf>,
     /// Serve the live view on host:port: Foxglove connects to ws://host:port,
@@ -233,12 +236,35 @@ pub fn world(cfg: &LaunchConfig) -> Result<World> {
     })
 }
 
+/// The launch's inputs (config, terrain, zenoh configs, robots file, lab
+/// scenario file, agent binary) and outputs (`--record`, `--svg`), for the
+/// overwrite rule.
+fn outputs(args: &Args, cfg: &LaunchConfig) -> Outputs {
+    let lab_file = cfg.agents.scenario.as_ref().map(PathBuf::from).filter(|p| p.is_file());
+    let inputs = [
+        &args.config,
+        &cfg.terrain,
+        &cfg.agent_bin,
+        &args.agent_bin,
+        &cfg.transport.zenoh_config,
+        &cfg.transport.agent_zenoh_config,
+        &cfg.agents.robots_file,
+        &lab_file,
+    ];
+    let mut rule = inputs.into_iter().flatten().fold(Outputs::new(args.force), Outputs::input);
+    if let Some(path) = &cfg.record {
+        rule = rule.output("--record", path, Kind::Recording);
+    }
+    if let Some(path) = &cfg.svg {
+        rule = rule.output("--svg", path, Kind::Svg);
+    }
+    rule
+}
+
 pub fn run(args: Args) -> Result<i32> {
     let cfg = args.config()?;
-    if let Some(path) = &cfg.record {
-        // Refused before anything starts (see `record::check_target`).
-        crate::record::check_target(path, args.force).map_err(exit::usage)?;
-    }
+    // Refused before anything starts (the rule: `crate::out::files`).
+    outputs(&args, &cfg).check().map_err(crate::out::usage_unless_io)?;
     let world = world(&cfg)?;
     let agent = launch::agent_command(args.agent_bin.as_deref(), cfg.agent_bin.as_deref())?;
     let cfg_svg = cfg.svg.clone();
@@ -255,10 +281,11 @@ pub fn run(args: Args) -> Result<i32> {
     // The result is printed first: a picture that cannot be written loses nothing else.
     let mut code = None;
     if let Some(path) = &cfg_svg {
-        match summary.picture.as_deref().map(|svg| std::fs::write(path, svg)) {
+        let write = |svg: &str| crate::out::write(path, Kind::Svg, args.force, svg.as_bytes());
+        match summary.picture.as_deref().map(write) {
             Some(Ok(())) => bycoms_logging::status_line(&format!("picture: {}", path.display())),
             Some(Err(e)) => {
-                tracing::error!("cannot write the picture to {}: {e}", path.display());
+                tracing::error!("no picture written: {e}");
                 code = Some(exit::ERROR);
             }
             None => {

@@ -3,8 +3,8 @@
 //! a power cut), which every MCAP reader opens — including Python `mcap`'s
 //! `make_reader`, which needs the summary and footer a cut file lacks.
 
-use crate::exit::usage;
-use crate::record::{check_target, rewrite};
+use crate::out::{usage_unless_io, Kind, Outputs};
+use crate::record::rewrite;
 use anyhow::Result;
 use std::path::{Path, PathBuf};
 
@@ -30,7 +30,7 @@ pub struct RecoverArgs {
     /// The complete copy [default: FILE.recovered.mcap beside FILE].
     #[arg(long, value_name = "FILE.mcap")]
     pub out: Option<PathBuf>,
-    /// Overwrite --out if it is already a recording (never anything else).
+    /// Replace --out if it is already a recording (never anything else, never FILE itself).
     #[arg(long)]
     pub force: bool,
 }
@@ -50,10 +50,12 @@ pub fn default_out(file: &Path) -> PathBuf {
 
 fn recover(args: RecoverArgs) -> Result<i32> {
     let out = args.out.clone().unwrap_or_else(|| default_out(&args.file));
-    if out == args.file {
-        return Err(usage("--out must differ from the recording being recovered"));
-    }
-    check_target(&out, args.force).map_err(usage)?;
+    // The same file however spelled (./X.mcap, an absolute path, a link) is refused.
+    Outputs::new(args.force)
+        .input(&args.file)
+        .output("--out", &out, Kind::Recording)
+        .check()
+        .map_err(usage_unless_io)?;
     let recovered = rewrite(&args.file, &out)?;
     let topics = crate::commands::world::count(recovered.counts.len() as u64, "topic");
     let messages = crate::commands::world::count(recovered.messages, "message");

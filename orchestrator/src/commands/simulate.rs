@@ -9,8 +9,9 @@
 use crate::commands::world::RunArgs;
 use crate::draw::{animate, snapshot, timeline};
 use crate::exit;
+use crate::out::{usage_unless_io, writing, Kind, Outputs};
 use crate::scenario::{self, WorldSource};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use bycoms_sim::runner::RobotEnd;
 use bycoms_sim::terrain::min_path_width;
 use bycoms_sim::terrain::Terrain;
@@ -51,6 +52,10 @@ pub struct Args {
     /// Length of the movie in seconds (the whole run is fitted into it).
     #[arg(long, value_name = "SECONDS", default_value_t = 20.0, requires = "animate")]
     pub animate_seconds: f64,
+    /// Replace --svg and --animate if they are already SVG pictures (never
+    /// another kind of file, never the terrain).
+    #[arg(long)]
+    pub force: bool,
     /// Print the result as JSON on stdout, with every robot's trajectory
     /// (the summary goes to stderr).
     #[arg(long)]
@@ -165,7 +170,18 @@ fn check_picture_args(args: &Args) -> Result<()> {
             args.animate_seconds
         )));
     }
-    Ok(())
+    // The overwrite rule (`crate::out::files`), before the run.
+    let mut rule = Outputs::new(args.force);
+    if let Some(terrain) = &args.terrain {
+        rule = rule.input(terrain);
+    }
+    if !args.no_svg {
+        rule = rule.output("--svg", &args.svg, Kind::Svg);
+    }
+    if let Some(movie) = &args.animate {
+        rule = rule.output("--animate", movie, Kind::Svg);
+    }
+    rule.check().map_err(usage_unless_io)
 }
 
 /// Writes the snapshot (or strip) and the movie; returns "snapshot: FILE" lines.
@@ -204,14 +220,14 @@ fn draw_pictures(
             }
             None => snapshot::render_with(terrain, result, cfg.eps, title, &opts),
         };
-        std::fs::write(&args.svg, svg)
-            .with_context(|| format!("cannot write the snapshot to {}", args.svg.display()))?;
+        crate::out::write(&args.svg, Kind::Svg, args.force, svg.as_bytes())
+            .map_err(writing("the snapshot"))?;
         written.push(format!("snapshot: {}", args.svg.display()));
     }
     if let Some(path) = &args.animate {
         let movie = animate::Movie { seconds: args.animate_seconds, field_constant: cfg.field_constant };
-        std::fs::write(path, animate::render(terrain, result, cfg.eps, title, &movie))
-            .with_context(|| format!("cannot write the animation to {}", path.display()))?;
+        let svg = animate::render(terrain, result, cfg.eps, title, &movie);
+        crate::out::write(path, Kind::Svg, args.force, svg.as_bytes()).map_err(writing("the animation"))?;
         written.push(format!("animation: {}", path.display()));
     }
     Ok(written)

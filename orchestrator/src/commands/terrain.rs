@@ -6,6 +6,7 @@
 //! missing and fails, so a script notices.
 
 use crate::exit;
+use crate::out::{usage_unless_io, Kind, Outputs};
 use crate::sweep::rows::to_csv_bytes;
 use crate::sweep::terrains::{file_name, search_bins};
 use anyhow::{bail, Context, Result};
@@ -31,6 +32,9 @@ pub struct Args {
     /// Give up after this many candidates (the terrains found so far are still written).
     #[arg(long, default_value_t = 2_000_000)]
     pub max_candidates: u64,
+    /// Replace terrains and terrains.csv already in --out (never other files).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// One line of the index `terrains.csv`.
@@ -53,6 +57,9 @@ pub fn run(args: Args) -> Result<i32> {
     if args.count == 0 {
         return Err(exit::usage("--count must be at least 1"));
     }
+    let index_path = args.out.join("terrains.csv");
+    // The index is known before the search (the terrains' names after it): the rule, before it.
+    Outputs::new(args.force).output("--out", &index_path, Kind::Csv).check().map_err(usage_unless_io)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     let bins = search_bins(
@@ -67,8 +74,8 @@ pub fn run(args: Args) -> Result<i32> {
     let names: Vec<String> = found.iter().map(|t| file_name(t, args.width)).collect();
     for (t, name) in found.iter().zip(&names) {
         let path = args.out.join(name);
-        std::fs::write(&path, to_text(&t.terrain))
-            .with_context(|| format!("cannot write {}", path.display()))?;
+        crate::out::write(&path, Kind::Terrain, args.force, to_text(&t.terrain).as_bytes())
+            .map_err(usage_unless_io)?;
     }
     let index = found.iter().zip(&names).map(|(t, name)| IndexEntry {
         file: name,
@@ -76,9 +83,7 @@ pub fn run(args: Args) -> Result<i32> {
         width: t.width,
         threshold: t.threshold,
     });
-    let index_path = args.out.join("terrains.csv");
-    std::fs::write(&index_path, to_csv_bytes(index)?)
-        .with_context(|| format!("cannot write {}", index_path.display()))?;
+    crate::out::write(&index_path, Kind::Csv, args.force, &to_csv_bytes(index)?).map_err(usage_unless_io)?;
     let plural = if found.len() == 1 { "" } else { "s" };
     crate::outln!(
         "wrote {} terrain{plural} of width bin {} to {}",

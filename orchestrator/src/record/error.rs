@@ -41,13 +41,14 @@ pub enum RecordError {
         /// What the operating system said.
         source: io::Error,
     },
-    /// The file does not start with the MCAP magic bytes: it is not a recording at all.
-    #[error("{} is not an MCAP file: {source}", path.display())]
+    /// The file does not start with the MCAP magic bytes (or is empty): it is not a recording
+    /// at all. The one error of `record recover`, `draw` and `replay` for such a file (exit 1).
+    #[error("{} is not an MCAP recording: {reason}", path.display())]
     NotMcap {
         /// The file that was read.
         path: PathBuf,
-        /// The reader's complaint.
-        source: mcap::McapError,
+        /// What is wrong with it ("it is empty", …).
+        reason: String,
     },
     /// A JSON record could not be serialized.
     #[error("cannot encode a JSON record for topic {topic:?}: {source}")]

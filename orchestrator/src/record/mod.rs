@@ -25,7 +25,7 @@
 //!   mean (simulated time in lockstep, wall clock in real time).
 //!
 //! A cut recording is completed by [`rewrite`] (`orchestrator record recover`); which files a
-//! recording may replace is [`check_target`]'s rule.
+//! recording may replace is the rule every output follows ([`crate::out::files`]).
 //!
 //! # Topic naming
 //!
@@ -55,8 +55,9 @@
 //!
 //! Chunking rather than writing bare message records costs nothing in durability (the open chunk
 //! is the unflushed second either way) and gives a finished file chunk and message indexes, so
-//! Foxglove and `mcap info` can seek in long runs instead of scanning them. No compression: it
-//! would pull in C libraries for bus traffic of a few kB/s.
+//! Foxglove and `mcap info` can seek in long runs instead of scanning them. No compression on
+//! writing (bus traffic is a few kB/s); reading accepts every compression MCAP allows (zstd, lz4),
+//! which the `mcap` CLI and the Python writer use by default.
 //!
 //! `flush` hands the data to the kernel, which survives the death of the process (the kill-9
 //! case); it does not `fsync` every second. [`Recorder::finish`] writes the summary and footer and
@@ -66,7 +67,6 @@ mod error;
 mod read;
 mod rewrite;
 pub mod run;
-mod target;
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
@@ -77,9 +77,8 @@ use mcap::records::MessageHeader;
 use mcap::{WriteOptions, Writer};
 
 pub use error::RecordError;
-pub use read::{read_counts, recover, Recovered};
+pub use read::{check_recording, open_recording, read_counts, recover, Recovered};
 pub use rewrite::rewrite;
-pub use target::{check_target, TargetError};
 
 /// The longest time data may sit in memory before `record_*` flushes it on its own.
 pub const FLUSH_INTERVAL: Duration = Duration::from_secs(1);

@@ -6,7 +6,7 @@
 
 use std::collections::BTreeMap;
 use std::fs::File;
-use std::io::{BufReader, Read};
+use std::io::{BufReader, Read, Seek};
 use std::path::Path;
 
 use mcap::io::MessageReader;
@@ -42,11 +42,43 @@ pub fn read_counts(path: &Path) -> Result<BTreeMap<String, u64>, RecordError> {
 /// Reads every complete message of a recording, finished or truncated, and says whether (and
 /// why) it stopped early. Fails only when the file cannot be opened or is not MCAP at all.
 pub fn recover(path: &Path) -> Result<Recovered, RecordError> {
+    let (file, len) = open_recording(path)?;
+    recover_from(BufReader::new(file), len).map_err(|source| not_mcap(path, &source))
+}
+
+/// Opens a recording to read and returns it with its length, after checking that it is one:
+/// it starts with the MCAP magic bytes. An empty file, a text or garbage is
+/// [`RecordError::NotMcap`], the one "not a recording" error of every command that reads
+/// recordings (a recording cut by a crash still starts with the magic: `Recorder::create`
+/// writes it at once).
+pub fn open_recording(path: &Path) -> Result<(File, u64), RecordError> {
     let open_error = |source| RecordError::Open { path: path.to_path_buf(), source };
-    let file = File::open(path).map_err(open_error)?;
-    let len = file.metadata().map_err(open_error)?.len();
-    recover_from(BufReader::new(file), len)
-        .map_err(|source| RecordError::NotMcap { path: path.to_path_buf(), source })
+    let mut file = File::open(path).map_err(open_error)?;
+    let meta = file.metadata().map_err(open_error)?;
+    let reason = if meta.is_dir() {
+        Some("it is a directory")
+    } else if meta.len() == 0 {
+        Some("the file is empty")
+    } else {
+        let mut head = Vec::with_capacity(mcap::MAGIC.len());
+        (&mut file).take(mcap::MAGIC.len() as u64).read_to_end(&mut head).map_err(open_error)?;
+        file.rewind().map_err(open_error)?;
+        (head != mcap::MAGIC).then_some("it does not start with the MCAP magic bytes")
+    };
+    match reason {
+        Some(reason) => Err(RecordError::NotMcap { path: path.to_path_buf(), reason: reason.into() }),
+        None => Ok((file, meta.len())),
+    }
+}
+
+/// Checks that `path` is an MCAP recording (see [`open_recording`]).
+pub fn check_recording(path: &Path) -> Result<(), RecordError> {
+    open_recording(path).map(drop)
+}
+
+/// [`RecordError::NotMcap`] for a reader's complaint.
+pub(crate) fn not_mcap(path: &Path, error: &McapError) -> RecordError {
+    RecordError::NotMcap { path: path.to_path_buf(), reason: error.to_string() }
 }
 
 /// The streaming core of [`recover`]: `len` bounds the record lengths believed.

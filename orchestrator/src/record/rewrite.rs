@@ -12,7 +12,6 @@
 //! format is hand-written here.
 
 use std::collections::HashMap;
-use std::fs::File;
 use std::io::{BufReader, BufWriter, Read};
 use std::path::Path;
 
@@ -20,31 +19,39 @@ use mcap::records::{MessageHeader, Record};
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use mcap::{McapError, WriteOptions, Writer};
 
+use super::read::{not_mcap, open_recording};
 use super::{RecordError, Recovered, CHUNK_SIZE};
+use crate::out::{write_with, OutputError};
 
 /// Copies every complete record of `input` into a finished recording at
-/// `output` (created or truncated: the caller checks the target). Returns
+/// `output`, written to a temporary file beside it and renamed over it only
+/// when complete: `input` is never truncated, even when it is `output`
+/// (the caller applies the overwrite rule, `crate::out::files`). Returns
 /// what was kept and why reading stopped (`None`: the input was complete).
 pub fn rewrite(input: &Path, output: &Path) -> Result<Recovered, RecordError> {
-    let open_error = |source| RecordError::Open { path: input.to_path_buf(), source };
-    let file = File::open(input).map_err(open_error)?;
-    let len = file.metadata().map_err(open_error)?.len();
-    let out =
-        File::create(output).map_err(|source| RecordError::Create { path: output.to_path_buf(), source })?;
+    let (file, len) = open_recording(input)?;
     let write_error = |source| RecordError::Write { path: output.to_path_buf(), source };
-    let options = WriteOptions::new().compression(None).use_chunks(true).chunk_size(Some(CHUNK_SIZE));
-    let mut writer = Writer::with_options(BufWriter::new(out), options).map_err(write_error)?;
-    let recovered = copy(BufReader::new(file), len, &mut writer).map_err(|e| match e {
-        Failure::Read(source) => RecordError::NotMcap { path: input.to_path_buf(), source },
-        Failure::Write(source) => RecordError::Write { path: output.to_path_buf(), source },
-    })?;
-    writer.finish().map_err(write_error)?;
-    let file = writer
-        .into_inner()
-        .into_inner()
-        .map_err(|e| RecordError::Sync { path: output.to_path_buf(), source: e.into_error() })?;
-    file.sync_all().map_err(|source| RecordError::Sync { path: output.to_path_buf(), source })?;
-    Ok(recovered)
+    let sync_error = |source| RecordError::Sync { path: output.to_path_buf(), source };
+    let written = write_with(output, |out| {
+        let options = WriteOptions::new().compression(None).use_chunks(true).chunk_size(Some(CHUNK_SIZE));
+        let mut writer = Writer::with_options(BufWriter::new(out), options).map_err(write_error)?;
+        let recovered = copy(BufReader::new(file), len, &mut writer).map_err(|e| match e {
+            Failure::Read(source) => not_mcap(input, &source),
+            Failure::Write(source) => write_error(source),
+        })?;
+        writer.finish().map_err(write_error)?;
+        let out = writer.into_inner().into_inner().map_err(|e| sync_error(e.into_error()))?;
+        Ok((recovered, out))
+    });
+    match written {
+        Ok(result) => result,
+        Err(OutputError::Write { source, .. }) => {
+            Err(RecordError::Create { path: output.to_path_buf(), source })
+        }
+        Err(other) => {
+            Err(RecordError::Create { path: output.to_path_buf(), source: std::io::Error::other(other) })
+        }
+    }
 }
 
 enum Failure {

@@ -6,7 +6,6 @@
 //! Streamed like [`super::recover`], so a recording cut by a crash draws
 //! up to its last complete chunk.
 
-use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
 
@@ -76,9 +75,7 @@ pub struct RecordedRun {
 
 /// Reads the run of the recording at `path`.
 pub fn read_run(path: &Path) -> Result<RecordedRun, RecordError> {
-    let open_error = |source| RecordError::Open { path: path.to_path_buf(), source };
-    let file = File::open(path).map_err(open_error)?;
-    let len = file.metadata().map_err(open_error)?.len();
+    let (file, len) = super::open_recording(path)?;
     let limit = usize::try_from(len).unwrap_or(usize::MAX);
     let options = LinearReaderOptions::default().with_record_length_limit(limit);
     let mut run = RecordedRun {
@@ -91,11 +88,8 @@ pub fn read_run(path: &Path) -> Result<RecordedRun, RecordError> {
     for (seen, item) in MessageReader::new_with_options(BufReader::new(file), options).enumerate() {
         let message = match item {
             Ok(message) => message,
-            Err(mcap::McapError::BadMagic) if seen == 0 => {
-                return Err(RecordError::NotMcap {
-                    path: path.to_path_buf(),
-                    source: mcap::McapError::BadMagic,
-                })
+            Err(error @ mcap::McapError::BadMagic) if seen == 0 => {
+                return Err(super::read::not_mcap(path, &error))
             }
             Err(error) => {
                 run.stopped_by = Some(error.to_string());

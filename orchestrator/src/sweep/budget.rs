@@ -15,7 +15,7 @@
 use super::plan::Axes;
 use super::rows::Row;
 use crate::draw::budget::{render, BudgetPlot};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -210,11 +210,9 @@ pub fn write_outputs(dir: &Path, axes: &Axes, tables: &[BudgetTable]) -> Result<
     let mut written = Vec::new();
     for t in tables {
         let budget = dir.join(format!("budget-{}.csv", t.label()));
-        std::fs::write(&budget, to_csv(axes, t)?)
-            .with_context(|| format!("cannot write {}", budget.display()))?;
+        super::rows::write_atomic(&budget, to_csv(axes, t)?.as_ref())?;
         let robots = dir.join(format!("robots-{}.csv", t.label()));
-        std::fs::write(&robots, robots_csv(axes, t)?)
-            .with_context(|| format!("cannot write {}", robots.display()))?;
+        super::rows::write_atomic(&robots, robots_csv(axes, t)?.as_ref())?;
         let curves: Vec<Vec<Option<f64>>> = (0..axes.eps.len())
             .map(|e| {
                 let runs = t.pooled(e);
@@ -234,7 +232,7 @@ pub fn write_outputs(dir: &Path, axes: &Axes, tables: &[BudgetTable]) -> Result<
             curves: &curves,
         });
         let plot = dir.join(format!("budget-{}.svg", t.label()));
-        std::fs::write(&plot, svg).with_context(|| format!("cannot write {}", plot.display()))?;
+        super::rows::write_atomic(&plot, svg.as_ref())?;
         written.extend([budget, robots, plot]);
     }
     Ok(written)

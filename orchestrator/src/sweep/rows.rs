@@ -122,12 +122,12 @@ pub fn write_all(path: &Path, rows: &[Row]) -> Result<()> {
     write_atomic(path, &bytes)
 }
 
-/// Writes `bytes` to a temporary file beside `path`, then renames it over `path`.
+/// Writes `bytes` to a temporary file beside `path`, then renames it over
+/// `path` ([`crate::out::write_atomic`]): the files of a sweep's own output
+/// directory (whose `sweep.json` says it is this sweep's), replaced as the
+/// sweep resumes.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-    std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+    Ok(crate::out::write_atomic(path, bytes, 0o666)?)
 }
 
 /// `records` as CSV bytes with a header from their field names (the

@@ -6,7 +6,7 @@
 use super::plan::Axes;
 use super::rows::Row;
 use crate::draw::heatmap::{render, Heatmap};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -107,7 +107,7 @@ pub fn write_outputs(dir: &Path, axes: &Axes, tables: &[Table]) -> Result<Vec<Pa
     let mut written = Vec::new();
     for t in tables {
         let csv = dir.join(format!("success-{}.csv", t.label()));
-        std::fs::write(&csv, to_csv(axes, t)?).with_context(|| format!("cannot write {}", csv.display()))?;
+        super::rows::write_atomic(&csv, to_csv(axes, t)?.as_ref())?;
         let title = format!("Success rate [%], noise {}", if t.noise { "on" } else { "off" });
         let runs: usize = t.cells.iter().flatten().map(|&(_, n)| n).sum();
         let subtitle = format!("by ε and minimum path width; n = runs per cell ({runs} in all)");
@@ -119,7 +119,7 @@ pub fn write_outputs(dir: &Path, axes: &Axes, tables: &[Table]) -> Result<Vec<Pa
             cells: &t.cells,
         });
         let path = dir.join(format!("heatmap-{}.svg", t.label()));
-        std::fs::write(&path, svg).with_context(|| format!("cannot write {}", path.display()))?;
+        super::rows::write_atomic(&path, svg.as_ref())?;
         written.extend([csv, path]);
     }
     Ok(written)

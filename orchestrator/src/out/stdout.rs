@@ -1,4 +1,4 @@
-//! Printing to stdout and stderr without panicking when they are closed.
+//! Lines on stdout and stderr, without panicking when they are closed.
 //!
 //! Why: `println!`/`eprintln!` panic when the stream is gone (`orchestrator
 //! launch 2>&1 | head -1`, `simulate --json | true`): Rust ignores SIGPIPE,
@@ -37,7 +37,7 @@ pub fn line(text: &str) -> std::io::Result<()> {
 }
 
 /// `println!` that does not panic on a closed stdout; evaluates to
-/// `std::io::Result<()>` (see [`out`](crate::out)).
+/// `std::io::Result<()>` (see [`out::stdout`](crate::out::stdout)).
 #[macro_export]
 macro_rules! outln {
     ($($arg:tt)*) => {

@@ -1,0 +1,14 @@
+//! Everything a command puts out: lines on stdout ([`stdout`]) and files
+//! ([`files`]: the one overwrite rule every output of every command
+//! follows, and the atomic write that goes with it).
+
+pub mod files;
+pub mod kind;
+pub mod stdout;
+
+pub use files::{
+    check_target, usage_unless_io, write, write_atomic, write_private, write_with, writing, OutputError,
+    Outputs,
+};
+pub use kind::Kind;
+pub use stdout::line;
