@@ -233,6 +233,7 @@ pub fn world(cfg: &LaunchConfig) -> Result<World> {
         terrain_text: to_text(&w.terrain),
         start: w.terrain.start(),
         goal: w.terrain.goal(),
+        unit: crate::draw::snapshot::Unit::Cell,
     })
 }
 

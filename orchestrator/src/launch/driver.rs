@@ -368,7 +368,14 @@ impl Driver {
             Ok(mut terrain) => {
                 terrain.set_start(self.world.start);
                 terrain.set_goal(self.world.goal);
-                Some(crate::draw::trace::picture(&terrain, trace, self.cfg.eps, dt, &heading))
+                Some(crate::draw::trace::picture_in(
+                    &terrain,
+                    trace,
+                    self.cfg.eps,
+                    dt,
+                    &heading,
+                    self.world.unit,
+                ))
             }
             Err(e) => {
                 tracing::error!("no picture: the launch's terrain does not parse: {e}");

@@ -55,7 +55,13 @@ pub fn world_of(s: &Scenario) -> Result<World> {
     bycoms_sim::terrain::parse(&text).with_context(|| {
         format!("lab scenario {}: start and goal must lie in different square metres of the arena", s.name)
     })?;
-    Ok(World { name: format!("lab scenario {}", s.name), terrain_text: text, start, goal })
+    Ok(World {
+        name: format!("lab scenario {}", s.name),
+        terrain_text: text,
+        start,
+        goal,
+        unit: crate::draw::snapshot::Unit::Metre,
+    })
 }
 
 #[cfg(test)]

@@ -83,6 +83,9 @@ pub struct World {
     pub start: Vec2,
     /// Goal position.
     pub goal: Vec2,
+    /// What a unit of it is: a cell of a simulated terrain, or a metre of a
+    /// lab (how its pictures are drawn).
+    pub unit: crate::draw::snapshot::Unit,
 }
 
 /// Environment variable naming the agent executable.

@@ -34,6 +34,7 @@ fn world() -> World {
         terrain_text: "..G\n.#.\nS..\n".into(),
         start: Vec2::new(0.5, 0.5),
         goal: Vec2::new(2.5, 2.5),
+        unit: crate::draw::snapshot::Unit::Cell,
     }
 }
 
