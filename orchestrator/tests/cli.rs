@@ -256,6 +256,10 @@ fn terrain_command_writes_named_files_that_sweep_can_use() {
         .collect();
     names.sort();
     assert_eq!(names.len(), 4, "{names:?}");
+    // The index lists the terrains of both runs.
+    let index = std::fs::read_to_string(dir.path().join("terrains.csv")).unwrap();
+    assert_eq!(index.lines().count(), 1 + 4, "{index}");
+    assert!(names.iter().all(|n| index.contains(n.as_str())), "{index}");
     for n in &names {
         // w<bin>_<id>_width<measured>.txt, and the measured width is in the bin.
         let measured: f64 = n.rsplit_once("_width").unwrap().1.trim_end_matches(".txt").parse().unwrap();

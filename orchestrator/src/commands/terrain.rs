@@ -32,7 +32,8 @@ pub struct Args {
     /// Give up after this many candidates (the terrains found so far are still written).
     #[arg(long, default_value_t = 2_000_000)]
     pub max_candidates: u64,
-    /// Replace terrains and terrains.csv already in --out (never other files).
+    /// Replace terrain files of the same names already in --out (never other
+    /// files). The index terrains.csv is updated: rows of other files stay.
     #[arg(long)]
     pub force: bool,
 }
@@ -58,8 +59,11 @@ pub fn run(args: Args) -> Result<i32> {
         return Err(exit::usage("--count must be at least 1"));
     }
     let index_path = args.out.join("terrains.csv");
-    // The index is known before the search (the terrains' names after it): the rule, before it.
-    Outputs::new(args.force).output("--out", &index_path, Kind::Csv).check().map_err(usage_unless_io)?;
+    // The index is known before the search (the terrains' names after it):
+    // the rule, before it. It is updated, not replaced (a directory collects
+    // terrains of several bins), so an index of its own kind is fine; a file
+    // of another kind is never written over.
+    Outputs::new(true).output("--out", &index_path, Kind::Csv).check().map_err(usage_unless_io)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     let bins = search_bins(
@@ -83,7 +87,8 @@ pub fn run(args: Args) -> Result<i32> {
         width: t.width,
         threshold: t.threshold,
     });
-    crate::out::write(&index_path, Kind::Csv, args.force, &to_csv_bytes(index)?).map_err(usage_unless_io)?;
+    let merged = merged_index(&index_path, &to_csv_bytes(index)?, &names).map_err(exit::usage)?;
+    crate::out::write(&index_path, Kind::Csv, true, &merged).map_err(usage_unless_io)?;
     let plural = if found.len() == 1 { "" } else { "s" };
     crate::outln!(
         "wrote {} terrain{plural} of width bin {} to {}",
@@ -102,4 +107,33 @@ pub fn run(args: Args) -> Result<i32> {
         );
     }
     Ok(exit::SUCCESS)
+}
+
+/// The index of the directory: the rows of an existing `terrains.csv` whose
+/// file was not written again, then this run's rows (`new`, with its header).
+fn merged_index(path: &std::path::Path, new: &[u8], written: &[String]) -> Result<Vec<u8>, String> {
+    let old = match std::fs::read(path) {
+        Ok(bytes) if !bytes.is_empty() => bytes,
+        _ => return Ok(new.to_vec()),
+    };
+    let not_ours = |e: &dyn std::fmt::Display| format!("{} is not a terrains index: {e}", path.display());
+    let mut new_reader = csv::Reader::from_reader(new);
+    let header = new_reader.headers().map_err(|e| not_ours(&e))?.clone();
+    let mut old_reader = csv::Reader::from_reader(old.as_slice());
+    if old_reader.headers().map_err(|e| not_ours(&e))? != &header {
+        return Err(not_ours(&"its columns differ"));
+    }
+    let mut out = csv::Writer::from_writer(Vec::new());
+    let fail = |e: csv::Error| not_ours(&e);
+    out.write_record(&header).map_err(fail)?;
+    for row in old_reader.records() {
+        let row = row.map_err(fail)?;
+        if !written.iter().any(|w| Some(w.as_str()) == row.get(0)) {
+            out.write_record(&row).map_err(fail)?;
+        }
+    }
+    for row in new_reader.records() {
+        out.write_record(&row.map_err(fail)?).map_err(fail)?;
+    }
+    out.into_inner().map_err(|e| not_ours(&e))
 }
