@@ -7,7 +7,9 @@
 //! a publisher's notification or its own deadline. No wait is ever
 //! unbounded, and a sleep on the event listener is capped at
 //! [`EVENT_WAIT_SLICE`] so a publisher that never notifies (one configured
-//! with [`Wake::Poll`]) still gets through.
+//! with [`Wake::Poll`]) still gets through, and floored at
+//! [`MIN_EVENT_WAIT`] because iceoryx2 turns a shorter timeout into none
+//! (a wait without end).
 
 use super::{IpcConfig, Wake};
 use crate::bus::{copy_out, BusError, Publish, Subscribe};
@@ -24,6 +26,12 @@ use std::time::Instant;
 
 /// Longest single sleep on an event listener.
 pub const EVENT_WAIT_SLICE: Duration = Duration::from_millis(10);
+/// Shortest sleep on an event listener: iceoryx2 0.10 waits on a Unix
+/// datagram socket whose `SO_RCVTIMEO` it sets from the timeout truncated
+/// to whole microseconds (`AsTimeval` in iceoryx2-bb-posix), and a zero
+/// `SO_RCVTIMEO` means "never time out". A wait of 1 to 999 ns therefore
+/// blocked until the next notification, forever if none came.
+pub const MIN_EVENT_WAIT: Duration = Duration::from_micros(1);
 /// First sleep of [`Wake::Poll`] after the spin budget.
 const POLL_FIRST_SLEEP: Duration = Duration::from_micros(20);
 /// Stand-in deadline for timeouts too large for `Instant`.
@@ -141,12 +149,47 @@ enum Waker<S: IoxService> {
     Poll { spin: Duration, max_sleep: Duration },
 }
 
+/// The timeout handed to an event listener for `left` until the deadline:
+/// at most [`EVENT_WAIT_SLICE`] and never less than [`MIN_EVENT_WAIT`] (a
+/// deadline within the last microsecond is overslept by under 1 µs instead
+/// of not at all, but never by forever).
+fn event_wait(left: Duration) -> Duration {
+    left.clamp(MIN_EVENT_WAIT, EVENT_WAIT_SLICE)
+}
+
+/// How a sleep of [`IpcSubscriber::sleep`] ended.
+enum Slept {
+    /// Woken by a notification or the timeout: look again.
+    Again,
+    /// Cut short by a signal.
+    Interrupted,
+}
+
 /// Subscriber of an [`super::IceoryxBus`].
 pub struct IpcSubscriber<S: IoxService> {
     subscriber: Subscriber<S, [u8], ()>,
     waker: Waker<S>,
     topic: TopicName,
     max_payload: usize,
+}
+
+impl<S: IoxService> IpcSubscriber<S> {
+    /// Sleeps until a notification or for at most `left` (`left` > 0);
+    /// `poll_sleep` is [`Wake::Poll`]'s current step.
+    fn sleep(&self, left: Duration, poll_sleep: &mut Duration) -> Result<Slept, BusError> {
+        match &self.waker {
+            Waker::Event { listener, .. } => match listener.timed_wait(|_| {}, event_wait(left)) {
+                Ok(_) => Ok(Slept::Again),
+                Err(ListenerWaitError::InterruptSignal) => Ok(Slept::Interrupted),
+                Err(e) => Err(BusError::backend("wait for event", Some(&self.topic), e)),
+            },
+            Waker::Poll { max_sleep, .. } => {
+                std::thread::sleep((*poll_sleep).min(left));
+                *poll_sleep = (*poll_sleep * 2).min(*max_sleep);
+                Ok(Slept::Again)
+            }
+        }
+    }
 }
 
 impl<S: IoxService> Subscribe for IpcSubscriber<S> {
@@ -185,22 +228,76 @@ impl<S: IoxService> Subscribe for IpcSubscriber<S> {
                 core::hint::spin_loop();
                 continue;
             }
-            match &self.waker {
-                Waker::Event { listener, .. } => {
-                    match listener.timed_wait(|_| {}, left.min(EVENT_WAIT_SLICE)) {
-                        Ok(_) => {}
-                        // A signal (e.g. Ctrl-C handled by a flag) cut the wait
-                        // short: not a failure. Return early so the caller can
-                        // look at its flags, like a wait that timed out.
-                        Err(ListenerWaitError::InterruptSignal) => return self.try_recv_into(buf),
-                        Err(e) => return Err(BusError::backend("wait for event", Some(&self.topic), e)),
-                    }
-                }
-                Waker::Poll { max_sleep, .. } => {
-                    std::thread::sleep(sleep.min(left));
-                    sleep = (sleep * 2).min(*max_sleep);
-                }
+            if let Slept::Interrupted = self.sleep(left, &mut sleep)? {
+                // A signal (e.g. Ctrl-C handled by a flag) cut the wait
+                // short: not a failure. Return early so the caller can look
+                // at its flags, like a wait that timed out.
+                return self.try_recv_into(buf);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bus::ipc::root::Isolated;
+    use crate::bus::ipc::{IpcBus, IpcConfig};
+    use crate::bus::Bus;
+    use crate::naming::TopicName;
+    use std::sync::mpsc;
+
+    /// A wait of less than a microsecond on the event listener returns.
+    ///
+    /// iceoryx2 0.10 waits on a Unix datagram socket with `SO_RCVTIMEO`
+    /// set from the timeout truncated to whole microseconds, and a zero
+    /// `SO_RCVTIMEO` means "never time out": a wait of 1 to 999 ns blocked
+    /// until the next notification. A real-time agent whose deadline fell
+    /// within that last microsecond hung until its orchestrator next sent
+    /// it something, which a stuck robot's orchestrator never does, and it
+    /// was killed as "fell silent" (issue 17).
+    ///
+    /// No notification ever comes here unless the wait hangs: then the
+    /// test publishes one to free the waiting thread and fails.
+    #[test]
+    fn a_sub_microsecond_event_wait_times_out() {
+        let iso = Isolated::new("subusec");
+        let config = IpcConfig { isolation: Some(iso.tag().to_owned()), ..IpcConfig::default() };
+        let topic = TopicName::parse("bycoms/subusec/wait").expect("valid topic");
+        let (opened_tx, opened_rx) = mpsc::channel();
+        let (done_tx, done_rx) = mpsc::channel();
+        let waiter = {
+            let config = config.clone();
+            std::thread::spawn(move || {
+                let bus = IpcBus::new(config).expect("iceoryx2 node");
+                let sub = bus.subscriber(&topic).expect("subscriber");
+                opened_tx.send(()).expect("main thread waits");
+                let mut results = Vec::new();
+                for ns in [1, 500, 999] {
+                    let mut poll = POLL_FIRST_SLEEP;
+                    results.push(matches!(sub.sleep(Duration::from_nanos(ns), &mut poll), Ok(Slept::Again)));
+                }
+                let _ = done_tx.send(results);
+            })
+        };
+        opened_rx.recv_timeout(Duration::from_secs(30)).expect("the subscriber opens");
+        let outcome = done_rx.recv_timeout(Duration::from_secs(10));
+        if outcome.is_err() {
+            // Free the hung waiter (one notification per hung wait) so the
+            // test ends, then fail.
+            let bus = IpcBus::new(config).expect("iceoryx2 node");
+            let publisher = bus.publisher(&topic).expect("publisher");
+            let freed = (0..3).any(|_| {
+                publisher.publish(b"wake").expect("publish");
+                done_rx.recv_timeout(Duration::from_secs(5)).is_ok()
+            });
+            if freed {
+                waiter.join().expect("waiter thread");
+            }
+            panic!("a wait of under 1 µs on the event listener hung until a notification came");
+        }
+        waiter.join().expect("waiter thread");
+        let results = outcome.expect("checked above");
+        assert_eq!(results, vec![true, true, true], "every wait ended without error");
     }
 }
