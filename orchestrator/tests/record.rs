@@ -278,34 +278,6 @@ fn the_python_mcap_reader_agrees() {
     assert_eq!(report["messages"], n + u64::from(events));
 }
 
-/// Prints write throughput and file size per message; run with
-/// `cargo test --release -p bycoms-orchestrator --test record -- --ignored --nocapture`.
-#[test]
-#[ignore = "measurement, not a check"]
-fn throughput() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let path = dir.path().join("throughput.mcap");
-    for size in [16usize, 64, 256] {
-        let n = 1_000_000u64;
-        let body = vec![0xA5u8; size];
-        let start = Instant::now();
-        let mut recorder = Recorder::create(&path).expect("create");
-        for i in 0..n {
-            let k = (i % 3) as usize;
-            recorder.record_bytes(TOPICS[k], SCHEMAS[k], i, i, &body).expect("record");
-        }
-        let summary = recorder.finish().expect("finish");
-        let secs = start.elapsed().as_secs_f64();
-        eprintln!(
-            "{size:>4} B payload: {:.2} M messages/s, {:.1} bytes/message in the file ({} chunks)",
-            n as f64 / secs / 1e6,
-            summary.bytes as f64 / n as f64,
-            summary.chunks
-        );
-        assert_eq!(read_counts(&path).expect("read back").values().sum::<u64>(), n);
-    }
-}
-
 #[test]
 fn every_cut_of_a_recording_rewrites_into_a_complete_one_with_the_same_messages() {
     let dir = tempfile::tempdir().expect("temp dir");

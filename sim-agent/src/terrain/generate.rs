@@ -27,8 +27,7 @@
 //! of 0.5 (2000 seeds) and 4.25…5.5 (10 000 seeds), 4.5 maximised the
 //! smallest bin. Over the first 2000 seeds (975 feasible), widths measured
 //! with the default disc model (see `width`;
-//! `cargo test -p bycoms-sim --release --lib -- --ignored --nocapture
-//! width_histogram`):
+//! `cargo bench -p bycoms-sim --bench width_histogram`):
 //!
 //! ```text
 //! [1.0, 1.5)    81   8.3% ########

@@ -3,7 +3,6 @@
 mod format;
 mod generate;
 mod grid;
-mod histogram;
 mod read;
 mod width;
 
