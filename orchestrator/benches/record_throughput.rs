@@ -32,6 +32,10 @@ fn main() {
             summary.chunks
         );
         // A figure of a recording that does not read back would be no figure.
-        assert_eq!(read_counts(&path).expect("read back").values().sum::<u64>(), n, "every message reads back");
+        assert_eq!(
+            read_counts(&path).expect("read back").values().sum::<u64>(),
+            n,
+            "every message reads back"
+        );
     }
 }

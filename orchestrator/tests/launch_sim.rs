@@ -17,7 +17,7 @@
 //! `BYCOMS_SIM_SCHEDULES` sets how many schedules `schedules_keep_the_properties` draws
 //! (default 10 000).
 
-use bycoms_orchestrator::launch::config::OnDeath;
+use bycoms_orchestrator::launch::config::{Missing, OnDeath};
 use bycoms_orchestrator::launch::core::SlotState;
 use bycoms_orchestrator::launch::harness::{self, Case, Crash, Foreign, Partition, Report, Schedule};
 use bycoms_orchestrator::launch::Outcome;
@@ -210,34 +210,66 @@ fn a_stray_register_of_another_protocol_is_counted_and_never_fatal() {
 }
 
 #[test]
-fn an_agent_dying_before_it_registers_or_while_deployed_costs_one_robot() {
+fn an_agent_dying_before_it_registers_is_started_once_more_then_its_robot_is_absent() {
     let case = long_case();
-    // Robot 1 never registers: robots 2 and 3 carry on (policy "beacon").
+    // Robot 1's agent never registers: after its registration timeout it
+    // is absent (a hung agent is not started again); 2 and 3 carry on.
     let mut s = Schedule::clean(1, 3);
     s.register_delay_us[0] = None;
     let report = harness::run(&case, &s);
     harness::check(&report, &s).unwrap();
-    assert_eq!(report.robots[0].0, SlotState::Lost);
+    assert_eq!(report.robots[0].0, SlotState::Absent);
     assert!(
         report.gates.iter().any(|g| g.robot.0 == 2 && g.kind == GateKind::Deployed),
         "{:?}",
         report.gates
     );
     assert_ne!(report.ending.as_ref().unwrap().outcome, Outcome::Error);
-    // Robot 1 crashes before it registers (after 10 ms; it registers at 20 ms).
+    // Robot 1's process dies once before it registers: started once more,
+    // it runs as in a launch without the death.
+    let clean = harness::run(&case, &Schedule::clean(1, 3));
     let mut s = Schedule::clean(1, 3);
-    s.crashes = vec![Crash { robot: 1, at_us: 10_000 }];
+    s.early_deaths[0] = 1;
     let report = harness::run(&case, &s);
     harness::check(&report, &s).unwrap();
-    assert_eq!(report.robots[0].0, SlotState::Lost);
+    same_run(&clean, &report, "one early death");
+    // Twice: absent, and the launch goes on without it.
+    s.early_deaths[0] = 2;
+    let report = harness::run(&case, &s);
+    harness::check(&report, &s).unwrap();
+    assert_eq!(report.robots[0].0, SlotState::Absent);
     assert_ne!(report.ending.as_ref().unwrap().outcome, Outcome::Error);
-    // With "abort" the same death ends the launch with an error naming it.
+    // `on_agent_death = abort` is about agents that registered: unchanged.
     let mut strict = case.clone();
     strict.on_death = OnDeath::Abort;
     let report = harness::run(&strict, &s);
+    assert_eq!(report.robots[0].0, SlotState::Absent);
+    assert_ne!(report.ending.as_ref().unwrap().outcome, Outcome::Error);
+    // `missing = fail`: the first death ends the launch, naming robot 1.
+    let mut strict = case.clone();
+    strict.missing = Missing::Fail;
+    let report = harness::run(&strict, &s);
     let ending = report.ending.unwrap();
     assert_eq!(ending.outcome, Outcome::Error);
-    assert!(ending.error.unwrap().contains("robot 1"));
+    assert!(ending.error.unwrap().contains("robot 1's agent never registered"));
+}
+
+#[test]
+fn an_agent_dying_while_deployed_costs_one_robot_or_aborts() {
+    let case = long_case();
+    let clean = harness::run(&case, &Schedule::clean(1, 3));
+    let deployed_at = clean.gate_times_us[0];
+    let mut s = Schedule::clean(1, 3);
+    s.crashes = vec![Crash { robot: 1, at_us: deployed_at + 1_000 }];
+    let report = harness::run(&case, &s);
+    harness::check(&report, &s).unwrap();
+    assert_eq!(report.robots[0].0, SlotState::Died, "{:?}", report.robots);
+    assert_ne!(report.ending.as_ref().unwrap().outcome, Outcome::Error);
+    let mut strict = case.clone();
+    strict.on_death = OnDeath::Abort;
+    let ending = harness::run(&strict, &s).ending.unwrap();
+    assert_eq!(ending.outcome, Outcome::Error);
+    assert!(ending.error.unwrap().contains("robot 1's agent died while moving"));
 }
 
 #[test]
@@ -255,10 +287,71 @@ fn when_no_agent_ever_registers_the_launch_ends_with_an_error_naming_the_first()
         "{error}"
     );
     assert!(
-        report.robots.iter().all(|r| r.0 == SlotState::Lost),
+        report.robots.iter().all(|r| r.0 == SlotState::Absent),
         "every robot was tried: {:?}",
         report.robots
     );
+}
+
+#[test]
+fn remote_robots_are_needed_only_at_their_turn() {
+    let case = long_case();
+    let mut s = Schedule::clean(1, 3);
+    s.remote = true;
+    s.register_delay_us[1] = None;
+    let report = harness::run(&case, &s);
+    harness::check(&report, &s).unwrap();
+    // Robot 1 goes as soon as it is ready, not when all are.
+    let registered = report.registered_us[0].expect("robot 1 registered");
+    assert!(report.gate_times_us[0] - registered < 1_000_000, "{:?}", report.gate_times_us);
+    assert_eq!(report.robots[1].0, SlotState::Absent);
+    assert!(
+        report.gates.iter().any(|g| g.robot.0 == 3 && g.kind == GateKind::Deployed),
+        "{:?}",
+        report.gates
+    );
+    // With `missing = fail` every robot is awaited and one missing ends it.
+    let mut strict = case.clone();
+    strict.missing = Missing::Fail;
+    let report = harness::run(&strict, &s);
+    let ending = report.ending.unwrap();
+    assert_eq!(ending.outcome, Outcome::Error);
+    assert!(report.gates.is_empty(), "nothing deployed: {:?}", report.gates);
+    let error = ending.error.unwrap();
+    assert!(error.contains("of robot 2 never registered"), "{error}");
+}
+
+#[test]
+fn a_remote_robot_that_registers_after_its_turn_takes_a_later_one() {
+    let mut case = long_case();
+    case.robots = 6;
+    case.time_limit = 300.0;
+    let mut s = Schedule::clean(1, 6);
+    s.remote = true;
+    s.realtime = Some(1.0);
+    // Robot 2 comes 15 s after the start, past its 10 s registration timeout.
+    s.register_delay_us[1] = Some(15_000_000);
+    let report = harness::run(&case, &s);
+    harness::check(&report, &s).unwrap();
+    assert_eq!(report.late, vec![2], "{:?}", report.robots);
+    let order: Vec<u32> =
+        report.gates.iter().filter(|g| g.kind == GateKind::Deployed).map(|g| g.robot.0).collect();
+    let at = |id| order.iter().position(|&r| r == id);
+    assert!(at(2) > at(3), "robot 2 deployed after robot 3: {order:?}");
+}
+
+#[test]
+fn fifty_robots_with_ten_missing_start_at_once_and_wait_one_timeout_per_absent_robot() {
+    let timeout_us =
+        (bycoms_orchestrator::launch::LaunchConfig::default().supervision.register_timeout * 1e6) as u64;
+    for remote in [true, false] {
+        let f = harness::missing_robots(remote);
+        harness::check(&f.report, &Schedule { remote, ..Schedule::clean(0, 50) }).unwrap();
+        assert_eq!(f.absent, (2..=11).collect::<Vec<u32>>(), "remote {remote}: {:?}", f.report.robots);
+        assert!(f.first_deploy_after_register_us < 1_000_000, "remote {remote}: {f:?}");
+        assert!(f.longest_wait_per_absent_us <= timeout_us + 500_000, "remote {remote}: {f:?}");
+        assert!(f.deployed >= 2, "the launch went past the absent robots: {f:?}");
+    }
 }
 
 #[test]

@@ -166,11 +166,25 @@ fn lockstep_with_remote_agents_gives_the_simulate_result() {
 }
 
 #[test]
-fn a_robot_whose_agent_never_comes_is_named_within_the_timeout() {
+fn a_robot_whose_agent_never_comes_is_skipped_or_named_with_missing_fail() {
     let world = World::long_obstacle();
+    // Skipped at its turn (the default), listed as absent with why.
     let swarm = swarm_name("remote-missing");
-    let started = Instant::now();
     let (orch, endpoint) = orchestrator(&world, &swarm, &["--register-timeout", "3"]);
+    let agents: Vec<Proc> = (1..=2).map(|k| agent(&world, &endpoint, &swarm, k, 3)).collect();
+    let out = orch.wait(Duration::from_secs(120));
+    assert_eq!(out.status.code(), Some(3), "robots exhausted; stderr:\n{}", out.stderr);
+    let j = out.json();
+    assert_eq!(j["outcome"], "robots_exhausted", "{j}");
+    assert_eq!(j["robots"][0]["end"], "stuck", "{j}");
+    assert_eq!(j["robots"][2]["end"], "absent", "{j}");
+    let why = j["robots"][2]["death"]["reason"].as_str().unwrap_or_default();
+    assert!(why.contains("did not register in time"), "{j}");
+    assert_exit_cleanly(agents);
+    // `--missing fail`: every robot is awaited, and the missing one named.
+    let swarm = swarm_name("remote-missing-fail");
+    let started = Instant::now();
+    let (orch, endpoint) = orchestrator(&world, &swarm, &["--register-timeout", "3", "--missing", "fail"]);
     let agents: Vec<Proc> = (1..=2).map(|k| agent(&world, &endpoint, &swarm, k, 3)).collect();
     let out = orch.wait(Duration::from_secs(60));
     let took = started.elapsed();
@@ -178,7 +192,7 @@ fn a_robot_whose_agent_never_comes_is_named_within_the_timeout() {
     let j = out.json();
     assert_eq!(j["outcome"], "error");
     let error = j["error"].as_str().expect("an error");
-    assert!(error.contains("robots 3 never registered within 3 s"), "{error}");
+    assert!(error.contains("of robot 3 never registered within 3 s"), "{error}");
     // The registration timeout (3 s) plus start-up and the shutdown grace.
     assert!(took < Duration::from_secs(20), "took {took:?}");
     assert_eq!(j["robots"][0]["end"], "not_deployed", "{j}");

@@ -178,8 +178,34 @@ fn schedules(count: u64, rounds: u32, json: bool) -> Result<i32> {
     tick_rates.sort_by(f64::total_cmp);
     let (p50, min, max) = (percentile(&rates, 0.5), percentile(&rates, 0.0), percentile(&rates, 1.0));
     let ticks_p50 = percentile(&tick_rates, 0.5);
+    // A start with robots missing (issue 19), in virtual time: its figures
+    // do not depend on this machine.
+    let missing: Vec<_> = [true, false]
+        .into_iter()
+        .map(|remote| {
+            let f = harness::missing_robots(remote);
+            let kind = if remote { "remote" } else { "spawned" };
+            (
+                kind,
+                f.first_deploy_after_register_us as f64 / 1e3,
+                f.longest_wait_per_absent_us as f64 / 1e6,
+                f.absent.len(),
+                f.deployed,
+            )
+        })
+        .collect();
     if json {
+        let missing: Vec<_> = missing
+            .iter()
+            .map(|(kind, first_ms, wait_s, absent, deployed)| {
+                serde_json::json!({
+                    "agents": kind, "first_deploy_after_registration_ms": first_ms,
+                    "longest_wait_per_absent_robot_s": wait_s, "absent": absent, "deployed": deployed,
+                })
+            })
+            .collect();
         let figures = serde_json::json!({
+            "missing_robots": missing,
             "schedules": count, "rounds": rounds,
             "schedules_per_s": { "p50": p50, "min": min, "max": max },
             "robot_ticks_per_s": { "p50": ticks_p50 },
@@ -191,6 +217,13 @@ fn schedules(count: u64, rounds: u32, json: bool) -> Result<i32> {
             "{count} schedules × {rounds} rounds: median {p50:.0} schedules/s (min {min:.0}, max {max:.0}); \
              {ticks_p50:.0} robot-ticks/s ({ticks} robot-ticks per round)"
         )?;
+        for (kind, first_ms, wait_s, absent, deployed) in &missing {
+            crate::outln!(
+                "50 {kind} robots, 5 never come, 5 die before registering (virtual time): first deployment \
+                 {first_ms:.1} ms after robot 1's registration; longest wait {wait_s:.2} s per absent robot \
+                 (registration timeout 10 s); {absent} absent, {deployed} deployed"
+            )?;
+        }
     }
     Ok(0)
 }

@@ -7,7 +7,7 @@
 
 use crate::exit;
 use crate::launch::config::{AgentsKind, Transport};
-use crate::launch::{self, Clock, LaunchConfig, OnDeath, Outcome, World};
+use crate::launch::{self, Clock, LaunchConfig, Missing, OnDeath, Outcome, World};
 use crate::out::{Kind, Outputs};
 use crate::scenario::{self, WorldSource};
 use anyhow::Result;
@@ -99,6 +99,11 @@ pub struct Args {
     /// What a dead agent means [default: beacon].
     #[arg(long, value_enum)]
     pub on_agent_death: Option<OnDeath>,
+    /// A robot whose agent never registers (or, started here, dies before
+    /// it registers, twice): skip it at its turn, or fail the launch
+    /// [default: skip].
+    #[arg(long, value_enum)]
+    pub missing: Option<Missing>,
     /// Seconds an agent has to register [default: 10].
     #[arg(long, value_name = "SECONDS")]
     pub register_timeout: Option<f64>,
@@ -175,6 +180,7 @@ impl Args {
         set!(gate.stop_turn_rate = self.stop_turn_rate);
         set!(gate.on_agent_death = self.on_agent_death);
         set!(supervision.register_timeout = self.register_timeout);
+        set!(supervision.missing = self.missing);
         set!(supervision.heartbeat_timeout = self.heartbeat_timeout);
         set!(supervision.link_grace = self.link_grace);
         set!(transport.kind = self.transport);

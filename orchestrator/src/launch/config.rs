@@ -36,6 +36,24 @@ pub enum OnDeath {
     Abort,
 }
 
+/// What a robot whose agent never registers means (`supervision.missing`,
+/// `--missing`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Missing {
+    /// The robot is skipped at its turn (recorded as absent, with why) and
+    /// the next one goes; a remote agent that registers later takes a
+    /// later turn, a process started here that dies before registering is
+    /// started once more first.
+    #[default]
+    Skip,
+    /// The run needs every robot: agents that exist on their own are all
+    /// awaited before the first deployment, and any robot whose agent never
+    /// registers ends the launch with an error naming it (a run compared
+    /// robot for robot with another, e.g. the paper's).
+    Fail,
+}
+
 /// Everything `orchestrator launch` can be configured with.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -165,6 +183,8 @@ pub struct SupervisionConfig {
     /// meanwhile and resumes when it is back. 0: dead at once. Keep it no
     /// longer than the agents' `--orchestrator-grace`.
     pub link_grace: f64,
+    /// What a robot whose agent never registers means.
+    pub missing: Missing,
 }
 
 impl Default for LaunchConfig {
@@ -217,6 +237,7 @@ impl Default for SupervisionConfig {
             tick_timeout: 5.0,
             shutdown_grace: 1.0,
             link_grace: 2.0,
+            missing: Missing::Skip,
         }
     }
 }

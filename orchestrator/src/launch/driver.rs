@@ -391,9 +391,10 @@ fn robot_summary(s: &Slot) -> RobotSummary {
         SlotState::Arrived => RobotEnd::Arrived,
         SlotState::Died => RobotEnd::Died,
         SlotState::Unfinished | SlotState::Moving => RobotEnd::Moving,
+        SlotState::Absent => RobotEnd::Absent,
         _ => RobotEnd::NotDeployed,
     };
-    let deployed = end != RobotEnd::NotDeployed;
+    let deployed = !matches!(end, RobotEnd::NotDeployed | RobotEnd::Absent);
     let pose = s.last_pose().filter(|_| deployed);
     RobotSummary {
         id: s.id(),

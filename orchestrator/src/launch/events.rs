@@ -32,6 +32,10 @@ pub enum EventKind {
     LinkLost,
     /// Its agent was heard from again within the link grace.
     LinkBack,
+    /// Skipped at its turn: its agent never registered (see `reason`).
+    Absent,
+    /// Its agent registered after its turn was skipped; it takes a later turn.
+    JoinedLate,
 }
 
 /// One event of a robot's agent.

@@ -55,7 +55,7 @@ pub mod transport;
 #[doc(inline)]
 pub use self::core::Core;
 pub use agents::spawned::AgentCommand;
-pub use config::{Clock, LaunchConfig, OnDeath};
+pub use config::{Clock, LaunchConfig, Missing, OnDeath};
 pub use summary::{Outcome, RobotEnd, Summary};
 
 use anyhow::{Context, Result};

@@ -39,6 +39,7 @@ pub fn setup(
         speed: cfg.speed,
         tick_timeout_us: (cfg.supervision.tick_timeout * 1e6) as u64,
         on_death: cfg.gate.on_agent_death,
+        missing: cfg.supervision.missing,
         prespawn: cfg.gate.prespawn,
         start: world.start,
         goal: world.goal,

@@ -52,6 +52,8 @@ pub enum RobotEnd {
     Died,
     /// Still moving when the run ended.
     Moving,
+    /// Skipped at its turn: its agent never registered (see `death`).
+    Absent,
 }
 
 /// A supervision event about one agent.
@@ -83,6 +85,7 @@ impl RobotEnd {
             Self::Arrived => "arrived",
             Self::Died => "lost (agent died)",
             Self::Moving => "still moving",
+            Self::Absent => "absent",
         }
     }
 }

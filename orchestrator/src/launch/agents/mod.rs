@@ -172,9 +172,9 @@ pub trait AgentSource {
     fn kind(&self) -> &'static str;
 
     /// Whether the agents exist independently of the launch (remote agents,
-    /// robots): then the engine starts every robot's agent at the beginning
-    /// and waits for all registrations before the first deployment, instead
-    /// of starting each when (or just before) its robot is needed.
+    /// robots): then the core starts (or expects) every robot's agent at
+    /// the beginning, instead of each when (or just before) its robot is
+    /// needed. Each robot is still needed only at its turn.
     fn all_at_once(&self) -> bool {
         false
     }

@@ -6,9 +6,11 @@
 //! zenoh --connect tcp/ORCHESTRATOR:PORT --robot K ...` with the launch's
 //! swarm, terrain, ε, noise, seed, clock and swarm size (the world is in
 //! its flags: the orchestrator knows no terrain). The launch starts
-//! expecting every robot at once ([`AgentSource::all_at_once`]) and waits
-//! for all registrations before the first deployment; robots that never
-//! come are named in the error.
+//! expecting every robot at once ([`AgentSource::all_at_once`]) and deploys
+//! each when its turn comes: a robot whose agent has not registered by
+//! then is awaited up to its registration timeout (counted from the start),
+//! then skipped as absent; one that registers later takes a later turn
+//! (`supervision.missing = "fail"` awaits all and names the missing).
 //!
 //! Liveness has two signals. The [`Watchdog`] (registration and heartbeat
 //! deadlines) catches an agent that never came or hangs. zenoh liveliness

@@ -38,7 +38,7 @@ pub use slot::{FrameCount, Slot, SlotState};
 pub use wait::{AnswerWait, RESEND_US};
 
 use super::agents::{Gone, Reach};
-use super::config::OnDeath;
+use super::config::{Missing, OnDeath};
 use super::events::{EventKind, LaunchEvent};
 use super::gate::{GateParams, Verdict};
 use super::summary::{Death, Outage, Outcome};
@@ -62,7 +62,7 @@ pub struct AgentTraits {
     /// The source's name, for the events channel and messages.
     pub kind: &'static str,
     /// The agents exist on their own (remote agents, robots): all are
-    /// expected at the start and every registration is awaited first.
+    /// started (or expected) at the beginning, not each at its turn.
     pub all_at_once: bool,
     /// A stuck robot is told to `Stop` (a real robot would keep pushing).
     pub stop_when_stuck: bool,
@@ -97,6 +97,8 @@ pub struct Setup {
     pub tick_timeout_us: u64,
     /// What a dead agent means.
     pub on_death: OnDeath,
+    /// What a robot whose agent never registers means.
+    pub missing: Missing,
     /// Start the next agent while the current robot moves.
     pub prespawn: bool,
     /// Where robots start.
@@ -202,7 +204,8 @@ enum Pending {
 pub enum Phase {
     /// Nothing started yet.
     Begin,
-    /// Agents that exist on their own: awaiting every registration.
+    /// Agents that exist on their own, and every robot is needed
+    /// (`Missing::Fail`): awaiting every registration.
     AwaitingEveryone,
     /// Choosing the next robot to deploy.
     Choosing,
@@ -249,6 +252,9 @@ pub struct Core {
     ticks_started: u64,
     next: u32,
     pending_deploy: Option<Deploy>,
+    /// Robots that registered after their turn was skipped, in the order
+    /// they came: each takes the next turn.
+    late: VecDeque<u32>,
     last_bearing: Option<GoalBearing>,
     resends: u64,
     queue: VecDeque<Pending>,
@@ -278,6 +284,7 @@ impl Core {
             ticks_started: 0,
             next: 1,
             pending_deploy: None,
+            late: VecDeque::new(),
             last_bearing: None,
             resends: 0,
             queue: VecDeque::new(),
@@ -407,7 +414,12 @@ impl Core {
         if let Some(slot) = self.slot(id) {
             slot.pid = pid;
             slot.alive = true;
-            slot.state = SlotState::Spawned;
+            // A late joiner is expected again after it registered.
+            slot.state = if slot.registered_before_tick.is_some() {
+                SlotState::Registered
+            } else {
+                SlotState::Spawned
+            };
         }
         self.note(format!("robot {id}: {how}"));
         self.event(id, EventKind::Spawned, pid, None);
@@ -452,6 +464,9 @@ impl Core {
                 return;
             }
         }
+        if !registered && matches!(msg, FromAgent::Register(_)) && !self.may_register(id) {
+            return;
+        }
         self.outputs.push_back(Output::Heard(id));
         let current = self.tick.as_ref().map(|t| t.step);
         let Some(slot) = self.slot(id) else { return };
@@ -465,7 +480,16 @@ impl Core {
                 if slot.state == SlotState::Spawned {
                     slot.state = SlotState::Registered;
                 }
-                if all_at_once {
+                if slot.state == SlotState::Absent {
+                    slot.state = SlotState::Registered;
+                    slot.late = true;
+                    slot.death = None;
+                    self.late.push_back(id);
+                    // Expected again: its source supervises it from now on.
+                    self.outputs.push_back(Output::Start(id));
+                    self.note(format!("robot {id}: registered late; it takes the next turn"));
+                    self.event(id, EventKind::JoinedLate, None, None);
+                } else if all_at_once {
                     let instance = r.instance;
                     self.note(format!("robot {id}: agent registered (instance {instance:016x})"));
                 }
@@ -607,13 +631,8 @@ impl Core {
         self.note(format!("robot {id}: agent lost — {reason}"));
         self.event(id, EventKind::AgentLost, None, Some(reason.clone()));
         let fatal = match state {
-            // Agents that exist on their own are all awaited at the start;
-            // one that never registers ends the launch (named with the
-            // others when the wait ends).
-            SlotState::Spawned if self.setup.agents.all_at_once => {
-                Some(format!("robot {id}'s agent never registered: {reason}"))
-            }
-            SlotState::Spawned | SlotState::Registered | SlotState::Deploying => {
+            SlotState::Spawned => self.never_registered(id, gone, reason),
+            SlotState::Registered | SlotState::Deploying => {
                 if let Some(s) = self.slot(id) {
                     s.state = SlotState::Lost;
                 }
@@ -628,6 +647,41 @@ impl Core {
         if let Some(f) = fatal {
             self.fatal.get_or_insert(f);
         }
+    }
+
+    /// Robot `id`'s agent is gone without ever registering: with
+    /// `Missing::Fail` the launch ends (the error, naming it); otherwise a
+    /// process started here that ended is started once more, and a robot
+    /// that still has no agent is absent: skipped at its turn.
+    fn never_registered(&mut self, id: u32, gone: Gone, reason: String) -> Option<String> {
+        if self.setup.missing == Missing::Fail {
+            return Some(format!("robot {id}'s agent never registered: {reason}"));
+        }
+        let slot = self.slot(id)?;
+        // A process that ended may have met a passing trouble; one that hung
+        // for a whole registration timeout is not started again.
+        if slot.pid.is_some() && slot.restarts == 0 && matches!(gone, Gone::Exited(_)) {
+            slot.restarts += 1;
+            slot.state = SlotState::Waiting;
+            slot.death = None;
+            self.note(format!("robot {id}: its agent is gone before it registered; starting it once more"));
+            return None;
+        }
+        slot.state = SlotState::Absent;
+        self.note(format!("robot {id}: absent — its agent never registered: {reason}"));
+        self.event(id, EventKind::Absent, None, Some(reason));
+        None
+    }
+
+    /// Whether a first `Register` for robot `id` is taken: an absent
+    /// robot's agent that exists on its own (a remote agent, not a process
+    /// started here) may join late; otherwise the robot's agent must be
+    /// started and not gone.
+    fn may_register(&self, id: u32) -> bool {
+        self.slot_ref(id).is_some_and(|s| match s.state {
+            SlotState::Absent => s.pid.is_none() && self.setup.agents.all_at_once,
+            _ => true,
+        })
     }
 
     fn on_reach(&mut self, now: u64, id: u32, change: Reach) {
@@ -766,16 +820,21 @@ impl Core {
     fn step_phase(&mut self, now: u64) -> bool {
         match self.phase {
             Phase::Begin => {
-                self.phase = if self.setup.agents.all_at_once {
-                    for id in 1..=self.setup.robots {
-                        self.outputs.push_back(Output::Start(id));
-                    }
+                if !self.setup.agents.all_at_once {
+                    self.phase = Phase::Choosing;
+                    return true;
+                }
+                for id in 1..=self.setup.robots {
+                    self.outputs.push_back(Output::Start(id));
+                }
+                // Robots are needed when their turn comes, unless every one is.
+                self.phase = if self.setup.missing == Missing::Fail {
                     Phase::AwaitingEveryone
                 } else {
                     Phase::Choosing
                 };
                 // Starting is carried out by the shell before the core goes on.
-                self.setup.agents.all_at_once.then_some(()).is_none()
+                false
             }
             Phase::AwaitingEveryone => {
                 let waiting =
@@ -791,9 +850,14 @@ impl Core {
                     self.settle(id, now);
                     true
                 }
-                Some(SlotState::Spawned | SlotState::Waiting) => false,
+                Some(SlotState::Spawned) => false,
+                Some(SlotState::Waiting) => {
+                    // Started once more (it died before it registered).
+                    self.outputs.push_back(Output::Start(id));
+                    false
+                }
                 _ => {
-                    self.next = id + 1;
+                    self.next = self.next.max(id + 1);
                     self.phase = Phase::Choosing;
                     true
                 }
@@ -823,11 +887,14 @@ impl Core {
                 }
                 Some(SlotState::Moving) => {
                     self.pending_deploy = None;
-                    self.next = id + 1;
+                    self.next = self.next.max(id + 1);
+                    let next = self.next;
                     let prespawn = self.setup.prespawn
-                        && self.slot_ref(id + 1).is_some_and(|s| s.state == SlotState::Waiting);
+                        && self
+                            .slot_ref(next)
+                            .is_some_and(|s| s.state == SlotState::Waiting && s.restarts == 0);
                     if prespawn {
-                        self.outputs.push_back(Output::Start(id + 1));
+                        self.outputs.push_back(Output::Start(next));
                     }
                     self.phase = Phase::Watching;
                     true
@@ -862,7 +929,10 @@ impl Core {
             return false;
         }
         self.phase = Phase::Choosing;
-        if self.slot_ref(self.next).is_none() {
+        // A robot that joined late goes before the next one in order.
+        let late = self.late.front().copied();
+        let id = late.unwrap_or(self.next);
+        if self.slot_ref(id).is_none() {
             match self.none_registered() {
                 Some(error) => self.end(Outcome::Error, Some(error)),
                 None => self.end(Outcome::RobotsExhausted, None),
@@ -873,10 +943,14 @@ impl Core {
             self.end(Outcome::TimeLimit, None);
             return false;
         }
-        let id = self.next;
+        if late.is_some() {
+            self.late.pop_front();
+        }
         match self.slot_ref(id).map(|s| s.state) {
-            Some(SlotState::Lost) => {
-                self.next += 1;
+            Some(SlotState::Lost | SlotState::Absent) => {
+                if late.is_none() {
+                    self.next += 1;
+                }
                 return true;
             }
             Some(SlotState::Waiting) => {
@@ -1123,8 +1197,9 @@ impl Core {
             .map(|s| s.id.to_string())
             .collect();
         if !never.is_empty() {
+            let noun = if never.len() == 1 { "robot" } else { "robots" };
             self.fatal = Some(format!(
-                "the {} agents of robots {} never registered within {} s{}",
+                "the {} agents of {noun} {} never registered within {} s{}",
                 self.setup.agents.kind,
                 never.join(", "),
                 self.setup.register_timeout_s,

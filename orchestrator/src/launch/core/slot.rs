@@ -31,6 +31,8 @@ pub enum SlotState {
     Unfinished,
     /// Its agent was lost before it was deployed.
     Lost,
+    /// Skipped at its turn: its agent never registered (see `death`).
+    Absent,
 }
 
 impl SlotState {
@@ -47,6 +49,7 @@ impl SlotState {
             Self::Died => "lost while moving",
             Self::Unfinished => "still moving",
             Self::Lost => "lost",
+            Self::Absent => "absent",
         }
     }
 }
@@ -76,6 +79,10 @@ pub struct Slot {
     pub(super) death: Option<Death>,
     pub(super) frames: FrameCount,
     pub(super) outages: Vec<Outage>,
+    /// Times its agent was started again after it died unregistered.
+    pub(super) restarts: u32,
+    /// It registered after its turn was skipped and took a later one.
+    pub(super) late: bool,
 }
 
 impl Slot {
@@ -98,6 +105,8 @@ impl Slot {
             death: None,
             frames: FrameCount::default(),
             outages: Vec::new(),
+            restarts: 0,
+            late: false,
         }
     }
 
@@ -152,6 +161,11 @@ impl Slot {
     /// Times its agent was unreachable.
     pub fn outages(&self) -> &[Outage] {
         &self.outages
+    }
+    /// Whether it registered after its turn had been skipped (and so took
+    /// a later turn, out of id order).
+    pub fn joined_late(&self) -> bool {
+        self.late
     }
 }
 

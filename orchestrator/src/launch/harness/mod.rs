@@ -30,7 +30,7 @@ pub use net::{Link, Net, Packet, Partition};
 pub use schedule::{Crash, Foreign, Schedule};
 
 use super::agents::{Gone, Reach};
-use super::config::{LaunchConfig, OnDeath};
+use super::config::{LaunchConfig, Missing, OnDeath};
 use super::core::{AgentTraits, Core, Ending, Input, Output, SlotState};
 use super::gate::GateParams;
 use super::summary::Outcome;
@@ -63,6 +63,8 @@ pub struct Case {
     pub dwell: f64,
     /// What a dead agent means.
     pub on_death: OnDeath,
+    /// What a robot whose agent never registers means.
+    pub missing: Missing,
 }
 
 impl Case {
@@ -85,6 +87,7 @@ impl Case {
             time_limit: [30.0, 120.0][(seed / 216 % 2) as usize],
             dwell: 1.0,
             on_death: OnDeath::Beacon,
+            missing: Missing::Skip,
         }
     }
 
@@ -124,6 +127,12 @@ pub struct Report {
     pub stepped: Vec<u64>,
     /// Deployments each robot got (agents that took a `Deploy`).
     pub deploys_sent: Vec<u64>,
+    /// Robots that registered after their turn was skipped.
+    pub late: Vec<u32>,
+    /// Virtual time of each gate event (parallel to `gates`), µs.
+    pub gate_times_us: Vec<u64>,
+    /// When each robot's first registration reached the core, µs.
+    pub registered_us: Vec<Option<u64>>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -154,6 +163,7 @@ struct World<'a> {
     register_timeout_us: u64,
     heartbeat_timeout_us: u64,
     link_grace_us: u64,
+    early_deaths_left: Vec<u32>,
 }
 
 /// The core's setup for `case` with agents of `schedule`'s kind and clock.
@@ -179,6 +189,7 @@ pub fn setup(case: &Case, schedule: &Schedule) -> super::core::Setup {
         speed,
         tick_timeout_us: (cfg.supervision.tick_timeout * 1e6) as u64,
         on_death: case.on_death,
+        missing: case.missing,
         prespawn: true,
         start: case.terrain.start(),
         goal: case.terrain.goal(),
@@ -227,10 +238,14 @@ pub fn run(case: &Case, schedule: &Schedule) -> Report {
             bad: 0,
             stepped: vec![0; n],
             deploys_sent: vec![0; n],
+            late: Vec::new(),
+            gate_times_us: Vec::new(),
+            registered_us: vec![None; n],
         },
         register_timeout_us: (cfg.supervision.register_timeout * 1e6) as u64,
         heartbeat_timeout_us: (cfg.supervision.heartbeat_timeout * 1e6) as u64,
         link_grace_us: (cfg.supervision.link_grace * 1e6) as u64,
+        early_deaths_left: schedule.early_deaths.clone(),
     };
     world.plan();
     world.play();
@@ -339,7 +354,10 @@ impl World<'_> {
                 Output::Relay(pose) => {
                     self.net.send(now, 0, Packet::Pose { topic: pose.robot.0, pose, relay: true });
                 }
-                Output::Gate(e) => self.report.gates.push(e),
+                Output::Gate(e) => {
+                    self.report.gates.push(e);
+                    self.report.gate_times_us.push(now);
+                }
                 Output::Kill(id) => {
                     if let Some(Some(a)) = self.agents.get_mut(id as usize - 1) {
                         a.alive = false;
@@ -370,6 +388,13 @@ impl World<'_> {
 
     fn start(&mut self, id: u32) {
         let i = id as usize - 1;
+        if self.schedule.remote && self.agents[i].as_ref().is_some_and(|a| a.alive) {
+            // A remote agent exists on its own: expected again, not made.
+            self.started_at[i] = Some(self.now);
+            let now = self.now;
+            self.core.handle(now, Input::Started { robot: id, pid: None, how: "awaiting its agent".into() });
+            return;
+        }
         let delay = self.schedule.register_delay_us.get(i).copied().unwrap_or(Some(50_000));
         let instance = 0x1000 + u64::from(id);
         let agent = Agent::new(
@@ -382,9 +407,18 @@ impl World<'_> {
         );
         self.agents[i] = Some(agent);
         self.started_at[i] = Some(self.now);
+        if let Some(left) = self.early_deaths_left.get_mut(i).filter(|n| **n > 0) {
+            *left -= 1;
+            let at = self.now + 5_000;
+            self.at(at, Event::Crash(id));
+        }
         let now = self.now;
-        self.core
-            .handle(now, Input::Started { robot: id, pid: Some(10_000 + id), how: "agent started".into() });
+        let (pid, how) = if self.schedule.remote {
+            (None, "awaiting its agent")
+        } else {
+            (Some(10_000 + id), "agent started")
+        };
+        self.core.handle(now, Input::Started { robot: id, pid, how: how.into() });
     }
 
     /// The agent source's timers: registration and heartbeat timeouts.
@@ -412,7 +446,10 @@ impl World<'_> {
             };
             if let Some(gone) = gone {
                 self.started_at[i] = None;
-                if let Some(a) = self.agents[i].as_mut() {
+                // A remote agent that never registered still exists on its
+                // host (it may come late); anything else was killed.
+                let outlives = self.schedule.remote && gone == Gone::NeverRegistered;
+                if let Some(a) = self.agents[i].as_mut().filter(|_| !outlives) {
                     a.alive = false;
                 }
                 self.core.handle(now, Input::Gone(i as u32 + 1, gone));
@@ -530,7 +567,13 @@ impl World<'_> {
     fn arrive(&mut self, packet: Packet) {
         let now = self.now;
         match packet {
-            Packet::Report(r) => self.core.handle(now, Input::Report(r)),
+            Packet::Report(r) => {
+                let i = r.robot().0 as usize;
+                if matches!(r, FromAgent::Register(_)) && (1..=self.report.registered_us.len()).contains(&i) {
+                    self.report.registered_us[i - 1].get_or_insert(now);
+                }
+                self.core.handle(now, Input::Report(r));
+            }
             Packet::Pose { topic, pose, relay } => {
                 if !relay {
                     self.core.handle(now, Input::Pose { topic, pose });
@@ -562,6 +605,7 @@ impl World<'_> {
         let core = &self.core;
         self.report.ending = core.ending().cloned();
         self.report.robots = core.slots().iter().map(|s| (s.state(), s.steps(), s.last_pose())).collect();
+        self.report.late = core.slots().iter().filter(|s| s.joined_late()).map(|s| s.id()).collect();
         self.report.spent = core.spent();
         self.report.ticks = core.ticks();
         self.report.resends = core.resends();
@@ -664,8 +708,9 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
         return Err("an error without words".into());
     }
     let _ = exit_code(ending);
-    // Deployments: each robot at most once, in id order; each verdict
-    // follows its robot's deployment and precedes the next one.
+    // Deployments: each robot at most once, in id order (but for robots
+    // that joined late, which take a later turn); each verdict follows its
+    // robot's deployment and precedes the next one.
     let mut open: Option<u32> = None;
     let mut last_deployed = 0;
     for g in &report.gates {
@@ -675,10 +720,10 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
                 if let Some(o) = open {
                     return Err(format!("robot {id} deployed while robot {o} was still under watch"));
                 }
-                if id <= last_deployed {
+                if id <= last_deployed && !report.late.contains(&id) {
                     return Err(format!("robot {id} deployed after robot {last_deployed}"));
                 }
-                last_deployed = id;
+                last_deployed = last_deployed.max(id);
                 open = Some(id);
             }
             _ => {
@@ -732,4 +777,74 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// Figures of a launch that starts with robots missing (see
+/// [`missing_robots`]).
+#[derive(Clone, Debug)]
+pub struct MissingFigures {
+    /// From robot 1's registration to its deployment, µs.
+    pub first_deploy_after_register_us: u64,
+    /// The longest wait from one turn (a verdict, or the start) to the next
+    /// deployment, per absent robot skipped in it, µs.
+    pub longest_wait_per_absent_us: u64,
+    /// Robots skipped as absent.
+    pub absent: Vec<u32>,
+    /// Robots deployed.
+    pub deployed: usize,
+    /// The launch itself.
+    pub report: Report,
+}
+
+/// A launch of 50 robots of which 5 never come (robots 2, 4, 6, 8, 10)
+/// and 5 die before they register (robots 3, 5, 7, 9, 11; processes
+/// started here die twice, as the one restart they get dies too), with
+/// remote agents or agents spawned here, and its figures.
+pub fn missing_robots(remote: bool) -> MissingFigures {
+    let mut case = Case::small(0);
+    case.robots = 50;
+    case.time_limit = 1000.0;
+    let mut schedule = Schedule::clean(0, case.robots);
+    schedule.remote = remote;
+    for id in [2usize, 4, 6, 8, 10] {
+        schedule.register_delay_us[id - 1] = None;
+    }
+    for id in [3usize, 5, 7, 9, 11] {
+        schedule.early_deaths[id - 1] = if remote { 1 } else { 2 };
+    }
+    let report = run(&case, &schedule);
+    let absent: Vec<u32> =
+        (1..=case.robots).filter(|&id| report.robots[id as usize - 1].0 == SlotState::Absent).collect();
+    let deployed_at = |id: u32| {
+        report
+            .gates
+            .iter()
+            .zip(&report.gate_times_us)
+            .find(|(g, _)| g.robot.0 == id && g.kind == GateKind::Deployed)
+            .map(|(_, &t)| t)
+    };
+    let registered = report.registered_us.first().copied().flatten().unwrap_or(0);
+    let first_deploy_after_register_us = deployed_at(1).map_or(u64::MAX, |t| t.saturating_sub(registered));
+    // Each deployment after the first: the wait since the last verdict,
+    // shared among the absent robots skipped in between.
+    let mut longest = 0;
+    let mut turn_at = 0;
+    let mut last_deployed = 0;
+    for (g, &t) in report.gates.iter().zip(&report.gate_times_us) {
+        if g.kind == GateKind::Deployed {
+            let skipped = absent.iter().filter(|&&a| a > last_deployed && a < g.robot.0).count() as u64;
+            longest = longest.max(t.saturating_sub(turn_at) / skipped.max(1));
+            last_deployed = g.robot.0;
+        } else {
+            turn_at = t;
+        }
+    }
+    let deployed = report.gates.iter().filter(|g| g.kind == GateKind::Deployed).count();
+    MissingFigures {
+        first_deploy_after_register_us,
+        longest_wait_per_absent_us: longest,
+        absent,
+        deployed,
+        report,
+    }
 }

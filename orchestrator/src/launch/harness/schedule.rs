@@ -63,6 +63,9 @@ pub struct Schedule {
     /// Per robot, from its start to its first registration, µs (none: it
     /// never registers).
     pub register_delay_us: Vec<Option<u64>>,
+    /// Per robot, how many of its agents die just after they are started,
+    /// before they register (each start of a process costs one).
+    pub early_deaths: Vec<u32>,
     /// Second agents for a robot, and when they register.
     pub second_agents: Vec<(u32, u64)>,
     /// Forged and foreign traffic, and when.
@@ -83,6 +86,7 @@ impl Schedule {
             partitions: Vec::new(),
             crashes: Vec::new(),
             register_delay_us: vec![Some(20_000); robots as usize],
+            early_deaths: vec![0; robots as usize],
             second_agents: Vec::new(),
             foreign: Vec::new(),
             interrupt_at_us: None,
