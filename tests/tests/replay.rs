@@ -1,9 +1,10 @@
 //! `orchestrator replay FILE.mcap` on real lockstep launch recordings: the
 //! gate re-run from the recorded poses reaches every recorded decision at
 //! the same step and position (exit 0); a recording whose decision was
-//! moved by one step is a mismatch (exit 1, the line named).
+//! moved by one step is a mismatch (exit 1, the line named), and so is one
+//! whose recorded poses are not what its core log handed the core.
 
-use bycoms_protocol::msg::{GateEvent, GateKind};
+use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use bycoms_protocol::{decode, encode, MAX_MESSAGE_LEN};
 use bycoms_tests::{swarm_name, Proc};
 use std::borrow::Cow;
@@ -24,27 +25,62 @@ fn replay(path: &Path) -> bycoms_tests::Finished {
 
 /// Copies a recording, moving the first "stuck" gate event one step later.
 fn tamper(from: &Path, to: &Path) -> GateEvent {
+    let mut moved = None;
+    rewrite(from, to, |schema, data| {
+        if schema != "bycoms.GateEvent" || moved.is_some() {
+            return None;
+        }
+        let mut event: GateEvent = decode(data).expect("gate event");
+        if event.kind != (GateKind::Stopped { arrived: false }) {
+            return None;
+        }
+        event.step += 1;
+        moved = Some(event);
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        Some(encode(&event, &mut buf).expect("encode").to_vec())
+    });
+    moved.expect("the run has a stuck robot")
+}
+
+/// Copies a recording, moving robot 1's 100th recorded pose by 1 mm.
+fn tamper_pose(from: &Path, to: &Path) {
+    let mut seen = 0;
+    rewrite(from, to, |schema, data| {
+        if schema != "bycoms.Pose" {
+            return None;
+        }
+        let mut pose: Pose = decode(data).expect("pose");
+        if pose.robot.0 != 1 {
+            return None;
+        }
+        seen += 1;
+        if seen != 100 {
+            return None;
+        }
+        pose.x += 0.001;
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        Some(encode(&pose, &mut buf).expect("encode").to_vec())
+    });
+    assert!(seen >= 100, "robot 1 has 100 poses on record");
+}
+
+/// Copies a recording, message by message; `change` may replace a postcard
+/// message's bytes (it is given the schema name and the bytes).
+fn rewrite(from: &Path, to: &Path, mut change: impl FnMut(&str, &[u8]) -> Option<Vec<u8>>) {
     let bytes = std::fs::read(from).expect("read recording");
     let out = std::fs::File::create(to).expect("create copy");
     let mut writer = mcap::WriteOptions::new().create(std::io::BufWriter::new(out)).expect("writer");
-    let mut moved = None;
     for message in mcap::MessageStream::new(&bytes).expect("mcap") {
         let mut message = message.expect("message");
-        let is_gate = message.channel.schema.as_ref().is_some_and(|s| s.name == "bycoms.GateEvent")
-            && message.channel.message_encoding == "postcard";
-        if is_gate && moved.is_none() {
-            let mut event: GateEvent = decode(&message.data).expect("gate event");
-            if event.kind == (GateKind::Stopped { arrived: false }) {
-                event.step += 1;
-                let mut buf = [0u8; MAX_MESSAGE_LEN];
-                message.data = Cow::Owned(encode(&event, &mut buf).expect("encode").to_vec());
-                moved = Some(event);
+        let schema = message.channel.schema.as_ref().map(|s| s.name.clone()).unwrap_or_default();
+        if message.channel.message_encoding == "postcard" {
+            if let Some(data) = change(&schema, &message.data) {
+                message.data = Cow::Owned(data);
             }
         }
         writer.write(&message).expect("write");
     }
     writer.finish().expect("finish");
-    moved.expect("the run has a stuck robot")
 }
 
 #[test]
@@ -65,6 +101,13 @@ fn a_lockstep_launch_replays_to_the_same_decisions_and_a_moved_one_is_caught() {
     assert!(out.stdout.contains("MISMATCH: 1 of 6"), "{}", out.stdout);
     let line = out.stdout.lines().find(|l| l.contains("MISMATCH  recorded")).expect("a mismatch line");
     assert!(line.contains(&format!("step {}", moved.step)), "{line}");
+
+    // The core log is evidence only with the traffic it came from.
+    let tampered = dir.path().join("tampered-pose.mcap");
+    tamper_pose(&path, &tampered);
+    let out = replay(&tampered);
+    assert_eq!(out.status.code(), Some(1), "{}\n{}", out.stdout, out.stderr);
+    assert!(out.stdout.contains("a pose that is not on the record: robot 1"), "{}", out.stdout);
 }
 
 #[test]

@@ -1,5 +1,5 @@
-//! `orchestrator replay FILE.mcap`: re-run the deployment gate from a
-//! launch recording's poses and check it reaches the recorded decisions
+//! `orchestrator replay FILE.mcap`: re-run the launch core on a launch
+//! recording's inputs and check it reaches the recorded decisions
 //! (see [`crate::replay`]). Exit 0 when every decision matches, 1 on any
 //! mismatch or an unreadable file (a file that is not an MCAP recording is
 //! `record::check_recording`'s error, the same as for `draw` and `record recover`).
@@ -29,13 +29,31 @@ pub fn run(args: Args) -> Result<i32> {
         tracing::warn!("the recording ends early ({why}); replaying what it holds");
     }
     let recorded_events: Vec<_> = recorded.gate_events().copied().collect();
-    let replayed = rejudge(&recorded);
+    // The launch's own core fed the launch's own calls; a recording from
+    // before the core's log is re-judged from its poses by the same referee.
+    let (replayed, how) = match recorded.core_log() {
+        Some((setup, calls)) => {
+            if let Some(pose) = recorded.unrecorded_input(&calls) {
+                let mut out = std::io::stdout().lock();
+                writeln!(
+                    out,
+                    "MISMATCH: the core log hands the core a pose that is not on the record: {} at step {} ({:.4}, {:.4})",
+                    pose.robot, pose.step, pose.x, pose.y
+                )?;
+                tracing::error!("the recording's core log does not agree with its recorded poses");
+                return Ok(exit::ERROR);
+            }
+            let n = calls.len();
+            (crate::launch::core::log::replay(setup, calls).0, format!("the launch core, {n} recorded calls"))
+        }
+        None => (rejudge(&recorded), "the gate's referee, from the poses (no core log)".to_string()),
+    };
     let comparison = Comparison::new(&recorded_events, &replayed);
     let poses = recorded.entries.iter().filter(|e| matches!(e, crate::replay::Entry::Pose(_))).count();
     let mut out = std::io::stdout().lock();
     writeln!(
         out,
-        "replay of {} ({} terrain, {:?} clock): {poses} poses, {} recorded gate events",
+        "replay of {} ({} terrain, {:?} clock) through {how}: {poses} poses, {} recorded gate events",
         args.file.display(),
         recorded.run.terrain,
         recorded.run.config.clock,

@@ -12,7 +12,8 @@
 
 use super::agents::{AgentPlan, AgentSource, Started};
 use super::config::{Clock, LaunchConfig};
-use super::core::{Core, Ending, Input, Output, Slot, SlotState};
+use super::core::log::{self, Logged};
+use super::core::{Ending, Input, Output, Slot, SlotState};
 use super::events::EVENT_SCHEMA;
 use super::ports::Ports;
 use super::poses::{PoseSink, PoseSource};
@@ -32,7 +33,7 @@ pub const SLICE: Duration = Duration::from_millis(10);
 
 /// One launch's shell: the core and the real things it drives.
 pub struct Driver {
-    core: Core,
+    core: Logged,
     cfg: LaunchConfig,
     world: World,
     ports: Ports,
@@ -76,8 +77,16 @@ impl Driver {
     pub fn new(parts: Parts) -> Self {
         let Parts { cfg, world, ports, agents, pose_source, template, stop, begun, endpoints } = parts;
         let setup = super::setup::setup(&cfg, &world, &template, agents.as_ref(), pose_source.as_ref());
+        let mut ports = ports;
+        // The core's setup and calls go into the recording: `replay` feeds
+        // them to the same core (`launch::core::log`).
+        let recorded = ports.recording.is_on();
+        if recorded {
+            let topic = format!("bycoms/{}/core/setup", template.swarm);
+            ports.recording.bytes(&topic, log::SETUP_SCHEMA, &log::encode_setup(&setup));
+        }
         Self {
-            core: Core::new(setup),
+            core: Logged::new(setup, recorded),
             progress: Progress::new(cfg.robots),
             cfg,
             world,
@@ -107,6 +116,7 @@ impl Driver {
             }
             self.core.advance(now);
             let acted = self.carry_out();
+            self.record_calls();
             if let Some(ending) = self.core.ending() {
                 break ending.clone();
             }
@@ -123,6 +133,15 @@ impl Driver {
             }
         };
         self.finish(ending)
+    }
+
+    /// Records the core's calls since the last time (one message a pass).
+    fn record_calls(&mut self) {
+        let calls = self.core.take_calls();
+        if !calls.is_empty() {
+            let topic = format!("bycoms/{}/core/calls", self.template.swarm);
+            self.ports.recording.bytes(&topic, log::CALLS_SCHEMA, &log::encode_calls(&calls));
+        }
     }
 
     /// Hands one input to the core and carries out what it asks at once.

@@ -67,7 +67,7 @@ pub enum Verdict {
 }
 
 /// The motion test's parameters.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct GateParams {
     /// The goal.
     pub goal: Vec2,

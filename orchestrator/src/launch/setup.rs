@@ -47,10 +47,10 @@ pub fn setup(
         link_grace_s: cfg.supervision.link_grace,
         register_timeout_s: cfg.supervision.register_timeout,
         agents: AgentTraits {
-            kind: agents.kind(),
+            kind: agents.kind().to_string(),
             all_at_once: agents.all_at_once(),
             stop_when_stuck: agents.stop_when_stuck(),
-            start_hint: agents.start_hint(),
+            start_hint: agents.start_hint().to_string(),
             placement,
             forward_poses: !poses.on_the_bus() && agents.wants_poses(),
         },

@@ -62,7 +62,11 @@ impl Feed {
             Entry::Command { command: ToAgent::GoalBearing(b), .. } if self.lockstep => {
                 self.ticks = self.ticks.max(b.step);
             }
-            Entry::Command { .. } | Entry::MocapFrame(_) | Entry::MocapModelDef(_) => {}
+            Entry::Command { .. }
+            | Entry::MocapFrame(_)
+            | Entry::MocapModelDef(_)
+            | Entry::CoreSetup(_)
+            | Entry::CoreCalls(_) => {}
             Entry::Pose(pose) => self.on_pose(*pose),
             Entry::Gate(event) if event.kind == GateKind::Died => {
                 // Not a pose decision: taken from the recording.

@@ -1,11 +1,15 @@
-//! `orchestrator replay FILE.mcap`: the gate re-run offline from a
-//! recording's poses, checked against the decisions the launch recorded.
+//! `orchestrator replay FILE.mcap`: the launch re-run offline from a
+//! recording, checked against the decisions the launch recorded.
 //!
 //! Why: a recording is only evidence if the decisions in it follow from
-//! the poses in it. The replay reads the poses back (`read`), drives the
-//! launch's own gate with them (`judge`), and compares every decision —
-//! robot, kind, step, position — with the recorded gate events. Any
-//! difference is a mismatch, reported event by event (non-zero exit).
+//! the inputs in it. A launch records every call it made on its core
+//! (`launch::core::log`); the replay reads them back (`read`), checks that
+//! every pose they hand the core is among the recorded poses, feeds them to
+//! a new core made from the recorded setup, and compares every decision —
+//! robot, kind, step, position — with the recorded gate events. A
+//! recording from before the core's log is re-judged from its poses by the
+//! launch's own referee (`judge`). Any difference is a mismatch, reported
+//! event by event (non-zero exit).
 //!
 //! Positions are compared bit for bit: the replay computes nothing new
 //! from them, it only picks the pose a decision was taken at.

@@ -12,6 +12,8 @@
 //! to its last complete chunk.
 
 use super::ReplayError;
+use crate::launch::core::log::{self, Call};
+use crate::launch::core::Setup;
 use crate::launch::ports::schema;
 use crate::launch::LaunchConfig;
 use bycoms_protocol::msg::{GateEvent, Pose, ToAgent};
@@ -53,6 +55,10 @@ pub enum Entry {
     MocapModelDef(Vec<u8>),
     /// A gate event the launch published.
     Gate(GateEvent),
+    /// The launch core's setup (`launch::core::log`).
+    CoreSetup(Box<Setup>),
+    /// Calls the launch made on its core, in order.
+    CoreCalls(Vec<Call>),
 }
 
 /// The `run` metadata the launch writes first.
@@ -80,6 +86,46 @@ pub struct Recorded {
 }
 
 impl Recorded {
+    /// The launch core's setup and every call made on it, when the
+    /// recording holds them (recordings since the core's log).
+    pub fn core_log(&self) -> Option<(Setup, Vec<&Call>)> {
+        let setup = self.entries.iter().find_map(|e| match e {
+            Entry::CoreSetup(s) => Some((**s).clone()),
+            _ => None,
+        })?;
+        let calls = self
+            .entries
+            .iter()
+            .filter_map(|e| match e {
+                Entry::CoreCalls(c) => Some(c.iter()),
+                _ => None,
+            })
+            .flatten()
+            .collect();
+        Some((setup, calls))
+    }
+
+    /// Whether every pose the core log says the core was handed is on the
+    /// record, in the same order (the log is evidence only if its inputs
+    /// are the recorded traffic): the first one that is not, if any. The
+    /// recorded poses may hold more (the launch's own relays, seen again
+    /// on the bus); the log's must be among them, bit for bit.
+    pub fn unrecorded_input(&self, calls: &[&Call]) -> Option<Pose> {
+        let mut recorded = self.entries.iter().filter_map(|e| match e {
+            Entry::Pose(p) => Some(p),
+            _ => None,
+        });
+        let bits = |p: &Pose| (p.robot, p.step, p.time_us, p.x.to_bits(), p.y.to_bits(), p.heading.to_bits());
+        calls
+            .iter()
+            .filter_map(|c| match c {
+                Call::Handle(_, crate::launch::core::Input::Pose { pose, .. }) => Some(pose),
+                _ => None,
+            })
+            .find(|input| !recorded.any(|p| bits(p) == bits(input)))
+            .copied()
+    }
+
     /// The gate events as recorded, in order.
     pub fn gate_events(&self) -> impl Iterator<Item = &GateEvent> {
         self.entries.iter().filter_map(|e| match e {
@@ -134,6 +180,18 @@ pub fn read_recording(path: &Path) -> Result<Recorded, ReplayError> {
             schema::GATE if message.channel.message_encoding == crate::record::POSTCARD => {
                 if let Ok(event) = decode::<GateEvent>(data) {
                     entries.push(Entry::Gate(event));
+                }
+            }
+            // A log that does not decode is left out: the replay then
+            // re-judges from the poses, and says so.
+            log::SETUP_SCHEMA => {
+                if let Ok(setup) = log::decode_setup(data) {
+                    entries.push(Entry::CoreSetup(Box::new(setup)));
+                }
+            }
+            log::CALLS_SCHEMA => {
+                if let Ok(calls) = log::decode_calls(data) {
+                    entries.push(Entry::CoreCalls(calls));
                 }
             }
             NATNET_FRAME_SCHEMA => entries.push(Entry::MocapFrame(data.to_vec())),

@@ -76,10 +76,10 @@ impl std::fmt::Display for Started {
 }
 
 /// Why an agent is gone.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Gone {
     /// The process exited (or was killed by a signal).
-    Exited(ExitStatus),
+    Exited(#[serde(with = "raw_status")] ExitStatus),
     /// Registered, alive, but silent past the heartbeat timeout (killed).
     Silent,
     /// Never registered within the registration timeout (killed).
@@ -123,8 +123,24 @@ impl std::fmt::Display for Gone {
     }
 }
 
+/// An exit status as its raw `wait` status (the launch core's input log,
+/// `launch::core::log`, records it).
+mod raw_status {
+    use serde::{Deserialize, Deserializer, Serializer};
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::ExitStatus;
+
+    pub fn serialize<S: Serializer>(status: &ExitStatus, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_i32(status.into_raw())
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<ExitStatus, D::Error> {
+        i32::deserialize(d).map(ExitStatus::from_raw)
+    }
+}
+
 /// A change in whether an agent can be reached (see [`AgentSource::reach`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Reach {
     /// No contact any more (liveliness token gone, or silent past the
     /// heartbeat timeout): the engine holds the robot until it is back or

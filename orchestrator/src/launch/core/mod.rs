@@ -27,6 +27,7 @@
 //! lets a shell hand in everything that arrived together (a tick's answers
 //! and its poses) before the core acts on it.
 
+pub mod log;
 mod plausible;
 pub mod referee;
 mod slot;
@@ -50,6 +51,7 @@ use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
 use bycoms_sim::agent_process::BadKind;
 use bycoms_sim::Vec2;
 use plausible::Anchors;
+use serde::{Deserialize, Serialize};
 use std::collections::{BTreeSet, VecDeque};
 
 /// How often an operator is reminded to place a robot, µs.
@@ -57,10 +59,10 @@ const REMIND_EVERY_US: u64 = 2_000_000;
 
 /// What the agent seam reports about its kind, as properties (the core
 /// knows no kind by name).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AgentTraits {
     /// The source's name, for the events channel and messages.
-    pub kind: &'static str,
+    pub kind: String,
     /// The agents exist on their own (remote agents, robots): all are
     /// started (or expected) at the beginning, not each at its turn.
     pub all_at_once: bool,
@@ -68,7 +70,7 @@ pub struct AgentTraits {
     pub stop_when_stuck: bool,
     /// Told how to start a missing agent, appended to the error naming
     /// robots that never registered.
-    pub start_hint: &'static str,
+    pub start_hint: String,
     /// Robots are put at the start by an operator, confirmed by motion
     /// capture, before they are enabled.
     pub placement: Option<PlacementConfig>,
@@ -78,7 +80,7 @@ pub struct AgentTraits {
 }
 
 /// Everything the core needs to know before the launch starts.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Setup {
     /// Robots available.
     pub robots: u32,
@@ -119,7 +121,7 @@ pub struct Setup {
 }
 
 /// Something that happened, handed to [`Core::handle`].
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Input {
     /// Robot `robot`'s agent was started (`Output::Start` carried out).
     Started {
@@ -401,7 +403,7 @@ impl Core {
 
     fn event(&mut self, robot: u32, event: EventKind, pid: Option<u32>, reason: Option<String>) {
         let state = self.slot_ref(robot).map(|s| format!("{:?}", s.state));
-        let source = (event == EventKind::Spawned).then(|| self.setup.agents.kind.to_string());
+        let source = (event == EventKind::Spawned).then(|| self.setup.agents.kind.clone());
         let state = if event == EventKind::Spawned { None } else { state };
         self.outputs.push_back(Output::Event(LaunchEvent { robot, event, pid, source, reason, state }));
     }

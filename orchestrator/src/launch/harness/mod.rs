@@ -31,7 +31,8 @@ pub use schedule::{Crash, Foreign, Schedule};
 
 use super::agents::{Gone, Reach};
 use super::config::{LaunchConfig, Missing, OnDeath};
-use super::core::{AgentTraits, Core, Ending, Input, Output, SlotState};
+use super::core::log::{Call, Logged};
+use super::core::{AgentTraits, Ending, Input, Output, Setup, SlotState};
 use super::gate::GateParams;
 use super::summary::Outcome;
 use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Heartbeat, Pose, Register, ToAgent};
@@ -148,7 +149,7 @@ enum Event {
 struct World<'a> {
     case: &'a Case,
     schedule: &'a Schedule,
-    core: Core,
+    core: Logged,
     net: Net,
     agents: Vec<Option<Agent>>,
     impostors: Vec<Agent>,
@@ -167,13 +168,13 @@ struct World<'a> {
 }
 
 /// The core's setup for `case` with agents of `schedule`'s kind and clock.
-pub fn setup(case: &Case, schedule: &Schedule) -> super::core::Setup {
+pub fn setup(case: &Case, schedule: &Schedule) -> Setup {
     let remote = schedule.remote;
     let speed = schedule.realtime.unwrap_or(1.0);
     let cfg = LaunchConfig::default();
     let run = case.run_config();
     let period_us = (run.kinematics.dt * 1e6).round() as u64;
-    super::core::Setup {
+    Setup {
         robots: case.robots,
         lockstep: schedule.realtime.is_none(),
         params: GateParams {
@@ -197,10 +198,10 @@ pub fn setup(case: &Case, schedule: &Schedule) -> super::core::Setup {
         link_grace_s: cfg.supervision.link_grace,
         register_timeout_s: cfg.supervision.register_timeout,
         agents: AgentTraits {
-            kind: if remote { "remote" } else { "spawned" },
+            kind: if remote { "remote" } else { "spawned" }.into(),
             all_at_once: remote,
             stop_when_stuck: false,
-            start_hint: "",
+            start_hint: String::new(),
             placement: None,
             forward_poses: false,
         },
@@ -210,12 +211,23 @@ pub fn setup(case: &Case, schedule: &Schedule) -> super::core::Setup {
 
 /// Plays one launch of `case` under `schedule` to its end.
 pub fn run(case: &Case, schedule: &Schedule) -> Report {
+    play(case, schedule, false).0
+}
+
+/// [`run`], with the core's setup and every call made on it, as a launch
+/// records them (`launch::core::log`).
+pub fn run_logged(case: &Case, schedule: &Schedule) -> (Report, Setup, Vec<Call>) {
+    let (report, calls) = play(case, schedule, true);
+    (report, setup(case, schedule), calls)
+}
+
+fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, Vec<Call>) {
     let cfg = LaunchConfig::default();
     let n = case.robots as usize;
     let mut world = World {
         case,
         schedule,
-        core: Core::new(setup(case, schedule)),
+        core: Logged::new(setup(case, schedule), logged),
         net: Net::new(schedule.link.clone(), schedule.partitions.clone(), schedule.seed),
         agents: (0..n).map(|_| None).collect(),
         impostors: Vec::new(),
@@ -249,7 +261,8 @@ pub fn run(case: &Case, schedule: &Schedule) -> Report {
     };
     world.plan();
     world.play();
-    world.finish()
+    let calls = world.core.take_calls();
+    (world.finish(), calls)
 }
 
 impl World<'_> {
