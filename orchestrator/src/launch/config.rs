@@ -280,6 +280,31 @@ impl LaunchConfig {
         Ok(toml::from_str(text)?)
     }
 
+    /// The property the `launch_config` fuzz target checks on any bytes
+    /// (`fuzz/`), kept here so that the target is a one-line shim and the
+    /// unit tests run the same check over the target's seeds: text either
+    /// is rejected or gives a config that validates or not without
+    /// panicking, serialises back to TOML, and reads back to the same
+    /// config (compared as TOML text, so NaN, which `validate` rejects, does
+    /// not break equality); a valid config compares equal and stays valid.
+    pub fn check_round_trip(data: &[u8]) -> std::result::Result<(), String> {
+        let Ok(text) = std::str::from_utf8(data) else { return Ok(()) };
+        let Ok(config) = Self::parse(text) else { return Ok(()) };
+        let valid = config.validate().is_ok();
+        let written =
+            toml::to_string(&config).map_err(|e| format!("a parsed config does not serialise: {e}"))?;
+        let back = Self::parse(&written).map_err(|e| format!("a serialised config does not parse: {e:#}"))?;
+        let again =
+            toml::to_string(&back).map_err(|e| format!("a read-back config does not serialise: {e}"))?;
+        if again != written {
+            return Err(format!("the TOML round trip is not stable:\n{written}\n---\n{again}"));
+        }
+        if valid && (back != config || back.validate().is_err()) {
+            return Err(format!("a valid config does not survive the round trip:\n{written}"));
+        }
+        Ok(())
+    }
+
     /// The run parameters of the robots: the runner's, with this config's
     /// ε, noise, seed, time limit and goal radius.
     pub fn run_config(&self) -> RunConfig {
@@ -431,6 +456,31 @@ fn check_serve(addr: &str) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The fuzz target's property over its seeds, every prefix of them and
+    /// every single-byte change to a few bytes (what CI runs instead of
+    /// building the orchestrator for libFuzzer; `fuzz/README.md`).
+    #[test]
+    fn the_fuzz_targets_round_trip_holds_on_its_seeds_and_their_variants() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds/launch_config");
+        let mut checked = 0;
+        for entry in std::fs::read_dir(&dir).expect("the launch_config seeds") {
+            let seed = std::fs::read(entry.expect("entry").path()).expect("seed");
+            for end in 0..=seed.len() {
+                LaunchConfig::check_round_trip(&seed[..end]).unwrap_or_else(|e| panic!("prefix {end}: {e}"));
+                checked += 1;
+            }
+            for at in (0..seed.len()).step_by(7) {
+                for byte in [b'0', b'9', b'-', b'.', b'"', b'[', b'\n', b'e', b'x'] {
+                    let mut v = seed.clone();
+                    v[at] = byte;
+                    LaunchConfig::check_round_trip(&v).unwrap_or_else(|e| panic!("byte {at} = {byte}: {e}"));
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 1000, "{checked} inputs checked");
+    }
 
     const DEFAULT_FILE: &str = include_str!("../../../deploy/launch.toml");
 
