@@ -3,7 +3,7 @@
 //!
 //! [`AgentSource`]: bycoms_orchestrator::launch::agents::AgentSource
 
-mod suites;
+use crate::suites;
 
 use bycoms_orchestrator::launch::agents::gateways::Gateways;
 use bycoms_orchestrator::launch::agents::remote::Remote;

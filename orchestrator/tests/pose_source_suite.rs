@@ -3,7 +3,7 @@
 //!
 //! [`PoseSource`]: bycoms_orchestrator::launch::poses::PoseSource
 
-mod suites;
+use crate::suites;
 
 use bycoms_orchestrator::launch::poses::bus::BusPoses;
 use bycoms_orchestrator::launch::poses::{PoseSink, PoseSource};

@@ -166,7 +166,7 @@ fn kill_9_loses_at_most_the_last_second() {
     let path = dir.path().join("crash.mcap");
     let exe = std::env::current_exe().expect("test binary");
     let child = Command::new(exe)
-        .args(["crash_child", "--exact", "--nocapture", "--test-threads=1"])
+        .args(["record::crash_child", "--exact", "--nocapture", "--test-threads=1"])
         .env(CHILD_ENV, &path)
         .stdout(Stdio::piped())
         .stderr(Stdio::null())

@@ -1,6 +1,6 @@
 //! The conformance suite (tests/conformance) against every bus backend.
 
-mod conformance;
+use crate::conformance;
 
 use bycoms_protocol::bus::memory::MemoryBus;
 use bycoms_protocol::bus::Limits;
@@ -19,8 +19,8 @@ fn memory_small() -> MemoryBus {
     BUS.get_or_init(|| MemoryBus::new(Limits { max_payload: 32, buffer: 4 }).expect("valid limits")).clone()
 }
 
-conformance_suite!(memory_default, crate::memory);
-conformance_suite!(memory_small_limits, crate::memory_small);
+crate::conformance_suite!(memory_default, crate::bus_conformance::memory);
+crate::conformance_suite!(memory_small_limits, crate::bus_conformance::memory_small);
 
 #[cfg(feature = "ipc")]
 mod ipc_backends {
@@ -47,10 +47,10 @@ mod ipc_backends {
         IpcThreadsafeBus::new(IpcConfig::default()).expect("iceoryx2 node")
     }
 
-    crate::conformance_suite!(ipc_event_wake, crate::ipc_backends::ipc_event);
-    crate::conformance_suite!(ipc_poll_wake, crate::ipc_backends::ipc_poll);
-    crate::conformance_suite!(ipc_small_limits, crate::ipc_backends::ipc_small);
-    crate::conformance_suite!(ipc_threadsafe_service, crate::ipc_backends::ipc_threadsafe);
+    crate::conformance_suite!(ipc_event_wake, crate::bus_conformance::ipc_backends::ipc_event);
+    crate::conformance_suite!(ipc_poll_wake, crate::bus_conformance::ipc_backends::ipc_poll);
+    crate::conformance_suite!(ipc_small_limits, crate::bus_conformance::ipc_backends::ipc_small);
+    crate::conformance_suite!(ipc_threadsafe_service, crate::bus_conformance::ipc_backends::ipc_threadsafe);
 }
 
 #[test]
@@ -154,7 +154,10 @@ mod zenoh_backends {
         ZenohBus::open(config).expect("zenoh client session")
     }
 
-    crate::conformance_suite!(zenoh_one_session, crate::zenoh_backends::one_session);
-    crate::conformance_suite!(zenoh_small_limits, crate::zenoh_backends::one_session_small);
-    crate::conformance_suite!(zenoh_clients_of_router, crate::zenoh_backends::client_of_router);
+    crate::conformance_suite!(zenoh_one_session, crate::bus_conformance::zenoh_backends::one_session);
+    crate::conformance_suite!(zenoh_small_limits, crate::bus_conformance::zenoh_backends::one_session_small);
+    crate::conformance_suite!(
+        zenoh_clients_of_router,
+        crate::bus_conformance::zenoh_backends::client_of_router
+    );
 }

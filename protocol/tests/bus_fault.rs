@@ -3,7 +3,7 @@
 //! configured rate, visibly in what the subscriber receives, and the same
 //! seed gives the same faults.
 
-mod conformance;
+use crate::conformance;
 
 use bycoms_protocol::bus::fault::{FaultBus, FaultConfig, FaultStats};
 use bycoms_protocol::bus::memory::MemoryBus;
@@ -27,8 +27,8 @@ fn transparent_small() -> FaultBus<MemoryBus> {
     FaultBus::new(inner, FaultConfig::none(7)).expect("valid config")
 }
 
-conformance_suite!(fault_layer_all_rates_zero, crate::transparent);
-conformance_suite!(fault_layer_all_rates_zero_small_limits, crate::transparent_small);
+crate::conformance_suite!(fault_layer_all_rates_zero, crate::bus_fault::transparent);
+crate::conformance_suite!(fault_layer_all_rates_zero_small_limits, crate::bus_fault::transparent_small);
 
 /// Messages sent in one go.
 const N: u32 = 4_000;

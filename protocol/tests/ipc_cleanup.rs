@@ -72,7 +72,7 @@ fn dead_nodes_are_cleaned_up() {
     let tag = iso.tag().to_string();
     let topic = format!("bycoms/t{}-cleanup/raw", std::process::id());
     let mut child = Command::new(std::env::current_exe().expect("test binary"))
-        .args(["--exact", "child_holds_a_node_until_killed", "--nocapture"])
+        .args(["--exact", "ipc_cleanup::child_holds_a_node_until_killed", "--nocapture"])
         .env(CHILD_ENV, &topic)
         .env(ISOLATION_ENV, &tag)
         .stdout(Stdio::piped())

@@ -462,7 +462,7 @@ mod tests {
     /// building the orchestrator for libFuzzer; `fuzz/README.md`).
     #[test]
     fn the_fuzz_targets_round_trip_holds_on_its_seeds_and_their_variants() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds/launch_config");
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds/launch_config");
         let mut checked = 0;
         for entry in std::fs::read_dir(&dir).expect("the launch_config seeds") {
             let seed = std::fs::read(entry.expect("entry").path()).expect("seed");
