@@ -14,6 +14,7 @@ mod completions;
 mod error_texts;
 mod inputs;
 mod logging;
+mod memory_launch;
 mod outputs;
 mod pictures;
 mod pose_source_suite;

@@ -398,7 +398,7 @@ impl LaunchConfig {
         }
         self.mocap.validate(self.robots).map_err(usage)?;
         self.agents
-            .validate(self.robots, self.transport.kind == Transport::Zenoh, self.clock == Clock::Lockstep)
+            .validate(self.robots, self.transport.kind, self.clock == Clock::Lockstep)
             .map_err(usage)?;
         if self.supervision.heartbeat_timeout <= self.supervision.heartbeat_interval {
             return Err(usage(

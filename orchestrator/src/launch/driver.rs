@@ -173,7 +173,7 @@ impl Driver {
                     Ok(s) => {
                         let pid = match s {
                             Started::Process { pid } => Some(pid),
-                            Started::Awaited => None,
+                            Started::Awaited | Started::Thread => None,
                         };
                         self.core.handle(now, Input::Started { robot: id, pid, how: s.to_string() });
                     }

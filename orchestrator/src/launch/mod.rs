@@ -131,7 +131,7 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
     // The file (run metadata, scene world) and the picture's trace, if asked for.
     let recording = Recording::start(&swarm_name, &world, &cfg)?;
     let opened = transport::open(&cfg.transport, &cfg.faults, cfg.robots, &swarm_name)?;
-    let (bus, endpoints): (SharedBus, _) = (opened.bus, opened.endpoints);
+    let (bus, endpoints, memory): (SharedBus, _, _) = (opened.bus, opened.endpoints, opened.memory);
     // zenoh: the orchestrator's liveliness token lives as long as the
     // launch (agents watch it); the swarm's tokens go to the agent source.
     let (_orchestrator_alive, alive_watch) = match opened.liveliness {
@@ -179,7 +179,7 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
         LaunchConfig::secs(cfg.supervision.register_timeout),
         LaunchConfig::secs(cfg.supervision.heartbeat_timeout),
         LaunchConfig::secs(cfg.supervision.link_grace),
-        alive_watch,
+        agents::choice::AgentLinks { alive: alive_watch, memory },
     )?;
     let stop = interrupt_flag();
     stop.store(false, Ordering::SeqCst);

@@ -139,6 +139,8 @@ pub struct Opened {
     /// zenoh: the orchestrator's liveliness token and a watch on the
     /// swarm's tokens (see [`Liveliness`]). `None` over ipc.
     pub liveliness: Option<Liveliness>,
+    /// memory: the bus itself, for the agents that run as threads here.
+    pub memory: Option<MemoryBus>,
 }
 
 /// Who of the swarm is alive, over zenoh: the orchestrator's own token
@@ -166,6 +168,7 @@ impl Liveliness {
 /// seeded fault layer when `faults` asks for it.
 ///
 /// Over iceoryx2 it first removes what dead processes left in shared memory.
+/// In memory the bus is this process's own (its agents are threads).
 /// Over zenoh the session is a router listening on `listen`; a port 0 is
 /// replaced by a free port the OS hands out just before the session opens
 /// (zenoh's stable API does not report the port a listener bound), and the
@@ -183,7 +186,15 @@ pub fn open(
             ipc.node_name = Some(format!("bycoms-{swarm}-orchestrator"));
             let bus = IpcBus::new(ipc).map_err(|source| TransportError::Open { kind: "ipc", source })?;
             let bus = faults.wrap(bus).map_err(TransportError::Faults)?;
-            Ok(Opened { bus, endpoints: Vec::new(), liveliness: None })
+            Ok(Opened { bus, endpoints: Vec::new(), liveliness: None, memory: None })
+        }
+        Transport::Memory => {
+            let limits = ipc_config(robots).limits;
+            let bus =
+                MemoryBus::new(limits).map_err(|source| TransportError::Open { kind: "memory", source })?;
+            let memory = Some(bus.clone());
+            let bus = faults.wrap(bus).map_err(TransportError::Faults)?;
+            Ok(Opened { bus, endpoints: Vec::new(), liveliness: None, memory })
         }
         Transport::Zenoh => {
             let mut last = None;
@@ -200,6 +211,7 @@ pub fn open(
                             bus: faults.wrap(bus).map_err(TransportError::Faults)?,
                             endpoints,
                             liveliness,
+                            memory: None,
                         });
                     }
                     Err(source) => {

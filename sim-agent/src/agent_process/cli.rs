@@ -124,11 +124,17 @@ fn run(args: &AgentArgs) -> Result<ExitCause, AgentError> {
             let watch = bus.watch_alive(&swarm)?;
             run_on(&bus, args, &swarm, terrain, &mut lifeline, Some((failsafe, watch)))
         }
+        Transport::Memory => Err(AgentError::Args(
+            "the memory transport joins threads of one process: an agent process needs ipc or zenoh".into(),
+        )),
     }
 }
 
-/// The agent's loop on `bus`, whatever its backend.
-fn run_on<B: Bus>(
+/// The agent's loop on `bus`, whatever its backend: an agent process runs
+/// it on the bus of its `--transport`; a launch over the in-memory bus runs
+/// it on a thread of its own process (`orchestrator`'s `launch/agents/
+/// threads.rs`) with a [`Lifeline::with_flag`] for its end.
+pub fn run_on<B: Bus>(
     bus: &B,
     args: &AgentArgs,
     swarm: &Swarm,

@@ -82,6 +82,13 @@ impl Lifeline {
         }
     }
 
+    /// A lifeline of an agent that runs as a thread of another process:
+    /// it fires (as a signal) when `flag` is set, and never for the
+    /// process's parent.
+    pub fn with_flag(flag: Arc<AtomicBool>) -> Self {
+        Self { parent: getppid(), signalled: flag, last_check: Instant::now(), parent_gone: false }
+    }
+
     /// Whether the agent must exit now; cheap enough to call every loop.
     pub fn check(&mut self) -> Option<ExitCause> {
         let now = Instant::now();

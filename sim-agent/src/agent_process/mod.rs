@@ -32,7 +32,7 @@ pub mod run;
 pub mod traffic;
 
 pub use self::core::{AgentCore, Phase, Reject};
-pub use cli::{main_with, AgentError};
+pub use cli::{main_with, run_on, AgentError};
 pub use instance::instance;
 pub use lifeline::{ExitCause, Lifeline};
 pub use options::{check_speed, AgentArgs, Clock, Transport, MAX_SPEED};

@@ -61,6 +61,12 @@ pub enum Transport {
     /// zenoh over tcp or tls: processes on any host; the orchestrator's
     /// session is the rendezvous (router), agents connect to it.
     Zenoh,
+    /// The in-memory bus of one process: a launch whose simulated agents
+    /// run as threads of the orchestrator (`transport.kind = "memory"` in a
+    /// launch config; quick tests with no shared memory and no sockets).
+    /// Not a choice for an agent process.
+    #[value(skip)]
+    Memory,
 }
 
 impl Transport {
@@ -69,6 +75,7 @@ impl Transport {
         match self {
             Self::Ipc => "ipc",
             Self::Zenoh => "zenoh",
+            Self::Memory => "memory",
         }
     }
 }
@@ -182,6 +189,9 @@ impl AgentArgs {
             }
             Transport::Zenoh if self.connect.is_empty() && self.zenoh_config.is_none() => {
                 Err("--transport zenoh needs the orchestrator's endpoint: --connect tcp/HOST:PORT".into())
+            }
+            Transport::Memory if !self.connect.is_empty() || self.zenoh_config.is_some() => {
+                Err("--connect and --zenoh-config need --transport zenoh".into())
             }
             _ => Ok(()),
         }

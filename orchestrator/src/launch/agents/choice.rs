@@ -9,14 +9,26 @@
 use super::gateways::Gateways;
 use super::remote::Remote;
 use super::spawned::{AgentCommand, Spawned};
+use super::threads::Threads;
 use super::AgentSource;
 use crate::mocap::PlacementConfig;
 use anyhow::{Context, Result};
 use bycoms_protocol::bus::zenoh::AliveWatch;
+use bycoms_sim::agent_process::Transport;
 use bycoms_sim::lab::robots::RobotsFile;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
+
+/// What the transport hands the agent source: zenoh's liveliness watch on
+/// the swarm, or the in-memory bus that threads of this process share.
+#[derive(Default)]
+pub struct AgentLinks {
+    /// zenoh: every member's liveliness token.
+    pub alive: Option<AliveWatch>,
+    /// memory: the launch's bus.
+    pub memory: Option<bycoms_protocol::bus::memory::MemoryBus>,
+}
 
 /// Where a launch's agents come from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -76,7 +88,11 @@ impl Default for AgentsConfig {
 
 impl AgentsConfig {
     /// Checks the choice against the rest of the launch's configuration.
-    pub fn validate(&self, robots: u32, zenoh: bool, lockstep: bool) -> Result<(), String> {
+    pub fn validate(&self, robots: u32, transport: Transport, lockstep: bool) -> Result<(), String> {
+        let zenoh = transport == Transport::Zenoh;
+        if transport == Transport::Memory && self.source != AgentsKind::Spawned {
+            return Err("transport.kind = \"memory\" runs the agents as threads here: it needs agents.source = \"spawned\"".into());
+        }
         if self.scenario.is_some() && self.source != AgentsKind::Real {
             return Err(
                 "agents.scenario (--lab-scenario) is for real robots (agents.source = \"real\")".into()
@@ -124,18 +140,25 @@ impl AgentsConfig {
         }
     }
 
-    /// Builds the source: `sim_agent` runs spawned agents; `alive` is the
-    /// swarm's liveliness watch over zenoh and `link_grace` how long an
-    /// unreachable agent is held (remote agents use both).
+    /// Builds the source: `sim_agent` runs spawned agents (threads on the
+    /// memory bus, when `links` has it); `links.alive` is the swarm's
+    /// liveliness watch over zenoh and `link_grace` how long an unreachable
+    /// agent is held (remote agents use both).
     pub fn open(
         &self,
         sim_agent: AgentCommand,
         register_timeout: Duration,
         heartbeat_timeout: Duration,
         link_grace: Duration,
-        alive: Option<AliveWatch>,
+        links: AgentLinks,
     ) -> Result<Box<dyn AgentSource>> {
+        let AgentLinks { alive, memory } = links;
         Ok(match self.source {
+            // Over the in-memory bus the agents can only be threads here.
+            AgentsKind::Spawned if memory.is_some() => {
+                let bus = memory.context("the memory bus")?;
+                Box::new(Threads::new(bus, register_timeout, heartbeat_timeout))
+            }
             AgentsKind::Spawned => Box::new(Spawned::new(sim_agent, register_timeout, heartbeat_timeout)),
             AgentsKind::Remote => {
                 Box::new(Remote::new(register_timeout, heartbeat_timeout, alive).with_link_grace(link_grace))

@@ -36,6 +36,7 @@ pub mod choice;
 pub mod gateways;
 pub mod remote;
 pub mod spawned;
+pub mod threads;
 pub mod watchdog;
 
 use bycoms_sim::agent_process::AgentArgs;
@@ -64,6 +65,8 @@ pub enum Started {
     /// Nothing was started here: the agent is expected to come and register
     /// (a remote agent, a robot's gateway started elsewhere).
     Awaited,
+    /// A thread of this process was started (in-memory launches).
+    Thread,
 }
 
 impl std::fmt::Display for Started {
@@ -71,6 +74,7 @@ impl std::fmt::Display for Started {
         match self {
             Self::Process { pid } => write!(f, "agent started (pid {pid})"),
             Self::Awaited => write!(f, "awaiting its agent"),
+            Self::Thread => write!(f, "agent started (a thread of this process)"),
         }
     }
 }
@@ -100,6 +104,8 @@ pub enum Gone {
     /// A real robot's own link (robot ↔ gateway) was lost: its gateway
     /// reported `Link { up: false }`; the gateway was ended.
     RobotLinkLost,
+    /// Its thread (an in-memory launch's agent) ended.
+    ThreadEnded,
 }
 
 impl std::fmt::Display for Gone {
@@ -119,6 +125,7 @@ impl std::fmt::Display for Gone {
                 *grace_ms as f64 / 1000.0
             ),
             Self::RobotLinkLost => write!(f, "the robot's link to its gateway was lost"),
+            Self::ThreadEnded => write!(f, "its agent thread ended"),
         }
     }
 }
