@@ -289,7 +289,18 @@ fn agents_stop_their_robot_when_the_orchestrator_is_gone() {
     let exiting: Vec<Proc> = (1..=2).map(|k| agent_with(&world, &endpoint, &swarm, k, 3, &grace)).collect();
     let wait = ["--orchestrator-grace", "0.5", "--on-orchestrator-lost", "wait"];
     let mut waiting = agent_with(&world, &endpoint, &swarm, 3, 3, &wait);
-    deployed(&orch, 1);
+    // Robot 1 goes as soon as it is ready: wait until every agent has
+    // registered (and so has seen the orchestrator) before killing it.
+    let mut registered = std::collections::BTreeSet::new();
+    let mut robot_1_deployed = false;
+    orch.stderr_line(Duration::from_secs(30), |l| {
+        if let Some(k) = (1..=3).find(|k| l.contains(&format!("robot {k}: agent registered"))) {
+            registered.insert(k);
+        }
+        robot_1_deployed |= l.contains("robot 1: deployed at");
+        (registered.len() == 3 && robot_1_deployed).then_some(())
+    })
+    .expect("every agent registered and robot 1 deployed");
     orch.kill();
     let lost_at = Instant::now();
     for (i, a) in exiting.into_iter().enumerate() {

@@ -130,14 +130,10 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
     let _swarm_lock = swarm_lock::SwarmLock::for_launch(&swarm_name)?;
     // The file (run metadata, scene world) and the picture's trace, if asked for.
     let recording = Recording::start(&swarm_name, &world, &cfg)?;
-    let opened = transport::open(&cfg.transport, &cfg.faults, cfg.robots, &swarm_name)?;
-    let (bus, endpoints, memory): (SharedBus, _, _) = (opened.bus, opened.endpoints, opened.memory);
-    // zenoh: the orchestrator's liveliness token lives as long as the
-    // launch (agents watch it); the swarm's tokens go to the agent source.
-    let (_orchestrator_alive, alive_watch) = match opened.liveliness {
-        Some(l) => (Some(l.token), l.watch),
-        None => (None, None),
-    };
+    // `_presence`: the orchestrator's zenoh liveliness token, held to the end.
+    let transport::Opened { bus, endpoints, links, presence: _presence } =
+        transport::open(&cfg.transport, &cfg.faults, cfg.robots, &swarm_name)?;
+    let bus: SharedBus = bus;
     let pose_source: Box<dyn poses::PoseSource> = match (&cfg.mocap.source, &cfg.mocap.natnet) {
         (crate::mocap::MocapSource::Natnet, Some(natnet)) => Box::new(crate::mocap::NatNetPoses::new(
             crate::mocap::NatNetPoseSource::connect(&natnet.for_robots(cfg.robots))
@@ -179,7 +175,7 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
         LaunchConfig::secs(cfg.supervision.register_timeout),
         LaunchConfig::secs(cfg.supervision.heartbeat_timeout),
         LaunchConfig::secs(cfg.supervision.link_grace),
-        agents::choice::AgentLinks { alive: alive_watch, memory },
+        links,
     )?;
     let stop = interrupt_flag();
     stop.store(false, Ordering::SeqCst);

@@ -15,11 +15,12 @@
 //! before publishers); the protocol crate's conformance suite
 //! (`protocol/tests/bus_conformance.rs`) is the one suite of this seam.
 
+use super::agents::choice::AgentLinks;
 use super::config::{Transport, TransportConfig};
 use super::faults::FaultsConfig;
 use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::memory::MemoryBus;
-use bycoms_protocol::bus::zenoh::{AliveToken, AliveWatch, Mode, ZenohBus};
+use bycoms_protocol::bus::zenoh::{AliveToken, Mode, ZenohBus};
 use bycoms_protocol::bus::{Bus, BusError, Limits, Publish, Subscribe};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{NameError, Swarm, TopicName};
@@ -136,32 +137,14 @@ pub struct Opened {
     /// zenoh: the endpoints the orchestrator listens on (ports resolved),
     /// and what spawned agents are told to `--connect` to. Empty over ipc.
     pub endpoints: Vec<String>,
-    /// zenoh: the orchestrator's liveliness token and a watch on the
-    /// swarm's tokens (see [`Liveliness`]). `None` over ipc.
-    pub liveliness: Option<Liveliness>,
-    /// memory: the bus itself, for the agents that run as threads here.
-    pub memory: Option<MemoryBus>,
-}
-
-/// Who of the swarm is alive, over zenoh: the orchestrator's own token
-/// (held for the whole launch: agents see the orchestrator go when it is
-/// dropped or the link is cut) and a watch on every token of the swarm
-/// (the remote agent source reports a withdrawn agent token as lost).
-pub struct Liveliness {
-    /// The orchestrator's token.
-    pub token: AliveToken,
-    /// The swarm's tokens, taken by the agent source that uses them.
-    pub watch: Option<AliveWatch>,
-}
-
-impl Liveliness {
-    fn open(bus: &ZenohBus, swarm: &str) -> Result<Self, TransportError> {
-        let swarm = Swarm::new(swarm)?;
-        let open = |source| TransportError::Open { kind: "zenoh", source };
-        let token = bus.declare_alive(&swarm, Member::Orchestrator).map_err(open)?;
-        let watch = bus.watch_alive(&swarm).map_err(open)?;
-        Ok(Self { token, watch: Some(watch) })
-    }
+    /// What the agent source needs of the transport (zenoh's liveliness
+    /// watch on the swarm, the in-memory bus): handed to
+    /// `AgentsConfig::open`, so no kind of transport is unpacked elsewhere.
+    pub links: AgentLinks,
+    /// zenoh: the orchestrator's own liveliness token (agents see the
+    /// orchestrator go when it is dropped or the link is cut): keep it for
+    /// the whole launch.
+    pub presence: Option<AliveToken>,
 }
 
 /// Opens the bus of a launch of `robots` robots in swarm `swarm`, in the
@@ -186,15 +169,15 @@ pub fn open(
             ipc.node_name = Some(format!("bycoms-{swarm}-orchestrator"));
             let bus = IpcBus::new(ipc).map_err(|source| TransportError::Open { kind: "ipc", source })?;
             let bus = faults.wrap(bus).map_err(TransportError::Faults)?;
-            Ok(Opened { bus, endpoints: Vec::new(), liveliness: None, memory: None })
+            Ok(Opened { bus, endpoints: Vec::new(), links: AgentLinks::default(), presence: None })
         }
         Transport::Memory => {
             let limits = ipc_config(robots).limits;
             let bus =
                 MemoryBus::new(limits).map_err(|source| TransportError::Open { kind: "memory", source })?;
-            let memory = Some(bus.clone());
+            let links = AgentLinks { alive: None, memory: Some(bus.clone()) };
             let bus = faults.wrap(bus).map_err(TransportError::Faults)?;
-            Ok(Opened { bus, endpoints: Vec::new(), liveliness: None, memory })
+            Ok(Opened { bus, endpoints: Vec::new(), links, presence: None })
         }
         Transport::Zenoh => {
             let mut last = None;
@@ -206,12 +189,18 @@ pub fn open(
                     Ok(bus) => {
                         let endpoints: Vec<String> = listen.iter().map(|e| reachable(e)).collect();
                         tracing::info!(endpoints = ?endpoints, "zenoh: the orchestrator listens (router)");
-                        let liveliness = Some(Liveliness::open(&bus, swarm)?);
+                        // The orchestrator's token, and a watch on every
+                        // token of the swarm for the agent source.
+                        let swarm = Swarm::new(swarm)?;
+                        let open = |source| TransportError::Open { kind: "zenoh", source };
+                        let presence = Some(bus.declare_alive(&swarm, Member::Orchestrator).map_err(open)?);
+                        let links =
+                            AgentLinks { alive: Some(bus.watch_alive(&swarm).map_err(open)?), memory: None };
                         return Ok(Opened {
                             bus: faults.wrap(bus).map_err(TransportError::Faults)?,
                             endpoints,
-                            liveliness,
-                            memory: None,
+                            links,
+                            presence,
                         });
                     }
                     Err(source) => {
