@@ -39,7 +39,7 @@
 //! # Crash survival
 //!
 //! A run can end by `kill -9`, a panic or a power cut, and the recording must still hold
-//! everything up to the last second. The file is written **chunked, uncompressed, with chunks
+//! everything up to the last second. The file is written **chunked, zstd-compressed, with chunks
 //! buffered in memory** (the `mcap` writer's `disable_seeking` mode):
 //!
 //! * messages go into an in-memory chunk; a chunk reaches the file only whole, as one record
@@ -55,9 +55,12 @@
 //!
 //! Chunking rather than writing bare message records costs nothing in durability (the open chunk
 //! is the unflushed second either way) and gives a finished file chunk and message indexes, so
-//! Foxglove and `mcap info` can seek in long runs instead of scanning them. No compression on
-//! writing (bus traffic is a few kB/s); reading accepts every compression MCAP allows (zstd, lz4),
-//! which the `mcap` CLI and the Python writer use by default.
+//! Foxglove and `mcap info` can seek in long runs instead of scanning them. Each chunk is
+//! compressed with zstd ([`COMPRESSION`]), as the `mcap` CLI and the Python writer do by default:
+//! the real-time launch (3 robots, long obstacle) recorded 3.52 MB uncompressed, 0.80 MB with
+//! lz4 and 0.62 MB with zstd at `--speed 10` (one chunk a second of wall time holds ten of the
+//! run's), and 465 kB against 95 kB (4.9×) at `--speed 1`, with the same wall time each. Reading
+//! accepts every compression MCAP allows (zstd, lz4).
 //!
 //! `flush` hands the data to the kernel, which survives the death of the process (the kill-9
 //! case); it does not `fsync` every second. [`Recorder::finish`] writes the summary and footer and
@@ -82,6 +85,9 @@ pub use rewrite::rewrite;
 
 /// The longest time data may sit in memory before `record_*` flushes it on its own.
 pub const FLUSH_INTERVAL: Duration = Duration::from_secs(1);
+
+/// How every chunk is compressed (see the module docs for the figures).
+pub const COMPRESSION: Option<mcap::Compression> = Some(mcap::Compression::Zstd);
 
 /// The uncompressed size past which a chunk is closed even before [`FLUSH_INTERVAL`].
 pub const CHUNK_SIZE: u64 = 256 * 1024;
@@ -134,7 +140,7 @@ impl Recorder {
         let file =
             File::create(path).map_err(|source| RecordError::Create { path: path.to_path_buf(), source })?;
         let options = WriteOptions::new()
-            .compression(None)
+            .compression(COMPRESSION)
             .use_chunks(true)
             .chunk_size(Some(CHUNK_SIZE))
             .disable_seeking(true)

@@ -33,7 +33,8 @@ pub fn rewrite(input: &Path, output: &Path) -> Result<Recovered, RecordError> {
     let write_error = |source| RecordError::Write { path: output.to_path_buf(), source };
     let sync_error = |source| RecordError::Sync { path: output.to_path_buf(), source };
     let written = write_with(output, |out| {
-        let options = WriteOptions::new().compression(None).use_chunks(true).chunk_size(Some(CHUNK_SIZE));
+        let options =
+            WriteOptions::new().compression(super::COMPRESSION).use_chunks(true).chunk_size(Some(CHUNK_SIZE));
         let mut writer = Writer::with_options(BufWriter::new(out), options).map_err(write_error)?;
         let recovered = copy(BufReader::new(file), len, &mut writer).map_err(|e| match e {
             Failure::Read(source) => not_mcap(input, &source),
