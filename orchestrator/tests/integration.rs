@@ -15,6 +15,7 @@ mod error_texts;
 mod inputs;
 mod logging;
 mod memory_launch;
+mod open_files;
 mod outputs;
 mod pictures;
 mod pose_source_suite;

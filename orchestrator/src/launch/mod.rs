@@ -30,6 +30,8 @@
 //! * [`observe`] — observers that see every pose and gate event (the live
 //!   view, `crate::live`);
 //! * [`swarm_lock`] — one live launch per swarm name;
+//! * [`limits`] — the open files the launch needs, checked (and the soft
+//!   limit raised) before anything starts;
 //! * [`scale`] — the real-time scale benchmark (`orchestrator bench scale`).
 
 pub mod agents;
@@ -41,6 +43,7 @@ pub mod faults;
 pub mod gate;
 pub mod harness;
 pub mod lab;
+pub mod limits;
 pub mod observe;
 pub mod ports;
 pub mod poses;
@@ -126,6 +129,9 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
     bycoms_sim::agent_process::cli::quiet_iceoryx2();
     let swarm_name = cfg.swarm.clone().unwrap_or_else(|| format!("launch-{}", std::process::id()));
     let swarm = Swarm::new(&swarm_name).with_context(|| format!("bad swarm name {swarm_name:?}"))?;
+    // Enough open files for every port of the busiest process, or a clear no.
+    let files = limits::files_needed(cfg.robots, cfg.transport.kind);
+    limits::ensure_open_files(files, cfg.robots).map_err(crate::exit::usage)?;
     // Held until the launch has ended (dropped last): one live launch per swarm.
     let _swarm_lock = swarm_lock::SwarmLock::for_launch(&swarm_name)?;
     // The file (run metadata, scene world) and the picture's trace, if asked for.

@@ -1,0 +1,125 @@
+//! What a launch needs of the machine, checked before anything starts.
+//!
+//! Why: over iceoryx2 every port is a handful of open files (shared-memory
+//! segments and event sockets), and the last agent of an n-robot launch
+//! listens to n − 1 peers, the orchestrator to all n robots. With the
+//! common `ulimit -n 1024` a 100-robot launch used to die after 30 s, at
+//! robot 46, with "PublishSubscribeCreateError(InternalFailure)" and no word
+//! about files. So before the bus is opened the launch estimates the open
+//! files the busiest process needs, raises its own soft limit towards the
+//! hard one when that suffices (the agents it starts inherit it), and
+//! otherwise refuses, naming the limit and the fix.
+//!
+//! The estimate: measured on this project's iceoryx2 bus, a subscriber takes
+//! 8 files, a publisher 7 on a topic of its own and 10 on a topic that has a
+//! subscriber; the 1024-file failure at robot 46 is 22 files per robot. We
+//! count [`FILES_PER_ROBOT`] per robot plus [`BASE_FILES`] for everything
+//! else (the recording, the terminal, zenoh's runtime, libraries). zenoh
+//! needs a socket or two per agent, in-memory launches none.
+
+use super::config::Transport;
+use nix::sys::resource::{getrlimit, setrlimit, Resource};
+
+/// Open files per robot over iceoryx2 (see the module docs).
+pub const FILES_PER_ROBOT: u64 = 24;
+/// Open files per robot over zenoh (a connection, a liveliness token).
+pub const ZENOH_FILES_PER_ROBOT: u64 = 4;
+/// Open files of a process besides its ports.
+pub const BASE_FILES: u64 = 64;
+
+/// The open files the busiest process of a launch of `robots` robots over
+/// `transport` needs, by the estimate above.
+pub fn files_needed(robots: u32, transport: Transport) -> u64 {
+    let per_robot = match transport {
+        Transport::Ipc => FILES_PER_ROBOT,
+        Transport::Zenoh => ZENOH_FILES_PER_ROBOT,
+        Transport::Memory => 0,
+    };
+    BASE_FILES + per_robot * u64::from(robots)
+}
+
+/// What [`ensure_open_files`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FilesCheck {
+    /// The soft limit was enough.
+    Enough,
+    /// The soft limit was raised from `.0` to `.1` (at most the hard limit).
+    Raised(u64, u64),
+}
+
+/// Makes sure this process (and the agents it starts, which inherit its
+/// limit) may open `needed` files: raises the soft limit when the hard one
+/// allows, else says which limit stops the launch and how to lift it.
+pub fn ensure_open_files(needed: u64, robots: u32) -> Result<FilesCheck, String> {
+    let (soft, hard) =
+        getrlimit(Resource::RLIMIT_NOFILE).map_err(|e| format!("cannot read the open-files limit: {e}"))?;
+    decide(needed, robots, soft, hard, |to| {
+        setrlimit(Resource::RLIMIT_NOFILE, to, hard)
+            .map_err(|e| format!("cannot raise the open-files limit: {e}"))
+    })
+}
+
+/// The decision of [`ensure_open_files`] for limits `soft` and `hard`,
+/// with `raise` setting the soft limit.
+fn decide(
+    needed: u64,
+    robots: u32,
+    soft: u64,
+    hard: u64,
+    raise: impl FnOnce(u64) -> Result<(), String>,
+) -> Result<FilesCheck, String> {
+    if needed <= soft {
+        return Ok(FilesCheck::Enough);
+    }
+    if needed > hard {
+        return Err(format!(
+            "a launch of {robots} robots needs about {needed} open files per process, and this shell allows at \
+             most {hard} (the hard limit of `ulimit -n`): raise it (e.g. `ulimit -Hn {needed}` as root, or \
+             `LimitNOFILE=` in a systemd unit), or launch fewer robots"
+        ));
+    }
+    // Some headroom over the estimate, within the hard limit.
+    let to = needed.saturating_mul(2).min(hard);
+    raise(to)?;
+    tracing::info!(from = soft, to, needed, "raised the open-files limit for the launch's ports");
+    Ok(FilesCheck::Raised(soft, to))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_estimate_refuses_what_failed_and_allows_what_ran() {
+        // 46 robots failed under 1024 open files; 3 robots never do.
+        assert!(files_needed(46, Transport::Ipc) > 1024);
+        assert!(files_needed(3, Transport::Ipc) < 1024);
+        assert_eq!(files_needed(1000, Transport::Memory), BASE_FILES);
+        assert!(files_needed(1000, Transport::Zenoh) < files_needed(1000, Transport::Ipc));
+    }
+
+    #[test]
+    fn the_soft_limit_is_raised_within_the_hard_one_or_the_launch_refused() {
+        let mut raised = None;
+        assert_eq!(decide(500, 10, 1024, 4096, |_| unreachable!("enough")), Ok(FilesCheck::Enough));
+        let got = decide(2464, 100, 1024, 1 << 20, |to| {
+            raised = Some(to);
+            Ok(())
+        });
+        assert_eq!(got, Ok(FilesCheck::Raised(1024, 4928)));
+        assert_eq!(raised, Some(4928));
+        assert_eq!(decide(3000, 100, 1024, 4096, |_| Ok(())), Ok(FilesCheck::Raised(1024, 4096)));
+        let refused = decide(2464, 100, 1024, 2048, |_| unreachable!("refused first")).unwrap_err();
+        assert!(
+            refused.contains("2464 open files") && refused.contains("2048") && refused.contains("ulimit -Hn")
+        );
+    }
+
+    #[test]
+    fn this_process_may_open_what_a_small_launch_needs() {
+        let needed = files_needed(3, Transport::Ipc);
+        assert!(ensure_open_files(needed, 3).is_ok());
+        let (soft, _) = getrlimit(Resource::RLIMIT_NOFILE).expect("limit");
+        assert!(soft >= needed);
+    }
+}
