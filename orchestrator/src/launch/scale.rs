@@ -83,7 +83,7 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
         return Err(crate::exit::usage("--agents and --seconds must be positive"));
     }
     bycoms_sim::agent_process::check_speed(speed).map_err(crate::exit::usage)?;
-    let files = super::limits::files_needed(agents, super::config::Transport::Ipc);
+    let files = super::limits::files_needed(agents, Transport::Ipc);
     super::limits::ensure_open_files(files, agents).map_err(crate::exit::usage)?;
     let stop = super::interrupt_flag();
     bycoms_sim::agent_process::cli::quiet_iceoryx2();
