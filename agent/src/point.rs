@@ -1,4 +1,4 @@
-//! The BYCOMS point-robot controller (paper §IV-C, design brief §2).
+//! The BYCOMS point-robot controller (paper §IV-C).
 //!
 //! Each control period the robot knows four numbers — the goal bearing φg, the
 //! field intensity g and gradient direction φf at its position, and its own
@@ -141,7 +141,7 @@ impl Controller {
     }
 }
 
-/// The switching rules of design §2.
+/// The switching rules between the modes (paper §IV-C).
 pub fn next_mode(mode: Mode, input: &Input, g_th: f64) -> Mode {
     match mode {
         Mode::Goal => {

@@ -1,4 +1,4 @@
-//! The simulated BYCOMS world (paper §IV–V, design brief §3).
+//! The simulated BYCOMS world (paper §IV–V).
 //!
 //! Everything the paper's Python simulation did, as a library: the terrain
 //! grid and its text format, Perlin-noise generation, the minimum path width,

@@ -1,7 +1,7 @@
 //! `orchestrator launch`: every robot its own agent, deployed one at a time
 //! through the gate.
 //!
-//! Why this shape (design §5): the orchestrator knows no terrain. It hands
+//! Why this shape: the orchestrator knows no terrain. It hands
 //! the world to the simulated agents (a lab has the real one), then sees
 //! only what a lab sees — poses — and from them derives goal bearings and
 //! the gate's decisions. Modules:

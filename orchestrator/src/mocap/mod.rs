@@ -1,7 +1,7 @@
 //! Motion capture in: where every robot is, from a source the gate can trust.
 //!
 //! Why here and not in `launch`: the launch has a *pose source* seam
-//! (design §5) with three kinds — the simulated mocap the agents publish,
+//! with three kinds — the simulated mocap the agents publish,
 //! OptiTrack NatNet, and replay of a recording. This module is the NatNet
 //! kind and the replay kind, each a plain type with `poll`; the launch's
 //! seam adapts them.

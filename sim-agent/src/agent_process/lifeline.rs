@@ -1,7 +1,7 @@
 //! Why an agent never outlives its orchestrator.
 //!
 //! An orphaned robot process would keep publishing poses into the next
-//! run's topics and hold shared memory; the design says "no orphan
+//! run's topics and hold shared memory; our rule is "no orphan
 //! processes, ever". Three layers, each enough on its own:
 //!
 //! 1. `prctl(PR_SET_PDEATHSIG, SIGTERM)`: the kernel signals the agent the

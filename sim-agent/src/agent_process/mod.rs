@@ -1,6 +1,6 @@
 //! One simulated robot as its own process: the `sim-agent` binary.
 //!
-//! Why a process per robot: the design (§5) makes every robot, simulated or
+//! Why a process per robot: the architecture (`ARCHITECTURE.md`) makes every robot, simulated or
 //! real, an independent agent that is given only its goal bearing and a
 //! local field sample, so the orchestrator cannot tell a simulated robot
 //! from a real one. A `sim-agent` is the simulated robot *and* its

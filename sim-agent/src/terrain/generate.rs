@@ -1,4 +1,4 @@
-//! Perlin terrain generation (paper §IV-B, design brief §3).
+//! Perlin terrain generation (paper §IV-B).
 //!
 //! The paper draws its worlds from 2-D Perlin noise f: one threshold
 //! a ~ U(−1, 1) per terrain, f > a → impassable, a 10 × 10 square around start

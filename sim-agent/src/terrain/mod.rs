@@ -1,4 +1,4 @@
-//! The simulated world of the paper (§IV-A/B, design brief §3): a grid of
+//! The simulated world of the paper (§IV-A/B): a grid of
 //! unit cells, traversable or impassable, with a start and a goal.
 //!
 //! Robots are points that get stuck where they enter an impassable cell; the

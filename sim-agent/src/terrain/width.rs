@@ -1,4 +1,4 @@
-//! Minimum path width (design brief §3): the largest diameter of a disc that
+//! Minimum path width: the largest diameter of a disc that
 //! can travel from start to goal without overlapping an impassable cell or
 //! leaving the arena. The paper's central result (§V, `fig:result_width`)
 //! is success rate against this width and the robots' circumference radius
