@@ -7,7 +7,7 @@
 //! Every process started here is killed and reaped on drop ([`Proc`]);
 //! every wait has a deadline; swarm names are unique per test.
 
-use bycoms_orchestrator::record::recover;
+use bycoms_orchestrator::record::{read_counts, recover};
 use bycoms_tests::{agents_of, is_zombie, signal, swarm_name, wait_for, wait_for_pose, Proc};
 use iceoryx2::node::NodeView;
 use nix::sys::signal::Signal;
@@ -65,7 +65,11 @@ fn killing_the_orchestrator_leaves_no_agent_and_a_readable_recording() {
     ]);
     agent_pid(&swarm, 1);
     agent_pid(&swarm, 2); // the prespawned next robot
-    std::thread::sleep(Duration::from_millis(1500)); // > 1 s: something was flushed
+                          // Until the recording has flushed messages (it flushes once a second).
+    let flushed = wait_for(Duration::from_secs(10), || {
+        read_counts(&record).ok().filter(|c| c.values().sum::<u64>() > 0).map(|_| ())
+    });
+    assert!(flushed.is_some(), "the recording flushed something within 10 s");
     let agents: Vec<u32> = agents_of(&swarm).into_iter().map(|(p, _)| p).collect();
     assert_eq!(agents.len(), 2, "robot 1 moving and robot 2 waiting");
     launch.kill();
@@ -112,7 +116,10 @@ fn ctrl_c_shuts_down_in_order_and_finishes_the_recording() {
         "launch", "--clock", "realtime", "--speed", "1", "--swarm", &swarm, "--record", record_arg, "--json",
     ]);
     agent_pid(&swarm, 1);
-    std::thread::sleep(Duration::from_millis(500));
+    // Interrupted while robot 1 moves.
+    launch
+        .stderr_line(Duration::from_secs(20), |l| l.contains("robot 1: deployed at").then_some(()))
+        .expect("robot 1 deployed");
     signal(launch.pid(), Signal::SIGINT);
     let out = launch.wait(Duration::from_secs(10));
     assert_eq!(out.status.code(), Some(130), "{}", out.stderr);
