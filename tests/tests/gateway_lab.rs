@@ -204,8 +204,13 @@ fn a_dead_lab_is_reported_as_a_lost_link_within_500_ms_and_nothing_is_left_behin
     let gw = gateway(&swarm, 1, gateways[0], dir.path(), 2);
     let up = orch.report(Duration::from_secs(20), |m| matches!(m, FromAgent::Link(l) if l.up).then_some(()));
     assert!(up.is_some(), "the emulated robot connects to its gateway");
-    // Let robot heartbeats flow for a while, then pull the plug.
-    std::thread::sleep(Duration::from_millis(500));
+    // Let the link run for a while (five gateway heartbeats), then pull the plug.
+    let mut beats = 0;
+    let flowing = orch.report(Duration::from_secs(10), |m| {
+        beats += u32::from(matches!(m, FromAgent::Heartbeat(_)));
+        (beats >= 5).then_some(())
+    });
+    assert!(flowing.is_some(), "the gateway reports while its robot is connected");
     let lab_pid = lab.pid();
     lab.kill();
     let killed = Instant::now();
