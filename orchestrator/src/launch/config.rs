@@ -180,8 +180,9 @@ pub struct SupervisionConfig {
     pub shutdown_grace: f64,
     /// Remote agents (zenoh): how long one may be unreachable (its link
     /// cut, or silent) before it is treated as dead; the launch holds it
-    /// meanwhile and resumes when it is back. 0: dead at once. Keep it no
-    /// longer than the agents' `--orchestrator-grace`.
+    /// meanwhile and resumes when it is back. 0: dead at once. Agents the
+    /// launch starts get an `--orchestrator-grace` no shorter than this
+    /// (`setup::agent_template`); agents started by hand need one as long.
     pub link_grace: f64,
     /// What a robot whose agent never registers means.
     pub missing: Missing,

@@ -63,7 +63,6 @@ pub use summary::{Outcome, RobotEnd, Summary};
 
 use anyhow::{Context, Result};
 use bycoms_protocol::Swarm;
-use bycoms_sim::agent_process::AgentArgs;
 use bycoms_sim::Vec2;
 use ports::Ports;
 use poses::bus::BusPoses;
@@ -157,25 +156,7 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
         ports.observers.push(Box::new(live.clone()));
     }
     ports.observers.iter_mut().for_each(|o| o.world(&swarm_name, &world, &cfg));
-    let template = AgentArgs {
-        swarm: swarm_name,
-        robot: 1,
-        terrain: PathBuf::from("-"),
-        eps: cfg.eps,
-        noise: cfg.noise,
-        seed: cfg.seed,
-        clock: cfg.clock,
-        speed: cfg.speed,
-        swarm_size: Some(cfg.robots),
-        peers: None,
-        parent_pid: Some(std::process::id() as i32),
-        heartbeat_ms: (cfg.supervision.heartbeat_interval * 1000.0).round().max(1.0) as u64,
-        transport: cfg.transport.kind,
-        // Spawned agents connect to where this orchestrator actually listens.
-        connect: endpoints.clone(),
-        zenoh_config: None,
-        failsafe: Default::default(),
-    };
+    let template = setup::agent_template(&cfg, swarm_name, endpoints.clone());
     let agents = cfg.agents.open(
         agent,
         LaunchConfig::secs(cfg.supervision.register_timeout),

@@ -12,8 +12,10 @@ use super::gate::GateParams;
 use super::poses::PoseSource;
 use super::World;
 use crate::mocap::MocapSource;
+use bycoms_sim::agent_process::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};
 use bycoms_sim::agent_process::AgentArgs;
 use bycoms_sim::Vec2;
+use std::path::PathBuf;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 /// The core's setup for a launch of `cfg` in `world`.
@@ -67,5 +69,53 @@ pub fn gate_params(cfg: &LaunchConfig, goal: Vec2) -> GateParams {
         stop_turn_rate: cfg.gate.stop_turn_rate,
         dwell_us: (cfg.gate.dwell * 1e6).round() as u64,
         period_us: cfg.dt_us(),
+    }
+}
+
+/// The flags of every agent this launch starts (the robot id is set per
+/// agent): the run's parameters, the bus and where it listens, and a
+/// failsafe grace no shorter than the launch's link grace. An agent that
+/// lost the orchestrator for longer than its grace stops its robot and
+/// exits; with a shorter grace than the launch's, a cut the launch would
+/// ride out (holding the robot, then resuming) would cost the robot.
+pub fn agent_template(cfg: &LaunchConfig, swarm: String, endpoints: Vec<String>) -> AgentArgs {
+    let failsafe =
+        FailsafeArgs { grace_s: cfg.supervision.link_grace.max(DEFAULT_GRACE_S), ..FailsafeArgs::default() };
+    AgentArgs {
+        swarm,
+        robot: 1,
+        terrain: PathBuf::from("-"),
+        eps: cfg.eps,
+        noise: cfg.noise,
+        seed: cfg.seed,
+        clock: cfg.clock,
+        speed: cfg.speed,
+        swarm_size: Some(cfg.robots),
+        peers: None,
+        parent_pid: Some(std::process::id() as i32),
+        heartbeat_ms: (cfg.supervision.heartbeat_interval * 1000.0).round().max(1.0) as u64,
+        transport: cfg.transport.kind,
+        // Spawned agents connect to where this orchestrator actually listens.
+        connect: endpoints,
+        zenoh_config: None,
+        failsafe,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn started_agents_hold_on_at_least_as_long_as_the_launch_holds_them() {
+        let mut cfg = LaunchConfig::default();
+        let grace = |cfg: &LaunchConfig| agent_template(cfg, "s".into(), Vec::new()).failsafe.grace_s;
+        assert_eq!(grace(&cfg), DEFAULT_GRACE_S);
+        cfg.supervision.link_grace = 5.0;
+        assert_eq!(grace(&cfg), 5.0);
+        cfg.supervision.link_grace = 0.0;
+        assert_eq!(grace(&cfg), DEFAULT_GRACE_S);
+        let flags = agent_template(&cfg, "s".into(), Vec::new()).to_flags();
+        assert!(flags.windows(2).any(|w| w[0] == "--orchestrator-grace"), "{flags:?}");
     }
 }
