@@ -171,7 +171,8 @@ fn a_gateway_drives_an_emulated_robot_and_its_failsafe_stops_it_when_commands_ce
         }
     }
     let cut_lab_s = poses.first().expect("poses keep coming").1.time_us as f64 / 1e6;
-    signal(gw.pid(), Signal::SIGCONT);
+    // Killed while still frozen: resumed first, it could send its robot one
+    // more command, and the firmware would leave Failsafe before the end.
     gw.kill();
     signal(lab.pid(), Signal::SIGTERM);
     let out = lab.wait(Duration::from_secs(10));
