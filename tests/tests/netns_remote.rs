@@ -176,8 +176,7 @@ fn ride_out_a_short_cut(
     flags.extend(clock);
     let agents: Vec<Proc> =
         (1..=3).map(|k| agent_in(&hosts.b, &endpoint, swarm, terrain, k, &flags)).collect();
-    orch.stderr_line(Duration::from_secs(30), |l| l.contains("robot 1: deployed at").then_some(()))
-        .expect("robot 1 deployed");
+    registered_and_deployed(&orch, 3);
     let at_ms = unix_ms();
     hosts.cut().expect("cut");
     std::thread::sleep(Duration::from_millis(1500));
@@ -215,6 +214,24 @@ fn assert_deployed_at_most_once(stderr: &str) {
 }
 
 /// Each agent, once it ended (20 s at most).
+/// Waits until every one of `robots` agents has registered (and so has
+/// seen the orchestrator's liveliness token: its failsafe is armed) and
+/// robot 1 is deployed. Robot 1 goes as soon as it is ready, before the
+/// others; a cut before an agent ever saw the orchestrator would test
+/// something else (that agent then waits for an orchestrator to come).
+fn registered_and_deployed(orch: &Proc, robots: u32) {
+    let mut registered = std::collections::BTreeSet::new();
+    let mut deployed = false;
+    orch.stderr_line(Duration::from_secs(30), |l| {
+        if let Some(k) = (1..=robots).find(|k| l.contains(&format!("robot {k}: agent registered"))) {
+            registered.insert(k);
+        }
+        deployed |= l.contains("robot 1: deployed at");
+        (registered.len() == robots as usize && deployed).then_some(())
+    })
+    .expect("every agent registered and robot 1 deployed");
+}
+
 fn agents_done(agents: Vec<Proc>) -> Vec<Finished> {
     agents.into_iter().map(|a| a.wait(Duration::from_secs(20))).collect()
 }
@@ -230,8 +247,7 @@ fn a_cut_longer_than_the_grace_is_recorded_and_ends_the_run_cleanly() {
     let grace = ["--orchestrator-grace", "0.5"];
     let agents: Vec<Proc> =
         (1..=3).map(|k| agent_in(&hosts.b, &endpoint, &swarm, &terrain, k, &grace)).collect();
-    orch.stderr_line(Duration::from_secs(30), |l| l.contains("robot 1: deployed at").then_some(()))
-        .expect("robot 1 deployed");
+    registered_and_deployed(&orch, 3);
     let cut_at = Instant::now();
     let cut_unix_ms = unix_ms();
     hosts.cut().expect("cut");
