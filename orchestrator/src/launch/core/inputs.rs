@@ -1,0 +1,362 @@
+//! The core's bookkeeping of inputs: what each report, pose, death and
+//! change of reach means for the robots' slots. No decision is taken here
+//! (see `steps.rs`), so a shell can hand in everything that arrived
+//! together before the core acts on it.
+
+use super::*;
+
+impl Core {
+    pub(super) fn on_started(&mut self, id: u32, pid: Option<u32>, how: &str) {
+        if let Some(slot) = self.slot(id) {
+            slot.pid = pid;
+            slot.alive = true;
+            // A late joiner is expected again after it registered.
+            slot.state = if slot.registered_before_tick.is_some() {
+                SlotState::Registered
+            } else {
+                SlotState::Spawned
+            };
+        }
+        self.note(format!("robot {id}: {how}"));
+        self.event(id, EventKind::Spawned, pid, None);
+    }
+
+    pub(super) fn on_report(&mut self, now: u64, msg: FromAgent) {
+        let id = msg.robot().0;
+        let ticks_started = self.ticks_started;
+        let all_at_once = self.setup.agents.all_at_once;
+        let known = self.slot_ref(id).is_some_and(|s| s.state != SlotState::Waiting);
+        if !known {
+            self.outputs
+                .push_back(Output::Bad(BadKind::UnknownRobot, format!("{msg:?} from an unknown robot")));
+            return;
+        }
+        let Some(slot) = self.slot(id) else { return };
+        let registered = slot.registered_before_tick.is_some();
+        let kept = slot.instance;
+        // Until its `Register` arrives an agent is not heard from: a
+        // registration that was lost must not be hidden by heartbeats (the
+        // agent repeats it with every heartbeat until it is answered, and
+        // the registration timeout still applies).
+        if !registered && !matches!(msg, FromAgent::Register(_)) {
+            return;
+        }
+        if let FromAgent::Register(r) = &msg {
+            if r.protocol_version != PROTOCOL_VERSION {
+                // Anyone may send anything on a bus: counted, never fatal.
+                // The robot is still awaited (its registration timeout
+                // applies) and, should its own agent never register, its
+                // death says why.
+                let v = r.protocol_version;
+                if !registered {
+                    slot.foreign_version = Some(v);
+                }
+                let text = format!("robot {id} registers with protocol {v}");
+                self.outputs.push_back(Output::Bad(BadKind::WrongVersion, text));
+                return;
+            }
+            if registered && kept != Some(r.instance) {
+                self.refuse_duplicate(id, r.instance);
+                return;
+            }
+        }
+        if !registered && matches!(msg, FromAgent::Register(_)) && !self.may_register(id) {
+            return;
+        }
+        self.outputs.push_back(Output::Heard(id));
+        let current = self.tick.as_ref().map(|t| t.step);
+        let Some(slot) = self.slot(id) else { return };
+        match msg {
+            // A repeat: the agent had not heard from us yet when it sent it.
+            FromAgent::Register(_) if registered => {}
+            FromAgent::Register(r) => {
+                slot.instance = Some(r.instance);
+                slot.registered_before_tick = Some(ticks_started);
+                slot.registered_at = Some(now);
+                if slot.state == SlotState::Spawned {
+                    slot.state = SlotState::Registered;
+                }
+                if slot.state == SlotState::Absent {
+                    slot.state = SlotState::Registered;
+                    slot.late = true;
+                    slot.death = None;
+                    self.late.push_back(id);
+                    // Expected again: its source supervises it from now on.
+                    self.outputs.push_back(Output::Start(id));
+                    self.note(format!("robot {id}: registered late; it takes the next turn"));
+                    self.event(id, EventKind::JoinedLate, None, None);
+                } else if all_at_once {
+                    let instance = r.instance;
+                    self.note(format!("robot {id}: agent registered (instance {instance:016x})"));
+                }
+            }
+            FromAgent::Heartbeat(_) => {}
+            FromAgent::Status(s) => slot.mode = s.mode,
+            FromAgent::TickDone(t) => {
+                if let Some(tick) = self.tick.as_mut().filter(|_| Some(t.step) == current) {
+                    tick.awaiting.remove(&id);
+                }
+            }
+            // A real robot's telemetry is for recorders and monitors.
+            FromAgent::Telemetry(_) => {}
+            FromAgent::Link(l) => {
+                if !l.up {
+                    tracing::warn!(robot = id, silent_ms = l.silent_ms, "robot {id}'s link is lost");
+                }
+                self.outputs.push_back(Output::RobotLink(id, l.up));
+            }
+        }
+    }
+
+    /// A second agent (another instance) registers for robot `id`, which
+    /// already has one: counted and told to leave; the first agent stays.
+    pub(super) fn refuse_duplicate(&mut self, id: u32, instance: u64) {
+        let kept = self.slot_ref(id).and_then(|s| s.instance).unwrap_or_default();
+        let text = format!(
+            "robot {id} registered again by another agent (instance {instance:016x}, kept {kept:016x})"
+        );
+        self.outputs.push_back(Output::Bad(BadKind::Duplicate, text));
+        tracing::warn!(
+            robot = id,
+            instance = format_args!("{instance:016x}"),
+            "a second agent for robot {id} refused"
+        );
+        self.outputs.push_back(Output::Send(id, ToAgent::Refused(Refused { robot: RobotId(id), instance })));
+    }
+
+    pub(super) fn on_pose(&mut self, now: u64, topic: u32, pose: Pose) {
+        if pose.robot.0 != topic {
+            let got = pose.robot;
+            self.outputs.push_back(Output::Bad(
+                BadKind::UnknownRobot,
+                format!("pose of {got} on robot {topic}'s topic"),
+            ));
+            return;
+        }
+        let lockstep = self.setup.lockstep;
+        let Some(slot) = self.slot_ref(topic) else { return };
+        if !slot.alive || matches!(slot.state, SlotState::Waiting | SlotState::Spawned | SlotState::Lost) {
+            // Our own relay of a dead robot, or a stray sample.
+            return;
+        }
+        let state = slot.state;
+        let clock = if lockstep {
+            let newest_step = self.tick.as_ref().map_or(self.ticks, |t| t.step);
+            plausible::Clock::Lockstep { newest_step }
+        } else {
+            plausible::Clock::Realtime { now_us: now, speed: self.setup.speed }
+        };
+        let carried = matches!(self.phase, Phase::Placing(id, _) if id == topic);
+        match self.anchors.accept(topic, &pose, clock, carried) {
+            Ok(true) => {}
+            // A repeat or a late sample: nothing new (the gate has seen it).
+            Ok(false) => return,
+            Err(why) => {
+                let text = format!("pose of robot {topic} at step {} refused: {why}", pose.step);
+                self.outputs.push_back(Output::Bad(BadKind::Refused, text));
+                return;
+            }
+        }
+        if self.setup.agents.forward_poses {
+            self.outputs.push_back(Output::Forward(pose));
+        }
+        let Some(slot) = self.slot(topic) else { return };
+        slot.last_pose = Some(pose);
+        if !lockstep && state != SlotState::Deploying {
+            slot.frames.observe(pose.step);
+        }
+        if state == SlotState::Deploying && self.referee.watched().is_none() {
+            // The start pose: the robot is deployed and under watch.
+            let start = self.referee.open(topic, pose, self.ticks);
+            let reaction = self.decided_at.map(|d| now.saturating_sub(d));
+            let Some(slot) = self.slot(topic) else { return };
+            slot.state = SlotState::Moving;
+            slot.deployed_tick = Some(start.step + 1);
+            slot.reaction_us = reaction;
+            self.first_moving_us.get_or_insert(now);
+            let event = GateEvent {
+                robot: pose.robot,
+                kind: GateKind::Deployed,
+                x: pose.x,
+                y: pose.y,
+                step: start.step,
+            };
+            self.outputs.push_back(Output::Gate(event));
+            self.note(format!("robot {topic}: deployed at ({:.2}, {:.2})", pose.x, pose.y));
+        } else if self.referee.watched() == Some(topic) {
+            if let Some(v) = self.referee.observe(topic, pose) {
+                self.queue.push_back(Pending::Verdict(topic, v));
+            }
+        } else {
+            return;
+        }
+        if !lockstep && self.queue.is_empty() {
+            self.send_bearing(topic, &pose, pose.step + 1);
+        }
+    }
+
+    /// Sends robot `id` its goal bearing from `pose` (the runner's function).
+    pub(super) fn send_bearing(&mut self, id: u32, pose: &Pose, step: u64) {
+        let bearing = Vec2::new(pose.x, pose.y).bearing_to(self.setup.goal);
+        let msg = GoalBearing { robot: RobotId(id), bearing, step };
+        self.last_bearing = Some(msg);
+        self.outputs.push_back(Output::Send(id, ToAgent::GoalBearing(msg)));
+    }
+
+    /// Robot `id`'s agent is gone: the dead-robot policy.
+    pub(super) fn on_death(&mut self, now: u64, id: u32, gone: Gone) {
+        if let Some(tick) = self.tick.as_mut() {
+            tick.awaiting.remove(&id);
+        }
+        let abort = self.setup.on_death == OnDeath::Abort;
+        let noticed_unix_ms = self.unix_ms(now);
+        let Some(slot) = self.slot(id) else { return };
+        if !slot.alive && slot.death.is_some() {
+            return;
+        }
+        let mut reason = gone.to_string();
+        if let Some(v) = slot.foreign_version.filter(|_| slot.state == SlotState::Spawned) {
+            reason.push_str(&format!(
+                " (a registration with protocol version {v} was seen for it; this orchestrator speaks {PROTOCOL_VERSION})"
+            ));
+        }
+        slot.alive = false;
+        slot.death = Some(Death { reason: reason.clone(), noticed_unix_ms });
+        let state = slot.state;
+        let seen = slot.last_pose.is_some();
+        self.note(format!("robot {id}: agent lost — {reason}"));
+        self.event(id, EventKind::AgentLost, None, Some(reason.clone()));
+        let fatal = match state {
+            SlotState::Spawned => self.never_registered(id, gone, reason),
+            SlotState::Registered | SlotState::Deploying => {
+                if let Some(s) = self.slot(id) {
+                    s.state = SlotState::Lost;
+                }
+                abort.then(|| format!("robot {id}'s agent was lost before its deployment: {reason}"))
+            }
+            SlotState::Moving => {
+                self.queue.push_back(Pending::Died(id));
+                abort.then(|| format!("robot {id}'s agent died while moving: {reason}"))
+            }
+            _ => (abort && seen).then(|| format!("robot {id}'s agent died: {reason}")),
+        };
+        if let Some(f) = fatal {
+            self.fatal.get_or_insert(f);
+        }
+    }
+
+    /// Robot `id`'s agent is gone without ever registering: with
+    /// `Missing::Fail` the launch ends (the error, naming it); otherwise a
+    /// process started here that ended is started once more, and a robot
+    /// that still has no agent is absent: skipped at its turn.
+    pub(super) fn never_registered(&mut self, id: u32, gone: Gone, reason: String) -> Option<String> {
+        if self.setup.missing == Missing::Fail {
+            return Some(format!("robot {id}'s agent never registered: {reason}"));
+        }
+        let slot = self.slot(id)?;
+        // A process that ended may have met a passing trouble; one that hung
+        // for a whole registration timeout is not started again.
+        if slot.pid.is_some() && slot.restarts == 0 && matches!(gone, Gone::Exited(_)) {
+            slot.restarts += 1;
+            slot.state = SlotState::Waiting;
+            slot.death = None;
+            self.note(format!("robot {id}: its agent is gone before it registered; starting it once more"));
+            return None;
+        }
+        slot.state = SlotState::Absent;
+        self.note(format!("robot {id}: absent — its agent never registered: {reason}"));
+        self.event(id, EventKind::Absent, None, Some(reason));
+        None
+    }
+
+    /// Whether a first `Register` for robot `id` is taken: an absent
+    /// robot's agent that exists on its own (a remote agent, not a process
+    /// started here) may join late; otherwise the robot's agent must be
+    /// started and not gone.
+    pub(super) fn may_register(&self, id: u32) -> bool {
+        self.slot_ref(id).is_some_and(|s| match s.state {
+            SlotState::Absent => s.pid.is_none() && self.setup.agents.all_at_once,
+            _ => true,
+        })
+    }
+
+    pub(super) fn on_reach(&mut self, now: u64, id: u32, change: Reach) {
+        let grace = self.setup.link_grace_s;
+        let at = self.unix_ms(now);
+        let Some(slot) = self.slot(id) else { return };
+        let (kind, text) = match change {
+            Reach::Lost => {
+                slot.outages.push(Outage { lost_unix_ms: at, back_unix_ms: None });
+                tracing::warn!(robot = id, grace_s = grace, "robot {id}'s agent is unreachable");
+                (
+                    EventKind::LinkLost,
+                    format!("robot {id}: link lost — waiting up to {grace} s for it to return"),
+                )
+            }
+            Reach::Back => {
+                let Some(outage) = slot.outages.last_mut().filter(|o| o.back_unix_ms.is_none()) else {
+                    return;
+                };
+                outage.back_unix_ms = Some(at);
+                let after = at.saturating_sub(outage.lost_unix_ms);
+                tracing::info!(robot = id, after_ms = after, "robot {id}'s agent is back");
+                (EventKind::LinkBack, format!("robot {id}: link back after {after} ms"))
+            }
+        };
+        self.note(text);
+        self.event(id, kind, None, None);
+        if change == Reach::Back {
+            self.resend(&[id]);
+        }
+    }
+
+    /// Whether robot `id`'s agent is alive but unreachable now.
+    pub(super) fn unreachable(&self, id: u32) -> bool {
+        self.slot_ref(id)
+            .filter(|s| s.alive)
+            .and_then(|s| s.outages.last())
+            .is_some_and(|o| o.back_unix_ms.is_none())
+    }
+
+    /// Sends robots `ids` again what they may have missed: the pending
+    /// `Deploy`; for a robot whose answer to the tick in flight is awaited,
+    /// that tick's bearing (to the moving robot), the relays and the `Tick`.
+    /// Agents answer a repeated `Tick` without stepping and a repeated
+    /// `Deploy` with their pose, and the gate ignores poses it has seen.
+    pub(super) fn resend(&mut self, ids: &[u32]) {
+        let mut relayed = false;
+        for &id in ids {
+            if let Some(deploy) = self.pending_deploy.filter(|d| d.robot.0 == id) {
+                self.outputs.push_back(Output::Send(id, ToAgent::Deploy(deploy)));
+                self.resends += 1;
+            }
+            let Some(t) = self.tick.as_ref().filter(|t| t.awaiting.contains(&id)).map(|t| t.step) else {
+                continue;
+            };
+            if let Some(bearing) = self.last_bearing.filter(|b| b.robot.0 == id && b.step == t) {
+                self.outputs.push_back(Output::Send(id, ToAgent::GoalBearing(bearing)));
+            }
+            if !relayed {
+                self.relay_dead(t, t * self.setup.params.period_us);
+                relayed = true;
+            }
+            self.outputs.push_back(Output::Send(id, ToAgent::Tick(Tick { step: t })));
+            self.resends += 1;
+        }
+    }
+
+    /// Republishes the last pose of every dead beacon.
+    pub(super) fn relay_dead(&mut self, step: u64, time_us: u64) {
+        let dead: Vec<Pose> = self
+            .slots
+            .iter()
+            .filter(|s| !s.alive && matches!(s.state, SlotState::Stuck | SlotState::Died))
+            .filter_map(|s| s.last_pose)
+            .collect();
+        for mut pose in dead {
+            pose.step = step;
+            pose.time_us = time_us;
+            self.outputs.push_back(Output::Relay(pose));
+        }
+    }
+}

@@ -1,0 +1,463 @@
+//! The core's decisions: the phase machine that [`Core::advance`] runs —
+//! choosing, registration, settling, placement, deployment, the lockstep
+//! tick, the verdicts in deployment order, the budget and the ending.
+
+use super::*;
+
+impl Core {
+    /// Takes every decision due at `now`.
+    pub fn advance(&mut self, now: u64) {
+        loop {
+            if self.ending.is_some() {
+                return;
+            }
+            if let Some(e) = self.fatal.clone() {
+                self.name_the_missing();
+                let error = self.fatal.take().unwrap_or(e);
+                return self.end(Outcome::Error, Some(error));
+            }
+            if self.interrupted {
+                return self.end(Outcome::Interrupted, None);
+            }
+            if !self.setup.lockstep && self.phase != Phase::Begin && now >= self.relay_at {
+                self.relay_frame += 1;
+                let sim_us = (now as f64 * self.setup.speed) as u64;
+                self.relay_dead(self.relay_frame, sim_us);
+                self.relay_at = now + self.setup.wall_period_us.max(1);
+            }
+            if let Some(tick) = self.tick.as_mut() {
+                if !tick.awaiting.is_empty() {
+                    let held = tick.awaiting.iter().any(|&id| {
+                        let s = &self.slots[id as usize - 1];
+                        s.alive && s.outages.last().is_some_and(|o| o.back_unix_ms.is_none())
+                    });
+                    let resend = tick.wait.resend_due(now, held);
+                    let expired = tick.wait.expired(now);
+                    let awaiting: Vec<u32> = tick.awaiting.iter().copied().collect();
+                    if resend {
+                        self.resend(&awaiting);
+                    }
+                    if !expired {
+                        return;
+                    }
+                    for id in awaiting {
+                        self.outputs.push_back(Output::Kill(id));
+                        self.on_death(now, id, Gone::NoTickReply);
+                    }
+                    continue;
+                }
+                self.ticks = tick.step;
+                self.tick = None;
+            }
+            if !self.step_phase(now) {
+                return;
+            }
+        }
+    }
+
+    /// One step of the phase machine; false when it must wait.
+    pub(super) fn step_phase(&mut self, now: u64) -> bool {
+        match self.phase {
+            Phase::Begin => {
+                if !self.setup.agents.all_at_once {
+                    self.phase = Phase::Choosing;
+                    return true;
+                }
+                for id in 1..=self.setup.robots {
+                    self.outputs.push_back(Output::Start(id));
+                }
+                // Robots are needed when their turn comes, unless every one is.
+                self.phase = if self.setup.missing == Missing::Fail {
+                    Phase::AwaitingEveryone
+                } else {
+                    Phase::Choosing
+                };
+                // Starting is carried out by the shell before the core goes on.
+                false
+            }
+            Phase::AwaitingEveryone => {
+                let waiting =
+                    self.slots.iter().any(|s| matches!(s.state, SlotState::Spawned | SlotState::Waiting));
+                if !waiting {
+                    self.phase = Phase::Choosing;
+                }
+                !waiting
+            }
+            Phase::Choosing | Phase::Watching => self.step_watching(now),
+            Phase::AwaitingRegistration(id) => match self.slot_ref(id).map(|s| s.state) {
+                Some(SlotState::Registered) => {
+                    self.settle(id, now);
+                    true
+                }
+                Some(SlotState::Spawned) => false,
+                Some(SlotState::Waiting) => {
+                    // Started once more (it died before it registered).
+                    self.outputs.push_back(Output::Start(id));
+                    false
+                }
+                _ => {
+                    self.next = self.next.max(id + 1);
+                    self.phase = Phase::Choosing;
+                    true
+                }
+            },
+            Phase::Settling(id, until) => {
+                if until.is_some_and(|u| now < u) {
+                    return false;
+                }
+                self.settled(id, now);
+                true
+            }
+            Phase::Placing(id, placing) => self.step_placing(id, placing, now),
+            Phase::AwaitingStartPose(id, mut wait) => match self.slot_ref(id).map(|s| s.state) {
+                Some(SlotState::Deploying) => {
+                    if wait.resend_due(now, self.unreachable(id)) {
+                        self.resend(&[id]);
+                    }
+                    if wait.expired(now) {
+                        self.pending_deploy = None;
+                        self.outputs.push_back(Output::Kill(id));
+                        self.on_death(now, id, Gone::NoStartPose);
+                        self.phase = Phase::Choosing;
+                        return true;
+                    }
+                    self.phase = Phase::AwaitingStartPose(id, wait);
+                    false
+                }
+                Some(SlotState::Moving) => {
+                    self.pending_deploy = None;
+                    self.next = self.next.max(id + 1);
+                    let next = self.next;
+                    let prespawn = self.setup.prespawn
+                        && self
+                            .slot_ref(next)
+                            .is_some_and(|s| s.state == SlotState::Waiting && s.restarts == 0);
+                    if prespawn {
+                        self.outputs.push_back(Output::Start(next));
+                    }
+                    self.phase = Phase::Watching;
+                    true
+                }
+                _ => {
+                    self.pending_deploy = None;
+                    self.phase = Phase::Choosing;
+                    true
+                }
+            },
+            Phase::Finished => false,
+        }
+    }
+
+    /// A robot under watch, or none: verdicts, the budget, the next tick or
+    /// the next deployment.
+    pub(super) fn step_watching(&mut self, now: u64) -> bool {
+        if let Some(outcome) = self.settle_verdicts(now) {
+            self.end(outcome, None);
+            return false;
+        }
+        let lockstep = self.setup.lockstep;
+        if self.referee.watched().is_some() {
+            if self.budget_spent() {
+                self.end(Outcome::TimeLimit, None);
+                return false;
+            }
+            if lockstep {
+                self.start_tick(now);
+                return true;
+            }
+            return false;
+        }
+        self.phase = Phase::Choosing;
+        // A robot that joined late goes before the next one in order.
+        let late = self.late.front().copied();
+        let id = late.unwrap_or(self.next);
+        if self.slot_ref(id).is_none() {
+            match self.none_registered() {
+                Some(error) => self.end(Outcome::Error, Some(error)),
+                None => self.end(Outcome::RobotsExhausted, None),
+            }
+            return false;
+        }
+        if self.budget_spent() {
+            self.end(Outcome::TimeLimit, None);
+            return false;
+        }
+        if late.is_some() {
+            self.late.pop_front();
+        }
+        match self.slot_ref(id).map(|s| s.state) {
+            Some(SlotState::Lost | SlotState::Absent) => {
+                if late.is_none() {
+                    self.next += 1;
+                }
+                return true;
+            }
+            Some(SlotState::Waiting) => {
+                self.outputs.push_back(Output::Start(id));
+                self.phase = Phase::AwaitingRegistration(id);
+                // The shell starts it before the core goes on.
+                return false;
+            }
+            _ => {}
+        }
+        self.phase = Phase::AwaitingRegistration(id);
+        true
+    }
+
+    /// Makes sure robot `id` hears every beacon before it moves: an agent's
+    /// field comes from the other robots' poses and the bus keeps no
+    /// history, so one full period must run after it registered. In
+    /// lockstep always exactly one tick (so tick numbers do not depend on
+    /// how fast an agent starts; the tick moves no robot); in real time two
+    /// periods of wall time after its registration.
+    pub(super) fn settle(&mut self, id: u32, now: u64) {
+        if self.setup.lockstep {
+            self.phase = Phase::Settling(id, None);
+            self.start_tick(now);
+        } else {
+            let registered = self.slot_ref(id).and_then(|s| s.registered_at).unwrap_or(now);
+            self.phase = Phase::Settling(id, Some(registered + 2 * self.setup.wall_period_us));
+        }
+    }
+
+    /// Robot `id` has settled: placed by the operator if it must be, then
+    /// told to deploy.
+    pub(super) fn settled(&mut self, id: u32, now: u64) {
+        // Lost while it settled: the next robot.
+        if !self.slot_ref(id).is_some_and(|s| s.alive) {
+            self.phase = Phase::Choosing;
+            return;
+        }
+        let Some(config) = self.setup.agents.placement else {
+            return self.open_gate(id, now);
+        };
+        let start = self.setup.start;
+        self.outputs.push_back(Output::Carried(id, true));
+        self.note(format!(
+            "OPERATOR: place robot {id} at the start ({:.2}, {:.2}) — it is enabled once motion capture sees it there",
+            start.x, start.y
+        ));
+        tracing::info!(
+            robot = id,
+            x = start.x,
+            y = start.y,
+            "operator asked to place the robot at the start"
+        );
+        self.outputs.push_back(Output::AskOperator(self.deploy_of(id)));
+        self.placement = Some(PlacementWatch::new(RobotId(id), start, config));
+        self.phase = Phase::Placing(id, Placing { since: now, reminded: now, seen_us: None });
+    }
+
+    pub(super) fn placement_timeout_us(&self) -> u64 {
+        self.setup.agents.placement.map_or(u64::MAX, |c| (c.timeout * 1e6) as u64)
+    }
+
+    pub(super) fn step_placing(&mut self, id: u32, mut placing: Placing, now: u64) -> bool {
+        if self.slot_ref(id).is_none_or(|s| s.state != SlotState::Registered) {
+            self.outputs.push_back(Output::Carried(id, false));
+            self.phase = Phase::Choosing;
+            return true;
+        }
+        let pose = self.slot_ref(id).and_then(|s| s.last_pose);
+        if let Some(p) = pose.filter(|p| placing.seen_us != Some(p.time_us)) {
+            placing.seen_us = Some(p.time_us);
+            if self.placement.as_mut().is_some_and(|w| w.observe(&p)) {
+                self.outputs.push_back(Output::Carried(id, false));
+                self.note(format!("robot {id}: at the start ({:.2}, {:.2}), enabling it", p.x, p.y));
+                self.open_gate(id, now);
+                return true;
+            }
+        }
+        if now >= placing.since.saturating_add(self.placement_timeout_us()) {
+            let start = self.setup.start;
+            let last = self
+                .placement
+                .as_ref()
+                .and_then(|w| w.last())
+                .map_or("never".into(), |p| format!("at ({:.2}, {:.2})", p.x, p.y));
+            let timeout = self.setup.agents.placement.map_or(0.0, |c| c.timeout);
+            self.outputs.push_back(Output::Carried(id, false));
+            self.fatal.get_or_insert(format!(
+                "robot {id} was not seen at the start ({:.2}, {:.2}) within {timeout} s (last seen: {last})",
+                start.x, start.y
+            ));
+            return true;
+        }
+        if now >= placing.reminded.saturating_add(REMIND_EVERY_US) {
+            placing.reminded = now;
+            self.outputs.push_back(Output::AskOperator(self.deploy_of(id)));
+            tracing::info!(robot = id, "still waiting for the robot at the start");
+        }
+        self.phase = Phase::Placing(id, placing);
+        false
+    }
+
+    pub(super) fn deploy_of(&self, id: u32) -> Deploy {
+        let (start, goal) = (self.setup.start, self.setup.goal);
+        Deploy { robot: RobotId(id), x: start.x, y: start.y, heading: start.bearing_to(goal) }
+    }
+
+    /// Sends `Deploy` to robot `id`; its start pose is awaited next.
+    pub(super) fn open_gate(&mut self, id: u32, now: u64) {
+        // A robot whose agent is gone is never deployed.
+        if !self.slot_ref(id).is_some_and(|s| s.alive) {
+            self.phase = Phase::Choosing;
+            return;
+        }
+        let deploy = self.deploy_of(id);
+        self.outputs.push_back(Output::Send(id, ToAgent::Deploy(deploy)));
+        if let Some(slot) = self.slot(id) {
+            slot.state = SlotState::Deploying;
+        }
+        // Deploying puts the robot at the start: its next pose may jump.
+        self.anchors.release(id);
+        self.pending_deploy = Some(deploy);
+        self.phase = Phase::AwaitingStartPose(id, AnswerWait::new(now, self.setup.tick_timeout_us));
+    }
+
+    /// One lockstep tick: the moving robot's bearing, the relays, `Tick` to
+    /// every live agent; its answers are awaited in `advance`.
+    pub(super) fn start_tick(&mut self, now: u64) {
+        let t = self.ticks + 1;
+        let period = self.setup.params.period_us;
+        // Everything of tick t is logged at its simulated time t × dt.
+        self.outputs.push_back(Output::SimTime(t * period * 1000));
+        if let Some((id, pose)) = self.referee.last() {
+            self.send_bearing(id, &pose, t);
+        }
+        self.relay_dead(t, t * period);
+        self.ticks_started += 1;
+        let live: Vec<u32> = self
+            .slots
+            .iter()
+            .filter(|s| s.alive && s.registered_before_tick.is_some() && s.state != SlotState::Lost)
+            .map(|s| s.id)
+            .collect();
+        for &id in &live {
+            self.outputs.push_back(Output::Send(id, ToAgent::Tick(Tick { step: t })));
+        }
+        let wait = AnswerWait::new(now, self.setup.tick_timeout_us);
+        self.tick = Some(TickWait { step: t, awaiting: live.into_iter().collect(), wait });
+    }
+
+    /// Acts on every queued verdict; the outcome if the run is won.
+    pub(super) fn settle_verdicts(&mut self, now: u64) -> Option<Outcome> {
+        while let Some(p) = self.queue.pop_front() {
+            let (id, state, kind, pose) = match p {
+                Pending::Verdict(id, Verdict::Arrived(pose)) => {
+                    (id, SlotState::Arrived, GateKind::Stopped { arrived: true }, Some(pose))
+                }
+                Pending::Verdict(id, Verdict::Stuck(pose)) => {
+                    (id, SlotState::Stuck, GateKind::Stopped { arrived: false }, Some(pose))
+                }
+                Pending::Died(id) => (id, SlotState::Died, GateKind::Died, None),
+            };
+            let Some(closed) = self.referee.close(id) else { continue };
+            let pose = pose.unwrap_or(closed.pose);
+            self.decided_at = Some(now);
+            let running = self.is_running(id);
+            if let Some(slot) = self.slot(id) {
+                slot.state = state;
+                slot.steps = closed.steps;
+                slot.last_pose = Some(pose);
+                slot.decided_tick = Some(pose.step);
+            }
+            self.announce(id, kind, &pose);
+            // A stuck real robot would keep pushing against what holds it:
+            // motors off; it stays a beacon.
+            if state == SlotState::Stuck && self.setup.agents.stop_when_stuck && running {
+                self.outputs.push_back(Output::Send(id, ToAgent::Stop));
+            }
+            if state == SlotState::Arrived {
+                if running {
+                    self.outputs.push_back(Output::Send(id, ToAgent::Stop));
+                }
+                return Some(Outcome::Arrived);
+            }
+        }
+        None
+    }
+
+    /// Whether the budget is used up (a robot past it is unfinished).
+    pub(super) fn budget_spent(&mut self) -> bool {
+        match self.referee.budget_spent() {
+            Ok(spent) => spent,
+            Err(closed) => {
+                let id = closed.robot;
+                if let Some(slot) = self.slot(id) {
+                    slot.state = SlotState::Unfinished;
+                    slot.steps = closed.steps;
+                    slot.last_pose = Some(closed.pose);
+                }
+                self.announce(id, GateKind::Timeout, &closed.pose);
+                true
+            }
+        }
+    }
+
+    /// Publishes a gate event and notes it.
+    pub(super) fn announce(&mut self, id: u32, kind: GateKind, pose: &Pose) {
+        let event = GateEvent { robot: pose.robot, kind, x: pose.x, y: pose.y, step: pose.step };
+        self.outputs.push_back(Output::Gate(event));
+        let what = match kind {
+            GateKind::Stopped { arrived: true } => "arrived at the goal",
+            GateKind::Stopped { arrived: false } => "stopped short of the goal: stuck, now a beacon",
+            GateKind::Died => "lost while moving: a beacon where it was last seen",
+            GateKind::Timeout => "still moving at the time limit",
+            GateKind::Deployed => "deployed",
+        };
+        self.note(format!("robot {id}: {what} at ({:.2}, {:.2}), step {}", pose.x, pose.y, pose.step));
+    }
+
+    /// When every robot was tried and no agent ever registered, the launch
+    /// did not run at all (a broken agent executable, a wrong protocol):
+    /// an error naming the first robot and why, not "robots exhausted".
+    pub(super) fn none_registered(&self) -> Option<String> {
+        if self.slots.iter().any(|s| s.registered_before_tick.is_some()) {
+            return None;
+        }
+        let first = self.slots.iter().find_map(|s| s.death.as_ref().map(|d| (s.id, d)))?;
+        Some(format!(
+            "no agent ever registered: robot {}'s agent never registered: {}",
+            first.0, first.1.reason
+        ))
+    }
+
+    /// While every agent is awaited at the start, one error names every
+    /// robot whose agent never came.
+    pub(super) fn name_the_missing(&mut self) {
+        if self.phase != Phase::AwaitingEveryone {
+            return;
+        }
+        let never: Vec<String> = self
+            .slots
+            .iter()
+            .filter(|s| s.state == SlotState::Spawned && s.death.is_some())
+            .map(|s| s.id.to_string())
+            .collect();
+        if !never.is_empty() {
+            let noun = if never.len() == 1 { "robot" } else { "robots" };
+            self.fatal = Some(format!(
+                "the {} agents of {noun} {} never registered within {} s{}",
+                self.setup.agents.kind,
+                never.join(", "),
+                self.setup.register_timeout_s,
+                self.setup.agents.start_hint
+            ));
+        }
+    }
+
+    /// The launch is over: a robot still under watch is unfinished.
+    pub(super) fn end(&mut self, outcome: Outcome, error: Option<String>) {
+        if let Some(closed) = self.referee.watched().and_then(|id| self.referee.close(id)) {
+            if let Some(slot) = self.slot(closed.robot) {
+                slot.state = SlotState::Unfinished;
+                slot.steps = closed.steps;
+                slot.last_pose = Some(closed.pose);
+            }
+        }
+        self.tick = None;
+        self.phase = Phase::Finished;
+        self.ending = Some(Ending { outcome, error });
+    }
+}

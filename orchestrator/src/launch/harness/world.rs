@@ -1,0 +1,456 @@
+//! The virtual-time world a harness launch plays in: the core, the
+//! simulated agents and network, and the schedule's events in time order.
+//! Nothing here decides what the launch does: the core does; the world only
+//! carries out its outputs and delivers what the agents and the network do.
+
+use super::*;
+
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum Event {
+    Crash(u32),
+    Tell(Input),
+    Forge(Foreign),
+    SecondAgent(u32),
+    Interrupt,
+}
+
+/// A launch in virtual time.
+pub(super) struct World<'a> {
+    pub(super) case: &'a Case,
+    pub(super) schedule: &'a Schedule,
+    pub(super) core: Logged,
+    pub(super) net: Net,
+    pub(super) agents: Vec<Option<Agent>>,
+    pub(super) impostors: Vec<Agent>,
+    pub(super) started_at: Vec<Option<u64>>,
+    pub(super) heard_at: Vec<Option<u64>>,
+    pub(super) unreachable: Vec<bool>,
+    pub(super) events: BinaryHeap<Reverse<(u64, u64, usize)>>,
+    pub(super) event_list: Vec<Option<Event>>,
+    pub(super) seq: u64,
+    pub(super) now: u64,
+    pub(super) report: Report,
+    pub(super) register_timeout_us: u64,
+    pub(super) heartbeat_timeout_us: u64,
+    pub(super) link_grace_us: u64,
+    pub(super) early_deaths_left: Vec<u32>,
+}
+
+pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, Vec<Call>) {
+    let cfg = LaunchConfig::default();
+    let n = case.robots as usize;
+    let mut world = World {
+        case,
+        schedule,
+        core: Logged::new(setup(case, schedule), logged),
+        net: Net::new(schedule.link.clone(), schedule.partitions.clone(), schedule.seed),
+        agents: (0..n).map(|_| None).collect(),
+        impostors: Vec::new(),
+        started_at: vec![None; n],
+        heard_at: vec![None; n],
+        unreachable: vec![false; n],
+        events: BinaryHeap::new(),
+        event_list: Vec::new(),
+        seq: 0,
+        now: 0,
+        report: Report {
+            ending: None,
+            failure: None,
+            gates: Vec::new(),
+            robots: Vec::new(),
+            spent: 0,
+            ticks: 0,
+            resends: 0,
+            end_us: 0,
+            bad: 0,
+            stepped: vec![0; n],
+            deploys_sent: vec![0; n],
+            late: Vec::new(),
+            gate_times_us: Vec::new(),
+            registered_us: vec![None; n],
+        },
+        register_timeout_us: (cfg.supervision.register_timeout * 1e6) as u64,
+        heartbeat_timeout_us: (cfg.supervision.heartbeat_timeout * 1e6) as u64,
+        link_grace_us: (cfg.supervision.link_grace * 1e6) as u64,
+        early_deaths_left: schedule.early_deaths.clone(),
+    };
+    world.plan();
+    world.play();
+    let calls = world.core.take_calls();
+    (world.finish(), calls)
+}
+
+impl World<'_> {
+    pub(super) fn at(&mut self, at: u64, event: Event) {
+        self.seq += 1;
+        self.event_list.push(Some(event));
+        self.events.push(Reverse((at, self.seq, self.event_list.len() - 1)));
+    }
+
+    /// Puts the schedule's own events on the timeline.
+    pub(super) fn plan(&mut self) {
+        let s = self.schedule;
+        for c in &s.crashes {
+            self.at(c.at_us, Event::Crash(c.robot));
+        }
+        for &(robot, at) in &s.second_agents {
+            self.at(at, Event::SecondAgent(robot));
+        }
+        for (at, f) in &s.foreign {
+            self.at(*at, Event::Forge(*f));
+        }
+        if let Some(at) = s.interrupt_at_us {
+            self.at(at, Event::Interrupt);
+        }
+        if s.remote {
+            let lease = 400_000;
+            for p in &s.partitions {
+                let lost = p.from_us + lease;
+                if lost >= p.until_us {
+                    continue;
+                }
+                self.at(lost, Event::Tell(Input::Reach(p.robot, Reach::Lost)));
+                if p.until_us - lost <= self.link_grace_us {
+                    self.at(p.until_us, Event::Tell(Input::Reach(p.robot, Reach::Back)));
+                } else {
+                    let grace_ms = self.link_grace_us / 1000;
+                    self.at(
+                        lost + self.link_grace_us,
+                        Event::Tell(Input::Gone(p.robot, Gone::Unreachable { grace_ms })),
+                    );
+                }
+            }
+        }
+    }
+
+    pub(super) fn play(&mut self) {
+        let mut idle_rounds = 0u32;
+        loop {
+            let now = self.now;
+            self.core.advance(now);
+            self.carry_out();
+            if self.core.ending().is_some() {
+                return;
+            }
+            let next = [
+                self.core.deadline(),
+                self.net.next_at(),
+                self.events.peek().map(|Reverse((at, _, _))| *at),
+                self.agents.iter().flatten().filter(|a| a.alive).filter_map(|a| a.next_beat).min(),
+                self.agents.iter().flatten().filter(|a| a.alive).filter_map(|a| a.next_period).min(),
+                self.watchdog_due(),
+            ]
+            .into_iter()
+            .flatten()
+            .min();
+            let Some(next) = next else {
+                self.report.failure = Some(format!("stalled at {} µs: nothing to wait for, no ending", now));
+                return;
+            };
+            if next <= now {
+                idle_rounds += 1;
+                if idle_rounds > 1000 {
+                    self.report.failure = Some(format!("spins at {now} µs without progress"));
+                    return;
+                }
+            } else {
+                idle_rounds = 0;
+            }
+            self.now = next.max(now);
+            if self.now > HANG_US {
+                self.report.failure =
+                    Some(format!("did not end within {} s of virtual time", HANG_US / 1_000_000));
+                return;
+            }
+            self.deliver();
+        }
+    }
+
+    pub(super) fn carry_out(&mut self) {
+        while let Some(out) = self.core.poll_output() {
+            let now = self.now;
+            match out {
+                Output::Start(id) => self.start(id),
+                Output::Send(id, msg) => {
+                    if matches!(msg, ToAgent::Deploy(_)) {
+                        if let Some(d) = self.report.deploys_sent.get_mut(id as usize - 1) {
+                            *d += 1;
+                        }
+                    }
+                    self.net.send(now, id, Packet::ToAgent(id, msg));
+                }
+                Output::Relay(pose) => {
+                    self.net.send(now, 0, Packet::Pose { topic: pose.robot.0, pose, relay: true });
+                }
+                Output::Gate(e) => {
+                    self.report.gates.push(e);
+                    self.report.gate_times_us.push(now);
+                }
+                Output::Kill(id) => {
+                    if let Some(Some(a)) = self.agents.get_mut(id as usize - 1) {
+                        a.alive = false;
+                    }
+                    self.started_at[id as usize - 1] = None;
+                }
+                Output::Heard(id) => {
+                    if let Some(h) = self.heard_at.get_mut(id as usize - 1) {
+                        *h = Some(now);
+                    }
+                }
+                Output::Bad(..) => self.report.bad += 1,
+                Output::Forward(_)
+                | Output::Event(_)
+                | Output::Note(_)
+                | Output::RobotLink(..)
+                | Output::SimTime(_)
+                | Output::AskOperator(_)
+                | Output::Carried(..) => {}
+            }
+        }
+    }
+
+    /// Real time: one control period in wall µs.
+    pub(super) fn wall_period_us(&self) -> Option<u64> {
+        self.schedule.realtime.map(|speed| (self.case.run_config().kinematics.dt * 1e6 / speed) as u64)
+    }
+
+    pub(super) fn start(&mut self, id: u32) {
+        let i = id as usize - 1;
+        if self.schedule.remote && self.agents[i].as_ref().is_some_and(|a| a.alive) {
+            // A remote agent exists on its own: expected again, not made.
+            self.started_at[i] = Some(self.now);
+            let now = self.now;
+            self.core.handle(now, Input::Started { robot: id, pid: None, how: "awaiting its agent".into() });
+            return;
+        }
+        let delay = self.schedule.register_delay_us.get(i).copied().unwrap_or(Some(50_000));
+        let instance = 0x1000 + u64::from(id);
+        let agent = Agent::new(
+            id,
+            instance,
+            self.case.terrain.clone(),
+            self.case.run_config(),
+            delay.map(|d| self.now + d),
+            self.wall_period_us(),
+        );
+        self.agents[i] = Some(agent);
+        self.started_at[i] = Some(self.now);
+        if let Some(left) = self.early_deaths_left.get_mut(i).filter(|n| **n > 0) {
+            *left -= 1;
+            let at = self.now + 5_000;
+            self.at(at, Event::Crash(id));
+        }
+        let now = self.now;
+        let (pid, how) = if self.schedule.remote {
+            (None, "awaiting its agent")
+        } else {
+            (Some(10_000 + id), "agent started")
+        };
+        self.core.handle(now, Input::Started { robot: id, pid, how: how.into() });
+    }
+
+    /// The agent source's timers: registration and heartbeat timeouts.
+    pub(super) fn watchdog_due(&self) -> Option<u64> {
+        (0..self.agents.len())
+            .filter_map(|i| {
+                let started = self.started_at[i]?;
+                match self.heard_at[i] {
+                    None => Some(started + self.register_timeout_us),
+                    Some(_) if self.unreachable[i] => None,
+                    Some(h) => Some(h + self.heartbeat_timeout_us),
+                }
+            })
+            .min()
+    }
+
+    pub(super) fn watchdog(&mut self) {
+        let now = self.now;
+        for i in 0..self.agents.len() {
+            let Some(started) = self.started_at[i] else { continue };
+            let gone = match self.heard_at[i] {
+                None if now >= started + self.register_timeout_us => Some(Gone::NeverRegistered),
+                Some(h) if !self.unreachable[i] && now >= h + self.heartbeat_timeout_us => Some(Gone::Silent),
+                _ => None,
+            };
+            if let Some(gone) = gone {
+                self.started_at[i] = None;
+                // A remote agent that never registered still exists on its
+                // host (it may come late); anything else was killed.
+                let outlives = self.schedule.remote && gone == Gone::NeverRegistered;
+                if let Some(a) = self.agents[i].as_mut().filter(|_| !outlives) {
+                    a.alive = false;
+                }
+                self.core.handle(now, Input::Gone(i as u32 + 1, gone));
+            }
+        }
+    }
+
+    /// Everything due now, in time then sending order.
+    pub(super) fn deliver(&mut self) {
+        let now = self.now;
+        while let Some(Reverse((at, _, index))) = self.events.peek().copied() {
+            if at > now {
+                break;
+            }
+            self.events.pop();
+            if let Some(event) = self.event_list[index].take() {
+                self.happen(event);
+            }
+        }
+        while let Some(packet) = self.net.pop_due(now) {
+            self.arrive(packet);
+        }
+        let mut sent = Vec::new();
+        for a in self.agents.iter_mut().flatten().filter(|a| a.alive) {
+            if a.next_beat.is_some_and(|t| t <= now) {
+                a.beat(now, &mut sent);
+            }
+            if a.next_period.is_some_and(|t| t <= now) {
+                let before = a.stepped;
+                a.period(now, &mut sent);
+                self.report.stepped[a.id() as usize - 1] += a.stepped - before;
+            }
+            for s in sent.drain(..) {
+                Self::send_from(&mut self.net, now, a.id(), s);
+            }
+        }
+        self.watchdog();
+    }
+
+    pub(super) fn send_from(net: &mut Net, now: u64, id: u32, sent: Sent) {
+        match sent {
+            Sent::Report(r) => net.send(now, id, Packet::Report(r)),
+            Sent::Pose(p) => net.send(now, id, Packet::Pose { topic: id, pose: p, relay: false }),
+        }
+    }
+
+    pub(super) fn happen(&mut self, event: Event) {
+        let now = self.now;
+        match event {
+            Event::Crash(id) => {
+                let alive =
+                    self.agents.get(id as usize - 1).and_then(Option::as_ref).is_some_and(|a| a.alive);
+                if alive && self.started_at[id as usize - 1].is_some() {
+                    if let Some(Some(a)) = self.agents.get_mut(id as usize - 1) {
+                        a.alive = false;
+                    }
+                    self.started_at[id as usize - 1] = None;
+                    let gone = if self.schedule.remote {
+                        Gone::Disconnected
+                    } else {
+                        Gone::Exited(std::process::ExitStatus::from_raw(9))
+                    };
+                    // The process's end is seen within a few milliseconds.
+                    self.at(now + 5_000, Event::Tell(Input::Gone(id, gone)));
+                }
+            }
+            Event::Tell(input) => {
+                if let Input::Reach(id, r) = &input {
+                    self.unreachable[*id as usize - 1] = *r == Reach::Lost;
+                    if *r == Reach::Back {
+                        self.heard_at[*id as usize - 1] = Some(now);
+                    }
+                }
+                if let Input::Gone(id, _) = &input {
+                    self.started_at[*id as usize - 1] = None;
+                    if let Some(Some(a)) = self.agents.get_mut(*id as usize - 1) {
+                        a.alive = false;
+                    }
+                }
+                self.core.handle(now, input);
+            }
+            Event::Forge(f) => match f.input(self) {
+                Some(input) => self.core.handle(now, input),
+                // Not possible yet (the robot has no pose): a little later,
+                // while the launch runs.
+                None if self.core.ending().is_none() => self.at(now + 10_000, Event::Forge(f)),
+                None => {}
+            },
+            Event::SecondAgent(id) if !self.registered(id) => {
+                // A second agent for a registered robot: later, once it is.
+                if self.core.ending().is_none() {
+                    self.at(now + 10_000, Event::SecondAgent(id));
+                }
+            }
+            Event::SecondAgent(id) => {
+                let mut a = Agent::new(
+                    id,
+                    0xbad0 + u64::from(id),
+                    self.case.terrain.clone(),
+                    self.case.run_config(),
+                    Some(now),
+                    self.wall_period_us(),
+                );
+                let mut sent = Vec::new();
+                a.beat(now, &mut sent);
+                for s in sent {
+                    Self::send_from(&mut self.net, now, id, s);
+                }
+                self.impostors.push(a);
+            }
+            Event::Interrupt => self.core.handle(now, Input::Interrupt),
+        }
+    }
+
+    pub(super) fn arrive(&mut self, packet: Packet) {
+        let now = self.now;
+        match packet {
+            Packet::Report(r) => {
+                let i = r.robot().0 as usize;
+                if matches!(r, FromAgent::Register(_)) && (1..=self.report.registered_us.len()).contains(&i) {
+                    self.report.registered_us[i - 1].get_or_insert(now);
+                }
+                self.core.handle(now, Input::Report(r));
+            }
+            Packet::Pose { topic, pose, relay } => {
+                if !relay {
+                    self.core.handle(now, Input::Pose { topic, pose });
+                }
+                for a in self.agents.iter_mut().flatten() {
+                    if !self.net.cut(a.id(), now) {
+                        a.peer_pose(topic, &pose);
+                    }
+                }
+            }
+            Packet::ToAgent(id, cmd) => {
+                let mut sent = Vec::new();
+                if let Some(Some(a)) = self.agents.get_mut(id as usize - 1) {
+                    let before = a.stepped;
+                    a.command(&cmd, &mut sent);
+                    self.report.stepped[id as usize - 1] += a.stepped - before;
+                }
+                for imp in self.impostors.iter_mut().filter(|a| a.id() == id) {
+                    imp.command(&cmd, &mut Vec::new());
+                }
+                for s in sent {
+                    Self::send_from(&mut self.net, now, id, s);
+                }
+            }
+        }
+    }
+
+    pub(super) fn finish(mut self) -> Report {
+        let core = &self.core;
+        self.report.ending = core.ending().cloned();
+        self.report.robots = core.slots().iter().map(|s| (s.state(), s.steps(), s.last_pose())).collect();
+        self.report.late = core.slots().iter().filter(|s| s.joined_late()).map(|s| s.id()).collect();
+        self.report.spent = core.spent();
+        self.report.ticks = core.ticks();
+        self.report.resends = core.resends();
+        self.report.end_us = self.now;
+        self.report
+    }
+
+    /// Whether robot `id` has a registered agent.
+    pub(super) fn registered(&self, id: u32) -> bool {
+        self.core
+            .slots()
+            .get(id as usize - 1)
+            .is_some_and(|s| s.alive() && !matches!(s.state(), SlotState::Waiting | SlotState::Spawned))
+    }
+
+    /// Robot `id`'s true latest pose (its agent's), for forgeries.
+    pub(super) fn true_pose(&self, id: u32) -> Option<Pose> {
+        self.core.slots().get(id as usize - 1).and_then(|s| s.last_pose())
+    }
+}
