@@ -234,13 +234,13 @@ pub fn world(cfg: &LaunchConfig) -> Result<World> {
         None => WorldSource::Scenario(cfg.scenario.clone()),
     };
     let w = scenario::load(&source)?;
-    Ok(World {
-        name: w.name,
-        terrain_text: to_text(&w.terrain),
-        start: w.terrain.start(),
-        goal: w.terrain.goal(),
-        unit: crate::draw::snapshot::Unit::Cell,
-    })
+    World::new(
+        w.name,
+        to_text(&w.terrain),
+        w.terrain.start(),
+        w.terrain.goal(),
+        crate::draw::snapshot::Unit::Cell,
+    )
 }
 
 /// The launch's inputs (config, terrain, zenoh configs, robots file, lab

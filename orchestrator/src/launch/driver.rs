@@ -117,6 +117,7 @@ impl Driver {
             self.core.advance(now);
             let acted = self.carry_out();
             self.record_calls();
+            self.ports.show_scene();
             if let Some(ending) = self.core.ending() {
                 break ending.clone();
             }
@@ -383,24 +384,14 @@ impl Driver {
             summary.terrain, summary.eps, summary.clock, summary.swarm
         );
         let dt = self.template.run_config().kinematics.dt;
-        match bycoms_sim::terrain::parse(&self.world.terrain_text) {
-            Ok(mut terrain) => {
-                terrain.set_start(self.world.start);
-                terrain.set_goal(self.world.goal);
-                Some(crate::draw::trace::picture_in(
-                    &terrain,
-                    trace,
-                    self.cfg.eps,
-                    dt,
-                    &heading,
-                    self.world.unit,
-                ))
-            }
-            Err(e) => {
-                tracing::error!("no picture: the launch's terrain does not parse: {e}");
-                None
-            }
-        }
+        Some(crate::draw::trace::picture_in(
+            &self.world.terrain,
+            trace,
+            self.cfg.eps,
+            dt,
+            &heading,
+            self.world.unit,
+        ))
     }
 }
 

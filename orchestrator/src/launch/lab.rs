@@ -52,16 +52,13 @@ pub fn world_of(s: &Scenario) -> Result<World> {
     terrain.set_start(start);
     terrain.set_goal(goal);
     let text = to_text(&terrain);
-    bycoms_sim::terrain::parse(&text).with_context(|| {
-        format!("lab scenario {}: start and goal must lie in different square metres of the arena", s.name)
-    })?;
-    Ok(World {
-        name: format!("lab scenario {}", s.name),
-        terrain_text: text,
-        start,
-        goal,
-        unit: crate::draw::snapshot::Unit::Metre,
-    })
+    World::new(format!("lab scenario {}", s.name), text, start, goal, crate::draw::snapshot::Unit::Metre)
+        .with_context(|| {
+            format!(
+                "lab scenario {}: start and goal must lie in different square metres of the arena",
+                s.name
+            )
+        })
 }
 
 #[cfg(test)]

@@ -74,13 +74,17 @@ use std::sync::Arc;
 use transport::SharedBus;
 
 /// The world as the orchestrator knows it: where robots start and the goal.
-/// The terrain text is only handed on to the simulated agents.
+/// The terrain text is handed on to the simulated agents (they parse it as
+/// a process would); the orchestrator parses it once, here.
 #[derive(Clone, Debug)]
 pub struct World {
     /// Where the terrain came from.
     pub name: String,
     /// The terrain in the text format, for the agents' simulated bodies.
     pub terrain_text: String,
+    /// The same terrain, parsed once (its start and goal are the run's),
+    /// for the scene and the picture.
+    pub terrain: bycoms_sim::terrain::Terrain,
     /// Start position.
     pub start: Vec2,
     /// Goal position.
@@ -88,6 +92,23 @@ pub struct World {
     /// What a unit of it is: a cell of a simulated terrain, or a metre of a
     /// lab (how its pictures are drawn).
     pub unit: crate::draw::snapshot::Unit,
+}
+
+impl World {
+    /// The world of terrain `text` (which must parse) with the run's
+    /// `start` and `goal`.
+    pub fn new(
+        name: String,
+        text: String,
+        start: Vec2,
+        goal: Vec2,
+        unit: crate::draw::snapshot::Unit,
+    ) -> Result<Self> {
+        let mut terrain = bycoms_sim::terrain::parse(&text).context("the launch's terrain")?;
+        terrain.set_start(start);
+        terrain.set_goal(goal);
+        Ok(Self { name, terrain_text: text, terrain, start, goal, unit })
+    }
 }
 
 /// Environment variable naming the agent executable.
@@ -134,7 +155,9 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
     // Held until the launch has ended (dropped last): one live launch per swarm.
     let _swarm_lock = swarm_lock::SwarmLock::for_launch(&swarm_name)?;
     // The file (run metadata, scene world) and the picture's trace, if asked for.
-    let recording = Recording::start(&swarm_name, &world, &cfg)?;
+    // The run's one scene (for the file and the live view), fed as messages are recorded.
+    let scene = Recording::scene_for(&swarm_name, &world, &cfg);
+    let recording = Recording::start(&swarm_name, &world, &cfg, scene.clone())?;
     // `_presence`: the orchestrator's zenoh liveliness token, held to the end.
     let transport::Opened { bus, endpoints, links, presence: _presence } =
         transport::open(&cfg.transport, &cfg.faults, cfg.robots, &swarm_name)?;
@@ -155,7 +178,8 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
         bycoms_logging::status_line(&live.banner());
         ports.observers.push(Box::new(live.clone()));
     }
-    ports.observers.iter_mut().for_each(|o| o.world(&swarm_name, &world, &cfg));
+    ports.observers.iter_mut().for_each(|o| o.world(&swarm_name, &world, &cfg, scene.as_ref()));
+    ports.show_scene();
     let template = setup::agent_template(&cfg, swarm_name, endpoints.clone());
     let agents = cfg.agents.open(
         agent,

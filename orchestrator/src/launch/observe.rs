@@ -7,15 +7,24 @@
 //! ([`super::ports::Ports`]), so the recording and what a viewer shows
 //! cannot disagree. Observers must not block: the launch loop calls them
 //! inline (the live view only queues the message for its own threads).
+//!
+//! The Foxglove scene is not computed by observers: the run has one
+//! [`SharedScene`], fed once per message where the message is recorded
+//! (`launch::recording`), and observers get its output ([`Observer::scene`])
+//! and the scene itself (for snapshots to late viewers).
 
 use super::config::LaunchConfig;
 use super::World;
+use crate::scene::{Out, SharedScene};
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 
 /// Something that watches a launch; every method has an empty default.
 pub trait Observer: Send {
-    /// The run's swarm name, world and settings, once, before any agent starts.
-    fn world(&mut self, _swarm: &str, _world: &World, _cfg: &LaunchConfig) {}
+    /// The run's swarm name, world, settings and scene, once, before any
+    /// agent starts.
+    fn world(&mut self, _swarm: &str, _world: &World, _cfg: &LaunchConfig, _scene: Option<&SharedScene>) {}
+    /// What the run's scene produced for the messages since the last call.
+    fn scene(&mut self, _outs: &[Out]) {}
     /// An agent's report (registration, heartbeat, status, tick done).
     fn report(&mut self, _report: &FromAgent) {}
     /// A robot's pose, as motion capture reported it on its own topic.

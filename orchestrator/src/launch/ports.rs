@@ -204,6 +204,15 @@ impl Ports {
         }
     }
 
+    /// Hands the observers what the run's scene produced since the last
+    /// call (the recording fed it as the messages were recorded).
+    pub fn show_scene(&mut self) {
+        let outs = self.recording.take_scene();
+        if !outs.is_empty() {
+            self.observers.iter_mut().for_each(|o| o.scene(&outs));
+        }
+    }
+
     /// Removes what dead nodes left in shared memory (agents that had to be
     /// killed cannot remove their own node).
     pub fn cleanup_dead_nodes(&self) {

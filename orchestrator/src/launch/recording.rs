@@ -11,8 +11,11 @@
 //!
 //! Decoded channels: every bus message is recorded as its raw postcard
 //! bytes first (exact replay needs them); poses, gate events and agent
-//! reports are then decoded and handed to [`crate::scene::Scene`], whose
-//! Foxglove messages (scene, frames, log, per-robot JSON) are recorded too.
+//! reports are then decoded and handed to the run's one
+//! [`crate::scene::Scene`] (shared: [`SharedScene`]), whose Foxglove
+//! messages (scene, frames, log, per-robot JSON) are recorded too and kept
+//! for the observers (the live view), so the file and a viewer are fed by
+//! the same scene, once per message ([`Recording::take_scene`]).
 //!
 //! Log times: in lockstep every message is logged at the *simulated* time
 //! of the tick it belongs to (ns since the run's start: tick × dt, 0 before
@@ -28,8 +31,7 @@ use super::World;
 use crate::draw::trace::Trace;
 use crate::record::{RecordError, Recorder, Summary, FLUSH_INTERVAL};
 use crate::scene::json::json_schema;
-use crate::scene::{Out, Scene, SceneWorld};
-use anyhow::Context;
+use crate::scene::{Out, Scene, SceneWorld, SharedScene};
 use bycoms_protocol::decode;
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use schemars::JsonSchema;
@@ -52,7 +54,9 @@ pub struct Recording {
     last_flush: Instant,
     /// Lockstep: the simulated time messages are logged at, ns.
     simulated_ns: Option<u64>,
-    scene: Option<Scene>,
+    scene: Option<SharedScene>,
+    /// The scene's output not yet handed to the observers.
+    shown: Vec<Out>,
     trace: Option<Trace>,
 }
 
@@ -65,24 +69,53 @@ impl Recording {
             last_flush: Instant::now(),
             simulated_ns: None,
             scene: None,
+            shown: Vec::new(),
             trace: None,
         }
     }
 
+    /// The run's scene for `swarm` on `world` with `cfg`, when anyone shows
+    /// it (a recording or a live view): the one scene of the run.
+    pub fn scene_for(swarm: &str, world: &World, cfg: &LaunchConfig) -> Option<SharedScene> {
+        (cfg.record.is_some() || cfg.serve.is_some()).then(|| {
+            let terrain = world.terrain.clone();
+            SharedScene::new(Scene::new(
+                swarm,
+                SceneWorld { terrain, eps: cfg.eps, goal_radius: cfg.goal_radius },
+            ))
+        })
+    }
+
     /// The recording of a launch of `swarm` on `world` with `cfg`: a file
     /// when `cfg.record` is set (its metadata, run description and the
-    /// scene's world written at once), a trace when `cfg.svg` is set.
-    pub fn start(swarm: &str, world: &World, cfg: &LaunchConfig) -> anyhow::Result<Self> {
+    /// scene's world written at once), a trace when `cfg.svg` is set, and
+    /// the feeding of `scene` (see [`Recording::scene_for`]) in any case.
+    pub fn start(
+        swarm: &str,
+        world: &World,
+        cfg: &LaunchConfig,
+        scene: Option<SharedScene>,
+    ) -> anyhow::Result<Self> {
         let mut rec = Self::off();
         rec.trace = cfg.svg.is_some().then(Trace::new);
-        let Some(path) = &cfg.record else { return Ok(rec) };
-        rec.recorder = Some(Recorder::create(path)?);
         let lockstep = cfg.clock == Clock::Lockstep;
         rec.simulated_ns = lockstep.then_some(0);
-        let mut terrain = bycoms_sim::terrain::parse(&world.terrain_text).context("the launch's terrain")?;
-        terrain.set_start(world.start);
-        terrain.set_goal(world.goal);
-        let scene = Scene::new(swarm, SceneWorld { terrain, eps: cfg.eps, goal_radius: cfg.goal_radius });
+        rec.scene = scene;
+        if let Some(path) = &cfg.record {
+            rec.recorder = Some(Recorder::create(path)?);
+            rec.describe(swarm, world, cfg);
+        }
+        let now = rec.now();
+        let outs = rec.scene.as_ref().map(|s| s.lock().world(now)).unwrap_or_default();
+        rec.write_outs(&outs, now);
+        rec.shown.extend(outs);
+        Ok(rec)
+    }
+
+    /// The file's metadata and run description.
+    fn describe(&mut self, swarm: &str, world: &World, cfg: &LaunchConfig) {
+        let lockstep = cfg.clock == Clock::Lockstep;
+        let rec = self;
         let dt = bycoms_sim::RunConfig::paper(cfg.eps).kinematics.dt;
         let clock = BTreeMap::from([
             ("clock".to_string(), if lockstep { "lockstep" } else { "realtime" }.to_string()),
@@ -107,11 +140,11 @@ impl Recording {
             config: cfg,
         };
         rec.json(&format!("bycoms/{swarm}/run"), RUN_SCHEMA, &meta);
-        let now = rec.now();
-        let outs = scene.world(now);
-        rec.write_outs(&outs, now);
-        rec.scene = Some(scene);
-        Ok(rec)
+    }
+
+    /// What the scene produced since the last call, for the observers.
+    pub fn take_scene(&mut self) -> Vec<Out> {
+        std::mem::take(&mut self.shown)
     }
 
     /// Records to `path` (created or truncated), wall-clock times, no decoded channels.
@@ -139,7 +172,7 @@ impl Recording {
 
     /// Records one bus message, byte for byte, then its decoded form.
     pub fn bytes(&mut self, topic: &str, schema: &str, payload: &[u8]) {
-        if self.recorder.is_none() && self.trace.is_none() {
+        if self.recorder.is_none() && self.trace.is_none() && self.scene.is_none() {
             return;
         }
         let now = self.now();
@@ -202,27 +235,31 @@ impl Recording {
                 if let Some(trace) = self.trace.as_mut() {
                     trace.pose(&pose);
                 }
-                self.scene.as_mut().map(|s| s.pose(&pose, now))
+                self.scene.as_ref().map(|s| s.lock().pose(&pose, now))
             }
             schema::GATE => {
                 let Ok(event) = decode::<GateEvent>(payload) else { return };
                 if let Some(trace) = self.trace.as_mut() {
                     trace.gate(&event);
                 }
-                self.scene.as_mut().map(|s| s.gate(&event, now))
+                self.scene.as_ref().map(|s| s.lock().gate(&event, now))
             }
             schema::FROM_AGENT => {
                 let Ok(report) = decode::<FromAgent>(payload) else { return };
-                self.scene.as_mut().map(|s| s.report(&report, now))
+                self.scene.as_ref().map(|s| s.lock().report(&report, now))
             }
             _ => None,
         };
         if let Some(outs) = outs {
             self.write_outs(&outs, now);
+            self.shown.extend(outs);
         }
     }
 
     fn write_outs(&mut self, outs: &[Out], now: u64) {
+        if self.recorder.is_none() {
+            return;
+        }
         for out in outs {
             let bytes = match out.message.encode() {
                 Ok(bytes) => bytes,
@@ -246,5 +283,82 @@ impl Recording {
                 self.error = Some(e.to_string());
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bycoms_protocol::msg::GateKind;
+    use bycoms_protocol::{encode, RobotId, MAX_MESSAGE_LEN};
+    use bycoms_sim::Vec2;
+
+    fn world() -> World {
+        let text = "..G\n.#.\nS..\n".to_string();
+        World::new(
+            "tiny".into(),
+            text,
+            Vec2::new(0.5, 0.5),
+            Vec2::new(2.5, 2.5),
+            crate::draw::snapshot::Unit::Cell,
+        )
+        .expect("parses")
+    }
+
+    fn feed(rec: &mut Recording) {
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        let pose = Pose { robot: RobotId(1), x: 0.5, y: 0.5, heading: 0.0, step: 0, time_us: 0 };
+        rec.bytes("bycoms/t/robot/1/pose", schema::POSE, encode(&pose, &mut buf).unwrap());
+        let moved = Pose { x: 1.5, step: 1, time_us: 100_000, ..pose };
+        rec.bytes("bycoms/t/robot/1/pose", schema::POSE, encode(&moved, &mut buf).unwrap());
+        let event = GateEvent { robot: RobotId(1), kind: GateKind::Deployed, x: 0.5, y: 0.5, step: 0 };
+        rec.bytes("bycoms/t/gate", schema::GATE, encode(&event, &mut buf).unwrap());
+    }
+
+    /// The scene's output as (topic, bytes), for comparing.
+    fn encoded(outs: &[Out]) -> Vec<(String, Vec<u8>)> {
+        outs.iter().map(|o| (o.topic.clone(), o.message.encode().expect("encodes"))).collect()
+    }
+
+    #[test]
+    fn one_scene_feeds_the_file_and_the_observers_with_the_same_messages() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("r.mcap");
+        let cfg = LaunchConfig {
+            record: Some(path.clone()),
+            serve: Some("127.0.0.1:0".into()),
+            ..Default::default()
+        };
+        let scene = Recording::scene_for("t", &world(), &cfg).expect("recorded and served: a scene");
+        let mut rec = Recording::start("t", &world(), &cfg, Some(scene.clone())).expect("starts");
+        feed(&mut rec);
+        let shown = encoded(&rec.take_scene());
+        assert!(rec.take_scene().is_empty(), "handed out once");
+        assert!(shown.iter().any(|(t, _)| t == "bycoms/t/scene"), "the world and the robot: {shown:?}");
+        assert!(shown.iter().any(|(t, _)| t == "bycoms/t/gate/json"));
+        rec.finish().expect("finishes");
+        // The file's decoded channels hold exactly what the observers got.
+        let bytes = std::fs::read(&path).expect("read");
+        let decoded = ["/scene", "/tf", "/log", "/gate/json", "/pose/json", "/mode", "/telemetry"];
+        let in_file: Vec<(String, Vec<u8>)> = mcap::MessageStream::new(&bytes)
+            .expect("mcap")
+            .map(|m| m.expect("message"))
+            .filter(|m| decoded.iter().any(|d| m.channel.topic.ends_with(d)))
+            .map(|m| (m.channel.topic.clone(), m.data.into_owned()))
+            .collect();
+        assert_eq!(in_file, shown);
+        // The scene the live view snapshots is the same one: it knows robot 1.
+        let snapshot = scene.lock().snapshot(0);
+        assert!(encoded(&snapshot).iter().any(|(t, _)| t == "bycoms/t/scene"));
+    }
+
+    #[test]
+    fn a_served_run_without_a_file_still_feeds_its_scene_and_an_unshown_run_has_none() {
+        let cfg = LaunchConfig { serve: Some("127.0.0.1:0".into()), ..Default::default() };
+        let scene = Recording::scene_for("t", &world(), &cfg);
+        let mut rec = Recording::start("t", &world(), &cfg, scene).expect("starts");
+        feed(&mut rec);
+        assert!(encoded(&rec.take_scene()).iter().any(|(t, _)| t == "bycoms/t/robot/1/pose/json"));
+        assert!(Recording::scene_for("t", &world(), &LaunchConfig::default()).is_none());
     }
 }

@@ -24,8 +24,8 @@ use super::state::{LiveState, WorldView};
 use crate::launch::recording::now_ns;
 use crate::launch::{LaunchConfig, World};
 use crate::scene::json::json_schema;
-use crate::scene::{Out, Scene, SceneWorld};
-use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
+use crate::scene::{Out, SharedScene};
+use bycoms_protocol::msg::{GateEvent, Pose};
 use foxglove::websocket::{ChannelView, Client, ServerListener};
 use foxglove::{Context, RawChannel, Schema, SinkId};
 use serde::Serialize;
@@ -60,8 +60,8 @@ struct Run {
     world_topic: String,
     state_topic: String,
     world: Vec<u8>,
-    /// `None` when the terrain text did not parse (the page still works).
-    scene: Option<Scene>,
+    /// The run's scene (fed by the launch), for snapshots to late viewers.
+    scene: Option<SharedScene>,
 }
 
 fn to_json<T: Serialize>(value: &T) -> Option<Vec<u8>> {
@@ -134,20 +134,11 @@ impl Channels {
         self.inner.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
-    /// The run's world: opens the page's channels and the scene.
-    pub fn world(&self, swarm: &str, world: &World, cfg: &LaunchConfig) {
+    /// The run's world: opens the page's channels; `scene` is the run's
+    /// scene, whose output comes through [`Channels::scene`].
+    pub fn world(&self, swarm: &str, world: &World, cfg: &LaunchConfig, scene: Option<&SharedScene>) {
         let Some(bytes) = to_json(&WorldView::new(world, cfg)) else { return };
-        let scene = match bycoms_sim::terrain::parse(&world.terrain_text) {
-            Ok(mut terrain) => {
-                terrain.set_start(world.start);
-                terrain.set_goal(world.goal);
-                Some(Scene::new(swarm, SceneWorld { terrain, eps: cfg.eps, goal_radius: cfg.goal_radius }))
-            }
-            Err(e) => {
-                tracing::warn!("live view: no 3D scene (the terrain does not parse: {e})");
-                None
-            }
-        };
+        let scene = scene.cloned();
         let mut inner = self.inner();
         let run =
             Run { world_topic: world_topic(swarm), state_topic: state_topic(swarm), world: bytes, scene };
@@ -155,33 +146,26 @@ impl Channels {
         if let Some(channel) = inner.channel(&self.context, &run.world_topic, "json", Some(schema)) {
             channel.log(&run.world);
         }
-        let outs = run.scene.as_ref().map(|s| s.world(now_ns())).unwrap_or_default();
         inner.run = Some(run);
-        inner.send_scene(&self.context, outs, None);
         inner.send_state(&self.context, None);
+    }
+
+    /// What the run's scene produced (the world, poses, reports, gate
+    /// events), to every subscriber.
+    pub fn scene(&self, outs: &[Out]) {
+        let mut inner = self.inner();
+        inner.send_scene(&self.context, outs.to_vec(), None);
     }
 
     /// One pose.
     pub fn pose(&self, pose: &Pose) {
-        let mut inner = self.inner();
-        inner.state.pose(pose);
-        let outs = inner.run.as_mut().and_then(|r| r.scene.as_mut()).map(|s| s.pose(pose, now_ns()));
-        inner.send_scene(&self.context, outs.unwrap_or_default(), None);
-    }
-
-    /// One agent report (mode and telemetry for Foxglove).
-    pub fn report(&self, report: &FromAgent) {
-        let mut inner = self.inner();
-        let outs = inner.run.as_mut().and_then(|r| r.scene.as_mut()).map(|s| s.report(report, now_ns()));
-        inner.send_scene(&self.context, outs.unwrap_or_default(), None);
+        self.inner().state.pose(pose);
     }
 
     /// One gate event; the new state follows it.
     pub fn gate(&self, event: &GateEvent) {
         let mut inner = self.inner();
         inner.state.gate(event);
-        let outs = inner.run.as_mut().and_then(|r| r.scene.as_mut()).map(|s| s.gate(event, now_ns()));
-        inner.send_scene(&self.context, outs.unwrap_or_default(), None);
         inner.send_state(&self.context, None);
     }
 
@@ -205,9 +189,13 @@ impl ServerListener for Channels {
             }
         } else if topic == run.state_topic {
             inner.send_state(&self.context, Some(sink));
-        } else if let Some(scene) = run.scene.as_ref().filter(|s| s.topics().scene() == topic) {
-            let outs = scene.snapshot(now_ns()).into_iter().filter(|o| o.topic == topic).collect();
-            inner.send_scene(&self.context, outs, Some(sink));
+        } else if let Some(scene) = run.scene.clone() {
+            let scene = scene.lock();
+            if scene.topics().scene() == topic {
+                let outs = scene.snapshot(now_ns()).into_iter().filter(|o| o.topic == topic).collect();
+                drop(scene);
+                inner.send_scene(&self.context, outs, Some(sink));
+            }
         }
     }
 }

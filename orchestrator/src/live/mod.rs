@@ -39,7 +39,8 @@ pub use channels::{state_topic, world_topic};
 
 use crate::launch::observe::Observer;
 use crate::launch::{LaunchConfig, Summary, World};
-use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
+use crate::scene::{Out, SharedScene};
+use bycoms_protocol::msg::{GateEvent, Pose};
 use channels::Channels;
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};
@@ -169,12 +170,12 @@ impl LiveView {
 }
 
 impl Observer for LiveView {
-    fn world(&mut self, swarm: &str, world: &World, cfg: &LaunchConfig) {
-        self.inner.channels.world(swarm, world, cfg);
+    fn world(&mut self, swarm: &str, world: &World, cfg: &LaunchConfig, scene: Option<&SharedScene>) {
+        self.inner.channels.world(swarm, world, cfg, scene);
     }
 
-    fn report(&mut self, report: &FromAgent) {
-        self.inner.channels.report(report);
+    fn scene(&mut self, outs: &[Out]) {
+        self.inner.channels.scene(outs);
     }
 
     fn pose(&mut self, pose: &Pose) {

@@ -7,6 +7,7 @@ use super::state::{LiveState, RobotState, TRAIL_STEP};
 use super::{state_topic, world_topic, LiveView};
 use crate::launch::observe::Observer;
 use crate::launch::{LaunchConfig, World};
+use crate::scene::{Scene, SceneWorld, SharedScene};
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use bycoms_protocol::RobotId;
 use bycoms_sim::Vec2;
@@ -29,12 +30,45 @@ fn event(robot: u32, kind: GateKind, x: f64, y: f64) -> GateEvent {
 }
 
 fn world() -> World {
-    World {
-        name: "tiny".into(),
-        terrain_text: "..G\n.#.\nS..\n".into(),
-        start: Vec2::new(0.5, 0.5),
-        goal: Vec2::new(2.5, 2.5),
-        unit: crate::draw::snapshot::Unit::Cell,
+    let text = "..G\n.#.\nS..\n".to_string();
+    World::new(
+        "tiny".into(),
+        text,
+        Vec2::new(0.5, 0.5),
+        Vec2::new(2.5, 2.5),
+        crate::draw::snapshot::Unit::Cell,
+    )
+    .expect("the tiny world parses")
+}
+
+/// An observer fed as a launch feeds it: the typed message, then what the
+/// run's one scene made of it.
+struct Fed {
+    tap: Box<dyn Observer>,
+    scene: SharedScene,
+}
+
+impl Fed {
+    fn new(tap: Box<dyn Observer>, world: &World, cfg: &LaunchConfig) -> Self {
+        let terrain = world.terrain.clone();
+        let scene = SharedScene::new(Scene::new("t", SceneWorld { terrain, eps: cfg.eps, goal_radius: 0.5 }));
+        let mut fed = Self { tap, scene };
+        fed.tap.world("t", world, cfg, Some(&fed.scene));
+        let outs = fed.scene.lock().world(1);
+        fed.tap.scene(&outs);
+        fed
+    }
+
+    fn pose(&mut self, p: &Pose) {
+        self.tap.pose(p);
+        let outs = self.scene.lock().pose(p, 2);
+        self.tap.scene(&outs);
+    }
+
+    fn gate(&mut self, e: &GateEvent) {
+        self.tap.gate(e);
+        let outs = self.scene.lock().gate(e, 3);
+        self.tap.scene(&outs);
     }
 }
 
@@ -138,9 +172,8 @@ fn one_port_serves_the_page_and_the_foxglove_stream() {
     let live = LiveView::start("127.0.0.1:0").unwrap();
     let addr = live.local_addr();
     assert_ne!(addr.port(), 0, "port 0 becomes a real port");
-    let mut tap: Box<dyn Observer> = Box::new(live.clone());
     let cfg = LaunchConfig { eps: 2.0, ..LaunchConfig::default() };
-    tap.world("t", &world(), &cfg);
+    let mut tap = Fed::new(Box::new(live.clone()), &world(), &cfg);
     tap.pose(&pose(1, 0.5, 0.5, 0));
     tap.gate(&event(1, GateKind::Deployed, 0.5, 0.5));
 

@@ -48,6 +48,7 @@ use foxglove::Encode;
 use json::{Decision, GateDecision, RobotMode, RobotPose, Telemetry};
 use shapes::{arrow, ball, circle, cuboid, disc, label, polyline, rgba, yaw};
 use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex, MutexGuard};
 
 /// The frame every entity is drawn in.
 pub const ARENA_FRAME: &str = "arena";
@@ -225,6 +226,30 @@ pub struct Scene {
     world: SceneWorld,
     topics: Topics,
     robots: BTreeMap<u32, Track>,
+}
+
+/// The one scene of a run, shared by whoever shows it.
+///
+/// Why shared and not one per viewer: the recording and the live view must
+/// show the same thing, and a scene keeps state (trajectories, beacons), so
+/// one scene is fed once per message (by the launch's recording side,
+/// `launch::recording`) and its output goes both to the file and to every
+/// observer; a viewer that subscribes late asks the same scene for a
+/// [`Scene::snapshot`] from its own thread, hence the lock.
+#[derive(Debug, Clone)]
+pub struct SharedScene(Arc<Mutex<Scene>>);
+
+impl SharedScene {
+    /// Shares `scene`.
+    pub fn new(scene: Scene) -> Self {
+        Self(Arc::new(Mutex::new(scene)))
+    }
+
+    /// The scene, for feeding or reading.
+    pub fn lock(&self) -> MutexGuard<'_, Scene> {
+        // A panic while holding the lock leaves plain data: keep using it.
+        self.0.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
 }
 
 /// Nanoseconds as a Foxglove timestamp.
