@@ -1,19 +1,33 @@
 //! The agents seam's conformance suite (`suites/agents.rs`) against every
 //! [`AgentSource`]: add a fixture and one `#[test]` per implementation.
 //!
+//! Each fixture states what its implementation is and does
+//! ([`Expected`]: its properties, whether its agents can end by themselves
+//! as far as it sees, what `reach` and `robot_link` do), and each test
+//! asserts which of the suite's checks were not applicable to it (none are
+//! skipped silently).
+//!
 //! [`AgentSource`]: bycoms_orchestrator::launch::agents::AgentSource
 
 use crate::suites;
 
-use bycoms_orchestrator::launch::agents::gateways::Gateways;
+use bycoms_orchestrator::launch::agents::gateways::{Gateways, LINK_GRACE};
 use bycoms_orchestrator::launch::agents::remote::Remote;
 use bycoms_orchestrator::launch::agents::spawned::{AgentCommand, Spawned};
-use bycoms_orchestrator::launch::agents::AgentSource;
+use bycoms_orchestrator::launch::agents::threads::Threads;
+use bycoms_orchestrator::launch::agents::{AgentError, AgentPlan, AgentSource};
+use bycoms_protocol::bus::memory::MemoryBus;
+use bycoms_protocol::bus::zenoh::{AliveToken, AliveWatch, Mode, Presence, ZenohBus, ZenohConfig};
+use bycoms_protocol::bus::{BusExt, Limits};
+use bycoms_protocol::msg::{FromAgent, ToAgent};
+use bycoms_protocol::naming::Member;
+use bycoms_protocol::{RobotId, Swarm};
 use bycoms_sim::agent_process::{AgentArgs, Clock, Transport};
 use bycoms_sim::lab::robots::RobotsFile;
+use std::cell::{Cell, RefCell};
 use std::path::PathBuf;
-use std::time::Duration;
-use suites::agents::{run_all, AgentFixture};
+use std::time::{Duration, Instant};
+use suites::agents::{run_all, AgentFixture, EndsByItself, Expected, Reaches, Starts, Timeouts};
 
 /// Agent arguments of robot `id` (what a launch would pass).
 fn args(id: u32) -> AgentArgs {
@@ -37,54 +51,197 @@ fn args(id: u32) -> AgentArgs {
     }
 }
 
-/// Spawned agents: a shell that reads its "terrain" from stdin and exits at
-/// once if it says `exit`, else sleeps (alive and silent) until killed. The
-/// agent flags follow as the script's positional parameters, ignored.
+/// Spawned agents: a shell that reads its "terrain" from stdin and exits
+/// (code 3) at once if it says `exit`, else sleeps (alive and silent) until
+/// killed. The agent flags follow as the script's positional parameters,
+/// ignored.
 struct SpawnedFixture;
 
 impl AgentFixture for SpawnedFixture {
-    fn source(&self, register_timeout: Duration, heartbeat_timeout: Duration) -> Box<dyn AgentSource> {
+    fn expected(&self) -> Expected {
+        Expected {
+            kind: "spawned",
+            all_at_once: false,
+            needs_placement: false,
+            stop_when_stuck: false,
+            wants_poses: false,
+            start_hint: None,
+            ended_by: "killed",
+            starts: Starts::Process,
+            ends_by_itself: EndsByItself::Exits { code: 3 },
+            reach: Reaches::Never,
+            robot_link_grace: None,
+        }
+    }
+
+    fn source(&self, t: Timeouts) -> Box<dyn AgentSource> {
         let script = r#"read what; [ "$what" = exit ] && exit 3; exec sleep 30"#;
         let command =
             AgentCommand { program: "sh".into(), prefix: vec!["-c".into(), script.into(), "sh".into()] };
-        Box::new(Spawned::new(command, register_timeout, heartbeat_timeout))
+        Box::new(Spawned::new(command, t.register, t.heartbeat))
     }
 
-    fn plan(&self, id: u32, ends_at_once: bool) -> Option<(AgentArgs, String)> {
-        Some((args(id), if ends_at_once { "exit\n" } else { "stay\n" }.into()))
+    fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {
+        (args(id), if ends_by_itself { "exit\n" } else { "stay\n" }.into())
     }
 }
 
 #[test]
 fn spawned_agents_pass_the_suite() {
-    run_all(&SpawnedFixture);
+    let report = run_all(&SpawnedFixture);
+    assert_eq!(report.not_applicable(), Vec::<&str>::new(), "{report:?}");
 }
 
-/// Remote agents: nothing is started here, so an agent is "silent" until
-/// the test says it was heard, and none can be seen ending by itself.
+/// Remote agents without liveliness (no zenoh here): nothing is started,
+/// so an agent is "silent" until the test says it was heard. The source
+/// learns of an agent's end only from its liveliness token (none here) or
+/// its silence, so none can be seen ending by itself.
 struct RemoteFixture;
 
 impl AgentFixture for RemoteFixture {
-    fn source(&self, register_timeout: Duration, heartbeat_timeout: Duration) -> Box<dyn AgentSource> {
-        Box::new(Remote::new(register_timeout, heartbeat_timeout, None))
+    fn expected(&self) -> Expected {
+        Expected {
+            kind: "remote",
+            all_at_once: true,
+            needs_placement: false,
+            stop_when_stuck: false,
+            wants_poses: false,
+            start_hint: Some("sim-agent --transport zenoh --connect"),
+            ended_by: "dropped from the launch",
+            starts: Starts::Awaited,
+            ends_by_itself: EndsByItself::Cannot {
+                why: "remote agents are not started here: without their liveliness tokens their end \
+                      shows only as silence (checked as such)",
+            },
+            reach: Reaches::WithinLinkGrace,
+            robot_link_grace: None,
+        }
     }
 
-    fn plan(&self, id: u32, ends_at_once: bool) -> Option<(AgentArgs, String)> {
-        (!ends_at_once).then(|| (args(id), String::new()))
+    fn source(&self, t: Timeouts) -> Box<dyn AgentSource> {
+        Box::new(Remote::new(t.register, t.heartbeat, None).with_link_grace(t.link_grace))
+    }
+
+    fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {
+        assert!(!ends_by_itself, "the suite asked a remote agent to end by itself");
+        (args(id), String::new())
     }
 }
 
 #[test]
 fn remote_agents_pass_the_suite() {
-    let source = RemoteFixture.source(Duration::from_secs(1), Duration::from_secs(1));
-    assert!(source.all_at_once(), "remote agents are awaited all at once");
-    run_all(&RemoteFixture);
+    let report = run_all(&RemoteFixture);
+    assert_eq!(
+        report.not_applicable(),
+        [
+            "an_agent_that_ends_is_reported",
+            "wind_down_does_not_name_an_agent_that_ended",
+            "dropping_a_source_ends_its_agents"
+        ],
+        "{report:?}"
+    );
+}
+
+/// Remote agents with liveliness, as a launch over zenoh has them: the
+/// source watches the swarm's tokens on a router session (the
+/// orchestrator's), and each agent is a token declared by a peer session
+/// connected to it over loopback tcp (the agent's process). An agent that
+/// ends by itself is one whose token is withdrawn; the fixture returns
+/// from `plan` once the router has seen the token come (and, for an ending
+/// agent, go), watching it on a probe of its own. Each source gets a swarm
+/// of its own, so no token of an earlier check is seen by a later one.
+struct RemoteLivelinessFixture {
+    router: ZenohBus,
+    peer: ZenohBus,
+    /// How many sources were made (their swarms are numbered).
+    sources: Cell<u32>,
+    /// The swarm of the source made last, and the fixture's own watch on it.
+    current: RefCell<Option<(Swarm, AliveWatch)>>,
+    /// The tokens of the agents that stay.
+    tokens: RefCell<Vec<AliveToken>>,
+}
+
+impl RemoteLivelinessFixture {
+    fn new() -> Self {
+        // zenoh's default lease (10 s): no token goes unless withdrawn,
+        // however busy the machine.
+        let mut last = None;
+        for _ in 0..5 {
+            let port = std::net::TcpListener::bind("127.0.0.1:0")
+                .and_then(|l| l.local_addr())
+                .expect("a free port")
+                .port();
+            let endpoint = format!("tcp/127.0.0.1:{port}");
+            let router =
+                ZenohConfig { mode: Mode::Router, listen: vec![endpoint.clone()], ..Default::default() };
+            match ZenohBus::open(router) {
+                Ok(router) => {
+                    let peer =
+                        ZenohConfig { mode: Mode::Peer, connect: vec![endpoint], ..Default::default() };
+                    let peer = ZenohBus::open(peer).expect("peer session");
+                    return Self {
+                        router,
+                        peer,
+                        sources: Cell::new(0),
+                        current: RefCell::new(None),
+                        tokens: RefCell::new(Vec::new()),
+                    };
+                }
+                // The port was taken in between: another one.
+                Err(e) => last = Some(e),
+            }
+        }
+        panic!("no router could listen: {last:?}");
+    }
+}
+
+/// Waits (on the fixture's probe) until robot `id`'s token is `presence`.
+fn await_token(watch: &AliveWatch, id: u32, presence: Presence) {
+    let (seen, other) = watch.wait_for(Member::Agent(RobotId(id)), presence, Duration::from_secs(10));
+    assert!(seen.is_some(), "robot {id}'s token never {presence:?} within 10 s; saw {other:?}");
+}
+
+impl AgentFixture for RemoteLivelinessFixture {
+    fn expected(&self) -> Expected {
+        Expected { ends_by_itself: EndsByItself::Disconnects, ..RemoteFixture.expected() }
+    }
+
+    fn source(&self, t: Timeouts) -> Box<dyn AgentSource> {
+        self.tokens.borrow_mut().clear();
+        let n = self.sources.get() + 1;
+        self.sources.set(n);
+        let swarm = Swarm::new(&format!("suite-{}-{n}", std::process::id())).expect("swarm");
+        let probe = self.router.watch_alive(&swarm).expect("probe");
+        let watch = self.router.watch_alive(&swarm).expect("watch");
+        *self.current.borrow_mut() = Some((swarm, probe));
+        Box::new(Remote::new(t.register, t.heartbeat, Some(watch)).with_link_grace(t.link_grace))
+    }
+
+    fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {
+        let current = self.current.borrow();
+        let (swarm, probe) = current.as_ref().expect("a source was made");
+        let token = self.peer.declare_alive(swarm, Member::Agent(RobotId(id))).expect("token");
+        await_token(probe, id, Presence::Alive);
+        if ends_by_itself {
+            drop(token);
+            await_token(probe, id, Presence::Lost);
+        } else {
+            self.tokens.borrow_mut().push(token);
+        }
+        (AgentArgs { swarm: swarm.as_str().into(), ..args(id) }, String::new())
+    }
+}
+
+#[test]
+fn remote_agents_with_liveliness_pass_the_suite() {
+    let report = run_all(&RemoteLivelinessFixture::new());
+    assert_eq!(report.not_applicable(), ["dropping_a_source_ends_its_agents"], "{report:?}");
 }
 
 /// Gateways of real robots: a shell stands in for the `agent` executable;
-/// it exits at once when its flags carry the marker heartbeat period
-/// ([`ENDS`]), else sleeps (alive and silent) until killed. The robots file
-/// names four robots with their keys, in a temporary directory.
+/// it exits (code 3) at once when its flags carry the marker heartbeat
+/// period ([`ENDS`]), else sleeps (alive and silent) until killed. The
+/// robots file names four robots with their keys, in a temporary directory.
 struct GatewaysFixture {
     robots: RobotsFile,
     _dir: tempfile::TempDir,
@@ -114,49 +271,144 @@ impl GatewaysFixture {
 }
 
 impl AgentFixture for GatewaysFixture {
-    fn source(&self, register_timeout: Duration, heartbeat_timeout: Duration) -> Box<dyn AgentSource> {
-        let script = format!(r#"case " $* " in *" --heartbeat-ms {ENDS} "*) exit 3;; esac; exec sleep 30"#);
-        let command = AgentCommand { program: "sh".into(), prefix: vec!["-c".into(), script, "sh".into()] };
-        Box::new(Gateways::new(command, self.robots.clone(), register_timeout, heartbeat_timeout))
+    fn expected(&self) -> Expected {
+        Expected {
+            kind: "gateway",
+            all_at_once: true,
+            needs_placement: true,
+            stop_when_stuck: true,
+            wants_poses: true,
+            start_hint: None,
+            ended_by: "killed",
+            starts: Starts::Process,
+            ends_by_itself: EndsByItself::Exits { code: 3 },
+            reach: Reaches::Never,
+            robot_link_grace: Some(LINK_GRACE),
+        }
     }
 
-    fn plan(&self, id: u32, ends_at_once: bool) -> Option<(AgentArgs, String)> {
+    fn source(&self, t: Timeouts) -> Box<dyn AgentSource> {
+        let script = format!(r#"case " $* " in *" --heartbeat-ms {ENDS} "*) exit 3;; esac; exec sleep 30"#);
+        let command = AgentCommand { program: "sh".into(), prefix: vec!["-c".into(), script, "sh".into()] };
+        Box::new(Gateways::new(command, self.robots.clone(), t.register, t.heartbeat))
+    }
+
+    fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {
         let mut a = args(id);
-        if ends_at_once {
+        if ends_by_itself {
             a.heartbeat_ms = ENDS;
         }
-        Some((a, String::new()))
+        (a, String::new())
     }
 }
 
 #[test]
 fn gateways_pass_the_suite() {
-    let fixture = GatewaysFixture::new();
-    let source = fixture.source(Duration::from_secs(1), Duration::from_secs(1));
-    assert!(source.all_at_once(), "robots exist on their own: every gateway starts at once");
-    run_all(&fixture);
+    let report = run_all(&GatewaysFixture::new());
+    assert_eq!(report.not_applicable(), Vec::<&str>::new(), "{report:?}");
 }
 
 #[test]
-fn gateways_report_a_robot_link_that_stays_lost_and_keep_one_that_heals() {
-    use bycoms_orchestrator::launch::agents::gateways::LINK_GRACE;
-    use bycoms_orchestrator::launch::agents::{AgentPlan, Gone};
+fn gateways_refuse_a_robot_the_robots_file_does_not_name() {
     let fixture = GatewaysFixture::new();
-    let mut source = fixture.source(Duration::from_secs(5), Duration::from_secs(5));
-    for id in [1, 2] {
-        let (a, terrain) = fixture.plan(id, false).expect("a plan");
-        source.start(id, &AgentPlan { args: &a, terrain_text: &terrain }).expect("starts");
-        source.heard(id);
+    let timeouts = Timeouts {
+        register: Duration::from_secs(5),
+        heartbeat: Duration::from_secs(5),
+        link_grace: Duration::ZERO,
+    };
+    let mut source = fixture.source(timeouts);
+    let (a, terrain) = fixture.plan(9, false);
+    let refused = source.start(9, &AgentPlan { args: &a, terrain_text: &terrain });
+    assert!(matches!(refused, Err(AgentError::NoSuchRobot { robot: 9, .. })), "{refused:?}");
+    assert!(!source.is_running(9), "nothing started");
+}
+
+/// Agents as threads over an in-memory bus (a fresh one per source): each
+/// runs the real agent loop, registers and heartbeats on the bus — which
+/// the source never reads (the engine does, and tells it with `heard`), so
+/// to the source an agent is silent until the test says it was heard. An
+/// agent that ends by itself is one told `Shutdown` by a stand-in for the
+/// orchestrator as soon as it registered (the agent's loop then returns).
+struct ThreadsFixture {
+    /// The bus of the source made last.
+    bus: RefCell<Option<MemoryBus>>,
+    /// The stand-ins, each ending once it sent its `Shutdown` (or after
+    /// [`STAND_IN_FOR`]).
+    stand_ins: RefCell<Vec<std::thread::JoinHandle<()>>>,
+}
+
+/// Longest a stand-in waits for its agent's registration.
+const STAND_IN_FOR: Duration = Duration::from_secs(10);
+
+impl ThreadsFixture {
+    fn new() -> Self {
+        Self { bus: RefCell::new(None), stand_ins: RefCell::new(Vec::new()) }
     }
-    source.robot_link(1, false);
-    source.robot_link(2, false);
-    assert!(source.poll(true).is_empty(), "not before the grace");
-    source.robot_link(2, true);
-    std::thread::sleep(LINK_GRACE + Duration::from_millis(20));
-    // A repeated report while lost keeps the first time.
-    source.robot_link(1, false);
-    assert_eq!(source.poll(true), [(1, Gone::RobotLinkLost)], "robot 1's link stayed lost");
-    assert!(!source.is_running(1) && source.is_running(2), "robot 1's gateway ended, robot 2's kept");
-    assert!(source.poll(true).is_empty(), "reported once");
-    assert!(source.wind_down(Duration::from_millis(10)).contains(&2));
+
+    /// Sends robot `id` `Shutdown` on `bus` once it registered.
+    fn shut_down_when_registered(&self, bus: &MemoryBus, id: u32) {
+        let swarm = Swarm::new("suite").expect("swarm");
+        // Subscribed before the agent starts, so its registration is seen.
+        let reports = bus.typed_subscriber(&swarm.from_agents()).expect("reports");
+        let commands = bus.typed_publisher(&swarm.to_agent(RobotId(id))).expect("commands");
+        let stand_in = std::thread::spawn(move || {
+            let deadline = Instant::now() + STAND_IN_FOR;
+            while Instant::now() < deadline {
+                if let Ok(Some(FromAgent::Register(r))) = reports.recv_timeout(Duration::from_millis(20)) {
+                    if r.robot == RobotId(id) {
+                        commands.publish(&ToAgent::Shutdown).expect("shutdown");
+                        return;
+                    }
+                }
+            }
+        });
+        self.stand_ins.borrow_mut().push(stand_in);
+    }
+}
+
+impl Drop for ThreadsFixture {
+    fn drop(&mut self) {
+        for stand_in in self.stand_ins.take() {
+            let _ = stand_in.join();
+        }
+    }
+}
+
+impl AgentFixture for ThreadsFixture {
+    fn expected(&self) -> Expected {
+        Expected {
+            kind: "threads",
+            all_at_once: false,
+            needs_placement: false,
+            stop_when_stuck: false,
+            wants_poses: false,
+            start_hint: None,
+            ended_by: "threads told to stop",
+            starts: Starts::Thread,
+            ends_by_itself: EndsByItself::ThreadEnds,
+            reach: Reaches::Never,
+            robot_link_grace: None,
+        }
+    }
+
+    fn source(&self, t: Timeouts) -> Box<dyn AgentSource> {
+        let bus = MemoryBus::new(Limits::default()).expect("memory bus");
+        *self.bus.borrow_mut() = Some(bus.clone());
+        Box::new(Threads::new(bus, t.register, t.heartbeat))
+    }
+
+    fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {
+        if ends_by_itself {
+            let bus = self.bus.borrow().clone().expect("a source was made");
+            self.shut_down_when_registered(&bus, id);
+        }
+        let terrain = bycoms_sim::terrain::to_text(&bycoms_sim::terrain::Terrain::paper());
+        (AgentArgs { transport: Transport::Memory, parent_pid: None, ..args(id) }, terrain)
+    }
+}
+
+#[test]
+fn agent_threads_pass_the_suite() {
+    let report = run_all(&ThreadsFixture::new());
+    assert_eq!(report.not_applicable(), ["dropping_a_source_ends_its_agents"], "{report:?}");
 }
