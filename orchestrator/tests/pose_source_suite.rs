@@ -19,6 +19,11 @@ use std::rc::Rc;
 use std::time::Duration;
 use suites::poses::{run_all, Expected, Garbage, PoseFixture};
 
+/// The NatNet fixture's placement settings (not the defaults, so that the
+/// suite sees the source report its own).
+const NATNET_PLACEMENT: bycoms_orchestrator::mocap::PlacementConfig =
+    bycoms_orchestrator::mocap::PlacementConfig { radius: 0.25, hold: 0.5, timeout: 30.0 };
+
 /// The agents' simulated mocap: poses published on the (in-memory) bus.
 struct BusFixture {
     bus: SharedBus,
@@ -44,7 +49,13 @@ impl BusFixture {
 
 impl PoseFixture for BusFixture {
     fn expected(&self) -> Expected {
-        Expected { kind: "bus", on_the_bus: true, rejects_jumps: false, garbage: Garbage::Counted }
+        Expected {
+            kind: "bus",
+            on_the_bus: true,
+            rejects_jumps: false,
+            garbage: Garbage::Counted,
+            placement: None,
+        }
     }
 
     fn emit_garbage(&mut self, robot: u32) {
@@ -194,7 +205,13 @@ impl PoseFixture for NatNetFixture {
     /// (`NatNetClient::bad_packets`, warned about), not handed to the
     /// sink's `bad`: the launch's traffic counters do not see it.
     fn expected(&self) -> Expected {
-        Expected { kind: "natnet", on_the_bus: false, rejects_jumps: true, garbage: Garbage::DroppedBySource }
+        Expected {
+            kind: "natnet",
+            on_the_bus: false,
+            rejects_jumps: true,
+            garbage: Garbage::DroppedBySource,
+            placement: Some(NATNET_PLACEMENT),
+        }
     }
 
     fn emit_garbage(&mut self, _robot: u32) {
@@ -218,10 +235,11 @@ impl PoseFixture for NatNetFixture {
             // Fast enough for every plausible move of the suite (steps 0.1 s
             // apart), far too slow for its kilometre jumps (identity swaps).
             tracker: TrackerConfig { max_speed: 1000.0, jump_slack: 1.0, lost_after_us: 10_000_000 },
-            placement: Default::default(),
+            placement: NATNET_PLACEMENT,
         };
         let source = NatNetPoseSource::connect(&config).expect("connect");
-        (Box::new(NatNetPoses::new(source)), Swarm::new("suite").expect("swarm"))
+        let poses = NatNetPoses::new(source).with_placement(config.placement);
+        (Box::new(poses), Swarm::new("suite").expect("swarm"))
     }
 
     fn emit(&mut self, robot: u32, pose: &Pose) {
@@ -289,7 +307,13 @@ struct ReplayFixture {
 
 impl PoseFixture for ReplayFixture {
     fn expected(&self) -> Expected {
-        Expected { kind: "replay", on_the_bus: false, rejects_jumps: false, garbage: Garbage::CannotArrive }
+        Expected {
+            kind: "replay",
+            on_the_bus: false,
+            rejects_jumps: false,
+            garbage: Garbage::CannotArrive,
+            placement: None,
+        }
     }
 
     fn emit_garbage(&mut self, _robot: u32) {

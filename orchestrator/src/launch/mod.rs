@@ -65,10 +65,8 @@ use anyhow::{Context, Result};
 use bycoms_protocol::Swarm;
 use bycoms_sim::Vec2;
 use ports::Ports;
-use poses::bus::BusPoses;
 use recording::Recording;
 use std::path::{Path, PathBuf};
-use std::rc::Rc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use transport::SharedBus;
@@ -162,13 +160,7 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
     let transport::Opened { bus, endpoints, links, presence: _presence } =
         transport::open(&cfg.transport, &cfg.faults, cfg.robots, &swarm_name)?;
     let bus: SharedBus = bus;
-    let pose_source: Box<dyn poses::PoseSource> = match (&cfg.mocap.source, &cfg.mocap.natnet) {
-        (crate::mocap::MocapSource::Natnet, Some(natnet)) => Box::new(crate::mocap::NatNetPoses::new(
-            crate::mocap::NatNetPoseSource::connect(&natnet.for_robots(cfg.robots))
-                .context("cannot use the NatNet mocap")?,
-        )),
-        _ => Box::new(BusPoses::new(Rc::clone(&bus), swarm)),
-    };
+    let pose_source = poses::open(&cfg.mocap, cfg.robots, &bus, swarm)?;
     let mut ports = Ports::open(bus, swarm, recording).context("cannot open the orchestrator's ports")?;
     let live = match &cfg.serve {
         Some(addr) => Some(crate::live::LiveView::start(addr)?),

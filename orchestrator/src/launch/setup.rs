@@ -11,7 +11,6 @@ use super::core::{AgentTraits, Setup};
 use super::gate::GateParams;
 use super::poses::PoseSource;
 use super::World;
-use crate::mocap::MocapSource;
 use bycoms_sim::agent_process::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};
 use bycoms_sim::agent_process::AgentArgs;
 use bycoms_sim::Vec2;
@@ -28,10 +27,7 @@ pub fn setup(
 ) -> Setup {
     let mut run = template.run_config();
     run.time_limit = cfg.time_limit;
-    let placement = agents.needs_placement().then(|| {
-        let natnet = cfg.mocap.natnet.as_ref().filter(|_| cfg.mocap.source == MocapSource::Natnet);
-        natnet.map_or(cfg.agents.placement, |n| n.placement)
-    });
+    let placement = agents.needs_placement().then(|| poses.placement().unwrap_or(cfg.agents.placement));
     Setup {
         robots: cfg.robots,
         lockstep: cfg.clock == Clock::Lockstep,

@@ -15,6 +15,7 @@ use super::natnet_source::NatNetPoseSource;
 use super::replay_source::ReplayPoseSource;
 use super::ArenaPose;
 use crate::launch::poses::{PoseError, PoseSink, PoseSource};
+use crate::mocap::PlacementConfig;
 use crate::replay::read::{NATNET_FRAME_SCHEMA, NATNET_MODELDEF_SCHEMA};
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::RobotId;
@@ -36,12 +37,26 @@ pub struct NatNetPoses {
     /// that last pose once the robot is placed.
     carried: BTreeMap<u32, Option<Pose>>,
     defs_recorded: bool,
+    placement: Option<PlacementConfig>,
 }
 
 impl NatNetPoses {
     /// Wraps a connected source.
     pub fn new(source: NatNetPoseSource) -> Self {
-        Self { source, opened: BTreeSet::new(), carried: BTreeMap::new(), defs_recorded: false }
+        Self {
+            source,
+            opened: BTreeSet::new(),
+            carried: BTreeMap::new(),
+            defs_recorded: false,
+            placement: None,
+        }
+    }
+
+    /// Robots are confirmed at the start with `placement` (the section
+    /// `[mocap.natnet.placement]`), not with the agents' settings.
+    pub fn with_placement(mut self, placement: PlacementConfig) -> Self {
+        self.placement = Some(placement);
+        self
     }
 
     /// The source.
@@ -64,6 +79,10 @@ impl PoseSource for NatNetPoses {
 
     fn on_the_bus(&self) -> bool {
         false
+    }
+
+    fn placement(&self) -> Option<PlacementConfig> {
+        self.placement
     }
 
     fn open_robot(&mut self, id: u32) -> Result<(), PoseError> {

@@ -35,6 +35,8 @@ pub struct Expected {
     pub rejects_jumps: bool,
     /// What becomes of bytes the source cannot use.
     pub garbage: Garbage,
+    /// [`PoseSource::placement`]: the source's own placement settings.
+    pub placement: Option<bycoms_orchestrator::mocap::PlacementConfig>,
 }
 
 /// What becomes of bytes a source cannot use.
@@ -154,6 +156,7 @@ fn properties_are_as_stated(fixture: &mut dyn PoseFixture) {
     let (source, _) = fixture.source();
     assert_eq!(source.kind(), want.kind, "kind");
     assert_eq!(source.on_the_bus(), want.on_the_bus, "{}: on_the_bus", want.kind);
+    assert_eq!(source.placement(), want.placement, "{}: placement", want.kind);
 }
 
 /// `carried`: while the operator carries a robot, any move is handed over,

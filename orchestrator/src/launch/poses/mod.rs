@@ -37,6 +37,28 @@ use bycoms_protocol::msg::Pose;
 use bycoms_protocol::{encode, RobotId, Swarm, MAX_MESSAGE_LEN};
 use bycoms_sim::agent_process::Traffic;
 
+/// The pose source `mocap` asks for, for a launch of `robots` robots of
+/// `swarm` on `bus`: the swarm's own bus, or NatNet. The seam's one
+/// factory: a new kind of source enters here and nowhere else.
+pub fn open(
+    mocap: &crate::mocap::MocapConfig,
+    robots: u32,
+    bus: &super::transport::SharedBus,
+    swarm: Swarm,
+) -> anyhow::Result<Box<dyn PoseSource>> {
+    use anyhow::Context;
+    Ok(match (&mocap.source, &mocap.natnet) {
+        (crate::mocap::MocapSource::Natnet, Some(natnet)) => Box::new(
+            crate::mocap::NatNetPoses::new(
+                crate::mocap::NatNetPoseSource::connect(&natnet.for_robots(robots))
+                    .context("cannot use the NatNet mocap")?,
+            )
+            .with_placement(natnet.placement),
+        ),
+        _ => Box::new(bus::BusPoses::new(std::rc::Rc::clone(bus), swarm)),
+    })
+}
+
 /// Why a pose source failed (fatally: the launch ends).
 #[derive(Debug, thiserror::Error)]
 pub enum PoseError {
@@ -67,6 +89,12 @@ pub trait PoseSource {
     /// is placed, that check starts again from where it was placed. Sources
     /// without such a check ignore it (the default).
     fn carried(&mut self, _id: u32, _by_hand: bool) {}
+    /// How this source confirms that a robot was placed at the start, when
+    /// it has settings of its own for that (NatNet's `[mocap.natnet.placement]`);
+    /// `None` (the default): the agents' `[agents.placement]` applies.
+    fn placement(&self) -> Option<crate::mocap::PlacementConfig> {
+        None
+    }
 }
 
 /// Where a source hands its poses: the engine's intake, with the recording
