@@ -48,8 +48,26 @@ fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() 
         command.publish(&[0x02, 0xee, 0x07]).expect("garbage command");
         command.publish(&encode_vec(&foreign).expect("encode")).expect("foreign command");
         command.publish(&encode_vec(&again).expect("encode")).expect("second deploy");
-        std::thread::sleep(Duration::from_millis(50));
     }
+    // Each kind's third message logged, by the orchestrator and by robot 1's
+    // agent: all were taken. Only then do the publishers go (a subscriber
+    // drops what a publisher that has gone left unread). 21 messages fit the
+    // subscribers' buffers (64 per publisher), so they may come at once.
+    let mut awaited: Vec<(&str, &str)> = ["Garbage", "WrongVersion", "UnknownRobot", "Duplicate"]
+        .map(|kind| ("who=\"launch\"", kind))
+        .into_iter()
+        .chain(["Garbage", "UnknownRobot", "Duplicate"].map(|kind| ("who=\"sim-agent[robot 1]\"", kind)))
+        .collect();
+    launch
+        .stderr_line(Duration::from_secs(30), |l| {
+            if l.contains("bad message") && l.contains(" n=3") {
+                awaited.retain(|(who, kind)| !(l.contains(who) && l.contains(&format!("kind={kind}"))));
+            }
+            awaited.is_empty().then_some(())
+        })
+        .unwrap_or_else(|| {
+            panic!("the third bad message of each kind was not logged within 30 s: {awaited:?}")
+        });
     drop((report, command, bus));
 
     let out = launch.wait(Duration::from_secs(60));

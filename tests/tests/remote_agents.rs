@@ -280,15 +280,35 @@ fn a_killed_remote_agent_is_lost_within_half_a_second() {
     assert_exit_cleanly(agents.split_off(1));
 }
 
+/// A swarm's lock file (`/dev/shm/bycoms-swarm….lock`), removed on drop:
+/// a launch removes its own when it ends, but not one killed by SIGKILL
+/// (its lock, an `flock`, went with it; the file stays).
+struct LockFile(PathBuf);
+
+impl LockFile {
+    fn of(swarm: &str) -> Self {
+        use bycoms_orchestrator::launch::swarm_lock::{lock_dir, lock_name};
+        let tag = bycoms_protocol::bus::ipc::root::tag_from_env();
+        LockFile(lock_dir().join(lock_name(tag.as_deref(), swarm)))
+    }
+}
+
+impl Drop for LockFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
 #[test]
 fn agents_stop_their_robot_when_the_orchestrator_is_gone() {
     let world = World::long_obstacle();
     let swarm = swarm_name("remote-orphans");
+    let _lock_file = LockFile::of(&swarm);
     let (mut orch, endpoint) = orchestrator(&world, &swarm, &[]);
     let grace = ["--orchestrator-grace", "0.5"];
     let exiting: Vec<Proc> = (1..=2).map(|k| agent_with(&world, &endpoint, &swarm, k, 3, &grace)).collect();
     let wait = ["--orchestrator-grace", "0.5", "--on-orchestrator-lost", "wait"];
-    let mut waiting = agent_with(&world, &endpoint, &swarm, 3, 3, &wait);
+    let waiting = agent_with(&world, &endpoint, &swarm, 3, 3, &wait);
     // Robot 1 goes as soon as it is ready: wait until every agent has
     // registered (and so has seen the orchestrator) before killing it.
     let mut registered = std::collections::BTreeSet::new();
@@ -313,7 +333,19 @@ fn agents_stop_their_robot_when_the_orchestrator_is_gone() {
     waiting
         .stderr_line(Duration::from_secs(10), |l| l.contains("robot stopped, waiting").then_some(()))
         .expect("the waiting agent stopped its robot");
-    std::thread::sleep(Duration::from_millis(300));
+    // The `wait` agent stays (`--on-orchestrator-lost wait`: robot stopped,
+    // process kept until the orchestrator is back or a signal ends it): it
+    // is alive after its failsafe tripped, its loop still runs (it ends on
+    // SIGTERM, exit 0), and it never ended by itself for the lost
+    // orchestrator (exit 4, "robot stopped, exiting").
     assert!(!bycoms_tests::is_zombie(waiting.pid()), "the `wait` agent stays");
-    waiting.kill();
+    bycoms_tests::signal(waiting.pid(), nix::sys::signal::Signal::SIGTERM);
+    let out = waiting.wait(Duration::from_secs(10));
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "the `wait` agent ended by SIGTERM, not by itself: {}",
+        out.stderr
+    );
+    assert!(!out.stderr.contains("robot stopped, exiting"), "{}", out.stderr);
 }
