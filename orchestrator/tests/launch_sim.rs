@@ -42,25 +42,37 @@ fn one(seed: u64) -> (Case, Schedule, Report) {
 
 #[test]
 fn schedules_keep_the_properties() {
+    use rayon::prelude::*;
     let count: u64 =
         std::env::var("BYCOMS_SIM_SCHEDULES").ok().and_then(|v| v.parse().ok()).unwrap_or(10_000);
+    // Every schedule is independent and deterministic from its seed: they
+    // are played on every core, and the tallies do not depend on the order.
+    let played: Vec<(String, Option<String>, u64, u64)> = (0..count)
+        .into_par_iter()
+        .map(|seed| {
+            let (_, schedule, report) = one(seed);
+            if let Err(e) = harness::check(&report, &schedule) {
+                panic!(
+                    "schedule {seed} broke a property: {e}\n{}\nschedule: {schedule:?}",
+                    replay_hint(seed)
+                );
+            }
+            let ending = report.ending.expect("checked");
+            // The kind of error, without the robot numbers.
+            let error = ending.error.map(|e| e.chars().filter(|c| !c.is_ascii_digit()).take(60).collect());
+            (format!("{:?}", ending.outcome), error, report.bad, report.resends)
+        })
+        .collect();
     let mut outcomes = std::collections::BTreeMap::new();
     let mut errors = std::collections::BTreeMap::new();
     let (mut bad, mut resends) = (0u64, 0u64);
-    for seed in 0..count {
-        let (_, schedule, report) = one(seed);
-        if let Err(e) = harness::check(&report, &schedule) {
-            panic!("schedule {seed} broke a property: {e}\n{}\nschedule: {schedule:?}", replay_hint(seed));
-        }
-        let ending = report.ending.expect("checked");
-        *outcomes.entry(format!("{:?}", ending.outcome)).or_insert(0u64) += 1;
-        if let Some(e) = &ending.error {
-            // The kind of error, without the robot numbers.
-            let kind: String = e.chars().filter(|c| !c.is_ascii_digit()).take(60).collect();
+    for (outcome, error, b, r) in played {
+        *outcomes.entry(outcome).or_insert(0u64) += 1;
+        if let Some(kind) = error {
             *errors.entry(kind).or_insert(0u64) += 1;
         }
-        bad += report.bad;
-        resends += report.resends;
+        bad += b;
+        resends += r;
     }
     eprintln!("{count} schedules: outcomes {outcomes:?}, bad traffic counted {bad}, re-sends {resends}");
     eprintln!("errors: {errors:#?}");

@@ -13,7 +13,8 @@
 //! Everything random is drawn from one seed (`BYCOMS_SOAK_SEED`, default 1)
 //! through the product's own seed mixing, so a failing launch is reproduced
 //! by its number. `BYCOMS_SOAK_LAUNCHES` sets how many (default 100; the
-//! closing note of the operations issue reports a longer run).
+//! closing note of the operations issue reports a longer run) and
+//! `BYCOMS_SOAK_PARALLEL` how many run at once (default 3).
 
 use bycoms_orchestrator::exit;
 use bycoms_sim::seed::mix;
@@ -92,55 +93,79 @@ fn check_gate_order(events: &[Value], what: &str) {
 fn launches_survive_random_faults_and_kills() {
     let seed = env_u64("BYCOMS_SOAK_SEED", 1);
     let launches = env_u64("BYCOMS_SOAK_LAUNCHES", 100);
+    // Launches mostly wait (on ticks, timeouts, kills), so several run at
+    // once; each has its own swarm, files and plan, so which run together
+    // changes no draw. The invariants hold whatever the machine's load
+    // (an agent starved past its tick timeout is one more fault).
+    let parallel = env_u64("BYCOMS_SOAK_PARALLEL", 3).max(1);
     let dir = tempfile::tempdir().expect("temp dir");
-    let mut outcomes: BTreeMap<String, u32> = BTreeMap::new();
-    for i in 0..launches {
-        let plan = plan(seed, i);
-        let what = format!("launch {i} (seed {seed})");
-        let swarm = swarm_name(&format!("soak{i}"));
-        let config = dir.path().join(format!("soak{i}.toml"));
-        let record = dir.path().join(format!("soak{i}.mcap"));
-        std::fs::write(&config, &plan.config).expect("write config");
-        let args = ["launch", "--json", "--swarm", &swarm, "--config"];
-        let mut args: Vec<&str> = args.to_vec();
-        args.extend([config.to_str().expect("utf-8"), "--record", record.to_str().expect("utf-8")]);
-        let proc = Proc::orchestrator(&args);
-        if let Some((robot, after_ms)) = plan.kill {
-            std::thread::sleep(Duration::from_millis(after_ms));
-            let pid = wait_for(Duration::from_secs(2), || {
-                agents_of(&swarm).into_iter().find(|&(_, r)| r == robot).map(|(p, _)| p)
+    let outcomes: std::sync::Mutex<BTreeMap<String, u32>> = std::sync::Mutex::new(BTreeMap::new());
+    std::thread::scope(|scope| {
+        for worker in 0..parallel {
+            let (dir, outcomes) = (dir.path(), &outcomes);
+            scope.spawn(move || {
+                for i in (worker..launches).step_by(parallel as usize) {
+                    let outcome = one_launch(seed, i, dir);
+                    *outcomes
+                        .lock()
+                        .unwrap_or_else(std::sync::PoisonError::into_inner)
+                        .entry(outcome)
+                        .or_default() += 1;
+                }
             });
-            if let Some(pid) = pid {
-                signal(pid, nix::sys::signal::Signal::SIGKILL);
-            }
         }
-        let out = proc.wait(Duration::from_secs(90));
-        let j = out.json();
-        let outcome = j["outcome"].as_str().unwrap_or_else(|| panic!("{what}: no outcome: {j}")).to_string();
-        let expected = match outcome.as_str() {
-            "arrived" => exit::SUCCESS,
-            "robots_exhausted" | "time_limit" => exit::NOT_ARRIVED,
-            "error" => exit::ERROR,
-            other => panic!("{what}: unexpected outcome {other}"),
-        };
-        assert_eq!(out.status.code(), Some(expected), "{what}: {outcome}\n{}", out.stderr);
-        if outcome == "error" {
-            assert!(j["error"].as_str().is_some_and(|e| !e.is_empty()), "{what}: an error says why: {j}");
-        }
-        let left = wait_for(Duration::from_secs(5), || agents_of(&swarm).is_empty().then_some(()));
-        assert!(left.is_some(), "{what}: agents left behind: {:?}", agents_of(&swarm));
-        let recovered = bycoms_orchestrator::record::recover(&record).expect("readable MCAP");
-        assert!(recovered.is_complete(), "{what}: {:?}", recovered.stopped_by);
-        let events = gate_events(&record, &swarm);
-        assert_eq!(
-            j["recording"]["counts"][format!("bycoms/{swarm}/gate/json")].as_u64().unwrap_or(0),
-            events.len() as u64,
-            "{what}"
-        );
-        check_gate_order(&events, &what);
-        *outcomes.entry(outcome).or_default() += 1;
-        let _ = std::fs::remove_file(&record);
-    }
-    println!("soak: {launches} launches, seed {seed}: {outcomes:?}");
+    });
+    let outcomes = outcomes.into_inner().unwrap_or_else(std::sync::PoisonError::into_inner);
+    println!("soak: {launches} launches ({parallel} at a time), seed {seed}: {outcomes:?}");
     assert_eq!(outcomes.values().sum::<u32>() as u64, launches);
+}
+
+/// Launch `i` of the soak with `seed`, in `dir`: checked; its outcome.
+fn one_launch(seed: u64, i: u64, dir: &Path) -> String {
+    let plan = plan(seed, i);
+    let what = format!("launch {i} (seed {seed})");
+    let swarm = swarm_name(&format!("soak{i}"));
+    let config = dir.join(format!("soak{i}.toml"));
+    let record = dir.join(format!("soak{i}.mcap"));
+    std::fs::write(&config, &plan.config).expect("write config");
+    let args = ["launch", "--json", "--swarm", &swarm, "--config"];
+    let mut args: Vec<&str> = args.to_vec();
+    args.extend([config.to_str().expect("utf-8"), "--record", record.to_str().expect("utf-8")]);
+    let proc = Proc::orchestrator(&args);
+    if let Some((robot, after_ms)) = plan.kill {
+        // The fault's own timing (a seeded moment of the run), not a wait for something.
+        std::thread::sleep(Duration::from_millis(after_ms));
+        let pid = wait_for(Duration::from_secs(2), || {
+            agents_of(&swarm).into_iter().find(|&(_, r)| r == robot).map(|(p, _)| p)
+        });
+        if let Some(pid) = pid {
+            signal(pid, nix::sys::signal::Signal::SIGKILL);
+        }
+    }
+    let out = proc.wait(Duration::from_secs(90));
+    let j = out.json();
+    let outcome = j["outcome"].as_str().unwrap_or_else(|| panic!("{what}: no outcome: {j}")).to_string();
+    let expected = match outcome.as_str() {
+        "arrived" => exit::SUCCESS,
+        "robots_exhausted" | "time_limit" => exit::NOT_ARRIVED,
+        "error" => exit::ERROR,
+        other => panic!("{what}: unexpected outcome {other}"),
+    };
+    assert_eq!(out.status.code(), Some(expected), "{what}: {outcome}\n{}", out.stderr);
+    if outcome == "error" {
+        assert!(j["error"].as_str().is_some_and(|e| !e.is_empty()), "{what}: an error says why: {j}");
+    }
+    let left = wait_for(Duration::from_secs(5), || agents_of(&swarm).is_empty().then_some(()));
+    assert!(left.is_some(), "{what}: agents left behind: {:?}", agents_of(&swarm));
+    let recovered = bycoms_orchestrator::record::recover(&record).expect("readable MCAP");
+    assert!(recovered.is_complete(), "{what}: {:?}", recovered.stopped_by);
+    let events = gate_events(&record, &swarm);
+    assert_eq!(
+        j["recording"]["counts"][format!("bycoms/{swarm}/gate/json")].as_u64().unwrap_or(0),
+        events.len() as u64,
+        "{what}"
+    );
+    check_gate_order(&events, &what);
+    let _ = std::fs::remove_file(&record);
+    outcome
 }
