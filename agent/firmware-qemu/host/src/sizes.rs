@@ -76,11 +76,18 @@ fn crate_of(demangled: &str, raw: &str) -> String {
         // `#[riscv_rt::entry]`'s function: the binary's own code.
         return "main (the binary's own, with what was inlined into it)".to_owned();
     }
-    "start-up and traps (riscv-rt)".to_owned()
+    "C and assembly symbols (Espressif's WiFi/PHY blobs, start-up, traps)".to_owned()
 }
 
 fn is_ident(c: u8) -> bool {
     c.is_ascii_alphanumeric() || c == b'_'
+}
+
+/// Whether `addr` is in the ESP32-C3's internal SRAM (its data bus window
+/// 0x3FC8_0000.. or its instruction bus window 0x4037_C000..): code there
+/// (`.rwtext`, `.trap`) is loaded from the image into RAM at boot.
+fn esp32c3_sram(addr: u64) -> bool {
+    (0x3FC8_0000..0x3FCE_0000).contains(&addr) || (0x4037_C000..0x403E_0000).contains(&addr)
 }
 
 /// Reads `elf`.
@@ -89,17 +96,26 @@ pub fn sizes(elf: &[u8]) -> Result<Sizes, object::Error> {
     let mut sections = vec![];
     for s in file.sections() {
         let name = s.name().unwrap_or("?").to_owned();
-        let alloc = match s.flags() {
-            object::SectionFlags::Elf { sh_flags } => sh_flags & u64::from(object::elf::SHF_ALLOC) != 0,
-            _ => false,
+        let (alloc, nobits) = match s.flags() {
+            object::SectionFlags::Elf { sh_flags } => (
+                sh_flags & u64::from(object::elf::SHF_ALLOC) != 0,
+                matches!(s.kind(), SectionKind::UninitializedData | SectionKind::UninitializedTls),
+            ),
+            _ => (false, false),
         };
-        if !alloc || s.size() == 0 || name == ".stack" || name == ".heap" || name == ".text.dummy" {
+        // riscv-rt's `.stack`/`.heap` and esp-hal's `*_dummy` sections only
+        // reserve address space.
+        let placeholder =
+            name == ".stack" || name == ".heap" || name == ".text.dummy" || name.ends_with("_dummy");
+        if !alloc || s.size() == 0 || placeholder {
             continue;
         }
-        let (in_flash, in_ram) = match s.kind() {
-            SectionKind::UninitializedData | SectionKind::UninitializedTls => (false, true),
-            SectionKind::Data | SectionKind::Tls => (true, true),
-            _ => (true, false),
+        let (in_flash, in_ram) = if nobits {
+            (false, true)
+        } else {
+            // Loaded from the image; also in RAM when its contents are
+            // copied there (initialised data) or it runs from internal RAM.
+            (true, matches!(s.kind(), SectionKind::Data | SectionKind::Tls) || esp32c3_sram(s.address()))
         };
         sections.push(Section { name, size: s.size(), in_flash, in_ram });
     }
@@ -127,7 +143,7 @@ pub fn report(name: &str, s: &Sizes) -> String {
         out += &format!("  {:<18} {:>8} B  {place}\n", sec.name, sec.size);
     }
     let (flash, ram) = s.totals();
-    out += &format!("  total: {flash} B in flash, {ram} B of static RAM (stack not included)\n");
+    out += &format!("  total: {flash} B in the image (flash), {ram} B of static RAM (stack not included)\n");
     out += "  code by crate (function symbols; inlined code counts for its caller):\n";
     let mut by: Vec<_> = s.code_by_crate.iter().collect();
     by.sort_by(|a, b| b.1.cmp(a.1));
