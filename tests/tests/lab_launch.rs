@@ -10,9 +10,12 @@
 //! Every process is killed and reaped on drop ([`Proc`]); every wait has a
 //! deadline; swarm names are unique. UDP ports for the robots file are
 //! taken by binding port 0 and releasing it (the robots file names fixed
-//! addresses, as a real robot's flashed settings). The tests run one at a
-//! time ([`SERIAL`]): the lab runs `SPEED` times faster than real time and
-//! needs a core to keep up. The last two run the experiments with the lab
+//! addresses, as a real robot's flashed settings). At most two run at once
+//! ([`TURNS`]): the lab runs `SPEED` times faster than real time and must
+//! never stall, yet a whole lab run (lab, launch, gateways) uses under a
+//! tenth of a core here (`ps` over an exp-short run: 3–4 % the lab, 2 % the
+//! orchestrator, 1–2 % each gateway), so two leave most of both cores to
+//! the other tests. The last two run the experiments with the lab
 //! seen through NatNet (`--natnet`) and replay their recordings; exp-long
 //! runs only there (every other run reads poses from the bus).
 
@@ -23,7 +26,7 @@ use nix::sys::signal::Signal;
 use serde_json::Value;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::sync::{Condvar, Mutex};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 /// Lab time per wall time (the launch and its gateways are told the same).
@@ -36,8 +39,34 @@ const SPEED: f64 = 3.0;
 /// the debug-built orchestrator's decoding light at 3× real time).
 const NATNET_HZ: &str = "60";
 
-/// One lab at a time.
-static SERIAL: Mutex<()> = Mutex::new(());
+/// Lab runs at once, at most.
+const AT_ONCE: u32 = 2;
+
+/// Turns to run a lab: a counting semaphore of [`AT_ONCE`].
+static TURNS: (Mutex<u32>, Condvar) = (Mutex::new(0), Condvar::new());
+
+/// A turn to run a lab, given back on drop.
+struct Turn;
+
+impl Turn {
+    fn take() -> Self {
+        let (count, freed) = &TURNS;
+        let mut running = count.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        while *running >= AT_ONCE {
+            running = freed.wait(running).unwrap_or_else(std::sync::PoisonError::into_inner);
+        }
+        *running += 1;
+        Turn
+    }
+}
+
+impl Drop for Turn {
+    fn drop(&mut self) {
+        let (count, freed) = &TURNS;
+        *count.lock().unwrap_or_else(std::sync::PoisonError::into_inner) -= 1;
+        freed.notify_one();
+    }
+}
 
 use bycoms_tests::{free_udp_port as free_port, TEST_KEYS as KEYS};
 
@@ -165,7 +194,7 @@ fn assert_no_gateway_left(swarm: &str) {
 
 #[test]
 fn exp_short_robot_1_sticks_at_the_frame_and_robot_2_reaches_the_goal() {
-    let _one = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _turn = Turn::take();
     let dir = tempfile::tempdir().expect("temp dir");
     let swarm = swarm_name("labshort");
     let (robots, _, _) = robots_file(dir.path(), 2);
@@ -193,7 +222,7 @@ fn exp_short_robot_1_sticks_at_the_frame_and_robot_2_reaches_the_goal() {
 
 #[test]
 fn a_cut_robot_link_makes_the_robot_a_beacon_within_500_ms_and_the_next_robot_goes() {
-    let _one = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _turn = Turn::take();
     let dir = tempfile::tempdir().expect("temp dir");
     let swarm = swarm_name("labcut");
     // Robot 1 talks to its gateway through a fault proxy the test can cut:
@@ -232,7 +261,7 @@ fn a_cut_robot_link_makes_the_robot_a_beacon_within_500_ms_and_the_next_robot_go
 
 #[test]
 fn killing_a_gateway_then_the_lab_ends_the_launch_and_leaves_no_process() {
-    let _one = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _turn = Turn::take();
     let dir = tempfile::tempdir().expect("temp dir");
     let swarm = swarm_name("labkill");
     let (robots, _, _) = robots_file(dir.path(), 3);
@@ -274,7 +303,7 @@ fn natnet_run(scenario: &str, robots: u32, ends_expected: &[&str]) -> Finished {
 
 /// [`natnet_run`] with the cameras' faults (`sim-agent lab --natnet-faults`).
 fn natnet_run_with(scenario: &str, robots: u32, ends_expected: &[&str], faults: Option<&str>) -> Finished {
-    let _one = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let _turn = Turn::take();
     let dir = tempfile::tempdir().expect("temp dir");
     let swarm = swarm_name("labnatnet");
     let (file, _, _) = robots_file(dir.path(), robots as usize);

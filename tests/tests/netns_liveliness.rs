@@ -62,6 +62,14 @@ fn a_cut_link_is_detected_on_both_sides_and_heals_in_order() {
     let hosts = two_hosts("cut");
     let swarm = bycoms_tests::swarm_name("cut");
     let Pair { mut orchestrator, mut agent } = Pair::start(&hosts, Path::new(PEER), &swarm);
+    // The counter flows before the cut: five of them seen (how many came
+    // by now depends on the machine's load; the check below needs five).
+    let mut flowed = 0;
+    let flowing = orchestrator.until(Duration::from_secs(10), |e| {
+        flowed += usize::from(matches!(e, PeerEvent::Msg { .. }));
+        (flowed == 5).then_some(())
+    });
+    assert!(flowing.is_some(), "the counter never flowed before the cut: {:?}", orchestrator.seen);
 
     let cut_at = mono_ns();
     hosts.cut().expect("cut");
