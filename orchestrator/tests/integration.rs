@@ -21,4 +21,5 @@ mod pictures;
 mod pose_source_suite;
 mod record;
 mod suites;
+mod transport_suite;
 mod zenoh_security;

@@ -12,8 +12,11 @@
 //!
 //! Every implementation must keep the bus contract of
 //! `bycoms_protocol::bus` (order per publisher, no history, subscribers
-//! before publishers); the protocol crate's conformance suite
-//! (`protocol/tests/bus_conformance.rs`) is the one suite of this seam.
+//! before publishers), checked by the protocol crate's conformance suite
+//! (`protocol/tests/bus_conformance.rs`) for each backend; the seam's own
+//! face ([`LaunchBus`] as [`open`] hands it over: kind, sizes, boxed ports,
+//! dead-node cleanup, the links for the agents seam) by
+//! `orchestrator/tests/transport_suite.rs` for each kind of transport.
 
 use super::agents::choice::AgentLinks;
 use super::config::{Transport, TransportConfig};
