@@ -29,3 +29,24 @@ mod secure_launch;
 mod soak;
 mod supervision;
 mod watch_decoder;
+
+/// A swarm's lock file (`/dev/shm/bycoms-swarm….lock`), removed on drop:
+/// a launch removes its own when it ends, but not one killed by SIGKILL
+/// (its lock, an `flock`, went with it; the file stays). A test that kills
+/// an orchestrator holds one, so it leaves nothing in shared memory.
+pub struct SwarmLockFile(std::path::PathBuf);
+
+impl SwarmLockFile {
+    /// The lock file of swarm `swarm` (under this process's bus tag).
+    pub fn of(swarm: &str) -> Self {
+        use bycoms_orchestrator::launch::swarm_lock::{lock_dir, lock_name};
+        let tag = bycoms_protocol::bus::ipc::root::tag_from_env();
+        SwarmLockFile(lock_dir().join(lock_name(tag.as_deref(), swarm)))
+    }
+}
+
+impl Drop for SwarmLockFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}

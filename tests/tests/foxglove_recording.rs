@@ -10,6 +10,7 @@
 //! test` leaves them out, `.ci/run` installs the packages and runs them
 //! (`-- --include-ignored`), and there a missing package fails them.
 
+use crate::SwarmLockFile;
 use bycoms_orchestrator::record::recover;
 use bycoms_tests::{agents_of, swarm_name, wait_for, Proc};
 use serde_json::Value;
@@ -160,6 +161,8 @@ fn record_refuses_to_overwrite_a_non_recording_and_a_recording_without_force() {
 #[ignore = "needs python3 with mcap==1.6.0"]
 fn a_recording_cut_by_kill_9_is_completed_by_record_recover() {
     let swarm = swarm_name("cut");
+    // The killed launch cannot remove its lock file: the test does.
+    let _lock_file = SwarmLockFile::of(&swarm);
     let dir = tempfile::tempdir().expect("temp dir");
     let rec = dir.path().join("cut.mcap");
     let r = rec.to_str().expect("utf-8");

@@ -17,6 +17,7 @@
 //! logs it; the test reads the endpoint from that log line before starting
 //! the agents.
 
+use crate::SwarmLockFile;
 use bycoms_orchestrator::scenario::{load, WorldSource};
 use bycoms_sim::runner::RobotEnd;
 use bycoms_sim::terrain::to_text;
@@ -280,30 +281,11 @@ fn a_killed_remote_agent_is_lost_within_half_a_second() {
     assert_exit_cleanly(agents.split_off(1));
 }
 
-/// A swarm's lock file (`/dev/shm/bycoms-swarm….lock`), removed on drop:
-/// a launch removes its own when it ends, but not one killed by SIGKILL
-/// (its lock, an `flock`, went with it; the file stays).
-struct LockFile(PathBuf);
-
-impl LockFile {
-    fn of(swarm: &str) -> Self {
-        use bycoms_orchestrator::launch::swarm_lock::{lock_dir, lock_name};
-        let tag = bycoms_protocol::bus::ipc::root::tag_from_env();
-        LockFile(lock_dir().join(lock_name(tag.as_deref(), swarm)))
-    }
-}
-
-impl Drop for LockFile {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.0);
-    }
-}
-
 #[test]
 fn agents_stop_their_robot_when_the_orchestrator_is_gone() {
     let world = World::long_obstacle();
     let swarm = swarm_name("remote-orphans");
-    let _lock_file = LockFile::of(&swarm);
+    let _lock_file = SwarmLockFile::of(&swarm);
     let (mut orch, endpoint) = orchestrator(&world, &swarm, &[]);
     let grace = ["--orchestrator-grace", "0.5"];
     let exiting: Vec<Proc> = (1..=2).map(|k| agent_with(&world, &endpoint, &swarm, k, 3, &grace)).collect();

@@ -7,6 +7,7 @@
 //! Every process started here is killed and reaped on drop ([`Proc`]);
 //! every wait has a deadline; swarm names are unique per test.
 
+use crate::SwarmLockFile;
 use bycoms_orchestrator::record::{read_counts, recover};
 use bycoms_tests::{agents_of, is_zombie, signal, swarm_name, wait_for, wait_for_pose, Proc};
 use iceoryx2::node::NodeView;
@@ -56,6 +57,8 @@ fn a_killed_agent_is_noticed_within_500_ms_and_becomes_a_beacon() {
 #[test]
 fn killing_the_orchestrator_leaves_no_agent_and_a_readable_recording() {
     let swarm = swarm_name("orphans");
+    // The killed launch cannot remove its lock file: the test does.
+    let _lock_file = SwarmLockFile::of(&swarm);
     let dir = tempfile::tempdir().expect("temp dir");
     let record = dir.path().join("run.mcap");
     let record_arg = record.to_str().expect("utf-8 path");
