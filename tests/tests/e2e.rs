@@ -13,6 +13,7 @@ mod bad_traffic;
 mod bridge_watch;
 mod closed_output;
 mod deploy_files;
+mod docs;
 mod foxglove_recording;
 mod gateway_lab;
 mod lab_launch;
