@@ -174,15 +174,14 @@ fn path_roots() -> Vec<PathBuf> {
 fn architecture_names_every_crate_and_subcommand_and_every_path_it_names_exists() {
     let root = root();
     let doc = read(&root.join("ARCHITECTURE.md"));
+    let package_name = Regex::new(r#"(?m)^name = "([^"]+)""#).expect("regex");
     for member in members() {
         assert!(
             doc.contains(&format!("`{member}/`")),
             "ARCHITECTURE.md has no row for the crate in `{member}/`"
         );
         let manifest = read(&root.join(&member).join("Cargo.toml"));
-        let package =
-            Regex::new(r#"(?m)^name = "([^"]+)""#).expect("regex").captures(&manifest).expect("a name")[1]
-                .to_string();
+        let package = package_name.captures(&manifest).expect("a name")[1].to_string();
         assert!(doc.contains(&format!("`{package}`")), "ARCHITECTURE.md does not name the crate `{package}`");
     }
     for binary in ["orchestrator", "sim-agent"] {
