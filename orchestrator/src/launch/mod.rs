@@ -107,6 +107,21 @@ impl World {
         terrain.set_goal(goal);
         Ok(Self { name, terrain_text: text, terrain, start, goal, unit })
     }
+
+    /// A 3×3 world with one wall cell, start bottom left, goal top right
+    /// (the unit tests' world).
+    #[cfg(test)]
+    pub(crate) fn tiny() -> Self {
+        let text = "..G\n.#.\nS..\n".to_string();
+        Self::new(
+            "tiny".into(),
+            text,
+            Vec2::new(0.5, 0.5),
+            Vec2::new(2.5, 2.5),
+            crate::draw::snapshot::Unit::Cell,
+        )
+        .expect("the tiny world parses")
+    }
 }
 
 /// Environment variable naming the agent executable.

@@ -291,18 +291,9 @@ mod tests {
     use super::*;
     use bycoms_protocol::msg::GateKind;
     use bycoms_protocol::{encode, RobotId, MAX_MESSAGE_LEN};
-    use bycoms_sim::Vec2;
 
     fn world() -> World {
-        let text = "..G\n.#.\nS..\n".to_string();
-        World::new(
-            "tiny".into(),
-            text,
-            Vec2::new(0.5, 0.5),
-            Vec2::new(2.5, 2.5),
-            crate::draw::snapshot::Unit::Cell,
-        )
-        .expect("parses")
+        World::tiny()
     }
 
     fn feed(rec: &mut Recording) {

@@ -10,7 +10,6 @@ use crate::launch::{LaunchConfig, World};
 use crate::scene::{Scene, SceneWorld, SharedScene};
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use bycoms_protocol::RobotId;
-use bycoms_sim::Vec2;
 use foxglove::messages::SceneUpdate;
 use foxglove::Decode;
 use serde_json::{json, Value};
@@ -30,15 +29,7 @@ fn event(robot: u32, kind: GateKind, x: f64, y: f64) -> GateEvent {
 }
 
 fn world() -> World {
-    let text = "..G\n.#.\nS..\n".to_string();
-    World::new(
-        "tiny".into(),
-        text,
-        Vec2::new(0.5, 0.5),
-        Vec2::new(2.5, 2.5),
-        crate::draw::snapshot::Unit::Cell,
-    )
-    .expect("the tiny world parses")
+    World::tiny()
 }
 
 /// An observer fed as a launch feeds it: the typed message, then what the
