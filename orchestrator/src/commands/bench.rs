@@ -164,7 +164,13 @@ fn schedules(count: u64, rounds: u32, json: bool) -> Result<i32> {
         for seed in 0..count {
             let case = Case::small(seed);
             let schedule = Schedule::draw(seed, case.robots, 400);
-            let report = harness::run(&case, &schedule);
+            // The core's log lines (a refused second agent, an unreachable
+            // one) are what a schedule provokes, not figures: not printed,
+            // so the terminal does not set the pace.
+            let report =
+                tracing::subscriber::with_default(tracing::subscriber::NoSubscriber::default(), || {
+                    harness::run(&case, &schedule)
+                });
             if let Err(e) = harness::check(&report, &schedule) {
                 bail!("schedule {seed} broke a property: {e}");
             }
