@@ -343,6 +343,37 @@ mod tests {
         assert_eq!(zenoh.transport.listen, ["tcp/0.0.0.0:7447"]);
     }
 
+    /// Every default `launch --help` prints is the real one: giving the
+    /// printed value explicitly changes nothing. (`deploy/launch.toml` is
+    /// checked against the same defaults in `launch::config`, so the three
+    /// agree.) Defaults that are prose, not a value, are named here.
+    #[test]
+    fn the_defaults_help_prints_are_the_defaults() {
+        use clap::CommandFactory;
+        const PROSE: [&str; 4] = ["swarm", "record", "svg", "agent-bin"];
+        let cli = Cli::command();
+        let launch = cli.find_subcommand("launch").expect("the launch subcommand");
+        let defaults = LaunchConfig::default();
+        let (mut checked, mut prose) = (Vec::new(), Vec::new());
+        for arg in launch.get_arguments() {
+            let Some(long) = arg.get_long() else { continue };
+            let help = arg.get_long_help().or(arg.get_help()).map(ToString::to_string).unwrap_or_default();
+            let help = help.split_whitespace().collect::<Vec<_>>().join(" ");
+            let Some(value) = help.split("[default: ").nth(1).and_then(|r| r.split(']').next()) else { continue };
+            if PROSE.contains(&long) {
+                prose.push(long.to_string());
+                continue;
+            }
+            let flag = format!("--{long}");
+            let given = config(&[flag.as_str(), value])
+                .unwrap_or_else(|e| panic!("--help says {flag} defaults to {value:?}, which does not parse: {e:#}"));
+            assert_eq!(given, defaults, "--help says {flag} defaults to {value:?}, which is not the default");
+            checked.push(long.to_string());
+        }
+        assert_eq!(prose, PROSE, "the prose defaults are the ones named");
+        assert!(checked.len() >= 15, "the defaults of --help are checked: {checked:?}");
+    }
+
     #[test]
     fn bad_values_and_unknown_keys_are_errors() {
         assert!(format!("{:#}", config(&["--eps", "-1"]).unwrap_err()).contains("eps"));
