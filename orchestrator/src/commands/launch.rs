@@ -359,14 +359,17 @@ mod tests {
             let Some(long) = arg.get_long() else { continue };
             let help = arg.get_long_help().or(arg.get_help()).map(ToString::to_string).unwrap_or_default();
             let help = help.split_whitespace().collect::<Vec<_>>().join(" ");
-            let Some(value) = help.split("[default: ").nth(1).and_then(|r| r.split(']').next()) else { continue };
+            let Some(value) = help.split("[default: ").nth(1).and_then(|r| r.split(']').next()) else {
+                continue;
+            };
             if PROSE.contains(&long) {
                 prose.push(long.to_string());
                 continue;
             }
             let flag = format!("--{long}");
-            let given = config(&[flag.as_str(), value])
-                .unwrap_or_else(|e| panic!("--help says {flag} defaults to {value:?}, which does not parse: {e:#}"));
+            let given = config(&[flag.as_str(), value]).unwrap_or_else(|e| {
+                panic!("--help says {flag} defaults to {value:?}, which does not parse: {e:#}")
+            });
             assert_eq!(given, defaults, "--help says {flag} defaults to {value:?}, which is not the default");
             checked.push(long.to_string());
         }
