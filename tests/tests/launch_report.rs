@@ -44,7 +44,9 @@ fn a_realtime_run_that_cannot_keep_up_says_so() {
     let rt = &j["realtime"];
     let missed = rt["missed_periods"].as_u64().expect("missed periods");
     let periods = rt["periods"].as_u64().expect("periods");
-    assert!(missed > periods / 100 && periods > 0, "{rt}");
+    // The whole summary and the log on failure: seen once in 20 runs on a
+    // heavily loaded machine (64 periods, none missed), not understood yet.
+    assert!(missed > periods / 100 && periods > 0, "{rt}\nsummary: {j}\nstderr:\n{}", out.stderr);
     assert_eq!(rt["faithful"], false, "{rt}");
     let achieved = rt["achieved_speed"].as_f64().expect("achieved speed");
     assert!(achieved < 100_000.0 && achieved == j["sim_speed"].as_f64().expect("sim speed"), "{j}");
