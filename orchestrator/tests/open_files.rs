@@ -3,9 +3,34 @@
 //! 2, the limit and the fix named); under a low soft limit it raises its own
 //! and runs. The shell's `ulimit` sets the limits of the process it starts.
 
+use bycoms_protocol::bus::ipc::root;
 use std::process::Command;
 
+/// This test's own iceoryx2 root (the launches run under a shell with
+/// other limits), removed with everything in it when the test ends: the
+/// root's folder and its files in shared memory.
+struct Root(String);
+
+impl Root {
+    fn new(robots: &str) -> Self {
+        Root(format!("files{}-{robots}", std::process::id()))
+    }
+}
+
+impl Drop for Root {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(root::root_dir(&self.0));
+        let prefix = root::prefix(&self.0);
+        for entry in std::fs::read_dir("/dev/shm").into_iter().flatten().flatten() {
+            if entry.file_name().to_string_lossy().starts_with(&prefix) {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
+}
+
 fn launch_under(ulimit: &str, robots: &str) -> std::process::Output {
+    let root = Root::new(robots);
     let dir = tempfile::tempdir().expect("tempdir");
     let swarm = format!("files-{}-{robots}", std::process::id());
     let script = format!("{ulimit} && exec \"$0\" launch --robots {robots} --swarm {swarm} --dwell 1",);
@@ -13,7 +38,7 @@ fn launch_under(ulimit: &str, robots: &str) -> std::process::Output {
         .args(["-c", &script, env!("CARGO_BIN_EXE_orchestrator")])
         .current_dir(dir.path())
         .env("RUST_LOG", "error")
-        .env("BYCOMS_IPC_ISOLATION", format!("files{}", std::process::id()))
+        .env(root::ISOLATION_ENV, &root.0)
         .output()
         .expect("spawn sh")
 }
