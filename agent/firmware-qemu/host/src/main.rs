@@ -10,6 +10,12 @@
 //!
 //! Exit codes: 0 done (for `compare`: all equal), 1 a mismatch or a failed
 //! replay, 2 usage or IO errors.
+//!
+//! A member of the bycoms workspace: `.ci/esp32` runs the binary that the
+//! workspace's test build links for `tests/cli.rs`, a debug build (the core
+//! and the lab at opt-level 2). Its floats are the same as a release
+//! build's: Rust neither fuses `a*b+c` nor reorders float operations at any
+//! opt-level, so the replay's text does not depend on the profile.
 
 mod record;
 mod sizes;

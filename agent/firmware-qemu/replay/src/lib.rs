@@ -26,6 +26,10 @@
 //! motors, the tone, the session or the next deadline changed) print every
 //! float with `{:?}`, the shortest text that reads back to the same bits:
 //! two outputs are equal as text exactly when every value is equal as bits.
+//!
+//! A member of the bycoms workspace, so `cargo test --workspace` runs these
+//! tests; the bare-metal harness (`agent/firmware-qemu/harness`, a
+//! workspace of its own) uses it by path.
 #![no_std]
 
 use bycoms_agent::acoustic::FRAME_LEN;
