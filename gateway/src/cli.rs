@@ -4,18 +4,27 @@
 //! (SIGINT, or SIGTERM / SIGHUP: one handler), as the orchestrator (a
 //! gateway is started by hand in a lab, so a person sees this code; a
 //! `sim-agent`, started by the orchestrator, exits 0 on a signal); 3 when
-//! another gateway holds the robot; 2 for a usage error (bad flags, values,
-//! key file, swarm name); 1 for any other error (socket, bus), printed
-//! first.
+//! another gateway holds the robot; 4 over zenoh when the orchestrator was
+//! gone past `--orchestrator-grace` (the robot was stopped first; with
+//! `--on-orchestrator-lost wait` the gateway stays instead); 2 for a usage
+//! error (bad flags, values, key file, swarm name); 1 for any other error
+//! (socket, bus), printed first.
+//!
+//! The bus flags are sim-agent's (`BusArgs`): `--transport ipc` on the
+//! orchestrator's host (the default), or `--transport zenoh --connect
+//! quic/ORCHESTRATOR:7447 --zenoh-config robot-K.json5` from a bridge host
+//! next to the robots' access point.
 
 use crate::core::{GatewayCore, Timers};
 use crate::run::{quantile, Gateway, GatewayPorts, RunError};
-use bycoms_protocol::bus::ipc::{IpcBus, IpcConfig};
-use bycoms_protocol::bus::BusError;
+use bycoms_protocol::bus::zenoh::AliveWatch;
+use bycoms_protocol::bus::{Bus, BusError};
+use bycoms_protocol::naming::Member;
 use bycoms_protocol::{NameError, RobotId, Swarm};
 use bycoms_sim::agent_process::cli::quiet_iceoryx2;
+use bycoms_sim::agent_process::failsafe::{Failsafe, FailsafeArgs};
 use bycoms_sim::agent_process::lifeline::LifelineError;
-use bycoms_sim::agent_process::{check_speed, ipc_config, ExitCause, Lifeline};
+use bycoms_sim::agent_process::{check_speed, BusArgs, BusOpenError, ExitCause, Lifeline, OnBus};
 use bycoms_sim::lab::robots::{read_key, RobotsError};
 use std::net::{SocketAddr, UdpSocket};
 use std::path::PathBuf;
@@ -60,6 +69,14 @@ pub struct GatewayArgs {
     /// longer this process (default: its parent at start).
     #[arg(long)]
     pub parent_pid: Option<i32>,
+    /// The bus: iceoryx2 on the orchestrator's host, or zenoh to the
+    /// orchestrator from a bridge host (with the robot's certificate in
+    /// `--zenoh-config`).
+    #[command(flatten)]
+    pub bus: BusArgs,
+    /// zenoh: the failsafe when the orchestrator is lost.
+    #[command(flatten)]
+    pub failsafe: FailsafeArgs,
 }
 
 impl GatewayArgs {
@@ -75,7 +92,8 @@ impl GatewayArgs {
         if self.heartbeat_ms == 0 {
             return Err("--heartbeat-ms must be at least 1".into());
         }
-        Ok(())
+        self.failsafe.grace()?;
+        self.bus.validate()
     }
 
     /// The link timers for these flags.
@@ -111,6 +129,8 @@ impl GatewayArgs {
                 v.push(n.to_string());
             }
         }
+        v.extend(self.bus.to_flags());
+        v.extend(self.failsafe.to_flags());
         v
     }
 }
@@ -178,7 +198,7 @@ pub fn exit_code(cause: ExitCause) -> i32 {
         ExitCause::Refused => 3,
         // Interrupted, as the orchestrator reports it.
         ExitCause::Signal => 130,
-        // Not reached over ipc; the code sim-agent gives it.
+        // Over zenoh, the failsafe stopped the robot (as sim-agent).
         ExitCause::OrchestratorLost => 4,
         ExitCause::Shutdown | ExitCause::ParentGone => 0,
     }
@@ -198,30 +218,52 @@ fn run(args: &GatewayArgs) -> Result<ExitCause, GatewayError> {
     let mut seed = [0u8; 8];
     getrandom::fill(&mut seed).map_err(GatewayError::Random)?;
     let size = args.swarm_size.unwrap_or(args.robot).max(args.robot);
-    let config = IpcConfig {
-        node_name: Some(format!("bycoms-{}-gateway-{}", swarm.as_str(), id.0)),
-        ..ipc_config(size)
-    };
-    let bus = IpcBus::new(config)?;
-    let ports = GatewayPorts::open(&bus, &swarm, id)?;
+    let node = format!("bycoms-{}-gateway-{}", swarm.as_str(), id.0);
     let core = GatewayCore::new(id, key, args.timers(), u64::from_le_bytes(seed), Instant::now());
-    let heartbeat = Duration::from_millis(args.heartbeat_ms);
-    let mut gateway = Gateway::new(core, ports, socket, heartbeat).map_err(RunError::from)?;
-    tracing::info!(bind = %args.bind, speed = args.speed, "gateway listening for its robot");
-    let cause = gateway.run(&mut lifeline)?;
-    let drops: Vec<String> =
-        gateway.core().drops().nonzero().map(|(why, n)| format!("{}={n}", why.name())).collect();
-    let s = gateway.stats();
-    tracing::info!(
-        ?cause,
-        relayed = s.relayed,
-        relay_p50_us = quantile(&s.relay_ns, 0.5).map(|n| n / 1000),
-        relay_p99_us = quantile(&s.relay_ns, 0.99).map(|n| n / 1000),
-        bad_messages = s.traffic.total(),
-        refused_frames = %drops.join(" "),
-        "gateway exits"
-    );
-    Ok(cause)
+    let then = RunGateway { args, swarm: &swarm, core, socket, lifeline: &mut lifeline };
+    args.bus.open(&swarm, Some(Member::Agent(id)), Some(&args.failsafe), size, node, then).map_err(|e| {
+        match e {
+            BusOpenError::Args(a) => GatewayError::Args(a),
+            BusOpenError::Bus(b) => GatewayError::Bus(b),
+        }
+    })?
+}
+
+/// The gateway's loop once the bus is open.
+struct RunGateway<'a> {
+    args: &'a GatewayArgs,
+    swarm: &'a Swarm,
+    core: GatewayCore,
+    socket: UdpSocket,
+    lifeline: &'a mut Lifeline,
+}
+
+impl OnBus for RunGateway<'_> {
+    type Output = Result<ExitCause, GatewayError>;
+    fn run<B: Bus>(self, bus: &B, failsafe: Option<(Failsafe, AliveWatch)>) -> Self::Output {
+        let args = self.args;
+        let ports = GatewayPorts::open(bus, self.swarm, self.core.robot())?;
+        let heartbeat = Duration::from_millis(args.heartbeat_ms);
+        let mut gateway = Gateway::new(self.core, ports, self.socket, heartbeat).map_err(RunError::from)?;
+        if let Some((failsafe, watch)) = failsafe {
+            gateway.watch_orchestrator(failsafe, watch);
+        }
+        tracing::info!(bind = %args.bind, speed = args.speed, transport = args.bus.transport.as_str(), "gateway listening for its robot");
+        let cause = gateway.run(self.lifeline)?;
+        let drops: Vec<String> =
+            gateway.core().drops().nonzero().map(|(why, n)| format!("{}={n}", why.name())).collect();
+        let s = gateway.stats();
+        tracing::info!(
+            ?cause,
+            relayed = s.relayed,
+            relay_p50_us = quantile(&s.relay_ns, 0.5).map(|n| n / 1000),
+            relay_p99_us = quantile(&s.relay_ns, 0.99).map(|n| n / 1000),
+            bad_messages = s.traffic.total(),
+            refused_frames = %drops.join(" "),
+            "gateway exits"
+        );
+        Ok(cause)
+    }
 }
 
 #[cfg(test)]

@@ -1,5 +1,9 @@
 //! The gateway's loop: one UDP socket, the bus, and [`GatewayCore`].
 //!
+//! Over zenoh (a gateway on a bridge host) it also watches the
+//! orchestrator's liveliness: gone past the failsafe's grace, the robot is
+//! told to stop (the same [`Failsafe`] as sim-agent's).
+//!
 //! Why one thread with a short receive timeout: an iceoryx2 bus is confined
 //! to the thread that opened it, and the robot's datagrams must be relayed
 //! at once (the added latency is a figure of merit: `agent bench`). So the
@@ -9,9 +13,12 @@
 //! command therefore waits at most one slice before it goes to the robot.
 
 use crate::core::{GatewayCore, Output};
+use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
 use bycoms_protocol::msg::{AgentKind, FromAgent, Heartbeat, Pose, Register, ToAgent};
+use bycoms_protocol::naming::Member;
 use bycoms_protocol::{RobotId, Swarm, PROTOCOL_VERSION};
+use bycoms_sim::agent_process::failsafe::{Failsafe, Verdict};
 use bycoms_sim::agent_process::{instance, BadKind, ExitCause, Lifeline, Traffic};
 use std::io;
 use std::net::UdpSocket;
@@ -69,6 +76,8 @@ pub struct Gateway<B: Bus> {
     heartbeat_every: Duration,
     who: String,
     stats: GatewayStats,
+    /// zenoh: the failsafe and the liveliness watch that feeds it.
+    failsafe: Option<(Failsafe, AliveWatch)>,
 }
 
 impl<B: Bus> Gateway<B> {
@@ -81,7 +90,42 @@ impl<B: Bus> Gateway<B> {
     ) -> io::Result<Self> {
         socket.set_read_timeout(Some(SLICE))?;
         let who = format!("agent[robot {}]", core.robot().0);
-        Ok(Self { core, ports, socket, heartbeat_every, who, stats: GatewayStats::default() })
+        Ok(Self { core, ports, socket, heartbeat_every, who, stats: GatewayStats::default(), failsafe: None })
+    }
+
+    /// Watches the orchestrator's liveliness on `watch` (zenoh): once it has
+    /// been gone for longer than the failsafe's grace, the robot is stopped
+    /// (its firmware is told `Stop`, and its own 500 ms failsafe holds it
+    /// if that is lost), and the loop ends with
+    /// [`ExitCause::OrchestratorLost`] or goes on, by policy.
+    pub fn watch_orchestrator(&mut self, failsafe: Failsafe, watch: AliveWatch) {
+        self.failsafe = Some((failsafe, watch));
+    }
+
+    /// Feeds the failsafe what zenoh saw and acts on its verdict.
+    fn check_failsafe(&mut self) -> Result<Option<ExitCause>, RunError> {
+        let Some((failsafe, watch)) = self.failsafe.as_mut() else { return Ok(None) };
+        while let Some(event) = watch.try_recv() {
+            if event.member == Member::Orchestrator {
+                match event.presence {
+                    Presence::Alive => failsafe.orchestrator_alive(event.at),
+                    Presence::Lost => failsafe.orchestrator_lost(event.at),
+                }
+            }
+        }
+        let (lost_for, exit) = match failsafe.check(Instant::now()) {
+            Verdict::Run => return Ok(None),
+            Verdict::Stop { lost_for } => (lost_for, false),
+            Verdict::StopAndExit { lost_for } => (lost_for, true),
+        };
+        tracing::error!(
+            ?lost_for,
+            "orchestrator lost past the grace period: robot stopped, {}",
+            if exit { "exiting" } else { "waiting" }
+        );
+        self.core.on_command(&ToAgent::Stop, Instant::now()).ok();
+        self.flush(None)?;
+        Ok(exit.then_some(ExitCause::OrchestratorLost))
     }
 
     /// The core (drop counters, link state).
@@ -113,6 +157,9 @@ impl<B: Bus> Gateway<B> {
             if let Some(cause) = lifeline.check() {
                 self.core.on_command(&ToAgent::Stop, Instant::now()).ok();
                 self.flush(None)?;
+                return Ok(cause);
+            }
+            if let Some(cause) = self.check_failsafe()? {
                 return Ok(cause);
             }
             let now = Instant::now();

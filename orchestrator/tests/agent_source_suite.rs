@@ -22,7 +22,7 @@ use bycoms_protocol::bus::{BusExt, Limits};
 use bycoms_protocol::msg::{FromAgent, ToAgent};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::{AgentArgs, Clock, Transport};
+use bycoms_sim::agent_process::{AgentArgs, BusArgs, Clock, Transport};
 use bycoms_sim::lab::robots::RobotsFile;
 use std::cell::{Cell, RefCell};
 use std::path::PathBuf;
@@ -44,9 +44,7 @@ fn args(id: u32) -> AgentArgs {
         peers: None,
         parent_pid: Some(std::process::id() as i32),
         heartbeat_ms: 100,
-        transport: Transport::Ipc,
-        connect: Vec::new(),
-        zenoh_config: None,
+        bus: BusArgs { transport: Transport::Ipc, connect: Vec::new(), zenoh_config: None },
         failsafe: Default::default(),
     }
 }
@@ -403,7 +401,11 @@ impl AgentFixture for ThreadsFixture {
             self.shut_down_when_registered(&bus, id);
         }
         let terrain = bycoms_sim::terrain::to_text(&bycoms_sim::terrain::Terrain::paper());
-        (AgentArgs { transport: Transport::Memory, parent_pid: None, ..args(id) }, terrain)
+        {
+            let mut a = AgentArgs { parent_pid: None, ..args(id) };
+            a.bus.transport = Transport::Memory;
+            (a, terrain)
+        }
     }
 }
 

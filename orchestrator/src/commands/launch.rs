@@ -6,7 +6,7 @@
 //! an exit code.
 
 use crate::exit;
-use crate::launch::config::{AgentsKind, Transport};
+use crate::launch::config::{AgentsKind, GatewaysAt, Transport};
 use crate::launch::{self, Clock, LaunchConfig, Missing, OnDeath, Outcome, World};
 use crate::out::{Kind, Outputs};
 use crate::scenario::{self, WorldSource};
@@ -140,9 +140,16 @@ pub struct Args {
     /// gateway per robot of --robots-file) [default: spawned].
     #[arg(long, value_enum)]
     pub agents: Option<AgentsKind>,
-    /// Real robots: the lab's robots file (addresses and key files).
+    /// Real robots: the lab's robots file (addresses and key files), for
+    /// gateways started here.
     #[arg(long, value_name = "FILE")]
     pub robots_file: Option<PathBuf>,
+    /// Real robots: where their `agent` gateways run: here (started by the
+    /// launch from --robots-file) or elsewhere (started by hand on a bridge
+    /// host with `agent --transport zenoh --connect ...`; needs --transport
+    /// zenoh) [default: here].
+    #[arg(long, value_enum)]
+    pub gateways: Option<GatewaysAt>,
     /// Real robots: the lab scenario (exp-short, exp-long or a scenario
     /// file, see deploy/lab/): start, goal and arena in metres.
     #[arg(long, value_name = "NAME|FILE")]
@@ -185,6 +192,7 @@ impl Args {
         set!(supervision.link_grace = self.link_grace);
         set!(transport.kind = self.transport);
         set!(agents.source = self.agents);
+        set!(agents.gateways = self.gateways);
         if self.robots_file.is_some() {
             cfg.agents.robots_file.clone_from(&self.robots_file);
         }

@@ -10,6 +10,7 @@
 //! directory.
 
 pub use super::agents::choice::{AgentsConfig, AgentsKind};
+pub use super::agents::gateways::GatewaysAt;
 use super::faults::FaultsConfig;
 use crate::commands::world::{check_run, RunNames};
 use crate::exit::usage;
@@ -373,7 +374,7 @@ impl LaunchConfig {
         let secured = self.transport.listen.iter().find(|e| crate::certs::is_secured(e));
         if self.transport.kind == Transport::Zenoh
             && secured.is_some()
-            && self.agents.source != AgentsKind::Remote
+            && self.agents.started_here()
             && self.transport.agent_zenoh_config.is_none()
         {
             let endpoint = secured.map_or("", String::as_str);

@@ -210,7 +210,7 @@ impl Driver {
         self.pose_source.open_robot(id)?;
         let mut args = self.template.clone();
         args.robot = id;
-        args.zenoh_config = self.cfg.transport.agent_config_of(id);
+        args.bus.zenoh_config = self.cfg.transport.agent_config_of(id);
         let plan = AgentPlan { args: &args, terrain_text: &self.world.terrain_text };
         Ok(self.agents.start(id, &plan)?)
     }

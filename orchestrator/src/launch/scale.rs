@@ -18,7 +18,7 @@ use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::{BusExt, TypedPublisher, TypedSubscriber};
 use bycoms_protocol::msg::{Deploy, FromAgent, GoalBearing, Pose, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::{ipc_config, AgentArgs, Clock, Transport};
+use bycoms_sim::agent_process::{ipc_config, AgentArgs, BusArgs, Clock, Transport};
 use bycoms_sim::terrain::{to_text, Terrain};
 use serde::Serialize;
 use std::collections::BTreeSet;
@@ -122,9 +122,7 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
                 peers: Some(0),
                 parent_pid: Some(std::process::id() as i32),
                 heartbeat_ms: 100,
-                transport: Transport::Ipc,
-                connect: Vec::new(),
-                zenoh_config: None,
+                bus: BusArgs { transport: Transport::Ipc, connect: Vec::new(), zenoh_config: None },
                 failsafe: Default::default(),
             };
             sup.spawn(id, &args.to_flags(), &text)?;

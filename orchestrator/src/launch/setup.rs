@@ -12,7 +12,7 @@ use super::gate::GateParams;
 use super::poses::PoseSource;
 use super::World;
 use bycoms_sim::agent_process::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};
-use bycoms_sim::agent_process::AgentArgs;
+use bycoms_sim::agent_process::{AgentArgs, BusArgs};
 use bycoms_sim::Vec2;
 use std::path::PathBuf;
 use std::time::{SystemTime, UNIX_EPOCH};
@@ -90,10 +90,7 @@ pub fn agent_template(cfg: &LaunchConfig, swarm: String, endpoints: Vec<String>)
         peers: None,
         parent_pid: Some(std::process::id() as i32),
         heartbeat_ms: (cfg.supervision.heartbeat_interval * 1000.0).round().max(1.0) as u64,
-        transport: cfg.transport.kind,
-        // Spawned agents connect to where this orchestrator actually listens.
-        connect: endpoints,
-        zenoh_config: None,
+        bus: BusArgs { transport: cfg.transport.kind, connect: endpoints, zenoh_config: None },
         failsafe,
     }
 }

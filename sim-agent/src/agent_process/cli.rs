@@ -8,14 +8,14 @@
 //! failsafe stopped the robot and exited (orchestrator lost), 1 for any
 //! other error (unreadable terrain, bus failure), printed on stderr first.
 
+use super::bus_args::{BusOpenError, OnBus};
 use super::failsafe::Failsafe;
 use super::lifeline::{ExitCause, Lifeline, LifelineError};
-use super::options::{AgentArgs, Transport};
+use super::options::AgentArgs;
 use super::run::{Agent, AgentPorts, Timing};
-use super::{ipc_config, zenoh_config, AgentCore};
+use super::AgentCore;
 use crate::terrain::{self, ReadError, Terrain};
-use bycoms_protocol::bus::ipc::IpcBus;
-use bycoms_protocol::bus::zenoh::{AliveWatch, Mode, ZenohBus};
+use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_protocol::bus::{Bus, BusError};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{NameError, RobotId, Swarm};
@@ -105,28 +105,28 @@ fn run(args: &AgentArgs) -> Result<ExitCause, AgentError> {
     let swarm = Swarm::new(&args.swarm)?;
     let terrain = read_terrain(&args.terrain)?;
     let id = RobotId(args.robot);
-    match args.transport {
-        Transport::Ipc => {
-            let mut config = ipc_config(args.swarm_size());
-            config.node_name = Some(format!("bycoms-{}-robot-{}", swarm.as_str(), id.0));
-            run_on(&IpcBus::new(config)?, args, &swarm, terrain, &mut lifeline, None)
-        }
-        Transport::Zenoh => {
-            let config =
-                zenoh_config(Mode::Client, Vec::new(), args.connect.clone(), args.zenoh_config.clone());
-            let bus = ZenohBus::open(config)?;
-            tracing::debug!(connect = ?args.connect, "agent connected over zenoh");
-            // The orchestrator sees this agent go (process ended, link cut)
-            // when the token is withdrawn; it lives until the agent returns.
-            let _alive = bus.declare_alive(&swarm, Member::Agent(id))?;
-            // ... and this agent sees the orchestrator go (the failsafe).
-            let failsafe = args.failsafe.failsafe().map_err(AgentError::Args)?;
-            let watch = bus.watch_alive(&swarm)?;
-            run_on(&bus, args, &swarm, terrain, &mut lifeline, Some((failsafe, watch)))
-        }
-        Transport::Memory => Err(AgentError::Args(
-            "the memory transport joins threads of one process: an agent process needs ipc or zenoh".into(),
-        )),
+    let node = format!("bycoms-{}-robot-{}", swarm.as_str(), id.0);
+    let then = RunAgent { args, swarm: &swarm, terrain, lifeline: &mut lifeline };
+    args.bus
+        .open(&swarm, Some(Member::Agent(id)), Some(&args.failsafe), args.swarm_size(), node, then)
+        .map_err(|e| match e {
+            BusOpenError::Args(a) => AgentError::Args(a),
+            BusOpenError::Bus(b) => AgentError::Bus(b),
+        })?
+}
+
+/// [`run_on`] once the bus is open.
+struct RunAgent<'a> {
+    args: &'a AgentArgs,
+    swarm: &'a Swarm,
+    terrain: Terrain,
+    lifeline: &'a mut Lifeline,
+}
+
+impl OnBus for RunAgent<'_> {
+    type Output = Result<ExitCause, AgentError>;
+    fn run<B: Bus>(self, bus: &B, failsafe: Option<(Failsafe, AliveWatch)>) -> Self::Output {
+        run_on(bus, self.args, self.swarm, self.terrain, self.lifeline, failsafe)
     }
 }
 

@@ -15,13 +15,16 @@
 //! * [`instance`] — which process speaks for a robot (its `Register`);
 //! * [`failsafe`] — a robot whose orchestrator is gone (zenoh liveliness) stops;
 //! * [`traffic`] — bad messages are counted, never fatal;
-//! * [`options`] / [`cli`] — the command line and `main`.
+//! * [`options`] / [`cli`] — the command line and `main`;
+//! * [`bus_args`] — the bus flags and the bus of every agent process (the
+//!   gateway's too).
 //!
 //! [`ipc_config`] sizes the shared-memory services; every process of one
 //! swarm (orchestrator, agents, test tools) must call it with the same
 //! swarm size, since iceoryx2 services are created by the first process and
 //! opened with the same limits by the others.
 
+pub mod bus_args;
 pub mod cli;
 pub mod core;
 pub mod failsafe;
@@ -32,6 +35,7 @@ pub mod run;
 pub mod traffic;
 
 pub use self::core::{AgentCore, Phase, Reject};
+pub use bus_args::{BusArgs, BusOpenError, OnBus};
 pub use cli::{main_with, run_on, AgentError};
 pub use instance::instance;
 pub use lifeline::{ExitCause, Lifeline};

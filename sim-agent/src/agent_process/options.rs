@@ -6,6 +6,7 @@
 //! to it (e.g. after `cargo run --bin orchestrator`, which builds only the
 //! orchestrator). One definition keeps the two spellings identical.
 
+use super::bus_args::BusArgs;
 use super::failsafe::FailsafeArgs;
 use crate::sensing::NoiseModel;
 use crate::RunConfig;
@@ -133,17 +134,9 @@ pub struct AgentArgs {
     /// Heartbeat period, milliseconds of wall time.
     #[arg(long, default_value_t = 100)]
     pub heartbeat_ms: u64,
-    /// The bus: `ipc` (this host) or `zenoh` (connect to the orchestrator).
-    #[arg(long, value_enum, default_value_t = Transport::Ipc)]
-    pub transport: Transport,
-    /// zenoh: the orchestrator's endpoint, e.g. `tcp/10.0.0.5:7447` or
-    /// `quic/lab-host:7447` (repeatable).
-    #[arg(long, value_name = "ENDPOINT")]
-    pub connect: Vec<String>,
-    /// zenoh: a zenoh JSON5 config file read first (TLS certificates,
-    /// access control; see deploy/zenoh/).
-    #[arg(long, value_name = "FILE")]
-    pub zenoh_config: Option<PathBuf>,
+    /// The bus.
+    #[command(flatten)]
+    pub bus: BusArgs,
     /// zenoh: the failsafe when the orchestrator is lost.
     #[command(flatten)]
     pub failsafe: FailsafeArgs,
@@ -179,22 +172,7 @@ impl AgentArgs {
             return Err("--heartbeat-ms must be at least 1".into());
         }
         self.failsafe.grace()?;
-        for endpoint in &self.connect {
-            bycoms_protocol::bus::zenoh::check_endpoint(endpoint)
-                .map_err(|e| format!("bad --connect {e}"))?;
-        }
-        match self.transport {
-            Transport::Ipc if !self.connect.is_empty() || self.zenoh_config.is_some() => {
-                Err("--connect and --zenoh-config need --transport zenoh".into())
-            }
-            Transport::Zenoh if self.connect.is_empty() && self.zenoh_config.is_none() => {
-                Err("--transport zenoh needs the orchestrator's endpoint: --connect tcp/HOST:PORT".into())
-            }
-            Transport::Memory if !self.connect.is_empty() || self.zenoh_config.is_some() => {
-                Err("--connect and --zenoh-config need --transport zenoh".into())
-            }
-            _ => Ok(()),
-        }
+        self.bus.validate()
     }
 
     /// The command-line flags that reproduce these arguments (what the
@@ -231,18 +209,7 @@ impl AgentArgs {
             v.push("--parent-pid".into());
             v.push(p.to_string());
         }
-        if self.transport != Transport::Ipc {
-            v.push("--transport".into());
-            v.push(self.transport.as_str().into());
-        }
-        for endpoint in &self.connect {
-            v.push("--connect".into());
-            v.push(endpoint.clone());
-        }
-        if let Some(file) = &self.zenoh_config {
-            v.push("--zenoh-config".into());
-            v.push(file.display().to_string());
-        }
+        v.extend(self.bus.to_flags());
         v.extend(self.failsafe.to_flags());
         v
     }
@@ -276,9 +243,11 @@ mod tests {
             peers: None,
             parent_pid: Some(77),
             heartbeat_ms: 50,
-            transport: Transport::Zenoh,
-            connect: vec!["tcp/127.0.0.1:7447".into(), "tls/lab:7448".into()],
-            zenoh_config: None,
+            bus: BusArgs {
+                transport: Transport::Zenoh,
+                connect: vec!["tcp/127.0.0.1:7447".into(), "tls/lab:7448".into()],
+                zenoh_config: None,
+            },
             failsafe: FailsafeArgs { grace_s: 0.1 + 0.4, on_lost: OnOrchestratorLost::Wait },
         };
         let flags = args.to_flags();
@@ -289,10 +258,10 @@ mod tests {
         assert_eq!(parsed.peer_ids().collect::<Vec<_>>(), [1, 2, 3]);
         assert_eq!(parsed.swarm_size(), 9);
         assert!(parsed.validate().is_ok());
-        assert_eq!(parsed.connect, args.connect);
-        let no_endpoint = AgentArgs { connect: Vec::new(), ..parsed.clone() };
-        assert!(no_endpoint.validate().unwrap_err().contains("--connect"));
-        let ipc_with_endpoint = AgentArgs { transport: Transport::Ipc, ..parsed.clone() };
+        assert_eq!(parsed.bus, args.bus);
+        // The bus flags' own checks are bus_args.rs's; the agent makes them.
+        let ipc_with_endpoint =
+            AgentArgs { bus: BusArgs { transport: Transport::Ipc, ..args.bus.clone() }, ..parsed.clone() };
         assert!(ipc_with_endpoint.validate().unwrap_err().contains("--transport zenoh"));
         assert_eq!(parsed.failsafe, args.failsafe);
         let bad_grace =

@@ -28,9 +28,10 @@ use super::robots::{RobotsError, RobotsFile};
 use super::scenario::{Scenario, ScenarioError};
 use super::world::{Lab, Wiring, CONTROL_PERIOD, PHYSICS_DT};
 use crate::agent_process::cli::quiet_iceoryx2;
-use crate::agent_process::{check_speed, ipc_config, ExitCause, Lifeline};
+use crate::agent_process::failsafe::Failsafe;
+use crate::agent_process::{check_speed, BusArgs, BusOpenError, ExitCause, Lifeline, OnBus};
 use crate::natnet_server::Faults;
-use bycoms_protocol::bus::ipc::{IpcBus, IpcConfig};
+use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
 use bycoms_protocol::link::RobotState;
 use bycoms_protocol::msg::{Deploy, Pose};
@@ -81,6 +82,11 @@ pub struct LabArgs {
     /// are robot ids; see deploy/natnet-serve.toml).
     #[arg(long, value_name = "FILE", requires = "natnet")]
     pub natnet_faults: Option<PathBuf>,
+    /// The bus of the operator's requests and the bus mocap: iceoryx2 on
+    /// the orchestrator's host, or zenoh to the orchestrator (a lab on
+    /// another host, as the gateways on a bridge host).
+    #[command(flatten)]
+    pub bus: BusArgs,
 }
 
 /// Why the lab could not run.
@@ -306,8 +312,41 @@ fn run(args: &LabArgs) -> Result<Option<ExitCause>, LabError> {
         .collect();
     let swarm = Swarm::new(&args.swarm)?;
     let n = wiring.len() as u32;
-    let config = IpcConfig { node_name: Some(format!("bycoms-{}-lab", swarm.as_str())), ..ipc_config(n) };
-    let bus = IpcBus::new(config)?;
+    args.bus.validate().map_err(LabError::Args)?;
+    let node = format!("bycoms-{}-lab", swarm.as_str());
+    let then = RunLab { args, swarm: &swarm, scenario, wiring: &wiring, lifeline: &mut lifeline };
+    args.bus.open(&swarm, None, None, n, node, then).map_err(|e| match e {
+        BusOpenError::Args(a) => LabError::Args(a),
+        BusOpenError::Bus(b) => LabError::Bus(b),
+    })?
+}
+
+/// The lab's loop once the bus is open.
+struct RunLab<'a> {
+    args: &'a LabArgs,
+    swarm: &'a Swarm,
+    scenario: Scenario,
+    wiring: &'a [Wiring],
+    lifeline: &'a mut Lifeline,
+}
+
+impl OnBus for RunLab<'_> {
+    type Output = Result<Option<ExitCause>, LabError>;
+    fn run<B: Bus>(self, bus: &B, _failsafe: Option<(Failsafe, AliveWatch)>) -> Self::Output {
+        let RunLab { args, swarm, scenario, wiring, lifeline } = self;
+        run_on(bus, args, swarm, scenario, wiring, lifeline)
+    }
+}
+
+fn run_on<B: Bus>(
+    bus: &B,
+    args: &LabArgs,
+    swarm: &Swarm,
+    scenario: Scenario,
+    wiring: &[Wiring],
+    lifeline: &mut Lifeline,
+) -> Result<Option<ExitCause>, LabError> {
+    let (bus, swarm, n) = (bus, *swarm, wiring.len() as u32);
     // One motion capture: NatNet (as a real lab's Motive) or the bus.
     let (mut mocap, natnet) = match args.natnet {
         Some(addr) => {
@@ -319,10 +358,10 @@ fn run(args: &LabArgs) -> Result<Option<ExitCause>, LabError> {
             tracing::info!(command = %out.command_addr(), rate_hz = args.natnet_rate, "lab: motion capture by NatNet");
             (None, Some(out))
         }
-        None => (Some(MocapOut::open(&bus, &swarm, n)?), None),
+        None => (Some(MocapOut::open(bus, &swarm, n)?), None),
     };
-    let mut operator = Operator::open(&bus, &swarm)?;
-    let mut lab = Lab::wired(scenario, &wiring, args.seed)?;
+    let mut operator = Operator::open(bus, &swarm)?;
+    let mut lab = Lab::wired(scenario, wiring, args.seed)?;
     tracing::info!(scenario = lab.scenario().name, robots = n, speed = args.speed, "lab running");
     let end = args.duration.map(Duration::from_secs_f64);
     let mocap_every = Duration::from_millis(args.mocap_ms);

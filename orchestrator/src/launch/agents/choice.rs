@@ -6,7 +6,7 @@
 //! the kind (which executable, which robots file) happens once, before the
 //! launch starts.
 
-use super::gateways::Gateways;
+use super::gateways::{Gateways, GatewaysAt};
 use super::remote::Remote;
 use super::spawned::{AgentCommand, Spawned};
 use super::threads::Threads;
@@ -40,8 +40,9 @@ pub enum AgentsKind {
     /// Started by hand on other hosts (`sim-agent --transport zenoh
     /// --connect ...`); the launch waits for every robot to register.
     Remote,
-    /// Real robots: one `agent` gateway per robot of `agents.robots_file`,
-    /// started here; each robot is enabled when it is deployed.
+    /// Real robots: one `agent` gateway per robot, started here for each
+    /// robot of `agents.robots_file` or elsewhere (`agents.gateways`); each
+    /// robot is enabled when it is deployed.
     Real,
 }
 
@@ -57,6 +58,10 @@ pub struct AgentsConfig {
     /// `real`: the gateway executable; default `agent` next to the
     /// orchestrator.
     pub gateway_bin: Option<PathBuf>,
+    /// `real`: where the gateways run: `here` (started by this launch, one
+    /// per robot of the robots file) or `elsewhere` (started by hand on a
+    /// bridge host over zenoh, awaited as remote agents are).
+    pub gateways: GatewaysAt,
     /// `real`: the lab scenario (a built-in name, `exp-short` /
     /// `exp-long`, or a scenario file): the launch's start, goal and arena
     /// in metres (`launch::lab`).
@@ -80,6 +85,7 @@ impl Default for AgentsConfig {
             source: AgentsKind::default(),
             robots_file: None,
             gateway_bin: None,
+            gateways: GatewaysAt::Here,
             scenario: None,
             placement: real_placement(),
         }
@@ -87,6 +93,16 @@ impl Default for AgentsConfig {
 }
 
 impl AgentsConfig {
+    /// Whether this launch starts its agents' processes (spawned agents,
+    /// gateways here), rather than awaiting them.
+    pub fn started_here(&self) -> bool {
+        match self.source {
+            AgentsKind::Spawned => true,
+            AgentsKind::Remote => false,
+            AgentsKind::Real => self.gateways == GatewaysAt::Here,
+        }
+    }
+
     /// Checks the choice against the rest of the launch's configuration.
     pub fn validate(&self, robots: u32, transport: Transport, lockstep: bool) -> Result<(), String> {
         let zenoh = transport == Transport::Zenoh;
@@ -96,6 +112,16 @@ impl AgentsConfig {
         if self.scenario.is_some() && self.source != AgentsKind::Real {
             return Err(
                 "agents.scenario (--lab-scenario) is for real robots (agents.source = \"real\")".into()
+            );
+        }
+        if self.gateways == GatewaysAt::Elsewhere && self.source != AgentsKind::Real {
+            return Err("agents.gateways (--gateways) is for real robots (agents.source = \"real\")".into());
+        }
+        if self.gateways == GatewaysAt::Elsewhere && !zenoh {
+            return Err(
+                "agents.gateways = \"elsewhere\" needs transport.kind = \"zenoh\" (--transport zenoh): \
+                        gateways on other hosts join over zenoh"
+                    .into(),
             );
         }
         let p = &self.placement;
@@ -113,15 +139,13 @@ impl AgentsConfig {
                 Err("agents.source = \"real\" needs clock = \"realtime\" (a real robot cannot be stepped)"
                     .into())
             }
-            AgentsKind::Real if zenoh => Err(
-                "agents.source = \"real\": the gateways run on this host over ipc (transport.kind = \"ipc\")"
-                    .into(),
-            ),
             AgentsKind::Real if self.scenario.is_none() => Err(
                 "agents.source = \"real\" needs agents.scenario (--lab-scenario exp-short|exp-long|FILE): \
                  the lab's start, goal and arena in metres"
                     .into(),
             ),
+            // The robots file (addresses, keys) is the gateways' business.
+            AgentsKind::Real if self.gateways == GatewaysAt::Elsewhere => Ok(()),
             AgentsKind::Real => match &self.robots_file {
                 None => Err("agents.source = \"real\" needs agents.robots_file (--robots-file)".into()),
                 Some(path) => {
@@ -163,6 +187,9 @@ impl AgentsConfig {
             AgentsKind::Remote => {
                 Box::new(Remote::new(register_timeout, heartbeat_timeout, alive).with_link_grace(link_grace))
             }
+            AgentsKind::Real if self.gateways == GatewaysAt::Elsewhere => Box::new(Gateways::elsewhere(
+                Remote::new(register_timeout, heartbeat_timeout, alive).with_link_grace(link_grace),
+            )),
             AgentsKind::Real => {
                 let path = self.robots_file.as_deref().context("agents.robots_file is not set")?;
                 let robots = RobotsFile::read(path)?;
@@ -187,4 +214,48 @@ fn gateway_command(explicit: Option<&Path>) -> Result<AgentCommand> {
         me.display()
     );
     Ok(AgentCommand { program: beside, prefix: Vec::new() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn real(gateways: GatewaysAt) -> AgentsConfig {
+        AgentsConfig {
+            source: AgentsKind::Real,
+            gateways,
+            scenario: Some("exp-short".into()),
+            ..AgentsConfig::default()
+        }
+    }
+
+    #[test]
+    fn gateways_run_here_over_either_bus_or_elsewhere_over_zenoh() {
+        // Here: the robots file names each robot's gateway, over ipc or zenoh.
+        for transport in [Transport::Ipc, Transport::Zenoh] {
+            let err = real(GatewaysAt::Here).validate(2, transport, false).unwrap_err();
+            assert!(err.contains("agents.robots_file"), "{transport:?}: {err}");
+        }
+        // Elsewhere: no robots file here (it is the gateways'), but zenoh.
+        assert_eq!(real(GatewaysAt::Elsewhere).validate(2, Transport::Zenoh, false), Ok(()));
+        let err = real(GatewaysAt::Elsewhere).validate(2, Transport::Ipc, false).unwrap_err();
+        assert!(err.contains("--transport zenoh"), "{err}");
+        // Only real robots have gateways.
+        let spawned = AgentsConfig { source: AgentsKind::Spawned, ..real(GatewaysAt::Elsewhere) };
+        let err =
+            AgentsConfig { scenario: None, ..spawned }.validate(2, Transport::Zenoh, false).unwrap_err();
+        assert!(err.contains("agents.gateways"), "{err}");
+        // Real robots are never stepped, wherever their gateways run.
+        let err = real(GatewaysAt::Elsewhere).validate(2, Transport::Zenoh, true).unwrap_err();
+        assert!(err.contains("realtime"), "{err}");
+    }
+
+    #[test]
+    fn only_agents_started_here_are_started_here() {
+        assert!(AgentsConfig::default().started_here());
+        assert!(real(GatewaysAt::Here).started_here());
+        assert!(!real(GatewaysAt::Elsewhere).started_here());
+        let remote = AgentsConfig { source: AgentsKind::Remote, ..AgentsConfig::default() };
+        assert!(!remote.started_here());
+    }
 }

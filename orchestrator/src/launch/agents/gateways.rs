@@ -1,5 +1,7 @@
-//! Real robots behind `agent` gateways: one gateway process per robot of a
-//! lab's robots file (`deploy/lab/robots.toml`).
+//! Real robots behind `agent` gateways: one gateway per robot, started
+//! here for each robot of a lab's robots file (`deploy/lab/robots.toml`),
+//! or started elsewhere (a bridge host next to the robots' access point,
+//! over zenoh) and awaited as remote agents are ([`GatewaysAt`]).
 //!
 //! Why a thin wrapper around [`Spawned`]: a gateway is a child process like
 //! a `sim-agent` — same process group, same `--parent-pid` lifeline, same
@@ -9,6 +11,11 @@
 //! independently of the launch, so every gateway is started at the
 //! beginning ([`AgentSource::all_at_once`]): each robot connects while it
 //! waits, and the engine enables them one at a time with `Deploy`.
+//!
+//! Gateways elsewhere: the same rules, with [`Remote`] instead of
+//! [`Spawned`] underneath (liveliness tokens and the heartbeat watchdog
+//! instead of child processes; a late gateway takes a later turn). Nothing
+//! else differs: the engine sees one kind, `gateway`.
 //!
 //! A robot whose link is lost (its gateway reports `Link { up: false }`
 //! after 300 ms of silence) and stays lost for [`LINK_GRACE`] more is gone
@@ -21,20 +28,42 @@
 //! robot. The robot's own failsafe stops its motors 500 ms after its last
 //! command either way.
 
+use super::remote::Remote;
 use super::spawned::{AgentCommand, Spawned};
-use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
+use super::{AgentError, AgentPlan, AgentSource, Gone, Reach, Started};
 use bycoms_sim::lab::robots::RobotsFile;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-/// One `agent` gateway per robot of a robots file.
+/// Where a launch's gateways run (`agents.gateways`, `--gateways`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum GatewaysAt {
+    /// Started here, one per robot of `agents.robots_file` (over ipc, or
+    /// over zenoh connecting to this orchestrator).
+    #[default]
+    Here,
+    /// Started by hand on other hosts (`agent --transport zenoh --connect
+    /// ...`), awaited here; needs the zenoh transport.
+    Elsewhere,
+}
+
+/// The gateways of a launch's real robots.
 pub struct Gateways {
-    robots: RobotsFile,
-    inner: Spawned,
+    at: At,
     link_timeout_ms: u64,
     /// Robots whose link was reported lost, since when (not yet reported
     /// by `poll`, not restored).
     lost_links: BTreeMap<u32, Instant>,
+}
+
+/// What runs the gateways underneath.
+enum At {
+    /// Started here from the robots file.
+    Here { robots: RobotsFile, inner: Spawned },
+    /// Awaited.
+    Elsewhere(Remote),
 }
 
 /// How long a robot link reported lost must stay lost before the robot is
@@ -43,28 +72,53 @@ pub struct Gateways {
 pub const LINK_GRACE: Duration = Duration::from_millis(150);
 
 impl Gateways {
-    /// Gateways run by `agent` (the `agent` executable) for `robots`.
+    /// Gateways run here by `agent` (the `agent` executable) for `robots`.
     pub fn new(
         agent: AgentCommand,
         robots: RobotsFile,
         register_timeout: Duration,
         heartbeat_timeout: Duration,
     ) -> Self {
-        Self {
-            robots,
-            inner: Spawned::new(agent, register_timeout, heartbeat_timeout),
-            link_timeout_ms: 300,
-            lost_links: BTreeMap::new(),
+        let inner = Spawned::new(agent, register_timeout, heartbeat_timeout);
+        Self::with(At::Here { robots, inner })
+    }
+
+    /// Gateways started elsewhere, awaited through `remote` (see the module
+    /// docs).
+    pub fn elsewhere(remote: Remote) -> Self {
+        Self::with(At::Elsewhere(remote))
+    }
+
+    fn with(at: At) -> Self {
+        Self { at, link_timeout_ms: 300, lost_links: BTreeMap::new() }
+    }
+
+    fn inner(&self) -> &dyn AgentSource {
+        match &self.at {
+            At::Here { inner, .. } => inner,
+            At::Elsewhere(remote) => remote,
         }
     }
 
-    /// The gateway flags of robot `id`.
+    fn inner_mut(&mut self) -> &mut dyn AgentSource {
+        match &mut self.at {
+            At::Here { inner, .. } => inner,
+            At::Elsewhere(remote) => remote,
+        }
+    }
+
+    /// The gateway flags of robot `id` (gateways started here): its robot's
+    /// address and key, the run's speed and heartbeat, and the bus of the
+    /// launch's agents (over zenoh: where this orchestrator listens, and the
+    /// robot's own zenoh config).
     pub fn flags(&self, id: u32, plan: &AgentPlan<'_>) -> Result<Vec<String>, AgentError> {
-        let entry =
-            self.robots.robots.iter().find(|r| r.id == id).ok_or_else(|| AgentError::NoSuchRobot {
-                robot: id,
-                why: format!("the robots file names robots 1..={}", self.robots.robots.len()),
-            })?;
+        let At::Here { robots, .. } = &self.at else {
+            return Err(AgentError::NoSuchRobot { robot: id, why: "its gateway runs elsewhere".into() });
+        };
+        let entry = robots.robots.iter().find(|r| r.id == id).ok_or_else(|| AgentError::NoSuchRobot {
+            robot: id,
+            why: format!("the robots file names robots 1..={}", robots.robots.len()),
+        })?;
         let a = plan.args;
         let mut v = vec![
             "--swarm".into(),
@@ -74,7 +128,7 @@ impl Gateways {
             "--bind".into(),
             entry.gateway.to_string(),
             "--key-file".into(),
-            self.robots.key_path(entry).display().to_string(),
+            robots.key_path(entry).display().to_string(),
             "--speed".into(),
             format!("{:?}", a.speed),
             "--link-timeout-ms".into(),
@@ -88,6 +142,8 @@ impl Gateways {
         if let Some(p) = a.parent_pid {
             v.extend(["--parent-pid".into(), p.to_string()]);
         }
+        v.extend(a.bus.to_flags());
+        v.extend(a.failsafe.to_flags());
         Ok(v)
     }
 }
@@ -113,26 +169,44 @@ impl AgentSource for Gateways {
         true
     }
 
+    fn start_hint(&self) -> &'static str {
+        match self.at {
+            At::Here { .. } => "",
+            At::Elsewhere(_) => {
+                " (start each robot's gateway on its bridge host with `agent --transport zenoh \
+                 --connect ENDPOINT --swarm SWARM --robot K --bind ADDR --key-file FILE`)"
+            }
+        }
+    }
+
+    fn ended_by(&self) -> &'static str {
+        self.inner().ended_by()
+    }
+
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {
+        if let At::Elsewhere(remote) = &mut self.at {
+            return remote.start(id, plan);
+        }
         let flags = self.flags(id, plan)?;
-        let pid = self.inner.spawn(id, &flags, "")?;
+        let At::Here { inner, .. } = &mut self.at else { unreachable!("matched above") };
+        let pid = inner.spawn(id, &flags, "")?;
         Ok(Started::Process { pid })
     }
 
     fn heard(&mut self, id: u32) {
-        self.inner.heard(id);
+        self.inner_mut().heard(id);
     }
 
     fn is_running(&self, id: u32) -> bool {
-        self.inner.is_running(id)
+        self.inner().is_running(id)
     }
 
     fn pid(&self, id: u32) -> Option<u32> {
-        self.inner.pid(id)
+        self.inner().pid(id)
     }
 
     fn poll(&mut self, force: bool) -> Vec<(u32, Gone)> {
-        let mut gone = self.inner.poll(force);
+        let mut gone = self.inner_mut().poll(force);
         let now = Instant::now();
         let due: Vec<u32> = self
             .lost_links
@@ -142,8 +216,9 @@ impl AgentSource for Gateways {
             .collect();
         for id in due {
             self.lost_links.remove(&id);
-            // Ended here, so never reported twice (nor by `inner` later).
-            if self.inner.kill(id) {
+            // Ended here (or dropped from the launch), so never reported
+            // twice (nor by the source underneath later).
+            if self.inner_mut().kill(id) {
                 gone.push((id, Gone::RobotLinkLost));
             }
         }
@@ -155,17 +230,21 @@ impl AgentSource for Gateways {
             if self.lost_links.remove(&id).is_some() {
                 tracing::info!(robot = id, "robot {id}'s link is back within the grace: it stays");
             }
-        } else if self.inner.is_running(id) {
+        } else if self.inner().is_running(id) {
             self.lost_links.entry(id).or_insert_with(Instant::now);
         }
     }
 
+    fn reach(&mut self) -> Vec<(u32, Reach)> {
+        self.inner_mut().reach()
+    }
+
     fn kill(&mut self, id: u32) -> bool {
         self.lost_links.remove(&id);
-        self.inner.kill(id)
+        self.inner_mut().kill(id)
     }
 
     fn wind_down(&mut self, grace: Duration) -> Vec<u32> {
-        self.inner.wind_down(grace)
+        self.inner_mut().wind_down(grace)
     }
 }

@@ -70,7 +70,7 @@ impl AgentSource for Threads {
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {
         let mut args = plan.args.clone();
         args.robot = id;
-        args.transport = Transport::Memory;
+        args.bus.transport = Transport::Memory;
         args.parent_pid = None;
         let other = |e: Box<dyn std::error::Error + Send + Sync>| AgentError::Other(e);
         let terrain = bycoms_sim::terrain::parse(plan.terrain_text).map_err(|e| other(Box::new(e)))?;
