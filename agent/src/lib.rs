@@ -10,7 +10,7 @@
 //!   mode 1 (head for the goal) / mode 2 (walk along a companion's field),
 //!   three motions (straight, turn cw, turn ccw).
 //! * [`acoustic`] — the pieces of the physical robot (§VI): gradient
-//!   estimation from a microphone ring, FFT tone isolation, and the
+//!   estimation from a microphone ring, integer DFT tone isolation, and the
 //!   differential-drive controller.
 //! * [`firmware`] — the real robot's firmware core: link frames and
 //!   microphone frames in, motor commands, its tone and link frames out.

@@ -46,13 +46,13 @@ pub extern "C" fn bycoms_nostd_link_decode(
 /// silence, and returns the length of its first frame (a hello) plus its
 /// state.
 #[no_mangle]
-pub extern "C" fn bycoms_nostd_firmware(key: &[u8; 32], robot: u32, level: f32, now_ms: u64) -> usize {
+pub extern "C" fn bycoms_nostd_firmware(key: &[u8; 32], robot: u32, level: u16, now_ms: u64) -> usize {
     let config = FirmwareConfig::paper(RobotId(robot), 320.0, [224.0, 512.0]);
     let Ok(mut fw) = Firmware::new(config, LinkKey::new(key), *key) else { return 0 };
     let now = Duration::from_millis(now_ms);
     let _ = fw.handle_datagram(&key[..], now);
-    let mut frames: MicFrames = [[level; 512]; 6];
-    fw.handle_mics(&mut frames, now);
+    let frames: MicFrames = [[level; 512]; 6];
+    fw.handle_mics(&frames, now);
     let mut buf = [0u8; MAX_FRAME_LEN];
     let sent = fw.poll_transmit(now, &mut buf).map_or(0, |f| f.len());
     sent + fw.state() as usize + fw.motors().left as usize

@@ -51,8 +51,7 @@
 //!   GPIO2 and GPIO8 are strapping pins: the microphone bias and the
 //!   driver's inputs must not pull them low at reset.
 
-use bycoms_agent::acoustic::FRAME_LEN;
-use bycoms_agent::firmware::MICS;
+use bycoms_agent::firmware::{MicFrames, MICS};
 use esp_hal::analog::adc::{Adc, AdcConfig, AdcPin, Attenuation};
 use esp_hal::gpio::interconnect::PeripheralOutput;
 use esp_hal::gpio::{DriveMode, Level, Output, OutputConfig};
@@ -70,8 +69,9 @@ use static_cell::StaticCell;
 /// Samples per second per microphone.
 pub const SAMPLE_RATE: u32 = 4096;
 
-/// One control period's raw samples, microphone by microphone.
-pub type Samples = [[u16; FRAME_LEN]; MICS];
+/// One control period's raw samples, microphone by microphone: the core's
+/// frames, 12-bit ADC counts.
+pub type Samples = MicFrames;
 
 /// Motor PWM frequency (above hearing: no whine in the microphones).
 const MOTOR_PWM: Rate = Rate::from_khz(20);

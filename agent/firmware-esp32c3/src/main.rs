@@ -30,7 +30,7 @@ mod board;
 mod config;
 
 use board::{Board, Mics, Samples, SAMPLE_RATE};
-use bycoms_agent::firmware::{Firmware, MicFrames};
+use bycoms_agent::firmware::Firmware;
 use bycoms_protocol::link::{LinkKey, MAX_FRAME_LEN};
 use core::sync::atomic::{AtomicU32, Ordering};
 use embassy_executor::Spawner;
@@ -155,8 +155,6 @@ async fn main(spawner: Spawner) -> ! {
     if let Err(e) = socket.bind(config.port) {
         halt(&mut rtc, format_args!("UDP port {}: {e:?}", config.port));
     }
-    static FRAMES: StaticCell<MicFrames> = StaticCell::new();
-    let frames = FRAMES.init([[0.0; 512]; 6]);
     let mut datagram = [0u8; 512];
     let mut out = [0u8; MAX_FRAME_LEN];
     motors.enable();
@@ -178,13 +176,11 @@ async fn main(spawner: Spawner) -> ! {
             }
             Either3::First(Err(_)) => {}
             Either3::Second(samples) => {
-                for (frame, mic) in frames.iter_mut().zip(samples.iter()) {
-                    for (f, &s) in frame.iter_mut().zip(mic.iter()) {
-                        *f = f32::from(s);
-                    }
-                }
+                // The core takes the ADC's 12-bit integers as they are; the
+                // sampler fills the other buffer meanwhile (a control
+                // period's work is a few ms of its 125 ms).
+                fw.handle_mics(samples, now);
                 let _ = EMPTY.try_send(samples);
-                fw.handle_mics(frames, now);
             }
             Either3::Third(()) => fw.handle_timeout(now),
         }

@@ -7,8 +7,8 @@
 //! takes three pieces, each usable alone (a simulator can feed the gradient
 //! estimator synthetic readings; firmware runs all three):
 //!
-//! * [`tones`] — per microphone frame, an FFT isolates the *other* robots'
-//!   tones (the own tone is loudest and would swamp the gradient) and sums
+//! * [`tones`] — per microphone frame, a fixed-point DFT of the few bins
+//!   needed isolates the *other* robots' tones (the own tone is loudest and would swamp the gradient) and sums
 //!   their amplitudes into that microphone's reading V_n;
 //! * [`gradient`] — the six readings give V_ave (intensity at the centre) and
 //!   the direction of Σ (V_n − V_ave)·m_n, the field gradient;
@@ -25,4 +25,4 @@ pub mod tones;
 
 pub use drive::{DriveConfig, DriveController, DriveInput, DriveOutput, Tangent};
 pub use gradient::{GradientEstimate, MicRing};
-pub use tones::{ToneAmplitudes, ToneConfig, ToneError, ToneIsolator, FRAME_LEN};
+pub use tones::{Frame, ToneAmplitudes, ToneConfig, ToneError, ToneIsolator, ADC_MAX, FRAME_LEN};

@@ -37,10 +37,10 @@
 //!   must enable again;
 //! * any refused frame is counted (and reported in telemetry), never acted on.
 
-use crate::acoustic::FRAME_LEN;
 use crate::acoustic::{
-    DriveConfig, DriveController, DriveInput, MicRing, ToneConfig, ToneError, ToneIsolator,
+    DriveConfig, DriveController, DriveInput, MicRing, ToneConfig, ToneError, ToneIsolator, ADC_MAX,
 };
+use crate::acoustic::{Frame, FRAME_LEN};
 use crate::point::Mode;
 use bycoms_protocol::link::{
     DropCounters, DropReason, Health, LinkKey, Payload, RobotEvent, RobotLink, RobotState, Telemetry,
@@ -53,8 +53,9 @@ use sha2::{Digest, Sha256};
 /// Microphones on the robot (the paper's ring).
 pub const MICS: usize = 6;
 
-/// One control period's samples: one frame per microphone, raw ADC units.
-pub type MicFrames = [[f32; FRAME_LEN]; MICS];
+/// One control period's samples: one frame per microphone, raw 12-bit ADC
+/// counts (the ADC's own integers: no conversion in the shell).
+pub type MicFrames = [Frame; MICS];
 
 /// Everything the firmware is configured with; [`FirmwareConfig::paper`]
 /// gives the paper robot's values.
@@ -72,8 +73,8 @@ pub struct FirmwareConfig<const K: usize> {
     pub ring: MicRing<MICS>,
     /// The drive law's parameters.
     pub drive: DriveConfig,
-    /// ADC full scale: a sample ≤ 0 or ≥ this is clipped.
-    pub adc_full_scale: f32,
+    /// ADC full scale: a sample of 0 or ≥ this is clipped.
+    pub adc_full_scale: u16,
     /// Below this battery voltage (mV) the low-battery flag is set.
     pub low_battery_mv: u16,
     /// No valid Enable/Goal for this long → motors off.
@@ -101,7 +102,7 @@ impl<const K: usize> FirmwareConfig<K> {
             tones: ToneConfig { sample_rate: 4096.0, gain: FRAME_LEN as f64 / 2.0 },
             ring: MicRing::paper(),
             drive: DriveConfig { voltage_limit: Some(255.0), ..DriveConfig::paper(120.0) },
-            adc_full_scale: 4095.0,
+            adc_full_scale: ADC_MAX,
             low_battery_mv: 4700,
             failsafe: Duration::from_millis(500),
             heartbeat: Duration::from_millis(100),
@@ -302,15 +303,14 @@ impl<const K: usize> Firmware<K> {
         min(failsafe, link)
     }
 
-    /// One control period: isolates the tones in each microphone's frame
-    /// (the frames are overwritten: they are the FFT's work buffers),
+    /// One control period: isolates the tones in each microphone's frame,
     /// estimates V_ave and the gradient, runs the drive law if allowed and
     /// queues telemetry.
-    pub fn handle_mics(&mut self, frames: &mut MicFrames, now: Duration) {
+    pub fn handle_mics(&mut self, frames: &MicFrames, now: Duration) {
         self.handle_timeout(now);
         let full = self.config.adc_full_scale;
-        self.clipping = frames.iter().flatten().any(|&s| s <= 0.0 || s >= full);
-        let v: [f64; MICS] = core::array::from_fn(|n| self.isolator.amplitude(&mut frames[n]));
+        self.clipping = frames.iter().flatten().any(|&s| s == 0 || s >= full);
+        let v: [f64; MICS] = core::array::from_fn(|n| self.isolator.amplitude(&frames[n]));
         let estimate = self.config.ring.estimate(&v);
         if let (RobotState::Driving, Some(goal)) = (self.state(), self.goal) {
             let input = DriveInput {

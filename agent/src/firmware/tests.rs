@@ -12,11 +12,12 @@ fn ms(t: u64) -> Duration {
     Duration::from_millis(t)
 }
 
-/// One microphone frame: ADC mid-scale plus sines (Hz, amplitude in counts).
-fn tone_frame(tones: &[(f64, f64)]) -> [f32; FRAME_LEN] {
+/// One microphone frame: ADC mid-scale plus sines (Hz, amplitude in
+/// counts), rounded to the ADC's counts.
+fn tone_frame(tones: &[(f64, f64)]) -> Frame {
     core::array::from_fn(|i| {
         let t = i as f64 / 4096.0;
-        (2048.0 + tones.iter().map(|&(f, a)| a * libm::sin(TAU * f * t)).sum::<f64>()) as f32
+        libm::round(2048.0 + tones.iter().map(|&(f, a)| a * libm::sin(TAU * f * t)).sum::<f64>()) as u16
     })
 }
 
@@ -77,8 +78,8 @@ impl Rig {
     }
 
     fn control(&mut self, now: Duration, mean: f64, slope: f64, towards: f64) {
-        let mut frames = mics(mean, slope, towards);
-        self.fw.handle_mics(&mut frames, now);
+        let frames = mics(mean, slope, towards);
+        self.fw.handle_mics(&frames, now);
     }
 }
 
@@ -249,8 +250,8 @@ fn health_flags_report_clipping_and_low_battery() {
     let mut rig = Rig::new();
     rig.fw.set_battery(4500);
     let mut frames = mics(40.0, 0.0, 0.0);
-    frames[3][10] = 4095.0;
-    rig.fw.handle_mics(&mut frames, ms(10));
+    frames[3][10] = 4095;
+    rig.fw.handle_mics(&frames, ms(10));
     let h = rig.fw.last_telemetry().unwrap().health.0;
     assert_eq!(h, Health::LOW_BATTERY | Health::MIC_CLIPPING);
 }

@@ -54,8 +54,8 @@ pub fn characterise(config: &SoundConfig, distances: &[f64], trials: usize, seed
                 let other = Speaker { phase: rng.gen_range(0.0..core::f64::consts::TAU), ..source };
                 let mics = mic_positions(x, y, heading, ring.radius);
                 let t0 = rng.gen_range(0.0..10.0);
-                let mut frames = sample_frames(config, &room, &[other, own], &mics, 120.0, t0, &mut rng);
-                let v = frames.each_mut().map(|f| isolator.amplitude(f));
+                let frames = sample_frames(config, &room, &[other, own], &mics, 120.0, t0, &mut rng);
+                let v = frames.each_ref().map(|f| isolator.amplitude(f));
                 let est = ring.estimate(&v);
                 v_sum += est.mean;
                 // True direction to the speaker, robot frame.

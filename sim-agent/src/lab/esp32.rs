@@ -92,7 +92,7 @@ impl EmulatedEsp32 {
     }
 
     /// One control period's microphone frames.
-    pub fn control(&mut self, frames: &mut MicFrames, now: Duration) -> io::Result<()> {
+    pub fn control(&mut self, frames: &MicFrames, now: Duration) -> io::Result<()> {
         self.firmware.handle_mics(frames, now);
         self.transmit(now)
     }

@@ -1,7 +1,7 @@
 //! The lab's sound: what each microphone's ADC reads.
 //!
 //! Why a waveform model rather than ready-made V_n values: the firmware
-//! under test isolates tones with an FFT, so the emulator must hand it
+//! under test isolates tones with a DFT, so the emulator must hand it
 //! samples, exactly as the ADC would, for the FFT, the window and the
 //! noise to matter as they do on the robot. Per sample, a microphone at
 //! distance d from a speaker hears
@@ -13,8 +13,9 @@
 //! speaker's mirror images in the arena's four walls times `echo_gain`,
 //! plus motor vibration (a sum of sines at `vibration_hz` with amplitude
 //! `vibration` × |motor command| / 255, the same at all six microphones of
-//! the robot) and Gaussian sensor noise; then the ADC: mid-scale offset,
-//! rounding, clamping to 0..=4095.
+//! the robot) and Gaussian sensor noise; then the 12-bit ADC: mid-scale
+//! offset, rounding to whole counts, clamping to 0..=4095, as the `u16`
+//! samples the firmware core takes.
 //!
 //! Calibration: A_cal = V_target / gain, so a robot whose centre is
 //! `cal_distance` from a lone speaker reads V_ave ≈ V_target (22000 with the
@@ -22,7 +23,7 @@
 //! `cal_distance` is 0.5 m: mode 2 then holds a contour about half a metre
 //! around a stuck robot, which clears the robot's own 0.128 m radius.
 
-use bycoms_agent::acoustic::FRAME_LEN;
+use bycoms_agent::acoustic::{ADC_MAX as ADC_MAX_COUNTS, FRAME_LEN};
 use bycoms_agent::firmware::{MicFrames, MICS};
 use core::f64::consts::TAU;
 use rand::Rng;
@@ -34,7 +35,7 @@ pub const SPEED_OF_SOUND: f64 = 343.0;
 /// ADC mid-scale (12 bit).
 pub const ADC_MID: f64 = 2048.0;
 /// ADC full scale (12 bit).
-pub const ADC_MAX: f64 = 4095.0;
+pub const ADC_MAX: f64 = ADC_MAX_COUNTS as f64;
 
 /// The sound model's parameters (scenario files: `[sound]`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -129,7 +130,7 @@ pub fn sample_frames(
 ) -> MicFrames {
     // Every path as (amplitude, delay, freq, phase): direct + 4 wall images.
     let mut paths: Vec<[(f64, f64, f64, f64); 5]> = Vec::with_capacity(speakers.len());
-    let mut frames = [[0f32; FRAME_LEN]; MICS];
+    let mut frames = [[0u16; FRAME_LEN]; MICS];
     let vib = config.vibration * (motor / 255.0).clamp(0.0, 1.0);
     for (m, frame) in mics.iter().zip(frames.iter_mut()) {
         paths.clear();
@@ -160,7 +161,8 @@ pub fn sample_frames(
             if config.sensor_noise != 0.0 {
                 v += config.sensor_noise * gaussian(rng);
             }
-            *out = v.round().clamp(0.0, ADC_MAX) as f32;
+            // Exact: an integer in 0..=4095.
+            *out = v.round().clamp(0.0, ADC_MAX) as u16;
         }
     }
     frames

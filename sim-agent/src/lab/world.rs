@@ -183,9 +183,9 @@ impl Lab {
             let Some(b) = r.body else { continue };
             let mics = mic_positions(b.x, b.y, b.heading, 0.1);
             let motor = r.esp.motors().left.abs().max(r.esp.motors().right.abs());
-            let mut frames =
+            let frames =
                 sample_frames(&self.scenario.sound, &room, &speakers, &mics, motor, t0, &mut self.rng);
-            r.esp.control(&mut frames, now)?;
+            r.esp.control(&frames, now)?;
         }
         Ok(())
     }

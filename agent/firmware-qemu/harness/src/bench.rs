@@ -184,7 +184,7 @@ impl CsrMeter {
             );
         }
         println!(
-            "bench: RAM: the core's state (Firmware<2>) {} B, the shell's six f32 frames {} B",
+            "bench: RAM: the core's state (Firmware<2>) {} B, the shell's six 12-bit frames (u16) {} B",
             core::mem::size_of::<bycoms_fw_replay::Core>(),
             core::mem::size_of::<bycoms_agent::firmware::MicFrames>()
         );

@@ -1,9 +1,10 @@
 //! Where a control period's instructions go: the pieces of `handle_mics`
 //! measured alone on one recorded-like frame, and the price of single
 //! soft-float operations (riscv32imc has no FPU: every `f32`/`f64`
-//! operation is a call into compiler_builtins).
+//! operation is a call into compiler_builtins; tone isolation is integer
+//! arithmetic but for its last square roots).
 
-use bycoms_agent::acoustic::{MicRing, ToneConfig, ToneIsolator, FRAME_LEN};
+use bycoms_agent::acoustic::{Frame, MicRing, ToneConfig, ToneIsolator};
 use core::hint::black_box;
 use riscv::register::minstret;
 use semihosting::println;
@@ -21,61 +22,41 @@ fn count(mut f: impl FnMut()) -> u64 {
     runs[2]
 }
 
-fn frame() -> [f32; FRAME_LEN] {
+fn frame() -> Frame {
     // ADC mid-scale, a loud own tone and a quieter other one, as integers.
     core::array::from_fn(|i| {
         let t = i as f32 / 4096.0;
         let s =
             2048.0 + 400.0 * libm::sinf(6.283_185_5 * 320.0 * t) + 90.0 * libm::sinf(6.283_185_5 * 224.0 * t);
-        libm::roundf(s)
+        libm::roundf(s) as u16
     })
 }
 
 /// Prints the breakdown.
 pub fn report() {
     let config = ToneConfig { sample_rate: 4096.0, gain: 256.0 };
-    let Ok(isolator) = ToneIsolator::new(config, 320.0, [224.0, 512.0]) else { return };
     let input = frame();
+    // The firmware's isolator (the own tone and two others: 9 bins), and
+    // one listening for no other tone (3 bins): the difference is the price
+    // of six bins' DFT sums, the rest the mean, the window and the square
+    // roots.
+    let (Ok(iso2), Ok(iso0)) =
+        (ToneIsolator::new(config, 320.0, [224.0, 512.0]), ToneIsolator::new(config, 320.0, []))
+    else {
+        return;
+    };
     let tones = count(|| {
-        let mut f = black_box(input);
-        black_box(isolator.tones(&mut f));
+        black_box(iso2.tones(black_box(&input)));
     });
-    // The pieces of `ToneIsolator::tones` and `Firmware::handle_mics`
-    // around the FFT, written as they are there (agent/src/acoustic/tones.rs,
-    // agent/src/firmware/mod.rs).
-    let window: [f32; FRAME_LEN] = core::array::from_fn(|i| {
-        let phase = core::f64::consts::TAU * i as f64 / FRAME_LEN as f64;
-        (0.5 - 0.5 * libm::cos(phase)) as f32
+    let own_only = count(|| {
+        black_box(iso0.tones(black_box(&input)));
     });
-    let mean = count(|| {
-        let f = black_box(&input);
-        black_box(f.iter().map(|&s| f64::from(s)).sum::<f64>() / FRAME_LEN as f64);
-    });
-    let windowing = count(|| {
-        let mut f = black_box(input);
-        let m = black_box(2048.0f32);
-        for (s, w) in f.iter_mut().zip(&window) {
-            *s = (*s - m) * w;
-        }
-        black_box(f);
-    });
-    // The FFT of the frame as `tones` hands it over (mean removed, windowed):
-    // soft-float costs depend on the operands.
-    let mut windowed = input;
-    let m = input.iter().map(|&s| f64::from(s)).sum::<f64>() as f32 / FRAME_LEN as f32;
-    for (s, w) in windowed.iter_mut().zip(&window) {
-        *s = (*s - m) * w;
-    }
-    let fft = count(|| {
-        let mut f = black_box(windowed);
-        black_box(microfft::real::rfft_512(&mut f));
-    });
+    let per_bin = tones.saturating_sub(own_only) / 6;
+    let rest = own_only.saturating_sub(3 * per_bin);
+    let frames = [input; 6];
     let clip = count(|| {
-        let f = black_box(&input);
-        black_box(f.iter().any(|&s| s <= 0.0 || s >= 4095.0));
-    });
-    let copy = count(|| {
-        black_box(black_box(input));
+        let f = black_box(&frames);
+        black_box(f.iter().flatten().any(|&s| s == 0 || s >= 4095));
     });
     let ring = MicRing::paper();
     let v = [22000.0, 21000.0, 20500.0, 21500.0, 23000.0, 24000.0];
@@ -110,14 +91,12 @@ pub fn report() {
         }
     });
     let per = |n: u64| n.saturating_sub(empty) as f64 / 100.0;
-    println!("parts: one microphone frame: rfft_512 {} instructions; tone isolation (mean, Hann window, rfft_512, 3 tones) {} (frame copy {} not subtracted)", fft, tones, copy);
     println!(
-        "parts: of which, per frame: the f64 mean {mean}, subtracting it and the Hann window {windowing}; the clipping check (handle_mics) {clip} per frame"
+        "parts: one microphone frame's tone isolation (3 tones, 9 bins) {tones} instructions: one bin's DFT sum {per_bin}, the mean, the window and the amplitudes' square roots {rest}"
     );
     println!(
-        "parts: six frames' tone isolation = {} instructions; the ring estimate (V_ave, gradient) {}",
-        6 * tones,
-        estimate
+        "parts: six frames' tone isolation = {} instructions; the clipping check of the six frames {clip}; the ring estimate (V_ave, gradient) {estimate}",
+        6 * tones
     );
     println!(
         "parts: one soft-float operation, call included: f32 mul {:.0}, f32 add {:.0}, f64 mul {:.0}, f64 add {:.0} instructions",

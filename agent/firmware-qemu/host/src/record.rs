@@ -20,6 +20,7 @@
 //! the gateway enables it again), and its battery sinks below the
 //! low-battery mark.
 
+use bycoms_agent::acoustic::ADC_MAX;
 use bycoms_agent::angle::wrap;
 use bycoms_fw_replay::{tag, Boot, NoMeter, Shell, LISTENED, MAGIC, MIC_BYTES};
 use bycoms_protocol::link::{GatewayEvent, GatewayLink, LinkKey, Payload, SessionId};
@@ -152,8 +153,8 @@ impl Robot {
 fn to_samples(frames: &bycoms_agent::firmware::MicFrames) -> [u8; MIC_BYTES] {
     let mut out = [0u8; MIC_BYTES];
     for (i, s) in frames.iter().flatten().enumerate() {
-        assert!(s.fract() == 0.0 && (0.0..=4095.0).contains(s), "not an ADC sample: {s}");
-        out[2 * i..2 * i + 2].copy_from_slice(&(*s as u16).to_le_bytes());
+        assert!(*s <= ADC_MAX, "not a 12-bit ADC sample: {s}");
+        out[2 * i..2 * i + 2].copy_from_slice(&s.to_le_bytes());
     }
     out
 }

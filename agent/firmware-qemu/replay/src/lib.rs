@@ -19,8 +19,8 @@
 //!
 //! A boot record starts a new firmware (a track); a file holds any number of
 //! tracks. The samples are the ADC's 12-bit integers, so u16 holds them
-//! exactly; the shell converts them to the core's `f32` as the ESP32's
-//! shell does.
+//! exactly; the shell hands them to the core as they are (the core's
+//! frames are the ADC's integers), as the ESP32's shell does.
 //!
 //! Output lines (one per call, plus a `status` line whenever the state, the
 //! motors, the tone, the session or the next deadline changed) print every
@@ -190,7 +190,7 @@ impl Source for &[u8] {
 pub enum Call {
     /// `handle_datagram`.
     Datagram,
-    /// `handle_mics`: one control period (six tone FFTs, the gradient, the drive law).
+    /// `handle_mics`: one control period (six frames' tone isolation, the gradient, the drive law).
     Mics,
     /// `handle_timeout`.
     Timeout,
@@ -248,7 +248,7 @@ impl Default for Shell {
 impl Shell {
     /// No firmware yet: the first record must be a boot.
     pub const fn new() -> Self {
-        Self { fw: None, frames: [[0.0; FRAME_LEN]; MICS], buf: [0; MAX_FRAME_LEN], status: None, tracks: 0 }
+        Self { fw: None, frames: [[0; FRAME_LEN]; MICS], buf: [0; MAX_FRAME_LEN], status: None, tracks: 0 }
     }
 
     /// The running firmware.
@@ -295,7 +295,7 @@ impl Shell {
         self.print_status(now, out)
     }
 
-    /// One control period: ADC samples → the core's `f32` frames → `handle_mics`.
+    /// One control period: ADC samples → the core's frames → `handle_mics`.
     pub fn mics(
         &mut self,
         samples: &[u8; MIC_BYTES],
@@ -306,12 +306,12 @@ impl Shell {
         for (n, frame) in self.frames.iter_mut().enumerate() {
             for (i, s) in frame.iter_mut().enumerate() {
                 let at = 2 * (n * FRAME_LEN + i);
-                *s = f32::from(u16::from_le_bytes([samples[at], samples[at + 1]]));
+                *s = u16::from_le_bytes([samples[at], samples[at + 1]]);
             }
         }
         let fw = self.fw.as_mut().ok_or(Error::NoFirmware)?;
         meter.start(Call::Mics);
-        fw.handle_mics(&mut self.frames, now);
+        fw.handle_mics(&self.frames, now);
         meter.stop(Call::Mics);
         let m = fw.motors();
         write!(out, "t={} mics motors={:?},{:?} ", now.as_micros(), m.left, m.right)?;

@@ -21,13 +21,13 @@ fn main() -> ! {
     let key: [u8; 32] = black_box([7; 32]);
     let config = FirmwareConfig::paper(RobotId(black_box(1)), black_box(320.0), black_box([224.0, 512.0]));
     let Ok(mut fw) = Firmware::new(config, LinkKey::new(&key), key) else { loop {} };
-    let mut frames = [[0f32; 512]; 6];
+    let frames = [[0u16; 512]; 6];
     let mut buf = [0u8; MAX_FRAME_LEN];
     let rx = [0u8; 128];
     loop {
         let now = Duration::from_micros(black_box(0));
         let _ = black_box(fw.handle_datagram(&rx[..black_box(40)], now));
-        fw.handle_mics(black_box(&mut frames), now);
+        fw.handle_mics(black_box(&frames), now);
         fw.handle_timeout(black_box(now));
         if let Some(frame) = fw.poll_transmit(now, &mut buf) {
             black_box(frame);
