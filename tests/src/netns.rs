@@ -119,6 +119,16 @@ impl Host {
         c
     }
 
+    /// Starts our binary `program` with `args` inside this host's namespace
+    /// (`ip netns exec` execs it, so the process is the program itself);
+    /// killed and reaped on drop, as every [`crate::Proc`].
+    pub fn start(&self, program: &str, args: &[&str]) -> crate::Proc {
+        let mut all: Vec<String> = vec!["netns".into(), "exec".into(), self.netns.clone()];
+        all.push(crate::bin(program).display().to_string());
+        all.extend(args.iter().map(|s| s.to_string()));
+        crate::Proc::start(&std::path::PathBuf::from("ip"), &all)
+    }
+
     /// A zenoh tcp endpoint on this host's address.
     pub fn endpoint(&self, port: u16) -> String {
         format!("tcp/{}:{port}", self.addr)

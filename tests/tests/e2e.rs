@@ -19,6 +19,7 @@ mod gateway_lab;
 mod lab_launch;
 mod launch_report;
 mod live_view;
+mod netns_bridge_host;
 mod netns_liveliness;
 mod netns_remote;
 mod parity;

@@ -24,7 +24,7 @@ use bycoms_sim::runner::RobotEnd;
 use bycoms_sim::terrain::to_text;
 use bycoms_sim::{run, RunConfig, RunResult};
 use bycoms_tests::netns::{two_hosts, Host, TwoHosts};
-use bycoms_tests::{bin, swarm_name, Finished, Proc};
+use bycoms_tests::{swarm_name, Finished, Proc};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -37,15 +37,6 @@ fn world(dir: &Path) -> (RunResult, PathBuf) {
     let path = dir.join("terrain.txt");
     std::fs::write(&path, to_text(&terrain)).expect("write terrain");
     (run(&terrain, &cfg), path)
-}
-
-/// `program args…` inside `host`'s namespace (`ip netns exec` execs it, so
-/// the process is the program itself).
-fn start_in(host: &Host, program: &str, args: &[&str]) -> Proc {
-    let mut all: Vec<String> = vec!["netns".into(), "exec".into(), host.netns.clone()];
-    all.push(bin(program).display().to_string());
-    all.extend(args.iter().map(|s| s.to_string()));
-    Proc::start(&PathBuf::from("ip"), &all)
 }
 
 /// The clock of a lockstep launch (the agents' default).
@@ -67,7 +58,7 @@ fn orchestrator_in(
     args.extend(["--json", "--swarm", swarm, "--robots", "3", "--eps", "3"]);
     args.extend(["--terrain", terrain, "--time-limit", "10000"]);
     args.extend(extra);
-    let orch = start_in(host, "orchestrator", &args);
+    let orch = host.start("orchestrator", &args);
     let prefix = format!("tcp/{}:", host.addr);
     let endpoint = orch
         .stderr_line(Duration::from_secs(20), |line| {
@@ -86,7 +77,7 @@ fn agent_in(host: &Host, endpoint: &str, swarm: &str, terrain: &Path, robot: u32
     let mut args = vec!["--transport", "zenoh", "--connect", endpoint, "--swarm", swarm, "--swarm-size", "3"];
     args.extend(["--robot", &robot, "--terrain", terrain, "--eps", "3"]);
     args.extend(extra);
-    start_in(host, "sim-agent", &args)
+    host.start("sim-agent", &args)
 }
 
 fn end_name(end: RobotEnd) -> &'static str {
