@@ -47,6 +47,11 @@ fn one<'u>(unit: &'u Unit, section: &str, key: &str) -> &'u str {
 /// The orchestrator's arguments in a unit's `ExecStart=`, with systemd's
 /// `%i`, `%%` and `${VAR}` and the shell's `$VAR`/`$(…)` substituted.
 fn exec_args(exec: &str, instance: &str, env: &HashMap<String, String>) -> Vec<String> {
+    program_args(exec, instance, env, "/usr/local/bin/orchestrator")
+}
+
+/// `program`'s arguments in a unit's `ExecStart=` (see [`exec_args`]).
+fn program_args(exec: &str, instance: &str, env: &HashMap<String, String>, program: &str) -> Vec<String> {
     let mut line = exec.replace("%%", "%").replace("%i", instance);
     for (k, v) in env {
         line = line.replace(&format!("${{{k}}}"), v);
@@ -59,7 +64,7 @@ fn exec_args(exec: &str, instance: &str, env: &HashMap<String, String>) -> Vec<S
     }
     let words: Vec<String> =
         line.split_whitespace().map(|w| w.trim_matches(|c| c == '\'' || c == '"').to_owned()).collect();
-    let at = words.iter().position(|w| w == "/usr/local/bin/orchestrator").expect("runs the orchestrator");
+    let at = words.iter().position(|w| w == program).unwrap_or_else(|| panic!("runs {program}"));
     words[at..].to_vec()
 }
 
@@ -99,6 +104,36 @@ fn the_launch_unit_runs_a_valid_launch_command() {
     assert_eq!(cli.log.log_format, bycoms_logging::LogFormat::Json);
     assert_eq!(success_codes(&unit), [exit::NOT_ARRIVED, exit::INTERRUPTED]);
     assert_eq!(one(&unit, "Service", "KillMode"), "mixed", "SIGINT to the orchestrator, not its agents");
+}
+
+#[test]
+fn the_gateway_unit_runs_a_valid_gateway_over_zenoh_for_its_instance() {
+    #[derive(Parser)]
+    struct AgentCli {
+        #[command(flatten)]
+        gateway: bycoms_gateway::GatewayArgs,
+        #[command(flatten)]
+        log: bycoms_logging::LogArgs,
+    }
+    let unit = parse_unit(&read("systemd/bycoms-gateway@.service"));
+    assert!(!one(&unit, "Unit", "Description").is_empty());
+    assert_eq!(one(&unit, "Install", "WantedBy"), "multi-user.target");
+    assert_eq!(one(&unit, "Service", "Restart"), "always", "ready for the next launch");
+    let files = &unit["Service"]["EnvironmentFile"];
+    assert_eq!(files, &["/etc/bycoms/gateway.env", "/etc/bycoms/gateway-%i.env"]);
+    // The shipped examples fill in every variable the command line uses.
+    let mut env = env_file(&read("systemd/gateway.env"));
+    env.extend(env_file(&read("systemd/gateway-1.env")));
+    let args = program_args(one(&unit, "Service", "ExecStart"), "1", &env, "/usr/local/bin/agent");
+    assert!(!args.iter().any(|a| a.contains('$')), "a variable is left: {args:?}");
+    let cli = AgentCli::try_parse_from(&args).unwrap_or_else(|e| panic!("{args:?} does not parse:\n{e}"));
+    let g = cli.gateway;
+    g.validate().unwrap_or_else(|e| panic!("{args:?}: {e}"));
+    assert_eq!(g.robot, 1);
+    assert_eq!(g.bus.transport, bycoms_sim::agent_process::Transport::Zenoh);
+    assert_eq!(g.bus.zenoh_config.as_deref(), Some(Path::new("/etc/bycoms/certs/robot-1.json5")));
+    assert_eq!(g.key_file, Path::new("/etc/bycoms/keys/robot-1.key"));
+    assert_eq!(cli.log.log_format, bycoms_logging::LogFormat::Json);
 }
 
 #[test]
