@@ -1,13 +1,18 @@
 //! ns per simulated robot-step with 0, 10, 100 and 1000 beacons.
 //!
-//! One "robot-step" is what the runner does per control period: goal
-//! bearing, field sample over all beacons (+ noise when on), controller,
-//! kinematics, terrain check. Run: `cargo bench -p bycoms-sim --bench robot_step`.
+//! One "robot-step" is what the runner does per control period: a
+//! [`Deployment::step`] (noise when on, field sample over all beacons, goal
+//! bearing and controller when needed, kinematics), then the terrain check
+//! and the arrival test (squared distance, as the runner). Run:
+//! `cargo bench -p bycoms-sim --bench robot_step`.
+//!
+//! `plain_step` is the same period done by `SimRobot::step` with the bearing
+//! computed every period (what the agent process does), for comparison.
 
 use bycoms_agent::ControllerConfig;
 use bycoms_sim::body::{HeadingTable, Kinematics};
 use bycoms_sim::field::Beacons;
-use bycoms_sim::robot::SimRobot;
+use bycoms_sim::robot::{Deployment, MotionCones, SimRobot};
 use bycoms_sim::sensing::{NoiseModel, SensingNoise};
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::Vec2;
@@ -33,17 +38,41 @@ fn bench_steps(bencher: divan::Bencher, n: usize, noise: bool) {
     let kin = Kinematics::paper();
     let goal = terrain.goal();
     let table = HeadingTable::new(&kin, terrain.start().bearing_to(goal)).expect("paper kinematics");
+    let config = ControllerConfig::paper(1.0);
+    let cones = MotionCones::new(&table, config.straight_tolerance);
     let field = beacons(n);
     let noise = noise.then(|| SensingNoise::new(NoiseModel::paper(), 7));
-    let fresh = SimRobot::new(terrain.start(), ControllerConfig::paper(1.0), noise, kin.dt);
+    let fresh = SimRobot::new(terrain.start(), config, noise, kin.dt);
+    let (table, cones, field) = (&table, &cones, &field);
+    let mut d = Deployment::new(fresh.clone(), table, cones, field, goal);
+    bencher.bench_local(move || {
+        d.step();
+        let p = d.robot.body.pos;
+        let (dx, dy) = (p.x - goal.x, p.y - goal.y);
+        if terrain.is_blocked_at(p) || dx * dx + dy * dy <= 0.25 {
+            d = Deployment::new(fresh.clone(), table, cones, field, goal);
+        }
+        divan::black_box(p)
+    });
+}
+
+fn bench_plain_steps(bencher: divan::Bencher, n: usize) {
+    let terrain = Terrain::paper();
+    let kin = Kinematics::paper();
+    let goal = terrain.goal();
+    let table = HeadingTable::new(&kin, terrain.start().bearing_to(goal)).expect("paper kinematics");
+    let field = beacons(n);
+    let fresh = SimRobot::new(terrain.start(), ControllerConfig::paper(1.0), None, kin.dt);
     let mut robot = fresh.clone();
     bencher.bench_local(move || {
         let bearing = robot.body.pos.bearing_to(goal);
         robot.step(&table, &field, bearing);
-        if terrain.is_blocked_at(robot.body.pos) || robot.body.pos.distance(goal) < 0.5 {
+        let p = robot.body.pos;
+        let (dx, dy) = (p.x - goal.x, p.y - goal.y);
+        if terrain.is_blocked_at(p) || dx * dx + dy * dy <= 0.25 {
             robot = fresh.clone();
         }
-        divan::black_box(robot.body.pos)
+        divan::black_box(p)
     });
 }
 
@@ -55,4 +84,9 @@ fn step(bencher: divan::Bencher, beacons: usize) {
 #[divan::bench(args = [0, 10, 100, 1000])]
 fn step_with_noise(bencher: divan::Bencher, beacons: usize) {
     bench_steps(bencher, beacons, true);
+}
+
+#[divan::bench(args = [0, 10, 100, 1000])]
+fn plain_step(bencher: divan::Bencher, beacons: usize) {
+    bench_plain_steps(bencher, beacons);
 }

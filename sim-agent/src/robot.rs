@@ -8,11 +8,12 @@
 //! terrain is never an input here.
 
 use crate::body::{Body, HeadingTable};
-use crate::field::Beacons;
+use crate::field::{Beacons, FieldSample};
 use crate::sensing::SensingNoise;
 use crate::Vec2;
 use bycoms_agent::angle::wrap;
-use bycoms_agent::{Controller, ControllerConfig, Input, Mode, Output};
+use bycoms_agent::point::choose_motion;
+use bycoms_agent::{Controller, ControllerConfig, Input, Mode, Motion, Output};
 
 /// A simulated robot between deployment and stop.
 #[derive(Clone, Debug)]
@@ -58,5 +59,156 @@ impl SimRobot {
         let out = self.controller.step(&input);
         self.body.apply(out.motion, table);
         out
+    }
+}
+
+/// For every heading θ_k of a [`HeadingTable`], the unit vectors at
+/// θ_k − tol, θ_k and θ_k + tol (tol: the controller's straight tolerance).
+///
+/// In mode 1 below threshold the controller's whole decision is where the
+/// goal bearing φg lies relative to θ_k: within ±tol (straight), beyond
+/// +tol (turn counter-clockwise) or beyond −tol (clockwise). Three cross
+/// products with these vectors tell that from the goal vector itself, with
+/// no `atan2` — whenever the goal vector is at least 1e-9 rad from every
+/// boundary (±tol, 0, π). The controller's float φg − θ_k is within a few
+/// 1e-15 rad of the true angle (atan2 and two roundings), so such a margin
+/// cannot change its decision; anything closer goes to the exact path.
+#[derive(Clone, Debug)]
+pub struct MotionCones {
+    lo: Vec<(f64, f64)>,
+    mid: Vec<(f64, f64)>,
+    hi: Vec<(f64, f64)>,
+}
+
+/// Smallest |sin| of the angle to a boundary (relative to |v|₁ ≥ |v|₂) the
+/// cheap decision trusts; rounding is six orders of magnitude smaller.
+const CONE_MARGIN: f64 = 1e-9;
+
+impl MotionCones {
+    pub fn new(table: &HeadingTable, tolerance: f64) -> Self {
+        let unit = |a: f64| (libm::cos(a), libm::sin(a));
+        let heading = |k: u32| table.heading(k);
+        Self {
+            lo: (0..table.len()).map(|k| unit(heading(k) - tolerance)).collect(),
+            mid: (0..table.len()).map(|k| unit(heading(k))).collect(),
+            hi: (0..table.len()).map(|k| unit(heading(k) + tolerance)).collect(),
+        }
+    }
+
+    /// The mode-1 motion for heading `k` and goal vector (vx, vy), if it is
+    /// certain without the bearing; `None` near a boundary.
+    #[inline]
+    pub fn decide(&self, k: u32, vx: f64, vy: f64) -> Option<Motion> {
+        let k = k as usize;
+        let m = CONE_MARGIN * (libm::fabs(vx) + libm::fabs(vy));
+        let cross = |(ux, uy): (f64, f64)| ux * vy - uy * vx;
+        let (s_lo, s_hi) = (cross(self.lo[k]), cross(self.hi[k]));
+        // φ − θ ∈ (−tol, tol): v is counter-clockwise of θ−tol and clockwise of θ+tol.
+        if s_lo > m && s_hi < -m {
+            return Some(Motion::Straight);
+        }
+        let s_mid = cross(self.mid[k]);
+        if s_mid > m && s_hi > m {
+            // φ − θ ∈ (tol, π)
+            Some(Motion::TurnCcw)
+        } else if s_mid < -m && s_lo < -m {
+            // φ − θ ∈ (−π, −tol)
+            Some(Motion::TurnCw)
+        } else {
+            None
+        }
+    }
+}
+
+/// One robot's deployment in the sequential runner: the beacons and the
+/// goal stay fixed while it moves (borrowed, so they cannot change under it).
+///
+/// Each period does exactly what [`SimRobot::step`] does with the goal
+/// bearing `pos.bearing_to(goal)`, with less work:
+///
+/// * turning in place leaves the position, hence the field sample, the goal
+///   bearing and the gradient direction, unchanged: they are kept from the
+///   previous period (noise is still drawn every period and applied anew);
+/// * in mode 1 below threshold the motion comes from [`MotionCones`]
+///   without computing the bearing (no `atan2`), the controller's state
+///   being unchanged by such a period (it stays in mode 1);
+/// * the bearing and the direction are computed only when the controller
+///   needs them, with the same `libm` calls as `SimRobot::step`.
+///
+/// `sim-agent/tests/deployment.rs` checks it against `SimRobot::step` bit
+/// for bit; the study's `runs.csv` is byte-identical to the plain loop's.
+pub struct Deployment<'a> {
+    pub robot: SimRobot,
+    table: &'a HeadingTable,
+    cones: &'a MotionCones,
+    beacons: &'a Beacons,
+    goal: Vec2,
+    /// Position the cached values belong to (`None`: nothing cached yet).
+    at: Option<Vec2>,
+    sample: FieldSample,
+    bearing: Option<f64>,
+    direction: Option<f64>,
+}
+
+impl<'a> Deployment<'a> {
+    pub fn new(
+        robot: SimRobot,
+        table: &'a HeadingTable,
+        cones: &'a MotionCones,
+        beacons: &'a Beacons,
+        goal: Vec2,
+    ) -> Self {
+        let sample = FieldSample { intensity: 0.0, gx: 0.0, gy: 0.0 };
+        Self { robot, table, cones, beacons, goal, at: None, sample, bearing: None, direction: None }
+    }
+
+    /// One control period; returns the motion performed.
+    #[inline]
+    pub fn step(&mut self) -> Motion {
+        let r = &mut self.robot;
+        let (factor, offset) = match &mut r.noise {
+            Some(n) => n.draw(),
+            None => (1.0, 0.0),
+        };
+        let p = r.body.pos;
+        let same = self.at.is_some_and(|a| a.x.to_bits() == p.x.to_bits() && a.y.to_bits() == p.y.to_bits());
+        if !same {
+            self.at = Some(p);
+            self.sample = self.beacons.sample(p);
+            self.bearing = None;
+            self.direction = None;
+        }
+        let intensity = self.sample.intensity * factor;
+        let config = *r.controller.config();
+        // Exactly the negation of the controller's `intensity >= g_th` (NaN included).
+        let reaches = intensity >= config.g_th;
+        let below = r.controller.mode() == Mode::Goal && !reaches;
+        let heading = r.body.heading(self.table);
+        if below {
+            // Mode 1 stays mode 1 and the target is the goal bearing.
+            let cheap = match self.bearing {
+                Some(_) => None,
+                None => self.cones.decide(r.body.k, self.goal.x - p.x, self.goal.y - p.y),
+            };
+            let motion = cheap.unwrap_or_else(|| {
+                let bearing = *self.bearing.get_or_insert_with(|| p.bearing_to(self.goal));
+                choose_motion(wrap(bearing - heading), config.straight_tolerance)
+            });
+            r.body.apply(motion, self.table);
+            return motion;
+        }
+        let bearing = *self.bearing.get_or_insert_with(|| p.bearing_to(self.goal));
+        let sample = self.sample;
+        let direction = *self.direction.get_or_insert_with(|| sample.direction());
+        let input = Input {
+            goal_bearing: bearing,
+            field_intensity: intensity,
+            field_direction: wrap(direction + offset),
+            heading,
+            dt: r.dt,
+        };
+        let out = r.controller.step(&input);
+        r.body.apply(out.motion, self.table);
+        out.motion
     }
 }

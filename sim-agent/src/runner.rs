@@ -10,14 +10,16 @@
 //! Same terrain, configuration and seed → the same result, bit for bit.
 //!
 //! No shortcuts: every period of every robot is simulated, up to the time
-//! limit. (An exact loop detector — Brent's algorithm on the robot's state
+//! limit. Each period is a [`Deployment::step`], which does what
+//! `SimRobot::step` does (same bits) while skipping work whose result is
+//! unchanged or unused (see there). (An exact loop detector — Brent's algorithm on the robot's state
 //! bits — was tried and removed: orbiting robots drift by rounding and never
 //! repeat a state exactly, so it never fired; the full study meets its time
 //! budget without it.)
 
 use crate::body::{HeadingTable, Kinematics};
 use crate::field::Beacons;
-use crate::robot::SimRobot;
+use crate::robot::{Deployment, MotionCones, SimRobot};
 use crate::sensing::{robot_seed, NoiseModel, SensingNoise};
 use crate::terrain::Terrain;
 use crate::Vec2;
@@ -188,6 +190,7 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
     let table = HeadingTable::new(&cfg.kinematics, theta0)
         .expect("RunConfig::validate: the turn step must divide the full circle");
     let controller = cfg.controller();
+    let cones = MotionCones::new(&table, controller.straight_tolerance);
     let limit = cfg.step_limit();
     let r2 = cfg.success_radius * cfg.success_radius;
 
@@ -207,26 +210,25 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
             break;
         }
         let noise = cfg.noise.map(|m| SensingNoise::new(m, robot_seed(cfg.seed, id)));
-        let mut robot = SimRobot::new(start, controller, noise, cfg.kinematics.dt);
+        let robot = SimRobot::new(start, controller, noise, cfg.kinematics.dt);
         let mut trajectory = Vec::new();
         if cfg.record_trajectories {
             trajectory.push(start);
         }
         let first_step = steps;
+        let mut deployment = Deployment::new(robot, &table, &cones, &beacons, goal);
         let end = loop {
             if steps >= limit {
                 outcome = Some(Outcome::TimeLimit);
                 break RobotEnd::Moving;
             }
-            let bearing = robot.body.pos.bearing_to(goal);
-            robot.step(&table, &beacons, bearing);
+            deployment.step();
             steps += 1;
-            let p = robot.body.pos;
+            let p = deployment.robot.body.pos;
             if cfg.record_trajectories {
                 trajectory.push(p);
             }
             if terrain.is_blocked_at(p) {
-                beacons.push(p);
                 break RobotEnd::Stuck;
             }
             let (dx, dy) = (p.x - goal.x, p.y - goal.y);
@@ -235,6 +237,10 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
                 break RobotEnd::Arrived;
             }
         };
+        let robot = deployment.robot;
+        if end == RobotEnd::Stuck {
+            beacons.push(robot.body.pos);
+        }
         robots.push(RobotRun { id, end, position: robot.body.pos, steps: steps - first_step, trajectory });
     }
     let outcome = outcome.unwrap_or(Outcome::TimeLimit);

@@ -1,0 +1,79 @@
+//! The runner's [`Deployment::step`] skips work (cached samples on turns,
+//! no goal bearing in mode 1 below threshold); these check that it is
+//! exact: it follows `SimRobot::step` — the bearing computed every period —
+//! bit for bit, and its cheap mode-1 decision never disagrees with the
+//! controller's, even for goal vectors on and next to the boundaries.
+
+use bycoms_agent::angle::wrap;
+use bycoms_agent::point::choose_motion;
+use bycoms_agent::ControllerConfig;
+use bycoms_sim::body::{HeadingTable, Kinematics};
+use bycoms_sim::field::Beacons;
+use bycoms_sim::robot::{Deployment, MotionCones, SimRobot};
+use bycoms_sim::sensing::{NoiseModel, SensingNoise};
+use bycoms_sim::Vec2;
+use rand::{Rng, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+#[test]
+fn deployment_follows_sim_robot_step_bit_for_bit() {
+    let kin = Kinematics::paper();
+    let (start, goal) = (Vec2::new(15.5, 15.5), Vec2::new(44.5, 44.5));
+    let table = HeadingTable::new(&kin, start.bearing_to(goal)).unwrap();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
+    let (mut cheap_periods, mut turns, mut bypass) = (0usize, 0usize, 0usize);
+    for case in 0..60u64 {
+        let mut beacons = Beacons::new(1.0);
+        for _ in 0..rng.gen_range(0..40) {
+            beacons.push(Vec2::new(rng.gen_range(16.0..44.0), rng.gen_range(16.0..44.0)));
+        }
+        let config = ControllerConfig::paper(rng.gen_range(1.0..5.0));
+        let cones = MotionCones::new(&table, config.straight_tolerance);
+        let noise = (case % 2 == 1).then(|| SensingNoise::new(NoiseModel::paper(), case));
+        let mut plain = SimRobot::new(start, config, noise.clone(), kin.dt);
+        let mut d =
+            Deployment::new(SimRobot::new(start, config, noise, kin.dt), &table, &cones, &beacons, goal);
+        for period in 0..4000 {
+            let out = plain.step(&table, &beacons, plain.body.pos.bearing_to(goal));
+            let motion = d.step();
+            assert_eq!(motion, out.motion, "case {case} period {period}");
+            assert_eq!(d.robot.body.state(), plain.body.state(), "case {case} period {period}");
+            assert_eq!(d.robot.mode(), plain.mode(), "case {case} period {period}");
+            turns += usize::from(motion != bycoms_agent::Motion::Straight);
+            bypass += usize::from(plain.mode() == bycoms_agent::Mode::Bypass);
+            cheap_periods += usize::from(plain.mode() == bycoms_agent::Mode::Goal);
+        }
+    }
+    assert!(turns > 10_000 && bypass > 10_000 && cheap_periods > 10_000, "{turns} {bypass} {cheap_periods}");
+}
+
+#[test]
+fn cheap_mode_one_decision_agrees_with_the_controller_at_the_boundaries() {
+    let kin = Kinematics::paper();
+    let config = ControllerConfig::paper(1.0);
+    let tol = config.straight_tolerance;
+    let table = HeadingTable::new(&kin, 0.7).unwrap();
+    let cones = MotionCones::new(&table, tol);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
+    let (mut decided, mut declined) = (0usize, 0usize);
+    for _ in 0..200_000 {
+        let k = rng.gen_range(0..table.len());
+        let h = table.heading(k);
+        // Angles on, next to and between the boundaries ±tol, 0 and π.
+        let base = [h, h + tol, h - tol, h + core::f64::consts::PI, h + rng.gen_range(-3.2..3.2)]
+            [rng.gen_range(0..5)];
+        let nudge = [0.0, 1e-15, -1e-15, 1e-12, -1e-12, 1e-9, -1e-9, 1e-6, -1e-6][rng.gen_range(0..9)];
+        let len = libm::exp(rng.gen_range(-8.0..5.0));
+        let (vx, vy) = (len * libm::cos(base + nudge), len * libm::sin(base + nudge));
+        let exact = choose_motion(wrap(libm::atan2(vy, vx) - h), tol);
+        match cones.decide(k, vx, vy) {
+            Some(m) => {
+                assert_eq!(m, exact, "k {k} v ({vx}, {vy})");
+                decided += 1;
+            }
+            None => declined += 1,
+        }
+    }
+    // Nearly everything is decided cheaply; only the near-boundary cases are declined.
+    assert!(decided > 100_000 && declined > 10_000, "{decided} decided, {declined} declined");
+}
