@@ -7,7 +7,8 @@
 //! * **Launches** (in one process: the in-memory bus, agents as threads, so
 //!   no process start or shared memory blurs the figure): the same lockstep
 //!   launch run alternately without and with a recording, `ROUNDS` times
-//!   each; the median wall times give the slowdown, the file its bytes per
+//!   each; the median wall times give the slowdown (and the median CPU
+//!   times, less at the mercy of a busy machine, the work it added), the file its bytes per
 //!   robot-second (a robot-second is one live robot for one simulated
 //!   second: every live robot publishes one pose per 0.1 s period, moving or
 //!   not, so robot-seconds = recorded poses × 0.1 s) and the messages
@@ -15,6 +16,10 @@
 //!   and a crowd — a terrain whose goal is walled in, so no robot arrives
 //!   and every robot deployed stays live as a beacon to the end (`ROBOTS`
 //!   robots, noise on so that they stop in different places).
+//!
+//! * **Codecs**: the crowd's recording re-written with each compression MCAP
+//!   allows (none, lz4, zstd; chunks of `CHUNK_SIZE`, compression on the
+//!   writing thread as the recorder does): file size and write time.
 //!
 //! A measurement, not a check, so a bench and not a test. Run:
 //! `cargo bench -p bycoms-orchestrator --bench record_throughput`
@@ -24,7 +29,7 @@
 use bycoms_orchestrator::commands::launch::world;
 use bycoms_orchestrator::launch::config::Transport;
 use bycoms_orchestrator::launch::{self, Clock, LaunchConfig};
-use bycoms_orchestrator::record::{read_counts, Recorder};
+use bycoms_orchestrator::record::{read_counts, Recorder, CHUNK_SIZE};
 use std::path::Path;
 use std::time::Instant;
 
@@ -32,17 +37,19 @@ const TOPICS: [&str; 3] = ["bycoms/s1/agent/0/to_agent", "bycoms/s1/agent/0/pose
 const SCHEMAS: [&str; 3] = ["bycoms.ToAgent", "bycoms.Pose", "bycoms.Tick"];
 
 /// Launches timed per setting (the median is reported).
-const ROUNDS: usize = 3;
+const ROUNDS: usize = 5;
 
 /// A 40 × 40 arena whose goal sits in a closed box: no robot ever arrives.
 fn walled_in_goal() -> String {
     let (w, h) = (40usize, 40usize);
     let mut grid = vec![vec!['.'; w]; h];
-    for i in 26..35 {
-        grid[26][i] = '#';
-        grid[34][i] = '#';
-        grid[i][26] = '#';
-        grid[i][34] = '#';
+    for (y, row) in grid.iter_mut().enumerate() {
+        for (x, cell) in row.iter_mut().enumerate() {
+            let on_box = (26..=34).contains(&x) && (26..=34).contains(&y);
+            if on_box && (x == 26 || x == 34 || y == 26 || y == 34) {
+                *cell = '#';
+            }
+        }
     }
     grid[30][30] = 'G';
     grid[10][10] = 'S';
@@ -66,6 +73,38 @@ fn main() {
         (format!("walled-in goal, {robots} robots"), crowd),
     ] {
         launches(&name, cfg, dir.path());
+    }
+    // The crowd's recording, the last one written.
+    codecs(&dir.path().join("launch.mcap"), &dir.path().join("codec.mcap"));
+}
+
+/// The messages of `input` re-written to `output` with each compression.
+fn codecs(input: &Path, output: &Path) {
+    let bytes = std::fs::read(input).expect("the recording");
+    let messages: Vec<mcap::Message> =
+        mcap::MessageStream::new(&bytes).expect("mcap").map(|m| m.expect("message")).collect();
+    for (name, compression) in
+        [("none", None), ("lz4", Some(mcap::Compression::Lz4)), ("zstd", Some(mcap::Compression::Zstd))]
+    {
+        let start = Instant::now();
+        let options = mcap::WriteOptions::new()
+            .compression(compression)
+            .chunk_size(Some(CHUNK_SIZE))
+            .compression_threads(0);
+        let file = std::io::BufWriter::new(std::fs::File::create(output).expect("create"));
+        let mut writer = mcap::Writer::with_options(file, options).expect("writer");
+        for m in &messages {
+            writer.write(m).expect("write");
+        }
+        writer.finish().expect("finish");
+        drop(writer);
+        let secs = start.elapsed().as_secs_f64();
+        let size = std::fs::metadata(output).expect("written").len();
+        println!(
+            "codec {name:>4}: {size} bytes, {:.2} M messages/s written ({} messages)",
+            messages.len() as f64 / secs / 1e6,
+            messages.len()
+        );
     }
 }
 
@@ -99,7 +138,11 @@ fn recorder(path: &Path) {
 
 /// One launch of `cfg` over the in-memory bus; its wall time, and the
 /// recording's summary when `record` is set.
-fn launch_once(cfg: &LaunchConfig, record: Option<&Path>, round: usize) -> (f64, Option<(u64, u64, u64)>) {
+fn launch_once(
+    cfg: &LaunchConfig,
+    record: Option<&Path>,
+    round: usize,
+) -> (f64, f64, Option<(u64, u64, u64)>) {
     let mut cfg = cfg.clone();
     cfg.clock = Clock::Lockstep;
     cfg.transport.kind = Transport::Memory;
@@ -108,16 +151,29 @@ fn launch_once(cfg: &LaunchConfig, record: Option<&Path>, round: usize) -> (f64,
     let w = world(&cfg).expect("world");
     // Agents are threads: no executable is started.
     let agent = launch::agent_command(Some(Path::new("/nonexistent")), None).expect("command");
-    let start = Instant::now();
+    let (start, cpu) = (Instant::now(), cpu_seconds());
     let summary = launch::run(cfg, w, agent).expect("the launch runs");
     let wall = start.elapsed().as_secs_f64();
+    let cpu = cpu_seconds() - cpu;
     assert_eq!(summary.error, None, "the launch ran to its end");
     let recorded = summary.recording.as_ref().map(|r| {
         let poses: u64 = r.counts.iter().filter(|(t, _)| t.ends_with("/pose")).map(|(_, n)| n).sum();
         let bytes = std::fs::metadata(&r.path).expect("the recording").len();
         (bytes, r.messages, poses)
     });
-    (wall, recorded)
+    (wall, cpu, recorded)
+}
+
+/// CPU time of this process so far (user + system, every thread), seconds:
+/// on a busy shared machine wall time depends on the neighbours, CPU time
+/// much less.
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields after the command name (which may hold spaces) in parentheses.
+    let fields: Vec<&str> = stat.rsplit_once(')').map_or("", |(_, rest)| rest).split_whitespace().collect();
+    let ticks = |i: usize| fields.get(i).and_then(|f| f.parse::<f64>().ok()).unwrap_or(f64::NAN);
+    // utime and stime are fields 14 and 15 of stat(5), 12 and 13 after the name; 100 ticks/s.
+    (ticks(11) + ticks(12)) / 100.0
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -130,20 +186,25 @@ fn launches(name: &str, cfg: LaunchConfig, dir: &Path) {
     let (mut bare, mut recorded, mut file) = (Vec::new(), Vec::new(), None);
     // Alternated, so that a busy moment of the machine hits both alike.
     for round in 0..ROUNDS {
-        bare.push(launch_once(&cfg, None, round).0);
+        let (wall, cpu, _) = launch_once(&cfg, None, round);
+        bare.push((wall, cpu));
         let _ = std::fs::remove_file(&path);
-        let (wall, f) = launch_once(&cfg, Some(&path), round);
-        recorded.push(wall);
+        let (wall, cpu, f) = launch_once(&cfg, Some(&path), round);
+        recorded.push((wall, cpu));
         file = f;
     }
-    let (bare, recorded) = (median(bare), median(recorded));
+    let wall = |v: &[(f64, f64)]| median(v.iter().map(|x| x.0).collect());
+    let cpu = |v: &[(f64, f64)]| median(v.iter().map(|x| x.1).collect());
+    let (bare_wall, rec_wall, bare_cpu, rec_cpu) = (wall(&bare), wall(&recorded), cpu(&bare), cpu(&recorded));
     let (bytes, messages, poses) = file.expect("a recording");
     let robot_seconds = poses as f64 * 0.1;
     println!(
         "{name}: {bytes} bytes, {messages} messages, {robot_seconds:.0} robot-s: {:.0} bytes/robot-s, \
-         {:.0} messages/s written; wall {bare:.2} s without recording, {recorded:.2} s with ({:+.1} %)",
+         {:.0} messages/s written; wall {bare_wall:.2} s without recording, {rec_wall:.2} s with ({:+.1} %); \
+         CPU {bare_cpu:.2} s without, {rec_cpu:.2} s with ({:+.1} %)",
         bytes as f64 / robot_seconds,
-        messages as f64 / recorded,
-        (recorded / bare - 1.0) * 100.0
+        messages as f64 / rec_wall,
+        (rec_wall / bare_wall - 1.0) * 100.0,
+        (rec_cpu / bare_cpu - 1.0) * 100.0
     );
 }

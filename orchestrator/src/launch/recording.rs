@@ -29,7 +29,7 @@ use super::events::{RunMeta, RUN_SCHEMA};
 use super::ports::schema;
 use super::World;
 use crate::draw::trace::Trace;
-use crate::record::{RecordError, Recorder, Summary, FLUSH_INTERVAL};
+use crate::record::{RecordError, Recorder, Summary};
 use crate::scene::json::json_schema;
 use crate::scene::{Out, Scene, SceneWorld, SharedScene};
 use bycoms_protocol::decode;
@@ -37,7 +37,7 @@ use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use schemars::JsonSchema;
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::time::{Instant, SystemTime, UNIX_EPOCH};
+use std::time::{SystemTime, UNIX_EPOCH};
 
 /// Nanoseconds since the Unix epoch, now.
 pub fn now_ns() -> u64 {
@@ -51,7 +51,6 @@ pub const CLOCK_METADATA: &str = "bycoms.clock";
 pub struct Recording {
     recorder: Option<Recorder>,
     error: Option<String>,
-    last_flush: Instant,
     /// Lockstep: the simulated time messages are logged at, ns.
     simulated_ns: Option<u64>,
     scene: Option<SharedScene>,
@@ -63,15 +62,7 @@ pub struct Recording {
 impl Recording {
     /// No recording, no picture.
     pub fn off() -> Self {
-        Self {
-            recorder: None,
-            error: None,
-            last_flush: Instant::now(),
-            simulated_ns: None,
-            scene: None,
-            shown: Vec::new(),
-            trace: None,
-        }
+        Self { recorder: None, error: None, simulated_ns: None, scene: None, shown: Vec::new(), trace: None }
     }
 
     /// The run's scene for `swarm` on `world` with `cfg`, when anyone shows
@@ -203,12 +194,10 @@ impl Recording {
         self.trace.take()
     }
 
-    /// Flushes when a second has passed since the last flush.
+    /// Flushes when a second has passed since the last flush (the
+    /// recorder's own clock, which its writes check too: one chunk a second).
     pub fn tick(&mut self) {
-        if self.last_flush.elapsed() >= FLUSH_INTERVAL {
-            self.last_flush = Instant::now();
-            self.with(Recorder::flush);
-        }
+        self.with(Recorder::flush_if_due);
     }
 
     /// Finishes the file. Returns its summary, or the first error.

@@ -89,8 +89,9 @@ pub const FLUSH_INTERVAL: Duration = Duration::from_secs(1);
 /// How every chunk is compressed (see the module docs for the figures).
 pub const COMPRESSION: Option<mcap::Compression> = Some(mcap::Compression::Zstd);
 
-/// The uncompressed size past which a chunk is closed even before [`FLUSH_INTERVAL`].
-pub const CHUNK_SIZE: u64 = 256 * 1024;
+/// The uncompressed size past which a chunk is closed even before [`FLUSH_INTERVAL`]: the
+/// `mcap` writer's default (1 MiB), the memory one open chunk may take.
+pub const CHUNK_SIZE: u64 = 1024 * 1024;
 
 /// Message encoding of raw protocol bytes.
 pub const POSTCARD: &str = "postcard";
@@ -119,6 +120,9 @@ struct Channel {
     encoding: String,
     schema: String,
     sequence: u32,
+    /// Messages written on it (kept here, not in a map keyed by topic: no lookup or allocation
+    /// per message).
+    count: u64,
 }
 
 /// Writes one MCAP recording; see the [module documentation](self) for the format and the
@@ -127,7 +131,6 @@ pub struct Recorder {
     path: PathBuf,
     writer: Writer<File>,
     channels: HashMap<String, Channel>,
-    counts: BTreeMap<String, u64>,
     written: u64,
     durable: u64,
     last_flush: Instant,
@@ -144,6 +147,9 @@ impl Recorder {
             .use_chunks(true)
             .chunk_size(Some(CHUNK_SIZE))
             .disable_seeking(true)
+            // Compress on the writer's thread: zstd's worker threads would compete with the
+            // launch for the cores on every chunk (see the module docs).
+            .compression_threads(0)
             .library(format!(
                 "bycoms-orchestrator/{} {}",
                 env!("CARGO_PKG_VERSION"),
@@ -155,7 +161,6 @@ impl Recorder {
             path: path.to_path_buf(),
             writer,
             channels: HashMap::new(),
-            counts: BTreeMap::new(),
             written: 0,
             durable: 0,
             last_flush: Instant::now(),
@@ -225,7 +230,7 @@ impl Recorder {
         }
         let (channel_id, sequence) = self.next_sequence(topic)?;
         let header = MessageHeader { channel_id, sequence, log_time: log_time_ns, publish_time: log_time_ns };
-        self.write_message(topic, &header, payload)
+        self.write_message(&header, payload)
     }
 
     /// Writes a metadata record (a name and string pairs), e.g. what the log times mean.
@@ -239,8 +244,8 @@ impl Recorder {
     }
 
     /// Messages written so far, per topic.
-    pub fn counts(&self) -> &BTreeMap<String, u64> {
-        &self.counts
+    pub fn counts(&self) -> BTreeMap<String, u64> {
+        self.channels.iter().filter(|(_, c)| c.count > 0).map(|(topic, c)| (topic.clone(), c.count)).collect()
     }
 
     /// Messages handed to the kernel by the last flush: what a crash from now on cannot lose.
@@ -251,6 +256,16 @@ impl Recorder {
     /// The recording's path.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// Flushes ([`Recorder::flush`]) when [`FLUSH_INTERVAL`] has passed since the last flush:
+    /// what a caller's timer calls, so that the caller's timer and the recorder's own check
+    /// (on every message) are one clock and close one chunk a second, not two.
+    pub fn flush_if_due(&mut self) -> Result<(), RecordError> {
+        if self.last_flush.elapsed() >= FLUSH_INTERVAL {
+            self.flush()?;
+        }
+        Ok(())
     }
 
     /// Closes the open chunk and hands everything written so far to the kernel, so it survives
@@ -265,7 +280,8 @@ impl Recorder {
     /// Writes the summary section and footer (indexes, statistics), `fsync`s the file and
     /// reports what it holds.
     pub fn finish(self) -> Result<Summary, RecordError> {
-        let Recorder { path, mut writer, counts, .. } = self;
+        let counts = self.counts();
+        let Recorder { path, mut writer, .. } = self;
         let summary = writer.finish().map_err(|source| RecordError::Write { path: path.clone(), source })?;
         let file = writer.into_inner();
         let synced = file.sync_all().and_then(|()| file.metadata());
@@ -285,22 +301,13 @@ impl Recorder {
     ) -> Result<(), RecordError> {
         let (channel_id, sequence) = self.channel(topic, encoding, schema_name)?;
         let header = MessageHeader { channel_id, sequence, log_time, publish_time };
-        self.write_message(topic, &header, payload)
+        self.write_message(&header, payload)
     }
 
-    fn write_message(
-        &mut self,
-        topic: &str,
-        header: &MessageHeader,
-        payload: &[u8],
-    ) -> Result<(), RecordError> {
+    fn write_message(&mut self, header: &MessageHeader, payload: &[u8]) -> Result<(), RecordError> {
         self.writer.write_to_known_channel(header, payload).map_err(|source| self.write_error(source))?;
-        *self.counts.entry(topic.to_string()).or_insert(0) += 1;
         self.written += 1;
-        if self.last_flush.elapsed() >= FLUSH_INTERVAL {
-            self.flush()?;
-        }
-        Ok(())
+        self.flush_if_due()
     }
 
     /// The channel id for `topic` (created on first use) and the next sequence number on it.
@@ -320,6 +327,7 @@ impl Recorder {
             }
             let sequence = channel.sequence;
             channel.sequence = sequence.wrapping_add(1);
+            channel.count += 1;
             return Ok((channel.id, sequence));
         }
         let schema_id = match (schema.is_empty(), encoding) {
@@ -345,7 +353,8 @@ impl Recorder {
             .writer
             .add_channel(schema_id, topic, encoding, &BTreeMap::new())
             .map_err(|source| self.write_error(source))?;
-        let channel = Channel { id, encoding: encoding.to_string(), schema: schema.to_string(), sequence: 0 };
+        let channel =
+            Channel { id, encoding: encoding.to_string(), schema: schema.to_string(), sequence: 0, count: 0 };
         self.channels.insert(topic.to_string(), channel);
         Ok(id)
     }
@@ -359,6 +368,7 @@ impl Recorder {
         })?;
         let sequence = channel.sequence;
         channel.sequence = sequence.wrapping_add(1);
+        channel.count += 1;
         Ok((channel.id, sequence))
     }
 

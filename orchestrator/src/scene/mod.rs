@@ -19,21 +19,51 @@
 //! | `tf` | `foxglove.FrameTransforms` | `arena` → `robot/<k>`: each robot's pose as a frame |
 //! | `log` | `foxglove.Log` | gate decisions in words |
 //! | `gate/json` | `bycoms.GateDecision` (JSON) | gate decisions as data |
-//! | `robot/<k>/pose/json` | `bycoms.RobotPose` (JSON) | every pose of robot k |
-//! | `robot/<k>/mode` | `bycoms.RobotMode` (JSON) | its controller mode (1 goal, 2 bypass) |
-//! | `robot/<k>/telemetry` | `bycoms.Telemetry` (JSON) | its agent's reports (register, heartbeat, status, tick done) |
+//! | `robot/<k>/pose/json` | `bycoms.RobotPose` (JSON) | every pose of robot k that moved or turned it |
+//! | `robot/<k>/mode` | `bycoms.RobotMode` (JSON) | its controller mode (1 goal, 2 bypass), when it changes |
+//! | `robot/<k>/telemetry` | `bycoms.Telemetry` (JSON) | its agent's reports (register, heartbeat, status, link; not lockstep's tick acknowledgements) |
 //!
 //! # Entities
 //!
 //! Frame `arena`, one grid cell = 1 m, z up. Entity ids: `arena`,
 //! `terrain`, `start`, `goal`, `robot/<k>`, `robot/<k>/path/<n>` (a
-//! trajectory in pieces of [`PATH_PIECE`] steps, so a pose re-sends at most
-//! one piece, not the whole path) and `robot/<k>/beacon`. Nothing expires:
-//! every entity stays until replaced by id.
+//! trajectory in pieces of [`PATH_PIECE`] points, so a pose re-sends only
+//! the open piece, at most [`PATH_PIECE`] points, not the whole path) and
+//! `robot/<k>/beacon`. Nothing expires: every entity stays until replaced
+//! by id or deleted.
 //!
-//! A robot appears with its first pose (its start pose). Poses that do not
-//! move a robot (a beacon's republished frozen pose) produce the pose JSON
-//! only, not a scene update.
+//! # What changed, not the whole scene
+//!
+//! Foxglove's `SceneUpdate` keeps every entity until an update replaces it
+//! (same id) or deletes it, so every message here carries only what changed
+//! since the last one, and a viewer that applies them in order holds the
+//! whole scene:
+//!
+//! * the world once, at the start ([`Scene::world`]);
+//! * a pose that moves or turns a robot: its marker, the open piece of its
+//!   trajectory, its frame (`tf`) and its pose JSON; a pose that changes
+//!   nothing (a beacon republishes its frozen pose every period) sends
+//!   nothing at all;
+//! * a gate decision: the robot's new colour, a new beacon's ε circle, and a
+//!   deletion of the circle of a robot that is a beacon no more;
+//! * an agent report: its telemetry JSON, and its mode only when the mode
+//!   changed; lockstep's tick acknowledgements (one per live robot per tick,
+//!   whose one field, the step, is in the poses) send nothing.
+//!
+//! A viewer that was not there from the start gets [`Scene::snapshot`]: the
+//! whole scene as one update (the live view sends it to a late subscriber).
+//! `the_updates_applied_in_order_give_the_full_scene_after_every_input`
+//! (tests) proves the two agree after every input of seeded streams. Where
+//! this matters: a crowd of beacons, which used to send a pose JSON and a
+//! tick telemetry per beacon per tick, and trajectories re-sent up to 100
+//! points per pose (see `orchestrator/benches/record_throughput.rs`).
+//! A viewer that seeks in a recording instead of playing it holds the whole
+//! scene only if it applies the updates before the seek point (the channel
+//! was incremental before too: the world is sent once); how the Foxglove
+//! app backfills after a seek was not checked here.
+//! `orchestrator draw` and `replay` read the raw bus bytes, not this channel.
+//!
+//! A robot appears with its first pose (its start pose).
 
 pub mod json;
 mod shapes;
@@ -42,7 +72,8 @@ use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::Vec2;
 use foxglove::messages::{
-    log, Color, FrameTransform, FrameTransforms, Log, SceneEntity, SceneUpdate, Timestamp, Vector3,
+    log, scene_entity_deletion, Color, FrameTransform, FrameTransforms, Log, SceneEntity,
+    SceneEntityDeletion, SceneUpdate, Timestamp, Vector3,
 };
 use foxglove::Encode;
 use json::{Decision, GateDecision, RobotMode, RobotPose, Telemetry};
@@ -54,7 +85,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 pub const ARENA_FRAME: &str = "arena";
 
 /// Poses per trajectory piece (entity `robot/<k>/path/<n>`).
-pub const PATH_PIECE: usize = 100;
+pub const PATH_PIECE: usize = 20;
 
 const FLOOR: u32 = 0xf4f4f4;
 const BORDER: u32 = 0x555555;
@@ -216,8 +247,6 @@ struct Track {
     last: Pose,
     path: Vec<Vec2>,
     decision: Option<Decision>,
-    /// Where the gate made it a beacon.
-    beacon: Option<Vec2>,
 }
 
 /// The scene of one run: feed it messages, write what it returns.
@@ -226,6 +255,10 @@ pub struct Scene {
     world: SceneWorld,
     topics: Topics,
     robots: BTreeMap<u32, Track>,
+    /// Each robot's last controller mode (the `mode` channel sends changes).
+    modes: BTreeMap<u32, u8>,
+    /// Where the gate made each beacon.
+    beacons: BTreeMap<u32, Vec2>,
 }
 
 /// The one scene of a run, shared by whoever shows it.
@@ -261,7 +294,13 @@ pub fn stamp(ns: u64) -> Timestamp {
 impl Scene {
     /// A scene of swarm `swarm` on `world`, no robot yet.
     pub fn new(swarm: &str, world: SceneWorld) -> Self {
-        Self { world, topics: Topics::new(swarm), robots: BTreeMap::new() }
+        Self {
+            world,
+            topics: Topics::new(swarm),
+            robots: BTreeMap::new(),
+            modes: BTreeMap::new(),
+            beacons: BTreeMap::new(),
+        }
     }
 
     /// The topic names.
@@ -313,19 +352,15 @@ impl Scene {
     /// trajectory and its frame.
     pub fn pose(&mut self, pose: &Pose, ns: u64) -> Vec<Out> {
         let k = pose.robot.0;
-        let mut out = vec![Out { topic: self.topics.pose_json(k), message: Message::Pose(pose.into()) }];
         let at = Vec2::new(pose.x, pose.y);
-        let track = self.robots.entry(k).or_insert_with(|| Track {
-            last: *pose,
-            path: Vec::new(),
-            decision: None,
-            beacon: None,
-        });
+        let track =
+            self.robots.entry(k).or_insert_with(|| Track { last: *pose, path: Vec::new(), decision: None });
         let moved = track.path.last().is_none_or(|p| p.x != at.x || p.y != at.y);
         let turned = track.last.heading != pose.heading;
         if !moved && !turned && !track.path.is_empty() {
-            return out;
+            return Vec::new();
         }
+        let mut out = vec![Out { topic: self.topics.pose_json(k), message: Message::Pose(pose.into()) }];
         track.last = *pose;
         if moved {
             track.path.push(at);
@@ -360,17 +395,28 @@ impl Scene {
             Out { topic: self.topics.log(), message: Message::Log(log_line(&t, &decision)) },
         ];
         let mut entities = Vec::new();
+        let mut deletions = Vec::new();
         let at = Vec2::new(decision.x, decision.y);
         if let Some(track) = self.robots.get_mut(&k) {
             track.decision = Some(decision.decision);
-            track.beacon = decision.beacon.then_some(at);
             entities.push(robot_entity(&t, k, track));
         }
         if decision.beacon {
+            self.beacons.insert(k, at);
             entities.push(beacon_entity(&t, k, at, self.world.eps));
+        } else if self.beacons.remove(&k).is_some() {
+            // A beacon no more (a robot judged again): its circle goes.
+            deletions.push(SceneEntityDeletion {
+                timestamp: Some(t),
+                r#type: scene_entity_deletion::Type::MatchingId as i32,
+                id: beacon_id(k),
+            });
         }
-        if !entities.is_empty() {
-            out.push(self.scene_out(entities));
+        if !entities.is_empty() || !deletions.is_empty() {
+            out.push(Out {
+                topic: self.topics.scene(),
+                message: Message::Scene(SceneUpdate { deletions, entities }),
+            });
         }
         out
     }
@@ -379,12 +425,20 @@ impl Scene {
     /// reports one.
     pub fn report(&mut self, report: &FromAgent, ns: u64) -> Vec<Out> {
         let _ = ns;
+        if matches!(report, FromAgent::TickDone(_)) {
+            // Lockstep's acknowledgement, one per live robot per tick: its
+            // one field, the step, is in the robot's poses.
+            return Vec::new();
+        }
         let telemetry = Telemetry::from(report);
         let k = telemetry.robot;
         let mut out = Vec::with_capacity(2);
         if let FromAgent::Status(s) = report {
-            let mode = RobotMode { robot: k, mode: s.mode, name: RobotMode::name_of(s.mode), step: s.step };
-            out.push(Out { topic: self.topics.mode(k), message: Message::Mode(mode) });
+            if self.modes.insert(k, s.mode) != Some(s.mode) {
+                let mode =
+                    RobotMode { robot: k, mode: s.mode, name: RobotMode::name_of(s.mode), step: s.step };
+                out.push(Out { topic: self.topics.mode(k), message: Message::Mode(mode) });
+            }
         }
         out.push(Out { topic: self.topics.telemetry(k), message: Message::Telemetry(telemetry) });
         out
@@ -401,9 +455,9 @@ impl Scene {
             for piece in 0..=track.path.len().saturating_sub(2) / PATH_PIECE {
                 entities.extend(path_entity(&t, k, &track.path, piece));
             }
-            if let Some(at) = track.beacon {
-                entities.push(beacon_entity(&t, k, at, self.world.eps));
-            }
+        }
+        for (&k, &at) in &self.beacons {
+            entities.push(beacon_entity(&t, k, at, self.world.eps));
         }
         if !entities.is_empty() {
             out.push(self.scene_out(entities));
@@ -454,10 +508,14 @@ fn path_entity(t: &Timestamp, k: u32, path: &[Vec2], n: usize) -> Option<SceneEn
 }
 
 fn beacon_entity(t: &Timestamp, k: u32, at: Vec2, eps: f64) -> SceneEntity {
-    let mut e = entity(t, &format!("robot/{k}/beacon"));
+    let mut e = entity(t, &beacon_id(k));
     e.cylinders.push(disc(at, eps, 0.01, rgba(BEACON, 0.12)));
     e.lines.push(circle(at, eps, 0.05, 0.08, rgba(BEACON, 1.0)));
     e
+}
+
+fn beacon_id(k: u32) -> String {
+    format!("robot/{k}/beacon")
 }
 
 fn log_line(t: &Timestamp, d: &GateDecision) -> Log {

@@ -47,7 +47,7 @@ fn the_world_has_arena_terrain_start_and_goal_and_boxes_cover_exactly_the_blocke
 }
 
 #[test]
-fn a_pose_draws_the_robot_its_path_and_its_frame_and_a_still_pose_only_its_json() {
+fn a_pose_draws_the_robot_its_path_and_its_frame_and_a_still_pose_sends_nothing() {
     let mut scene = Scene::new("s", world());
     let first = scene.pose(&pose(1, 5.0, 5.0, 0), 1);
     let topics: Vec<&str> = first.iter().map(|o| o.topic.as_str()).collect();
@@ -55,17 +55,25 @@ fn a_pose_draws_the_robot_its_path_and_its_frame_and_a_still_pose_only_its_json(
     assert_eq!(ids(scene_of(&first)[0]), ["robot/1"], "one point is no path yet");
     let second = scene.pose(&pose(1, 5.1, 5.0, 1), 2);
     assert_eq!(ids(scene_of(&second)[0]), ["robot/1", "robot/1/path/0"]);
+    let Message::Pose(p) = &second[0].message else { panic!("pose JSON") };
+    assert_eq!((p.robot, p.x, p.step), (1, 5.1, 1));
+    assert!((p.time_s - 0.1).abs() < 1e-12);
     let still = scene.pose(&pose(1, 5.1, 5.0, 2), 3);
-    assert_eq!(still.len(), 1, "a frozen pose moves nothing: {still:?}");
-    let Message::Pose(p) = &still[0].message else { panic!("pose JSON") };
-    assert_eq!((p.robot, p.x, p.step), (1, 5.1, 2));
-    assert!((p.time_s - 0.2).abs() < 1e-12);
+    assert!(still.is_empty(), "a frozen pose changes nothing, so sends nothing: {still:?}");
+    let turned = scene.pose(&Pose { heading: 1.0, ..pose(1, 5.1, 5.0, 3) }, 4);
+    let topics: Vec<&str> = turned.iter().map(|o| o.topic.as_str()).collect();
+    assert_eq!(
+        topics,
+        ["bycoms/s/robot/1/pose/json", "bycoms/s/scene", "bycoms/s/tf"],
+        "turning is a change"
+    );
+    assert_eq!(ids(scene_of(&turned)[0]), ["robot/1", "robot/1/path/0"]);
 }
 
 #[test]
 fn a_long_path_is_sent_in_pieces_that_join_up() {
     let mut scene = Scene::new("s", world());
-    let n = 2 * PATH_PIECE + 31;
+    let n = 2 * PATH_PIECE + PATH_PIECE / 2 + 1;
     for i in 0..n {
         let out = scene.pose(&pose(2, 1.0 + i as f64 * 0.01, 1.0, i as u64), i as u64);
         // Each pose re-sends at most one piece.
@@ -121,6 +129,17 @@ fn status_reports_give_the_mode_and_telemetry() {
     assert_eq!(topics, ["bycoms/s/robot/3/mode", "bycoms/s/robot/3/telemetry"]);
     let Message::Mode(m) = &out[0].message else { panic!("mode") };
     assert_eq!((m.mode, m.name, m.step), (2, "bypass", 40));
+    // The mode channel sends changes; telemetry every report but lockstep's
+    // tick acknowledgements (their step is in the poses).
+    let same = scene.report(&FromAgent::Status(Status { robot: RobotId(3), mode: 2, step: 41 }), 5);
+    let topics: Vec<&str> = same.iter().map(|o| o.topic.as_str()).collect();
+    assert_eq!(topics, ["bycoms/s/robot/3/telemetry"]);
+    let back = scene.report(&FromAgent::Status(Status { robot: RobotId(3), mode: 1, step: 42 }), 6);
+    assert_eq!(back.len(), 2, "a new mode: {back:?}");
+    let other = scene.report(&FromAgent::Status(Status { robot: RobotId(4), mode: 1, step: 42 }), 6);
+    assert_eq!(other.len(), 2, "every robot's first mode: {other:?}");
+    let done = FromAgent::TickDone(bycoms_protocol::msg::TickDone { robot: RobotId(3), step: 43 });
+    assert!(scene.report(&done, 7).is_empty());
 }
 
 #[test]
@@ -164,4 +183,144 @@ fn every_message_encodes_with_its_schema_and_decodes_back() {
         "foxglove.SceneUpdate",
     ];
     assert_eq!(schemas.into_iter().collect::<Vec<_>>(), want);
+}
+
+/// What a SceneUpdate viewer (Foxglove's 3D panel) holds: entities by id,
+/// each replaced whole by an update carrying its id and removed only by a
+/// deletion (nothing here expires: lifetime 0). Timestamps are left out: a
+/// snapshot stamps everything with its own time, and the picture is what
+/// is drawn, not when it was sent.
+#[derive(Debug, Default, PartialEq)]
+struct Viewer(BTreeMap<String, SceneEntity>);
+
+impl Viewer {
+    fn apply(&mut self, outs: &[Out]) {
+        for update in scene_of(outs) {
+            for d in &update.deletions {
+                match scene_entity_deletion::Type::try_from(d.r#type) {
+                    Ok(scene_entity_deletion::Type::All) => self.0.clear(),
+                    _ => {
+                        self.0.remove(&d.id);
+                    }
+                }
+            }
+            for e in &update.entities {
+                self.0.insert(e.id.clone(), SceneEntity { timestamp: None, ..e.clone() });
+            }
+        }
+    }
+
+    fn of(outs: &[Out]) -> Self {
+        let mut v = Viewer::default();
+        v.apply(outs);
+        v
+    }
+
+    /// Robot `k`'s trajectory as drawn: its pieces in order, each joint once.
+    fn path(&self, k: u32) -> Vec<(f64, f64)> {
+        let mut points: Vec<(f64, f64)> = Vec::new();
+        for n in 0.. {
+            let Some(piece) = self.0.get(&format!("robot/{k}/path/{n}")) else { break };
+            let line = &piece.lines[0].points;
+            let skip = usize::from(!points.is_empty());
+            points.extend(line.iter().skip(skip).map(|p| (p.x, p.y)));
+        }
+        points
+    }
+}
+
+/// A seeded stream of what a launch feeds the scene: robots deployed one
+/// after another, moving, turning on the spot, standing still (a beacon's
+/// republished pose), reporting, and judged by the gate.
+fn inputs(seed: u64, n: usize) -> Vec<Input> {
+    let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let mut next = move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 33) as u32
+    };
+    let mut robots: Vec<Pose> = Vec::new();
+    let mut out = Vec::with_capacity(n);
+    for step in 0..n as u64 {
+        if robots.is_empty() || next() % 97 == 0 {
+            let k = robots.len() as u32 + 1;
+            robots.push(pose(k, 2.0, 2.0, step));
+            out.push(Input::Pose(*robots.last().expect("just pushed")));
+            continue;
+        }
+        let i = next() as usize % robots.len();
+        let p = &mut robots[i];
+        p.step = step;
+        p.time_us = step * 100_000;
+        match next() % 10 {
+            0..=4 => {
+                p.x += f64::from(next() % 100) / 200.0;
+                p.y += f64::from(next() % 100) / 300.0;
+                out.push(Input::Pose(*p));
+            }
+            5 => {
+                p.heading += 0.25;
+                out.push(Input::Pose(*p));
+            }
+            6 => out.push(Input::Pose(*p)),
+            7 => out.push(Input::Report(FromAgent::Status(Status {
+                robot: p.robot,
+                mode: (next() % 2 + 1) as u8,
+                step,
+            }))),
+            _ => {
+                let kind = match next() % 4 {
+                    0 => GateKind::Deployed,
+                    1 => GateKind::Stopped { arrived: false },
+                    2 => GateKind::Stopped { arrived: true },
+                    _ => GateKind::Died,
+                };
+                out.push(Input::Gate(GateEvent { robot: p.robot, kind, x: p.x, y: p.y, step }));
+            }
+        }
+    }
+    out
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Input {
+    Pose(Pose),
+    Gate(GateEvent),
+    Report(FromAgent),
+}
+
+/// Same picture: a viewer that applied every update in order (the
+/// recording played from its start, a live viewer there from the start)
+/// holds, after every input, exactly the entities of a full snapshot of the
+/// scene at that moment (what a late live viewer is sent); and the drawn
+/// trajectories are every position each robot took, in order.
+#[test]
+fn the_updates_applied_in_order_give_the_full_scene_after_every_input() {
+    for seed in 0..4 {
+        let mut scene = Scene::new("s", world());
+        let mut viewer = Viewer::of(&scene.world(0));
+        let mut visited: BTreeMap<u32, Vec<(f64, f64)>> = BTreeMap::new();
+        let mut updates = 0;
+        for (i, input) in inputs(seed, 1500).into_iter().enumerate() {
+            let ns = i as u64 * 1_000;
+            let outs = match input {
+                Input::Pose(p) => {
+                    let path = visited.entry(p.robot.0).or_default();
+                    if path.last() != Some(&(p.x, p.y)) {
+                        path.push((p.x, p.y));
+                    }
+                    scene.pose(&p, ns)
+                }
+                Input::Gate(e) => scene.gate(&e, ns),
+                Input::Report(r) => scene.report(&r, ns),
+            };
+            updates += scene_of(&outs).len();
+            viewer.apply(&outs);
+            assert_eq!(viewer, Viewer::of(&scene.snapshot(ns)), "seed {seed}, after input {i}: {input:?}");
+        }
+        assert!(updates > 500 && visited.len() > 5, "seed {seed}: a stream worth the name");
+        for (k, path) in &visited {
+            let drawn = if path.len() < 2 { Vec::new() } else { path.clone() };
+            assert_eq!(viewer.path(*k), drawn, "seed {seed}: robot {k}'s trajectory");
+        }
+    }
 }
