@@ -245,11 +245,17 @@ fn an_agent_dying_before_it_registers_is_started_once_more_then_its_robot_is_abs
     let report = harness::run(&case, &s);
     harness::check(&report, &s).unwrap();
     same_run(&clean, &report, "one early death");
-    // Twice: absent, and the launch goes on without it.
+    // Twice: absent, and the launch goes on without it; the reason is
+    // what the process said last, not only that it ended.
     s.early_deaths[0] = 2;
     let report = harness::run(&case, &s);
     harness::check(&report, &s).unwrap();
     assert_eq!(report.robots[0].0, SlotState::Absent);
+    let reason = report.deaths[0].as_deref().unwrap_or_default();
+    assert!(
+        reason.contains("its process ended") && reason.contains("it said: robot 1's agent crashed"),
+        "{reason}"
+    );
     assert_ne!(report.ending.as_ref().unwrap().outcome, Outcome::Error);
     // `on_agent_death = abort` is about agents that registered: unchanged.
     let mut strict = case.clone();

@@ -292,6 +292,28 @@ fn killing_a_gateway_then_the_lab_ends_the_launch_and_leaves_no_process() {
     assert_no_gateway_left(&swarm);
 }
 
+/// Gateways that cannot bind their robots' UDP ports (another program
+/// holds them): each is started once more, then its robot is absent; with
+/// no robot left the launch ends (exit 1), and its error gives the
+/// gateway's own reason, not only its exit status. No lab: no robot could
+/// reach its gateway anyway.
+#[test]
+fn gateways_that_cannot_bind_end_the_launch_with_the_real_reason() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let swarm = swarm_name("labbind");
+    let (robots, _, gateways) = robots_file(dir.path(), 2);
+    let held: Vec<std::net::UdpSocket> =
+        gateways.iter().map(|a| std::net::UdpSocket::bind(a).expect("hold the gateway's port")).collect();
+    let out = launch(&swarm, "exp-short", 2, &robots).wait(Duration::from_secs(60));
+    drop(held);
+    assert_eq!(out.status.code(), Some(1), "{}", out.stderr);
+    let error = out.stderr.lines().find(|l| l.contains("no agent ever registered")).unwrap_or_default();
+    let bind = format!("cannot listen for robot 1 on {}: Address already in use", gateways[0]);
+    assert!(error.contains("its process ended") && error.contains(&bind), "{}", out.stderr);
+    assert!(out.stderr.contains("starting it once more"), "started once more first:\n{}", out.stderr);
+    assert_no_gateway_left(&swarm);
+}
+
 /// The lab serves its bodies by NatNet (`--natnet`) and publishes no pose
 /// on the bus; the launch reads them with `deploy/lab/launch-natnet.toml`
 /// (its server address replaced by the test's free port), records the run,

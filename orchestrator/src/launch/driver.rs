@@ -236,6 +236,9 @@ impl Driver {
         }
         self.poses = poses;
         for (robot, gone) in self.agents.poll(false) {
+            if let Some(words) = self.agents.last_error(robot) {
+                self.feed(Input::Said(robot, words));
+            }
             self.feed(Input::Gone(robot, gone));
         }
         for (robot, change) in self.agents.reach() {

@@ -239,6 +239,10 @@ impl AgentSource for Gateways {
         self.inner_mut().reach()
     }
 
+    fn last_error(&mut self, id: u32) -> Option<String> {
+        self.inner_mut().last_error(id)
+    }
+
     fn kill(&mut self, id: u32) -> bool {
         self.lost_links.remove(&id);
         self.inner_mut().kill(id)

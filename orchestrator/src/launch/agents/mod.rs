@@ -36,6 +36,7 @@ pub mod choice;
 pub mod gateways;
 pub mod remote;
 pub mod spawned;
+pub mod stderr_tap;
 pub mod threads;
 pub mod watchdog;
 
@@ -274,6 +275,12 @@ pub trait AgentSource {
     /// Ends robot `id`'s agent now (kill a process, drop a remote agent);
     /// whether it was running. It is not reported by `poll` afterwards.
     fn kill(&mut self, id: u32) -> bool;
+
+    /// The last error robot `id`'s agent said before [`AgentSource::poll`]
+    /// reported it gone (a process's last error line), taken once.
+    fn last_error(&mut self, _id: u32) -> Option<String> {
+        None
+    }
 
     /// After `Shutdown` was sent: waits up to `grace` for every agent to
     /// end, then ends the rest; returns those it had to end.

@@ -9,10 +9,13 @@
 //! Agents are spawned from the thread that runs the launch (the main
 //! thread), in their own process group (a Ctrl-C in the terminal reaches the
 //! orchestrator only, which then shuts them down in order), with
-//! `--parent-pid` so they exit if the orchestrator dies. Dropping the
+//! `--parent-pid` so they exit if the orchestrator dies. Their standard
+//! error passes through ours ([`StderrTap`]), and the last error line of an
+//! agent that is gone is the launch's reason for it. Dropping the
 //! [`Spawned`] source kills and reaps every child still running: whatever
 //! way the launch ends, it leaves no process behind.
 
+use super::stderr_tap::StderrTap;
 use super::watchdog::Watchdog;
 use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
 use std::collections::BTreeMap;
@@ -36,6 +39,10 @@ pub struct AgentCommand {
 pub struct Spawned {
     command: AgentCommand,
     children: BTreeMap<u32, Child>,
+    /// Each child's standard error, passed through, its last error kept.
+    taps: BTreeMap<u32, StderrTap>,
+    /// The last error lines of agents reported gone, not yet taken.
+    said: BTreeMap<u32, String>,
     watchdog: Watchdog,
     last_poll: Instant,
 }
@@ -46,12 +53,17 @@ pub type Supervisor = Spawned;
 /// Least time between two `try_wait` sweeps.
 const POLL_EVERY: Duration = Duration::from_millis(5);
 
+/// Longest wait for an exited child's stderr to end.
+const LAST_WORDS: Duration = Duration::from_millis(100);
+
 impl Spawned {
     /// A source starting agents with `command`.
     pub fn new(command: AgentCommand, register_timeout: Duration, heartbeat_timeout: Duration) -> Self {
         Self {
             command,
             children: BTreeMap::new(),
+            taps: BTreeMap::new(),
+            said: BTreeMap::new(),
             watchdog: Watchdog::new(register_timeout, heartbeat_timeout),
             last_poll: Instant::now(),
         }
@@ -65,7 +77,7 @@ impl Spawned {
             .args(flags)
             .stdin(Stdio::piped())
             .stdout(Stdio::null())
-            .stderr(Stdio::inherit())
+            .stderr(Stdio::piped())
             .process_group(0)
             .spawn()
             .map_err(|source| AgentError::Spawn {
@@ -73,6 +85,14 @@ impl Spawned {
                 source,
             })?;
         let pid = child.id();
+        if let Some(stderr) = child.stderr.take() {
+            // Without the tap the child's lines still reach nobody else;
+            // a thread that cannot start is an error like a failed spawn.
+            let tap = StderrTap::start(stderr, format!("agent-{robot}-stderr")).map_err(|source| {
+                AgentError::Spawn { program: self.command.program.display().to_string(), source }
+            })?;
+            self.taps.insert(robot, tap);
+        }
         let written = match child.stdin.take() {
             Some(mut stdin) => stdin.write_all(stdin_text.as_bytes()),
             None => Ok(()),
@@ -91,6 +111,7 @@ impl Spawned {
 
     fn end(&mut self, robot: u32) -> bool {
         self.watchdog.forget(robot);
+        self.taps.remove(&robot);
         match self.children.remove(&robot) {
             Some(mut child) => {
                 let _ = child.kill();
@@ -151,11 +172,21 @@ impl AgentSource for Spawned {
                 gone.push((robot, v));
             }
         }
-        for (robot, _) in &gone {
+        for (robot, why) in &gone {
+            // An exited child's last words may still be in the pipe: wait
+            // for its end (briefly: a grandchild could hold it open).
+            let wait = if matches!(why, Gone::Exited(_)) { LAST_WORDS } else { Duration::ZERO };
+            if let Some(words) = self.taps.get(robot).and_then(|t| t.last_error(wait)) {
+                self.said.insert(*robot, words);
+            }
             // Kills the hung ones; reaps (or re-reaps, harmlessly) the exited.
             self.end(*robot);
         }
         gone
+    }
+
+    fn last_error(&mut self, id: u32) -> Option<String> {
+        self.said.remove(&id)
     }
 
     fn kill(&mut self, id: u32) -> bool {

@@ -215,6 +215,9 @@ impl Core {
             return;
         }
         let mut reason = gone.to_string();
+        if let Some(words) = slot.last_error.take() {
+            reason.push_str(&format!("; it said: {words}"));
+        }
         if let Some(v) = slot.foreign_version.filter(|_| slot.state == SlotState::Spawned) {
             reason.push_str(&format!(
                 " (a registration with protocol version {v} was seen for it; this orchestrator speaks {PROTOCOL_VERSION})"

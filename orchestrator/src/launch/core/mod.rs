@@ -158,6 +158,10 @@ pub enum Input {
     Reach(u32, Reach),
     /// Ctrl-C.
     Interrupt,
+    /// Robot `.0`'s agent's last error before it was reported gone (its
+    /// process's last error line: the reason it gives for an absent or
+    /// lost robot). Last, so older recorded logs still decode.
+    Said(u32, String),
 }
 
 /// Something to do, from [`Core::poll_output`].
@@ -395,6 +399,11 @@ impl Core {
             Input::Gone(id, gone) => self.on_death(now, id, gone),
             Input::Reach(id, change) => self.on_reach(now, id, change),
             Input::Interrupt => self.interrupted = true,
+            Input::Said(id, words) => {
+                if let Some(slot) = self.slot(id) {
+                    slot.last_error = Some(words);
+                }
+            }
         }
     }
 

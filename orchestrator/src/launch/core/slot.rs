@@ -83,6 +83,8 @@ pub struct Slot {
     pub(super) restarts: u32,
     /// It registered after its turn was skipped and took a later one.
     pub(super) late: bool,
+    /// Its agent's last error before it was gone (`Input::Said`).
+    pub(super) last_error: Option<String>,
 }
 
 impl Slot {
@@ -107,6 +109,7 @@ impl Slot {
             outages: Vec::new(),
             restarts: 0,
             late: false,
+            last_error: None,
         }
     }
 

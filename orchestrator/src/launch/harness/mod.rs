@@ -121,6 +121,8 @@ pub struct Report {
     pub gates: Vec<GateEvent>,
     /// Every robot's end: state, active steps, last pose.
     pub robots: Vec<(SlotState, u64, Option<Pose>)>,
+    /// Per robot, why its agent was lost or absent (the summary's reason).
+    pub deaths: Vec<Option<String>>,
     /// Active steps charged.
     pub spent: u64,
     /// Completed lockstep ticks.

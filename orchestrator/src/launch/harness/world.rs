@@ -58,6 +58,7 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             failure: None,
             gates: Vec::new(),
             robots: Vec::new(),
+            deaths: Vec::new(),
             spent: 0,
             ticks: 0,
             resends: 0,
@@ -340,7 +341,12 @@ impl World<'_> {
                     } else {
                         Gone::Exited(std::process::ExitStatus::from_raw(9))
                     };
-                    // The process's end is seen within a few milliseconds.
+                    // The process's end is seen within a few milliseconds,
+                    // with its last error line (what a shell's tap reads).
+                    if !self.schedule.remote {
+                        let words = format!("robot {id}'s agent crashed (harness)");
+                        self.at(now + 5_000, Event::Tell(Input::Said(id, words)));
+                    }
                     self.at(now + 5_000, Event::Tell(Input::Gone(id, gone)));
                 }
             }
@@ -433,6 +439,7 @@ impl World<'_> {
         let core = &self.core;
         self.report.ending = core.ending().cloned();
         self.report.robots = core.slots().iter().map(|s| (s.state(), s.steps(), s.last_pose())).collect();
+        self.report.deaths = core.slots().iter().map(|s| s.death().map(|d| d.reason.clone())).collect();
         self.report.late = core.slots().iter().filter(|s| s.joined_late()).map(|s| s.id()).collect();
         self.report.spent = core.spent();
         self.report.ticks = core.ticks();
