@@ -193,6 +193,7 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
         LaunchConfig::secs(cfg.supervision.register_timeout),
         LaunchConfig::secs(cfg.supervision.heartbeat_timeout),
         LaunchConfig::secs(cfg.supervision.link_grace),
+        LaunchConfig::secs(cfg.supervision.heartbeat_interval * f64::from(agents::remote::QUIET_HEARTBEATS)),
         links,
     )?;
     let stop = interrupt_flag();

@@ -166,14 +166,16 @@ impl AgentsConfig {
 
     /// Builds the source: `sim_agent` runs spawned agents (threads on the
     /// memory bus, when `links` has it); `links.alive` is the swarm's
-    /// liveliness watch over zenoh and `link_grace` how long an unreachable
-    /// agent is held (remote agents use both).
+    /// liveliness watch over zenoh, `link_grace` how long an unreachable
+    /// agent is held and `quiet` the silence that makes it unreachable
+    /// (remote agents and gateways elsewhere use all three).
     pub fn open(
         &self,
         sim_agent: AgentCommand,
         register_timeout: Duration,
         heartbeat_timeout: Duration,
         link_grace: Duration,
+        quiet: Duration,
         links: AgentLinks,
     ) -> Result<Box<dyn AgentSource>> {
         let AgentLinks { alive, memory } = links;
@@ -185,10 +187,13 @@ impl AgentsConfig {
             }
             AgentsKind::Spawned => Box::new(Spawned::new(sim_agent, register_timeout, heartbeat_timeout)),
             AgentsKind::Remote => {
-                Box::new(Remote::new(register_timeout, heartbeat_timeout, alive).with_link_grace(link_grace))
+                let remote = Remote::new(register_timeout, heartbeat_timeout, alive);
+                Box::new(remote.with_link_grace(link_grace).with_quiet(quiet))
             }
             AgentsKind::Real if self.gateways == GatewaysAt::Elsewhere => Box::new(Gateways::elsewhere(
-                Remote::new(register_timeout, heartbeat_timeout, alive).with_link_grace(link_grace),
+                Remote::new(register_timeout, heartbeat_timeout, alive)
+                    .with_link_grace(link_grace)
+                    .with_quiet(quiet),
             )),
             AgentsKind::Real => {
                 let path = self.robots_file.as_deref().context("agents.robots_file is not set")?;

@@ -36,7 +36,10 @@
 //! ([`Gone::Unreachable`]). Silence counts as well as a withdrawn token
 //! because zenoh may close a dead link's transport late (seen here: one of
 //! three transports closed only when the link came back), so its token
-//! would go late or never. With no grace (0) a withdrawn token is
+//! would go late or never: an agent not heard for [`Remote::with_quiet`]
+//! (four heartbeat periods, 400 ms by default) is unreachable too, so every
+//! cut is seen within 500 ms, not only those whose transport zenoh closes
+//! at lease expiry. With no grace (0) a withdrawn token is
 //! [`Gone::Disconnected`] at once and silence [`Gone::Silent`], as for any
 //! source.
 //!
@@ -67,12 +70,21 @@ pub struct Remote {
     grace: Duration,
     /// Unreachable robots and since when.
     unreachable: BTreeMap<u32, Instant>,
+    /// With a grace: silence after which a heard agent is unreachable
+    /// (zero: only the heartbeat timeout).
+    quiet: Duration,
     /// Reachability changes not yet taken by [`AgentSource::reach`].
     changes: Vec<(u32, Reach)>,
 }
 
 /// Least time between two sweeps.
 const POLL_EVERY: Duration = Duration::from_millis(5);
+
+/// Heartbeat periods of silence after which a remote agent is unreachable
+/// (the launch's quiet, [`Remote::with_quiet`]): at 100 ms heartbeats a cut
+/// shows 300–405 ms after it happened, and a process must miss three
+/// heartbeats in a row to look unreachable when it is not.
+pub const QUIET_HEARTBEATS: u32 = 4;
 
 impl Remote {
     /// A source awaiting agents with these timeouts, watching their
@@ -87,8 +99,18 @@ impl Remote {
             lost: BTreeSet::new(),
             grace: Duration::ZERO,
             unreachable: BTreeMap::new(),
+            quiet: Duration::ZERO,
             changes: Vec::new(),
         }
+    }
+
+    /// The same source, taking an agent that was heard and is then silent
+    /// for `quiet` as unreachable (with a link grace only: without one,
+    /// silence is [`Gone::Silent`] at the heartbeat timeout, as for every
+    /// source). [`QUIET_HEARTBEATS`] heartbeat periods is the launch's.
+    pub fn with_quiet(mut self, quiet: Duration) -> Self {
+        self.quiet = quiet;
+        self
     }
 
     /// The same source, holding an unreachable agent for up to `grace`
@@ -203,6 +225,12 @@ impl AgentSource for Remote {
                 }
                 continue;
             }
+            let quiet = !self.quiet.is_zero()
+                && self.watchdog.silent_for(id, now).is_some_and(|silent| silent > self.quiet);
+            if hold && quiet {
+                self.lose(id, now);
+                continue;
+            }
             match self.watchdog.overdue(id, now) {
                 Some(Gone::Silent) if hold => self.lose(id, now),
                 Some(why) => gone.push((id, why)),
@@ -295,6 +323,36 @@ mod tests {
         assert_eq!(r.reach(), [(1, Reach::Lost)]);
         assert!(!r.is_running(1));
         assert!(Gone::Unreachable { grace_ms: 100 }.to_string().contains("within the 0.1 s link grace"));
+    }
+
+    #[test]
+    fn with_a_quiet_a_silent_agent_is_unreachable_long_before_the_heartbeat_timeout() {
+        // A 10 s heartbeat timeout: only the quiet can make it unreachable.
+        let mut r = Remote::new(Duration::from_secs(10), Duration::from_secs(10), None)
+            .with_link_grace(Duration::from_secs(5))
+            .with_quiet(Duration::from_millis(40));
+        r.running.insert(1);
+        r.watchdog.start(1);
+        r.heard(1);
+        let heard = Instant::now();
+        assert_eq!(wait_for_change(&mut r, Duration::from_secs(5)), [(1, Reach::Lost)]);
+        assert!(heard.elapsed() >= Duration::from_millis(40), "not before the quiet");
+        assert!(r.is_running(1), "held, not gone");
+        r.heard(1);
+        assert_eq!(r.reach(), [(1, Reach::Back)]);
+    }
+
+    /// Sweeps until a reachability change comes (or `limit`).
+    fn wait_for_change(r: &mut Remote, limit: Duration) -> Vec<(u32, Reach)> {
+        let end = Instant::now() + limit;
+        loop {
+            assert!(r.poll(true).is_empty(), "nothing is gone within the grace");
+            let changes = r.reach();
+            if !changes.is_empty() || Instant::now() >= end {
+                return changes;
+            }
+            std::thread::yield_now();
+        }
     }
 
     #[test]

@@ -63,6 +63,11 @@ impl Watchdog {
         self.agents.keys().copied()
     }
 
+    /// How long robot `id` has been silent at `now`, once it was heard.
+    pub fn silent_for(&self, id: u32, now: Instant) -> Option<Duration> {
+        Some(now.saturating_duration_since(self.agents.get(&id)?.last_heard?))
+    }
+
     /// Whether robot `id` has missed its deadline at `now`, and which.
     pub fn overdue(&self, id: u32, now: Instant) -> Option<Gone> {
         let t = self.agents.get(&id)?;
@@ -90,6 +95,9 @@ mod tests {
         assert!(w.was_heard(1));
         assert_eq!(w.overdue(1, heard + Duration::from_millis(20)), None);
         assert_eq!(w.overdue(1, heard + Duration::from_millis(80)), Some(Gone::Silent));
+        // Heard just before `heard` was taken: silent for at least 80 ms.
+        assert!(w.silent_for(1, heard + Duration::from_millis(80)) >= Some(Duration::from_millis(80)));
+        assert_eq!(w.silent_for(2, heard), None);
         assert_eq!(w.overdue(2, heard), None, "an unwatched robot is never overdue");
         assert!(w.forget(1) && !w.forget(1) && !w.watches(1));
     }
