@@ -2,7 +2,7 @@
 //!
 //! Why a waveform model rather than ready-made V_n values: the firmware
 //! under test isolates tones with a DFT, so the emulator must hand it
-//! samples, exactly as the ADC would, for the FFT, the window and the
+//! samples, exactly as the ADC would, for the DFT, the window and the
 //! noise to matter as they do on the robot. Per sample, a microphone at
 //! distance d from a speaker hears
 //!
