@@ -129,6 +129,9 @@ impl MotionCones {
 /// * turning in place leaves the position, hence the field sample, the goal
 ///   bearing and the gradient direction, unchanged: they are kept from the
 ///   previous period (noise is still drawn every period and applied anew);
+/// * in mode 1 the exact, deployment-order field sum is skipped when
+///   [`Beacons::upper_bound`] already shows the intensity below threshold
+///   (the controller then ignores the field);
 /// * in mode 1 below threshold the motion comes from [`MotionCones`]
 ///   without computing the bearing (no `atan2`), the controller's state
 ///   being unchanged by such a period (it stays in mode 1);
@@ -145,9 +148,16 @@ pub struct Deployment<'a> {
     goal: Vec2,
     /// Position the cached values belong to (`None`: nothing cached yet).
     at: Option<Vec2>,
-    sample: FieldSample,
+    /// The exact field sample there, once computed.
+    sample: Option<FieldSample>,
+    /// [`Beacons::upper_bound`] there, once computed.
+    bound: Option<f64>,
     bearing: Option<f64>,
     direction: Option<f64>,
+    /// The last exact sample was within a factor 2 of the threshold: the
+    /// bound would most likely not settle the next one either, so it is not
+    /// tried (speed only; either way the result is the exact one).
+    near_threshold: bool,
 }
 
 impl<'a> Deployment<'a> {
@@ -158,8 +168,19 @@ impl<'a> Deployment<'a> {
         beacons: &'a Beacons,
         goal: Vec2,
     ) -> Self {
-        let sample = FieldSample { intensity: 0.0, gx: 0.0, gy: 0.0 };
-        Self { robot, table, cones, beacons, goal, at: None, sample, bearing: None, direction: None }
+        Self {
+            robot,
+            table,
+            cones,
+            beacons,
+            goal,
+            at: None,
+            sample: None,
+            bound: None,
+            bearing: None,
+            direction: None,
+            near_threshold: false,
+        }
     }
 
     /// One control period; returns the motion performed.
@@ -174,16 +195,34 @@ impl<'a> Deployment<'a> {
         let same = self.at.is_some_and(|a| a.x.to_bits() == p.x.to_bits() && a.y.to_bits() == p.y.to_bits());
         if !same {
             self.at = Some(p);
-            self.sample = self.beacons.sample(p);
+            self.sample = None;
+            self.bound = None;
             self.bearing = None;
             self.direction = None;
         }
-        let intensity = self.sample.intensity * factor;
         let config = *r.controller.config();
-        // Exactly the negation of the controller's `intensity >= g_th` (NaN included).
-        let reaches = intensity >= config.g_th;
-        let below = r.controller.mode() == Mode::Goal && !reaches;
         let heading = r.body.heading(self.table);
+        let beacons = self.beacons;
+        let mode1 = r.controller.mode() == Mode::Goal;
+        // Mode 1 surely below threshold, from the bound alone: the sensed
+        // intensity fl(fl(c·g)·factor) is monotone in g for c, factor > 0.
+        let c = beacons.field_constant();
+        let surely_below = mode1
+            && !self.near_threshold
+            && self.sample.is_none()
+            && c > 0.0
+            && factor > 0.0
+            && c * *self.bound.get_or_insert_with(|| beacons.upper_bound(p)) * factor < config.g_th;
+        let (below, intensity) = if surely_below {
+            (true, 0.0)
+        } else {
+            let sample = *self.sample.get_or_insert_with(|| beacons.sample(p));
+            self.near_threshold = sample.intensity >= 0.5 * config.g_th;
+            let intensity = sample.intensity * factor;
+            // Exactly the negation of the controller's `intensity >= g_th` (NaN included).
+            let reaches = intensity >= config.g_th;
+            (mode1 && !reaches, intensity)
+        };
         if below {
             // Mode 1 stays mode 1 and the target is the goal bearing.
             let cheap = match self.bearing {
@@ -198,7 +237,7 @@ impl<'a> Deployment<'a> {
             return motion;
         }
         let bearing = *self.bearing.get_or_insert_with(|| p.bearing_to(self.goal));
-        let sample = self.sample;
+        let sample = self.sample.expect("computed above when not surely below");
         let direction = *self.direction.get_or_insert_with(|| sample.direction());
         let input = Input {
             goal_bearing: bearing,

@@ -3,7 +3,7 @@
 
 use crate::exit;
 use crate::sweep::budget;
-use crate::sweep::execute::{execute, Job};
+use crate::sweep::execute::{execute, Executed, Job};
 use crate::sweep::plan::{parse_axis, Axes, Shard};
 use crate::sweep::rows::RowWriter;
 use crate::sweep::table::{tabulate, to_text, write_outputs};
@@ -15,6 +15,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
 
 /// ε × width bin × terrains × noise; writes runs CSV, tables and heatmaps.
 #[derive(Debug, clap::Args)]
@@ -99,6 +100,7 @@ fn usage(e: impl std::fmt::Display) -> anyhow::Error {
 }
 
 pub fn run(args: Args) -> Result<i32> {
+    let started = Instant::now();
     let axes = Axes {
         eps: parse_axis(&args.eps).context("--eps").map_err(usage)?,
         widths: parse_axis(&args.widths).context("--widths").map_err(usage)?,
@@ -181,9 +183,13 @@ pub fn run(args: Args) -> Result<i32> {
     );
     let threads =
         args.jobs.map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), usize::from);
-    let written = execute(&job, pending, &mut writer, threads, &bar, stop)?;
+    let runs_started = Instant::now();
+    let executed = execute(&job, pending, &mut writer, threads, &bar, stop)?;
     bar.finish_and_clear();
     drop(writer);
+    let written = executed.rows;
+    // Printed last (after the tables, which `merge` prints the same).
+    let speed = speed_line(executed, threads, runs_started.elapsed(), started.elapsed());
 
     if done.len() + written < planned.len() {
         tracing::warn!(
@@ -192,6 +198,7 @@ pub fn run(args: Args) -> Result<i32> {
             planned.len(),
             runs_path.display()
         );
+        crate::outln!("{speed}")?;
         return Ok(exit::INTERRUPTED);
     }
     if !shard.is_whole() {
@@ -202,6 +209,7 @@ pub fn run(args: Args) -> Result<i32> {
             planned.len(),
             runs_path.display()
         )?;
+        crate::outln!("{speed}")?;
         return Ok(exit::SUCCESS);
     }
     let rows = crate::sweep::rows::read_rows(&runs_path)?;
@@ -219,7 +227,32 @@ pub fn run(args: Args) -> Result<i32> {
     for f in files {
         crate::outln!("wrote {}", f.display())?;
     }
+    crate::outln!("{speed}")?;
     Ok(exit::SUCCESS)
+}
+
+/// The sweep's speed: robot-steps (control periods) simulated, wall time of
+/// the runs and of the whole command (terrains included), robot-steps per
+/// second and ns per robot-step per worker thread.
+fn speed_line(executed: Executed, threads: usize, runs: Duration, total: Duration) -> String {
+    let secs = runs.as_secs_f64();
+    let per_second = if secs > 0.0 { executed.robot_steps as f64 / secs } else { 0.0 };
+    let ns_per_step = if executed.robot_steps > 0 {
+        secs * 1e9 * threads as f64 / executed.robot_steps as f64
+    } else {
+        0.0
+    };
+    format!(
+        "ran {} runs, {} robot-steps in {:.1} s ({:.1} s with terrains), {} threads: \
+         {:.1} M robot-steps/s, {:.1} ns per robot-step per thread",
+        executed.rows,
+        executed.robot_steps,
+        secs,
+        total.as_secs_f64(),
+        threads,
+        per_second / 1e6,
+        ns_per_step
+    )
 }
 
 /// Errors if `out` already holds a different sweep.

@@ -61,6 +61,11 @@ impl Job<'_> {
 
     /// Runs one simulation and makes its row.
     pub fn row(&self, index: usize) -> Row {
+        self.row_and_steps(index).0
+    }
+
+    /// [`Self::row`] and the robot-steps (control periods) the run simulated.
+    pub fn row_and_steps(&self, index: usize) -> (Row, u64) {
         let spec = self.axes.spec(index);
         let terrain = &self.terrains[spec.bin][spec.terrain];
         let mut cfg = self.base.clone();
@@ -69,7 +74,7 @@ impl Job<'_> {
         cfg.seed = self.run_seed(&spec, terrain);
         cfg.record_trajectories = false;
         let r = run(&terrain.terrain, &cfg);
-        Row {
+        let row = Row {
             index,
             noise: spec.noise,
             eps: cfg.eps,
@@ -85,12 +90,21 @@ impl Job<'_> {
             time_s: r.time,
             robots_used: r.robots_used,
             beacons: r.beacons.len(),
-        }
+        };
+        (row, r.steps)
     }
 }
 
+/// What [`execute`] did: rows written (in order) and the robot-steps of those runs.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Executed {
+    pub rows: usize,
+    pub robot_steps: u64,
+}
+
 /// Runs `pending` (canonical indices, ascending) with `threads` workers and
-/// appends their rows in order. Returns how many rows were written.
+/// appends their rows in order. Returns how many rows were written and
+/// their robot-steps (for the speed line `orchestrator sweep` prints).
 pub fn execute(
     job: &Job,
     pending: &[usize],
@@ -98,9 +112,9 @@ pub fn execute(
     threads: usize,
     progress: &ProgressBar,
     stop: &AtomicBool,
-) -> Result<usize> {
+) -> Result<Executed> {
     let next = AtomicUsize::new(0);
-    let (tx, rx) = mpsc::channel::<(usize, Row)>();
+    let (tx, rx) = mpsc::channel::<(usize, (Row, u64))>();
     std::thread::scope(|scope| {
         for _ in 0..threads.max(1) {
             let tx = tx.clone();
@@ -111,7 +125,7 @@ pub fn execute(
                 }
                 let k = next.fetch_add(1, Ordering::Relaxed);
                 let Some(&index) = pending.get(k) else { break };
-                if tx.send((k, job.row(index))).is_err() {
+                if tx.send((k, job.row_and_steps(index))).is_err() {
                     break;
                 }
             });
@@ -120,16 +134,18 @@ pub fn execute(
         let mut early = BTreeMap::new();
         let mut written = 0usize;
         let mut successes = 0usize;
+        let mut robot_steps = 0u64;
         for (k, row) in rx {
             early.insert(k, row);
-            while let Some(row) = early.remove(&written) {
+            while let Some((row, steps)) = early.remove(&written) {
                 writer.write(&row)?;
+                robot_steps += steps;
                 successes += usize::from(row.success);
                 written += 1;
                 progress.inc(1);
                 progress.set_message(format!("{successes} arrived"));
             }
         }
-        Ok(written)
+        Ok(Executed { rows: written, robot_steps })
     })
 }
