@@ -33,6 +33,12 @@
 //! overwrite rule of all outputs (`crate::out::files`): all are checked
 //! before the first is written, and each is written whole or not at all.
 //!
+//! A lost or stolen robot's certificate is withdrawn with [`revoke`]
+//! (`--revoke K`): the ACL gives robot K no permission and denies its
+//! common name everything. zenoh checks no certificate revocation list,
+//! so the ACL is where a revocation lives; expired certificates and those
+//! of another CA are refused by TLS itself.
+//!
 //! Limit: `from_agents` is one key for all agents, so the ACL cannot stop
 //! robot 1 from putting robot 2's id *inside* a `FromAgent` payload; the
 //! orchestrator has to check the id against the sender (or the naming has
@@ -44,6 +50,7 @@ use crate::out::{self, usage_unless_io, Kind, Outputs};
 use anyhow::{Context, Result};
 use rcgen::{BasicConstraints, CertificateParams, DnType, ExtendedKeyUsagePurpose, IsCa, Issuer, KeyPair};
 use serde_json::{json, Value};
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 /// Common name of the orchestrator's certificate.
@@ -129,8 +136,11 @@ fn path_str(p: &Path) -> String {
     p.to_string_lossy().into_owned()
 }
 
-/// The access-control list: default deny; see the module doc.
-pub fn access_control(robots: u32) -> Value {
+/// The access-control list: default deny; see the module doc. A robot of
+/// `revoked` has no permission at all, and its common name is listed in a
+/// `revoked` subject denied everything (so the list survives in the config:
+/// [`revoked_in`]).
+pub fn access_control(robots: u32, revoked: &BTreeSet<u32>) -> Value {
     let mut rules = vec![
         json!({ "id": "orchestrator-all", "messages": ["put", "delete", "declare_subscriber", "query",
             "declare_queryable", "reply", "liveliness_token", "declare_liveliness_subscriber", "liveliness_query"],
@@ -143,7 +153,7 @@ pub fn access_control(robots: u32) -> Value {
     ];
     let mut subjects = vec![json!({ "id": ORCHESTRATOR_CN, "cert_common_names": [ORCHESTRATOR_CN] })];
     let mut policies = vec![json!({ "rules": ["orchestrator-all"], "subjects": [ORCHESTRATOR_CN] })];
-    for k in 1..=robots {
+    for k in (1..=robots).filter(|k| !revoked.contains(k)) {
         let cn = robot_cn(k);
         rules.push(
             json!({ "id": format!("{cn}-publish"), "messages": ["put", "delete"], "flows": ["ingress"],
@@ -152,7 +162,66 @@ pub fn access_control(robots: u32) -> Value {
         subjects.push(json!({ "id": cn, "cert_common_names": [cn] }));
         policies.push(json!({ "rules": [format!("{cn}-publish"), "robots-listen", "robots-receive"], "subjects": [cn] }));
     }
+    if !revoked.is_empty() {
+        rules.push(json!({ "id": REVOKED, "messages": ["put", "delete", "declare_subscriber", "query",
+            "declare_queryable", "reply", "liveliness_token", "declare_liveliness_subscriber", "liveliness_query"],
+            "flows": ["ingress", "egress"], "permission": "deny", "key_exprs": ["**"] }));
+        let names: Vec<String> = revoked.iter().map(|&k| robot_cn(k)).collect();
+        subjects.push(json!({ "id": REVOKED, "cert_common_names": names }));
+        policies.push(json!({ "rules": [REVOKED], "subjects": [REVOKED] }));
+    }
     json!({ "enabled": true, "default_permission": "deny", "rules": rules, "subjects": subjects, "policies": policies })
+}
+
+/// Name of the ACL rule and subject of revoked robots.
+const REVOKED: &str = "revoked";
+
+/// The robots an orchestrator config's ACL revokes.
+pub fn revoked_in(config: &Value) -> BTreeSet<u32> {
+    let subjects = config["access_control"]["subjects"].as_array().cloned().unwrap_or_default();
+    subjects
+        .iter()
+        .filter(|s| s["id"] == REVOKED)
+        .flat_map(|s| s["cert_common_names"].as_array().cloned().unwrap_or_default())
+        .filter_map(|cn| cn.as_str()?.strip_prefix("robot-")?.parse().ok())
+        .collect()
+}
+
+/// The highest robot k of a set in `out` (robot-1.pem, robot-2.pem, …).
+fn robots_in(out: &Path) -> u32 {
+    let has_cert = |k: u32| out.join(format!("{}.pem", robot_cn(k))).exists();
+    (1..=u32::MAX).take_while(|&k| has_cert(k)).last().unwrap_or(0)
+}
+
+/// Withdraws robots `ids`' certificates (`certs --revoke`, a lost or stolen
+/// robot): the orchestrator's config in `out` keeps its settings, and its
+/// ACL gives those robots no permission and denies them everything. Their
+/// certificates stay valid TLS-wise (zenoh checks no revocation list), so
+/// they can still open a session, in which nothing they send or ask for is
+/// let through. It reaches a launch when the launch starts: a running one
+/// keeps the ACL it started with (restart it). Returns the config's path.
+pub fn revoke(out: &Path, ids: &[u32]) -> Result<PathBuf> {
+    let config_path = out.join("orchestrator.json5");
+    if !config_path.is_file() {
+        return Err(exit::usage(format!(
+            "--revoke: {} is missing; revoke in the directory `orchestrator certs` wrote",
+            config_path.display()
+        )));
+    }
+    let robots = robots_in(out);
+    if let Some(k) = ids.iter().find(|&&k| k == 0 || k > robots) {
+        return Err(exit::usage(format!(
+            "--revoke {k}: {} holds certificates for robots 1..={robots}",
+            out.display()
+        )));
+    }
+    out::check_target(&config_path, Kind::ZenohConfig, true).map_err(usage_unless_io)?;
+    let mut config = read_config(&config_path)?;
+    let mut revoked = revoked_in(&config);
+    revoked.extend(ids);
+    config["access_control"] = access_control(robots, &revoked);
+    write_config(&config_path, ORCHESTRATOR_HEADER, &config, true)?;
+    Ok(config_path)
 }
 
 fn tls(ca: &Path, me: &Pair) -> Value {
@@ -264,7 +333,7 @@ pub fn generate(plan: &Plan) -> Result<Generated> {
             "listen": { "endpoints": [plan.listen] },
             "scouting": { "multicast": { "enabled": false }, "delay": 0 },
             "transport": tls(&ca, &orchestrator),
-            "access_control": access_control(plan.robots),
+            "access_control": access_control(plan.robots, &BTreeSet::new()),
         }),
         plan.force,
     )?;
@@ -328,7 +397,7 @@ pub fn add_robots(plan: &Plan) -> Result<Generated> {
     let orchestrator_config = out.join("orchestrator.json5");
     let mut config = read_config(&orchestrator_config)?;
     let has_cert = |k: u32| out.join(format!("{}.pem", robot_cn(k))).exists();
-    let existing = (1..=u32::MAX).take_while(|&k| has_cert(k)).last().unwrap_or(0);
+    let existing = robots_in(&out);
     let new: Vec<u32> = (1..=plan.robots).filter(|&k| !has_cert(k)).collect();
     let mut rule = Outputs::new(plan.force).input(&ca).input(&ca_key);
     for &k in &new {
@@ -355,7 +424,8 @@ pub fn add_robots(plan: &Plan) -> Result<Generated> {
         .iter()
         .map(|&k| robot(&issuer, &out, &ca, k, &connect, plan.force))
         .collect::<Result<Vec<_>>>()?;
-    config["access_control"] = access_control(plan.robots.max(existing));
+    // Revoked robots stay revoked.
+    config["access_control"] = access_control(plan.robots.max(existing), &revoked_in(&config));
     write_config(&orchestrator_config, ORCHESTRATOR_HEADER, &config, true)?;
     Ok(Generated { ca, orchestrator_config, robot_configs })
 }

@@ -178,3 +178,116 @@ fn certificates_are_refused_for_an_unsecured_endpoint() {
     assert!(err.to_string().contains("--listen tcp/0.0.0.0:7447"), "{err}");
     assert!(std::fs::read_dir(dir.path()).expect("dir").next().is_none(), "nothing written");
 }
+
+/// Robot `cn`'s certificate signed by the lab's CA in `dir`, valid from
+/// `from` to `until` (years), and a copy of robot 1's config that uses it.
+fn issued(dir: &Path, made: &Generated, cn: &str, from: i32, until: i32) -> std::path::PathBuf {
+    use rcgen::{CertificateParams, DnType, ExtendedKeyUsagePurpose, Issuer, KeyPair};
+    let ca_key =
+        KeyPair::from_pem(&std::fs::read_to_string(dir.join("ca-key.pem")).expect("CA key")).expect("CA key");
+    let issuer =
+        Issuer::from_ca_cert_pem(&std::fs::read_to_string(&made.ca).expect("CA"), ca_key).expect("issuer");
+    let mut params = CertificateParams::new(vec![cn.to_string()]).expect("params");
+    params.distinguished_name.push(DnType::CommonName, cn);
+    params.extended_key_usages = vec![ExtendedKeyUsagePurpose::ClientAuth];
+    params.not_before = rcgen::date_time_ymd(from, 1, 1);
+    params.not_after = rcgen::date_time_ymd(until, 1, 1);
+    let key = KeyPair::generate().expect("key");
+    let cert = params.signed_by(&key, &issuer).expect("sign");
+    let (cert_path, key_path) =
+        (dir.join(format!("{cn}-issued.pem")), dir.join(format!("{cn}-issued-key.pem")));
+    std::fs::write(&cert_path, cert.pem()).expect("write cert");
+    std::fs::write(&key_path, key.serialize_pem()).expect("write key");
+    let robot1 = std::fs::read_to_string(&made.robot_configs[0]).expect("robot 1's config");
+    let text = robot1
+        .replace(&dir.join("robot-1.pem").to_string_lossy().into_owned(), &cert_path.to_string_lossy())
+        .replace(&dir.join("robot-1-key.pem").to_string_lossy().into_owned(), &key_path.to_string_lossy());
+    assert_ne!(text, robot1, "robot 1's config names its certificate");
+    let config = dir.join(format!("{cn}-issued.json5"));
+    std::fs::write(&config, text).expect("write config");
+    config
+}
+
+/// Publishes on `key` from `from` for `span` while it waits for `control`
+/// (robot 2's genuine pose) to arrive at `control_sub`; returns whether
+/// anything `from` sent reached `watch`.
+fn anything_delivered(
+    from: &ZenohBus,
+    key: &str,
+    watch: &impl Subscribe,
+    control: (&ZenohBus, &impl Subscribe),
+) -> bool {
+    let swarm = Swarm::new("secure").expect("swarm");
+    let publish = from.publisher(&bycoms_protocol::TopicName::parse(key).expect("key")).expect("publisher");
+    let genuine = control.0.publisher(swarm.pose(RobotId(2)).name()).expect("publisher");
+    let deadline = Instant::now() + WAIT;
+    // Until the control pose arrived (the routes are up), then as long again.
+    let mut arrived_at = None;
+    loop {
+        publish.publish(b"denied?").expect("the publisher does not know; the router refuses");
+        genuine.publish(b"genuine").expect("publish");
+        if watch.recv_timeout(Duration::from_millis(10)).expect("receive").is_some() {
+            return true;
+        }
+        if arrived_at.is_none()
+            && control.1.recv_timeout(Duration::from_millis(10)).expect("receive").is_some()
+        {
+            arrived_at = Some(Instant::now());
+        }
+        match arrived_at {
+            Some(t) if t.elapsed() > Duration::from_millis(500) => return false,
+            None => assert!(Instant::now() < deadline, "robot 2's own pose never arrived"),
+            _ => {}
+        }
+    }
+}
+
+#[test]
+fn a_revoked_robot_and_a_wrong_common_name_are_denied_while_the_others_run() {
+    use bycoms_orchestrator::certs::{add_robots, revoke, revoked_in};
+    let dir = tempfile::tempdir().expect("temp dir");
+    let endpoint = endpoint("quic");
+    let made = lab(dir.path(), &endpoint);
+    // Robot 1 is lost: revoked. Adding robot 3 afterwards keeps it revoked.
+    let config = revoke(dir.path(), &[1]).expect("revoke robot 1");
+    let plan = Plan {
+        robots: 3,
+        hosts: vec!["127.0.0.1".into()],
+        listen: endpoint.clone(),
+        connect: endpoint.clone(),
+        out: dir.path().to_path_buf(),
+        force: false,
+    };
+    add_robots(&plan).expect("add robot 3");
+    let text = std::fs::read_to_string(&config).expect("config");
+    let json: String = text.lines().filter(|l| !l.trim_start().starts_with("//")).collect();
+    let value: serde_json::Value = serde_json::from_str(&json).expect("json");
+    assert_eq!(revoked_in(&value).into_iter().collect::<Vec<_>>(), [1]);
+    assert!(revoke(dir.path(), &[4]).is_err(), "robot 4 has no certificate");
+
+    let orch = orchestrator(&made);
+    let swarm = Swarm::new("secure").expect("swarm");
+    let own1 = orch.subscriber(swarm.pose(RobotId(1)).name()).expect("subscriber");
+    let own2 = orch.subscriber(swarm.pose(RobotId(2)).name()).expect("subscriber");
+    let robot2 = client(&made.robot_configs[1]).expect("robot 2 joins");
+    // The revoked robot's TLS still works (zenoh checks no revocation
+    // list); the router lets nothing it sends through.
+    let robot1 = client(&made.robot_configs[0]).expect("robot 1's session opens");
+    let key1 = swarm.pose(RobotId(1)).name().as_str().to_string();
+    assert!(!anything_delivered(&robot1, &key1, &own1, (&robot2, &own2)), "a revoked robot's pose arrived");
+    drop(robot1);
+    // A certificate of the lab's CA whose common name is no robot of the ACL.
+    let stray = client(&issued(dir.path(), &made, "robot-9", 2025, 2035)).expect("its session opens");
+    assert!(!anything_delivered(&stray, &key1, &own1, (&robot2, &own2)), "robot-9 published as robot 1");
+}
+
+#[test]
+fn an_expired_certificate_cannot_join() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let made = lab(dir.path(), &endpoint("quic"));
+    let _orch = orchestrator(&made);
+    let expired = issued(dir.path(), &made, "robot-1", 2020, 2021);
+    assert!(client(&expired).is_err(), "an expired certificate was accepted");
+    // The same robot with a valid certificate joins (the refusal was the date's).
+    client(&issued(dir.path(), &made, "robot-1", 2025, 2035)).expect("robot 1 joins");
+}

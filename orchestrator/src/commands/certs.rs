@@ -2,7 +2,7 @@
 //! TLS with mutual authentication and an access-control list, so a lab
 //! does not have to learn openssl to deploy securely (see `crate::certs`).
 
-use crate::certs::{add_robots, generate, Plan};
+use crate::certs::{add_robots, generate, revoke, Plan};
 use crate::exit;
 use anyhow::Result;
 use std::path::PathBuf;
@@ -16,12 +16,13 @@ use std::path::PathBuf;
 ///
 /// An existing CA in DIR is never replaced without --force (every robot
 /// provisioned with it would be locked out); --add-robots issues
-/// certificates for more robots with it instead.
+/// certificates for more robots with it instead; --revoke K withdraws
+/// robot K's certificate (a lost or stolen robot).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Robots 1..=N get a certificate each.
-    #[arg(long)]
-    pub robots: u32,
+    #[arg(long, required_unless_present = "revoke")]
+    pub robots: Option<u32>,
     /// Output directory (created). A CA already there is kept: see --add-robots and --force.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
@@ -47,9 +48,25 @@ pub struct Args {
     /// The endpoint robots connect to [default: the listen protocol, <first --host>:7447].
     #[arg(long, value_name = "ENDPOINT")]
     pub connect: Option<String>,
+    /// Withdraw robot K's certificate (a lost or stolen robot; repeatable):
+    /// orchestrator.json5's ACL in DIR denies it everything from the next
+    /// launch on (restart a running one). Nothing else changes.
+    #[arg(long, value_name = "K", conflicts_with_all = ["add_robots", "force", "robots"])]
+    pub revoke: Vec<u32>,
 }
 
 pub fn run(args: Args) -> Result<i32> {
+    if !args.revoke.is_empty() {
+        let config = revoke(&args.out, &args.revoke)?;
+        let ids: Vec<String> = args.revoke.iter().map(u32::to_string).collect();
+        bycoms_logging::status_line(&format!(
+            "certs: robot {} revoked in {} (restart a running launch to apply it)",
+            ids.join(", "),
+            config.display()
+        ));
+        return Ok(exit::SUCCESS);
+    }
+    let robots = args.robots.unwrap_or_default();
     let first = args.hosts.first().cloned().unwrap_or_else(|| "localhost".into());
     let proto = if args.listen.starts_with("tls/") { "tls" } else { "quic" };
     let connect = args.connect.unwrap_or_else(|| format!("{proto}/{first}:7447"));
@@ -60,14 +77,8 @@ pub fn run(args: Args) -> Result<i32> {
             )));
         }
     }
-    let plan = Plan {
-        robots: args.robots,
-        hosts: args.hosts,
-        listen: args.listen,
-        connect,
-        out: args.out,
-        force: args.force,
-    };
+    let plan =
+        Plan { robots, hosts: args.hosts, listen: args.listen, connect, out: args.out, force: args.force };
     let (made, what) = match args.add_robots {
         true => (add_robots(&plan)?, "kept CA"),
         false => (generate(&plan)?, "CA"),
