@@ -87,6 +87,14 @@ impl HeadingTable {
     pub fn heading(&self, k: u32) -> f64 {
         self.theta[k as usize]
     }
+
+    /// Where one straight period from `p` with heading `k` ends: the one
+    /// place this addition is done ([`Body::apply`], and the runner's
+    /// look-ahead), so both get the same bits.
+    #[inline]
+    pub fn advance(&self, p: Vec2, k: u32) -> Vec2 {
+        Vec2::new(p.x + self.dx[k as usize], p.y + self.dy[k as usize])
+    }
 }
 
 /// A point robot's physical state: position and heading index.
@@ -122,10 +130,7 @@ impl Body {
     pub fn apply(&mut self, motion: Motion, table: &HeadingTable) {
         let n = table.len();
         match motion {
-            Motion::Straight => {
-                self.pos.x += table.dx[self.k as usize];
-                self.pos.y += table.dy[self.k as usize];
-            }
+            Motion::Straight => self.pos = table.advance(self.pos, self.k),
             Motion::TurnCcw => self.k = if self.k + 1 == n { 0 } else { self.k + 1 },
             Motion::TurnCw => self.k = if self.k == 0 { n - 1 } else { self.k - 1 },
         }

@@ -135,6 +135,9 @@ impl MotionCones {
 /// * in mode 1 below threshold the motion comes from [`MotionCones`]
 ///   without computing the bearing (no `atan2`), the controller's state
 ///   being unchanged by such a period (it stays in mode 1);
+/// * an exact sample is computed together with the one a straight period
+///   ahead ([`Beacons::sample_pair`], each bit for bit as alone), kept for
+///   when the robot gets there;
 /// * the bearing and the direction are computed only when the controller
 ///   needs them, with the same `libm` calls as `SimRobot::step`.
 ///
@@ -154,6 +157,9 @@ pub struct Deployment<'a> {
     bound: Option<f64>,
     bearing: Option<f64>,
     direction: Option<f64>,
+    /// The exact sample one straight period ahead, computed with the last
+    /// exact one ([`Beacons::sample_pair`]): used if the robot goes there.
+    ahead: Option<(Vec2, FieldSample)>,
     /// The last exact sample was within a factor 2 of the threshold: the
     /// bound would most likely not settle the next one either, so it is not
     /// tried (speed only; either way the result is the exact one).
@@ -179,6 +185,7 @@ impl<'a> Deployment<'a> {
             bound: None,
             bearing: None,
             direction: None,
+            ahead: None,
             near_threshold: false,
         }
     }
@@ -195,7 +202,10 @@ impl<'a> Deployment<'a> {
         let same = self.at.is_some_and(|a| a.x.to_bits() == p.x.to_bits() && a.y.to_bits() == p.y.to_bits());
         if !same {
             self.at = Some(p);
-            self.sample = None;
+            self.sample = match self.ahead.take() {
+                Some((q, s)) if q.x.to_bits() == p.x.to_bits() && q.y.to_bits() == p.y.to_bits() => Some(s),
+                _ => None,
+            };
             self.bound = None;
             self.bearing = None;
             self.direction = None;
@@ -216,7 +226,15 @@ impl<'a> Deployment<'a> {
         let (below, intensity) = if surely_below {
             (true, 0.0)
         } else {
-            let sample = *self.sample.get_or_insert_with(|| beacons.sample(p));
+            let sample = match self.sample {
+                Some(s) => s,
+                None => {
+                    let q = self.table.advance(p, r.body.k);
+                    let (s, ahead) = beacons.sample_pair(p, q);
+                    self.ahead = Some((q, ahead));
+                    *self.sample.insert(s)
+                }
+            };
             self.near_threshold = sample.intensity >= 0.5 * config.g_th;
             let intensity = sample.intensity * factor;
             // Exactly the negation of the controller's `intensity >= g_th` (NaN included).
