@@ -1,0 +1,123 @@
+//! How soon a launch sees a cut link, over many cuts (issue 19): the
+//! orchestrator in one network namespace, three remote agents in the other
+//! (`bycoms_tests::netns`), one real-time launch with a 20 s link grace,
+//! and `CUTS` (default 30) cuts of the veth link while it runs. Each cut
+//! lasts until the orchestrator has logged every robot's link lost (or
+//! 5 s), then the link is restored and the next cut waits until every link
+//! is back. The launch's summary records each outage's `lost_unix_ms`; the
+//! bench prints, per robot and cut, how long after the cut the loss was
+//! seen, and the distribution against the 500 ms target.
+//!
+//! `cargo bench -p bycoms-tests --bench cut_detection` (root; release
+//! binaries first: `cargo build --release --bins`). Prints a notice and
+//! nothing else where namespaces are not permitted.
+
+use bycoms_tests::netns::{not_permitted, TwoHosts};
+use bycoms_tests::{swarm_name, Proc};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+fn unix_ms() -> u64 {
+    SystemTime::now().duration_since(UNIX_EPOCH).expect("clock").as_millis() as u64
+}
+
+/// Waits until the orchestrator has logged "robot K: `what`" for robots
+/// 1..=3; whether it did within `timeout`.
+fn every_robot_logged(orch: &Proc, what: &str, timeout: Duration) -> bool {
+    let mut left: Vec<u32> = vec![1, 2, 3];
+    orch.stderr_line(timeout, |l| {
+        left.retain(|k| !l.contains(&format!("robot {k}: {what}")));
+        left.is_empty().then_some(())
+    })
+    .is_some()
+}
+
+fn main() {
+    if let Some(why) = not_permitted() {
+        println!("cut_detection: skipped, network namespaces are not permitted here: {why}");
+        return;
+    }
+    let cuts: usize = std::env::var("CUTS").ok().and_then(|s| s.parse().ok()).unwrap_or(30);
+    let hosts = TwoHosts::create("cuts").expect("namespaces");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let terrain = dir.path().join("terrain.txt");
+    let world = bycoms_orchestrator::scenario::load(&bycoms_orchestrator::scenario::WorldSource::Scenario(
+        "long-obstacle".into(),
+    ))
+    .expect("built-in scenario");
+    std::fs::write(&terrain, bycoms_sim::terrain::to_text(&world.terrain)).expect("terrain");
+    let terrain = terrain.to_str().expect("utf-8");
+    let swarm = swarm_name("cuts");
+    let listen = hosts.a.endpoint(0);
+    // Slow real time: the run must outlast every cut.
+    let clock = ["--clock", "realtime", "--speed", "0.05"];
+    let mut args = vec!["launch", "--agents", "remote", "--transport", "zenoh", "--listen", &listen];
+    args.extend(clock);
+    args.extend(["--json", "--swarm", &swarm, "--robots", "3", "--eps", "3", "--terrain", terrain]);
+    args.extend(["--time-limit", "100000", "--link-grace", "20"]);
+    let orch = hosts.a.start("orchestrator", &args);
+    let prefix = format!("tcp/{}:", hosts.a.addr);
+    let endpoint = orch
+        .stderr_line(Duration::from_secs(20), |line| {
+            let at = line.find(&prefix)?;
+            let port: String = line[at + prefix.len()..].chars().take_while(char::is_ascii_digit).collect();
+            (!port.is_empty()).then(|| format!("{prefix}{port}"))
+        })
+        .expect("the orchestrator logs its endpoint");
+    let agents: Vec<Proc> = (1..=3u32)
+        .map(|k| {
+            let robot = k.to_string();
+            let mut a =
+                vec!["--transport", "zenoh", "--connect", &endpoint, "--swarm", &swarm, "--robot", &robot];
+            a.extend(["--swarm-size", "3", "--terrain", terrain, "--eps", "3", "--orchestrator-grace", "20"]);
+            a.extend(clock);
+            hosts.b.start("sim-agent", &a)
+        })
+        .collect();
+    orch.stderr_line(Duration::from_secs(30), |l| l.contains("robot 1: deployed at").then_some(()))
+        .expect("robot 1 deployed");
+    let mut cut_at = Vec::new();
+    for i in 0..cuts {
+        cut_at.push(unix_ms());
+        hosts.cut().expect("cut");
+        let seen = every_robot_logged(&orch, "link lost", Duration::from_secs(5));
+        hosts.restore().expect("restore");
+        let back = every_robot_logged(&orch, "link back", Duration::from_secs(20));
+        eprintln!("cut {}: every loss seen {seen}, every link back {back}", i + 1);
+    }
+    nix::sys::signal::kill(nix::unistd::Pid::from_raw(orch.pid() as i32), nix::sys::signal::Signal::SIGINT)
+        .expect("SIGINT");
+    let out = orch.wait(Duration::from_secs(60));
+    drop(agents);
+    let j = out.json();
+    let mut seen_ms: Vec<u64> = Vec::new();
+    let mut unmatched = 0;
+    for (k, robot) in j["robots"].as_array().expect("robots").iter().enumerate() {
+        let lost: Vec<u64> = robot["outages"]
+            .as_array()
+            .map(|o| o.iter().filter_map(|o| o["lost_unix_ms"].as_u64()).collect())
+            .unwrap_or_default();
+        // Each outage belongs to the last cut before it.
+        for l in &lost {
+            match cut_at.iter().rev().find(|&&c| c <= *l) {
+                Some(c) => seen_ms.push(l - c),
+                None => unmatched += 1,
+            }
+        }
+        println!("robot {}: {} outages for {} cuts", k + 1, lost.len(), cut_at.len());
+    }
+    seen_ms.sort_unstable();
+    if seen_ms.is_empty() {
+        println!("no outage recorded:\n{}", out.stderr);
+        return;
+    }
+    let q = |p: f64| seen_ms[((seen_ms.len() - 1) as f64 * p).round() as usize];
+    let over = seen_ms.iter().filter(|&&ms| ms > 500).count();
+    println!(
+        "cut seen after (ms, n = {}): min {}  p50 {}  p90 {}  max {};  over 500 ms: {over};  outages before any cut: {unmatched}",
+        seen_ms.len(),
+        q(0.0),
+        q(0.5),
+        q(0.9),
+        q(1.0)
+    );
+}
