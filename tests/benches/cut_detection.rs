@@ -55,14 +55,7 @@ fn main() {
     args.extend(["--json", "--swarm", &swarm, "--robots", "3", "--eps", "3", "--terrain", terrain]);
     args.extend(["--time-limit", "100000", "--link-grace", "20"]);
     let orch = hosts.a.start("orchestrator", &args);
-    let prefix = format!("tcp/{}:", hosts.a.addr);
-    let endpoint = orch
-        .stderr_line(Duration::from_secs(20), |line| {
-            let at = line.find(&prefix)?;
-            let port: String = line[at + prefix.len()..].chars().take_while(char::is_ascii_digit).collect();
-            (!port.is_empty()).then(|| format!("{prefix}{port}"))
-        })
-        .expect("the orchestrator logs its endpoint");
+    let endpoint = orch.logged_endpoint(&format!("tcp/{}:", hosts.a.addr), Duration::from_secs(20));
     let agents: Vec<Proc> = (1..=3u32)
         .map(|k| {
             let robot = k.to_string();

@@ -69,14 +69,7 @@ fn two_hosts(terrain: &str) -> Value {
     let mut args = launch_args(&swarm, terrain);
     args.extend(["--agents", "remote", "--transport", "zenoh", "--listen", &listen]);
     let orch = start_in(&hosts.a, "orchestrator", &args);
-    let prefix = format!("tcp/{}:", hosts.a.addr);
-    let endpoint = orch
-        .stderr_line(Duration::from_secs(30), |line| {
-            let at = line.find(&prefix)?;
-            let port: String = line[at + prefix.len()..].chars().take_while(char::is_ascii_digit).collect();
-            (!port.is_empty()).then(|| format!("{prefix}{port}"))
-        })
-        .expect("the orchestrator logs its endpoint");
+    let endpoint = orch.logged_endpoint(&format!("tcp/{}:", hosts.a.addr), Duration::from_secs(30));
     let agents: Vec<Proc> = (1..=3)
         .map(|k| {
             let k = k.to_string();

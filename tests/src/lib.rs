@@ -133,6 +133,18 @@ impl Proc {
         None
     }
 
+    /// The zenoh endpoint an orchestrator logged as where it listens, the
+    /// first that starts with `prefix` (e.g. `tcp/10.231.0.1:`), with its
+    /// port (the kernel's, for a `:0` listen); panics after `timeout`.
+    pub fn logged_endpoint(&self, prefix: &str, timeout: Duration) -> String {
+        self.stderr_line(timeout, |line| {
+            let at = line.find(prefix)?;
+            let port: String = line[at + prefix.len()..].chars().take_while(char::is_ascii_digit).collect();
+            (!port.is_empty()).then(|| format!("{prefix}{port}"))
+        })
+        .unwrap_or_else(|| panic!("no {prefix}PORT endpoint logged within {timeout:?}"))
+    }
+
     /// Starts the orchestrator with `args`.
     pub fn orchestrator(args: &[&str]) -> Proc {
         let args: Vec<String> = args.iter().map(|s| s.to_string()).collect();

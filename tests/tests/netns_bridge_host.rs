@@ -84,14 +84,7 @@ fn exp_long_runs_with_the_gateways_and_the_lab_on_a_bridge_host() {
             "--json",
         ],
     );
-    let prefix = format!("tcp/{}:", hosts.a.addr);
-    let endpoint = orch
-        .stderr_line(Duration::from_secs(20), |line| {
-            let at = line.find(&prefix)?;
-            let port: String = line[at + prefix.len()..].chars().take_while(char::is_ascii_digit).collect();
-            (!port.is_empty()).then(|| format!("{prefix}{port}"))
-        })
-        .expect("the orchestrator logs its endpoint");
+    let endpoint = orch.logged_endpoint(&format!("tcp/{}:", hosts.a.addr), Duration::from_secs(20));
     let file_arg = file.to_str().expect("utf-8");
     let zenoh = ["--transport", "zenoh", "--connect", &endpoint];
     let lab_args =

@@ -59,14 +59,7 @@ fn orchestrator_in(
     args.extend(["--terrain", terrain, "--time-limit", "10000"]);
     args.extend(extra);
     let orch = host.start("orchestrator", &args);
-    let prefix = format!("tcp/{}:", host.addr);
-    let endpoint = orch
-        .stderr_line(Duration::from_secs(20), |line| {
-            let at = line.find(&prefix)?;
-            let port: String = line[at + prefix.len()..].chars().take_while(char::is_ascii_digit).collect();
-            (!port.is_empty()).then(|| format!("{prefix}{port}"))
-        })
-        .expect("the orchestrator logs its endpoint");
+    let endpoint = orch.logged_endpoint(&format!("tcp/{}:", host.addr), Duration::from_secs(20));
     (orch, endpoint)
 }
 

@@ -63,14 +63,7 @@ fn orchestrator(world: &World, swarm: &str, extra: &[&str]) -> (Proc, String) {
     args.extend(["--terrain", terrain.to_str().expect("utf-8 path"), "--time-limit", TIME_LIMIT]);
     args.extend(extra);
     let orch = Proc::orchestrator(&args);
-    let endpoint = orch
-        .stderr_line(Duration::from_secs(20), |line| {
-            let at = line.find("tcp/127.0.0.1:")?;
-            let rest = &line[at..];
-            let end = rest.find(|c: char| c != '/' && c != '.' && c != ':' && !c.is_ascii_alphanumeric())?;
-            Some(rest[..end].to_string())
-        })
-        .expect("the orchestrator logs its endpoint");
+    let endpoint = orch.logged_endpoint("tcp/127.0.0.1:", Duration::from_secs(20));
     (orch, endpoint)
 }
 
