@@ -97,6 +97,35 @@ pub struct IpcConfig {
     /// Isolation tag: this run's own iceoryx2 root and prefix (see
     /// [`root`]). Default: `$BYCOMS_IPC_ISOLATION`, else machine-wide.
     pub isolation: Option<String>,
+    /// Topics with their own port limits (the first whose suffix matches
+    /// a topic's name), instead of [`Self::max_publishers`] and
+    /// [`Self::max_subscribers`]. Why: iceoryx2 gives every subscriber a
+    /// slot per possible publisher and every publisher one per possible
+    /// subscriber (~3.6 KB each, resident), so a robot's own topics sized
+    /// like `from_agents` (one publisher per agent) cost memory that grows
+    /// with the swarm in every process that opens them.
+    pub port_limits: Vec<PortLimits>,
+}
+
+/// The port limits of the topics whose name ends with `suffix`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PortLimits {
+    /// The end of the topic's name, e.g. `/pose`.
+    pub suffix: &'static str,
+    /// Most publishers.
+    pub max_publishers: usize,
+    /// Most subscribers.
+    pub max_subscribers: usize,
+}
+
+impl IpcConfig {
+    /// The (publishers, subscribers) limits of `topic`.
+    pub fn ports_of(&self, topic: &TopicName) -> (usize, usize) {
+        self.port_limits
+            .iter()
+            .find(|l| topic.as_str().ends_with(l.suffix))
+            .map_or((self.max_publishers, self.max_subscribers), |l| (l.max_publishers, l.max_subscribers))
+    }
 }
 
 impl Default for IpcConfig {
@@ -110,6 +139,7 @@ impl Default for IpcConfig {
             node_name: None,
             cleanup_on_start: true,
             isolation: root::tag_from_env(),
+            port_limits: Vec::new(),
         }
     }
 }

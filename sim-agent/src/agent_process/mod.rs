@@ -42,7 +42,7 @@ pub use lifeline::{ExitCause, Lifeline};
 pub use options::{check_speed, AgentArgs, Clock, Transport, MAX_SPEED};
 pub use traffic::{BadKind, Traffic};
 
-use bycoms_protocol::bus::ipc::IpcConfig;
+use bycoms_protocol::bus::ipc::{IpcConfig, PortLimits};
 use bycoms_protocol::bus::zenoh::{Congestion, Liveness, Mode, ZenohConfig};
 use bycoms_protocol::bus::Limits;
 use bycoms_protocol::MAX_MESSAGE_LEN;
@@ -51,12 +51,20 @@ use std::path::PathBuf;
 /// Unread messages a subscriber keeps per publisher.
 pub const BUS_BUFFER: usize = 64;
 
+/// Publishers of a robot's pose topic, and ports of each side of its
+/// command topic (see [`ipc_config`]).
+pub const ROBOT_TOPIC_PORTS: usize = 8;
+
 /// The iceoryx2 configuration of a swarm of `swarm_size` robots.
 ///
 /// Payloads are at most one protocol message; `from_agents` has one
 /// publisher per agent and each robot's pose topic one subscriber per later
 /// robot, so both limits grow with the swarm (plus headroom for the
-/// orchestrator, a monitor and test tools). Stale resources are cleaned by
+/// orchestrator, a monitor and test tools). A robot's own topics have few
+/// ports on their other side ([`ROBOT_TOPIC_PORTS`]): iceoryx2 keeps a
+/// resident slot (~3.6 KB) per possible peer port in every port, so sizing
+/// them like `from_agents` cost each agent (k − 1) × (n + 132) slots
+/// (86 MB for robot 98 of 100, 262 MB for robot 166 of 300). Stale resources are cleaned by
 /// the orchestrator at start, not by every agent.
 pub fn ipc_config(swarm_size: u32) -> IpcConfig {
     let n = swarm_size as usize;
@@ -66,6 +74,19 @@ pub fn ipc_config(swarm_size: u32) -> IpcConfig {
         max_subscribers: n + 4,
         max_nodes: n + 8,
         cleanup_on_start: false,
+        port_limits: vec![
+            // One robot's pose: its agent (or the lab's mocap), the
+            // orchestrator's relay of a dead robot, a duplicate agent, tools;
+            // read by every later agent.
+            PortLimits { suffix: "/pose", max_publishers: ROBOT_TOPIC_PORTS, max_subscribers: n + 4 },
+            // Commands to one robot: from the orchestrator, to its agent (and
+            // a duplicate being refused).
+            PortLimits {
+                suffix: "/to_agent",
+                max_publishers: ROBOT_TOPIC_PORTS,
+                max_subscribers: ROBOT_TOPIC_PORTS,
+            },
+        ],
         ..IpcConfig::default()
     }
 }
@@ -98,5 +119,23 @@ pub fn zenoh_config(
         base_config: base,
         liveness: Some(Liveness::FAST),
         ..ZenohConfig::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bycoms_protocol::{RobotId, Swarm};
+
+    #[test]
+    fn a_robot_s_own_topics_have_few_ports_on_their_other_side() {
+        let config = ipc_config(300);
+        let swarm = Swarm::new("s").expect("swarm");
+        // Every later agent reads a pose; few ever write it.
+        assert_eq!(config.ports_of(swarm.pose(RobotId(7)).name()), (ROBOT_TOPIC_PORTS, 304));
+        assert_eq!(config.ports_of(swarm.to_agent(RobotId(7)).name()), (ROBOT_TOPIC_PORTS, ROBOT_TOPIC_PORTS));
+        // Every agent reports on the one shared topic.
+        assert_eq!(config.ports_of(swarm.from_agents().name()), (304, 304));
+        assert_eq!(config.ports_of(swarm.gate().name()), (304, 304));
     }
 }

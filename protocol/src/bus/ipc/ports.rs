@@ -43,13 +43,14 @@ fn pubsub_service<S: IoxService>(
     topic: &TopicName,
     name: &ServiceName,
 ) -> Result<publish_subscribe::PortFactory<S, [u8], ()>, BusError> {
+    let (publishers, subscribers) = config.ports_of(topic);
     node.service_builder(name)
         .publish_subscribe::<[u8]>()
         .history_size(0)
         .subscriber_max_buffer_size(config.limits.buffer)
         .enable_safe_overflow(true)
-        .max_publishers(config.max_publishers)
-        .max_subscribers(config.max_subscribers)
+        .max_publishers(publishers)
+        .max_subscribers(subscribers)
         .max_nodes(config.max_nodes)
         .open_or_create()
         .map_err(|e| BusError::backend("open publish-subscribe service", Some(topic), e))
@@ -61,10 +62,11 @@ fn event_service<S: IoxService>(
     topic: &TopicName,
     name: &ServiceName,
 ) -> Result<event::PortFactory<S>, BusError> {
+    let (publishers, subscribers) = config.ports_of(topic);
     node.service_builder(name)
         .event()
-        .max_notifiers(config.max_publishers)
-        .max_listeners(config.max_subscribers)
+        .max_notifiers(publishers)
+        .max_listeners(subscribers)
         .max_nodes(config.max_nodes)
         .open_or_create()
         .map_err(|e| BusError::backend("open event service", Some(topic), e))
