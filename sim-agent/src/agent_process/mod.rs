@@ -133,7 +133,10 @@ mod tests {
         let swarm = Swarm::new("s").expect("swarm");
         // Every later agent reads a pose; few ever write it.
         assert_eq!(config.ports_of(swarm.pose(RobotId(7)).name()), (ROBOT_TOPIC_PORTS, 304));
-        assert_eq!(config.ports_of(swarm.to_agent(RobotId(7)).name()), (ROBOT_TOPIC_PORTS, ROBOT_TOPIC_PORTS));
+        assert_eq!(
+            config.ports_of(swarm.to_agent(RobotId(7)).name()),
+            (ROBOT_TOPIC_PORTS, ROBOT_TOPIC_PORTS)
+        );
         // Every agent reports on the one shared topic.
         assert_eq!(config.ports_of(swarm.from_agents().name()), (304, 304));
         assert_eq!(config.ports_of(swarm.gate().name()), (304, 304));
