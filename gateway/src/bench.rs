@@ -12,7 +12,7 @@
 //! hop and one bus hop.
 
 use crate::core::{GatewayCore, Timers};
-use crate::run::{quantile, Gateway, GatewayPorts};
+use crate::run::{Gateway, GatewayPorts};
 use anyhow::{bail, Context};
 use bycoms_protocol::bus::ipc::{IpcBus, IpcConfig};
 use bycoms_protocol::bus::BusExt;
@@ -22,6 +22,7 @@ use bycoms_protocol::link::{
 use bycoms_protocol::msg::{FromAgent, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
 use bycoms_sim::agent_process::{ipc_config, Lifeline};
+use bycoms_sim::stats::quantile;
 use std::net::UdpSocket;
 use std::time::{Duration, Instant};
 

@@ -16,7 +16,7 @@
 //! next to the robots' access point.
 
 use crate::core::{GatewayCore, Timers};
-use crate::run::{quantile, Gateway, GatewayPorts, RunError};
+use crate::run::{Gateway, GatewayPorts, RunError};
 use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_protocol::bus::{Bus, BusError};
 use bycoms_protocol::naming::Member;
@@ -26,6 +26,7 @@ use bycoms_sim::agent_process::failsafe::{Failsafe, FailsafeArgs};
 use bycoms_sim::agent_process::lifeline::LifelineError;
 use bycoms_sim::agent_process::{check_speed, BusArgs, BusOpenError, ExitCause, Lifeline, OnBus};
 use bycoms_sim::lab::robots::{read_key, RobotsError};
+use bycoms_sim::stats::quantile;
 use std::net::{SocketAddr, UdpSocket};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};

@@ -273,11 +273,3 @@ impl<B: Bus> Gateway<B> {
         Ok(())
     }
 }
-
-/// The `q`-quantile of `values` (sorted copy; `None` when empty).
-pub fn quantile(values: &[u64], q: f64) -> Option<u64> {
-    let mut v = values.to_vec();
-    v.sort_unstable();
-    let i = ((v.len() as f64 - 1.0) * q).round() as usize;
-    v.get(i).copied()
-}

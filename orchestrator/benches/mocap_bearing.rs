@@ -44,9 +44,8 @@ fn lab(rate_hz: f64) -> ServerConfig {
     }
 }
 
-fn percentile(sorted: &[Duration], p: f64) -> Duration {
-    let i = ((sorted.len() - 1) as f64 * p).round() as usize;
-    sorted[i]
+fn percentile(values: &[Duration], p: f64) -> Duration {
+    bycoms_sim::stats::quantile(values, p).expect("measured at least once")
 }
 
 fn measure(bus: &IpcBus, swarm: &Swarm, rate_hz: f64, seconds: f64) -> Vec<Duration> {

@@ -176,9 +176,8 @@ fn cpu_seconds() -> f64 {
     (ticks(11) + ticks(12)) / 100.0
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
+fn median(v: Vec<f64>) -> f64 {
+    bycoms_sim::stats::median(&v).unwrap_or(f64::NAN)
 }
 
 fn launches(name: &str, cfg: LaunchConfig, dir: &Path) {

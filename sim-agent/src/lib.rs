@@ -20,6 +20,7 @@ pub mod robot;
 pub mod runner;
 pub mod seed;
 pub mod sensing;
+pub mod stats;
 pub mod terrain;
 
 pub use geom::Vec2;

@@ -103,7 +103,7 @@ fn main() {
         println!("no outage recorded:\n{}", out.stderr);
         return;
     }
-    let q = |p: f64| seen_ms[((seen_ms.len() - 1) as f64 * p).round() as usize];
+    let q = |p: f64| bycoms_sim::stats::quantile(&seen_ms, p).unwrap_or_default();
     let over = seen_ms.iter().filter(|&&ms| ms > 500).count();
     println!(
         "cut seen after (ms, n = {}): min {}  p50 {}  p90 {}  max {};  over 500 ms: {over};  outages before any cut: {unmatched}",

@@ -28,14 +28,8 @@ use std::time::Duration;
 
 const WAIT: Duration = Duration::from_secs(300);
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        (v[n / 2 - 1] + v[n / 2]) / 2.0
-    }
+fn median(v: Vec<f64>) -> f64 {
+    bycoms_sim::stats::median(&v).unwrap_or(f64::NAN)
 }
 
 fn launch_args<'a>(swarm: &'a str, terrain: &'a str) -> Vec<&'a str> {

@@ -70,11 +70,9 @@ pub enum What {
     },
 }
 
-fn percentile(sorted: &[f64], p: f64) -> f64 {
-    if sorted.is_empty() {
-        return f64::NAN;
-    }
-    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
+/// The `p`-quantile of `values`, NaN (`null` in JSON) when there are none.
+fn percentile(values: &[f64], p: f64) -> f64 {
+    bycoms_sim::stats::quantile(values, p).unwrap_or(f64::NAN)
 }
 
 pub fn run(args: Args) -> Result<i32> {

@@ -102,14 +102,8 @@ fn percent(rate: Option<f64>) -> String {
 
 /// The median robots used by the runs that arrived.
 fn median_robots(runs: &[Option<u32>]) -> Option<f64> {
-    let mut used: Vec<u32> = runs.iter().flatten().copied().collect();
-    used.sort_unstable();
-    let n = used.len();
-    match n {
-        0 => None,
-        _ if n % 2 == 1 => Some(f64::from(used[n / 2])),
-        _ => Some((f64::from(used[n / 2 - 1]) + f64::from(used[n / 2])) / 2.0),
-    }
+    let used: Vec<u32> = runs.iter().flatten().copied().collect();
+    bycoms_sim::stats::median(&used)
 }
 
 /// `budget-<noise>.csv`: success rate [%] within each budget for every ε

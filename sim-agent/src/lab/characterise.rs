@@ -65,8 +65,7 @@ pub fn characterise(config: &SoundConfig, distances: &[f64], trials: usize, seed
                     None => none += 1,
                 }
             }
-            errors.sort_by(f64::total_cmp);
-            let pick = |q: f64| errors.get(((errors.len() as f64 - 1.0) * q).round() as usize).copied();
+            let pick = |q: f64| crate::stats::quantile(&errors, q);
             SensingRow {
                 distance: d,
                 v_ave: v_sum / trials as f64,

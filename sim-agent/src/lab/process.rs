@@ -239,10 +239,7 @@ impl Jitter {
     }
 
     fn percentile(&self, p: f64) -> Option<f64> {
-        let mut v = self.errors_us.clone();
-        v.sort_by(f64::total_cmp);
-        let i = ((v.len() as f64 - 1.0) * p).round() as usize;
-        v.get(i).copied()
+        crate::stats::quantile(&self.errors_us, p)
     }
 }
 
