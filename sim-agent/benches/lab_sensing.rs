@@ -1,5 +1,6 @@
 //! Prints the emulated lab's sensing characterisation: V_ave and the
-//! gradient direction error against distance to a speaker, with the default
+//! gradient direction error and the tone's SNR (from a whole spectrum) against
+//! distance to a speaker, with the default
 //! noise (echo, vibration, ADC noise) and without.
 //!
 //! Run: `cargo bench -p bycoms-sim --bench lab_sensing`

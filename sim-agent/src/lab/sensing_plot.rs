@@ -119,7 +119,14 @@ mod tests {
     use super::*;
 
     fn row(distance: f64, err: f64, v_ave: f64) -> SensingRow {
-        SensingRow { distance, v_ave, median_error_deg: err, p90_error_deg: 2.0 * err, no_direction: 0.0 }
+        SensingRow {
+            distance,
+            v_ave,
+            median_error_deg: err,
+            p90_error_deg: 2.0 * err,
+            no_direction: 0.0,
+            snr_db: 20.0,
+        }
     }
 
     #[test]

@@ -20,6 +20,30 @@ fn gradient_is_measured_well_near_a_robot_and_poorly_farther_away() {
     assert!(near.median_error_deg < 10.0, "near: {near:?}");
     assert!(far.median_error_deg > 2.0 * near.median_error_deg, "near {near:?} far {far:?}");
     assert!(far.v_ave < near.v_ave);
+    assert!(near.snr_db > far.snr_db, "the tone stands less above the noise farther away: {near:?} {far:?}");
+}
+
+#[test]
+fn a_tone_s_snr_falls_by_the_noise_added() {
+    use super::characterise::tone_snr_db;
+    use bycoms_agent::acoustic::{ToneConfig, FRAME_LEN};
+    use rand::{Rng, SeedableRng};
+    let tones = ToneConfig::default();
+    let frame = |noise: f64, seed: u64| {
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+        core::array::from_fn::<u16, FRAME_LEN, _>(|i| {
+            let t = i as f64 / tones.sample_rate;
+            let s =
+                2048.0 + 1000.0 * (core::f64::consts::TAU * 224.0 * t).sin() + rng.gen_range(-noise..=noise);
+            s.round() as u16
+        })
+    };
+    let all = [224.0, 320.0, 512.0];
+    let (clean, noisy) =
+        (tone_snr_db(&frame(4.0, 1), &tones, 224.0, &all), tone_snr_db(&frame(40.0, 1), &tones, 224.0, &all));
+    assert!(clean > 50.0, "a loud tone over ±4 counts: {clean} dB");
+    // Ten times the noise: 20 dB less (within a few dB: a median of noise bins).
+    assert!((clean - noisy - 20.0).abs() < 4.0, "clean {clean} dB, noisy {noisy} dB");
 }
 
 mod udp;
