@@ -31,7 +31,7 @@ import sys
 import threading
 import time
 
-PROTOCOL_VERSION = 2
+PROTOCOL_VERSION = 3
 GATE_KINDS = {0: "deployed", 1: "stopped", 2: "died", 3: "timeout"}
 
 
@@ -121,7 +121,7 @@ def decode_from_agent(payload):
     robot = r.varint(5)
     if variant == 0:  # Register
         msg = {"kind": "register", "robot": robot, "agent": r.varint(5), "protocol_version": r.varint(3)}
-        msg["instance"] = r.varint()
+        msg.update(instance=r.varint(), settings=r.varint(), failsafe_grace_ms=r.varint(5))
     elif variant == 1:  # Heartbeat
         msg = {"kind": "heartbeat", "robot": robot, "seq": r.varint()}
     elif variant == 2:  # Status
@@ -136,6 +136,8 @@ def decode_from_agent(payload):
         msg.update(left=r.f32(), right=r.f32(), battery_mv=r.varint(3), health=r.byte(), robot_drops=r.varint(5))
     elif variant == 5:  # Link (a real robot's link, from its gateway)
         msg = {"kind": "link", "robot": robot, "up": r.boolean(), "silent_ms": r.varint(5), "refused": r.varint(5)}
+    elif variant == 6:  # Failsafe (the agent's failsafe stopped its robot)
+        msg = {"kind": "failsafe", "robot": robot, "silent_ms": r.varint(5)}
     else:
         raise DecodeError(f"unknown FromAgent variant {variant}")
     r.finish()
@@ -207,6 +209,8 @@ class Watcher:
                 self.emit(f"mode robot={m['robot']} mode={m['mode']} step={m['step']}")
             elif m["kind"] == "link":
                 self.emit(f"link robot={m['robot']} up={str(m['up']).lower()} silent_ms={m['silent_ms']}")
+            elif m["kind"] == "failsafe":
+                self.emit(f"failsafe robot={m['robot']} silent_ms={m['silent_ms']}")
         elif topic == "gate":
             e = decode_gate(payload)
             arrived = "" if e["arrived"] is None else f" arrived={str(e['arrived']).lower()}"

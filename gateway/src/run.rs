@@ -113,8 +113,17 @@ impl<B: Bus> Gateway<B> {
                 }
             }
         }
-        let (lost_for, exit) = match failsafe.check(Instant::now()) {
+        let verdict = failsafe.check(Instant::now());
+        if let Some(report) = verdict.report(self.core.robot()) {
+            // Best effort: the link may be cut (a reminder follows its return).
+            let _ = self.ports.report.publish(&report);
+        }
+        let (lost_for, exit) = match verdict {
             Verdict::Run => return Ok(None),
+            Verdict::Remind { lost_for } => {
+                tracing::info!(?lost_for, "orchestrator back: told it that the failsafe stopped the robot");
+                return Ok(None);
+            }
             Verdict::Stop { lost_for } => (lost_for, false),
             Verdict::StopAndExit { lost_for } => (lost_for, true),
         };
@@ -146,6 +155,8 @@ impl<B: Bus> Gateway<B> {
             kind: AgentKind::Real,
             protocol_version: PROTOCOL_VERSION,
             instance: instance(),
+            settings: 0,
+            failsafe_grace_ms: self.failsafe.as_ref().map_or(0, |(f, _)| f.grace_ms()),
         };
         self.ports.report.publish(&FromAgent::Register(register))?;
         let (mut seq, mut next_heartbeat) = (0u64, Instant::now());
@@ -214,8 +225,9 @@ impl<B: Bus> Gateway<B> {
                 Ok(Some(ToAgent::Refused(r))) if r.instance == instance() => {
                     tracing::error!(
                         robot = r.robot.0,
-                        "refused: another agent already holds robot {}",
-                        r.robot.0
+                        "refused by the orchestrator for robot {}: {}",
+                        r.robot.0,
+                        r.why
                     );
                     self.core.on_command(&ToAgent::Stop, Instant::now()).ok();
                     return Ok((Some(ExitCause::Refused), commanded));

@@ -382,3 +382,81 @@ fn a_second_agent_for_a_registered_robot_is_refused_and_changes_nothing() {
     same_run(&clean, &report, "second agents");
     assert!(report.bad >= 2, "duplicates counted: {}", report.bad);
 }
+
+#[test]
+fn agents_with_a_short_failsafe_or_other_settings_are_refused_and_change_nothing() {
+    let case = long_case();
+    let clean = harness::run(&case, &Schedule::clean(1, 3));
+    let mut s = Schedule::clean(1, 3);
+    // Before the real agents register (robot 3's turn comes last) and after.
+    s.foreign = vec![
+        (0, Foreign::ShortGrace(3)),
+        (1, Foreign::OtherSettings(3)),
+        (clean.end_us / 4, Foreign::ShortGrace(2)),
+        (clean.end_us / 3, Foreign::OtherSettings(1)),
+    ];
+    let report = harness::run(&case, &s);
+    same_run(&clean, &report, "refused agents");
+    assert_eq!(report.bad, 4, "each refusal counted once");
+}
+
+/// An agent's failsafe report is recorded once, as an event and a line,
+/// however often the agent repeats it (it does each time it hears the
+/// orchestrator again).
+#[test]
+fn a_failsafe_report_is_recorded_once() {
+    use bycoms_orchestrator::launch::core::{Core, Input, Output};
+    use bycoms_orchestrator::launch::events::EventKind;
+    use bycoms_protocol::msg::{AgentKind, FailsafeFired, FromAgent, Register};
+    use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
+
+    let case = long_case();
+    let mut schedule = Schedule::clean(1, 3);
+    schedule.remote = true;
+    let setup = harness::setup(&case, &schedule);
+    let settings = setup.settings;
+    let mut core = Core::new(setup);
+    let mut t = 0;
+    let mut outputs = Vec::new();
+    let mut step = |core: &mut Core, input: Option<Input>, outputs: &mut Vec<Output>| {
+        t += 1_000;
+        if let Some(input) = input {
+            core.handle(t, input);
+        }
+        core.advance(t);
+        while let Some(o) = core.poll_output() {
+            outputs.push(o);
+        }
+    };
+    step(&mut core, None, &mut outputs);
+    for robot in 1..=3 {
+        let started = Input::Started { robot, pid: None, how: "awaited".into() };
+        step(&mut core, Some(started), &mut outputs);
+    }
+    let register = Register {
+        robot: RobotId(2),
+        kind: AgentKind::Simulated,
+        protocol_version: PROTOCOL_VERSION,
+        instance: 7,
+        settings,
+        failsafe_grace_ms: 5_000,
+    };
+    step(&mut core, Some(Input::Report(FromAgent::Register(register))), &mut outputs);
+    let fired = FromAgent::Failsafe(FailsafeFired { robot: RobotId(2), silent_ms: 2_100 });
+    for _ in 0..3 {
+        step(&mut core, Some(Input::Report(fired)), &mut outputs);
+    }
+    let events: Vec<_> = outputs
+        .iter()
+        .filter_map(|o| match o {
+            Output::Event(e) if e.event == EventKind::FailsafeFired => Some(e.clone()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(events.len(), 1, "{outputs:#?}");
+    assert_eq!(events[0].robot, 2);
+    assert_eq!(events[0].reason.as_deref(), Some("orchestrator gone for 2100 ms"));
+    let refusals =
+        outputs.iter().filter(|o| matches!(o, Output::Send(_, bycoms_protocol::msg::ToAgent::Refused(_))));
+    assert_eq!(refusals.count(), 0, "a long failsafe grace and the launch's settings are welcome");
+}

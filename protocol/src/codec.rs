@@ -20,7 +20,7 @@ use serde::{de::DeserializeOwned, Serialize};
 
 /// The wire-format version carried by every message. Bump it whenever the
 /// byte layout of any message changes (the golden-byte tests will tell).
-pub const PROTOCOL_VERSION: u16 = 2;
+pub const PROTOCOL_VERSION: u16 = 3;
 
 /// Upper bound of an encoded message (envelope included), for stack buffers.
 /// A test encodes every variant with its largest values to prove it.

@@ -13,7 +13,7 @@ use bycoms_protocol::{decode, encode, CodecError, Message, RobotId, MAX_MESSAGE_
 use core::fmt::Debug;
 use proptest::prelude::*;
 
-const V: u8 = 2;
+const V: u8 = 3;
 const F1: [u8; 8] = [0, 0, 0, 0, 0, 0, 0xF0, 0x3F];
 
 fn cat(parts: &[&[u8]]) -> Vec<u8> {
@@ -66,9 +66,16 @@ fn step_u64_varint() {
 
 #[test]
 fn u16_varint_in_a_body() {
-    let register = Register { robot: RobotId(1), kind: AgentKind::Real, protocol_version: 2, instance: 7 };
+    let register = Register {
+        robot: RobotId(1),
+        kind: AgentKind::Real,
+        protocol_version: 3,
+        instance: 7,
+        settings: 0,
+        failsafe_grace_ms: 0,
+    };
     let msg = FromAgent::Register(register);
-    one_spelling(msg, &[V, 0, 1, 1, 2, 7], &[V, 0, 1, 1, 0x82, 0x00, 7]);
+    one_spelling(msg, &[V, 0, 1, 1, 3, 7, 0, 0], &[V, 0, 1, 1, 0x83, 0x00, 7, 0, 0]);
 }
 
 #[test]
@@ -78,9 +85,16 @@ fn enum_discriminant() {
     // ... a unit variant (Stop = 3) ...
     one_spelling(ToAgent::Stop, &[V, 3], &[V, 0x83, 0x00]);
     // ... and an enum field (AgentKind::Real = 1).
-    let register = Register { robot: RobotId(1), kind: AgentKind::Real, protocol_version: 2, instance: 7 };
+    let register = Register {
+        robot: RobotId(1),
+        kind: AgentKind::Real,
+        protocol_version: 3,
+        instance: 7,
+        settings: 0,
+        failsafe_grace_ms: 0,
+    };
     let msg = FromAgent::Register(register);
-    one_spelling(msg, &[V, 0, 1, 1, 2, 7], &[V, 0, 1, 0x81, 0x00, 2, 7]);
+    one_spelling(msg, &[V, 0, 1, 1, 3, 7, 0, 0], &[V, 0, 1, 0x81, 0x00, 3, 7, 0, 0]);
 }
 
 /// A `Telemetry` with no gradient, its option tag at byte `TAG`.

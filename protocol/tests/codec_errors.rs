@@ -3,8 +3,11 @@
 use bycoms_protocol::msg::*;
 use bycoms_protocol::{decode, encode, CodecError, RobotId, PROTOCOL_VERSION};
 
+/// The envelope's first byte: `PROTOCOL_VERSION` as a varint.
+const V: u8 = 3;
+
 fn tick_bytes() -> Vec<u8> {
-    vec![2, 2, 7] // ToAgent::Tick { step: 7 }
+    vec![V, 2, 7] // ToAgent::Tick { step: 7 }
 }
 
 #[test]
@@ -17,8 +20,8 @@ fn buffer_too_small() {
 #[test]
 fn truncated() {
     assert_eq!(decode::<ToAgent>(&[]), Err(CodecError::Truncated));
-    assert_eq!(decode::<ToAgent>(&[2]), Err(CodecError::Truncated));
-    let bearing = [2, 1, 2, 0, 0, 0, 0]; // GoalBearing cut inside the f64
+    assert_eq!(decode::<ToAgent>(&[V]), Err(CodecError::Truncated));
+    let bearing = [V, 1, 2, 0, 0, 0, 0]; // GoalBearing cut inside the f64
     assert_eq!(decode::<ToAgent>(&bearing), Err(CodecError::Truncated));
 }
 
@@ -42,14 +45,14 @@ fn unsupported_version() {
 
 #[test]
 fn unknown_variant() {
-    assert_eq!(decode::<ToAgent>(&[2, 9]), Err(CodecError::UnknownVariant));
-    assert_eq!(decode::<FromAgent>(&[2, 6, 1, 1]), Err(CodecError::UnknownVariant));
+    assert_eq!(decode::<ToAgent>(&[V, 9]), Err(CodecError::UnknownVariant));
+    assert_eq!(decode::<FromAgent>(&[V, 7, 1, 1]), Err(CodecError::UnknownVariant));
     // Telemetry with DriveState 4.
-    let mut telemetry = vec![2, 4, 1, 1, 4, 1];
+    let mut telemetry = vec![V, 4, 1, 1, 4, 1];
     telemetry.extend_from_slice(&[0; 40]);
     assert_eq!(decode::<FromAgent>(&telemetry), Err(CodecError::UnknownVariant));
-    assert_eq!(decode::<FromAgent>(&[2, 0, 1, 7, 2, 0]), Err(CodecError::UnknownVariant)); // AgentKind 7
-    let mut gate = vec![2, 1, 9]; // GateKind 9
+    assert_eq!(decode::<FromAgent>(&[V, 0, 1, 7, 2, 0]), Err(CodecError::UnknownVariant)); // AgentKind 7
+    let mut gate = vec![V, 1, 9]; // GateKind 9
     gate.extend_from_slice(&[0; 17]);
     assert_eq!(decode::<GateEvent>(&gate), Err(CodecError::UnknownVariant));
 }
@@ -57,13 +60,13 @@ fn unknown_variant() {
 #[test]
 fn malformed() {
     // Stopped { arrived } with a bool byte of 2.
-    let mut gate = vec![2, 1, 1, 2];
+    let mut gate = vec![V, 1, 1, 2];
     gate.extend_from_slice(&[0; 17]);
     assert_eq!(decode::<GateEvent>(&gate), Err(CodecError::Malformed));
     // A version varint that never terminates within a u16.
     assert_eq!(decode::<ToAgent>(&[0xFF, 0xFF, 0xFF, 0xFF]), Err(CodecError::Malformed));
     // A robot id varint that overflows u32.
-    let too_big = [2, 1, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F];
+    let too_big = [V, 1, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F];
     assert_eq!(decode::<FromAgent>(&too_big), Err(CodecError::Malformed));
 }
 
@@ -71,7 +74,7 @@ fn malformed() {
 fn errors_explain_themselves() {
     let err: &dyn core::error::Error =
         &CodecError::UnsupportedVersion { found: 1, supported: PROTOCOL_VERSION };
-    assert_eq!(err.to_string(), "unsupported protocol version 1 (this build speaks 2)");
+    assert_eq!(err.to_string(), "unsupported protocol version 1 (this build speaks 3)");
     for e in [
         CodecError::BufferTooSmall,
         CodecError::Truncated,

@@ -12,7 +12,7 @@ use core::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 use core::fmt::Debug;
 
 /// The envelope's first byte: `PROTOCOL_VERSION` as a varint.
-const V: u8 = 2;
+const V: u8 = 3;
 
 const F15_5: [u8; 8] = [0, 0, 0, 0, 0, 0, 0x2F, 0x40];
 const F0: [u8; 8] = [0; 8];
@@ -39,7 +39,7 @@ fn check<T: Message + PartialEq + Debug>(msg: T, expected: &[u8]) {
 
 #[test]
 fn envelope_starts_with_the_version() {
-    assert_eq!(PROTOCOL_VERSION, 2, "bumping the version must update these tests");
+    assert_eq!(PROTOCOL_VERSION, 3, "bumping the version must update these tests");
 }
 
 #[test]
@@ -51,18 +51,40 @@ fn to_agent() {
     check(ToAgent::Tick(Tick { step: 7 }), &[V, 2, 7]);
     check(ToAgent::Stop, &[V, 3]);
     check(ToAgent::Shutdown, &[V, 4]);
-    let refused = Refused { robot: RobotId(3), instance: 300 };
-    check(ToAgent::Refused(refused), &[V, 5, 3, 0xAC, 0x02]);
+    let refused = Refused { robot: RobotId(3), instance: 300, why: Refusal::Duplicate };
+    check(ToAgent::Refused(refused), &[V, 5, 3, 0xAC, 0x02, 0]);
+    let refused = Refused { robot: RobotId(3), instance: 300, why: Refusal::Settings { launch: 0x1234 } };
+    check(ToAgent::Refused(refused), &[V, 5, 3, 0xAC, 0x02, 1, 0xB4, 0x24]);
+    let refused = Refused { robot: RobotId(3), instance: 300, why: Refusal::Grace { launch_ms: 2000 } };
+    check(ToAgent::Refused(refused), &[V, 5, 3, 0xAC, 0x02, 2, 0xD0, 0x0F]);
 }
 
 #[test]
 fn from_agent() {
-    let register = Register { robot: RobotId(1), kind: AgentKind::Real, protocol_version: 2, instance: 7 };
-    check(FromAgent::Register(register), &[V, 0, 1, 1, 2, 7]);
+    let register = Register {
+        robot: RobotId(1),
+        kind: AgentKind::Real,
+        protocol_version: 3,
+        instance: 7,
+        settings: 0,
+        failsafe_grace_ms: 0,
+    };
+    check(FromAgent::Register(register), &[V, 0, 1, 1, 3, 7, 0, 0]);
     let instance = 0x0123_4567_89AB_CDEF;
-    let register = Register { robot: RobotId(1), kind: AgentKind::Simulated, protocol_version: 2, instance };
+    let register = Register {
+        robot: RobotId(1),
+        kind: AgentKind::Simulated,
+        protocol_version: 3,
+        instance,
+        settings: instance,
+        failsafe_grace_ms: 2000,
+    };
     let instance_varint = [0xEF, 0x9B, 0xAF, 0xCD, 0xF8, 0xAC, 0xD1, 0x91, 0x01];
-    check(FromAgent::Register(register), &cat(&[&[V, 0, 1, 0, 2], &instance_varint]));
+    let grace = [0xD0, 0x0F];
+    check(
+        FromAgent::Register(register),
+        &cat(&[&[V, 0, 1, 0, 3], &instance_varint, &instance_varint, &grace]),
+    );
     check(FromAgent::Heartbeat(Heartbeat { robot: RobotId(2), seq: 128 }), &[V, 1, 2, 0x80, 0x01]);
     check(FromAgent::Status(Status { robot: RobotId(3), mode: 2, step: 10 }), &[V, 2, 3, 2, 10]);
     check(FromAgent::TickDone(TickDone { robot: RobotId(4), step: 65_535 }), &[V, 3, 4, 0xFF, 0xFF, 0x03]);
@@ -70,6 +92,8 @@ fn from_agent() {
     check(FromAgent::Link(link), &[V, 5, 2, 0, 0xAC, 0x02, 7]);
     let link = LinkStatus { robot: RobotId(2), up: true, silent_ms: 0, refused: 0 };
     check(FromAgent::Link(link), &[V, 5, 2, 1, 0, 0]);
+    let fired = FailsafeFired { robot: RobotId(2), silent_ms: 2100 };
+    check(FromAgent::Failsafe(fired), &[V, 6, 2, 0xB4, 0x10]);
 }
 
 /// f32 little-endian: 0.5, 1.0, 0.25, -0.5.

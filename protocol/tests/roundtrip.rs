@@ -34,7 +34,19 @@ fn to_agent() -> impl Strategy<Value = ToAgent> {
         any::<u64>().prop_map(|step| ToAgent::Tick(Tick { step })),
         Just(ToAgent::Stop),
         Just(ToAgent::Shutdown),
-        (robot(), any::<u64>()).prop_map(|(robot, instance)| ToAgent::Refused(Refused { robot, instance })),
+        (robot(), any::<u64>(), refusal()).prop_map(|(robot, instance, why)| ToAgent::Refused(Refused {
+            robot,
+            instance,
+            why
+        })),
+    ]
+}
+
+fn refusal() -> impl Strategy<Value = Refusal> {
+    prop_oneof![
+        Just(Refusal::Duplicate),
+        any::<u64>().prop_map(|launch| Refusal::Settings { launch }),
+        any::<u32>().prop_map(|launch_ms| Refusal::Grace { launch_ms }),
     ]
 }
 
@@ -78,9 +90,18 @@ fn telemetry() -> impl Strategy<Value = Telemetry> {
 fn from_agent() -> impl Strategy<Value = FromAgent> {
     let kind = prop_oneof![Just(AgentKind::Simulated), Just(AgentKind::Real)];
     prop_oneof![
-        (robot(), kind, any::<u16>(), any::<u64>()).prop_map(|(robot, kind, protocol_version, instance)| {
-            FromAgent::Register(Register { robot, kind, protocol_version, instance })
-        }),
+        (robot(), kind, any::<u16>(), any::<u64>(), any::<u64>(), any::<u32>()).prop_map(
+            |(robot, kind, protocol_version, instance, settings, failsafe_grace_ms)| {
+                FromAgent::Register(Register {
+                    robot,
+                    kind,
+                    protocol_version,
+                    instance,
+                    settings,
+                    failsafe_grace_ms,
+                })
+            }
+        ),
         (robot(), any::<u64>()).prop_map(|(robot, seq)| FromAgent::Heartbeat(Heartbeat { robot, seq })),
         (robot(), any::<u8>(), any::<u64>()).prop_map(|(robot, mode, step)| FromAgent::Status(Status {
             robot,
@@ -92,6 +113,8 @@ fn from_agent() -> impl Strategy<Value = FromAgent> {
         (robot(), any::<bool>(), any::<u32>(), any::<u32>()).prop_map(|(robot, up, silent_ms, refused)| {
             FromAgent::Link(LinkStatus { robot, up, silent_ms, refused })
         }),
+        (robot(), any::<u32>())
+            .prop_map(|(robot, silent_ms)| FromAgent::Failsafe(FailsafeFired { robot, silent_ms })),
     ]
 }
 
@@ -161,13 +184,28 @@ fn largest_encodings_fit_max_message_len() {
     let s = u64::MAX;
     let f = f64::MAX;
     let pose = Pose { robot: r, x: f, y: f, heading: f, step: s, time_us: s };
-    let largest: [(&str, usize); 7] = [
+    let largest: [(&str, usize); 9] = [
         (
             "to_agent",
             len(&ToAgent::GoalBearing(GoalBearing { robot: r, bearing: f, step: s }))
                 .max(len(&ToAgent::Deploy(Deploy { robot: r, x: f, y: f, heading: f }))),
         ),
         ("from_agent", len(&FromAgent::Status(Status { robot: r, mode: u8::MAX, step: s }))),
+        (
+            "register",
+            len(&FromAgent::Register(Register {
+                robot: r,
+                kind: AgentKind::Real,
+                protocol_version: u16::MAX,
+                instance: s,
+                settings: s,
+                failsafe_grace_ms: u32::MAX,
+            })),
+        ),
+        (
+            "refused",
+            len(&ToAgent::Refused(Refused { robot: r, instance: s, why: Refusal::Settings { launch: s } })),
+        ),
         ("telemetry", len(&FromAgent::Telemetry(largest_telemetry()))),
         (
             "link",

@@ -34,6 +34,8 @@ fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() 
         protocol_version: PROTOCOL_VERSION,
         // Not robot 1's agent (whose instance is random): a second agent.
         instance: 0,
+        settings: 0,
+        failsafe_grace_ms: 0,
     });
     let mut other_version = encode_vec(&register).expect("encode");
     other_version[0] = 9; // the envelope's version varint

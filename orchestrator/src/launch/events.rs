@@ -36,6 +36,9 @@ pub enum EventKind {
     Absent,
     /// Its agent registered after its turn was skipped; it takes a later turn.
     JoinedLate,
+    /// Its agent's failsafe stopped it: the agent had not heard the
+    /// orchestrator for longer than its grace (see `reason`).
+    FailsafeFired,
 }
 
 /// One event of a robot's agent.

@@ -53,6 +53,7 @@ pub fn setup(
             forward_poses: !poses.on_the_bus() && agents.wants_poses(),
         },
         unix_base_ms: SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_millis() as u64).unwrap_or(0),
+        settings: 0,
     }
 }
 

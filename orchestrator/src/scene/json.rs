@@ -86,6 +86,8 @@ pub enum TelemetryKind {
     RobotTelemetry,
     /// A real robot's link: lost, restored or refusing frames.
     Link,
+    /// The agent's failsafe stopped its robot.
+    Failsafe,
 }
 
 /// One agent report (the decoded `from_agents` traffic of one robot).
@@ -149,6 +151,7 @@ impl From<&FromAgent> for Telemetry {
                 t.kind = TelemetryKind::Link;
                 t.link_up = Some(l.up);
             }
+            FromAgent::Failsafe(_) => t.kind = TelemetryKind::Failsafe,
         }
         t
     }
@@ -284,6 +287,8 @@ mod tests {
             kind: AgentKind::Simulated,
             protocol_version: 3,
             instance: 1,
+            settings: 0,
+            failsafe_grace_ms: 0,
         });
         let j = encoded(&Telemetry::from(&reg));
         assert_eq!((j["robot"].as_u64(), j["kind"].as_str()), (Some(4), Some("register")));

@@ -4,9 +4,11 @@
 //! capture ([`crate::msg::Pose`]), exactly as a lab would; an agent only
 //! says that it exists, that it is alive, which mode it is in, and that it
 //! has finished a lockstep tick. A real robot's gateway adds what only a
-//! real robot has: its telemetry and the state of its WiFi link. All agents
-//! share one `from_agents` topic, so every message carries the sender's
-//! [`RobotId`].
+//! real robot has: its telemetry and the state of its WiFi link. Each agent
+//! reports on its own robot's `from_agent` topic, and every message still
+//! carries the sender's [`RobotId`], which must be the topic's: over zenoh
+//! the access control lets robot k's certificate publish only under robot
+//! k, so a message that names another robot than its key is forged.
 
 use crate::RobotId;
 use serde::{Deserialize, Serialize};
@@ -35,6 +37,19 @@ pub struct Register {
     /// a robot; the same instance again is a repeat, another one a refused
     /// duplicate (answered with [`crate::msg::ToAgent::Refused`]).
     pub instance: u64,
+    /// The fingerprint of the run settings the agent was started with
+    /// (terrain, ε, seed, noise, clock, speed, limits); 0 when it was
+    /// started without any and takes the orchestrator's. An agent whose
+    /// fingerprint is not the launch's is refused
+    /// ([`crate::msg::Refusal::Settings`]): it would run another study.
+    pub settings: u64,
+    /// How long the agent's failsafe lets its robot drive without hearing
+    /// the orchestrator, ms; 0 when it has none (over iceoryx2 the agent's
+    /// lifeline ties it to the orchestrator's process). A launch that would
+    /// wait for an unreachable agent longer than this refuses it
+    /// ([`crate::msg::Refusal::Grace`]): the robot would stop for good while
+    /// the launch still counted on it.
+    pub failsafe_grace_ms: u32,
 }
 
 /// Periodic liveness signal; `seq` increases by one per heartbeat.
@@ -159,6 +174,21 @@ pub struct LinkStatus {
     pub refused: u32,
 }
 
+/// The agent's failsafe stopped its robot: the orchestrator was gone (its
+/// liveliness token, over zenoh) for longer than the agent's grace. The
+/// robot stays stopped until `Shutdown`. Sent when it fires, and again each
+/// time the agent hears the orchestrator afterwards (the first copy was
+/// probably sent into a cut link), so the launch learns of it once the link
+/// is back.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FailsafeFired {
+    /// The robot.
+    pub robot: RobotId,
+    /// How long the orchestrator had been gone when the failsafe fired, ms
+    /// (saturating).
+    pub silent_ms: u32,
+}
+
 /// Everything an agent tells the orchestrator. (Not `Eq`: telemetry
 /// carries floats.)
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -175,6 +205,8 @@ pub enum FromAgent {
     Telemetry(Telemetry),
     /// A real robot's link lost, restored, or refusing frames (gateways only).
     Link(LinkStatus),
+    /// The agent's failsafe stopped its robot.
+    Failsafe(FailsafeFired),
 }
 
 impl FromAgent {
@@ -187,6 +219,7 @@ impl FromAgent {
             Self::TickDone(m) => m.robot,
             Self::Telemetry(m) => m.robot,
             Self::Link(m) => m.robot,
+            Self::Failsafe(m) => m.robot,
         }
     }
 }

@@ -25,12 +25,13 @@ pub mod sensor;
 pub mod to_agent;
 
 pub use from_agent::{
-    AgentKind, DriveState, FromAgent, Heartbeat, LinkStatus, Register, Status, Telemetry, TickDone,
+    AgentKind, DriveState, FailsafeFired, FromAgent, Heartbeat, LinkStatus, Register, Status, Telemetry,
+    TickDone,
 };
 pub use gate::{GateEvent, GateKind};
 pub use mocap::Pose;
 pub use sensor::{FieldSample, Sensor};
-pub use to_agent::{Deploy, GoalBearing, Refused, Tick, ToAgent};
+pub use to_agent::{Deploy, GoalBearing, Refusal, Refused, Tick, ToAgent};
 
 impl crate::Message for ToAgent {}
 impl crate::Message for FromAgent {}

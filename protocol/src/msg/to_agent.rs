@@ -41,15 +41,53 @@ pub struct Tick {
     pub step: u64,
 }
 
-/// The orchestrator refuses an agent: another agent (another `instance`)
-/// already holds this robot. Every agent on the robot's topic hears it;
-/// only the one whose [`crate::msg::Register::instance`] matches leaves.
+/// Why the orchestrator refused an agent.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Refusal {
+    /// Another agent (another `instance`) already holds this robot.
+    Duplicate,
+    /// The agent was started with other run settings than the launch's
+    /// (its [`crate::msg::Register::settings`] fingerprint differs).
+    Settings {
+        /// The launch's fingerprint.
+        launch: u64,
+    },
+    /// The agent's failsafe grace is shorter than the time the launch
+    /// waits for an unreachable agent (its link grace).
+    Grace {
+        /// The launch's link grace, ms.
+        launch_ms: u32,
+    },
+}
+
+impl core::fmt::Display for Refusal {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Duplicate => write!(f, "another agent already holds this robot"),
+            Self::Settings { launch } => write!(
+                f,
+                "this agent was started with other run settings than the launch's (the launch's fingerprint is {launch:016x})"
+            ),
+            Self::Grace { launch_ms } => write!(
+                f,
+                "this agent's failsafe grace is shorter than the launch's link grace of {launch_ms} ms: start it with --orchestrator-grace of at least {} s",
+                f64::from(*launch_ms) / 1000.0
+            ),
+        }
+    }
+}
+
+/// The orchestrator refuses an agent. Every agent on the robot's topic
+/// hears it; only the one whose [`crate::msg::Register::instance`] matches
+/// leaves.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Refused {
     /// The robot the agent registered for.
     pub robot: RobotId,
     /// The refused agent's instance.
     pub instance: u64,
+    /// Why.
+    pub why: Refusal,
 }
 
 /// Everything the orchestrator tells one agent.
@@ -65,6 +103,6 @@ pub enum ToAgent {
     Stop,
     /// Exit the agent process.
     Shutdown,
-    /// The agent with this instance is refused (a duplicate): it must exit.
+    /// The agent with this instance is refused: it must exit.
     Refused(Refused),
 }

@@ -21,6 +21,8 @@
 //! Sans-IO: the shell feeds liveliness changes and the time in, and acts
 //! on the [`Verdict`]; the tests below drive it with made-up instants.
 
+use bycoms_protocol::msg::{FailsafeFired, FromAgent};
+use bycoms_protocol::RobotId;
 use std::time::{Duration, Instant};
 
 /// The failsafe's flags (zenoh only: over iceoryx2 the agent's lifeline
@@ -104,6 +106,25 @@ pub enum Verdict {
         /// How long the orchestrator had been gone.
         lost_for: Duration,
     },
+    /// The robot was stopped by the failsafe and the orchestrator is back:
+    /// tell it again (the first report went into the cut link).
+    Remind {
+        /// How long the orchestrator had been gone when the failsafe fired.
+        lost_for: Duration,
+    },
+}
+
+impl Verdict {
+    /// The report an agent sends on this verdict (`None` for `Run`):
+    /// [`FromAgent::Failsafe`] with the time the orchestrator had been gone.
+    pub fn report(&self, robot: RobotId) -> Option<FromAgent> {
+        let lost_for = match *self {
+            Self::Run => return None,
+            Self::Stop { lost_for } | Self::StopAndExit { lost_for } | Self::Remind { lost_for } => lost_for,
+        };
+        let silent_ms = u32::try_from(lost_for.as_millis()).unwrap_or(u32::MAX);
+        Some(FromAgent::Failsafe(FailsafeFired { robot, silent_ms }))
+    }
 }
 
 /// The failsafe state machine; see the module docs.
@@ -114,13 +135,31 @@ pub struct Failsafe {
     armed: bool,
     lost_since: Option<Instant>,
     tripped: bool,
+    /// How long the orchestrator had been gone when the failsafe fired.
+    fired_after: Duration,
+    /// The orchestrator came back after the failsafe fired: remind it.
+    remind: bool,
 }
 
 impl Failsafe {
     /// A failsafe that trips after the orchestrator has been gone for
     /// `grace`, then follows `policy`.
     pub fn new(grace: Duration, policy: OnOrchestratorLost) -> Self {
-        Self { grace, policy, armed: false, lost_since: None, tripped: false }
+        Self {
+            grace,
+            policy,
+            armed: false,
+            lost_since: None,
+            tripped: false,
+            fired_after: Duration::ZERO,
+            remind: false,
+        }
+    }
+
+    /// The grace period in ms (saturating), as the agent's `Register`
+    /// tells the orchestrator.
+    pub fn grace_ms(&self) -> u32 {
+        u32::try_from(self.grace.as_millis()).unwrap_or(u32::MAX)
     }
 
     /// The orchestrator's token appeared (or reappeared) at `at`.
@@ -130,10 +169,13 @@ impl Failsafe {
         }
         self.armed = true;
         self.lost_since = None;
+        self.remind |= self.tripped;
     }
 
     /// The orchestrator's token disappeared at `at`.
     pub fn orchestrator_lost(&mut self, at: Instant) {
+        // A reminder sent now would go into the cut link: wait for the next return.
+        self.remind = false;
         if self.armed && self.lost_since.is_none() {
             tracing::warn!(grace = ?self.grace, "orchestrator lost; the robot stops if it is not back within the grace period");
             self.lost_since = Some(at);
@@ -146,14 +188,20 @@ impl Failsafe {
     }
 
     /// What to do at `now`. `Stop` / `StopAndExit` is returned once, when
-    /// the grace period has run out; `Run` before and after.
+    /// the grace period has run out; `Remind` once each time the
+    /// orchestrator came back after that; `Run` otherwise.
     pub fn check(&mut self, now: Instant) -> Verdict {
+        if self.remind {
+            self.remind = false;
+            return Verdict::Remind { lost_for: self.fired_after };
+        }
         let Some(since) = self.lost_since else { return Verdict::Run };
         let lost_for = now.saturating_duration_since(since);
         if self.tripped || lost_for <= self.grace {
             return Verdict::Run;
         }
         self.tripped = true;
+        self.fired_after = lost_for;
         match self.policy {
             OnOrchestratorLost::Exit => Verdict::StopAndExit { lost_for },
             OnOrchestratorLost::Wait => Verdict::Stop { lost_for },
@@ -215,8 +263,27 @@ mod tests {
         assert!(matches!(f.check(t0 + ms(2000)), Verdict::Stop { .. }));
         f.orchestrator_alive(t0 + ms(2500));
         assert!(f.tripped(), "latched");
+        assert_eq!(f.check(t0 + ms(2600)), Verdict::Remind { lost_for: ms(2000) }, "told again once back");
+        assert_eq!(f.check(t0 + ms(2700)), Verdict::Run, "once per return");
         f.orchestrator_lost(t0 + ms(3000));
-        assert_eq!(f.check(t0 + ms(9000)), Verdict::Run, "never reported twice");
+        assert_eq!(f.check(t0 + ms(9000)), Verdict::Run, "never stopped twice");
+        // Back and gone again before the shell looked: no reminder into the cut.
+        f.orchestrator_alive(t0 + ms(9100));
+        f.orchestrator_lost(t0 + ms(9200));
+        assert_eq!(f.check(t0 + ms(9300)), Verdict::Run);
+        f.orchestrator_alive(t0 + ms(9400));
+        let remind = f.check(t0 + ms(9500));
+        assert_eq!(remind, Verdict::Remind { lost_for: ms(2000) });
+        let report = remind.report(RobotId(4));
+        assert_eq!(report, Some(FromAgent::Failsafe(FailsafeFired { robot: RobotId(4), silent_ms: 2000 })));
+        assert_eq!(Verdict::Run.report(RobotId(4)), None);
+    }
+
+    #[test]
+    fn the_grace_in_ms_saturates() {
+        assert_eq!(Failsafe::new(ms(2500), OnOrchestratorLost::Exit).grace_ms(), 2500);
+        let long = Duration::from_secs(u64::MAX / 1000);
+        assert_eq!(Failsafe::new(long, OnOrchestratorLost::Exit).grace_ms(), u32::MAX);
     }
 
     #[test]

@@ -116,6 +116,9 @@ pub struct Agent<B: Bus> {
     instance: u64,
     /// zenoh: the failsafe and the liveliness watch that feeds it.
     failsafe: Option<(Failsafe, AliveWatch)>,
+    /// The fingerprint of the run settings this agent was started with,
+    /// sent in `Register` (0: none).
+    settings: u64,
 }
 
 impl<B: Bus> Agent<B> {
@@ -135,6 +138,7 @@ impl<B: Bus> Agent<B> {
             deployed: None,
             instance: super::instance(),
             failsafe: None,
+            settings: 0,
         }
     }
 
@@ -156,8 +160,17 @@ impl<B: Bus> Agent<B> {
                 }
             }
         }
-        match failsafe.check(Instant::now()) {
+        let verdict = failsafe.check(Instant::now());
+        if let Some(report) = verdict.report(self.core.id()) {
+            // Best effort: the link may be cut (a reminder follows its return).
+            let _ = self.report(report);
+        }
+        match verdict {
             Verdict::Run => None,
+            Verdict::Remind { lost_for } => {
+                tracing::info!(?lost_for, "orchestrator back: told it that the failsafe stopped the robot");
+                None
+            }
             Verdict::Stop { lost_for } => {
                 self.core.stop();
                 tracing::error!(?lost_for, "orchestrator lost past the grace period: robot stopped, waiting");
@@ -275,8 +288,9 @@ impl<B: Bus> Agent<B> {
             if r.instance == self.instance {
                 tracing::error!(
                     robot = r.robot.0,
-                    "refused by the orchestrator: another agent already holds robot {}",
-                    r.robot.0
+                    "refused by the orchestrator for robot {}: {}",
+                    r.robot.0,
+                    r.why
                 );
                 return Ok(Some(ExitCause::Refused));
             }
@@ -405,6 +419,8 @@ impl<B: Bus> Agent<B> {
             kind: AgentKind::Simulated,
             protocol_version: PROTOCOL_VERSION,
             instance: self.instance,
+            settings: self.settings,
+            failsafe_grace_ms: self.failsafe.as_ref().map_or(0, |(f, _)| f.grace_ms()),
         }))
     }
 

@@ -56,8 +56,14 @@ impl Core {
                 return;
             }
             if registered && kept != Some(r.instance) {
-                self.refuse_duplicate(id, r.instance);
+                self.refuse(id, r.instance, Refusal::Duplicate);
                 return;
+            }
+            if !registered {
+                if let Some(why) = self.refusal_of(r) {
+                    self.refuse(id, r.instance, why);
+                    return;
+                }
             }
         }
         if !registered && matches!(msg, FromAgent::Register(_)) && !self.may_register(id) {
@@ -105,23 +111,57 @@ impl Core {
                 }
                 self.outputs.push_back(Output::RobotLink(id, l.up));
             }
+            FromAgent::Failsafe(f) => {
+                // Said when it fires and again whenever the agent hears us
+                // after that: recorded once.
+                if !slot.failsafe_fired {
+                    slot.failsafe_fired = true;
+                    let ms = f.silent_ms;
+                    self.note(format!(
+                        "robot {id}: its agent's failsafe stopped it (the orchestrator was gone for {ms} ms)"
+                    ));
+                    self.event(
+                        id,
+                        EventKind::FailsafeFired,
+                        None,
+                        Some(format!("orchestrator gone for {ms} ms")),
+                    );
+                }
+            }
         }
     }
 
-    /// A second agent (another instance) registers for robot `id`, which
-    /// already has one: counted and told to leave; the first agent stays.
-    pub(super) fn refuse_duplicate(&mut self, id: u32, instance: u64) {
-        let kept = self.slot_ref(id).and_then(|s| s.instance).unwrap_or_default();
-        let text = format!(
-            "robot {id} registered again by another agent (instance {instance:016x}, kept {kept:016x})"
-        );
-        self.outputs.push_back(Output::Bad(BadKind::Duplicate, text));
-        tracing::warn!(
-            robot = id,
-            instance = format_args!("{instance:016x}"),
-            "a second agent for robot {id} refused"
-        );
-        self.outputs.push_back(Output::Send(id, ToAgent::Refused(Refused { robot: RobotId(id), instance })));
+    /// Why an agent's first `Register` must be refused, if it must: run
+    /// settings other than the launch's, or a failsafe that would stop its
+    /// robot for good while the launch still waits for it.
+    fn refusal_of(&self, r: &Register) -> Option<Refusal> {
+        if r.settings != 0 && self.setup.settings != 0 && r.settings != self.setup.settings {
+            return Some(Refusal::Settings { launch: self.setup.settings });
+        }
+        let launch_ms = (self.setup.link_grace_s * 1000.0).ceil().min(f64::from(u32::MAX)) as u32;
+        (r.failsafe_grace_ms != 0 && r.failsafe_grace_ms < launch_ms).then_some(Refusal::Grace { launch_ms })
+    }
+
+    /// An agent (instance `instance`) that registers for robot `id` is
+    /// refused: a second agent for a robot that already has one (the first
+    /// stays), or one that cannot run this launch (`why`). Counted and told
+    /// to leave.
+    pub(super) fn refuse(&mut self, id: u32, instance: u64, why: Refusal) {
+        let text = match why {
+            Refusal::Duplicate => {
+                let kept = self.slot_ref(id).and_then(|s| s.instance).unwrap_or_default();
+                format!("robot {id} registered again by another agent (instance {instance:016x}, kept {kept:016x})")
+            }
+            _ => format!("robot {id}'s agent (instance {instance:016x}) refused: {why}"),
+        };
+        let kind = match why {
+            Refusal::Duplicate => BadKind::Duplicate,
+            _ => BadKind::Refused,
+        };
+        tracing::warn!(robot = id, instance = format_args!("{instance:016x}"), "{text}");
+        self.outputs.push_back(Output::Bad(kind, text));
+        self.outputs
+            .push_back(Output::Send(id, ToAgent::Refused(Refused { robot: RobotId(id), instance, why })));
     }
 
     pub(super) fn on_pose(&mut self, now: u64, topic: u32, pose: Pose) {

@@ -54,7 +54,7 @@ use super::gate::{GateParams, Verdict};
 use super::summary::{Death, Outage, Outcome};
 use crate::mocap::{PlacementConfig, PlacementWatch};
 use bycoms_protocol::msg::{
-    Deploy, FromAgent, GateEvent, GateKind, GoalBearing, Pose, Refused, Tick, ToAgent,
+    Deploy, FromAgent, GateEvent, GateKind, GoalBearing, Pose, Refusal, Refused, Register, Tick, ToAgent,
 };
 use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
 use bycoms_sim::agent_process::BadKind;
@@ -127,6 +127,9 @@ pub struct Setup {
     pub agents: AgentTraits,
     /// Launch time 0 in ms since the Unix epoch (the summary's times).
     pub unix_base_ms: u64,
+    /// The fingerprint of the run's settings: an agent that registers with
+    /// another (non-zero) one is refused.
+    pub settings: u64,
 }
 
 /// Something that happened, handed to [`Core::handle`].

@@ -85,6 +85,8 @@ pub struct Slot {
     pub(super) late: bool,
     /// Its agent's last error before it was gone (`Input::Said`).
     pub(super) last_error: Option<String>,
+    /// Its agent said that its failsafe stopped it.
+    pub(super) failsafe_fired: bool,
 }
 
 impl Slot {
@@ -109,6 +111,7 @@ impl Slot {
             outages: Vec::new(),
             restarts: 0,
             late: false,
+            failsafe_fired: false,
             last_error: None,
         }
     }

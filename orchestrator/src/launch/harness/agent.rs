@@ -12,6 +12,7 @@
 //! start, whatever came. Those rules are restated here in a few dozen lines
 //! because the process keeps them inside its bus loop.
 
+use super::SETTINGS;
 use bycoms_protocol::msg::{
     AgentKind, Deploy, FromAgent, Heartbeat, Pose, Register, Status, TickDone, ToAgent,
 };
@@ -113,6 +114,8 @@ impl Agent {
                 kind: AgentKind::Simulated,
                 protocol_version: PROTOCOL_VERSION,
                 instance: self.instance,
+                settings: SETTINGS,
+                failsafe_grace_ms: 0,
             };
             out.push(Sent::Report(FromAgent::Register(r)));
         }

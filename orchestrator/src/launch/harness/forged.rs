@@ -57,6 +57,24 @@ impl Foreign {
                 kind: bycoms_protocol::msg::AgentKind::Simulated,
                 protocol_version: bycoms_protocol::PROTOCOL_VERSION + 1,
                 instance: 0xf0e1,
+                settings: 0,
+                failsafe_grace_ms: 0,
+            }))),
+            Foreign::ShortGrace(id) => Some(Input::Report(FromAgent::Register(Register {
+                robot: RobotId(id),
+                kind: bycoms_protocol::msg::AgentKind::Simulated,
+                protocol_version: bycoms_protocol::PROTOCOL_VERSION,
+                instance: 0xf0e2,
+                settings: 0,
+                failsafe_grace_ms: 1,
+            }))),
+            Foreign::OtherSettings(id) => Some(Input::Report(FromAgent::Register(Register {
+                robot: RobotId(id),
+                kind: bycoms_protocol::msg::AgentKind::Simulated,
+                protocol_version: bycoms_protocol::PROTOCOL_VERSION,
+                instance: 0xf0e3,
+                settings: !SETTINGS,
+                failsafe_grace_ms: 0,
             }))),
             Foreign::UnknownRobot => {
                 Some(Input::Report(FromAgent::Heartbeat(Heartbeat { robot: RobotId(999), seq: 1 })))

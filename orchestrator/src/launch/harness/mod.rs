@@ -54,6 +54,10 @@ use std::os::unix::process::ExitStatusExt;
 /// Virtual time after which a launch that has not ended is a failure, µs.
 pub const HANG_US: u64 = 4_000_000_000;
 
+/// The fingerprint of every harness launch's settings: its agents register
+/// with it, a forged agent with another one is refused.
+pub(super) const SETTINGS: u64 = 0x5e77_1465_b1c0_0001;
+
 /// The world and run parameters of a harness launch.
 #[derive(Clone, Debug)]
 pub struct Case {
@@ -184,6 +188,7 @@ pub fn setup(case: &Case, schedule: &Schedule) -> Setup {
             forward_poses: false,
         },
         unix_base_ms: 0,
+        settings: SETTINGS,
     }
 }
 

@@ -38,6 +38,11 @@ pub enum Foreign {
     },
     /// A `Register` of another protocol version.
     WrongVersion(u32),
+    /// A `Register` of another agent whose failsafe grace is shorter than
+    /// the launch's link grace.
+    ShortGrace(u32),
+    /// A `Register` of another agent started with other run settings.
+    OtherSettings(u32),
     /// A report from a robot that is not in the launch.
     UnknownRobot,
 }
@@ -164,13 +169,15 @@ impl Schedule {
 
 fn foreign(rng: &mut Xoshiro256PlusPlus, robots: u32) -> Foreign {
     let id = rng.gen_range(1..=robots);
-    match rng.gen_range(0..7) {
+    match rng.gen_range(0..9) {
         0 => Foreign::StepFromTheFuture(id),
         1 => Foreign::HugeStep(id),
         2 => Foreign::NotFinite(id),
         3 => Foreign::AtTheGoal(id),
         4 => Foreign::OtherRobotsPose { topic: id, robot: id % robots + 1 },
         5 => Foreign::WrongVersion(id),
+        6 => Foreign::ShortGrace(id),
+        7 => Foreign::OtherSettings(id),
         _ => Foreign::UnknownRobot,
     }
 }
