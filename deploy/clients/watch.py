@@ -162,7 +162,7 @@ def route(swarm, key):
     if not key.startswith(prefix):
         return None
     rest = key[len(prefix):].split("/")
-    if rest in (["gate"], ["from_agents"]):
+    if rest == ["gate"]:
         return rest[0]
     if len(rest) == 3 and rest[0] == "robot" and rest[1].isdigit():
         return rest[2]
@@ -202,7 +202,7 @@ class Watcher:
                 self.emit(
                     f"pose robot={p['robot']} step={p['step']} x={p['x']:.3f} y={p['y']:.3f} heading={p['heading']:.4f}"
                 )
-        elif topic == "from_agents":
+        elif topic == "from_agent":
             m = decode_from_agent(payload)
             if m["kind"] == "status" and self.last_mode.get(m["robot"]) != m["mode"]:
                 self.last_mode[m["robot"]] = m["mode"]

@@ -5,7 +5,7 @@
 //! (HMAC), the decode and the iceoryx2 publish — and nothing the bench
 //! invents. A robot (the link's `RobotLink` on its own UDP socket) sends one
 //! telemetry frame at a time to a gateway running its real loop on a
-//! thread; the bench waits for the frame's `Telemetry` on `from_agents`.
+//! thread; the bench waits for the frame's `Telemetry` on the robot's `from_agent`.
 //! Two figures come out: the gateway's own time (socket receive returned →
 //! bus messages published, measured inside its loop) and the end-to-end
 //! time (robot send → bus subscriber woken), which adds one loopback UDP
@@ -71,7 +71,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     });
     let config = IpcConfig { node_name: Some("bycoms-gwbench".into()), ..ipc_config(1) };
     let bus = IpcBus::new(config)?;
-    let reports = bus.typed_subscriber::<FromAgent>(&swarm.from_agents())?;
+    let reports = bus.typed_subscriber::<FromAgent>(&swarm.from_agent(RobotId(1)))?;
     let commands = bus.typed_publisher::<ToAgent>(&swarm.to_agent(RobotId(1)))?;
     let robot_socket = UdpSocket::bind(("127.0.0.1", 0))?;
     robot_socket.set_read_timeout(Some(Duration::from_secs(2)))?;

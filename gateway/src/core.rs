@@ -62,7 +62,7 @@ impl Timers {
 pub enum Output {
     /// Send this datagram to the robot.
     Datagram(Vec<u8>, SocketAddr),
-    /// Publish this on `from_agents`.
+    /// Publish this on the robot's `from_agent`.
     Report(FromAgent),
 }
 

@@ -40,7 +40,7 @@ impl<B: Bus> GatewayPorts<B> {
     pub fn open(bus: &B, swarm: &Swarm, id: RobotId) -> Result<Self, BusError> {
         let commands = bus.typed_subscriber(&swarm.to_agent(id))?;
         let own_pose = bus.typed_subscriber(&swarm.pose(id))?;
-        let report = bus.typed_publisher(&swarm.from_agents())?;
+        let report = bus.typed_publisher(&swarm.from_agent(id))?;
         Ok(Self { commands, own_pose, report })
     }
 }

@@ -23,8 +23,11 @@
 //!
 //! The access-control list (zenoh's `access_control`, subjects matched by
 //! certificate common name, default deny) lets robot `k` publish only on
-//! `bycoms/*/robot/<k>/**` and on the shared `bycoms/*/from_agents`, and
-//! lets every robot subscribe to and receive anything under `bycoms/**`.
+//! `bycoms/*/robot/<k>/**` (its pose and its reports, `from_agent`) and
+//! declare only its own liveliness token `bycoms/*/alive/robot/<k>`, and
+//! lets every robot subscribe to, query and receive anything under
+//! `bycoms/**`. The orchestrator drops a report whose robot id is not its
+//! key's, so no certificate can speak for another robot.
 //! A lab's CA is its trust: every robot provisioned with it is locked out
 //! once it is replaced, and without `ca-key.pem` no more robots can join.
 //! So [`generate`] never replaces an existing CA unless told to
@@ -38,11 +41,6 @@
 //! common name everything. zenoh checks no certificate revocation list,
 //! so the ACL is where a revocation lives; expired certificates and those
 //! of another CA are refused by TLS itself.
-//!
-//! Limit: `from_agents` is one key for all agents, so the ACL cannot stop
-//! robot 1 from putting robot 2's id *inside* a `FromAgent` payload; the
-//! orchestrator has to check the id against the sender (or the naming has
-//! to give each agent its own `from_agents` key) — not done yet.
 
 use crate::exit;
 use crate::out::kind::ZENOH_CONFIG_MARK;
@@ -145,10 +143,10 @@ pub fn access_control(robots: u32, revoked: &BTreeSet<u32>) -> Value {
         json!({ "id": "orchestrator-all", "messages": ["put", "delete", "declare_subscriber", "query",
             "declare_queryable", "reply", "liveliness_token", "declare_liveliness_subscriber", "liveliness_query"],
             "flows": ["ingress", "egress"], "permission": "allow", "key_exprs": ["bycoms/**"] }),
-        json!({ "id": "robots-listen", "messages": ["declare_subscriber", "liveliness_token",
-            "declare_liveliness_subscriber", "liveliness_query"],
+        json!({ "id": "robots-listen", "messages": ["declare_subscriber", "declare_liveliness_subscriber",
+            "liveliness_query", "query"],
             "flows": ["ingress", "egress"], "permission": "allow", "key_exprs": ["bycoms/**"] }),
-        json!({ "id": "robots-receive", "messages": ["put", "delete"], "flows": ["egress"],
+        json!({ "id": "robots-receive", "messages": ["put", "delete", "reply"], "flows": ["egress"],
             "permission": "allow", "key_exprs": ["bycoms/**"] }),
     ];
     let mut subjects = vec![json!({ "id": ORCHESTRATOR_CN, "cert_common_names": [ORCHESTRATOR_CN] })];
@@ -157,10 +155,12 @@ pub fn access_control(robots: u32, revoked: &BTreeSet<u32>) -> Value {
         let cn = robot_cn(k);
         rules.push(
             json!({ "id": format!("{cn}-publish"), "messages": ["put", "delete"], "flows": ["ingress"],
-            "permission": "allow", "key_exprs": [format!("bycoms/*/robot/{k}/**"), "bycoms/*/from_agents"] }),
+            "permission": "allow", "key_exprs": [format!("bycoms/*/robot/{k}/**")] }),
         );
+        rules.push(json!({ "id": format!("{cn}-alive"), "messages": ["liveliness_token"],
+            "flows": ["ingress", "egress"], "permission": "allow", "key_exprs": [format!("bycoms/*/alive/robot/{k}")] }));
         subjects.push(json!({ "id": cn, "cert_common_names": [cn] }));
-        policies.push(json!({ "rules": [format!("{cn}-publish"), "robots-listen", "robots-receive"], "subjects": [cn] }));
+        policies.push(json!({ "rules": [format!("{cn}-publish"), format!("{cn}-alive"), "robots-listen", "robots-receive"], "subjects": [cn] }));
     }
     if !revoked.is_empty() {
         rules.push(json!({ "id": REVOKED, "messages": ["put", "delete", "declare_subscriber", "query",

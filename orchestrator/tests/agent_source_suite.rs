@@ -347,7 +347,7 @@ impl ThreadsFixture {
     fn shut_down_when_registered(&self, bus: &MemoryBus, id: u32) {
         let swarm = Swarm::new("suite").expect("swarm");
         // Subscribed before the agent starts, so its registration is seen.
-        let reports = bus.typed_subscriber(&swarm.from_agents()).expect("reports");
+        let reports = bus.typed_subscriber(&swarm.from_agent(RobotId(id))).expect("reports");
         let commands = bus.typed_publisher(&swarm.to_agent(RobotId(id))).expect("commands");
         let stand_in = std::thread::spawn(move || {
             let deadline = Instant::now() + STAND_IN_FOR;

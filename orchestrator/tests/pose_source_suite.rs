@@ -110,8 +110,8 @@ fn bus_poses_refuse_a_respelled_pose_as_bad_traffic() {
     let good = Pose { robot: RobotId(1), x: 1.5, y: 2.5, heading: 0.0, step: 7, time_us: 700_000 };
     let mut buf = [0u8; MAX_MESSAGE_LEN];
     let canonical = encode(&good, &mut buf).expect("encode").to_vec();
-    assert_eq!(&canonical[..2], [2, 1], "version 2, robot 1");
-    let respelled = [&[2, 0x81, 0x00], &canonical[2..]].concat();
+    assert_eq!(&canonical[..2], [3, 1], "version 3, robot 1");
+    let respelled = [&[3, 0x81, 0x00], &canonical[2..]].concat();
     fixture.publish(1, &respelled);
     let (mut recording, mut traffic, mut got) = (Recording::off(), Traffic::default(), Vec::new());
     let mut sink = PoseSink::new(&mut recording, &mut traffic, &swarm, &mut got, false);

@@ -208,12 +208,23 @@ fn issued(dir: &Path, made: &Generated, cn: &str, from: i32, until: i32) -> std:
     config
 }
 
-/// Publishes on `key` from `from` for `span` while it waits for `control`
-/// (robot 2's genuine pose) to arrive at `control_sub`; returns whether
-/// anything `from` sent reached `watch`.
+/// Publishes on `key` from `from` until `control` (robot 2's genuine pose)
+/// has arrived at its subscriber and for half a second more; returns
+/// whether anything `from` sent reached `watch`.
 fn anything_delivered(
     from: &ZenohBus,
     key: &str,
+    watch: &impl Subscribe,
+    control: (&ZenohBus, &impl Subscribe),
+) -> bool {
+    anything_delivered_bytes(from, key, b"denied?", watch, control)
+}
+
+/// [`anything_delivered`], publishing `bytes`.
+fn anything_delivered_bytes(
+    from: &ZenohBus,
+    key: &str,
+    bytes: &[u8],
     watch: &impl Subscribe,
     control: (&ZenohBus, &impl Subscribe),
 ) -> bool {
@@ -224,7 +235,7 @@ fn anything_delivered(
     // Until the control pose arrived (the routes are up), then as long again.
     let mut arrived_at = None;
     loop {
-        publish.publish(b"denied?").expect("the publisher does not know; the router refuses");
+        publish.publish(bytes).expect("the publisher does not know; the router refuses");
         genuine.publish(b"genuine").expect("publish");
         if watch.recv_timeout(Duration::from_millis(10)).expect("receive").is_some() {
             return true;
@@ -240,6 +251,66 @@ fn anything_delivered(
             _ => {}
         }
     }
+}
+
+/// Robot 1's certificate cannot report as robot 2: its `Register`, status
+/// and telemetry on robot 2's report key are refused by the router, while
+/// the same messages on its own key arrive. (A report naming robot 2 on
+/// robot 1's own key passes the router but is dropped and counted by the
+/// orchestrator, whose ports check a report's robot against its key:
+/// `tests/tests/bad_traffic.rs`.)
+#[test]
+fn a_robot_cannot_report_as_another() {
+    use bycoms_protocol::msg::{AgentKind, DriveState, FromAgent, Register, Status, Telemetry};
+    use bycoms_protocol::{encode_vec, PROTOCOL_VERSION};
+    let dir = tempfile::tempdir().expect("temp dir");
+    let made = lab(dir.path(), &endpoint("quic"));
+    let orch = orchestrator(&made);
+    let swarm = Swarm::new("secure").expect("swarm");
+    let reports2 = orch.subscriber(swarm.from_agent(RobotId(2)).name()).expect("subscriber");
+    let reports1 = orch.subscriber(swarm.from_agent(RobotId(1)).name()).expect("subscriber");
+    let own2 = orch.subscriber(swarm.pose(RobotId(2)).name()).expect("subscriber");
+    let robot1 = client(&made.robot_configs[0]).expect("robot 1 joins");
+    let robot2 = client(&made.robot_configs[1]).expect("robot 2 joins");
+    let as_robot_2 = [
+        FromAgent::Register(Register {
+            robot: RobotId(2),
+            kind: AgentKind::Simulated,
+            protocol_version: PROTOCOL_VERSION,
+            instance: 1,
+            settings: 0,
+            failsafe_grace_ms: 0,
+        }),
+        FromAgent::Status(Status { robot: RobotId(2), mode: 1, step: 1 }),
+        FromAgent::Telemetry(Telemetry {
+            robot: RobotId(2),
+            period: 1,
+            state: DriveState::Driving,
+            mode: 1,
+            mics: [0.0; 6],
+            v_ave: 0.0,
+            gradient: None,
+            left: 0.0,
+            right: 0.0,
+            battery_mv: 7400,
+            health: 0,
+            robot_drops: 0,
+        }),
+    ];
+    let key2 = swarm.from_agent(RobotId(2)).name().as_str().to_string();
+    for msg in &as_robot_2 {
+        let bytes = encode_vec(msg).expect("encode");
+        assert!(
+            !anything_delivered_bytes(&robot1, &key2, &bytes, &reports2, (&robot2, &own2)),
+            "robot 1 reported {msg:?} on robot 2's key"
+        );
+    }
+    // Control: robot 1's own key carries its reports.
+    let key1 = swarm.from_agent(RobotId(1)).name().as_str().to_string();
+    assert!(
+        anything_delivered(&robot1, &key1, &reports1, (&robot2, &own2)),
+        "robot 1's own report never arrived"
+    );
 }
 
 #[test]

@@ -9,12 +9,19 @@
 //! | orchestrator → agent | `bycoms/<swarm>/robot/<id>/to_agent` | [`ToAgent`] |
 //! | world/sensor → agent | `bycoms/<swarm>/robot/<id>/sensor` | [`Sensor`] |
 //! | mocap → orchestrator | `bycoms/<swarm>/robot/<id>/pose` | [`Pose`] |
-//! | agents → orchestrator | `bycoms/<swarm>/from_agents` | [`FromAgent`] |
+//! | agent → orchestrator | `bycoms/<swarm>/robot/<id>/from_agent` | [`FromAgent`] |
 //! | gate events | `bycoms/<swarm>/gate` | [`GateEvent`] |
 //! | orchestrator → lab operator | `bycoms/<swarm>/operator` | [`Deploy`] (place robot at) |
 //!
 //! `<id>` is the decimal [`RobotId`]. A [`Topic<M>`] carries its message
 //! type, so the typed bus layer cannot put a pose on a command topic.
+//!
+//! Why a report topic per robot: over zenoh the access control is by key,
+//! so robot k's certificate may publish only under `robot/<k>/`, and a
+//! report whose robot id is not its topic's is forged. The orchestrator
+//! still waits on all reports at once (a bus fan-in); on iceoryx2 the
+//! report topics of a swarm share one wake-up, their [`TopicName::doorbell`]
+//! `bycoms/<swarm>/from_agents`.
 //!
 //! Character rules (enforced by [`TopicName::parse`] and [`Swarm::new`]):
 //! a name is 1..=[`TOPIC_NAME_MAX`] bytes of chunks separated by single
@@ -124,6 +131,37 @@ impl TopicName {
         // Only validated ASCII is ever stored, so this cannot fail; fall back
         // to "" rather than panic.
         core::str::from_utf8(&self.bytes[..self.len]).unwrap_or("")
+    }
+
+    /// The name whose wake-ups this topic shares: a reader that waits on a
+    /// whole family of topics at once (the orchestrator on every robot's
+    /// `from_agent`) waits on one doorbell, which every publisher of the
+    /// family rings. `bycoms/<swarm>/robot/<id>/from_agent` rings
+    /// `bycoms/<swarm>/from_agents`; every other topic is its own doorbell.
+    /// (iceoryx2 uses it as the topic's event service; backends that wake
+    /// their readers otherwise ignore it.)
+    pub fn doorbell(&self) -> TopicName {
+        let name = self.as_str();
+        let family = name.strip_suffix("/from_agent").and_then(|rest| rest.rsplit_once("/robot/")).filter(
+            |(swarm, id)| {
+                swarm.strip_prefix(ROOT).is_some_and(|s| s.starts_with('/') && s.matches('/').count() == 1)
+                    && !id.is_empty()
+                    && !id.contains('/')
+            },
+        );
+        match family {
+            Some((swarm, _)) => {
+                let mut buf = NameBuf { bytes: [0u8; TOPIC_NAME_MAX], len: 0 };
+                // Shorter than `self` (which is valid): cannot fail.
+                let written = write!(buf, "{swarm}/from_agents").is_ok();
+                let text = core::str::from_utf8(&buf.bytes[..buf.len]).unwrap_or("");
+                match (written, TopicName::parse(text)) {
+                    (true, Ok(bell)) => bell,
+                    _ => *self,
+                }
+            }
+            None => *self,
+        }
     }
 }
 
@@ -243,9 +281,9 @@ impl Swarm {
         self.robot_topic(robot, "pose")
     }
 
-    /// `bycoms/<swarm>/from_agents`: every agent → orchestrator.
-    pub fn from_agents(&self) -> Topic<FromAgent> {
-        self.build(format_args!("{ROOT}/{}/from_agents", self.as_str()))
+    /// `bycoms/<swarm>/robot/<id>/from_agent`: one agent → orchestrator.
+    pub fn from_agent(&self, robot: RobotId) -> Topic<FromAgent> {
+        self.robot_topic(robot, "from_agent")
     }
 
     /// `bycoms/<swarm>/gate`: the deployment gate's events.

@@ -149,7 +149,7 @@ fn swarm_subscriber_sees_every_topic_of_its_swarm_only() {
     let sends: [(TopicName, Route); 4] = [
         (*ours.pose(r).name(), Route::Pose(r)),
         (*ours.to_agent(r).name(), Route::ToAgent(r)),
-        (*ours.from_agents().name(), Route::FromAgents),
+        (*ours.from_agent(RobotId(5)).name(), Route::FromAgent(RobotId(5))),
         (*ours.gate().name(), Route::Gate),
     ];
     peer.publisher(theirs.gate().name()).expect("publisher").publish(b"not ours").expect("publish");

@@ -1,7 +1,9 @@
 //! Bad traffic is counted and logged, never fatal: while a launch runs, this
 //! test publishes garbage bytes, a message of another protocol version, a
-//! report from an unknown robot and a duplicate registration to the
-//! orchestrator, and garbage and a foreign command to robot 1's agent. The
+//! report from an unknown robot, a registration of robot 2 on robot 1's
+//! report topic (forged: a message's robot must be its topic's) and a
+//! duplicate registration to the orchestrator, and garbage and a foreign
+//! command to robot 1's agent. The
 //! launch must still finish with the same result as without the noise, and
 //! report what it saw.
 
@@ -26,7 +28,7 @@ fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() 
 
     // The same service sizes as the launch (3 robots), or the topics would not open.
     let bus = IpcBus::new(ipc_config(3)).expect("bus");
-    let report = bus.publisher(swarm.from_agents().name()).expect("report publisher");
+    let report = bus.publisher(swarm.from_agent(RobotId(1)).name()).expect("report publisher");
     let command = bus.publisher(swarm.to_agent(RobotId(1)).name()).expect("command publisher");
     let register = FromAgent::Register(Register {
         robot: RobotId(1),
@@ -40,14 +42,18 @@ fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() 
     let mut other_version = encode_vec(&register).expect("encode");
     other_version[0] = 9; // the envelope's version varint
     let stranger = FromAgent::Heartbeat(Heartbeat { robot: RobotId(99), seq: 1 });
+    // Had it been taken, robot 2's own agent would be refused as a duplicate.
+    let as_robot_2 =
+        FromAgent::Register(Register { robot: RobotId(2), instance: 5, ..register_of(&register) });
     let foreign = ToAgent::GoalBearing(GoalBearing { robot: RobotId(2), bearing: 0.0, step: 0 });
     let again = ToAgent::Deploy(Deploy { robot: RobotId(1), x: 1.0, y: 1.0, heading: 0.0 });
     for _ in 0..3 {
         report.publish(&[0xff, 0xff, 0xff, 0xff]).expect("garbage");
         report.publish(&other_version).expect("other version");
         report.publish(&encode_vec(&stranger).expect("encode")).expect("unknown robot");
+        report.publish(&encode_vec(&as_robot_2).expect("encode")).expect("another robot's registration");
         report.publish(&encode_vec(&register).expect("encode")).expect("duplicate");
-        command.publish(&[0x02, 0xee, 0x07]).expect("garbage command");
+        command.publish(&[PROTOCOL_VERSION as u8, 0xee, 0x07]).expect("garbage command");
         command.publish(&encode_vec(&foreign).expect("encode")).expect("foreign command");
         command.publish(&encode_vec(&again).expect("encode")).expect("second deploy");
     }
@@ -76,9 +82,10 @@ fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() 
     assert_eq!(out.status.code(), Some(0), "the run still succeeds:\n{}", out.stderr);
     let j = out.json();
     let seen = &j["bad_traffic"];
-    for kind in ["garbage", "wrong_version", "unknown_robot", "duplicate"] {
+    for kind in ["garbage", "wrong_version", "duplicate"] {
         assert_eq!(seen[kind], 3, "orchestrator {kind}: {seen}");
     }
+    assert_eq!(seen["unknown_robot"], 6, "robot 99, and robot 2 on robot 1's topic: {seen}");
     // The agent logged its own counts when it exited.
     let agent_line = out
         .stderr
@@ -89,6 +96,7 @@ fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() 
         assert!(agent_line.contains(count), "{count} in {agent_line}");
     }
     assert_eq!(j["robots"][0]["end"], "stuck", "robot 1 went on as if nothing happened");
+    assert_eq!(j["robots"][1]["end"], "stuck", "robot 2's own agent ran it: {}", j["robots"][1]);
     assert_eq!(j["robots"][2]["end"], "arrived");
 }
 
@@ -132,4 +140,11 @@ fn forged_poses_are_refused_counted_and_change_nothing() {
     assert!((2..=3).contains(&refused), "{}", j["bad_traffic"]);
     assert_eq!(j["robots"][0]["end"], "stuck", "robot 1 did not win by a forged pose");
     assert_eq!(j["robots"][2]["end"], "arrived");
+}
+
+fn register_of(msg: &FromAgent) -> Register {
+    match msg {
+        FromAgent::Register(r) => *r,
+        other => panic!("not a Register: {other:?}"),
+    }
 }

@@ -93,7 +93,7 @@ impl Orchestrator {
     fn new(swarm: &str, size: u32) -> Self {
         let swarm = Swarm::new(swarm).expect("swarm");
         let bus = IpcBus::new(ipc_config(size)).expect("bus");
-        let reports = bus.typed_subscriber(&swarm.from_agents()).expect("reports");
+        let reports = bus.typed_subscriber(&swarm.from_agent(RobotId(1))).expect("reports");
         let poses = bus.typed_subscriber(&swarm.pose(RobotId(1))).expect("poses");
         let commands = bus.typed_publisher(&swarm.to_agent(RobotId(1))).expect("commands");
         Self { bus, reports, poses, commands }

@@ -193,19 +193,23 @@ fn a_robot_whose_agent_never_comes_is_skipped_or_named_with_missing_fail() {
     assert_exit_cleanly(agents);
 }
 
+/// Robot 5 of a swarm of 5 is a valid agent, but the launch has 3 robots:
+/// it reports on robot 5's topic, which the launch does not read, and is
+/// never answered (a report naming robot 5 on a robot of the launch's
+/// topic would be counted as forged: `bad_traffic.rs`).
 #[test]
-fn an_agent_of_a_robot_outside_the_launch_is_counted_and_ignored() {
+fn an_agent_of_a_robot_outside_the_launch_is_ignored() {
     let world = World::long_obstacle();
     let swarm = swarm_name("remote-stranger");
     let (orch, endpoint) = orchestrator(&world, &swarm, &[]);
-    // Robot 5 of a swarm of 5: a valid agent, but the launch has 3 robots.
     let mut stranger = agent(&world, &endpoint, &swarm, 5, 5);
-    orch.stderr_line(Duration::from_secs(20), |l| l.contains("from an unknown robot").then_some(()))
-        .expect("the orchestrator reports the stranger");
+    stranger
+        .stderr_line(Duration::from_secs(20), |l| l.contains("Using ZID").then_some(()))
+        .expect("the stranger joins");
     let agents: Vec<Proc> = (1..=3).map(|k| agent(&world, &endpoint, &swarm, k, 3)).collect();
     let out = orch.wait(Duration::from_secs(180));
     assert_same_as_simulate(&out, &world.expected);
-    assert!(bad(&out.json(), "unknown_robot") >= 1, "{}", out.json());
+    assert!(!out.stderr.contains("robot 5"), "the launch heard of robot 5:\n{}", out.stderr);
     assert_exit_cleanly(agents);
     // The stranger was never anyone's agent: it is still there, unharmed.
     assert!(!bycoms_tests::is_zombie(stranger.pid()), "the stranger crashed");
@@ -221,14 +225,20 @@ fn a_second_agent_for_a_registered_robot_is_refused() {
     registered(&orch, 1);
     let second = agent(&world, &endpoint, &swarm, 1, 3).wait(Duration::from_secs(20));
     assert_eq!(second.status.code(), Some(3), "the second agent is refused:\n{}", second.stderr);
-    assert!(second.stderr.contains("another agent already holds robot 1"), "{}", second.stderr);
+    assert!(
+        second
+            .stderr
+            .contains("refused by the orchestrator for robot 1: another agent already holds this robot"),
+        "{}",
+        second.stderr
+    );
     let mut agents = vec![first];
     agents.extend((2..=3).map(|k| agent(&world, &endpoint, &swarm, k, 3)));
     let out = orch.wait(Duration::from_secs(180));
     // The first agent stayed robot 1's: the run is the paper's, unchanged.
     assert_same_as_simulate(&out, &world.expected);
     assert!(bad(&out.json(), "duplicate") >= 1, "{}", out.json());
-    assert!(out.stderr.contains("a second agent for robot 1 refused"), "{}", out.stderr);
+    assert!(out.stderr.contains("robot 1 registered again by another agent"), "{}", out.stderr);
     assert_exit_cleanly(agents);
 }
 
@@ -279,7 +289,10 @@ fn agents_stop_their_robot_when_the_orchestrator_is_gone() {
     let world = World::long_obstacle();
     let swarm = swarm_name("remote-orphans");
     let _lock_file = SwarmLockFile::of(&swarm);
-    let (mut orch, endpoint) = orchestrator(&world, &swarm, &[]);
+    // The agents' failsafe grace must be no shorter than the launch's link
+    // grace, or the launch refuses them (an agent whose failsafe stops its
+    // robot for good while the launch still waits for it).
+    let (mut orch, endpoint) = orchestrator(&world, &swarm, &["--link-grace", "0.5"]);
     let grace = ["--orchestrator-grace", "0.5"];
     let exiting: Vec<Proc> = (1..=2).map(|k| agent_with(&world, &endpoint, &swarm, k, 3, &grace)).collect();
     let wait = ["--orchestrator-grace", "0.5", "--on-orchestrator-lost", "wait"];

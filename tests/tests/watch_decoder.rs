@@ -3,8 +3,11 @@
 //! every message it prints and for the errors it must report. Needs only
 //! `python3` (the decoder imports zenoh only in `main`).
 
-use bycoms_protocol::msg::{DriveState, FromAgent, GateEvent, GateKind, LinkStatus, Pose, Status, Telemetry};
-use bycoms_protocol::{encode_vec, RobotId};
+use bycoms_protocol::msg::{
+    AgentKind, DriveState, FailsafeFired, FromAgent, GateEvent, GateKind, LinkStatus, Pose, Register, Status,
+    Telemetry,
+};
+use bycoms_protocol::{encode_vec, RobotId, PROTOCOL_VERSION};
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -64,6 +67,25 @@ fn watch_py_decodes_our_messages() {
         hex(&encode_vec(&link).expect("encode"))
     ));
     assert_eq!(got, "link 2 False 300 7");
+    let register = FromAgent::Register(Register {
+        robot: RobotId(4),
+        kind: AgentKind::Real,
+        protocol_version: PROTOCOL_VERSION,
+        instance: 0x0123_4567_89ab_cdef,
+        settings: 0xfedc_ba98_7654_3210,
+        failsafe_grace_ms: 2500,
+    });
+    let got = python(&format!(
+        "m = watch.decode_from_agent(bytes.fromhex({:?})); print(m['kind'], m['robot'], m['agent'], m['protocol_version'], hex(m['instance']), hex(m['settings']), m['failsafe_grace_ms'])",
+        hex(&encode_vec(&register).expect("encode"))
+    ));
+    assert_eq!(got, format!("register 4 1 {PROTOCOL_VERSION} 0x123456789abcdef 0xfedcba9876543210 2500"));
+    let fired = FromAgent::Failsafe(FailsafeFired { robot: RobotId(5), silent_ms: 2100 });
+    let got = python(&format!(
+        "m = watch.decode_from_agent(bytes.fromhex({:?})); print(m['kind'], m['robot'], m['silent_ms'])",
+        hex(&encode_vec(&fired).expect("encode"))
+    ));
+    assert_eq!(got, "failsafe 5 2100");
 
     for (kind, printed) in [
         (GateKind::Deployed, "deployed None"),
@@ -94,7 +116,7 @@ fn watch_py_reports_bad_payloads() {
         (other_version, "protocol version 1"),
         (trailing, "1 trailing bytes"),
         (truncated.to_vec(), "truncated"),
-        (vec![2, 2, 1, 9], "bad bool 9"),
+        (vec![PROTOCOL_VERSION as u8, 2, 1, 9], "bad bool 9"),
     ] {
         let decoder = if why == "bad bool 9" { "decode_gate" } else { "decode_pose" };
         let got = python(&format!(
@@ -104,7 +126,7 @@ fn watch_py_reports_bad_payloads() {
         assert!(got.contains(why), "{why}: got {got}");
     }
     assert_eq!(
-        python("print(watch.route('s', 'bycoms/s/robot/7/pose'), watch.route('s', 'bycoms/t/gate'))"),
-        "pose None"
+        python("print(watch.route('s', 'bycoms/s/robot/7/pose'), watch.route('s', 'bycoms/t/gate'), watch.route('s', 'bycoms/s/robot/7/from_agent'))"),
+        "pose None from_agent"
     );
 }

@@ -72,10 +72,15 @@ struct Lane {
 }
 
 fn topics(swarm: &Swarm, robots: u32) -> Vec<TopicName> {
-    let mut names = vec![*swarm.gate().name(), *swarm.from_agents().name()];
+    let mut names = vec![*swarm.gate().name()];
     for id in 1..=robots {
         let r = RobotId(id);
-        names.extend([*swarm.pose(r).name(), *swarm.to_agent(r).name(), *swarm.sensor(r).name()]);
+        names.extend([
+            *swarm.pose(r).name(),
+            *swarm.to_agent(r).name(),
+            *swarm.from_agent(r).name(),
+            *swarm.sensor(r).name(),
+        ]);
     }
     names
 }

@@ -176,7 +176,8 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
         transport::open(&cfg.transport, &cfg.faults, cfg.robots, &swarm_name)?;
     let bus: SharedBus = bus;
     let pose_source = poses::open(&cfg.mocap, cfg.robots, &bus, swarm)?;
-    let mut ports = Ports::open(bus, swarm, recording).context("cannot open the orchestrator's ports")?;
+    let mut ports =
+        Ports::open(bus, swarm, cfg.robots, recording).context("cannot open the orchestrator's ports")?;
     let live = match &cfg.serve {
         Some(addr) => Some(crate::live::LiveView::start(addr)?),
         None => None,

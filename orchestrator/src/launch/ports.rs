@@ -8,14 +8,17 @@
 //!
 //! A robot's command port is opened before its agent is started (as its
 //! pose source is), so nothing sent after it starts can be missed (the bus
-//! keeps no history). The ports are on a [`SharedBus`]: any backend (see
+//! keeps no history). Every robot's report topic is read at once, from the
+//! start, by one fan-in (`Bus::fan_in`); a report whose robot is not its
+//! topic's is forged (over zenoh the access control lets robot k's
+//! certificate publish only under robot k): counted, recorded, dropped. The ports are on a [`SharedBus`]: any backend (see
 //! `transport`). Poses are not read here but by the launch's pose source
 //! (`poses`), which may not be the bus at all.
 
 use super::observe::Observer;
 use super::recording::Recording;
 use super::transport::{AnyPublisher, AnySubscriber, SharedBus};
-use bycoms_protocol::bus::BusError;
+use bycoms_protocol::bus::{untag, BusError, FAN_IN_TAG};
 use bycoms_protocol::msg::{Deploy, FromAgent, GateEvent, Pose, ToAgent};
 use bycoms_protocol::{decode, encode, Message, RobotId, Swarm, TopicName, MAX_MESSAGE_LEN};
 use bycoms_sim::agent_process::{BadKind, Traffic};
@@ -47,7 +50,9 @@ pub struct Ports {
     swarm: Swarm,
     to_agent: BTreeMap<u32, (TopicName, Pub)>,
     relays: BTreeMap<u32, Pub>,
-    from_agents: (TopicName, Sub),
+    /// Every robot's `from_agent` topic, in robot order (robot k at k − 1),
+    /// and the fan-in that reads them all.
+    reports: (Vec<TopicName>, Sub),
     gate: (TopicName, Pub),
     /// Opened at the first placement request (real robots only).
     operator: Option<(TopicName, Pub)>,
@@ -61,19 +66,21 @@ pub struct Ports {
 }
 
 impl Ports {
-    /// Opens the shared ports on `bus`.
-    pub fn open(bus: SharedBus, swarm: Swarm, recording: Recording) -> Result<Self, BusError> {
-        let from = *swarm.from_agents().name();
+    /// Opens the shared ports on `bus`, and the reports of robots
+    /// 1..=`robots`.
+    pub fn open(bus: SharedBus, swarm: Swarm, robots: u32, recording: Recording) -> Result<Self, BusError> {
+        let topics: Vec<TopicName> = (1..=robots).map(|k| *swarm.from_agent(RobotId(k)).name()).collect();
         let gate = *swarm.gate().name();
-        let from_agents = (from, bus.subscriber(&from)?);
+        let fan_in = bus.fan_in(&topics)?;
+        let reports = (topics, fan_in);
         let gate = (gate, bus.publisher(&gate)?);
-        let buf = vec![0u8; bus.limits().max_payload];
+        let buf = vec![0u8; bus.limits().max_payload + FAN_IN_TAG];
         Ok(Self {
             bus,
             swarm,
             to_agent: BTreeMap::new(),
             relays: BTreeMap::new(),
-            from_agents,
+            reports,
             gate,
             operator: None,
             recording,
@@ -170,26 +177,48 @@ impl Ports {
     }
 
     /// The next agent report, waiting up to `timeout`: `None` when nothing
-    /// came, `Some(None)` when a message came that does not decode (it was
-    /// recorded, counted and skipped).
+    /// came, `Some(None)` when a message came that does not decode or that
+    /// names another robot than its topic's (it was recorded, counted and
+    /// skipped).
     pub fn recv_report(&mut self, timeout: Duration) -> Result<Option<Option<FromAgent>>, BusError> {
-        let (name, sub) = &self.from_agents;
+        let (topics, fan_in) = &self.reports;
         let got = match timeout.is_zero() {
-            true => sub.try_recv_into(&mut self.buf),
-            false => sub.recv_timeout_into(&mut self.buf, timeout),
+            true => fan_in.try_recv_into(&mut self.buf),
+            false => fan_in.recv_timeout_into(&mut self.buf, timeout),
         };
-        if matches!(got, Ok(None)) {
-            return Ok(None);
-        }
+        let n = match got {
+            Ok(None) => return Ok(None),
+            Ok(Some(n)) => n,
+            Err(e) => {
+                let name = topics.first().map(|t| t.doorbell());
+                let what = name.as_ref().map_or("from_agent", |t| t.as_str());
+                return match self.traffic.absorb(WHO, what, e) {
+                    None => Ok(Some(None)),
+                    Some(fatal) => Err(fatal),
+                };
+            }
+        };
+        let Some((index, payload)) = untag(self.buf.get(..n).unwrap_or_default()) else {
+            return Ok(Some(None));
+        };
+        let Some(name) = topics.get(index) else {
+            return Ok(Some(None));
+        };
+        let topic_robot = index as u32 + 1;
         let report: Option<FromAgent> = receive_recorded(
             &mut self.recording,
             &mut self.traffic,
             name,
             schema::FROM_AGENT,
-            got,
-            &self.buf,
+            Ok(Some(payload.len())),
+            payload,
         )?;
         if let Some(r) = &report {
+            if r.robot().0 != topic_robot {
+                let text = format!("a report of robot {} on robot {topic_robot}'s topic", r.robot().0);
+                self.traffic.count(WHO, BadKind::UnknownRobot, &text);
+                return Ok(Some(None));
+            }
             self.observers.iter_mut().for_each(|o| o.report(r));
         }
         Ok(Some(report))

@@ -15,7 +15,7 @@ use super::agents::spawned::{AgentCommand, Spawned};
 use super::agents::AgentSource;
 use anyhow::{bail, Context, Result};
 use bycoms_protocol::bus::ipc::IpcBus;
-use bycoms_protocol::bus::{BusExt, TypedPublisher, TypedSubscriber};
+use bycoms_protocol::bus::{BusExt, TypedFanIn, TypedPublisher, TypedSubscriber};
 use bycoms_protocol::msg::{Deploy, FromAgent, GoalBearing, Pose, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
 use bycoms_sim::agent_process::{ipc_config, AgentArgs, BusArgs, Clock, Transport};
@@ -92,7 +92,9 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
     let mut cfg = ipc_config(agents);
     cfg.cleanup_on_start = true;
     let bus = IpcBus::new(cfg).context("cannot open the iceoryx2 bus")?;
-    let reports: Sub<FromAgent> = bus.typed_subscriber(&swarm.from_agents())?;
+    let topics: Vec<_> = (1..=agents).map(|id| swarm.from_agent(RobotId(id))).collect();
+    let reports: TypedFanIn<<Bus as bycoms_protocol::bus::Bus>::FanIn, FromAgent> =
+        bus.typed_fan_in(&topics)?;
     let mut commands: Vec<Pub<ToAgent>> = Vec::new();
     let mut poses: Vec<Sub<Pose>> = Vec::new();
     for id in 1..=agents {
@@ -135,7 +137,7 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
             if let Some((id, gone)) = sup.poll(true).into_iter().next() {
                 bail!("agent {id} is gone: {gone}");
             }
-            if let Ok(Some(msg)) = reports.recv_timeout(Duration::from_millis(10)) {
+            if let Ok(Some((_, msg))) = reports.recv_timeout(Duration::from_millis(10)) {
                 sup.heard(msg.robot().0);
                 if let FromAgent::Register(r) = msg {
                     registered.insert(r.robot.0);
@@ -170,7 +172,7 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
     };
     while Instant::now() < end && !stop.load(std::sync::atomic::Ordering::SeqCst) {
         drain(&mut last, &mut missed, &mut periods);
-        while let Ok(Some(msg)) = reports.try_recv() {
+        while let Ok(Some((_, msg))) = reports.try_recv() {
             sup.heard(msg.robot().0);
         }
         if let Some((id, gone)) = sup.poll(false).into_iter().next() {

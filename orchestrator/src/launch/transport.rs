@@ -43,6 +43,9 @@ pub trait LaunchBus {
     fn publisher(&self, topic: &TopicName) -> Result<AnyPublisher, BusError>;
     /// Opens a subscriber on `topic`; it sees messages published from now on.
     fn subscriber(&self, topic: &TopicName) -> Result<AnySubscriber, BusError>;
+    /// Opens one receiver of all of `topics` ([`Bus::fan_in`]: each message
+    /// tagged with its topic's index).
+    fn fan_in(&self, topics: &[TopicName]) -> Result<AnySubscriber, BusError>;
     /// The sizes the bus was opened with.
     fn limits(&self) -> Limits;
     /// Removes what killed agents left behind (iceoryx2's dead nodes in
@@ -85,6 +88,7 @@ where
     B: Backend,
     B::Publisher: 'static,
     B::Subscriber: 'static,
+    B::FanIn: 'static,
 {
     fn kind(&self) -> &'static str {
         B::KIND
@@ -94,6 +98,9 @@ where
     }
     fn subscriber(&self, topic: &TopicName) -> Result<AnySubscriber, BusError> {
         Ok(Box::new(Bus::subscriber(self, topic)?))
+    }
+    fn fan_in(&self, topics: &[TopicName]) -> Result<AnySubscriber, BusError> {
+        Ok(Box::new(Bus::fan_in(self, topics)?))
     }
     fn limits(&self) -> Limits {
         Bus::limits(self)

@@ -46,6 +46,7 @@ impl<B: Bus> FaultBus<B> {
 impl<B: Bus> Bus for FaultBus<B> {
     type Publisher = B::Publisher;
     type Subscriber = FaultSubscriber<B::Subscriber>;
+    type FanIn = FaultSubscriber<B::FanIn>;
 
     fn publisher(&self, topic: &TopicName) -> Result<Self::Publisher, BusError> {
         self.inner.publisher(topic)
@@ -54,6 +55,13 @@ impl<B: Bus> Bus for FaultBus<B> {
     fn subscriber(&self, topic: &TopicName) -> Result<Self::Subscriber, BusError> {
         let index = self.next_subscriber.fetch_add(1, Ordering::Relaxed);
         let inner = self.inner.subscriber(topic)?;
+        Ok(FaultSubscriber::new(inner, self.config, index))
+    }
+
+    fn fan_in(&self, topics: &[TopicName]) -> Result<Self::FanIn, BusError> {
+        // One fault stream over the merged messages (each keeps its tag).
+        let index = self.next_subscriber.fetch_add(1, Ordering::Relaxed);
+        let inner = self.inner.fan_in(topics)?;
         Ok(FaultSubscriber::new(inner, self.config, index))
     }
 

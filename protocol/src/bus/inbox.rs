@@ -39,6 +39,19 @@ impl Inbox {
     /// Appends a message of `publisher`, dropping that publisher's oldest
     /// unread message when it already has `buffer` of them.
     pub(crate) fn push(&self, publisher: u64, payload: &[u8]) {
+        self.push_parts(publisher, &[], payload);
+    }
+
+    /// [`Inbox::push`] for a fan-in: the message is the topic's index
+    /// `tag` ([`super::FAN_IN_TAG`] bytes) followed by the payload.
+    pub(crate) fn push_tagged(&self, publisher: u64, tag: u32, payload: &[u8]) {
+        self.push_parts(publisher, &tag.to_le_bytes(), payload);
+    }
+
+    fn push_parts(&self, publisher: u64, head: &[u8], payload: &[u8]) {
+        let mut message = Vec::with_capacity(head.len() + payload.len());
+        message.extend_from_slice(head);
+        message.extend_from_slice(payload);
         let mut queue = lock(&self.queue);
         let pending = queue.iter().filter(|(p, _)| *p == publisher).count();
         if pending >= self.buffer {
@@ -46,7 +59,7 @@ impl Inbox {
                 queue.remove(oldest);
             }
         }
-        queue.push_back((publisher, payload.to_vec()));
+        queue.push_back((publisher, message));
         // Wake after unlocking: a waiter woken under the lock would only
         // block again on the mutex (one more sleep and wake per message).
         // Every waiter takes one message, so one wake per message suffices.

@@ -42,13 +42,13 @@
 mod ports;
 pub mod root;
 
-pub use ports::{IpcPublisher, IpcSubscriber};
+pub use ports::{IpcFanIn, IpcPublisher, IpcSubscriber};
 
 use super::{Bus, BusError, Limits};
 use crate::naming::TopicName;
 use core::time::Duration;
 use iceoryx2::prelude::{
-    ipc, ipc_threadsafe, CallbackProgression, Config, Node, NodeBuilder, NodeName, NodeState, ServiceName,
+    ipc, ipc_threadsafe, CallbackProgression, Config, Node, NodeBuilder, NodeName, NodeState,
     SignalHandlingMode,
 };
 use iceoryx2::service::Service as IoxService;
@@ -228,22 +228,23 @@ impl<S: IoxService> IceoryxBus<S> {
         let state = self.node.try_cleanup_dead_nodes();
         CleanupReport { cleaned: state.cleanups, failed: state.failed_cleanups }
     }
-
-    fn service_name(topic: &TopicName) -> Result<ServiceName, BusError> {
-        ServiceName::new(topic.as_str()).map_err(|e| BusError::backend("name service", Some(topic), e))
-    }
 }
 
 impl<S: IoxService> Bus for IceoryxBus<S> {
     type Publisher = IpcPublisher<S>;
     type Subscriber = IpcSubscriber<S>;
+    type FanIn = IpcFanIn<S>;
 
     fn publisher(&self, topic: &TopicName) -> Result<IpcPublisher<S>, BusError> {
-        ports::open_publisher(&self.node, &self.config, topic, &Self::service_name(topic)?)
+        ports::open_publisher(&self.node, &self.config, topic, &ports::service_name(topic)?)
     }
 
     fn subscriber(&self, topic: &TopicName) -> Result<IpcSubscriber<S>, BusError> {
-        ports::open_subscriber(&self.node, &self.config, topic, &Self::service_name(topic)?)
+        ports::open_subscriber(&self.node, &self.config, topic, &ports::service_name(topic)?)
+    }
+
+    fn fan_in(&self, topics: &[TopicName]) -> Result<IpcFanIn<S>, BusError> {
+        ports::open_fan_in(&self.node, &self.config, topics)
     }
 
     fn limits(&self) -> Limits {

@@ -22,9 +22,13 @@ use core::time::Duration;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, Weak};
 
+/// An inbox of a topic, and the tag its messages get there (`None`: a
+/// subscriber's, untagged; `Some(i)`: a fan-in's, topic index `i`).
+type Reader = (Weak<Inbox>, Option<u32>);
+
 #[derive(Default)]
 struct Hub {
-    topics: Mutex<HashMap<TopicName, Vec<Weak<Inbox>>>>,
+    topics: Mutex<HashMap<TopicName, Vec<Reader>>>,
     next_publisher: AtomicU64,
 }
 
@@ -51,6 +55,7 @@ impl MemoryBus {
 impl Bus for MemoryBus {
     type Publisher = MemoryPublisher;
     type Subscriber = MemorySubscriber;
+    type FanIn = MemorySubscriber;
 
     fn publisher(&self, topic: &TopicName) -> Result<MemoryPublisher, BusError> {
         Ok(MemoryPublisher {
@@ -63,8 +68,19 @@ impl Bus for MemoryBus {
 
     fn subscriber(&self, topic: &TopicName) -> Result<MemorySubscriber, BusError> {
         let inbox = Arc::new(Inbox::new(self.limits.buffer));
-        lock(&self.hub.topics).entry(*topic).or_default().push(Arc::downgrade(&inbox));
+        lock(&self.hub.topics).entry(*topic).or_default().push((Arc::downgrade(&inbox), None));
         Ok(MemorySubscriber { inbox, max_payload: self.limits.max_payload })
+    }
+
+    fn fan_in(&self, topics: &[TopicName]) -> Result<MemorySubscriber, BusError> {
+        let inbox = Arc::new(Inbox::new(self.limits.buffer));
+        let mut hub = lock(&self.hub.topics);
+        for (i, topic) in topics.iter().enumerate() {
+            let tag =
+                u32::try_from(i).map_err(|_| BusError::InvalidConfig("more than 2^32 topics in a fan-in"))?;
+            hub.entry(*topic).or_default().push((Arc::downgrade(&inbox), Some(tag)));
+        }
+        Ok(MemorySubscriber { inbox, max_payload: self.limits.max_payload + super::FAN_IN_TAG })
     }
 
     fn limits(&self) -> Limits {
@@ -87,9 +103,12 @@ impl Publish for MemoryPublisher {
         }
         let mut topics = lock(&self.hub.topics);
         if let Some(inboxes) = topics.get_mut(&self.topic) {
-            inboxes.retain(|weak| match weak.upgrade() {
+            inboxes.retain(|(weak, tag)| match weak.upgrade() {
                 Some(inbox) => {
-                    inbox.push(self.id, payload);
+                    match tag {
+                        Some(tag) => inbox.push_tagged(self.id, *tag, payload),
+                        None => inbox.push(self.id, payload),
+                    }
                     true
                 }
                 None => false,

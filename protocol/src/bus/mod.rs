@@ -21,7 +21,9 @@
 //!   blocks on a slow subscriber);
 //! * every wait has a timeout ([`Subscribe::recv_timeout_into`]);
 //! * a subscriber created for a topic also keeps receiving from publishers
-//!   created after it.
+//!   created after it;
+//! * a fan-in ([`Bus::fan_in`]) is a subscriber of several topics at once
+//!   whose messages say which topic they came from.
 //!
 //! The typed layer ([`typed`]) encodes and decodes [`crate::Message`]s with
 //! the one codec over these byte channels.
@@ -40,7 +42,7 @@ use crate::naming::TopicName;
 use crate::CodecError;
 use core::time::Duration;
 
-pub use typed::{BusExt, TypedPublisher, TypedSubscriber};
+pub use typed::{BusExt, TypedFanIn, TypedPublisher, TypedSubscriber};
 
 /// Default largest payload, bytes: four times [`crate::MAX_MESSAGE_LEN`].
 pub const DEFAULT_MAX_PAYLOAD: usize = 256;
@@ -137,17 +139,37 @@ impl From<CodecError> for BusError {
     }
 }
 
+/// Bytes before each payload that a fan-in hands out: the index of its
+/// topic in the list the fan-in was opened with, a `u32` little-endian.
+pub const FAN_IN_TAG: usize = 4;
+
+/// Splits a message of a fan-in ([`Bus::fan_in`]) into its topic's index
+/// and its payload; `None` when it is shorter than the tag.
+pub fn untag(message: &[u8]) -> Option<(usize, &[u8])> {
+    let (tag, payload) = message.split_first_chunk::<FAN_IN_TAG>()?;
+    Some((u32::from_le_bytes(*tag) as usize, payload))
+}
+
 /// Opens publishers and subscribers on topics.
 pub trait Bus {
     /// The backend's publisher.
     type Publisher: Publish;
     /// The backend's subscriber.
     type Subscriber: Subscribe;
+    /// The backend's receiver of many topics at once ([`Bus::fan_in`]).
+    type FanIn: Subscribe;
 
     /// Opens a publisher on `topic`.
     fn publisher(&self, topic: &TopicName) -> Result<Self::Publisher, BusError>;
     /// Opens a subscriber on `topic`; it sees messages published from now on.
     fn subscriber(&self, topic: &TopicName) -> Result<Self::Subscriber, BusError>;
+    /// Opens one receiver of every topic of `topics` (one wait for all:
+    /// the orchestrator reads every robot's reports so). Each message comes
+    /// as [`FAN_IN_TAG`] bytes naming its topic's index in `topics`, then
+    /// the payload ([`untag`]); otherwise the contract of a subscriber of
+    /// each topic holds (order per publisher, buffer per publisher, no
+    /// history). The topics must share one [`TopicName::doorbell`].
+    fn fan_in(&self, topics: &[TopicName]) -> Result<Self::FanIn, BusError>;
     /// The sizes this bus was opened with.
     fn limits(&self) -> Limits;
 }

@@ -76,6 +76,40 @@ impl<S: Subscribe, M: Message> TypedSubscriber<S, M> {
     }
 }
 
+/// Receives messages of type `M` from several topics at once (a fan-in),
+/// each with the index of its topic.
+pub struct TypedFanIn<S, M> {
+    inner: S,
+    _message: PhantomData<fn() -> M>,
+}
+
+impl<S: Subscribe, M: Message> TypedFanIn<S, M> {
+    /// Wraps a byte fan-in ([`Bus::fan_in`]).
+    pub fn new(inner: S) -> Self {
+        Self { inner, _message: PhantomData }
+    }
+
+    /// The next message and its topic's index, waiting up to `timeout`;
+    /// `None` when it passed. A message that does not decode is consumed
+    /// and reported as [`BusError::Codec`].
+    pub fn recv_timeout(&self, timeout: Duration) -> Result<Option<(usize, M)>, BusError> {
+        let mut buf = [0u8; MAX_MESSAGE_LEN + super::FAN_IN_TAG];
+        match self.inner.recv_timeout_into(&mut buf, timeout)? {
+            Some(n) => {
+                let (topic, payload) =
+                    super::untag(&buf[..n]).ok_or(BusError::Codec(crate::CodecError::Truncated))?;
+                Ok(Some((topic, decode(payload)?)))
+            }
+            None => Ok(None),
+        }
+    }
+
+    /// [`TypedFanIn::recv_timeout`] without waiting.
+    pub fn try_recv(&self) -> Result<Option<(usize, M)>, BusError> {
+        self.recv_timeout(Duration::ZERO)
+    }
+}
+
 /// Typed constructors on every [`Bus`].
 pub trait BusExt: Bus {
     /// A publisher for the message type of `topic`.
@@ -92,6 +126,12 @@ pub trait BusExt: Bus {
         topic: &Topic<M>,
     ) -> Result<TypedSubscriber<Self::Subscriber, M>, BusError> {
         Ok(TypedSubscriber::new(self.subscriber(topic.name())?))
+    }
+
+    /// One receiver of the message type of `topics`, for all of them.
+    fn typed_fan_in<M: Message>(&self, topics: &[Topic<M>]) -> Result<TypedFanIn<Self::FanIn, M>, BusError> {
+        let names: Vec<_> = topics.iter().map(|t| *t.name()).collect();
+        Ok(TypedFanIn::new(self.fan_in(&names)?))
     }
 }
 

@@ -290,6 +290,7 @@ fn hash_of<T: core::hash::Hash>(value: &T) -> u64 {
 impl Bus for ZenohBus {
     type Publisher = ZenohPublisher;
     type Subscriber = ZenohSubscriber;
+    type FanIn = ZenohSubscriber;
 
     fn publisher(&self, topic: &TopicName) -> Result<ZenohPublisher, BusError> {
         ports::open_publisher(&self.session, &self.config, topic, self.publisher_id())
@@ -297,6 +298,10 @@ impl Bus for ZenohBus {
 
     fn subscriber(&self, topic: &TopicName) -> Result<ZenohSubscriber, BusError> {
         ports::open_subscriber(&self.session, &self.config, topic)
+    }
+
+    fn fan_in(&self, topics: &[TopicName]) -> Result<ZenohSubscriber, BusError> {
+        ports::open_fan_in(&self.session, &self.config, topics)
     }
 
     fn limits(&self) -> Limits {

@@ -48,8 +48,8 @@ pub enum Route {
     Sensor(RobotId),
     /// `robot/<id>/pose`: [`crate::msg::Pose`].
     Pose(RobotId),
-    /// `from_agents`: [`crate::msg::FromAgent`].
-    FromAgents,
+    /// `robot/<id>/from_agent`: [`crate::msg::FromAgent`].
+    FromAgent(RobotId),
     /// `gate`: [`crate::msg::GateEvent`].
     Gate,
     /// `operator`: [`crate::msg::Deploy`] (place a robot).
@@ -73,7 +73,6 @@ impl Swarm {
         let rest = name.strip_prefix(ROOT)?.strip_prefix('/')?;
         let rest = rest.strip_prefix(self.as_str())?.strip_prefix('/')?;
         match rest {
-            "from_agents" => return Some(Route::FromAgents),
             "gate" => return Some(Route::Gate),
             "operator" => return Some(Route::Operator),
             _ => {}
@@ -88,6 +87,7 @@ impl Swarm {
             "to_agent" => Some(Route::ToAgent(robot)),
             "sensor" => Some(Route::Sensor(robot)),
             "pose" => Some(Route::Pose(robot)),
+            "from_agent" => Some(Route::FromAgent(robot)),
             _ => None,
         }
     }

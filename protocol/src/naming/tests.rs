@@ -13,8 +13,30 @@ fn builds_every_topic_name() {
     assert_eq!(s.to_agent(r).name().as_str(), "bycoms/lab-1/robot/3/to_agent");
     assert_eq!(s.sensor(r).name().as_str(), "bycoms/lab-1/robot/3/sensor");
     assert_eq!(s.pose(r).name().as_str(), "bycoms/lab-1/robot/3/pose");
-    assert_eq!(s.from_agents().name().as_str(), "bycoms/lab-1/from_agents");
+    assert_eq!(s.from_agent(r).name().as_str(), "bycoms/lab-1/robot/3/from_agent");
     assert_eq!(s.gate().name().as_str(), "bycoms/lab-1/gate");
+}
+
+#[test]
+fn reports_of_a_swarm_share_one_doorbell_and_nothing_else_does() {
+    let s = swarm();
+    let bell = s.from_agent(RobotId(3)).name().doorbell();
+    assert_eq!(bell.as_str(), "bycoms/lab-1/from_agents");
+    assert_eq!(s.from_agent(RobotId(u32::MAX)).name().doorbell(), bell);
+    let other = Swarm::new("lab-2").expect("valid swarm");
+    assert_ne!(other.from_agent(RobotId(3)).name().doorbell(), bell);
+    for topic in [*s.to_agent(RobotId(3)).name(), *s.pose(RobotId(3)).name(), *s.gate().name(), bell] {
+        assert_eq!(topic.doorbell(), topic, "{topic}");
+    }
+    for raw in
+        ["a/b/robot/1/from_agent", "bycoms/x/robot//from_agent", "from_agent", "bycoms/robot/1/from_agent"]
+    {
+        if let Ok(name) = TopicName::parse(raw) {
+            assert_eq!(name.doorbell(), name, "{raw}");
+        }
+    }
+    let long = Swarm::new(&"s".repeat(SWARM_NAME_MAX)).expect("max-length swarm is valid");
+    assert!(long.from_agent(RobotId(u32::MAX)).name().doorbell().as_str().ends_with("/from_agents"));
 }
 
 #[test]
@@ -85,7 +107,7 @@ fn route_reads_every_topic_back() {
     assert_eq!(s.route(s.to_agent(r).name().as_str()), Some(Route::ToAgent(r)));
     assert_eq!(s.route(s.sensor(r).name().as_str()), Some(Route::Sensor(r)));
     assert_eq!(s.route(s.pose(r).name().as_str()), Some(Route::Pose(r)));
-    assert_eq!(s.route(s.from_agents().name().as_str()), Some(Route::FromAgents));
+    assert_eq!(s.route(s.from_agent(r).name().as_str()), Some(Route::FromAgent(r)));
     assert_eq!(s.route(s.gate().name().as_str()), Some(Route::Gate));
     assert_eq!(s.route(s.operator().name().as_str()), Some(Route::Operator));
 }

@@ -243,6 +243,68 @@ pub fn typed_layer_round_trips<B: Bus>(bus: &B) {
     assert_eq!(sub.try_recv().expect("try_recv"), None);
 }
 
+/// A fan-in over three robots' report topics: every message arrives once,
+/// tagged with its topic's index, in publish order per topic; other topics
+/// stay out; a fan-in does not take messages from a topic's subscriber.
+pub fn fan_in_tags_every_message_with_its_topic<B: Bus>(bus: &B) {
+    let swarm = unique_swarm("fanin");
+    let topics: Vec<TopicName> = (1..=3).map(|k| *swarm.from_agent(RobotId(k)).name()).collect();
+    let fan_in = bus.fan_in(&topics).expect("fan-in");
+    let plain = bus.subscriber(&topics[1]).expect("subscriber");
+    let outsider = bus.publisher(swarm.to_agent(RobotId(1)).name()).expect("publisher");
+    let publishers: Vec<_> = topics.iter().map(|t| bus.publisher(t).expect("publisher")).collect();
+    let n = bus.limits().buffer.min(8) as u8;
+    for i in 0..n {
+        for (k, p) in publishers.iter().enumerate() {
+            p.publish(&[k as u8, i]).expect("publish");
+        }
+        outsider.publish(&[9, i]).expect("publish");
+    }
+    assert_eq!(fan_in.max_payload(), bus.limits().max_payload + bycoms_protocol::bus::FAN_IN_TAG);
+    let mut next = [0u8; 3];
+    for _ in 0..3 * usize::from(n) {
+        let message = recv(&fan_in);
+        let (topic, payload) = bycoms_protocol::bus::untag(&message).expect("tagged");
+        assert!(topic < 3, "index {topic}");
+        assert_eq!(payload, [topic as u8, next[topic]], "topic {topic} in publish order");
+        next[topic] += 1;
+    }
+    assert_eq!(next, [n; 3]);
+    assert_quiet(&fan_in);
+    for i in 0..n {
+        assert_eq!(recv(&plain), vec![1, i], "the topic's own subscriber still gets everything");
+    }
+}
+
+/// A fan-in waiting in one thread wakes for a message on any of its
+/// topics published from another (the last topic, so a reader that only
+/// waited on its first topic's wake-ups would time out).
+pub fn fan_in_wakes_for_any_topic<B: Bus, F: Fn() -> B + Sync>(make: &F) {
+    let swarm = unique_swarm("fanin-wake");
+    let topics: Vec<TopicName> = (1..=4).map(|k| *swarm.from_agent(RobotId(k)).name()).collect();
+    let (ready_tx, ready_rx) = mpsc::channel();
+    std::thread::scope(|s| {
+        let waiter = s.spawn(|| {
+            let bus = make();
+            let fan_in = bus.fan_in(&topics).expect("fan-in");
+            ready_tx.send(()).expect("signal ready");
+            let start = Instant::now();
+            let got = fan_in.recv_timeout(WAIT).expect("receive");
+            (got, start.elapsed())
+        });
+        ready_rx.recv_timeout(WAIT).expect("waiter ready");
+        let bus = make();
+        let publ = bus.publisher(&topics[3]).expect("publisher");
+        // Only makes the wake-up path likely; not needed for correctness.
+        std::thread::sleep(Duration::from_millis(5));
+        publ.publish(&[42]).expect("publish");
+        let (got, waited) = waiter.join().expect("waiter thread");
+        let got = got.expect("a message");
+        assert_eq!(bycoms_protocol::bus::untag(&got), Some((3, &[42u8][..])));
+        assert!(waited < WAIT / 2, "woken late: {waited:?}");
+    });
+}
+
 /// Instantiates the whole suite for one backend: `$make` is an expression
 /// of a `Fn() -> impl Bus + Sync` factory.
 #[macro_export]
@@ -252,6 +314,14 @@ macro_rules! conformance_suite {
             use $crate::conformance as c;
             fn bus() -> impl bycoms_protocol::bus::Bus {
                 ($make)()
+            }
+            #[test]
+            fn fan_in_tags_every_message_with_its_topic() {
+                c::fan_in_tags_every_message_with_its_topic(&bus())
+            }
+            #[test]
+            fn fan_in_wakes_for_any_topic() {
+                c::fan_in_wakes_for_any_topic(&$make)
             }
             #[test]
             fn order_is_preserved() {

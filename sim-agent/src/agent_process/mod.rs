@@ -57,14 +57,16 @@ pub const ROBOT_TOPIC_PORTS: usize = 8;
 
 /// The iceoryx2 configuration of a swarm of `swarm_size` robots.
 ///
-/// Payloads are at most one protocol message; `from_agents` has one
-/// publisher per agent and each robot's pose topic one subscriber per later
-/// robot, so both limits grow with the swarm (plus headroom for the
-/// orchestrator, a monitor and test tools). A robot's own topics have few
-/// ports on their other side ([`ROBOT_TOPIC_PORTS`]): iceoryx2 keeps a
-/// resident slot (~3.6 KB) per possible peer port in every port, so sizing
-/// them like `from_agents` cost each agent (k − 1) × (n + 132) slots
-/// (86 MB for robot 98 of 100, 262 MB for robot 166 of 300). Stale resources are cleaned by
+/// Payloads are at most one protocol message; each robot's pose topic has
+/// one subscriber per later robot, and the reports' doorbell
+/// (`bycoms/<swarm>/from_agents`, the event service every robot's
+/// `from_agent` rings) one notifier per agent, so those limits grow with
+/// the swarm (plus headroom for the orchestrator, a monitor and test
+/// tools). A robot's own topics have few ports on their other side
+/// ([`ROBOT_TOPIC_PORTS`]): iceoryx2 keeps a resident slot (~3.6 KB) per
+/// possible peer port in every port, so sizing them like the swarm cost
+/// each agent (k − 1) × (n + 132) slots (86 MB for robot 98 of 100, 262 MB
+/// for robot 166 of 300). Stale resources are cleaned by
 /// the orchestrator at start, not by every agent.
 pub fn ipc_config(swarm_size: u32) -> IpcConfig {
     let n = swarm_size as usize;
@@ -83,6 +85,13 @@ pub fn ipc_config(swarm_size: u32) -> IpcConfig {
             // a duplicate being refused).
             PortLimits {
                 suffix: "/to_agent",
+                max_publishers: ROBOT_TOPIC_PORTS,
+                max_subscribers: ROBOT_TOPIC_PORTS,
+            },
+            // One robot's reports: from its agent (and a duplicate being
+            // refused), to the orchestrator, a bridge, tools.
+            PortLimits {
+                suffix: "/from_agent",
                 max_publishers: ROBOT_TOPIC_PORTS,
                 max_subscribers: ROBOT_TOPIC_PORTS,
             },
@@ -137,8 +146,11 @@ mod tests {
             config.ports_of(swarm.to_agent(RobotId(7)).name()),
             (ROBOT_TOPIC_PORTS, ROBOT_TOPIC_PORTS)
         );
-        // Every agent reports on the one shared topic.
-        assert_eq!(config.ports_of(swarm.from_agents().name()), (304, 304));
+        // A robot's reports: one agent, few readers; every agent rings
+        // their doorbell.
+        let reports = *swarm.from_agent(RobotId(7)).name();
+        assert_eq!(config.ports_of(&reports), (ROBOT_TOPIC_PORTS, ROBOT_TOPIC_PORTS));
+        assert_eq!(config.ports_of(&reports.doorbell()), (304, 304));
         assert_eq!(config.ports_of(swarm.gate().name()), (304, 304));
     }
 }

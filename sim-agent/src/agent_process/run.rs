@@ -66,7 +66,7 @@ impl<B: Bus> AgentPorts<B> {
             .map(|p| Ok((RobotId(p), bus.typed_subscriber(&swarm.pose(RobotId(p)))?)))
             .collect::<Result<Vec<_>, BusError>>()?;
         let pose = bus.typed_publisher(&swarm.pose(id))?;
-        let report = bus.typed_publisher(&swarm.from_agents())?;
+        let report = bus.typed_publisher(&swarm.from_agent(id))?;
         Ok(Self { commands, pose, report, peers })
     }
 }

@@ -84,9 +84,10 @@ pub(super) fn open_publisher<S: IoxService>(
         .allocation_strategy(AllocationStrategy::Static)
         .create()
         .map_err(|e| BusError::backend("create publisher", Some(topic), e))?;
+    let bell = topic.doorbell();
     let notifier = match config.wake {
         Wake::Event { .. } => Some(
-            event_service(node, config, topic, name)?
+            event_service(node, config, &bell, &service_name(&bell)?)?
                 .notifier_builder()
                 .create()
                 .map_err(|e| BusError::backend("create notifier", Some(topic), e))?,
@@ -107,17 +108,64 @@ pub(super) fn open_subscriber<S: IoxService>(
         .buffer_size(config.limits.buffer)
         .create()
         .map_err(|e| BusError::backend("create subscriber", Some(topic), e))?;
-    let waker = match config.wake {
+    let waker = waker(node, config, &topic.doorbell())?;
+    Ok(IpcSubscriber { subscriber, waker, topic: *topic, max_payload: config.limits.max_payload })
+}
+
+/// How a reader of `bell`'s topics is woken: on `bell`'s event service
+/// (its publishers ring it), or by polling.
+fn waker<S: IoxService>(node: &Node<S>, config: &IpcConfig, bell: &TopicName) -> Result<Waker<S>, BusError> {
+    Ok(match config.wake {
         Wake::Event { spin } => Waker::Event {
             spin,
-            listener: event_service(node, config, topic, name)?
+            listener: event_service(node, config, bell, &service_name(bell)?)?
                 .listener_builder()
                 .create()
-                .map_err(|e| BusError::backend("create listener", Some(topic), e))?,
+                .map_err(|e| BusError::backend("create listener", Some(bell), e))?,
         },
         Wake::Poll { spin, max_sleep } => Waker::Poll { spin, max_sleep },
+    })
+}
+
+/// The iceoryx2 service name of `topic` (the same text).
+pub(super) fn service_name(topic: &TopicName) -> Result<ServiceName, BusError> {
+    ServiceName::new(topic.as_str()).map_err(|e| BusError::backend("name service", Some(topic), e))
+}
+
+/// A fan-in (see [`crate::bus::Bus::fan_in`]): one subscriber per topic,
+/// woken by the topics' shared doorbell.
+pub(super) fn open_fan_in<S: IoxService>(
+    node: &Node<S>,
+    config: &IpcConfig,
+    topics: &[TopicName],
+) -> Result<IpcFanIn<S>, BusError> {
+    let Some(first) = topics.first() else {
+        return Err(BusError::InvalidConfig("a fan-in needs at least one topic"));
     };
-    Ok(IpcSubscriber { subscriber, waker, topic: *topic, max_payload: config.limits.max_payload })
+    let bell = first.doorbell();
+    if topics.iter().any(|t| t.doorbell() != bell) {
+        return Err(BusError::InvalidConfig("the topics of a fan-in must share one doorbell"));
+    }
+    if u32::try_from(topics.len()).is_err() {
+        return Err(BusError::InvalidConfig("more than 2^32 topics in a fan-in"));
+    }
+    let subscribers = topics
+        .iter()
+        .map(|topic| {
+            pubsub_service(node, config, topic, &service_name(topic)?)?
+                .subscriber_builder()
+                .buffer_size(config.limits.buffer)
+                .create()
+                .map_err(|e| BusError::backend("create subscriber", Some(topic), e))
+        })
+        .collect::<Result<Vec<_>, BusError>>()?;
+    Ok(IpcFanIn {
+        subscribers,
+        waker: waker(node, config, &bell)?,
+        bell,
+        next: core::cell::Cell::new(0),
+        max_payload: config.limits.max_payload + crate::bus::FAN_IN_TAG,
+    })
 }
 
 /// Publisher of an [`super::IceoryxBus`].
@@ -175,15 +223,15 @@ pub struct IpcSubscriber<S: IoxService> {
     max_payload: usize,
 }
 
-impl<S: IoxService> IpcSubscriber<S> {
+impl<S: IoxService> Waker<S> {
     /// Sleeps until a notification or for at most `left` (`left` > 0);
     /// `poll_sleep` is [`Wake::Poll`]'s current step.
-    fn sleep(&self, left: Duration, poll_sleep: &mut Duration) -> Result<Slept, BusError> {
-        match &self.waker {
+    fn sleep(&self, topic: &TopicName, left: Duration, poll_sleep: &mut Duration) -> Result<Slept, BusError> {
+        match self {
             Waker::Event { listener, .. } => match listener.timed_wait(|_| {}, event_wait(left)) {
                 Ok(_) => Ok(Slept::Again),
                 Err(ListenerWaitError::InterruptSignal) => Ok(Slept::Interrupted),
-                Err(e) => Err(BusError::backend("wait for event", Some(&self.topic), e)),
+                Err(e) => Err(BusError::backend("wait for event", Some(topic), e)),
             },
             Waker::Poll { max_sleep, .. } => {
                 std::thread::sleep((*poll_sleep).min(left));
@@ -208,35 +256,92 @@ impl<S: IoxService> Subscribe for IpcSubscriber<S> {
     }
 
     fn recv_timeout_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError> {
-        let start = Instant::now();
-        let deadline = start.checked_add(timeout);
-        let spin = match &self.waker {
-            Waker::Event { spin, .. } | Waker::Poll { spin, .. } => *spin,
+        wait_for(&self.waker, &self.topic, buf, timeout, |buf| self.try_recv_into(buf))
+    }
+}
+
+/// Receives with `try_recv` until a message comes or `timeout` passes:
+/// spin for the waker's budget, then sleep on it (see the module docs).
+fn wait_for<S: IoxService>(
+    waker: &Waker<S>,
+    topic: &TopicName,
+    buf: &mut [u8],
+    timeout: Duration,
+    try_recv: impl Fn(&mut [u8]) -> Result<Option<usize>, BusError>,
+) -> Result<Option<usize>, BusError> {
+    let start = Instant::now();
+    let deadline = start.checked_add(timeout);
+    let spin = match waker {
+        Waker::Event { spin, .. } | Waker::Poll { spin, .. } => *spin,
+    };
+    let mut sleep = POLL_FIRST_SLEEP;
+    loop {
+        if let Some(n) = try_recv(buf)? {
+            return Ok(Some(n));
+        }
+        let now = Instant::now();
+        let left = match deadline {
+            Some(d) => d.saturating_duration_since(now),
+            None => FAR_FUTURE,
         };
-        let mut sleep = POLL_FIRST_SLEEP;
-        loop {
-            if let Some(n) = self.try_recv_into(buf)? {
-                return Ok(Some(n));
-            }
-            let now = Instant::now();
-            let left = match deadline {
-                Some(d) => d.saturating_duration_since(now),
-                None => FAR_FUTURE,
-            };
-            if left.is_zero() {
-                return Ok(None);
-            }
-            if now.duration_since(start) < spin {
-                core::hint::spin_loop();
-                continue;
-            }
-            if let Slept::Interrupted = self.sleep(left, &mut sleep)? {
-                // A signal (e.g. Ctrl-C handled by a flag) cut the wait
-                // short: not a failure. Return early so the caller can look
-                // at its flags, like a wait that timed out.
-                return self.try_recv_into(buf);
+        if left.is_zero() {
+            return Ok(None);
+        }
+        if now.duration_since(start) < spin {
+            core::hint::spin_loop();
+            continue;
+        }
+        if let Slept::Interrupted = waker.sleep(topic, left, &mut sleep)? {
+            // A signal (e.g. Ctrl-C handled by a flag) cut the wait
+            // short: not a failure. Return early so the caller can look
+            // at its flags, like a wait that timed out.
+            return try_recv(buf);
+        }
+    }
+}
+
+/// A fan-in of an [`super::IceoryxBus`]: subscribers of several topics
+/// that share one doorbell, read round robin (no topic starves another).
+pub struct IpcFanIn<S: IoxService> {
+    subscribers: Vec<Subscriber<S, [u8], ()>>,
+    waker: Waker<S>,
+    bell: TopicName,
+    next: core::cell::Cell<usize>,
+    max_payload: usize,
+}
+
+impl<S: IoxService> Subscribe for IpcFanIn<S> {
+    fn max_payload(&self) -> usize {
+        self.max_payload
+    }
+
+    fn try_recv_into(&self, buf: &mut [u8]) -> Result<Option<usize>, BusError> {
+        let n = self.subscribers.len();
+        let first = self.next.get();
+        for k in 0..n {
+            let i = (first + k) % n;
+            let Some(subscriber) = self.subscribers.get(i) else { continue };
+            match subscriber.receive() {
+                Ok(Some(sample)) => {
+                    self.next.set((i + 1) % n);
+                    let (tag, rest) = buf.split_first_chunk_mut::<{ crate::bus::FAN_IN_TAG }>().ok_or(
+                        BusError::BufferTooSmall {
+                            len: sample.payload().len() + crate::bus::FAN_IN_TAG,
+                            capacity: 0,
+                        },
+                    )?;
+                    *tag = (i as u32).to_le_bytes();
+                    return copy_out(sample.payload(), rest).map(|len| Some(len + crate::bus::FAN_IN_TAG));
+                }
+                Ok(None) => {}
+                Err(e) => return Err(BusError::backend("receive", Some(&self.bell), e)),
             }
         }
+        Ok(None)
+    }
+
+    fn recv_timeout_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError> {
+        wait_for(&self.waker, &self.bell, buf, timeout, |buf| self.try_recv_into(buf))
     }
 }
 
@@ -277,7 +382,10 @@ mod tests {
                 let mut results = Vec::new();
                 for ns in [1, 500, 999] {
                     let mut poll = POLL_FIRST_SLEEP;
-                    results.push(matches!(sub.sleep(Duration::from_nanos(ns), &mut poll), Ok(Slept::Again)));
+                    results.push(matches!(
+                        sub.waker.sleep(&sub.topic, Duration::from_nanos(ns), &mut poll),
+                        Ok(Slept::Again)
+                    ));
                 }
                 let _ = done_tx.send(results);
             })

@@ -56,13 +56,54 @@ pub(super) fn open_subscriber(
     topic: &TopicName,
 ) -> Result<ZenohSubscriber, BusError> {
     let inbox = Arc::new(Inbox::new(config.limits.buffer));
-    let sink = Arc::clone(&inbox);
-    let inner = session
-        .declare_subscriber(key_expr(topic)?)
-        .callback(move |sample: Sample| sink.push(publisher_of(&sample), &sample.payload().to_bytes()))
-        .wait()
-        .map_err(|e| super::text::backend("open subscriber", Some(topic.as_str().to_owned()), None, &e))?;
+    let inner = vec![declare(session, topic, &inbox, None)?];
     Ok(ZenohSubscriber { _inner: inner, inbox, max_payload: config.limits.max_payload })
+}
+
+/// A subscriber of every topic of `topics`, its messages tagged with the
+/// topic's index (see [`crate::bus::Bus::fan_in`]).
+pub(super) fn open_fan_in(
+    session: &Session,
+    config: &ZenohConfig,
+    topics: &[TopicName],
+) -> Result<ZenohSubscriber, BusError> {
+    let inbox = Arc::new(Inbox::new(config.limits.buffer));
+    let inner = topics
+        .iter()
+        .enumerate()
+        .map(|(i, topic)| {
+            let tag =
+                u32::try_from(i).map_err(|_| BusError::InvalidConfig("more than 2^32 topics in a fan-in"))?;
+            declare(session, topic, &inbox, Some(tag))
+        })
+        .collect::<Result<Vec<_>, BusError>>()?;
+    Ok(ZenohSubscriber {
+        _inner: inner,
+        inbox,
+        max_payload: config.limits.max_payload + crate::bus::FAN_IN_TAG,
+    })
+}
+
+/// Declares a subscriber of `topic` whose samples go into `inbox`, tagged
+/// with `tag` when it is part of a fan-in.
+fn declare(
+    session: &Session,
+    topic: &TopicName,
+    inbox: &Arc<Inbox>,
+    tag: Option<u32>,
+) -> Result<Subscriber<()>, BusError> {
+    let sink = Arc::clone(inbox);
+    session
+        .declare_subscriber(key_expr(topic)?)
+        .callback(move |sample: Sample| {
+            let payload = sample.payload().to_bytes();
+            match tag {
+                Some(tag) => sink.push_tagged(publisher_of(&sample), tag, &payload),
+                None => sink.push(publisher_of(&sample), &payload),
+            }
+        })
+        .wait()
+        .map_err(|e| super::text::backend("open subscriber", Some(topic.as_str().to_owned()), None, &e))
 }
 
 pub(super) fn open_swarm_subscriber(
@@ -105,9 +146,10 @@ impl Publish for ZenohPublisher {
     }
 }
 
-/// Subscriber of a [`super::ZenohBus`]; dropping it undeclares it.
+/// Subscriber of a [`super::ZenohBus`] (of one topic, or of several: a
+/// fan-in); dropping it undeclares it.
 pub struct ZenohSubscriber {
-    _inner: Subscriber<()>,
+    _inner: Vec<Subscriber<()>>,
     inbox: Arc<Inbox>,
     max_payload: usize,
 }

@@ -54,7 +54,7 @@ fn start_agent(bus: &MemoryBus, swarm: &Swarm, heartbeat: Duration) -> (Commands
 fn register_is_repeated_until_the_orchestrator_answers() {
     let bus = MemoryBus::new(Limits::default()).expect("memory bus");
     let swarm = Swarm::new("reg").expect("swarm name");
-    let reports = bus.typed_subscriber::<FromAgent>(&swarm.from_agents()).expect("reports");
+    let reports = bus.typed_subscriber::<FromAgent>(&swarm.from_agent(RobotId(1))).expect("reports");
     let (commands, agent) = start_agent(&bus, &swarm, Duration::from_millis(5));
     // Unanswered: the first Register, then one with every heartbeat after
     // the first.
@@ -104,7 +104,7 @@ fn a_repeated_tick_or_deploy_is_answered_again_without_stepping() {
     use bycoms_protocol::msg::{Deploy, GoalBearing};
     let bus = MemoryBus::new(Limits::default()).expect("memory bus");
     let swarm = Swarm::new("repeat").expect("swarm name");
-    let reports = bus.typed_subscriber::<FromAgent>(&swarm.from_agents()).expect("reports");
+    let reports = bus.typed_subscriber::<FromAgent>(&swarm.from_agent(RobotId(1))).expect("reports");
     let poses = bus.typed_subscriber::<Pose>(&swarm.pose(RobotId(1))).expect("poses");
     let (commands, agent) = start_agent(&bus, &swarm, Duration::from_millis(50));
     let deploy = Deploy { robot: RobotId(1), x: 15.5, y: 15.5, heading: 0.7 };
