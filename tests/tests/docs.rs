@@ -13,6 +13,7 @@
 //!   (`src/*.rs`, `src/*/`) and binary of the crate, and the `fuzz/` row
 //!   every fuzz target.
 //! * PROTOCOL.md's limits are the code's constants.
+//! * deploy/README.md's table names every file of `deploy/`, and only those.
 //!
 //! Why tests and not care: these docs are what a newcomer reads first, and
 //! each was found false at least once in review (issue 15).
@@ -421,6 +422,36 @@ fn architecture_names_every_top_level_module_binary_and_fuzz_target_in_its_crate
         "ARCHITECTURE.md's crate table does not name, in the crate's row:\n{}",
         missing.join("\n")
     );
+}
+
+#[test]
+fn deploy_readme_names_every_file_of_deploy_and_nothing_else() {
+    let deploy = root().join("deploy");
+    let doc = read(&deploy.join("README.md"));
+    let token = Regex::new(r"`([^`]+)`").expect("regex");
+    // The table's first column: the files and folders it describes.
+    let named: Vec<String> = doc
+        .lines()
+        .filter(|l| l.starts_with("| `"))
+        .filter_map(|l| l.split('|').nth(1))
+        .flat_map(|cell| token.captures_iter(cell).map(|c| c[1].to_string()).collect::<Vec<_>>())
+        .collect();
+    assert!(named.len() >= 15, "deploy/README.md's table is found: {named:?}");
+    for name in &named {
+        assert!(deploy.join(name).exists(), "deploy/README.md names `{name}`, which is not in deploy/");
+    }
+    let mut all = Vec::new();
+    files(&deploy, "", &mut all);
+    let mut missing = Vec::new();
+    for path in all {
+        let relative = path.strip_prefix(&deploy).expect("under deploy/").to_string_lossy().into_owned();
+        let covered = relative == "README.md"
+            || named.iter().any(|n| *n == relative || (n.ends_with('/') && relative.starts_with(n.as_str())));
+        if !covered {
+            missing.push(relative);
+        }
+    }
+    assert!(missing.is_empty(), "deploy/README.md's table does not name: {missing:?}");
 }
 
 /// `text` with every run of white space made one space (docs wrap lines).
