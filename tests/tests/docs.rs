@@ -14,6 +14,8 @@
 //!   every fuzz target.
 //! * PROTOCOL.md's limits are the code's constants.
 //! * deploy/README.md's table names every file of `deploy/`, and only those.
+//! * Every document (`….md`) a source, doc or script cites is in the
+//!   repository (a brief or design note kept elsewhere cannot be cited).
 //!
 //! Why tests and not care: these docs are what a newcomer reads first, and
 //! each was found false at least once in review (issue 15).
@@ -452,6 +454,49 @@ fn deploy_readme_names_every_file_of_deploy_and_nothing_else() {
         }
     }
     assert!(missing.is_empty(), "deploy/README.md's table does not name: {missing:?}");
+}
+
+/// Whether `path` ends with `tail` at a path boundary (`protocol/LINK.md`
+/// ends with `LINK.md`, not with `INK.md`).
+fn ends_with_path(path: &str, tail: &str) -> bool {
+    path.strip_suffix(tail).is_some_and(|head| head.is_empty() || head.ends_with('/'))
+}
+
+#[test]
+fn every_document_the_tree_cites_is_in_the_repository() {
+    let root = root();
+    let mut documents = Vec::new();
+    files(&root, ".md", &mut documents);
+    let documents: Vec<String> = documents
+        .iter()
+        .map(|p| p.strip_prefix(&root).expect("in the repository").to_string_lossy().into_owned())
+        .collect();
+    assert!(documents.len() >= 8, "the repository's documents are found: {documents:?}");
+    let mut texts = Vec::new();
+    for suffix in [".rs", ".md", ".toml", ".sh", ".py", ".json5", ".yaml", ".service", ".env"] {
+        files(&root, suffix, &mut texts);
+    }
+    files(&root.join(".ci"), "", &mut texts);
+    let cited = Regex::new(r"[A-Za-z0-9_./-]*[A-Za-z0-9_-]+\.md\b").expect("regex");
+    let mut checked = 0;
+    let mut missing = BTreeSet::new();
+    for path in texts.iter().filter(|p| !p.ends_with("tests/tests/docs.rs")) {
+        let Ok(text) = std::fs::read_to_string(path) else { continue };
+        for name in cited.find_iter(&text).map(|m| m.as_str()) {
+            checked += 1;
+            // From the root, from the citing file's folder, a bare name
+            // (`LINK.md`), or an installed copy (`/usr/local/share/doc/bycoms/deploy/README.md`).
+            let tail = name.trim_start_matches("../").trim_start_matches("./");
+            let found = root.join(name).is_file()
+                || path.parent().is_some_and(|dir| dir.join(name).is_file())
+                || documents.iter().any(|d| ends_with_path(d, tail) || ends_with_path(tail, d));
+            if !found {
+                missing.insert(format!("{}: {name}", path.strip_prefix(&root).unwrap_or(path).display()));
+            }
+        }
+    }
+    assert!(checked >= 50, "the citations are found ({checked})");
+    assert!(missing.is_empty(), "documents cited but not in the repository: {missing:#?}");
 }
 
 /// `text` with every run of white space made one space (docs wrap lines).
