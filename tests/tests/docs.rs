@@ -234,6 +234,57 @@ fn the_readme_lists_exactly_the_environment_variables_the_code_reads() {
     assert!(stale.is_empty(), "in the README's table but read nowhere: {stale:?}");
 }
 
+/// `a/{b,c}_d.rs` → `a/b_d.rs`, `a/c_d.rs` (one brace group at most).
+fn expand_braces(path: &str) -> Vec<String> {
+    match (path.find('{'), path.find('}')) {
+        (Some(open), Some(close)) if open < close => path[open + 1..close]
+            .split(',')
+            .map(|alt| format!("{}{alt}{}", &path[..open], &path[close + 1..]))
+            .collect(),
+        _ => vec![path.to_string()],
+    }
+}
+
+#[test]
+fn the_readme_names_where_each_variable_is_read() {
+    let root = root();
+    let readme = read(&root.join("README.md"));
+    let start = readme.find("Every environment variable the code reads").expect("the README's table");
+    let token = Regex::new(r"`([^`]+)`").expect("regex");
+    let mut checked = 0;
+    for row in
+        readme[start..].lines().skip_while(|l| !l.starts_with('|')).take_while(|l| l.starts_with('|')).skip(2)
+    {
+        let cells: Vec<&str> = row.split('|').collect();
+        let (Some(variables), Some(read_by)) = (cells.get(1), cells.get(3)) else {
+            panic!("a row of the README's table without its columns: {row}");
+        };
+        let files: Vec<String> = token
+            .captures_iter(read_by)
+            .map(|c| c[1].to_string())
+            .filter(|t| t.contains('/'))
+            .flat_map(|t| expand_braces(&t))
+            .collect();
+        for file in &files {
+            assert!(
+                root.join(file).is_file(),
+                "the README's table names `{file}`, which is not in the repository"
+            );
+        }
+        for variable in token.captures_iter(variables).map(|c| c[1].to_string()) {
+            if files.is_empty() {
+                continue;
+            }
+            checked += 1;
+            assert!(
+                files.iter().any(|f| read(&root.join(f)).contains(&variable)),
+                "the README says {files:?} read `{variable}`, and none of them names it"
+            );
+        }
+    }
+    assert!(checked >= 15, "the table's files are checked ({checked})");
+}
+
 /// The workspace's members, as written in the root Cargo.toml.
 fn members() -> Vec<String> {
     let manifest = read(&root().join("Cargo.toml"));
