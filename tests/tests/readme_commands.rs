@@ -22,9 +22,10 @@
 //!   commands are done, then gets SIGINT (as `kill %1` or Ctrl-C would do)
 //!   and must end within [`STOP_TIMEOUT`] with 0 or 130;
 //! * under their own iceoryx2 isolation tag ([`Isolated`]: own root, own
-//!   swarm names, files removed at the end); every process carrying the
-//!   tag in its environment must be gone within [`LEFTOVER_TIMEOUT`] of its
-//!   block's end (leftovers are killed and fail the test).
+//!   swarm names, its files and swarm locks removed at the end); every
+//!   process carrying the tag in its environment must be gone within
+//!   [`LEFTOVER_TIMEOUT`] of its block's end (leftovers are killed and fail
+//!   the test).
 
 use bycoms_protocol::bus::ipc::root::{Isolated, ISOLATION_ENV};
 use nix::sys::signal::{killpg, Signal};
@@ -191,8 +192,9 @@ impl Running {
         let stdout = dir.join(format!(".out-{n}"));
         let stderr = dir.join(format!(".err-{n}"));
         let file = |p: &Path| std::fs::File::create(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
-        let script =
-            if cmd.background { format!("exec {local}") } else { format!("set -eo pipefail; {local}") };
+        // `bash` stays the parent: a background command gets SIGINT with its
+        // whole group, and bash ends with what it ran.
+        let script = format!("set -eo pipefail; {local}");
         let child = Command::new("bash")
             .arg("-c")
             .arg(script)
@@ -344,6 +346,24 @@ fn run_block(block: &Block, root: &Path, bin_dir: &Path, tag: &str) -> Vec<Strin
     failures
 }
 
+/// Removes the swarm lock files of isolation tag `tag` on drop: a launch
+/// removes its own when it ends, not one killed after a timeout.
+struct LockFiles<'a>(&'a str);
+
+impl Drop for LockFiles<'_> {
+    fn drop(&mut self) {
+        use bycoms_orchestrator::launch::swarm_lock::{lock_dir, lock_name};
+        let prefix = lock_name(Some(self.0), "");
+        let prefix = prefix.trim_end_matches(".lock");
+        let Ok(dir) = std::fs::read_dir(lock_dir()) else { return };
+        for entry in dir.flatten() {
+            if entry.file_name().to_string_lossy().starts_with(prefix) {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
+}
+
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("the repository").to_path_buf()
 }
@@ -358,6 +378,7 @@ fn every_runnable_command_of_the_readme_succeeds() {
         std::os::unix::fs::symlink(bycoms_tests::bin(name), bins.path().join(name)).expect("symlink");
     }
     let isolated = Isolated::new("readme");
+    let _locks = LockFiles(isolated.tag());
     let started = Instant::now();
     let mut failures = Vec::new();
     for block in &blocks {
