@@ -5,9 +5,17 @@
 //!   variables the code reads (every `env::var`/`var_os` of a literal or a
 //!   constant, every clap `env = "…"`, every `${NAME:-…}` of the CI
 //!   scripts), and nothing the code no longer reads.
+//!   A read whose name the scan cannot see (`env::var(name)` outside a
+//!   reader helper) fails it, so a new way of reading is noticed.
 //! * ARCHITECTURE.md names every crate of the workspace and every
-//!   subcommand of the binaries, and every file or folder it names exists.
+//!   subcommand of the binaries, and every file or folder it names exists;
+//!   each crate's row of its crate table names every top-level module
+//!   (`src/*.rs`, `src/*/`) and binary of the crate, and the `fuzz/` row
+//!   every fuzz target.
 //! * PROTOCOL.md's limits are the code's constants.
+//! * deploy/README.md's table names every file of `deploy/`, and only those.
+//! * Every document (`….md`) a source, doc or script cites is in the
+//!   repository (a brief or design note kept elsewhere cannot be cited).
 //!
 //! Why tests and not care: these docs are what a newcomer reads first, and
 //! each was found false at least once in review (issue 15).
@@ -49,38 +57,106 @@ fn is_cargos_own(name: &str) -> bool {
     name.starts_with("CARGO") || matches!(name, "OUT_DIR" | "TMPDIR" | "HOME" | "PATH")
 }
 
-/// Every environment variable the code reads.
-fn variables_read() -> BTreeSet<String> {
-    let root = root();
-    let mut sources = Vec::new();
-    for dir in ["agent", "protocol", "sim-agent", "orchestrator", "gateway", "logging", "tests", "fuzz"] {
-        files(&root.join(dir), ".rs", &mut sources);
-    }
-    let literal = Regex::new(r#"env::var(?:_os)?\(\s*"([A-Z][A-Z0-9_]*)"\s*\)"#).expect("regex");
-    let constant = Regex::new(r#"env::var(?:_os)?\(\s*([A-Z][A-Z0-9_]*)\s*\)"#).expect("regex");
+/// Variables that third-party code reads when our code calls one of its
+/// functions: (the function, the variable).
+const READ_BY_DEPENDENCIES: [(&str, &str); 1] = [
+    // iceoryx2's log level (`agent_process::cli::quiet_iceoryx2`).
+    ("set_log_level_from_env_or(", "IOX2_LOG_LEVEL"),
+];
+
+/// The environment variables read by `sources` (path, text): every
+/// `env::var`/`var_os` of a literal, or of a constant (`const X: &str =
+/// "NAME";`, from the same file when it defines one, else from the one file
+/// that does), every clap `env = "NAME"` or `env = X`, every literal handed
+/// to a reader helper (`env_u64("NAME", …)`), and [`READ_BY_DEPENDENCIES`].
+/// A read of any other expression (`env::var(name)`) is allowed only inside
+/// such a helper (`fn env_…(name: &str…)`); otherwise it is an error, since
+/// this scan could not see its name.
+fn scan_sources(sources: &[(PathBuf, String)]) -> Result<BTreeSet<String>, String> {
+    let literal = Regex::new(r#"env::var(?:_os)?\(\s*"([A-Za-z_][A-Za-z0-9_]*)"\s*\)"#).expect("regex");
+    let constant =
+        Regex::new(r#"env::var(?:_os)?\(\s*(?:[a-z_0-9]+::)*([A-Z][A-Z0-9_]*)\s*\)"#).expect("regex");
+    let any_read = Regex::new(r#"env::var(?:_os)?\(\s*([^)]*)\)"#).expect("regex");
     let clap_env = Regex::new(r#"\benv\s*=\s*"([A-Z][A-Z0-9_]*)""#).expect("regex");
+    let clap_const = Regex::new(r#"\benv\s*=\s*([A-Z][A-Z0-9_]*)\b"#).expect("regex");
     let const_value = Regex::new(r#"const ([A-Z][A-Z0-9_]*): &str = "([A-Z][A-Z0-9_]*)";"#).expect("regex");
-    // Names handed to a reader through a helper (`env_u64("BYCOMS_…", …)`).
-    let helper_arg = Regex::new(r#"env_[a-z0-9]+\(\s*"([A-Z][A-Z0-9_]*)""#).expect("regex");
+    let helper_fn = Regex::new(r#"fn env_[a-z0-9_]+\(\s*([a-z_]+)\s*:\s*&str"#).expect("regex");
+    let helper_arg = Regex::new(r#"\benv_[a-z0-9_]+\(\s*"([A-Z][A-Z0-9_]*)""#).expect("regex");
     let mut names = BTreeSet::new();
-    let mut constants = std::collections::BTreeMap::new();
-    let mut wanted_constants = BTreeSet::new();
-    for path in &sources {
-        let text = read(path);
-        for c in const_value.captures_iter(&text) {
-            constants.insert(c[1].to_string(), c[2].to_string());
+    // Every file's constants, and the constant reads still to resolve.
+    let mut everywhere: std::collections::BTreeMap<String, BTreeSet<String>> = Default::default();
+    let mut wanted = Vec::new();
+    let mut errors = Vec::new();
+    for (path, text) in sources {
+        let mut own = std::collections::BTreeMap::new();
+        for c in const_value.captures_iter(text) {
+            own.insert(c[1].to_string(), c[2].to_string());
+            everywhere.entry(c[1].to_string()).or_default().insert(c[2].to_string());
         }
         for re in [&literal, &clap_env, &helper_arg] {
-            names.extend(re.captures_iter(&text).map(|c| c[1].to_string()));
+            names.extend(re.captures_iter(text).map(|c| c[1].to_string()));
         }
-        wanted_constants.extend(constant.captures_iter(&text).map(|c| c[1].to_string()));
+        for re in [&constant, &clap_const] {
+            for c in re.captures_iter(text) {
+                match own.get(&c[1]) {
+                    Some(value) => {
+                        names.insert(value.clone());
+                    }
+                    None => wanted.push((path.clone(), c[1].to_string())),
+                }
+            }
+        }
+        let helper_params: BTreeSet<String> =
+            helper_fn.captures_iter(text).map(|c| c[1].to_string()).collect();
+        for c in any_read.captures_iter(text) {
+            let arg = c[1].trim();
+            let known = literal.is_match(&c[0]) || constant.is_match(&c[0]) || helper_params.contains(arg);
+            if !known {
+                errors.push(format!(
+                    "{}: `{}` reads a variable this scan cannot name",
+                    path.display(),
+                    &c[0]
+                ));
+            }
+        }
+        for (function, variable) in READ_BY_DEPENDENCIES {
+            if text.contains(function) {
+                names.insert(variable.to_string());
+            }
+        }
     }
-    for c in wanted_constants {
-        let value =
-            constants.get(&c).unwrap_or_else(|| panic!("env::var({c}): no `const {c}: &str = \"…\"` found"));
-        names.insert(value.clone());
+    for (path, c) in wanted {
+        match everywhere.get(&c).map(|v| v.iter().collect::<Vec<_>>()).as_deref() {
+            Some([value]) => {
+                names.insert(value.to_string());
+            }
+            Some(values) => errors.push(format!("{}: `{c}` is ambiguous: {values:?}", path.display())),
+            None => errors.push(format!("{}: no `const {c}: &str = \"…\"` found", path.display())),
+        }
     }
-    // The CI scripts: `${NAME:-default}`.
+    names.retain(|n| !is_cargos_own(n));
+    if errors.is_empty() {
+        Ok(names)
+    } else {
+        Err(errors.join("\n"))
+    }
+}
+
+/// Every environment variable the code reads: the workspace's Rust sources
+/// (`target/` left out) and the CI scripts' `${NAME:-default}`.
+fn variables_read() -> BTreeSet<String> {
+    let root = root();
+    let mut paths = Vec::new();
+    for dir in ["agent", "protocol", "sim-agent", "orchestrator", "gateway", "logging", "tests", "fuzz"] {
+        files(&root.join(dir), ".rs", &mut paths);
+    }
+    // This file's own test feeds the scan made-up reads.
+    let sources: Vec<(PathBuf, String)> = paths
+        .into_iter()
+        .filter(|p| !p.ends_with("tests/tests/docs.rs"))
+        .map(|p| (p.clone(), read(&p)))
+        .collect();
+    let mut names = scan_sources(&sources).unwrap_or_else(|e| panic!("{e}"));
     let shell = Regex::new(r#"\$\{([A-Z][A-Z0-9_]*):-"#).expect("regex");
     let mut scripts = Vec::new();
     files(&root.join(".ci"), "", &mut scripts);
@@ -89,6 +165,48 @@ fn variables_read() -> BTreeSet<String> {
     }
     names.retain(|n| !is_cargos_own(n));
     names
+}
+
+#[test]
+fn the_scan_finds_every_way_the_code_reads_a_variable() {
+    let source = |path: &str, text: &str| (PathBuf::from(path), text.to_string());
+    let sources = [
+        source("a.rs", r#"let x = std::env::var("A_LITERAL"); let y = env::var_os( "B_OS" );"#),
+        source("b.rs", r#"const CHILD_ENV: &str = "C_FILE_B"; fn f() { std::env::var(CHILD_ENV); }"#),
+        source("c.rs", r#"const CHILD_ENV: &str = "D_FILE_C"; fn f() { std::env::var_os(CHILD_ENV); }"#),
+        source("d.rs", r#"pub const SHARED: &str = "E_SHARED";"#),
+        source("e.rs", r#"use d::SHARED; fn f() { std::env::var(d::SHARED); }"#),
+        source(
+            "f.rs",
+            r#"#[arg(long, env = "F_CLAP")] x: u8, #[arg(env = FMT)] y: u8, const FMT: &str = "G_FMT";"#,
+        ),
+        source(
+            "g.rs",
+            r#"fn env_u64(name: &str, d: u64) -> u64 { std::env::var(name) } env_u64("H_HELPER", 1);"#,
+        ),
+        source("h.rs", "set_log_level_from_env_or(LogLevel::Error);"),
+        source("i.rs", r#"std::env::var("CARGO_PKG_NAME"); std::env::var_os("PATH");"#),
+    ];
+    let found = scan_sources(&sources).expect("every read is named");
+    let expected = [
+        "A_LITERAL",
+        "B_OS",
+        "C_FILE_B",
+        "D_FILE_C",
+        "E_SHARED",
+        "F_CLAP",
+        "G_FMT",
+        "H_HELPER",
+        "IOX2_LOG_LEVEL",
+    ];
+    assert_eq!(found, expected.iter().map(|s| s.to_string()).collect::<BTreeSet<_>>());
+    // A read whose name the scan cannot see fails it, as does an unknown constant.
+    let hidden = [source("x.rs", "let n = name(); std::env::var(n);")];
+    assert!(scan_sources(&hidden).is_err());
+    let unknown = [source("y.rs", "std::env::var(NOWHERE);")];
+    assert!(scan_sources(&unknown).is_err());
+    let ambiguous = [sources[1].clone(), sources[2].clone(), source("z.rs", "std::env::var(CHILD_ENV);")];
+    assert!(scan_sources(&ambiguous).is_err());
 }
 
 /// The variables of the README's table ("Every environment variable the code reads").
@@ -114,6 +232,57 @@ fn the_readme_lists_exactly_the_environment_variables_the_code_reads() {
     let stale: Vec<_> = documented.difference(&read).collect();
     assert!(missing.is_empty(), "read by the code but not in the README's table: {missing:?}");
     assert!(stale.is_empty(), "in the README's table but read nowhere: {stale:?}");
+}
+
+/// `a/{b,c}_d.rs` → `a/b_d.rs`, `a/c_d.rs` (one brace group at most).
+fn expand_braces(path: &str) -> Vec<String> {
+    match (path.find('{'), path.find('}')) {
+        (Some(open), Some(close)) if open < close => path[open + 1..close]
+            .split(',')
+            .map(|alt| format!("{}{alt}{}", &path[..open], &path[close + 1..]))
+            .collect(),
+        _ => vec![path.to_string()],
+    }
+}
+
+#[test]
+fn the_readme_names_where_each_variable_is_read() {
+    let root = root();
+    let readme = read(&root.join("README.md"));
+    let start = readme.find("Every environment variable the code reads").expect("the README's table");
+    let token = Regex::new(r"`([^`]+)`").expect("regex");
+    let mut checked = 0;
+    for row in
+        readme[start..].lines().skip_while(|l| !l.starts_with('|')).take_while(|l| l.starts_with('|')).skip(2)
+    {
+        let cells: Vec<&str> = row.split('|').collect();
+        let (Some(variables), Some(read_by)) = (cells.get(1), cells.get(3)) else {
+            panic!("a row of the README's table without its columns: {row}");
+        };
+        let files: Vec<String> = token
+            .captures_iter(read_by)
+            .map(|c| c[1].to_string())
+            .filter(|t| t.contains('/'))
+            .flat_map(|t| expand_braces(&t))
+            .collect();
+        for file in &files {
+            assert!(
+                root.join(file).is_file(),
+                "the README's table names `{file}`, which is not in the repository"
+            );
+        }
+        for variable in token.captures_iter(variables).map(|c| c[1].to_string()) {
+            if files.is_empty() {
+                continue;
+            }
+            checked += 1;
+            assert!(
+                files.iter().any(|f| read(&root.join(f)).contains(&variable)),
+                "the README says {files:?} read `{variable}`, and none of them names it"
+            );
+        }
+    }
+    assert!(checked >= 15, "the table's files are checked ({checked})");
 }
 
 /// The workspace's members, as written in the root Cargo.toml.
@@ -211,6 +380,174 @@ fn architecture_names_every_crate_and_subcommand_and_every_path_it_names_exists(
         }
     }
     assert!(checked >= 50, "the paths of ARCHITECTURE.md are checked ({checked})");
+}
+
+/// The row of ARCHITECTURE.md's crate table for the crate in `dir/`.
+fn crate_row<'a>(doc: &'a str, dir: &str) -> &'a str {
+    let start = format!("| `{dir}/` |");
+    doc.lines()
+        .find(|l| l.starts_with(&start))
+        .unwrap_or_else(|| panic!("ARCHITECTURE.md's crate table has no row `{start}`"))
+}
+
+/// The names a text gives in backticks, each cut into its segments:
+/// `launch/agents/` gives `launch` and `agents`, `bycoms_sim::stats` gives
+/// `bycoms_sim` and `stats`, `lab/process.rs` gives `lab` and `process`.
+fn named_segments(text: &str) -> BTreeSet<String> {
+    let token = Regex::new(r"`([^`]+)`").expect("regex");
+    token
+        .captures_iter(text)
+        .flat_map(|c| {
+            c[1].split(|ch: char| ch.is_whitespace() || ch == '/' || ch == ':' || ch == ',')
+                .map(|s| s.trim_end_matches(".rs").to_string())
+                .filter(|s| !s.is_empty())
+                .collect::<Vec<_>>()
+        })
+        .collect()
+}
+
+/// A crate's top-level modules (`src/*.rs` and `src/*/` but `lib.rs`,
+/// `main.rs` and `bin/`) and its binaries (`[[bin]]` names and
+/// `src/bin/*.rs`).
+fn modules_and_binaries(krate: &Path) -> (BTreeSet<String>, BTreeSet<String>) {
+    let mut modules = BTreeSet::new();
+    let mut binaries = BTreeSet::new();
+    for entry in std::fs::read_dir(krate.join("src")).expect("src/").flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if entry.path().is_dir() {
+            if name == "bin" {
+                for bin in std::fs::read_dir(entry.path()).expect("src/bin/").flatten() {
+                    let bin = bin.file_name().to_string_lossy().into_owned();
+                    binaries.extend(bin.strip_suffix(".rs").map(str::to_owned));
+                }
+            } else {
+                modules.insert(name);
+            }
+        } else if let Some(module) = name.strip_suffix(".rs") {
+            if module != "lib" && module != "main" {
+                modules.insert(module.to_string());
+            }
+        }
+    }
+    let manifest = read(&krate.join("Cargo.toml"));
+    let bin_name = Regex::new(r#"(?m)^\[\[bin\]\]\s*\nname = "([^"]+)""#).expect("regex");
+    binaries.extend(bin_name.captures_iter(&manifest).map(|c| c[1].to_string()));
+    (modules, binaries)
+}
+
+#[test]
+fn architecture_names_every_top_level_module_binary_and_fuzz_target_in_its_crates_row() {
+    let root = root();
+    let doc = read(&root.join("ARCHITECTURE.md"));
+    let mut missing = Vec::new();
+    let mut checked = 0;
+    for member in members() {
+        let row = crate_row(&doc, &member);
+        let named = named_segments(row);
+        let (modules, binaries) = modules_and_binaries(&root.join(&member));
+        for module in &modules {
+            checked += 1;
+            if !named.contains(module) {
+                missing.push(format!("module `{member}/src/{module}`"));
+            }
+        }
+        for binary in &binaries {
+            checked += 1;
+            if !named.contains(binary) {
+                missing.push(format!("binary `{binary}` of `{member}/`"));
+            }
+        }
+    }
+    let fuzz_row = named_segments(crate_row(&doc, "fuzz"));
+    let mut targets = Vec::new();
+    files(&root.join("fuzz/fuzz_targets"), ".rs", &mut targets);
+    assert!(targets.len() >= 5, "the fuzz targets are found: {targets:?}");
+    for target in targets {
+        let stem = target.file_stem().expect("a file name").to_string_lossy().into_owned();
+        checked += 1;
+        if !fuzz_row.contains(&stem) {
+            missing.push(format!("fuzz target `{stem}`"));
+        }
+    }
+    assert!(checked >= 50, "the crates' modules are found ({checked})");
+    assert!(
+        missing.is_empty(),
+        "ARCHITECTURE.md's crate table does not name, in the crate's row:\n{}",
+        missing.join("\n")
+    );
+}
+
+#[test]
+fn deploy_readme_names_every_file_of_deploy_and_nothing_else() {
+    let deploy = root().join("deploy");
+    let doc = read(&deploy.join("README.md"));
+    let token = Regex::new(r"`([^`]+)`").expect("regex");
+    // The table's first column: the files and folders it describes.
+    let named: Vec<String> = doc
+        .lines()
+        .filter(|l| l.starts_with("| `"))
+        .filter_map(|l| l.split('|').nth(1))
+        .flat_map(|cell| token.captures_iter(cell).map(|c| c[1].to_string()).collect::<Vec<_>>())
+        .collect();
+    assert!(named.len() >= 15, "deploy/README.md's table is found: {named:?}");
+    for name in &named {
+        assert!(deploy.join(name).exists(), "deploy/README.md names `{name}`, which is not in deploy/");
+    }
+    let mut all = Vec::new();
+    files(&deploy, "", &mut all);
+    let mut missing = Vec::new();
+    for path in all {
+        let relative = path.strip_prefix(&deploy).expect("under deploy/").to_string_lossy().into_owned();
+        let covered = relative == "README.md"
+            || named.iter().any(|n| *n == relative || (n.ends_with('/') && relative.starts_with(n.as_str())));
+        if !covered {
+            missing.push(relative);
+        }
+    }
+    assert!(missing.is_empty(), "deploy/README.md's table does not name: {missing:?}");
+}
+
+/// Whether `path` ends with `tail` at a path boundary (`protocol/LINK.md`
+/// ends with `LINK.md`, not with `INK.md`).
+fn ends_with_path(path: &str, tail: &str) -> bool {
+    path.strip_suffix(tail).is_some_and(|head| head.is_empty() || head.ends_with('/'))
+}
+
+#[test]
+fn every_document_the_tree_cites_is_in_the_repository() {
+    let root = root();
+    let mut documents = Vec::new();
+    files(&root, ".md", &mut documents);
+    let documents: Vec<String> = documents
+        .iter()
+        .map(|p| p.strip_prefix(&root).expect("in the repository").to_string_lossy().into_owned())
+        .collect();
+    assert!(documents.len() >= 8, "the repository's documents are found: {documents:?}");
+    let mut texts = Vec::new();
+    for suffix in [".rs", ".md", ".toml", ".sh", ".py", ".json5", ".yaml", ".service", ".env"] {
+        files(&root, suffix, &mut texts);
+    }
+    files(&root.join(".ci"), "", &mut texts);
+    let cited = Regex::new(r"[A-Za-z0-9_./-]*[A-Za-z0-9_-]+\.md\b").expect("regex");
+    let mut checked = 0;
+    let mut missing = BTreeSet::new();
+    for path in texts.iter().filter(|p| !p.ends_with("tests/tests/docs.rs")) {
+        let Ok(text) = std::fs::read_to_string(path) else { continue };
+        for name in cited.find_iter(&text).map(|m| m.as_str()) {
+            checked += 1;
+            // From the root, from the citing file's folder, a bare name
+            // (`LINK.md`), or an installed copy (`/usr/local/share/doc/bycoms/deploy/README.md`).
+            let tail = name.trim_start_matches("../").trim_start_matches("./");
+            let found = root.join(name).is_file()
+                || path.parent().is_some_and(|dir| dir.join(name).is_file())
+                || documents.iter().any(|d| ends_with_path(d, tail) || ends_with_path(tail, d));
+            if !found {
+                missing.insert(format!("{}: {name}", path.strip_prefix(&root).unwrap_or(path).display()));
+            }
+        }
+    }
+    assert!(checked >= 50, "the citations are found ({checked})");
+    assert!(missing.is_empty(), "documents cited but not in the repository: {missing:#?}");
 }
 
 /// `text` with every run of white space made one space (docs wrap lines).

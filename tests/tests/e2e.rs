@@ -23,6 +23,7 @@ mod netns_bridge_host;
 mod netns_liveliness;
 mod netns_remote;
 mod parity;
+mod readme_commands;
 mod recording;
 mod remote_agents;
 mod replay;
