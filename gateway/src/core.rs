@@ -233,6 +233,8 @@ impl GatewayCore {
             }
             // Handled by the run loop, which knows its own instance.
             ToAgent::Refused(_) => {}
+            // A real robot hears the others; the launch sends gateways none.
+            ToAgent::Beacon(_) => {}
         }
         Ok(false)
     }

@@ -41,7 +41,6 @@ fn args(id: u32) -> AgentArgs {
         clock: Clock::Lockstep,
         speed: 1.0,
         swarm_size: Some(4),
-        peers: None,
         parent_pid: Some(std::process::id() as i32),
         heartbeat_ms: 100,
         bus: BusArgs { transport: Transport::Ipc, connect: Vec::new(), zenoh_config: None },

@@ -184,7 +184,7 @@ fn largest_encodings_fit_max_message_len() {
     let s = u64::MAX;
     let f = f64::MAX;
     let pose = Pose { robot: r, x: f, y: f, heading: f, step: s, time_us: s };
-    let largest: [(&str, usize); 9] = [
+    let largest: [(&str, usize); 10] = [
         (
             "to_agent",
             len(&ToAgent::GoalBearing(GoalBearing { robot: r, bearing: f, step: s }))
@@ -202,6 +202,7 @@ fn largest_encodings_fit_max_message_len() {
                 failsafe_grace_ms: u32::MAX,
             })),
         ),
+        ("beacon", len(&ToAgent::Beacon(Beacon { robot: r, x: f, y: f, seq: u32::MAX }))),
         (
             "refused",
             len(&ToAgent::Refused(Refused { robot: r, instance: s, why: Refusal::Settings { launch: s } })),

@@ -121,7 +121,6 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
                 clock: Clock::Realtime,
                 speed,
                 swarm_size: Some(agents),
-                peers: Some(0),
                 parent_pid: Some(std::process::id() as i32),
                 heartbeat_ms: 100,
                 bus: BusArgs { transport: Transport::Ipc, connect: Vec::new(), zenoh_config: None },

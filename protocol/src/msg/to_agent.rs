@@ -41,6 +41,28 @@ pub struct Tick {
     pub step: u64,
 }
 
+/// A beacon of the robot's field: robot `robot` stands at (`x`, `y`).
+///
+/// Why the orchestrator tells it: a robot senses the robots that stopped
+/// before it (the beacons of sequential deployment). The orchestrator
+/// knows each one's last pose, so it hands every agent that will move the
+/// positions it needs, instead of each agent reading every earlier
+/// robot's pose topic (which cost memory and time that grew with the
+/// swarm in every agent). A later `Beacon` of the same robot replaces its
+/// position. `seq` numbers the beacons sent to this agent (1, 2, …): a gap
+/// means one was lost.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Beacon {
+    /// The robot that stands there (not the receiving agent's).
+    pub robot: RobotId,
+    /// Its position x, exactly as its last pose said.
+    pub x: f64,
+    /// Its position y, exactly as its last pose said.
+    pub y: f64,
+    /// This beacon message's number among those sent to this agent.
+    pub seq: u32,
+}
+
 /// Why the orchestrator refused an agent.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Refusal {
@@ -105,4 +127,6 @@ pub enum ToAgent {
     Shutdown,
     /// The agent with this instance is refused: it must exit.
     Refused(Refused),
+    /// A robot that stands in the field (a beacon), or its new position.
+    Beacon(Beacon),
 }

@@ -143,7 +143,7 @@ pub fn run_on<B: Bus>(
     failsafe: Option<(Failsafe, AliveWatch)>,
 ) -> Result<ExitCause, AgentError> {
     let id = RobotId(args.robot);
-    let ports = AgentPorts::open(bus, swarm, id, args.peer_ids())?;
+    let ports = AgentPorts::open(bus, swarm, id)?;
     tracing::debug!(swarm = swarm.as_str(), clock = ?args.clock, speed = args.speed, "agent on the bus");
     let cfg = args.run_config();
     let dt = cfg.kinematics.dt;

@@ -10,8 +10,9 @@
 //! * the body starts at the deploy pose with the heading table built on the
 //!   deploy heading (the runner uses start → goal bearing for both);
 //! * the noise stream is `robot_seed(run seed, robot id)`, fresh at deploy;
-//! * the beacons are the other robots' latest poses summed **in robot-id
-//!   order** (the runner's deployment order);
+//! * the beacons are the positions the orchestrator sent
+//!   ([`bycoms_protocol::msg::Beacon`]: each earlier robot's last pose, bit
+//!   for bit), summed **in robot-id order** (the runner's deployment order);
 //! * the goal bearing is the one the orchestrator computed from this robot's
 //!   latest pose with `Vec2::bearing_to` (the runner's own function).
 //!
@@ -26,7 +27,7 @@ use crate::sensing::{robot_seed, SensingNoise};
 use crate::terrain::Terrain;
 use crate::{RunConfig, Vec2};
 use bycoms_agent::Mode;
-use bycoms_protocol::msg::{Deploy, GoalBearing, Pose};
+use bycoms_protocol::msg::{Beacon, Deploy, GoalBearing, Pose};
 use bycoms_protocol::RobotId;
 use std::collections::BTreeMap;
 
@@ -57,12 +58,13 @@ pub enum Reject {
     NotFinite,
     /// The heading table cannot be built (turn step does not divide 2π).
     BadKinematics,
-    /// A pose arrived on another robot's topic than the one it names.
-    PoseOnWrongTopic {
-        /// The topic's robot.
-        topic: RobotId,
-        /// The robot named in the pose.
-        got: RobotId,
+    /// A beacon's number is not the next one: one was lost (the field
+    /// misses a robot until it is sent again) or repeated.
+    BeaconOutOfOrder {
+        /// The number expected.
+        expected: u32,
+        /// The number received.
+        got: u32,
     },
 }
 
@@ -73,7 +75,7 @@ impl core::fmt::Display for Reject {
             Self::AlreadyDeployed => write!(f, "second Deploy ignored"),
             Self::NotFinite => write!(f, "non-finite value"),
             Self::BadKinematics => write!(f, "the turn step does not divide the full circle"),
-            Self::PoseOnWrongTopic { topic, got } => write!(f, "pose of {got} on the topic of {topic}"),
+            Self::BeaconOutOfOrder { expected, got } => write!(f, "beacon {got} where {expected} was next"),
         }
     }
 }
@@ -92,6 +94,8 @@ pub struct AgentCore {
     body: Option<Deployed>,
     bearing: Option<GoalBearing>,
     peers: BTreeMap<u32, Vec2>,
+    /// Beacon messages taken so far (the next one's `seq` is this + 1).
+    beacon_seq: u32,
     beacons: Beacons,
     beacons_stale: bool,
     steps: u64,
@@ -110,6 +114,7 @@ impl AgentCore {
             body: None,
             bearing: None,
             peers: BTreeMap::new(),
+            beacon_seq: 0,
             beacons,
             beacons_stale: false,
             steps: 0,
@@ -175,22 +180,33 @@ impl AgentCore {
         }
     }
 
-    /// Takes the latest pose of another robot, seen on `topic`'s pose topic.
-    pub fn observe_peer(&mut self, topic: RobotId, pose: &Pose) -> Result<(), Reject> {
-        if pose.robot != topic {
-            return Err(Reject::PoseOnWrongTopic { topic, got: pose.robot });
+    /// Takes a beacon: robot `b.robot` stands at (`b.x`, `b.y`) (a new one,
+    /// or a new position of one it has). A beacon out of sequence is taken
+    /// all the same (the latest position is the right one) and reported,
+    /// so the shell can say that the field may miss a robot.
+    pub fn beacon(&mut self, b: &Beacon) -> Result<(), Reject> {
+        if b.robot == self.id {
+            return Err(Reject::WrongRobot { got: b.robot });
         }
-        if pose.robot == self.id {
-            return Err(Reject::WrongRobot { got: pose.robot });
-        }
-        if !(pose.x.is_finite() && pose.y.is_finite()) {
+        if !(b.x.is_finite() && b.y.is_finite()) {
             return Err(Reject::NotFinite);
         }
-        let p = Vec2::new(pose.x, pose.y);
-        if self.peers.insert(pose.robot.0, p) != Some(p) {
+        let expected = self.beacon_seq.saturating_add(1);
+        self.beacon_seq = self.beacon_seq.max(b.seq);
+        let p = Vec2::new(b.x, b.y);
+        if self.peers.insert(b.robot.0, p) != Some(p) {
             self.beacons_stale = true;
         }
-        Ok(())
+        if b.seq == expected {
+            Ok(())
+        } else {
+            Err(Reject::BeaconOutOfOrder { expected, got: b.seq })
+        }
+    }
+
+    /// The beacons it holds, robot by robot.
+    pub fn beacons(&self) -> impl Iterator<Item = (u32, Vec2)> + '_ {
+        self.peers.iter().map(|(id, p)| (*id, *p))
     }
 
     /// One control period, if the robot is moving and has a goal bearing:

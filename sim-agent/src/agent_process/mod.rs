@@ -57,16 +57,18 @@ pub const ROBOT_TOPIC_PORTS: usize = 8;
 
 /// The iceoryx2 configuration of a swarm of `swarm_size` robots.
 ///
-/// Payloads are at most one protocol message; each robot's pose topic has
-/// one subscriber per later robot, and the reports' doorbell
+/// Payloads are at most one protocol message. The reports' doorbell
 /// (`bycoms/<swarm>/from_agents`, the event service every robot's
-/// `from_agent` rings) one notifier per agent, so those limits grow with
-/// the swarm (plus headroom for the orchestrator, a monitor and test
-/// tools). A robot's own topics have few ports on their other side
-/// ([`ROBOT_TOPIC_PORTS`]): iceoryx2 keeps a resident slot (~3.6 KB) per
-/// possible peer port in every port, so sizing them like the swarm cost
-/// each agent (k − 1) × (n + 132) slots (86 MB for robot 98 of 100, 262 MB
-/// for robot 166 of 300). Stale resources are cleaned by
+/// `from_agent` rings) has one notifier per agent, so the default limits
+/// grow with the swarm (plus headroom for the orchestrator, a monitor and
+/// test tools). A robot's own topics have few ports on either side
+/// ([`ROBOT_TOPIC_PORTS`]): its pose is read by the orchestrator and tools
+/// only (agents are sent their beacons instead of reading every earlier
+/// robot's pose), and iceoryx2 keeps a resident slot (~3.6 KB) per
+/// possible peer port in every port and sizes a publisher's shared data
+/// segment by its subscribers, so sizing them like the swarm cost each
+/// agent (k − 1) × (n + 132) slots (86 MB for robot 98 of 100, 262 MB for
+/// robot 166 of 300). Stale resources are cleaned by
 /// the orchestrator at start, not by every agent.
 pub fn ipc_config(swarm_size: u32) -> IpcConfig {
     let n = swarm_size as usize;
@@ -79,8 +81,12 @@ pub fn ipc_config(swarm_size: u32) -> IpcConfig {
         port_limits: vec![
             // One robot's pose: its agent (or the lab's mocap), the
             // orchestrator's relay of a dead robot, a duplicate agent, tools;
-            // read by every later agent.
-            PortLimits { suffix: "/pose", max_publishers: ROBOT_TOPIC_PORTS, max_subscribers: n + 4 },
+            // read by the orchestrator (and its gateway), a bridge, tools.
+            PortLimits {
+                suffix: "/pose",
+                max_publishers: ROBOT_TOPIC_PORTS,
+                max_subscribers: ROBOT_TOPIC_PORTS,
+            },
             // Commands to one robot: from the orchestrator, to its agent (and
             // a duplicate being refused).
             PortLimits {
@@ -140,8 +146,8 @@ mod tests {
     fn a_robot_s_own_topics_have_few_ports_on_their_other_side() {
         let config = ipc_config(300);
         let swarm = Swarm::new("s").expect("swarm");
-        // Every later agent reads a pose; few ever write it.
-        assert_eq!(config.ports_of(swarm.pose(RobotId(7)).name()), (ROBOT_TOPIC_PORTS, 304));
+        // A pose: few write it, few read it.
+        assert_eq!(config.ports_of(swarm.pose(RobotId(7)).name()), (ROBOT_TOPIC_PORTS, ROBOT_TOPIC_PORTS));
         assert_eq!(
             config.ports_of(swarm.to_agent(RobotId(7)).name()),
             (ROBOT_TOPIC_PORTS, ROBOT_TOPIC_PORTS)

@@ -122,11 +122,6 @@ pub struct AgentArgs {
     /// same for every process of the swarm (default: this robot's id).
     #[arg(long)]
     pub swarm_size: Option<u32>,
-    /// Listen to the poses of robots 1..=P, except itself (default: the
-    /// robots deployed before it, 1..id-1: in sequential deployment only
-    /// they can be beacons while it moves).
-    #[arg(long)]
-    pub peers: Option<u32>,
     /// The orchestrator's pid; the agent exits when its parent is no longer
     /// this process (default: its parent at start).
     #[arg(long)]
@@ -154,12 +149,6 @@ impl AgentArgs {
     /// Robots in the swarm as the bus is sized for.
     pub fn swarm_size(&self) -> u32 {
         self.swarm_size.unwrap_or(self.robot).max(self.robot)
-    }
-
-    /// The robot ids whose poses this agent listens to.
-    pub fn peer_ids(&self) -> impl Iterator<Item = u32> + '_ {
-        let last = self.peers.unwrap_or(self.robot.saturating_sub(1));
-        (1..=last).filter(move |&id| id != self.robot)
     }
 
     /// Checks the values clap cannot: the run parameters with the one check
@@ -199,11 +188,9 @@ impl AgentArgs {
         if self.noise {
             v.push("--noise".into());
         }
-        for (flag, value) in [("--swarm-size", self.swarm_size), ("--peers", self.peers)] {
-            if let Some(n) = value {
-                v.push(flag.into());
-                v.push(n.to_string());
-            }
+        if let Some(n) = self.swarm_size {
+            v.push("--swarm-size".into());
+            v.push(n.to_string());
         }
         if let Some(p) = self.parent_pid {
             v.push("--parent-pid".into());
@@ -240,7 +227,6 @@ mod tests {
             clock: Clock::Realtime,
             speed: 2.5,
             swarm_size: Some(9),
-            peers: None,
             parent_pid: Some(77),
             heartbeat_ms: 50,
             bus: BusArgs {
@@ -255,7 +241,6 @@ mod tests {
             Cli::try_parse_from(std::iter::once("sim-agent".to_string()).chain(flags)).unwrap().agent;
         assert_eq!(parsed.eps.to_bits(), eps.to_bits());
         assert_eq!(parsed.to_flags(), args.to_flags());
-        assert_eq!(parsed.peer_ids().collect::<Vec<_>>(), [1, 2, 3]);
         assert_eq!(parsed.swarm_size(), 9);
         assert!(parsed.validate().is_ok());
         assert_eq!(parsed.bus, args.bus);

@@ -5,8 +5,10 @@
 //! signal within a bounded time, so the loop never waits longer than
 //! [`SLICE`] before checking its [`Lifeline`] and its heartbeat timer.
 //!
-//! Per control period the agent drains its peers' pose topics (latest pose
-//! per robot), steps the core, then publishes, in this order, its pose
+//! The beacons of its field come on its command topic
+//! ([`ToAgent::Beacon`]), before the `Deploy` and in order with the ticks.
+//! Per control period the agent steps the core, then publishes, in this
+//! order, its pose
 //! (simulated motion capture), a `Status` with its mode (when it stepped)
 //! and, in lockstep, `TickDone`. Publishing is synchronous into shared
 //! memory, so once the orchestrator holds `TickDone(t)` the pose of step `t`
@@ -49,25 +51,16 @@ pub struct AgentPorts<B: Bus> {
     commands: TypedSubscriber<B::Subscriber, ToAgent>,
     pose: TypedPublisher<B::Publisher, Pose>,
     report: TypedPublisher<B::Publisher, FromAgent>,
-    peers: Vec<(RobotId, TypedSubscriber<B::Subscriber, Pose>)>,
 }
 
 impl<B: Bus> AgentPorts<B> {
     /// Opens every port, subscribers first, so nothing sent after the
     /// agent's `Register` can be missed.
-    pub fn open(
-        bus: &B,
-        swarm: &Swarm,
-        id: RobotId,
-        peers: impl Iterator<Item = u32>,
-    ) -> Result<Self, BusError> {
+    pub fn open(bus: &B, swarm: &Swarm, id: RobotId) -> Result<Self, BusError> {
         let commands = bus.typed_subscriber(&swarm.to_agent(id))?;
-        let peers = peers
-            .map(|p| Ok((RobotId(p), bus.typed_subscriber(&swarm.pose(RobotId(p)))?)))
-            .collect::<Result<Vec<_>, BusError>>()?;
         let pose = bus.typed_publisher(&swarm.pose(id))?;
         let report = bus.typed_publisher(&swarm.from_agent(id))?;
-        Ok(Self { commands, pose, report, peers })
+        Ok(Self { commands, pose, report })
     }
 }
 
@@ -353,6 +346,14 @@ impl<B: Bus> Agent<B> {
             ToAgent::Stop => self.core.stop(),
             ToAgent::Shutdown => return Ok(Some(ExitCause::Shutdown)),
             ToAgent::Refused(_) => {}
+            ToAgent::Beacon(b) => {
+                if let Err(r) = self.core.beacon(&b) {
+                    if matches!(r, Reject::BeaconOutOfOrder { .. }) {
+                        tracing::error!(who = %self.who, "{r}: the field may miss a robot until it is sent again");
+                    }
+                    self.refuse(r);
+                }
+            }
         }
         Ok(None)
     }
@@ -360,7 +361,6 @@ impl<B: Bus> Agent<B> {
     /// One control period numbered `step`.
     fn period(&mut self, step: u64) -> Result<(), BusError> {
         self.tick = step;
-        self.drain_peers();
         let stepped = self.core.step();
         self.publish_pose(step)?;
         if stepped {
@@ -374,27 +374,6 @@ impl<B: Bus> Agent<B> {
         match self.core.pose(step, step.saturating_mul(self.timing.dt_us)) {
             Some(pose) => self.ports.pose.publish(&pose),
             None => Ok(()),
-        }
-    }
-
-    fn drain_peers(&mut self) {
-        for (topic, sub) in &self.ports.peers {
-            loop {
-                match sub.try_recv() {
-                    Ok(Some(pose)) => {
-                        if let Err(r) = self.core.observe_peer(*topic, &pose) {
-                            count_reject(&mut self.stats.traffic, &self.who, r);
-                        }
-                    }
-                    Ok(None) => break,
-                    Err(e) => {
-                        if let Some(fatal) = self.stats.traffic.absorb(&self.who, "peer pose", e) {
-                            tracing::error!(who = %self.who, %topic, "cannot read a peer's pose: {fatal}");
-                            break;
-                        }
-                    }
-                }
-            }
         }
     }
 
@@ -435,9 +414,9 @@ impl<B: Bus> Agent<B> {
 
 fn count_reject(traffic: &mut Traffic, who: &str, r: Reject) {
     let kind = match r {
-        Reject::WrongRobot { .. } | Reject::PoseOnWrongTopic { .. } => BadKind::UnknownRobot,
+        Reject::WrongRobot { .. } => BadKind::UnknownRobot,
         Reject::AlreadyDeployed => BadKind::Duplicate,
-        Reject::NotFinite | Reject::BadKinematics => BadKind::Refused,
+        Reject::NotFinite | Reject::BadKinematics | Reject::BeaconOutOfOrder { .. } => BadKind::Refused,
     };
     traffic.count(who, kind, &r);
 }

@@ -161,6 +161,10 @@ impl AgentSource for Gateways {
         true
     }
 
+    fn senses_beacons(&self) -> bool {
+        false
+    }
+
     fn kind(&self) -> &'static str {
         "gateway"
     }

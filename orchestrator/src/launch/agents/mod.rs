@@ -223,6 +223,13 @@ pub trait AgentSource {
         false
     }
 
+    /// Whether the agents sense the beacons the launch sends them
+    /// (`ToAgent::Beacon`): simulated robots. Default: yes (real robots
+    /// hear each other instead).
+    fn senses_beacons(&self) -> bool {
+        true
+    }
+
     /// How to start an agent that never came, for the error that names the
     /// robots whose agents never registered (empty: nothing to say).
     fn start_hint(&self) -> &'static str {

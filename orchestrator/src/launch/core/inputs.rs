@@ -200,6 +200,10 @@ impl Core {
         if self.setup.agents.forward_poses {
             self.outputs.push_back(Output::Forward(pose));
         }
+        if self.is_beacon(topic) {
+            // A beacon that moves on (a robot judged stuck that creeps).
+            self.beacon_at(topic, &pose);
+        }
         let Some(slot) = self.slot(topic) else { return };
         slot.last_pose = Some(pose);
         if !lockstep && state != SlotState::Deploying {
@@ -399,6 +403,7 @@ impl Core {
         for mut pose in dead {
             pose.step = step;
             pose.time_us = time_us;
+            self.beacon_at(pose.robot.0, &pose);
             self.outputs.push_back(Output::Relay(pose));
         }
     }

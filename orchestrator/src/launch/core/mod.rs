@@ -32,8 +32,10 @@
 //! `steps.rs` the decisions (the phase machine); `referee.rs` the gate and
 //! the budget; `plausible.rs` which poses can be believed; `wait.rs` the
 //! re-send timer; `slot.rs` one robot's record; `log.rs` the record of
-//! every call, which `orchestrator replay` plays back.
+//! every call, which `orchestrator replay` plays back; `beacons.rs` the
+//! beacons the simulated agents are told.
 
+mod beacons;
 mod inputs;
 pub mod log;
 mod plausible;
@@ -86,6 +88,9 @@ pub struct AgentTraits {
     /// Poses that do not come over the bus are passed on to the agents
     /// (gateways turn bearings into the robot's frame with them).
     pub forward_poses: bool,
+    /// The agents sense the beacons they are sent ([`ToAgent::Beacon`]):
+    /// simulated robots (real ones hear each other).
+    pub beacons: bool,
 }
 
 /// Everything the core needs to know before the launch starts.
@@ -284,6 +289,7 @@ pub struct Core {
     relay_at: u64,
     relay_frame: u64,
     ending: Option<Ending>,
+    beacons: beacons::BeaconTable,
 }
 
 impl Core {
@@ -314,6 +320,7 @@ impl Core {
             relay_at: 0,
             relay_frame: 0,
             ending: None,
+            beacons: beacons::BeaconTable::default(),
             setup,
         }
     }
@@ -369,7 +376,7 @@ impl Core {
             at(tick.wait.next_due());
         }
         match self.phase {
-            Phase::Settling(_, Some(until)) => at(until),
+            Phase::Settling(id, Some(until)) => at(until.max(self.beacons_ready_at(id))),
             Phase::AwaitingStartPose(_, wait) => at(wait.next_due()),
             Phase::Placing(_, p) => {
                 let timeout = self.placement_timeout_us();

@@ -87,6 +87,16 @@ pub struct Slot {
     pub(super) last_error: Option<String>,
     /// Its agent said that its failsafe stopped it.
     pub(super) failsafe_fired: bool,
+    /// The beacon table's version its agent was sent everything up to.
+    pub(super) beacons_synced: u64,
+    /// Beacon messages sent to its agent (the last one's `seq`).
+    pub(super) beacon_seq: u32,
+    /// Distinct robots its agent was sent a beacon of.
+    pub(super) beacon_robots: usize,
+    /// Lockstep: the tick whose `Tick` followed the last beacon sent (its
+    /// agent holds them once it answered that tick). Real time: when the
+    /// last new robot was sent, µs.
+    pub(super) beacons_sent_at: u64,
 }
 
 impl Slot {
@@ -112,6 +122,10 @@ impl Slot {
             restarts: 0,
             late: false,
             failsafe_fired: false,
+            beacons_synced: 0,
+            beacon_seq: 0,
+            beacon_robots: 0,
+            beacons_sent_at: 0,
             last_error: None,
         }
     }

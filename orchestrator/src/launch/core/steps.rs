@@ -23,6 +23,7 @@ impl Core {
                 self.relay_frame += 1;
                 let sim_us = (now as f64 * self.setup.speed) as u64;
                 self.relay_dead(self.relay_frame, sim_us);
+                self.send_beacons(now);
                 self.relay_at = now + self.setup.wall_period_us.max(1);
             }
             if let Some(tick) = self.tick.as_mut() {
@@ -103,6 +104,16 @@ impl Core {
             },
             Phase::Settling(id, until) => {
                 if until.is_some_and(|u| now < u) {
+                    return false;
+                }
+                if !self.beacons_held(id, now) && self.slot_ref(id).is_some_and(|s| s.alive) {
+                    // More beacons than one send holds, or sent just now:
+                    // lockstep runs another tick (it moves no robot), real
+                    // time waits for the next period's send.
+                    if self.setup.lockstep {
+                        self.start_tick(now);
+                        return true;
+                    }
                     return false;
                 }
                 self.settled(id, now);
@@ -326,6 +337,8 @@ impl Core {
             self.send_bearing(id, &pose, t);
         }
         self.relay_dead(t, t * period);
+        // Before the `Tick`: an agent that answers it holds them.
+        self.send_beacons(t);
         self.ticks_started += 1;
         let live: Vec<u32> = self
             .slots
@@ -363,6 +376,9 @@ impl Core {
                 slot.decided_tick = Some(pose.step);
             }
             self.announce(id, kind, &pose);
+            if matches!(state, SlotState::Stuck | SlotState::Died) {
+                self.beacon_at(id, &pose);
+            }
             // A stuck real robot would keep pushing against what holds it:
             // motors off; it stays a beacon.
             if state == SlotState::Stuck && self.setup.agents.stop_when_stuck && running {

@@ -144,14 +144,6 @@ impl Agent {
         self.next_period = Some(t0 + (index + 1) * period_us);
     }
 
-    /// Another robot's pose on its topic.
-    pub fn peer_pose(&mut self, topic: u32, pose: &Pose) {
-        if self.alive && topic < self.id {
-            // Refused poses are counted by the process; nothing to do here.
-            let _ = self.core.observe_peer(RobotId(topic), pose);
-        }
-    }
-
     /// A command from the orchestrator.
     pub fn command(&mut self, cmd: &ToAgent, out: &mut Vec<Sent>) {
         if !self.alive {
@@ -207,6 +199,10 @@ impl Agent {
                 self.next_period = None;
             }
             ToAgent::Refused(_) => {}
+            ToAgent::Beacon(b) => {
+                // An out-of-sequence beacon is taken too; the process logs it.
+                let _ = self.core.beacon(b);
+            }
         }
     }
 

@@ -186,6 +186,7 @@ pub fn setup(case: &Case, schedule: &Schedule) -> Setup {
             start_hint: String::new(),
             placement: None,
             forward_poses: false,
+            beacons: true,
         },
         unix_base_ms: 0,
         settings: SETTINGS,

@@ -409,13 +409,9 @@ impl World<'_> {
                 self.core.handle(now, Input::Report(r));
             }
             Packet::Pose { topic, pose, relay } => {
+                // Agents sense the beacons the core sends them, not poses.
                 if !relay {
                     self.core.handle(now, Input::Pose { topic, pose });
-                }
-                for a in self.agents.iter_mut().flatten() {
-                    if !self.net.cut(a.id(), now) {
-                        a.peer_pose(topic, &pose);
-                    }
                 }
             }
             Packet::ToAgent(id, cmd) => {

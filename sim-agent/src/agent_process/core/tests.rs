@@ -17,8 +17,8 @@ fn drive(terrain: &Terrain, cfg: &RunConfig) -> Vec<(RobotEnd, Vec2, u64)> {
     let mut total = 0;
     for id in 1..=cfg.max_robots.unwrap_or(u32::MAX) {
         let mut core = AgentCore::new(RobotId(id), terrain.clone(), cfg.clone());
-        for p in &stuck {
-            core.observe_peer(p.robot, p).unwrap();
+        for (i, p) in stuck.iter().enumerate() {
+            core.beacon(&Beacon { robot: p.robot, x: p.x, y: p.y, seq: i as u32 + 1 }).unwrap();
         }
         let deploy = Deploy { robot: RobotId(id), x: start.x, y: start.y, heading: start.bearing_to(goal) };
         core.deploy(&deploy).unwrap();
@@ -92,11 +92,19 @@ fn refuses_foreign_and_malformed_messages() {
     assert_eq!(core.deploy(&nan), Err(Reject::NotFinite));
     assert_eq!(core.phase(), Phase::Idle);
     assert!(!core.step(), "an idle robot does not move");
-    let pose = Pose { robot: RobotId(1), x: 3.0, y: 3.0, heading: 0.0, step: 0, time_us: 0 };
-    assert_eq!(
-        core.observe_peer(RobotId(4), &pose),
-        Err(Reject::PoseOnWrongTopic { topic: RobotId(4), got: RobotId(1) })
-    );
+    let own = Beacon { robot: RobotId(2), x: 3.0, y: 3.0, seq: 1 };
+    assert_eq!(core.beacon(&own), Err(Reject::WrongRobot { got: RobotId(2) }));
+    let nan = Beacon { robot: RobotId(1), x: f64::NAN, y: 3.0, seq: 1 };
+    assert_eq!(core.beacon(&nan), Err(Reject::NotFinite));
+    let first = Beacon { robot: RobotId(1), x: 3.0, y: 3.0, seq: 1 };
+    assert_eq!(core.beacon(&first), Ok(()));
+    // Beacon 2 lost: 3 is taken (its position counts) and the gap reported.
+    let third = Beacon { robot: RobotId(4), x: 5.0, y: 3.0, seq: 3 };
+    assert_eq!(core.beacon(&third), Err(Reject::BeaconOutOfOrder { expected: 2, got: 3 }));
+    // A new position of robot 1 replaces the old one.
+    let moved = Beacon { robot: RobotId(1), x: 3.5, y: 3.0, seq: 4 };
+    assert_eq!(core.beacon(&moved), Ok(()));
+    assert_eq!(core.beacons().collect::<Vec<_>>(), [(1, Vec2::new(3.5, 3.0)), (4, Vec2::new(5.0, 3.0))]);
     let ok = Deploy { robot: RobotId(2), x: 15.5, y: 15.5, heading: 0.5 };
     core.deploy(&ok).unwrap();
     assert_eq!(core.deploy(&ok), Err(Reject::AlreadyDeployed));

@@ -40,7 +40,7 @@ type AgentThread = std::thread::JoinHandle<Result<ExitCause, BusError>>;
 /// of its commands.
 fn start_agent(bus: &MemoryBus, swarm: &Swarm, heartbeat: Duration) -> (Commands, AgentThread) {
     let commands = bus.typed_publisher::<ToAgent>(&swarm.to_agent(RobotId(1))).expect("commands");
-    let ports = AgentPorts::open(bus, swarm, RobotId(1), std::iter::empty()).expect("ports");
+    let ports = AgentPorts::open(bus, swarm, RobotId(1)).expect("ports");
     let timing =
         Timing { clock: Clock::Lockstep, period: Duration::from_millis(100), dt_us: 100_000, heartbeat };
     let agent = std::thread::spawn(move || {
