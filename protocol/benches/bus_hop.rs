@@ -16,7 +16,9 @@
 //! * `ours ...`: `IpcBus` through the byte traits (`publish` /
 //!   `recv_timeout_into`) with each wake strategy, and the typed layer
 //!   (encode + decode) with the default;
-//! * `memory`: the in-process backend, for reference.
+//! * `memory`: the in-process backend, for reference;
+//! * `fan-in of N`: the answer comes back through one fan-in over N report
+//!   topics (`Bus::fan_in`), as the launch reads every robot's reports.
 //!
 //! Run: `cargo bench -p bycoms-protocol --features ipc --bench bus_hop`
 //! (`BYCOMS_BENCH_SAMPLES=n` changes the sample count).
@@ -25,7 +27,7 @@ mod common;
 
 use bycoms_protocol::bus::ipc::{IpcBus, IpcConfig, Wake};
 use bycoms_protocol::bus::memory::MemoryBus;
-use bycoms_protocol::bus::{BusExt, Limits};
+use bycoms_protocol::bus::{Bus, BusExt, Limits, Publish, Subscribe};
 use bycoms_protocol::{RobotId, Swarm, MAX_MESSAGE_LEN};
 use common::{figures, message, names, ours, payload, ping_pong, us, WAIT, WARMUP};
 use core::time::Duration;
@@ -58,6 +60,43 @@ fn ours_typed(tag: &str, samples: usize) -> Vec<Duration> {
             let back = sub.recv_timeout(WAIT).expect("recv").expect("pong lost");
             record(t0.elapsed());
             assert_eq!(back, msg);
+        }
+    })
+}
+
+/// The orchestrator's side of a lockstep answer: the pong comes back on the
+/// last of `robots` report topics, read through one fan-in over all of
+/// them (`Bus::fan_in`, as the launch reads every robot's reports).
+fn ours_fan_in(tag: &str, robots: u32, samples: usize) -> Vec<Duration> {
+    let make = || {
+        IpcBus::new(IpcConfig { max_publishers: robots as usize + 4, ..IpcConfig::default() }).expect("node")
+    };
+    let swarm = Swarm::new(&format!("bench{}-{tag}", std::process::id())).expect("swarm");
+    let ping = *swarm.to_agent(RobotId(robots)).name();
+    let reports: Vec<_> = (1..=robots).map(|k| *swarm.from_agent(RobotId(k)).name()).collect();
+    let pong = reports[robots as usize - 1];
+    let payload = payload();
+    let echo = |n: usize, ready: mpsc::Sender<()>| {
+        let bus = make();
+        let sub = bus.subscriber(&ping).expect("subscriber");
+        let publ = bus.publisher(&pong).expect("publisher");
+        ready.send(()).expect("ready");
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        for _ in 0..n {
+            let len = sub.recv_timeout_into(&mut buf, WAIT).expect("recv").expect("ping lost");
+            publ.publish(&buf[..len]).expect("publish");
+        }
+    };
+    let bus = make();
+    let fan_in = bus.fan_in(&reports).expect("fan-in");
+    let publ = bus.publisher(&ping).expect("publisher");
+    ping_pong(samples, echo, |n, record| {
+        let mut buf = [0u8; MAX_MESSAGE_LEN + bycoms_protocol::bus::FAN_IN_TAG];
+        for _ in 0..n {
+            let t0 = Instant::now();
+            publ.publish(&payload).expect("publish");
+            fan_in.recv_timeout_into(&mut buf, WAIT).expect("recv").expect("pong lost");
+            record(t0.elapsed());
         }
     })
 }
@@ -180,6 +219,9 @@ fn main() {
         ("raw iceoryx2, event wait (no spin)", raw("raw-ev", true, samples)),
         ("ours IpcBus, Event spin 0", ours(&event_nospin, "ev0", samples)),
         ("ours MemoryBus", ours(&memory, "mem", samples)),
+        ("ours IpcBus, back through a fan-in of 3", ours_fan_in("fan3", 3, samples)),
+        ("ours IpcBus, back through a fan-in of 100", ours_fan_in("fan100", 100, samples)),
+        ("ours IpcBus, back through a fan-in of 1000", ours_fan_in("fan1000", 1000, samples / 10)),
         // The first row again, to expose drift (CPU frequency, other load).
         ("raw iceoryx2, spin (repeat)", raw("raw-spin2", false, samples)),
     ];
@@ -194,4 +236,7 @@ fn main() {
     println!("ours default / raw spin, p50: {:.2}x", ratio(1, 0));
     println!("ours typed / raw spin, p50: {:.2}x", ratio(2, 0));
     println!("ours spin 0 / raw event, p50: {:.2}x", ratio(5, 4));
+    println!("fan-in of 3 / ours default, p50: {:.2}x", ratio(7, 1));
+    println!("fan-in of 100 / ours default, p50: {:.2}x", ratio(8, 1));
+    println!("fan-in of 1000 / ours default, p50: {:.2}x", ratio(9, 1));
 }

@@ -141,15 +141,7 @@ impl TopicName {
     /// (iceoryx2 uses it as the topic's event service; backends that wake
     /// their readers otherwise ignore it.)
     pub fn doorbell(&self) -> TopicName {
-        let name = self.as_str();
-        let family = name.strip_suffix("/from_agent").and_then(|rest| rest.rsplit_once("/robot/")).filter(
-            |(swarm, id)| {
-                swarm.strip_prefix(ROOT).is_some_and(|s| s.starts_with('/') && s.matches('/').count() == 1)
-                    && !id.is_empty()
-                    && !id.contains('/')
-            },
-        );
-        match family {
+        match self.family() {
             Some((swarm, _)) => {
                 let mut buf = NameBuf { bytes: [0u8; TOPIC_NAME_MAX], len: 0 };
                 // Shorter than `self` (which is valid): cannot fail.
@@ -162,6 +154,24 @@ impl TopicName {
             }
             None => *self,
         }
+    }
+
+    /// Which member of its doorbell's family this topic is: the robot id of
+    /// a `from_agent` topic (a reader of the whole family learns from it
+    /// which topic rang); `None` for a topic that is its own doorbell.
+    pub fn doorbell_member(&self) -> Option<u32> {
+        self.family().and_then(|(_, id)| id.parse().ok())
+    }
+
+    /// `(bycoms/<swarm>, <id>)` of a `bycoms/<swarm>/robot/<id>/from_agent`.
+    fn family(&self) -> Option<(&str, &str)> {
+        self.as_str().strip_suffix("/from_agent").and_then(|rest| rest.rsplit_once("/robot/")).filter(
+            |(swarm, id)| {
+                swarm.strip_prefix(ROOT).is_some_and(|s| s.starts_with('/') && s.matches('/').count() == 1)
+                    && !id.is_empty()
+                    && id.bytes().all(|b| b.is_ascii_digit())
+            },
+        )
     }
 }
 

@@ -39,10 +39,12 @@
 //! [`IceoryxBus::new`] calls it first unless told not to. Where iceoryx2
 //! keeps those files, and how a run isolates its own, is [`root`].
 
+mod fan_in;
 mod ports;
 pub mod root;
 
-pub use ports::{IpcFanIn, IpcPublisher, IpcSubscriber};
+pub use fan_in::IpcFanIn;
+pub use ports::{IpcPublisher, IpcSubscriber};
 
 use super::{Bus, BusError, Limits};
 use crate::naming::TopicName;
@@ -244,7 +246,7 @@ impl<S: IoxService> Bus for IceoryxBus<S> {
     }
 
     fn fan_in(&self, topics: &[TopicName]) -> Result<IpcFanIn<S>, BusError> {
-        ports::open_fan_in(&self.node, &self.config, topics)
+        fan_in::open_fan_in(&self.node, &self.config, topics)
     }
 
     fn limits(&self) -> Limits {

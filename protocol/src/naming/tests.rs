@@ -22,6 +22,10 @@ fn reports_of_a_swarm_share_one_doorbell_and_nothing_else_does() {
     let s = swarm();
     let bell = s.from_agent(RobotId(3)).name().doorbell();
     assert_eq!(bell.as_str(), "bycoms/lab-1/from_agents");
+    assert_eq!(s.from_agent(RobotId(3)).name().doorbell_member(), Some(3));
+    assert_eq!(s.from_agent(RobotId(u32::MAX)).name().doorbell_member(), Some(u32::MAX));
+    assert_eq!(s.pose(RobotId(3)).name().doorbell_member(), None);
+    assert_eq!(bell.doorbell_member(), None);
     assert_eq!(s.from_agent(RobotId(u32::MAX)).name().doorbell(), bell);
     let other = Swarm::new("lab-2").expect("valid swarm");
     assert_ne!(other.from_agent(RobotId(3)).name().doorbell(), bell);

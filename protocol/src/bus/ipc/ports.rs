@@ -19,7 +19,7 @@ use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
-use iceoryx2::prelude::{AllocationStrategy, Node, ServiceName};
+use iceoryx2::prelude::{AllocationStrategy, EventId, Node, ServiceName};
 use iceoryx2::service::port_factory::{event, publish_subscribe};
 use iceoryx2::service::Service as IoxService;
 use std::time::Instant;
@@ -33,11 +33,11 @@ pub const EVENT_WAIT_SLICE: Duration = Duration::from_millis(10);
 /// blocked until the next notification, forever if none came.
 pub const MIN_EVENT_WAIT: Duration = Duration::from_micros(1);
 /// First sleep of [`Wake::Poll`] after the spin budget.
-const POLL_FIRST_SLEEP: Duration = Duration::from_micros(20);
+pub(super) const POLL_FIRST_SLEEP: Duration = Duration::from_micros(20);
 /// Stand-in deadline for timeouts too large for `Instant`.
-const FAR_FUTURE: Duration = Duration::from_secs(3600);
+pub(super) const FAR_FUTURE: Duration = Duration::from_secs(3600);
 
-fn pubsub_service<S: IoxService>(
+pub(super) fn pubsub_service<S: IoxService>(
     node: &Node<S>,
     config: &IpcConfig,
     topic: &TopicName,
@@ -56,7 +56,14 @@ fn pubsub_service<S: IoxService>(
         .map_err(|e| BusError::backend("open publish-subscribe service", Some(topic), e))
 }
 
-fn event_service<S: IoxService>(
+/// The largest event id of every event service: a report topic rings its
+/// doorbell with its robot's id (up to the bus's publisher limit, which
+/// grows with the swarm), so a fan-in knows which topic to read.
+pub(super) fn event_id_max(config: &IpcConfig) -> usize {
+    config.max_publishers.max(255)
+}
+
+pub(super) fn event_service<S: IoxService>(
     node: &Node<S>,
     config: &IpcConfig,
     topic: &TopicName,
@@ -65,6 +72,7 @@ fn event_service<S: IoxService>(
     let (publishers, subscribers) = config.ports_of(topic);
     node.service_builder(name)
         .event()
+        .event_id_max_value(event_id_max(config))
         .max_notifiers(publishers)
         .max_listeners(subscribers)
         .max_nodes(config.max_nodes)
@@ -94,7 +102,14 @@ pub(super) fn open_publisher<S: IoxService>(
         ),
         Wake::Poll { .. } => None,
     };
-    Ok(IpcPublisher { publisher, notifier, topic: *topic, max_payload: config.limits.max_payload })
+    let member = topic.doorbell_member().map(|k| k as usize).filter(|&k| k <= event_id_max(config));
+    Ok(IpcPublisher {
+        publisher,
+        notifier,
+        member: member.map(EventId::new),
+        topic: *topic,
+        max_payload: config.limits.max_payload,
+    })
 }
 
 pub(super) fn open_subscriber<S: IoxService>(
@@ -114,7 +129,11 @@ pub(super) fn open_subscriber<S: IoxService>(
 
 /// How a reader of `bell`'s topics is woken: on `bell`'s event service
 /// (its publishers ring it), or by polling.
-fn waker<S: IoxService>(node: &Node<S>, config: &IpcConfig, bell: &TopicName) -> Result<Waker<S>, BusError> {
+pub(super) fn waker<S: IoxService>(
+    node: &Node<S>,
+    config: &IpcConfig,
+    bell: &TopicName,
+) -> Result<Waker<S>, BusError> {
     Ok(match config.wake {
         Wake::Event { spin } => Waker::Event {
             spin,
@@ -132,46 +151,12 @@ pub(super) fn service_name(topic: &TopicName) -> Result<ServiceName, BusError> {
     ServiceName::new(topic.as_str()).map_err(|e| BusError::backend("name service", Some(topic), e))
 }
 
-/// A fan-in (see [`crate::bus::Bus::fan_in`]): one subscriber per topic,
-/// woken by the topics' shared doorbell.
-pub(super) fn open_fan_in<S: IoxService>(
-    node: &Node<S>,
-    config: &IpcConfig,
-    topics: &[TopicName],
-) -> Result<IpcFanIn<S>, BusError> {
-    let Some(first) = topics.first() else {
-        return Err(BusError::InvalidConfig("a fan-in needs at least one topic"));
-    };
-    let bell = first.doorbell();
-    if topics.iter().any(|t| t.doorbell() != bell) {
-        return Err(BusError::InvalidConfig("the topics of a fan-in must share one doorbell"));
-    }
-    if u32::try_from(topics.len()).is_err() {
-        return Err(BusError::InvalidConfig("more than 2^32 topics in a fan-in"));
-    }
-    let subscribers = topics
-        .iter()
-        .map(|topic| {
-            pubsub_service(node, config, topic, &service_name(topic)?)?
-                .subscriber_builder()
-                .buffer_size(config.limits.buffer)
-                .create()
-                .map_err(|e| BusError::backend("create subscriber", Some(topic), e))
-        })
-        .collect::<Result<Vec<_>, BusError>>()?;
-    Ok(IpcFanIn {
-        subscribers,
-        waker: waker(node, config, &bell)?,
-        bell,
-        next: core::cell::Cell::new(0),
-        max_payload: config.limits.max_payload + crate::bus::FAN_IN_TAG,
-    })
-}
-
 /// Publisher of an [`super::IceoryxBus`].
 pub struct IpcPublisher<S: IoxService> {
     publisher: Publisher<S, [u8], ()>,
     notifier: Option<Notifier<S>>,
+    /// Rung with this event id: which member of its doorbell's family it is.
+    member: Option<EventId>,
     topic: TopicName,
     max_payload: usize,
 }
@@ -188,13 +173,17 @@ impl<S: IoxService> Publish for IpcPublisher<S> {
             .map_err(|e| BusError::backend("loan sample", topic, e))?;
         sample.write_from_slice(payload).send().map_err(|e| BusError::backend("send", topic, e))?;
         if let Some(notifier) = &self.notifier {
-            notifier.notify().map_err(|e| BusError::backend("notify", topic, e))?;
+            match self.member {
+                Some(id) => notifier.notify_with_custom_event_id(id),
+                None => notifier.notify(),
+            }
+            .map_err(|e| BusError::backend("notify", topic, e))?;
         }
         Ok(())
     }
 }
 
-enum Waker<S: IoxService> {
+pub(super) enum Waker<S: IoxService> {
     Event { spin: Duration, listener: Listener<S> },
     Poll { spin: Duration, max_sleep: Duration },
 }
@@ -203,12 +192,12 @@ enum Waker<S: IoxService> {
 /// at most [`EVENT_WAIT_SLICE`] and never less than [`MIN_EVENT_WAIT`] (a
 /// deadline within the last microsecond is overslept by under 1 µs instead
 /// of not at all, but never by forever).
-fn event_wait(left: Duration) -> Duration {
+pub(super) fn event_wait(left: Duration) -> Duration {
     left.clamp(MIN_EVENT_WAIT, EVENT_WAIT_SLICE)
 }
 
 /// How a sleep of [`IpcSubscriber::sleep`] ended.
-enum Slept {
+pub(super) enum Slept {
     /// Woken by a notification or the timeout: look again.
     Again,
     /// Cut short by a signal.
@@ -226,7 +215,12 @@ pub struct IpcSubscriber<S: IoxService> {
 impl<S: IoxService> Waker<S> {
     /// Sleeps until a notification or for at most `left` (`left` > 0);
     /// `poll_sleep` is [`Wake::Poll`]'s current step.
-    fn sleep(&self, topic: &TopicName, left: Duration, poll_sleep: &mut Duration) -> Result<Slept, BusError> {
+    pub(super) fn sleep(
+        &self,
+        topic: &TopicName,
+        left: Duration,
+        poll_sleep: &mut Duration,
+    ) -> Result<Slept, BusError> {
         match self {
             Waker::Event { listener, .. } => match listener.timed_wait(|_| {}, event_wait(left)) {
                 Ok(_) => Ok(Slept::Again),
@@ -297,51 +291,6 @@ fn wait_for<S: IoxService>(
             // at its flags, like a wait that timed out.
             return try_recv(buf);
         }
-    }
-}
-
-/// A fan-in of an [`super::IceoryxBus`]: subscribers of several topics
-/// that share one doorbell, read round robin (no topic starves another).
-pub struct IpcFanIn<S: IoxService> {
-    subscribers: Vec<Subscriber<S, [u8], ()>>,
-    waker: Waker<S>,
-    bell: TopicName,
-    next: core::cell::Cell<usize>,
-    max_payload: usize,
-}
-
-impl<S: IoxService> Subscribe for IpcFanIn<S> {
-    fn max_payload(&self) -> usize {
-        self.max_payload
-    }
-
-    fn try_recv_into(&self, buf: &mut [u8]) -> Result<Option<usize>, BusError> {
-        let n = self.subscribers.len();
-        let first = self.next.get();
-        for k in 0..n {
-            let i = (first + k) % n;
-            let Some(subscriber) = self.subscribers.get(i) else { continue };
-            match subscriber.receive() {
-                Ok(Some(sample)) => {
-                    self.next.set((i + 1) % n);
-                    let (tag, rest) = buf.split_first_chunk_mut::<{ crate::bus::FAN_IN_TAG }>().ok_or(
-                        BusError::BufferTooSmall {
-                            len: sample.payload().len() + crate::bus::FAN_IN_TAG,
-                            capacity: 0,
-                        },
-                    )?;
-                    *tag = (i as u32).to_le_bytes();
-                    return copy_out(sample.payload(), rest).map(|len| Some(len + crate::bus::FAN_IN_TAG));
-                }
-                Ok(None) => {}
-                Err(e) => return Err(BusError::backend("receive", Some(&self.bell), e)),
-            }
-        }
-        Ok(None)
-    }
-
-    fn recv_timeout_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError> {
-        wait_for(&self.waker, &self.bell, buf, timeout, |buf| self.try_recv_into(buf))
     }
 }
 

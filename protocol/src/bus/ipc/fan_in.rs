@@ -1,0 +1,211 @@
+//! The iceoryx2 fan-in: one receiver of many topics that share a doorbell.
+//!
+//! Why hints: the orchestrator reads every robot's report topic, up to a
+//! thousand of them; polling each subscriber for every message cost about
+//! 0.4 ms per message at 1000 topics (a round trip 17× the plain one,
+//! `protocol/benches/bus_hop.rs`). A topic's publisher rings the shared
+//! doorbell with its member id ([`TopicName::doorbell_member`], the robot
+//! id), so the fan-in reads only the topics that rang. A notification
+//! without a known id, a wait that ended without one, and a bus without
+//! event wake-ups fall back to one round over every topic, so nothing is
+//! ever left unread for longer than one wait slice.
+
+use super::ports::{
+    event_wait, pubsub_service, service_name, waker, Slept, Waker, FAR_FUTURE, POLL_FIRST_SLEEP,
+};
+use super::IpcConfig;
+use crate::bus::{copy_out, BusError, Subscribe, FAN_IN_TAG};
+use crate::naming::TopicName;
+use core::cell::{Cell, RefCell};
+use core::time::Duration;
+use iceoryx2::port::listener::ListenerWaitError;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::Node;
+use iceoryx2::service::Service as IoxService;
+use std::collections::{BTreeMap, VecDeque};
+use std::time::Instant;
+
+/// A fan-in (see [`crate::bus::Bus::fan_in`]): one subscriber per topic,
+/// woken by the topics' shared doorbell.
+pub(super) fn open_fan_in<S: IoxService>(
+    node: &Node<S>,
+    config: &IpcConfig,
+    topics: &[TopicName],
+) -> Result<IpcFanIn<S>, BusError> {
+    let Some(first) = topics.first() else {
+        return Err(BusError::InvalidConfig("a fan-in needs at least one topic"));
+    };
+    let bell = first.doorbell();
+    if topics.iter().any(|t| t.doorbell() != bell) {
+        return Err(BusError::InvalidConfig("the topics of a fan-in must share one doorbell"));
+    }
+    if u32::try_from(topics.len()).is_err() {
+        return Err(BusError::InvalidConfig("more than 2^32 topics in a fan-in"));
+    }
+    let subscribers = topics
+        .iter()
+        .map(|topic| {
+            pubsub_service(node, config, topic, &service_name(topic)?)?
+                .subscriber_builder()
+                .buffer_size(config.limits.buffer)
+                .create()
+                .map_err(|e| BusError::backend("create subscriber", Some(topic), e))
+        })
+        .collect::<Result<Vec<_>, BusError>>()?;
+    let members =
+        topics.iter().enumerate().filter_map(|(i, t)| t.doorbell_member().map(|m| (m as usize, i))).collect();
+    Ok(IpcFanIn {
+        subscribers,
+        members,
+        waker: waker(node, config, &bell)?,
+        bell,
+        rang: RefCell::new(VecDeque::new()),
+        round: Cell::new(true),
+        next: Cell::new(0),
+        max_payload: config.limits.max_payload + FAN_IN_TAG,
+    })
+}
+
+/// A fan-in of an [`super::IceoryxBus`]: subscribers of several topics
+/// that share one doorbell, read where the doorbell says.
+pub struct IpcFanIn<S: IoxService> {
+    subscribers: Vec<Subscriber<S, [u8], ()>>,
+    /// A doorbell member id → the index of its topic.
+    members: BTreeMap<usize, usize>,
+    waker: Waker<S>,
+    bell: TopicName,
+    /// Topics that rang and may hold messages, oldest first.
+    rang: RefCell<VecDeque<usize>>,
+    /// Whether a round over every topic is due.
+    round: Cell<bool>,
+    /// Where the next round starts (no topic starves another).
+    next: Cell<usize>,
+    max_payload: usize,
+}
+
+impl<S: IoxService> IpcFanIn<S> {
+    /// Notes which topics rang (a ring without a known member asks for a
+    /// round).
+    fn note(&self, id: usize) {
+        match self.members.get(&id) {
+            Some(&i) => self.rang.borrow_mut().push_back(i),
+            None => self.round.set(true),
+        }
+    }
+
+    /// Takes the rings that came, without waiting.
+    fn take_rings(&self) -> Result<(), BusError> {
+        match &self.waker {
+            Waker::Event { listener, .. } => {
+                listener
+                    .try_wait(|a| self.note(a.id.as_value()))
+                    .map_err(|e| BusError::backend("read doorbell", Some(&self.bell), e))?;
+            }
+            Waker::Poll { .. } => self.round.set(true),
+        }
+        Ok(())
+    }
+
+    /// The next message of topic `i` into `buf`, tagged.
+    fn take(&self, i: usize, buf: &mut [u8]) -> Result<Option<usize>, BusError> {
+        let Some(subscriber) = self.subscribers.get(i) else { return Ok(None) };
+        match subscriber.receive() {
+            Ok(Some(sample)) => {
+                let len = sample.payload().len() + FAN_IN_TAG;
+                let (tag, rest) = buf
+                    .split_first_chunk_mut::<FAN_IN_TAG>()
+                    .ok_or(BusError::BufferTooSmall { len, capacity: 0 })?;
+                *tag = (i as u32).to_le_bytes();
+                copy_out(sample.payload(), rest).map(|n| Some(n + FAN_IN_TAG))
+            }
+            Ok(None) => Ok(None),
+            Err(e) => Err(BusError::backend("receive", Some(&self.bell), e)),
+        }
+    }
+
+    /// Sleeps on the doorbell for at most `left`, noting who rang.
+    fn sleep(&self, left: Duration, poll_sleep: &mut Duration) -> Result<Slept, BusError> {
+        match &self.waker {
+            Waker::Event { listener, .. } => {
+                match listener.timed_wait(|a| self.note(a.id.as_value()), event_wait(left)) {
+                    // Nothing rang for a whole slice: look everywhere once.
+                    Ok(0) => {
+                        self.round.set(true);
+                        Ok(Slept::Again)
+                    }
+                    Ok(_) => Ok(Slept::Again),
+                    Err(ListenerWaitError::InterruptSignal) => Ok(Slept::Interrupted),
+                    Err(e) => Err(BusError::backend("wait for event", Some(&self.bell), e)),
+                }
+            }
+            Waker::Poll { .. } => {
+                let slept = self.waker.sleep(&self.bell, left, poll_sleep);
+                self.round.set(true);
+                slept
+            }
+        }
+    }
+}
+
+impl<S: IoxService> Subscribe for IpcFanIn<S> {
+    fn max_payload(&self) -> usize {
+        self.max_payload
+    }
+
+    fn try_recv_into(&self, buf: &mut [u8]) -> Result<Option<usize>, BusError> {
+        self.take_rings()?;
+        // Topics that rang, until each is empty.
+        loop {
+            let Some(i) = self.rang.borrow().front().copied() else { break };
+            if let Some(n) = self.take(i, buf)? {
+                return Ok(Some(n));
+            }
+            self.rang.borrow_mut().pop_front();
+        }
+        if !self.round.get() {
+            return Ok(None);
+        }
+        let n = self.subscribers.len();
+        let first = self.next.get();
+        for k in 0..n {
+            let i = (first + k) % n;
+            if let Some(len) = self.take(i, buf)? {
+                self.next.set((i + 1) % n);
+                return Ok(Some(len));
+            }
+        }
+        self.round.set(false);
+        Ok(None)
+    }
+
+    fn recv_timeout_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError> {
+        let start = Instant::now();
+        let deadline = start.checked_add(timeout);
+        let spin = match &self.waker {
+            Waker::Event { spin, .. } | Waker::Poll { spin, .. } => *spin,
+        };
+        let mut poll_sleep = POLL_FIRST_SLEEP;
+        loop {
+            if let Some(n) = self.try_recv_into(buf)? {
+                return Ok(Some(n));
+            }
+            let now = Instant::now();
+            let left = match deadline {
+                Some(d) => d.saturating_duration_since(now),
+                None => FAR_FUTURE,
+            };
+            if left.is_zero() {
+                return Ok(None);
+            }
+            if now.duration_since(start) < spin {
+                core::hint::spin_loop();
+                continue;
+            }
+            if let Slept::Interrupted = self.sleep(left, &mut poll_sleep)? {
+                // A signal cut the wait short: return so the caller can
+                // look at its flags, like a wait that timed out.
+                return self.try_recv_into(buf);
+            }
+        }
+    }
+}
