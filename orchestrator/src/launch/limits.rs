@@ -1,8 +1,9 @@
 //! What a launch needs of the machine, checked before anything starts.
 //!
 //! Why: over iceoryx2 every port is a handful of open files (shared-memory
-//! segments and event sockets), and the last agent of an n-robot launch
-//! listens to n − 1 peers, the orchestrator to all n robots. With the
+//! segments and event sockets), and the orchestrator opens ports for all n
+//! robots (each robot's commands, pose and reports; the agents are sent
+//! their beacons and open a few ports each). With the
 //! common `ulimit -n 1024` a 100-robot launch used to die after 30 s, at
 //! robot 46, with "PublishSubscribeCreateError(InternalFailure)" and no word
 //! about files. So before the bus is opened the launch estimates the open
