@@ -70,6 +70,14 @@ pub const TELEMETRY: &str = "bycoms.Telemetry";
 /// A gate decision as JSON (`gate/json`).
 pub const GATE_DECISION: &str = "bycoms.GateDecision";
 
+// The live view's own JSON channels (`crate::live`): not recorded, named here with the rest
+// so that one file lists every schema name the orchestrator writes.
+
+/// The live view's run state (`crate::live`).
+pub const LIVE_STATE: &str = "bycoms.live.State";
+/// The live view's world (`crate::live`).
+pub const LIVE_WORLD: &str = "bycoms.live.World";
+
 /// Name of the metadata record that says what the log times mean.
 pub const CLOCK_METADATA: &str = "bycoms.clock";
 
