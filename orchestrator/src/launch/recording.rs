@@ -215,7 +215,8 @@ impl Recording {
     /// as bytes and is skipped here) into the scene and the trace, by the
     /// rules every reader of the file decodes them by (`record::decode`).
     fn decoded(&mut self, topic: &str, schema: &str, payload: &[u8], now: u64) {
-        // Only these feed the scene: commands (most of the traffic) are not decoded twice.
+        // Only these feed the scene and the trace; the rest (commands are most of
+        // the traffic) is not decoded here.
         if !matches!(schema, schema::POSE | schema::GATE | schema::FROM_AGENT) {
             return;
         }
