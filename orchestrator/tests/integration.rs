@@ -19,6 +19,7 @@ mod open_files;
 mod outputs;
 mod pictures;
 mod pose_source_suite;
+mod readers_agree;
 mod record;
 mod suites;
 mod transport_suite;

@@ -2,7 +2,8 @@
 //! recording's inputs and check it reaches the recorded decisions
 //! (see [`crate::replay`]). Exit 0 when every decision matches, 1 on any
 //! mismatch or an unreadable file (a file that is not an MCAP recording is
-//! `record::check_recording`'s error, the same as for `draw` and `record recover`).
+//! the recording reader's error, `record::Reader`, the same as for `draw`
+//! and `record recover`).
 
 use crate::exit;
 use crate::replay::{read_recording, rejudge, Comparison, Line};
@@ -22,8 +23,8 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<i32> {
-    // "Not a recording" is the same error (and exit 1) as for `draw` and `record recover`.
-    crate::record::check_recording(&args.file)?;
+    // "Not a recording" is the same error (and exit 1) as for `draw` and
+    // `record recover`: the three read with one reader.
     let recorded = read_recording(&args.file)?;
     if let Some(why) = &recorded.stopped_by {
         tracing::warn!("the recording ends early ({why}); replaying what it holds");

@@ -12,12 +12,9 @@ use super::summary::Point;
 use schemars::JsonSchema;
 use serde::Serialize;
 
-/// Schema name of the run metadata channel.
-pub const RUN_SCHEMA: &str = "bycoms.LaunchConfig";
-/// Schema name of the events channel.
-pub const EVENT_SCHEMA: &str = "bycoms.LaunchEvent";
-/// Schema name of the summary channel.
-pub const SUMMARY_SCHEMA: &str = "bycoms.LaunchSummary";
+/// Schema names of the run metadata, events and summary channels (defined
+/// with every other schema name in `crate::record::schema`).
+pub use crate::record::schema::{EVENT as EVENT_SCHEMA, RUN as RUN_SCHEMA, SUMMARY as SUMMARY_SCHEMA};
 
 /// What happened to a robot's agent.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, JsonSchema)]

@@ -30,19 +30,8 @@ type Sub = AnySubscriber;
 
 const WHO: &str = "launch";
 
-/// Schema names in the recording.
-pub mod schema {
-    /// Orchestrator → agent commands.
-    pub const TO_AGENT: &str = "bycoms.ToAgent";
-    /// Agent → orchestrator reports.
-    pub const FROM_AGENT: &str = "bycoms.FromAgent";
-    /// Motion capture.
-    pub const POSE: &str = "bycoms.Pose";
-    /// Gate decisions.
-    pub const GATE: &str = "bycoms.GateEvent";
-    /// Placement requests to the lab's operator.
-    pub const OPERATOR: &str = "bycoms.Deploy";
-}
+/// Schema names in the recording: the recording's own, defined once.
+pub use crate::record::schema;
 
 /// Every port the orchestrator uses, and what it counted.
 pub struct Ports {

@@ -25,15 +25,14 @@
 //! metadata record.
 
 use super::config::{Clock, LaunchConfig};
-use super::events::{RunMeta, RUN_SCHEMA};
-use super::ports::schema;
+use super::events::RunMeta;
 use super::World;
 use crate::draw::trace::Trace;
+use crate::record::decode::{decode, Content};
+use crate::record::schema::{self, Topics, CLOCK_METADATA};
 use crate::record::{RecordError, Recorder, Summary};
 use crate::scene::json::json_schema;
 use crate::scene::{Out, Scene, SceneWorld, SharedScene};
-use bycoms_protocol::decode;
-use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use schemars::JsonSchema;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -43,9 +42,6 @@ use std::time::{SystemTime, UNIX_EPOCH};
 pub fn now_ns() -> u64 {
     SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_nanos() as u64).unwrap_or(0)
 }
-
-/// Name of the metadata record that says what the log times mean.
-pub const CLOCK_METADATA: &str = "bycoms.clock";
 
 /// The recording of one launch (or nothing), and the trace of its picture.
 pub struct Recording {
@@ -130,7 +126,7 @@ impl Recording {
             goal: world.goal,
             config: cfg,
         };
-        rec.json(&format!("bycoms/{swarm}/run"), RUN_SCHEMA, &meta);
+        rec.json(&Topics::new(swarm).run(), schema::RUN, &meta);
     }
 
     /// What the scene produced since the last call, for the observers.
@@ -168,7 +164,7 @@ impl Recording {
         }
         let now = self.now();
         self.with(|r| r.record_bytes(topic, schema, now, now, payload));
-        self.decoded(schema, payload, now);
+        self.decoded(topic, schema, payload, now);
     }
 
     /// Records one JSON message on a channel whose schema is `T`'s JSON
@@ -186,7 +182,7 @@ impl Recording {
         };
         let now = self.now();
         let schema = || Some(foxglove::Schema::new(schema, "jsonschema", json_schema::<T>()));
-        self.with(|r| r.record_encoded(topic, "json", schema, now, &bytes));
+        self.with(|r| r.record_encoded(topic, schema::JSON, schema, now, &bytes));
     }
 
     /// The picture's trace (`launch --svg`), taken once.
@@ -216,27 +212,28 @@ impl Recording {
     }
 
     /// Decodes poses, gate events and agent reports (garbage was recorded
-    /// as bytes and is skipped here) into the scene and the trace.
-    fn decoded(&mut self, schema: &str, payload: &[u8], now: u64) {
-        let outs = match schema {
-            schema::POSE => {
-                let Ok(pose) = decode::<Pose>(payload) else { return };
+    /// as bytes and is skipped here) into the scene and the trace, by the
+    /// rules every reader of the file decodes them by (`record::decode`).
+    fn decoded(&mut self, topic: &str, schema: &str, payload: &[u8], now: u64) {
+        // Only these feed the scene and the trace; the rest (commands are most of
+        // the traffic) is not decoded here.
+        if !matches!(schema, schema::POSE | schema::GATE | schema::FROM_AGENT) {
+            return;
+        }
+        let outs = match decode(topic, schema, schema::POSTCARD, payload) {
+            Content::Pose(pose) => {
                 if let Some(trace) = self.trace.as_mut() {
                     trace.pose(&pose);
                 }
                 self.scene.as_ref().map(|s| s.lock().pose(&pose, now))
             }
-            schema::GATE => {
-                let Ok(event) = decode::<GateEvent>(payload) else { return };
+            Content::Gate(event) => {
                 if let Some(trace) = self.trace.as_mut() {
                     trace.gate(&event);
                 }
                 self.scene.as_ref().map(|s| s.lock().gate(&event, now))
             }
-            schema::FROM_AGENT => {
-                let Ok(report) = decode::<FromAgent>(payload) else { return };
-                self.scene.as_ref().map(|s| s.lock().report(&report, now))
-            }
+            Content::Report(report) => self.scene.as_ref().map(|s| s.lock().report(&report, now)),
             _ => None,
         };
         if let Some(outs) = outs {
@@ -278,7 +275,7 @@ impl Recording {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use bycoms_protocol::msg::GateKind;
+    use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
     use bycoms_protocol::{encode, RobotId, MAX_MESSAGE_LEN};
 
     fn world() -> World {

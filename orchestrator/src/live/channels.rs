@@ -23,6 +23,7 @@
 use super::state::{LiveState, WorldView};
 use crate::launch::recording::now_ns;
 use crate::launch::{LaunchConfig, World};
+use crate::record::schema;
 use crate::scene::json::json_schema;
 use crate::scene::{Out, SharedScene};
 use bycoms_protocol::msg::{GateEvent, Pose};
@@ -113,7 +114,7 @@ impl Inner {
 
     fn send_state(&mut self, context: &Arc<Context>, sink: Option<SinkId>) {
         let Some(topic) = self.run.as_ref().map(|r| r.state_topic.clone()) else { return };
-        let schema = Schema::new("bycoms.live.State", "jsonschema", json_schema::<LiveState>());
+        let schema = Schema::new(schema::LIVE_STATE, "jsonschema", json_schema::<LiveState>());
         let (Some(channel), Some(bytes)) =
             (self.channel(context, &topic, "json", Some(schema)), to_json(&self.state))
         else {
@@ -142,7 +143,7 @@ impl Channels {
         let mut inner = self.inner();
         let run =
             Run { world_topic: world_topic(swarm), state_topic: state_topic(swarm), world: bytes, scene };
-        let schema = Schema::new("bycoms.live.World", "jsonschema", json_schema::<WorldView>());
+        let schema = Schema::new(schema::LIVE_WORLD, "jsonschema", json_schema::<WorldView>());
         if let Some(channel) = inner.channel(&self.context, &run.world_topic, "json", Some(schema)) {
             channel.log(&run.world);
         }

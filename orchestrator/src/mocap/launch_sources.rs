@@ -16,16 +16,16 @@ use super::replay_source::ReplayPoseSource;
 use super::ArenaPose;
 use crate::launch::poses::{PoseError, PoseSink, PoseSource};
 use crate::mocap::PlacementConfig;
-use crate::replay::read::{NATNET_FRAME_SCHEMA, NATNET_MODELDEF_SCHEMA};
+use crate::record::schema::{NATNET_FRAME, NATNET_MODELDEF};
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::RobotId;
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Duration;
 
 /// Recording leaf of the frames.
-pub const FRAME_LEAF: &str = "mocap/natnet";
+pub const FRAME_LEAF: &str = crate::record::schema::NATNET_FRAME_LEAF;
 /// Recording leaf of the model definitions.
-pub const MODELDEF_LEAF: &str = "mocap/natnet_modeldef";
+pub const MODELDEF_LEAF: &str = crate::record::schema::NATNET_MODELDEF_LEAF;
 
 /// NatNet behind the seam.
 pub struct NatNetPoses {
@@ -93,11 +93,7 @@ impl PoseSource for NatNetPoses {
     fn drain(&mut self, sink: &mut PoseSink<'_>) -> Result<(), PoseError> {
         if !self.defs_recorded {
             self.defs_recorded = true;
-            sink.record_source_bytes(
-                MODELDEF_LEAF,
-                NATNET_MODELDEF_SCHEMA,
-                &self.source.model_definitions_packet(),
-            );
+            sink.record_source_bytes(MODELDEF_LEAF, NATNET_MODELDEF, &self.source.model_definitions_packet());
         }
         loop {
             self.forget_carried();
@@ -105,7 +101,7 @@ impl PoseSource for NatNetPoses {
             else {
                 break;
             };
-            sink.record_source_bytes(FRAME_LEAF, NATNET_FRAME_SCHEMA, self.source.last_frame().0);
+            sink.record_source_bytes(FRAME_LEAF, NATNET_FRAME, self.source.last_frame().0);
             for pose in batch.poses.iter().filter(|p| self.opened.contains(&p.robot.0)) {
                 if let Some(last) = self.carried.get_mut(&pose.robot.0) {
                     *last = Some(*pose);

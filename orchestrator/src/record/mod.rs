@@ -24,8 +24,12 @@
 //! * Metadata records ([`Recorder::write_metadata`]), e.g. `bycoms.clock`: what the log times
 //!   mean (simulated time in lockstep, wall clock in real time).
 //!
-//! A cut recording is completed by [`rewrite`] (`orchestrator record recover`); which files a
-//! recording may replace is the rule every output follows ([`crate::out::files`]).
+//! Every schema name and the recording's own topics are defined once, in [`schema`]. A
+//! recording is read back by one streaming reader ([`Reader`], [`read`]) and its messages are
+//! decoded in one place ([`decode`]): `draw` ([`run`]), `replay` and `record recover`
+//! ([`recover`], [`rewrite`]) share both, so they agree on what a file holds and where a cut
+//! file stops. A cut recording is completed by [`rewrite`] (`orchestrator record recover`);
+//! which files a recording may replace is the rule every output follows ([`crate::out::files`]).
 //!
 //! # Topic naming
 //!
@@ -51,8 +55,9 @@
 //!   that the tail of a quiet period is not held back until the next message. Both ask the one
 //!   clock of the recorder: one chunk a second, not one per timer (two clocks that drift cut
 //!   twice as many, smaller chunks, which compress worse and index more);
-//! * after a crash the file has no summary or footer; [`read_counts`] / [`recover`] (and
-//!   `mcap recover`, or any streaming MCAP reader) read it front to back and keep every message
+//! * after a crash the file has no summary or footer; [`Reader`] (behind [`read_counts`],
+//!   [`recover`], `draw` and `replay`; and `mcap recover`, or any streaming MCAP reader) reads it
+//!   front to back and keeps every message
 //!   before the first damaged record — every complete chunk, wherever the file was cut, even
 //!   inside a chunk or its message indexes (`every_cut_of_a_file_reads_without_error_and_counts_grow`
 //!   cuts a file at every third byte). What is lost is at most what arrived since the last flush.
@@ -79,10 +84,12 @@
 //! case); it does not `fsync` every second. [`Recorder::finish`] writes the summary and footer and
 //! `fsync`s the file once.
 
+pub mod decode;
 mod error;
-mod read;
+pub mod read;
 mod rewrite;
 pub mod run;
+pub mod schema;
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
@@ -93,8 +100,9 @@ use mcap::records::MessageHeader;
 use mcap::{WriteOptions, Writer};
 
 pub use error::RecordError;
-pub use read::{check_recording, open_recording, read_counts, recover, Recovered};
+pub use read::{open_recording, read_counts, recover, End, Item, Reader, Recovered};
 pub use rewrite::rewrite;
+pub use schema::{JSON, POSTCARD};
 
 /// The longest time data may sit in memory before `record_*` flushes it on its own.
 pub const FLUSH_INTERVAL: Duration = Duration::from_secs(1);
@@ -105,12 +113,6 @@ pub const COMPRESSION: Option<mcap::Compression> = Some(mcap::Compression::Zstd)
 /// The uncompressed size past which a chunk is closed even before [`FLUSH_INTERVAL`]: the
 /// `mcap` writer's default (1 MiB), the memory one open chunk may take.
 pub const CHUNK_SIZE: u64 = 1024 * 1024;
-
-/// Message encoding of raw protocol bytes.
-pub const POSTCARD: &str = "postcard";
-
-/// Message encoding of [`Recorder::record_json`] records.
-pub const JSON: &str = "json";
 
 /// What [`Recorder::finish`] reports about the finished file.
 #[derive(Debug, Clone, PartialEq, Eq)]

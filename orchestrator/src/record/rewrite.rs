@@ -7,19 +7,19 @@
 //! copies every schema, channel, message (log and publish times, sequence
 //! numbers, bytes) and metadata record up to the first damaged record into
 //! a new file, finished with summary and footer, so every reader opens it.
-//! It streams through the `mcap` crate's sans-IO linear reader (chunks are
-//! opened by the reader) and writes with the crate's writer: nothing of the
-//! format is hand-written here.
+//! It reads with the recording's one streaming reader ([`Reader::stream`],
+//! the walk [`super::recover`] counts with, so the copy keeps exactly the
+//! messages `recover` finds) and writes with the `mcap` crate's writer:
+//! nothing of the format is hand-written here.
 
 use std::collections::HashMap;
-use std::io::{BufReader, BufWriter, Read};
+use std::io::BufWriter;
 use std::path::Path;
 
-use mcap::records::{MessageHeader, Record};
-use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
-use mcap::{McapError, WriteOptions, Writer};
+use mcap::records::MessageHeader;
+use mcap::{WriteOptions, Writer};
 
-use super::read::{not_mcap, open_recording};
+use super::read::{Item, Reader};
 use super::{RecordError, Recovered, CHUNK_SIZE};
 use crate::out::{write_with, OutputError};
 
@@ -29,17 +29,14 @@ use crate::out::{write_with, OutputError};
 /// (the caller applies the overwrite rule, `crate::out::files`). Returns
 /// what was kept and why reading stopped (`None`: the input was complete).
 pub fn rewrite(input: &Path, output: &Path) -> Result<Recovered, RecordError> {
-    let (file, len) = open_recording(input)?;
+    let reader = Reader::open(input)?;
     let write_error = |source| RecordError::Write { path: output.to_path_buf(), source };
     let sync_error = |source| RecordError::Sync { path: output.to_path_buf(), source };
     let written = write_with(output, |out| {
         let options =
             WriteOptions::new().compression(super::COMPRESSION).use_chunks(true).chunk_size(Some(CHUNK_SIZE));
         let mut writer = Writer::with_options(BufWriter::new(out), options).map_err(write_error)?;
-        let recovered = copy(BufReader::new(file), len, &mut writer).map_err(|e| match e {
-            Failure::Read(source) => not_mcap(input, &source),
-            Failure::Write(source) => write_error(source),
-        })?;
+        let recovered = copy(reader, &mut writer, output)?;
         writer.finish().map_err(write_error)?;
         let out = writer.into_inner().into_inner().map_err(|e| sync_error(e.into_error()))?;
         Ok((recovered, out))
@@ -55,103 +52,50 @@ pub fn rewrite(input: &Path, output: &Path) -> Result<Recovered, RecordError> {
     }
 }
 
-enum Failure {
-    /// The input is not MCAP at all.
-    Read(McapError),
-    /// The output could not be written.
-    Write(McapError),
-}
-
-/// Streams the records of `source` into `writer`.
-fn copy<R: Read, W: std::io::Write + std::io::Seek>(
-    mut source: R,
-    len: u64,
+/// Streams the records of `reader` into `writer`, the writer of `output`.
+fn copy<W: std::io::Write + std::io::Seek>(
+    reader: Reader,
     writer: &mut Writer<W>,
-) -> Result<Recovered, Failure> {
-    let limit = usize::try_from(len).unwrap_or(usize::MAX);
-    let mut reader =
-        LinearReader::new_with_options(LinearReaderOptions::default().with_record_length_limit(limit));
-    let mut schemas: HashMap<u16, (String, String, Vec<u8>)> = HashMap::new();
+    output: &Path,
+) -> Result<Recovered, RecordError> {
+    let write_error = |source| RecordError::Write { path: output.to_path_buf(), source };
+    // Ids in the input → ids in the output.
     let mut schema_ids: HashMap<u16, u16> = HashMap::new();
-    let mut channels: HashMap<u16, (u16, String)> = HashMap::new();
+    let mut channel_ids: HashMap<u16, u16> = HashMap::new();
     let mut recovered = Recovered::default();
-    let mut complete = false;
-    let stop = |recovered: &mut Recovered, error: McapError| -> Result<(), Failure> {
-        match (&error, recovered.messages) {
-            (McapError::BadMagic, 0) => Err(Failure::Read(error)),
-            _ => {
-                recovered.stopped_by = Some(error.to_string());
-                Ok(())
-            }
-        }
-    };
-    while let Some(event) = reader.next_event() {
-        let (opcode, data) = match event {
-            Ok(LinearReadEvent::ReadRequest(need)) => {
-                let read = loop {
-                    match source.read(reader.insert(need)) {
-                        Ok(n) => break n,
-                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-                        Err(e) => {
-                            stop(&mut recovered, e.into())?;
-                            return Ok(recovered);
-                        }
-                    }
-                };
-                reader.notify_read(read);
-                continue;
-            }
-            Ok(LinearReadEvent::Record { opcode, data }) => (opcode, data),
-            Err(error) => {
-                stop(&mut recovered, error)?;
-                return Ok(recovered);
-            }
-        };
-        let record = match mcap::parse_record(opcode, data) {
-            Ok(record) => record,
-            Err(error) => {
-                stop(&mut recovered, error)?;
-                return Ok(recovered);
-            }
-        };
-        match record {
-            Record::Schema { header, data } => {
-                schemas.insert(header.id, (header.name, header.encoding, data.into_owned()));
-            }
-            Record::Channel(channel) => {
-                let schema_id = match channel.schema_id {
-                    0 => 0,
-                    id => match (schema_ids.get(&id), schemas.get(&id)) {
-                        (Some(&new), _) => new,
-                        (None, Some((name, encoding, data))) => {
-                            let new = writer.add_schema(name, encoding, data).map_err(Failure::Write)?;
-                            schema_ids.insert(id, new);
+    let end = reader.stream(|item| {
+        match item {
+            Item::Channel(channel) => {
+                let schema_id = match &channel.schema {
+                    None => 0,
+                    Some(schema) => match schema_ids.get(&schema.id) {
+                        Some(&new) => new,
+                        None => {
+                            let new = writer
+                                .add_schema(&schema.name, &schema.encoding, &schema.data)
+                                .map_err(write_error)?;
+                            schema_ids.insert(schema.id, new);
                             new
                         }
-                        // A channel whose schema record was lost: keep it without one.
-                        (None, None) => 0,
                     },
                 };
                 let new = writer
                     .add_channel(schema_id, &channel.topic, &channel.message_encoding, &channel.metadata)
-                    .map_err(Failure::Write)?;
-                channels.insert(channel.id, (new, channel.topic));
+                    .map_err(write_error)?;
+                channel_ids.insert(channel.id, new);
             }
-            Record::Message { header, data } => {
-                let Some((channel_id, topic)) = channels.get(&header.channel_id) else { continue };
-                let header = MessageHeader { channel_id: *channel_id, ..header };
-                writer.write_to_known_channel(&header, &data).map_err(Failure::Write)?;
-                *recovered.counts.entry(topic.clone()).or_insert(0) += 1;
-                recovered.messages += 1;
+            Item::Message { channel, header, data } => {
+                // Every message's channel was handed out before it.
+                let Some(&channel_id) = channel_ids.get(&channel.id) else { return Ok(()) };
+                let header = MessageHeader { channel_id, ..header };
+                writer.write_to_known_channel(&header, data).map_err(write_error)?;
+                recovered.count(&channel.topic);
             }
-            Record::Metadata(metadata) => writer.write_metadata(&metadata).map_err(Failure::Write)?,
-            Record::Footer(_) => complete = true,
-            _ => {}
+            Item::Metadata(metadata) => writer.write_metadata(&metadata).map_err(write_error)?,
         }
-    }
-    if !complete && recovered.stopped_by.is_none() {
-        recovered.stopped_by = Some("the file ends without a footer".into());
-    }
+        Ok::<_, RecordError>(())
+    });
+    recovered.stopped_by = end?.stopped_by;
     Ok(recovered)
 }
 

@@ -3,30 +3,20 @@
 //! telemetry, decoded from the bus bytes — what `orchestrator draw
 //! FILE.mcap` draws.
 //!
-//! Streamed like [`super::recover`], so a recording cut by a crash draws
-//! up to its last complete chunk.
+//! Read with the recording's one streaming reader ([`super::Reader`], as
+//! `replay` and `record recover` read), its messages decoded by
+//! [`super::decode`], so a recording cut by a crash draws up to its last
+//! complete chunk.
 
-use std::io::BufReader;
 use std::path::Path;
 
-use bycoms_protocol::decode;
-use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
-use mcap::io::MessageReader;
-use mcap::sans_io::LinearReaderOptions;
 use serde::Deserialize;
 
-use super::RecordError;
+use super::decode::{decode_message, Content};
+use super::read::{Item, Reader};
+use super::{schema, RecordError};
 use crate::draw::measurements::Measurements;
 use crate::draw::trace::Trace;
-
-/// Schema name of the run metadata channel (`bycoms/<swarm>/run`).
-pub const RUN_SCHEMA: &str = "bycoms.LaunchConfig";
-/// Schema name of recorded poses (postcard bytes).
-pub const POSE_SCHEMA: &str = "bycoms.Pose";
-/// Schema name of recorded gate events (postcard bytes).
-pub const GATE_SCHEMA: &str = "bycoms.GateEvent";
-/// Schema name of recorded agent reports (postcard bytes).
-pub const FROM_AGENT_SCHEMA: &str = "bycoms.FromAgent";
 
 /// The run metadata a launch records first.
 #[derive(Debug, Clone, Deserialize)]
@@ -75,9 +65,6 @@ pub struct RecordedRun {
 
 /// Reads the run of the recording at `path`.
 pub fn read_run(path: &Path) -> Result<RecordedRun, RecordError> {
-    let (file, len) = super::open_recording(path)?;
-    let limit = usize::try_from(len).unwrap_or(usize::MAX);
-    let options = LinearReaderOptions::default().with_record_length_limit(limit);
     let mut run = RecordedRun {
         meta: None,
         trace: Trace::new(),
@@ -85,41 +72,22 @@ pub fn read_run(path: &Path) -> Result<RecordedRun, RecordError> {
         undecodable: 0,
         stopped_by: None,
     };
-    for (seen, item) in MessageReader::new_with_options(BufReader::new(file), options).enumerate() {
-        let message = match item {
-            Ok(message) => message,
-            Err(error @ mcap::McapError::BadMagic) if seen == 0 => {
-                return Err(super::read::not_mcap(path, &error))
+    let end = Reader::open(path)?.stream(|item| {
+        let Item::Message { channel, data, .. } = item else { return Ok::<_, RecordError>(()) };
+        match decode_message(channel, data) {
+            // The first run record is the run's.
+            Content::Run(json) if run.meta.is_none() => run.meta = serde_json::from_slice(json).ok(),
+            Content::Pose(pose) => {
+                run.trace.pose(&pose);
+                run.measurements.pose(&pose);
             }
-            Err(error) => {
-                run.stopped_by = Some(error.to_string());
-                break;
-            }
-        };
-        let schema = message.channel.schema.as_ref().map_or("", |s| s.name.as_str());
-        let postcard = message.channel.message_encoding == super::POSTCARD;
-        match schema {
-            RUN_SCHEMA if run.meta.is_none() => {
-                run.meta = serde_json::from_slice(&message.data).ok();
-            }
-            POSE_SCHEMA if postcard => match decode::<Pose>(&message.data) {
-                Ok(pose) => {
-                    run.trace.pose(&pose);
-                    run.measurements.pose(&pose);
-                }
-                Err(_) => run.undecodable += 1,
-            },
-            FROM_AGENT_SCHEMA if postcard => {
-                if let Ok(report) = decode::<FromAgent>(&message.data) {
-                    run.measurements.report(&report);
-                }
-            }
-            GATE_SCHEMA if postcard => match decode::<GateEvent>(&message.data) {
-                Ok(event) => run.trace.gate(&event),
-                Err(_) => run.undecodable += 1,
-            },
+            Content::Report(report) => run.measurements.report(&report),
+            Content::Gate(event) => run.trace.gate(&event),
+            Content::Undecodable { schema: schema::POSE | schema::GATE } => run.undecodable += 1,
             _ => {}
         }
-    }
+        Ok(())
+    })?;
+    run.stopped_by = end.stopped_by;
     Ok(run)
 }

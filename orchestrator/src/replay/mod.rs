@@ -27,22 +27,10 @@ use std::path::PathBuf;
 /// Why a recording cannot be replayed.
 #[derive(Debug, thiserror::Error)]
 pub enum ReplayError {
-    /// The file cannot be opened.
-    #[error("cannot open recording {path}: {source}")]
-    Open {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        source: std::io::Error,
-    },
-    /// The file is not MCAP.
-    #[error("{path} is not an MCAP recording: {reason}")]
-    NotMcap {
-        /// The file.
-        path: PathBuf,
-        /// The reader's error.
-        reason: String,
-    },
+    /// The file cannot be opened or is not MCAP (the recording reader's
+    /// errors, the same for `draw` and `record recover`).
+    #[error(transparent)]
+    Record(#[from] crate::record::RecordError),
     /// No `run` record: not a launch recording.
     #[error("{path} has no run metadata (bycoms/<swarm>/run): not a launch recording")]
     NoRunMeta {

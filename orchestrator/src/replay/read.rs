@@ -7,35 +7,23 @@
 //! copies, summaries) is skipped. Bytes that do not decode are skipped as
 //! the launch skipped them (it counted them as bad traffic).
 //!
-//! The file is read with the `mcap` crate's linear reader (as
-//! `record::recover` does), so a recording cut short by a crash replays up
-//! to its last complete chunk.
+//! The file is read with the recording's one streaming reader
+//! (`record::Reader`, as `draw` and `record recover` read), its messages
+//! decoded by `record::decode`, so a recording cut short by a crash replays
+//! up to its last complete chunk. Only the launch core's log is decoded
+//! here, by its own codec (`launch::core::log`).
 
 use super::ReplayError;
 use crate::launch::core::log::{self, Call};
 use crate::launch::core::Setup;
-use crate::launch::ports::schema;
 use crate::launch::LaunchConfig;
+use crate::record::decode::{decode_message, Content};
+use crate::record::{Item, Reader};
 use bycoms_protocol::msg::{GateEvent, Pose, ToAgent};
-use bycoms_protocol::{decode, RobotId};
+use bycoms_protocol::RobotId;
 use bycoms_sim::Vec2;
-use mcap::io::MessageReader;
-use mcap::sans_io::LinearReaderOptions;
 use serde::Deserialize;
-use std::fs::File;
-use std::io::BufReader;
 use std::path::Path;
-
-/// Schema name of recorded NatNet frames (the datagram's bytes, as the
-/// mocap source received them).
-pub const NATNET_FRAME_SCHEMA: &str = "natnet.FrameOfData";
-
-/// Schema name of the recorded model definitions (a `NAT_MODELDEF`
-/// packet: the rigid bodies' names).
-pub const NATNET_MODELDEF_SCHEMA: &str = "natnet.ModelDef";
-
-/// Schema name of the `run` metadata record.
-pub const RUN_SCHEMA: &str = "bycoms.LaunchConfig";
 
 /// One record the replay uses.
 #[derive(Clone, Debug, PartialEq)]
@@ -137,88 +125,57 @@ impl Recorded {
 
 /// Reads `path`.
 pub fn read_recording(path: &Path) -> Result<Recorded, ReplayError> {
-    let open = |source| ReplayError::Open { path: path.to_path_buf(), source };
-    let file = File::open(path).map_err(open)?;
-    let len = file.metadata().map_err(open)?.len();
-    let limit = usize::try_from(len).unwrap_or(usize::MAX);
-    let options = LinearReaderOptions::default().with_record_length_limit(limit);
     let mut run = None;
     let mut entries = Vec::new();
-    let mut stopped_by = None;
-    for item in MessageReader::new_with_options(BufReader::new(file), options) {
-        let message = match item {
-            Ok(m) => m,
-            Err(e) if entries.is_empty() && run.is_none() => {
-                return Err(ReplayError::NotMcap { path: path.to_path_buf(), reason: e.to_string() })
-            }
-            Err(e) => {
-                stopped_by = Some(e.to_string());
-                break;
-            }
-        };
-        let schema_name = message.channel.schema.as_ref().map(|s| s.name.as_str()).unwrap_or_default();
-        let topic = message.channel.topic.as_str();
-        let data = message.data.as_ref();
-        match schema_name {
-            RUN_SCHEMA if topic.ends_with("/run") => {
-                let meta = serde_json::from_slice(data).map_err(|e| ReplayError::BadRunMeta {
-                    topic: topic.to_owned(),
+    let end = Reader::open(path)?.stream(|item| {
+        let Item::Message { channel, data, .. } = item else { return Ok::<_, ReplayError>(()) };
+        let entry = match decode_message(channel, data) {
+            Content::Run(json) => {
+                let meta = serde_json::from_slice(json).map_err(|e| ReplayError::BadRunMeta {
+                    topic: channel.topic.clone(),
                     reason: e.to_string(),
                 })?;
                 run = Some(meta);
+                return Ok(());
             }
-            schema::TO_AGENT => {
-                if let (Some(robot), Ok(command)) = (robot_of_topic(topic), decode::<ToAgent>(data)) {
-                    entries.push(Entry::Command { robot, command });
-                }
-            }
-            schema::POSE => {
-                if let Ok(pose) = decode::<Pose>(data) {
-                    entries.push(Entry::Pose(pose));
-                }
-            }
-            schema::GATE if message.channel.message_encoding == crate::record::POSTCARD => {
-                if let Ok(event) = decode::<GateEvent>(data) {
-                    entries.push(Entry::Gate(event));
-                }
-            }
+            Content::Command { robot, command } => Entry::Command { robot, command },
+            Content::Pose(pose) => Entry::Pose(pose),
+            Content::Gate(event) => Entry::Gate(event),
             // A log that does not decode is left out: the replay then
             // re-judges from the poses, and says so.
-            log::SETUP_SCHEMA => {
-                if let Ok(setup) = log::decode_setup(data) {
-                    entries.push(Entry::CoreSetup(Box::new(setup)));
-                }
+            Content::CoreSetup(bytes) => match log::decode_setup(bytes) {
+                Ok(setup) => Entry::CoreSetup(Box::new(setup)),
+                Err(_) => return Ok(()),
+            },
+            Content::CoreCalls(bytes) => match log::decode_calls(bytes) {
+                Ok(calls) => Entry::CoreCalls(calls),
+                Err(_) => return Ok(()),
+            },
+            Content::MocapFrame(bytes) => Entry::MocapFrame(bytes.to_vec()),
+            Content::MocapModelDef(bytes) => Entry::MocapModelDef(bytes.to_vec()),
+            // Bytes that do not decode are skipped, as the launch skipped
+            // them; reports, decoded channels and the rest are not replayed.
+            Content::Report(_) | Content::Operator(_) | Content::Undecodable { .. } | Content::Other => {
+                return Ok(())
             }
-            log::CALLS_SCHEMA => {
-                if let Ok(calls) = log::decode_calls(data) {
-                    entries.push(Entry::CoreCalls(calls));
-                }
-            }
-            NATNET_FRAME_SCHEMA => entries.push(Entry::MocapFrame(data.to_vec())),
-            NATNET_MODELDEF_SCHEMA => entries.push(Entry::MocapModelDef(data.to_vec())),
-            _ => {}
-        }
-    }
+        };
+        entries.push(entry);
+        Ok(())
+    })?;
     let run = run.ok_or_else(|| ReplayError::NoRunMeta { path: path.to_path_buf() })?;
-    Ok(Recorded { run, entries, stopped_by })
-}
-
-/// The robot of a `…/robot/<k>/…` topic.
-fn robot_of_topic(topic: &str) -> Option<RobotId> {
-    let mut parts = topic.split('/');
-    parts.by_ref().find(|p| *p == "robot")?;
-    parts.next()?.parse().ok().map(RobotId)
+    Ok(Recorded { run, entries, stopped_by: end.stopped_by })
 }
 
 #[cfg(test)]
 mod tests {
-    use super::robot_of_topic;
-    use bycoms_protocol::RobotId;
+    use crate::launch::core::log;
+    use crate::record::schema;
 
+    /// `launch::core::log` spells its schema names too (it is the launch
+    /// core's, and writes them); they must be the recording's.
     #[test]
-    fn robot_ids_come_from_the_topic() {
-        assert_eq!(robot_of_topic("bycoms/s/robot/12/to_agent"), Some(RobotId(12)));
-        assert_eq!(robot_of_topic("bycoms/s/gate"), None);
-        assert_eq!(robot_of_topic("bycoms/s/robot/x/pose"), None);
+    fn the_core_logs_schema_names_are_the_recordings() {
+        assert_eq!(log::SETUP_SCHEMA, schema::CORE_SETUP);
+        assert_eq!(log::CALLS_SCHEMA, schema::CORE_CALLS);
     }
 }

@@ -9,6 +9,7 @@
 //! written. Each type implements [`foxglove::Encode`] (message encoding
 //! `json`), so the live view can log it on a typed SDK channel.
 
+use crate::record::schema;
 use bycoms_protocol::msg::{AgentKind, FromAgent, GateEvent, GateKind, Pose};
 use foxglove::bytes::BufMut;
 use schemars::generate::SchemaSettings;
@@ -225,7 +226,7 @@ pub fn json_schema<T: JsonSchema>() -> Vec<u8> {
 }
 
 macro_rules! json_message {
-    ($($t:ty => $name:literal),* $(,)?) => {$(
+    ($($t:ty => $name:expr),* $(,)?) => {$(
         impl foxglove::Encode for $t {
             type Error = serde_json::Error;
 
@@ -245,10 +246,10 @@ macro_rules! json_message {
 }
 
 json_message! {
-    RobotPose => "bycoms.RobotPose",
-    RobotMode => "bycoms.RobotMode",
-    Telemetry => "bycoms.Telemetry",
-    GateDecision => "bycoms.GateDecision",
+    RobotPose => schema::ROBOT_POSE,
+    RobotMode => schema::ROBOT_MODE,
+    Telemetry => schema::TELEMETRY,
+    GateDecision => schema::GATE_DECISION,
 }
 
 #[cfg(test)]

@@ -113,46 +113,9 @@ pub struct SceneWorld {
     pub goal_radius: f64,
 }
 
-/// The topic names of one swarm's decoded channels.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Topics {
-    prefix: String,
-}
-
-impl Topics {
-    /// The topics of swarm `swarm`.
-    pub fn new(swarm: &str) -> Self {
-        Self { prefix: format!("bycoms/{swarm}") }
-    }
-    /// `foxglove.SceneUpdate`.
-    pub fn scene(&self) -> String {
-        format!("{}/scene", self.prefix)
-    }
-    /// `foxglove.FrameTransforms`.
-    pub fn tf(&self) -> String {
-        format!("{}/tf", self.prefix)
-    }
-    /// `foxglove.Log`.
-    pub fn log(&self) -> String {
-        format!("{}/log", self.prefix)
-    }
-    /// Gate decisions as JSON.
-    pub fn gate_json(&self) -> String {
-        format!("{}/gate/json", self.prefix)
-    }
-    /// Robot `k`'s poses as JSON.
-    pub fn pose_json(&self, k: u32) -> String {
-        format!("{}/robot/{k}/pose/json", self.prefix)
-    }
-    /// Robot `k`'s mode.
-    pub fn mode(&self, k: u32) -> String {
-        format!("{}/robot/{k}/mode", self.prefix)
-    }
-    /// Robot `k`'s agent reports.
-    pub fn telemetry(&self, k: u32) -> String {
-        format!("{}/robot/{k}/telemetry", self.prefix)
-    }
-}
+/// The topic names of one swarm's decoded channels (the recording's own
+/// topics, defined once in `crate::record::schema`).
+pub use crate::record::schema::Topics;
 
 /// One message of the scene, typed.
 #[derive(Debug, Clone, PartialEq)]

@@ -30,8 +30,8 @@
 
 pub mod bus;
 
-use super::ports::schema;
 use super::recording::Recording;
+use crate::record::schema;
 use bycoms_protocol::bus::BusError;
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::{encode, RobotId, Swarm, MAX_MESSAGE_LEN};
@@ -162,7 +162,7 @@ impl<'a> PoseSink<'a> {
     /// `bycoms/<swarm>/<leaf>` with `schema`. Not counted in
     /// [`PoseSink::recorded`] (which counts poses).
     pub fn record_source_bytes(&mut self, leaf: &str, schema: &str, bytes: &[u8]) {
-        let topic = format!("bycoms/{}/{leaf}", self.swarm.as_str());
+        let topic = schema::Topics::new(self.swarm.as_str()).leaf(leaf);
         self.recording.bytes(&topic, schema, bytes);
     }
 
