@@ -43,6 +43,13 @@ pub struct BusArgs {
 pub trait OnBus {
     /// What the run returns.
     type Output;
+    /// Over zenoh, once the session is open and before the member's
+    /// liveliness token is declared: what the process must learn first
+    /// (an agent's run settings from the orchestrator). An `Err` is the
+    /// process's output: it ends there, never seen as a member.
+    fn prepare(&mut self, _bus: &ZenohBus) -> Result<(), Self::Output> {
+        Ok(())
+    }
     /// Runs on `bus`; over zenoh, `failsafe` is the failsafe and the
     /// liveliness watch that feeds it (`None` over iceoryx2, where the
     /// process's lifeline ties it to the orchestrator's).
@@ -101,7 +108,7 @@ impl BusArgs {
         failsafe: Option<&FailsafeArgs>,
         swarm_size: u32,
         node: String,
-        then: R,
+        mut then: R,
     ) -> Result<R::Output, BusOpenError> {
         match self.transport {
             Transport::Ipc => {
@@ -116,6 +123,9 @@ impl BusArgs {
                     zenoh_config(Mode::Client, Vec::new(), self.connect.clone(), self.zenoh_config.clone());
                 let bus = ZenohBus::open(config)?;
                 tracing::debug!(connect = ?self.connect, "connected over zenoh");
+                if let Err(output) = then.prepare(&bus) {
+                    return Ok(output);
+                }
                 // The orchestrator sees this process go (ended, link cut)
                 // when the token is withdrawn; it lives until `then` returns.
                 let _alive = member.map(|m| bus.declare_alive(swarm, m)).transpose()?;
