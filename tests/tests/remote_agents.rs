@@ -2,7 +2,13 @@
 //! (as on other hosts, here on loopback over zenoh):
 //!
 //! * a lockstep launch gives exactly the in-process `simulate` result, and
-//!   every agent exits on `Shutdown` (none is reported as left behind);
+//!   every agent exits on `Shutdown` (none is reported as left behind):
+//!   agents started with the launch's settings on their command line, and
+//!   agents started with only where to connect, their swarm and robot id
+//!   (they take the run's settings from the orchestrator);
+//! * an agent started with other settings (another ε) exits naming the
+//!   first difference before it registers, and another agent takes its
+//!   robot: the run is unchanged;
 //! * a robot whose agent never comes ends the launch (exit 1) with an error
 //!   naming it, within the registration timeout;
 //! * an agent of a robot outside the launch is counted and refused, and the
@@ -97,6 +103,15 @@ fn agent_with(world: &World, endpoint: &str, swarm: &str, robot: u32, size: u32,
     Proc::start(&bin("sim-agent"), &args)
 }
 
+/// An agent of robot `robot` started with only where to connect, its swarm
+/// and its robot id (the README's remote example): the run's settings come
+/// from the orchestrator.
+fn bare_agent(endpoint: &str, swarm: &str, robot: u32) -> Proc {
+    let robot = robot.to_string();
+    let args = ["--transport", "zenoh", "--connect", endpoint, "--swarm", swarm, "--robot", &robot];
+    Proc::start(&bin("sim-agent"), &args.map(String::from))
+}
+
 /// Waits for the orchestrator's line saying robot `id`'s agent registered.
 fn registered(orch: &Proc, id: u32) {
     let needle = format!("robot {id}: agent registered");
@@ -160,6 +175,66 @@ fn lockstep_with_remote_agents_gives_the_simulate_result() {
 }
 
 #[test]
+fn agents_started_with_only_connect_swarm_and_robot_give_the_simulate_result() {
+    let world = World::long_obstacle();
+    let swarm = swarm_name("remote-bare");
+    let (orch, endpoint) = orchestrator(&world, &swarm, &[]);
+    let agents: Vec<Proc> = (1..=3).map(|k| bare_agent(&endpoint, &swarm, k)).collect();
+    let out = orch.wait(Duration::from_secs(180));
+    assert_same_as_simulate(&out, &world.expected);
+    let j = out.json();
+    assert_eq!(bad(&j, "duplicate") + bad(&j, "unknown_robot") + bad(&j, "wrong_version"), 0, "{j}");
+    for (i, a) in agents.into_iter().enumerate() {
+        let out = a.wait(Duration::from_secs(20));
+        assert_eq!(out.status.code(), Some(0), "agent #{i}: stderr:\n{}", out.stderr);
+        assert!(out.stderr.contains("got the run's settings from the orchestrator"), "{}", out.stderr);
+    }
+}
+
+#[test]
+fn an_agent_with_another_eps_exits_naming_it_and_another_takes_its_robot() {
+    let world = World::long_obstacle();
+    let swarm = swarm_name("remote-mismatch");
+    let (orch, endpoint) = orchestrator(&world, &swarm, &[]);
+    let mut agents = vec![bare_agent(&endpoint, &swarm, 1)];
+    // Robot 2's agent started by hand with ε = 2 (the launch's is 3).
+    let terrain = world.terrain();
+    let other = ["--terrain", terrain.to_str().expect("utf-8 path"), "--eps", "2"];
+    let wrong = {
+        let args: Vec<String> = [
+            "--transport",
+            "zenoh",
+            "--connect",
+            &endpoint,
+            "--swarm",
+            &swarm,
+            "--robot",
+            "2",
+            "--swarm-size",
+            "3",
+        ]
+        .iter()
+        .chain(&other)
+        .map(|s| s.to_string())
+        .collect();
+        Proc::start(&bin("sim-agent"), &args).wait(Duration::from_secs(30))
+    };
+    assert_eq!(wrong.status.code(), Some(3), "refused as by the launch:\n{}", wrong.stderr);
+    assert!(
+        wrong.stderr.contains("epsilon (--eps): 2 here, 3 in the launch"),
+        "the first difference is named:\n{}",
+        wrong.stderr
+    );
+    // The launch goes on: another agent takes robot 2, and the run is the paper's.
+    agents.extend((2..=3).map(|k| bare_agent(&endpoint, &swarm, k)));
+    let out = orch.wait(Duration::from_secs(180));
+    assert_same_as_simulate(&out, &world.expected);
+    let j = out.json();
+    assert_eq!(bad(&j, "duplicate") + bad(&j, "unknown_robot") + bad(&j, "wrong_version"), 0, "{j}");
+    assert_exit_cleanly(agents);
+}
+
+#[test]
 fn a_robot_whose_agent_never_comes_is_skipped_or_named_with_missing_fail() {
     let world = World::long_obstacle();
     // Skipped at its turn (the default), listed as absent with why.
@@ -198,8 +273,10 @@ fn an_agent_of_a_robot_outside_the_launch_is_counted_and_ignored() {
     let world = World::long_obstacle();
     let swarm = swarm_name("remote-stranger");
     let (orch, endpoint) = orchestrator(&world, &swarm, &[]);
-    // Robot 5 of a swarm of 5: a valid agent, but the launch has 3 robots.
-    let mut stranger = agent(&world, &endpoint, &swarm, 5, 5);
+    // Robot 5 with the launch's settings (taken from the orchestrator): a
+    // valid agent, but the launch has 3 robots. (Started with a swarm size
+    // of 5 it would not register: its settings would not be the launch's.)
+    let mut stranger = bare_agent(&endpoint, &swarm, 5);
     orch.stderr_line(Duration::from_secs(20), |l| l.contains("from an unknown robot").then_some(()))
         .expect("the orchestrator reports the stranger");
     let agents: Vec<Proc> = (1..=3).map(|k| agent(&world, &endpoint, &swarm, k, 3)).collect();
