@@ -6,6 +6,8 @@
 //!   agents started with the launch's settings on their command line, and
 //!   agents started with only where to connect, their swarm and robot id
 //!   (they take the run's settings from the orchestrator);
+//! * agents started before the orchestrator wait for it, then for its
+//!   settings;
 //! * an agent started with other settings (another ε) exits naming the
 //!   first difference before it registers, and another agent takes its
 //!   robot: the run is unchanged;
@@ -62,9 +64,13 @@ impl World {
 
 /// An orchestrator awaiting 3 remote agents, and the endpoint it listens on.
 fn orchestrator(world: &World, swarm: &str, extra: &[&str]) -> (Proc, String) {
+    orchestrator_on(world, swarm, "tcp/127.0.0.1:0", extra)
+}
+
+/// [`orchestrator`] listening on `listen`.
+fn orchestrator_on(world: &World, swarm: &str, listen: &str, extra: &[&str]) -> (Proc, String) {
     let terrain = world.terrain();
-    let mut args =
-        vec!["launch", "--agents", "remote", "--transport", "zenoh", "--listen", "tcp/127.0.0.1:0"];
+    let mut args = vec!["launch", "--agents", "remote", "--transport", "zenoh", "--listen", listen];
     args.extend(["--clock", "lockstep", "--json", "--swarm", swarm, "--robots", "3", "--eps", EPS]);
     args.extend(["--terrain", terrain.to_str().expect("utf-8 path"), "--time-limit", TIME_LIMIT]);
     args.extend(extra);
@@ -189,6 +195,26 @@ fn agents_started_with_only_connect_swarm_and_robot_give_the_simulate_result() {
         assert_eq!(out.status.code(), Some(0), "agent #{i}: stderr:\n{}", out.stderr);
         assert!(out.stderr.contains("got the run's settings from the orchestrator"), "{}", out.stderr);
     }
+}
+
+#[test]
+fn agents_started_before_the_orchestrator_wait_for_it_and_its_settings() {
+    let world = World::long_obstacle();
+    let swarm = swarm_name("remote-early");
+    // A free port for the orchestrator-to-be (the OS hands it out).
+    let port =
+        std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).expect("free port").port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let agents: Vec<Proc> = (1..=3).map(|k| bare_agent(&endpoint, &swarm, k)).collect();
+    agents[0]
+        .stderr_line(Duration::from_secs(20), |l| {
+            l.contains("the orchestrator is not reachable yet").then_some(())
+        })
+        .expect("the agent says it waits for the orchestrator");
+    let (orch, _) = orchestrator_on(&world, &swarm, &endpoint, &[]);
+    let out = orch.wait(Duration::from_secs(180));
+    assert_same_as_simulate(&out, &world.expected);
+    assert_exit_cleanly(agents);
 }
 
 #[test]

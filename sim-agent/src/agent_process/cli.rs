@@ -155,6 +155,12 @@ struct RunAgent<'a> {
 impl OnBus for RunAgent<'_> {
     type Output = Result<ExitCause, AgentError>;
 
+    fn wait_for_orchestrator(&self) -> Option<Duration> {
+        // Without settings the agent waits for the launch (it may start
+        // first); with its own it fails at once, as it always did.
+        self.own.is_none().then(|| Duration::from_secs_f64(self.args.settings_timeout))
+    }
+
     fn prepare(&mut self, bus: &ZenohBus) -> Result<(), Self::Output> {
         let wait = Duration::from_secs_f64(self.args.settings_timeout);
         let launch = match (settings::fetch(bus, self.swarm, wait), &self.own) {

@@ -172,9 +172,9 @@ pub struct AgentArgs {
         help_heading = "Run settings (default: the orchestrator's)"
     )]
     pub heartbeat_ms: u64,
-    /// zenoh, without settings flags: how long to keep asking the
-    /// orchestrator for the run's settings (it may start after the agent's
-    /// host is up), seconds.
+    /// zenoh, without settings flags: how long to wait for the orchestrator,
+    /// seconds: to be reachable (it may start after the agent), then to
+    /// hand over the run's settings; the agent says while it waits.
     #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_SETTINGS_TIMEOUT_S)]
     pub settings_timeout: f64,
     /// The bus.
