@@ -24,7 +24,8 @@
 //! The access-control list (zenoh's `access_control`, subjects matched by
 //! certificate common name, default deny) lets robot `k` publish only on
 //! `bycoms/*/robot/<k>/**` and on the shared `bycoms/*/from_agents`, and
-//! lets every robot subscribe to and receive anything under `bycoms/**`.
+//! lets every robot subscribe to and receive anything under `bycoms/**`
+//! and ask for the run's settings (`bycoms/*/settings`).
 //! A lab's CA is its trust: every robot provisioned with it is locked out
 //! once it is replaced, and without `ca-key.pem` no more robots can join.
 //! So [`generate`] never replaces an existing CA unless told to
@@ -150,6 +151,9 @@ pub fn access_control(robots: u32, revoked: &BTreeSet<u32>) -> Value {
             "flows": ["ingress", "egress"], "permission": "allow", "key_exprs": ["bycoms/**"] }),
         json!({ "id": "robots-receive", "messages": ["put", "delete"], "flows": ["egress"],
             "permission": "allow", "key_exprs": ["bycoms/**"] }),
+        // The run's settings: a robot asks, the orchestrator answers.
+        json!({ "id": "robots-settings", "messages": ["query", "reply"], "flows": ["ingress", "egress"],
+            "permission": "allow", "key_exprs": ["bycoms/*/settings"] }),
     ];
     let mut subjects = vec![json!({ "id": ORCHESTRATOR_CN, "cert_common_names": [ORCHESTRATOR_CN] })];
     let mut policies = vec![json!({ "rules": ["orchestrator-all"], "subjects": [ORCHESTRATOR_CN] })];
@@ -160,7 +164,10 @@ pub fn access_control(robots: u32, revoked: &BTreeSet<u32>) -> Value {
             "permission": "allow", "key_exprs": [format!("bycoms/*/robot/{k}/**"), "bycoms/*/from_agents"] }),
         );
         subjects.push(json!({ "id": cn, "cert_common_names": [cn] }));
-        policies.push(json!({ "rules": [format!("{cn}-publish"), "robots-listen", "robots-receive"], "subjects": [cn] }));
+        policies.push(
+            json!({ "rules": [format!("{cn}-publish"), "robots-listen", "robots-receive", "robots-settings"],
+            "subjects": [cn] }),
+        );
     }
     if !revoked.is_empty() {
         rules.push(json!({ "id": REVOKED, "messages": ["put", "delete", "declare_subscriber", "query",

@@ -141,6 +141,9 @@ fn run(args: &AgentArgs) -> Result<ExitCause, AgentError> {
         })?
 }
 
+/// Longest wait for the launch's settings of an agent that has its own.
+const CHECK_WAIT: Duration = Duration::from_secs(3);
+
 /// [`run_on`] once the bus is open.
 struct RunAgent<'a> {
     args: &'a AgentArgs,
@@ -162,7 +165,12 @@ impl OnBus for RunAgent<'_> {
     }
 
     fn prepare(&mut self, bus: &ZenohBus) -> Result<(), Self::Output> {
-        let wait = Duration::from_secs_f64(self.args.settings_timeout);
+        let mut wait = Duration::from_secs_f64(self.args.settings_timeout);
+        if self.own.is_some() {
+            // Only a check (the launch refuses other settings anyway): a
+            // launch that does not answer soon does not hold the agent up.
+            wait = wait.min(CHECK_WAIT);
+        }
         let launch = match (settings::fetch(bus, self.swarm, wait), &self.own) {
             (Ok(launch), _) => launch,
             // With settings of its own the agent can go on: the launch
