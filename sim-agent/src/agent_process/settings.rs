@@ -228,7 +228,8 @@ pub enum FetchError {
     /// Nobody answered within the wait.
     #[error(
         "no orchestrator of swarm {swarm} handed over the run's settings on {key} within {} s \
-         (is its launch running, over zenoh, with this swarm name?)",
+         (is its launch running, over zenoh, with this swarm name? does its access control let robots \
+         query bycoms/*/settings?)",
         waited.as_secs_f64()
     )]
     NoAnswer {
