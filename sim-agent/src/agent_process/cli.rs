@@ -58,6 +58,9 @@ pub enum AgentError {
     /// The run's settings could not be had from the orchestrator.
     #[error("{0}")]
     Settings(#[from] FetchError),
+    /// The orchestrator's settings are not usable (another build's values).
+    #[error("the orchestrator's run settings: {0}")]
+    LaunchSettings(String),
     /// The run's settings are not the launch's.
     #[error("this agent's run settings are not the launch's: {0}")]
     SettingsDiffer(String),
@@ -189,9 +192,7 @@ impl OnBus for RunAgent<'_> {
                 return Err(Err(AgentError::SettingsDiffer(difference)));
             }
         }
-        launch
-            .validate()
-            .map_err(|e| Err(AgentError::Args(format!("the orchestrator's run settings: {e}"))))?;
+        launch.validate().map_err(|e| Err(AgentError::LaunchSettings(e)))?;
         self.launch = Some(launch);
         Ok(())
     }
