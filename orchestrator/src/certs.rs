@@ -24,10 +24,11 @@
 //! The access-control list (zenoh's `access_control`, subjects matched by
 //! certificate common name, default deny) lets robot `k` publish only on
 //! `bycoms/*/robot/<k>/**` (its pose and its reports, `from_agent`) and
-//! declare only its own liveliness token `bycoms/*/alive/robot/<k>`, and
-//! lets every robot subscribe to, query and receive anything under
-//! `bycoms/**`. The orchestrator drops a report whose robot id is not its
-//! key's, so no certificate can speak for another robot.
+//! declare only its own liveliness token `bycoms/*/alive/robot/<k>`, lets
+//! every robot subscribe to and receive anything under `bycoms/**`, and
+//! ask for the run's settings (`bycoms/*/settings`). The orchestrator
+//! drops a report whose robot id is not its key's, so no certificate can
+//! speak for another robot.
 //! A lab's CA is its trust: every robot provisioned with it is locked out
 //! once it is replaced, and without `ca-key.pem` no more robots can join.
 //! So [`generate`] never replaces an existing CA unless told to
@@ -144,10 +145,13 @@ pub fn access_control(robots: u32, revoked: &BTreeSet<u32>) -> Value {
             "declare_queryable", "reply", "liveliness_token", "declare_liveliness_subscriber", "liveliness_query"],
             "flows": ["ingress", "egress"], "permission": "allow", "key_exprs": ["bycoms/**"] }),
         json!({ "id": "robots-listen", "messages": ["declare_subscriber", "declare_liveliness_subscriber",
-            "liveliness_query", "query"],
+            "liveliness_query"],
             "flows": ["ingress", "egress"], "permission": "allow", "key_exprs": ["bycoms/**"] }),
-        json!({ "id": "robots-receive", "messages": ["put", "delete", "reply"], "flows": ["egress"],
+        json!({ "id": "robots-receive", "messages": ["put", "delete"], "flows": ["egress"],
             "permission": "allow", "key_exprs": ["bycoms/**"] }),
+        // The run's settings: a robot asks, the orchestrator answers.
+        json!({ "id": "robots-settings", "messages": ["query", "reply"], "flows": ["ingress", "egress"],
+            "permission": "allow", "key_exprs": ["bycoms/*/settings"] }),
     ];
     let mut subjects = vec![json!({ "id": ORCHESTRATOR_CN, "cert_common_names": [ORCHESTRATOR_CN] })];
     let mut policies = vec![json!({ "rules": ["orchestrator-all"], "subjects": [ORCHESTRATOR_CN] })];
@@ -160,7 +164,8 @@ pub fn access_control(robots: u32, revoked: &BTreeSet<u32>) -> Value {
         rules.push(json!({ "id": format!("{cn}-alive"), "messages": ["liveliness_token"],
             "flows": ["ingress", "egress"], "permission": "allow", "key_exprs": [format!("bycoms/*/alive/robot/{k}")] }));
         subjects.push(json!({ "id": cn, "cert_common_names": [cn] }));
-        policies.push(json!({ "rules": [format!("{cn}-publish"), format!("{cn}-alive"), "robots-listen", "robots-receive"], "subjects": [cn] }));
+        policies.push(json!({ "rules": [format!("{cn}-publish"), format!("{cn}-alive"), "robots-listen",
+            "robots-receive", "robots-settings"], "subjects": [cn] }));
     }
     if !revoked.is_empty() {
         rules.push(json!({ "id": REVOKED, "messages": ["put", "delete", "declare_subscriber", "query",

@@ -22,7 +22,7 @@ use bycoms_protocol::bus::{BusExt, Limits};
 use bycoms_protocol::msg::{FromAgent, ToAgent};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::{AgentArgs, BusArgs, Clock, Transport};
+use bycoms_sim::agent_process::{AgentArgs, BusArgs, Clock, Transport, DEFAULT_SETTINGS_TIMEOUT_S};
 use bycoms_sim::lab::robots::RobotsFile;
 use std::cell::{Cell, RefCell};
 use std::path::PathBuf;
@@ -34,8 +34,8 @@ fn args(id: u32) -> AgentArgs {
     AgentArgs {
         swarm: "suite".into(),
         robot: id,
-        terrain: PathBuf::from("-"),
-        eps: 3.0,
+        terrain: Some(PathBuf::from("-")),
+        eps: Some(3.0),
         noise: false,
         seed: 0,
         clock: Clock::Lockstep,
@@ -43,6 +43,7 @@ fn args(id: u32) -> AgentArgs {
         swarm_size: Some(4),
         parent_pid: Some(std::process::id() as i32),
         heartbeat_ms: 100,
+        settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
         bus: BusArgs { transport: Transport::Ipc, connect: Vec::new(), zenoh_config: None },
         failsafe: Default::default(),
     }

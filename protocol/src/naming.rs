@@ -319,6 +319,7 @@ impl core::fmt::Debug for Swarm {
 
 mod alive;
 mod keys;
+mod settings;
 pub use alive::Member;
 pub use keys::{KeyPattern, Route};
 

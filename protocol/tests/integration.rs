@@ -17,3 +17,4 @@ mod link_proxy;
 mod roundtrip;
 mod zenoh_bus;
 mod zenoh_liveliness;
+mod zenoh_settings;

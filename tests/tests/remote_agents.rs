@@ -2,7 +2,15 @@
 //! (as on other hosts, here on loopback over zenoh):
 //!
 //! * a lockstep launch gives exactly the in-process `simulate` result, and
-//!   every agent exits on `Shutdown` (none is reported as left behind);
+//!   every agent exits on `Shutdown` (none is reported as left behind):
+//!   agents started with the launch's settings on their command line, and
+//!   agents started with only where to connect, their swarm and robot id
+//!   (they take the run's settings from the orchestrator);
+//! * agents started before the orchestrator wait for it, then for its
+//!   settings;
+//! * an agent started with other settings (another ε) exits naming the
+//!   first difference before it registers, and another agent takes its
+//!   robot: the run is unchanged;
 //! * a robot whose agent never comes ends the launch (exit 1) with an error
 //!   naming it, within the registration timeout;
 //! * an agent of a robot outside the launch is counted and refused, and the
@@ -56,9 +64,13 @@ impl World {
 
 /// An orchestrator awaiting 3 remote agents, and the endpoint it listens on.
 fn orchestrator(world: &World, swarm: &str, extra: &[&str]) -> (Proc, String) {
+    orchestrator_on(world, swarm, "tcp/127.0.0.1:0", extra)
+}
+
+/// [`orchestrator`] listening on `listen`.
+fn orchestrator_on(world: &World, swarm: &str, listen: &str, extra: &[&str]) -> (Proc, String) {
     let terrain = world.terrain();
-    let mut args =
-        vec!["launch", "--agents", "remote", "--transport", "zenoh", "--listen", "tcp/127.0.0.1:0"];
+    let mut args = vec!["launch", "--agents", "remote", "--transport", "zenoh", "--listen", listen];
     args.extend(["--clock", "lockstep", "--json", "--swarm", swarm, "--robots", "3", "--eps", EPS]);
     args.extend(["--terrain", terrain.to_str().expect("utf-8 path"), "--time-limit", TIME_LIMIT]);
     args.extend(extra);
@@ -95,6 +107,15 @@ fn agent_with(world: &World, endpoint: &str, swarm: &str, robot: u32, size: u32,
     .map(|s| s.to_string())
     .collect();
     Proc::start(&bin("sim-agent"), &args)
+}
+
+/// An agent of robot `robot` started with only where to connect, its swarm
+/// and its robot id (the README's remote example): the run's settings come
+/// from the orchestrator.
+fn bare_agent(endpoint: &str, swarm: &str, robot: u32) -> Proc {
+    let robot = robot.to_string();
+    let args = ["--transport", "zenoh", "--connect", endpoint, "--swarm", swarm, "--robot", &robot];
+    Proc::start(&bin("sim-agent"), &args.map(String::from))
 }
 
 /// Waits for the orchestrator's line saying robot `id`'s agent registered.
@@ -160,6 +181,86 @@ fn lockstep_with_remote_agents_gives_the_simulate_result() {
 }
 
 #[test]
+fn agents_started_with_only_connect_swarm_and_robot_give_the_simulate_result() {
+    let world = World::long_obstacle();
+    let swarm = swarm_name("remote-bare");
+    let (orch, endpoint) = orchestrator(&world, &swarm, &[]);
+    let agents: Vec<Proc> = (1..=3).map(|k| bare_agent(&endpoint, &swarm, k)).collect();
+    let out = orch.wait(Duration::from_secs(180));
+    assert_same_as_simulate(&out, &world.expected);
+    let j = out.json();
+    assert_eq!(bad(&j, "duplicate") + bad(&j, "unknown_robot") + bad(&j, "wrong_version"), 0, "{j}");
+    for (i, a) in agents.into_iter().enumerate() {
+        let out = a.wait(Duration::from_secs(20));
+        assert_eq!(out.status.code(), Some(0), "agent #{i}: stderr:\n{}", out.stderr);
+        assert!(out.stderr.contains("got the run's settings from the orchestrator"), "{}", out.stderr);
+    }
+}
+
+#[test]
+fn agents_started_before_the_orchestrator_wait_for_it_and_its_settings() {
+    let world = World::long_obstacle();
+    let swarm = swarm_name("remote-early");
+    // A free port for the orchestrator-to-be (the OS hands it out).
+    let port =
+        std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).expect("free port").port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let agents: Vec<Proc> = (1..=3).map(|k| bare_agent(&endpoint, &swarm, k)).collect();
+    agents[0]
+        .stderr_line(Duration::from_secs(20), |l| {
+            l.contains("the orchestrator is not reachable yet").then_some(())
+        })
+        .expect("the agent says it waits for the orchestrator");
+    let (orch, _) = orchestrator_on(&world, &swarm, &endpoint, &[]);
+    let out = orch.wait(Duration::from_secs(180));
+    assert_same_as_simulate(&out, &world.expected);
+    assert_exit_cleanly(agents);
+}
+
+#[test]
+fn an_agent_with_another_eps_exits_naming_it_and_another_takes_its_robot() {
+    let world = World::long_obstacle();
+    let swarm = swarm_name("remote-mismatch");
+    let (orch, endpoint) = orchestrator(&world, &swarm, &[]);
+    let mut agents = vec![bare_agent(&endpoint, &swarm, 1)];
+    // Robot 2's agent started by hand with ε = 2 (the launch's is 3).
+    let terrain = world.terrain();
+    let other = ["--terrain", terrain.to_str().expect("utf-8 path"), "--eps", "2"];
+    let wrong = {
+        let args: Vec<String> = [
+            "--transport",
+            "zenoh",
+            "--connect",
+            &endpoint,
+            "--swarm",
+            &swarm,
+            "--robot",
+            "2",
+            "--swarm-size",
+            "3",
+        ]
+        .iter()
+        .chain(&other)
+        .map(|s| s.to_string())
+        .collect();
+        Proc::start(&bin("sim-agent"), &args).wait(Duration::from_secs(30))
+    };
+    assert_eq!(wrong.status.code(), Some(3), "refused as by the launch:\n{}", wrong.stderr);
+    assert!(
+        wrong.stderr.contains("epsilon (--eps): 2 here, 3 in the launch"),
+        "the first difference is named:\n{}",
+        wrong.stderr
+    );
+    // The launch goes on: another agent takes robot 2, and the run is the paper's.
+    agents.extend((2..=3).map(|k| bare_agent(&endpoint, &swarm, k)));
+    let out = orch.wait(Duration::from_secs(180));
+    assert_same_as_simulate(&out, &world.expected);
+    let j = out.json();
+    assert_eq!(bad(&j, "duplicate") + bad(&j, "unknown_robot") + bad(&j, "wrong_version"), 0, "{j}");
+    assert_exit_cleanly(agents);
+}
+
+#[test]
 fn a_robot_whose_agent_never_comes_is_skipped_or_named_with_missing_fail() {
     let world = World::long_obstacle();
     // Skipped at its turn (the default), listed as absent with why.
@@ -202,7 +303,8 @@ fn an_agent_of_a_robot_outside_the_launch_is_ignored() {
     let world = World::long_obstacle();
     let swarm = swarm_name("remote-stranger");
     let (orch, endpoint) = orchestrator(&world, &swarm, &[]);
-    let mut stranger = agent(&world, &endpoint, &swarm, 5, 5);
+    // Robot 5 with the launch's settings (taken from the orchestrator).
+    let mut stranger = bare_agent(&endpoint, &swarm, 5);
     stranger
         .stderr_line(Duration::from_secs(20), |l| l.contains("Using ZID").then_some(()))
         .expect("the stranger joins");

@@ -2,7 +2,8 @@
 //! certificates and access-control list from `orchestrator certs`: each
 //! agent reads its own `robot-K.json5` (`--agent-zenoh-config
 //! DIR/robot-{robot}.json5`) and the run gives the same result as the
-//! same launch over iceoryx2. Without the agents' configs the launch refuses to start (exit 2)
+//! same launch over iceoryx2 (and the ACL lets each agent ask for the
+//! run's settings). Without the agents' configs the launch refuses to start (exit 2)
 //! instead of spawning agents that cannot connect. Certificates are
 //! generated into a temporary directory; the port is the kernel's.
 
@@ -59,6 +60,10 @@ fn spawned_agents_join_a_secured_launch_with_their_own_certificates() {
     assert_eq!(j["endpoints"][0], endpoint.as_str(), "{j}");
     assert_eq!(j["outcome"], "arrived", "{}", run.stderr);
     assert_eq!(j["bad_traffic"]["garbage"], 0, "{j}");
+    // The ACL lets each robot ask for the run's settings, and each agent
+    // found them the same as its own (spawned: flags and stdin).
+    let checked = run.stderr.matches("got the run's settings from the orchestrator").count();
+    assert_eq!(checked, 3, "every agent got the launch's settings over QUIC:\n{}", run.stderr);
 
     let swarm = swarm_name("plain");
     let plain = Proc::orchestrator(&["launch", "--clock", "lockstep", "--swarm", &swarm, "--json"])

@@ -172,7 +172,7 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
     let scene = Recording::scene_for(&swarm_name, &world, &cfg);
     let recording = Recording::start(&swarm_name, &world, &cfg, scene.clone())?;
     // `_presence`: the orchestrator's zenoh liveliness token, held to the end.
-    let transport::Opened { bus, endpoints, links, presence: _presence } =
+    let transport::Opened { bus, endpoints, links, presence: _presence, zenoh } =
         transport::open(&cfg.transport, &cfg.faults, cfg.robots, &swarm_name)?;
     let bus: SharedBus = bus;
     let pose_source = poses::open(&cfg.mocap, cfg.robots, &bus, swarm)?;
@@ -189,6 +189,22 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
     ports.observers.iter_mut().for_each(|o| o.world(&swarm_name, &world, &cfg, scene.as_ref()));
     ports.show_scene();
     let template = setup::agent_template(&cfg, swarm_name, endpoints.clone());
+    // zenoh: the run's settings for agents started elsewhere with only
+    // where to connect, their swarm and robot id; served to the end.
+    let _settings_served = match &zenoh {
+        Some(z) => {
+            let settings = setup::run_settings(&template, &world);
+            let served =
+                z.serve_settings(&swarm, settings.encode()).context("cannot serve the run's settings")?;
+            tracing::info!(
+                key = swarm.settings().as_str(),
+                fingerprint = format_args!("{:016x}", settings.fingerprint()),
+                "zenoh: the run's settings are served to agents"
+            );
+            Some(served)
+        }
+        None => None,
+    };
     let agents = cfg.agents.open(
         agent,
         LaunchConfig::secs(cfg.supervision.register_timeout),

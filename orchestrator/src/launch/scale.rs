@@ -18,7 +18,9 @@ use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::{BusExt, TypedFanIn, TypedPublisher, TypedSubscriber};
 use bycoms_protocol::msg::{Deploy, FromAgent, GoalBearing, Pose, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::{ipc_config, AgentArgs, BusArgs, Clock, Transport};
+use bycoms_sim::agent_process::{
+    ipc_config, AgentArgs, BusArgs, Clock, Transport, DEFAULT_SETTINGS_TIMEOUT_S,
+};
 use bycoms_sim::terrain::{to_text, Terrain};
 use serde::Serialize;
 use std::collections::BTreeSet;
@@ -114,8 +116,8 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
             let args = AgentArgs {
                 swarm: name.clone(),
                 robot: id,
-                terrain: PathBuf::from("-"),
-                eps: 2.0,
+                terrain: Some(PathBuf::from("-")),
+                eps: Some(2.0),
                 noise: false,
                 seed: 0,
                 clock: Clock::Realtime,
@@ -123,6 +125,7 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
                 swarm_size: Some(agents),
                 parent_pid: Some(std::process::id() as i32),
                 heartbeat_ms: 100,
+                settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
                 bus: BusArgs { transport: Transport::Ipc, connect: Vec::new(), zenoh_config: None },
                 failsafe: Default::default(),
             };

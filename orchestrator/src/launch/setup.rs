@@ -12,7 +12,7 @@ use super::gate::GateParams;
 use super::poses::PoseSource;
 use super::World;
 use bycoms_sim::agent_process::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};
-use bycoms_sim::agent_process::{AgentArgs, BusArgs};
+use bycoms_sim::agent_process::{AgentArgs, BusArgs, RunSettings, DEFAULT_SETTINGS_TIMEOUT_S};
 use bycoms_sim::Vec2;
 use std::path::PathBuf;
 use std::time::{SystemTime, UNIX_EPOCH};
@@ -54,7 +54,18 @@ pub fn setup(
             beacons: agents.senses_beacons(),
         },
         unix_base_ms: SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_millis() as u64).unwrap_or(0),
-        settings: 0,
+        settings: run_settings(template, world).fingerprint(),
+    }
+}
+
+/// The run's settings: what spawned agents build from `template`'s flags
+/// and the terrain text they are handed, and what the launch serves to
+/// agents started elsewhere (over zenoh). One builder
+/// ([`RunSettings::of`]) on both sides, so one fingerprint.
+pub fn run_settings(template: &AgentArgs, world: &World) -> RunSettings {
+    match RunSettings::of(template, world.terrain_text.clone()) {
+        Some(settings) => settings,
+        None => unreachable!("the launch's agent template always carries --eps"),
     }
 }
 
@@ -82,8 +93,8 @@ pub fn agent_template(cfg: &LaunchConfig, swarm: String, endpoints: Vec<String>)
     AgentArgs {
         swarm,
         robot: 1,
-        terrain: PathBuf::from("-"),
-        eps: cfg.eps,
+        terrain: Some(PathBuf::from("-")),
+        eps: Some(cfg.eps),
         noise: cfg.noise,
         seed: cfg.seed,
         clock: cfg.clock,
@@ -91,6 +102,7 @@ pub fn agent_template(cfg: &LaunchConfig, swarm: String, endpoints: Vec<String>)
         swarm_size: Some(cfg.robots),
         parent_pid: Some(std::process::id() as i32),
         heartbeat_ms: (cfg.supervision.heartbeat_interval * 1000.0).round().max(1.0) as u64,
+        settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
         bus: BusArgs { transport: cfg.transport.kind, connect: endpoints, zenoh_config: None },
         failsafe,
     }
@@ -111,5 +123,33 @@ mod tests {
         assert_eq!(grace(&cfg), DEFAULT_GRACE_S);
         let flags = agent_template(&cfg, "s".into(), Vec::new()).to_flags();
         assert!(flags.windows(2).any(|w| w[0] == "--orchestrator-grace"), "{flags:?}");
+    }
+
+    #[test]
+    fn the_launch_s_fingerprint_is_what_its_spawned_agents_compute() {
+        use bycoms_sim::agent_process::AgentArgs;
+        use clap::Parser;
+        #[derive(Parser)]
+        struct Cli {
+            #[command(flatten)]
+            agent: AgentArgs,
+        }
+        let world = World::tiny();
+        let mut cfg =
+            LaunchConfig { eps: 0.1 + 0.2, seed: 7, noise: true, speed: 2.5, ..LaunchConfig::default() };
+        cfg.robots = 5;
+        let template = agent_template(&cfg, "s".into(), Vec::new());
+        let launch = run_settings(&template, &world);
+        // Robot 3 as spawned: the template's flags, the terrain on stdin.
+        let mut args = template.clone();
+        args.robot = 3;
+        let flags = std::iter::once("sim-agent".to_string()).chain(args.to_flags());
+        let parsed = Cli::try_parse_from(flags).expect("the flags parse").agent;
+        let agent = RunSettings::of(&parsed, world.terrain_text.clone()).expect("settings");
+        assert_eq!(agent, launch);
+        assert_eq!(agent.fingerprint(), launch.fingerprint());
+        assert_ne!(launch.fingerprint(), 0);
+        assert_eq!(launch.swarm_size, 5);
+        assert_eq!(launch.eps.to_bits(), (0.1f64 + 0.2).to_bits());
     }
 }

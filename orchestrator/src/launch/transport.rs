@@ -155,6 +155,9 @@ pub struct Opened {
     /// orchestrator go when it is dropped or the link is cut): keep it for
     /// the whole launch.
     pub presence: Option<AliveToken>,
+    /// zenoh: the session (a clone sharing it), for what is no bus message:
+    /// the run's settings served to agents started elsewhere.
+    pub zenoh: Option<ZenohBus>,
 }
 
 /// Opens the bus of a launch of `robots` robots in swarm `swarm`, in the
@@ -179,7 +182,13 @@ pub fn open(
             ipc.node_name = Some(format!("bycoms-{swarm}-orchestrator"));
             let bus = IpcBus::new(ipc).map_err(|source| TransportError::Open { kind: "ipc", source })?;
             let bus = faults.wrap(bus).map_err(TransportError::Faults)?;
-            Ok(Opened { bus, endpoints: Vec::new(), links: AgentLinks::default(), presence: None })
+            Ok(Opened {
+                bus,
+                endpoints: Vec::new(),
+                links: AgentLinks::default(),
+                presence: None,
+                zenoh: None,
+            })
         }
         Transport::Memory => {
             let limits = ipc_config(robots).limits;
@@ -187,7 +196,7 @@ pub fn open(
                 MemoryBus::new(limits).map_err(|source| TransportError::Open { kind: "memory", source })?;
             let links = AgentLinks { alive: None, memory: Some(bus.clone()) };
             let bus = faults.wrap(bus).map_err(TransportError::Faults)?;
-            Ok(Opened { bus, endpoints: Vec::new(), links, presence: None })
+            Ok(Opened { bus, endpoints: Vec::new(), links, presence: None, zenoh: None })
         }
         Transport::Zenoh => {
             let mut last = None;
@@ -206,11 +215,13 @@ pub fn open(
                         let presence = Some(bus.declare_alive(&swarm, Member::Orchestrator).map_err(open)?);
                         let links =
                             AgentLinks { alive: Some(bus.watch_alive(&swarm).map_err(open)?), memory: None };
+                        let zenoh = Some(bus.clone());
                         return Ok(Opened {
                             bus: faults.wrap(bus).map_err(TransportError::Faults)?,
                             endpoints,
                             links,
                             presence,
+                            zenoh,
                         });
                     }
                     Err(source) => {

@@ -43,6 +43,7 @@
 
 mod liveliness;
 mod ports;
+pub mod settings;
 mod text;
 
 pub use liveliness::{AliveToken, AliveWatch, Presence, PresenceEvent};

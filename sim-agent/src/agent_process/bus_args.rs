@@ -17,11 +17,12 @@ use super::failsafe::{Failsafe, FailsafeArgs};
 use super::options::Transport;
 use super::{ipc_config, zenoh_config};
 use bycoms_protocol::bus::ipc::IpcBus;
-use bycoms_protocol::bus::zenoh::{AliveWatch, Mode, ZenohBus};
+use bycoms_protocol::bus::zenoh::{AliveWatch, Mode, ZenohBus, ZenohConfig};
 use bycoms_protocol::bus::{Bus, BusError};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::Swarm;
 use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
 /// How an agent process reaches the swarm's bus.
 #[derive(Clone, Debug, Default, PartialEq, clap::Args)]
@@ -43,6 +44,19 @@ pub struct BusArgs {
 pub trait OnBus {
     /// What the run returns.
     type Output;
+    /// Over zenoh, once the session is open and before the member's
+    /// liveliness token is declared: what the process must learn first
+    /// (an agent's run settings from the orchestrator). An `Err` is the
+    /// process's output: it ends there, never seen as a member.
+    fn prepare(&mut self, _bus: &ZenohBus) -> Result<(), Self::Output> {
+        Ok(())
+    }
+    /// Over zenoh: how long to keep trying to reach the orchestrator when
+    /// it is not there yet (an agent started before the launch); `None`
+    /// (the default): fail at once with zenoh's error.
+    fn wait_for_orchestrator(&self) -> Option<Duration> {
+        None
+    }
     /// Runs on `bus`; over zenoh, `failsafe` is the failsafe and the
     /// liveliness watch that feeds it (`None` over iceoryx2, where the
     /// process's lifeline ties it to the orchestrator's).
@@ -101,7 +115,7 @@ impl BusArgs {
         failsafe: Option<&FailsafeArgs>,
         swarm_size: u32,
         node: String,
-        then: R,
+        mut then: R,
     ) -> Result<R::Output, BusOpenError> {
         match self.transport {
             Transport::Ipc => {
@@ -114,8 +128,11 @@ impl BusArgs {
                     failsafe.map(FailsafeArgs::failsafe).transpose().map_err(BusOpenError::Args)?;
                 let config =
                     zenoh_config(Mode::Client, Vec::new(), self.connect.clone(), self.zenoh_config.clone());
-                let bus = ZenohBus::open(config)?;
+                let bus = open_zenoh(config, then.wait_for_orchestrator())?;
                 tracing::debug!(connect = ?self.connect, "connected over zenoh");
+                if let Err(output) = then.prepare(&bus) {
+                    return Ok(output);
+                }
                 // The orchestrator sees this process go (ended, link cut)
                 // when the token is withdrawn; it lives until `then` returns.
                 let _alive = member.map(|m| bus.declare_alive(swarm, m)).transpose()?;
@@ -133,6 +150,36 @@ impl BusArgs {
         }
     }
 }
+
+/// Opens a zenoh session with `config`; with a `wait`, tries again every
+/// half second while the orchestrator cannot be reached (saying so every
+/// few seconds), for up to `wait`.
+fn open_zenoh(config: ZenohConfig, wait: Option<Duration>) -> Result<ZenohBus, BusError> {
+    let Some(wait) = wait else { return ZenohBus::open(config) };
+    let begun = Instant::now();
+    let mut said = begun;
+    loop {
+        match ZenohBus::open(config.clone()) {
+            Ok(bus) => return Ok(bus),
+            Err(e) if begun.elapsed() + RETRY_OPEN < wait => {
+                if said.elapsed() >= Duration::from_secs(5) || said == begun {
+                    said = Instant::now();
+                    tracing::info!(
+                        connect = ?config.connect,
+                        "the orchestrator is not reachable yet ({:.0} s of {:.0} s): {e}",
+                        begun.elapsed().as_secs_f64(),
+                        wait.as_secs_f64()
+                    );
+                }
+                std::thread::sleep(RETRY_OPEN);
+            }
+            Err(e) => return Err(e),
+        }
+    }
+}
+
+/// Wait between two attempts to reach an orchestrator that is not there yet.
+const RETRY_OPEN: Duration = Duration::from_millis(500);
 
 /// Why the bus could not be opened.
 #[derive(Debug, thiserror::Error)]

@@ -1,21 +1,30 @@
 //! `sim-agent`'s `main`: read the world, open the bus, run the loop, exit
 //! with a code that says how it ended.
 //!
+//! Where the run's settings come from: the flags (`--terrain`, `--eps`,
+//! ...), or, over zenoh without them, the orchestrator ([`settings::fetch`]
+//! before the agent is seen as a member). An agent started with settings
+//! flags over zenoh fetches the launch's too and exits when they differ,
+//! naming the first difference.
+//!
 //! Exit codes: 0 after `Shutdown`, a signal or the parent's death (all
 //! orderly ends), 2 for a usage error (bad flags or values, a bad swarm
 //! name or `--connect` endpoint), 3 when the
-//! orchestrator refused the agent (its robot already has one), 4 when the
+//! orchestrator refused the agent (its robot already has one, other
+//! settings, a short grace) or its settings differ from the launch's, 4 when the
 //! failsafe stopped the robot and exited (orchestrator lost), 1 for any
-//! other error (unreadable terrain, bus failure), printed on stderr first.
+//! other error (unreadable terrain, bus failure, no settings from the
+//! orchestrator in time), printed on stderr first.
 
 use super::bus_args::{BusOpenError, OnBus};
 use super::failsafe::Failsafe;
 use super::lifeline::{ExitCause, Lifeline, LifelineError};
 use super::options::AgentArgs;
 use super::run::{Agent, AgentPorts, Timing};
+use super::settings::{self, FetchError, RunSettings};
 use super::AgentCore;
 use crate::terrain::{self, ReadError, Terrain};
-use bycoms_protocol::bus::zenoh::AliveWatch;
+use bycoms_protocol::bus::zenoh::{AliveWatch, ZenohBus};
 use bycoms_protocol::bus::{Bus, BusError};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{NameError, RobotId, Swarm};
@@ -46,6 +55,15 @@ pub enum AgentError {
     /// The parent-death link could not be set up.
     #[error(transparent)]
     Lifeline(#[from] LifelineError),
+    /// The run's settings could not be had from the orchestrator.
+    #[error("{0}")]
+    Settings(#[from] FetchError),
+    /// The orchestrator's settings are not usable (another build's values).
+    #[error("the orchestrator's run settings: {0}")]
+    LaunchSettings(String),
+    /// The run's settings are not the launch's.
+    #[error("this agent's run settings are not the launch's: {0}")]
+    SettingsDiffer(String),
 }
 
 /// Runs one agent with `args`; returns the process exit code.
@@ -62,11 +80,12 @@ pub fn main_with(args: &AgentArgs) -> i32 {
         }
         Err(e) => {
             tracing::error!("{e}");
-            // Bad values are usage errors, like clap's own (exit code 2).
-            if matches!(e, AgentError::Args(_) | AgentError::Swarm(_)) {
-                2
-            } else {
-                1
+            match e {
+                // Bad values are usage errors, like clap's own (exit code 2).
+                AgentError::Args(_) | AgentError::Swarm(_) => 2,
+                // The launch would refuse it: as a refusal.
+                AgentError::SettingsDiffer(_) => 3,
+                _ => 1,
             }
         }
     }
@@ -89,13 +108,18 @@ pub fn quiet_iceoryx2() {
     set_log_level_from_env_or(LogLevel::Error);
 }
 
-fn read_terrain(path: &Path) -> Result<Terrain, AgentError> {
+/// The terrain's text from `path` (`-`: stdin), checked to parse.
+fn read_terrain_text(path: &Path) -> Result<String, AgentError> {
     let read = if path.as_os_str() == "-" {
-        terrain::read_terrain(std::io::stdin().lock())
+        terrain::read_text(std::io::stdin().lock())
     } else {
-        terrain::read_terrain_file(path)
+        terrain::read_text_file(path)
     };
-    read.map_err(|source| AgentError::Terrain { path: path.to_path_buf(), source })
+    let text = read.map_err(|source| AgentError::Terrain { path: path.to_path_buf(), source })?;
+    // A malformed file is this agent's error, before any bus is opened.
+    terrain::parse(&text)
+        .map_err(|e| AgentError::Terrain { path: path.to_path_buf(), source: ReadError::Parse(e) })?;
+    Ok(text)
 }
 
 fn run(args: &AgentArgs) -> Result<ExitCause, AgentError> {
@@ -103,10 +127,15 @@ fn run(args: &AgentArgs) -> Result<ExitCause, AgentError> {
     let mut lifeline = Lifeline::install(args.parent_pid)?;
     args.validate().map_err(AgentError::Args)?;
     let swarm = Swarm::new(&args.swarm)?;
-    let terrain = read_terrain(&args.terrain)?;
+    // The settings of the flags, if any; else the orchestrator's (fetched
+    // once the bus is open, `RunAgent::prepare`).
+    let own = match &args.terrain {
+        Some(path) => RunSettings::of(args, read_terrain_text(path)?),
+        None => None,
+    };
     let id = RobotId(args.robot);
     let node = format!("bycoms-{}-robot-{}", swarm.as_str(), id.0);
-    let then = RunAgent { args, swarm: &swarm, terrain, lifeline: &mut lifeline };
+    let then = RunAgent { args, swarm: &swarm, own, launch: None, lifeline: &mut lifeline };
     args.bus
         .open(&swarm, Some(Member::Agent(id)), Some(&args.failsafe), args.swarm_size(), node, then)
         .map_err(|e| match e {
@@ -115,28 +144,80 @@ fn run(args: &AgentArgs) -> Result<ExitCause, AgentError> {
         })?
 }
 
+/// Longest wait for the launch's settings of an agent that has its own.
+const CHECK_WAIT: Duration = Duration::from_secs(3);
+
 /// [`run_on`] once the bus is open.
 struct RunAgent<'a> {
     args: &'a AgentArgs,
     swarm: &'a Swarm,
-    terrain: Terrain,
+    /// The settings of the flags.
+    own: Option<RunSettings>,
+    /// zenoh: the launch's settings, as the orchestrator handed them over.
+    launch: Option<RunSettings>,
     lifeline: &'a mut Lifeline,
 }
 
 impl OnBus for RunAgent<'_> {
     type Output = Result<ExitCause, AgentError>;
+
+    fn wait_for_orchestrator(&self) -> Option<Duration> {
+        // Without settings the agent waits for the launch (it may start
+        // first); with its own it fails at once, as it always did.
+        self.own.is_none().then(|| Duration::from_secs_f64(self.args.settings_timeout))
+    }
+
+    fn prepare(&mut self, bus: &ZenohBus) -> Result<(), Self::Output> {
+        let mut wait = Duration::from_secs_f64(self.args.settings_timeout);
+        if self.own.is_some() {
+            // Only a check (the launch refuses other settings anyway): a
+            // launch that does not answer soon does not hold the agent up.
+            wait = wait.min(CHECK_WAIT);
+        }
+        let launch = match (settings::fetch(bus, self.swarm, wait), &self.own) {
+            (Ok(launch), _) => launch,
+            // With settings of its own the agent can go on: the launch
+            // refuses its `Register` if the fingerprints differ.
+            (Err(e @ FetchError::NoAnswer { .. }), Some(own)) => {
+                tracing::warn!(
+                    fingerprint = format_args!("{:016x}", own.fingerprint()),
+                    "{e}; registering with this agent's own settings"
+                );
+                return Ok(());
+            }
+            (Err(e), _) => return Err(Err(e.into())),
+        };
+        if let Some(own) = &self.own {
+            if let Some(difference) = own.first_difference(&launch) {
+                return Err(Err(AgentError::SettingsDiffer(difference)));
+            }
+        }
+        launch.validate().map_err(|e| Err(AgentError::LaunchSettings(e)))?;
+        self.launch = Some(launch);
+        Ok(())
+    }
+
     fn run<B: Bus>(self, bus: &B, failsafe: Option<(Failsafe, AliveWatch)>) -> Self::Output {
-        run_on(bus, self.args, self.swarm, self.terrain, self.lifeline, failsafe)
+        let Some(settings) = self.own.or(self.launch) else {
+            return Err(AgentError::Args("no run settings: give --terrain and --eps".into()));
+        };
+        let path = self.args.terrain.clone().unwrap_or_else(|| "(the orchestrator's settings)".into());
+        let terrain = terrain::parse(&settings.terrain)
+            .map_err(|e| AgentError::Terrain { path, source: ReadError::Parse(e) })?;
+        run_on(bus, self.args, &settings, self.swarm, terrain, self.lifeline, failsafe)
     }
 }
 
 /// The agent's loop on `bus`, whatever its backend: an agent process runs
 /// it on the bus of its `--transport`; a launch over the in-memory bus runs
 /// it on a thread of its own process (`orchestrator`'s `launch/agents/
-/// threads.rs`) with a [`Lifeline::with_flag`] for its end.
+/// threads.rs`) with a [`Lifeline::with_flag`] for its end. The robot runs
+/// `settings` (`terrain` is their terrain, parsed) and registers with their
+/// fingerprint; `args` give its id.
 pub fn run_on<B: Bus>(
     bus: &B,
     args: &AgentArgs,
+    settings: &RunSettings,
     swarm: &Swarm,
     terrain: Terrain,
     lifeline: &mut Lifeline,
@@ -144,16 +225,24 @@ pub fn run_on<B: Bus>(
 ) -> Result<ExitCause, AgentError> {
     let id = RobotId(args.robot);
     let ports = AgentPorts::open(bus, swarm, id)?;
-    tracing::debug!(swarm = swarm.as_str(), clock = ?args.clock, speed = args.speed, "agent on the bus");
-    let cfg = args.run_config();
+    let fingerprint = settings.fingerprint();
+    tracing::debug!(
+        swarm = swarm.as_str(),
+        clock = ?settings.clock,
+        speed = settings.speed,
+        settings = format_args!("{fingerprint:016x}"),
+        "agent on the bus"
+    );
+    let cfg = settings.run_config();
     let dt = cfg.kinematics.dt;
     let timing = Timing {
-        clock: args.clock,
-        period: Duration::from_secs_f64(dt / args.speed),
+        clock: settings.clock,
+        period: Duration::from_secs_f64(dt / settings.speed),
         dt_us: (dt * 1e6).round() as u64,
-        heartbeat: Duration::from_millis(args.heartbeat_ms),
+        heartbeat: Duration::from_millis(settings.heartbeat_ms),
     };
     let mut agent = Agent::new(AgentCore::new(id, terrain, cfg), ports, timing);
+    agent.set_settings(fingerprint);
     if let Some((failsafe, watch)) = failsafe {
         agent.watch_orchestrator(failsafe, watch);
     }

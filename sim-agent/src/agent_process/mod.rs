@@ -14,6 +14,8 @@
 //! * [`lifeline`] — why an agent never outlives the orchestrator;
 //! * [`instance`] — which process speaks for a robot (its `Register`);
 //! * [`failsafe`] — a robot whose orchestrator is gone (zenoh liveliness) stops;
+//! * [`settings`] — the run's settings, their encoding and fingerprint, and
+//!   how an agent over zenoh gets the launch's;
 //! * [`traffic`] — bad messages are counted, never fatal;
 //! * [`options`] / [`cli`] — the command line and `main`;
 //! * [`bus_args`] — the bus flags and the bus of every agent process (the
@@ -32,6 +34,7 @@ pub mod instance;
 pub mod lifeline;
 pub mod options;
 pub mod run;
+pub mod settings;
 pub mod traffic;
 
 pub use self::core::{AgentCore, Phase, Reject};
@@ -39,7 +42,8 @@ pub use bus_args::{BusArgs, BusOpenError, OnBus};
 pub use cli::{main_with, run_on, AgentError};
 pub use instance::instance;
 pub use lifeline::{ExitCause, Lifeline};
-pub use options::{check_speed, AgentArgs, Clock, Transport, MAX_SPEED};
+pub use options::{check_speed, AgentArgs, Clock, Transport, DEFAULT_SETTINGS_TIMEOUT_S, MAX_SPEED};
+pub use settings::RunSettings;
 pub use traffic::{BadKind, Traffic};
 
 use bycoms_protocol::bus::ipc::{IpcConfig, PortLimits};

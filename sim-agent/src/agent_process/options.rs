@@ -26,6 +26,10 @@ pub fn check_speed(speed: f64) -> Result<(), String> {
     Ok(())
 }
 
+/// How long an agent without settings flags asks the orchestrator for the
+/// run's settings by default, seconds (`--settings-timeout`).
+pub const DEFAULT_SETTINGS_TIMEOUT_S: f64 = 60.0;
+
 /// How simulated time advances: the one clock setting of a launch, shared
 /// by the orchestrator (`launch --clock`, `clock = ...` in its config) and
 /// every agent (`sim-agent --clock`).
@@ -81,9 +85,13 @@ impl Transport {
     }
 }
 
-/// One simulated BYCOMS robot as its own process on the iceoryx2 bus.
+/// One simulated BYCOMS robot as its own process on the iceoryx2 or zenoh bus.
 ///
-/// It registers, waits for its deployment, then senses the field of the
+/// Over zenoh it needs only where to connect, its swarm and its robot id:
+/// it asks the orchestrator for the run's settings (terrain, ε, noise,
+/// seed, clock, speed, swarm size). Started with settings flags it checks
+/// them against the launch's and exits naming the first difference. It
+/// registers, waits for its deployment, then senses the field of the
 /// other robots (their poses, summed in robot-id order), runs the BYCOMS
 /// controller on its goal bearing, moves its simulated body and publishes its
 /// pose as simulated motion capture. It freezes where it enters an
@@ -100,35 +108,70 @@ pub struct AgentArgs {
     /// This agent's robot id (1-based deployment order).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub robot: u32,
-    /// Terrain file in the text format; `-` reads it from stdin.
-    #[arg(long, value_name = "FILE")]
-    pub terrain: PathBuf,
+    /// Terrain file in the text format; `-` reads it from stdin. With it
+    /// (and `--eps`) the agent runs these settings and registers with their
+    /// fingerprint: a launch with other settings refuses it, naming the
+    /// first difference. Without any settings flag (over zenoh only) the
+    /// agent takes the run's settings from the orchestrator.
+    #[arg(
+        long,
+        value_name = "FILE",
+        requires = "eps",
+        help_heading = "Run settings (default: the orchestrator's)"
+    )]
+    pub terrain: Option<PathBuf>,
     /// Circumferential radius ε (threshold g_th = 1/ε²).
-    #[arg(long)]
-    pub eps: f64,
+    #[arg(long, requires = "terrain", help_heading = "Run settings (default: the orchestrator's)")]
+    pub eps: Option<f64>,
     /// Add the paper's sensing noise.
-    #[arg(long)]
+    #[arg(long, requires = "terrain", help_heading = "Run settings (default: the orchestrator's)")]
     pub noise: bool,
     /// Run seed; this robot's noise stream is `robot_seed(seed, robot)`.
-    #[arg(long, default_value_t = 0)]
+    #[arg(
+        long,
+        default_value_t = 0,
+        requires = "terrain",
+        help_heading = "Run settings (default: the orchestrator's)"
+    )]
     pub seed: u64,
     /// Clock of the control periods.
-    #[arg(long, value_enum, default_value_t = Clock::Lockstep)]
+    #[arg(
+        long,
+        value_enum,
+        default_value_t = Clock::Lockstep,
+        requires = "terrain",
+        help_heading = "Run settings (default: the orchestrator's)"
+    )]
     pub clock: Clock,
     /// Real-time speed-up: periods of 0.1 s / speed (realtime clock only).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(
+        long,
+        default_value_t = 1.0,
+        requires = "terrain",
+        help_heading = "Run settings (default: the orchestrator's)"
+    )]
     pub speed: f64,
     /// Robots in the swarm: sizes the shared-memory services, and must be the
     /// same for every process of the swarm (default: this robot's id).
-    #[arg(long)]
+    #[arg(long, requires = "terrain", help_heading = "Run settings (default: the orchestrator's)")]
     pub swarm_size: Option<u32>,
     /// The orchestrator's pid; the agent exits when its parent is no longer
     /// this process (default: its parent at start).
     #[arg(long)]
     pub parent_pid: Option<i32>,
     /// Heartbeat period, milliseconds of wall time.
-    #[arg(long, default_value_t = 100)]
+    #[arg(
+        long,
+        default_value_t = 100,
+        requires = "terrain",
+        help_heading = "Run settings (default: the orchestrator's)"
+    )]
     pub heartbeat_ms: u64,
+    /// zenoh, without settings flags: how long to wait for the orchestrator,
+    /// seconds: to be reachable (it may start after the agent), then to
+    /// hand over the run's settings; the agent says while it waits.
+    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_SETTINGS_TIMEOUT_S)]
+    pub settings_timeout: f64,
     /// The bus.
     #[command(flatten)]
     pub bus: BusArgs,
@@ -138,9 +181,13 @@ pub struct AgentArgs {
 }
 
 impl AgentArgs {
-    /// The run parameters the in-process runner would use for the same flags.
+    /// The run parameters the in-process runner would use for the same
+    /// flags (ε is NaN without `--eps`: the settings are then the
+    /// orchestrator's, see [`RunSettings::run_config`]).
+    ///
+    /// [`RunSettings::run_config`]: super::settings::RunSettings::run_config
     pub fn run_config(&self) -> RunConfig {
-        let mut cfg = RunConfig::paper(self.eps);
+        let mut cfg = RunConfig::paper(self.eps.unwrap_or(f64::NAN));
         cfg.noise = self.noise.then(NoiseModel::paper);
         cfg.seed = self.seed;
         cfg
@@ -154,43 +201,67 @@ impl AgentArgs {
     /// Checks the values clap cannot: the run parameters with the one check
     /// every command makes ([`RunConfig::validate`]), the speed with
     /// [`check_speed`].
+    /// Without settings flags the settings come from the orchestrator, over
+    /// zenoh only.
     pub fn validate(&self) -> Result<(), String> {
-        self.run_config().validate().map_err(|e| format!("bad run parameters: {e}"))?;
-        check_speed(self.speed)?;
-        if self.heartbeat_ms == 0 {
-            return Err("--heartbeat-ms must be at least 1".into());
+        if self.has_settings() {
+            self.run_config().validate().map_err(|e| format!("bad run parameters: {e}"))?;
+            check_speed(self.speed)?;
+            if self.heartbeat_ms == 0 {
+                return Err("--heartbeat-ms must be at least 1".into());
+            }
+        } else if self.bus.transport != Transport::Zenoh {
+            return Err("the run's settings come from the orchestrator over zenoh only: \
+                        give --transport zenoh --connect ENDPOINT, or the settings \
+                        (--terrain FILE --eps E ...)"
+                .into());
+        }
+        if !(self.settings_timeout.is_finite() && self.settings_timeout > 0.0) {
+            return Err(format!(
+                "--settings-timeout must be a positive number of seconds, got {}",
+                self.settings_timeout
+            ));
         }
         self.failsafe.grace()?;
         self.bus.validate()
     }
 
+    /// Whether the agent was started with the run's settings (`--terrain`
+    /// and `--eps`; clap makes every other settings flag need them).
+    pub fn has_settings(&self) -> bool {
+        self.terrain.is_some() && self.eps.is_some()
+    }
+
     /// The command-line flags that reproduce these arguments (what the
     /// orchestrator passes when it spawns an agent).
     pub fn to_flags(&self) -> Vec<String> {
-        let mut v = vec![
-            "--swarm".into(),
-            self.swarm.clone(),
-            "--robot".into(),
-            self.robot.to_string(),
-            "--terrain".into(),
-            self.terrain.display().to_string(),
-            "--eps".into(),
-            format!("{:?}", self.eps),
-            "--seed".into(),
-            self.seed.to_string(),
-            "--clock".into(),
-            self.clock.as_str().into(),
-            "--speed".into(),
-            format!("{:?}", self.speed),
-            "--heartbeat-ms".into(),
-            self.heartbeat_ms.to_string(),
-        ];
-        if self.noise {
-            v.push("--noise".into());
+        let mut v = vec!["--swarm".into(), self.swarm.clone(), "--robot".into(), self.robot.to_string()];
+        if let (Some(terrain), Some(eps)) = (&self.terrain, self.eps) {
+            v.extend([
+                "--terrain".into(),
+                terrain.display().to_string(),
+                "--eps".into(),
+                format!("{eps:?}"),
+                "--seed".into(),
+                self.seed.to_string(),
+                "--clock".into(),
+                self.clock.as_str().into(),
+                "--speed".into(),
+                format!("{:?}", self.speed),
+                "--heartbeat-ms".into(),
+                self.heartbeat_ms.to_string(),
+            ]);
+            if self.noise {
+                v.push("--noise".into());
+            }
+            if let Some(n) = self.swarm_size {
+                v.push("--swarm-size".into());
+                v.push(n.to_string());
+            }
         }
-        if let Some(n) = self.swarm_size {
-            v.push("--swarm-size".into());
-            v.push(n.to_string());
+        if self.settings_timeout != DEFAULT_SETTINGS_TIMEOUT_S {
+            v.push("--settings-timeout".into());
+            v.push(format!("{:?}", self.settings_timeout));
         }
         if let Some(p) = self.parent_pid {
             v.push("--parent-pid".into());
@@ -220,8 +291,8 @@ mod tests {
         let args = AgentArgs {
             swarm: "s".into(),
             robot: 4,
-            terrain: "-".into(),
-            eps,
+            terrain: Some("-".into()),
+            eps: Some(eps),
             noise: true,
             seed: u64::MAX,
             clock: Clock::Realtime,
@@ -229,6 +300,7 @@ mod tests {
             swarm_size: Some(9),
             parent_pid: Some(77),
             heartbeat_ms: 50,
+            settings_timeout: 2.5,
             bus: BusArgs {
                 transport: Transport::Zenoh,
                 connect: vec!["tcp/127.0.0.1:7447".into(), "tls/lab:7448".into()],
@@ -239,7 +311,7 @@ mod tests {
         let flags = args.to_flags();
         let parsed =
             Cli::try_parse_from(std::iter::once("sim-agent".to_string()).chain(flags)).unwrap().agent;
-        assert_eq!(parsed.eps.to_bits(), eps.to_bits());
+        assert_eq!(parsed.eps.map(f64::to_bits), Some(eps.to_bits()));
         assert_eq!(parsed.to_flags(), args.to_flags());
         assert_eq!(parsed.swarm_size(), 9);
         assert!(parsed.validate().is_ok());
@@ -252,7 +324,36 @@ mod tests {
         let bad_grace =
             AgentArgs { failsafe: FailsafeArgs { grace_s: -1.0, ..args.failsafe }, ..parsed.clone() };
         assert!(bad_grace.validate().unwrap_err().contains("--orchestrator-grace"));
-        let bad = AgentArgs { eps: f64::NAN, ..parsed };
+        let bad = AgentArgs { eps: Some(f64::NAN), ..parsed };
         assert!(bad.validate().is_err());
+    }
+
+    fn parse(flags: &str) -> Result<AgentArgs, clap::Error> {
+        Cli::try_parse_from(std::iter::once("sim-agent").chain(flags.split_whitespace())).map(|c| c.agent)
+    }
+
+    #[test]
+    fn without_settings_flags_the_settings_are_the_orchestrator_s() {
+        let bare = parse("--transport zenoh --connect tcp/10.0.0.5:7447 --swarm lab --robot 2").unwrap();
+        assert!(!bare.has_settings());
+        assert!(bare.validate().is_ok());
+        // What the orchestrator would spawn from it: no settings flags.
+        assert!(!bare.to_flags().iter().any(|f| f == "--seed" || f == "--eps"), "{:?}", bare.to_flags());
+        assert_eq!(parse(&bare.to_flags().join(" ")).unwrap().to_flags(), bare.to_flags());
+        // Over iceoryx2 nobody hands them over.
+        let ipc = parse("--swarm lab --robot 2").unwrap();
+        assert!(ipc.validate().unwrap_err().contains("over zenoh only"));
+        // A settings flag alone would be ignored: refused instead.
+        for partial in
+            ["--seed 3", "--noise", "--eps 3", "--terrain t.txt", "--clock realtime", "--swarm-size 4"]
+        {
+            let flags =
+                format!("--transport zenoh --connect tcp/10.0.0.5:7447 --swarm lab --robot 2 {partial}");
+            assert!(parse(&flags).is_err(), "{partial}");
+        }
+        let full = parse("--swarm lab --robot 2 --terrain t.txt --eps 3 --seed 3").unwrap();
+        assert!(full.has_settings() && full.validate().is_ok());
+        let bad_wait = AgentArgs { settings_timeout: 0.0, ..bare };
+        assert!(bad_wait.validate().unwrap_err().contains("--settings-timeout"));
     }
 }

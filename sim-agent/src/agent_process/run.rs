@@ -135,6 +135,13 @@ impl<B: Bus> Agent<B> {
         }
     }
 
+    /// Registers with `fingerprint`, the fingerprint of the run settings
+    /// this agent runs ([`super::settings::RunSettings::fingerprint`]; 0,
+    /// the default, says "none": the launch takes it whatever its own).
+    pub fn set_settings(&mut self, fingerprint: u64) {
+        self.settings = fingerprint;
+    }
+
     /// Watches the orchestrator's liveliness on `watch`: once it has been
     /// gone for longer than the failsafe's grace, the robot stops, and the
     /// loop ends with [`ExitCause::OrchestratorLost`] or goes on, by policy.

@@ -40,22 +40,34 @@ pub enum ReadError {
 /// Reads and parses a terrain from a stream, refusing more than
 /// [`MAX_FILE_BYTES`] bytes.
 pub fn read_terrain(reader: impl Read) -> Result<Terrain, ReadError> {
-    let mut bytes = Vec::new();
-    reader.take(MAX_FILE_BYTES + 1).read_to_end(&mut bytes)?;
-    if bytes.len() as u64 > MAX_FILE_BYTES {
-        return Err(ReadError::TooLarge { size: None });
-    }
-    let text = String::from_utf8(bytes).map_err(|_| ReadError::NotText)?;
-    Ok(parse(&text)?)
+    Ok(parse(&read_text(reader)?)?)
 }
 
 /// Reads and parses a terrain file; a file larger than [`MAX_FILE_BYTES`]
 /// is refused from its length, before anything is read.
 pub fn read_terrain_file(path: &Path) -> Result<Terrain, ReadError> {
+    Ok(parse(&read_text_file(path)?)?)
+}
+
+/// A terrain's text from a stream, unparsed, refusing more than
+/// [`MAX_FILE_BYTES`] bytes (an agent hands the text on: its run settings
+/// carry it).
+pub fn read_text(reader: impl Read) -> Result<String, ReadError> {
+    let mut bytes = Vec::new();
+    reader.take(MAX_FILE_BYTES + 1).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        return Err(ReadError::TooLarge { size: None });
+    }
+    String::from_utf8(bytes).map_err(|_| ReadError::NotText)
+}
+
+/// A terrain file's text, unparsed; a file larger than [`MAX_FILE_BYTES`]
+/// is refused from its length, before anything is read.
+pub fn read_text_file(path: &Path) -> Result<String, ReadError> {
     let file = std::fs::File::open(path)?;
     let meta = file.metadata()?;
     if meta.is_file() && meta.len() > MAX_FILE_BYTES {
         return Err(ReadError::TooLarge { size: Some(meta.len()) });
     }
-    read_terrain(file)
+    read_text(file)
 }

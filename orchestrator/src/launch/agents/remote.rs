@@ -3,9 +3,10 @@
 //! Why the orchestrator spawns nothing: in a lab the agents (simulated on
 //! other machines, or robots behind their gateways) exist before and
 //! independently of a launch. A remote agent is `sim-agent --transport
-//! zenoh --connect tcp/ORCHESTRATOR:PORT --robot K ...` with the launch's
-//! swarm, terrain, ε, noise, seed, clock and swarm size (the world is in
-//! its flags: the orchestrator knows no terrain). The launch starts
+//! zenoh --connect tcp/ORCHESTRATOR:PORT --swarm S --robot K`: it takes the
+//! run's settings (terrain, ε, noise, seed, clock, swarm size) from the
+//! launch, which serves them on `bycoms/<swarm>/settings` (`launch::run`).
+//! The launch starts
 //! expecting every robot at once ([`AgentSource::all_at_once`]) and deploys
 //! each when its turn comes: a robot whose agent has not registered by
 //! then is awaited up to its registration timeout (counted from the start),
@@ -157,8 +158,7 @@ impl Remote {
 
 impl AgentSource for Remote {
     fn start_hint(&self) -> &'static str {
-        " (start each with `sim-agent --transport zenoh --connect ENDPOINT --robot K` \
-         and the launch's swarm, swarm size, terrain and run flags)"
+        " (start each with `sim-agent --transport zenoh --connect ENDPOINT --swarm SWARM --robot K`)"
     }
 
     fn ended_by(&self) -> &'static str {

@@ -17,7 +17,7 @@ use super::watchdog::Watchdog;
 use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
 use bycoms_protocol::bus::memory::MemoryBus;
 use bycoms_protocol::Swarm;
-use bycoms_sim::agent_process::{run_on, Lifeline, Transport};
+use bycoms_sim::agent_process::{run_on, Lifeline, RunSettings, Transport};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -74,6 +74,9 @@ impl AgentSource for Threads {
         args.parent_pid = None;
         let other = |e: Box<dyn std::error::Error + Send + Sync>| AgentError::Other(e);
         let terrain = bycoms_sim::terrain::parse(plan.terrain_text).map_err(|e| other(Box::new(e)))?;
+        // The launch's settings, as a spawned agent builds them from its flags.
+        let settings = RunSettings::of(&args, plan.terrain_text.to_owned())
+            .ok_or_else(|| other("the launch's agent flags carry no run settings".into()))?;
         let swarm = Swarm::new(&args.swarm).map_err(|e| other(Box::new(e)))?;
         let end = Arc::new(AtomicBool::new(false));
         let bus = self.bus.clone();
@@ -82,7 +85,7 @@ impl AgentSource for Threads {
             .name(format!("agent-{id}"))
             .spawn(move || {
                 let mut lifeline = Lifeline::with_flag(flag);
-                if let Err(e) = run_on(&bus, &args, &swarm, terrain, &mut lifeline, None) {
+                if let Err(e) = run_on(&bus, &args, &settings, &swarm, terrain, &mut lifeline, None) {
                     tracing::error!(robot = id, "robot {id}'s agent thread failed: {e}");
                 }
             })
