@@ -174,6 +174,7 @@ pub enum GatewayError {
 
 /// Runs one gateway; returns the process exit code.
 pub fn main_with(args: &GatewayArgs) -> i32 {
+    bycoms_sim::agent_process::inherited::close_inherited_files();
     quiet_iceoryx2();
     let _span = tracing::info_span!("agent", robot = args.robot).entered();
     match run(args) {

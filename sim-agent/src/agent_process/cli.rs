@@ -68,6 +68,7 @@ pub enum AgentError {
 
 /// Runs one agent with `args`; returns the process exit code.
 pub fn main_with(args: &AgentArgs) -> i32 {
+    super::inherited::close_inherited_files();
     quiet_iceoryx2();
     // Every event of this agent carries its robot id (text: `sim-agent{robot=3}: …`).
     let _span = tracing::info_span!("sim-agent", robot = args.robot).entered();

@@ -30,6 +30,7 @@ pub mod bus_args;
 pub mod cli;
 pub mod core;
 pub mod failsafe;
+pub mod inherited;
 pub mod instance;
 pub mod lifeline;
 pub mod options;
