@@ -10,9 +10,7 @@
 //! event wake-ups fall back to one round over every topic, so nothing is
 //! ever left unread for longer than one wait slice.
 
-use super::ports::{
-    event_wait, pubsub_service, service_name, waker, Slept, Waker, FAR_FUTURE, POLL_FIRST_SLEEP,
-};
+use super::ports::{event_wait, pubsub_service, service_name, wait_for, waker, Slept, Waker};
 use super::IpcConfig;
 use crate::bus::{copy_out, BusError, Subscribe, FAN_IN_TAG};
 use crate::naming::TopicName;
@@ -23,7 +21,6 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::Node;
 use iceoryx2::service::Service as IoxService;
 use std::collections::{BTreeMap, VecDeque};
-use std::time::Instant;
 
 /// A fan-in (see [`crate::bus::Bus::fan_in`]): one subscriber per topic,
 /// woken by the topics' shared doorbell.
@@ -179,33 +176,7 @@ impl<S: IoxService> Subscribe for IpcFanIn<S> {
     }
 
     fn recv_timeout_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError> {
-        let start = Instant::now();
-        let deadline = start.checked_add(timeout);
-        let spin = match &self.waker {
-            Waker::Event { spin, .. } | Waker::Poll { spin, .. } => *spin,
-        };
-        let mut poll_sleep = POLL_FIRST_SLEEP;
-        loop {
-            if let Some(n) = self.try_recv_into(buf)? {
-                return Ok(Some(n));
-            }
-            let now = Instant::now();
-            let left = match deadline {
-                Some(d) => d.saturating_duration_since(now),
-                None => FAR_FUTURE,
-            };
-            if left.is_zero() {
-                return Ok(None);
-            }
-            if now.duration_since(start) < spin {
-                core::hint::spin_loop();
-                continue;
-            }
-            if let Slept::Interrupted = self.sleep(left, &mut poll_sleep)? {
-                // A signal cut the wait short: return so the caller can
-                // look at its flags, like a wait that timed out.
-                return self.try_recv_into(buf);
-            }
-        }
+        let sleep = |left, poll_sleep: &mut Duration| self.sleep(left, poll_sleep);
+        wait_for(self.waker.spin(), buf, timeout, |buf| self.try_recv_into(buf), sleep)
     }
 }

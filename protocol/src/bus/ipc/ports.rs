@@ -33,9 +33,9 @@ pub const EVENT_WAIT_SLICE: Duration = Duration::from_millis(10);
 /// blocked until the next notification, forever if none came.
 pub const MIN_EVENT_WAIT: Duration = Duration::from_micros(1);
 /// First sleep of [`Wake::Poll`] after the spin budget.
-pub(super) const POLL_FIRST_SLEEP: Duration = Duration::from_micros(20);
+const POLL_FIRST_SLEEP: Duration = Duration::from_micros(20);
 /// Stand-in deadline for timeouts too large for `Instant`.
-pub(super) const FAR_FUTURE: Duration = Duration::from_secs(3600);
+const FAR_FUTURE: Duration = Duration::from_secs(3600);
 
 pub(super) fn pubsub_service<S: IoxService>(
     node: &Node<S>,
@@ -250,25 +250,33 @@ impl<S: IoxService> Subscribe for IpcSubscriber<S> {
     }
 
     fn recv_timeout_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError> {
-        wait_for(&self.waker, &self.topic, buf, timeout, |buf| self.try_recv_into(buf))
+        let sleep = |left, poll_sleep: &mut Duration| self.waker.sleep(&self.topic, left, poll_sleep);
+        wait_for(self.waker.spin(), buf, timeout, |buf| self.try_recv_into(buf), sleep)
+    }
+}
+
+impl<S: IoxService> Waker<S> {
+    /// The busy-wait budget before sleeping.
+    pub(super) fn spin(&self) -> Duration {
+        match self {
+            Waker::Event { spin, .. } | Waker::Poll { spin, .. } => *spin,
+        }
     }
 }
 
 /// Receives with `try_recv` until a message comes or `timeout` passes:
-/// spin for the waker's budget, then sleep on it (see the module docs).
-fn wait_for<S: IoxService>(
-    waker: &Waker<S>,
-    topic: &TopicName,
+/// spin for `spin`, then `sleep` for at most what is left (see the module
+/// docs); `sleep` gets [`Wake::Poll`]'s current step.
+pub(super) fn wait_for(
+    spin: Duration,
     buf: &mut [u8],
     timeout: Duration,
     try_recv: impl Fn(&mut [u8]) -> Result<Option<usize>, BusError>,
+    sleep: impl Fn(Duration, &mut Duration) -> Result<Slept, BusError>,
 ) -> Result<Option<usize>, BusError> {
     let start = Instant::now();
     let deadline = start.checked_add(timeout);
-    let spin = match waker {
-        Waker::Event { spin, .. } | Waker::Poll { spin, .. } => *spin,
-    };
-    let mut sleep = POLL_FIRST_SLEEP;
+    let mut poll_sleep = POLL_FIRST_SLEEP;
     loop {
         if let Some(n) = try_recv(buf)? {
             return Ok(Some(n));
@@ -285,7 +293,7 @@ fn wait_for<S: IoxService>(
             core::hint::spin_loop();
             continue;
         }
-        if let Slept::Interrupted = waker.sleep(topic, left, &mut sleep)? {
+        if let Slept::Interrupted = sleep(left, &mut poll_sleep)? {
             // A signal (e.g. Ctrl-C handled by a flag) cut the wait
             // short: not a failure. Return early so the caller can look
             // at its flags, like a wait that timed out.
