@@ -63,7 +63,7 @@ impl PoseFixture for BusFixture {
     }
 
     fn source(&mut self) -> (Box<dyn PoseSource>, Swarm) {
-        (Box::new(BusPoses::new(Rc::clone(&self.bus), self.swarm)), self.swarm)
+        (Box::new(BusPoses::new(Rc::clone(&self.bus), self.swarm, 3).expect("pose fan-in")), self.swarm)
     }
 
     fn emit(&mut self, robot: u32, pose: &Pose) {

@@ -19,9 +19,17 @@
 //! Why a report topic per robot: over zenoh the access control is by key,
 //! so robot k's certificate may publish only under `robot/<k>/`, and a
 //! report whose robot id is not its topic's is forged. The orchestrator
-//! still waits on all reports at once (a bus fan-in); on iceoryx2 the
-//! report topics of a swarm share one wake-up, their [`TopicName::doorbell`]
-//! `bycoms/<swarm>/from_agents`.
+//! still waits on all reports and poses at once (a bus fan-in).
+//!
+//! Why doorbells: on iceoryx2 every wake-up service is a handful of open
+//! files in each process that opens it, and the orchestrator opens every
+//! robot's topics. So the robots' topics of one kind share one wake-up,
+//! their [`TopicName::doorbell`]: `from_agent` rings
+//! `bycoms/<swarm>/from_agents`, `pose` rings `bycoms/<swarm>/poses`,
+//! `to_agent` and `sensor` ring `bycoms/<swarm>/to_agents` (an agent waits
+//! on both), each ring carrying the robot id
+//! ([`TopicName::doorbell_member`]) so that only that robot's readers and
+//! the fan-ins of the whole family are woken.
 //!
 //! Character rules (enforced by [`TopicName::parse`] and [`Swarm::new`]):
 //! a name is 1..=[`TOPIC_NAME_MAX`] bytes of chunks separated by single
@@ -133,19 +141,20 @@ impl TopicName {
         core::str::from_utf8(&self.bytes[..self.len]).unwrap_or("")
     }
 
-    /// The name whose wake-ups this topic shares: a reader that waits on a
-    /// whole family of topics at once (the orchestrator on every robot's
-    /// `from_agent`) waits on one doorbell, which every publisher of the
-    /// family rings. `bycoms/<swarm>/robot/<id>/from_agent` rings
-    /// `bycoms/<swarm>/from_agents`; every other topic is its own doorbell.
+    /// The wake-up this topic's publishers ring and its readers wait on:
+    /// the robots' topics of one kind share one (see the module docs):
+    /// `bycoms/<swarm>/robot/<id>/from_agent` rings
+    /// `bycoms/<swarm>/from_agents`, `…/pose` rings `bycoms/<swarm>/poses`,
+    /// `…/to_agent` and `…/sensor` ring `bycoms/<swarm>/to_agents`; every
+    /// other topic is its own doorbell.
     /// (iceoryx2 uses it as the topic's event service; backends that wake
     /// their readers otherwise ignore it.)
     pub fn doorbell(&self) -> TopicName {
         match self.family() {
-            Some((swarm, _)) => {
+            Some((swarm, _, bell)) => {
                 let mut buf = NameBuf { bytes: [0u8; TOPIC_NAME_MAX], len: 0 };
                 // Shorter than `self` (which is valid): cannot fail.
-                let written = write!(buf, "{swarm}/from_agents").is_ok();
+                let written = write!(buf, "{swarm}/{bell}").is_ok();
                 let text = core::str::from_utf8(&buf.bytes[..buf.len]).unwrap_or("");
                 match (written, TopicName::parse(text)) {
                     (true, Ok(bell)) => bell,
@@ -156,24 +165,37 @@ impl TopicName {
         }
     }
 
-    /// Which member of its doorbell's family this topic is: the robot id of
-    /// a `from_agent` topic (a reader of the whole family learns from it
-    /// which topic rang); `None` for a topic that is its own doorbell.
+    /// Which member of its doorbell's family this topic is: its robot id
+    /// (a reader of the whole family learns from it which topic rang, and
+    /// a ring wakes only that robot's readers); `None` for a topic that is
+    /// its own doorbell.
     pub fn doorbell_member(&self) -> Option<u32> {
-        self.family().and_then(|(_, id)| id.parse().ok())
+        self.family().and_then(|(_, id, _)| id.parse().ok())
     }
 
-    /// `(bycoms/<swarm>, <id>)` of a `bycoms/<swarm>/robot/<id>/from_agent`.
-    fn family(&self) -> Option<(&str, &str)> {
-        self.as_str().strip_suffix("/from_agent").and_then(|rest| rest.rsplit_once("/robot/")).filter(
-            |(swarm, id)| {
+    /// `(bycoms/<swarm>, <id>, <doorbell leaf>)` of a robot's topic that
+    /// belongs to a doorbell family.
+    fn family(&self) -> Option<(&str, &str, &'static str)> {
+        DOORBELLS.iter().find_map(|&(leaf, bell)| {
+            let rest = self.as_str().strip_suffix(leaf)?;
+            let (swarm, id) = rest.rsplit_once("/robot/")?;
+            let valid =
                 swarm.strip_prefix(ROOT).is_some_and(|s| s.starts_with('/') && s.matches('/').count() == 1)
                     && !id.is_empty()
-                    && id.bytes().all(|b| b.is_ascii_digit())
-            },
-        )
+                    && id.bytes().all(|b| b.is_ascii_digit());
+            valid.then_some((swarm, id, bell))
+        })
     }
 }
+
+/// A robot's topics that share a doorbell: (the topic's last chunk, with
+/// its `/`, and the doorbell's).
+const DOORBELLS: [(&str, &str); 4] = [
+    ("/from_agent", "from_agents"),
+    ("/pose", "poses"),
+    ("/to_agent", "to_agents"),
+    ("/sensor", "to_agents"),
+];
 
 impl core::fmt::Display for TopicName {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {

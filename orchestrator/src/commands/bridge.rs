@@ -8,16 +8,21 @@
 //! releases cannot see each other; the tunnel also mirrors services under
 //! its own key scheme, whereas a watcher here subscribes to the protocol's
 //! names (`bycoms/<swarm>/**`, `protocol/PROTOCOL.md`). This bridge is a
-//! loop over the bus traits: one iceoryx2 subscriber and one zenoh
-//! publisher per topic of the swarm, bytes copied unchanged.
+//! loop over the bus traits: one iceoryx2 fan-in per kind of topic (every
+//! robot's poses, commands, reports, sensor data; the gate) and one zenoh
+//! publisher per topic, bytes copied unchanged. Why fan-ins: a robot's
+//! topics of one kind share one wake-up service on iceoryx2
+//! (`TopicName::doorbell`) with room for a listener per robot plus a few,
+//! so a bridge listening per topic would not fit, nor would its open files
+//! at a thousand robots.
 //!
 //! Direction: iceoryx2 → zenoh only (watching). Joining from another host
 //! (zenoh → iceoryx2) needs loop suppression and is left to the launch's
 //! zenoh transport.
 //!
-//! Pacing: iceoryx2 has no wildcard subscription and our bus no wait over
-//! many subscribers, so the loop polls every subscriber (a few tens of ns
-//! each), and sleeps 1 ms after a round that moved nothing. A message may
+//! Pacing: iceoryx2 has no wildcard subscription, so the loop polls every
+//! fan-in (each reads only the topics that rang), and sleeps 1 ms after a
+//! round that moved nothing. A message may
 //! thus wait up to ~1 ms; a lockstep burst faster than the bridge drains
 //! loses the oldest samples of a topic past its buffer (64), like any slow
 //! iceoryx2 subscriber — the launch itself never waits for the bridge.
@@ -26,9 +31,9 @@ use crate::exit;
 use crate::launch::config::{check_endpoints, check_swarm};
 use crate::launch::interrupt_flag;
 use anyhow::{Context, Result};
-use bycoms_protocol::bus::ipc::{IpcBus, IpcSubscriber};
+use bycoms_protocol::bus::ipc::{IpcBus, IpcFanIn};
 use bycoms_protocol::bus::zenoh::{Congestion, Mode, ZenohBus, ZenohConfig, ZenohPublisher};
-use bycoms_protocol::bus::{Bus, Limits, Publish, Subscribe};
+use bycoms_protocol::bus::{untag, Bus, Limits, Publish, Subscribe, FAN_IN_TAG};
 use bycoms_protocol::{RobotId, Swarm, TopicName, MAX_MESSAGE_LEN};
 use bycoms_sim::agent_process::ipc_config;
 use std::path::PathBuf;
@@ -63,26 +68,25 @@ pub struct Args {
     pub duration: Option<f64>,
 }
 
-/// One bridged topic.
+/// One bridged kind of topic: a fan-in of its topics, and a zenoh
+/// publisher per topic (in the fan-in's order).
 struct Lane {
-    from: IpcSubscriber<iceoryx2::prelude::ipc::Service>,
-    to: ZenohPublisher,
-    topic: TopicName,
+    from: IpcFanIn<iceoryx2::prelude::ipc::Service>,
+    to: Vec<(TopicName, ZenohPublisher)>,
     forwarded: u64,
 }
 
-fn topics(swarm: &Swarm, robots: u32) -> Vec<TopicName> {
-    let mut names = vec![*swarm.gate().name()];
-    for id in 1..=robots {
-        let r = RobotId(id);
-        names.extend([
-            *swarm.pose(r).name(),
-            *swarm.to_agent(r).name(),
-            *swarm.from_agent(r).name(),
-            *swarm.sensor(r).name(),
-        ]);
-    }
-    names
+/// The swarm's topics, one kind per lane: the gate, then every robot's
+/// poses, commands, reports and sensor data.
+fn kinds(swarm: &Swarm, robots: u32) -> Vec<Vec<TopicName>> {
+    let each = |f: &dyn Fn(RobotId) -> TopicName| (1..=robots).map(|k| f(RobotId(k))).collect();
+    vec![
+        vec![*swarm.gate().name()],
+        each(&|r| *swarm.pose(r).name()),
+        each(&|r| *swarm.to_agent(r).name()),
+        each(&|r| *swarm.from_agent(r).name()),
+        each(&|r| *swarm.sensor(r).name()),
+    ]
 }
 
 pub fn run(args: Args) -> Result<i32> {
@@ -117,11 +121,19 @@ pub fn run(args: Args) -> Result<i32> {
     })
     .context("cannot open the zenoh session")?;
     let mut lanes = Vec::new();
-    for topic in topics(&swarm, args.robots) {
-        let from =
-            local.subscriber(&topic).with_context(|| format!("cannot subscribe to {topic} (iceoryx2)"))?;
-        let to = remote.publisher(&topic).with_context(|| format!("cannot publish {topic} (zenoh)"))?;
-        lanes.push(Lane { from, to, topic, forwarded: 0 });
+    for topics in kinds(&swarm, args.robots) {
+        let kind = topics.first().map(TopicName::doorbell);
+        let kind = kind.as_ref().map_or("", TopicName::as_str);
+        let from = local.fan_in(&topics).with_context(|| format!("cannot subscribe to {kind} (iceoryx2)"))?;
+        let to = topics
+            .into_iter()
+            .map(|topic| {
+                let publisher =
+                    remote.publisher(&topic).with_context(|| format!("cannot publish {topic} (zenoh)"))?;
+                Ok((topic, publisher))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        lanes.push(Lane { from, to, forwarded: 0 });
     }
     bycoms_logging::status_line(&format!(
         "bridge: bycoms/{}/** (robots 1..={}) from iceoryx2 to zenoh, listening on {}",
@@ -131,14 +143,14 @@ pub fn run(args: Args) -> Result<i32> {
     ));
     let stop = interrupt_flag();
     let started = Instant::now();
-    let mut buf = [0u8; MAX_MESSAGE_LEN];
+    let mut buf = [0u8; MAX_MESSAGE_LEN + FAN_IN_TAG];
     while !stop.load(Ordering::SeqCst) && duration.is_none_or(|d| started.elapsed() < d) {
         let mut moved = false;
         for lane in &mut lanes {
-            while let Some(n) =
-                lane.from.try_recv_into(&mut buf).with_context(|| format!("receive {}", lane.topic))?
-            {
-                lane.to.publish(&buf[..n]).with_context(|| format!("republish {}", lane.topic))?;
+            while let Some(n) = lane.from.try_recv_into(&mut buf).context("receive from iceoryx2")? {
+                let Some((index, payload)) = untag(&buf[..n]) else { continue };
+                let Some((topic, to)) = lane.to.get(index) else { continue };
+                to.publish(payload).with_context(|| format!("republish {topic}"))?;
                 lane.forwarded += 1;
                 moved = true;
             }

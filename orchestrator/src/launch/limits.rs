@@ -11,12 +11,18 @@
 //! hard one when that suffices (the agents it starts inherit it), and
 //! otherwise refuses, naming the limit and the fix.
 //!
-//! The estimate: measured on this project's iceoryx2 bus, a subscriber takes
-//! 8 files, a publisher 7 on a topic of its own and 10 on a topic that has a
-//! subscriber; the orchestrator of a 300-robot launch held 7 771 open files
-//! at its peak, 25.7 per robot. We count [`FILES_PER_ROBOT`] per robot plus
-//! [`BASE_FILES`] for everything else (the recording, the terminal, zenoh's
-//! runtime, libraries). Agents hold a few dozen each (they close what they
+//! The estimate, measured on this project's iceoryx2 bus: each port the
+//! orchestrator opens costs three files (the service's static config, its
+//! dynamic config, the port's tag), plus its data segment and one
+//! connection per port on the other side; a robot's three topics (commands,
+//! pose, reports) cost it 15, its agent's wake-up on the shared `to_agents`
+//! doorbell two more (a socket and the listener's management segment), and
+//! its agent's standard error one pipe: 18 per robot (the orchestrator of a
+//! 100-robot launch held 1 818 at its peak). Before the robots' topics
+//! shared their wake-ups (`TopicName::doorbell`) it was 26. We count
+//! [`FILES_PER_ROBOT`] per robot plus [`BASE_FILES`] for everything else
+//! (the recording, the terminal, zenoh's runtime, libraries). Agents hold a
+//! few dozen each (they close what they
 //! inherit, `bycoms_sim::agent_process::inherited`). zenoh
 //! needs a socket or two per agent, in-memory launches none.
 
@@ -24,7 +30,7 @@ use super::config::Transport;
 use nix::sys::resource::{getrlimit, setrlimit, Resource};
 
 /// Open files per robot over iceoryx2 (see the module docs).
-pub const FILES_PER_ROBOT: u64 = 27;
+pub const FILES_PER_ROBOT: u64 = 19;
 /// Open files per robot over zenoh (a connection, a liveliness token).
 pub const ZENOH_FILES_PER_ROBOT: u64 = 4;
 /// Open files of a process besides its ports.

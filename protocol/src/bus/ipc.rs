@@ -14,10 +14,14 @@
 //! * `history_size(0)`: late subscribers see nothing stale;
 //!   `subscriber_max_buffer_size(buffer)` and `enable_safe_overflow(true)`:
 //!   a slow subscriber loses its oldest samples, a publisher never blocks;
-//! * waking: with [`Wake::Event`] every topic also has an event service of
-//!   the same name; a publisher notifies after each send (iceoryx2 skips the
-//!   syscall while a notification is still pending), and a subscriber that
-//!   found nothing spins briefly, then sleeps on its listener. With
+//! * waking: with [`Wake::Event`] every topic also has an event service,
+//!   its [`TopicName::doorbell`]: its own name, or for a robot's topics one
+//!   shared per direction and swarm (`from_agents`, `to_agents`), because
+//!   each event service a process opens costs it a handful of open files
+//!   and the orchestrator opens every robot's topics. A publisher notifies
+//!   after each send, on a shared doorbell only the listeners of its own
+//!   robot and the fan-ins (`ports::Bell`), and a subscriber that found
+//!   nothing spins briefly, then sleeps on its listener. With
 //!   [`Wake::Poll`] there is no event service and a waiting subscriber spins,
 //!   then sleeps in growing steps. The benchmark `benches/bus_hop.rs`
 //!   measures both against raw iceoryx2. On the 2-core dev machine a hop
@@ -188,6 +192,7 @@ pub fn cleanup_stale_resources_in<S: IoxService>(config: &Config) -> Result<Clea
 pub struct IceoryxBus<S: IoxService> {
     node: Node<S>,
     config: IpcConfig,
+    bells: ports::Bells<S>,
 }
 
 /// The single-threaded (fastest) iceoryx2 bus.
@@ -217,7 +222,7 @@ impl<S: IoxService> IceoryxBus<S> {
             builder = builder.name(&name);
         }
         let node = builder.create::<S>().map_err(|e| BusError::backend("create node", None, e))?;
-        Ok(Self { node, config })
+        Ok(Self { node, config, bells: ports::Bells::default() })
     }
 
     /// The configuration the bus was opened with.
@@ -238,7 +243,7 @@ impl<S: IoxService> Bus for IceoryxBus<S> {
     type FanIn = IpcFanIn<S>;
 
     fn publisher(&self, topic: &TopicName) -> Result<IpcPublisher<S>, BusError> {
-        ports::open_publisher(&self.node, &self.config, topic, &ports::service_name(topic)?)
+        ports::open_publisher(&self.node, &self.config, topic, &ports::service_name(topic)?, &self.bells)
     }
 
     fn subscriber(&self, topic: &TopicName) -> Result<IpcSubscriber<S>, BusError> {

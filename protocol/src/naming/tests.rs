@@ -18,29 +18,47 @@ fn builds_every_topic_name() {
 }
 
 #[test]
-fn reports_of_a_swarm_share_one_doorbell_and_nothing_else_does() {
+fn the_robots_topics_of_a_kind_share_one_doorbell_and_nothing_else_does() {
     let s = swarm();
-    let bell = s.from_agent(RobotId(3)).name().doorbell();
-    assert_eq!(bell.as_str(), "bycoms/lab-1/from_agents");
-    assert_eq!(s.from_agent(RobotId(3)).name().doorbell_member(), Some(3));
+    let from = s.from_agent(RobotId(3)).name().doorbell();
+    let to = s.to_agent(RobotId(3)).name().doorbell();
+    assert_eq!(from.as_str(), "bycoms/lab-1/from_agents");
+    assert_eq!(to.as_str(), "bycoms/lab-1/to_agents");
+    assert_eq!(s.pose(RobotId(3)).name().doorbell().as_str(), "bycoms/lab-1/poses");
+    assert_eq!(s.sensor(RobotId(3)).name().doorbell(), to);
+    for topic in
+        [*s.from_agent(RobotId(3)).name(), *s.pose(RobotId(3)).name(), *s.to_agent(RobotId(3)).name()]
+    {
+        assert_eq!(topic.doorbell_member(), Some(3), "{topic}");
+    }
     assert_eq!(s.from_agent(RobotId(u32::MAX)).name().doorbell_member(), Some(u32::MAX));
-    assert_eq!(s.pose(RobotId(3)).name().doorbell_member(), None);
-    assert_eq!(bell.doorbell_member(), None);
-    assert_eq!(s.from_agent(RobotId(u32::MAX)).name().doorbell(), bell);
+    assert_eq!(s.sensor(RobotId(u32::MAX)).name().doorbell_member(), Some(u32::MAX));
+    assert_eq!(from.doorbell_member(), None);
+    assert_eq!(to.doorbell_member(), None);
+    assert_eq!(s.from_agent(RobotId(u32::MAX)).name().doorbell(), from);
     let other = Swarm::new("lab-2").expect("valid swarm");
-    assert_ne!(other.from_agent(RobotId(3)).name().doorbell(), bell);
-    for topic in [*s.to_agent(RobotId(3)).name(), *s.pose(RobotId(3)).name(), *s.gate().name(), bell] {
+    assert_ne!(other.from_agent(RobotId(3)).name().doorbell(), from);
+    assert_ne!(other.to_agent(RobotId(3)).name().doorbell(), to);
+    for topic in [*s.gate().name(), *s.operator().name(), from, to] {
         assert_eq!(topic.doorbell(), topic, "{topic}");
     }
-    for raw in
-        ["a/b/robot/1/from_agent", "bycoms/x/robot//from_agent", "from_agent", "bycoms/robot/1/from_agent"]
-    {
+    for raw in [
+        "a/b/robot/1/from_agent",
+        "bycoms/x/robot//from_agent",
+        "from_agent",
+        "bycoms/robot/1/from_agent",
+        "bycoms/x/robot/1x/pose",
+        "bycoms/x/y/robot/1/to_agent",
+        "bycoms/x/robot/1/posed",
+    ] {
         if let Ok(name) = TopicName::parse(raw) {
             assert_eq!(name.doorbell(), name, "{raw}");
+            assert_eq!(name.doorbell_member(), None, "{raw}");
         }
     }
     let long = Swarm::new(&"s".repeat(SWARM_NAME_MAX)).expect("max-length swarm is valid");
     assert!(long.from_agent(RobotId(u32::MAX)).name().doorbell().as_str().ends_with("/from_agents"));
+    assert!(long.to_agent(RobotId(u32::MAX)).name().doorbell().as_str().ends_with("/to_agents"));
 }
 
 #[test]

@@ -62,11 +62,13 @@ pub const ROBOT_TOPIC_PORTS: usize = 8;
 
 /// The iceoryx2 configuration of a swarm of `swarm_size` robots.
 ///
-/// Payloads are at most one protocol message. The reports' doorbell
-/// (`bycoms/<swarm>/from_agents`, the event service every robot's
-/// `from_agent` rings) has one notifier per agent, so the default limits
-/// grow with the swarm (plus headroom for the orchestrator, a monitor and
-/// test tools). A robot's own topics have few ports on either side
+/// Payloads are at most one protocol message. The doorbells of the
+/// robots' topics (`TopicName::doorbell`: the event services that every
+/// robot's reports, poses and commands ring) have a notifier or a listener
+/// per agent, so the default limits grow with the swarm (plus headroom
+/// for the orchestrator, a bridge, a monitor and test tools; a reader of
+/// every robot, like the orchestrator or the bridge, uses one fan-in and
+/// so one listener). A robot's own topics have few ports on either side
 /// ([`ROBOT_TOPIC_PORTS`]): its pose is read by the orchestrator and tools
 /// only (agents are sent their beacons instead of reading every earlier
 /// robot's pose), and iceoryx2 keeps a resident slot (~3.6 KB) per

@@ -55,7 +55,10 @@ pub fn open(
             )
             .with_placement(natnet.placement),
         ),
-        _ => Box::new(bus::BusPoses::new(std::rc::Rc::clone(bus), swarm)),
+        _ => Box::new(
+            bus::BusPoses::new(std::rc::Rc::clone(bus), swarm, robots)
+                .context("cannot read the poses on the bus")?,
+        ),
     })
 }
 

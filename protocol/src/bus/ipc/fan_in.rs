@@ -6,11 +6,15 @@
 //! `protocol/benches/bus_hop.rs`). A topic's publisher rings the shared
 //! doorbell with its member id ([`TopicName::doorbell_member`], the robot
 //! id), so the fan-in reads only the topics that rang. A notification
-//! without a known id, a wait that ended without one, and a bus without
-//! event wake-ups fall back to one round over every topic, so nothing is
-//! ever left unread for longer than one wait slice.
+//! without a known id, a wait that ended without one, a reader that only
+//! ever looks without waiting and has not looked everywhere for a wait
+//! slice, and a bus without event wake-ups fall back to one round over
+//! every topic, so nothing is ever left unread for longer than one wait
+//! slice.
 
-use super::ports::{event_wait, pubsub_service, service_name, wait_for, waker, Slept, Waker};
+use super::ports::{
+    event_wait, pubsub_service, service_name, wait_for, waker, Slept, Waker, EVENT_WAIT_SLICE, EVERY_MEMBER,
+};
 use super::IpcConfig;
 use crate::bus::{copy_out, BusError, Subscribe, FAN_IN_TAG};
 use crate::naming::TopicName;
@@ -21,6 +25,7 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::Node;
 use iceoryx2::service::Service as IoxService;
 use std::collections::{BTreeMap, VecDeque};
+use std::time::Instant;
 
 /// A fan-in (see [`crate::bus::Bus::fan_in`]): one subscriber per topic,
 /// woken by the topics' shared doorbell.
@@ -54,10 +59,11 @@ pub(super) fn open_fan_in<S: IoxService>(
     Ok(IpcFanIn {
         subscribers,
         members,
-        waker: waker(node, config, &bell)?,
+        waker: waker(node, config, &bell, Some(EVERY_MEMBER))?,
         bell,
         rang: RefCell::new(VecDeque::new()),
         round: Cell::new(true),
+        last_round: Cell::new(Instant::now()),
         next: Cell::new(0),
         max_payload: config.limits.max_payload + FAN_IN_TAG,
     })
@@ -75,6 +81,8 @@ pub struct IpcFanIn<S: IoxService> {
     rang: RefCell<VecDeque<usize>>,
     /// Whether a round over every topic is due.
     round: Cell<bool>,
+    /// When the last round found every topic empty.
+    last_round: Cell<Instant>,
     /// Where the next round starts (no topic starves another).
     next: Cell<usize>,
     max_payload: usize,
@@ -160,7 +168,12 @@ impl<S: IoxService> Subscribe for IpcFanIn<S> {
             self.rang.borrow_mut().pop_front();
         }
         if !self.round.get() {
-            return Ok(None);
+            if self.last_round.get().elapsed() < EVENT_WAIT_SLICE {
+                return Ok(None);
+            }
+            // A ring may have been lost (a publisher that does not ring):
+            // look everywhere once a slice, waiting or not.
+            self.round.set(true);
         }
         let n = self.subscribers.len();
         let first = self.next.get();
@@ -172,11 +185,55 @@ impl<S: IoxService> Subscribe for IpcFanIn<S> {
             }
         }
         self.round.set(false);
+        self.last_round.set(Instant::now());
         Ok(None)
     }
 
     fn recv_timeout_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError> {
         let sleep = |left, poll_sleep: &mut Duration| self.sleep(left, poll_sleep);
         wait_for(self.waker.spin(), buf, timeout, |buf| self.try_recv_into(buf), sleep)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::bus::ipc::root::Isolated;
+    use crate::bus::ipc::{IpcBus, IpcConfig, Wake};
+    use crate::bus::{untag, Bus, Publish, Subscribe, FAN_IN_TAG};
+    use crate::{RobotId, Swarm};
+    use core::time::Duration;
+    use std::time::Instant;
+
+    /// A reader that only looks without waiting still gets a message whose
+    /// publisher did not ring (here one that polls), within a slice or so.
+    #[test]
+    fn a_fan_in_read_without_waiting_finds_what_did_not_ring() {
+        let iso = Isolated::new("unrung");
+        let config = IpcConfig { isolation: Some(iso.tag().to_owned()), ..IpcConfig::default() };
+        let silent = IpcConfig {
+            wake: Wake::Poll { spin: Duration::ZERO, max_sleep: Duration::from_millis(1) },
+            ..config.clone()
+        };
+        let swarm = Swarm::new("unrung").expect("valid swarm");
+        let topics: Vec<_> = (1..=3).map(|k| *swarm.pose(RobotId(k)).name()).collect();
+        let reader = IpcBus::new(config).expect("iceoryx2 node");
+        let fan_in = reader.fan_in(&topics).expect("fan-in");
+        let mut buf = [0u8; 64 + FAN_IN_TAG];
+        assert_eq!(fan_in.try_recv_into(&mut buf).expect("receive"), None, "nothing sent yet");
+        let writer = IpcBus::new(silent).expect("iceoryx2 node");
+        let publisher = writer.publisher(&topics[1]).expect("publisher");
+        publisher.publish(b"pose").expect("publish");
+        let deadline = Instant::now() + Duration::from_secs(5);
+        let got = loop {
+            if let Some(n) = fan_in.try_recv_into(&mut buf).expect("receive") {
+                break Some(n);
+            }
+            if Instant::now() > deadline {
+                break None;
+            }
+            core::hint::spin_loop();
+        };
+        let n = got.expect("the unrung message is found");
+        assert_eq!(untag(&buf[..n]), Some((1, &b"pose"[..])));
     }
 }

@@ -16,12 +16,14 @@ use crate::bus::{copy_out, BusError, Publish, Subscribe};
 use crate::naming::TopicName;
 use core::time::Duration;
 use iceoryx2::port::listener::{Listener, ListenerWaitError};
-use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::notifier::{ListenerKey, Notifier, NotifierNotifyError};
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
-use iceoryx2::prelude::{AllocationStrategy, EventId, Node, ServiceName};
-use iceoryx2::service::port_factory::{event, publish_subscribe};
+use iceoryx2::prelude::{AllocationStrategy, CallbackProgression, EventId, Node, PortName, ServiceName};
+use iceoryx2::service::port_factory::{event, publish_subscribe, PortFactory as _};
 use iceoryx2::service::Service as IoxService;
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant;
 
 /// Longest single sleep on an event listener.
@@ -85,6 +87,7 @@ pub(super) fn open_publisher<S: IoxService>(
     config: &IpcConfig,
     topic: &TopicName,
     name: &ServiceName,
+    bells: &Bells<S>,
 ) -> Result<IpcPublisher<S>, BusError> {
     let publisher = pubsub_service(node, config, topic, name)?
         .publisher_builder()
@@ -92,24 +95,164 @@ pub(super) fn open_publisher<S: IoxService>(
         .allocation_strategy(AllocationStrategy::Static)
         .create()
         .map_err(|e| BusError::backend("create publisher", Some(topic), e))?;
-    let bell = topic.doorbell();
-    let notifier = match config.wake {
-        Wake::Event { .. } => Some(
-            event_service(node, config, &bell, &service_name(&bell)?)?
+    let ring = match (config.wake, topic.doorbell_member()) {
+        (Wake::Poll { .. }, _) => Ring::Nobody,
+        (Wake::Event { .. }, Some(member)) => Ring::Member { bell: bells.bell(node, config, topic)?, member },
+        (Wake::Event { .. }, None) => Ring::Everyone(
+            event_service(node, config, topic, name)?
                 .notifier_builder()
                 .create()
                 .map_err(|e| BusError::backend("create notifier", Some(topic), e))?,
         ),
-        Wake::Poll { .. } => None,
     };
-    let member = topic.doorbell_member().map(|k| k as usize).filter(|&k| k <= event_id_max(config));
-    Ok(IpcPublisher {
-        publisher,
-        notifier,
-        member: member.map(EventId::new),
-        topic: *topic,
-        max_payload: config.limits.max_payload,
-    })
+    Ok(IpcPublisher { publisher, ring, topic: *topic, max_payload: config.limits.max_payload })
+}
+
+/// The shared ringers of a bus's doorbell families, one per family (see
+/// [`Bell`]), made when the bus's first publisher of the family opens.
+pub(super) struct Bells<S: IoxService> {
+    open: Mutex<std::collections::HashMap<TopicName, Arc<Bell<S>>>>,
+}
+
+impl<S: IoxService> Default for Bells<S> {
+    fn default() -> Self {
+        Self { open: Mutex::new(std::collections::HashMap::new()) }
+    }
+}
+
+impl<S: IoxService> Bells<S> {
+    /// The ringer of `topic`'s doorbell family.
+    fn bell(&self, node: &Node<S>, config: &IpcConfig, topic: &TopicName) -> Result<Arc<Bell<S>>, BusError> {
+        let doorbell = topic.doorbell();
+        let mut open = self.open.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some(bell) = open.get(&doorbell) {
+            return Ok(Arc::clone(bell));
+        }
+        let service = event_service(node, config, &doorbell, &service_name(&doorbell)?)?;
+        let notifier = service
+            .notifier_builder()
+            .create()
+            .map_err(|e| BusError::backend("create notifier", Some(&doorbell), e))?;
+        let bell = Arc::new(Bell {
+            id_max: event_id_max(config),
+            service,
+            notifier,
+            doorbell,
+            listeners: Mutex::new(Listeners::default()),
+        });
+        open.insert(doorbell, Arc::clone(&bell));
+        Ok(bell)
+    }
+}
+
+/// How often a [`Bell`] looks again at who listens, whatever happened.
+const LOOK_AGAIN: Duration = Duration::from_millis(100);
+/// How often, at most, a [`Bell`] looks for a member it knows no listener
+/// of (a topic nobody reads yet must not cost a look at every send).
+const LOOK_FOR_MISSING: Duration = Duration::from_millis(10);
+
+/// One notifier on a doorbell family's event service, shared by every
+/// publisher of the family in this bus, that wakes only the readers of the
+/// member that sent and the family's fan-ins.
+///
+/// Why: a notifier holds a socket per listener, so one notifier per
+/// publisher on a family with a listener per robot (every agent listens on
+/// `to_agents`) would hold n² sockets; and a plain notify wakes every
+/// listener of the service, so every agent would wake for every other's
+/// command. Listeners are named by what they read (`PortName`): a
+/// subscriber by its topic's member id (`"7"`), a fan-in `"*"`; any other
+/// name is woken by every ring. The keys of the listeners are looked up
+/// when the number of listeners changes, when a key turns out stale, when a
+/// member has none (at most every [`LOOK_FOR_MISSING`]) and every
+/// [`LOOK_AGAIN`]. A reader the bell missed still wakes within one
+/// [`EVENT_WAIT_SLICE`].
+pub(super) struct Bell<S: IoxService> {
+    service: event::PortFactory<S>,
+    notifier: Notifier<S>,
+    doorbell: TopicName,
+    id_max: usize,
+    listeners: Mutex<Listeners>,
+}
+
+/// Who listens on a [`Bell`]'s doorbell, as last looked up.
+#[derive(Default)]
+struct Listeners {
+    /// A member id → its readers' listeners.
+    members: BTreeMap<u32, Vec<ListenerKey>>,
+    /// Listeners woken by every ring (fan-ins, unnamed).
+    everyone: Vec<ListenerKey>,
+    /// The number of listeners at the last look.
+    count: usize,
+    looked: Option<Instant>,
+    stale: bool,
+}
+
+/// The name of a listener that reads every member of its family.
+pub(super) const EVERY_MEMBER: &str = "*";
+
+impl<S: IoxService> Bell<S> {
+    /// Wakes the readers of `member` and the family's fan-ins.
+    fn ring(&self, member: u32) -> Result<(), BusError> {
+        let id = member as usize;
+        if id > self.id_max {
+            // An id the event service cannot carry: wake everyone, who look
+            // at every topic when the id is not theirs.
+            return self
+                .notifier
+                .notify()
+                .map(drop)
+                .map_err(|e| BusError::backend("notify", Some(&self.doorbell), e));
+        }
+        let mut listeners = self.listeners.lock().unwrap_or_else(PoisonError::into_inner);
+        let now = Instant::now();
+        let count = self.service.dynamic_config().number_of_listeners();
+        let since = listeners.looked.map(|t| now.duration_since(t));
+        let missing = !listeners.members.contains_key(&member);
+        let mut look = listeners.stale
+            || count != listeners.count
+            || since.is_none_or(|s| s >= LOOK_AGAIN || (missing && s >= LOOK_FOR_MISSING));
+        // A key that turned out stale (its reader left, maybe another came
+        // in its place) gets one more look, so the send still wakes.
+        for _ in 0..2 {
+            if look {
+                listeners.look(&self.notifier, count, now);
+            }
+            let mut stale = false;
+            let keys = listeners.members.get(&member).into_iter().flatten().chain(&listeners.everyone);
+            for key in keys {
+                match self.notifier.notify_single_listener_with_custom_event_id(key, EventId::new(id)) {
+                    Ok(()) => {}
+                    Err(NotifierNotifyError::InvalidListenerKey) => stale = true,
+                    Err(e) => return Err(BusError::backend("notify", Some(&self.doorbell), e)),
+                }
+            }
+            listeners.stale = stale;
+            if !stale {
+                break;
+            }
+            look = true;
+        }
+        Ok(())
+    }
+}
+
+impl Listeners {
+    /// Looks up the listeners' keys anew.
+    fn look<S: IoxService>(&mut self, notifier: &Notifier<S>, count: usize, now: Instant) {
+        self.members.clear();
+        self.everyone.clear();
+        notifier.for_each_listener(|monofier, details| {
+            let key = monofier.listener_key();
+            match details.listener_name.as_str().parse::<u32>() {
+                Ok(member) => self.members.entry(member).or_default().push(key),
+                Err(_) => self.everyone.push(key),
+            }
+            CallbackProgression::Continue
+        });
+        self.count = count;
+        self.looked = Some(now);
+        self.stale = false;
+    }
 }
 
 pub(super) fn open_subscriber<S: IoxService>(
@@ -123,25 +266,34 @@ pub(super) fn open_subscriber<S: IoxService>(
         .buffer_size(config.limits.buffer)
         .create()
         .map_err(|e| BusError::backend("create subscriber", Some(topic), e))?;
-    let waker = waker(node, config, &topic.doorbell())?;
+    let member = topic.doorbell_member().map(|m| m.to_string());
+    let waker = waker(node, config, &topic.doorbell(), member.as_deref())?;
     Ok(IpcSubscriber { subscriber, waker, topic: *topic, max_payload: config.limits.max_payload })
 }
 
 /// How a reader of `bell`'s topics is woken: on `bell`'s event service
-/// (its publishers ring it), or by polling.
+/// (its publishers ring it), or by polling. A reader of one member of a
+/// doorbell family names its listener by the member (see [`Bell`]), a
+/// fan-in by [`EVERY_MEMBER`].
 pub(super) fn waker<S: IoxService>(
     node: &Node<S>,
     config: &IpcConfig,
     bell: &TopicName,
+    member: Option<&str>,
 ) -> Result<Waker<S>, BusError> {
     Ok(match config.wake {
-        Wake::Event { spin } => Waker::Event {
-            spin,
-            listener: event_service(node, config, bell, &service_name(bell)?)?
-                .listener_builder()
-                .create()
-                .map_err(|e| BusError::backend("create listener", Some(bell), e))?,
-        },
+        Wake::Event { spin } => {
+            let service = event_service(node, config, bell, &service_name(bell)?)?;
+            let mut builder = service.listener_builder();
+            let name = member.map(PortName::new).transpose();
+            let name = name.map_err(|e| BusError::backend("name listener", Some(bell), e))?;
+            if let Some(name) = &name {
+                builder = builder.name(name);
+            }
+            let listener =
+                builder.create().map_err(|e| BusError::backend("create listener", Some(bell), e))?;
+            Waker::Event { spin, listener }
+        }
         Wake::Poll { spin, max_sleep } => Waker::Poll { spin, max_sleep },
     })
 }
@@ -154,11 +306,19 @@ pub(super) fn service_name(topic: &TopicName) -> Result<ServiceName, BusError> {
 /// Publisher of an [`super::IceoryxBus`].
 pub struct IpcPublisher<S: IoxService> {
     publisher: Publisher<S, [u8], ()>,
-    notifier: Option<Notifier<S>>,
-    /// Rung with this event id: which member of its doorbell's family it is.
-    member: Option<EventId>,
+    ring: Ring<S>,
     topic: TopicName,
     max_payload: usize,
+}
+
+/// Whom a publisher wakes after a send.
+enum Ring<S: IoxService> {
+    /// Nobody: readers poll ([`Wake::Poll`]).
+    Nobody,
+    /// Every listener of the topic's own event service.
+    Everyone(Notifier<S>),
+    /// The readers of `member` in its doorbell family, and the fan-ins.
+    Member { bell: Arc<Bell<S>>, member: u32 },
 }
 
 impl<S: IoxService> Publish for IpcPublisher<S> {
@@ -172,14 +332,13 @@ impl<S: IoxService> Publish for IpcPublisher<S> {
             .loan_slice_uninit(payload.len())
             .map_err(|e| BusError::backend("loan sample", topic, e))?;
         sample.write_from_slice(payload).send().map_err(|e| BusError::backend("send", topic, e))?;
-        if let Some(notifier) = &self.notifier {
-            match self.member {
-                Some(id) => notifier.notify_with_custom_event_id(id),
-                None => notifier.notify(),
+        match &self.ring {
+            Ring::Nobody => Ok(()),
+            Ring::Everyone(notifier) => {
+                notifier.notify().map(drop).map_err(|e| BusError::backend("notify", topic, e))
             }
-            .map_err(|e| BusError::backend("notify", topic, e))?;
+            Ring::Member { bell, member } => bell.ring(*member),
         }
-        Ok(())
     }
 }
 
@@ -310,6 +469,56 @@ mod tests {
     use crate::bus::Bus;
     use crate::naming::TopicName;
     use std::sync::mpsc;
+
+    /// The event ids waiting on `sub`'s listener (taken, without waiting).
+    fn rings(sub: &IpcSubscriber<iceoryx2::prelude::ipc::Service>) -> Vec<usize> {
+        let mut ids = Vec::new();
+        match &sub.waker {
+            Waker::Event { listener, .. } => {
+                listener.try_wait(|a| ids.push(a.id.as_value())).expect("read listener");
+            }
+            Waker::Poll { .. } => panic!("the default bus wakes by events"),
+        }
+        ids.sort_unstable();
+        ids.dedup();
+        ids
+    }
+
+    /// On a shared doorbell a send wakes only the readers of its own robot
+    /// (and fan-ins), also readers that came, left and came back after the
+    /// bell last looked; one notifier serves all the bus's publishers of
+    /// the family.
+    #[test]
+    fn a_shared_doorbell_wakes_only_the_robot_that_was_sent_to() {
+        let iso = Isolated::new("bells");
+        let config = IpcConfig { isolation: Some(iso.tag().to_owned()), ..IpcConfig::default() };
+        let swarm = crate::Swarm::new("bells").expect("valid swarm");
+        let topic = |k| *swarm.to_agent(crate::RobotId(k)).name();
+        let bus = IpcBus::new(config.clone()).expect("iceoryx2 node");
+        let agents = IpcBus::new(config).expect("iceoryx2 node");
+        let one = agents.subscriber(&topic(1)).expect("subscriber");
+        let two = agents.subscriber(&topic(2)).expect("subscriber");
+        let to_one = bus.publisher(&topic(1)).expect("publisher");
+        let to_two = bus.publisher(&topic(2)).expect("publisher");
+        assert_eq!(bus.bells.open.lock().expect("lock").len(), 1, "one ringer for the family");
+        to_one.publish(b"tick").expect("publish");
+        assert_eq!((rings(&one), rings(&two)), (vec![1], vec![]));
+        to_two.publish(b"tick").expect("publish");
+        to_two.publish(b"tick").expect("publish");
+        assert_eq!((rings(&one), rings(&two)), (vec![], vec![2]));
+        // A reader that joins later is woken by the next send.
+        let three = agents.subscriber(&topic(3)).expect("subscriber");
+        let to_three = bus.publisher(&topic(3)).expect("publisher");
+        to_three.publish(b"tick").expect("publish");
+        assert_eq!((rings(&one), rings(&two), rings(&three)), (vec![], vec![], vec![3]));
+        // Robot 1's reader is replaced (same number of listeners).
+        drop(one);
+        let one = agents.subscriber(&topic(1)).expect("subscriber");
+        to_one.publish(b"tick").expect("publish");
+        assert_eq!((rings(&one), rings(&two), rings(&three)), (vec![1], vec![], vec![]));
+        let mut buf = [0u8; 16];
+        assert_eq!(one.try_recv_into(&mut buf).expect("receive"), Some(4), "the message is there");
+    }
 
     /// A wait of less than a microsecond on the event listener returns.
     ///
