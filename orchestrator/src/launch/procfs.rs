@@ -185,9 +185,9 @@ Shared_Clean:       1548 kB
                 .expect("sleep"),
         );
         let pid = child.0.id();
-        let tree = tree(me);
-        assert_eq!(tree[0], me);
-        assert!(tree.contains(&pid), "child {pid} not in {tree:?}");
+        let listed = tree(me);
+        assert_eq!(listed[0], me);
+        assert!(listed.contains(&pid), "child {pid} not in {listed:?}");
         assert!(open_files(me).is_some_and(|n| n >= 3));
         assert!(pss_kb(me) > 0 && memory(me).rss_kb > 0);
         drop(child);

@@ -108,14 +108,21 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
             if Instant::now() > deadline || stop.load(std::sync::atomic::Ordering::SeqCst) {
                 bail!("only {} of the first {last} agents registered within 60 s", registered.len());
             }
-            if let Some((id, gone)) = sup.poll(true).into_iter().next() {
+            // Every few ms, not per message: a forced poll is a `wait4` per
+            // agent, and the registered agents' heartbeats (10 a second
+            // each) outran a loop that polled all of them per message, so
+            // later batches' registrations were lost behind them (500
+            // agents never started).
+            if let Some((id, gone)) = sup.poll(false).into_iter().next() {
                 bail!("agent {id} is gone: {gone}");
             }
-            if let Ok(Some((_, msg))) = reports.recv_timeout(Duration::from_millis(10)) {
+            let mut next = reports.recv_timeout(Duration::from_millis(10));
+            while let Ok(Some((_, msg))) = next {
                 sup.heard(msg.robot().0);
                 if let FromAgent::Register(r) = msg {
                     registered.insert(r.robot.0);
                 }
+                next = reports.try_recv();
             }
         }
     }
