@@ -8,6 +8,9 @@
 //!   second);
 //! * `bench scale` — N real-time agents at 10 Hz at once: missed periods
 //!   and memory per agent;
+//! * `bench crowd` — whole lockstep launches of N robots on a terrain where
+//!   every robot gets stuck, measured from outside: memory of all their
+//!   processes, open files, wall time per tick (`launch::crowd`);
 //! * `bench schedules` — the launch core's simulation testing
 //!   (`launch::harness`): seeded fault schedules played in virtual time,
 //!   schedules per second and robot-ticks per second, each schedule checked.
@@ -59,6 +62,15 @@ pub enum What {
         #[arg(long, default_value_t = 1.0)]
         speed: f64,
     },
+    /// Whole lockstep launches where every robot sticks: memory, open files, time per tick.
+    Crowd {
+        /// Swarm sizes, one launch each.
+        #[arg(long, value_delimiter = ',', default_value = "10,100,300,1000")]
+        robots: Vec<u32>,
+        /// Longest one launch may take, s (then it is stopped).
+        #[arg(long, default_value_t = 1800.0, value_name = "SECONDS")]
+        timeout: f64,
+    },
     /// Seeded fault schedules of the launch core in virtual time, per second.
     Schedules {
         /// Schedules to play (seeds 0..N, as the test suite draws them).
@@ -79,9 +91,12 @@ pub fn run(args: Args) -> Result<i32> {
     if let What::Schedules { count, rounds } = args.what {
         return schedules(count, rounds, args.json);
     }
+    if let What::Crowd { robots, timeout } = args.what {
+        return crowd(robots, timeout, args.agent_bin, args.json);
+    }
     let agent = launch::agent_command(args.agent_bin.as_deref(), None)?;
     match args.what {
-        What::Schedules { .. } => unreachable!("handled above"),
+        What::Schedules { .. } | What::Crowd { .. } => unreachable!("handled above"),
         What::Launch { runs, no_prespawn, transport } => {
             let (mut reactions, mut speeds, mut walls) = (Vec::new(), Vec::new(), Vec::new());
             let mut first_moving = Vec::new();
@@ -147,6 +162,27 @@ pub fn run(args: Args) -> Result<i32> {
         }
     }
     Ok(crate::exit::SUCCESS)
+}
+
+/// `bench crowd`: one launch per swarm size, the figures of each.
+fn crowd(robots: Vec<u32>, timeout: f64, agent_bin: Option<PathBuf>, json: bool) -> Result<i32> {
+    if robots.is_empty() || robots.contains(&0) {
+        return Err(crate::exit::usage("--robots takes swarm sizes of at least 1"));
+    }
+    if !(timeout.is_finite() && timeout > 0.0) {
+        return Err(crate::exit::usage("--timeout must be a positive number of seconds"));
+    }
+    let opts =
+        launch::crowd::Options { robots, agent_bin, timeout: std::time::Duration::from_secs_f64(timeout) };
+    let rows = launch::crowd::run(&opts)?;
+    if json {
+        let figures = serde_json::json!({ "terrain": launch::crowd::ALL_STUCK, "launches": rows });
+        crate::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
+    } else {
+        crate::outln!("{}", launch::crowd::table(&rows))?;
+    }
+    let interrupted = rows.last().is_some_and(|r| r.ended == launch::crowd::Ended::Interrupted);
+    Ok(if interrupted { crate::exit::INTERRUPTED } else { crate::exit::SUCCESS })
 }
 
 /// `bench schedules`: plays seeds `0..count` (the test suite's schedules)

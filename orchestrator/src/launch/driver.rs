@@ -271,11 +271,21 @@ impl Driver {
         let Ending { outcome, error } = ending;
         let running: Vec<u32> =
             self.core.slots().iter().filter(|s| self.agents.is_running(s.id())).map(Slot::id).collect();
+        let live = running.len();
         for id in running {
             // A failure to send only means it is ended after the grace period.
             let _ = self.ports.send(id, &ToAgent::Shutdown);
         }
-        let killed = self.agents.wind_down(Duration::from_secs_f64(self.cfg.supervision.shutdown_grace));
+        let grace = self.cfg.supervision.shutdown_grace_for(live);
+        let winding = Instant::now();
+        let killed = self.agents.wind_down(grace);
+        tracing::debug!(
+            agents = live,
+            killed = killed.len(),
+            grace_ms = grace.as_millis() as u64,
+            took_ms = winding.elapsed().as_millis() as u64,
+            "agents wound down"
+        );
         // Killed agents may leave transport state behind (iceoryx2 nodes):
         // the transport removes it now rather than at the next launch.
         self.ports.cleanup_dead_nodes();
@@ -353,6 +363,7 @@ impl Driver {
             endpoints: std::mem::take(&mut self.endpoints),
             first_moving_s: first_moving,
             resends: self.core.resends(),
+            shutdown_killed: killed,
         };
         if let Some(trace) = self.ports.recording.take_trace() {
             summary.picture = self.picture(&trace, &summary);

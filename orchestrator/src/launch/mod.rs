@@ -32,11 +32,16 @@
 //! * [`swarm_lock`] — one live launch per swarm name;
 //! * [`limits`] — the open files the launch needs, checked (and the soft
 //!   limit raised) before anything starts;
-//! * [`scale`] — the real-time scale benchmark (`orchestrator bench scale`).
+//! * [`scale`] — the real-time scale benchmark (`orchestrator bench scale`);
+//! * [`crowd`] — a whole lockstep launch measured from outside as the
+//!   swarm grows (`orchestrator bench crowd`);
+//! * [`procfs`] — the benches' one reader of `/proc` (memory, open files,
+//!   a process tree).
 
 pub mod agents;
 pub mod config;
 pub mod core;
+pub mod crowd;
 pub mod driver;
 pub mod events;
 pub mod faults;
@@ -47,6 +52,7 @@ pub mod limits;
 pub mod observe;
 pub mod ports;
 pub mod poses;
+pub mod procfs;
 pub mod progress;
 pub mod recording;
 pub mod scale;

@@ -9,10 +9,12 @@
 //! before it got to it — as a real robot would). Memory is read from
 //! `/proc/<pid>/status` (RSS, split into anonymous, file and shared-memory
 //! pages) and `/proc/<pid>/smaps_rollup` (PSS: shared pages divided among
-//! the processes sharing them, the fair per-agent share).
+//! the processes sharing them, the fair per-agent share), by the benches'
+//! one reader of `/proc` ([`super::procfs`]).
 
 use super::agents::spawned::{AgentCommand, Spawned};
 use super::agents::AgentSource;
+use super::procfs::{memory, Memory};
 use anyhow::{bail, Context, Result};
 use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::{BusExt, TypedFanIn, TypedPublisher, TypedSubscriber};
@@ -34,16 +36,6 @@ const BATCH: u32 = 25;
 type Sub<M> = TypedSubscriber<<Bus as bycoms_protocol::bus::Bus>::Subscriber, M>;
 type Pub<M> = TypedPublisher<<Bus as bycoms_protocol::bus::Bus>::Publisher, M>;
 
-/// Memory of one process, kB.
-#[derive(Clone, Copy, Debug, Default, Serialize)]
-pub struct Memory {
-    pub rss_kb: u64,
-    pub rss_anon_kb: u64,
-    pub rss_file_kb: u64,
-    pub rss_shmem_kb: u64,
-    pub pss_kb: u64,
-}
-
 /// What the scale benchmark measured.
 #[derive(Clone, Debug, Serialize)]
 pub struct ScaleReport {
@@ -57,26 +49,6 @@ pub struct ScaleReport {
     pub max_rss_kb: u64,
     pub max_pss_kb: u64,
     pub start_s: f64,
-}
-
-fn field(text: &str, key: &str) -> u64 {
-    text.lines()
-        .find_map(|l| l.strip_prefix(key))
-        .and_then(|rest| rest.split_whitespace().next()?.parse().ok())
-        .unwrap_or(0)
-}
-
-/// Reads a process's memory from `/proc`.
-pub fn memory(pid: u32) -> Memory {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
-    let rollup = std::fs::read_to_string(format!("/proc/{pid}/smaps_rollup")).unwrap_or_default();
-    Memory {
-        rss_kb: field(&status, "VmRSS:"),
-        rss_anon_kb: field(&status, "RssAnon:"),
-        rss_file_kb: field(&status, "RssFile:"),
-        rss_shmem_kb: field(&status, "RssShmem:"),
-        pss_kb: field(&rollup, "Pss:"),
-    }
 }
 
 /// Runs `agents` real-time agents at 10 Hz × `speed` for `seconds`.
@@ -136,14 +108,21 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
             if Instant::now() > deadline || stop.load(std::sync::atomic::Ordering::SeqCst) {
                 bail!("only {} of the first {last} agents registered within 60 s", registered.len());
             }
-            if let Some((id, gone)) = sup.poll(true).into_iter().next() {
+            // Every few ms, not per message: a forced poll is a `wait4` per
+            // agent, and the registered agents' heartbeats (10 a second
+            // each) outran a loop that polled all of them per message, so
+            // later batches' registrations were lost behind them (500
+            // agents never started).
+            if let Some((id, gone)) = sup.poll(false).into_iter().next() {
                 bail!("agent {id} is gone: {gone}");
             }
-            if let Ok(Some((_, msg))) = reports.recv_timeout(Duration::from_millis(10)) {
+            let mut next = reports.recv_timeout(Duration::from_millis(10));
+            while let Ok(Some((_, msg))) = next {
                 sup.heard(msg.robot().0);
                 if let FromAgent::Register(r) = msg {
                     registered.insert(r.robot.0);
                 }
+                next = reports.try_recv();
             }
         }
     }

@@ -234,6 +234,9 @@ pub struct Summary {
     /// Commands sent again because their answer did not come (a lost
     /// message, an unreachable agent back; `launch/partition.rs`).
     pub resends: u64,
+    /// Robots whose agents did not exit within the shutdown grace after
+    /// `Shutdown` and were ended (spawned agents killed; remote ones named).
+    pub shutdown_killed: Vec<u32>,
 }
 
 impl Summary {
@@ -387,6 +390,7 @@ mod tests {
             endpoints: Vec::new(),
             first_moving_s: None,
             resends: 0,
+            shutdown_killed: Vec::new(),
         }
     }
 
