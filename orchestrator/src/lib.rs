@@ -12,6 +12,7 @@ pub mod mocap;
 pub mod out;
 pub mod record;
 pub mod replay;
+pub mod runs;
 pub mod scenario;
 pub mod scene;
 pub mod sweep;

@@ -17,7 +17,7 @@
 //! tick the robot started at, its time the tick's).
 
 use super::snapshot::{Options, Unit};
-use crate::commands::simulate::summary_line;
+use crate::runs::summary_line;
 use crate::launch::gate::{active_periods, same_pose};
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use bycoms_sim::body::Kinematics;
