@@ -6,6 +6,7 @@
 pub mod certs;
 pub mod commands;
 pub mod draw;
+pub mod gate;
 pub mod launch;
 pub mod live;
 pub mod mocap;

@@ -9,7 +9,7 @@
 //! * [`config`] — the TOML config (`deploy/launch.toml`) and its defaults;
 //! * [`core`] — the launch itself as a deterministic state machine, no IO:
 //!   inputs with their time in, outputs and the next deadline out; the
-//!   gate ([`gate`]), the budget, registration, settling, placement,
+//!   gate ([`crate::gate`]), the budget, registration, settling, placement,
 //!   partitions and re-sends, the dead-robot policy live there once;
 //! * [`driver`] — the IO shell that feeds the core from the bus, the pose
 //!   source and the agent source on the wall clock and carries out its
@@ -40,7 +40,6 @@ pub mod core;
 pub mod driver;
 pub mod events;
 pub mod faults;
-pub mod gate;
 pub mod harness;
 pub mod lab;
 pub mod limits;

@@ -8,7 +8,7 @@
 use super::agents::AgentSource;
 use super::config::{Clock, LaunchConfig};
 use super::core::{AgentTraits, Setup};
-use super::gate::GateParams;
+use crate::gate::GateParams;
 use super::poses::PoseSource;
 use super::World;
 use bycoms_sim::agent_process::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};

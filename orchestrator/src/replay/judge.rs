@@ -12,7 +12,7 @@
 
 use super::read::{Entry, Recorded};
 use crate::launch::core::{Closed, Referee};
-use crate::launch::gate::{GateParams, Verdict};
+use crate::gate::{GateParams, Verdict};
 use crate::launch::Clock;
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose, ToAgent};
 use bycoms_protocol::RobotId;

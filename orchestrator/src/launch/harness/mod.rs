@@ -40,7 +40,7 @@ use super::agents::{Gone, Reach};
 use super::config::{LaunchConfig, Missing, OnDeath};
 use super::core::log::{Call, Logged};
 use super::core::{AgentTraits, Ending, Input, Output, Setup, SlotState};
-use super::gate::GateParams;
+use crate::gate::GateParams;
 use super::summary::Outcome;
 use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Heartbeat, Pose, Register, ToAgent};
 use bycoms_protocol::RobotId;
