@@ -39,7 +39,8 @@ fn layers() -> Vec<Vec<String>> {
     let layers: Vec<Vec<String>> = rows
         .iter()
         .map(|row| {
-            let cell = row.split('|').nth(2).unwrap_or_else(|| panic!("a row of two columns at least: {row}"));
+            let cell =
+                row.split('|').nth(2).unwrap_or_else(|| panic!("a row of two columns at least: {row}"));
             cell.split('`').skip(1).step_by(2).map(str::to_owned).collect()
         })
         .collect();
@@ -107,7 +108,8 @@ fn code_only(text: &str) -> String {
                     i += 1;
                 }
             }
-        } else if c[i] == 'r' && (at(i + 1) == '"' || (at(i + 1) == '#' && !at(i.wrapping_sub(1)).is_alphanumeric()))
+        } else if c[i] == 'r'
+            && (at(i + 1) == '"' || (at(i + 1) == '#' && !at(i.wrapping_sub(1)).is_alphanumeric()))
             && (i == 0 || !(c[i - 1].is_alphanumeric() || c[i - 1] == '_'))
         {
             // A raw string: r"…", r#"…"#.
@@ -400,7 +402,11 @@ fn imports_run_down_the_layers() {
         }
     }
     assert!(checked > 100, "uses between modules are found ({checked})");
-    assert!(wrong.is_empty(), "imports that do not run down the layers of ARCHITECTURE.md:\n{}", wrong.join("\n"));
+    assert!(
+        wrong.is_empty(),
+        "imports that do not run down the layers of ARCHITECTURE.md:\n{}",
+        wrong.join("\n")
+    );
 }
 
 #[test]

@@ -233,4 +233,3 @@ fn draw_pictures(
     }
     Ok(written)
 }
-

@@ -17,8 +17,8 @@
 //! tick the robot started at, its time the tick's).
 
 use super::snapshot::{Options, Unit};
-use crate::runs::summary_line;
 use crate::gate::{active_periods, same_pose};
+use crate::runs::summary_line;
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use bycoms_sim::body::Kinematics;
 use bycoms_sim::runner::{Outcome, RobotEnd, RobotRun, RunResult};

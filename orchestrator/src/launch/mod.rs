@@ -173,7 +173,9 @@ pub fn run_serving(
     let begun = std::time::Instant::now();
     cfg.validate()?;
     if cfg.serve.is_some() && serve.is_none() {
-        anyhow::bail!("this launch has no live view to serve (`serve`): `orchestrator launch --serve` has one");
+        anyhow::bail!(
+            "this launch has no live view to serve (`serve`): `orchestrator launch --serve` has one"
+        );
     }
     bycoms_sim::agent_process::cli::quiet_iceoryx2();
     let swarm_name = cfg.swarm.clone().unwrap_or_else(|| format!("launch-{}", std::process::id()));

@@ -161,13 +161,17 @@ mod tests {
     fn a_robot_carried_to_the_start_is_seen_there_and_tracked_from_there() {
         use bycoms_sim::natnet_server::NatNetServer;
         use std::net::Ipv4Addr;
-        let server = NatNetServer::start_any_port(lab(Faults::default()), Ipv4Addr::LOCALHOST.into()).unwrap();
+        let server =
+            NatNetServer::start_any_port(lab(Faults::default()), Ipv4Addr::LOCALHOST.into()).unwrap();
         let mut source = NatNetPoses::new(udp_source(&server));
         source.open_robot(2).unwrap();
         let (start, wait) = (Vec2::new(5.0, -3.0), Duration::from_secs(5));
         let near = |p: &Pose, at: Vec2| Vec2::new(p.x, p.y).distance(at) < 1e-3;
         let home = Vec2::new(20.0, 0.0);
-        assert!(drain_for(&mut source, wait, |p| near(p, home)).iter().any(|p| near(p, home)), "tracked at home");
+        assert!(
+            drain_for(&mut source, wait, |p| near(p, home)).iter().any(|p| near(p, home)),
+            "tracked at home"
+        );
 
         // Arena (x, y) = (10 X, −10 Z): lifted to X = 0.5, Z = 0.3 at once.
         server.set_pose(12, BodyPose::yawed([0.5, 0.0, 0.3], 0.0));
