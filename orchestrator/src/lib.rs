@@ -6,12 +6,14 @@
 pub mod certs;
 pub mod commands;
 pub mod draw;
+pub mod gate;
 pub mod launch;
 pub mod live;
 pub mod mocap;
 pub mod out;
 pub mod record;
 pub mod replay;
+pub mod runs;
 pub mod scenario;
 pub mod scene;
 pub mod sweep;

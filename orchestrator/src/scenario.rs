@@ -4,7 +4,7 @@
 
 use crate::sweep::terrains::first_feasible;
 use anyhow::{bail, Context, Result};
-use bycoms_sim::terrain::{parse, read_terrain_file, ReadError, Terrain};
+use bycoms_sim::terrain::{parse, read_terrain_file, Terrain};
 use std::path::PathBuf;
 
 /// Name of the scenario used when none is given.
@@ -58,7 +58,7 @@ pub struct World {
 pub fn load(source: &WorldSource) -> Result<World> {
     match source {
         WorldSource::File(path) => {
-            let terrain = read_terrain_file(path).map_err(|e| file_error(path, e))?;
+            let terrain = read_terrain_file(path).map_err(|e| crate::runs::file_error(path, e))?;
             Ok(World { name: path.display().to_string(), terrain })
         }
         WorldSource::Generated(seed) => {
@@ -75,15 +75,6 @@ pub fn load(source: &WorldSource) -> Result<World> {
             Ok(World { name: format!("scenario {name}"), terrain })
         }
     }
-}
-
-/// "cannot read terrain file F: …" or "bad terrain file F: line 3, …".
-pub fn file_error(path: &std::path::Path, e: ReadError) -> anyhow::Error {
-    let what = match e {
-        ReadError::Parse(_) => "bad terrain file",
-        _ => "cannot read terrain file",
-    };
-    anyhow::Error::new(e).context(format!("{what} {}", path.display()))
 }
 
 #[cfg(test)]

@@ -6,7 +6,8 @@
 //! uses; as modules of one binary they build and link once. Run one file's
 //! tests with `cargo test -p bycoms-orchestrator --test integration cli::`.
 //! `launch_sim` stays its own target (its seeds are replayed by name). A new
-//! file here is added as a module below (`autotests = false`).
+//! file here is added as a module below (`autotests = false`); `layers.rs`
+//! is its own target too (it reads the sources and runs no orchestrator code).
 
 mod agent_source_suite;
 mod cli;

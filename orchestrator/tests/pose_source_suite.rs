@@ -220,8 +220,9 @@ impl PoseFixture for NatNetFixture {
     }
 
     fn source(&mut self) -> (Box<dyn PoseSource>, Swarm) {
+        use bycoms_orchestrator::launch::poses::mocap::NatNetPoses;
         use bycoms_orchestrator::mocap::{
-            ArenaTransform, ClientConfig, NatNetPoseSource, NatNetPoses, NatNetSourceConfig, TrackerConfig,
+            ArenaTransform, ClientConfig, NatNetPoseSource, NatNetSourceConfig, TrackerConfig,
         };
         let config = NatNetSourceConfig {
             client: ClientConfig {
@@ -321,7 +322,7 @@ impl PoseFixture for ReplayFixture {
     }
 
     fn source(&mut self) -> (Box<dyn PoseSource>, Swarm) {
-        let (tx, source) = bycoms_orchestrator::mocap::ReplayPoseSource::channel();
+        let (tx, source) = bycoms_orchestrator::replay::ReplayPoseSource::channel();
         self.feed = Some(tx);
         (Box::new(source), Swarm::new("suite").expect("swarm"))
     }

@@ -3,8 +3,8 @@
 //! recording, finished or cut anywhere, they find the same poses and gate events and stop at
 //! the same record for the same reason.
 
+use bycoms_orchestrator::draw::run::read_run;
 use bycoms_orchestrator::launch::LaunchConfig;
-use bycoms_orchestrator::record::run::read_run;
 use bycoms_orchestrator::record::schema::{self, Topics};
 use bycoms_orchestrator::record::{recover, rewrite, Recorder};
 use bycoms_orchestrator::replay::{read_recording, Entry};

@@ -412,8 +412,7 @@ fn zstd_and_lz4_recordings_read_like_uncompressed_ones() {
         let read = recover(&packed).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(read.is_complete(), "{name}: {:?}", read.stopped_by);
         assert_eq!(read.counts, expected, "{name}");
-        let run =
-            bycoms_orchestrator::record::run::read_run(&packed).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let run = bycoms_orchestrator::draw::run::read_run(&packed).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(run.stopped_by.is_none(), "{name}: {:?}", run.stopped_by);
         let fixed = dir.path().join(format!("{name}.recovered.mcap"));
         let copied =

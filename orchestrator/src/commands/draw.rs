@@ -3,13 +3,13 @@
 //! their ε circles, potential contours), so anyone can see a run without
 //! Foxglove. Terrain, start, goal and ε come from the recording's run
 //! metadata channel, trajectories from the recorded poses, beacons from the
-//! gate decisions (`record::run`, `draw::trace`).
+//! gate decisions (`draw::run`, `draw::trace`).
 
+use crate::draw::run::read_run;
 use crate::draw::snapshot::Unit;
 use crate::draw::trace::picture_in;
 use crate::exit::usage;
 use crate::out::{usage_unless_io, writing, Kind, Outputs};
-use crate::record::run::read_run;
 use anyhow::{Context, Result};
 use bycoms_sim::terrain::parse;
 use bycoms_sim::RunConfig;

@@ -283,7 +283,7 @@ pub fn run(args: Args) -> Result<i32> {
     let world = world(&cfg)?;
     let agent = launch::agent_command(args.agent_bin.as_deref(), cfg.agent_bin.as_deref())?;
     let cfg_svg = cfg.svg.clone();
-    let summary = launch::run(cfg, world, agent)?;
+    let summary = launch::run_serving(cfg, world, agent, Some(crate::live::serve))?;
     if args.json {
         bycoms_logging::status_line(&summary.line());
         crate::outln!("{}", serde_json::to_string_pretty(&summary)?)?;

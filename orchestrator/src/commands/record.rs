@@ -57,8 +57,8 @@ fn recover(args: RecoverArgs) -> Result<i32> {
         .check()
         .map_err(usage_unless_io)?;
     let recovered = rewrite(&args.file, &out)?;
-    let topics = crate::commands::world::count(recovered.counts.len() as u64, "topic");
-    let messages = crate::commands::world::count(recovered.messages, "message");
+    let topics = crate::runs::count(recovered.counts.len() as u64, "topic");
+    let messages = crate::runs::count(recovered.messages, "message");
     let line = match &recovered.stopped_by {
         Some(why) => format!(
             "recovered {messages} on {topics} into {} (the recording ends early: {why})",

@@ -10,6 +10,7 @@ use crate::commands::world::RunArgs;
 use crate::draw::{animate, snapshot, timeline};
 use crate::exit;
 use crate::out::{usage_unless_io, writing, Kind, Outputs};
+use crate::runs::summary_line;
 use crate::scenario::{self, WorldSource};
 use anyhow::Result;
 use bycoms_sim::runner::RobotEnd;
@@ -231,51 +232,4 @@ fn draw_pictures(
         written.push(format!("animation: {}", path.display()));
     }
     Ok(written)
-}
-
-/// "robot 4 arrived after 123.4 s (3 beacons)" and the like: the verdict
-/// `launch` prints too ([`crate::commands::world::verdict`]), naming the
-/// robot that arrived by its number.
-pub fn summary_line(r: &RunResult) -> String {
-    let arrived = r.robots.iter().find(|k| k.end == RobotEnd::Arrived).map(|k| k.id);
-    crate::commands::world::verdict(r.outcome, r.robots_used, arrived, r.time, r.beacons.len())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn result(outcome: Outcome, robots_used: u32, beacons: usize) -> RunResult {
-        RunResult {
-            success: outcome == Outcome::Arrived,
-            outcome,
-            steps: 10,
-            time: 1.0,
-            robots_used,
-            beacons: vec![Vec2::new(0.0, 0.0); beacons],
-            robots: Vec::new(),
-        }
-    }
-
-    #[test]
-    fn summaries_count_in_words_with_the_right_plural() {
-        assert_eq!(summary_line(&result(Outcome::Arrived, 2, 1)), "robot 2 arrived after 1.0 s (1 beacon)");
-        assert_eq!(summary_line(&result(Outcome::Arrived, 1, 0)), "robot 1 arrived after 1.0 s (0 beacons)");
-        assert_eq!(
-            summary_line(&result(Outcome::TimeLimit, 1, 0)),
-            "no robot arrived within 1 s (1 robot, 0 beacons)"
-        );
-        assert_eq!(
-            summary_line(&result(Outcome::TimeLimit, 3, 2)),
-            "no robot arrived within 1 s (3 robots, 2 beacons)"
-        );
-        assert_eq!(
-            summary_line(&result(Outcome::RobotsExhausted, 1, 1)),
-            "the only robot got stuck after 1.0 s"
-        );
-        assert_eq!(
-            summary_line(&result(Outcome::RobotsExhausted, 4, 4)),
-            "all 4 robots got stuck after 1.0 s"
-        );
-    }
 }

@@ -11,6 +11,7 @@ pub mod budget;
 pub mod contour;
 pub mod heatmap;
 pub mod measurements;
+pub mod run;
 pub mod snapshot;
 pub mod svg;
 pub mod timeline;

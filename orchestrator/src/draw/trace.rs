@@ -10,15 +10,15 @@
 //!
 //! The run's time in the title is the summary's: each robot's active
 //! periods from its start pose to its last change of pose, counted in pose
-//! time by the gate's own rule (`launch::gate::active_periods`), summed over
+//! time by the gate's own rule (`gate::active_periods`), summed over
 //! the robots. Counting poses instead would add the gate's dwell and count
 //! every motion-capture frame as a control period. The start pose is the one
 //! the `Deployed` decision names by its step (in lockstep that step is the
 //! tick the robot started at, its time the tick's).
 
 use super::snapshot::{Options, Unit};
-use crate::commands::simulate::summary_line;
-use crate::launch::gate::{active_periods, same_pose};
+use crate::gate::{active_periods, same_pose};
+use crate::runs::summary_line;
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use bycoms_sim::body::Kinematics;
 use bycoms_sim::runner::{Outcome, RobotEnd, RobotRun, RunResult};

@@ -12,8 +12,8 @@
 pub use super::agents::choice::{AgentsConfig, AgentsKind};
 pub use super::agents::gateways::GatewaysAt;
 use super::faults::FaultsConfig;
-use crate::commands::world::{check_run, RunNames};
 use crate::exit::usage;
+use crate::runs::{check_run, RunNames};
 use anyhow::{Context, Result};
 use bycoms_sim::agent_process::check_speed;
 use bycoms_sim::sensing::NoiseModel;

@@ -9,7 +9,7 @@
 //! * [`config`] — the TOML config (`deploy/launch.toml`) and its defaults;
 //! * [`core`] — the launch itself as a deterministic state machine, no IO:
 //!   inputs with their time in, outputs and the next deadline out; the
-//!   gate ([`gate`]), the budget, registration, settling, placement,
+//!   gate ([`crate::gate`]), the budget, registration, settling, placement,
 //!   partitions and re-sends, the dead-robot policy live there once;
 //! * [`driver`] — the IO shell that feeds the core from the bus, the pose
 //!   source and the agent source on the wall clock and carries out its
@@ -27,8 +27,8 @@
 //!   the MCAP file;
 //! * [`events`] — the typed JSON channels of a recording (run, events,
 //!   summary), each with its JSON schema;
-//! * [`observe`] — observers that see every pose and gate event (the live
-//!   view, `crate::live`);
+//! * [`observe`] — observers that see every pose and gate event, and the
+//!   seam of the live view (`crate::live`, above the launch: [`run_serving`]);
 //! * [`swarm_lock`] — one live launch per swarm name;
 //! * [`limits`] — the open files the launch needs, checked (and the soft
 //!   limit raised) before anything starts;
@@ -45,7 +45,6 @@ pub mod crowd;
 pub mod driver;
 pub mod events;
 pub mod faults;
-pub mod gate;
 pub mod harness;
 pub mod lab;
 pub mod limits;
@@ -161,10 +160,29 @@ pub fn interrupt_flag() -> Arc<AtomicBool> {
 }
 
 /// Runs one launch to its end. Errors before the first agent starts are
-/// returned; anything after ends in the summary (outcome `error`).
+/// returned; anything after ends in the summary (outcome `error`). A
+/// config that asks for a live view (`serve`) needs [`run_serving`].
 pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summary> {
+    run_serving(cfg, world, agent, None)
+}
+
+/// [`run`], with the live view `serve` starts when the config asks for one
+/// (`serve = ADDR`; `orchestrator launch` passes `crate::live::serve`,
+/// which sits above the launch). A config that asks for a view is refused
+/// without `serve`, before anything starts.
+pub fn run_serving(
+    cfg: LaunchConfig,
+    world: World,
+    agent: AgentCommand,
+    serve: Option<observe::Serve>,
+) -> Result<Summary> {
     let begun = std::time::Instant::now();
     cfg.validate()?;
+    if cfg.serve.is_some() && serve.is_none() {
+        anyhow::bail!(
+            "this launch has no live view to serve (`serve`): `orchestrator launch --serve` has one"
+        );
+    }
     bycoms_sim::agent_process::cli::quiet_iceoryx2();
     let swarm_name = cfg.swarm.clone().unwrap_or_else(|| format!("launch-{}", std::process::id()));
     let swarm = Swarm::new(&swarm_name).with_context(|| format!("bad swarm name {swarm_name:?}"))?;
@@ -184,13 +202,13 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
     let pose_source = poses::open(&cfg.mocap, cfg.robots, &bus, swarm)?;
     let mut ports =
         Ports::open(bus, swarm, cfg.robots, recording).context("cannot open the orchestrator's ports")?;
-    let live = match &cfg.serve {
-        Some(addr) => Some(crate::live::LiveView::start(addr)?),
-        None => None,
+    let live = match (&cfg.serve, serve) {
+        (Some(addr), Some(start)) => Some(start(addr)?),
+        _ => None,
     };
     if let Some(live) = &live {
         bycoms_logging::status_line(&live.banner());
-        ports.observers.push(Box::new(live.clone()));
+        ports.observers.push(live.observer());
     }
     ports.observers.iter_mut().for_each(|o| o.world(&swarm_name, &world, &cfg, scene.as_ref()));
     ports.show_scene();
@@ -234,8 +252,7 @@ pub fn run(cfg: LaunchConfig, world: World, agent: AgentCommand) -> Result<Summa
     });
     let summary = driver.run();
     if let Some(live) = live {
-        live.ended(&summary);
-        live.shutdown();
+        live.end(&summary);
     }
     Ok(summary)
 }

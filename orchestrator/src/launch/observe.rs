@@ -12,9 +12,14 @@
 //! [`SharedScene`], fed once per message where the message is recorded
 //! (`launch::recording`), and observers get its output ([`Observer::scene`])
 //! and the scene itself (for snapshots to late viewers).
+//!
+//! The live view itself (`launch --serve`, `crate::live`) sits above the
+//! launch (it reads the launch's world, config and summary): the launch
+//! knows it only as a [`View`] that a [`Serve`] function starts, handed in
+//! by the command (ARCHITECTURE.md, "Layers of the orchestrator").
 
 use super::config::LaunchConfig;
-use super::World;
+use super::{Summary, World};
 use crate::scene::{Out, SharedScene};
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 
@@ -32,3 +37,18 @@ pub trait Observer: Send {
     /// A gate decision, as published.
     fn gate(&mut self, _event: &GateEvent) {}
 }
+
+/// A live view of the run (`launch --serve ADDR`): started once the
+/// launch's ports are open, fed as an [`Observer`] for the whole run, told
+/// the summary at the end.
+pub trait View {
+    /// Where a person points a browser or Foxglove, in one line.
+    fn banner(&self) -> String;
+    /// The observer that feeds the view, tapped like any other.
+    fn observer(&self) -> Box<dyn Observer>;
+    /// The run ended with `summary`: the view shows it, then stops serving.
+    fn end(self: Box<Self>, summary: &Summary);
+}
+
+/// Starts a live view on an address (`crate::live::serve`).
+pub type Serve = fn(&str) -> anyhow::Result<Box<dyn View>>;

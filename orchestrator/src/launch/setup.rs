@@ -8,9 +8,9 @@
 use super::agents::AgentSource;
 use super::config::{Clock, LaunchConfig};
 use super::core::{AgentTraits, Setup};
-use super::gate::GateParams;
 use super::poses::PoseSource;
 use super::World;
+use crate::gate::GateParams;
 use bycoms_sim::agent_process::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};
 use bycoms_sim::agent_process::{AgentArgs, BusArgs, RunSettings, DEFAULT_SETTINGS_TIMEOUT_S};
 use bycoms_sim::Vec2;

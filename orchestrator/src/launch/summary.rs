@@ -5,7 +5,7 @@
 //! launch with `simulate`) can check "bit for bit" without trusting a
 //! decimal round trip.
 
-use crate::commands::world::{count, verdict};
+use crate::runs::{count, verdict};
 use bycoms_sim::agent_process::Traffic;
 use bycoms_sim::Vec2;
 use schemars::JsonSchema;

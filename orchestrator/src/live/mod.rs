@@ -28,6 +28,11 @@
 //!   state (robots, trails, beacons, the gate) as soon as it subscribes.
 //! * **Its own tokio runtime.** The launch loop is synchronous; the view
 //!   runs on two worker threads of its own, stopped when the launch ends.
+//! * **Above the launch.** The view reads the launch's world, config and
+//!   summary; the launch knows it only by its seam
+//!   (`launch::observe::View`), started by [`serve`], which
+//!   `orchestrator launch` hands to `launch::run_serving`
+//!   (ARCHITECTURE.md, "Layers of the orchestrator").
 
 mod channels;
 mod front;
@@ -37,7 +42,7 @@ mod tests;
 
 pub use channels::{state_topic, world_topic};
 
-use crate::launch::observe::Observer;
+use crate::launch::observe::{Observer, View};
 use crate::launch::{LaunchConfig, Summary, World};
 use crate::scene::{Out, SharedScene};
 use bycoms_protocol::msg::{GateEvent, Pose};
@@ -184,5 +189,25 @@ impl Observer for LiveView {
 
     fn gate(&mut self, event: &GateEvent) {
         self.inner.channels.gate(event);
+    }
+}
+
+/// Starts the live view on `addr`, behind the launch's seam.
+pub fn serve(addr: &str) -> anyhow::Result<Box<dyn View>> {
+    Ok(Box::new(LiveView::start(addr)?))
+}
+
+impl View for LiveView {
+    fn banner(&self) -> String {
+        LiveView::banner(self)
+    }
+
+    fn observer(&self) -> Box<dyn Observer> {
+        Box::new(self.clone())
+    }
+
+    fn end(self: Box<Self>, summary: &Summary) {
+        self.ended(summary);
+        (*self).shutdown();
     }
 }

@@ -193,28 +193,3 @@ mod tests {
         assert_eq!(MocapConfig::default().validate(5), Ok(()));
     }
 }
-
-#[cfg(test)]
-mod documented {
-    use crate::launch::LaunchConfig;
-
-    /// The commented-out `[mocap.natnet]` example of `deploy/launch.toml`,
-    /// uncommented, is a valid 3-robot lab config.
-    #[test]
-    fn the_documented_natnet_example_is_valid() {
-        let file = include_str!("../../../deploy/launch.toml");
-        let start = file.find("# The NatNet source").expect("the example is documented");
-        let example: String = file[start..]
-            .lines()
-            .skip(1)
-            .map(|l| l.strip_prefix("# ").or_else(|| l.strip_prefix('#')).unwrap_or(l))
-            .collect::<Vec<_>>()
-            .join("\n");
-        let text = format!("robots = 3\n[mocap]\nsource = \"natnet\"\n{example}");
-        let cfg = LaunchConfig::parse(&text).unwrap_or_else(|e| panic!("{e:#}\n{text}"));
-        cfg.validate().expect("valid");
-        let natnet = cfg.mocap.natnet.expect("natnet section");
-        assert_eq!(natnet.bodies.len(), 3);
-        assert_eq!(natnet.arena.scale, 10.0);
-    }
-}

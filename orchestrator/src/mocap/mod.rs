@@ -2,14 +2,14 @@
 //!
 //! Why here and not in `launch`: the launch has a *pose source* seam
 //! with three kinds — the simulated mocap the agents publish,
-//! OptiTrack NatNet, and replay of a recording. This module is the NatNet
-//! kind and the replay kind, each a plain type with `poll`; the launch's
-//! seam adapts them.
+//! OptiTrack NatNet, and replay of a recording. This module is NatNet's
+//! plain types (client, pipeline, tracker, placement) below the launch and
+//! knowing nothing of it; the launch's seam adapts them
+//! (`launch::poses::mocap`), and the replay kind is `replay::source`
+//! (ARCHITECTURE.md, "Layers of the orchestrator").
 //!
 //! * [`config`]: the launch config's `[mocap]` section;
 //! * [`natnet_source`]: NatNet client → pipeline, with what to record;
-//! * [`replay_source`]: poses read back from a recording;
-//! * [`launch_sources`]: both behind the launch's `PoseSource` seam;
 //! * [`placement`]: the operator places a robot, mocap confirms;
 //! * [`client`]: NatNet over UDP (command channel, unicast or multicast);
 //! * [`arena`]: axes, origin, scale, heading into the arena frame;
@@ -20,24 +20,20 @@
 pub mod arena;
 pub mod client;
 pub mod config;
-pub mod launch_sources;
 pub mod names;
 pub mod natnet_source;
 pub mod pipeline;
 pub mod placement;
-pub mod replay_source;
 pub mod tracker;
 
 pub use arena::{ArenaPose, ArenaTransform, UpAxis};
 pub use client::{ClientConfig, ClientError, NatNetClient};
 pub use config::{MocapConfig, MocapSource, NatNetSourceConfig, PlacementConfig};
-pub use launch_sources::NatNetPoses;
 pub use names::BodyMap;
 pub use natnet_source::{NatNetPoseSource, SourceError};
 pub use pipeline::{FramePipeline, PoseBatch};
 pub use placement::PlacementWatch;
-pub use replay_source::ReplayPoseSource;
 pub use tracker::{PoseTracker, Sighting, TrackEvent, TrackerConfig};
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

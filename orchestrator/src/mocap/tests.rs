@@ -4,7 +4,7 @@
 //! (every streamed pose believed) to show the trap is real.
 
 use super::*;
-use crate::launch::gate::{GateParams, Verdict, Watch};
+use crate::gate::{GateParams, Verdict, Watch};
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::natnet::{
     encode_packet, parse_packet, DataDescription, ModelDefinitions, Packet, Version,
@@ -20,7 +20,7 @@ use std::time::Duration;
 const RATE: f64 = 120.0;
 const SCALE: f64 = 10.0; // arena units per metre
 
-fn lab(faults: Faults) -> ServerConfig {
+pub(crate) fn lab(faults: Faults) -> ServerConfig {
     ServerConfig {
         rate_hz: RATE,
         app_name: "lab".into(),
@@ -239,66 +239,6 @@ fn udp_config(server: &bycoms_sim::natnet_server::NatNetServer) -> NatNetSourceC
     }
 }
 
-fn udp_source(server: &bycoms_sim::natnet_server::NatNetServer) -> NatNetPoseSource {
+pub(crate) fn udp_source(server: &bycoms_sim::natnet_server::NatNetServer) -> NatNetPoseSource {
     NatNetPoseSource::connect(&udp_config(server)).unwrap()
-}
-
-/// Drains `source` for `wait` (or until `until` holds for a handed pose)
-/// and returns the poses it handed over.
-fn drain_for(source: &mut NatNetPoses, wait: Duration, until: impl Fn(&Pose) -> bool) -> Vec<Pose> {
-    use crate::launch::poses::{PoseSink, PoseSource as _};
-    use crate::launch::recording::Recording;
-    let swarm = bycoms_protocol::Swarm::new("carried").unwrap();
-    let (mut recording, mut traffic) = (Recording::off(), bycoms_sim::agent_process::Traffic::default());
-    let (mut got, began) = (Vec::new(), std::time::Instant::now());
-    while began.elapsed() < wait {
-        let mut batch = Vec::new();
-        let mut sink = PoseSink::new(&mut recording, &mut traffic, &swarm, &mut batch, false);
-        source.drain(&mut sink).unwrap();
-        let done = batch.iter().any(|(_, p)| until(p));
-        got.extend(batch.into_iter().map(|(_, p)| p));
-        if done {
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    got
-}
-
-/// Over real sockets: robot 2 stands tracked at (20, 0); the operator
-/// lifts it to the start (5, −3), far faster than a robot drives. Not
-/// carried, that move is an identity swap and rejected for good (the
-/// robot would never be seen at the start); carried
-/// (`PoseSource::carried`), it is handed over, and once placed the track
-/// starts from the start again: a jump away is rejected.
-#[test]
-fn a_robot_carried_to_the_start_is_seen_there_and_tracked_from_there() {
-    use crate::launch::poses::PoseSource as _;
-    use bycoms_sim::natnet_server::NatNetServer;
-    use std::net::Ipv4Addr;
-    let server = NatNetServer::start_any_port(lab(Faults::default()), Ipv4Addr::LOCALHOST.into()).unwrap();
-    let mut source = NatNetPoses::new(udp_source(&server));
-    source.open_robot(2).unwrap();
-    let (start, wait) = (Vec2::new(5.0, -3.0), Duration::from_secs(5));
-    let near = |p: &Pose, at: Vec2| Vec2::new(p.x, p.y).distance(at) < 1e-3;
-    let home = Vec2::new(20.0, 0.0);
-    assert!(drain_for(&mut source, wait, |p| near(p, home)).iter().any(|p| near(p, home)), "tracked at home");
-
-    // Arena (x, y) = (10 X, −10 Z): lifted to X = 0.5, Z = 0.3 at once.
-    server.set_pose(12, BodyPose::yawed([0.5, 0.0, 0.3], 0.0));
-    let naive = drain_for(&mut source, Duration::from_millis(300), |_| false);
-    assert!(!naive.iter().any(|p| near(p, start)), "not carried: the move is rejected as a swap");
-
-    source.carried(2, true);
-    let carried = drain_for(&mut source, wait, |p| near(p, start));
-    assert!(carried.iter().any(|p| near(p, start)), "carried: seen at the start: {:?}", carried.last());
-
-    source.carried(2, false);
-    server.set_pose(12, BodyPose::yawed([2.0, 0.0, 0.0], 0.0));
-    let after = drain_for(&mut source, Duration::from_millis(300), |_| false);
-    assert!(
-        !after.iter().any(|p| near(p, home)),
-        "placed: a jump back home is rejected again: {:?}",
-        after.iter().map(|p| (p.x, p.y, p.time_us)).collect::<Vec<_>>()
-    );
 }

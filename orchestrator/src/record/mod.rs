@@ -26,7 +26,7 @@
 //!
 //! Every schema name and the recording's own topics are defined once, in [`schema`]. A
 //! recording is read back by one streaming reader ([`Reader`], [`read`]) and its messages are
-//! decoded in one place ([`decode`]): `draw` ([`run`]), `replay` and `record recover`
+//! decoded in one place ([`decode`]): `draw` (`draw::run`), `replay` and `record recover`
 //! ([`recover`], [`rewrite`]) share both, so they agree on what a file holds and where a cut
 //! file stops. A cut recording is completed by [`rewrite`] (`orchestrator record recover`);
 //! which files a recording may replace is the rule every output follows ([`crate::out::files`]).
@@ -88,7 +88,6 @@ pub mod decode;
 mod error;
 pub mod read;
 mod rewrite;
-pub mod run;
 pub mod schema;
 
 use std::collections::{BTreeMap, HashMap};

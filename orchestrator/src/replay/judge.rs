@@ -11,8 +11,8 @@
 //! pose: a recorded `Died` event is taken as given (the watch closes there).
 
 use super::read::{Entry, Recorded};
+use crate::gate::{GateParams, Verdict};
 use crate::launch::core::{Closed, Referee};
-use crate::launch::gate::{GateParams, Verdict};
 use crate::launch::Clock;
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose, ToAgent};
 use bycoms_protocol::RobotId;

@@ -16,9 +16,11 @@
 
 pub mod judge;
 pub mod read;
+pub mod source;
 
 pub use judge::rejudge;
 pub use read::{read_recording, Entry, Recorded, RunMeta};
+pub use source::ReplayPoseSource;
 
 use bycoms_protocol::msg::{GateEvent, GateKind};
 use std::fmt;

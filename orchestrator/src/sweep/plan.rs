@@ -32,7 +32,7 @@ impl Axes {
             bail!("--eps is empty: give at least one radius");
         }
         for &e in &self.eps {
-            crate::commands::world::check_eps(e)?;
+            crate::runs::check_eps(e)?;
         }
         if self.widths.is_empty() {
             bail!("--widths is empty: give at least one width bin");

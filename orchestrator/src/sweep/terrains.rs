@@ -133,7 +133,7 @@ pub fn load_bins(dir: &Path, bins: &[f64], per_bin: usize) -> Result<Vec<Vec<Swe
     let loaded: Vec<Result<SweepTerrain>> = paths
         .par_iter()
         .map(|p| {
-            let terrain = read_terrain_file(p).map_err(|e| crate::scenario::file_error(p, e))?;
+            let terrain = read_terrain_file(p).map_err(|e| crate::runs::file_error(p, e))?;
             let width = min_path_width(&terrain);
             let id = p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
             Ok(SweepTerrain { id, terrain, width, threshold: None })

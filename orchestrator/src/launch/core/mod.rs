@@ -52,8 +52,8 @@ pub use wait::{AnswerWait, RESEND_US};
 use super::agents::{Gone, Reach};
 use super::config::{Missing, OnDeath};
 use super::events::{EventKind, LaunchEvent};
-use super::gate::{GateParams, Verdict};
 use super::summary::{Death, Outage, Outcome};
+use crate::gate::{GateParams, Verdict};
 use crate::mocap::{PlacementConfig, PlacementWatch};
 use bycoms_protocol::msg::{
     Deploy, FromAgent, GateEvent, GateKind, GoalBearing, Pose, Refusal, Refused, Register, Tick, ToAgent,

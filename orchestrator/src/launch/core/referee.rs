@@ -10,7 +10,7 @@
 //! active steps, and the budget rule ends a robot that runs past the time
 //! limit. The referee decides; whoever holds it says what happens next.
 
-use crate::launch::gate::{GateParams, Verdict, Watch};
+use crate::gate::{GateParams, Verdict, Watch};
 use bycoms_protocol::msg::Pose;
 
 /// How a robot's deployment ended, as the referee saw it.

@@ -29,6 +29,7 @@
 //!   fatal failure is returned as an error and ends the launch.
 
 pub mod bus;
+pub mod mocap;
 
 use super::recording::Recording;
 use crate::record::schema;
@@ -49,7 +50,7 @@ pub fn open(
     use anyhow::Context;
     Ok(match (&mocap.source, &mocap.natnet) {
         (crate::mocap::MocapSource::Natnet, Some(natnet)) => Box::new(
-            crate::mocap::NatNetPoses::new(
+            mocap::NatNetPoses::new(
                 crate::mocap::NatNetPoseSource::connect(&natnet.for_robots(robots))
                     .context("cannot use the NatNet mocap")?,
             )

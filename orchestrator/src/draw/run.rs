@@ -3,20 +3,25 @@
 //! telemetry, decoded from the bus bytes — what `orchestrator draw
 //! FILE.mcap` draws.
 //!
-//! Read with the recording's one streaming reader ([`super::Reader`], as
-//! `replay` and `record recover` read), its messages decoded by
-//! [`super::decode`], so a recording cut by a crash draws up to its last
-//! complete chunk.
+//! Read with the recording's one streaming reader ([`crate::record::Reader`],
+//! as `replay` and `record recover` read), its messages decoded by
+//! [`crate::record::decode`], so a recording cut by a crash draws up to its
+//! last complete chunk.
+//!
+//! Why in `draw` and not in `record`: reading a run back for its picture
+//! builds the picture's [`Trace`] and [`Measurements`]; the recording knows
+//! no pictures (pictures sit above it, ARCHITECTURE.md, "Layers of the
+//! orchestrator").
 
 use std::path::Path;
 
 use serde::Deserialize;
 
-use super::decode::{decode_message, Content};
-use super::read::{Item, Reader};
-use super::{schema, RecordError};
-use crate::draw::measurements::Measurements;
-use crate::draw::trace::Trace;
+use super::measurements::Measurements;
+use super::trace::Trace;
+use crate::record::decode::{decode_message, Content};
+use crate::record::read::{Item, Reader};
+use crate::record::{schema, RecordError};
 
 /// The run metadata a launch records first.
 #[derive(Debug, Clone, Deserialize)]

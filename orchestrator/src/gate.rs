@@ -33,6 +33,12 @@
 //! make `time_limit` and the summary's steps wrong in a lab.
 //!
 //! Sans-IO: poses in, verdicts out; the launch loop owns the bus.
+//!
+//! Why at the crate's top and not in `launch/`: the launch core judges with
+//! it, and so do the replay (`replay::judge`) and the picture of a recorded
+//! run (`draw::trace`), which sit on either side of the launch; a rule all
+//! three share lives below them (ARCHITECTURE.md, "Layers of the
+//! orchestrator").
 
 use bycoms_agent::angle::wrap;
 use bycoms_protocol::msg::Pose;

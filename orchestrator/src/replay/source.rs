@@ -1,4 +1,11 @@
-//! Poses read back from a launch recording, as a pose source.
+//! Poses read back from a launch recording, as a pose source (behind the
+//! launch's poses seam, [`PoseSource`]).
+//!
+//! Why in `replay` and not in `mocap/`: it reads a recording with the
+//! replay's reader ([`Recorded`]), which knows the launch core's log, so it
+//! sits above the launch, as the replay does; motion capture sits below
+//! (ARCHITECTURE.md, "Layers of the orchestrator"). It re-runs the NatNet
+//! pipeline (`crate::mocap`) on recorded frames.
 //!
 //! Why two ways: every pose the gate saw is in the recording on its
 //! robot's pose topic (whatever the source), so those are replayed as
@@ -13,11 +20,9 @@
 //! waits. Poses of robots not opened are dropped, as a live source would
 //! never have handed them over.
 
-use super::config::NatNetSourceConfig;
-use super::names::BodyMap;
-use super::pipeline::FramePipeline;
-use super::tracker::PoseTracker;
-use crate::replay::{Entry, Recorded};
+use super::{Entry, Recorded};
+use crate::launch::poses::{PoseError, PoseSink, PoseSource};
+use crate::mocap::{BodyMap, FramePipeline, NatNetSourceConfig, PoseTracker};
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::natnet::{parse_packet_versioned, Error as NatNetError, Packet, Version};
 use std::collections::BTreeSet;
@@ -117,5 +122,27 @@ impl ReplayPoseSource {
                 return Some(pose);
             }
         }
+    }
+}
+
+impl PoseSource for ReplayPoseSource {
+    fn kind(&self) -> &'static str {
+        "replay"
+    }
+
+    fn on_the_bus(&self) -> bool {
+        false
+    }
+
+    fn open_robot(&mut self, id: u32) -> Result<(), PoseError> {
+        self.open(id);
+        Ok(())
+    }
+
+    fn drain(&mut self, sink: &mut PoseSink<'_>) -> Result<(), PoseError> {
+        while let Some(pose) = self.next_opened() {
+            sink.pose(pose.robot.0, pose);
+        }
+        Ok(())
     }
 }

@@ -1,0 +1,428 @@
+//! Imports inside the orchestrator run one way: down the table of
+//! ARCHITECTURE.md's section "Layers of the orchestrator".
+//!
+//! The table is read from ARCHITECTURE.md, so the doc and the rule cannot
+//! disagree. Each row is a layer, top first; a top-level module
+//! (`src/*.rs`, `src/*/`, and `lib.rs`'s inline modules) may use only
+//! modules of the rows below its own. Two modules of one row use neither
+//! the other, so no two folders can use each other (no loop).
+//!
+//! A use is any path into another top-level module, in code (comments and
+//! string literals are not code): `crate::x`, a group `crate::{x, y::z}`,
+//! `super::` that climbs out of the file's top-level module (inline
+//! modules counted), and an exported macro (`crate::outln!`, counted as a
+//! use of the module that defines it).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// The section of ARCHITECTURE.md that holds the table.
+const SECTION: &str = "## Layers of the orchestrator";
+
+fn src() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
+}
+
+/// The layers, top first: each row's module names (in backticks in the
+/// table's second column).
+fn layers() -> Vec<Vec<String>> {
+    let doc = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../ARCHITECTURE.md"))
+        .expect("ARCHITECTURE.md");
+    let start = doc.find(SECTION).unwrap_or_else(|| panic!("ARCHITECTURE.md has no section {SECTION:?}"));
+    let rows: Vec<&str> = doc[start..]
+        .lines()
+        .skip(1)
+        .skip_while(|l| !l.starts_with('|'))
+        .take_while(|l| l.starts_with('|'))
+        .skip(2) // header and separator
+        .collect();
+    let layers: Vec<Vec<String>> = rows
+        .iter()
+        .map(|row| {
+            let cell =
+                row.split('|').nth(2).unwrap_or_else(|| panic!("a row of two columns at least: {row}"));
+            cell.split('`').skip(1).step_by(2).map(str::to_owned).collect()
+        })
+        .collect();
+    assert!(layers.len() >= 3 && layers.iter().all(|l| !l.is_empty()), "the layer table: {layers:?}");
+    layers
+}
+
+/// Every `.rs` file under `dir`.
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).expect("a source folder").flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// A file's module path from the crate root: `launch/poses/mod.rs` →
+/// `[launch, poses]`, `gate.rs` → `[gate]`, `lib.rs` → `[]`.
+fn module_path(file: &Path) -> Vec<String> {
+    let rel = file.strip_prefix(src()).expect("under src/");
+    let mut path: Vec<String> = rel.iter().map(|s| s.to_string_lossy().into_owned()).collect();
+    let last = path.pop().expect("a file name");
+    let stem = last.trim_end_matches(".rs");
+    if !(stem == "mod" || (path.is_empty() && (stem == "lib" || stem == "main"))) {
+        path.push(stem.to_string());
+    }
+    path
+}
+
+/// The code of a file with comments and the contents of string and
+/// character literals blanked (line breaks kept, so lines still count).
+fn code_only(text: &str) -> String {
+    let c: Vec<char> = text.chars().collect();
+    let mut out = String::with_capacity(text.len());
+    let blank = |ch: char| if ch == '\n' { '\n' } else { ' ' };
+    let mut i = 0;
+    while i < c.len() {
+        let at = |k: usize| c.get(k).copied().unwrap_or('\0');
+        if c[i] == '/' && at(i + 1) == '/' {
+            while i < c.len() && c[i] != '\n' {
+                i += 1;
+            }
+        } else if c[i] == '/' && at(i + 1) == '*' {
+            let mut depth = 0;
+            loop {
+                if i >= c.len() {
+                    break;
+                }
+                if c[i] == '/' && at(i + 1) == '*' {
+                    depth += 1;
+                    i += 2;
+                    out.push_str("  ");
+                } else if c[i] == '*' && at(i + 1) == '/' {
+                    depth -= 1;
+                    i += 2;
+                    out.push_str("  ");
+                    if depth == 0 {
+                        break;
+                    }
+                } else {
+                    out.push(blank(c[i]));
+                    i += 1;
+                }
+            }
+        } else if c[i] == 'r'
+            && (at(i + 1) == '"' || (at(i + 1) == '#' && !at(i.wrapping_sub(1)).is_alphanumeric()))
+            && (i == 0 || !(c[i - 1].is_alphanumeric() || c[i - 1] == '_'))
+        {
+            // A raw string: r"…", r#"…"#.
+            let mut j = i + 1;
+            let mut hashes = 0;
+            while at(j) == '#' {
+                hashes += 1;
+                j += 1;
+            }
+            if at(j) != '"' {
+                out.push(c[i]);
+                i += 1;
+                continue;
+            }
+            j += 1;
+            out.push('"');
+            loop {
+                if j >= c.len() {
+                    break;
+                }
+                if c[j] == '"' && (1..=hashes).all(|h| at(j + h) == '#') {
+                    j += 1 + hashes;
+                    break;
+                }
+                out.push(blank(c[j]));
+                j += 1;
+            }
+            out.push('"');
+            i = j;
+        } else if c[i] == '"' {
+            out.push('"');
+            i += 1;
+            while i < c.len() && c[i] != '"' {
+                if c[i] == '\\' {
+                    out.push(' ');
+                    i += 1;
+                }
+                if i < c.len() {
+                    out.push(blank(c[i]));
+                    i += 1;
+                }
+            }
+            out.push('"');
+            i += 1;
+        } else if c[i] == '\'' && (at(i + 1) == '\\' || at(i + 2) == '\'') {
+            // A character literal ('x', '\n', '\''); a lifetime has no closing quote.
+            let mut j = i + 1;
+            if at(j) == '\\' {
+                j += 2;
+            } else {
+                j += 1;
+            }
+            while j < c.len() && c[j] != '\'' {
+                j += 1;
+            }
+            out.push_str("' '");
+            i = j + 1;
+        } else {
+            out.push(c[i]);
+            i += 1;
+        }
+    }
+    out
+}
+
+/// A token of code: a word (identifier, keyword, `$crate`) or one other
+/// character, with its line.
+fn tokens(code: &str) -> Vec<(String, usize)> {
+    let mut out = Vec::new();
+    let mut line = 1;
+    let mut chars = code.chars().peekable();
+    while let Some(ch) = chars.next() {
+        if ch == '\n' {
+            line += 1;
+        } else if ch.is_alphanumeric() || ch == '_' || ch == '$' {
+            let mut word = ch.to_string();
+            while let Some(&n) = chars.peek() {
+                if n.is_alphanumeric() || n == '_' {
+                    word.push(n);
+                    chars.next();
+                } else {
+                    break;
+                }
+            }
+            out.push((word, line));
+        } else if ch == ':' && chars.peek() == Some(&':') {
+            chars.next();
+            out.push(("::".into(), line));
+        } else if !ch.is_whitespace() {
+            out.push((ch.to_string(), line));
+        }
+    }
+    out
+}
+
+/// The first segments of the paths that start at token `i` (just after
+/// `crate::` or a climb to the root): one name, or every name of a group
+/// `{a, b::c, d::{e}}`.
+fn first_segments(toks: &[(String, usize)], i: usize) -> Vec<String> {
+    match toks.get(i).map(|t| t.0.as_str()) {
+        Some("{") => {
+            let mut names = Vec::new();
+            let mut depth = 0;
+            let mut expect_name = true;
+            for (t, _) in &toks[i..] {
+                match t.as_str() {
+                    "{" => {
+                        depth += 1;
+                        if depth > 1 {
+                            expect_name = false;
+                        }
+                    }
+                    "}" => {
+                        depth -= 1;
+                        if depth == 0 {
+                            break;
+                        }
+                    }
+                    "," if depth == 1 => expect_name = true,
+                    word if expect_name && depth == 1 => {
+                        names.push(word.to_string());
+                        expect_name = false;
+                    }
+                    _ => {}
+                }
+            }
+            names
+        }
+        Some(word) => vec![word.to_string()],
+        None => Vec::new(),
+    }
+}
+
+/// One use of another top-level module.
+#[derive(Debug)]
+struct Use {
+    file: String,
+    line: usize,
+    from: String,
+    to: String,
+}
+
+/// Every use, in `file`, of a top-level module other than its own.
+fn uses_in(file: &Path, macros: &BTreeMap<String, String>) -> Vec<Use> {
+    let text = std::fs::read_to_string(file).expect("a source file");
+    uses_in_code(&file.display().to_string(), &module_path(file), &text, macros)
+}
+
+/// Every use, in `text` (the file of module `path`), of a top-level module
+/// other than its own.
+fn uses_in_code(file: &str, path: &[String], text: &str, macros: &BTreeMap<String, String>) -> Vec<Use> {
+    let Some(own) = path.first().cloned() else { return Vec::new() };
+    let toks = tokens(&code_only(text));
+    let mut found = Vec::new();
+    // Inline modules open at this point: (brace depth inside, name).
+    let mut inline: Vec<usize> = Vec::new();
+    let mut depth = 0usize;
+    let push = |name: &str, line: usize, found: &mut Vec<Use>| {
+        let to = macros.get(name).cloned().unwrap_or_else(|| name.to_string());
+        if to != own && to != "self" && to != "*" {
+            found.push(Use { file: file.to_string(), line, from: own.clone(), to });
+        }
+    };
+    let mut i = 0;
+    while i < toks.len() {
+        let (t, line) = (&toks[i].0, toks[i].1);
+        match t.as_str() {
+            "{" => depth += 1,
+            "}" => {
+                depth = depth.saturating_sub(1);
+                if inline.last() == Some(&(depth + 1)) {
+                    inline.pop();
+                }
+            }
+            "mod" if toks.get(i + 2).is_some_and(|n| n.0 == "{") => {
+                inline.push(depth + 1);
+            }
+            "crate" | "$crate" if toks.get(i + 1).is_some_and(|n| n.0 == "::") => {
+                for name in first_segments(&toks, i + 2) {
+                    push(&name, line, &mut found);
+                }
+            }
+            "super" if i == 0 || toks[i - 1].0 != "::" => {
+                // `super::super::…`: the climb from the module this code is in.
+                let mut climbs = 0;
+                let mut j = i;
+                while toks.get(j).is_some_and(|n| n.0 == "super")
+                    && toks.get(j + 1).is_some_and(|n| n.0 == "::")
+                {
+                    climbs += 1;
+                    j += 2;
+                }
+                let here = path.len() + inline.len();
+                if climbs >= here {
+                    // Climbed to the crate root: the next segment is a top-level module.
+                    let rest = j + 2 * (climbs - here);
+                    for name in first_segments(&toks, rest.min(toks.len())) {
+                        push(&name, line, &mut found);
+                    }
+                }
+                // `pub(super)` climbs nowhere: step over the word.
+                i = j.max(i + 1);
+                continue;
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    found
+}
+
+/// The top-level modules: `src/*.rs` and `src/*/` but `lib.rs` and
+/// `main.rs`, and `lib.rs`'s inline modules (`pub mod exit { … }`).
+fn top_modules() -> BTreeSet<String> {
+    let mut modules = BTreeSet::new();
+    for entry in std::fs::read_dir(src()).expect("src/").flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if entry.path().is_dir() {
+            modules.insert(name);
+        } else if let Some(stem) = name.strip_suffix(".rs") {
+            if stem != "lib" && stem != "main" {
+                modules.insert(stem.to_string());
+            }
+        }
+    }
+    let lib = tokens(&code_only(&std::fs::read_to_string(src().join("lib.rs")).expect("lib.rs")));
+    for w in lib.windows(3) {
+        if w[0].0 == "mod" && w[2].0 == "{" {
+            modules.insert(w[1].0.clone());
+        }
+    }
+    modules
+}
+
+/// Exported macros (`#[macro_export] macro_rules! name`) by the top-level
+/// module that defines them.
+fn exported_macros(files: &[PathBuf]) -> BTreeMap<String, String> {
+    let mut macros = BTreeMap::new();
+    for file in files {
+        let Some(own) = module_path(file).first().cloned() else { continue };
+        let toks = tokens(&code_only(&std::fs::read_to_string(file).expect("a source file")));
+        for (k, w) in toks.windows(3).enumerate() {
+            let exported = toks[..k].iter().rev().take(12).any(|t| t.0 == "macro_export");
+            if exported && w[0].0 == "macro_rules" && w[1].0 == "!" {
+                macros.insert(w[2].0.clone(), own.clone());
+            }
+        }
+    }
+    macros
+}
+
+#[test]
+fn the_table_names_every_top_level_module_once() {
+    let named: Vec<String> = layers().into_iter().flatten().collect();
+    let set: BTreeSet<String> = named.iter().cloned().collect();
+    assert_eq!(set.len(), named.len(), "a module in two rows of the table: {named:?}");
+    assert_eq!(set, top_modules(), "the table of {SECTION:?} and the modules of orchestrator/src differ");
+}
+
+#[test]
+fn imports_run_down_the_layers() {
+    let layers = layers();
+    let rank: BTreeMap<&str, usize> =
+        layers.iter().enumerate().flat_map(|(k, row)| row.iter().map(move |m| (m.as_str(), k))).collect();
+    let mut files = Vec::new();
+    rust_files(&src(), &mut files);
+    files.sort();
+    let macros = exported_macros(&files);
+    let mut checked = 0;
+    let mut wrong = Vec::new();
+    for file in &files {
+        for u in uses_in(file, &macros) {
+            checked += 1;
+            let (Some(&from), Some(&to)) = (rank.get(u.from.as_str()), rank.get(u.to.as_str())) else {
+                wrong.push(format!("{}:{}: `{}` uses `{}`, not in the table", u.file, u.line, u.from, u.to));
+                continue;
+            };
+            if to <= from {
+                let how = if to == from { "in its own layer" } else { "in a layer above" };
+                wrong.push(format!(
+                    "{}:{}: `{}` (layer {}) uses `{}` ({how}, layer {})",
+                    u.file,
+                    u.line,
+                    u.from,
+                    from + 1,
+                    u.to,
+                    to + 1
+                ));
+            }
+        }
+    }
+    assert!(checked > 100, "uses between modules are found ({checked})");
+    assert!(
+        wrong.is_empty(),
+        "imports that do not run down the layers of ARCHITECTURE.md:\n{}",
+        wrong.join("\n")
+    );
+}
+
+#[test]
+fn the_reader_sees_groups_climbs_and_macros_but_not_comments_or_strings() {
+    let code = "//! crate::a\nuse crate::{b, c::{d, e}, self};\nlet s = \"crate::f\";\n\
+                fn x<'a>(c: char) { let q = '\"'; crate::g!(); }\n\
+                use super::h;\nmod tests { use super::*; use super::super::i; }\n/* crate::j */ r#\"crate::k\"#;";
+    let macros = BTreeMap::from([("g".to_string(), "out".to_string())]);
+    let seen = |path: &[&str]| {
+        let path: Vec<String> = path.iter().map(|s| s.to_string()).collect();
+        uses_in_code("x.rs", &path, code, &macros).into_iter().map(|u| (u.to, u.line)).collect::<Vec<_>>()
+    };
+    let from_top = seen(&["top"]);
+    let expected = [("b", 2), ("c", 2), ("out", 4), ("h", 5), ("i", 6)].map(|(m, l)| (m.to_string(), l));
+    assert_eq!(from_top, expected);
+    // One folder down, `super::h` and `super::super::i` stay in `top`.
+    let expected = [("b", 2), ("c", 2), ("out", 4)].map(|(m, l)| (m.to_string(), l));
+    assert_eq!(seen(&["top", "inner"]), expected);
+}
