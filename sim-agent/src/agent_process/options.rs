@@ -5,11 +5,20 @@
 //! `orchestrator sim-agent` subcommand when no `sim-agent` binary sits next
 //! to it (e.g. after `cargo run --bin orchestrator`, which builds only the
 //! orchestrator). One definition keeps the two spellings identical.
+//!
+//! One typed builder per binary: whoever starts a `sim-agent` fills an
+//! [`AgentArgs`] (or a [`LabArgs`] for `sim-agent lab`) and passes its
+//! `to_flags`; nobody writes the flags by hand. The parser the binary runs
+//! is [`command`] (with [`parse_from`]), so the round-trip tests below read
+//! the flags with exactly what the binary reads them with.
 
 use super::bus_args::BusArgs;
 use super::failsafe::FailsafeArgs;
+use crate::lab::process::LabArgs;
 use crate::sensing::NoiseModel;
 use crate::RunConfig;
+use bycoms_logging::LogArgs;
+use clap::{Args, Command, FromArgMatches};
 use std::path::PathBuf;
 
 /// Fastest real-time speed-up: a control period of 0.1 s / speed must stay
@@ -100,7 +109,7 @@ impl Transport {
 /// on another host) it watches the orchestrator's liveliness: gone for
 /// longer than `--orchestrator-grace`, the robot stops, then the agent
 /// exits (status 4) or waits, by `--on-orchestrator-lost`.
-#[derive(Clone, Debug, clap::Args)]
+#[derive(Clone, Debug, PartialEq, clap::Args)]
 pub struct AgentArgs {
     /// Swarm name: the namespace of the run's topics.
     #[arg(long)]
@@ -181,6 +190,28 @@ pub struct AgentArgs {
 }
 
 impl AgentArgs {
+    /// Robot `robot` of `swarm` with every other flag at its default (what
+    /// `sim-agent --swarm SWARM --robot ROBOT` parses into): a starting
+    /// point for a starter's struct update.
+    pub fn new(swarm: impl Into<String>, robot: u32) -> Self {
+        Self {
+            swarm: swarm.into(),
+            robot,
+            terrain: None,
+            eps: None,
+            noise: false,
+            seed: 0,
+            clock: Clock::Lockstep,
+            speed: 1.0,
+            swarm_size: None,
+            parent_pid: None,
+            heartbeat_ms: 100,
+            settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
+            bus: BusArgs::default(),
+            failsafe: FailsafeArgs::default(),
+        }
+    }
+
     /// The run parameters the in-process runner would use for the same
     /// flags (ε is NaN without `--eps`: the settings are then the
     /// orchestrator's, see [`RunSettings::run_config`]).
@@ -273,16 +304,83 @@ impl AgentArgs {
     }
 }
 
+/// The whole `sim-agent` command line: the robot's flags ([`AgentArgs`])
+/// and the logging flags at the top level, the emulated lab as the `lab`
+/// subcommand ([`LabArgs`]).
+///
+/// The robot's flags stay at the top level (the orchestrator spawns
+/// `sim-agent --swarm … --robot …`) next to the `lab` subcommand: one clap
+/// command where a subcommand lifts the top level's required flags
+/// (`subcommand_negates_reqs`) and the two exclude each other
+/// (`args_conflicts_with_subcommands`), so `--help` lists `lab` and
+/// `sim-agent lab --help` has the lab's own usage line. The command is
+/// assembled from the argument structs rather than derived as one struct:
+/// clap's derive cannot leave out a flattened struct that itself flattens
+/// another (the robot's failsafe flags) when the subcommand is used. (The
+/// about lines are set last: `augment_args` applies each struct's doc
+/// comment as the command's about.)
+pub fn command() -> Command {
+    let lab = LabArgs::augment_args(Command::new(LabArgs::SUBCOMMAND));
+    let top = Command::new("sim-agent")
+        .args_conflicts_with_subcommands(true)
+        .subcommand_negates_reqs(true)
+        .subcommand(lab);
+    LogArgs::augment_args(AgentArgs::augment_args(top))
+        .version(env!("CARGO_PKG_VERSION"))
+        .about(env!("CARGO_PKG_DESCRIPTION"))
+        .long_about(None::<&str>)
+}
+
+/// What a `sim-agent` command line asks for.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SimAgentRun {
+    /// One simulated robot (no subcommand).
+    Robot(AgentArgs),
+    /// `sim-agent lab`: the emulated lab.
+    Lab(LabArgs),
+}
+
+/// Parses a `sim-agent` command line (`argv[0]` first) with [`command`]:
+/// the logging flags and what to run. Errors carry the usage line of the
+/// command they are about (the lab's for `lab`).
+pub fn parse_from<I, T>(argv: I) -> Result<(LogArgs, SimAgentRun), clap::Error>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let matches = command().try_get_matches_from(argv)?;
+    let formatted = |e: clap::Error| e.format(&mut command());
+    let log = LogArgs::from_arg_matches(&matches).map_err(formatted)?;
+    let run = match matches.subcommand() {
+        Some((LabArgs::SUBCOMMAND, lab)) => {
+            SimAgentRun::Lab(LabArgs::from_arg_matches(lab).map_err(formatted)?)
+        }
+        _ => SimAgentRun::Robot(AgentArgs::from_arg_matches(&matches).map_err(formatted)?),
+    };
+    Ok((log, run))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::agent_process::failsafe::OnOrchestratorLost;
-    use clap::Parser;
 
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        agent: AgentArgs,
+    /// `sim-agent` + `args` as the binary parses them.
+    fn run_of(args: Vec<String>) -> SimAgentRun {
+        parse_from(std::iter::once("sim-agent".to_string()).chain(args)).expect("the flags parse").1
+    }
+
+    /// A robot's flags as the binary parses them.
+    fn robot_of(flags: Vec<String>) -> AgentArgs {
+        match run_of(flags) {
+            SimAgentRun::Robot(a) => a,
+            other => panic!("not a robot: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_command_is_consistent() {
+        command().debug_assert();
     }
 
     #[test]
@@ -308,11 +406,9 @@ mod tests {
             },
             failsafe: FailsafeArgs { grace_s: 0.1 + 0.4, on_lost: OnOrchestratorLost::Wait },
         };
-        let flags = args.to_flags();
-        let parsed =
-            Cli::try_parse_from(std::iter::once("sim-agent".to_string()).chain(flags)).unwrap().agent;
+        let parsed = robot_of(args.to_flags());
+        assert_eq!(parsed, args, "{:?}", args.to_flags());
         assert_eq!(parsed.eps.map(f64::to_bits), Some(eps.to_bits()));
-        assert_eq!(parsed.to_flags(), args.to_flags());
         assert_eq!(parsed.swarm_size(), 9);
         assert!(parsed.validate().is_ok());
         assert_eq!(parsed.bus, args.bus);
@@ -329,7 +425,67 @@ mod tests {
     }
 
     fn parse(flags: &str) -> Result<AgentArgs, clap::Error> {
-        Cli::try_parse_from(std::iter::once("sim-agent").chain(flags.split_whitespace())).map(|c| c.agent)
+        match parse_from(std::iter::once("sim-agent").chain(flags.split_whitespace()))?.1 {
+            SimAgentRun::Robot(a) => Ok(a),
+            other => panic!("not a robot: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_defaults_round_trip() {
+        // The least a robot's command line can say: the rest at clap's defaults.
+        let least = parse("--swarm s --robot 1").unwrap();
+        assert_eq!(least, AgentArgs::new("s", 1));
+        assert_eq!(robot_of(least.to_flags()), least);
+        assert!(
+            !least.to_flags().iter().any(|f| f == "--eps" || f == "--transport"),
+            "{:?}",
+            least.to_flags()
+        );
+        assert_eq!((least.bus, least.failsafe), (BusArgs::default(), FailsafeArgs::default()));
+        // With the settings at their defaults.
+        let settings = parse("--swarm s --robot 1 --terrain t.txt --eps 3").unwrap();
+        assert_eq!(robot_of(settings.to_flags()), settings);
+    }
+
+    fn lab_of(args: Vec<String>) -> LabArgs {
+        match run_of(args) {
+            SimAgentRun::Lab(a) => a,
+            other => panic!("not the lab: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_lab_s_flags_round_trip_exactly() {
+        let least = lab_of(
+            ["lab", "--scenario", "exp-short", "--robots", "r.toml", "--swarm", "j"].map(String::from).into(),
+        );
+        assert_eq!(least, LabArgs::new("exp-short", "r.toml", "j"));
+        assert_eq!(lab_of(least.to_args()), least, "{:?}", least.to_args());
+        assert_eq!((least.speed, least.seed, least.mocap_ms, least.natnet), (1.0, 0, 50, None));
+        let lab = LabArgs {
+            scenario: "deploy/lab/exp-long.toml".into(),
+            robots: "deploy/lab/robots.toml".into(),
+            swarm: "lab".into(),
+            speed: 0.1 + 0.2,
+            seed: u64::MAX,
+            duration: Some(30.5),
+            mocap_ms: 20,
+            parent_pid: Some(77),
+            natnet: Some("127.0.0.1:1510".parse().unwrap()),
+            natnet_rate: 240.0,
+            natnet_faults: Some("faults.toml".into()),
+            bus: BusArgs {
+                transport: Transport::Zenoh,
+                connect: vec!["quic/lab-host:7447".into()],
+                zenoh_config: Some("lab.json5".into()),
+            },
+        };
+        let parsed = lab_of(lab.to_args());
+        assert_eq!(parsed, lab, "{:?}", lab.to_args());
+        assert_eq!(parsed.speed.to_bits(), (0.1f64 + 0.2).to_bits());
+        // The lab's flags are the lab's: after `lab` only.
+        assert!(parse_from(std::iter::once("sim-agent".to_string()).chain(lab.to_flags())).is_err());
     }
 
     #[test]

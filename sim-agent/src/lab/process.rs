@@ -41,7 +41,7 @@ use std::time::{Duration, Instant};
 
 /// The emulated lab: one emulated ESP32 per robot behind its own UDP socket,
 /// crawler bodies, sound, and simulated motion capture on the bus.
-#[derive(Clone, Debug, clap::Args)]
+#[derive(Clone, Debug, PartialEq, clap::Args)]
 pub struct LabArgs {
     /// Scenario: a built-in name (`exp-short`, `exp-long`) or a scenario file.
     #[arg(long)]
@@ -87,6 +87,73 @@ pub struct LabArgs {
     /// another host, as the gateways on a bridge host).
     #[command(flatten)]
     pub bus: BusArgs,
+}
+
+impl LabArgs {
+    /// The subcommand of `sim-agent` that runs the lab.
+    pub const SUBCOMMAND: &'static str = "lab";
+
+    /// Scenario `scenario` with the robots of `robots` in `swarm`, every
+    /// other flag at its default (what `sim-agent lab --scenario S --robots
+    /// FILE --swarm SWARM` parses into).
+    pub fn new(scenario: impl Into<String>, robots: impl Into<PathBuf>, swarm: impl Into<String>) -> Self {
+        Self {
+            scenario: scenario.into(),
+            robots: robots.into(),
+            swarm: swarm.into(),
+            speed: 1.0,
+            seed: 0,
+            duration: None,
+            mocap_ms: 50,
+            parent_pid: None,
+            natnet: None,
+            natnet_rate: 120.0,
+            natnet_faults: None,
+            bus: BusArgs::default(),
+        }
+    }
+
+    /// The flags that reproduce these arguments after `sim-agent lab`
+    /// (read back by `agent_process::options::command`'s `lab`).
+    pub fn to_flags(&self) -> Vec<String> {
+        let mut v = vec![
+            "--scenario".into(),
+            self.scenario.clone(),
+            "--robots".into(),
+            self.robots.display().to_string(),
+            "--swarm".into(),
+            self.swarm.clone(),
+            "--speed".into(),
+            format!("{:?}", self.speed),
+            "--seed".into(),
+            self.seed.to_string(),
+            "--mocap-ms".into(),
+            self.mocap_ms.to_string(),
+            "--natnet-rate".into(),
+            format!("{:?}", self.natnet_rate),
+        ];
+        if let Some(d) = self.duration {
+            v.extend(["--duration".into(), format!("{d:?}")]);
+        }
+        if let Some(p) = self.parent_pid {
+            v.extend(["--parent-pid".into(), p.to_string()]);
+        }
+        if let Some(addr) = self.natnet {
+            v.extend(["--natnet".into(), addr.to_string()]);
+        }
+        if let Some(file) = &self.natnet_faults {
+            v.extend(["--natnet-faults".into(), file.display().to_string()]);
+        }
+        v.extend(self.bus.to_flags());
+        v
+    }
+
+    /// The whole argument list after the program: `lab` and [`to_flags`].
+    ///
+    /// [`to_flags`]: Self::to_flags
+    pub fn to_args(&self) -> Vec<String> {
+        std::iter::once(Self::SUBCOMMAND.to_string()).chain(self.to_flags()).collect()
+    }
 }
 
 /// Why the lab could not run.
