@@ -26,8 +26,13 @@ use bycoms_sim::stats::quantile;
 use std::net::UdpSocket;
 use std::time::{Duration, Instant};
 
-/// Measure the gateway's added latency (prints p50/p99).
-#[derive(Clone, Debug, clap::Args)]
+/// Measure the gateway's added latency: robot frame in → bus message out.
+///
+/// A robot on its own UDP socket sends telemetry frames, one at a time, to
+/// a gateway running its real loop on a thread in this process over
+/// iceoryx2; prints the gateway's own time (socket receive → bus publish)
+/// and the end-to-end time (robot send → bus subscriber woken), p50/p99.
+#[derive(Clone, Debug, PartialEq, Eq, clap::Args)]
 pub struct BenchArgs {
     /// Telemetry frames to relay.
     #[arg(long, default_value_t = 2000)]
@@ -35,6 +40,11 @@ pub struct BenchArgs {
     /// Pause between frames, ms.
     #[arg(long, default_value_t = 2)]
     pub interval_ms: u64,
+}
+
+impl BenchArgs {
+    /// The subcommand of `agent` that runs the bench.
+    pub const SUBCOMMAND: &'static str = "bench";
 }
 
 fn frame(step: u32) -> Payload {

@@ -14,9 +14,16 @@
 //! orchestrator's host (the default), or `--transport zenoh --connect
 //! quic/ORCHESTRATOR:7447 --zenoh-config robot-K.json5` from a bridge host
 //! next to the robots' access point.
+//!
+//! One typed builder: whoever starts a gateway (the orchestrator's
+//! `launch/agents/gateways.rs`) fills a [`GatewayArgs`] and passes its
+//! [`GatewayArgs::to_flags`]; the binary parses them with [`command`] (via
+//! [`parse_from`]), and the round-trip tests below hold the two together.
 
+use crate::bench::BenchArgs;
 use crate::core::{GatewayCore, Timers};
 use crate::run::{Gateway, GatewayPorts, RunError};
+use bycoms_logging::LogArgs;
 use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_protocol::bus::{Bus, BusError};
 use bycoms_protocol::naming::Member;
@@ -27,6 +34,7 @@ use bycoms_sim::agent_process::lifeline::LifelineError;
 use bycoms_sim::agent_process::{check_speed, BusArgs, BusOpenError, ExitCause, Lifeline, OnBus};
 use bycoms_sim::lab::robots::{read_key, RobotsError};
 use bycoms_sim::stats::quantile;
+use clap::{Args, Command, FromArgMatches};
 use std::net::{SocketAddr, UdpSocket};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -36,7 +44,7 @@ pub const MAX_LINK_TIMEOUT_MS: u64 = 500;
 
 /// The gateway of one real robot: owns the robot's UDP link and appears on
 /// the bus as an agent of kind `Real`.
-#[derive(Clone, Debug, clap::Args)]
+#[derive(Clone, Debug, PartialEq, clap::Args)]
 pub struct GatewayArgs {
     /// Swarm name: the namespace of the run's topics.
     #[arg(long)]
@@ -81,6 +89,25 @@ pub struct GatewayArgs {
 }
 
 impl GatewayArgs {
+    /// The gateway of robot `robot` of `swarm`, listening on `bind` with
+    /// the key in `key_file`, every other flag at its default (what `agent
+    /// --swarm S --robot K --bind ADDR --key-file FILE` parses into).
+    pub fn new(swarm: impl Into<String>, robot: u32, bind: SocketAddr, key_file: impl Into<PathBuf>) -> Self {
+        Self {
+            swarm: swarm.into(),
+            robot,
+            bind,
+            key_file: key_file.into(),
+            swarm_size: None,
+            speed: 1.0,
+            link_timeout_ms: 300,
+            heartbeat_ms: 100,
+            parent_pid: None,
+            bus: BusArgs::default(),
+            failsafe: FailsafeArgs::default(),
+        }
+    }
+
     /// Checks what clap cannot.
     pub fn validate(&self) -> Result<(), String> {
         check_speed(self.speed)?;
@@ -134,6 +161,60 @@ impl GatewayArgs {
         v.extend(self.failsafe.to_flags());
         v
     }
+}
+
+/// The whole `agent` command line: the gateway's flags ([`GatewayArgs`])
+/// and the logging flags at the top level, the added-latency bench as the
+/// `bench` subcommand ([`BenchArgs`]).
+///
+/// As `sim-agent` and its `lab`: the gateway's flags stay at the top level
+/// (launchers start `agent --swarm … --robot …`), a subcommand lifts their
+/// requirement (`subcommand_negates_reqs`) and the two exclude each other
+/// (`args_conflicts_with_subcommands`), so `agent --help` lists `bench` and
+/// `agent bench --help` has the bench's own usage line. Assembled from the
+/// argument structs, not derived as one struct: clap's derive cannot leave
+/// out a flattened struct that itself flattens another (the bus and
+/// failsafe flags) when the subcommand is used. The about line is set last
+/// (`augment_args` applies each struct's doc comment as the command's).
+pub fn command() -> Command {
+    let bench = BenchArgs::augment_args(Command::new(BenchArgs::SUBCOMMAND));
+    let top = Command::new("agent")
+        .args_conflicts_with_subcommands(true)
+        .subcommand_negates_reqs(true)
+        .subcommand(bench);
+    LogArgs::augment_args(GatewayArgs::augment_args(top))
+        .version(env!("CARGO_PKG_VERSION"))
+        .about(env!("CARGO_PKG_DESCRIPTION"))
+        .long_about(None::<&str>)
+}
+
+/// What an `agent` command line asks for.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AgentRun {
+    /// One robot's gateway (no subcommand).
+    Gateway(GatewayArgs),
+    /// `agent bench`: the gateway's added latency.
+    Bench(BenchArgs),
+}
+
+/// Parses an `agent` command line (`argv[0]` first) with [`command`]: the
+/// logging flags and what to run. Errors carry the usage line of the
+/// command they are about (the bench's for `bench`).
+pub fn parse_from<I, T>(argv: I) -> Result<(LogArgs, AgentRun), clap::Error>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let matches = command().try_get_matches_from(argv)?;
+    let formatted = |e: clap::Error| e.format(&mut command());
+    let log = LogArgs::from_arg_matches(&matches).map_err(formatted)?;
+    let run = match matches.subcommand() {
+        Some((BenchArgs::SUBCOMMAND, bench)) => {
+            AgentRun::Bench(BenchArgs::from_arg_matches(bench).map_err(formatted)?)
+        }
+        _ => AgentRun::Gateway(GatewayArgs::from_arg_matches(&matches).map_err(formatted)?),
+    };
+    Ok((log, run))
 }
 
 /// Why a gateway could not run.
@@ -279,5 +360,84 @@ mod exit_code_tests {
         assert_eq!(exit_code(ExitCause::OrchestratorLost), 4);
         assert_eq!(exit_code(ExitCause::Shutdown), 0);
         assert_eq!(exit_code(ExitCause::ParentGone), 0);
+    }
+}
+
+#[cfg(test)]
+mod command_tests {
+    use super::*;
+    use bycoms_sim::agent_process::failsafe::OnOrchestratorLost;
+    use bycoms_sim::agent_process::Transport;
+
+    fn run_of<S: AsRef<str>>(args: &[S]) -> Result<AgentRun, clap::Error> {
+        let argv = std::iter::once("agent").chain(args.iter().map(|a| a.as_ref()));
+        parse_from(argv).map(|(_, run)| run)
+    }
+
+    fn gateway_of(flags: &[String]) -> GatewayArgs {
+        match run_of(flags).expect("the flags parse") {
+            AgentRun::Gateway(g) => g,
+            other => panic!("not a gateway: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_command_is_consistent() {
+        command().debug_assert();
+    }
+
+    #[test]
+    fn the_flags_round_trip_exactly() {
+        let args = GatewayArgs {
+            swarm: "lab".into(),
+            robot: 3,
+            bind: "10.0.0.7:9000".parse().unwrap(),
+            key_file: "keys/robot-3.key".into(),
+            swarm_size: Some(5),
+            speed: 0.1 + 0.2,
+            link_timeout_ms: 250,
+            heartbeat_ms: 40,
+            parent_pid: Some(77),
+            bus: BusArgs {
+                transport: Transport::Zenoh,
+                connect: vec!["quic/orchestrator:7447".into(), "tcp/10.0.0.1:7447".into()],
+                zenoh_config: Some("robot-3.json5".into()),
+            },
+            failsafe: FailsafeArgs { grace_s: 0.1 + 0.4, on_lost: OnOrchestratorLost::Wait },
+        };
+        let parsed = gateway_of(&args.to_flags());
+        assert_eq!(parsed, args, "{:?}", args.to_flags());
+        assert_eq!(parsed.speed.to_bits(), (0.1f64 + 0.2).to_bits());
+        assert!(parsed.validate().is_ok());
+    }
+
+    #[test]
+    fn the_defaults_round_trip() {
+        let least = ["--swarm", "s", "--robot", "1", "--bind", "127.0.0.1:0", "--key-file", "k"];
+        let args = gateway_of(&least.map(String::from));
+        assert_eq!(args, GatewayArgs::new("s", 1, "127.0.0.1:0".parse().unwrap(), "k"));
+        assert_eq!((args.speed, args.link_timeout_ms, args.heartbeat_ms), (1.0, 300, 100));
+        assert_eq!((args.swarm_size, args.parent_pid), (None, None));
+        assert_eq!((&args.bus, args.failsafe), (&BusArgs::default(), FailsafeArgs::default()));
+        assert_eq!(gateway_of(&args.to_flags()), args, "{:?}", args.to_flags());
+    }
+
+    #[test]
+    fn bench_is_a_subcommand_beside_the_gateway_s_flags() {
+        let bench = run_of(&["bench", "--frames", "5", "--interval-ms", "1"]).expect("parses");
+        assert_eq!(bench, AgentRun::Bench(BenchArgs { frames: 5, interval_ms: 1 }));
+        let (log, run) = parse_from(["agent", "bench", "--log-format", "json"]).expect("the logging flags");
+        assert_eq!(log.log_format, bycoms_logging::LogFormat::Json);
+        assert_eq!(run, AgentRun::Bench(BenchArgs { frames: 2000, interval_ms: 2 }));
+        // The bench needs none of the gateway's flags and takes none.
+        let err = run_of(&["--swarm", "s", "bench"]).unwrap_err();
+        assert_eq!(err.kind(), clap::error::ErrorKind::ArgumentConflict, "{err}");
+        let err = run_of(&["bench", "--robot", "1"]).unwrap_err().to_string();
+        assert!(err.contains("Usage: agent bench"), "{err}");
+        // Without it, the gateway's flags are required as before.
+        let err = run_of(&["--swarm", "s"]).unwrap_err().to_string();
+        assert!(err.contains("--robot"), "{err}");
+        let help = command().render_help().to_string();
+        assert!(help.lines().any(|l| l.trim_start().starts_with("bench ")), "{help}");
     }
 }
