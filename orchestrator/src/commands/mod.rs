@@ -83,3 +83,33 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::SimAgent(args) => Ok(bycoms_sim::agent_process::main_with(&args)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::launch::setup::agent_template;
+    use crate::launch::LaunchConfig;
+    use bycoms_sim::agent_process::options::{parse_from, SimAgentRun};
+
+    /// `orchestrator sim-agent` (what a launch runs when no `sim-agent`
+    /// binary sits beside it) reads an agent's flags as `sim-agent` does.
+    #[test]
+    fn the_hidden_sim_agent_reads_the_flags_a_launch_passes_as_sim_agent_does() {
+        let cfg = LaunchConfig { eps: 0.1 + 0.2, seed: 7, noise: true, ..LaunchConfig::default() };
+        let mut args = agent_template(&cfg, "s".into(), Vec::new());
+        args.robot = 2;
+        let flags = args.to_flags();
+        let here = Cli::try_parse_from(
+            ["orchestrator", "sim-agent"].map(String::from).into_iter().chain(flags.clone()),
+        )
+        .expect("orchestrator sim-agent parses");
+        let Command::SimAgent(here) = here.command else { panic!("not sim-agent") };
+        let Ok((_, SimAgentRun::Robot(there))) =
+            parse_from(std::iter::once("sim-agent".to_string()).chain(flags))
+        else {
+            panic!("sim-agent parses")
+        };
+        assert_eq!(here, args);
+        assert_eq!(there, args);
+    }
+}

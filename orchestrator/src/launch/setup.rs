@@ -127,13 +127,7 @@ mod tests {
 
     #[test]
     fn the_launch_s_fingerprint_is_what_its_spawned_agents_compute() {
-        use bycoms_sim::agent_process::AgentArgs;
-        use clap::Parser;
-        #[derive(Parser)]
-        struct Cli {
-            #[command(flatten)]
-            agent: AgentArgs,
-        }
+        use bycoms_sim::agent_process::options::{parse_from, SimAgentRun};
         let world = World::tiny();
         let mut cfg =
             LaunchConfig { eps: 0.1 + 0.2, seed: 7, noise: true, speed: 2.5, ..LaunchConfig::default() };
@@ -144,7 +138,10 @@ mod tests {
         let mut args = template.clone();
         args.robot = 3;
         let flags = std::iter::once("sim-agent".to_string()).chain(args.to_flags());
-        let parsed = Cli::try_parse_from(flags).expect("the flags parse").agent;
+        let SimAgentRun::Robot(parsed) = parse_from(flags).expect("the flags parse").1 else {
+            panic!("a robot's flags")
+        };
+        assert_eq!(parsed, args, "sim-agent reads what the launch means");
         let agent = RunSettings::of(&parsed, world.terrain_text.clone()).expect("settings");
         assert_eq!(agent, launch);
         assert_eq!(agent.fingerprint(), launch.fingerprint());

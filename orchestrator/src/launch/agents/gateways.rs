@@ -31,6 +31,7 @@
 use super::remote::Remote;
 use super::spawned::{AgentCommand, Spawned};
 use super::{AgentError, AgentPlan, AgentSource, Gone, Reach, Started};
+use bycoms_gateway::GatewayArgs;
 use bycoms_sim::lab::robots::RobotsFile;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -107,11 +108,12 @@ impl Gateways {
         }
     }
 
-    /// The gateway flags of robot `id` (gateways started here): its robot's
-    /// address and key, the run's speed and heartbeat, and the bus of the
-    /// launch's agents (over zenoh: where this orchestrator listens, and the
-    /// robot's own zenoh config).
-    pub fn flags(&self, id: u32, plan: &AgentPlan<'_>) -> Result<Vec<String>, AgentError> {
+    /// The gateway command line of robot `id` (gateways started here): its
+    /// robot's address and key, the run's speed and heartbeat, and the bus
+    /// of the launch's agents (over zenoh: where this orchestrator listens,
+    /// and the robot's own zenoh config). Started with its `to_flags`: the
+    /// flags the `agent` binary parses into the same [`GatewayArgs`].
+    pub fn args(&self, id: u32, plan: &AgentPlan<'_>) -> Result<GatewayArgs, AgentError> {
         let At::Here { robots, .. } = &self.at else {
             return Err(AgentError::NoSuchRobot { robot: id, why: "its gateway runs elsewhere".into() });
         };
@@ -120,31 +122,19 @@ impl Gateways {
             why: format!("the robots file names robots 1..={}", robots.robots.len()),
         })?;
         let a = plan.args;
-        let mut v = vec![
-            "--swarm".into(),
-            a.swarm.clone(),
-            "--robot".into(),
-            id.to_string(),
-            "--bind".into(),
-            entry.gateway.to_string(),
-            "--key-file".into(),
-            robots.key_path(entry).display().to_string(),
-            "--speed".into(),
-            format!("{:?}", a.speed),
-            "--link-timeout-ms".into(),
-            self.link_timeout_ms.to_string(),
-            "--heartbeat-ms".into(),
-            a.heartbeat_ms.to_string(),
-        ];
-        if let Some(n) = a.swarm_size {
-            v.extend(["--swarm-size".into(), n.to_string()]);
-        }
-        if let Some(p) = a.parent_pid {
-            v.extend(["--parent-pid".into(), p.to_string()]);
-        }
-        v.extend(a.bus.to_flags());
-        v.extend(a.failsafe.to_flags());
-        Ok(v)
+        Ok(GatewayArgs {
+            swarm: a.swarm.clone(),
+            robot: id,
+            bind: entry.gateway,
+            key_file: robots.key_path(entry),
+            swarm_size: a.swarm_size,
+            speed: a.speed,
+            link_timeout_ms: self.link_timeout_ms,
+            heartbeat_ms: a.heartbeat_ms,
+            parent_pid: a.parent_pid,
+            bus: a.bus.clone(),
+            failsafe: a.failsafe,
+        })
     }
 }
 
@@ -191,7 +181,7 @@ impl AgentSource for Gateways {
         if let At::Elsewhere(remote) = &mut self.at {
             return remote.start(id, plan);
         }
-        let flags = self.flags(id, plan)?;
+        let flags = self.args(id, plan)?.to_flags();
         let At::Here { inner, .. } = &mut self.at else { unreachable!("matched above") };
         let pid = inner.spawn(id, &flags, "")?;
         Ok(Started::Process { pid })
