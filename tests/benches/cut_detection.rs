@@ -12,9 +12,15 @@
 //! binaries first: `cargo build --release --bins`). Prints a notice and
 //! nothing else where namespaces are not permitted.
 
+use bycoms_sim::agent_process::failsafe::FailsafeArgs;
+use bycoms_sim::agent_process::{AgentArgs, BusArgs, Clock, Transport};
 use bycoms_tests::netns::{not_permitted, TwoHosts};
 use bycoms_tests::{swarm_name, Proc};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+/// The launch's and the agents' real-time speed-up: slow, so the run
+/// outlasts every cut.
+const SPEED: f64 = 0.05;
 
 fn unix_ms() -> u64 {
     SystemTime::now().duration_since(UNIX_EPOCH).expect("clock").as_millis() as u64
@@ -49,7 +55,8 @@ fn main() {
     let swarm = swarm_name("cuts");
     let listen = hosts.a.endpoint(0);
     // Slow real time: the run must outlast every cut.
-    let clock = ["--clock", "realtime", "--speed", "0.05"];
+    let speed = SPEED.to_string();
+    let clock = ["--clock", "realtime", "--speed", speed.as_str()];
     let mut args = vec!["launch", "--agents", "remote", "--transport", "zenoh", "--listen", &listen];
     args.extend(clock);
     args.extend(["--json", "--swarm", &swarm, "--robots", "3", "--eps", "3", "--terrain", terrain]);
@@ -58,12 +65,22 @@ fn main() {
     let endpoint = orch.logged_endpoint(&format!("tcp/{}:", hosts.a.addr), Duration::from_secs(20));
     let agents: Vec<Proc> = (1..=3u32)
         .map(|k| {
-            let robot = k.to_string();
-            let mut a =
-                vec!["--transport", "zenoh", "--connect", &endpoint, "--swarm", &swarm, "--robot", &robot];
-            a.extend(["--swarm-size", "3", "--terrain", terrain, "--eps", "3", "--orchestrator-grace", "20"]);
-            a.extend(clock);
-            hosts.b.start("sim-agent", &a)
+            let agent = AgentArgs {
+                terrain: Some(terrain.into()),
+                eps: Some(3.0),
+                swarm_size: Some(3),
+                clock: Clock::Realtime,
+                speed: SPEED,
+                bus: BusArgs {
+                    transport: Transport::Zenoh,
+                    connect: vec![endpoint.clone()],
+                    zenoh_config: None,
+                },
+                failsafe: FailsafeArgs { grace_s: 20.0, ..FailsafeArgs::default() },
+                ..AgentArgs::new(&swarm, k)
+            };
+            let flags = agent.to_flags();
+            hosts.b.start("sim-agent", &flags.iter().map(String::as_str).collect::<Vec<_>>())
         })
         .collect();
     orch.stderr_line(Duration::from_secs(30), |l| l.contains("robot 1: deployed at").then_some(()))

@@ -19,6 +19,7 @@
 //! left out with a notice.
 
 use bycoms_orchestrator::scenario::{load, WorldSource};
+use bycoms_sim::agent_process::{AgentArgs, BusArgs, Transport};
 use bycoms_sim::terrain::to_text;
 use bycoms_tests::netns::{not_permitted, Host, TwoHosts};
 use bycoms_tests::{bin, swarm_name, Proc};
@@ -66,10 +67,19 @@ fn two_hosts(terrain: &str) -> Value {
     let endpoint = orch.logged_endpoint(&format!("tcp/{}:", hosts.a.addr), Duration::from_secs(30));
     let agents: Vec<Proc> = (1..=3)
         .map(|k| {
-            let k = k.to_string();
-            let a = ["--transport", "zenoh", "--connect", &endpoint, "--swarm", &swarm, "--swarm-size", "3"];
-            let b = ["--robot", &k, "--terrain", terrain, "--eps", "3"];
-            start_in(&hosts.b, "sim-agent", &[&a[..], &b[..]].concat())
+            let agent = AgentArgs {
+                terrain: Some(terrain.into()),
+                eps: Some(3.0),
+                swarm_size: Some(3),
+                bus: BusArgs {
+                    transport: Transport::Zenoh,
+                    connect: vec![endpoint.clone()],
+                    zenoh_config: None,
+                },
+                ..AgentArgs::new(&swarm, k)
+            };
+            let flags = agent.to_flags();
+            start_in(&hosts.b, "sim-agent", &flags.iter().map(String::as_str).collect::<Vec<_>>())
         })
         .collect();
     let j = orch.wait(WAIT).json();

@@ -9,6 +9,7 @@
 //! robots file names fixed addresses (a real robot's flashed settings), so
 //! a port-0 socket cannot be handed over.
 
+use bycoms_gateway::GatewayArgs;
 use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::BusExt;
 use bycoms_protocol::link::{
@@ -17,6 +18,7 @@ use bycoms_protocol::link::{
 use bycoms_protocol::msg::{AgentKind, Deploy, DriveState, FromAgent, GoalBearing, Pose, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
 use bycoms_sim::agent_process::ipc_config;
+use bycoms_sim::lab::process::LabArgs;
 use bycoms_tests::{bin, is_zombie, signal, swarm_name, wait_for, Proc};
 use nix::sys::signal::Signal;
 use std::net::{SocketAddr, UdpSocket};
@@ -50,34 +52,13 @@ fn key(i: usize) -> LinkKey {
 
 fn gateway(swarm: &str, robot: u32, bind: SocketAddr, dir: &Path, size: u32) -> Proc {
     let key_file = dir.join(format!("robot-{robot}.key"));
-    let args = [
-        "--swarm",
-        swarm,
-        "--robot",
-        &robot.to_string(),
-        "--bind",
-        &bind.to_string(),
-        "--key-file",
-        key_file.to_str().expect("utf-8"),
-        "--swarm-size",
-        &size.to_string(),
-    ];
-    Proc::start(&bin("agent"), &args.map(String::from))
+    let args = GatewayArgs { swarm_size: Some(size), ..GatewayArgs::new(swarm, robot, bind, key_file) };
+    Proc::start(&bin("agent"), &args.to_flags())
 }
 
 fn lab(swarm: &str, scenario: &str, robots: &Path) -> Proc {
-    let args = [
-        "lab",
-        "--scenario",
-        scenario,
-        "--robots",
-        robots.to_str().expect("utf-8"),
-        "--swarm",
-        swarm,
-        "--seed",
-        "3",
-    ];
-    Proc::start(&bin("sim-agent"), &args.map(String::from))
+    let args = LabArgs { seed: 3, ..LabArgs::new(scenario, robots, swarm) };
+    Proc::start(&bin("sim-agent"), &args.to_args())
 }
 
 /// The test's side of the bus: the orchestrator's ports for robot 1.
