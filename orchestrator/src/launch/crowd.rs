@@ -394,6 +394,9 @@ fn last_words(log: &str) -> Option<String> {
     Some(text.trim_start().to_owned())
 }
 
+/// Files left named per row in the table.
+const FILES_NAMED: usize = 5;
+
 /// The rows as a table, with the files left named under it.
 pub fn table(rows: &[Row]) -> String {
     let mut out = format!(
@@ -454,11 +457,16 @@ pub fn table(rows: &[Row]) -> String {
             out.push_str(&format!("{} robots: error: {m}\n", r.robots));
         }
         if !r.files_left.is_empty() {
+            // A launch that was stopped leaves thousands: name a few (the
+            // JSON has them all).
+            let named = r.files_left.iter().take(FILES_NAMED).map(String::as_str).collect::<Vec<_>>();
+            let more = r.files_left.len().saturating_sub(FILES_NAMED);
+            let more = if more > 0 { format!(" and {more} more") } else { String::new() };
             out.push_str(&format!(
-                "{} robots: {} files left (removed): {}\n",
+                "{} robots: {} files left (removed): {}{more}\n",
                 r.robots,
                 r.files_left.len(),
-                r.files_left.join(", ")
+                named.join(", ")
             ));
         }
         if r.processes_left > 0 {
