@@ -31,10 +31,11 @@ use bycoms_protocol::{NameError, RobotId, Swarm};
 use bycoms_sim::agent_process::cli::quiet_iceoryx2;
 use bycoms_sim::agent_process::failsafe::{Failsafe, FailsafeArgs};
 use bycoms_sim::agent_process::lifeline::LifelineError;
+use bycoms_sim::agent_process::options::{command_with_subcommand, parse_with_subcommand};
 use bycoms_sim::agent_process::{check_speed, BusArgs, BusOpenError, ExitCause, Lifeline, OnBus};
 use bycoms_sim::lab::robots::{read_key, RobotsError};
 use bycoms_sim::stats::quantile;
-use clap::{Args, Command, FromArgMatches};
+use clap::Command;
 use std::net::{SocketAddr, UdpSocket};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -177,15 +178,12 @@ impl GatewayArgs {
 /// failsafe flags) when the subcommand is used. The about line is set last
 /// (`augment_args` applies each struct's doc comment as the command's).
 pub fn command() -> Command {
-    let bench = BenchArgs::augment_args(Command::new(BenchArgs::SUBCOMMAND));
-    let top = Command::new("agent")
-        .args_conflicts_with_subcommands(true)
-        .subcommand_negates_reqs(true)
-        .subcommand(bench);
-    LogArgs::augment_args(GatewayArgs::augment_args(top))
-        .version(env!("CARGO_PKG_VERSION"))
-        .about(env!("CARGO_PKG_DESCRIPTION"))
-        .long_about(None::<&str>)
+    command_with_subcommand::<GatewayArgs, BenchArgs>(
+        "agent",
+        BenchArgs::SUBCOMMAND,
+        env!("CARGO_PKG_VERSION"),
+        env!("CARGO_PKG_DESCRIPTION"),
+    )
 }
 
 /// What an `agent` command line asks for.
@@ -205,16 +203,8 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
-    let matches = command().try_get_matches_from(argv)?;
-    let formatted = |e: clap::Error| e.format(&mut command());
-    let log = LogArgs::from_arg_matches(&matches).map_err(formatted)?;
-    let run = match matches.subcommand() {
-        Some((BenchArgs::SUBCOMMAND, bench)) => {
-            AgentRun::Bench(BenchArgs::from_arg_matches(bench).map_err(formatted)?)
-        }
-        _ => AgentRun::Gateway(GatewayArgs::from_arg_matches(&matches).map_err(formatted)?),
-    };
-    Ok((log, run))
+    let (log, chosen) = parse_with_subcommand(command, BenchArgs::SUBCOMMAND, argv)?;
+    Ok((log, chosen.map_or_else(AgentRun::Gateway, AgentRun::Bench)))
 }
 
 /// Why a gateway could not run.

@@ -45,7 +45,7 @@ fn launch_under(ulimit: &str, robots: &str) -> std::process::Output {
 
 #[test]
 fn a_launch_beyond_the_hard_limit_is_refused_before_anything_starts() {
-    // 20 robots over iceoryx2 need about 604 open files per process.
+    // 20 robots over iceoryx2 need about 444 open files in the orchestrator.
     let o = launch_under("ulimit -n 200", "20");
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
@@ -55,7 +55,7 @@ fn a_launch_beyond_the_hard_limit_is_refused_before_anything_starts() {
 
 #[test]
 fn a_launch_under_a_low_soft_limit_raises_it_and_runs() {
-    // Soft 100, hard as it is: 3 robots need about 145.
+    // Soft 100, hard as it is: 3 robots need about 121.
     let o = launch_under("ulimit -Sn 100", "3");
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(matches!(o.status.code(), Some(0 | 3)), "{err}");

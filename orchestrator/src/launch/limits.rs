@@ -99,9 +99,15 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_estimate_refuses_what_failed_and_allows_what_ran() {
-        // 46 robots failed under 1024 open files; 3 robots never do.
-        assert!(files_needed(46, Transport::Ipc) > 1024);
+    fn the_estimate_covers_what_launches_held_and_allows_what_ran() {
+        // The orchestrator's peak open files, measured by `bench crowd`:
+        // 1 823 at 100 robots, 5 430 at 300, 17 058 with 919 of 1000 alive.
+        assert!(files_needed(100, Transport::Ipc) >= 1_823);
+        assert!(files_needed(300, Transport::Ipc) >= 5_430);
+        assert!(files_needed(1000, Transport::Ipc) >= 17_058);
+        // And it does not refuse what fits: 1000 robots under this
+        // machine's hard limit of 20 000; 3 robots under 1024.
+        assert!(files_needed(1000, Transport::Ipc) < 20_000);
         assert!(files_needed(3, Transport::Ipc) < 1024);
         assert_eq!(files_needed(1000, Transport::Memory), BASE_FILES);
         assert!(files_needed(1000, Transport::Zenoh) < files_needed(1000, Transport::Ipc));

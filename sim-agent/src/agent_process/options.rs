@@ -320,15 +320,12 @@ impl AgentArgs {
 /// about lines are set last: `augment_args` applies each struct's doc
 /// comment as the command's about.)
 pub fn command() -> Command {
-    let lab = LabArgs::augment_args(Command::new(LabArgs::SUBCOMMAND));
-    let top = Command::new("sim-agent")
-        .args_conflicts_with_subcommands(true)
-        .subcommand_negates_reqs(true)
-        .subcommand(lab);
-    LogArgs::augment_args(AgentArgs::augment_args(top))
-        .version(env!("CARGO_PKG_VERSION"))
-        .about(env!("CARGO_PKG_DESCRIPTION"))
-        .long_about(None::<&str>)
+    command_with_subcommand::<AgentArgs, LabArgs>(
+        "sim-agent",
+        LabArgs::SUBCOMMAND,
+        env!("CARGO_PKG_VERSION"),
+        env!("CARGO_PKG_DESCRIPTION"),
+    )
 }
 
 /// What a `sim-agent` command line asks for.
@@ -348,16 +345,48 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
+    let (log, chosen) = parse_with_subcommand(command, LabArgs::SUBCOMMAND, argv)?;
+    Ok((log, chosen.map_or_else(SimAgentRun::Robot, SimAgentRun::Lab)))
+}
+
+/// The command line of a swarm binary `name` (`sim-agent`, `agent`) whose
+/// own flags `M` and the logging flags sit at the top level, next to one
+/// subcommand `sub` with flags `S`: assembled as [`command`] explains.
+pub fn command_with_subcommand<M: Args, S: Args>(
+    name: &'static str,
+    sub: &'static str,
+    version: &'static str,
+    about: &'static str,
+) -> Command {
+    let subcommand = S::augment_args(Command::new(sub));
+    let top = Command::new(name)
+        .args_conflicts_with_subcommands(true)
+        .subcommand_negates_reqs(true)
+        .subcommand(subcommand);
+    LogArgs::augment_args(M::augment_args(top)).version(version).about(about).long_about(None::<&str>)
+}
+
+/// Parses `argv` (`argv[0]` first) with `command` (made by
+/// [`command_with_subcommand`]): the logging flags, and the top level's
+/// flags (`Err`) or the subcommand `sub`'s (`Ok`). Errors carry the usage
+/// line of the command they are about.
+pub fn parse_with_subcommand<M: FromArgMatches, S: FromArgMatches, I, T>(
+    command: fn() -> Command,
+    sub: &str,
+    argv: I,
+) -> Result<(LogArgs, Result<S, M>), clap::Error>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
     let matches = command().try_get_matches_from(argv)?;
     let formatted = |e: clap::Error| e.format(&mut command());
     let log = LogArgs::from_arg_matches(&matches).map_err(formatted)?;
-    let run = match matches.subcommand() {
-        Some((LabArgs::SUBCOMMAND, lab)) => {
-            SimAgentRun::Lab(LabArgs::from_arg_matches(lab).map_err(formatted)?)
-        }
-        _ => SimAgentRun::Robot(AgentArgs::from_arg_matches(&matches).map_err(formatted)?),
+    let chosen = match matches.subcommand() {
+        Some((name, flags)) if name == sub => Ok(S::from_arg_matches(flags).map_err(formatted)?),
+        _ => Err(M::from_arg_matches(&matches).map_err(formatted)?),
     };
-    Ok((log, run))
+    Ok((log, chosen))
 }
 
 #[cfg(test)]
