@@ -98,7 +98,7 @@ fn main() {
     let name = format!("bench-mocap-{}", std::process::id());
     let swarm = Swarm::new(&name).expect("swarm name");
     let mut cfg = ipc_config(2);
-    cfg.cleanup_on_start = true;
+    cfg.cleans_dead_nodes = true;
     let bus = IpcBus::new(cfg).expect("iceoryx2 bus");
     println!("mocap frame received → goal bearing published ({BODIES} rigid bodies, loopback UDP, iceoryx2)");
     for rate in [120.0, 240.0] {

@@ -10,7 +10,7 @@
 //! IO until the core's next deadline. At the end it sends `Shutdown`, winds
 //! the agents down and builds the summary from the core's slots.
 
-use super::agents::{AgentPlan, AgentSource, Started};
+use super::agents::{AgentPlan, AgentSource, Gone, Started};
 use super::config::{Clock, LaunchConfig};
 use super::core::log::{self, Logged};
 use super::core::{Ending, Input, Output, Slot, SlotState};
@@ -235,11 +235,21 @@ impl Driver {
             self.feed(Input::Pose { topic, pose });
         }
         self.poses = poses;
-        for (robot, gone) in self.agents.poll(false) {
+        let gone = self.agents.poll(false);
+        let unclean = gone.iter().any(|(_, g)| !matches!(g, Gone::Exited(status) if status.success()));
+        for (robot, gone) in gone {
             if let Some(words) = self.agents.last_error(robot) {
                 self.feed(Input::Said(robot, words));
             }
             self.feed(Input::Gone(robot, gone));
+        }
+        if unclean {
+            // What an agent that did not end cleanly left on the bus
+            // (iceoryx2: its node's ports) goes now, after its death is
+            // noted (the scan takes a while), and in the time an agent
+            // started again for its robot takes to open its ports; agents
+            // do not clean up after each other (`IpcConfig::cleans_dead_nodes`).
+            self.ports.cleanup_dead_nodes();
         }
         for (robot, change) in self.agents.reach() {
             self.feed(Input::Reach(robot, change));

@@ -64,7 +64,7 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
     let name = format!("scale-{}", std::process::id());
     let swarm = Swarm::new(&name)?;
     let mut cfg = ipc_config(agents);
-    cfg.cleanup_on_start = true;
+    cfg.cleans_dead_nodes = true;
     let bus = IpcBus::new(cfg).context("cannot open the iceoryx2 bus")?;
     let topics: Vec<_> = (1..=agents).map(|id| swarm.from_agent(RobotId(id))).collect();
     let reports: TypedFanIn<<Bus as bycoms_protocol::bus::Bus>::FanIn, FromAgent> =

@@ -178,7 +178,7 @@ pub fn open(
     match cfg.kind {
         Transport::Ipc => {
             let mut ipc = ipc_config(robots);
-            ipc.cleanup_on_start = true;
+            ipc.cleans_dead_nodes = true;
             ipc.node_name = Some(format!("bycoms-{swarm}-orchestrator"));
             let bus = IpcBus::new(ipc).map_err(|source| TransportError::Open { kind: "ipc", source })?;
             let bus = faults.wrap(bus).map_err(TransportError::Faults)?;

@@ -98,8 +98,16 @@ pub struct IpcConfig {
     pub wake: Wake,
     /// iceoryx2 node name, shown by `iox2 node list` (default: none).
     pub node_name: Option<String>,
-    /// Remove dead nodes' resources when the bus is opened.
-    pub cleanup_on_start: bool,
+    /// Whether this process removes dead nodes' resources: when the bus is
+    /// opened, in every service it opens, and when it closes (iceoryx2's
+    /// `cleanup_dead_nodes_on_open`, node `cleanup_dead_nodes_on_creation`
+    /// and `_on_destruction`). The orchestrator does; agents do not
+    /// (`ipc_config` of the agent runtime): each check reads every node (of
+    /// the service, or of the machine), so in every agent it cost start and
+    /// exit time and heap that grew with the agents before it (5.7 KB each,
+    /// kept by the allocator), and the orchestrator cleans up after every
+    /// agent that does not end cleanly anyway.
+    pub cleans_dead_nodes: bool,
     /// Isolation tag: this run's own iceoryx2 root and prefix (see
     /// [`root`]). Default: `$BYCOMS_IPC_ISOLATION`, else machine-wide.
     pub isolation: Option<String>,
@@ -118,9 +126,9 @@ pub struct IpcConfig {
 pub struct PortLimits {
     /// The end of the topic's name, e.g. `/pose`.
     pub suffix: &'static str,
-    /// Most publishers.
+    /// Most publishers (of a doorbell's event service: notifiers).
     pub max_publishers: usize,
-    /// Most subscribers.
+    /// Most subscribers (of a doorbell's event service: listeners).
     pub max_subscribers: usize,
 }
 
@@ -143,7 +151,7 @@ impl Default for IpcConfig {
             max_nodes: 128,
             wake: Wake::default(),
             node_name: None,
-            cleanup_on_start: true,
+            cleans_dead_nodes: true,
             isolation: root::tag_from_env(),
             port_limits: Vec::new(),
         }
@@ -212,8 +220,11 @@ impl<S: IoxService> IceoryxBus<S> {
                 "max_publishers, max_subscribers and max_nodes must be at least 1",
             ));
         }
-        let iox = root::config(config.isolation.as_deref())?;
-        if config.cleanup_on_start {
+        let mut iox = root::config(config.isolation.as_deref())?;
+        iox.global.service.cleanup_dead_nodes_on_open = config.cleans_dead_nodes;
+        iox.global.node.cleanup_dead_nodes_on_creation = config.cleans_dead_nodes;
+        iox.global.node.cleanup_dead_nodes_on_destruction = config.cleans_dead_nodes;
+        if config.cleans_dead_nodes {
             cleanup_stale_resources_in::<S>(&iox)?;
         }
         let mut builder = NodeBuilder::new().config(&iox).signal_handling_mode(SignalHandlingMode::Disabled);

@@ -60,15 +60,25 @@ pub const BUS_BUFFER: usize = 64;
 /// command topic (see [`ipc_config`]).
 pub const ROBOT_TOPIC_PORTS: usize = 8;
 
+/// Listeners of the `poses` and `from_agents` doorbells, and notifiers of
+/// the `to_agents` one (see [`ipc_config`]).
+pub const DOORBELL_FEW: usize = 16;
+
 /// The iceoryx2 configuration of a swarm of `swarm_size` robots.
 ///
 /// Payloads are at most one protocol message. The doorbells of the
 /// robots' topics (`TopicName::doorbell`: the event services that every
-/// robot's reports, poses and commands ring) have a notifier or a listener
-/// per agent, so the default limits grow with the swarm (plus headroom
-/// for the orchestrator, a bridge, a monitor and test tools; a reader of
-/// every robot, like the orchestrator or the bridge, uses one fan-in and
-/// so one listener). A robot's own topics have few ports on either side
+/// robot's reports, poses and commands ring) are one-sided: every agent
+/// rings `poses` and `from_agents`, which only fan-ins (the orchestrator,
+/// a bridge) and a few tools wait on ([`DOORBELL_FEW`] listeners), and
+/// every agent waits on `to_agents`, which only the orchestrator and a few
+/// tools ring ([`DOORBELL_FEW`] notifiers); the many side grows with the
+/// swarm (plus headroom). The few side matters because iceoryx2 keeps a
+/// resident slot (about 1.3 KB) per possible listener in every notifier:
+/// sized like the swarm on both sides, the two notifiers of each agent held
+/// 2.7 MB at 1000 robots. A reader takes a listener only once it waits
+/// (`Listening` in the bus), so readers that only poll (a gateway's own
+/// pose, `bench scale`) need none. A robot's own topics have few ports on either side
 /// ([`ROBOT_TOPIC_PORTS`]): its pose is read by the orchestrator and tools
 /// only (agents are sent their beacons instead of reading every earlier
 /// robot's pose), and iceoryx2 keeps a resident slot (~3.6 KB) per
@@ -84,8 +94,12 @@ pub fn ipc_config(swarm_size: u32) -> IpcConfig {
         max_publishers: n + 4,
         max_subscribers: n + 4,
         max_nodes: n + 8,
-        cleanup_on_start: false,
+        cleans_dead_nodes: false,
         port_limits: vec![
+            // The doorbells (`TopicName::doorbell`): one side is every agent.
+            PortLimits { suffix: "/poses", max_publishers: n + 4, max_subscribers: DOORBELL_FEW },
+            PortLimits { suffix: "/from_agents", max_publishers: n + 4, max_subscribers: DOORBELL_FEW },
+            PortLimits { suffix: "/to_agents", max_publishers: DOORBELL_FEW, max_subscribers: n + 4 },
             // One robot's pose: its agent (or the lab's mocap), the
             // orchestrator's relay of a dead robot, a duplicate agent, tools;
             // read by the orchestrator (and its gateway), a bridge, tools.
@@ -163,7 +177,9 @@ mod tests {
         // their doorbell.
         let reports = *swarm.from_agent(RobotId(7)).name();
         assert_eq!(config.ports_of(&reports), (ROBOT_TOPIC_PORTS, ROBOT_TOPIC_PORTS));
-        assert_eq!(config.ports_of(&reports.doorbell()), (304, 304));
+        assert_eq!(config.ports_of(&reports.doorbell()), (304, DOORBELL_FEW));
+        assert_eq!(config.ports_of(&swarm.pose(RobotId(7)).name().doorbell()), (304, DOORBELL_FEW));
+        assert_eq!(config.ports_of(&swarm.to_agent(RobotId(7)).name().doorbell()), (DOORBELL_FEW, 304));
         assert_eq!(config.ports_of(swarm.gate().name()), (304, 304));
     }
 }

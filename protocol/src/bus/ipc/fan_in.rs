@@ -103,6 +103,7 @@ impl<S: IoxService> IpcFanIn<S> {
         match &self.waker {
             Waker::Event { listener, .. } => {
                 listener
+                    .get()?
                     .try_wait(|a| self.note(a.id.as_value()))
                     .map_err(|e| BusError::backend("read doorbell", Some(&self.bell), e))?;
             }
@@ -132,7 +133,7 @@ impl<S: IoxService> IpcFanIn<S> {
     fn sleep(&self, left: Duration, poll_sleep: &mut Duration) -> Result<Slept, BusError> {
         match &self.waker {
             Waker::Event { listener, .. } => {
-                match listener.timed_wait(|a| self.note(a.id.as_value()), event_wait(left)) {
+                match listener.get()?.timed_wait(|a| self.note(a.id.as_value()), event_wait(left)) {
                     // Nothing rang for a whole slice: look everywhere once.
                     Ok(0) => {
                         self.round.set(true);

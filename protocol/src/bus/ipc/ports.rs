@@ -22,6 +22,7 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{AllocationStrategy, CallbackProgression, EventId, Node, PortName, ServiceName};
 use iceoryx2::service::port_factory::{event, publish_subscribe, PortFactory as _};
 use iceoryx2::service::Service as IoxService;
+use std::cell::OnceCell;
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant;
@@ -274,7 +275,8 @@ pub(super) fn open_subscriber<S: IoxService>(
 /// How a reader of `bell`'s topics is woken: on `bell`'s event service
 /// (its publishers ring it), or by polling. A reader of one member of a
 /// doorbell family names its listener by the member (see [`Bell`]), a
-/// fan-in by [`EVERY_MEMBER`].
+/// fan-in by [`EVERY_MEMBER`]. The listener itself is made at the reader's
+/// first wait ([`Listening`]).
 pub(super) fn waker<S: IoxService>(
     node: &Node<S>,
     config: &IpcConfig,
@@ -284,18 +286,49 @@ pub(super) fn waker<S: IoxService>(
     Ok(match config.wake {
         Wake::Event { spin } => {
             let service = event_service(node, config, bell, &service_name(bell)?)?;
-            let mut builder = service.listener_builder();
             let name = member.map(PortName::new).transpose();
             let name = name.map_err(|e| BusError::backend("name listener", Some(bell), e))?;
-            if let Some(name) = &name {
-                builder = builder.name(name);
+            Waker::Event {
+                spin,
+                listener: Listening { service, name, bell: *bell, listener: OnceCell::new() },
             }
-            let listener =
-                builder.create().map_err(|e| BusError::backend("create listener", Some(bell), e))?;
-            Waker::Event { spin, listener }
         }
         Wake::Poll { spin, max_sleep } => Waker::Poll { spin, max_sleep },
     })
+}
+
+/// A doorbell listener, made when its reader first waits.
+///
+/// Why not at once: a doorbell's listener slots are sized for the readers
+/// that wait (every agent on `to_agents`, a few fan-ins on `poses` and
+/// `from_agents`, see `ipc_config` of the agent runtime), and every
+/// notifier of the doorbell keeps a resident slot per possible listener.
+/// A reader that only ever reads without waiting (a gateway's own pose, a
+/// bench's pose readers) therefore takes no slot, and the `poses` and
+/// `from_agents` doorbells, which every agent rings, need few. A message
+/// sent before the listener exists is not lost: it waits in the
+/// subscriber's queue, and the first wait looks there before it sleeps.
+pub(super) struct Listening<S: IoxService> {
+    service: event::PortFactory<S>,
+    name: Option<PortName>,
+    bell: TopicName,
+    listener: OnceCell<Listener<S>>,
+}
+
+impl<S: IoxService> Listening<S> {
+    /// The listener, made on the first call.
+    pub(super) fn get(&self) -> Result<&Listener<S>, BusError> {
+        if let Some(listener) = self.listener.get() {
+            return Ok(listener);
+        }
+        let mut builder = self.service.listener_builder();
+        if let Some(name) = &self.name {
+            builder = builder.name(name);
+        }
+        let listener =
+            builder.create().map_err(|e| BusError::backend("create listener", Some(&self.bell), e))?;
+        Ok(self.listener.get_or_init(|| listener))
+    }
 }
 
 /// The iceoryx2 service name of `topic` (the same text).
@@ -343,7 +376,7 @@ impl<S: IoxService> Publish for IpcPublisher<S> {
 }
 
 pub(super) enum Waker<S: IoxService> {
-    Event { spin: Duration, listener: Listener<S> },
+    Event { spin: Duration, listener: Listening<S> },
     Poll { spin: Duration, max_sleep: Duration },
 }
 
@@ -381,7 +414,7 @@ impl<S: IoxService> Waker<S> {
         poll_sleep: &mut Duration,
     ) -> Result<Slept, BusError> {
         match self {
-            Waker::Event { listener, .. } => match listener.timed_wait(|_| {}, event_wait(left)) {
+            Waker::Event { listener, .. } => match listener.get()?.timed_wait(|_| {}, event_wait(left)) {
                 Ok(_) => Ok(Slept::Again),
                 Err(ListenerWaitError::InterruptSignal) => Ok(Slept::Interrupted),
                 Err(e) => Err(BusError::backend("wait for event", Some(topic), e)),
@@ -409,6 +442,10 @@ impl<S: IoxService> Subscribe for IpcSubscriber<S> {
     }
 
     fn recv_timeout_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError> {
+        if let Waker::Event { listener, .. } = &self.waker {
+            // Listen before looking, so nothing sent after the look is slept through.
+            listener.get()?;
+        }
         let sleep = |left, poll_sleep: &mut Duration| self.waker.sleep(&self.topic, left, poll_sleep);
         wait_for(self.waker.spin(), buf, timeout, |buf| self.try_recv_into(buf), sleep)
     }
@@ -475,6 +512,7 @@ mod tests {
         let mut ids = Vec::new();
         match &sub.waker {
             Waker::Event { listener, .. } => {
+                let listener = listener.get().expect("the reader has waited, so it listens");
                 listener.try_wait(|a| ids.push(a.id.as_value())).expect("read listener");
             }
             Waker::Poll { .. } => panic!("the default bus wakes by events"),
@@ -482,6 +520,14 @@ mod tests {
         ids.sort_unstable();
         ids.dedup();
         ids
+    }
+
+    /// `sub` waits once (a microsecond, nothing is there): from now on it
+    /// has a listener on its doorbell, as a reader has after its first wait.
+    fn waits(sub: &IpcSubscriber<iceoryx2::prelude::ipc::Service>) {
+        let mut buf = [0u8; 16];
+        assert_eq!(sub.recv_timeout_into(&mut buf, Duration::from_micros(1)).expect("wait"), None);
+        assert!(matches!(&sub.waker, Waker::Event { listener, .. } if listener.listener.get().is_some()));
     }
 
     /// On a shared doorbell a send wakes only the readers of its own robot
@@ -498,6 +544,8 @@ mod tests {
         let agents = IpcBus::new(config).expect("iceoryx2 node");
         let one = agents.subscriber(&topic(1)).expect("subscriber");
         let two = agents.subscriber(&topic(2)).expect("subscriber");
+        waits(&one);
+        waits(&two);
         let to_one = bus.publisher(&topic(1)).expect("publisher");
         let to_two = bus.publisher(&topic(2)).expect("publisher");
         assert_eq!(bus.bells.open.lock().expect("lock").len(), 1, "one ringer for the family");
@@ -508,12 +556,14 @@ mod tests {
         assert_eq!((rings(&one), rings(&two)), (vec![], vec![2]));
         // A reader that joins later is woken by the next send.
         let three = agents.subscriber(&topic(3)).expect("subscriber");
+        waits(&three);
         let to_three = bus.publisher(&topic(3)).expect("publisher");
         to_three.publish(b"tick").expect("publish");
         assert_eq!((rings(&one), rings(&two), rings(&three)), (vec![], vec![], vec![3]));
         // Robot 1's reader is replaced (same number of listeners).
         drop(one);
         let one = agents.subscriber(&topic(1)).expect("subscriber");
+        waits(&one);
         to_one.publish(b"tick").expect("publish");
         assert_eq!((rings(&one), rings(&two), rings(&three)), (vec![1], vec![], vec![]));
         let mut buf = [0u8; 16];
@@ -575,5 +625,44 @@ mod tests {
         waiter.join().expect("waiter thread");
         let results = outcome.expect("checked above");
         assert_eq!(results, vec![true, true, true], "every wait ended without error");
+    }
+
+    /// A reader takes a slot of its doorbell's listeners only when it first
+    /// waits: readers that never wait are not limited by the slots, a
+    /// message sent before a reader waits is still received, and a waiting
+    /// reader beyond the slots gets an error that names the doorbell.
+    #[test]
+    fn a_reader_listens_on_its_doorbell_only_once_it_waits() {
+        let iso = Isolated::new("lazybell");
+        let swarm = crate::Swarm::new("lazy").expect("valid swarm");
+        let topic = |k| *swarm.pose(crate::RobotId(k)).name();
+        let config = IpcConfig {
+            isolation: Some(iso.tag().to_owned()),
+            port_limits: vec![crate::bus::ipc::PortLimits {
+                suffix: "/poses",
+                max_publishers: 8,
+                max_subscribers: 1,
+            }],
+            ..IpcConfig::default()
+        };
+        let bus = IpcBus::new(config).expect("iceoryx2 node");
+        let readers: Vec<_> = (1..=3).map(|k| bus.subscriber(&topic(k)).expect("subscriber")).collect();
+        let writers: Vec<_> = (1..=3).map(|k| bus.publisher(&topic(k)).expect("publisher")).collect();
+        for w in &writers {
+            w.publish(b"pose").expect("publish");
+        }
+        let mut buf = [0u8; 16];
+        for r in &readers {
+            assert_eq!(r.try_recv_into(&mut buf).expect("receive"), Some(4), "read without waiting");
+        }
+        // One waits (the doorbell's one listener slot); its message sent
+        // before it waited is received.
+        writers[0].publish(b"pose").expect("publish");
+        let wait = Duration::from_millis(100);
+        assert_eq!(readers[0].recv_timeout_into(&mut buf, wait).expect("wait"), Some(4));
+        assert_eq!(readers[0].recv_timeout_into(&mut buf, Duration::from_micros(1)).expect("wait"), None);
+        // A second reader that waits finds no slot left.
+        let err = readers[1].recv_timeout_into(&mut buf, Duration::from_micros(1)).expect_err("no slot left");
+        assert!(err.to_string().contains("poses"), "{err}");
     }
 }
