@@ -14,7 +14,6 @@
 
 use bycoms_protocol::bus::ipc::root::Isolated;
 use bycoms_protocol::bus::ipc::IpcBus;
-use bycoms_protocol::bus::Bus;
 use bycoms_protocol::{RobotId, Swarm};
 use bycoms_sim::agent_process::ipc_config;
 use bycoms_sim::agent_process::run::AgentPorts;

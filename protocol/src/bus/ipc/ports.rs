@@ -14,6 +14,7 @@
 use super::{IpcConfig, Wake};
 use crate::bus::{copy_out, BusError, Publish, Subscribe};
 use crate::naming::TopicName;
+use core::cell::OnceCell;
 use core::time::Duration;
 use iceoryx2::port::listener::{Listener, ListenerWaitError};
 use iceoryx2::port::notifier::{ListenerKey, Notifier, NotifierNotifyError};
@@ -22,7 +23,6 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{AllocationStrategy, CallbackProgression, EventId, Node, PortName, ServiceName};
 use iceoryx2::service::port_factory::{event, publish_subscribe, PortFactory as _};
 use iceoryx2::service::Service as IoxService;
-use std::cell::OnceCell;
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant;
@@ -290,7 +290,7 @@ pub(super) fn waker<S: IoxService>(
             let name = name.map_err(|e| BusError::backend("name listener", Some(bell), e))?;
             Waker::Event {
                 spin,
-                listener: Listening { service, name, bell: *bell, listener: OnceCell::new() },
+                listener: Box::new(Listening { service, name, bell: *bell, listener: OnceCell::new() }),
             }
         }
         Wake::Poll { spin, max_sleep } => Waker::Poll { spin, max_sleep },
@@ -376,7 +376,7 @@ impl<S: IoxService> Publish for IpcPublisher<S> {
 }
 
 pub(super) enum Waker<S: IoxService> {
-    Event { spin: Duration, listener: Listening<S> },
+    Event { spin: Duration, listener: Box<Listening<S>> },
     Poll { spin: Duration, max_sleep: Duration },
 }
 
