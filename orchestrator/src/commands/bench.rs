@@ -70,6 +70,10 @@ pub enum What {
         /// Longest one launch may take, s (then it is stopped).
         #[arg(long, default_value_t = 1800.0, value_name = "SECONDS")]
         timeout: f64,
+        /// Also run each launch recorded (`--record`), after it runs
+        /// without: the recording's size and its cost in wall time per tick.
+        #[arg(long)]
+        record: bool,
     },
     /// Seeded fault schedules of the launch core in virtual time, per second.
     Schedules {
@@ -91,8 +95,8 @@ pub fn run(args: Args) -> Result<i32> {
     if let What::Schedules { count, rounds } = args.what {
         return schedules(count, rounds, args.json);
     }
-    if let What::Crowd { robots, timeout } = args.what {
-        return crowd(robots, timeout, args.agent_bin, args.json);
+    if let What::Crowd { robots, timeout, record } = args.what {
+        return crowd(robots, timeout, record, args.agent_bin, args.json);
     }
     let agent = launch::agent_command(args.agent_bin.as_deref(), None)?;
     match args.what {
@@ -165,15 +169,21 @@ pub fn run(args: Args) -> Result<i32> {
 }
 
 /// `bench crowd`: one launch per swarm size, the figures of each.
-fn crowd(robots: Vec<u32>, timeout: f64, agent_bin: Option<PathBuf>, json: bool) -> Result<i32> {
+fn crowd(
+    robots: Vec<u32>,
+    timeout: f64,
+    record: bool,
+    agent_bin: Option<PathBuf>,
+    json: bool,
+) -> Result<i32> {
     if robots.is_empty() || robots.contains(&0) {
         return Err(crate::exit::usage("--robots takes swarm sizes of at least 1"));
     }
     if !(timeout.is_finite() && timeout > 0.0) {
         return Err(crate::exit::usage("--timeout must be a positive number of seconds"));
     }
-    let opts =
-        launch::crowd::Options { robots, agent_bin, timeout: std::time::Duration::from_secs_f64(timeout) };
+    let timeout = std::time::Duration::from_secs_f64(timeout);
+    let opts = launch::crowd::Options { robots, agent_bin, timeout, record };
     let rows = launch::crowd::run(&opts)?;
     if json {
         let figures = serde_json::json!({ "terrain": launch::crowd::ALL_STUCK, "launches": rows });

@@ -66,6 +66,8 @@ pub struct Options {
     pub agent_bin: Option<PathBuf>,
     /// Longest one launch may take.
     pub timeout: Duration,
+    /// Run each swarm size a second time, recorded (`--record`).
+    pub record: bool,
 }
 
 /// How one launch ended, as the bench saw it.
@@ -88,6 +90,8 @@ pub enum Ended {
 #[derive(Clone, Debug, Serialize)]
 pub struct Row {
     pub robots: u32,
+    /// Bytes of the launch's recording, when it was recorded.
+    pub recording_bytes: Option<u64>,
     pub ended: Ended,
     /// The summary's outcome (`robots_exhausted` expected).
     pub outcome: Option<String>,
@@ -143,13 +147,18 @@ pub fn run(opts: &Options) -> Result<Vec<Row>> {
         if stop.load(Ordering::SeqCst) {
             break;
         }
-        let launch = Launch { exe: &exe, terrain: &terrain, dir: dir.path(), robots, opts };
-        let row = launch.run(&stop)?;
-        tracing::info!(robots, ended = ?row.ended, wall_s = ?row.wall_s, peak_pss_mb = row.peak_pss_mb, "launch measured");
-        let interrupted = row.ended == Ended::Interrupted;
-        rows.push(row);
-        if interrupted {
-            break;
+        for record in [false, true].into_iter().filter(|r| !r || opts.record) {
+            if stop.load(Ordering::SeqCst) {
+                break;
+            }
+            let launch = Launch { exe: &exe, terrain: &terrain, dir: dir.path(), robots, record, opts };
+            let row = launch.run(&stop)?;
+            tracing::info!(robots, record, ended = ?row.ended, wall_s = ?row.wall_s, peak_pss_mb = row.peak_pss_mb, "launch measured");
+            let interrupted = row.ended == Ended::Interrupted;
+            rows.push(row);
+            if interrupted {
+                return Ok(rows);
+            }
         }
     }
     Ok(rows)
@@ -158,6 +167,8 @@ pub fn run(opts: &Options) -> Result<Vec<Row>> {
 /// One launch to run and measure.
 struct Launch<'a> {
     exe: &'a Path,
+    /// Whether it records (to a file in `dir`, removed with it).
+    record: bool,
     terrain: &'a Path,
     dir: &'a Path,
     robots: u32,
@@ -223,6 +234,10 @@ impl Launch<'_> {
         if let Some(bin) = &self.opts.agent_bin {
             cmd.arg("--agent-bin").arg(bin);
         }
+        let recording = self.record.then(|| self.dir.join(format!("launch-{n}.mcap")));
+        if let Some(file) = &recording {
+            cmd.arg("--record").arg(file);
+        }
         cmd.env(ISOLATION_ENV, &tag)
             .stdin(Stdio::null())
             .stdout(std::fs::File::create(&out_path).context("launch output file")?)
@@ -271,8 +286,13 @@ impl Launch<'_> {
             .map(str::to_owned)
             .or_else(|| (summary.is_none()).then(|| last_words(&stderr)).flatten());
         let mb = |kb: u64| kb as f64 / 1024.0;
+        let recording_bytes = recording.as_ref().and_then(|f| std::fs::metadata(f).ok()).map(|m| m.len());
+        if let Some(file) = &recording {
+            let _ = std::fs::remove_file(file);
+        }
         Ok(Row {
             robots: n,
+            recording_bytes,
             ended,
             outcome: get("outcome").and_then(|o| o.as_str()).map(str::to_owned),
             exit_code,
@@ -405,8 +425,9 @@ pub fn table(rows: &[Row]) -> String {
         SAMPLE_EVERY.as_millis()
     );
     out.push_str(&format!(
-        "{:>6} {:>9} {:>8} {:>8} {:>8} {:>8} {:>9} {:>10} {:>11} {:>7} {:>6} {:>6}\n",
+        "{:>6} {:>8} {:>9} {:>8} {:>8} {:>8} {:>8} {:>9} {:>10} {:>11} {:>7} {:>6} {:>6}\n",
         "robots",
+        "rec MB",
         "PSS MB",
         "MB/robot",
         "orch MB",
@@ -431,8 +452,9 @@ pub fn table(rows: &[Row]) -> String {
             continue;
         }
         out.push_str(&format!(
-            "{:>6} {:>9.1} {:>8.2} {:>8.1} {:>8} {:>8} {:>9} {:>10} {:>11} {:>7} {:>6} {:>6}",
+            "{:>6} {:>8} {:>9.1} {:>8.2} {:>8.1} {:>8} {:>8} {:>9} {:>10} {:>11} {:>7} {:>6} {:>6}",
             r.robots,
+            r.recording_bytes.map_or("–".to_owned(), |b| format!("{:.1}", b as f64 / 1e6)),
             r.peak_pss_mb,
             r.pss_mb_per_robot,
             r.peak_orchestrator_pss_mb,
@@ -476,6 +498,23 @@ pub fn table(rows: &[Row]) -> String {
             ));
         }
     }
+    for pair in rows.windows(2) {
+        let (plain, recorded) = (&pair[0], &pair[1]);
+        if plain.robots != recorded.robots || plain.recording_bytes.is_some() {
+            continue;
+        }
+        let (Some(bytes), Some(slow), Some(fast)) =
+            (recorded.recording_bytes, recorded.ms_per_tick, plain.ms_per_tick)
+        else {
+            continue;
+        };
+        out.push_str(&format!(
+            "{} robots recorded: {:.1} MB, {slow:.2} ms/tick against {fast:.2} unrecorded ({:+.1} %)\n",
+            plain.robots,
+            bytes as f64 / 1e6,
+            100.0 * (slow / fast - 1.0)
+        ));
+    }
     let sample_ms = rows.iter().map(|r| r.sample_ms).fold(0.0, f64::max);
     out.push_str(&format!(
         "PSS: orchestrator and all agents together, peak of the samples; a sample took up to {sample_ms:.1} ms"
@@ -490,6 +529,7 @@ mod tests {
     fn row(robots: u32, ended: Ended) -> Row {
         Row {
             robots,
+            recording_bytes: None,
             ended,
             outcome: Some("robots_exhausted".into()),
             exit_code: Some(3),
@@ -537,5 +577,19 @@ mod tests {
         assert!(lines[3].ends_with("(TimedOut)"), "{text}");
         assert!(lines[4].contains("1000 refused: needs about 27064 open files"), "{text}");
         assert!(text.contains("10 robots: 1 files left (removed): /dev/shm/x"), "{text}");
+    }
+
+    #[test]
+    fn a_recorded_launch_is_set_beside_the_same_launch_unrecorded() {
+        let plain = row(100, Ended::Ran);
+        let mut recorded = row(100, Ended::Ran);
+        recorded.recording_bytes = Some(2_500_000);
+        recorded.ms_per_tick = Some(8.03);
+        let text = table(&[plain, recorded]);
+        assert!(
+            text.contains("100 robots recorded: 2.5 MB, 8.03 ms/tick against 7.30 unrecorded (+10.0 %)"),
+            "{text}"
+        );
+        assert!(text.lines().nth(3).is_some_and(|l| l.trim_start().starts_with("100      2.5 ")), "{text}");
     }
 }
