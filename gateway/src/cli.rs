@@ -23,7 +23,7 @@
 use crate::bench::BenchArgs;
 use crate::core::{GatewayCore, Timers};
 use crate::run::{Gateway, GatewayPorts, RunError};
-use bycoms_logging::LogArgs;
+use bycoms_runtime::logging::LogArgs;
 use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_protocol::bus::{Bus, BusError};
 use bycoms_protocol::naming::Member;
@@ -417,7 +417,7 @@ mod command_tests {
         let bench = run_of(&["bench", "--frames", "5", "--interval-ms", "1"]).expect("parses");
         assert_eq!(bench, AgentRun::Bench(BenchArgs { frames: 5, interval_ms: 1 }));
         let (log, run) = parse_from(["agent", "bench", "--log-format", "json"]).expect("the logging flags");
-        assert_eq!(log.log_format, bycoms_logging::LogFormat::Json);
+        assert_eq!(log.log_format, bycoms_runtime::logging::LogFormat::Json);
         assert_eq!(run, AgentRun::Bench(BenchArgs { frames: 2000, interval_ms: 2 }));
         // The bench needs none of the gateway's flags and takes none.
         let err = run_of(&["--swarm", "s", "bench"]).unwrap_err();

@@ -8,12 +8,12 @@ use bycoms_gateway::cli::{parse_from, AgentRun};
 
 fn main() {
     let (log, run) = parse_from(std::env::args_os()).unwrap_or_else(|e| e.exit());
-    bycoms_logging::init(log.log_format);
+    bycoms_runtime::logging::init(log.log_format);
     match run {
         AgentRun::Bench(bench) => {
             bycoms_sim::agent_process::cli::quiet_iceoryx2();
             if let Err(e) = bycoms_gateway::bench::run(&bench) {
-                tracing::error!("{}", bycoms_logging::error_text(e.as_ref()));
+                tracing::error!("{}", bycoms_runtime::logging::error_text(e.as_ref()));
                 std::process::exit(1);
             }
         }

@@ -135,7 +135,7 @@ pub fn run(args: Args) -> Result<i32> {
             .collect::<Result<Vec<_>>>()?;
         lanes.push(Lane { from, to, forwarded: 0 });
     }
-    bycoms_logging::status_line(&format!(
+    bycoms_runtime::logging::status_line(&format!(
         "bridge: bycoms/{}/** (robots 1..={}) from iceoryx2 to zenoh, listening on {}",
         args.swarm,
         args.robots,
@@ -160,6 +160,6 @@ pub fn run(args: Args) -> Result<i32> {
         }
     }
     let total: u64 = lanes.iter().map(|l| l.forwarded).sum();
-    bycoms_logging::status_line(&format!("bridge: forwarded {total} messages"));
+    bycoms_runtime::logging::status_line(&format!("bridge: forwarded {total} messages"));
     Ok(if stop.load(Ordering::SeqCst) { exit::INTERRUPTED } else { exit::SUCCESS })
 }

@@ -285,7 +285,7 @@ pub fn run(args: Args) -> Result<i32> {
     let cfg_svg = cfg.svg.clone();
     let summary = launch::run_serving(cfg, world, agent, Some(crate::live::serve))?;
     if args.json {
-        bycoms_logging::status_line(&summary.line());
+        bycoms_runtime::logging::status_line(&summary.line());
         crate::outln!("{}", serde_json::to_string_pretty(&summary)?)?;
     } else {
         crate::outln!("{}", summary.text())?;
@@ -298,7 +298,7 @@ pub fn run(args: Args) -> Result<i32> {
     if let Some(path) = &cfg_svg {
         let write = |svg: &str| crate::out::write(path, Kind::Svg, args.force, svg.as_bytes());
         match summary.picture.as_deref().map(write) {
-            Some(Ok(())) => bycoms_logging::status_line(&format!("picture: {}", path.display())),
+            Some(Ok(())) => bycoms_runtime::logging::status_line(&format!("picture: {}", path.display())),
             Some(Err(e)) => {
                 tracing::error!("no picture written: {e}");
                 code = Some(exit::ERROR);

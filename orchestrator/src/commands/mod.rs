@@ -30,7 +30,7 @@ pub struct Cli {
     pub command: Command,
     /// Logging flags (global: accepted after any subcommand).
     #[command(flatten)]
-    pub log: bycoms_logging::LogArgs,
+    pub log: bycoms_runtime::logging::LogArgs,
 }
 
 #[derive(Debug, Subcommand)]

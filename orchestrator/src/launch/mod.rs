@@ -207,7 +207,7 @@ pub fn run_serving(
         _ => None,
     };
     if let Some(live) = &live {
-        bycoms_logging::status_line(&live.banner());
+        bycoms_runtime::logging::status_line(&live.banner());
         ports.observers.push(live.observer());
     }
     ports.observers.iter_mut().for_each(|o| o.world(&swarm_name, &world, &cfg, scene.as_ref()));

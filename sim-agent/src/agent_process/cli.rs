@@ -105,7 +105,7 @@ pub fn tune_zenoh_runtime() {
 /// `iceoryx2`), so they follow `--log-format`.
 pub fn quiet_iceoryx2() {
     use iceoryx2::prelude::{set_log_level_from_env_or, LogLevel};
-    bycoms_logging::iceoryx2::forward_to_tracing();
+    bycoms_runtime::logging::iceoryx2::forward_to_tracing();
     set_log_level_from_env_or(LogLevel::Error);
 }
 

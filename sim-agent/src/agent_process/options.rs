@@ -17,7 +17,7 @@ use super::failsafe::FailsafeArgs;
 use crate::lab::process::LabArgs;
 use crate::sensing::NoiseModel;
 use crate::RunConfig;
-use bycoms_logging::LogArgs;
+use bycoms_runtime::logging::LogArgs;
 use clap::{Args, Command, FromArgMatches};
 use std::path::PathBuf;
 

@@ -9,7 +9,7 @@ use bycoms_sim::agent_process::options::{parse_from, SimAgentRun};
 
 fn main() {
     let (log, run) = parse_from(std::env::args_os()).unwrap_or_else(|e| e.exit());
-    bycoms_logging::init(log.log_format);
+    bycoms_runtime::logging::init(log.log_format);
     bycoms_sim::agent_process::cli::tune_zenoh_runtime();
     let code = match run {
         SimAgentRun::Lab(lab) => bycoms_sim::lab::process::main_with(&lab),
