@@ -21,8 +21,8 @@ use bycoms_protocol::link::{
 };
 use bycoms_protocol::msg::{FromAgent, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::{ipc_config, Lifeline};
-use bycoms_sim::stats::quantile;
+use bycoms_runtime::stats::quantile;
+use bycoms_runtime::{ipc_config, Lifeline};
 use std::net::UdpSocket;
 use std::time::{Duration, Instant};
 

@@ -23,18 +23,18 @@
 use crate::bench::BenchArgs;
 use crate::core::{GatewayCore, Timers};
 use crate::run::{Gateway, GatewayPorts, RunError};
-use bycoms_runtime::logging::LogArgs;
 use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_protocol::bus::{Bus, BusError};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{NameError, RobotId, Swarm};
-use bycoms_sim::agent_process::cli::quiet_iceoryx2;
-use bycoms_sim::agent_process::failsafe::{Failsafe, FailsafeArgs};
-use bycoms_sim::agent_process::lifeline::LifelineError;
-use bycoms_sim::agent_process::options::{command_with_subcommand, parse_with_subcommand};
-use bycoms_sim::agent_process::{check_speed, BusArgs, BusOpenError, ExitCause, Lifeline, OnBus};
+use bycoms_runtime::cli::quiet_iceoryx2;
+use bycoms_runtime::cli::{command_with_subcommand, parse_with_subcommand};
+use bycoms_runtime::failsafe::{Failsafe, FailsafeArgs};
+use bycoms_runtime::lifeline::LifelineError;
+use bycoms_runtime::logging::LogArgs;
+use bycoms_runtime::stats::quantile;
+use bycoms_runtime::{check_speed, BusArgs, BusOpenError, ExitCause, Lifeline, OnBus};
 use bycoms_sim::lab::robots::{read_key, RobotsError};
-use bycoms_sim::stats::quantile;
 use clap::Command;
 use std::net::{SocketAddr, UdpSocket};
 use std::path::PathBuf;
@@ -245,7 +245,7 @@ pub enum GatewayError {
 
 /// Runs one gateway; returns the process exit code.
 pub fn main_with(args: &GatewayArgs) -> i32 {
-    bycoms_sim::agent_process::inherited::close_inherited_files();
+    bycoms_runtime::inherited::close_inherited_files();
     quiet_iceoryx2();
     let _span = tracing::info_span!("agent", robot = args.robot).entered();
     match run(args) {
@@ -356,8 +356,8 @@ mod exit_code_tests {
 #[cfg(test)]
 mod command_tests {
     use super::*;
-    use bycoms_sim::agent_process::failsafe::OnOrchestratorLost;
-    use bycoms_sim::agent_process::Transport;
+    use bycoms_runtime::failsafe::OnOrchestratorLost;
+    use bycoms_runtime::Transport;
 
     fn run_of<S: AsRef<str>>(args: &[S]) -> Result<AgentRun, clap::Error> {
         let argv = std::iter::once("agent").chain(args.iter().map(|a| a.as_ref()));

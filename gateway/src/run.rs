@@ -18,8 +18,8 @@ use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscribe
 use bycoms_protocol::msg::{AgentKind, FromAgent, Heartbeat, Pose, Register, ToAgent};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{RobotId, Swarm, PROTOCOL_VERSION};
-use bycoms_sim::agent_process::failsafe::{Failsafe, Verdict};
-use bycoms_sim::agent_process::{instance, BadKind, ExitCause, Lifeline, Traffic};
+use bycoms_runtime::failsafe::{Failsafe, Verdict};
+use bycoms_runtime::{instance, BadKind, ExitCause, Lifeline, Traffic};
 use std::io;
 use std::net::UdpSocket;
 use std::time::{Duration, Instant};

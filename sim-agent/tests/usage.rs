@@ -1,5 +1,5 @@
 //! `sim-agent`'s usage errors exit 2 (bad values, like clap's own) before
-//! anything is opened; see `agent_process::cli` for every exit code.
+//! anything is opened; see `sim_agent::cli` for every exit code.
 
 use std::process::{Command, Output, Stdio};
 

@@ -11,7 +11,7 @@ use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::{Bus, Publish};
 use bycoms_protocol::msg::{AgentKind, Deploy, FromAgent, GoalBearing, Heartbeat, Register, ToAgent};
 use bycoms_protocol::{encode_vec, RobotId, Swarm, PROTOCOL_VERSION};
-use bycoms_sim::agent_process::ipc_config;
+use bycoms_runtime::ipc_config;
 use bycoms_tests::{swarm_name, wait_for_pose, Proc};
 use std::time::Duration;
 

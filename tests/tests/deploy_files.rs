@@ -130,7 +130,7 @@ fn the_gateway_unit_runs_a_valid_gateway_over_zenoh_for_its_instance() {
     let g = cli.gateway;
     g.validate().unwrap_or_else(|e| panic!("{args:?}: {e}"));
     assert_eq!(g.robot, 1);
-    assert_eq!(g.bus.transport, bycoms_sim::agent_process::Transport::Zenoh);
+    assert_eq!(g.bus.transport, bycoms_runtime::Transport::Zenoh);
     assert_eq!(g.bus.zenoh_config.as_deref(), Some(Path::new("/etc/bycoms/certs/robot-1.json5")));
     assert_eq!(g.key_file, Path::new("/etc/bycoms/keys/robot-1.key"));
     assert_eq!(cli.log.log_format, bycoms_runtime::logging::LogFormat::Json);

@@ -60,7 +60,7 @@ fn is_cargos_own(name: &str) -> bool {
 /// Variables that third-party code reads when our code calls one of its
 /// functions: (the function, the variable).
 const READ_BY_DEPENDENCIES: [(&str, &str); 1] = [
-    // iceoryx2's log level (`agent_process::cli::quiet_iceoryx2`).
+    // iceoryx2's log level (`bycoms_runtime::cli::quiet_iceoryx2`).
     ("set_log_level_from_env_or(", "IOX2_LOG_LEVEL"),
 ];
 
@@ -391,8 +391,8 @@ fn crate_row<'a>(doc: &'a str, dir: &str) -> &'a str {
 }
 
 /// The names a text gives in backticks, each cut into its segments:
-/// `launch/agents/` gives `launch` and `agents`, `bycoms_sim::stats` gives
-/// `bycoms_sim` and `stats`, `lab/process.rs` gives `lab` and `process`.
+/// `launch/agents/` gives `launch` and `agents`, `bycoms_runtime::stats` gives
+/// `bycoms_runtime` and `stats`, `lab/process.rs` gives `lab` and `process`.
 fn named_segments(text: &str) -> BTreeSet<String> {
     let token = Regex::new(r"`([^`]+)`").expect("regex");
     token
@@ -560,7 +560,7 @@ fn protocol_md_states_the_limits_the_code_has() {
     use bycoms_protocol::naming::{SWARM_NAME_MAX, TOPIC_NAME_MAX};
     use bycoms_protocol::{MAX_MESSAGE_LEN, PROTOCOL_VERSION};
     let doc = flat(&read(&root().join("protocol/PROTOCOL.md")));
-    let swarm_payload = bycoms_sim::agent_process::ipc_config(3).limits.max_payload;
+    let swarm_payload = bycoms_runtime::ipc_config(3).limits.max_payload;
     let default_payload = bycoms_protocol::bus::Limits::default().max_payload;
     for claim in [
         format!("at most {MAX_MESSAGE_LEN} bytes (`MAX_MESSAGE_LEN`"),

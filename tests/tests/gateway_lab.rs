@@ -17,7 +17,7 @@ use bycoms_protocol::link::{
 };
 use bycoms_protocol::msg::{AgentKind, Deploy, DriveState, FromAgent, GoalBearing, Pose, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::ipc_config;
+use bycoms_runtime::ipc_config;
 use bycoms_sim::lab::process::LabArgs;
 use bycoms_tests::{bin, is_zombie, signal, swarm_name, wait_for, Proc};
 use nix::sys::signal::Signal;

@@ -11,14 +11,14 @@ fn main() {
     bycoms_runtime::logging::init(log.log_format);
     match run {
         AgentRun::Bench(bench) => {
-            bycoms_sim::agent_process::cli::quiet_iceoryx2();
+            bycoms_runtime::cli::quiet_iceoryx2();
             if let Err(e) = bycoms_gateway::bench::run(&bench) {
                 tracing::error!("{}", bycoms_runtime::logging::error_text(e.as_ref()));
                 std::process::exit(1);
             }
         }
         AgentRun::Gateway(gateway) => {
-            bycoms_sim::agent_process::cli::tune_zenoh_runtime();
+            bycoms_runtime::cli::tune_zenoh_runtime();
             std::process::exit(bycoms_gateway::main_with(&gateway));
         }
     }

@@ -14,7 +14,7 @@ use super::AgentSource;
 use crate::mocap::PlacementConfig;
 use anyhow::{Context, Result};
 use bycoms_protocol::bus::zenoh::AliveWatch;
-use bycoms_sim::agent_process::Transport;
+use bycoms_runtime::Transport;
 use bycoms_sim::lab::robots::RobotsFile;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
