@@ -25,6 +25,7 @@ use crate::core::{GatewayCore, Timers};
 use crate::run::{Gateway, GatewayPorts, RunError};
 use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_protocol::bus::{Bus, BusError};
+use bycoms_protocol::link::{KeyFileError, LinkKey};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{NameError, RobotId, Swarm};
 use bycoms_runtime::cli::quiet_iceoryx2;
@@ -34,7 +35,6 @@ use bycoms_runtime::lifeline::LifelineError;
 use bycoms_runtime::logging::LogArgs;
 use bycoms_runtime::stats::quantile;
 use bycoms_runtime::{check_speed, BusArgs, BusOpenError, ExitCause, Lifeline, OnBus};
-use bycoms_sim::lab::robots::{read_key, RobotsError};
 use clap::Command;
 use std::net::{SocketAddr, UdpSocket};
 use std::path::PathBuf;
@@ -215,7 +215,7 @@ pub enum GatewayError {
     Args(String),
     /// The key file is unreadable or malformed.
     #[error(transparent)]
-    Key(#[from] RobotsError),
+    Key(#[from] KeyFileError),
     /// The swarm name is not a valid topic chunk.
     #[error("bad swarm name: {0}")]
     Swarm(#[from] NameError),
@@ -281,7 +281,7 @@ fn run(args: &GatewayArgs) -> Result<ExitCause, GatewayError> {
     let mut lifeline = Lifeline::install(args.parent_pid)?;
     args.validate().map_err(GatewayError::Args)?;
     let swarm = Swarm::new(&args.swarm)?;
-    let key = read_key(&args.key_file)?;
+    let key = LinkKey::read_file(&args.key_file)?;
     let id = RobotId(args.robot);
     let socket = UdpSocket::bind(args.bind).map_err(|source| GatewayError::Bind {
         robot: id.0,
