@@ -111,7 +111,7 @@ fn the_gateway_unit_runs_a_valid_gateway_over_zenoh_for_its_instance() {
     #[derive(Parser)]
     struct AgentCli {
         #[command(flatten)]
-        gateway: bycoms_gateway::GatewayArgs,
+        gateway: bycoms_agent::gateway::GatewayArgs,
         #[command(flatten)]
         log: bycoms_runtime::logging::LogArgs,
     }

@@ -9,7 +9,7 @@
 //! robots file names fixed addresses (a real robot's flashed settings), so
 //! a port-0 socket cannot be handed over.
 
-use bycoms_gateway::GatewayArgs;
+use bycoms_agent::gateway::GatewayArgs;
 use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::BusExt;
 use bycoms_protocol::link::{

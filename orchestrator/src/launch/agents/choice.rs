@@ -214,7 +214,7 @@ fn gateway_command(explicit: Option<&Path>) -> Result<AgentCommand> {
     let beside = me.with_file_name(format!("agent{}", std::env::consts::EXE_SUFFIX));
     anyhow::ensure!(
         beside.is_file(),
-        "no gateway executable: `agent` is not next to {} (build it with `cargo build -p bycoms-gateway`, \
+        "no gateway executable: `agent` is not next to {} (build it with `cargo build -p bycoms-agent`, \
          or set agents.gateway_bin)",
         me.display()
     );

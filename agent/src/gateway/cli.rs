@@ -10,7 +10,7 @@
 //! error (bad flags, values, key file, swarm name); 1 for any other error
 //! (socket, bus), printed first.
 //!
-//! The bus flags are sim-agent's (`BusArgs`): `--transport ipc` on the
+//! The bus flags are the runtime's (`BusArgs`, as `sim-agent`'s): `--transport ipc` on the
 //! orchestrator's host (the default), or `--transport zenoh --connect
 //! quic/ORCHESTRATOR:7447 --zenoh-config robot-K.json5` from a bridge host
 //! next to the robots' access point.
@@ -20,9 +20,9 @@
 //! [`GatewayArgs::to_flags`]; the binary parses them with [`command`] (via
 //! [`parse_from`]), and the round-trip tests below hold the two together.
 
-use crate::bench::BenchArgs;
-use crate::core::{GatewayCore, Timers};
-use crate::run::{Gateway, GatewayPorts, RunError};
+use super::bench::BenchArgs;
+use super::core::{GatewayCore, Timers};
+use super::run::{Gateway, GatewayPorts, RunError};
 use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_protocol::bus::{Bus, BusError};
 use bycoms_protocol::link::{KeyFileError, LinkKey};
@@ -182,7 +182,7 @@ pub fn command() -> Command {
         "agent",
         BenchArgs::SUBCOMMAND,
         env!("CARGO_PKG_VERSION"),
-        env!("CARGO_PKG_DESCRIPTION"),
+        "One real robot's gateway between its authenticated UDP link and the BYCOMS bus",
     )
 }
 

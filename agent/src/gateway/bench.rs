@@ -11,8 +11,8 @@
 //! time (robot send → bus subscriber woken), which adds one loopback UDP
 //! hop and one bus hop.
 
-use crate::core::{GatewayCore, Timers};
-use crate::run::{Gateway, GatewayPorts};
+use super::core::{GatewayCore, Timers};
+use super::run::{Gateway, GatewayPorts};
 use anyhow::{bail, Context};
 use bycoms_protocol::bus::ipc::{IpcBus, IpcConfig};
 use bycoms_protocol::bus::BusExt;

@@ -12,7 +12,7 @@
 //! own pose), runs the core's timers and checks its [`Lifeline`]. A
 //! command therefore waits at most one slice before it goes to the robot.
 
-use crate::core::{GatewayCore, Output};
+use super::core::{GatewayCore, Output};
 use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
 use bycoms_protocol::msg::{AgentKind, FromAgent, Heartbeat, Pose, Register, ToAgent};
