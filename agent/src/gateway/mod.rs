@@ -26,7 +26,7 @@
 //! bad-traffic counters) are `bycoms_runtime`'s, not the simulator's:
 //! `bycoms-sim` depends on this crate, so the gateway cannot depend on it.
 //!
-//! [`Real`]: bycoms_protocol::msg::AgentKind::Real
+//! [`Real`]: bycoms_protocol::msg::RobotKind::Real
 
 pub mod bench;
 pub mod cli;

@@ -15,7 +15,7 @@
 use super::core::{GatewayCore, Output};
 use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
-use bycoms_protocol::msg::{AgentKind, FromAgent, Heartbeat, Pose, Register, ToAgent};
+use bycoms_protocol::msg::{FromAgent, Heartbeat, Pose, Register, RobotKind, ToAgent};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{RobotId, Swarm, PROTOCOL_VERSION};
 use bycoms_runtime::failsafe::{Failsafe, Verdict};
@@ -152,7 +152,7 @@ impl<B: Bus> Gateway<B> {
         let robot = self.core.robot();
         let register = Register {
             robot,
-            kind: AgentKind::Real,
+            kind: RobotKind::Real,
             protocol_version: PROTOCOL_VERSION,
             instance: instance(),
             settings: 0,

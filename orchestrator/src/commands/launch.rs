@@ -6,7 +6,7 @@
 //! an exit code.
 
 use crate::exit;
-use crate::launch::config::{AgentsKind, GatewaysAt, Transport};
+use crate::launch::config::{AgentSourceKind, GatewaysAt, Transport};
 use crate::launch::{self, Clock, LaunchConfig, Missing, OnDeath, Outcome, World};
 use crate::out::{Kind, Outputs};
 use crate::scenario::{self, WorldSource};
@@ -139,7 +139,7 @@ pub struct Args {
     /// zenoh --connect ...`; the launch waits for all) or real (an `agent`
     /// gateway per robot of --robots-file) [default: spawned].
     #[arg(long, value_enum)]
-    pub agents: Option<AgentsKind>,
+    pub agents: Option<AgentSourceKind>,
     /// Real robots: the lab's robots file (addresses and key files), for
     /// gateways started here.
     #[arg(long, value_name = "FILE")]

@@ -9,7 +9,7 @@
 //! its config beside its terrain), those on the command line to the working
 //! directory.
 
-pub use super::agents::choice::{AgentsConfig, AgentsKind};
+pub use super::agents::choice::{AgentSourceKind, AgentsConfig};
 pub use super::agents::gateways::GatewaysAt;
 use super::faults::FaultsConfig;
 use crate::exit::usage;

@@ -24,7 +24,7 @@ use super::core::{AgentCore, Phase, Reject};
 use super::options::Clock;
 use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
-use bycoms_protocol::msg::{AgentKind, FromAgent, Heartbeat, Pose, Register, Status, TickDone, ToAgent};
+use bycoms_protocol::msg::{FromAgent, Heartbeat, Pose, Register, RobotKind, Status, TickDone, ToAgent};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{RobotId, Swarm, PROTOCOL_VERSION};
 use bycoms_runtime::failsafe::{Failsafe, Verdict};
@@ -402,7 +402,7 @@ impl<B: Bus> Agent<B> {
     fn register(&self) -> Result<(), BusError> {
         self.report(FromAgent::Register(Register {
             robot: self.core.id(),
-            kind: AgentKind::Simulated,
+            kind: RobotKind::Simulated,
             protocol_version: PROTOCOL_VERSION,
             instance: self.instance,
             settings: self.settings,

@@ -14,7 +14,7 @@
 
 use super::SETTINGS;
 use bycoms_protocol::msg::{
-    AgentKind, Deploy, FromAgent, Heartbeat, Pose, Register, Status, TickDone, ToAgent,
+    Deploy, FromAgent, Heartbeat, Pose, Register, RobotKind, Status, TickDone, ToAgent,
 };
 use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
 use bycoms_sim::sim_agent::core::AgentCore;
@@ -111,7 +111,7 @@ impl Agent {
         if !self.heard {
             let r = Register {
                 robot,
-                kind: AgentKind::Simulated,
+                kind: RobotKind::Simulated,
                 protocol_version: PROTOCOL_VERSION,
                 instance: self.instance,
                 settings: SETTINGS,
