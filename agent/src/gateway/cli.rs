@@ -170,13 +170,10 @@ impl GatewayArgs {
 ///
 /// As `sim-agent` and its `lab`: the gateway's flags stay at the top level
 /// (launchers start `agent --swarm … --robot …`), a subcommand lifts their
-/// requirement (`subcommand_negates_reqs`) and the two exclude each other
-/// (`args_conflicts_with_subcommands`), so `agent --help` lists `bench` and
-/// `agent bench --help` has the bench's own usage line. Assembled from the
-/// argument structs, not derived as one struct: clap's derive cannot leave
-/// out a flattened struct that itself flattens another (the bus and
-/// failsafe flags) when the subcommand is used. The about line is set last
-/// (`augment_args` applies each struct's doc comment as the command's).
+/// requirement and the two exclude each other, so `agent --help` lists
+/// `bench` and `agent bench --help` has the bench's own usage line; the
+/// logging flags go before or after `bench` ([`command_with_subcommand`]
+/// says how and why).
 pub fn command() -> Command {
     command_with_subcommand::<GatewayArgs, BenchArgs>(
         "agent",
@@ -416,9 +413,12 @@ mod command_tests {
     fn bench_is_a_subcommand_beside_the_gateway_s_flags() {
         let bench = run_of(&["bench", "--frames", "5", "--interval-ms", "1"]).expect("parses");
         assert_eq!(bench, AgentRun::Bench(BenchArgs { frames: 5, interval_ms: 1 }));
-        let (log, run) = parse_from(["agent", "bench", "--log-format", "json"]).expect("the logging flags");
-        assert_eq!(log.log_format, bycoms_runtime::logging::LogFormat::Json);
-        assert_eq!(run, AgentRun::Bench(BenchArgs { frames: 2000, interval_ms: 2 }));
+        // The logging flags in any position (README, "Logs and shell completions").
+        for argv in [["agent", "bench", "--log-format", "json"], ["agent", "--log-format", "json", "bench"]] {
+            let (log, run) = parse_from(argv).expect("the logging flags");
+            assert_eq!(log.log_format, bycoms_runtime::logging::LogFormat::Json, "{argv:?}");
+            assert_eq!(run, AgentRun::Bench(BenchArgs { frames: 2000, interval_ms: 2 }));
+        }
         // The bench needs none of the gateway's flags and takes none.
         let err = run_of(&["--swarm", "s", "bench"]).unwrap_err();
         assert_eq!(err.kind(), clap::error::ErrorKind::ArgumentConflict, "{err}");

@@ -5,6 +5,8 @@
 //! zenoh libraries in a process of ours.
 
 use crate::logging::LogArgs;
+use clap::error::ErrorKind;
+use clap::parser::ValueSource;
 use clap::{Args, Command, FromArgMatches};
 
 /// Fastest real-time speed-up: a control period of 0.1 s / speed must stay
@@ -28,9 +30,12 @@ pub fn check_speed(speed: f64) -> Result<(), String> {
 /// The top level's flags stay at the top level (launchers start
 /// `sim-agent --swarm … --robot …`) next to the subcommand: one clap
 /// command where a subcommand lifts the top level's required flags
-/// (`subcommand_negates_reqs`) and the two exclude each other
-/// (`args_conflicts_with_subcommands`), so `--help` lists the subcommand
-/// and `NAME SUB --help` has the subcommand's own usage line. Assembled
+/// (`subcommand_negates_reqs`) and the two exclude each other (checked by
+/// [`parse_with_subcommand`]), so `--help` lists the subcommand and `NAME
+/// SUB --help` has the subcommand's own usage line. The logging flags are
+/// `global`: they go before or after the subcommand (clap's own
+/// `args_conflicts_with_subcommands` would refuse them before it, as it
+/// refuses any flag there). Assembled
 /// from the argument structs rather than derived as one struct: clap's
 /// derive cannot leave out a flattened struct that itself flattens another
 /// (the bus and failsafe flags) when the subcommand is used. (The about
@@ -43,17 +48,16 @@ pub fn command_with_subcommand<M: Args, S: Args>(
     about: &'static str,
 ) -> Command {
     let subcommand = S::augment_args(Command::new(sub));
-    let top = Command::new(name)
-        .args_conflicts_with_subcommands(true)
-        .subcommand_negates_reqs(true)
-        .subcommand(subcommand);
+    let top = Command::new(name).subcommand_negates_reqs(true).subcommand(subcommand);
     LogArgs::augment_args(M::augment_args(top)).version(version).about(about).long_about(None::<&str>)
 }
 
 /// Parses `argv` (`argv[0]` first) with `command` (made by
 /// [`command_with_subcommand`]): the logging flags, and the top level's
-/// flags (`Err`) or the subcommand `sub`'s (`Ok`). Errors carry the usage
-/// line of the command they are about.
+/// flags (`Err`) or the subcommand `sub`'s (`Ok`). A top-level flag given
+/// with the subcommand is refused (an argument conflict, as clap's own
+/// check says it); the logging flags, global, are not top-level flags.
+/// Errors carry the usage line of the command they are about.
 pub fn parse_with_subcommand<M: FromArgMatches, S: FromArgMatches, I, T>(
     command: fn() -> Command,
     sub: &str,
@@ -65,6 +69,19 @@ where
 {
     let matches = command().try_get_matches_from(argv)?;
     let formatted = |e: clap::Error| e.format(&mut command());
+    if let Some((name, _)) = matches.subcommand() {
+        // Built: an argument's text (`--robot <ROBOT>`) needs its value count.
+        let mut top = command();
+        top.build();
+        let given = top.get_arguments().find(|arg| {
+            !arg.is_global_set()
+                && matches.value_source(arg.get_id().as_str()) == Some(ValueSource::CommandLine)
+        });
+        if let Some(arg) = given {
+            let text = format!("the subcommand '{name}' cannot be used with '{arg}'");
+            return Err(command().error(ErrorKind::ArgumentConflict, text));
+        }
+    }
     let log = LogArgs::from_arg_matches(&matches).map_err(formatted)?;
     let chosen = match matches.subcommand() {
         Some((name, flags)) if name == sub => Ok(S::from_arg_matches(flags).map_err(formatted)?),
@@ -88,4 +105,62 @@ pub fn quiet_iceoryx2() {
     use iceoryx2_log::{set_log_level_from_env_or, LogLevel};
     crate::logging::iceoryx2::forward_to_tracing();
     set_log_level_from_env_or(LogLevel::Error);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A top level's flags.
+    #[derive(Debug, PartialEq, clap::Args)]
+    struct Top {
+        #[arg(long)]
+        robot: u32,
+    }
+
+    /// A subcommand's flags.
+    #[derive(Debug, PartialEq, clap::Args)]
+    struct Sub {
+        #[arg(long, default_value_t = 1)]
+        frames: u32,
+    }
+
+    fn command() -> Command {
+        command_with_subcommand::<Top, Sub>("swarm-binary", "sub", "0", "a test")
+    }
+
+    fn parse(args: &[&str]) -> Result<(LogArgs, Result<Sub, Top>), clap::Error> {
+        parse_with_subcommand(command, "sub", std::iter::once("swarm-binary").chain(args.iter().copied()))
+    }
+
+    #[test]
+    fn the_command_is_consistent() {
+        command().debug_assert();
+    }
+
+    #[test]
+    fn the_logging_flags_go_anywhere_and_the_top_level_s_never_with_the_subcommand() {
+        use crate::logging::LogFormat::Json;
+        for args in [
+            &["--log-format", "json", "sub", "--frames", "3"][..],
+            &["sub", "--log-format", "json", "--frames", "3"],
+            &["sub", "--frames", "3", "--log-format", "json"],
+        ] {
+            let (log, chosen) = parse(args).unwrap_or_else(|e| panic!("{args:?}: {e}"));
+            assert_eq!((log.log_format, chosen), (Json, Ok(Sub { frames: 3 })), "{args:?}");
+        }
+        for args in [&["--log-format", "json", "--robot", "2"][..], &["--robot", "2", "--log-format", "json"]]
+        {
+            let (log, chosen) = parse(args).unwrap_or_else(|e| panic!("{args:?}: {e}"));
+            assert_eq!((log.log_format, chosen), (Json, Err(Top { robot: 2 })), "{args:?}");
+        }
+        let err = parse(&["--robot", "2", "sub"]).unwrap_err();
+        assert_eq!(err.kind(), ErrorKind::ArgumentConflict, "{err}");
+        assert!(
+            err.to_string().contains("the subcommand 'sub' cannot be used with '--robot <ROBOT>'"),
+            "{err}"
+        );
+        assert!(parse(&["sub", "--robot", "2"]).is_err(), "the top level's flags are not the subcommand's");
+        assert!(parse(&[]).unwrap_err().to_string().contains("--robot"), "required without the subcommand");
+    }
 }
