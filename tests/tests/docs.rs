@@ -13,6 +13,8 @@
 //!   (`src/*.rs`, `src/*/`) and binary of the crate, and the `fuzz/` row
 //!   every fuzz target.
 //! * PROTOCOL.md's limits are the code's constants.
+//! * ARCHITECTURE.md's layout tree names every top-level folder, and
+//!   everything it names exists.
 //! * deploy/README.md's table names every file of `deploy/`, and only those.
 //! * Every document (`….md`) a source, doc or script cites is in the
 //!   repository (a brief or design note kept elsewhere cannot be cited).
@@ -321,22 +323,76 @@ fn exists(name: &str, roots: &[PathBuf]) -> bool {
 fn path_roots() -> Vec<PathBuf> {
     let root = root();
     let mut roots = vec![root.clone()];
-    for entry in std::fs::read_dir(&root).expect("root").flatten() {
-        let path = entry.path();
-        if path.is_dir()
-            && !entry.file_name().to_string_lossy().starts_with('.')
-            && entry.file_name() != "target"
-        {
-            roots.push(path.clone());
-            let mut stack = vec![path.join("src"), path.join("tests")];
-            while let Some(dir) = stack.pop() {
-                let Ok(entries) = std::fs::read_dir(&dir) else { continue };
-                roots.push(dir.clone());
-                stack.extend(entries.flatten().map(|e| e.path()).filter(|p| p.is_dir()));
-            }
+    let mut folders: Vec<PathBuf> = std::fs::read_dir(&root)
+        .expect("root")
+        .flatten()
+        .filter(|e| {
+            e.path().is_dir()
+                && !e.file_name().to_string_lossy().starts_with('.')
+                && e.file_name() != "target"
+        })
+        .map(|e| e.path())
+        .collect();
+    // Nested crates (`protocol/runtime/`) as the top-level ones: their
+    // modules from their `src/`.
+    folders.extend(members().iter().map(|m| root.join(m)));
+    for folder in folders {
+        roots.push(folder.clone());
+        let mut stack = vec![folder.join("src"), folder.join("tests")];
+        while let Some(dir) = stack.pop() {
+            let Ok(entries) = std::fs::read_dir(&dir) else { continue };
+            roots.push(dir.clone());
+            stack.extend(entries.flatten().map(|e| e.path()).filter(|p| p.is_dir()));
         }
     }
     roots
+}
+
+/// The paths of ARCHITECTURE.md's layout tree (the ```` ```text ```` block
+/// of its "Layout" section), each from the root: `├── agent/` then
+/// `│   ├── src/` gives `agent/` and `agent/src/`.
+fn layout_tree(doc: &str) -> Vec<String> {
+    let start = doc.find("## Layout").expect("ARCHITECTURE.md has a section \"Layout\"");
+    let block = doc[start..].split("```").nth(1).expect("the layout's code block");
+    let mut stack: Vec<String> = Vec::new();
+    let mut paths = Vec::new();
+    for line in block.lines() {
+        let Some(at) = line.find("── ") else { continue };
+        // Each level is four columns: "│   " or "    ", then "├── " or "└── ".
+        let depth = line[..at].chars().count() / 4;
+        let name = line[at + "── ".len()..].split_whitespace().next().expect("a name").to_string();
+        stack.truncate(depth);
+        stack.push(name.trim_end_matches('/').to_string());
+        paths.push(stack.join("/") + if name.ends_with('/') { "/" } else { "" });
+    }
+    paths
+}
+
+#[test]
+fn the_layout_tree_names_every_top_level_folder_and_only_what_exists() {
+    let root = root();
+    let paths = layout_tree(&read(&root.join("ARCHITECTURE.md")));
+    assert!(paths.len() >= 10, "the layout tree is found: {paths:?}");
+    for path in &paths {
+        let exists = if path.ends_with('/') { root.join(path).is_dir() } else { root.join(path).is_file() };
+        assert!(exists, "ARCHITECTURE.md's layout tree names `{path}`, which is not in the repository");
+    }
+    for entry in std::fs::read_dir(&root).expect("root").flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let hidden = name.starts_with('.') && name != ".ci";
+        if entry.path().is_dir() && !hidden && name != "target" {
+            assert!(
+                paths.contains(&format!("{name}/")),
+                "ARCHITECTURE.md's layout tree does not name the top-level folder `{name}/`"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_layout_tree_is_read_as_drawn() {
+    let doc = "## Layout\n\n```text\n.\n├── a/   x\n│   ├── b/   y\n│   └── c.rs\n└── d/\n    └── e/\n```\n";
+    assert_eq!(layout_tree(doc), ["a/", "a/b/", "a/c.rs", "d/", "d/e/"]);
 }
 
 #[test]

@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 pub enum RobotKind {
     /// A simulated body (`sim-agent`).
     Simulated,
-    /// A real robot bridged over WiFi (`agent`).
+    /// A real robot behind its `agent` gateway (WiFi, the robot link).
     Real,
 }
 
