@@ -1,10 +1,13 @@
-//! The BYCOMS controller, as one piece of code for every shell.
+//! One BYCOMS robot's agent: the controller, as one piece of code for every
+//! shell, the real robot's firmware core, and (feature `gateway`) the
+//! `agent` binary, the real robot's gateway to the bus.
 //!
-//! Everything here is sans-IO: inputs (and, where needed, time as an argument)
-//! go in, commands come out. No clocks, no randomness, no allocation, no
-//! `std`. The in-process simulator, the `sim-agent` process, the real-robot
-//! bridge and ESP32 firmware all call the same functions, which is what makes
-//! a lockstep run over processes bit-identical to the in-process simulator.
+//! The controller and the firmware core are sans-IO: inputs (and, where
+//! needed, time as an argument) go in, commands come out. No clocks, no
+//! randomness, no allocation, no `std`. The in-process simulator, the
+//! `sim-agent` process, the real robot's gateway and ESP32 firmware all call
+//! the same functions, which is what makes a lockstep run over processes
+//! bit-identical to the in-process simulator.
 //!
 //! * [`point`] — the point-robot controller of the paper's simulation (§IV):
 //!   mode 1 (head for the goal) / mode 2 (walk along a companion's field),
@@ -15,6 +18,8 @@
 //! * [`firmware`] — the real robot's firmware core: link frames and
 //!   microphone frames in, motor commands, its tone and link frames out.
 //! * [`angle`] — the angle arithmetic both share.
+//! * `gateway` (feature `gateway`, std) — the `agent` binary: one real
+//!   robot's gateway between its authenticated UDP link and the bus.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![forbid(unsafe_code)]
 #![warn(clippy::std_instead_of_core, clippy::alloc_instead_of_core)]
@@ -22,6 +27,10 @@
 pub mod acoustic;
 pub mod angle;
 pub mod firmware;
+// A std program (sockets, threads, the bus): the core's no_std lints do not apply.
+#[cfg(feature = "gateway")]
+#[allow(clippy::std_instead_of_core, clippy::alloc_instead_of_core)]
+pub mod gateway;
 pub mod point;
 
 pub use point::{Controller, ControllerConfig, Input, Mode, Motion, Output};

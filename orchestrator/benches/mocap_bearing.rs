@@ -18,7 +18,7 @@ use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::BusExt;
 use bycoms_protocol::msg::{GoalBearing, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::ipc_config;
+use bycoms_runtime::ipc_config;
 use bycoms_sim::natnet_server::{BodyConfig, Faults, NatNetServer, ServerConfig};
 use bycoms_sim::Vec2;
 use std::collections::BTreeMap;
@@ -45,7 +45,7 @@ fn lab(rate_hz: f64) -> ServerConfig {
 }
 
 fn percentile(values: &[Duration], p: f64) -> Duration {
-    bycoms_sim::stats::quantile(values, p).expect("measured at least once")
+    bycoms_runtime::stats::quantile(values, p).expect("measured at least once")
 }
 
 fn measure(bus: &IpcBus, swarm: &Swarm, rate_hz: f64, seconds: f64) -> Vec<Duration> {
@@ -93,7 +93,7 @@ fn measure(bus: &IpcBus, swarm: &Swarm, rate_hz: f64, seconds: f64) -> Vec<Durat
 }
 
 fn main() {
-    bycoms_sim::agent_process::cli::quiet_iceoryx2();
+    bycoms_runtime::cli::quiet_iceoryx2();
     let seconds: f64 = std::env::var("MOCAP_BENCH_SECONDS").ok().and_then(|s| s.parse().ok()).unwrap_or(5.0);
     let name = format!("bench-mocap-{}", std::process::id());
     let swarm = Swarm::new(&name).expect("swarm name");

@@ -177,7 +177,7 @@ fn cpu_seconds() -> f64 {
 }
 
 fn median(v: Vec<f64>) -> f64 {
-    bycoms_sim::stats::median(&v).unwrap_or(f64::NAN)
+    bycoms_runtime::stats::median(&v).unwrap_or(f64::NAN)
 }
 
 fn launches(name: &str, cfg: LaunchConfig, dir: &Path) {

@@ -32,9 +32,9 @@ pub mod exit {
     }
 
     /// The text of an error that ends a command (or is shown as a cause):
-    /// its chain with every cause said once ([`bycoms_logging::error_text`]).
+    /// its chain with every cause said once ([`bycoms_runtime::logging::error_text`]).
     pub fn message(err: &anyhow::Error) -> String {
-        bycoms_logging::error_text(err.as_ref())
+        bycoms_runtime::logging::error_text(err.as_ref())
     }
 
     /// The exit code of an error that ended a command: [`USAGE`] if a

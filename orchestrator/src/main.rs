@@ -9,7 +9,7 @@ use clap::Parser;
 
 fn main() {
     let cli = commands::Cli::parse();
-    bycoms_logging::init(cli.log.log_format);
+    bycoms_runtime::logging::init(cli.log.log_format);
     bycoms_protocol::bus::zenoh::tune_runtime();
     let code = match commands::run(cli) {
         Ok(code) => code,

@@ -407,7 +407,7 @@ fn agents_with_a_short_failsafe_or_other_settings_are_refused_and_change_nothing
 fn a_failsafe_report_is_recorded_once() {
     use bycoms_orchestrator::launch::core::{Core, Input, Output};
     use bycoms_orchestrator::launch::events::EventKind;
-    use bycoms_protocol::msg::{AgentKind, FailsafeFired, FromAgent, Register};
+    use bycoms_protocol::msg::{FailsafeFired, FromAgent, Register, RobotKind};
     use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
 
     let case = long_case();
@@ -435,7 +435,7 @@ fn a_failsafe_report_is_recorded_once() {
     }
     let register = Register {
         robot: RobotId(2),
-        kind: AgentKind::Simulated,
+        kind: RobotKind::Simulated,
         protocol_version: PROTOCOL_VERSION,
         instance: 7,
         settings,

@@ -13,7 +13,7 @@ use bycoms_protocol::bus::memory::MemoryBus;
 use bycoms_protocol::bus::Limits;
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::{encode, RobotId, Swarm, MAX_MESSAGE_LEN};
-use bycoms_sim::agent_process::Traffic;
+use bycoms_runtime::Traffic;
 use std::collections::BTreeMap;
 use std::rc::Rc;
 use std::time::Duration;

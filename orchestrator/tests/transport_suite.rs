@@ -18,7 +18,7 @@ use bycoms_orchestrator::launch::config::{Transport, TransportConfig};
 use bycoms_orchestrator::launch::faults::FaultsConfig;
 use bycoms_orchestrator::launch::transport::{self, Opened};
 use bycoms_protocol::{Swarm, TopicName};
-use bycoms_sim::agent_process::ipc_config;
+use bycoms_runtime::ipc_config;
 use std::time::Duration;
 
 /// What a kind of transport states about itself.

@@ -261,7 +261,7 @@ fn anything_delivered_bytes(
 /// `tests/tests/bad_traffic.rs`.)
 #[test]
 fn a_robot_cannot_report_as_another() {
-    use bycoms_protocol::msg::{AgentKind, DriveState, FromAgent, Register, Status, Telemetry};
+    use bycoms_protocol::msg::{DriveState, FromAgent, Register, RobotKind, Status, Telemetry};
     use bycoms_protocol::{encode_vec, PROTOCOL_VERSION};
     let dir = tempfile::tempdir().expect("temp dir");
     let made = lab(dir.path(), &endpoint("quic"));
@@ -275,7 +275,7 @@ fn a_robot_cannot_report_as_another() {
     let as_robot_2 = [
         FromAgent::Register(Register {
             robot: RobotId(2),
-            kind: AgentKind::Simulated,
+            kind: RobotKind::Simulated,
             protocol_version: PROTOCOL_VERSION,
             instance: 1,
             settings: 0,

@@ -230,10 +230,9 @@ fn main() {
     for (name, delay, reps) in
         [("ours (scouting delay 0)", None, 20), ("zenoh default scouting delay 500 ms", Some(500), 3)]
     {
-        let mut t = join(reps, delay);
-        t.sort_unstable();
-        let median = t[t.len() / 2];
-        let max = t[t.len() - 1];
+        let t = join(reps, delay);
+        let at = |q: f64| bycoms_runtime::stats::quantile(&t, q).unwrap_or_default();
+        let (median, max) = (at(0.5), at(1.0));
         println!("{name:<42} {:>9.2} {:>9.2}  ({reps} runs)", ms(median), ms(max));
     }
 }

@@ -68,7 +68,7 @@ fn step_u64_varint() {
 fn u16_varint_in_a_body() {
     let register = Register {
         robot: RobotId(1),
-        kind: AgentKind::Real,
+        kind: RobotKind::Real,
         protocol_version: 3,
         instance: 7,
         settings: 0,
@@ -84,10 +84,10 @@ fn enum_discriminant() {
     one_spelling(ToAgent::Tick(Tick { step: 7 }), &[V, 2, 7], &[V, 0x82, 0x00, 7]);
     // ... a unit variant (Stop = 3) ...
     one_spelling(ToAgent::Stop, &[V, 3], &[V, 0x83, 0x00]);
-    // ... and an enum field (AgentKind::Real = 1).
+    // ... and an enum field (RobotKind::Real = 1).
     let register = Register {
         robot: RobotId(1),
-        kind: AgentKind::Real,
+        kind: RobotKind::Real,
         protocol_version: 3,
         instance: 7,
         settings: 0,

@@ -51,7 +51,7 @@ fn unknown_variant() {
     let mut telemetry = vec![V, 4, 1, 1, 4, 1];
     telemetry.extend_from_slice(&[0; 40]);
     assert_eq!(decode::<FromAgent>(&telemetry), Err(CodecError::UnknownVariant));
-    assert_eq!(decode::<FromAgent>(&[V, 0, 1, 7, 2, 0]), Err(CodecError::UnknownVariant)); // AgentKind 7
+    assert_eq!(decode::<FromAgent>(&[V, 0, 1, 7, 2, 0]), Err(CodecError::UnknownVariant)); // RobotKind 7
     let mut gate = vec![V, 1, 9]; // GateKind 9
     gate.extend_from_slice(&[0; 17]);
     assert_eq!(decode::<GateEvent>(&gate), Err(CodecError::UnknownVariant));

@@ -65,7 +65,7 @@ fn to_agent() {
 fn from_agent() {
     let register = Register {
         robot: RobotId(1),
-        kind: AgentKind::Real,
+        kind: RobotKind::Real,
         protocol_version: 3,
         instance: 7,
         settings: 0,
@@ -75,7 +75,7 @@ fn from_agent() {
     let instance = 0x0123_4567_89AB_CDEF;
     let register = Register {
         robot: RobotId(1),
-        kind: AgentKind::Simulated,
+        kind: RobotKind::Simulated,
         protocol_version: 3,
         instance,
         settings: instance,

@@ -88,7 +88,7 @@ fn telemetry() -> impl Strategy<Value = Telemetry> {
 }
 
 fn from_agent() -> impl Strategy<Value = FromAgent> {
-    let kind = prop_oneof![Just(AgentKind::Simulated), Just(AgentKind::Real)];
+    let kind = prop_oneof![Just(RobotKind::Simulated), Just(RobotKind::Real)];
     prop_oneof![
         (robot(), kind, any::<u16>(), any::<u64>(), any::<u64>(), any::<u32>()).prop_map(
             |(robot, kind, protocol_version, instance, settings, failsafe_grace_ms)| {
@@ -195,7 +195,7 @@ fn largest_encodings_fit_max_message_len() {
             "register",
             len(&FromAgent::Register(Register {
                 robot: r,
-                kind: AgentKind::Real,
+                kind: RobotKind::Real,
                 protocol_version: u16::MAX,
                 instance: s,
                 settings: s,

@@ -7,20 +7,17 @@
 //! here: it is `bycoms_agent::point`, the same code every other shell runs.
 #![forbid(unsafe_code)]
 
-#[cfg(feature = "process")]
-pub mod agent_process;
 pub mod body;
 pub mod field;
 pub mod geom;
-#[cfg(feature = "process")]
-pub mod interrupt;
 pub mod lab;
 pub mod natnet_server;
 pub mod robot;
 pub mod runner;
 pub mod seed;
 pub mod sensing;
-pub mod stats;
+#[cfg(feature = "process")]
+pub mod sim_agent;
 pub mod terrain;
 
 pub use geom::Vec2;

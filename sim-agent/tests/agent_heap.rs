@@ -15,8 +15,8 @@
 use bycoms_protocol::bus::ipc::root::Isolated;
 use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::ipc_config;
-use bycoms_sim::agent_process::run::AgentPorts;
+use bycoms_runtime::ipc_config;
+use bycoms_sim::sim_agent::run::AgentPorts;
 use stats_alloc::{Region, StatsAlloc, INSTRUMENTED_SYSTEM};
 use std::alloc::System;
 use std::sync::Mutex;

@@ -1,5 +1,5 @@
 //! `sim-agent`'s usage errors exit 2 (bad values, like clap's own) before
-//! anything is opened; see `agent_process::cli` for every exit code.
+//! anything is opened; see `sim_agent::cli` for every exit code.
 
 use std::process::{Command, Output, Stdio};
 
@@ -55,4 +55,19 @@ fn help_lists_the_lab_and_the_lab_has_its_own_usage_line() {
     let missing = sim_agent(&["lab", "--swarm", "x"]);
     assert_eq!(missing.status.code(), Some(2));
     assert!(stderr(&missing).contains("Usage: sim-agent lab "), "{}", stderr(&missing));
+}
+
+/// The logging flags go in any position (README, "Logs and shell
+/// completions"), before the `lab` subcommand too; the robot's own flags
+/// do not go with it.
+#[test]
+fn the_logging_flags_go_before_or_after_the_subcommand() {
+    for args in [["--log-format", "json", "lab", "--help"], ["lab", "--log-format", "json", "--help"]] {
+        let o = sim_agent(&args);
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+    }
+    let o =
+        sim_agent(&["--robot", "1", "lab", "--scenario", "exp-short", "--robots", "r.toml", "--swarm", "s"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("cannot be used with '--robot <ROBOT>'"), "{}", stderr(&o));
 }

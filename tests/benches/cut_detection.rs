@@ -12,8 +12,9 @@
 //! binaries first: `cargo build --release --bins`). Prints a notice and
 //! nothing else where namespaces are not permitted.
 
-use bycoms_sim::agent_process::failsafe::FailsafeArgs;
-use bycoms_sim::agent_process::{AgentArgs, BusArgs, Clock, Transport};
+use bycoms_runtime::failsafe::FailsafeArgs;
+use bycoms_runtime::{BusArgs, Transport};
+use bycoms_sim::sim_agent::{AgentArgs, Clock};
 use bycoms_tests::netns::{not_permitted, TwoHosts};
 use bycoms_tests::{swarm_name, Proc};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
@@ -120,7 +121,7 @@ fn main() {
         println!("no outage recorded:\n{}", out.stderr);
         return;
     }
-    let q = |p: f64| bycoms_sim::stats::quantile(&seen_ms, p).unwrap_or_default();
+    let q = |p: f64| bycoms_runtime::stats::quantile(&seen_ms, p).unwrap_or_default();
     let over = seen_ms.iter().filter(|&&ms| ms > 500).count();
     println!(
         "cut seen after (ms, n = {}): min {}  p50 {}  p90 {}  max {};  over 500 ms: {over};  outages before any cut: {unmatched}",

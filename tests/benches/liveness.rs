@@ -51,10 +51,10 @@ fn trial(n: u32) -> Trial {
     }
 }
 
-fn summary(name: &str, mut values: Vec<f64>) {
-    values.sort_by(f64::total_cmp);
-    let median = values[values.len() / 2];
-    let (min, max) = (values[0], values[values.len() - 1]);
+fn summary(name: &str, values: Vec<f64>) {
+    use bycoms_runtime::stats::{median, quantile};
+    let median = median(&values).unwrap_or(f64::NAN);
+    let (min, max) = (quantile(&values, 0.0).unwrap_or(f64::NAN), quantile(&values, 1.0).unwrap_or(f64::NAN));
     println!("{name:<44} median {median:7.1} ms   min {min:7.1}   max {max:7.1}   (n = {})", values.len());
 }
 

@@ -19,7 +19,8 @@
 //! left out with a notice.
 
 use bycoms_orchestrator::scenario::{load, WorldSource};
-use bycoms_sim::agent_process::{AgentArgs, BusArgs, Transport};
+use bycoms_runtime::{BusArgs, Transport};
+use bycoms_sim::sim_agent::AgentArgs;
 use bycoms_sim::terrain::to_text;
 use bycoms_tests::netns::{not_permitted, Host, TwoHosts};
 use bycoms_tests::{bin, swarm_name, Proc};
@@ -30,7 +31,7 @@ use std::time::Duration;
 const WAIT: Duration = Duration::from_secs(300);
 
 fn median(v: Vec<f64>) -> f64 {
-    bycoms_sim::stats::median(&v).unwrap_or(f64::NAN)
+    bycoms_runtime::stats::median(&v).unwrap_or(f64::NAN)
 }
 
 fn launch_args<'a>(swarm: &'a str, terrain: &'a str) -> Vec<&'a str> {

@@ -15,7 +15,7 @@ use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::BusExt;
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::ipc_config;
+use bycoms_runtime::ipc_config;
 use serde_json::Value;
 use std::io::Read;
 use std::path::PathBuf;

@@ -9,9 +9,9 @@
 
 use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::{Bus, Publish};
-use bycoms_protocol::msg::{AgentKind, Deploy, FromAgent, GoalBearing, Heartbeat, Register, ToAgent};
+use bycoms_protocol::msg::{Deploy, FromAgent, GoalBearing, Heartbeat, Register, RobotKind, ToAgent};
 use bycoms_protocol::{encode_vec, RobotId, Swarm, PROTOCOL_VERSION};
-use bycoms_sim::agent_process::ipc_config;
+use bycoms_runtime::ipc_config;
 use bycoms_tests::{swarm_name, wait_for_pose, Proc};
 use std::time::Duration;
 
@@ -32,7 +32,7 @@ fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() 
     let command = bus.publisher(swarm.to_agent(RobotId(1)).name()).expect("command publisher");
     let register = FromAgent::Register(Register {
         robot: RobotId(1),
-        kind: AgentKind::Simulated,
+        kind: RobotKind::Simulated,
         protocol_version: PROTOCOL_VERSION,
         // Not robot 1's agent (whose instance is random): a second agent.
         instance: 0,

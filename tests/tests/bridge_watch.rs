@@ -11,7 +11,7 @@ use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::BusExt;
 use bycoms_protocol::msg::{GateEvent, GateKind};
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::ipc_config;
+use bycoms_runtime::ipc_config;
 use bycoms_tests::{swarm_name, Proc};
 use std::io::{BufRead, BufReader};
 use std::net::TcpListener;

@@ -101,7 +101,7 @@ fn the_launch_unit_runs_a_valid_launch_command() {
     assert_eq!(launch.config.as_deref(), Some(Path::new("/etc/bycoms/exp1.toml")));
     let record = launch.record.expect("the unit records every run");
     assert!(record.starts_with("/var/lib/bycoms") && record.extension().is_some_and(|e| e == "mcap"));
-    assert_eq!(cli.log.log_format, bycoms_logging::LogFormat::Json);
+    assert_eq!(cli.log.log_format, bycoms_runtime::logging::LogFormat::Json);
     assert_eq!(success_codes(&unit), [exit::NOT_ARRIVED, exit::INTERRUPTED]);
     assert_eq!(one(&unit, "Service", "KillMode"), "mixed", "SIGINT to the orchestrator, not its agents");
 }
@@ -111,9 +111,9 @@ fn the_gateway_unit_runs_a_valid_gateway_over_zenoh_for_its_instance() {
     #[derive(Parser)]
     struct AgentCli {
         #[command(flatten)]
-        gateway: bycoms_gateway::GatewayArgs,
+        gateway: bycoms_agent::gateway::GatewayArgs,
         #[command(flatten)]
-        log: bycoms_logging::LogArgs,
+        log: bycoms_runtime::logging::LogArgs,
     }
     let unit = parse_unit(&read("systemd/bycoms-gateway@.service"));
     assert!(!one(&unit, "Unit", "Description").is_empty());
@@ -130,10 +130,10 @@ fn the_gateway_unit_runs_a_valid_gateway_over_zenoh_for_its_instance() {
     let g = cli.gateway;
     g.validate().unwrap_or_else(|e| panic!("{args:?}: {e}"));
     assert_eq!(g.robot, 1);
-    assert_eq!(g.bus.transport, bycoms_sim::agent_process::Transport::Zenoh);
+    assert_eq!(g.bus.transport, bycoms_runtime::Transport::Zenoh);
     assert_eq!(g.bus.zenoh_config.as_deref(), Some(Path::new("/etc/bycoms/certs/robot-1.json5")));
     assert_eq!(g.key_file, Path::new("/etc/bycoms/keys/robot-1.key"));
-    assert_eq!(cli.log.log_format, bycoms_logging::LogFormat::Json);
+    assert_eq!(cli.log.log_format, bycoms_runtime::logging::LogFormat::Json);
 }
 
 #[test]

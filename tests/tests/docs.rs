@@ -13,6 +13,8 @@
 //!   (`src/*.rs`, `src/*/`) and binary of the crate, and the `fuzz/` row
 //!   every fuzz target.
 //! * PROTOCOL.md's limits are the code's constants.
+//! * ARCHITECTURE.md's layout tree names every top-level folder, and
+//!   everything it names exists.
 //! * deploy/README.md's table names every file of `deploy/`, and only those.
 //! * Every document (`….md`) a source, doc or script cites is in the
 //!   repository (a brief or design note kept elsewhere cannot be cited).
@@ -60,7 +62,7 @@ fn is_cargos_own(name: &str) -> bool {
 /// Variables that third-party code reads when our code calls one of its
 /// functions: (the function, the variable).
 const READ_BY_DEPENDENCIES: [(&str, &str); 1] = [
-    // iceoryx2's log level (`agent_process::cli::quiet_iceoryx2`).
+    // iceoryx2's log level (`bycoms_runtime::cli::quiet_iceoryx2`).
     ("set_log_level_from_env_or(", "IOX2_LOG_LEVEL"),
 ];
 
@@ -147,7 +149,7 @@ fn scan_sources(sources: &[(PathBuf, String)]) -> Result<BTreeSet<String>, Strin
 fn variables_read() -> BTreeSet<String> {
     let root = root();
     let mut paths = Vec::new();
-    for dir in ["agent", "protocol", "sim-agent", "orchestrator", "gateway", "logging", "tests", "fuzz"] {
+    for dir in ["agent", "protocol", "sim-agent", "orchestrator", "gateway", "tests", "fuzz"] {
         files(&root.join(dir), ".rs", &mut paths);
     }
     // This file's own test feeds the scan made-up reads.
@@ -321,22 +323,76 @@ fn exists(name: &str, roots: &[PathBuf]) -> bool {
 fn path_roots() -> Vec<PathBuf> {
     let root = root();
     let mut roots = vec![root.clone()];
-    for entry in std::fs::read_dir(&root).expect("root").flatten() {
-        let path = entry.path();
-        if path.is_dir()
-            && !entry.file_name().to_string_lossy().starts_with('.')
-            && entry.file_name() != "target"
-        {
-            roots.push(path.clone());
-            let mut stack = vec![path.join("src"), path.join("tests")];
-            while let Some(dir) = stack.pop() {
-                let Ok(entries) = std::fs::read_dir(&dir) else { continue };
-                roots.push(dir.clone());
-                stack.extend(entries.flatten().map(|e| e.path()).filter(|p| p.is_dir()));
-            }
+    let mut folders: Vec<PathBuf> = std::fs::read_dir(&root)
+        .expect("root")
+        .flatten()
+        .filter(|e| {
+            e.path().is_dir()
+                && !e.file_name().to_string_lossy().starts_with('.')
+                && e.file_name() != "target"
+        })
+        .map(|e| e.path())
+        .collect();
+    // Nested crates (`protocol/runtime/`) as the top-level ones: their
+    // modules from their `src/`.
+    folders.extend(members().iter().map(|m| root.join(m)));
+    for folder in folders {
+        roots.push(folder.clone());
+        let mut stack = vec![folder.join("src"), folder.join("tests")];
+        while let Some(dir) = stack.pop() {
+            let Ok(entries) = std::fs::read_dir(&dir) else { continue };
+            roots.push(dir.clone());
+            stack.extend(entries.flatten().map(|e| e.path()).filter(|p| p.is_dir()));
         }
     }
     roots
+}
+
+/// The paths of ARCHITECTURE.md's layout tree (the ```` ```text ```` block
+/// of its "Layout" section), each from the root: `├── agent/` then
+/// `│   ├── src/` gives `agent/` and `agent/src/`.
+fn layout_tree(doc: &str) -> Vec<String> {
+    let start = doc.find("## Layout").expect("ARCHITECTURE.md has a section \"Layout\"");
+    let block = doc[start..].split("```").nth(1).expect("the layout's code block");
+    let mut stack: Vec<String> = Vec::new();
+    let mut paths = Vec::new();
+    for line in block.lines() {
+        let Some(at) = line.find("── ") else { continue };
+        // Each level is four columns: "│   " or "    ", then "├── " or "└── ".
+        let depth = line[..at].chars().count() / 4;
+        let name = line[at + "── ".len()..].split_whitespace().next().expect("a name").to_string();
+        stack.truncate(depth);
+        stack.push(name.trim_end_matches('/').to_string());
+        paths.push(stack.join("/") + if name.ends_with('/') { "/" } else { "" });
+    }
+    paths
+}
+
+#[test]
+fn the_layout_tree_names_every_top_level_folder_and_only_what_exists() {
+    let root = root();
+    let paths = layout_tree(&read(&root.join("ARCHITECTURE.md")));
+    assert!(paths.len() >= 10, "the layout tree is found: {paths:?}");
+    for path in &paths {
+        let exists = if path.ends_with('/') { root.join(path).is_dir() } else { root.join(path).is_file() };
+        assert!(exists, "ARCHITECTURE.md's layout tree names `{path}`, which is not in the repository");
+    }
+    for entry in std::fs::read_dir(&root).expect("root").flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let hidden = name.starts_with('.') && name != ".ci";
+        if entry.path().is_dir() && !hidden && name != "target" {
+            assert!(
+                paths.contains(&format!("{name}/")),
+                "ARCHITECTURE.md's layout tree does not name the top-level folder `{name}/`"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_layout_tree_is_read_as_drawn() {
+    let doc = "## Layout\n\n```text\n.\n├── a/   x\n│   ├── b/   y\n│   └── c.rs\n└── d/\n    └── e/\n```\n";
+    assert_eq!(layout_tree(doc), ["a/", "a/b/", "a/c.rs", "d/", "d/e/"]);
 }
 
 #[test]
@@ -391,8 +447,8 @@ fn crate_row<'a>(doc: &'a str, dir: &str) -> &'a str {
 }
 
 /// The names a text gives in backticks, each cut into its segments:
-/// `launch/agents/` gives `launch` and `agents`, `bycoms_sim::stats` gives
-/// `bycoms_sim` and `stats`, `lab/process.rs` gives `lab` and `process`.
+/// `launch/agents/` gives `launch` and `agents`, `bycoms_runtime::stats` gives
+/// `bycoms_runtime` and `stats`, `lab/process.rs` gives `lab` and `process`.
 fn named_segments(text: &str) -> BTreeSet<String> {
     let token = Regex::new(r"`([^`]+)`").expect("regex");
     token
@@ -560,7 +616,7 @@ fn protocol_md_states_the_limits_the_code_has() {
     use bycoms_protocol::naming::{SWARM_NAME_MAX, TOPIC_NAME_MAX};
     use bycoms_protocol::{MAX_MESSAGE_LEN, PROTOCOL_VERSION};
     let doc = flat(&read(&root().join("protocol/PROTOCOL.md")));
-    let swarm_payload = bycoms_sim::agent_process::ipc_config(3).limits.max_payload;
+    let swarm_payload = bycoms_runtime::ipc_config(3).limits.max_payload;
     let default_payload = bycoms_protocol::bus::Limits::default().max_payload;
     for claim in [
         format!("at most {MAX_MESSAGE_LEN} bytes (`MAX_MESSAGE_LEN`"),

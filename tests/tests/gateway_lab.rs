@@ -9,15 +9,15 @@
 //! robots file names fixed addresses (a real robot's flashed settings), so
 //! a port-0 socket cannot be handed over.
 
-use bycoms_gateway::GatewayArgs;
+use bycoms_agent::gateway::GatewayArgs;
 use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::BusExt;
 use bycoms_protocol::link::{
     Health, LinkKey, Payload, RobotEvent, RobotLink, RobotState, Telemetry as LinkTelemetry,
 };
-use bycoms_protocol::msg::{AgentKind, Deploy, DriveState, FromAgent, GoalBearing, Pose, ToAgent};
+use bycoms_protocol::msg::{Deploy, DriveState, FromAgent, GoalBearing, Pose, RobotKind, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::ipc_config;
+use bycoms_runtime::ipc_config;
 use bycoms_sim::lab::process::LabArgs;
 use bycoms_tests::{bin, is_zombie, signal, swarm_name, wait_for, Proc};
 use nix::sys::signal::Signal;
@@ -108,7 +108,7 @@ fn a_gateway_drives_an_emulated_robot_and_its_failsafe_stops_it_when_commands_ce
     });
     assert_eq!(
         reg.map(|r| (r.robot, r.kind)),
-        Some((RobotId(1), AgentKind::Real)),
+        Some((RobotId(1), RobotKind::Real)),
         "the gateway registers as Real"
     );
     let up = orch.report(Duration::from_secs(10), |m| matches!(m, FromAgent::Link(l) if l.up).then_some(()));

@@ -4,7 +4,7 @@
 //! `python3` (the decoder imports zenoh only in `main`).
 
 use bycoms_protocol::msg::{
-    AgentKind, DriveState, FailsafeFired, FromAgent, GateEvent, GateKind, LinkStatus, Pose, Register, Status,
+    DriveState, FailsafeFired, FromAgent, GateEvent, GateKind, LinkStatus, Pose, Register, RobotKind, Status,
     Telemetry,
 };
 use bycoms_protocol::{encode_vec, RobotId, PROTOCOL_VERSION};
@@ -69,7 +69,7 @@ fn watch_py_decodes_our_messages() {
     assert_eq!(got, "link 2 False 300 7");
     let register = FromAgent::Register(Register {
         robot: RobotId(4),
-        kind: AgentKind::Real,
+        kind: RobotKind::Real,
         protocol_version: PROTOCOL_VERSION,
         instance: 0x0123_4567_89ab_cdef,
         settings: 0xfedc_ba98_7654_3210,

@@ -88,7 +88,7 @@ pub enum What {
 
 /// The `p`-quantile of `values`, NaN (`null` in JSON) when there are none.
 fn percentile(values: &[f64], p: f64) -> f64 {
-    bycoms_sim::stats::quantile(values, p).unwrap_or(f64::NAN)
+    bycoms_runtime::stats::quantile(values, p).unwrap_or(f64::NAN)
 }
 
 pub fn run(args: Args) -> Result<i32> {

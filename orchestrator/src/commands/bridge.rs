@@ -35,7 +35,7 @@ use bycoms_protocol::bus::ipc::{IpcBus, IpcFanIn};
 use bycoms_protocol::bus::zenoh::{Congestion, Mode, ZenohBus, ZenohConfig, ZenohPublisher};
 use bycoms_protocol::bus::{untag, Bus, Limits, Publish, Subscribe, FAN_IN_TAG};
 use bycoms_protocol::{RobotId, Swarm, TopicName, MAX_MESSAGE_LEN};
-use bycoms_sim::agent_process::ipc_config;
+use bycoms_runtime::ipc_config;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
@@ -103,7 +103,7 @@ pub fn run(args: Args) -> Result<i32> {
         Some(s) => Some(Duration::from_secs_f64(s)),
         None => None,
     };
-    bycoms_sim::agent_process::cli::quiet_iceoryx2();
+    bycoms_runtime::cli::quiet_iceoryx2();
     let mut ipc = ipc_config(args.robots);
     ipc.node_name = Some(format!("bycoms-{}-bridge", args.swarm));
     let local = IpcBus::new(ipc).context("cannot open the iceoryx2 bus")?;
@@ -135,7 +135,7 @@ pub fn run(args: Args) -> Result<i32> {
             .collect::<Result<Vec<_>>>()?;
         lanes.push(Lane { from, to, forwarded: 0 });
     }
-    bycoms_logging::status_line(&format!(
+    bycoms_runtime::logging::status_line(&format!(
         "bridge: bycoms/{}/** (robots 1..={}) from iceoryx2 to zenoh, listening on {}",
         args.swarm,
         args.robots,
@@ -160,6 +160,6 @@ pub fn run(args: Args) -> Result<i32> {
         }
     }
     let total: u64 = lanes.iter().map(|l| l.forwarded).sum();
-    bycoms_logging::status_line(&format!("bridge: forwarded {total} messages"));
+    bycoms_runtime::logging::status_line(&format!("bridge: forwarded {total} messages"));
     Ok(if stop.load(Ordering::SeqCst) { exit::INTERRUPTED } else { exit::SUCCESS })
 }

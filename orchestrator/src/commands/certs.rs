@@ -59,7 +59,7 @@ pub fn run(args: Args) -> Result<i32> {
     if !args.revoke.is_empty() {
         let config = revoke(&args.out, &args.revoke)?;
         let ids: Vec<String> = args.revoke.iter().map(u32::to_string).collect();
-        bycoms_logging::status_line(&format!(
+        bycoms_runtime::logging::status_line(&format!(
             "certs: robot {} revoked in {} (restart a running launch to apply it)",
             ids.join(", "),
             config.display()
@@ -83,7 +83,7 @@ pub fn run(args: Args) -> Result<i32> {
         true => (add_robots(&plan)?, "kept CA"),
         false => (generate(&plan)?, "CA"),
     };
-    bycoms_logging::status_line(&format!(
+    bycoms_runtime::logging::status_line(&format!(
         "certs: {what} {}, orchestrator config {}, {} new robot configs in {}",
         made.ca.display(),
         made.orchestrator_config.display(),

@@ -6,7 +6,7 @@
 //! an exit code.
 
 use crate::exit;
-use crate::launch::config::{AgentsKind, GatewaysAt, Transport};
+use crate::launch::config::{AgentSourceKind, GatewaysAt, Transport};
 use crate::launch::{self, Clock, LaunchConfig, Missing, OnDeath, Outcome, World};
 use crate::out::{Kind, Outputs};
 use crate::scenario::{self, WorldSource};
@@ -139,7 +139,7 @@ pub struct Args {
     /// zenoh --connect ...`; the launch waits for all) or real (an `agent`
     /// gateway per robot of --robots-file) [default: spawned].
     #[arg(long, value_enum)]
-    pub agents: Option<AgentsKind>,
+    pub agents: Option<AgentSourceKind>,
     /// Real robots: the lab's robots file (addresses and key files), for
     /// gateways started here.
     #[arg(long, value_name = "FILE")]
@@ -285,7 +285,7 @@ pub fn run(args: Args) -> Result<i32> {
     let cfg_svg = cfg.svg.clone();
     let summary = launch::run_serving(cfg, world, agent, Some(crate::live::serve))?;
     if args.json {
-        bycoms_logging::status_line(&summary.line());
+        bycoms_runtime::logging::status_line(&summary.line());
         crate::outln!("{}", serde_json::to_string_pretty(&summary)?)?;
     } else {
         crate::outln!("{}", summary.text())?;
@@ -298,7 +298,7 @@ pub fn run(args: Args) -> Result<i32> {
     if let Some(path) = &cfg_svg {
         let write = |svg: &str| crate::out::write(path, Kind::Svg, args.force, svg.as_bytes());
         match summary.picture.as_deref().map(write) {
-            Some(Ok(())) => bycoms_logging::status_line(&format!("picture: {}", path.display())),
+            Some(Ok(())) => bycoms_runtime::logging::status_line(&format!("picture: {}", path.display())),
             Some(Err(e)) => {
                 tracing::error!("no picture written: {e}");
                 code = Some(exit::ERROR);

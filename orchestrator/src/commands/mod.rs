@@ -30,7 +30,7 @@ pub struct Cli {
     pub command: Command,
     /// Logging flags (global: accepted after any subcommand).
     #[command(flatten)]
-    pub log: bycoms_logging::LogArgs,
+    pub log: bycoms_runtime::logging::LogArgs,
 }
 
 #[derive(Debug, Subcommand)]
@@ -61,7 +61,7 @@ pub enum Command {
     Certs(certs::Args),
     /// Run one simulated robot (what `launch` starts when no `sim-agent` binary sits next to it).
     #[command(hide = true)]
-    SimAgent(bycoms_sim::agent_process::AgentArgs),
+    SimAgent(bycoms_sim::sim_agent::AgentArgs),
 }
 
 /// Runs the parsed command; returns the process exit code.
@@ -80,7 +80,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Completions(args) => completions::run(&args),
         Command::Bridge(args) => bridge::run(args),
         Command::Certs(args) => certs::run(args),
-        Command::SimAgent(args) => Ok(bycoms_sim::agent_process::main_with(&args)),
+        Command::SimAgent(args) => Ok(bycoms_sim::sim_agent::main_with(&args)),
     }
 }
 
@@ -89,7 +89,7 @@ mod tests {
     use super::*;
     use crate::launch::setup::agent_template;
     use crate::launch::LaunchConfig;
-    use bycoms_sim::agent_process::options::{parse_from, SimAgentRun};
+    use bycoms_sim::sim_agent::options::{parse_from, SimAgentRun};
 
     /// `orchestrator sim-agent` (what a launch runs when no `sim-agent`
     /// binary sits beside it) reads an agent's flags as `sim-agent` does.

@@ -142,7 +142,7 @@ pub fn run(args: Args) -> Result<i32> {
         summary_line(&result),
     );
     if args.json {
-        bycoms_logging::status_line(&summary);
+        bycoms_runtime::logging::status_line(&summary);
         crate::outln!("{}", serde_json::to_string_pretty(&report)?)?;
     } else {
         crate::outln!("{summary}")?;
@@ -150,7 +150,7 @@ pub fn run(args: Args) -> Result<i32> {
     // Pictures last: the result above is never lost to a picture's error.
     for written in draw_pictures(&args, &world, &cfg, &result)? {
         if args.json {
-            bycoms_logging::status_line(&written);
+            bycoms_runtime::logging::status_line(&written);
         } else {
             crate::outln!("{written}")?;
         }

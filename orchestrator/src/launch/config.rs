@@ -9,23 +9,23 @@
 //! its config beside its terrain), those on the command line to the working
 //! directory.
 
-pub use super::agents::choice::{AgentsConfig, AgentsKind};
+pub use super::agents::choice::{AgentSourceKind, AgentsConfig};
 pub use super::agents::gateways::GatewaysAt;
 use super::faults::FaultsConfig;
 use crate::exit::usage;
 use crate::runs::{check_run, RunNames};
 use anyhow::{Context, Result};
-use bycoms_sim::agent_process::check_speed;
+use bycoms_runtime::check_speed;
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::RunConfig;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-/// How simulated time advances: the one clock enum, shared with the agents.
-pub use bycoms_sim::agent_process::Clock;
 /// The bus kind, shared with the agents (`--transport`).
-pub use bycoms_sim::agent_process::Transport;
+pub use bycoms_runtime::Transport;
+/// How simulated time advances: the one clock enum, shared with the agents.
+pub use bycoms_sim::sim_agent::Clock;
 
 /// What the gate does when an agent process dies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]

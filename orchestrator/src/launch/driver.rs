@@ -21,7 +21,7 @@ use super::progress::Progress;
 use super::summary::{Outcome, RealtimeReport, RecordingSummary, RobotEnd, RobotSummary, Summary};
 use super::World;
 use bycoms_protocol::msg::{Pose, ToAgent};
-use bycoms_sim::agent_process::AgentArgs;
+use bycoms_sim::sim_agent::AgentArgs;
 use bycoms_sim::Vec2;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;

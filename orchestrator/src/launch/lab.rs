@@ -84,7 +84,7 @@ mod tests {
         let mut cfg = crate::launch::LaunchConfig::load(&path).expect("deploy/lab/launch.toml loads");
         cfg.robots = 2;
         cfg.validate().expect("valid with the lab's robots file and exp-short");
-        assert_eq!(cfg.agents.source, crate::launch::config::AgentsKind::Real);
+        assert_eq!(cfg.agents.source, crate::launch::config::AgentSourceKind::Real);
         let scenario = cfg.agents.scenario.as_deref().expect("a lab scenario");
         let world = lab_world(scenario, cfg.robots).expect("exp-short");
         assert_eq!(cfg.goal_radius, 0.15, "the scenarios' goal radius, m");

@@ -23,7 +23,7 @@
 //! [`FILES_PER_ROBOT`] per robot plus [`BASE_FILES`] for everything else
 //! (the recording, the terminal, zenoh's runtime, libraries). Agents hold a
 //! few dozen each (they close what they
-//! inherit, `bycoms_sim::agent_process::inherited`). zenoh
+//! inherit, `bycoms_runtime::inherited`). zenoh
 //! needs a socket or two per agent, in-memory launches none.
 
 use super::config::Transport;

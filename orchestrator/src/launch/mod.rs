@@ -153,10 +153,10 @@ pub fn agent_command(explicit: Option<&Path>, configured: Option<&Path>) -> Resu
     Ok(AgentCommand { program: me, prefix: vec!["sim-agent".into()] })
 }
 
-/// The process-wide Ctrl-C flag (`bycoms_sim::interrupt`: one handler per
+/// The process-wide Ctrl-C flag (`bycoms_runtime::interrupt`: one handler per
 /// process, shared by every command and the agents' lifeline).
 pub fn interrupt_flag() -> Arc<AtomicBool> {
-    bycoms_sim::interrupt::flag_or_default()
+    bycoms_runtime::interrupt::flag_or_default()
 }
 
 /// Runs one launch to its end. Errors before the first agent starts are
@@ -183,7 +183,7 @@ pub fn run_serving(
             "this launch has no live view to serve (`serve`): `orchestrator launch --serve` has one"
         );
     }
-    bycoms_sim::agent_process::cli::quiet_iceoryx2();
+    bycoms_runtime::cli::quiet_iceoryx2();
     let swarm_name = cfg.swarm.clone().unwrap_or_else(|| format!("launch-{}", std::process::id()));
     let swarm = Swarm::new(&swarm_name).with_context(|| format!("bad swarm name {swarm_name:?}"))?;
     // Enough open files for every port of the busiest process, or a clear no.
@@ -207,7 +207,7 @@ pub fn run_serving(
         _ => None,
     };
     if let Some(live) = &live {
-        bycoms_logging::status_line(&live.banner());
+        bycoms_runtime::logging::status_line(&live.banner());
         ports.observers.push(live.observer());
     }
     ports.observers.iter_mut().for_each(|o| o.world(&swarm_name, &world, &cfg, scene.as_ref()));

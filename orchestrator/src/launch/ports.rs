@@ -21,7 +21,7 @@ use super::transport::{AnyPublisher, AnySubscriber, SharedBus};
 use bycoms_protocol::bus::{untag, BusError, FAN_IN_TAG};
 use bycoms_protocol::msg::{Deploy, FromAgent, GateEvent, Pose, ToAgent};
 use bycoms_protocol::{decode, encode, Message, RobotId, Swarm, TopicName, MAX_MESSAGE_LEN};
-use bycoms_sim::agent_process::{BadKind, Traffic};
+use bycoms_runtime::{BadKind, Traffic};
 use std::collections::BTreeMap;
 use std::time::Duration;
 

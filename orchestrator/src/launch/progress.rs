@@ -71,7 +71,7 @@ impl Progress {
             Mode::Live { multi, .. } => {
                 let _ = multi.println(text);
             }
-            Mode::Plain => bycoms_logging::status_line(text),
+            Mode::Plain => bycoms_runtime::logging::status_line(text),
         }
     }
 

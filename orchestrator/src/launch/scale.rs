@@ -20,9 +20,8 @@ use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::{BusExt, TypedFanIn, TypedPublisher, TypedSubscriber};
 use bycoms_protocol::msg::{Deploy, FromAgent, GoalBearing, Pose, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::{
-    ipc_config, AgentArgs, BusArgs, Clock, Transport, DEFAULT_SETTINGS_TIMEOUT_S,
-};
+use bycoms_runtime::{ipc_config, BusArgs, Transport};
+use bycoms_sim::sim_agent::{AgentArgs, Clock, DEFAULT_SETTINGS_TIMEOUT_S};
 use bycoms_sim::terrain::{to_text, Terrain};
 use serde::Serialize;
 use std::collections::BTreeSet;
@@ -56,11 +55,11 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
     if agents == 0 || !(seconds.is_finite() && seconds > 0.0) {
         return Err(crate::exit::usage("--agents and --seconds must be positive"));
     }
-    bycoms_sim::agent_process::check_speed(speed).map_err(crate::exit::usage)?;
+    bycoms_runtime::check_speed(speed).map_err(crate::exit::usage)?;
     let files = super::limits::files_needed(agents, Transport::Ipc);
     super::limits::ensure_open_files(files, agents).map_err(crate::exit::usage)?;
     let stop = super::interrupt_flag();
-    bycoms_sim::agent_process::cli::quiet_iceoryx2();
+    bycoms_runtime::cli::quiet_iceoryx2();
     let name = format!("scale-{}", std::process::id());
     let swarm = Swarm::new(&name)?;
     let mut cfg = ipc_config(agents);

@@ -6,7 +6,7 @@
 //! decimal round trip.
 
 use crate::runs::{count, verdict};
-use bycoms_sim::agent_process::Traffic;
+use bycoms_runtime::Traffic;
 use bycoms_sim::Vec2;
 use schemars::JsonSchema;
 use serde::Serialize;

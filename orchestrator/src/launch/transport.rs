@@ -27,7 +27,7 @@ use bycoms_protocol::bus::zenoh::{AliveToken, Mode, ZenohBus};
 use bycoms_protocol::bus::{Bus, BusError, Limits, Publish, Subscribe};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{NameError, Swarm, TopicName};
-use bycoms_sim::agent_process::{ipc_config, zenoh_config};
+use bycoms_runtime::{ipc_config, zenoh_config};
 use std::rc::Rc;
 
 /// A boxed publisher of any backend.

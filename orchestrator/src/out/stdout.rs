@@ -11,7 +11,7 @@
 //! recording, and its exit code is still its outcome's.
 //!
 //! Every command prints its results through [`outln!`](crate::outln);
-//! stderr carries `tracing` events and `bycoms_logging::status_line`s, which
+//! stderr carries `tracing` events and `bycoms_runtime::logging::status_line`s, which
 //! drop their lines on a closed stderr the same way. Other write errors on
 //! stdout (a full disk behind `> file`) are real errors and are returned.
 

@@ -10,7 +10,7 @@
 //! `json`), so the live view can log it on a typed SDK channel.
 
 use crate::record::schema;
-use bycoms_protocol::msg::{AgentKind, FromAgent, GateEvent, GateKind, Pose};
+use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Pose, RobotKind};
 use foxglove::bytes::BufMut;
 use schemars::generate::SchemaSettings;
 use schemars::JsonSchema;
@@ -129,8 +129,8 @@ impl From<&FromAgent> for Telemetry {
                 t.kind = TelemetryKind::Register;
                 t.protocol_version = Some(r.protocol_version);
                 t.agent = Some(match r.kind {
-                    AgentKind::Simulated => "simulated",
-                    AgentKind::Real => "real",
+                    RobotKind::Simulated => "simulated",
+                    RobotKind::Real => "real",
                 });
             }
             FromAgent::Heartbeat(h) => t.seq = Some(h.seq),
@@ -285,7 +285,7 @@ mod tests {
         let robot = RobotId(4);
         let reg = FromAgent::Register(Register {
             robot,
-            kind: AgentKind::Simulated,
+            kind: RobotKind::Simulated,
             protocol_version: 3,
             instance: 1,
             settings: 0,

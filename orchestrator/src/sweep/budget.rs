@@ -103,7 +103,7 @@ fn percent(rate: Option<f64>) -> String {
 /// The median robots used by the runs that arrived.
 fn median_robots(runs: &[Option<u32>]) -> Option<f64> {
     let used: Vec<u32> = runs.iter().flatten().copied().collect();
-    bycoms_sim::stats::median(&used)
+    bycoms_runtime::stats::median(&used)
 }
 
 /// `budget-<noise>.csv`: success rate [%] within each budget for every ε

@@ -18,7 +18,7 @@
 
 use super::Report;
 use bycoms_orchestrator::launch::agents::{AgentPlan, AgentSource, Gone, Reach, Started};
-use bycoms_sim::agent_process::AgentArgs;
+use bycoms_sim::sim_agent::AgentArgs;
 use std::time::{Duration, Instant};
 
 /// The timeouts a source is made with.

@@ -18,7 +18,7 @@ use bycoms_orchestrator::launch::poses::{PoseSink, PoseSource};
 use bycoms_orchestrator::launch::recording::Recording;
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::Traffic;
+use bycoms_runtime::Traffic;
 use std::time::{Duration, Instant};
 
 /// What an implementation is expected to be and do (stated by its fixture,

@@ -17,7 +17,9 @@
 //!   ([`RobotLink`], [`GatewayLink`]), sans-IO (time is an argument);
 //! * [`drop`] — the typed drop reasons and their counters;
 //! * `proxy` (std) — a UDP fault proxy between a robot and its gateway:
-//!   seeded drop/delay/duplicate/reorder and cuts, for tests and soak runs.
+//!   seeded drop/delay/duplicate/reorder and cuts, for tests and soak runs;
+//! * `key_file` (std) — a robot's key file (`LinkKey::read_file`), read by
+//!   the gateway and the lab alike.
 //!
 //! # Why HMAC-SHA256 (RustCrypto `hmac` + `sha2`)
 //!
@@ -53,6 +55,8 @@
 pub mod drop;
 pub mod frame;
 #[cfg(feature = "std")]
+pub mod key_file;
+#[cfg(feature = "std")]
 pub mod proxy;
 pub mod session;
 
@@ -61,6 +65,8 @@ pub use frame::{
     decode, encode, Direction, EncodeError, Frame, Header, Health, LinkKey, Payload, RobotState, SessionId,
     Telemetry, HEADER_LEN, KEY_LEN, LINK_VERSION, MAX_FRAME_LEN, NONCE_LEN, TAG_LEN,
 };
+#[cfg(feature = "std")]
+pub use key_file::KeyFileError;
 pub use session::{Accepted, GatewayEvent, GatewayLink, RobotEvent, RobotLink, SendError};
 
 #[cfg(test)]

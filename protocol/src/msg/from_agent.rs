@@ -13,12 +13,14 @@
 use crate::RobotId;
 use serde::{Deserialize, Serialize};
 
-/// What kind of robot stands behind an agent process.
+/// What kind of robot an agent speaks for: a simulated one (`sim-agent`)
+/// or a real one (its `agent` gateway). (Not where the launch's agents
+/// come from: that is the orchestrator's `AgentSourceKind`.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum AgentKind {
+pub enum RobotKind {
     /// A simulated body (`sim-agent`).
     Simulated,
-    /// A real robot bridged over WiFi (`agent`).
+    /// A real robot behind its `agent` gateway (WiFi, the robot link).
     Real,
 }
 
@@ -28,7 +30,7 @@ pub struct Register {
     /// The agent's robot.
     pub robot: RobotId,
     /// Simulated or real.
-    pub kind: AgentKind,
+    pub kind: RobotKind,
     /// The agent's [`crate::PROTOCOL_VERSION`], so a mismatch is reported
     /// by name even when the envelope check already passed.
     pub protocol_version: u16,

@@ -25,7 +25,7 @@ pub mod sensor;
 pub mod to_agent;
 
 pub use from_agent::{
-    AgentKind, DriveState, FailsafeFired, FromAgent, Heartbeat, LinkStatus, Register, Status, Telemetry,
+    DriveState, FailsafeFired, FromAgent, Heartbeat, LinkStatus, Register, RobotKind, Status, Telemetry,
     TickDone,
 };
 pub use gate::{GateEvent, GateKind};

@@ -14,7 +14,7 @@ use std::time::Duration;
 #[command(name = "natnet-serve", version, about)]
 struct Cli {
     #[command(flatten)]
-    log: bycoms_logging::LogArgs,
+    log: bycoms_runtime::logging::LogArgs,
     /// The server's TOML config (bodies, rate, faults).
     #[arg(long)]
     config: std::path::PathBuf,
@@ -49,9 +49,9 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
 
 fn main() {
     let cli = Cli::parse();
-    bycoms_logging::init(cli.log.log_format);
+    bycoms_runtime::logging::init(cli.log.log_format);
     if let Err(e) = run(&cli) {
-        tracing::error!("{}", bycoms_logging::error_text(e.as_ref()));
+        tracing::error!("{}", bycoms_runtime::logging::error_text(e.as_ref()));
         std::process::exit(1);
     }
 }

@@ -1,19 +1,19 @@
 //! `sim-agent`: one simulated BYCOMS robot as its own process (see
-//! `bycoms_sim::agent_process`), or with `sim-agent lab …` the emulated lab
+//! `bycoms_sim::sim_agent`), or with `sim-agent lab …` the emulated lab
 //! of real robots (see `bycoms_sim::lab::process`). Thin `main`: parse, run,
 //! exit code. The command line is the library's
-//! (`bycoms_sim::agent_process::options::command`), shared with whoever
+//! (`bycoms_sim::sim_agent::options::command`), shared with whoever
 //! starts a `sim-agent` (`AgentArgs::to_flags`, `LabArgs::to_args`).
 
-use bycoms_sim::agent_process::options::{parse_from, SimAgentRun};
+use bycoms_sim::sim_agent::options::{parse_from, SimAgentRun};
 
 fn main() {
     let (log, run) = parse_from(std::env::args_os()).unwrap_or_else(|e| e.exit());
-    bycoms_logging::init(log.log_format);
-    bycoms_sim::agent_process::cli::tune_zenoh_runtime();
+    bycoms_runtime::logging::init(log.log_format);
+    bycoms_runtime::cli::tune_zenoh_runtime();
     let code = match run {
         SimAgentRun::Lab(lab) => bycoms_sim::lab::process::main_with(&lab),
-        SimAgentRun::Robot(agent) => bycoms_sim::agent_process::main_with(&agent),
+        SimAgentRun::Robot(agent) => bycoms_sim::sim_agent::main_with(&agent),
     };
     std::process::exit(code);
 }

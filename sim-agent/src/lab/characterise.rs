@@ -78,14 +78,14 @@ pub fn characterise(config: &SoundConfig, distances: &[f64], trials: usize, seed
                     None => none += 1,
                 }
             }
-            let pick = |q: f64| crate::stats::quantile(&errors, q);
+            let pick = |q: f64| bycoms_runtime::stats::quantile(&errors, q);
             SensingRow {
                 distance: d,
                 v_ave: v_sum / trials as f64,
                 median_error_deg: pick(0.5).unwrap_or(f64::NAN),
                 p90_error_deg: pick(0.9).unwrap_or(f64::NAN),
                 no_direction: none as f64 / trials as f64,
-                snr_db: crate::stats::median(&snrs).unwrap_or(f64::NAN),
+                snr_db: bycoms_runtime::stats::median(&snrs).unwrap_or(f64::NAN),
             }
         })
         .collect()
@@ -109,7 +109,7 @@ pub fn tone_snr_db(frame: &[u16; FRAME_LEN], tones: &ToneConfig, freq: f64, all:
     let near_tone = |j: usize| all.iter().any(|&f| bin(f).abs_diff(j) <= 2);
     // Bin 0 holds the DC and Nyquist terms: left out.
     let floor: Vec<f64> = (1..FRAME_LEN / 2).filter(|&j| !near_tone(j)).map(magnitude).collect();
-    let noise = crate::stats::median(&floor).unwrap_or(f64::NAN);
+    let noise = bycoms_runtime::stats::median(&floor).unwrap_or(f64::NAN);
     20.0 * (tone / noise).log10()
 }
 

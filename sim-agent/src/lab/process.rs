@@ -27,15 +27,15 @@ use super::natnet_out::NatNetOut;
 use super::robots::{RobotsError, RobotsFile};
 use super::scenario::{Scenario, ScenarioError};
 use super::world::{Lab, Wiring, CONTROL_PERIOD, PHYSICS_DT};
-use crate::agent_process::cli::quiet_iceoryx2;
-use crate::agent_process::failsafe::Failsafe;
-use crate::agent_process::{check_speed, BusArgs, BusOpenError, ExitCause, Lifeline, OnBus};
 use crate::natnet_server::Faults;
 use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
 use bycoms_protocol::link::RobotState;
 use bycoms_protocol::msg::{Deploy, Pose};
 use bycoms_protocol::{NameError, RobotId, Swarm};
+use bycoms_runtime::cli::quiet_iceoryx2;
+use bycoms_runtime::failsafe::Failsafe;
+use bycoms_runtime::{check_speed, BusArgs, BusOpenError, ExitCause, Lifeline, OnBus};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -114,7 +114,7 @@ impl LabArgs {
     }
 
     /// The flags that reproduce these arguments after `sim-agent lab`
-    /// (read back by `agent_process::options::command`'s `lab`).
+    /// (read back by `sim_agent::options::command`'s `lab`).
     pub fn to_flags(&self) -> Vec<String> {
         let mut v = vec![
             "--scenario".into(),
@@ -192,7 +192,7 @@ pub enum LabError {
     Bus(#[from] BusError),
     /// The parent-death link could not be set up.
     #[error(transparent)]
-    Lifeline(#[from] crate::agent_process::lifeline::LifelineError),
+    Lifeline(#[from] bycoms_runtime::lifeline::LifelineError),
     /// The NatNet server could not start.
     #[error(transparent)]
     NatNet(#[from] crate::natnet_server::ServerError),
@@ -306,7 +306,7 @@ impl Jitter {
     }
 
     fn percentile(&self, p: f64) -> Option<f64> {
-        crate::stats::quantile(&self.errors_us, p)
+        bycoms_runtime::stats::quantile(&self.errors_us, p)
     }
 }
 

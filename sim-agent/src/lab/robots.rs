@@ -8,7 +8,7 @@
 //! robots' flashed settings; reading it in one place keeps the two ends from
 //! drifting apart.
 
-use bycoms_protocol::link::LinkKey;
+use bycoms_protocol::link::{KeyFileError, LinkKey};
 use serde::Deserialize;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -75,12 +75,10 @@ pub enum RobotsError {
         /// The ids found, sorted.
         found: Vec<u32>,
     },
-    /// A key file does not hold 64 hex digits.
-    #[error("bad key file {}: expected 64 hexadecimal digits (a 32-byte key)", path.display())]
-    Key {
-        /// The key file.
-        path: PathBuf,
-    },
+    /// A key file is unreadable or does not hold 64 hex digits (the
+    /// link's reader, `LinkKey::read_file`, as the gateway's).
+    #[error(transparent)]
+    Key(#[from] KeyFileError),
 }
 
 fn read_limited(path: &Path) -> Result<String, RobotsError> {
@@ -90,12 +88,6 @@ fn read_limited(path: &Path) -> Result<String, RobotsError> {
         return Err(RobotsError::TooLarge { path: path.to_path_buf() });
     }
     std::fs::read_to_string(path).map_err(read)
-}
-
-/// Reads a key file: 64 hex digits, surrounding whitespace allowed.
-pub fn read_key(path: &Path) -> Result<LinkKey, RobotsError> {
-    let text = read_limited(path)?;
-    LinkKey::from_hex(&text).ok_or_else(|| RobotsError::Key { path: path.to_path_buf() })
 }
 
 impl RobotsFile {
@@ -120,7 +112,7 @@ impl RobotsFile {
 
     /// Every robot's key, in id order.
     pub fn keys(&self) -> Result<Vec<LinkKey>, RobotsError> {
-        self.robots.iter().map(|r| read_key(&self.key_path(r))).collect()
+        self.robots.iter().map(|r| Ok(LinkKey::read_file(&self.key_path(r))?)).collect()
     }
 }
 

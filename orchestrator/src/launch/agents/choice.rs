@@ -14,7 +14,7 @@ use super::AgentSource;
 use crate::mocap::PlacementConfig;
 use anyhow::{Context, Result};
 use bycoms_protocol::bus::zenoh::AliveWatch;
-use bycoms_sim::agent_process::Transport;
+use bycoms_runtime::Transport;
 use bycoms_sim::lab::robots::RobotsFile;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -30,10 +30,11 @@ pub struct AgentLinks {
     pub memory: Option<bycoms_protocol::bus::memory::MemoryBus>,
 }
 
-/// Where a launch's agents come from.
+/// Where a launch's agents come from (`agents.source`, `--agents`): which
+/// [`AgentSource`](super::AgentSource) [`AgentsConfig::open`] builds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
-pub enum AgentsKind {
+pub enum AgentSourceKind {
     /// One `sim-agent` process per robot, started here (the default).
     #[default]
     Spawned,
@@ -51,7 +52,7 @@ pub enum AgentsKind {
 #[serde(deny_unknown_fields, default)]
 pub struct AgentsConfig {
     /// `spawned` (default), `remote` or `real`.
-    pub source: AgentsKind,
+    pub source: AgentSourceKind,
     /// `real`: the lab's robots file (each robot's address, its gateway's
     /// address, its key file; `deploy/lab/robots.toml`).
     pub robots_file: Option<PathBuf>,
@@ -82,7 +83,7 @@ pub fn real_placement() -> PlacementConfig {
 impl Default for AgentsConfig {
     fn default() -> Self {
         Self {
-            source: AgentsKind::default(),
+            source: AgentSourceKind::default(),
             robots_file: None,
             gateway_bin: None,
             gateways: GatewaysAt::Here,
@@ -97,24 +98,24 @@ impl AgentsConfig {
     /// gateways here), rather than awaiting them.
     pub fn started_here(&self) -> bool {
         match self.source {
-            AgentsKind::Spawned => true,
-            AgentsKind::Remote => false,
-            AgentsKind::Real => self.gateways == GatewaysAt::Here,
+            AgentSourceKind::Spawned => true,
+            AgentSourceKind::Remote => false,
+            AgentSourceKind::Real => self.gateways == GatewaysAt::Here,
         }
     }
 
     /// Checks the choice against the rest of the launch's configuration.
     pub fn validate(&self, robots: u32, transport: Transport, lockstep: bool) -> Result<(), String> {
         let zenoh = transport == Transport::Zenoh;
-        if transport == Transport::Memory && self.source != AgentsKind::Spawned {
+        if transport == Transport::Memory && self.source != AgentSourceKind::Spawned {
             return Err("transport.kind = \"memory\" runs the agents as threads here: it needs agents.source = \"spawned\"".into());
         }
-        if self.scenario.is_some() && self.source != AgentsKind::Real {
+        if self.scenario.is_some() && self.source != AgentSourceKind::Real {
             return Err(
                 "agents.scenario (--lab-scenario) is for real robots (agents.source = \"real\")".into()
             );
         }
-        if self.gateways == GatewaysAt::Elsewhere && self.source != AgentsKind::Real {
+        if self.gateways == GatewaysAt::Elsewhere && self.source != AgentSourceKind::Real {
             return Err("agents.gateways (--gateways) is for real robots (agents.source = \"real\")".into());
         }
         if self.gateways == GatewaysAt::Elsewhere && !zenoh {
@@ -130,23 +131,23 @@ impl AgentsConfig {
             return Err("agents.placement: radius and timeout must be positive, hold ≥ 0".into());
         }
         match self.source {
-            AgentsKind::Spawned => Ok(()),
-            AgentsKind::Remote if !zenoh => {
+            AgentSourceKind::Spawned => Ok(()),
+            AgentSourceKind::Remote if !zenoh => {
                 Err("agents.source = \"remote\" needs transport.kind = \"zenoh\" (--transport zenoh)".into())
             }
-            AgentsKind::Remote => Ok(()),
-            AgentsKind::Real if lockstep => {
+            AgentSourceKind::Remote => Ok(()),
+            AgentSourceKind::Real if lockstep => {
                 Err("agents.source = \"real\" needs clock = \"realtime\" (a real robot cannot be stepped)"
                     .into())
             }
-            AgentsKind::Real if self.scenario.is_none() => Err(
+            AgentSourceKind::Real if self.scenario.is_none() => Err(
                 "agents.source = \"real\" needs agents.scenario (--lab-scenario exp-short|exp-long|FILE): \
                  the lab's start, goal and arena in metres"
                     .into(),
             ),
             // The robots file (addresses, keys) is the gateways' business.
-            AgentsKind::Real if self.gateways == GatewaysAt::Elsewhere => Ok(()),
-            AgentsKind::Real => match &self.robots_file {
+            AgentSourceKind::Real if self.gateways == GatewaysAt::Elsewhere => Ok(()),
+            AgentSourceKind::Real => match &self.robots_file {
                 None => Err("agents.source = \"real\" needs agents.robots_file (--robots-file)".into()),
                 Some(path) => {
                     let file = RobotsFile::read(path).map_err(|e| e.to_string())?;
@@ -181,21 +182,23 @@ impl AgentsConfig {
         let AgentLinks { alive, memory } = links;
         Ok(match self.source {
             // Over the in-memory bus the agents can only be threads here.
-            AgentsKind::Spawned if memory.is_some() => {
+            AgentSourceKind::Spawned if memory.is_some() => {
                 let bus = memory.context("the memory bus")?;
                 Box::new(Threads::new(bus, register_timeout, heartbeat_timeout))
             }
-            AgentsKind::Spawned => Box::new(Spawned::new(sim_agent, register_timeout, heartbeat_timeout)),
-            AgentsKind::Remote => {
+            AgentSourceKind::Spawned => {
+                Box::new(Spawned::new(sim_agent, register_timeout, heartbeat_timeout))
+            }
+            AgentSourceKind::Remote => {
                 let remote = Remote::new(register_timeout, heartbeat_timeout, alive);
                 Box::new(remote.with_link_grace(link_grace).with_quiet(quiet))
             }
-            AgentsKind::Real if self.gateways == GatewaysAt::Elsewhere => Box::new(Gateways::elsewhere(
+            AgentSourceKind::Real if self.gateways == GatewaysAt::Elsewhere => Box::new(Gateways::elsewhere(
                 Remote::new(register_timeout, heartbeat_timeout, alive)
                     .with_link_grace(link_grace)
                     .with_quiet(quiet),
             )),
-            AgentsKind::Real => {
+            AgentSourceKind::Real => {
                 let path = self.robots_file.as_deref().context("agents.robots_file is not set")?;
                 let robots = RobotsFile::read(path)?;
                 let gateway = gateway_command(self.gateway_bin.as_deref())?;
@@ -214,7 +217,7 @@ fn gateway_command(explicit: Option<&Path>) -> Result<AgentCommand> {
     let beside = me.with_file_name(format!("agent{}", std::env::consts::EXE_SUFFIX));
     anyhow::ensure!(
         beside.is_file(),
-        "no gateway executable: `agent` is not next to {} (build it with `cargo build -p bycoms-gateway`, \
+        "no gateway executable: `agent` is not next to {} (build it with `cargo build -p bycoms-agent`, \
          or set agents.gateway_bin)",
         me.display()
     );
@@ -227,7 +230,7 @@ mod tests {
 
     fn real(gateways: GatewaysAt) -> AgentsConfig {
         AgentsConfig {
-            source: AgentsKind::Real,
+            source: AgentSourceKind::Real,
             gateways,
             scenario: Some("exp-short".into()),
             ..AgentsConfig::default()
@@ -246,7 +249,7 @@ mod tests {
         let err = real(GatewaysAt::Elsewhere).validate(2, Transport::Ipc, false).unwrap_err();
         assert!(err.contains("--transport zenoh"), "{err}");
         // Only real robots have gateways.
-        let spawned = AgentsConfig { source: AgentsKind::Spawned, ..real(GatewaysAt::Elsewhere) };
+        let spawned = AgentsConfig { source: AgentSourceKind::Spawned, ..real(GatewaysAt::Elsewhere) };
         let err =
             AgentsConfig { scenario: None, ..spawned }.validate(2, Transport::Zenoh, false).unwrap_err();
         assert!(err.contains("agents.gateways"), "{err}");
@@ -260,7 +263,7 @@ mod tests {
         assert!(AgentsConfig::default().started_here());
         assert!(real(GatewaysAt::Here).started_here());
         assert!(!real(GatewaysAt::Elsewhere).started_here());
-        let remote = AgentsConfig { source: AgentsKind::Remote, ..AgentsConfig::default() };
+        let remote = AgentsConfig { source: AgentSourceKind::Remote, ..AgentsConfig::default() };
         assert!(!remote.started_here());
     }
 }

@@ -31,7 +31,7 @@
 use super::remote::Remote;
 use super::spawned::{AgentCommand, Spawned};
 use super::{AgentError, AgentPlan, AgentSource, Gone, Reach, Started};
-use bycoms_gateway::GatewayArgs;
+use bycoms_agent::gateway::GatewayArgs;
 use bycoms_sim::lab::robots::RobotsFile;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;

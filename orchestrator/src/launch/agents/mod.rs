@@ -40,7 +40,7 @@ pub mod stderr_tap;
 pub mod threads;
 pub mod watchdog;
 
-use bycoms_sim::agent_process::AgentArgs;
+use bycoms_sim::sim_agent::AgentArgs;
 use std::process::ExitStatus;
 use std::time::Duration;
 

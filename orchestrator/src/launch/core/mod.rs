@@ -59,7 +59,7 @@ use bycoms_protocol::msg::{
     Deploy, FromAgent, GateEvent, GateKind, GoalBearing, Pose, Refusal, Refused, Register, Tick, ToAgent,
 };
 use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
-use bycoms_sim::agent_process::BadKind;
+use bycoms_runtime::BadKind;
 use bycoms_sim::Vec2;
 use plausible::Anchors;
 use serde::{Deserialize, Serialize};

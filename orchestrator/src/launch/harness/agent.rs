@@ -4,7 +4,7 @@
 //! Why the same core: the harness must reproduce `simulate` bit for bit
 //! without faults, so the robot is the very `AgentCore`/`SimRobot` the
 //! `sim-agent` process runs. What this file adds is the process's message
-//! rules (`sim-agent/src/agent_process/run.rs`): register until heard from,
+//! rules (`sim-agent/src/sim_agent/run.rs`): register until heard from,
 //! heartbeats, `Deploy` answered with the start pose (a repeat of it too),
 //! a `Tick` stepped once and a repeated one answered without stepping, and
 //! the pose and `TickDone` after each period; in real time, a period every
@@ -14,10 +14,10 @@
 
 use super::SETTINGS;
 use bycoms_protocol::msg::{
-    AgentKind, Deploy, FromAgent, Heartbeat, Pose, Register, Status, TickDone, ToAgent,
+    Deploy, FromAgent, Heartbeat, Pose, Register, RobotKind, Status, TickDone, ToAgent,
 };
 use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
-use bycoms_sim::agent_process::core::AgentCore;
+use bycoms_sim::sim_agent::core::AgentCore;
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::RunConfig;
 
@@ -111,7 +111,7 @@ impl Agent {
         if !self.heard {
             let r = Register {
                 robot,
-                kind: AgentKind::Simulated,
+                kind: RobotKind::Simulated,
                 protocol_version: PROTOCOL_VERSION,
                 instance: self.instance,
                 settings: SETTINGS,

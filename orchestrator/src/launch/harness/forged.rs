@@ -54,7 +54,7 @@ impl Foreign {
             }
             Foreign::WrongVersion(id) => Some(Input::Report(FromAgent::Register(Register {
                 robot: RobotId(id),
-                kind: bycoms_protocol::msg::AgentKind::Simulated,
+                kind: bycoms_protocol::msg::RobotKind::Simulated,
                 protocol_version: bycoms_protocol::PROTOCOL_VERSION + 1,
                 instance: 0xf0e1,
                 settings: 0,
@@ -62,7 +62,7 @@ impl Foreign {
             }))),
             Foreign::ShortGrace(id) => Some(Input::Report(FromAgent::Register(Register {
                 robot: RobotId(id),
-                kind: bycoms_protocol::msg::AgentKind::Simulated,
+                kind: bycoms_protocol::msg::RobotKind::Simulated,
                 protocol_version: bycoms_protocol::PROTOCOL_VERSION,
                 instance: 0xf0e2,
                 settings: 0,
@@ -70,7 +70,7 @@ impl Foreign {
             }))),
             Foreign::OtherSettings(id) => Some(Input::Report(FromAgent::Register(Register {
                 robot: RobotId(id),
-                kind: bycoms_protocol::msg::AgentKind::Simulated,
+                kind: bycoms_protocol::msg::RobotKind::Simulated,
                 protocol_version: bycoms_protocol::PROTOCOL_VERSION,
                 instance: 0xf0e3,
                 settings: !SETTINGS,

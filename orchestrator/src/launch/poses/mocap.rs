@@ -135,7 +135,7 @@ mod tests {
     fn drain_for(source: &mut NatNetPoses, wait: Duration, until: impl Fn(&Pose) -> bool) -> Vec<Pose> {
         use crate::launch::recording::Recording;
         let swarm = bycoms_protocol::Swarm::new("carried").unwrap();
-        let (mut recording, mut traffic) = (Recording::off(), bycoms_sim::agent_process::Traffic::default());
+        let (mut recording, mut traffic) = (Recording::off(), bycoms_runtime::Traffic::default());
         let (mut got, began) = (Vec::new(), std::time::Instant::now());
         while began.elapsed() < wait {
             let mut batch = Vec::new();

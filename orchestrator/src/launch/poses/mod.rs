@@ -36,7 +36,7 @@ use crate::record::schema;
 use bycoms_protocol::bus::BusError;
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::{encode, RobotId, Swarm, MAX_MESSAGE_LEN};
-use bycoms_sim::agent_process::Traffic;
+use bycoms_runtime::Traffic;
 
 /// The pose source `mocap` asks for, for a launch of `robots` robots of
 /// `swarm` on `bus`: the swarm's own bus, or NatNet. The seam's one

@@ -10,7 +10,7 @@
 //! error (bad flags, values, key file, swarm name); 1 for any other error
 //! (socket, bus), printed first.
 //!
-//! The bus flags are sim-agent's (`BusArgs`): `--transport ipc` on the
+//! The bus flags are the runtime's (`BusArgs`, as `sim-agent`'s): `--transport ipc` on the
 //! orchestrator's host (the default), or `--transport zenoh --connect
 //! quic/ORCHESTRATOR:7447 --zenoh-config robot-K.json5` from a bridge host
 //! next to the robots' access point.
@@ -20,21 +20,21 @@
 //! [`GatewayArgs::to_flags`]; the binary parses them with [`command`] (via
 //! [`parse_from`]), and the round-trip tests below hold the two together.
 
-use crate::bench::BenchArgs;
-use crate::core::{GatewayCore, Timers};
-use crate::run::{Gateway, GatewayPorts, RunError};
-use bycoms_logging::LogArgs;
+use super::bench::BenchArgs;
+use super::core::{GatewayCore, Timers};
+use super::run::{Gateway, GatewayPorts, RunError};
 use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_protocol::bus::{Bus, BusError};
+use bycoms_protocol::link::{KeyFileError, LinkKey};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{NameError, RobotId, Swarm};
-use bycoms_sim::agent_process::cli::quiet_iceoryx2;
-use bycoms_sim::agent_process::failsafe::{Failsafe, FailsafeArgs};
-use bycoms_sim::agent_process::lifeline::LifelineError;
-use bycoms_sim::agent_process::options::{command_with_subcommand, parse_with_subcommand};
-use bycoms_sim::agent_process::{check_speed, BusArgs, BusOpenError, ExitCause, Lifeline, OnBus};
-use bycoms_sim::lab::robots::{read_key, RobotsError};
-use bycoms_sim::stats::quantile;
+use bycoms_runtime::cli::quiet_iceoryx2;
+use bycoms_runtime::cli::{command_with_subcommand, parse_with_subcommand};
+use bycoms_runtime::failsafe::{Failsafe, FailsafeArgs};
+use bycoms_runtime::lifeline::LifelineError;
+use bycoms_runtime::logging::LogArgs;
+use bycoms_runtime::stats::quantile;
+use bycoms_runtime::{check_speed, BusArgs, BusOpenError, ExitCause, Lifeline, OnBus};
 use clap::Command;
 use std::net::{SocketAddr, UdpSocket};
 use std::path::PathBuf;
@@ -170,19 +170,16 @@ impl GatewayArgs {
 ///
 /// As `sim-agent` and its `lab`: the gateway's flags stay at the top level
 /// (launchers start `agent --swarm … --robot …`), a subcommand lifts their
-/// requirement (`subcommand_negates_reqs`) and the two exclude each other
-/// (`args_conflicts_with_subcommands`), so `agent --help` lists `bench` and
-/// `agent bench --help` has the bench's own usage line. Assembled from the
-/// argument structs, not derived as one struct: clap's derive cannot leave
-/// out a flattened struct that itself flattens another (the bus and
-/// failsafe flags) when the subcommand is used. The about line is set last
-/// (`augment_args` applies each struct's doc comment as the command's).
+/// requirement and the two exclude each other, so `agent --help` lists
+/// `bench` and `agent bench --help` has the bench's own usage line; the
+/// logging flags go before or after `bench` ([`command_with_subcommand`]
+/// says how and why).
 pub fn command() -> Command {
     command_with_subcommand::<GatewayArgs, BenchArgs>(
         "agent",
         BenchArgs::SUBCOMMAND,
         env!("CARGO_PKG_VERSION"),
-        env!("CARGO_PKG_DESCRIPTION"),
+        "One real robot's gateway between its authenticated UDP link and the BYCOMS bus",
     )
 }
 
@@ -215,7 +212,7 @@ pub enum GatewayError {
     Args(String),
     /// The key file is unreadable or malformed.
     #[error(transparent)]
-    Key(#[from] RobotsError),
+    Key(#[from] KeyFileError),
     /// The swarm name is not a valid topic chunk.
     #[error("bad swarm name: {0}")]
     Swarm(#[from] NameError),
@@ -245,7 +242,7 @@ pub enum GatewayError {
 
 /// Runs one gateway; returns the process exit code.
 pub fn main_with(args: &GatewayArgs) -> i32 {
-    bycoms_sim::agent_process::inherited::close_inherited_files();
+    bycoms_runtime::inherited::close_inherited_files();
     quiet_iceoryx2();
     let _span = tracing::info_span!("agent", robot = args.robot).entered();
     match run(args) {
@@ -281,7 +278,7 @@ fn run(args: &GatewayArgs) -> Result<ExitCause, GatewayError> {
     let mut lifeline = Lifeline::install(args.parent_pid)?;
     args.validate().map_err(GatewayError::Args)?;
     let swarm = Swarm::new(&args.swarm)?;
-    let key = read_key(&args.key_file)?;
+    let key = LinkKey::read_file(&args.key_file)?;
     let id = RobotId(args.robot);
     let socket = UdpSocket::bind(args.bind).map_err(|source| GatewayError::Bind {
         robot: id.0,
@@ -356,8 +353,8 @@ mod exit_code_tests {
 #[cfg(test)]
 mod command_tests {
     use super::*;
-    use bycoms_sim::agent_process::failsafe::OnOrchestratorLost;
-    use bycoms_sim::agent_process::Transport;
+    use bycoms_runtime::failsafe::OnOrchestratorLost;
+    use bycoms_runtime::Transport;
 
     fn run_of<S: AsRef<str>>(args: &[S]) -> Result<AgentRun, clap::Error> {
         let argv = std::iter::once("agent").chain(args.iter().map(|a| a.as_ref()));
@@ -416,9 +413,12 @@ mod command_tests {
     fn bench_is_a_subcommand_beside_the_gateway_s_flags() {
         let bench = run_of(&["bench", "--frames", "5", "--interval-ms", "1"]).expect("parses");
         assert_eq!(bench, AgentRun::Bench(BenchArgs { frames: 5, interval_ms: 1 }));
-        let (log, run) = parse_from(["agent", "bench", "--log-format", "json"]).expect("the logging flags");
-        assert_eq!(log.log_format, bycoms_logging::LogFormat::Json);
-        assert_eq!(run, AgentRun::Bench(BenchArgs { frames: 2000, interval_ms: 2 }));
+        // The logging flags in any position (README, "Logs and shell completions").
+        for argv in [["agent", "bench", "--log-format", "json"], ["agent", "--log-format", "json", "bench"]] {
+            let (log, run) = parse_from(argv).expect("the logging flags");
+            assert_eq!(log.log_format, bycoms_runtime::logging::LogFormat::Json, "{argv:?}");
+            assert_eq!(run, AgentRun::Bench(BenchArgs { frames: 2000, interval_ms: 2 }));
+        }
         // The bench needs none of the gateway's flags and takes none.
         let err = run_of(&["--swarm", "s", "bench"]).unwrap_err();
         assert_eq!(err.kind(), clap::error::ErrorKind::ArgumentConflict, "{err}");

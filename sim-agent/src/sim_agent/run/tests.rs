@@ -4,12 +4,12 @@
 //! again and never stepped twice.
 
 use super::*;
-use crate::agent_process::lifeline::Lifeline;
 use crate::terrain::Terrain;
 use crate::RunConfig;
 use bycoms_protocol::bus::memory::MemoryBus;
 use bycoms_protocol::bus::Limits;
 use bycoms_protocol::msg::Tick;
+use bycoms_runtime::lifeline::Lifeline;
 
 /// Reads reports until `heartbeats` heartbeats came; returns the number of
 /// `Register`s among them (panics after 10 s).

@@ -21,15 +21,15 @@
 //! number in the pose jumps), as it would be on a real robot.
 
 use super::core::{AgentCore, Phase, Reject};
-use super::failsafe::{Failsafe, Verdict};
-use super::lifeline::{ExitCause, Lifeline};
 use super::options::Clock;
-use super::traffic::{BadKind, Traffic};
 use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
-use bycoms_protocol::msg::{AgentKind, FromAgent, Heartbeat, Pose, Register, Status, TickDone, ToAgent};
+use bycoms_protocol::msg::{FromAgent, Heartbeat, Pose, Register, RobotKind, Status, TickDone, ToAgent};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{RobotId, Swarm, PROTOCOL_VERSION};
+use bycoms_runtime::failsafe::{Failsafe, Verdict};
+use bycoms_runtime::lifeline::{ExitCause, Lifeline};
+use bycoms_runtime::traffic::{BadKind, Traffic};
 use std::time::{Duration, Instant};
 
 /// Longest single wait before the loop checks its lifeline and timers.
@@ -105,7 +105,7 @@ pub struct Agent<B: Bus> {
     heard_orchestrator: bool,
     /// The `Deploy` taken (a repeat of it is answered, another refused).
     deployed: Option<bycoms_protocol::msg::Deploy>,
-    /// This process's instance ([`super::instance`]), sent in `Register`.
+    /// This process's instance ([`bycoms_runtime::instance`]), sent in `Register`.
     instance: u64,
     /// zenoh: the failsafe and the liveliness watch that feeds it.
     failsafe: Option<(Failsafe, AliveWatch)>,
@@ -129,7 +129,7 @@ impl<B: Bus> Agent<B> {
             tick: 0,
             heard_orchestrator: false,
             deployed: None,
-            instance: super::instance(),
+            instance: bycoms_runtime::instance(),
             failsafe: None,
             settings: 0,
         }
@@ -402,7 +402,7 @@ impl<B: Bus> Agent<B> {
     fn register(&self) -> Result<(), BusError> {
         self.report(FromAgent::Register(Register {
             robot: self.core.id(),
-            kind: AgentKind::Simulated,
+            kind: RobotKind::Simulated,
             protocol_version: PROTOCOL_VERSION,
             instance: self.instance,
             settings: self.settings,

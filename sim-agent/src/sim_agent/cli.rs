@@ -16,9 +16,6 @@
 //! other error (unreadable terrain, bus failure, no settings from the
 //! orchestrator in time), printed on stderr first.
 
-use super::bus_args::{BusOpenError, OnBus};
-use super::failsafe::Failsafe;
-use super::lifeline::{ExitCause, Lifeline, LifelineError};
 use super::options::AgentArgs;
 use super::run::{Agent, AgentPorts, Timing};
 use super::settings::{self, FetchError, RunSettings};
@@ -28,6 +25,10 @@ use bycoms_protocol::bus::zenoh::{AliveWatch, ZenohBus};
 use bycoms_protocol::bus::{Bus, BusError};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{NameError, RobotId, Swarm};
+use bycoms_runtime::cli::quiet_iceoryx2;
+use bycoms_runtime::failsafe::Failsafe;
+use bycoms_runtime::lifeline::{ExitCause, Lifeline, LifelineError};
+use bycoms_runtime::{BusOpenError, OnBus};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -68,7 +69,7 @@ pub enum AgentError {
 
 /// Runs one agent with `args`; returns the process exit code.
 pub fn main_with(args: &AgentArgs) -> i32 {
-    super::inherited::close_inherited_files();
+    bycoms_runtime::inherited::close_inherited_files();
     quiet_iceoryx2();
     // Every event of this agent carries its robot id (text: `sim-agent{robot=3}: …`).
     let _span = tracing::info_span!("sim-agent", robot = args.robot).entered();
@@ -90,23 +91,6 @@ pub fn main_with(args: &AgentArgs) -> i32 {
             }
         }
     }
-}
-
-/// The zenoh runtime of our processes (see
-/// [`bycoms_protocol::bus::zenoh::tune_runtime`]), for binaries that reach
-/// zenoh through this crate.
-pub fn tune_zenoh_runtime() {
-    bycoms_protocol::bus::zenoh::tune_runtime();
-}
-
-/// iceoryx2 warns on every process start that it runs without a config
-/// file (by design here: the defaults are what we want). Show only errors,
-/// unless `IOX2_LOG_LEVEL` asks for more; as `tracing` events (target
-/// `iceoryx2`), so they follow `--log-format`.
-pub fn quiet_iceoryx2() {
-    use iceoryx2::prelude::{set_log_level_from_env_or, LogLevel};
-    bycoms_logging::iceoryx2::forward_to_tracing();
-    set_log_level_from_env_or(LogLevel::Error);
 }
 
 /// The terrain's text from `path` (`-`: stdin), checked to parse.

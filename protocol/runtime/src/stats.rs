@@ -3,8 +3,10 @@
 //! Why here: every bench and summary of the project reports medians and
 //! percentiles (the gateway's relay latency, the lab's control jitter, the
 //! launch and study benches, the sweep's budget table), and six copies had
-//! three rules for empty input (NaN, a panic, `None`). This crate is the
-//! one every binary and bench already depends on. Hand-written rather than
+//! three rules for empty input (NaN, a panic, `None`). The runtime is the
+//! one crate every binary and bench can reach, and without features this
+//! module is all of it (no dependencies, not even the protocol's, so the
+//! protocol's own benches use it too). Hand-written rather than
 //! a histogram crate (`hdrhistogram`): the inputs are a few thousand exact
 //! values kept anyway, and an exact rank needs no bucketing.
 //!

@@ -13,9 +13,8 @@
 //! [`OnBus`] (a generic callback: the caller's loop is generic over
 //! [`Bus`], and iceoryx2 and zenoh are two types).
 
-use super::failsafe::{Failsafe, FailsafeArgs};
-use super::options::Transport;
-use super::{ipc_config, zenoh_config};
+use crate::bus_config::{ipc_config, zenoh_config};
+use crate::failsafe::{Failsafe, FailsafeArgs};
 use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::zenoh::{AliveWatch, Mode, ZenohBus, ZenohConfig};
 use bycoms_protocol::bus::{Bus, BusError};
@@ -23,6 +22,37 @@ use bycoms_protocol::naming::Member;
 use bycoms_protocol::Swarm;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
+
+/// The bus every process of a launch talks over.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Transport {
+    /// iceoryx2 shared memory: every process on this host (the default).
+    #[default]
+    Ipc,
+    /// zenoh over tcp or tls: processes on any host; the orchestrator's
+    /// session is the rendezvous (router), agents connect to it.
+    Zenoh,
+    /// The in-memory bus of one process: a launch whose simulated agents
+    /// run as threads of the orchestrator (`transport.kind = "memory"` in a
+    /// launch config; quick tests with no shared memory and no sockets).
+    /// Not a choice for an agent process.
+    #[value(skip)]
+    Memory,
+}
+
+impl Transport {
+    /// The transport's name as on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Ipc => "ipc",
+            Self::Zenoh => "zenoh",
+            Self::Memory => "memory",
+        }
+    }
+}
 
 /// How an agent process reaches the swarm's bus.
 #[derive(Clone, Debug, Default, PartialEq, clap::Args)]

@@ -12,14 +12,14 @@
 //! own pose), runs the core's timers and checks its [`Lifeline`]. A
 //! command therefore waits at most one slice before it goes to the robot.
 
-use crate::core::{GatewayCore, Output};
+use super::core::{GatewayCore, Output};
 use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
-use bycoms_protocol::msg::{AgentKind, FromAgent, Heartbeat, Pose, Register, ToAgent};
+use bycoms_protocol::msg::{FromAgent, Heartbeat, Pose, Register, RobotKind, ToAgent};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{RobotId, Swarm, PROTOCOL_VERSION};
-use bycoms_sim::agent_process::failsafe::{Failsafe, Verdict};
-use bycoms_sim::agent_process::{instance, BadKind, ExitCause, Lifeline, Traffic};
+use bycoms_runtime::failsafe::{Failsafe, Verdict};
+use bycoms_runtime::{instance, BadKind, ExitCause, Lifeline, Traffic};
 use std::io;
 use std::net::UdpSocket;
 use std::time::{Duration, Instant};
@@ -152,7 +152,7 @@ impl<B: Bus> Gateway<B> {
         let robot = self.core.robot();
         let register = Register {
             robot,
-            kind: AgentKind::Real,
+            kind: RobotKind::Real,
             protocol_version: PROTOCOL_VERSION,
             instance: instance(),
             settings: 0,

@@ -11,8 +11,8 @@
 //! time (robot send → bus subscriber woken), which adds one loopback UDP
 //! hop and one bus hop.
 
-use crate::core::{GatewayCore, Timers};
-use crate::run::{Gateway, GatewayPorts};
+use super::core::{GatewayCore, Timers};
+use super::run::{Gateway, GatewayPorts};
 use anyhow::{bail, Context};
 use bycoms_protocol::bus::ipc::{IpcBus, IpcConfig};
 use bycoms_protocol::bus::BusExt;
@@ -21,8 +21,8 @@ use bycoms_protocol::link::{
 };
 use bycoms_protocol::msg::{FromAgent, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_sim::agent_process::{ipc_config, Lifeline};
-use bycoms_sim::stats::quantile;
+use bycoms_runtime::stats::quantile;
+use bycoms_runtime::{ipc_config, Lifeline};
 use std::net::UdpSocket;
 use std::time::{Duration, Instant};
 

@@ -1,11 +1,12 @@
 //! One logging setup shared by every BYCOMS binary (`orchestrator`,
-//! `sim-agent`, and any later gateway): diagnostics are `tracing` events,
-//! written to stderr, filtered by `RUST_LOG`, as text or as JSON lines.
+//! `sim-agent`, `natnet-serve` and the `agent` gateway): diagnostics are
+//! `tracing` events, written to stderr, filtered by `RUST_LOG`, as text or
+//! as JSON lines.
 //!
-//! Why a crate of its own: the binaries live in different crates and a
-//! gateway for real robots should not have to depend on the simulator to
-//! log the same way. Why stderr: stdout carries the programs' results
-//! (summaries, tables, JSON), which must stay parseable.
+//! Why in the runtime: the binaries live in different crates and the
+//! gateway of a real robot must not depend on the simulator to log the
+//! same way. Why stderr: stdout carries the programs' results (summaries,
+//! tables, JSON), which must stay parseable.
 //!
 //! * `RUST_LOG` takes `tracing-subscriber`'s `EnvFilter` syntax
 //!   (`debug`, `bycoms_sim=trace,info`, …). Unset, or for targets it does

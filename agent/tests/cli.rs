@@ -101,3 +101,17 @@ fn sigint_exits_130_like_the_orchestrator() {
     assert!(listening.is_ok(), "the gateway started: {lines:?}");
     assert_eq!(status.and_then(|s| s.code()), Some(130), "{lines:?}");
 }
+
+/// The logging flags go in any position (README, "Logs and shell
+/// completions"), before the `bench` subcommand too; the gateway's own
+/// flags do not go with it.
+#[test]
+fn the_logging_flags_go_before_or_after_the_subcommand() {
+    for args in [["--log-format", "json", "bench", "--help"], ["bench", "--log-format", "json", "--help"]] {
+        let (code, err) = agent(&args);
+        assert_eq!(code, Some(0), "{args:?}: {err}");
+    }
+    let (code, err) = agent(&["--swarm", "s", "bench"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("cannot be used with '--swarm <SWARM>'"), "{err}");
+}

@@ -1,6 +1,7 @@
-//! The `agent` binary: the gateway between one real robot and the bus.
+//! The `agent` binary: the gateway between one real robot and the bus
+//! (feature `gateway`, default).
 //!
-//! A real robot (an ESP32 running `bycoms_agent::firmware`) speaks the
+//! A real robot (an ESP32 running [`crate::firmware`]) speaks the
 //! authenticated UDP link of `protocol/LINK.md`; the orchestrator speaks the
 //! bus. One gateway process per robot owns the robot's UDP link and appears
 //! on the bus exactly like a `sim-agent`, with kind [`Real`]: it registers,
@@ -13,18 +14,19 @@
 //! * [`core`] — the gateway as a sans-IO state machine (datagrams, bus
 //!   commands, poses and `now` in; datagrams and bus reports out);
 //! * [`run`] — the single-threaded loop around it: a UDP socket and the
-//!   iceoryx2 bus;
+//!   bus (iceoryx2, or zenoh from a bridge host);
 //! * [`cli`] — the command line and `main`;
 //! * [`bench`] — `agent bench`: the gateway's added latency.
 //!
-//! Why a crate of its own and not a `std` feature of `bycoms-agent`: the
-//! agent crate is the no_std firmware core and `bycoms-sim` depends on it,
-//! while the gateway reuses `sim-agent`'s process pieces (the lifeline that
-//! forbids orphans, the bus sizing every process of a swarm must share, the
-//! bad-traffic counters) from `bycoms-sim`; inside `bycoms-agent` that would
-//! be a dependency cycle.
+//! Why in `bycoms-agent`, behind a feature: the crate is one robot's
+//! agent — its controller, its firmware core (no_std) and this gateway —
+//! and the no_std build leaves the gateway out. The process pieces it
+//! shares with `sim-agent` (the lifeline that forbids orphans, the bus
+//! flags and sizing every process of a swarm must share, the failsafe, the
+//! bad-traffic counters) are `bycoms_runtime`'s, not the simulator's:
+//! `bycoms-sim` depends on this crate, so the gateway cannot depend on it.
 //!
-//! [`Real`]: bycoms_protocol::msg::AgentKind::Real
+//! [`Real`]: bycoms_protocol::msg::RobotKind::Real
 
 pub mod bench;
 pub mod cli;

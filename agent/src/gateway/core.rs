@@ -3,7 +3,7 @@
 //! Why sans-IO: every rule of the gateway (when the link counts as lost,
 //! when to repeat a goal, what a reboot means) is decided here from
 //! datagrams, bus commands, poses and `now`, so it is unit-tested without
-//! sockets or clocks, and the loop in [`crate::run`] only moves bytes.
+//! sockets or clocks, and the loop in [`super::run`] only moves bytes.
 //!
 //! Rules:
 //! * a hello is answered with a welcome in a fresh random session; the
@@ -22,7 +22,7 @@
 //!   next authentic frame → `Link { up: true }`; refused frames are counted
 //!   and reported at most once a second.
 
-use bycoms_agent::angle::wrap;
+use crate::angle::wrap;
 use bycoms_protocol::link::{DropCounters, MAX_FRAME_LEN};
 use bycoms_protocol::link::{DropReason, GatewayEvent, GatewayLink, LinkKey, Payload, RobotState, SessionId};
 use bycoms_protocol::msg::{FromAgent, LinkStatus, Pose, Status, Telemetry, ToAgent};

@@ -49,7 +49,12 @@ mod tests {
         }
         assert!(kept.iter().all(|f| f.as_raw_fd() > 2));
         let out = std::process::Command::new(std::env::current_exe().expect("test binary"))
-            .args(["--exact", "agent_process::inherited::tests::a_child_closes_what_it_inherited_and_keeps_its_standard_streams", "--nocapture", "--test-threads=1"])
+            .args([
+                "--exact",
+                "inherited::tests::a_child_closes_what_it_inherited_and_keeps_its_standard_streams",
+                "--nocapture",
+                "--test-threads=1",
+            ])
             .env("BYCOMS_INHERITED_CHILD", "1")
             .output()
             .expect("child");

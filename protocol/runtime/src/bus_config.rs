@@ -1,51 +1,10 @@
-//! One simulated robot as its own process: the `sim-agent` binary.
-//!
-//! Why a process per robot: the architecture (`ARCHITECTURE.md`) makes every robot, simulated or
-//! real, an independent agent that is given only its goal bearing and a
-//! local field sample, so the orchestrator cannot tell a simulated robot
-//! from a real one. A `sim-agent` is the simulated robot *and* its
-//! simulated sensors: it listens to the other robots' poses (the sources of
-//! its field), simulates its own body in the terrain, and publishes its pose
-//! as motion capture would.
-//!
-//! * [`core`] — the robot as a sans-IO state machine around
-//!   [`crate::robot::SimRobot`], the same step the in-process runner takes;
-//! * [`run`] — the single-threaded bus loop (lockstep or real time);
-//! * [`lifeline`] — why an agent never outlives the orchestrator;
-//! * [`instance`] — which process speaks for a robot (its `Register`);
-//! * [`failsafe`] — a robot whose orchestrator is gone (zenoh liveliness) stops;
-//! * [`settings`] — the run's settings, their encoding and fingerprint, and
-//!   how an agent over zenoh gets the launch's;
-//! * [`traffic`] — bad messages are counted, never fatal;
-//! * [`options`] / [`cli`] — the command line and `main`;
-//! * [`bus_args`] — the bus flags and the bus of every agent process (the
-//!   gateway's too).
+//! The bus configuration every process of a swarm shares.
 //!
 //! [`ipc_config`] sizes the shared-memory services; every process of one
-//! swarm (orchestrator, agents, test tools) must call it with the same
-//! swarm size, since iceoryx2 services are created by the first process and
-//! opened with the same limits by the others.
-
-pub mod bus_args;
-pub mod cli;
-pub mod core;
-pub mod failsafe;
-pub mod inherited;
-pub mod instance;
-pub mod lifeline;
-pub mod options;
-pub mod run;
-pub mod settings;
-pub mod traffic;
-
-pub use self::core::{AgentCore, Phase, Reject};
-pub use bus_args::{BusArgs, BusOpenError, OnBus};
-pub use cli::{main_with, run_on, AgentError};
-pub use instance::instance;
-pub use lifeline::{ExitCause, Lifeline};
-pub use options::{check_speed, AgentArgs, Clock, Transport, DEFAULT_SETTINGS_TIMEOUT_S, MAX_SPEED};
-pub use settings::RunSettings;
-pub use traffic::{BadKind, Traffic};
+//! swarm (orchestrator, agents, gateways, test tools) must call it with the
+//! same swarm size, since iceoryx2 services are created by the first
+//! process and opened with the same limits by the others. [`zenoh_config`]
+//! is the zenoh session of every process of a launch over zenoh.
 
 use bycoms_protocol::bus::ipc::{IpcConfig, PortLimits};
 use bycoms_protocol::bus::zenoh::{Congestion, Liveness, Mode, ZenohConfig};

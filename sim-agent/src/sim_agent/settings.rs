@@ -115,7 +115,7 @@ impl RunSettings {
     /// Checks the values as the agent's flags are checked.
     pub fn validate(&self) -> Result<(), String> {
         self.run_config().validate().map_err(|e| format!("bad run parameters: {e}"))?;
-        super::options::check_speed(self.speed)?;
+        bycoms_runtime::cli::check_speed(self.speed)?;
         if self.heartbeat_ms == 0 {
             return Err("the heartbeat period must be at least 1 ms".into());
         }
@@ -347,7 +347,7 @@ mod tests {
 
     #[test]
     fn the_speed_counts_under_the_realtime_clock_only() {
-        use crate::agent_process::BusArgs;
+        use bycoms_runtime::BusArgs;
         let args = |clock, speed| AgentArgs {
             swarm: "s".into(),
             robot: 2,

@@ -12,28 +12,15 @@
 //! is [`command`] (with [`parse_from`]), so the round-trip tests below read
 //! the flags with exactly what the binary reads them with.
 
-use super::bus_args::BusArgs;
-use super::failsafe::FailsafeArgs;
 use crate::lab::process::LabArgs;
 use crate::sensing::NoiseModel;
 use crate::RunConfig;
-use bycoms_logging::LogArgs;
-use clap::{Args, Command, FromArgMatches};
+use bycoms_runtime::cli::{check_speed, command_with_subcommand, parse_with_subcommand};
+use bycoms_runtime::failsafe::FailsafeArgs;
+use bycoms_runtime::logging::LogArgs;
+use bycoms_runtime::{BusArgs, Transport};
+use clap::Command;
 use std::path::PathBuf;
-
-/// Fastest real-time speed-up: a control period of 0.1 s / speed must stay
-/// at least 1 µs of wall time (no process keeps up with more; see the
-/// summary's achieved speed for what a machine really does).
-pub const MAX_SPEED: f64 = 100_000.0;
-
-/// The real-time speed-up must be positive, finite and at most [`MAX_SPEED`]
-/// (shared by `launch`, `bench scale` and the agent).
-pub fn check_speed(speed: f64) -> Result<(), String> {
-    if !(speed.is_finite() && speed > 0.0 && speed <= MAX_SPEED) {
-        return Err(format!("the real-time speed-up must be a number in (0, {MAX_SPEED}], got {speed}"));
-    }
-    Ok(())
-}
 
 /// How long an agent without settings flags asks the orchestrator for the
 /// run's settings by default, seconds (`--settings-timeout`).
@@ -59,37 +46,6 @@ impl Clock {
         match self {
             Self::Lockstep => "lockstep",
             Self::Realtime => "realtime",
-        }
-    }
-}
-
-/// The bus every process of a launch talks over.
-#[derive(
-    Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum,
-)]
-#[serde(rename_all = "snake_case")]
-pub enum Transport {
-    /// iceoryx2 shared memory: every process on this host (the default).
-    #[default]
-    Ipc,
-    /// zenoh over tcp or tls: processes on any host; the orchestrator's
-    /// session is the rendezvous (router), agents connect to it.
-    Zenoh,
-    /// The in-memory bus of one process: a launch whose simulated agents
-    /// run as threads of the orchestrator (`transport.kind = "memory"` in a
-    /// launch config; quick tests with no shared memory and no sockets).
-    /// Not a choice for an agent process.
-    #[value(skip)]
-    Memory,
-}
-
-impl Transport {
-    /// The transport's name as on the command line.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Self::Ipc => "ipc",
-            Self::Zenoh => "zenoh",
-            Self::Memory => "memory",
         }
     }
 }
@@ -308,17 +264,8 @@ impl AgentArgs {
 /// and the logging flags at the top level, the emulated lab as the `lab`
 /// subcommand ([`LabArgs`]).
 ///
-/// The robot's flags stay at the top level (the orchestrator spawns
-/// `sim-agent --swarm … --robot …`) next to the `lab` subcommand: one clap
-/// command where a subcommand lifts the top level's required flags
-/// (`subcommand_negates_reqs`) and the two exclude each other
-/// (`args_conflicts_with_subcommands`), so `--help` lists `lab` and
-/// `sim-agent lab --help` has the lab's own usage line. The command is
-/// assembled from the argument structs rather than derived as one struct:
-/// clap's derive cannot leave out a flattened struct that itself flattens
-/// another (the robot's failsafe flags) when the subcommand is used. (The
-/// about lines are set last: `augment_args` applies each struct's doc
-/// comment as the command's about.)
+/// Assembled by [`command_with_subcommand`] (the runtime's, shared with
+/// `agent` and its `bench`), which says how and why.
 pub fn command() -> Command {
     command_with_subcommand::<AgentArgs, LabArgs>(
         "sim-agent",
@@ -349,50 +296,10 @@ where
     Ok((log, chosen.map_or_else(SimAgentRun::Robot, SimAgentRun::Lab)))
 }
 
-/// The command line of a swarm binary `name` (`sim-agent`, `agent`) whose
-/// own flags `M` and the logging flags sit at the top level, next to one
-/// subcommand `sub` with flags `S`: assembled as [`command`] explains.
-pub fn command_with_subcommand<M: Args, S: Args>(
-    name: &'static str,
-    sub: &'static str,
-    version: &'static str,
-    about: &'static str,
-) -> Command {
-    let subcommand = S::augment_args(Command::new(sub));
-    let top = Command::new(name)
-        .args_conflicts_with_subcommands(true)
-        .subcommand_negates_reqs(true)
-        .subcommand(subcommand);
-    LogArgs::augment_args(M::augment_args(top)).version(version).about(about).long_about(None::<&str>)
-}
-
-/// Parses `argv` (`argv[0]` first) with `command` (made by
-/// [`command_with_subcommand`]): the logging flags, and the top level's
-/// flags (`Err`) or the subcommand `sub`'s (`Ok`). Errors carry the usage
-/// line of the command they are about.
-pub fn parse_with_subcommand<M: FromArgMatches, S: FromArgMatches, I, T>(
-    command: fn() -> Command,
-    sub: &str,
-    argv: I,
-) -> Result<(LogArgs, Result<S, M>), clap::Error>
-where
-    I: IntoIterator<Item = T>,
-    T: Into<std::ffi::OsString> + Clone,
-{
-    let matches = command().try_get_matches_from(argv)?;
-    let formatted = |e: clap::Error| e.format(&mut command());
-    let log = LogArgs::from_arg_matches(&matches).map_err(formatted)?;
-    let chosen = match matches.subcommand() {
-        Some((name, flags)) if name == sub => Ok(S::from_arg_matches(flags).map_err(formatted)?),
-        _ => Err(M::from_arg_matches(&matches).map_err(formatted)?),
-    };
-    Ok((log, chosen))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::agent_process::failsafe::OnOrchestratorLost;
+    use bycoms_runtime::failsafe::OnOrchestratorLost;
 
     /// `sim-agent` + `args` as the binary parses them.
     fn run_of(args: Vec<String>) -> SimAgentRun {

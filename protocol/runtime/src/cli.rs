@@ -1,0 +1,166 @@
+//! What the command line and `main` of every swarm binary share: the
+//! real-time speed-up's one check, the assembly and the parser of a command
+//! line whose own flags sit beside one subcommand (`sim-agent` and `sim-agent
+//! lab`, `agent` and `agent bench`), and the set-up of the iceoryx2 and
+//! zenoh libraries in a process of ours.
+
+use crate::logging::LogArgs;
+use clap::error::ErrorKind;
+use clap::parser::ValueSource;
+use clap::{Args, Command, FromArgMatches};
+
+/// Fastest real-time speed-up: a control period of 0.1 s / speed must stay
+/// at least 1 µs of wall time (no process keeps up with more; see the
+/// summary's achieved speed for what a machine really does).
+pub const MAX_SPEED: f64 = 100_000.0;
+
+/// The real-time speed-up must be positive, finite and at most [`MAX_SPEED`]
+/// (shared by `launch`, `bench scale` and the agent).
+pub fn check_speed(speed: f64) -> Result<(), String> {
+    if !(speed.is_finite() && speed > 0.0 && speed <= MAX_SPEED) {
+        return Err(format!("the real-time speed-up must be a number in (0, {MAX_SPEED}], got {speed}"));
+    }
+    Ok(())
+}
+
+/// The command line of a swarm binary `name` (`sim-agent`, `agent`) whose
+/// own flags `M` and the logging flags sit at the top level, next to one
+/// subcommand `sub` with flags `S`.
+///
+/// The top level's flags stay at the top level (launchers start
+/// `sim-agent --swarm … --robot …`) next to the subcommand: one clap
+/// command where a subcommand lifts the top level's required flags
+/// (`subcommand_negates_reqs`) and the two exclude each other (checked by
+/// [`parse_with_subcommand`]), so `--help` lists the subcommand and `NAME
+/// SUB --help` has the subcommand's own usage line. The logging flags are
+/// `global`: they go before or after the subcommand (clap's own
+/// `args_conflicts_with_subcommands` would refuse them before it, as it
+/// refuses any flag there). Assembled
+/// from the argument structs rather than derived as one struct: clap's
+/// derive cannot leave out a flattened struct that itself flattens another
+/// (the bus and failsafe flags) when the subcommand is used. (The about
+/// line is set last: `augment_args` applies each struct's doc comment as
+/// the command's about.)
+pub fn command_with_subcommand<M: Args, S: Args>(
+    name: &'static str,
+    sub: &'static str,
+    version: &'static str,
+    about: &'static str,
+) -> Command {
+    let subcommand = S::augment_args(Command::new(sub));
+    let top = Command::new(name).subcommand_negates_reqs(true).subcommand(subcommand);
+    LogArgs::augment_args(M::augment_args(top)).version(version).about(about).long_about(None::<&str>)
+}
+
+/// Parses `argv` (`argv[0]` first) with `command` (made by
+/// [`command_with_subcommand`]): the logging flags, and the top level's
+/// flags (`Err`) or the subcommand `sub`'s (`Ok`). A top-level flag given
+/// with the subcommand is refused (an argument conflict, as clap's own
+/// check says it); the logging flags, global, are not top-level flags.
+/// Errors carry the usage line of the command they are about.
+pub fn parse_with_subcommand<M: FromArgMatches, S: FromArgMatches, I, T>(
+    command: fn() -> Command,
+    sub: &str,
+    argv: I,
+) -> Result<(LogArgs, Result<S, M>), clap::Error>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let matches = command().try_get_matches_from(argv)?;
+    let formatted = |e: clap::Error| e.format(&mut command());
+    if let Some((name, _)) = matches.subcommand() {
+        // Built: an argument's text (`--robot <ROBOT>`) needs its value count.
+        let mut top = command();
+        top.build();
+        let given = top.get_arguments().find(|arg| {
+            !arg.is_global_set()
+                && matches.value_source(arg.get_id().as_str()) == Some(ValueSource::CommandLine)
+        });
+        if let Some(arg) = given {
+            let text = format!("the subcommand '{name}' cannot be used with '{arg}'");
+            return Err(command().error(ErrorKind::ArgumentConflict, text));
+        }
+    }
+    let log = LogArgs::from_arg_matches(&matches).map_err(formatted)?;
+    let chosen = match matches.subcommand() {
+        Some((name, flags)) if name == sub => Ok(S::from_arg_matches(flags).map_err(formatted)?),
+        _ => Err(M::from_arg_matches(&matches).map_err(formatted)?),
+    };
+    Ok((log, chosen))
+}
+
+/// The zenoh runtime of our processes (see
+/// [`bycoms_protocol::bus::zenoh::tune_runtime`]), for binaries that reach
+/// zenoh through the runtime.
+pub fn tune_zenoh_runtime() {
+    bycoms_protocol::bus::zenoh::tune_runtime();
+}
+
+/// iceoryx2 warns on every process start that it runs without a config
+/// file (by design here: the defaults are what we want). Show only errors,
+/// unless `IOX2_LOG_LEVEL` asks for more; as `tracing` events (target
+/// `iceoryx2`), so they follow `--log-format`.
+pub fn quiet_iceoryx2() {
+    use iceoryx2_log::{set_log_level_from_env_or, LogLevel};
+    crate::logging::iceoryx2::forward_to_tracing();
+    set_log_level_from_env_or(LogLevel::Error);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A top level's flags.
+    #[derive(Debug, PartialEq, clap::Args)]
+    struct Top {
+        #[arg(long)]
+        robot: u32,
+    }
+
+    /// A subcommand's flags.
+    #[derive(Debug, PartialEq, clap::Args)]
+    struct Sub {
+        #[arg(long, default_value_t = 1)]
+        frames: u32,
+    }
+
+    fn command() -> Command {
+        command_with_subcommand::<Top, Sub>("swarm-binary", "sub", "0", "a test")
+    }
+
+    fn parse(args: &[&str]) -> Result<(LogArgs, Result<Sub, Top>), clap::Error> {
+        parse_with_subcommand(command, "sub", std::iter::once("swarm-binary").chain(args.iter().copied()))
+    }
+
+    #[test]
+    fn the_command_is_consistent() {
+        command().debug_assert();
+    }
+
+    #[test]
+    fn the_logging_flags_go_anywhere_and_the_top_level_s_never_with_the_subcommand() {
+        use crate::logging::LogFormat::Json;
+        for args in [
+            &["--log-format", "json", "sub", "--frames", "3"][..],
+            &["sub", "--log-format", "json", "--frames", "3"],
+            &["sub", "--frames", "3", "--log-format", "json"],
+        ] {
+            let (log, chosen) = parse(args).unwrap_or_else(|e| panic!("{args:?}: {e}"));
+            assert_eq!((log.log_format, chosen), (Json, Ok(Sub { frames: 3 })), "{args:?}");
+        }
+        for args in [&["--log-format", "json", "--robot", "2"][..], &["--robot", "2", "--log-format", "json"]]
+        {
+            let (log, chosen) = parse(args).unwrap_or_else(|e| panic!("{args:?}: {e}"));
+            assert_eq!((log.log_format, chosen), (Json, Err(Top { robot: 2 })), "{args:?}");
+        }
+        let err = parse(&["--robot", "2", "sub"]).unwrap_err();
+        assert_eq!(err.kind(), ErrorKind::ArgumentConflict, "{err}");
+        assert!(
+            err.to_string().contains("the subcommand 'sub' cannot be used with '--robot <ROBOT>'"),
+            "{err}"
+        );
+        assert!(parse(&["sub", "--robot", "2"]).is_err(), "the top level's flags are not the subcommand's");
+        assert!(parse(&[]).unwrap_err().to_string().contains("--robot"), "required without the subcommand");
+    }
+}

@@ -1,0 +1,63 @@
+//! What every BYCOMS swarm process shares, in one place that is not the
+//! simulator: the binaries (`orchestrator`, `sim-agent`, `natnet-serve`,
+//! the `agent` gateway) live in different crates, and a real robot's
+//! gateway must not depend on the simulated world to behave like the rest.
+//!
+//! * [`stats`] — the one quantile and median of measured figures (always
+//!   built: no dependencies);
+//! * [`logging`] (feature `logging`) — one logging setup: `tracing` on
+//!   stderr, `RUST_LOG`, `--log-format text|json`, status lines, the text
+//!   of an error;
+//!
+//! and behind `process` (the default) the pieces of a swarm process:
+//!
+//! * [`lifeline`] — why an agent never outlives the orchestrator;
+//! * [`interrupt`] — the one Ctrl-C / SIGTERM / SIGHUP handler of a process;
+//! * [`inherited`] — the files a parent left open, closed first thing;
+//! * [`instance`] — which process speaks for a robot (its `Register`);
+//! * [`failsafe`] — a robot whose orchestrator is gone (zenoh liveliness) stops;
+//! * [`traffic`] — bad messages are counted, never fatal;
+//! * [`bus_args`] — the bus flags and the bus of every agent process
+//!   (`sim-agent`, the `agent` gateway, `sim-agent lab`);
+//! * [`bus_config`] — the iceoryx2 sizing ([`ipc_config`]) and the zenoh
+//!   settings ([`zenoh_config`]) every process of a swarm must share;
+//! * [`cli`] — what every swarm binary's command line and `main` share:
+//!   the speed-up check, a command line with one subcommand, the iceoryx2
+//!   and zenoh set-up.
+#![forbid(unsafe_code)]
+
+#[cfg(feature = "logging")]
+pub mod logging;
+pub mod stats;
+
+#[cfg(feature = "process")]
+pub mod bus_args;
+#[cfg(feature = "process")]
+pub mod bus_config;
+#[cfg(feature = "process")]
+pub mod cli;
+#[cfg(feature = "process")]
+pub mod failsafe;
+#[cfg(feature = "process")]
+pub mod inherited;
+#[cfg(feature = "process")]
+pub mod instance;
+#[cfg(feature = "process")]
+pub mod interrupt;
+#[cfg(feature = "process")]
+pub mod lifeline;
+#[cfg(feature = "process")]
+pub mod traffic;
+
+#[cfg(feature = "process")]
+pub use bus_args::{BusArgs, BusOpenError, OnBus, Transport};
+#[cfg(feature = "process")]
+pub use bus_config::{ipc_config, zenoh_config, BUS_BUFFER, ROBOT_TOPIC_PORTS};
+#[cfg(feature = "process")]
+pub use cli::{check_speed, MAX_SPEED};
+#[cfg(feature = "process")]
+pub use instance::instance;
+#[cfg(feature = "process")]
+pub use lifeline::{ExitCause, Lifeline};
+#[cfg(feature = "process")]
+pub use traffic::{BadKind, Traffic};

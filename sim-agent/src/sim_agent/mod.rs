@@ -1,0 +1,32 @@
+//! One simulated robot as its own process: the `sim-agent` binary.
+//!
+//! Why a process per robot: the architecture (`ARCHITECTURE.md`) makes every robot, simulated or
+//! real, an independent agent that is given only its goal bearing and a
+//! local field sample, so the orchestrator cannot tell a simulated robot
+//! from a real one. A `sim-agent` is the simulated robot *and* its
+//! simulated sensors: it listens to the other robots' poses (the sources of
+//! its field), simulates its own body in the terrain, and publishes its pose
+//! as motion capture would.
+//!
+//! * [`core`] — the robot as a sans-IO state machine around
+//!   [`crate::robot::SimRobot`], the same step the in-process runner takes;
+//! * [`run`] — the single-threaded bus loop (lockstep or real time);
+//! * [`settings`] — the run's settings, their encoding and fingerprint, and
+//!   how an agent over zenoh gets the launch's;
+//! * [`options`] / [`cli`] — the command line and `main`.
+//!
+//! What every swarm process shares (the lifeline, the failsafe, instance
+//! ids, bad-traffic counting, the bus flags and sizing) is not here but in
+//! `bycoms_runtime`, so that the real robot's `agent` gateway shares it
+//! without depending on the simulator.
+
+pub mod cli;
+pub mod core;
+pub mod options;
+pub mod run;
+pub mod settings;
+
+pub use self::core::{AgentCore, Phase, Reject};
+pub use cli::{main_with, run_on, AgentError};
+pub use options::{AgentArgs, Clock, DEFAULT_SETTINGS_TIMEOUT_S};
+pub use settings::RunSettings;
