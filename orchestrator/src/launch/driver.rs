@@ -20,6 +20,7 @@ use super::poses::{PoseSink, PoseSource};
 use super::progress::Progress;
 use super::summary::{Outcome, RealtimeReport, RecordingSummary, RobotEnd, RobotSummary, Summary};
 use super::World;
+use crate::record::schema;
 use bycoms_protocol::msg::{Pose, ToAgent};
 use bycoms_sim::sim_agent::AgentArgs;
 use bycoms_sim::Vec2;
@@ -83,7 +84,7 @@ impl Driver {
         let recorded = ports.recording.is_on();
         if recorded {
             let topic = format!("bycoms/{}/core/setup", template.swarm);
-            ports.recording.bytes(&topic, log::SETUP_SCHEMA, &log::encode_setup(&setup));
+            ports.recording.bytes(&topic, schema::CORE_SETUP, &log::encode_setup(&setup));
         }
         Self {
             core: Logged::new(setup, recorded),
@@ -141,7 +142,7 @@ impl Driver {
         let calls = self.core.take_calls();
         if !calls.is_empty() {
             let topic = format!("bycoms/{}/core/calls", self.template.swarm);
-            self.ports.recording.bytes(&topic, log::CALLS_SCHEMA, &log::encode_calls(&calls));
+            self.ports.recording.bytes(&topic, schema::CORE_CALLS, &log::encode_calls(&calls));
         }
     }
 

@@ -34,8 +34,6 @@ pub const GATE: &str = "bycoms.GateEvent";
 pub const OPERATOR: &str = "bycoms.Deploy";
 
 // The launch core's log (postcard of `launch::core::log`'s types): what the replay re-runs.
-// `launch::core::log` spells these two as well (`SETUP_SCHEMA`, `CALLS_SCHEMA`); a test in
-// `crate::replay` holds the two spellings equal.
 
 /// The launch core's setup (`core/setup`).
 pub const CORE_SETUP: &str = "bycoms.CoreSetup";

@@ -165,17 +165,3 @@ pub fn read_recording(path: &Path) -> Result<Recorded, ReplayError> {
     let run = run.ok_or_else(|| ReplayError::NoRunMeta { path: path.to_path_buf() })?;
     Ok(Recorded { run, entries, stopped_by: end.stopped_by })
 }
-
-#[cfg(test)]
-mod tests {
-    use crate::launch::core::log;
-    use crate::record::schema;
-
-    /// `launch::core::log` spells its schema names too (it is the launch
-    /// core's, and writes them); they must be the recording's.
-    #[test]
-    fn the_core_logs_schema_names_are_the_recordings() {
-        assert_eq!(log::SETUP_SCHEMA, schema::CORE_SETUP);
-        assert_eq!(log::CALLS_SCHEMA, schema::CORE_CALLS);
-    }
-}

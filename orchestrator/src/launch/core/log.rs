@@ -22,10 +22,9 @@ use super::{Core, Ending, Input, Output, Setup};
 use bycoms_protocol::msg::GateEvent;
 use serde::{Deserialize, Serialize};
 
-/// Schema name of the recorded setup (postcard of [`Setup`]).
-pub const SETUP_SCHEMA: &str = "bycoms.CoreSetup";
-/// Schema name of a batch of recorded calls (postcard of `Vec<Call>`).
-pub const CALLS_SCHEMA: &str = "bycoms.CoreCalls";
+// Their schema names in a recording are `record::schema::{CORE_SETUP,
+// CORE_CALLS}` (postcard of [`Setup`], of `Vec<Call>`), the one list of a
+// recording's schema names.
 
 /// One call a shell made on the core.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
