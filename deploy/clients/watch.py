@@ -138,6 +138,8 @@ def decode_from_agent(payload):
         msg = {"kind": "link", "robot": robot, "up": r.boolean(), "silent_ms": r.varint(5), "refused": r.varint(5)}
     elif variant == 6:  # Failsafe (the agent's failsafe stopped its robot)
         msg = {"kind": "failsafe", "robot": robot, "silent_ms": r.varint(5)}
+    elif variant == 7:  # Parked (lockstep: the robot will never move again)
+        msg = {"kind": "parked", "robot": robot, "step": r.varint()}
     else:
         raise DecodeError(f"unknown FromAgent variant {variant}")
     r.finish()

@@ -129,6 +129,30 @@ fn without_faults_lockstep_equals_simulate_bit_for_bit() {
     }
 }
 
+/// A robot that froze says so (`Parked`) and, once the gate has judged it,
+/// gets no more ticks: a long run wakes only the agents whose robots can
+/// still move, and the result stays `simulate`'s (the test above).
+#[test]
+fn a_frozen_robot_gets_no_tick_after_its_verdict() {
+    let mut judged_before_the_end = 0;
+    for seed in 0..216 {
+        let case = Case::small(seed);
+        let report = harness::run(&case, &Schedule::clean(seed, case.robots));
+        assert!(report.ending.is_some(), "seed {seed}: {:?}", report.failure);
+        for (k, (state, _, pose)) in report.robots.iter().enumerate() {
+            if *state != SlotState::Stuck {
+                continue;
+            }
+            let judged = pose.expect("a stuck robot has a pose").step;
+            assert_eq!(report.last_tick[k], Some(judged), "seed {seed} robot {}: its last tick", k + 1);
+            judged_before_the_end += usize::from(judged < report.ticks);
+        }
+    }
+    // Most stuck robots were judged long before their run ended: without
+    // `Parked` each of them would have been ticked to the end.
+    assert!(judged_before_the_end > 100, "only {judged_before_the_end} robots judged before the end");
+}
+
 fn same_run(a: &Report, b: &Report, what: &str) {
     assert_eq!(a.ending, b.ending, "{what}: ending");
     assert_eq!(a.gates, b.gates, "{what}: gate events");

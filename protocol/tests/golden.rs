@@ -96,6 +96,7 @@ fn from_agent() {
     check(FromAgent::Link(link), &[V, 5, 2, 1, 0, 0]);
     let fired = FailsafeFired { robot: RobotId(2), silent_ms: 2100 };
     check(FromAgent::Failsafe(fired), &[V, 6, 2, 0xB4, 0x10]);
+    check(FromAgent::Parked(Parked { robot: RobotId(5), step: 300 }), &[V, 7, 5, 0xAC, 0x02]);
 }
 
 /// f32 little-endian: 0.5, 1.0, 0.25, -0.5.

@@ -115,6 +115,7 @@ fn from_agent() -> impl Strategy<Value = FromAgent> {
         }),
         (robot(), any::<u32>())
             .prop_map(|(robot, silent_ms)| FromAgent::Failsafe(FailsafeFired { robot, silent_ms })),
+        (robot(), any::<u64>()).prop_map(|(robot, step)| FromAgent::Parked(Parked { robot, step })),
     ]
 }
 

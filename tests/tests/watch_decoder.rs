@@ -4,8 +4,8 @@
 //! `python3` (the decoder imports zenoh only in `main`).
 
 use bycoms_protocol::msg::{
-    DriveState, FailsafeFired, FromAgent, GateEvent, GateKind, LinkStatus, Pose, Register, RobotKind, Status,
-    Telemetry,
+    DriveState, FailsafeFired, FromAgent, GateEvent, GateKind, LinkStatus, Parked, Pose, Register, RobotKind,
+    Status, Telemetry,
 };
 use bycoms_protocol::{encode_vec, RobotId, PROTOCOL_VERSION};
 use std::path::PathBuf;
@@ -86,6 +86,12 @@ fn watch_py_decodes_our_messages() {
         hex(&encode_vec(&fired).expect("encode"))
     ));
     assert_eq!(got, "failsafe 5 2100");
+    let parked = FromAgent::Parked(Parked { robot: RobotId(6), step: 300 });
+    let got = python(&format!(
+        "m = watch.decode_from_agent(bytes.fromhex({:?})); print(m['kind'], m['robot'], m['step'])",
+        hex(&encode_vec(&parked).expect("encode"))
+    ));
+    assert_eq!(got, "parked 6 300");
 
     for (kind, printed) in [
         (GateKind::Deployed, "deployed None"),

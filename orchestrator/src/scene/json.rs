@@ -89,6 +89,8 @@ pub enum TelemetryKind {
     Link,
     /// The agent's failsafe stopped its robot.
     Failsafe,
+    /// Lockstep: the robot will never move again (it is ticked no more).
+    Parked,
 }
 
 /// One agent report (the decoded `from_agents` traffic of one robot).
@@ -153,6 +155,10 @@ impl From<&FromAgent> for Telemetry {
                 t.link_up = Some(l.up);
             }
             FromAgent::Failsafe(_) => t.kind = TelemetryKind::Failsafe,
+            FromAgent::Parked(p) => {
+                t.kind = TelemetryKind::Parked;
+                t.step = Some(p.step);
+            }
         }
         t
     }

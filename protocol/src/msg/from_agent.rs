@@ -191,6 +191,20 @@ pub struct FailsafeFired {
     pub silent_ms: u32,
 }
 
+/// Lockstep: the robot will never move again (a simulated body that froze
+/// in an impassable cell, or a robot told to stop), so its last pose
+/// stands for every later step. The orchestrator then ticks it no more
+/// (unless it still watches it): a thousand-robot launch wakes only the
+/// agents whose robots can still move. Sent with the `TickDone` of every
+/// tick it is sent while parked, so a lost copy costs one tick.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Parked {
+    /// The agent's robot.
+    pub robot: RobotId,
+    /// The step of the pose that stands from now on.
+    pub step: u64,
+}
+
 /// Everything an agent tells the orchestrator. (Not `Eq`: telemetry
 /// carries floats.)
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -209,6 +223,8 @@ pub enum FromAgent {
     Link(LinkStatus),
     /// The agent's failsafe stopped its robot.
     Failsafe(FailsafeFired),
+    /// Lockstep: the robot will never move again.
+    Parked(Parked),
 }
 
 impl FromAgent {
@@ -222,6 +238,7 @@ impl FromAgent {
             Self::Telemetry(m) => m.robot,
             Self::Link(m) => m.robot,
             Self::Failsafe(m) => m.robot,
+            Self::Parked(m) => m.robot,
         }
     }
 }

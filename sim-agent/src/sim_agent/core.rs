@@ -27,7 +27,7 @@ use crate::sensing::{robot_seed, SensingNoise};
 use crate::terrain::Terrain;
 use crate::{RunConfig, Vec2};
 use bycoms_agent::Mode;
-use bycoms_protocol::msg::{Beacon, Deploy, GoalBearing, Pose};
+use bycoms_protocol::msg::{Beacon, Deploy, FromAgent, GoalBearing, Parked, Pose, TickDone};
 use bycoms_protocol::RobotId;
 use std::collections::BTreeMap;
 
@@ -129,6 +129,22 @@ impl AgentCore {
     /// Where the robot is in its life.
     pub fn phase(&self) -> Phase {
         self.phase
+    }
+
+    /// Whether the robot will never move again: it froze in an impassable
+    /// cell or was told to stop (a [`bycoms_protocol::msg::Parked`] robot).
+    pub fn parked(&self) -> bool {
+        matches!(self.phase, Phase::Frozen | Phase::Stopped)
+    }
+
+    /// The reports that answer lockstep tick `step` (after its pose):
+    /// `Parked` while the robot will never move again, so the orchestrator
+    /// stops ticking it, then `TickDone`. The agent process and the launch
+    /// harness's virtual agent both answer with these.
+    pub fn tick_answer(&self, step: u64) -> impl Iterator<Item = FromAgent> {
+        let robot = self.id;
+        let parked = self.parked().then_some(FromAgent::Parked(Parked { robot, step }));
+        parked.into_iter().chain([FromAgent::TickDone(TickDone { robot, step })])
     }
 
     /// Control periods stepped since deployment.

@@ -10,7 +10,8 @@
 //! Per control period the agent steps the core, then publishes, in this
 //! order, its pose
 //! (simulated motion capture), a `Status` with its mode (when it stepped)
-//! and, in lockstep, `TickDone`. Publishing is synchronous into shared
+//! and, in lockstep, `Parked` (once its robot froze or was stopped: the
+//! orchestrator then ticks it no more) and `TickDone`. Publishing is synchronous into shared
 //! memory, so once the orchestrator holds `TickDone(t)` the pose of step `t`
 //! is already in its queue.
 //!
@@ -24,7 +25,7 @@ use super::core::{AgentCore, Phase, Reject};
 use super::options::Clock;
 use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
-use bycoms_protocol::msg::{FromAgent, Heartbeat, Pose, Register, RobotKind, Status, TickDone, ToAgent};
+use bycoms_protocol::msg::{FromAgent, Heartbeat, Pose, Register, RobotKind, Status, ToAgent};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{RobotId, Swarm, PROTOCOL_VERSION};
 use bycoms_runtime::failsafe::{Failsafe, Verdict};
@@ -332,7 +333,7 @@ impl<B: Bus> Agent<B> {
                 Clock::Lockstep if t.step <= self.tick => {
                     if t.step == self.tick {
                         self.publish_pose(self.tick)?;
-                        self.report(FromAgent::TickDone(TickDone { robot: self.core.id(), step: t.step }))?;
+                        self.tick_done(t.step)?;
                     } else {
                         tracing::debug!(who = %self.who, step = t.step, at = self.tick, "an old tick, ignored");
                     }
@@ -344,7 +345,7 @@ impl<B: Bus> Agent<B> {
                         self.stats.stale_bearings += 1;
                     }
                     self.period(t.step)?;
-                    self.report(FromAgent::TickDone(TickDone { robot: self.core.id(), step: t.step }))?;
+                    self.tick_done(t.step)?;
                 }
                 Clock::Realtime => {
                     self.stats.traffic.count(&self.who, BadKind::Refused, &"Tick on a real-time agent");
@@ -373,6 +374,14 @@ impl<B: Bus> Agent<B> {
         if stepped {
             let status = Status { robot: self.core.id(), mode: self.core.mode() as u8, step };
             self.report(FromAgent::Status(status))?;
+        }
+        Ok(())
+    }
+
+    /// Answers lockstep tick `step` ([`AgentCore::tick_answer`]).
+    fn tick_done(&mut self, step: u64) -> Result<(), BusError> {
+        for report in self.core.tick_answer(step) {
+            self.report(report)?;
         }
         Ok(())
     }

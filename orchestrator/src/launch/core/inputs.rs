@@ -77,6 +77,7 @@ impl Core {
             FromAgent::Register(_) if registered => {}
             FromAgent::Register(r) => {
                 slot.instance = Some(r.instance);
+                slot.parked = false;
                 slot.registered_before_tick = Some(ticks_started);
                 slot.registered_at = Some(now);
                 if slot.state == SlotState::Spawned {
@@ -98,6 +99,12 @@ impl Core {
             }
             FromAgent::Heartbeat(_) => {}
             FromAgent::Status(s) => slot.mode = s.mode,
+            // Only a deployed robot can be parked: an agent that says so
+            // before would miss the ticks that number its start pose.
+            FromAgent::Parked(_) => {
+                slot.parked |=
+                    matches!(slot.state, SlotState::Moving | SlotState::Stuck | SlotState::Arrived);
+            }
             FromAgent::TickDone(t) => {
                 if let Some(tick) = self.tick.as_mut().filter(|_| Some(t.step) == current) {
                     tick.awaiting.remove(&id);

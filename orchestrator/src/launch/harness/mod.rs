@@ -139,6 +139,8 @@ pub struct Report {
     pub bad: u64,
     /// Ticks each robot's agent stepped.
     pub stepped: Vec<u64>,
+    /// The last `Tick` that reached each robot's agent (none: never one).
+    pub last_tick: Vec<Option<u64>>,
     /// Deployments each robot got (agents that took a `Deploy`).
     pub deploys_sent: Vec<u64>,
     /// Robots that registered after their turn was skipped.

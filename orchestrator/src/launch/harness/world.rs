@@ -65,6 +65,7 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             end_us: 0,
             bad: 0,
             stepped: vec![0; n],
+            last_tick: vec![None; n],
             deploys_sent: vec![0; n],
             late: Vec::new(),
             gate_times_us: Vec::new(),
@@ -420,6 +421,9 @@ impl World<'_> {
                     let before = a.stepped;
                     a.command(&cmd, &mut sent);
                     self.report.stepped[id as usize - 1] += a.stepped - before;
+                    if let (ToAgent::Tick(t), true) = (&cmd, a.alive) {
+                        self.report.last_tick[id as usize - 1] = Some(t.step);
+                    }
                 }
                 for imp in self.impostors.iter_mut().filter(|a| a.id() == id) {
                     imp.command(&cmd, &mut Vec::new());

@@ -1,7 +1,8 @@
 //! A lost `Register` is made good: the agent repeats it with every
 //! heartbeat until the orchestrator has sent it something, and then stops.
 //! A repeated `Tick` or `Deploy` (re-sent across a cut link) is answered
-//! again and never stepped twice.
+//! again and never stepped twice. A robot that will never move again says
+//! so (`Parked`) with every tick it still gets.
 
 use super::*;
 use crate::terrain::Terrain;
@@ -129,6 +130,63 @@ fn a_repeated_tick_or_deploy_is_answered_again_without_stepping() {
     commands.publish(&ToAgent::Tick(Tick { step: 2 })).expect("tick 2");
     assert_eq!(next_tick_done(&reports), 2);
     assert_eq!(next_pose(&poses).step, 2);
+    commands.publish(&ToAgent::Shutdown).expect("shutdown");
+    assert_eq!(agent.join().expect("agent thread").expect("agent run"), ExitCause::Shutdown);
+}
+
+/// The reports up to and with the next `TickDone`, heartbeats and
+/// statuses left out (panics after 10 s).
+fn reports_of_a_tick(
+    reports: &TypedSubscriber<impl bycoms_protocol::bus::Subscribe, FromAgent>,
+) -> Vec<FromAgent> {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let mut got = Vec::new();
+    loop {
+        assert!(Instant::now() < deadline, "no TickDone within 10 s (got {got:?})");
+        match reports.recv_timeout(Duration::from_millis(50)).expect("receive") {
+            Some(FromAgent::Heartbeat(_) | FromAgent::Status(_) | FromAgent::Register(_)) | None => {}
+            Some(done @ FromAgent::TickDone(_)) => {
+                got.push(done);
+                return got;
+            }
+            Some(other) => got.push(other),
+        }
+    }
+}
+
+#[test]
+fn a_stopped_robot_says_it_is_parked_with_every_tick_it_still_gets() {
+    use bycoms_protocol::msg::{Deploy, GoalBearing};
+    let bus = MemoryBus::new(Limits::default()).expect("memory bus");
+    let swarm = Swarm::new("parked").expect("swarm name");
+    let reports = bus.typed_subscriber::<FromAgent>(&swarm.from_agent(RobotId(1))).expect("reports");
+    let poses = bus.typed_subscriber::<Pose>(&swarm.pose(RobotId(1))).expect("poses");
+    let (commands, agent) = start_agent(&bus, &swarm, Duration::from_millis(50));
+    let deploy = Deploy { robot: RobotId(1), x: 15.5, y: 15.5, heading: 0.7 };
+    commands.publish(&ToAgent::Deploy(deploy)).expect("deploy");
+    next_pose(&poses);
+    let tick = |step| {
+        let bearing = GoalBearing { robot: RobotId(1), bearing: 0.7, step };
+        commands.publish(&ToAgent::GoalBearing(bearing)).expect("bearing");
+        commands.publish(&ToAgent::Tick(Tick { step })).expect("tick");
+    };
+    let done = |step| FromAgent::TickDone(TickDone { robot: RobotId(1), step });
+    let parked = |step| FromAgent::Parked(Parked { robot: RobotId(1), step });
+    // Moving: no `Parked`.
+    tick(1);
+    assert_eq!(reports_of_a_tick(&reports), vec![done(1)]);
+    let moving = next_pose(&poses);
+    commands.publish(&ToAgent::Stop).expect("stop");
+    // Stopped: `Parked` before each `TickDone`, and the pose stands.
+    for step in [2, 3] {
+        tick(step);
+        assert_eq!(reports_of_a_tick(&reports), vec![parked(step), done(step)]);
+        let pose = next_pose(&poses);
+        assert_eq!((pose.x, pose.y, pose.heading, pose.step), (moving.x, moving.y, moving.heading, step));
+    }
+    // A repeated tick of a parked robot is answered the same way.
+    tick(3);
+    assert_eq!(reports_of_a_tick(&reports), vec![parked(3), done(3)]);
     commands.publish(&ToAgent::Shutdown).expect("shutdown");
     assert_eq!(agent.join().expect("agent thread").expect("agent run"), ExitCause::Shutdown);
 }
