@@ -195,6 +195,17 @@ pub trait Subscribe {
     /// Ctrl-C flag gets looked at promptly); callers loop on their deadline.
     fn recv_timeout_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError>;
 
+    /// [`Subscribe::recv_timeout_into`] for a reader that expects nothing
+    /// soon (a parked robot's agent, which only waits for `Shutdown`): no
+    /// busy-wait first, and on a backend that sleeps until notified, one
+    /// sleep up to `timeout` instead of short slices. A thousand idle
+    /// readers then cost the machine almost nothing; a message from a
+    /// publisher that does not notify is seen by the timeout. The default
+    /// is `recv_timeout_into`.
+    fn recv_idle_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError> {
+        self.recv_timeout_into(buf, timeout)
+    }
+
     /// [`Subscribe::try_recv_into`] into a new vector.
     fn try_recv(&self) -> Result<Option<Vec<u8>>, BusError> {
         let mut buf = vec![0u8; self.max_payload()];

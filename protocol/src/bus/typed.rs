@@ -70,6 +70,16 @@ impl<S: Subscribe, M: Message> TypedSubscriber<S, M> {
         }
     }
 
+    /// [`TypedSubscriber::recv_timeout`] for a reader that expects nothing
+    /// soon ([`Subscribe::recv_idle_into`]).
+    pub fn recv_idle(&self, timeout: Duration) -> Result<Option<M>, BusError> {
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        match self.inner.recv_idle_into(&mut buf, timeout)? {
+            Some(n) => Ok(Some(decode(&buf[..n])?)),
+            None => Ok(None),
+        }
+    }
+
     /// The byte subscriber underneath.
     pub fn inner(&self) -> &S {
         &self.inner

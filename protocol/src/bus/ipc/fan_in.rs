@@ -145,7 +145,7 @@ impl<S: IoxService> IpcFanIn<S> {
                 }
             }
             Waker::Poll { .. } => {
-                let slept = self.waker.sleep(&self.bell, left, poll_sleep);
+                let slept = self.waker.sleep(&self.bell, left, poll_sleep, false);
                 self.round.set(true);
                 slept
             }

@@ -388,6 +388,17 @@ pub(super) fn event_wait(left: Duration) -> Duration {
     left.clamp(MIN_EVENT_WAIT, EVENT_WAIT_SLICE)
 }
 
+/// The timeout of one sleep on an event listener: [`event_wait`], or for an
+/// `idle` reader ([`Subscribe::recv_idle_into`]) all of `left` in one sleep
+/// (still at least [`MIN_EVENT_WAIT`]).
+fn listener_wait(left: Duration, idle: bool) -> Duration {
+    if idle {
+        left.max(MIN_EVENT_WAIT)
+    } else {
+        event_wait(left)
+    }
+}
+
 /// How a sleep of [`IpcSubscriber::sleep`] ended.
 pub(super) enum Slept {
     /// Woken by a notification or the timeout: look again.
@@ -407,18 +418,23 @@ pub struct IpcSubscriber<S: IoxService> {
 impl<S: IoxService> Waker<S> {
     /// Sleeps until a notification or for at most `left` (`left` > 0);
     /// `poll_sleep` is [`Wake::Poll`]'s current step.
+    /// An `idle` sleep on the event listener is not cut into
+    /// [`EVENT_WAIT_SLICE`]s ([`Subscribe::recv_idle_into`]).
     pub(super) fn sleep(
         &self,
         topic: &TopicName,
         left: Duration,
         poll_sleep: &mut Duration,
+        idle: bool,
     ) -> Result<Slept, BusError> {
         match self {
-            Waker::Event { listener, .. } => match listener.get()?.timed_wait(|_| {}, event_wait(left)) {
-                Ok(_) => Ok(Slept::Again),
-                Err(ListenerWaitError::InterruptSignal) => Ok(Slept::Interrupted),
-                Err(e) => Err(BusError::backend("wait for event", Some(topic), e)),
-            },
+            Waker::Event { listener, .. } => {
+                match listener.get()?.timed_wait(|_| {}, listener_wait(left, idle)) {
+                    Ok(_) => Ok(Slept::Again),
+                    Err(ListenerWaitError::InterruptSignal) => Ok(Slept::Interrupted),
+                    Err(e) => Err(BusError::backend("wait for event", Some(topic), e)),
+                }
+            }
             Waker::Poll { max_sleep, .. } => {
                 std::thread::sleep((*poll_sleep).min(left));
                 *poll_sleep = (*poll_sleep * 2).min(*max_sleep);
@@ -446,8 +462,16 @@ impl<S: IoxService> Subscribe for IpcSubscriber<S> {
             // Listen before looking, so nothing sent after the look is slept through.
             listener.get()?;
         }
-        let sleep = |left, poll_sleep: &mut Duration| self.waker.sleep(&self.topic, left, poll_sleep);
+        let sleep = |left, poll_sleep: &mut Duration| self.waker.sleep(&self.topic, left, poll_sleep, false);
         wait_for(self.waker.spin(), buf, timeout, |buf| self.try_recv_into(buf), sleep)
+    }
+
+    fn recv_idle_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError> {
+        if let Waker::Event { listener, .. } = &self.waker {
+            listener.get()?;
+        }
+        let sleep = |left, poll_sleep: &mut Duration| self.waker.sleep(&self.topic, left, poll_sleep, true);
+        wait_for(Duration::ZERO, buf, timeout, |buf| self.try_recv_into(buf), sleep)
     }
 }
 
@@ -599,7 +623,7 @@ mod tests {
                 for ns in [1, 500, 999] {
                     let mut poll = POLL_FIRST_SLEEP;
                     results.push(matches!(
-                        sub.waker.sleep(&sub.topic, Duration::from_nanos(ns), &mut poll),
+                        sub.waker.sleep(&sub.topic, Duration::from_nanos(ns), &mut poll, false),
                         Ok(Slept::Again)
                     ));
                 }
@@ -625,6 +649,49 @@ mod tests {
         waiter.join().expect("waiter thread");
         let results = outcome.expect("checked above");
         assert_eq!(results, vec![true, true, true], "every wait ended without error");
+    }
+
+    #[test]
+    fn an_idle_reader_sleeps_once_for_the_whole_wait() {
+        let ms = Duration::from_millis;
+        assert_eq!(listener_wait(ms(50), true), ms(50));
+        assert_eq!(listener_wait(ms(50), false), EVENT_WAIT_SLICE);
+        assert_eq!(listener_wait(ms(5), false), ms(5));
+        assert_eq!(listener_wait(Duration::from_nanos(10), true), MIN_EVENT_WAIT);
+        assert_eq!(listener_wait(Duration::from_nanos(10), false), MIN_EVENT_WAIT);
+    }
+
+    /// An idle wait is still ended by a notification: a message sent while
+    /// a reader waits for a minute idly reaches it at once.
+    #[test]
+    fn an_idle_wait_is_woken_by_a_message() {
+        let iso = Isolated::new("idlewait");
+        let config = IpcConfig { isolation: Some(iso.tag().to_owned()), ..IpcConfig::default() };
+        let topic = TopicName::parse("bycoms/idlewait/wait").expect("valid topic");
+        let (waiting_tx, waiting_rx) = mpsc::channel();
+        let (done_tx, done_rx) = mpsc::channel();
+        let reader = {
+            let config = config.clone();
+            std::thread::spawn(move || {
+                let bus = IpcBus::new(config).expect("iceoryx2 node");
+                let sub = bus.subscriber(&topic).expect("subscriber");
+                let mut buf = [0u8; 16];
+                // Listening before the publisher exists: nothing to take yet.
+                assert_eq!(sub.try_recv_into(&mut buf).expect("look"), None);
+                waiting_tx.send(()).expect("main thread waits");
+                let got = sub.recv_idle_into(&mut buf, Duration::from_secs(60)).expect("idle wait");
+                let _ = done_tx.send(got.map(|n| buf[..n].to_vec()));
+            })
+        };
+        waiting_rx.recv_timeout(Duration::from_secs(30)).expect("the reader opens");
+        let bus = IpcBus::new(config).expect("iceoryx2 node");
+        let publisher = bus.publisher(&topic).expect("publisher");
+        publisher.publish(b"shutdown").expect("publish");
+        let got = done_rx
+            .recv_timeout(Duration::from_secs(20))
+            .expect("the idle reader was not woken by the message within 20 s of its 60 s wait");
+        assert_eq!(got.as_deref(), Some(&b"shutdown"[..]));
+        reader.join().expect("reader thread");
     }
 
     /// A reader takes a slot of its doorbell's listeners only when it first
