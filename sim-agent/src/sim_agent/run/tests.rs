@@ -156,7 +156,7 @@ fn reports_of_a_tick(
 
 #[test]
 fn a_stopped_robot_says_it_is_parked_with_every_tick_it_still_gets() {
-    use bycoms_protocol::msg::{Deploy, GoalBearing};
+    use bycoms_protocol::msg::{Deploy, GoalBearing, Parked, TickDone};
     let bus = MemoryBus::new(Limits::default()).expect("memory bus");
     let swarm = Swarm::new("parked").expect("swarm name");
     let reports = bus.typed_subscriber::<FromAgent>(&swarm.from_agent(RobotId(1))).expect("reports");
