@@ -61,7 +61,7 @@ use bycoms_sim::sim_agent::AgentArgs;
 use bycoms_sim::terrain::to_text;
 use bycoms_sim::{run, RunConfig, RunResult};
 use bycoms_tests::netns::{not_permitted, Star, PORT};
-use bycoms_tests::{agents_of, bin, is_zombie, swarm_name, wait_for, Finished, Proc};
+use bycoms_tests::{agents_of, bin, is_zombie, simulate_differences, swarm_name, wait_for, Finished, Proc};
 use nix::sys::resource::{getrlimit, setrlimit, Resource};
 use serde_json::Value;
 use std::collections::BTreeMap;
@@ -120,7 +120,8 @@ impl Launch {
         }
         let (out, clock) = timed(Proc::orchestrator(&args));
         let summary = summary(out);
-        let agents = summary["robots"].as_array().map_or(0, |r| r.iter().filter(|r| !r["pid"].is_null()).count());
+        let agents =
+            summary["robots"].as_array().map_or(0, |r| r.iter().filter(|r| !r["pid"].is_null()).count());
         Launched { summary, agents, clock }
     }
 
@@ -228,41 +229,12 @@ fn summary(out: Finished) -> Value {
         static KEPT: AtomicU32 = AtomicU32::new(0);
         let n = KEPT.fetch_add(1, Ordering::SeqCst);
         let log = std::env::temp_dir().join(format!("remote_crowd-{}-{n}.log", std::process::id()));
-        let kept = std::fs::write(&log, &out.stderr).map_or("not kept".into(), |()| log.display().to_string());
+        let kept =
+            std::fs::write(&log, &out.stderr).map_or("not kept".into(), |()| log.display().to_string());
         let lines: Vec<&str> = out.stderr.lines().collect();
         let tail = lines[lines.len().saturating_sub(5)..].join("\n");
         panic!("no summary ({e}; {}); its log: {kept}, ending:\n{tail}", out.status)
     })
-}
-
-/// How the launch's summary `j` differs from the in-process result.
-fn differences(expected: &RunResult, j: &Value) -> Vec<String> {
-    let mut found = Vec::new();
-    if let Some(error) = j["error"].as_str() {
-        found.push(format!("the launch's error: {error}"));
-    }
-    let mut check = |what: String, got: &Value, want: Value| {
-        if *got != want {
-            found.push(format!("{what}: {got}, simulate {want}"));
-        }
-    };
-    check("outcome".into(), &j["outcome"], serde_json::to_value(expected.outcome).expect("serialisable"));
-    check("steps".into(), &j["steps"], expected.steps.into());
-    check("robots used".into(), &j["robots_used"], expected.robots_used.into());
-    // The summary lists every robot of the launch, the deployed first.
-    let robots = j["robots"].as_array().map(Vec::as_slice).unwrap_or_default();
-    let deployed = robots.iter().take_while(|r| r["end"] != "not_deployed").count();
-    check("robots deployed".into(), &deployed.into(), expected.robots.len().into());
-    for (r, got) in expected.robots.iter().zip(robots) {
-        let id = r.id;
-        check(format!("robot {id} end"), &got["end"], serde_json::to_value(r.end).expect("serialisable"));
-        check(format!("robot {id} x"), &got["x_bits"], r.position.x.to_bits().into());
-        check(format!("robot {id} y"), &got["y_bits"], r.position.y.to_bits().into());
-        check(format!("robot {id} steps"), &got["steps"], r.steps.into());
-    }
-    let never = robots.iter().skip(deployed).filter(|r| r["end"] == "not_deployed").count();
-    check("robots never deployed".into(), &never.into(), (robots.len() - deployed).into());
-    found
 }
 
 /// One set-up's launch, or why it gave none.
@@ -302,7 +274,7 @@ fn table(expected: &RunResult, rows: &[Row]) -> Vec<String> {
                 continue;
             }
         };
-        let diff = differences(expected, j);
+        let diff = simulate_differences(expected, j);
         let n = j["ticks"].as_u64().unwrap_or(0);
         let wall = j["wall_s"].as_f64().unwrap_or(f64::NAN);
         let moving = j["first_moving_s"].as_f64().unwrap_or(f64::NAN);
