@@ -100,6 +100,27 @@ fn tokens_appear_and_disappear_across_sessions() {
     assert_eq!(watch.recv_timeout(Duration::from_millis(100)), None);
 }
 
+/// An agent's watch of the orchestrator alone (its failsafe's): the
+/// orchestrator's token comes and goes, the other agents' are not sent to
+/// it (each agent watching every token is N² deliveries in a swarm of N).
+#[test]
+fn a_watch_of_one_member_sees_that_member_alone() {
+    let (router, endpoint) = router();
+    let peer = peer_of(&endpoint);
+    let s = swarm("one");
+    let _agent = router.declare_alive(&s, Member::Agent(RobotId(1))).expect("token");
+    let watch = peer.watch_alive_of(&s, Member::Orchestrator).expect("watch");
+    let _other = router.declare_alive(&s, Member::Agent(RobotId(2))).expect("token");
+    let orchestrator = router.declare_alive(&s, Member::Orchestrator).expect("token");
+    let (alive, other) = watch.wait_for(Member::Orchestrator, Presence::Alive, WAIT);
+    assert!(alive.is_some(), "the orchestrator never seen alive; saw {other:?}");
+    drop(orchestrator);
+    let (lost, more) = watch.wait_for(Member::Orchestrator, Presence::Lost, WAIT);
+    assert!(lost.is_some(), "the orchestrator never seen lost; saw {more:?}");
+    assert!(other.is_empty() && more.is_empty(), "agents' tokens seen: {other:?} {more:?}");
+    assert_eq!(watch.recv_timeout(Duration::from_millis(100)), None);
+}
+
 #[test]
 fn a_late_watcher_sees_tokens_declared_before_it() {
     let (router, endpoint) = router();

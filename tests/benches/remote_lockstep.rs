@@ -22,8 +22,8 @@ use bycoms_orchestrator::scenario::{load, WorldSource};
 use bycoms_runtime::{BusArgs, Transport};
 use bycoms_sim::sim_agent::AgentArgs;
 use bycoms_sim::terrain::to_text;
-use bycoms_tests::netns::{not_permitted, Host, TwoHosts};
-use bycoms_tests::{bin, swarm_name, Proc};
+use bycoms_tests::netns::{not_permitted, TwoHosts};
+use bycoms_tests::{swarm_name, Proc};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -50,13 +50,6 @@ fn loopback(terrain: &str, zenoh: bool) -> Value {
     Proc::orchestrator(&args).wait(WAIT).json()
 }
 
-fn start_in(host: &Host, program: &str, args: &[&str]) -> Proc {
-    let mut all: Vec<String> = vec!["netns".into(), "exec".into(), host.netns.clone()];
-    all.push(bin(program).display().to_string());
-    all.extend(args.iter().map(|s| s.to_string()));
-    Proc::start(&PathBuf::from("ip"), &all)
-}
-
 /// One remote-agents launch across two namespaces.
 fn two_hosts(terrain: &str) -> Value {
     let hosts = TwoHosts::create("bench-lockstep").expect("namespaces");
@@ -64,7 +57,7 @@ fn two_hosts(terrain: &str) -> Value {
     let listen = hosts.a.endpoint(0);
     let mut args = launch_args(&swarm, terrain);
     args.extend(["--agents", "remote", "--transport", "zenoh", "--listen", &listen]);
-    let orch = start_in(&hosts.a, "orchestrator", &args);
+    let orch = hosts.a.start("orchestrator", &args);
     let endpoint = orch.logged_endpoint(&format!("tcp/{}:", hosts.a.addr), Duration::from_secs(30));
     let agents: Vec<Proc> = (1..=3)
         .map(|k| {
@@ -80,7 +73,7 @@ fn two_hosts(terrain: &str) -> Value {
                 ..AgentArgs::new(&swarm, k)
             };
             let flags = agent.to_flags();
-            start_in(&hosts.b, "sim-agent", &flags.iter().map(String::as_str).collect::<Vec<_>>())
+            hosts.b.start("sim-agent", &flags.iter().map(String::as_str).collect::<Vec<_>>())
         })
         .collect();
     let j = orch.wait(WAIT).json();

@@ -280,3 +280,40 @@ pub const TEST_KEYS: [&str; 3] = [
 pub fn free_udp_port() -> std::net::SocketAddr {
     std::net::UdpSocket::bind(("127.0.0.1", 0)).and_then(|s| s.local_addr()).expect("a free UDP port")
 }
+
+/// How a launch's `--json` summary `j` differs from `expected`, the
+/// in-process run (`bycoms_sim::run`) of the same world and settings: the
+/// launch's error if it has one, outcome, total steps, robots used, then
+/// robot by robot (the summary lists the deployed first, in order) its
+/// end, its final position bit for bit (`x_bits`/`y_bits` against
+/// `f64::to_bits`) and its active steps; every robot listed after those
+/// never deployed. Empty when the two are the same.
+pub fn simulate_differences(expected: &bycoms_sim::RunResult, j: &Value) -> Vec<String> {
+    let mut found = Vec::new();
+    if let Some(error) = j["error"].as_str() {
+        found.push(format!("the launch's error: {error}"));
+    }
+    let mut check = |what: String, got: &Value, want: Value| {
+        if *got != want {
+            found.push(format!("{what}: {got}, simulate {want}"));
+        }
+    };
+    check("outcome".into(), &j["outcome"], serde_json::to_value(expected.outcome).expect("serialisable"));
+    check("steps".into(), &j["steps"], expected.steps.into());
+    check("robots used".into(), &j["robots_used"], expected.robots_used.into());
+    let robots = j["robots"].as_array().map(Vec::as_slice).unwrap_or_default();
+    for (r, got) in expected.robots.iter().zip(robots) {
+        let id = r.id;
+        check(format!("robot {id} end"), &got["end"], serde_json::to_value(r.end).expect("serialisable"));
+        check(format!("robot {id} x"), &got["x_bits"], r.position.x.to_bits().into());
+        check(format!("robot {id} y"), &got["y_bits"], r.position.y.to_bits().into());
+        check(format!("robot {id} steps"), &got["steps"], r.steps.into());
+    }
+    for got in robots.iter().skip(expected.robots.len()) {
+        check(format!("robot {} end", got["id"]), &got["end"], "not_deployed".into());
+    }
+    if robots.len() < expected.robots.len() {
+        found.push(format!("{} robots listed, simulate deployed {}", robots.len(), expected.robots.len()));
+    }
+    found
+}

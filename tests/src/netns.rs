@@ -1,15 +1,18 @@
-//! Two "hosts" on one machine: Linux network namespaces joined by a veth
-//! pair, for tests and benchmarks of what crosses a network (zenoh
-//! sessions, liveliness, partitions).
+//! "Hosts" on one machine: Linux network namespaces joined by veth pairs,
+//! for tests and benchmarks of what crosses a network (zenoh sessions,
+//! liveliness, partitions): [`TwoHosts`], two namespaces on one link, and
+//! [`Star`], a hub (the orchestrator's host) with N spokes (agent hosts),
+//! one link each; `TwoHosts` is the one-spoke star.
 //!
 //! Why namespaces: each namespace has its own interfaces, addresses and
 //! routes, so a process started inside one (`ip netns exec`) talks to the
 //! other only over the veth link, exactly as two hosts over a cable — and
 //! the test can cut that cable (`ip link set … down`) and plug it back in.
 //! Nothing touches the machine's real interfaces: the veth ends live only
-//! inside the two namespaces, with private addresses `10.231.N.1/30` and
-//! `10.231.N.2/30` (N per pair; the namespaces are isolated, so pairs of
-//! parallel tests never see each other).
+//! inside the namespaces, with private addresses `10.231.N.1/30` and
+//! `10.231.N.2/30` (N per star; link k of a star has `10.231.N.4k+1/30`
+//! and `…4k+2/30`; the namespaces are isolated, so the hosts of parallel
+//! tests never see each other).
 //!
 //! Why `ip` (iproute2) and not netlink from Rust: it is the tool every
 //! admin reads, its errors are clear, and a test creates a handful of
@@ -18,11 +21,12 @@
 //! is not available on every CI kernel); for TCP that is silence, as on a
 //! cut cable: established sockets stay open, packets go nowhere.
 //!
-//! Clean-up: names are unique per test process (`bycoms-<pid>-<n>-a`);
-//! [`TwoHosts`] kills every process still inside its namespaces and
-//! deletes them on drop, also when the test panics. Namespaces left by a
-//! test process that was killed (no drop ran) are removed by the next
-//! [`TwoHosts::create`] once their pid is gone.
+//! Clean-up: names are unique per test process (`bycoms-<pid>-<n>-a` for
+//! the hub, `-b`, `-c`, … for the spokes); [`Star`] (and so [`TwoHosts`])
+//! kills every process still inside its namespaces and deletes them on
+//! drop, also when the test panics. Namespaces left by a test process
+//! that was killed (no drop ran) are removed by the next
+//! [`Star::create`] once their pid is gone.
 //!
 //! The tests that use namespaces are `#[ignore = "needs root …"]`; where
 //! they are asked for and namespaces are not permitted (not root, no `ip`),
@@ -139,65 +143,144 @@ impl Host {
     }
 }
 
-/// Two namespaces `a` and `b` joined by one veth link; removed on drop.
+/// One veth link between two namespaces: `hub` and `spoke` are its two
+/// ends, each a [`Host`] (its namespace, its veth end, its address).
+#[derive(Clone, Debug)]
+pub struct Link {
+    /// The hub's end (`10.231.N.4k+1/30` for the hub's k-th link).
+    pub hub: Host,
+    /// The spoke's end (`10.231.N.4k+2/30`).
+    pub spoke: Host,
+}
+
+impl Link {
+    /// Cuts the link (both ends down): from now on nothing crosses it.
+    pub fn cut(&self) -> Result<(), NetnsError> {
+        self.hub.set_link("down")?;
+        self.spoke.set_link("down")
+    }
+
+    /// Plugs the link back in (both ends up).
+    pub fn restore(&self) -> Result<(), NetnsError> {
+        self.hub.set_link("up")?;
+        self.spoke.set_link("up")
+    }
+}
+
+/// N+1 hosts: a hub (the orchestrator's namespace) and N spokes (the agent
+/// hosts), each spoke joined to the hub by its own veth link with its own
+/// `/30`, as hosts each cabled to one machine with several interfaces. The
+/// spokes reach only the hub (no routes between them: agents talk to the
+/// orchestrator only). Removed on drop, as [`TwoHosts`] (its one-spoke
+/// case).
+///
+/// Link k (0-based) is `links[k]`: the hub's end `10.231.N.4k+1`, spoke
+/// k's `10.231.N.4k+2`. The hub is one namespace seen from each of its
+/// links (every `links[k].hub` has the same `netns`): start a process in
+/// it with [`Star::hub`]; a spoke reaches it at `links[k].hub.endpoint(…)`.
+pub struct Star {
+    /// One link per spoke, in order.
+    pub links: Vec<Link>,
+}
+
+impl Star {
+    /// Most spokes a star may have (namespaces `…-b` to `…-z`).
+    pub const MAX_SPOKES: usize = 25;
+
+    /// Creates the hub, `spokes` spokes (1 to [`Star::MAX_SPOKES`]; panics
+    /// otherwise), one veth pair per spoke and the addresses, links up.
+    pub fn create(tag: &str, spokes: usize) -> Result<Self, NetnsError> {
+        static NEXT: AtomicU32 = AtomicU32::new(0);
+        assert!((1..=Self::MAX_SPOKES).contains(&spokes), "a star has 1 to 25 spokes, not {spokes}");
+        remove_leftovers();
+        let pid = std::process::id();
+        let n = NEXT.fetch_add(1, Ordering::SeqCst);
+        // Interface names are at most 15 bytes: "bc" + pid (≤ 7) + "x" + n
+        // (≤ 3) + the spoke's letter, with "a" before it for the hub's end.
+        let netns = |end: &str| format!("{PREFIX}{pid}-{n}-{end}");
+        let veth = |end: &str| format!("bc{pid}x{}{end}", n % 1000);
+        let addr = |last: usize| Ipv4Addr::new(10, 231, (n % 250) as u8, last as u8);
+        let hub = netns("a");
+        let links = (0..spokes)
+            .map(|k| {
+                let end = char::from(b'b' + k as u8).to_string();
+                Link {
+                    hub: Host { netns: hub.clone(), veth: veth(&format!("a{end}")), addr: addr(4 * k + 1) },
+                    spoke: Host { netns: netns(&end), veth: veth(&end), addr: addr(4 * k + 2) },
+                }
+            })
+            .collect();
+        let star = Star { links };
+        tracing::debug!(tag, hub, spokes, "creating namespaces");
+        // From here on, drop removes whatever was made.
+        for ns in star.namespaces() {
+            run("ip", &["netns", "add", ns])?;
+            run("ip", &["-n", ns, "link", "set", "lo", "up"])?;
+        }
+        for link in &star.links {
+            run("ip", &["link", "add", &link.hub.veth, "type", "veth", "peer", "name", &link.spoke.veth])?;
+            for h in [&link.hub, &link.spoke] {
+                run("ip", &["link", "set", &h.veth, "netns", &h.netns])?;
+                run("ip", &["-n", &h.netns, "addr", "add", &format!("{}/30", h.addr), "dev", &h.veth])?;
+                h.set_link("up")?;
+            }
+        }
+        Ok(star)
+    }
+
+    /// The hub's namespace (as seen from link 0): where the orchestrator runs.
+    pub fn hub(&self) -> &Host {
+        &self.links[0].hub
+    }
+
+    /// The hub's namespace, then each spoke's.
+    fn namespaces(&self) -> impl Iterator<Item = &str> {
+        let hub = self.links.first().map(|l| l.hub.netns.as_str());
+        hub.into_iter().chain(self.links.iter().map(|l| l.spoke.netns.as_str()))
+    }
+}
+
+impl Drop for Star {
+    fn drop(&mut self) {
+        for ns in self.namespaces() {
+            remove_netns(ns);
+        }
+        // A pair is only left in the root namespace if creation failed
+        // before moving its ends (deleting one end deletes both).
+        for link in &self.links {
+            if run("ip", &["link", "show", &link.hub.veth]).is_ok() {
+                let _ = run("ip", &["link", "del", &link.hub.veth]);
+            }
+        }
+    }
+}
+
+/// Two namespaces `a` and `b` joined by one veth link: the one-spoke
+/// [`Star`] (`a` its hub, `b` its spoke); removed on drop.
 pub struct TwoHosts {
     /// First host (`10.231.N.1`).
     pub a: Host,
     /// Second host (`10.231.N.2`).
     pub b: Host,
+    star: Star,
 }
 
 impl TwoHosts {
     /// Creates the namespaces, the veth pair and the addresses, links up.
     pub fn create(tag: &str) -> Result<Self, NetnsError> {
-        static NEXT: AtomicU32 = AtomicU32::new(0);
-        remove_leftovers();
-        let pid = std::process::id();
-        let n = NEXT.fetch_add(1, Ordering::SeqCst);
-        // Interface names are at most 15 bytes: "bc" + pid (≤ 7) + "x" + n + end.
-        let host = |end: char, last: u8| Host {
-            netns: format!("{PREFIX}{pid}-{n}-{end}"),
-            veth: format!("bc{pid}x{}{end}", n % 1000),
-            addr: Ipv4Addr::new(10, 231, (n % 250) as u8, last),
-        };
-        let hosts = TwoHosts { a: host('a', 1), b: host('b', 2) };
-        tracing::debug!(tag, a = %hosts.a.netns, b = %hosts.b.netns, "creating namespaces");
-        // From here on, drop removes whatever was made.
-        for h in [&hosts.a, &hosts.b] {
-            run("ip", &["netns", "add", &h.netns])?;
-        }
-        run("ip", &["link", "add", &hosts.a.veth, "type", "veth", "peer", "name", &hosts.b.veth])?;
-        for h in [&hosts.a, &hosts.b] {
-            run("ip", &["link", "set", &h.veth, "netns", &h.netns])?;
-            run("ip", &["-n", &h.netns, "addr", "add", &format!("{}/30", h.addr), "dev", &h.veth])?;
-            run("ip", &["-n", &h.netns, "link", "set", "lo", "up"])?;
-            h.set_link("up")?;
-        }
-        Ok(hosts)
+        let star = Star::create(tag, 1)?;
+        let Link { hub: a, spoke: b } = star.links[0].clone();
+        Ok(TwoHosts { a, b, star })
     }
 
     /// Cuts the link (both ends down): from now on nothing crosses it.
     pub fn cut(&self) -> Result<(), NetnsError> {
-        self.a.set_link("down")?;
-        self.b.set_link("down")
+        self.star.links[0].cut()
     }
 
     /// Plugs the link back in (both ends up).
     pub fn restore(&self) -> Result<(), NetnsError> {
-        self.a.set_link("up")?;
-        self.b.set_link("up")
-    }
-}
-
-impl Drop for TwoHosts {
-    fn drop(&mut self) {
-        for h in [&self.a, &self.b] {
-            remove_netns(&h.netns);
-        }
-        // Only left in the root namespace if creation failed before moving it.
-        if run("ip", &["link", "show", &self.a.veth]).is_ok() {
-            let _ = run("ip", &["link", "del", &self.a.veth]);
-        }
+        self.star.links[0].restore()
     }
 }
 

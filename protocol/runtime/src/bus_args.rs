@@ -168,7 +168,7 @@ impl BusArgs {
                 let _alive = member.map(|m| bus.declare_alive(swarm, m)).transpose()?;
                 // ... and this process sees the orchestrator go (the failsafe).
                 let failsafe = match failsafe {
-                    Some(f) => Some((f, bus.watch_alive(swarm)?)),
+                    Some(f) => Some((f, bus.watch_alive_of(swarm, Member::Orchestrator)?)),
                     None => None,
                 };
                 Ok(then.run(&bus, failsafe))

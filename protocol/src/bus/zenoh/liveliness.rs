@@ -128,13 +128,26 @@ impl ZenohBus {
 
     /// Watches every liveliness token of `swarm` (history included).
     pub fn watch_alive(&self, swarm: &Swarm) -> Result<AliveWatch, BusError> {
-        let pattern = swarm.alive_everyone();
+        self.watch_keys(swarm, swarm.alive_everyone().as_str())
+    }
+
+    /// Watches `member`'s token of `swarm` alone (history included). An
+    /// agent needs only the orchestrator's: watching every token would send
+    /// each member's every change to every agent, N² deliveries in a swarm
+    /// of N (300 agents starting at once on one router kept it so busy that
+    /// their links timed out).
+    pub fn watch_alive_of(&self, swarm: &Swarm, member: Member) -> Result<AliveWatch, BusError> {
+        self.watch_keys(swarm, swarm.alive(member).as_str())
+    }
+
+    /// Watches the liveliness tokens of `swarm` under `keys`.
+    fn watch_keys(&self, swarm: &Swarm, keys: &str) -> Result<AliveWatch, BusError> {
         let (tx, events) = mpsc::channel();
         let swarm = *swarm;
         let subscriber = self
             .session()
             .liveliness()
-            .declare_subscriber(pattern.as_str().to_owned())
+            .declare_subscriber(keys.to_owned())
             .history(true)
             .callback(move |sample: Sample| {
                 if let Some(event) = event_of(&swarm, &sample) {
@@ -143,7 +156,7 @@ impl ZenohBus {
                 }
             })
             .wait()
-            .map_err(|e| super::text::backend("watch liveliness", None, Some(&pattern), &e))?;
+            .map_err(|e| super::text::backend("watch liveliness", None, Some(&keys), &e))?;
         Ok(AliveWatch { _subscriber: subscriber, events })
     }
 }
