@@ -31,6 +31,63 @@ impl FieldSample {
     }
 }
 
+/// An upper bound of the field sum on a disk around the point it was
+/// computed at ([`Beacons::disk_bound`]), so that a robot moving in mode 1
+/// far from the beacons needs no pass over them at every position.
+///
+/// With D the distance from `at` to the nearest beacon and r < D the
+/// distance from `at` to p, every beacon is at least d − r from p if it is
+/// d from `at`, and d / (d − r) ≤ D / (D − r) for d ≥ D: the sum at p is at
+/// most (D / (D − r))² times the sum at `at`. The exact path's rounding
+/// (its sum over the true one) is the same factor at every point, covered
+/// by [`Beacons::upper_bound`]'s margin. r, D and the product are rounded
+/// the safe way by a relative 1e-9, far above the roundings they cover,
+/// and the disk ends at 0.99·D (a factor 10⁴ there: no use going further).
+#[derive(Clone, Copy, Debug)]
+pub struct DiskBound {
+    at: Vec2,
+    /// [`Beacons::upper_bound`] at `at`.
+    sum: f64,
+    /// At most the squared distance from `at` to the nearest beacon.
+    near2: f64,
+}
+
+impl DiskBound {
+    /// [`Beacons::upper_bound`] at the point it was computed at.
+    #[inline]
+    pub fn upper_bound(&self) -> f64 {
+        self.sum
+    }
+
+    /// Whether this bound was computed at `p` itself.
+    #[inline]
+    pub fn is_at(&self, p: Vec2) -> bool {
+        self.at.x.to_bits() == p.x.to_bits() && self.at.y.to_bits() == p.y.to_bits()
+    }
+
+    /// An upper bound of the Σ 1/d² that [`Beacons::sample`] computes at
+    /// `p`; infinity if `p` is not well inside the disk.
+    #[inline]
+    pub fn at(&self, p: Vec2) -> f64 {
+        if self.sum == 0.0 {
+            // No beacons at all (the sum of one or more is positive).
+            return 0.0;
+        }
+        let (dx, dy) = (p.x - self.at.x, p.y - self.at.y);
+        // r is rounded up, D down (each by far more than their roundings).
+        // (1e-100 covers the squares' underflow.)
+        let r = libm::sqrt(dx * dx + dy * dy) * (1.0 + 1e-9) + 1e-100;
+        let d = libm::sqrt(self.near2) * (1.0 - 1e-9);
+        // Not within 99 % of D (or NaN): no bound.
+        let inside = r < 0.99 * d;
+        if !inside {
+            return f64::INFINITY;
+        }
+        let ratio = d / (d - r);
+        self.sum * (ratio * ratio) * (1.0 + 1e-9)
+    }
+}
+
 /// Stopped robots, the sources of the field, in deployment order.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Beacons {
@@ -141,8 +198,8 @@ impl Beacons {
     /// A robot in mode 1 only needs to know that its sensed intensity is
     /// below the threshold, and usually it is by far: this answers that
     /// without the exact, deployment-order sum. Four lanes of single
-    /// precision (one packed `divps` per four beacons, any order) and a
-    /// rigorous margin for every rounding involved:
+    /// precision (packed `divps`, any order) and a rigorous margin for
+    /// every rounding involved:
     ///
     /// * 1/d² ≤ q·(1 + 2⁻²²) for q = fl32(1 / fl32(d²)) (two f32 roundings);
     /// * the f32 sum of N positive terms is ≥ their sum·(1 − (N + 2)·2⁻²⁴);
@@ -153,31 +210,54 @@ impl Beacons {
     /// at most 1e-38 per beacon (added); a sum above 1e30 (a beacon closer
     /// than 1e-15, or NaN) gives infinity: no bound, the caller sums exactly.
     pub fn upper_bound(&self, p: Vec2) -> f64 {
+        self.disk_bound(p).upper_bound()
+    }
+
+    /// [`Self::upper_bound`] at `p`, with what it takes to bound the sum
+    /// anywhere near `p` too ([`DiskBound::at`]): the same pass also keeps
+    /// the smallest d² (in f32, a `minps` per four beacons).
+    pub fn disk_bound(&self, p: Vec2) -> DiskBound {
         let n = self.len();
+        let none = DiskBound { at: p, sum: f64::INFINITY, near2: 0.0 };
         if n >= 1 << 20 {
-            return f64::INFINITY;
+            return none;
         }
         let mut acc = [0f32; 4];
+        let mut near = [f32::INFINITY; 4];
         let mut xs = self.xs.chunks_exact(4);
         let mut ys = self.ys.chunks_exact(4);
         for (x, y) in (&mut xs).zip(&mut ys) {
+            let mut d2 = [0f32; 4];
             for j in 0..4 {
                 let (dx, dy) = (x[j] - p.x, y[j] - p.y);
-                acc[j] += 1.0 / ((dx * dx + dy * dy) as f32);
+                d2[j] = (dx * dx + dy * dy) as f32;
+            }
+            for j in 0..4 {
+                acc[j] += 1.0 / d2[j];
+                near[j] = near[j].min(d2[j]);
             }
         }
         for (&x, &y) in xs.remainder().iter().zip(ys.remainder()) {
             let (dx, dy) = (x - p.x, y - p.y);
-            acc[0] += 1.0 / ((dx * dx + dy * dy) as f32);
+            let d2 = (dx * dx + dy * dy) as f32;
+            acc[0] += 1.0 / d2;
+            near[0] = near[0].min(d2);
         }
         let sum = (acc[0] + acc[1]) + (acc[2] + acc[3]);
         // Not below 1e30, or NaN.
         let finite_enough = sum < 1e30;
         if !finite_enough {
-            return f64::INFINITY;
+            return none;
         }
+        let near = near[0].min(near[1]).min(near[2].min(near[3]));
         let n = n as f64;
-        f64::from(sum) * (1.0 + (n + 16.0) * f64::powi(2.0, -22)) + n * 1e-38
+        DiskBound {
+            at: p,
+            sum: f64::from(sum) * (1.0 + (n + 16.0) * f64::powi(2.0, -22)) + n * 1e-38,
+            // fl32(fl64(d²)) is within a factor 1 ± 2⁻²² of the true d²; a
+            // d² beyond f32's range (or no beacon at all) counts as f32::MAX.
+            near2: f64::from(near.min(f32::MAX)) * (1.0 - f64::powi(2.0, -20)),
+        }
     }
 
     /// The plain one-beacon-at-a-time sum [`Self::sample`] must equal bit
@@ -297,6 +377,53 @@ mod tests {
         b.push(Vec2::new(1.0, 2.0));
         assert_eq!(b.upper_bound(Vec2::new(1.0, 2.0)), f64::INFINITY);
         assert_eq!(b.upper_bound(Vec2::new(f64::NAN, 2.0)), f64::INFINITY);
+    }
+
+    #[test]
+    fn disk_bound_bounds_the_exact_sum_around_its_point() {
+        let mut state = 0x0bad_5eed_1234_5678u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut inside, mut outside) = (0usize, 0usize);
+        for n in [0usize, 1, 2, 5, 9, 100, 1000] {
+            let mut b = Beacons::new(1.0);
+            for _ in 0..n {
+                b.push(Vec2::new(60.0 * next(), 60.0 * next()));
+            }
+            for _ in 0..300 {
+                let p0 = Vec2::new(60.0 * next(), 60.0 * next());
+                let disk = b.disk_bound(p0);
+                assert!(disk.is_at(p0));
+                assert_eq!(disk.upper_bound().to_bits(), b.upper_bound(p0).to_bits());
+                assert!(disk.at(p0) >= b.sample(p0).intensity);
+                let nearest = b.positions().map(|q| q.distance(p0)).fold(f64::INFINITY, f64::min);
+                for _ in 0..20 {
+                    // Steps up to the nearest beacon and beyond, the robot's 0.1 included.
+                    let (r, a) = (
+                        [0.1, 0.3 * nearest, 0.98 * nearest, 1.5 * nearest][(4.0 * next()) as usize],
+                        7.0 * next(),
+                    );
+                    let p = Vec2::new(p0.x + r * libm::cos(a), p0.y + r * libm::sin(a));
+                    let (exact, bound) = (b.sample(p).intensity, disk.at(p));
+                    assert!(exact <= bound, "{n} beacons, {p0:?} to {p:?}: {exact} > {bound}");
+                    if bound.is_finite() {
+                        inside += 1;
+                    } else {
+                        assert!(r > 0.98 * nearest, "{n} beacons, {p0:?} to {p:?}: no bound");
+                        outside += 1;
+                    }
+                }
+            }
+        }
+        assert!(inside > 20_000 && outside > 5_000, "{inside} inside, {outside} outside");
+        // On a beacon: no bound anywhere.
+        let mut b = Beacons::new(1.0);
+        b.push(Vec2::new(1.0, 2.0));
+        assert_eq!(b.disk_bound(Vec2::new(1.0, 2.0)).at(Vec2::new(1.0, 2.0)), f64::INFINITY);
     }
 
     #[test]

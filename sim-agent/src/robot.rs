@@ -8,7 +8,7 @@
 //! terrain is never an input here.
 
 use crate::body::{Body, HeadingTable};
-use crate::field::{Beacons, FieldSample};
+use crate::field::{Beacons, DiskBound, FieldSample};
 use crate::sensing::SensingNoise;
 use crate::Vec2;
 use bycoms_agent::angle::wrap;
@@ -129,9 +129,13 @@ impl MotionCones {
 /// * turning in place leaves the position, hence the field sample, the goal
 ///   bearing and the gradient direction, unchanged: they are kept from the
 ///   previous period (noise is still drawn every period and applied anew);
-/// * in mode 1 the exact, deployment-order field sum is skipped when
-///   [`Beacons::upper_bound`] already shows the intensity below threshold
-///   (the controller then ignores the field);
+/// * in mode 1 the exact, deployment-order field sum is skipped when an
+///   upper bound already shows the intensity below threshold (the
+///   controller then ignores the field): the last [`DiskBound`], which
+///   holds around the point it was computed at, else a new one computed
+///   here (one f32 pass, [`Beacons::disk_bound`]). Far from the beacons a
+///   straight run needs a pass only every few periods; near the threshold
+///   the bound still settles most periods, for a fraction of an exact sum;
 /// * in mode 1 below threshold the motion comes from [`MotionCones`]
 ///   without computing the bearing (no `atan2`), the controller's state
 ///   being unchanged by such a period (it stays in mode 1);
@@ -153,17 +157,46 @@ pub struct Deployment<'a> {
     at: Option<Vec2>,
     /// The exact field sample there, once computed.
     sample: Option<FieldSample>,
-    /// [`Beacons::upper_bound`] there, once computed.
-    bound: Option<f64>,
+    /// Upper bounds of the exact sum, there and around.
+    bounds: Bounds,
     bearing: Option<f64>,
     direction: Option<f64>,
     /// The exact sample one straight period ahead, computed with the last
     /// exact one ([`Beacons::sample_pair`]): used if the robot goes there.
     ahead: Option<(Vec2, FieldSample)>,
-    /// The last exact sample was within a factor 2 of the threshold: the
-    /// bound would most likely not settle the next one either, so it is not
-    /// tried (speed only; either way the result is the exact one).
-    near_threshold: bool,
+}
+
+/// A [`Deployment`]'s upper bounds of the exact field sum.
+struct Bounds {
+    /// At the current position, once known.
+    here: Option<f64>,
+    /// The last [`Beacons::disk_bound`]: it bounds the sum near where it
+    /// was computed too.
+    disk: Option<DiskBound>,
+}
+
+impl Bounds {
+    /// Whether an upper bound of the exact sum at `p` passes `below`: the
+    /// one already known here, else the last disk's, else a new disk's
+    /// computed here.
+    #[inline]
+    fn below(&mut self, beacons: &Beacons, p: Vec2, below: impl Fn(f64) -> bool) -> bool {
+        let known = match (self.here, self.disk) {
+            (Some(b), _) => Some(b),
+            (None, Some(disk)) => Some(*self.here.insert(disk.at(p))),
+            (None, None) => None,
+        };
+        if known.is_some_and(&below) {
+            return true;
+        }
+        if self.disk.is_some_and(|d| d.is_at(p)) {
+            // The bound here is already the tightest one.
+            return false;
+        }
+        let disk = beacons.disk_bound(p);
+        self.disk = Some(disk);
+        below(*self.here.insert(disk.upper_bound()))
+    }
 }
 
 impl<'a> Deployment<'a> {
@@ -182,11 +215,10 @@ impl<'a> Deployment<'a> {
             goal,
             at: None,
             sample: None,
-            bound: None,
+            bounds: Bounds { here: None, disk: None },
             bearing: None,
             direction: None,
             ahead: None,
-            near_threshold: false,
         }
     }
 
@@ -206,7 +238,7 @@ impl<'a> Deployment<'a> {
                 Some((q, s)) if q.x.to_bits() == p.x.to_bits() && q.y.to_bits() == p.y.to_bits() => Some(s),
                 _ => None,
             };
-            self.bound = None;
+            self.bounds.here = None;
             self.bearing = None;
             self.direction = None;
         }
@@ -218,11 +250,10 @@ impl<'a> Deployment<'a> {
         // intensity fl(fl(c·g)·factor) is monotone in g for c, factor > 0.
         let c = beacons.field_constant();
         let surely_below = mode1
-            && !self.near_threshold
             && self.sample.is_none()
             && c > 0.0
             && factor > 0.0
-            && c * *self.bound.get_or_insert_with(|| beacons.upper_bound(p)) * factor < config.g_th;
+            && self.bounds.below(beacons, p, |bound| c * bound * factor < config.g_th);
         let (below, intensity) = if surely_below {
             (true, 0.0)
         } else {
@@ -235,7 +266,6 @@ impl<'a> Deployment<'a> {
                     *self.sample.insert(s)
                 }
             };
-            self.near_threshold = sample.intensity >= 0.5 * config.g_th;
             let intensity = sample.intensity * factor;
             // Exactly the negation of the controller's `intensity >= g_th` (NaN included).
             let reaches = intensity >= config.g_th;

@@ -47,6 +47,35 @@ fn deployment_follows_sim_robot_step_bit_for_bit() {
     assert!(turns > 10_000 && bypass > 10_000 && cheap_periods > 10_000, "{turns} {bypass} {cheap_periods}");
 }
 
+/// The bench's field: 100 beacons over the whole arena with ε = 1, where
+/// mode 1 spends long stretches near the threshold and the disk bounds are
+/// used and renewed most.
+#[test]
+fn deployment_follows_sim_robot_step_in_a_field_near_threshold() {
+    let kin = Kinematics::paper();
+    let (start, goal) = (Vec2::new(15.5, 15.5), Vec2::new(44.5, 44.5));
+    let table = HeadingTable::new(&kin, start.bearing_to(goal)).unwrap();
+    let config = ControllerConfig::paper(1.0);
+    let cones = MotionCones::new(&table, config.straight_tolerance);
+    for case in 0..8u64 {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(100 + case);
+        let mut beacons = Beacons::new(1.0);
+        for _ in 0..100 {
+            beacons.push(Vec2::new(rng.gen_range(0.0..60.0), rng.gen_range(0.0..60.0)));
+        }
+        let noise = (case % 2 == 1).then(|| SensingNoise::new(NoiseModel::paper(), case));
+        let mut plain = SimRobot::new(start, config, noise.clone(), kin.dt);
+        let mut d =
+            Deployment::new(SimRobot::new(start, config, noise, kin.dt), &table, &cones, &beacons, goal);
+        for period in 0..3000 {
+            let out = plain.step(&table, &beacons, plain.body.pos.bearing_to(goal));
+            assert_eq!(d.step(), out.motion, "case {case} period {period}");
+            assert_eq!(d.robot.body.state(), plain.body.state(), "case {case} period {period}");
+            assert_eq!(d.robot.mode(), plain.mode(), "case {case} period {period}");
+        }
+    }
+}
+
 #[test]
 fn cheap_mode_one_decision_agrees_with_the_controller_at_the_boundaries() {
     let kin = Kinematics::paper();
