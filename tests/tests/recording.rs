@@ -36,11 +36,15 @@ fn the_recording_reads_back_with_what_the_launch_wrote() {
     assert_eq!((count("run"), count("summary")), (1, 1));
     assert_eq!(count("events"), 3, "one spawn event per agent");
     // Each robot's pose topic: its start pose, then one pose per tick it
-    // answered from then on (moving, then frozen until the launch ended).
+    // answered from then on, up to its verdict: a stuck robot froze and is
+    // parked, so it is ticked no more once judged; the one that arrived
+    // ended the run.
     let ticks = j["ticks"].as_u64().expect("ticks");
     for (i, robot) in j["robots"].as_array().expect("robots").iter().enumerate() {
         let deployed = robot["deployed_tick"].as_u64().expect("deployed");
-        assert_eq!(count(&format!("robot/{}/pose", i + 1)), ticks - deployed + 2, "robot {}", i + 1);
+        let decided = robot["decided_tick"].as_u64().expect("decided");
+        assert!(decided <= ticks);
+        assert_eq!(count(&format!("robot/{}/pose", i + 1)), decided - deployed + 2, "robot {}", i + 1);
         assert!(count(&format!("robot/{}/to_agent", i + 1)) > robot["steps"].as_u64().expect("steps"));
     }
     let reports: u64 = (1..=3).map(|k| count(&format!("robot/{k}/from_agent"))).sum();
