@@ -219,6 +219,8 @@ impl Driver {
     /// Takes in everything pending, waiting up to `timeout` for the first
     /// agent report: reports, poses, losses, reachability.
     fn pump(&mut self, timeout: Duration) -> anyhow::Result<()> {
+        // What the last pass recorded goes to the writer before the wait.
+        self.ports.recording.tick();
         let mut wait = timeout;
         while let Some(got) = self.ports.recv_report(wait)? {
             wait = Duration::ZERO;
@@ -255,7 +257,6 @@ impl Driver {
         for (robot, change) in self.agents.reach() {
             self.feed(Input::Reach(robot, change));
         }
-        self.ports.recording.tick();
         if self.progress.due() {
             self.redraw();
         }
@@ -376,6 +377,9 @@ impl Driver {
             resends: self.core.resends(),
             shutdown_killed: killed,
         };
+        // The observers see the scene to its last gate event.
+        self.ports.recording.sync();
+        self.ports.show_scene();
         if let Some(trace) = self.ports.recording.take_trace() {
             summary.picture = self.picture(&trace, &summary);
         }

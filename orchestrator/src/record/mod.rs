@@ -282,6 +282,12 @@ impl Recorder {
         Ok(())
     }
 
+    /// How long until [`Recorder::flush_if_due`] flushes: what a writer that waits for messages
+    /// waits at most, so a quiet tail is flushed on time too.
+    pub fn flush_due_in(&self) -> Duration {
+        FLUSH_INTERVAL.saturating_sub(self.last_flush.elapsed())
+    }
+
     /// Closes the open chunk and hands everything written so far to the kernel, so it survives
     /// the death of this process. Cheap when nothing is pending; call it from a 1 s timer.
     pub fn flush(&mut self) -> Result<(), RecordError> {
