@@ -44,6 +44,7 @@ fn args(id: u32) -> AgentArgs {
         swarm_size: Some(4),
         parent_pid: Some(std::process::id() as i32),
         heartbeat_ms: 100,
+        parked_heartbeat_ms: None,
         settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
         bus: BusArgs { transport: Transport::Ipc, connect: Vec::new(), zenoh_config: None },
         failsafe: Default::default(),

@@ -98,6 +98,7 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
                 swarm_size: Some(agents),
                 parent_pid: Some(std::process::id() as i32),
                 heartbeat_ms: 100,
+                parked_heartbeat_ms: None,
                 settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
                 bus: BusArgs { transport: Transport::Ipc, connect: Vec::new(), zenoh_config: None },
                 failsafe: Default::default(),

@@ -102,16 +102,45 @@ pub fn agent_template(cfg: &LaunchConfig, swarm: String, endpoints: Vec<String>)
         speed: cfg.speed,
         swarm_size: Some(cfg.robots),
         parent_pid: Some(std::process::id() as i32),
-        heartbeat_ms: (cfg.supervision.heartbeat_interval * 1000.0).round().max(1.0) as u64,
+        heartbeat_ms: heartbeat_ms(cfg),
+        parked_heartbeat_ms: Some(parked_heartbeat_ms(cfg)),
         settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
         bus: BusArgs { transport: cfg.transport.kind, connect: endpoints, zenoh_config: None },
         failsafe,
     }
 }
 
+/// The agents' heartbeat period, ms.
+fn heartbeat_ms(cfg: &LaunchConfig) -> u64 {
+    (cfg.supervision.heartbeat_interval * 1000.0).round().max(1.0) as u64
+}
+
+/// A parked robot's agent's heartbeat period, ms: a quarter of the
+/// heartbeat timeout (four beats per timeout, as the default 0.1 s beat
+/// has twenty), at most 1 s, never faster than the heartbeat. Such a robot
+/// gets no tick and will not move again; its agent only says it is alive.
+fn parked_heartbeat_ms(cfg: &LaunchConfig) -> u64 {
+    let quarter = (cfg.supervision.heartbeat_timeout * 1000.0 / 4.0).floor() as u64;
+    quarter.min(1000).max(heartbeat_ms(cfg))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn parked_agents_beat_four_times_per_heartbeat_timeout_at_most_once_a_second() {
+        let parked = |interval: f64, timeout: f64| {
+            let mut cfg = LaunchConfig::default();
+            (cfg.supervision.heartbeat_interval, cfg.supervision.heartbeat_timeout) = (interval, timeout);
+            agent_template(&cfg, "s".into(), Vec::new()).parked_heartbeat_ms
+        };
+        assert_eq!(parked(0.1, 2.0), Some(500), "the defaults");
+        assert_eq!(parked(0.1, 10.0), Some(1000), "at most 1 s");
+        assert_eq!(parked(0.1, 0.3), Some(100), "never faster than the heartbeat");
+        let flags = agent_template(&LaunchConfig::default(), "s".into(), Vec::new()).to_flags();
+        assert!(flags.windows(2).any(|w| w == ["--parked-heartbeat-ms", "500"]), "{flags:?}");
+    }
 
     #[test]
     fn started_agents_hold_on_at_least_as_long_as_the_launch_holds_them() {

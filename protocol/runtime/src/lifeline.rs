@@ -9,8 +9,9 @@
 //!    parent *thread*, so the orchestrator spawns agents from its main
 //!    thread, which lives as long as the run.)
 //! 2. SIGTERM, SIGINT and SIGHUP set a flag that the agent's loop checks at
-//!    least every 50 ms, so it exits through its normal path and releases
-//!    its iceoryx2 node cleanly.
+//!    least every 50 ms (a parked robot's agent: at each of its slower
+//!    heartbeats, at most 1 s apart from a launch), so it exits through its
+//!    normal path and releases its iceoryx2 node cleanly.
 //! 3. The parent pid is compared with `getppid()` every 100 ms: if the
 //!    parent died before step 1 took effect (a race at spawn) or the signal
 //!    was lost, the agent notices it has been re-parented.

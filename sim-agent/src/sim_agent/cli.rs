@@ -225,6 +225,10 @@ pub fn run_on<B: Bus>(
         period: Duration::from_secs_f64(dt / settings.speed),
         dt_us: (dt * 1e6).round() as u64,
         heartbeat: Duration::from_millis(settings.heartbeat_ms),
+        // The launch's own agents are told; one started by hand beats as usual.
+        parked_heartbeat: Duration::from_millis(
+            args.parked_heartbeat_ms.unwrap_or(settings.heartbeat_ms).max(settings.heartbeat_ms),
+        ),
     };
     let mut agent = Agent::new(AgentCore::new(id, terrain, cfg), ports, timing);
     agent.set_settings(fingerprint);

@@ -132,6 +132,13 @@ pub struct AgentArgs {
         help_heading = "Run settings (default: the orchestrator's)"
     )]
     pub heartbeat_ms: u64,
+    /// Heartbeat period once the robot is parked (frozen or stopped: it
+    /// gets no more ticks), milliseconds of wall time [default: the
+    /// heartbeat period]. A launch gives its agents a quarter of its
+    /// heartbeat timeout, at most 1 s: a thousand parked agents beating
+    /// ten times a second took a quarter of a two-core machine.
+    #[arg(long, requires = "terrain", help_heading = "Run settings (default: the orchestrator's)")]
+    pub parked_heartbeat_ms: Option<u64>,
     /// zenoh, without settings flags: how long to wait for the orchestrator,
     /// seconds: to be reachable (it may start after the agent), then to
     /// hand over the run's settings; the agent says while it waits.
@@ -162,6 +169,7 @@ impl AgentArgs {
             swarm_size: None,
             parent_pid: None,
             heartbeat_ms: 100,
+            parked_heartbeat_ms: None,
             settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
             bus: BusArgs::default(),
             failsafe: FailsafeArgs::default(),
@@ -196,6 +204,9 @@ impl AgentArgs {
             check_speed(self.speed)?;
             if self.heartbeat_ms == 0 {
                 return Err("--heartbeat-ms must be at least 1".into());
+            }
+            if self.parked_heartbeat_ms == Some(0) {
+                return Err("--parked-heartbeat-ms must be at least 1".into());
             }
         } else if self.bus.transport != Transport::Zenoh {
             return Err("the run's settings come from the orchestrator over zenoh only: \
@@ -244,6 +255,10 @@ impl AgentArgs {
             if let Some(n) = self.swarm_size {
                 v.push("--swarm-size".into());
                 v.push(n.to_string());
+            }
+            if let Some(ms) = self.parked_heartbeat_ms {
+                v.push("--parked-heartbeat-ms".into());
+                v.push(ms.to_string());
             }
         }
         if self.settings_timeout != DEFAULT_SETTINGS_TIMEOUT_S {
@@ -334,6 +349,7 @@ mod tests {
             swarm_size: Some(9),
             parent_pid: Some(77),
             heartbeat_ms: 50,
+            parked_heartbeat_ms: Some(450),
             settings_timeout: 2.5,
             bus: BusArgs {
                 transport: Transport::Zenoh,

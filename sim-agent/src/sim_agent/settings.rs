@@ -360,6 +360,7 @@ mod tests {
             swarm_size: Some(3),
             parent_pid: None,
             heartbeat_ms: 100,
+            parked_heartbeat_ms: None,
             settings_timeout: 1.0,
             bus: BusArgs::default(),
             failsafe: Default::default(),

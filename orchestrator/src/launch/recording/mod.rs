@@ -6,7 +6,7 @@
 //! (`writer`) decodes, feeds the scene and writes the file. A write error is
 //! reported once, recording stops there (what was flushed stays readable)
 //! and the launch goes on; the error is in the summary and makes the exit
-//! code 1. The loop hands its batch over on every pass
+//! code 1. The loop hands its batch over every [`HAND_OVER_EVERY`]
 //! ([`Recording::tick`]); the writer flushes once a second, on its own
 //! when the bus is quiet, which bounds the loss on a crash to the last
 //! second.
@@ -44,7 +44,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, Receiver, SyncSender};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use writer::{Batch, Item, Writer, BATCH_ITEMS, QUEUE_BATCHES};
 
 /// Nanoseconds since the Unix epoch, now.
@@ -54,6 +54,12 @@ pub fn now_ns() -> u64 {
 
 /// The longest [`Recording::sync`] waits for the writer.
 const SYNC_TIMEOUT: Duration = Duration::from_secs(30);
+
+/// How often the loop hands its batch to the writer ([`Recording::tick`]):
+/// rarely enough that waking the writer does not compete, pass after pass,
+/// with the agents a lockstep tick waits for (a 1000-robot launch makes
+/// tens of thousands of passes), often enough for a live view.
+pub const HAND_OVER_EVERY: Duration = Duration::from_millis(50);
 
 /// The recording of one launch (or nothing), and the trace of its picture.
 pub struct Recording {
@@ -70,8 +76,9 @@ pub struct Recording {
 
 /// The loop's end of the writer thread.
 struct Queue {
-    /// What this pass recorded, not yet handed over.
+    /// What was recorded since the last hand-over.
     batch: Batch,
+    handed_over: Instant,
     to_writer: SyncSender<Batch>,
     spent: Receiver<Batch>,
     failed: Arc<AtomicBool>,
@@ -86,12 +93,13 @@ impl Queue {
         let thread = std::thread::Builder::new()
             .name("recorder".into())
             .spawn(move || writer.run(batches, give_back))?;
-        Ok(Self { batch: Batch::default(), to_writer, spent, failed, thread })
+        Ok(Self { batch: Batch::default(), handed_over: Instant::now(), to_writer, spent, failed, thread })
     }
 
     /// Hands the batch to the writer (waiting when it is [`QUEUE_BATCHES`]
     /// behind) and takes a spent one to fill next.
     fn hand_over(&mut self) {
+        self.handed_over = Instant::now();
         if self.batch.is_empty() {
             return;
         }
@@ -281,10 +289,11 @@ impl Recording {
         self.trace.take()
     }
 
-    /// Hands what was recorded since the last call to the writer: the loop
-    /// calls it on every pass, before it waits.
+    /// Hands what was recorded to the writer when [`HAND_OVER_EVERY`] has
+    /// passed since the last time: the loop calls it on every pass, before
+    /// it waits.
     pub fn tick(&mut self) {
-        if let Some(queue) = self.queue.as_mut() {
+        if let Some(queue) = self.queue.as_mut().filter(|q| q.handed_over.elapsed() >= HAND_OVER_EVERY) {
             queue.hand_over();
         }
     }
@@ -295,7 +304,9 @@ impl Recording {
     pub fn sync(&mut self) {
         let (done, answer) = mpsc::channel();
         self.push(Item::Barrier(done));
-        self.tick();
+        if let Some(queue) = self.queue.as_mut() {
+            queue.hand_over();
+        }
         // No answer (the writer failed, or nothing is written): nothing to wait for.
         let _ = answer.recv_timeout(SYNC_TIMEOUT);
     }

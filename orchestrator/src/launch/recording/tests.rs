@@ -131,11 +131,12 @@ fn a_quiet_tail_reaches_the_file_on_its_own() {
     let path = dir.path().join("r.mcap");
     let mut rec = Recording::create(&path).expect("creates");
     rec.bytes("bycoms/t/x", schema::POSE, b"a");
-    rec.tick();
-    let deadline = std::time::Instant::now() + Duration::from_secs(20);
+    let deadline = Instant::now() + Duration::from_secs(20);
     let on_disk = loop {
+        // As the launch loop does on every pass (it hands over every 50 ms).
+        rec.tick();
         let counts = crate::record::read_counts(&path).expect("a valid prefix at any time");
-        if counts.get("bycoms/t/x") == Some(&1) || std::time::Instant::now() > deadline {
+        if counts.get("bycoms/t/x") == Some(&1) || Instant::now() > deadline {
             break counts;
         }
         std::thread::yield_now();

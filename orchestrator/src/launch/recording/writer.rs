@@ -19,7 +19,7 @@
 //! Durability is the recorder's (at most the last second is lost): this
 //! thread flushes on the recorder's one clock, waking on its own when no
 //! batch comes ([`Recorder::flush_due_in`]), and the loop hands over what it
-//! recorded on every pass, a few milliseconds at most.
+//! recorded every 50 ms (`HAND_OVER_EVERY`).
 
 use crate::record::decode::{decode, Content};
 use crate::record::schema;
@@ -34,12 +34,12 @@ use std::sync::{Arc, Mutex};
 /// How many batches may wait for the writer before the loop waits for it.
 pub const QUEUE_BATCHES: usize = 256;
 
-/// Items past which a batch is handed over before the pass ends (it bounds
-/// the memory of one pass's messages).
+/// Items past which a batch is handed over at once (it bounds the memory
+/// of what waits in the loop).
 pub const BATCH_ITEMS: usize = 4096;
 
-/// One pass's recorded messages: their bytes in one buffer, and what each
-/// one is.
+/// Recorded messages waiting for the writer: their bytes in one buffer,
+/// and what each one is.
 #[derive(Default)]
 pub struct Batch {
     data: Vec<u8>,

@@ -42,8 +42,13 @@ type AgentThread = std::thread::JoinHandle<Result<ExitCause, BusError>>;
 fn start_agent(bus: &MemoryBus, swarm: &Swarm, heartbeat: Duration) -> (Commands, AgentThread) {
     let commands = bus.typed_publisher::<ToAgent>(&swarm.to_agent(RobotId(1))).expect("commands");
     let ports = AgentPorts::open(bus, swarm, RobotId(1)).expect("ports");
-    let timing =
-        Timing { clock: Clock::Lockstep, period: Duration::from_millis(100), dt_us: 100_000, heartbeat };
+    let timing = Timing {
+        clock: Clock::Lockstep,
+        period: Duration::from_millis(100),
+        dt_us: 100_000,
+        heartbeat,
+        parked_heartbeat: heartbeat,
+    };
     let agent = std::thread::spawn(move || {
         let core = AgentCore::new(RobotId(1), Terrain::paper(), RunConfig::paper(2.0));
         Agent::new(core, ports, timing).run(&mut Lifeline::detached())
