@@ -417,6 +417,33 @@ fn the_readme_marks_its_main_commands_runnable() {
     }
 }
 
+/// How many lines a newcomer sees first (issue 31: the README's first
+/// screen holds what it is, the main job and the test command).
+const FIRST_SCREEN: usize = 40;
+
+/// The README's first screen holds the command of its main job (its first
+/// runnable block) and the test command, and `.ci/run` runs exactly that
+/// test command: a newcomer never has to dig for either.
+#[test]
+fn the_readmes_first_screen_holds_the_main_job_and_the_test_command() {
+    let readme = std::fs::read_to_string(root().join("README.md")).expect("README.md");
+    let screen: String = readme.lines().take(FIRST_SCREEN).collect::<Vec<_>>().join("\n");
+    let main_job = runnable_blocks(&screen).into_iter().flat_map(|b| b.commands).next();
+    let main_job = main_job.map(|c| local(&c.text).expect("a command that runs here"));
+    assert!(
+        main_job.as_deref().is_some_and(|c| c.starts_with("orchestrator simulate")),
+        "no runnable `simulate` command within the README's first {FIRST_SCREEN} lines: {main_job:?}"
+    );
+    let test_command = screen
+        .lines()
+        .map(str::trim)
+        .find(|l| l.starts_with("cargo test"))
+        .unwrap_or_else(|| panic!("no `cargo test` command within the README's first {FIRST_SCREEN} lines"));
+    let ci = std::fs::read_to_string(root().join(".ci/run")).expect(".ci/run");
+    let ci_tests: Vec<&str> = ci.lines().map(str::trim).filter(|l| l.starts_with("cargo test")).collect();
+    assert_eq!(ci_tests, [test_command], ".ci/run must run exactly the README's test command");
+}
+
 #[test]
 fn runnable_blocks_are_parsed_as_the_readme_says() {
     let text = "```sh\nnot run\n```\n\n```sh runnable\n\

@@ -75,7 +75,7 @@ pub struct Args {
     /// a browser opens http://host:port/ (port 0 picks a free port; printed).
     #[arg(long, value_name = "HOST:PORT")]
     pub serve: Option<String>,
-    /// Print the summary as JSON on stdout (progress stays on stderr).
+    /// Print the summary as JSON on stdout; its one-line form moves to stderr, with the progress.
     #[arg(long)]
     pub json: bool,
     /// Config file (TOML; every key documented in deploy/launch.toml).

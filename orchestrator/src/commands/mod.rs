@@ -43,13 +43,13 @@ pub enum Command {
     Sweep(sweep::Args),
     /// Combine the CSVs of sharded sweeps into the same tables and heatmaps.
     Merge(merge::Args),
-    /// Deploy robots one at a time as agent processes over iceoryx2 (default: the paper's 3-robot experiment).
+    /// Deploy robots one at a time as agent processes: iceoryx2 on one host, zenoh across hosts, real robots through gateways.
     Launch(Box<launch::Args>),
     /// Draw a recorded launch (FILE.mcap) as the snapshot picture (SVG).
     Draw(draw::Args),
     /// Tools for recordings: `record recover FILE` completes a recording cut short.
     Record(record::Args),
-    /// Re-run the gate from a launch recording's poses; exit 1 unless it reaches the recorded decisions.
+    /// Feed a recording's launch-core inputs to a new core; exit 1 unless it makes the recorded decisions.
     Replay(replay::Args),
     /// Measure the process layer: gate reaction, lockstep speed, real-time scale.
     Bench(bench::Args),

@@ -50,14 +50,17 @@ impl Clock {
     }
 }
 
-/// One simulated BYCOMS robot as its own process on the iceoryx2 or zenoh bus.
+/// One simulated BYCOMS robot as its own process, the agent a launch
+/// starts for each robot (or that runs on another host): on iceoryx2 (this
+/// host) or zenoh (any host). `sim-agent lab` is the emulated lab instead.
 ///
 /// Over zenoh it needs only where to connect, its swarm and its robot id:
 /// it asks the orchestrator for the run's settings (terrain, ε, noise,
 /// seed, clock, speed, swarm size). Started with settings flags it checks
 /// them against the launch's and exits naming the first difference. It
 /// registers, waits for its deployment, then senses the field of the
-/// other robots (their poses, summed in robot-id order), runs the BYCOMS
+/// beacons the orchestrator sends it (each earlier robot's last pose,
+/// summed in robot-id order), runs the BYCOMS
 /// controller on its goal bearing, moves its simulated body and publishes its
 /// pose as simulated motion capture. It freezes where it enters an
 /// impassable cell. It exits on `Shutdown`, on SIGTERM/SIGINT, and within

@@ -1,7 +1,10 @@
-//! The README's table of environment variables against what the code
-//! reads (see the module docs of `docs`).
+//! docs/ENVIRONMENT.md's table of environment variables against what the
+//! code reads (see the module docs of `docs`).
 
 use super::{files, read, root};
+
+/// The document that holds the table.
+const ENVIRONMENT_MD: &str = "docs/ENVIRONMENT.md";
 use regex::Regex;
 use std::collections::BTreeSet;
 use std::path::PathBuf;
@@ -163,10 +166,10 @@ fn the_scan_finds_every_way_the_code_reads_a_variable() {
     assert!(scan_sources(&ambiguous).is_err());
 }
 
-/// The variables of the README's table ("Every environment variable the code reads").
+/// The variables of docs/ENVIRONMENT.md's table ("Every environment variable the code reads").
 fn variables_documented() -> BTreeSet<String> {
-    let readme = read(&root().join("README.md"));
-    let start = readme.find("Every environment variable the code reads").expect("the README's table");
+    let readme = read(&root().join(ENVIRONMENT_MD));
+    let start = readme.find("Every environment variable the code reads").expect("docs/ENVIRONMENT.md's table");
     let name = Regex::new(r"`([A-Z][A-Z0-9_]*)`").expect("regex");
     readme[start..]
         .lines()
@@ -178,14 +181,14 @@ fn variables_documented() -> BTreeSet<String> {
 }
 
 #[test]
-fn the_readme_lists_exactly_the_environment_variables_the_code_reads() {
+fn the_environment_doc_lists_exactly_the_variables_the_code_reads() {
     let read = variables_read();
     let documented = variables_documented();
     assert!(read.len() >= 15, "the scan finds the variables: {read:?}");
     let missing: Vec<_> = read.difference(&documented).collect();
     let stale: Vec<_> = documented.difference(&read).collect();
-    assert!(missing.is_empty(), "read by the code but not in the README's table: {missing:?}");
-    assert!(stale.is_empty(), "in the README's table but read nowhere: {stale:?}");
+    assert!(missing.is_empty(), "read by the code but not in docs/ENVIRONMENT.md's table: {missing:?}");
+    assert!(stale.is_empty(), "in docs/ENVIRONMENT.md's table but read nowhere: {stale:?}");
 }
 
 /// `a/{b,c}_d.rs` → `a/b_d.rs`, `a/c_d.rs` (one brace group at most).
@@ -200,10 +203,10 @@ fn expand_braces(path: &str) -> Vec<String> {
 }
 
 #[test]
-fn the_readme_names_where_each_variable_is_read() {
+fn the_environment_doc_names_where_each_variable_is_read() {
     let root = root();
-    let readme = read(&root.join("README.md"));
-    let start = readme.find("Every environment variable the code reads").expect("the README's table");
+    let readme = read(&root.join(ENVIRONMENT_MD));
+    let start = readme.find("Every environment variable the code reads").expect("docs/ENVIRONMENT.md's table");
     let token = Regex::new(r"`([^`]+)`").expect("regex");
     let mut checked = 0;
     for row in
@@ -211,7 +214,7 @@ fn the_readme_names_where_each_variable_is_read() {
     {
         let cells: Vec<&str> = row.split('|').collect();
         let (Some(variables), Some(read_by)) = (cells.get(1), cells.get(3)) else {
-            panic!("a row of the README's table without its columns: {row}");
+            panic!("a row of docs/ENVIRONMENT.md's table without its columns: {row}");
         };
         let files: Vec<String> = token
             .captures_iter(read_by)
@@ -222,7 +225,7 @@ fn the_readme_names_where_each_variable_is_read() {
         for file in &files {
             assert!(
                 root.join(file).is_file(),
-                "the README's table names `{file}`, which is not in the repository"
+                "docs/ENVIRONMENT.md's table names `{file}`, which is not in the repository"
             );
         }
         for variable in token.captures_iter(variables).map(|c| c[1].to_string()) {
@@ -232,7 +235,7 @@ fn the_readme_names_where_each_variable_is_read() {
             checked += 1;
             assert!(
                 files.iter().any(|f| read(&root.join(f)).contains(&variable)),
-                "the README says {files:?} read `{variable}`, and none of them names it"
+                "docs/ENVIRONMENT.md says {files:?} read `{variable}`, and none of them names it"
             );
         }
     }

@@ -1,7 +1,7 @@
 //! Docs that cannot go stale: each test fails when a doc stops telling the
 //! truth about the code.
 //!
-//! * The README's table of environment variables lists exactly the
+//! * docs/ENVIRONMENT.md's table of environment variables lists exactly the
 //!   variables the code reads (every `env::var`/`var_os` of a literal or a
 //!   constant, every clap `env = "…"`, every `${NAME:-…}` of the CI
 //!   scripts), and nothing the code no longer reads.
@@ -400,4 +400,63 @@ fn protocol_md_states_the_limits_the_code_has() {
         "`PROTOCOL_VERSION`, currently **{PROTOCOL_VERSION}** (one byte, `0x{PROTOCOL_VERSION:02X}`)"
     );
     assert!(doc.contains(&version), "PROTOCOL.md does not say {version:?}");
+}
+
+/// The README and the documents of `docs/`: what a newcomer reads.
+fn readers_documents() -> Vec<PathBuf> {
+    let root = root();
+    let mut docs = vec![root.join("README.md")];
+    files(&root.join("docs"), ".md", &mut docs);
+    assert!(docs.len() >= 5, "the README and docs/ are found: {docs:?}");
+    docs
+}
+
+/// Every path the README and `docs/` name in backticks or link to, from
+/// one of the repository's top-level folders (`orchestrator/src/gate.rs`,
+/// `deploy/lab/`), exists: moved text must not point at what is gone.
+/// Names of outputs (`study/`, `run.mcap`) start elsewhere and are left out.
+#[test]
+fn the_readme_and_docs_name_only_paths_that_exist() {
+    let root = root();
+    let top: BTreeSet<String> = std::fs::read_dir(&root)
+        .expect("root")
+        .flatten()
+        .filter(|e| e.path().is_dir() && e.file_name() != "target" && e.file_name() != ".git")
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    let code = Regex::new(r"`([^`\s]+)`").expect("regex");
+    let link = Regex::new(r"\]\(([^)#\s]+)").expect("regex");
+    let mut checked = 0;
+    for doc in readers_documents() {
+        let text = read(&doc);
+        let dir = doc.parent().expect("a folder");
+        let in_code = code.captures_iter(&text).map(|c| c.get(1).expect("a name").as_str());
+        let from_top = in_code.map(|t| t.split("::").next().unwrap_or(t)).filter(|t| {
+            let first = t.split('/').next().unwrap_or_default();
+            t.contains('/') && top.contains(first) && !t.contains(['<', '{', '*', '…', '=', '%', '$'])
+        });
+        for t in from_top {
+            checked += 1;
+            let found = root.join(t).exists() || root.join(format!("{t}.rs")).exists();
+            assert!(found, "{} names `{t}`, which is not in the repository", doc.display());
+        }
+        for target in link.captures_iter(&text).map(|c| c.get(1).expect("a target").as_str()) {
+            if target.starts_with("http") {
+                continue;
+            }
+            checked += 1;
+            assert!(dir.join(target).exists(), "{} links to `{target}`, which is not there", doc.display());
+        }
+    }
+    assert!(checked >= 60, "the paths of the README and docs/ are checked ({checked})");
+}
+
+/// Only the README's code blocks are run (`tests/tests/readme_commands.rs`):
+/// a block marked runnable elsewhere would look tested and not be.
+#[test]
+fn only_the_readme_marks_blocks_runnable() {
+    for doc in readers_documents().into_iter().filter(|d| !d.ends_with("README.md")) {
+        let marked = read(&doc).lines().filter(|l| l.starts_with("```") && l.contains("runnable")).count();
+        assert_eq!(marked, 0, "{} marks a code block runnable; only README.md's are run", doc.display());
+    }
 }
