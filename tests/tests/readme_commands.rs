@@ -434,11 +434,10 @@ fn the_readmes_first_screen_holds_the_main_job_and_the_test_command() {
         main_job.as_deref().is_some_and(|c| c.starts_with("orchestrator simulate")),
         "no runnable `simulate` command within the README's first {FIRST_SCREEN} lines: {main_job:?}"
     );
-    let test_command = screen
-        .lines()
-        .map(str::trim)
-        .find(|l| l.starts_with("cargo test"))
-        .unwrap_or_else(|| panic!("no `cargo test` command within the README's first {FIRST_SCREEN} lines"));
+    let test_command =
+        screen.lines().map(str::trim).find(|l| l.starts_with("cargo test")).unwrap_or_else(|| {
+            panic!("no `cargo test` command within the README's first {FIRST_SCREEN} lines")
+        });
     let ci = std::fs::read_to_string(root().join(".ci/run")).expect(".ci/run");
     let ci_tests: Vec<&str> = ci.lines().map(str::trim).filter(|l| l.starts_with("cargo test")).collect();
     assert_eq!(ci_tests, [test_command], ".ci/run must run exactly the README's test command");

@@ -169,7 +169,8 @@ fn the_scan_finds_every_way_the_code_reads_a_variable() {
 /// The variables of docs/ENVIRONMENT.md's table ("Every environment variable the code reads").
 fn variables_documented() -> BTreeSet<String> {
     let readme = read(&root().join(ENVIRONMENT_MD));
-    let start = readme.find("Every environment variable the code reads").expect("docs/ENVIRONMENT.md's table");
+    let start =
+        readme.find("Every environment variable the code reads").expect("docs/ENVIRONMENT.md's table");
     let name = Regex::new(r"`([A-Z][A-Z0-9_]*)`").expect("regex");
     readme[start..]
         .lines()
@@ -206,7 +207,8 @@ fn expand_braces(path: &str) -> Vec<String> {
 fn the_environment_doc_names_where_each_variable_is_read() {
     let root = root();
     let readme = read(&root.join(ENVIRONMENT_MD));
-    let start = readme.find("Every environment variable the code reads").expect("docs/ENVIRONMENT.md's table");
+    let start =
+        readme.find("Every environment variable the code reads").expect("docs/ENVIRONMENT.md's table");
     let token = Regex::new(r"`([^`]+)`").expect("regex");
     let mut checked = 0;
     for row in
