@@ -35,12 +35,12 @@
 use std::collections::BTreeMap;
 use std::fmt;
 use std::fs::File;
-use std::io::{BufReader, Read, Seek};
+use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use mcap::read::ChannelAccumulator;
-use mcap::records::{op, MessageHeader, Metadata, Record};
+use mcap::records::{self, op, MessageHeader, Metadata, Record, SchemaHeader};
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use mcap::{Attachment, Channel, McapError};
 
@@ -125,7 +125,7 @@ pub struct End {
     /// damaged summary, which it does not read).
     pub damage: Vec<Damage>,
     /// Messages left out by [`Reader::salvage`] because their channel was defined in a
-    /// dropped chunk.
+    /// dropped chunk (and the file has no summary to link them with, or a damaged one).
     pub orphans: u64,
     /// Messages of the run metadata (`bycoms/<swarm>/run`): a launch recording has one.
     pub runs: u64,
@@ -221,8 +221,13 @@ impl Reader {
         mode: Mode,
         visit: impl FnMut(Item<'_>) -> Result<(), E>,
     ) -> Result<End, E> {
-        let Reader { path, file, len } = self;
-        stream_from(BufReader::new(file), len, mode, visit).map_err(|stop| match stop {
+        let Reader { path, mut file, len } = self;
+        let summary = match mode {
+            Mode::Skip => summary_channels(&mut file, len),
+            Mode::Refuse => None,
+        };
+        file.rewind().map_err(|source| RecordError::Open { path: path.clone(), source })?;
+        stream_from(BufReader::new(file), len, mode, summary, visit).map_err(|stop| match stop {
             Stop::NotMcap(error) => not_mcap(&path, &error).into(),
             Stop::Damaged(damage) => RecordError::Damaged { path: path.clone(), damage }.into(),
             Stop::Visit(error) => error,
@@ -244,6 +249,9 @@ enum Stop<E> {
 struct Walk {
     mode: Mode,
     linked: ChannelAccumulator<'static>,
+    /// The schemas and channels the summary repeats ([`summary_channels`]), for the messages
+    /// whose channel was defined in a dropped chunk ([`Mode::Skip`]).
+    summary: Option<ChannelAccumulator<'static>>,
     end: End,
 }
 
@@ -281,13 +289,23 @@ impl Walk {
                 }
             }
             Record::Message { header, data } => {
-                let Some(channel) = self.linked.get(header.channel_id) else {
-                    // Its channel was in a chunk left out: the message goes with it.
-                    if self.end.dropped_chunks() > 0 {
-                        self.end.orphans += 1;
-                        return Ok(());
+                let channel = match self.linked.get(header.channel_id) {
+                    Some(channel) => channel,
+                    // Its channel was defined in a chunk left out: the summary's copy of it
+                    // (a finished file), or the message goes with the chunk.
+                    None if self.end.dropped_chunks() > 0 => {
+                        match self.link_from_summary(header.channel_id) {
+                            Some(channel) => {
+                                visit(Item::Channel(&channel)).map_err(Err)?;
+                                channel
+                            }
+                            None => {
+                                self.end.orphans += 1;
+                                return Ok(());
+                            }
+                        }
                     }
-                    return Err(Ok(McapError::UnknownChannel(header.sequence, header.channel_id)));
+                    None => return Err(Ok(McapError::UnknownChannel(header.sequence, header.channel_id))),
                 };
                 self.end.messages += 1;
                 if is_run(&channel) {
@@ -309,6 +327,25 @@ impl Walk {
             _ => {}
         }
         Ok(())
+    }
+
+    /// Channel `id` as the summary defines it, linked from now on.
+    fn link_from_summary(&mut self, id: u16) -> Option<Arc<Channel<'static>>> {
+        let channel = self.summary.as_ref()?.get(id)?;
+        if let Some(schema) = &channel.schema {
+            let header =
+                SchemaHeader { id: schema.id, name: schema.name.clone(), encoding: schema.encoding.clone() };
+            self.linked.add_schema(header, schema.data.clone()).ok()?;
+        }
+        let record = records::Channel {
+            id,
+            schema_id: channel.schema.as_ref().map_or(0, |s| s.id),
+            topic: channel.topic.clone(),
+            message_encoding: channel.message_encoding.clone(),
+            metadata: channel.metadata.clone(),
+        };
+        self.linked.add_channel(record).ok()?;
+        self.linked.get(id)
     }
 
     /// Reads one chunk record (its body `body`, at byte `offset`): decompressed whole, its
@@ -352,6 +389,46 @@ impl Walk {
     }
 }
 
+/// The schemas and channels the summary of a finished file repeats, if its CRC verifies
+/// (`None` for a cut file, which has no summary, or a damaged one): what
+/// [`Reader::salvage`] links the messages to whose channel was defined in a dropped chunk.
+/// Read from the data section's end record (13 bytes: opcode, length, CRC) before the
+/// summary, so the linear reader checks the summary's CRC at the footer as it does for a
+/// whole file.
+fn summary_channels(file: &mut File, len: u64) -> Option<ChannelAccumulator<'static>> {
+    const TAIL: u64 = 9 + 20 + 8; // the footer record and the end magic
+    let mut tail = [0u8; TAIL as usize];
+    file.seek(SeekFrom::Start(len.checked_sub(TAIL)?)).ok()?;
+    file.read_exact(&mut tail).ok()?;
+    if tail[0] != op::FOOTER || tail[29..] != *mcap::MAGIC {
+        return None;
+    }
+    let summary_start = u64::from_le_bytes(tail[9..17].try_into().ok()?);
+    let data_end = summary_start.checked_sub(13).filter(|&at| at >= mcap::MAGIC.len() as u64)?;
+    file.seek(SeekFrom::Start(data_end)).ok()?;
+    let options = LinearReaderOptions::default()
+        .with_skip_start_magic(true)
+        .with_validate_summary_section_crc(true)
+        .with_record_length_limit(usize::try_from(len).unwrap_or(usize::MAX));
+    let mut reader = LinearReader::new_with_options(options);
+    let mut source = BufReader::new(file);
+    let mut linked = ChannelAccumulator::default();
+    while let Some(event) = reader.next_event() {
+        match event.ok()? {
+            LinearReadEvent::ReadRequest(need) => {
+                let n = source.read(reader.insert(need)).ok()?;
+                reader.notify_read(n);
+            }
+            LinearReadEvent::Record { opcode, data } => match mcap::parse_record(opcode, data).ok()? {
+                Record::Schema { header, data } => linked.add_schema_from_slice(header, &data).ok()?,
+                Record::Channel(channel) => linked.add_channel(channel).ok()?,
+                _ => {}
+            },
+        }
+    }
+    Some(linked)
+}
+
 /// Whether `channel` carries the run metadata (what `decode` reads as `Content::Run`).
 fn is_run(channel: &Channel<'_>) -> bool {
     channel.schema.as_ref().is_some_and(|s| s.name == schema::RUN) && schema::is_run_topic(&channel.topic)
@@ -362,6 +439,7 @@ fn stream_from<R: Read, E>(
     mut source: R,
     len: u64,
     mode: Mode,
+    summary: Option<ChannelAccumulator<'static>>,
     mut visit: impl FnMut(Item<'_>) -> Result<(), E>,
 ) -> Result<End, Stop<E>> {
     let options = LinearReaderOptions::default()
@@ -370,7 +448,7 @@ fn stream_from<R: Read, E>(
         .with_validate_summary_section_crc(true)
         .with_record_length_limit(usize::try_from(len).unwrap_or(usize::MAX));
     let mut reader = LinearReader::new_with_options(options);
-    let mut walk = Walk { mode, linked: ChannelAccumulator::default(), end: End::default() };
+    let mut walk = Walk { mode, linked: ChannelAccumulator::default(), summary, end: End::default() };
     // Where the next record starts; the summary repeats schemas and channels: past the data
     // end they are not linked again.
     let (mut offset, mut past_data_end, mut footer) = (mcap::MAGIC.len() as u64, false, false);
@@ -568,7 +646,7 @@ fn not_mcap(path: &Path, error: &McapError) -> RecordError {
 #[cfg(test)]
 fn recover_from<R: Read>(source: R, len: u64) -> Result<Recovered, McapError> {
     let mut recovered = Recovered::default();
-    let end = stream_from(source, len, Mode::Skip, |item| {
+    let end = stream_from(source, len, Mode::Skip, None, |item| {
         if let Item::Message { channel, .. } = item {
             recovered.count(&channel.topic);
         }

@@ -186,6 +186,42 @@ mod tests {
         assert_eq!(copy.counts, recovered.counts);
     }
 
+    /// The channels a dropped chunk defined: a finished file's summary
+    /// repeats them, so the later chunks' messages on them are copied; a cut
+    /// file has none, and they are left out and counted.
+    #[test]
+    fn messages_whose_channel_a_dropped_chunk_defined_are_linked_by_the_summary() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (path, fixed) = (dir.path().join("damaged.mcap"), dir.path().join("fixed.mcap"));
+        let mut recorder = Recorder::create(&path).expect("create");
+        recorder.record_json("bycoms/s/run", super::super::schema::RUN, 0, &"run").expect("run");
+        recorder.flush().expect("flush: the run's chunk");
+        for i in 0..60u64 {
+            // Every topic is first used in the second chunk.
+            let topic = ["a/pose", "b/cmd", "c/tick"][(i % 3) as usize];
+            recorder.record_bytes(topic, "bycoms.Test", i, i, &i.to_le_bytes()).expect("record");
+            if i == 29 {
+                recorder.flush().expect("flush: a chunk");
+            }
+        }
+        recorder.finish().expect("finish");
+        let mut bytes = std::fs::read(&path).expect("read");
+        let summary = mcap::Summary::read(&bytes).expect("summary").expect("finished");
+        let second = summary.chunk_indexes[1].chunk_start_offset as usize;
+        let third_end =
+            (summary.chunk_indexes[2].chunk_start_offset + summary.chunk_indexes[2].chunk_length) as usize;
+        bytes[second + 9 + 24] ^= 0x01;
+        std::fs::write(&path, &bytes).expect("write");
+        let recovered = rewrite(&path, &fixed).expect("rewrites");
+        assert_eq!((recovered.messages, recovered.orphans, recovered.dropped_chunks()), (31, 0, 1));
+        let copy = recover(&fixed).expect("the copy reads");
+        assert_eq!(copy.counts.get("a/pose"), Some(&10), "{copy:?}");
+        // Cut after the third chunk: no summary to link with.
+        std::fs::write(&path, &bytes[..third_end]).expect("cut");
+        let recovered = rewrite(&path, &fixed).expect("rewrites");
+        assert_eq!((recovered.messages, recovered.orphans, recovered.dropped_chunks()), (1, 30, 1));
+    }
+
     /// A valid MCAP file without run metadata is not a launch recording:
     /// refused, and no "recovered" file is written.
     #[test]
