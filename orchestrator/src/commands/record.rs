@@ -23,7 +23,11 @@ pub enum RecordCommand {
     Recover(RecoverArgs),
 }
 
-/// Copy a recording cut short (no summary, no footer) into a complete one.
+/// Copy a recording cut short (no summary, no footer) or damaged into a complete one.
+///
+/// Only what verifies is copied: a chunk whose CRC fails is left out (the
+/// command says how many and exits 1). A file that is not a launch
+/// recording is refused and nothing is written.
 #[derive(Debug, clap::Args)]
 pub struct RecoverArgs {
     /// The cut recording (read only).
