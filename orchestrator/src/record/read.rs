@@ -521,8 +521,8 @@ fn stopped<E>(mut walk: Walk, error: McapError, offset: u64, len: u64) -> Result
             ));
             Ok(walk.end)
         }
-        // A damaged chunk fails the data section's CRC too: said once.
-        McapError::BadDataCrc { .. } if walk.end.dropped_chunks() > 0 => Ok(walk.end),
+        // A damaged chunk or record fails the data section's CRC too: said once.
+        McapError::BadDataCrc { .. } if walk.end.data_damaged() => Ok(walk.end),
         McapError::BadDataCrc { .. } => walk.damaged(offset, Part::DataSection, error).map(|()| walk.end),
         McapError::BadSummaryCrc { .. } => {
             walk.end.damage.push(Damage { offset, part: Part::Summary, why: error.to_string() });
@@ -823,6 +823,48 @@ mod tests {
         let recovered = recover(&path).expect("salvaged");
         assert_eq!(recovered.counts, counts);
         assert_eq!(recovered.damage.iter().map(|d| d.part).collect::<Vec<_>>(), [Part::Summary]);
+    }
+
+    #[test]
+    fn an_attachment_whose_crc_fails_is_refused_and_left_out_and_a_sound_one_is_handed_out() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("attached.mcap");
+        let mut writer =
+            mcap::Writer::new(std::io::BufWriter::new(File::create(&path).expect("create"))).expect("writer");
+        for name in ["first", "second"] {
+            let data = std::borrow::Cow::Borrowed(&b"attached bytes"[..]);
+            let attachment = Attachment {
+                log_time: 1,
+                create_time: 1,
+                name: name.into(),
+                media_type: "text/plain".into(),
+                data,
+            };
+            writer.attach(&attachment).expect("attach");
+        }
+        writer.finish().expect("finish");
+        drop(writer);
+        let mut bytes = std::fs::read(&path).expect("read");
+        let at = bytes.windows(14).rposition(|w| w == b"attached bytes").expect("the second's bytes");
+        bytes[at] = b'A';
+        std::fs::write(&path, &bytes).expect("write");
+        let error = strict(&path).expect_err("refused");
+        assert!(
+            matches!(&error, RecordError::Damaged { damage, .. } if damage.part == Part::Attachment),
+            "{error:?}"
+        );
+        let mut names = Vec::new();
+        let end = Reader::open(&path)
+            .expect("open")
+            .salvage(|item| {
+                if let Item::Attachment(a) = item {
+                    names.push(a.name);
+                }
+                Ok::<_, RecordError>(())
+            })
+            .expect("salvaged");
+        assert_eq!(names, ["first"]);
+        assert_eq!(end.damage.iter().map(|d| d.part).collect::<Vec<_>>(), [Part::Attachment]);
     }
 
     #[test]
