@@ -167,7 +167,7 @@ fn a_file_that_is_not_a_recording_is_one_error_for_every_reader() {
             let o = orchestrator_in(dir.path(), command);
             assert_eq!(o.status.code(), Some(1), "{command:?}: {}", stderr(&o));
             assert!(
-                stderr(&o).contains(&format!("{name} is not an MCAP recording")),
+                stderr(&o).contains(&format!("{name} is not an MCAP file")),
                 "{command:?}: {}",
                 stderr(&o)
             );
@@ -177,6 +177,49 @@ fn a_file_that_is_not_a_recording_is_one_error_for_every_reader() {
             assert!(!dir.path().join(&made).exists(), "{made} was written for {name}");
         }
     }
+}
+
+/// Random bytes are not "an empty file"; a valid MCAP file without the run
+/// metadata is one message and one exit code (1) for all three readers, and
+/// `record recover` writes no empty "recovered" file.
+#[test]
+fn random_bytes_and_a_foreign_mcap_file_are_one_error_for_every_reader() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let foreign = dir.path().join("foreign.mcap");
+    // Written by another tool: the mcap crate's writer, as the `mcap` CLI writes.
+    let file = std::io::BufWriter::new(std::fs::File::create(&foreign).expect("create"));
+    let mut writer = mcap::Writer::new(file).expect("writer");
+    let schema = writer.add_schema("sensor_msgs/Image", "ros2msg", b"").expect("schema");
+    let channel = writer.add_channel(schema, "camera/image", "cdr", &Default::default()).expect("channel");
+    let header =
+        mcap::records::MessageHeader { channel_id: channel, sequence: 0, log_time: 1, publish_time: 1 };
+    writer.write_to_known_channel(&header, b"pixels").expect("message");
+    writer.finish().expect("finish");
+    let (copy, svg) = (dir.path().join("copy.mcap"), dir.path().join("picture.svg"));
+    let (copy, svg) = (copy.to_str().expect("utf-8"), svg.to_str().expect("utf-8"));
+    let o = |file: &str| {
+        let commands = [
+            &["record", "recover", file, "--out", copy][..],
+            &["draw", file, "--out", svg][..],
+            &["replay", file][..],
+        ];
+        for command in commands {
+            let o = orchestrator_in(dir.path(), command);
+            assert_eq!(o.status.code(), Some(1), "{command:?}: {}", stderr(&o));
+            let text = stderr(&o);
+            let expected = match file {
+                "foreign.mcap" => {
+                    "foreign.mcap is an MCAP file but not a bycoms launch recording: it holds no run metadata"
+                        .to_string()
+                }
+                _ => format!("{file} is not an MCAP file: it does not start with the MCAP magic bytes"),
+            };
+            assert!(text.contains(&expected), "{command:?}: {text}");
+        }
+        assert!(!Path::new(copy).exists() && !Path::new(svg).exists(), "{file}: nothing is written");
+    };
+    o("foreign.mcap");
+    o("/dev/urandom");
 }
 
 /// The certificate in a PEM file.

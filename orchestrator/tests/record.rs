@@ -12,11 +12,13 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use bycoms_orchestrator::record::{read_counts, recover, RecordError, Recorder};
+use bycoms_orchestrator::record::{read_counts, recover, schema, RecordError, Recorder};
 
 const TOPICS: [&str; 3] = ["bycoms/s1/agent/0/to_agent", "bycoms/s1/agent/0/pose", "bycoms/s1/tick"];
 const SCHEMAS: [&str; 3] = ["bycoms.ToAgent", "bycoms.Pose", "bycoms.Tick"];
 const GATE: &str = "bycoms/s1/gate";
+/// The run metadata's topic: a launch recording holds one (its content is not read here).
+const RUN: &str = "bycoms/s1/run";
 
 /// The payload of message `i`: varied lengths (including empty) and contents.
 fn payload(i: u64) -> Vec<u8> {
@@ -32,8 +34,21 @@ struct GateEvent {
 
 /// Writes `n` messages round-robin on [`TOPICS`] and `events` gate events; returns the file.
 fn write_sample(dir: &Path, n: u64, events: u32) -> PathBuf {
+    write_sample_of(dir, n, events, false)
+}
+
+/// [`write_sample`] of a launch: the run metadata first ([`RUN`]), as `draw`, `replay` and
+/// `record recover` require.
+fn write_launch_sample(dir: &Path, n: u64, events: u32) -> PathBuf {
+    write_sample_of(dir, n, events, true)
+}
+
+fn write_sample_of(dir: &Path, n: u64, events: u32, launch: bool) -> PathBuf {
     let path = dir.join("run.mcap");
     let mut recorder = Recorder::create(&path).expect("create recording");
+    if launch {
+        recorder.record_json(RUN, schema::RUN, 0, &serde_json::json!({})).expect("run");
+    }
     for i in 0..n {
         let k = (i % 3) as usize;
         recorder.record_bytes(TOPICS[k], SCHEMAS[k], 1_000 + i * 10, 500 + i, &payload(i)).expect("record");
@@ -42,9 +57,10 @@ fn write_sample(dir: &Path, n: u64, events: u32) -> PathBuf {
         let event = GateEvent { robot, state: "arrived".into(), t: f64::from(robot) * 0.5 };
         recorder.record_json(GATE, "bycoms.GateEvent", 2_000_000 + u64::from(robot), &event).expect("json");
     }
-    assert_eq!(recorder.counts().values().sum::<u64>(), n + u64::from(events));
+    let all = n + u64::from(events) + u64::from(launch);
+    assert_eq!(recorder.counts().values().sum::<u64>(), all);
     let summary = recorder.finish().expect("finish");
-    assert_eq!(summary.messages, n + u64::from(events));
+    assert_eq!(summary.messages, all);
     // For looking at a sample with other tools (Foxglove, `mcap info`): BYCOMS_RECORD_KEEP=dir.
     if let Some(keep) = std::env::var_os("BYCOMS_RECORD_KEEP") {
         std::fs::copy(&path, Path::new(&keep).join(format!("sample-{n}.mcap"))).expect("keep a copy");
@@ -58,6 +74,13 @@ fn expected_counts(n: u64, events: u32) -> BTreeMap<String, u64> {
         *counts.entry(TOPICS[i as usize].to_string()).or_default() += 1;
     }
     counts.insert(GATE.to_string(), u64::from(events));
+    counts
+}
+
+/// [`expected_counts`] of [`write_launch_sample`].
+fn expected_launch_counts(n: u64, events: u32) -> BTreeMap<String, u64> {
+    let mut counts = expected_counts(n, events);
+    counts.insert(RUN.to_string(), 1);
     counts
 }
 
@@ -359,12 +382,20 @@ fn the_python_mcap_reader_agrees() {
 #[test]
 fn every_cut_of_a_recording_rewrites_into_a_complete_one_with_the_same_messages() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let path = write_sample(dir.path(), 500, 3);
+    let path = write_launch_sample(dir.path(), 500, 3);
     let bytes = std::fs::read(&path).expect("read");
     let (cut, fixed) = (dir.path().join("cut.mcap"), dir.path().join("fixed.mcap"));
     for len in (8..bytes.len()).step_by(997).chain([bytes.len() - 1, bytes.len()]) {
         std::fs::write(&cut, &bytes[..len]).expect("write cut");
         let streamed = recover(&cut).expect("the cut streams");
+        let _ = std::fs::remove_file(&fixed);
+        if streamed.messages == 0 {
+            // Cut before the run metadata: nothing to recover, and nothing is written.
+            let refused = bycoms_orchestrator::record::rewrite(&cut, &fixed);
+            assert!(matches!(refused, Err(RecordError::NotLaunch { .. })), "cut at {len}: {refused:?}");
+            assert!(!fixed.exists(), "cut at {len}: a copy was written");
+            continue;
+        }
         let rewritten = bycoms_orchestrator::record::rewrite(&cut, &fixed).expect("rewrite");
         assert_eq!(
             (rewritten.messages, &rewritten.counts),
@@ -401,8 +432,8 @@ fn compressed_copy(from: &Path, to: &Path, compression: mcap::Compression) {
 fn zstd_and_lz4_recordings_read_like_uncompressed_ones() {
     let dir = tempfile::tempdir().expect("temp dir");
     let (n, events) = (2_000, 5);
-    let plain = write_sample(dir.path(), n, events);
-    let expected = expected_counts(n, events);
+    let plain = write_launch_sample(dir.path(), n, events);
+    let expected = expected_launch_counts(n, events);
     for (name, compression) in [("zstd", mcap::Compression::Zstd), ("lz4", mcap::Compression::Lz4)] {
         let packed = dir.path().join(format!("{name}.mcap"));
         compressed_copy(&plain, &packed, compression);

@@ -360,6 +360,19 @@ fn natnet_run_with(scenario: &str, robots: u32, ends_expected: &[&str], faults: 
     assert!(replay.stdout.contains("MATCH:"), "{}", replay.stdout);
     let decisions = 2 * ends_expected.len();
     assert_eq!(replay.stdout.matches("  same ").count(), decisions, "{}", replay.stdout);
+    // Its picture tells the summary's time (NatNet's frames are recorded before the gate
+    // judges them: the picture once took a later frame for the start, issue 31).
+    let svg = dir.path().join("run.svg");
+    let drawn = Proc::orchestrator(&["draw", record, "--out", svg.to_str().expect("utf-8")])
+        .wait(Duration::from_secs(60));
+    assert_eq!(drawn.status.code(), Some(0), "{}", drawn.stderr);
+    let picture = std::fs::read_to_string(&svg).expect("the picture");
+    let time = format!("after {:.1} s", j["time_s"].as_f64().expect("time_s"));
+    assert!(
+        picture.contains(&time),
+        "the picture's title says {time}: {}",
+        &picture[..picture.len().min(600)]
+    );
     out
 }
 

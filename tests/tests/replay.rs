@@ -130,7 +130,7 @@ fn a_file_that_is_not_a_recording_is_an_error() {
     std::fs::write(&path, b"not an mcap file").expect("write");
     let out = replay(&path);
     assert_eq!(out.status.code(), Some(1), "{}", out.stderr);
-    assert!(out.stderr.contains("not an MCAP recording"), "{}", out.stderr);
+    assert!(out.stderr.contains("junk.mcap is not an MCAP file"), "{}", out.stderr);
 }
 
 /// A copy of a recording compressed by the mcap crate's writer (as the

@@ -48,10 +48,7 @@ pub fn run(args: Args) -> Result<i32> {
         .map_err(usage_unless_io)?;
     let run = read_run(&args.file)?;
     let meta = run.meta.ok_or_else(|| {
-        usage(format!(
-            "{} has no run metadata (bycoms/<swarm>/run): not a launch recording",
-            args.file.display()
-        ))
+        anyhow::anyhow!("the run metadata of {} (bycoms/<swarm>/run) does not parse", args.file.display())
     })?;
     if args.measurements {
         if !run.measurements.has_telemetry() {

@@ -1,10 +1,12 @@
 //! `orchestrator record …`: tools for recordings. `record recover FILE`
 //! writes a complete copy of a recording cut short (by `kill -9`, a crash,
 //! a power cut), which every MCAP reader opens — including Python `mcap`'s
-//! `make_reader`, which needs the summary and footer a cut file lacks.
+//! `make_reader`, which needs the summary and footer a cut file lacks. It
+//! copies only what verifies: a damaged chunk is left out, said, and makes
+//! the command exit 1 (the copy is written, but it is not the whole run).
 
 use crate::out::{usage_unless_io, Kind, Outputs};
-use crate::record::rewrite;
+use crate::record::{rewrite, Part, Recovered};
 use anyhow::Result;
 use std::path::{Path, PathBuf};
 
@@ -17,11 +19,15 @@ pub struct Args {
 
 #[derive(Debug, clap::Subcommand)]
 pub enum RecordCommand {
-    /// Copy every complete message of a cut recording into a finished file.
+    /// Copy every complete message that verifies of a cut or damaged recording into a finished file.
     Recover(RecoverArgs),
 }
 
-/// Copy a recording cut short (no summary, no footer) into a complete one.
+/// Copy a recording cut short (no summary, no footer) or damaged into a complete one.
+///
+/// Only what verifies is copied: a chunk whose CRC fails is left out (the
+/// command says how many and exits 1). A file that is not a launch
+/// recording is refused and nothing is written.
 #[derive(Debug, clap::Args)]
 pub struct RecoverArgs {
     /// The cut recording (read only).
@@ -57,15 +63,62 @@ fn recover(args: RecoverArgs) -> Result<i32> {
         .check()
         .map_err(usage_unless_io)?;
     let recovered = rewrite(&args.file, &out)?;
+    crate::outln!("{}", recovered_line(&recovered, &out))?;
+    for damage in &recovered.damage {
+        tracing::warn!("{}: {damage}", args.file.display());
+    }
+    if recovered.damage.iter().any(|d| d.part != Part::Summary) {
+        tracing::error!(
+            "{} is damaged: {} left out of {} (it holds only what verifies)",
+            args.file.display(),
+            left_out(&recovered),
+            out.display()
+        );
+        return Ok(crate::exit::ERROR);
+    }
+    Ok(crate::exit::SUCCESS)
+}
+
+/// What was copied, in one line.
+fn recovered_line(recovered: &Recovered, out: &Path) -> String {
     let topics = crate::runs::count(recovered.counts.len() as u64, "topic");
     let messages = crate::runs::count(recovered.messages, "message");
-    let line = match &recovered.stopped_by {
-        Some(why) => format!(
-            "recovered {messages} on {topics} into {} (the recording ends early: {why})",
-            out.display()
-        ),
-        None => format!("the recording was complete; copied {messages} on {topics} into {}", out.display()),
+    let copied = format!("{messages} on {topics} into {}", out.display());
+    let mut line = match &recovered.stopped_by {
+        Some(why) => format!("recovered {copied} (the recording ends early: {why})"),
+        None if recovered.damage.is_empty() => format!("the recording was complete; copied {copied}"),
+        None => format!("recovered {copied}"),
     };
-    crate::outln!("{line}")?;
-    Ok(crate::exit::SUCCESS)
+    if !recovered.damage.is_empty() {
+        line.push_str(&format!("; left out as damaged: {}", left_out(recovered)));
+    }
+    line
+}
+
+/// The damaged parts left out, counted: "2 chunks (and 40 messages whose channel they defined)".
+fn left_out(recovered: &Recovered) -> String {
+    let count = |part: Part| recovered.damage.iter().filter(|d| d.part == part).count() as u64;
+    let mut parts = vec![];
+    let chunks = count(Part::Chunk);
+    if chunks > 0 {
+        parts.push(crate::runs::count(chunks, "chunk"));
+    }
+    if recovered.orphans > 0 {
+        parts.push(format!(
+            "{} whose channel a dropped chunk defined",
+            crate::runs::count(recovered.orphans, "message")
+        ));
+    }
+    for (part, name) in [(Part::Attachment, "attachment"), (Part::Record, "record")] {
+        if count(part) > 0 {
+            parts.push(crate::runs::count(count(part), name));
+        }
+    }
+    if count(Part::DataSection) > 0 {
+        parts.push("a record outside the chunks (the data section's CRC fails)".into());
+    }
+    if count(Part::Summary) > 0 {
+        parts.push("the summary (rebuilt)".into());
+    }
+    parts.join(", ")
 }

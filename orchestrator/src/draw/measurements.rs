@@ -104,7 +104,8 @@ impl Measurements {
         let (lo, hi) = (Vec2::new(lo.x - margin, lo.y - margin), Vec2::new(hi.x + margin, hi.y + margin));
         // The plot keeps the run's aspect (1 m is as long across as up),
         // between a quarter and 1.25 of its width high; axes left and below.
-        let (size, top, left, bottom) = (640.0, 40.0, 56.0, 70.0);
+        // Below the plot: the x axis (≈ 40 px), then the legend's three lines.
+        let (size, top, left, bottom) = (640.0, 40.0, 56.0, 40.0 + LEGEND_HEIGHT);
         let plot_w = size - left - 16.0;
         let scale = (plot_w / (hi.x - lo.x)).min(1.25 * plot_w / (hi.y - lo.y));
         let plot_h = ((hi.y - lo.y) * scale).max(0.25 * plot_w);
@@ -162,27 +163,38 @@ impl Measurements {
             (gx + r * a.cos(), gy - r * a.sin())
         });
         svg.polygon(star, r#"id="goal" fill="gold" stroke="black" stroke-width="0.8""#);
-        let legend_y = height - 12.0;
-        for (i, id) in self.positions.keys().enumerate() {
-            let colour = COLOURS[(*id as usize).saturating_sub(1) % COLOURS.len()];
-            svg.text_coloured(
-                10.0 + 70.0 * i as f64,
-                legend_y,
-                12.0,
-                "start",
-                colour,
-                &format!("robot {id}"),
-            );
-        }
-        let cm = number(ARROW_SPACING * 100.0);
-        let note = format!(
-            "arrows: measured gradient, length V_ave (max {}), one arrow per {cm} cm travelled",
-            number(v_max)
-        );
-        svg.text(size - 10.0, legend_y, 11.0, "end", &escape(&note));
+        legend(&mut svg, self.positions.keys().copied(), v_max, (size, top + plot_h + 48.0));
         svg.raw(r#"<defs><marker id="head" markerWidth="6" markerHeight="6" refX="5" refY="3" orient="auto"><path d="M0,0 L6,3 L0,6 z" fill="context-stroke"/></marker></defs>"#);
         svg.finish()
     }
+}
+
+/// Height of the legend under the x axis: the robots' colours, then what an
+/// arrow is, then its scale, one line each (on one line the caption ran over
+/// the robots' names).
+const LEGEND_HEIGHT: f64 = 56.0;
+
+/// What V_ave is measured in: the firmware's V_n are a tone's unwindowed-DFT
+/// magnitude, ADC counts × 256 (`FirmwareConfig::paper`: the paper's
+/// V_target = 22000 is a tone of about 86 counts).
+pub const V_UNIT: &str = "ADC counts × 256";
+
+/// The legend from `(width, y)` down: each robot's colour, what an arrow
+/// means, and V_ave's largest value with its unit.
+fn legend(svg: &mut Svg, robots: impl Iterator<Item = u32>, v_max: f64, (width, y): (f64, f64)) {
+    let mut x = 10.0;
+    for id in robots {
+        let colour = COLOURS[(id as usize).saturating_sub(1) % COLOURS.len()];
+        let label = format!("robot {id}");
+        svg.text_coloured(x, y, 12.0, "start", colour, &label);
+        x += super::svg::text_width(&label, 12.0) + 14.0;
+    }
+    let cm = number(ARROW_SPACING * 100.0);
+    let arrows = format!("arrows: the measured gradient's direction, one per {cm} cm travelled");
+    svg.text(10.0, y + 17.0, 11.0, "start", &arrows);
+    let scale = format!("arrow length: V_ave, the mean microphone value in {V_UNIT} (largest {v_max:.0})");
+    svg.text(10.0, y + 32.0, 11.0, "start", &scale);
+    debug_assert!(super::svg::text_width(&scale, 11.0) < width - 20.0, "the legend fits: {scale}");
 }
 
 /// Distance a robot travels between two arrows of the measurement picture, m.
@@ -236,7 +248,8 @@ fn axes(
         svg.text(x_left - 8.0, ty + 4.0, 11.0, "end", &number(y));
     }
     svg.text((x_left + x_right) / 2.0, y_bottom + 33.0, 12.0, "middle", "x [m]");
-    svg.text(x_left - 40.0, (y_top + y_bottom) / 2.0, 12.0, "middle", "y [m]");
+    // Upright along the axis: level, it ran off the picture's left edge.
+    svg.vtext(x_left - 38.0, (y_top + y_bottom) / 2.0, 12.0, "y [m]");
     svg.close_group();
 }
 
@@ -328,7 +341,7 @@ mod tests {
         let svg = m.picture(Vec2::new(2.5, 0.0), "exp-short");
         let arrows = svg.matches(r#"class="gradient""#).count();
         assert_eq!(arrows, 41, "one per 5 cm travelled over 2 m, none more where it stood");
-        assert!(svg.contains("one arrow per 5 cm travelled"), "the caption says so");
+        assert!(svg.contains("one per 5 cm travelled"), "the caption says so");
         for tick in [">0<", ">0.5<", ">1<", ">1.5<", ">2<"] {
             assert!(svg.contains(tick), "x axis tick {tick}");
         }
@@ -349,5 +362,66 @@ mod tests {
         for tick in [">0<", ">3<"] {
             assert!(svg.contains(tick), "tick {tick}");
         }
+    }
+
+    /// The texts of a picture: (left x, baseline y, font size, text) of
+    /// every `<text>`, the left edge from its anchor and estimated width.
+    fn texts(svg: &str) -> Vec<(f64, f64, f64, String)> {
+        svg.split("<text")
+            .skip(1)
+            .map(|t| {
+                let attr = |name: &str| -> f64 {
+                    let start = t.find(&format!(r#" {name}=""#)).expect("attr") + name.len() + 3;
+                    t[start..].split('"').next().expect("value").parse().expect("number")
+                };
+                let body = t[t.find('>').expect("tag end") + 1..].split("</text>").next().expect("body");
+                let (size, width) =
+                    (attr("font-size"), crate::draw::svg::text_width(body, attr("font-size")));
+                let left = match t.split(r#"text-anchor=""#).nth(1).and_then(|a| a.split('"').next()) {
+                    Some("end") => attr("x") - width,
+                    Some("middle") => attr("x") - width / 2.0,
+                    _ => attr("x"),
+                };
+                (left, attr("y"), size, body.to_string())
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_legend_overprints_nothing_and_says_what_v_ave_is_measured_in() {
+        let mut m = Measurements::new();
+        for id in 1..=3 {
+            m.pose(&pose(id, f64::from(id), 0.0, 0.0));
+            m.report(&telemetry(id, Some(0.0), 40215.004));
+        }
+        let svg = m.picture(Vec2::new(3.0, 1.0), "exp-long");
+        let width: f64 = svg
+            .split(r#"width=""#)
+            .nth(1)
+            .and_then(|w| w.split('"').next())
+            .expect("width")
+            .parse()
+            .expect("number");
+        let legend: Vec<_> = texts(&svg)
+            .into_iter()
+            .filter(|t| t.3.starts_with("robot ") || t.3.contains("V_ave") || t.3.contains("arrows"))
+            .collect();
+        assert_eq!(legend.len(), 5, "{legend:?}");
+        let extent = |t: &(f64, f64, f64, String)| {
+            let w = crate::draw::svg::text_width(&t.3, t.2);
+            (t.0, t.0 + w, t.1 - t.2, t.1)
+        };
+        for (i, a) in legend.iter().enumerate() {
+            let (x0, x1, y0, y1) = extent(a);
+            assert!(x0 >= 0.0 && x1 <= width, "{a:?} runs off the picture ({width} px)");
+            for b in &legend[i + 1..] {
+                let (u0, u1, v0, v1) = extent(b);
+                let apart = x1 <= u0 || u1 <= x0 || y1 <= v0 || v1 <= y0;
+                assert!(apart, "{a:?} overprints {b:?}");
+            }
+        }
+        let scale = legend.iter().find(|t| t.3.contains("V_ave")).expect("the scale");
+        assert!(scale.3.contains("(largest 40215)"), "{scale:?}");
+        assert!(scale.3.contains("ADC counts"), "the unit: {scale:?}");
     }
 }

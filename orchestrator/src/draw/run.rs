@@ -56,7 +56,7 @@ impl RunMeta {
 /// What a recording says about its run.
 #[derive(Debug, Clone)]
 pub struct RecordedRun {
-    /// The run metadata, if the recording has it.
+    /// The run metadata, unless it does not parse.
     pub meta: Option<RunMeta>,
     /// Poses and gate decisions in recording order.
     pub trace: Trace,
@@ -68,7 +68,8 @@ pub struct RecordedRun {
     pub stopped_by: Option<String>,
 }
 
-/// Reads the run of the recording at `path`.
+/// Reads the run of the recording at `path`: a launch recording
+/// ([`RecordError::NotLaunch`] otherwise), undamaged ([`RecordError::Damaged`]).
 pub fn read_run(path: &Path) -> Result<RecordedRun, RecordError> {
     let mut run = RecordedRun {
         meta: None,
@@ -93,6 +94,7 @@ pub fn read_run(path: &Path) -> Result<RecordedRun, RecordError> {
         }
         Ok(())
     })?;
+    end.launch_recording(path)?;
     run.stopped_by = end.stopped_by;
     Ok(run)
 }

@@ -15,6 +15,16 @@
 //! every motion-capture frame as a control period. The start pose is the one
 //! the `Deployed` decision names by its step (in lockstep that step is the
 //! tick the robot started at, its time the tick's).
+//!
+//! Why the start pose is looked up by its step among the robot's recent
+//! poses, not taken as its latest: motion capture by NatNet hands the launch
+//! a batch of frames at a time, and every frame is recorded as it is drained,
+//! before the launch judges them; the `Deployed` decision about the batch's
+//! first pose thus follows several later poses of the same robot on the
+//! record. Taking the latest as the start gave the start the wrong step, its
+//! time became step × period (frame 1583 → 158 s, where the pose said 1.6 s),
+//! no period was counted and the trajectories were lost (issue 31). Bus
+//! mocap hands one pose at a time, so there the two are the same pose.
 
 use super::snapshot::{Options, Unit};
 use crate::gate::{active_periods, same_pose};
@@ -24,7 +34,12 @@ use bycoms_sim::body::Kinematics;
 use bycoms_sim::runner::{Outcome, RobotEnd, RobotRun, RunResult};
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::Vec2;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
+
+/// How many of a robot's poses before its `Deployed` decision are kept to find
+/// the start pose in: more than the frames of one motion-capture batch (120 Hz
+/// NatNet drained every few milliseconds hands a few).
+const BEFORE_DEPLOYED: usize = 256;
 
 /// One robot's track so far.
 #[derive(Debug, Clone, Default)]
@@ -32,8 +47,9 @@ struct Track {
     end: Option<GateKind>,
     /// Where the gate decided (a beacon's position).
     at: Option<Vec2>,
-    /// Its latest pose before its `Deployed` decision: the start pose.
-    latest: Option<Pose>,
+    /// Its latest poses before its `Deployed` decision (at most
+    /// [`BEFORE_DEPLOYED`]): the start pose is among them.
+    before: VecDeque<Pose>,
     /// Whether the gate's `Deployed` decision was seen.
     deployed: bool,
     /// From its start pose on: the active-time count.
@@ -143,7 +159,10 @@ impl Trace {
             return;
         }
         if !track.deployed {
-            track.latest = Some(*pose);
+            if track.before.len() == BEFORE_DEPLOYED {
+                track.before.pop_front();
+            }
+            track.before.push_back(*pose);
         }
         // Until a `Deployed` decision (none in a recording cut before it),
         // the first pose is the start.
@@ -161,8 +180,16 @@ impl Trace {
             return;
         }
         if event.kind == GateKind::Deployed {
-            if let Some(start) = track.latest.take() {
-                track.active = Some(Active::start(start, event));
+            let before = std::mem::take(&mut track.before);
+            // The pose the decision names by its step, and the later poses
+            // recorded before the decision; without one of that step (in
+            // lockstep the agent's start pose may carry an older step), the
+            // latest pose.
+            let at = before.iter().rposition(|p| p.step == event.step).or(before.len().checked_sub(1));
+            if let Some(at) = at {
+                let mut active = Active::start(before[at], event);
+                before.iter().skip(at + 1).for_each(|p| active.observe(p));
+                track.active = Some(active);
             }
             track.deployed = true;
             return;
@@ -355,5 +382,33 @@ mod tests {
         assert!(svg.contains("robot 3 arrived after 2.2 s (1 beacon)"), "{svg}");
         // Robot 3 (the second robot that ran) is drawn with its own way.
         assert!(svg.contains(r##"fill="none" stroke="#2ca02c" stroke-width="1.2"/>"##), "{svg}");
+    }
+
+    /// NatNet as the launch records it: frames arrive in batches, each frame
+    /// is recorded as it is drained, and the gate's `Deployed` decision about
+    /// a batch's first frame follows the later frames on the record. The
+    /// start is the pose the decision names (frame 1583, 1.6 s of mocap
+    /// time), not the latest one; the run's time is the gate's, and the
+    /// trajectory is the robot's whole way.
+    #[test]
+    fn natnet_frames_recorded_before_the_deployment_do_not_move_the_start() {
+        let mut trace = Trace::new();
+        let frame = |n: u64, x: f64| at(1, 1583 + n, x, 1_566_667 + n * 8_333);
+        for n in 0..=5 {
+            trace.pose(&frame(n, 0.0));
+        }
+        trace.gate(&GateEvent { step: 1583, ..event(1, GateKind::Deployed, 0.0) });
+        // 3 s of driving (360 frames at 120 Hz), then 2 s still.
+        for n in 6..=600u64 {
+            trace.pose(&frame(n, 0.001 * n.saturating_sub(5).min(360) as f64));
+        }
+        trace.gate(&event(1, GateKind::Stopped { arrived: false }, 0.36));
+        let r = trace.result(0.1);
+        // Moving from frame 6 to 365: (365 × 8333 µs) / 0.1 s = 30 periods.
+        let gate = active_periods(1_566_667, 1_566_667 + 365 * 8_333, 100_000);
+        assert_eq!((r.robots[0].steps, gate), (30, 30));
+        assert_eq!(r.time, 3.0);
+        assert_eq!(r.robots[0].trajectory.len(), 31, "a point per period: the whole way");
+        assert!(r.robots[0].trajectory[30].distance(Vec2::new(0.36, 1.0)) < 1e-9);
     }
 }

@@ -41,14 +41,37 @@ pub enum RecordError {
         /// What the operating system said.
         source: io::Error,
     },
-    /// The file does not start with the MCAP magic bytes (or is empty): it is not a recording
-    /// at all. The one error of `record recover`, `draw` and `replay` for such a file (exit 1).
-    #[error("{} is not an MCAP recording: {reason}", path.display())]
+    /// The file does not start with the MCAP magic bytes (or is empty, or is no regular file):
+    /// it is not MCAP at all. The one error of `record recover`, `draw` and `replay` for such a
+    /// file (exit 1).
+    #[error("{} is not an MCAP file: {reason}", path.display())]
     NotMcap {
         /// The file that was read.
         path: PathBuf,
-        /// What is wrong with it ("it is empty", …).
+        /// What is wrong with it ("the file is empty", …).
         reason: String,
+    },
+    /// A valid MCAP file that is not a launch recording (no run metadata): the one error of
+    /// `record recover`, `draw` and `replay` for it (exit 1, nothing written).
+    #[error("{} is an MCAP file but not a bycoms launch recording: {reason}", path.display())]
+    NotLaunch {
+        /// The file that was read.
+        path: PathBuf,
+        /// Why ("it holds no run metadata …").
+        reason: String,
+    },
+    /// A damaged part of a recording (a chunk whose CRC fails, …): `draw` and `replay` read
+    /// no corrupt byte; `record recover` copies what verifies.
+    #[error(
+        "{} is damaged: {damage}; `orchestrator record recover {}` copies the parts that verify",
+        path.display(),
+        path.display()
+    )]
+    Damaged {
+        /// The file that was read.
+        path: PathBuf,
+        /// Where and what.
+        damage: super::read::Damage,
     },
     /// A JSON record could not be serialized.
     #[error("cannot encode a JSON record for topic {topic:?}: {source}")]

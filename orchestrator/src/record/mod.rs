@@ -99,9 +99,18 @@ use mcap::records::MessageHeader;
 use mcap::{WriteOptions, Writer};
 
 pub use error::RecordError;
-pub use read::{open_recording, read_counts, recover, End, Item, Reader, Recovered};
+pub use read::{open_recording, read_counts, recover, Damage, End, Item, Part, Reader, Recovered};
 pub use rewrite::rewrite;
 pub use schema::{JSON, POSTCARD};
+
+/// The name a recording's header gives as its writer (with the version): what tells a launch
+/// recording cut before its first chunk from any other MCAP file.
+pub const LIBRARY_NAME: &str = "bycoms-orchestrator";
+
+/// The header's `library` of the recordings written here (`record recover`'s copies too).
+pub fn library() -> String {
+    format!("{LIBRARY_NAME}/{} {}", env!("CARGO_PKG_VERSION"), mcap::LIBRARY_IDENTIFIER)
+}
 
 /// The longest time data may sit in memory before `record_*` flushes it on its own.
 pub const FLUSH_INTERVAL: Duration = Duration::from_secs(1);
@@ -164,11 +173,7 @@ impl Recorder {
             // Compress on the writer's thread: zstd's worker threads would compete with the
             // launch for the cores on every chunk (see the module docs).
             .compression_threads(0)
-            .library(format!(
-                "bycoms-orchestrator/{} {}",
-                env!("CARGO_PKG_VERSION"),
-                mcap::LIBRARY_IDENTIFIER
-            ));
+            .library(library());
         let writer = Writer::with_options(file, options)
             .map_err(|source| RecordError::Create { path: path.to_path_buf(), source: into_io(source) })?;
         Ok(Recorder {

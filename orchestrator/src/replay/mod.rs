@@ -24,7 +24,6 @@ pub use source::ReplayPoseSource;
 
 use bycoms_protocol::msg::{GateEvent, GateKind};
 use std::fmt;
-use std::path::PathBuf;
 
 /// Why a recording cannot be replayed.
 #[derive(Debug, thiserror::Error)]
@@ -33,12 +32,6 @@ pub enum ReplayError {
     /// errors, the same for `draw` and `record recover`).
     #[error(transparent)]
     Record(#[from] crate::record::RecordError),
-    /// No `run` record: not a launch recording.
-    #[error("{path} has no run metadata (bycoms/<swarm>/run): not a launch recording")]
-    NoRunMeta {
-        /// The file.
-        path: PathBuf,
-    },
     /// The `run` record does not parse.
     #[error("the run metadata on {topic} does not parse: {reason}")]
     BadRunMeta {

@@ -162,6 +162,10 @@ pub fn read_recording(path: &Path) -> Result<Recorded, ReplayError> {
         entries.push(entry);
         Ok(())
     })?;
-    let run = run.ok_or_else(|| ReplayError::NoRunMeta { path: path.to_path_buf() })?;
+    end.launch_recording(path)?;
+    let run = run.ok_or_else(|| crate::record::RecordError::NotLaunch {
+        path: path.to_path_buf(),
+        reason: "its run metadata does not parse".into(),
+    })?;
     Ok(Recorded { run, entries, stopped_by: end.stopped_by })
 }
