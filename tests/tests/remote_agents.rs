@@ -414,14 +414,14 @@ fn agents_stop_their_robot_when_the_orchestrator_is_gone() {
     // The `wait` agent stays (`--on-orchestrator-lost wait`: robot stopped,
     // process kept until the orchestrator is back or a signal ends it): it
     // is alive after its failsafe tripped, its loop still runs (it ends on
-    // SIGTERM, exit 0), and it never ended by itself for the lost
+    // SIGTERM, exit 130 as every interrupted agent), and it never ended by itself for the lost
     // orchestrator (exit 4, "robot stopped, exiting").
     assert!(!bycoms_tests::is_zombie(waiting.pid()), "the `wait` agent stays");
     bycoms_tests::signal(waiting.pid(), nix::sys::signal::Signal::SIGTERM);
     let out = waiting.wait(Duration::from_secs(10));
     assert_eq!(
         out.status.code(),
-        Some(0),
+        Some(130),
         "the `wait` agent ended by SIGTERM, not by itself: {}",
         out.stderr
     );

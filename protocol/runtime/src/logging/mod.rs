@@ -28,6 +28,9 @@
 //!   joined, each said once (the one place that formats an error chain).
 //! * Feature `iceoryx2`: [`iceoryx2::forward_to_tracing`] routes iceoryx2's
 //!   own log lines through the same subscriber.
+//! * zenoh's warnings and errors are said in our words (`zenoh_words`):
+//!   what failed (a certificate, an address in use, a host not found, a
+//!   refused connection), without its source paths or misleading hints.
 //! * Text lines have no timestamp (a terminal or journald adds its own);
 //!   JSON lines have one, plus the level, target, fields and spans, as log
 //!   shippers expect.
@@ -35,6 +38,7 @@
 mod error_text;
 #[cfg(feature = "iceoryx2")]
 pub mod iceoryx2;
+mod zenoh_words;
 
 pub use error_text::error_text;
 
@@ -97,11 +101,20 @@ pub fn init(format: LogFormat) {
         .with_writer(std::io::stderr)
         .with_env_filter(filter)
         .log_internal_errors(false);
+    // zenoh's warnings and errors in our words (`zenoh_words`).
     let installed = match format {
-        LogFormat::Text => {
-            builder.without_time().with_target(false).with_ansi(std::io::stderr().is_terminal()).try_init()
-        }
-        LogFormat::Json => builder.json().with_current_span(true).with_span_list(false).try_init(),
+        LogFormat::Text => builder
+            .without_time()
+            .with_target(false)
+            .with_ansi(std::io::stderr().is_terminal())
+            .map_event_format(zenoh_words::Reworded)
+            .try_init(),
+        LogFormat::Json => builder
+            .json()
+            .with_current_span(true)
+            .with_span_list(false)
+            .map_event_format(zenoh_words::Reworded)
+            .try_init(),
     };
     // Err only when a subscriber is already installed: keep that one.
     drop(installed);
