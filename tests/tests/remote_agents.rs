@@ -294,7 +294,7 @@ fn an_agent_of_a_robot_outside_the_launch_is_ignored() {
     // Robot 5 with the launch's settings (taken from the orchestrator).
     let mut stranger = bare_agent(&endpoint, &swarm, 5);
     stranger
-        .stderr_line(Duration::from_secs(20), |l| l.contains("Using ZID").then_some(()))
+        .stderr_line(Duration::from_secs(20), |l| l.contains("asking the orchestrator for").then_some(()))
         .expect("the stranger joins");
     let agents: Vec<Proc> = (1..=3).map(|k| agent(&world, &endpoint, &swarm, k, 3)).collect();
     let out = orch.wait(Duration::from_secs(180));

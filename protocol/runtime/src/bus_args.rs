@@ -189,6 +189,8 @@ impl BusArgs {
 /// few seconds), for up to `wait`.
 fn open_zenoh(config: ZenohConfig, wait: Option<Duration>) -> Result<ZenohBus, BusError> {
     let Some(wait) = wait else { return ZenohBus::open(config) };
+    // A wrong certificate stays wrong: said at once, not retried.
+    config.check_certificates(&config.to_zenoh()?)?;
     let begun = Instant::now();
     let mut said = begun;
     loop {

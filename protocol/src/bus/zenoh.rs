@@ -173,6 +173,15 @@ impl Default for ZenohConfig {
 }
 
 impl ZenohConfig {
+    /// Checks the certificates `zenoh` (this configuration's, from
+    /// [`Self::to_zenoh`]) names, as [`ZenohBus::open`] does first: a
+    /// caller that retries opening checks once, since a bad certificate
+    /// stays bad ([`certs`]).
+    pub fn check_certificates(&self, zenoh: &::zenoh::Config) -> Result<(), BusError> {
+        certs::check(zenoh, self.identity.as_deref(), std::time::SystemTime::now())
+            .map_err(|e| BusError::Backend { op: "open zenoh session", topic: None, detail: e.to_string() })
+    }
+
     /// The zenoh configuration this describes.
     pub fn to_zenoh(&self) -> Result<::zenoh::Config, BusError> {
         let mut config = match &self.base_config {
@@ -259,9 +268,7 @@ impl ZenohBus {
             return Err(BusError::InvalidConfig("max_payload and buffer must be at least 1"));
         }
         let zenoh_config = config.to_zenoh()?;
-        certs::check(&zenoh_config, config.identity.as_deref(), std::time::SystemTime::now()).map_err(
-            |e| BusError::Backend { op: "open zenoh session", topic: None, detail: e.to_string() },
-        )?;
+        config.check_certificates(&zenoh_config)?;
         let session = ::zenoh::open(zenoh_config)
             .wait()
             .map_err(|e| text::backend("open zenoh session", None, None, &e))?;

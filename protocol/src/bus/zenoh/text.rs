@@ -69,8 +69,9 @@ pub fn zenoh_words(message: &str) -> Option<String> {
         .strip_prefix("Unable to connect to ")
         .and_then(|rest| rest.split_once('!'))
         .or_else(|| text.strip_prefix("Unable to open listener ").and_then(|rest| rest.split_once(": ")))
+        .or_else(|| text.split_once(" bound to ").and_then(|(_, rest)| rest.split_once(": ")))
         .map(|(endpoint, _)| endpoint.to_owned());
-    let at = endpoint.as_deref().map(|e| format!(" {e}")).unwrap_or_default();
+    let at = format!(" {}", endpoint.as_deref().unwrap_or("its address"));
     let said = if text.contains("Address already in use") {
         format!("address in use: another process listens on{at} (another port, or port 0 for a free one)")
     } else if text.contains("failed to lookup address information")
@@ -216,6 +217,12 @@ mod tests {
         }
         let summary = format!("Unable to connect to any of [Single(quic/127.0.0.1:17447)]! {registry}");
         assert_eq!(zenoh_words(&summary), None, "a repeat of the line before");
+        // The session's own error, after the warning.
+        let listen = format!("Can not create a new TCP listener bound to tcp/127.0.0.1:17999: [127.0.0.1:17999: Address already in use (os error 98){registry}]");
+        assert_eq!(
+            zenoh_words(&listen).as_deref(),
+            Some("address in use: another process listens on tcp/127.0.0.1:17999 (another port, or port 0 for a free one)")
+        );
         let other = format!("Something else happened{registry} Hint: increase the system open file limit.");
         assert_eq!(zenoh_words(&other).as_deref(), Some("Something else happened"));
     }
