@@ -55,9 +55,11 @@ use std::path::{Path, PathBuf};
 /// Common name of the orchestrator's certificate.
 pub const ORCHESTRATOR_CN: &str = "orchestrator";
 
-/// Common name of robot `k`'s certificate.
+/// Common name of robot `k`'s certificate (the one every agent checks its
+/// own against before it connects, `bus::zenoh::certs`).
 pub fn robot_cn(k: u32) -> String {
-    format!("robot-{k}")
+    use bycoms_protocol::{bus::zenoh::certs::common_name, naming::Member, RobotId};
+    common_name(Member::Agent(RobotId(k)))
 }
 
 /// What to generate.

@@ -10,7 +10,7 @@ use clap::Parser;
 fn main() {
     let cli = commands::Cli::parse();
     bycoms_runtime::logging::init(cli.log.log_format);
-    bycoms_protocol::bus::zenoh::tune_runtime();
+    bycoms_runtime::cli::tune_zenoh_runtime();
     let code = match commands::run(cli) {
         Ok(code) => code,
         Err(err) => {

@@ -448,3 +448,24 @@ fn a_live_swarm_is_refused_whatever_the_temp_dir_with_a_usage_error() {
     assert!(o.stdout.is_empty(), "nothing ran: {}", String::from_utf8_lossy(&o.stdout));
     drop(held);
 }
+
+/// zenoh's runtime failing to start (here: a thread pool of no threads,
+/// as a memory limit makes it fail) ends a launch at once with one error
+/// line in our words and exit 1; it used to panic in zenoh's thread, then
+/// wait for agents that could not come, or abort with a panic in a
+/// destructor.
+#[test]
+fn a_zenoh_runtime_that_cannot_start_ends_the_launch_at_once() {
+    let swarm = format!("zenoh-rt-{}", std::process::id());
+    let begun = std::time::Instant::now();
+    let o = Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .args(["launch", "--transport", "zenoh", "--agents", "remote", "--robots", "1", "--swarm", &swarm])
+        .env("ZENOH_RUNTIME", "(acc: (worker_threads: 0))")
+        .output()
+        .expect("spawn orchestrator");
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("zenoh failed (thread main): Worker threads cannot be set to 0"), "{err}");
+    assert!(!err.contains("panicked") && !err.contains(".cargo/registry"), "{err}");
+    assert!(begun.elapsed() < std::time::Duration::from_secs(8), "took {:?}", begun.elapsed());
+}

@@ -347,6 +347,9 @@ fn remote_robots_are_needed_only_at_their_turn() {
     let registered = report.registered_us[0].expect("robot 1 registered");
     assert!(report.gate_times_us[0] - registered < 1_000_000, "{:?}", report.gate_times_us);
     assert_eq!(report.robots[1].0, SlotState::Absent);
+    // Another host's agent is not ours to kill: the launch says what it did.
+    let why = report.deaths[1].as_deref().expect("why robot 2 is absent");
+    assert_eq!(why, "it did not register in time and was dropped from the launch");
     assert!(
         report.gates.iter().any(|g| g.robot.0 == 3 && g.kind == GateKind::Deployed),
         "{:?}",
@@ -361,6 +364,7 @@ fn remote_robots_are_needed_only_at_their_turn() {
     assert!(report.gates.is_empty(), "nothing deployed: {:?}", report.gates);
     let error = ending.error.unwrap();
     assert!(error.contains("of robot 2 never registered"), "{error}");
+    assert!(!error.contains("killed"), "{error}");
 }
 
 #[test]

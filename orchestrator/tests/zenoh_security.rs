@@ -362,3 +362,55 @@ fn an_expired_certificate_cannot_join() {
     // The same robot with a valid certificate joins (the refusal was the date's).
     client(&issued(dir.path(), &made, "robot-1", 2025, 2035)).expect("robot 1 joins");
 }
+
+/// A swarm member's session (`identity`: its certificate's common name).
+fn member(config_file: &Path, identity: &str) -> Result<ZenohBus, BusError> {
+    ZenohBus::open(ZenohConfig {
+        mode: Mode::Client,
+        base_config: Some(config_file.to_path_buf()),
+        identity: Some(identity.into()),
+        ..ZenohConfig::default()
+    })
+}
+
+#[test]
+fn a_bad_certificate_is_said_in_our_words_before_zenoh_sees_it() {
+    // No orchestrator: each is refused before any connection is tried.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let made = lab(dir.path(), &endpoint("quic"));
+    let said = |config: &Path, identity: &str| match member(config, identity) {
+        Ok(_) => panic!("{} was accepted as {identity}", config.display()),
+        Err(e) => e.to_string(),
+    };
+    let expired = said(&issued(dir.path(), &made, "robot-1", 2020, 2021), "robot-1");
+    assert!(expired.contains("the certificate of \"robot-1\" expired on 2021-01-01"), "{expired}");
+    let early = said(&issued(dir.path(), &made, "robot-1", 2098, 2099), "robot-1");
+    assert!(early.contains("is valid only from 2098-01-01"), "{early}");
+    let stray = said(&issued(dir.path(), &made, "robot-9", 2025, 2035), "robot-1");
+    assert!(stray.contains("the certificate is \"robot-9\"'s, not \"robot-1\"'s"), "{stray}");
+    // Another lab's robot certificate beside this lab's CA.
+    let other = tempfile::tempdir().expect("temp dir");
+    lab(other.path(), &endpoint("quic"));
+    let text = std::fs::read_to_string(&made.robot_configs[0]).expect("robot 1's config");
+    let swap = |name: &str| (dir.path().join(name), other.path().join(name));
+    let (ours, theirs) = (swap("robot-1.pem"), swap("robot-1-key.pem"));
+    let text = text
+        .replace(&*ours.0.to_string_lossy(), &theirs_str(&ours.1))
+        .replace(&*theirs.0.to_string_lossy(), &theirs_str(&theirs.1));
+    let foreign = dir.path().join("foreign.json5");
+    std::fs::write(&foreign, text).expect("write config");
+    let foreign = said(&foreign, "robot-1");
+    assert!(foreign.contains("is not signed by the lab's CA"), "{foreign}");
+    for text in [&expired, &early, &stray, &foreign] {
+        assert!(!text.contains(".cargo/registry") && !text.contains("Unable to connect"), "{text}");
+    }
+    // The lab's own certificate passes the same checks.
+    let own = ZenohConfig { base_config: Some(made.robot_configs[0].clone()), ..ZenohConfig::default() };
+    let own = own.to_zenoh().expect("robot 1's config");
+    let now = std::time::SystemTime::now();
+    assert_eq!(bycoms_protocol::bus::zenoh::certs::check(&own, Some("robot-1"), now), Ok(()));
+}
+
+fn theirs_str(path: &Path) -> String {
+    path.to_string_lossy().into_owned()
+}

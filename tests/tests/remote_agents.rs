@@ -294,7 +294,7 @@ fn an_agent_of_a_robot_outside_the_launch_is_ignored() {
     // Robot 5 with the launch's settings (taken from the orchestrator).
     let mut stranger = bare_agent(&endpoint, &swarm, 5);
     stranger
-        .stderr_line(Duration::from_secs(20), |l| l.contains("Using ZID").then_some(()))
+        .stderr_line(Duration::from_secs(20), |l| l.contains("asking the orchestrator for").then_some(()))
         .expect("the stranger joins");
     let agents: Vec<Proc> = (1..=3).map(|k| agent(&world, &endpoint, &swarm, k, 3)).collect();
     let out = orch.wait(Duration::from_secs(180));
@@ -414,14 +414,14 @@ fn agents_stop_their_robot_when_the_orchestrator_is_gone() {
     // The `wait` agent stays (`--on-orchestrator-lost wait`: robot stopped,
     // process kept until the orchestrator is back or a signal ends it): it
     // is alive after its failsafe tripped, its loop still runs (it ends on
-    // SIGTERM, exit 0), and it never ended by itself for the lost
+    // SIGTERM, exit 130 as every interrupted agent), and it never ended by itself for the lost
     // orchestrator (exit 4, "robot stopped, exiting").
     assert!(!bycoms_tests::is_zombie(waiting.pid()), "the `wait` agent stays");
     bycoms_tests::signal(waiting.pid(), nix::sys::signal::Signal::SIGTERM);
     let out = waiting.wait(Duration::from_secs(10));
     assert_eq!(
         out.status.code(),
-        Some(0),
+        Some(130),
         "the `wait` agent ended by SIGTERM, not by itself: {}",
         out.stderr
     );

@@ -113,6 +113,19 @@ fn has_dead_node(pid: u32) -> bool {
 
 #[test]
 fn ctrl_c_shuts_down_in_order_and_finishes_the_recording() {
+    interrupted_in_order(Signal::SIGINT);
+}
+
+/// SIGQUIT (Ctrl-\\) is an interrupt like Ctrl-C: it used to end the launch
+/// at once, with no summary, no finished recording and its lock file left.
+#[test]
+fn sigquit_shuts_down_in_order_as_ctrl_c_does() {
+    interrupted_in_order(Signal::SIGQUIT);
+}
+
+/// A launch that gets `signal` while robot 1 moves ends in order: exit
+/// 130, the summary, every agent gone, the recording finished.
+fn interrupted_in_order(signal_sent: Signal) {
     let swarm = swarm_name("ctrlc");
     let dir = tempfile::tempdir().expect("temp dir");
     let record = dir.path().join("run.mcap");
@@ -125,9 +138,9 @@ fn ctrl_c_shuts_down_in_order_and_finishes_the_recording() {
     launch
         .stderr_line(Duration::from_secs(20), |l| l.contains("robot 1: deployed at").then_some(()))
         .expect("robot 1 deployed");
-    signal(launch.pid(), Signal::SIGINT);
+    signal(launch.pid(), signal_sent);
     let out = launch.wait(Duration::from_secs(10));
-    assert_eq!(out.status.code(), Some(130), "{}", out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{signal_sent}: {}", out.stderr);
     let j = out.json();
     assert_eq!(j["outcome"], "interrupted");
     assert!(agents_of(&swarm).is_empty(), "every agent exited");
@@ -167,5 +180,37 @@ fn an_agent_that_never_registers_ends_the_launch_with_a_clear_error() {
         assert!(error.contains("robot 1's agent never registered") && error.contains(why), "{error}");
         let pid = j["robots"][0]["pid"].as_u64().expect("pid") as u32;
         assert!(is_zombie(pid), "the fake agent {pid} was killed and reaped");
+    }
+}
+
+/// Whether process `pid` has a handler for `sig` (its `SigCgt` mask).
+fn catches(pid: u32, sig: Signal) -> bool {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+    let mask = status.lines().find_map(|l| l.strip_prefix("SigCgt:")).map(str::trim);
+    mask.and_then(|m| u64::from_str_radix(m, 16).ok()).is_some_and(|m| m & (1 << (sig as i32 - 1)) != 0)
+}
+
+/// `sim-agent` interrupted exits 130, as `agent` and `orchestrator` do (it
+/// exited 0). Started by hand over iceoryx2, it waits for a launch that
+/// never comes until the signal.
+#[test]
+fn an_interrupted_sim_agent_exits_130() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let terrain = dir.path().join("t.txt");
+    std::fs::write(&terrain, "..........\n.......G..\n..........\n.S........\n").expect("terrain");
+    let terrain = terrain.to_str().expect("utf-8 path");
+    for sent in [Signal::SIGINT, Signal::SIGTERM, Signal::SIGQUIT] {
+        let swarm = swarm_name("sigagent");
+        let agent = Proc::start(
+            &bycoms_tests::bin("sim-agent"),
+            &["--swarm", &swarm, "--robot", "1", "--terrain", terrain, "--eps", "3"].map(String::from),
+        );
+        // Its handler is installed first thing: signalled before, it would
+        // die of the signal, not exit.
+        let ready = wait_for(Duration::from_secs(10), || catches(agent.pid(), sent).then_some(()));
+        ready.unwrap_or_else(|| panic!("sim-agent never handled {sent}"));
+        signal(agent.pid(), sent);
+        let out = agent.wait(Duration::from_secs(10));
+        assert_eq!(out.status.code(), Some(130), "{sent}: {}", out.stderr);
     }
 }

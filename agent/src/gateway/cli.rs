@@ -1,9 +1,8 @@
 //! The `agent` command line and `main`.
 //!
 //! Exit codes: 0 after `Shutdown` or the parent's death; 130 after Ctrl-C
-//! (SIGINT, or SIGTERM / SIGHUP: one handler), as the orchestrator (a
-//! gateway is started by hand in a lab, so a person sees this code; a
-//! `sim-agent`, started by the orchestrator, exits 0 on a signal); 3 when
+//! (SIGINT, or SIGTERM / SIGHUP / SIGQUIT: one handler), as the
+//! orchestrator and `sim-agent` (one mapping, `ExitCause::exit_code`); 3 when
 //! another gateway holds the robot; 4 over zenoh when the orchestrator was
 //! gone past `--orchestrator-grace` (the robot was stopped first; with
 //! `--on-orchestrator-lost wait` the gateway stays instead); 2 for a usage
@@ -261,17 +260,10 @@ pub fn main_with(args: &GatewayArgs) -> i32 {
     }
 }
 
-/// The exit code of a gateway that ended for `cause` (see the module doc).
+/// The exit code of a gateway that ended for `cause` (see the module doc;
+/// the runtime's one mapping, shared with `sim-agent`).
 pub fn exit_code(cause: ExitCause) -> i32 {
-    match cause {
-        // Another gateway already holds the robot (same code as sim-agent).
-        ExitCause::Refused => 3,
-        // Interrupted, as the orchestrator reports it.
-        ExitCause::Signal => 130,
-        // Over zenoh, the failsafe stopped the robot (as sim-agent).
-        ExitCause::OrchestratorLost => 4,
-        ExitCause::Shutdown | ExitCause::ParentGone => 0,
-    }
+    cause.exit_code()
 }
 
 fn run(args: &GatewayArgs) -> Result<ExitCause, GatewayError> {

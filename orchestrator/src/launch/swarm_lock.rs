@@ -29,6 +29,18 @@
 //! and our lock) would hold a lock nobody else sees, so after locking it
 //! checks that the path still names the file it locked, and starts over if
 //! not.
+//!
+//! A launch killed with `kill -9` cannot remove its file; nor could one
+//! ended by SIGQUIT before that signal was handled. Such a file locks
+//! nothing (its lock went with its process), but it stayed in `/dev/shm`
+//! until a launch of the same swarm name came (seventeen after one
+//! session of tests under many names). So every launch first sweeps the
+//! lock files of every swarm and tag ([`sweep`]): a file that no process
+//! holds is removed as its owner would have removed it (locked, then
+//! removed, so a launch that opened it meanwhile notices, as above). The
+//! iceoryx2 files of dead processes are removed by the bus when it opens
+//! (`bus::ipc::cleanup_stale_resources`, every dead node of the tag's
+//! root, whatever its swarm).
 
 use std::fs::{File, OpenOptions, TryLockError};
 use std::io::{Read, Seek, Write};
@@ -107,11 +119,16 @@ impl SwarmLock {
         })
     }
 
-    /// [`Self::acquire`] with the lock file `dir/name`.
+    /// [`Self::acquire`] with the lock file `dir/name`, after a [`sweep`]
+    /// of `dir`.
     pub fn acquire_in(dir: &Path, name: &str, swarm: &str) -> Result<Self, SwarmLockError> {
         let path = dir.join(name);
         let io = |source| SwarmLockError::Io { swarm: swarm.to_string(), path: path.clone(), source };
         std::fs::create_dir_all(dir).map_err(io)?;
+        let swept = sweep(dir);
+        if swept > 0 {
+            tracing::debug!(dir = %dir.display(), swept, "removed the lock files of swarms whose launch was killed");
+        }
         loop {
             let opened = OpenOptions::new().read(true).write(true).create(true).truncate(false).open(&path);
             let (mut file, writable) = match opened {
@@ -148,6 +165,37 @@ impl SwarmLock {
     }
 }
 
+/// Whether `name` is a swarm lock file's name ([`lock_name`]).
+fn is_lock_name(name: &str) -> bool {
+    name.starts_with("bycoms-swarm.") && name.ends_with(".lock")
+}
+
+/// Removes from `dir` the lock files no process holds (left by launches
+/// that were killed); returns how many. Files that cannot be opened or
+/// removed (another user's) are left alone.
+pub fn sweep(dir: &Path) -> usize {
+    let Ok(entries) = std::fs::read_dir(dir) else { return 0 };
+    let mut removed = 0;
+    for entry in entries.flatten() {
+        if !entry.file_name().to_str().is_some_and(is_lock_name) {
+            continue;
+        }
+        let path = entry.path();
+        let Ok(file) = File::open(&path) else { continue };
+        // Held: a live launch's. Free: its owner is gone.
+        if file.try_lock().is_err() {
+            continue;
+        }
+        // Removed while locked, as `Drop` does: a launch that opened the
+        // file meanwhile sees that the path no longer names it.
+        if std::fs::remove_file(&path).is_ok() {
+            removed += 1;
+        }
+        let _ = file.unlock();
+    }
+    removed
+}
+
 impl Drop for SwarmLock {
     fn drop(&mut self) {
         // Remove while still locked, so nobody locks the file being removed
@@ -177,6 +225,34 @@ mod tests {
         assert!(!dir.path().join(lock_name(None, "s1")).exists(), "the lock file is removed");
         let again = lock("s1").expect("free after release");
         drop((again, other_name));
+    }
+
+    #[test]
+    fn the_files_of_killed_launches_are_swept_by_a_launch_of_any_name() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let lock = |swarm: &str| SwarmLock::acquire_in(dir.path(), &lock_name(None, swarm), swarm);
+        // A launch killed with `kill -9`: its file stays, locked by nobody.
+        for (tag, swarm) in [(None, "killed"), (Some("ci-3"), "quit")] {
+            std::fs::write(dir.path().join(lock_name(tag, swarm)), "4194305").expect("leftover");
+        }
+        let live = lock("live").expect("a live launch");
+        std::fs::write(dir.path().join("other.lock"), "").expect("not a swarm's");
+        let next = lock("next").expect("a launch of another name");
+        let mut names: Vec<String> = std::fs::read_dir(dir.path())
+            .expect("list")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(
+            names,
+            [lock_name(None, "live"), lock_name(None, "next"), "other.lock".to_string()],
+            "the leftovers are gone, the live launches' files and others' stay"
+        );
+        match lock("live") {
+            Err(SwarmLockError::InUse { owner, .. }) => assert_eq!(owner, Some(std::process::id())),
+            other => panic!("the live swarm is still held: {other:?}"),
+        }
+        drop((live, next));
     }
 
     #[test]

@@ -156,8 +156,11 @@ impl BusArgs {
             Transport::Zenoh => {
                 let failsafe =
                     failsafe.map(FailsafeArgs::failsafe).transpose().map_err(BusOpenError::Args)?;
-                let config =
+                let mut config =
                     zenoh_config(Mode::Client, Vec::new(), self.connect.clone(), self.zenoh_config.clone());
+                // An agent's certificate must be its robot's (the lab's ACL
+                // is by common name): checked before zenoh sees it.
+                config.identity = member.map(bycoms_protocol::bus::zenoh::certs::common_name);
                 let bus = open_zenoh(config, then.wait_for_orchestrator())?;
                 tracing::debug!(connect = ?self.connect, "connected over zenoh");
                 if let Err(output) = then.prepare(&bus) {
@@ -186,6 +189,8 @@ impl BusArgs {
 /// few seconds), for up to `wait`.
 fn open_zenoh(config: ZenohConfig, wait: Option<Duration>) -> Result<ZenohBus, BusError> {
     let Some(wait) = wait else { return ZenohBus::open(config) };
+    // A wrong certificate stays wrong: said at once, not retried.
+    config.check_certificates(&config.to_zenoh()?)?;
     let begun = Instant::now();
     let mut said = begun;
     loop {

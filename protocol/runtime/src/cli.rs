@@ -91,10 +91,65 @@ where
 }
 
 /// The zenoh runtime of our processes (see
-/// [`bycoms_protocol::bus::zenoh::tune_runtime`]), for binaries that reach
-/// zenoh through the runtime.
+/// [`bycoms_protocol::bus::zenoh::tune_runtime`]), and what happens when
+/// it fails: call first thing in `main` (after the logging).
+///
+/// Why the panic hook: zenoh starts its runtimes (thread pools) lazily and
+/// panics when it cannot ("Failed to init rx", tokio's "OS can't spawn
+/// worker thread"), often in one of its own threads. Under a memory limit
+/// (`ulimit -v 300000`) a launch's orchestrator printed that panic and then
+/// waited a minute for agents that could not come, its main thread waiting
+/// on a runtime that was not there. Such a panic now ends the process at
+/// once, exit 1, with one error line saying what failed in our words
+/// ([`zenoh_failure`]); any other panic is left to the default hook.
 pub fn tune_zenoh_runtime() {
     bycoms_protocol::bus::zenoh::tune_runtime();
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_owned())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        let thread = std::thread::current();
+        let at = info.location().map(|l| l.file()).unwrap_or_default();
+        match zenoh_failure(thread.name().unwrap_or_default(), at, &message) {
+            Some(words) => {
+                tracing::error!("{words}");
+                std::process::exit(1);
+            }
+            None => default(info),
+        }
+    }));
+}
+
+/// zenoh's runtime threads are named `<runtime>-<n>` (`zenoh-runtime`).
+const ZENOH_THREADS: [&str; 5] = ["app-", "acc-", "tx-", "rx-", "net-"];
+
+/// A panic (`message`, in thread `thread`, raised in source file `at`)
+/// that is zenoh failing — in one of its threads, or in its code (its
+/// runtime started lazily from ours) — in our words; `None` for any other.
+pub fn zenoh_failure(thread: &str, at: &str, message: &str) -> Option<String> {
+    let in_zenoh =
+        ZENOH_THREADS.iter().any(|p| thread.strip_prefix(p).is_some_and(|n| n.parse::<u32>().is_ok()));
+    let zenoh_code = at.contains("/zenoh-") || at.starts_with("zenoh-");
+    let starting = message.starts_with("Failed to init ") || message.contains("can't spawn worker thread");
+    if !(in_zenoh || zenoh_code || starting) {
+        return None;
+    }
+    let memory = ["os error 11", "os error 12", "Resource temporarily unavailable", "Cannot allocate memory"]
+        .iter()
+        .any(|m| message.contains(m));
+    let said = bycoms_protocol::bus::zenoh::zenoh_error(&message);
+    Some(if memory || message.starts_with("Failed to init ") {
+        format!(
+            "out of memory: zenoh could not start its threads (is the process's memory limit, `ulimit -v`, \
+             too small?): {said}"
+        )
+    } else {
+        format!("zenoh failed (thread {thread}): {said}")
+    })
 }
 
 /// iceoryx2 warns on every process start that it runs without a config
@@ -131,6 +186,24 @@ mod tests {
 
     fn parse(args: &[&str]) -> Result<(LogArgs, Result<Sub, Top>), clap::Error> {
         parse_with_subcommand(command, "sub", std::iter::once("swarm-binary").chain(args.iter().copied()))
+    }
+
+    #[test]
+    fn zenoh_s_runtime_failing_is_out_of_memory_in_our_words() {
+        let spawn = "OS can't spawn worker thread: Resource temporarily unavailable (os error 11)";
+        let tokio = "/root/.cargo/registry/src/x/tokio-1.48.0/src/runtime/blocking/pool.rs";
+        let said = zenoh_failure("rx-0", tokio, spawn).expect("zenoh's runtime failed");
+        assert!(said.starts_with("out of memory: zenoh could not start its threads"), "{said}");
+        assert!(said.ends_with(spawn), "{said}");
+        let lib = "/root/.cargo/registry/src/x/zenoh-runtime-1.10.2/src/lib.rs";
+        let init = zenoh_failure("main", lib, "Failed to init net").expect("failed on the main thread");
+        assert!(init.starts_with("out of memory"), "{init}");
+        let zero = zenoh_failure("main", lib, "Worker threads cannot be set to 0").expect("zenoh's code");
+        assert_eq!(zero, "zenoh failed (thread main): Worker threads cannot be set to 0");
+        let other = zenoh_failure("tx-3", "src/ours.rs", "index out of bounds").expect("a zenoh thread");
+        assert_eq!(other, "zenoh failed (thread tx-3): index out of bounds");
+        assert_eq!(zenoh_failure("main", "src/ours.rs", "index out of bounds"), None, "our own panics stay");
+        assert_eq!(zenoh_failure("rx-robot", "src/ours.rs", "index out of bounds"), None);
     }
 
     #[test]

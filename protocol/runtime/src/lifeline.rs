@@ -32,7 +32,7 @@ pub enum ExitCause {
     Shutdown,
     /// The parent process is gone.
     ParentGone,
-    /// SIGTERM, SIGINT or SIGHUP.
+    /// SIGTERM, SIGINT, SIGHUP or SIGQUIT.
     Signal,
     /// The orchestrator refused this agent: another agent already holds
     /// its robot (`ToAgent::Refused`).
@@ -40,6 +40,23 @@ pub enum ExitCause {
     /// The orchestrator's liveliness token was gone for longer than the
     /// failsafe's grace period (zenoh); the robot was stopped first.
     OrchestratorLost,
+}
+
+impl ExitCause {
+    /// The exit code of an agent process (`sim-agent`, `sim-agent lab`, the
+    /// `agent` gateway) that ended for this cause: 0 for an orderly end
+    /// (`Shutdown`, the parent gone), 130 for a signal (as the orchestrator
+    /// and every shell say an interrupted program ended), 3 when refused,
+    /// 4 when the failsafe stopped the robot. One mapping, so the agents
+    /// never disagree about what an end means.
+    pub fn exit_code(self) -> i32 {
+        match self {
+            Self::Shutdown | Self::ParentGone => 0,
+            Self::Signal => 130,
+            Self::Refused => 3,
+            Self::OrchestratorLost => 4,
+        }
+    }
 }
 
 /// Why the lifeline could not be installed.

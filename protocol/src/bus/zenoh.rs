@@ -41,6 +41,7 @@
 //! [`Inbox`]: super::inbox::Inbox
 //! [`Wait`]: ::zenoh::Wait
 
+pub mod certs;
 mod liveliness;
 mod ports;
 pub mod settings;
@@ -48,7 +49,7 @@ mod text;
 
 pub use liveliness::{AliveToken, AliveWatch, Presence, PresenceEvent};
 pub use ports::{SwarmMessage, SwarmSubscriber, ZenohPublisher, ZenohSubscriber};
-pub use text::{check_endpoint, zenoh_error, EndpointError, LINKS};
+pub use text::{check_endpoint, zenoh_error, zenoh_words, EndpointError, LINKS};
 
 use super::{Bus, BusError, Limits};
 use crate::naming::{Swarm, TopicName};
@@ -147,6 +148,11 @@ pub struct ZenohConfig {
     /// On by default: the swarm's messages are small and few, so batching
     /// buys nothing and costs latency (`benches/zenoh_hop.rs`).
     pub low_latency: bool,
+    /// The common name this process's own certificate must carry (a
+    /// swarm member's, [`certs::common_name`]); `None`: any. Checked with
+    /// the rest of the certificates the config names before the session
+    /// opens ([`certs::check`]).
+    pub identity: Option<String>,
 }
 
 impl Default for ZenohConfig {
@@ -161,11 +167,21 @@ impl Default for ZenohConfig {
             base_config: None,
             liveness: None,
             low_latency: true,
+            identity: None,
         }
     }
 }
 
 impl ZenohConfig {
+    /// Checks the certificates `zenoh` (this configuration's, from
+    /// [`Self::to_zenoh`]) names, as [`ZenohBus::open`] does first: a
+    /// caller that retries opening checks once, since a bad certificate
+    /// stays bad ([`certs`]).
+    pub fn check_certificates(&self, zenoh: &::zenoh::Config) -> Result<(), BusError> {
+        certs::check(zenoh, self.identity.as_deref(), std::time::SystemTime::now())
+            .map_err(|e| BusError::Backend { op: "open zenoh session", topic: None, detail: e.to_string() })
+    }
+
     /// The zenoh configuration this describes.
     pub fn to_zenoh(&self) -> Result<::zenoh::Config, BusError> {
         let mut config = match &self.base_config {
@@ -252,6 +268,7 @@ impl ZenohBus {
             return Err(BusError::InvalidConfig("max_payload and buffer must be at least 1"));
         }
         let zenoh_config = config.to_zenoh()?;
+        config.check_certificates(&zenoh_config)?;
         let session = ::zenoh::open(zenoh_config)
             .wait()
             .map_err(|e| text::backend("open zenoh session", None, None, &e))?;

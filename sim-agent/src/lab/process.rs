@@ -318,7 +318,8 @@ pub fn main_with(args: &LabArgs) -> i32 {
     match run(args) {
         Ok(cause) => {
             tracing::debug!(?cause, "lab exits");
-            0
+            // Interrupted: 130, as every agent process (`ExitCause::exit_code`).
+            cause.map_or(0, ExitCause::exit_code)
         }
         Err(e) => {
             tracing::error!("{e}");

@@ -85,13 +85,14 @@ impl std::fmt::Display for Started {
 pub enum Gone {
     /// The process exited (or was killed by a signal).
     Exited(#[serde(with = "raw_status")] ExitStatus),
-    /// Registered, alive, but silent past the heartbeat timeout (killed).
+    /// Registered, alive, but silent past the heartbeat timeout (ended:
+    /// killed, or dropped from the launch when not ours to kill).
     Silent,
-    /// Never registered within the registration timeout (killed).
+    /// Never registered within the registration timeout (ended).
     NeverRegistered,
-    /// Did not answer a lockstep tick in time (killed).
+    /// Did not answer a lockstep tick in time (ended).
     NoTickReply,
-    /// Did not report its start pose in time after `Deploy` (killed).
+    /// Did not report its start pose in time after `Deploy` (ended).
     NoStartPose,
     /// Its link to the orchestrator was lost (a remote agent or gateway).
     Disconnected,
@@ -109,25 +110,37 @@ pub enum Gone {
     ThreadEnded,
 }
 
-impl std::fmt::Display for Gone {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+impl Gone {
+    /// What happened, and what the launch did about it. An agent that
+    /// missed a deadline is ended: `killed` when it is a process of this
+    /// host (`ours`), else (a remote agent, a gateway on a bridge host,
+    /// a thread) only dropped from the launch — a process on another host
+    /// is not ours to kill, and it was not.
+    pub fn said(&self, ours: bool) -> String {
+        let ended = if ours { "and was killed" } else { "and was dropped from the launch" };
         match self {
-            Self::Exited(status) => write!(f, "its process ended ({status})"),
-            Self::Silent => write!(f, "it fell silent (no heartbeat) and was killed"),
-            Self::NeverRegistered => write!(f, "it did not register in time and was killed"),
-            Self::NoTickReply => write!(f, "it did not answer a lockstep tick in time and was killed"),
+            Self::Exited(status) => format!("its process ended ({status})"),
+            Self::Silent => format!("it fell silent (no heartbeat) {ended}"),
+            Self::NeverRegistered => format!("it did not register in time {ended}"),
+            Self::NoTickReply => format!("it did not answer a lockstep tick in time {ended}"),
             Self::NoStartPose => {
-                write!(f, "it did not report its start pose in time after being deployed and was killed")
+                format!("it did not report its start pose in time after being deployed {ended}")
             }
-            Self::Disconnected => write!(f, "its link to the orchestrator was lost"),
-            Self::Unreachable { grace_ms } => write!(
-                f,
+            Self::Disconnected => "its link to the orchestrator was lost".into(),
+            Self::Unreachable { grace_ms } => format!(
                 "its link to the orchestrator was lost and did not come back within the {} s link grace",
                 *grace_ms as f64 / 1000.0
             ),
-            Self::RobotLinkLost => write!(f, "the robot's link to its gateway was lost"),
-            Self::ThreadEnded => write!(f, "its agent thread ended"),
+            Self::RobotLinkLost => "the robot's link to its gateway was lost".into(),
+            Self::ThreadEnded => "its agent thread ended".into(),
         }
+    }
+}
+
+/// As [`Gone::said`] of an agent that is a process of this host.
+impl std::fmt::Display for Gone {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.said(true))
     }
 }
 

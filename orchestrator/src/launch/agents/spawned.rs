@@ -122,6 +122,26 @@ impl Spawned {
         }
     }
 
+    /// Asks the agents never heard from to end (SIGTERM: their lifeline
+    /// ends them in order, exit 130). Why: an agent still starting (the
+    /// next robot's, started ahead while the previous one moves) may not
+    /// have its command topic open yet, so the `Shutdown` the launch sent
+    /// at its end was lost on it; it used to be killed after the whole
+    /// grace, "did not exit after Shutdown", at the end of healthy runs.
+    fn terminate_unheard(&mut self) {
+        use nix::sys::signal::{kill, Signal};
+        use nix::unistd::Pid;
+        for (id, child) in &self.children {
+            if self.watchdog.was_heard(*id) {
+                continue;
+            }
+            if let Ok(pid) = i32::try_from(child.id()) {
+                // Already gone: seen by `try_wait` next.
+                let _ = kill(Pid::from_raw(pid), Signal::SIGTERM);
+            }
+        }
+    }
+
     fn kill_all(&mut self) {
         let ids: Vec<u32> = self.children.keys().copied().collect();
         for id in ids {
@@ -194,6 +214,7 @@ impl AgentSource for Spawned {
     }
 
     fn wind_down(&mut self, grace: Duration) -> Vec<u32> {
+        self.terminate_unheard();
         let deadline = Instant::now() + grace;
         while !self.children.is_empty() && Instant::now() < deadline {
             let exited: Vec<u32> = self
@@ -215,5 +236,36 @@ impl AgentSource for Spawned {
 impl Drop for Spawned {
     fn drop(&mut self) {
         self.kill_all();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An agent that never registers and ends only on SIGTERM (as a
+    /// `sim-agent` still opening its bus: the `Shutdown` was lost on it).
+    fn deaf_agent() -> Spawned {
+        let script = "trap 'exit 130' TERM; while :; do sleep 0.02; done";
+        let command = AgentCommand {
+            program: "/bin/sh".into(),
+            prefix: vec!["-c".into(), script.into(), "agent".into()],
+        };
+        Spawned::new(command, Duration::from_secs(60), Duration::from_secs(60))
+    }
+
+    #[test]
+    fn an_agent_never_heard_from_is_asked_to_end_not_killed_after_the_grace() {
+        let mut source = deaf_agent();
+        source.spawn(1, &[], "").expect("spawn");
+        let begun = Instant::now();
+        let killed = source.wind_down(Duration::from_secs(20));
+        assert_eq!(killed, Vec::<u32>::new(), "it ended when asked, so nobody had to kill it");
+        assert!(
+            begun.elapsed() < Duration::from_secs(10),
+            "it did not wait out the grace: {:?}",
+            begun.elapsed()
+        );
+        assert!(!source.is_running(1));
     }
 }

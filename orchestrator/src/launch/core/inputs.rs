@@ -265,7 +265,8 @@ impl Core {
         if !slot.alive && slot.death.is_some() {
             return;
         }
-        let mut reason = gone.to_string();
+        // Ended by a kill only when it is a process started here.
+        let mut reason = gone.said(slot.pid.is_some());
         if let Some(words) = slot.last_error.take() {
             reason.push_str(&format!("; it said: {words}"));
         }

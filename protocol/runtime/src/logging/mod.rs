@@ -10,8 +10,11 @@
 //!
 //! * `RUST_LOG` takes `tracing-subscriber`'s `EnvFilter` syntax
 //!   (`debug`, `bycoms_sim=trace,info`, …). Unset, or for targets it does
-//!   not name, the level is [`DEFAULT_LEVEL`]. Invalid directives are
-//!   skipped with a note on stderr rather than silencing the program.
+//!   not name, the level is [`DEFAULT_LEVEL`], except the libraries'
+//!   targets in [`QUIET_TARGETS`] (zenoh's, the Foxglove server's), which
+//!   say only warnings unless `RUST_LOG` names them or sets a level for all.
+//!   Invalid directives are skipped with a note on stderr rather than
+//!   silencing the program.
 //! * `--log-format text|json` (flatten [`LogArgs`] into a clap parser, it is
 //!   `global`) or the environment variable [`FORMAT_ENV`]. [`init`] exports
 //!   the chosen format in [`FORMAT_ENV`] so that child processes (the
@@ -25,6 +28,9 @@
 //!   joined, each said once (the one place that formats an error chain).
 //! * Feature `iceoryx2`: [`iceoryx2::forward_to_tracing`] routes iceoryx2's
 //!   own log lines through the same subscriber.
+//! * zenoh's warnings and errors are said in our words (`zenoh_words`):
+//!   what failed (a certificate, an address in use, a host not found, a
+//!   refused connection), without its source paths or misleading hints.
 //! * Text lines have no timestamp (a terminal or journald adds its own);
 //!   JSON lines have one, plus the level, target, fields and spans, as log
 //!   shippers expect.
@@ -32,6 +38,7 @@
 mod error_text;
 #[cfg(feature = "iceoryx2")]
 pub mod iceoryx2;
+mod zenoh_words;
 
 pub use error_text::error_text;
 
@@ -94,11 +101,20 @@ pub fn init(format: LogFormat) {
         .with_writer(std::io::stderr)
         .with_env_filter(filter)
         .log_internal_errors(false);
+    // zenoh's warnings and errors in our words (`zenoh_words`).
     let installed = match format {
-        LogFormat::Text => {
-            builder.without_time().with_target(false).with_ansi(std::io::stderr().is_terminal()).try_init()
-        }
-        LogFormat::Json => builder.json().with_current_span(true).with_span_list(false).try_init(),
+        LogFormat::Text => builder
+            .without_time()
+            .with_target(false)
+            .with_ansi(std::io::stderr().is_terminal())
+            .map_event_format(zenoh_words::Reworded)
+            .try_init(),
+        LogFormat::Json => builder
+            .json()
+            .with_current_span(true)
+            .with_span_list(false)
+            .map_event_format(zenoh_words::Reworded)
+            .try_init(),
     };
     // Err only when a subscriber is already installed: keep that one.
     drop(installed);
@@ -111,7 +127,15 @@ pub fn init(format: LogFormat) {
 /// (`orchestrator launch --serve`) on an internal loopback port: its
 /// "Started server on 127.0.0.1:PORT" names a port no viewer should use,
 /// and it sees every viewer as 127.0.0.1. The front logs the real ones.
-pub const QUIET_TARGETS: [(&str, LevelFilter); 1] = [("foxglove::websocket", LevelFilter::WARN)];
+///
+/// zenoh (every crate of it: `zenoh`, `zenoh_transport`, `zenoh_link_*`,
+/// … — a target directive matches by prefix) says at `info` what every
+/// healthy session does: its id, where it can be reached, each session
+/// closed; over twenty lines in a three-robot launch. Our own lines say
+/// what matters (the endpoint the orchestrator listens on, an agent that
+/// cannot connect, and why); zenoh's warnings and errors still show.
+pub const QUIET_TARGETS: [(&str, LevelFilter); 2] =
+    [("foxglove::websocket", LevelFilter::WARN), ("zenoh", LevelFilter::WARN)];
 
 /// The directives for `rust_log` (the value of `RUST_LOG`): as given, with
 /// [`DEFAULT_LEVEL`] in front unless it sets a level for all targets, so
@@ -161,10 +185,11 @@ pub fn status_line(text: &str) {
 #[cfg(test)]
 mod tests {
     use super::filter_directives;
+    use tracing_subscriber::layer::SubscriberExt as _;
 
     #[test]
     fn the_default_level_applies_unless_rust_log_sets_one() {
-        let quiet = ",foxglove::websocket=warn";
+        let quiet = ",foxglove::websocket=warn,zenoh=warn";
         assert_eq!(filter_directives(""), format!("info{quiet}"));
         assert_eq!(filter_directives("debug"), "debug");
         assert_eq!(filter_directives("iceoryx2=trace,WARN"), "iceoryx2=trace,WARN");
@@ -175,7 +200,27 @@ mod tests {
     #[test]
     fn the_live_views_internal_server_is_quiet_unless_asked_for() {
         // Its "Started server on 127.0.0.1:PORT" names an internal port.
-        assert!(filter_directives("").ends_with(",foxglove::websocket=warn"));
-        assert_eq!(filter_directives("foxglove=info"), "info,foxglove=info");
+        assert!(filter_directives("").contains(",foxglove::websocket=warn"));
+        assert_eq!(filter_directives("foxglove=info"), "info,foxglove=info,zenoh=warn");
+    }
+
+    #[test]
+    fn zenoh_s_own_info_lines_are_quiet_unless_asked_for() {
+        // "Using ZID", "Zenoh can be reached at", "close session": per
+        // session, in every process of a launch.
+        let zenoh_info = |rust_log: &str| {
+            let filter = tracing_subscriber::EnvFilter::builder().parse_lossy(filter_directives(rust_log));
+            let subscriber = tracing_subscriber::registry().with(filter);
+            tracing::subscriber::with_default(subscriber, || {
+                (
+                    tracing::enabled!(target: "zenoh::net::runtime", tracing::Level::INFO),
+                    tracing::enabled!(target: "zenoh_transport::unicast", tracing::Level::WARN),
+                    tracing::enabled!(target: "bycoms_orchestrator::launch", tracing::Level::INFO),
+                )
+            })
+        };
+        assert_eq!(zenoh_info(""), (false, true, true), "zenoh's info quiet, its warnings and ours shown");
+        assert_eq!(zenoh_info("zenoh=info"), (true, true, true), "named: as asked");
+        assert_eq!(zenoh_info("debug"), (true, true, true), "a level for all: as asked");
     }
 }

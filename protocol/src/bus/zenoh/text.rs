@@ -53,6 +53,68 @@ pub fn zenoh_error(e: &dyn fmt::Display) -> String {
     without_source_locations(&e.to_string())
 }
 
+/// A warning or error zenoh logged, in our words: what happened (an
+/// address in use, a host not found, a refused connection, a certificate
+/// the other end refused or that this end refused), without zenoh's source
+/// locations or its hint to raise the open-file limit (which it gives for
+/// every failed QUIC handshake). `None`: nothing to say (zenoh's summary
+/// "Unable to connect to any of [...]" repeats the line before it, and the
+/// session's error says it again).
+pub fn zenoh_words(message: &str) -> Option<String> {
+    let text = without_source_locations(message);
+    if text.starts_with("Unable to connect to any of") {
+        return None;
+    }
+    let endpoint = text
+        .strip_prefix("Unable to connect to ")
+        .and_then(|rest| rest.split_once('!'))
+        .or_else(|| text.strip_prefix("Unable to open listener ").and_then(|rest| rest.split_once(": ")))
+        .or_else(|| text.split_once(" bound to ").and_then(|(_, rest)| rest.split_once(": ")))
+        .map(|(endpoint, _)| endpoint.to_owned());
+    let at = format!(" {}", endpoint.as_deref().unwrap_or("its address"));
+    let said = if text.contains("Address already in use") {
+        format!("address in use: another process listens on{at} (another port, or port 0 for a free one)")
+    } else if text.contains("failed to lookup address information")
+        || text.contains("Name or service not known")
+    {
+        format!("host not found: cannot connect to{at} (is the host name right?)")
+    } else if text.contains("Connection refused") {
+        format!(
+            "connection refused at{at}: nothing listens there (is the orchestrator running, on that port?)"
+        )
+    } else if let Some(why) = certificate_words(&text) {
+        match (endpoint, text.contains("acceptor")) {
+            (Some(e), _) => format!("cannot connect to {e}: the orchestrator's certificate {why}"),
+            (None, true) => {
+                format!("a connection was refused at its TLS handshake: the peer's certificate {why}")
+            }
+            (None, false) => format!("a TLS handshake failed: the peer's certificate {why}"),
+        }
+    } else {
+        return Some(text.replace(" Hint: increase the system open file limit.", ""));
+    };
+    Some(said)
+}
+
+/// What rustls said about a peer's certificate (`invalid peer
+/// certificate: …`), in words.
+fn certificate_words(text: &str) -> Option<&'static str> {
+    let (_, why) = text.split_once("invalid peer certificate: ")?;
+    Some(if why.starts_with("Expired") {
+        "has expired"
+    } else if why.starts_with("NotValidYet") {
+        "is not valid yet (is either host's clock wrong?)"
+    } else if why.starts_with("BadSignature") || why.starts_with("UnknownIssuer") {
+        "is not signed by this lab's CA (another lab's, or made before the CA was made anew)"
+    } else if why.starts_with("NotValidForName") {
+        "does not name the host connected to (give `orchestrator certs --host` that name)"
+    } else if why.starts_with("Revoked") {
+        "is revoked"
+    } else {
+        "was refused"
+    })
+}
+
 /// [`BusError::Backend`] for a zenoh error `e` while doing `op`; `what`
 /// (a topic, a key, a file) goes before zenoh's words when given.
 pub(crate) fn backend(
@@ -61,7 +123,11 @@ pub(crate) fn backend(
     what: Option<&dyn fmt::Display>,
     e: &dyn fmt::Display,
 ) -> BusError {
-    let said = zenoh_error(e);
+    // zenoh's summary of failed connections says no cause: the warning
+    // logged before it does (in our words, `zenoh_words`).
+    let said = zenoh_words(&e.to_string()).unwrap_or_else(|| {
+        "cannot connect to any endpoint it was given (the warning before says why)".to_owned()
+    });
     let detail = match what {
         Some(w) => format!("{w}: {said}"),
         None => said,
@@ -119,6 +185,46 @@ mod tests {
         let plain = "look at this: a.rs is a file, at 3 pm";
         assert_eq!(zenoh_error(&plain), plain);
         assert_eq!(zenoh_error(&"x at y.rs:z."), "x at y.rs:z.");
+    }
+
+    #[test]
+    fn zenoh_s_warnings_are_said_in_our_words() {
+        let registry = " at /root/.cargo/registry/src/index.crates.io-1949cf8c6b5b557f/zenoh-link-commons-1.10.2/src/quic/unicast.rs:597.";
+        let cases = [
+            (
+                format!("Unable to connect to quic/127.0.0.1:17447! Can not create a new QUIC link bound to 127.0.0.1: the cryptographic handshake failed: error 51: invalid peer certificate: BadSignature{registry}"),
+                "cannot connect to quic/127.0.0.1:17447: the orchestrator's certificate is not signed by this lab's CA (another lab's, or made before the CA was made anew)",
+            ),
+            (
+                format!("QUIC acceptor failed: ConnectionClosed(ConnectionClose {{ error_code: Code::crypto(33), frame_type: None, reason: b\"invalid peer certificate: Expired\" }}){registry} Hint: increase the system open file limit."),
+                "a connection was refused at its TLS handshake: the peer's certificate has expired",
+            ),
+            (
+                format!("Unable to open listener tcp/127.0.0.1:17999: Can not create a new TCP listener bound to tcp/127.0.0.1:17999: [127.0.0.1:17999: Address already in use (os error 98){registry}]{registry}"),
+                "address in use: another process listens on tcp/127.0.0.1:17999 (another port, or port 0 for a free one)",
+            ),
+            (
+                format!("Unable to connect to tcp/no-such-host.invalid:7447! failed to lookup address information: Name or service not known{registry}"),
+                "host not found: cannot connect to tcp/no-such-host.invalid:7447 (is the host name right?)",
+            ),
+            (
+                format!("Unable to connect to tcp/127.0.0.1:17998! Can not create a new TCP link bound to tcp/127.0.0.1:17998: [127.0.0.1:17998: Connection refused (os error 111){registry}]{registry}"),
+                "connection refused at tcp/127.0.0.1:17998: nothing listens there (is the orchestrator running, on that port?)",
+            ),
+        ];
+        for (zenoh, ours) in cases {
+            assert_eq!(zenoh_words(&zenoh).as_deref(), Some(ours), "{zenoh}");
+        }
+        let summary = format!("Unable to connect to any of [Single(quic/127.0.0.1:17447)]! {registry}");
+        assert_eq!(zenoh_words(&summary), None, "a repeat of the line before");
+        // The session's own error, after the warning.
+        let listen = format!("Can not create a new TCP listener bound to tcp/127.0.0.1:17999: [127.0.0.1:17999: Address already in use (os error 98){registry}]");
+        assert_eq!(
+            zenoh_words(&listen).as_deref(),
+            Some("address in use: another process listens on tcp/127.0.0.1:17999 (another port, or port 0 for a free one)")
+        );
+        let other = format!("Something else happened{registry} Hint: increase the system open file limit.");
+        assert_eq!(zenoh_words(&other).as_deref(), Some("Something else happened"));
     }
 
     #[test]
