@@ -2,7 +2,8 @@
 
 Prints one JSON object: the REP-2016 type hash (RIHS01) and the CDR bytes of
 each message kind bycoms-ros2 speaks, from PyPI `rosbags` (its Jazzy type
-store, `hash_rihs01`, `serialize_cdr`); the GID of rmw_zenoh liveliness
+store, `hash_rihs01`, `serialize_cdr`; services hashed from their
+request, response and event types as rosidl builds them); the GID of rmw_zenoh liveliness
 tokens, from PyPI `xxhash` (XXH3-128, laid out as rmw_zenoh lays it: the
 128-bit value little-endian, low 64 bits first); the 33-byte attachment,
 from eclipse-zenoh's own serializer (`zenoh.ext.z_serialize`, as rmw_zenoh's
@@ -16,10 +17,65 @@ as that test's (`FIXED` there).
 import json
 
 import xxhash
-from rosbags.typesys import Stores, get_typestore
+from rosbags.interfaces import Nodetype
+from rosbags.typesys import Stores, get_typestore, get_types_from_msg
 from zenoh.ext import Int64, z_serialize
 
 TS = get_typestore(Stores.ROS2_JAZZY)
+# rosbags' Jazzy store has service_msgs/msg/ServiceEventInfo's client_gid as
+# char[16]; rosidl maps .msg `char` to uint8, and only with uint8 does
+# rmw_zenoh's documented AddTwoInts hash come out (SERVICES below).
+_consts, _fields = TS.fielddefs["service_msgs/msg/ServiceEventInfo"]
+TS.fielddefs["service_msgs/msg/ServiceEventInfo"] = (
+    _consts,
+    [
+        (n, (Nodetype.ARRAY, ((Nodetype.BASE, ("uint8", 0)), 16))) if n == "client_gid" else (n, d)
+        for n, d in _fields
+    ],
+)
+
+
+def base(t):
+    return (Nodetype.BASE, (t, 0))
+
+
+def service(srv, request, response):
+    """Registers a service's types under their srv names (rosbags' parser
+    would rename them pkg/msg/…, and the name is part of the hash)."""
+    nested = lambda t: (Nodetype.NAME, t)  # noqa: E731
+    at_most_one = lambda t: (Nodetype.SEQUENCE, ((Nodetype.NAME, t), 1))  # noqa: E731
+    TS.fielddefs[f"{srv}_Request"] = ([], request)
+    TS.fielddefs[f"{srv}_Response"] = ([], response)
+    TS.fielddefs[f"{srv}_Event"] = (
+        [],
+        [
+            ("info", nested("service_msgs/msg/ServiceEventInfo")),
+            ("request", at_most_one(f"{srv}_Request")),
+            ("response", at_most_one(f"{srv}_Response")),
+        ],
+    )
+    TS.fielddefs[srv] = (
+        [],
+        [
+            ("request_message", nested(f"{srv}_Request")),
+            ("response_message", nested(f"{srv}_Response")),
+            ("event_message", nested(f"{srv}_Event")),
+        ],
+    )
+    return TS.hash_rihs01(srv)
+
+
+SERVICES = {
+    "example_interfaces/srv/AddTwoInts": service(
+        "example_interfaces/srv/AddTwoInts", [("a", base("int64")), ("b", base("int64"))], [("sum", base("int64"))]
+    ),
+    "std_srvs/srv/Trigger": service(
+        "std_srvs/srv/Trigger", [], [("success", base("bool")), ("message", base("string"))]
+    ),
+}
+# The Trigger messages' classes, for their CDR (the name is not on the wire).
+TS.register(get_types_from_msg("", "std_srvs/msg/Trigger_Request"))
+TS.register(get_types_from_msg("bool success\nstring message", "std_srvs/msg/Trigger_Response"))
 T = TS.types
 
 STAMP = T["builtin_interfaces/msg/Time"](sec=1_700_000_000, nanosec=123_456_789)
@@ -85,10 +141,27 @@ def gid(token):
     return xxhash.xxh3_128_intdigest(token.encode()).to_bytes(16, "little")
 
 
+# Each srv message: its srv name (hashed) and the class its CDR comes from.
+SRV_MESSAGES = {
+    "std_srvs/srv/Trigger_Request": (
+        "std_srvs/msg/Trigger_Request",
+        T["std_srvs/msg/Trigger_Request"](structure_needs_at_least_one_member=0),
+    ),
+    "std_srvs/srv/Trigger_Response": (
+        "std_srvs/msg/Trigger_Response",
+        T["std_srvs/msg/Trigger_Response"](success=True, message="stopped"),
+    ),
+}
+
+
 def main():
+    hashes = {name: TS.hash_rihs01(name) for name in [*MESSAGES, *SRV_MESSAGES]}
+    cdr = {name: TS.serialize_cdr(msg, name).hex() for name, msg in MESSAGES.items()}
+    cdr.update({name: TS.serialize_cdr(msg, as_msg).hex() for name, (as_msg, msg) in SRV_MESSAGES.items()})
     out = {
-        "hashes": {name: TS.hash_rihs01(name) for name in MESSAGES},
-        "cdr": {name: TS.serialize_cdr(msg, name).hex() for name, msg in MESSAGES.items()},
+        "hashes": hashes,
+        "cdr": cdr,
+        "services": SERVICES,
         "gid": {token: gid(token).hex() for token in TOKENS},
         "attachment": z_serialize(
             (Int64(42), Int64(1_700_000_000_123_456_789), gid(TOKENS[1]))

@@ -94,6 +94,47 @@ description!(
     [Field::nested("header", &HEADER), Field::sequence("poses", &POSE_STAMPED)]
 );
 description!(CLOCK, "rosgraph_msgs/msg/Clock", [Field::nested("clock", &TIME)]);
+// A service's hash is that of a type with its request, its response and its
+// event message (`service_msgs/msg/ServiceEventInfo` and the request and
+// response each as a sequence of at most one). The event's `client_gid` is
+// `char[16]` in its .msg, which rosidl maps to `uint8[16]` (type id 3):
+// with `char` (13) the hash of rmw_zenoh's documented `AddTwoInts` example
+// does not come out (rosbags 0.11.9's Jazzy store has `char`, hence its
+// own `hash_rihs01` of this type is not ROS 2's).
+description!(
+    SERVICE_EVENT_INFO,
+    "service_msgs/msg/ServiceEventInfo",
+    [
+        Field::prim("event_type", P::Uint8),
+        Field::nested("stamp", &TIME),
+        Field::array("client_gid", P::Uint8, 16),
+        Field::prim("sequence_number", P::Int64)
+    ]
+);
+description!(TRIGGER_REQUEST, "std_srvs/srv/Trigger_Request", []);
+description!(
+    TRIGGER_RESPONSE,
+    "std_srvs/srv/Trigger_Response",
+    [Field::prim("success", P::Bool), Field::prim("message", P::String)]
+);
+description!(
+    TRIGGER_EVENT,
+    "std_srvs/srv/Trigger_Event",
+    [
+        Field::nested("info", &SERVICE_EVENT_INFO),
+        Field::bounded("request", &TRIGGER_REQUEST, 1),
+        Field::bounded("response", &TRIGGER_RESPONSE, 1)
+    ]
+);
+description!(
+    TRIGGER,
+    "std_srvs/srv/Trigger",
+    [
+        Field::nested("request_message", &TRIGGER_REQUEST),
+        Field::nested("response_message", &TRIGGER_RESPONSE),
+        Field::nested("event_message", &TRIGGER_EVENT)
+    ]
+);
 
 /// `builtin_interfaces/msg/Time`: seconds and nanoseconds (`0..1e9`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -380,6 +421,35 @@ impl RosMessage for Clock {
     const DESCRIPTION: &'static TypeDescription = &CLOCK;
     fn write(&self, w: &mut CdrWriter) {
         self.clock.write(w);
+    }
+}
+
+/// `std_srvs/srv/Trigger`'s request: no fields (on the wire, the one
+/// `uint8` rosidl gives an empty message).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct TriggerRequest;
+
+impl RosMessage for TriggerRequest {
+    const DESCRIPTION: &'static TypeDescription = &TRIGGER_REQUEST;
+    fn write(&self, w: &mut CdrWriter) {
+        w.u8(0);
+    }
+}
+
+/// `std_srvs/srv/Trigger`'s response.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct TriggerResponse {
+    /// Whether the service did it.
+    pub success: bool,
+    /// What it says about it.
+    pub message: String,
+}
+
+impl RosMessage for TriggerResponse {
+    const DESCRIPTION: &'static TypeDescription = &TRIGGER_RESPONSE;
+    fn write(&self, w: &mut CdrWriter) {
+        w.bool(self.success);
+        w.string(&self.message);
     }
 }
 

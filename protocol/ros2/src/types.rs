@@ -100,6 +100,16 @@ impl Field {
         Self { name, base: Base::Nested(t), arity: Arity::Sequence }
     }
 
+    /// A fixed-size array of a primitive, `T[n]`.
+    pub const fn array(name: &'static str, p: Primitive, n: u64) -> Self {
+        Self { name, base: Base::Primitive(p), arity: Arity::Array(n) }
+    }
+
+    /// A bounded sequence of a nested type, `T[<=n]`.
+    pub const fn bounded(name: &'static str, t: &'static TypeDescription, n: u64) -> Self {
+        Self { name, base: Base::Nested(t), arity: Arity::BoundedSequence(n) }
+    }
+
     /// The REP-2016 type id: the element's id plus 48 (array), 96 (bounded
     /// sequence) or 144 (unbounded sequence); a nested type's element id is 1.
     pub fn type_id(&self) -> u32 {

@@ -22,7 +22,7 @@ use bycoms_ros2::msgs::*;
 use bycoms_ros2::rmw_zenoh::{
     gid, liveliness_token, topic_key_expr, Attachment, Endpoint, EntityKind, Node, Publisher, Qos,
 };
-use bycoms_ros2::types::TypeDescription;
+use bycoms_ros2::types::{Field, Primitive, TypeDescription};
 
 fn stamp() -> Time {
     Time { sec: 1_700_000_000, nanosec: 123_456_789 }
@@ -80,6 +80,8 @@ fn fixed() -> Vec<(&'static TypeDescription, Vec<u8>)> {
             poses: vec![pose_stamped(0.0, 0.0), pose_stamped(1.5, -2.25)],
         }),
         entry(&Clock { clock: Time { sec: 12, nanosec: 500_000_000 } }),
+        entry(&TriggerRequest),
+        entry(&TriggerResponse { success: true, message: "stopped".into() }),
     ]
 }
 
@@ -176,6 +178,16 @@ const PINNED: &[(&str, &str, &str)] = &[
         "000100000600000068656c6c6f00",
     ),
     (
+        "std_srvs/srv/Trigger_Request",
+        "RIHS01_d010825374ce8918e72bfd826c82603e60f45419e932ea976f807b74a863a199",
+        "0001000000",
+    ),
+    (
+        "std_srvs/srv/Trigger_Response",
+        "RIHS01_2d946c21e2fc3f1e9ca6986a8191d85fcc70097a8bb7771a053564bc47009cdf",
+        "00010000010000000800000073746f7070656400",
+    ),
+    (
         "tf2_msgs/msg/TFMessage",
         "RIHS01_e369d0f05a23ae52508854b66f6aa0437f3449d652e8cbf22d5abe85d020f087",
         "000100000200000000f1536515cd5b0706000000776f726c6400000007000000726f626f7431000000000000000000000000f03f0000000000000040000000000000d03f00000000000000000000000000000000000000000000e0bfaa4c58e87ab6eb3f00f1536515cd5b0706000000776f726c6400000008000000726f626f7431320000000000000008c0000000000000e03f000000000000d03f00000000000000000000000000000000000000000000e0bfaa4c58e87ab6eb3f",
@@ -185,6 +197,14 @@ const PINNED: &[(&str, &str, &str)] = &[
 const PINNED_GIDS: &[(&str, &str)] = &[
     ("@ros2_lv/2/8b20917502ee955ac4476e0266340d5c/0/10/MP/%/%/talker/%chatter/std_msgs::msg::dds_::String_/RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18/::,7:,:,:,,", "ac170f31eadcd9ff0cd86d7a17907d1c"),
     ("@ros2_lv/2/aac3178e146ba6f1fc6e6a4085e77f21/0/0/NN/%/%/listener", "49877999dacb858702d11ac823785912"),
+];
+
+const PINNED_SERVICES: &[(&str, &str)] = &[
+    (
+        "example_interfaces/srv/AddTwoInts",
+        "RIHS01_e118de6bf5eeb66a2491b5bda11202e7b68f198d6f67922cf30364858239c81a",
+    ),
+    ("std_srvs/srv/Trigger", "RIHS01_eeff2cd6fa5ad9d27cdf4dec64818317839b62f212a91e6b5304b634b2062c5f"),
 ];
 
 const PINNED_ATTACHMENT: &str = "2a0000000000000015cd853dfe9c971710ac170f31eadcd9ff0cd86d7a17907d1c";
@@ -198,6 +218,48 @@ fn every_hash_and_every_cdr_message_is_rosbags_own() {
     for (name, (hash, cdr)) in &ours {
         assert_eq!((hash, cdr), (&pinned[name].0, &pinned[name].1), "{name}: ours, then rosbags'");
     }
+}
+
+// rmw_zenoh's documented service example, built as rosidl builds a service.
+static ADD_REQUEST: TypeDescription = TypeDescription {
+    name: "example_interfaces/srv/AddTwoInts_Request",
+    fields: &[Field::prim("a", Primitive::Int64), Field::prim("b", Primitive::Int64)],
+};
+static ADD_RESPONSE: TypeDescription = TypeDescription {
+    name: "example_interfaces/srv/AddTwoInts_Response",
+    fields: &[Field::prim("sum", Primitive::Int64)],
+};
+static ADD_EVENT: TypeDescription = TypeDescription {
+    name: "example_interfaces/srv/AddTwoInts_Event",
+    fields: &[
+        Field::nested("info", &SERVICE_EVENT_INFO),
+        Field::bounded("request", &ADD_REQUEST, 1),
+        Field::bounded("response", &ADD_RESPONSE, 1),
+    ],
+};
+static ADD_TWO_INTS: TypeDescription = TypeDescription {
+    name: "example_interfaces/srv/AddTwoInts",
+    fields: &[
+        Field::nested("request_message", &ADD_REQUEST),
+        Field::nested("response_message", &ADD_RESPONSE),
+        Field::nested("event_message", &ADD_EVENT),
+    ],
+};
+
+fn services() -> BTreeMap<&'static str, String> {
+    [&ADD_TWO_INTS, &TRIGGER].into_iter().map(|t| (t.name, t.rihs01())).collect()
+}
+
+/// The documented example (rmw_zenoh's design document: `2/add_two_ints/…`)
+/// fixes how a service is hashed; Trigger is hashed the same way.
+#[test]
+fn service_hashes_are_rmw_zenohs_example_and_rosbags() {
+    assert_eq!(
+        topic_key_expr(2, "/add_two_ints", "example_interfaces/srv/AddTwoInts", &ADD_TWO_INTS.rihs01()),
+        "2/add_two_ints/example_interfaces::srv::dds_::AddTwoInts_/RIHS01_e118de6bf5eeb66a2491b5bda11202e7b68f198d6f67922cf30364858239c81a"
+    );
+    let pinned: BTreeMap<&str, String> = PINNED_SERVICES.iter().map(|(n, h)| (*n, h.to_string())).collect();
+    assert_eq!(services(), pinned);
 }
 
 #[test]
@@ -288,6 +350,9 @@ fn the_pins_are_what_rosbags_xxhash_and_zenoh_say_today() {
     assert_eq!(gids.len(), PINNED_GIDS.len());
     for (token, expected) in gids {
         assert_eq!(hex(&gid(token)), expected.as_str().expect("hex"), "{token}");
+    }
+    for (name, hash) in services() {
+        assert_eq!(live["services"][name], *hash, "{name}'s hash: rosbags, then ours");
     }
     assert_eq!(live["attachment"], PINNED_ATTACHMENT);
 }
