@@ -27,6 +27,7 @@ mod readme_commands;
 mod recording;
 mod remote_agents;
 mod replay;
+mod ros2_launch;
 mod same_swarm;
 mod secure_launch;
 mod soak;

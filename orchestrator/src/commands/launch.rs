@@ -96,6 +96,11 @@ pub struct Args {
     /// Do not start the next agent while the current robot moves.
     #[arg(long)]
     pub no_prespawn: bool,
+    /// Publish the run into a ROS 2 graph over rmw_zenoh: each robot's pose,
+    /// /tf and /clock, with node and publisher tokens (`[ros2]` in the config:
+    /// domain id, namespace; default domain 0, namespace /). Needs --transport zenoh.
+    #[arg(long)]
+    pub ros2: bool,
     /// What a dead agent means [default: beacon].
     #[arg(long, value_enum)]
     pub on_agent_death: Option<OnDeath>,
@@ -226,6 +231,9 @@ impl Args {
         }
         if self.no_prespawn {
             cfg.gate.prespawn = false;
+        }
+        if self.ros2 && cfg.ros2.is_none() {
+            cfg.ros2 = Some(launch::ros2::Ros2Config::default());
         }
         cfg.validate()?;
         Ok(cfg)
@@ -383,6 +391,19 @@ mod tests {
         }
         assert_eq!(prose, PROSE, "the prose defaults are the ones named");
         assert!(checked.len() >= 15, "the defaults of --help are checked: {checked:?}");
+    }
+
+    #[test]
+    fn ros2_is_a_zenoh_launchs_and_its_namespace_is_checked() {
+        let err = format!("{:#}", config(&["--ros2"]).unwrap_err());
+        assert!(err.contains("--ros2") && err.contains("zenoh"), "{err}");
+        let zenoh = ["--ros2", "--transport", "zenoh", "--listen", "tcp/127.0.0.1:0"];
+        assert_eq!(config(&zenoh).unwrap().ros2, Some(crate::launch::ros2::Ros2Config::default()));
+        let dir = tempfile::tempdir().expect("temp dir");
+        let file = dir.path().join("launch.toml");
+        std::fs::write(&file, "[transport]\nkind = \"zenoh\"\n[ros2]\nnamespace = \"lab\"\n").expect("write");
+        let err = format!("{:#}", config(&["--config", file.to_str().expect("utf-8")]).unwrap_err());
+        assert!(err.contains("ros2.namespace"), "{err}");
     }
 
     #[test]

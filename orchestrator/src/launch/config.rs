@@ -95,6 +95,8 @@ pub struct LaunchConfig {
     pub supervision: SupervisionConfig,
     /// Fault injection into the orchestrator's bus (off by default).
     pub faults: FaultsConfig,
+    /// `launch --ros2`: publish the run into a ROS 2 graph over rmw_zenoh (zenoh transport only).
+    pub ros2: Option<super::ros2::Ros2Config>,
     /// The bus: iceoryx2 on this host, or zenoh across hosts.
     pub transport: TransportConfig,
     /// Where the gate's poses come from (`crate::mocap::MocapConfig`).
@@ -212,6 +214,7 @@ impl Default for LaunchConfig {
             gate: GateConfig::default(),
             supervision: SupervisionConfig::default(),
             faults: FaultsConfig::default(),
+            ros2: None,
             transport: TransportConfig::default(),
             mocap: crate::mocap::MocapConfig::default(),
             agents: AgentsConfig::default(),
@@ -412,6 +415,14 @@ impl LaunchConfig {
         }
         if let Some(addr) = &self.serve {
             check_serve(addr)?;
+        }
+        if let Some(ros2) = &self.ros2 {
+            ros2.validate().map_err(usage)?;
+            if self.transport.kind != Transport::Zenoh {
+                return Err(usage(
+                    "ros2 (--ros2) publishes on the launch's zenoh session: set transport.kind = \"zenoh\"",
+                ));
+            }
         }
         if let Some(name) = &self.swarm {
             check_swarm(name)?;

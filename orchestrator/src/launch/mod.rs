@@ -54,6 +54,7 @@ pub mod poses;
 pub mod procfs;
 pub mod progress;
 pub mod recording;
+pub mod ros2;
 pub mod scale;
 pub mod setup;
 pub mod summary;
@@ -209,6 +210,9 @@ pub fn run_serving(
     if let Some(live) = &live {
         bycoms_runtime::logging::status_line(&live.banner());
         ports.observers.push(live.observer());
+    }
+    if let (Some(ros2), Some(z)) = (&cfg.ros2, &zenoh) {
+        ports.observers.push(Box::new(ros2::Ros2Bridge::open(ros2, z.session(), cfg.robots)?));
     }
     ports.observers.iter_mut().for_each(|o| o.world(&swarm_name, &world, &cfg, scene.as_ref()));
     ports.show_scene();

@@ -1,0 +1,258 @@
+//! `launch --ros2`: the run in the ROS 2 graph, over rmw_zenoh's wire format
+//! on the launch's own zenoh session (issue 32, first part).
+//!
+//! Why an [`Observer`]: it must see exactly the poses the gate judged, as
+//! they are recorded, and must not change the run (lockstep parity): it
+//! only reads. Each pose becomes a `geometry_msgs/msg/PoseStamped` on
+//! `<namespace>/robot_<k>/pose` and a `tf2_msgs/msg/TFMessage` on `/tf`
+//! (`world` → `robot_<k>`), and the run's time a `rosgraph_msgs/msg/Clock`
+//! on `/clock`, each put on its rmw_zenoh key with its attachment; one node
+//! token (`<namespace>/bycoms`) and one publisher token per topic let
+//! `ros2 node list` / `ros2 topic list` find them. The bytes are
+//! `bycoms-ros2`'s, pinned against independent implementations there.
+//!
+//! Clocks: every `header.stamp` and `/clock` are the run's time (µs since
+//! it started, lockstep: step × dt), so ROS nodes run on it with
+//! `use_sim_time`; the attachment's source timestamp is the wall clock
+//! (ns since the UNIX epoch), as rmw_zenoh stamps it. Positions are in
+//! terrain cells (1 cell = 1 unit of the `world` frame).
+
+use super::observe::Observer;
+use bycoms_protocol::msg::Pose;
+use bycoms_ros2::msgs::{
+    Clock, Header, Point, Pose as RosPose, PoseStamped, Quaternion, RosMessage, TfMessage, Time, Transform,
+    TransformStamped, Vector3,
+};
+use bycoms_ros2::rmw_zenoh::{liveliness_token, Endpoint, EntityKind, Node, Publisher, Qos};
+use serde::{Deserialize, Serialize};
+use zenoh::Wait;
+
+/// The `[ros2]` table of a launch config.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Ros2Config {
+    /// `ROS_DOMAIN_ID` of the graph to join.
+    pub domain_id: u32,
+    /// The namespace of the node and of each robot's pose topic (`/` or `/name…`).
+    pub namespace: String,
+}
+
+impl Default for Ros2Config {
+    fn default() -> Self {
+        Self { domain_id: 0, namespace: "/".into() }
+    }
+}
+
+/// The frame every pose and transform is in.
+pub const WORLD_FRAME: &str = "world";
+/// The node's name.
+pub const NODE_NAME: &str = "bycoms";
+
+impl Ros2Config {
+    /// A usage error unless the namespace is a ROS 2 namespace: `/`, or `/`
+    /// then names of letters, digits and `_` separated by single `/`.
+    pub fn validate(&self) -> Result<(), String> {
+        let ns = &self.namespace;
+        let names_ok = ns.strip_prefix('/').is_some_and(|rest| {
+            rest.is_empty()
+                || rest.split('/').all(|n| {
+                    n.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+                        && n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+                })
+        });
+        if names_ok {
+            Ok(())
+        } else {
+            Err(format!("ros2.namespace {ns:?} is not a ROS 2 namespace: `/` or `/name`, `/a/b` (letters, digits, `_`)"))
+        }
+    }
+
+    /// Robot `k`'s pose topic.
+    pub fn pose_topic(&self, robot: u32) -> String {
+        format!("{}/robot_{robot}/pose", self.namespace.trim_end_matches('/'))
+    }
+}
+
+/// One topic: its rmw_zenoh identity and sequence counter.
+struct Topic {
+    wire: Publisher,
+}
+
+/// Publishes the run into the ROS 2 graph (an [`Observer`] of the launch).
+pub struct Ros2Bridge {
+    session: zenoh::Session,
+    _tokens: Vec<zenoh::liveliness::LivelinessToken>,
+    poses: Vec<Topic>,
+    tf: Topic,
+    clock: Topic,
+    last_clock_us: Option<u64>,
+    failed: bool,
+}
+
+fn endpoint(id: u64, topic: String, description: &'static bycoms_ros2::types::TypeDescription) -> Endpoint {
+    Endpoint {
+        id,
+        kind: EntityKind::Publisher,
+        topic,
+        ros_type: description.name.to_string(),
+        type_hash: description.rihs01(),
+        qos: Qos::reliable(10),
+    }
+}
+
+impl Ros2Bridge {
+    /// Declares the node and its publishers on `session` for `robots` robots.
+    pub fn open(cfg: &Ros2Config, session: &zenoh::Session, robots: u32) -> anyhow::Result<Self> {
+        let node = Node {
+            domain_id: cfg.domain_id,
+            zid: session.zid().to_string(),
+            id: 0,
+            enclave: "/".into(),
+            namespace: cfg.namespace.clone(),
+            name: NODE_NAME.into(),
+        };
+        let mut endpoints = vec![
+            endpoint(1, "/tf".into(), TfMessage::DESCRIPTION),
+            endpoint(2, "/clock".into(), Clock::DESCRIPTION),
+        ];
+        endpoints.extend(
+            (1..=robots).map(|k| endpoint(2 + u64::from(k), cfg.pose_topic(k), PoseStamped::DESCRIPTION)),
+        );
+        let mut tokens = vec![liveliness_token(&node, None)?];
+        let mut topics = Vec::new();
+        for e in &endpoints {
+            let wire = Publisher::new(&node, e)?;
+            tokens.push(wire.token.clone());
+            topics.push(Topic { wire });
+        }
+        let declared = tokens
+            .iter()
+            .map(|t| session.liveliness().declare_token(t.clone()).wait())
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| anyhow::anyhow!("ros2: cannot declare a liveliness token: {e}"))?;
+        let mut topics = topics.into_iter();
+        let (tf, clock) = (topics.next().expect("/tf"), topics.next().expect("/clock"));
+        tracing::info!(
+            domain_id = cfg.domain_id,
+            node = %format_args!("{}/{NODE_NAME}", cfg.namespace.trim_end_matches('/')),
+            topics = endpoints.len(),
+            "ros2: publishing poses, /tf and /clock over rmw_zenoh"
+        );
+        Ok(Self {
+            session: session.clone(),
+            _tokens: declared,
+            poses: topics.collect(),
+            tf,
+            clock,
+            last_clock_us: None,
+            failed: false,
+        })
+    }
+
+    fn put<M: RosMessage>(&mut self, which: Which, msg: &M) {
+        let topic = match which {
+            Which::Tf => &mut self.tf,
+            Which::Clock => &mut self.clock,
+            Which::Pose(i) => &mut self.poses[i],
+        };
+        let attachment = topic.wire.next_attachment(wall_clock_ns()).encode();
+        let sent = self
+            .session
+            .put(topic.wire.key_expr.as_str(), msg.to_cdr())
+            .attachment(attachment.to_vec())
+            .wait();
+        if let Err(e) = sent {
+            // Said once: a dead session fails every put after.
+            if !std::mem::replace(&mut self.failed, true) {
+                tracing::warn!(key = %topic.wire.key_expr, error = %e, "ros2: a sample was not sent");
+            }
+        }
+    }
+}
+
+enum Which {
+    Tf,
+    Clock,
+    Pose(usize),
+}
+
+/// Nanoseconds since the UNIX epoch (rmw_zenoh's `get_system_time_in_ns`).
+fn wall_clock_ns() -> i64 {
+    let since = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+    i64::try_from(since.as_nanos()).unwrap_or(i64::MAX)
+}
+
+/// The run's time `time_us` as a ROS time.
+fn run_time(time_us: u64) -> Time {
+    Time::from_nanos(i64::try_from(time_us.saturating_mul(1_000)).unwrap_or(i64::MAX))
+}
+
+/// A pose as ROS 2 messages: the robot's `PoseStamped` and its transform.
+pub fn ros_messages(pose: &Pose) -> (PoseStamped, TransformStamped) {
+    let header = Header { stamp: run_time(pose.time_us), frame_id: WORLD_FRAME.into() };
+    let orientation = Quaternion::from_yaw(pose.heading);
+    let position = Point { x: pose.x, y: pose.y, z: 0.0 };
+    let stamped = PoseStamped { header: header.clone(), pose: RosPose { position, orientation } };
+    let transform = TransformStamped {
+        header,
+        child_frame_id: format!("robot_{}", pose.robot.0),
+        transform: Transform { translation: Vector3(position), rotation: orientation },
+    };
+    (stamped, transform)
+}
+
+impl Observer for Ros2Bridge {
+    fn pose(&mut self, pose: &Pose) {
+        let Some(index) = (pose.robot.0 as usize).checked_sub(1).filter(|i| *i < self.poses.len()) else {
+            return;
+        };
+        if self.last_clock_us.is_none_or(|t| pose.time_us > t) {
+            self.last_clock_us = Some(pose.time_us);
+            self.put(Which::Clock, &Clock { clock: run_time(pose.time_us) });
+        }
+        let (stamped, transform) = ros_messages(pose);
+        self.put(Which::Pose(index), &stamped);
+        self.put(Which::Tf, &TfMessage { transforms: vec![transform] });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bycoms_protocol::RobotId;
+
+    #[test]
+    fn namespaces_are_checked_and_name_the_key() {
+        for good in ["/", "/lab", "/lab_2/swarm"] {
+            assert_eq!(Ros2Config { namespace: good.into(), ..Ros2Config::default() }.validate(), Ok(()));
+        }
+        for bad in ["", "lab", "/lab/", "//", "/2lab", "/la-b"] {
+            let err = Ros2Config { namespace: bad.into(), ..Ros2Config::default() }.validate().unwrap_err();
+            assert!(err.contains("ros2.namespace"), "{bad}: {err}");
+        }
+        assert_eq!(Ros2Config::default().pose_topic(3), "/robot_3/pose");
+        assert_eq!(
+            Ros2Config { namespace: "/lab".into(), ..Ros2Config::default() }.pose_topic(1),
+            "/lab/robot_1/pose"
+        );
+    }
+
+    #[test]
+    fn a_pose_becomes_a_stamped_pose_and_a_transform_at_the_runs_time() {
+        let pose = Pose {
+            robot: RobotId(2),
+            x: 3.0,
+            y: -1.5,
+            heading: std::f64::consts::FRAC_PI_2,
+            step: 7,
+            time_us: 2_500_000,
+        };
+        let (stamped, tf) = ros_messages(&pose);
+        assert_eq!(stamped.header.stamp, Time { sec: 2, nanosec: 500_000_000 });
+        assert_eq!(stamped.header.frame_id, "world");
+        assert_eq!((stamped.pose.position.x, stamped.pose.position.y), (3.0, -1.5));
+        assert!((stamped.pose.orientation.z - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-12);
+        assert_eq!(tf.child_frame_id, "robot_2");
+        assert_eq!(tf.transform.translation.0, stamped.pose.position);
+    }
+}

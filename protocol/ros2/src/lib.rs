@@ -1,0 +1,21 @@
+//! The ROS 2 wire format as rmw_zenoh (ROS 2's zenoh middleware) speaks it,
+//! sans-IO: no zenoh session here, only types and pure functions, so every
+//! byte is pinned by tests without a network and the launch puts them on
+//! the session it already has.
+//!
+//! * [`cdr`]: XCDR1 little-endian encoding and decoding (the payload);
+//! * [`types`]: type descriptions and their REP-2016 hashes (`RIHS01_…`);
+//! * [`msgs`]: the messages bycoms publishes (poses, `/tf`, paths, `/clock`)
+//!   and the `PoseStamped` a ROS 2 motion-capture driver sends;
+//! * [`rmw_zenoh`]: key expressions, liveliness tokens, GIDs, attachments,
+//!   with the rmw_zenoh sources (file and commit) each follows.
+//!
+//! Why its own crate: it is std but needs none of the bus, and the no_std
+//! protocol core stays as it is. Checked against independent
+//! implementations (PyPI `rosbags`, `xxhash`, eclipse-zenoh's serializer)
+//! by `tests/golden.rs` and `tests/python/ros2_golden.py` at the root.
+
+pub mod cdr;
+pub mod msgs;
+pub mod rmw_zenoh;
+pub mod types;

@@ -1,0 +1,124 @@
+"""A ROS 2-over-zenoh listener that is not ours, for `launch --ros2`'s end-to-end test.
+
+Plays the lab's router: opens a zenoh router listening on argv[1], finds
+the launch's topics through their rmw_zenoh liveliness tokens (as
+`ros2 topic list` does), subscribes to every sample of the domain, and
+when a line arrives on stdin (the launch has ended) checks each sample
+with its own means: the key expression built from rosbags' type hash and
+rmw_zenoh's naming rule, the payload deserialized by rosbags, the
+33-byte attachment parsed by hand, its GID against PyPI xxhash's XXH3-128
+of the publisher's token, and the sequence numbers contiguous (none lost
+once the route exists; the last is the count sent). It prints one JSON
+report. Used by tests/tests/ros2_launch.rs.
+
+usage: ros2_listen.py LISTEN_ENDPOINT DOMAIN_ID
+"""
+
+import json
+import sys
+import threading
+
+import xxhash
+import zenoh
+from rosbags.typesys import Stores, get_typestore
+
+TS = get_typestore(Stores.ROS2_JAZZY)
+
+
+def dds_name(ros_type):
+    pkg, kind, name = ros_type.split("/")
+    return f"{pkg}::{kind}::dds_::{name}_"
+
+
+def parse_token(token):
+    """A publisher token's (topic, DDS type, hash), or None."""
+    parts = token.split("/")
+    if len(parts) < 13 or parts[0] != "@ros2_lv" or parts[5] != "MP":
+        return None
+    return parts[9].replace("%", "/"), parts[10], parts[11]
+
+
+def open_router(listen):
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"router"')
+    conf.insert_json5("listen/endpoints", json.dumps([listen]))
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    return zenoh.open(conf)
+
+
+def check(samples, tokens, domain):
+    """The report: what a ROS 2 subscriber would have seen."""
+    publishers = {}
+    for token in tokens:
+        parsed = parse_token(token)
+        if parsed:
+            publishers[parsed[0]] = (token, parsed[1], parsed[2])
+    by_key = {}
+    for topic, (token, dds, type_hash) in publishers.items():
+        ros_type = next(t for t in TS.types if t.count("/") == 2 and dds_name(t) == dds)
+        assert TS.hash_rihs01(ros_type) == type_hash, f"{topic}: token hash {type_hash}"
+        key = f"{domain}/{topic.strip('/')}/{dds}/{TS.hash_rihs01(ros_type)}"
+        gid = xxhash.xxh3_128_intdigest(token.encode()).to_bytes(16, "little")
+        by_key[key] = (topic, ros_type, gid)
+    report = {"nodes": sorted(t for t in tokens if "/NN/" in t), "topics": {}, "unexpected": []}
+    errors = {"undecoded": 0, "bad_attachment": 0, "bad_gid": 0}
+    for key, payload, attachment in samples:
+        if key not in by_key:
+            report["unexpected"].append(key)
+            continue
+        topic, ros_type, gid = by_key[key]
+        entry = report["topics"].setdefault(topic, {"type": ros_type, "seqs": [], "last": None})
+        try:
+            msg = TS.deserialize_cdr(payload, ros_type)
+        except Exception:  # noqa: BLE001 - any failure to decode counts
+            errors["undecoded"] += 1
+            continue
+        if len(attachment) != 33 or attachment[16] != 16:
+            errors["bad_attachment"] += 1
+            continue
+        errors["bad_gid"] += attachment[17:] != gid
+        entry["seqs"].append(int.from_bytes(attachment[:8], "little", signed=True))
+        if ros_type == "geometry_msgs/msg/PoseStamped":
+            entry["last"] = [msg.pose.position.x, msg.pose.position.y, msg.header.frame_id]
+        elif ros_type == "rosgraph_msgs/msg/Clock":
+            entry["last"] = msg.clock.sec * 1_000_000_000 + msg.clock.nanosec
+    for entry in report["topics"].values():
+        seqs = entry.pop("seqs")
+        entry["count"] = len(seqs)
+        entry["first_seq"] = seqs[0] if seqs else None
+        entry["last_seq"] = seqs[-1] if seqs else None
+        entry["contiguous"] = bool(seqs) and seqs == list(range(seqs[0], seqs[0] + len(seqs)))
+    report.update(errors)
+    return report
+
+
+def main():
+    listen, domain = sys.argv[1], int(sys.argv[2])
+    session = open_router(listen)
+    lock = threading.Lock()
+    samples, tokens = [], set()
+
+    def on_sample(s):
+        attachment = s.attachment.to_bytes() if s.attachment is not None else b""
+        with lock:
+            samples.append((str(s.key_expr), s.payload.to_bytes(), attachment))
+
+    def on_token(s):
+        if s.kind == zenoh.SampleKind.PUT:
+            with lock:
+                tokens.add(str(s.key_expr))
+
+    sub = session.declare_subscriber(f"{domain}/**", on_sample)
+    graph = session.liveliness().declare_subscriber(f"@ros2_lv/{domain}/**", on_token)
+    print("ready", flush=True)
+    sys.stdin.readline()
+    with lock:
+        report = check(list(samples), set(tokens), domain)
+    print(json.dumps(report), flush=True)
+    sub.undeclare()
+    graph.undeclare()
+    session.close()
+
+
+if __name__ == "__main__":
+    main()
