@@ -127,7 +127,17 @@ impl Host {
     /// (`ip netns exec` execs it, so the process is the program itself);
     /// killed and reaped on drop, as every [`crate::Proc`].
     pub fn start(&self, program: &str, args: &[&str]) -> crate::Proc {
+        self.start_with_env(program, args, &[])
+    }
+
+    /// As [`Host::start`], with `env` (name, value) set for the program
+    /// alone (through `env`, so the test process's environment is untouched).
+    pub fn start_with_env(&self, program: &str, args: &[&str], env: &[(&str, &str)]) -> crate::Proc {
         let mut all: Vec<String> = vec!["netns".into(), "exec".into(), self.netns.clone()];
+        if !env.is_empty() {
+            all.push("env".into());
+            all.extend(env.iter().map(|(name, value)| format!("{name}={value}")));
+        }
         all.push(crate::bin(program).display().to_string());
         all.extend(args.iter().map(|s| s.to_string()));
         crate::Proc::start(&std::path::PathBuf::from("ip"), &all)
