@@ -296,8 +296,11 @@ pub fn generate(plan: &Plan) -> Result<Generated> {
             plan.out.display()
         )));
     }
-    let mut rule =
-        Outputs::new(plan.force).output("--out", &ca, Kind::Pem).output("--out", &ca_key, Kind::Pem);
+    let mut rule = Outputs::new(plan.force).making_folders().output("--out", &ca, Kind::Pem).output(
+        "--out",
+        &ca_key,
+        Kind::Pem,
+    );
     for name in std::iter::once(ORCHESTRATOR_CN.to_string()).chain((1..=plan.robots).map(robot_cn)) {
         for (path, kind) in files_of(&plan.out, &name) {
             rule = rule.output("--out", path, kind);
