@@ -459,3 +459,69 @@ fn a_live_swarm_is_refused_whatever_the_temp_dir_with_a_usage_error() {
     assert!(o.stdout.is_empty(), "nothing ran: {}", String::from_utf8_lossy(&o.stdout));
     drop(held);
 }
+
+/// `sweep > /dev/full`: stdout is named as what failed, and every file of
+/// the study is written all the same (issue 31).
+#[test]
+fn a_full_stdout_is_named_and_costs_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sw");
+    let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .args(["sweep", "--eps", "3", "--widths", "3", "--terrains-per-bin", "1", "--noise", "off"])
+        .args(["--time-limit", "300", "--seed", "3", "--out", out.to_str().unwrap()])
+        .stdout(full)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("cannot write to stdout: No space left on device"), "{}", stderr(&o));
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    let whole = tempfile::tempdir().unwrap();
+    let o = orchestrator(&[
+        "sweep",
+        "--eps",
+        "3",
+        "--widths",
+        "3",
+        "--terrains-per-bin",
+        "1",
+        "--noise",
+        "off",
+        "--time-limit",
+        "300",
+        "--seed",
+        "3",
+        "--out",
+        whole.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut expected: Vec<String> = std::fs::read_dir(whole.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    expected.sort();
+    assert_eq!(names, expected, "the same files as with a working stdout");
+}
+
+/// A shard whose lines end in CR LF (a Windows transfer) merges as the same rows (issue 31).
+#[test]
+fn a_cr_lf_shard_merges_as_the_same_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    tiny_shards(dir.path(), "5");
+    let merged = tempfile::tempdir().unwrap();
+    let o = orchestrator(&["merge", dir.path().to_str().unwrap(), "--out", merged.path().to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let shard = dir.path().join("runs-shard-0-of-2.csv");
+    let text = std::fs::read_to_string(&shard).unwrap();
+    assert!(!text.contains('\r'));
+    std::fs::write(&shard, text.replace('\n', "\r\n")).unwrap();
+    let again = tempfile::tempdir().unwrap();
+    let o = orchestrator(&["merge", dir.path().to_str().unwrap(), "--out", again.path().to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let runs = |d: &Path| std::fs::read(d.join("runs.csv")).unwrap();
+    assert_eq!(runs(again.path()), runs(merged.path()));
+}

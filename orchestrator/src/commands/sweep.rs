@@ -370,3 +370,22 @@ fn write_terrain_list(out: &Path, axes: &Axes, terrains: &[Vec<SweepTerrain>]) -
     });
     crate::sweep::rows::write_atomic(&out.join("terrains.csv"), &crate::sweep::rows::to_csv_bytes(entries)?)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_runs_file_of_another_sweep_is_said_in_words() {
+        let path = Path::new("out/runs.csv");
+        let said = foreign_row(path, 0, 7, &[1, 3, 5]);
+        assert_eq!(
+            said,
+            "out/runs.csv does not belong to this sweep (row 2 is run 7, expected run 1 of this plan); \
+             use another --out"
+        );
+        assert!(foreign_row(path, 3, 9, &[1, 3, 5]).contains("this plan has only 3 runs"));
+        assert!(foreign_row(path, 0, 1, &[1]).contains("run 1 with other parameters than this plan's"));
+        assert!(!foreign_row(path, 3, 9, &[1]).contains("Some"), "no Rust in the words");
+    }
+}
