@@ -177,7 +177,7 @@ fn check_place(path: &Path, making_folders: bool) -> Result<(), OutputError> {
 }
 
 /// What a path names, for telling whether two paths are the same file.
-#[derive(Debug, PartialEq, Eq)]
+#[derive(Debug, PartialEq, Eq, Hash)]
 enum Identity {
     /// An existing file: device and inode (links followed).
     File(u64, u64),
@@ -258,25 +258,31 @@ impl Outputs {
     /// Applies the rule to every output: not an input, not another output,
     /// and [`check_target`]. Call it before anything starts.
     pub fn check(&self) -> Result<(), OutputError> {
-        let mut inputs = Vec::new();
+        use std::collections::{HashMap, HashSet};
+        let mut inputs = HashMap::new();
         for input in &self.inputs {
             // An input that does not exist is the command's own error to report.
             if let Ok(id @ Identity::File(..)) = identity(input) {
-                inputs.push((id, input));
+                inputs.entry(id).or_insert(input);
             }
         }
-        let mut seen: Vec<(Identity, &str, &Path)> = Vec::new();
+        // By identity and by folder probed: a command with thousands of
+        // outputs (`certs --robots 1000`) checks each once, not each against all.
+        let mut seen: HashMap<Identity, (&str, &Path)> = HashMap::new();
+        let mut probed = HashSet::new();
         for (flag, path, kind, force) in &self.outputs {
-            check_place(path, self.making_folders)?;
+            if probed.insert(parent(path).to_path_buf()) {
+                check_place(path, self.making_folders)?;
+            }
             let id = identity(path)?;
-            if let Some((_, input)) = inputs.iter().find(|(i, _)| *i == id) {
+            if let Some(input) = inputs.get(&id) {
                 return Err(OutputError::IsInput {
                     flag: flag.clone(),
                     path: path.clone(),
                     input: input.to_path_buf(),
                 });
             }
-            if let Some((_, other, other_path)) = seen.iter().find(|(i, ..)| *i == id) {
+            if let Some((other, other_path)) = seen.get(&id) {
                 return Err(OutputError::SameOutput {
                     flag: flag.clone(),
                     path: path.clone(),
@@ -285,7 +291,7 @@ impl Outputs {
                 });
             }
             check_target(path, *kind, *force)?;
-            seen.push((id, flag, path));
+            seen.insert(id, (flag, path));
         }
         Ok(())
     }
