@@ -22,7 +22,7 @@ pub const MIN_SPEED: f64 = 0.001;
 /// The real-time speed-up must be a number in [[`MIN_SPEED`],
 /// [`MAX_SPEED`]] (shared by `launch`, `bench scale` and the agent).
 pub fn check_speed(speed: f64) -> Result<(), String> {
-    if !(speed >= MIN_SPEED && speed <= MAX_SPEED) {
+    if !(MIN_SPEED..=MAX_SPEED).contains(&speed) {
         return Err(format!(
             "the real-time speed-up must be a number in [{MIN_SPEED}, {MAX_SPEED}], got {speed:?}"
         ));
