@@ -100,6 +100,10 @@ fn huge_or_undefined_seconds_are_usage_errors_naming_the_flag_and_its_range() {
             "{}",
             stderr(&o)
         );
+        let rate = if value == "inf" { "1e300" } else { "1e-300" };
+        let o = sim_agent(&[&lab[..], &["--natnet-rate", rate]].concat());
+        assert_eq!(o.status.code(), Some(2), "lab --natnet-rate {rate}: {}", stderr(&o));
+        assert!(stderr(&o).contains("--natnet-rate must be a number of Hz in [1, 10000]"), "{}", stderr(&o));
     }
 }
 

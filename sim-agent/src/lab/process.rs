@@ -105,8 +105,13 @@ impl LabArgs {
         if self.mocap_ms == 0 {
             return Err(LabError::Args("--mocap-ms must be at least 1".into()));
         }
-        if !(self.natnet_rate.is_finite() && self.natnet_rate > 0.0) {
-            return Err(LabError::Args("--natnet-rate must be a positive number of Hz".into()));
+        // At least one frame a second: a frame period is a span of seconds
+        // too (`--natnet-rate 1e-300` made one of 1e300 s).
+        if !(1.0..=10_000.0).contains(&self.natnet_rate) {
+            return Err(LabError::Args(format!(
+                "--natnet-rate must be a number of Hz in [1, 10000], got {:?}",
+                self.natnet_rate
+            )));
         }
         Ok(())
     }
