@@ -269,6 +269,9 @@ pub fn is_secured(endpoint: &str) -> bool {
 fn check_plan(plan: &Plan) -> Result<()> {
     anyhow::ensure!(plan.robots >= 1, "--robots must be at least 1");
     anyhow::ensure!(!plan.hosts.is_empty(), "the orchestrator needs at least one host name or address");
+    for host in &plan.hosts {
+        check_host(host)?;
+    }
     for (flag, endpoint) in [("--listen", &plan.listen), ("--connect", &plan.connect)] {
         anyhow::ensure!(
             is_secured(endpoint),
@@ -276,6 +279,30 @@ fn check_plan(plan: &Plan) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// A name the orchestrator's certificate may carry (`--host`): an IP
+/// address, or a DNS name of dot-separated labels of letters, digits and
+/// `-` (not first or last), 1 to 63 characters each, at most 253 in all.
+/// Anything else (`''`, `a b;rm`) is a usage error: no robot could ever
+/// reach the orchestrator by it, and the name would land in its config.
+pub fn check_host(host: &str) -> Result<()> {
+    if host.parse::<std::net::IpAddr>().is_ok() {
+        return Ok(());
+    }
+    let label = |l: &str| {
+        (1..=63).contains(&l.len())
+            && l.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-')
+            && !l.starts_with('-')
+            && !l.ends_with('-')
+    };
+    if host.len() <= 253 && host.split('.').all(label) {
+        return Ok(());
+    }
+    Err(exit::usage(format!(
+        "--host {host:?} is neither an IP address nor a host name (dot-separated labels of letters, digits \
+         and '-')"
+    )))
 }
 
 /// The lab CA's certificate and key in `out`.
@@ -298,8 +325,11 @@ pub fn generate(plan: &Plan) -> Result<Generated> {
             plan.out.display()
         )));
     }
-    let mut rule =
-        Outputs::new(plan.force).output("--out", &ca, Kind::Pem).output("--out", &ca_key, Kind::Pem);
+    let mut rule = Outputs::new(plan.force).making_folders().output("--out", &ca, Kind::Pem).output(
+        "--out",
+        &ca_key,
+        Kind::Pem,
+    );
     for name in std::iter::once(ORCHESTRATOR_CN.to_string()).chain((1..=plan.robots).map(robot_cn)) {
         for (path, kind) in files_of(&plan.out, &name) {
             rule = rule.output("--out", path, kind);
@@ -435,4 +465,34 @@ pub fn add_robots(plan: &Plan) -> Result<Generated> {
     config["access_control"] = access_control(plan.robots.max(existing), &revoked_in(&config));
     write_config(&orchestrator_config, ORCHESTRATOR_HEADER, &config, true)?;
     Ok(Generated { ca, orchestrator_config, robot_configs })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn host_names_that_no_robot_could_reach_are_usage_errors() {
+        for good in ["localhost", "127.0.0.1", "::1", "orchestrator.lab", "lab-1.example.org", "fe80::1"] {
+            assert!(check_host(good).is_ok(), "{good}");
+        }
+        let long = format!("{}.lab", "a".repeat(64));
+        for bad in ["", "a b;rm", "a..b", "-lab", "lab-", "lab_1", "ünï", long.as_str(), "lab.", "1.2.3.4:80"]
+        {
+            let e = check_host(bad).expect_err(bad);
+            assert_eq!(exit::code_of(&e), exit::USAGE, "{bad}");
+            assert!(e.to_string().contains(&format!("--host {bad:?} is neither")), "{e}");
+        }
+        let dir = tempfile::tempdir().expect("temp dir");
+        let plan = Plan {
+            robots: 1,
+            hosts: vec!["localhost".into(), "a b;rm".into()],
+            listen: "quic/0.0.0.0:7447".into(),
+            connect: "quic/localhost:7447".into(),
+            out: dir.path().to_path_buf(),
+            force: false,
+        };
+        assert!(generate(&plan).is_err());
+        assert!(std::fs::read_dir(dir.path()).expect("dir").next().is_none(), "nothing written");
+    }
 }

@@ -148,9 +148,20 @@ fn bad_input_exits_non_zero_with_a_clear_message() {
         (&["sweep", "--shard", "5/4"], "need 0 ≤ i < n", 2),
         (&["terrain", "--width", "0", "--count", "1", "--out", "/tmp/x"], "--width must lie", 2),
         (&["bench", "scale", "--speed", "0"], "speed-up must be a number in", 2),
+        // Seconds past any run: the flag or key and its range, never a panic (issue 31).
+        (&["launch", "--link-grace", "1e300"], "supervision.link_grace (--link-grace) must be a number of seconds in [0, 100000000], got 1e300", 2),
+        (&["launch", "--heartbeat-timeout", "1e20"], "supervision.heartbeat_timeout (--heartbeat-timeout) must be a number of seconds in (0, 100000000]", 2),
+        (&["launch", "--register-timeout", "NaN"], "supervision.register_timeout (--register-timeout) must be a number of seconds in (0, ", 2),
+        (&["launch", "--dwell", "1e300"], "gate.dwell (--dwell) must be a number of seconds in (0, ", 2),
+        (&["launch", "--time-limit", "1e300"], "bad time_limit (--time-limit): the time limit must be at least one control period and at most 100000000 s", 2),
+        (&["launch", "--clock", "realtime", "--speed", "1e-300"], "speed-up must be a number in [0.001, 100000]", 2),
+        (&["sweep", "--time-limit", "inf", "--out", "/tmp/x"], "bad --time-limit", 2),
+        (&["bench", "scale", "--seconds", "1e20"], "invalid value '1e20' for '--seconds <SECONDS>': must be a number of seconds in (0, 100000000]", 2),
+        (&["bench", "crowd", "--timeout", "0"], "'--timeout <SECONDS>': must be a number of seconds in (0, ", 2),
+        (&["launch", "--config", "/dev/zero"], "cannot read config /dev/zero: more than the limit of 1048576 bytes", 1),
         (
             &["simulate", "--svg", "/nonexistent/dir/out.svg"],
-            "cannot write the snapshot to /nonexistent/dir/out.svg: No such file",
+            "cannot write /nonexistent/dir/out.svg: No such file",
             1,
         ),
         (&["sweep", "--out", "/proc/forbidden"], "cannot create output directory", 1),
@@ -468,4 +479,70 @@ fn a_zenoh_runtime_that_cannot_start_ends_the_launch_at_once() {
     assert!(err.contains("zenoh failed (thread main): Worker threads cannot be set to 0"), "{err}");
     assert!(!err.contains("panicked") && !err.contains(".cargo/registry"), "{err}");
     assert!(begun.elapsed() < std::time::Duration::from_secs(8), "took {:?}", begun.elapsed());
+}
+
+/// `sweep > /dev/full`: stdout is named as what failed, and every file of
+/// the study is written all the same (issue 31).
+#[test]
+fn a_full_stdout_is_named_and_costs_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sw");
+    let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .args(["sweep", "--eps", "3", "--widths", "3", "--terrains-per-bin", "1", "--noise", "off"])
+        .args(["--time-limit", "300", "--seed", "3", "--out", out.to_str().unwrap()])
+        .stdout(full)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("cannot write to stdout: No space left on device"), "{}", stderr(&o));
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    let whole = tempfile::tempdir().unwrap();
+    let o = orchestrator(&[
+        "sweep",
+        "--eps",
+        "3",
+        "--widths",
+        "3",
+        "--terrains-per-bin",
+        "1",
+        "--noise",
+        "off",
+        "--time-limit",
+        "300",
+        "--seed",
+        "3",
+        "--out",
+        whole.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut expected: Vec<String> = std::fs::read_dir(whole.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    expected.sort();
+    assert_eq!(names, expected, "the same files as with a working stdout");
+}
+
+/// A shard whose lines end in CR LF (a Windows transfer) merges as the same rows (issue 31).
+#[test]
+fn a_cr_lf_shard_merges_as_the_same_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    tiny_shards(dir.path(), "5");
+    let merged = tempfile::tempdir().unwrap();
+    let o = orchestrator(&["merge", dir.path().to_str().unwrap(), "--out", merged.path().to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let shard = dir.path().join("runs-shard-0-of-2.csv");
+    let text = std::fs::read_to_string(&shard).unwrap();
+    assert!(!text.contains('\r'));
+    std::fs::write(&shard, text.replace('\n', "\r\n")).unwrap();
+    let again = tempfile::tempdir().unwrap();
+    let o = orchestrator(&["merge", dir.path().to_str().unwrap(), "--out", again.path().to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let runs = |d: &Path| std::fs::read(d.join("runs.csv")).unwrap();
+    assert_eq!(runs(again.path()), runs(merged.path()));
 }

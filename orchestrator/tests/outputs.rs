@@ -95,6 +95,25 @@ fn draw_never_replaces_its_recording_or_another_recording() {
 }
 
 #[test]
+fn simulate_runs_twice_in_one_folder_replacing_its_own_default_picture_only() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let svg = dir.path().join("simulate.svg");
+    for _ in 0..2 {
+        let o = orchestrator_in(dir.path(), &["simulate"]);
+        assert_eq!(o.status.code(), Some(0), "the README's first command, again: {}", stderr(&o));
+    }
+    assert!(std::fs::read_to_string(&svg).expect("simulate.svg").contains("<svg"));
+    // Spelled as the default, it is the default.
+    let o = orchestrator_in(dir.path(), &["simulate", "--svg", "./simulate.svg"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // Another kind at the default name is still never replaced.
+    let terrain = b"S.......\n........\n.......G\n";
+    std::fs::write(&svg, terrain).expect("a terrain named simulate.svg");
+    let o = orchestrator_in(dir.path(), &["simulate"]);
+    refused(&o, "is a terrain, not an SVG picture", &[(&svg, terrain)]);
+}
+
+#[test]
 fn simulate_never_draws_over_its_terrain_or_its_other_picture() {
     let dir = tempfile::tempdir().expect("temp dir");
     let terrain = dir.path().join("t.txt");
@@ -150,6 +169,11 @@ fn launch_outputs_are_checked_before_anything_starts() {
         &["launch", "--swarm", &swarm, "--terrain", "t.txt", "--record", "t.txt", "--force"],
     );
     refused(&o, "refusing to overwrite an input", &[(&terrain, b"S.......\n.......G\n")]);
+    // A picture no one can write (its folder is a file): said before the run, not after it.
+    let o = orchestrator_in(dir.path(), &["launch", "--swarm", &swarm, "--svg", "t.txt/run.svg"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("cannot write t.txt/run.svg"), "{}", stderr(&o));
+    assert!(stdout_is_empty(&o), "refused before the run: {}", String::from_utf8_lossy(&o.stdout));
 }
 
 #[test]

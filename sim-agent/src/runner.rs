@@ -80,7 +80,7 @@ impl RunConfig {
         if !positive(self.eps) || !positive(self.field_constant / (self.eps * self.eps)) {
             return Err(ConfigError::Eps(self.eps));
         }
-        if !positive(self.time_limit) {
+        if !(positive(self.time_limit) && self.time_limit <= bycoms_runtime::seconds::MAX_SECONDS) {
             return Err(ConfigError::TimeLimit(self.time_limit));
         }
         if !positive(self.success_radius) {
@@ -112,7 +112,10 @@ impl RunConfig {
 pub enum ConfigError {
     #[error("the circumferential radius ε must be a positive number of cells (with c/ε² > 0), got {0:?}")]
     Eps(f64),
-    #[error("the time limit must be positive and at least one control period, got {0} s")]
+    #[error(
+        "the time limit must be at least one control period and at most {max} s, got {0:?} s",
+        max = bycoms_runtime::seconds::MAX_SECONDS
+    )]
     TimeLimit(f64),
     #[error("the success radius must be positive, got {0}")]
     SuccessRadius(f64),

@@ -71,3 +71,54 @@ fn the_logging_flags_go_before_or_after_the_subcommand() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("cannot be used with '--robot <ROBOT>'"), "{}", stderr(&o));
 }
+
+/// Seconds past any run (`1e300`, `1e20`), NaN or negative: the flag and its
+/// range in a usage error (exit 2), never a panic (exit 101) where they
+/// become a `Duration` (issue 31).
+#[test]
+fn huge_or_undefined_seconds_are_usage_errors_naming_the_flag_and_its_range() {
+    for value in ["1e300", "1e20", "NaN", "inf"] {
+        let o = sim_agent(&agent_args("ok", &["--settings-timeout", value]));
+        assert_eq!(o.status.code(), Some(2), "--settings-timeout {value}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("--settings-timeout must be a number of seconds in (0, 100000000]"),
+            "{}",
+            stderr(&o)
+        );
+        let o = sim_agent(&agent_args("ok", &["--orchestrator-grace", value]));
+        assert_eq!(o.status.code(), Some(2), "--orchestrator-grace {value}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("--orchestrator-grace must be a number of seconds in [0, "),
+            "{}",
+            stderr(&o)
+        );
+        let lab = ["lab", "--scenario", "exp-short", "--robots", "/nonexistent/r.toml", "--swarm", "x"];
+        let o = sim_agent(&[&lab[..], &["--duration", value]].concat());
+        assert_eq!(o.status.code(), Some(2), "lab --duration {value}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("--duration must be a number of seconds in [0, 100000000]"),
+            "{}",
+            stderr(&o)
+        );
+        let rate = if value == "inf" { "1e300" } else { "1e-300" };
+        let o = sim_agent(&[&lab[..], &["--natnet-rate", rate]].concat());
+        assert_eq!(o.status.code(), Some(2), "lab --natnet-rate {rate}: {}", stderr(&o));
+        assert!(stderr(&o).contains("--natnet-rate must be a number of Hz in [1, 10000]"), "{}", stderr(&o));
+    }
+}
+
+/// A lab scenario's arena is bounded as terrain files are: `width = 1e300`
+/// asked the launch for a grid past any memory (issue 31).
+#[test]
+fn a_lab_scenario_larger_than_any_terrain_is_refused() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let text = bycoms_sim::lab::scenario::EXP_SHORT.replace("width = 3.0", "width = 1e300");
+    let file = dir.path().join("huge.toml");
+    std::fs::write(&file, text).expect("scenario");
+    let robots = dir.path().join("r.toml");
+    let args =
+        ["lab", "--scenario", file.to_str().expect("utf-8"), "--robots", robots.to_str().expect("utf-8")];
+    let o = sim_agent(&[&args[..], &["--swarm", "x", "--duration", "0"]].concat());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("at most 1000 m"), "{}", stderr(&o));
+}

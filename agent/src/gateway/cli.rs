@@ -120,6 +120,15 @@ impl GatewayArgs {
         if self.heartbeat_ms == 0 {
             return Err("--heartbeat-ms must be at least 1".into());
         }
+        // A swarm of 0, or one this robot is not in, sizes the bus wrongly
+        // for every process of the swarm: said, not silently stretched.
+        if let Some(n) = self.swarm_size.filter(|&n| n < self.robot.max(1)) {
+            return Err(format!(
+                "--swarm-size {n}: robot {} is not one of the swarm's robots 1..={n}; give the swarm's size \
+                 (at least {})",
+                self.robot, self.robot
+            ));
+        }
         self.failsafe.grace()?;
         self.bus.validate()
     }
@@ -363,6 +372,30 @@ mod command_tests {
     #[test]
     fn the_command_is_consistent() {
         command().debug_assert();
+    }
+
+    #[test]
+    fn a_swarm_the_robot_is_not_in_is_refused() {
+        let flags = |size: &str, robot: &str| {
+            [
+                "--swarm",
+                "lab",
+                "--robot",
+                robot,
+                "--bind",
+                "127.0.0.1:0",
+                "--key-file",
+                "k",
+                "--swarm-size",
+                size,
+            ]
+            .map(String::from)
+        };
+        for (size, robot) in [("0", "1"), ("2", "5")] {
+            let e = gateway_of(&flags(size, robot)).validate().expect_err("refused");
+            assert!(e.starts_with(&format!("--swarm-size {size}: robot {robot} is not one of")), "{e}");
+        }
+        assert!(gateway_of(&flags("5", "5")).validate().is_ok());
     }
 
     #[test]

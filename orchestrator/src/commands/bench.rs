@@ -22,6 +22,7 @@ use crate::commands::launch as launch_cmd;
 use crate::launch::config::Transport;
 use crate::launch::{self, LaunchConfig, Outcome};
 use anyhow::{bail, Result};
+use bycoms_runtime::seconds::seconds;
 use std::path::PathBuf;
 
 #[derive(Debug, clap::Args)]
@@ -56,7 +57,7 @@ pub enum What {
         #[arg(long, default_value_t = 200)]
         agents: u32,
         /// Seconds to watch them.
-        #[arg(long, default_value_t = 20.0)]
+        #[arg(long, default_value_t = 20.0, value_parser = seconds)]
         seconds: f64,
         /// Real-time speed-up (1 = 10 Hz).
         #[arg(long, default_value_t = 1.0)]
@@ -68,7 +69,7 @@ pub enum What {
         #[arg(long, value_delimiter = ',', default_value = "10,100,300,1000")]
         robots: Vec<u32>,
         /// Longest one launch may take, s (then it is stopped).
-        #[arg(long, default_value_t = 1800.0, value_name = "SECONDS")]
+        #[arg(long, default_value_t = 1800.0, value_name = "SECONDS", value_parser = seconds)]
         timeout: f64,
         /// Also run each launch recorded (`--record`), after it runs
         /// without: the recording's size and its cost in wall time per tick.
@@ -179,9 +180,7 @@ fn crowd(
     if robots.is_empty() || robots.contains(&0) {
         return Err(crate::exit::usage("--robots takes swarm sizes of at least 1"));
     }
-    if !(timeout.is_finite() && timeout > 0.0) {
-        return Err(crate::exit::usage("--timeout must be a positive number of seconds"));
-    }
+    // In range: the value parser's one check of seconds.
     let timeout = std::time::Duration::from_secs_f64(timeout);
     let opts = launch::crowd::Options { robots, agent_bin, timeout, record };
     let rows = launch::crowd::run(&opts)?;

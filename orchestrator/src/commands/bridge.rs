@@ -64,7 +64,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE.json5")]
     pub zenoh_config: Option<PathBuf>,
     /// Stop after this many seconds [default: until Ctrl-C].
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", value_parser = bycoms_runtime::seconds::seconds)]
     pub duration: Option<f64>,
 }
 
@@ -96,13 +96,8 @@ pub fn run(args: Args) -> Result<i32> {
     if args.robots == 0 {
         return Err(exit::usage("--robots must be at least 1"));
     }
-    let duration = match args.duration {
-        Some(s) if !(s.is_finite() && s > 0.0) => {
-            return Err(exit::usage("--duration must be a positive number of seconds"));
-        }
-        Some(s) => Some(Duration::from_secs_f64(s)),
-        None => None,
-    };
+    // In range: the value parser's one check of seconds.
+    let duration = args.duration.map(Duration::from_secs_f64);
     bycoms_runtime::cli::quiet_iceoryx2();
     let mut ipc = ipc_config(args.robots);
     ipc.node_name = Some(format!("bycoms-{}-bridge", args.swarm));

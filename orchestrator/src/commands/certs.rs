@@ -4,6 +4,7 @@
 
 use crate::certs::{add_robots, generate, revoke, Plan};
 use crate::exit;
+use crate::launch::config::MAX_ROBOTS;
 use anyhow::Result;
 use std::path::PathBuf;
 
@@ -55,6 +56,19 @@ pub struct Args {
     pub revoke: Vec<u32>,
 }
 
+/// Certificates only for robots a launch can deploy (at most
+/// [`MAX_ROBOTS`]): 100 000 robots took over a minute for files no launch
+/// would ever use.
+fn check_robots(robots: u32) -> Result<()> {
+    if robots > MAX_ROBOTS {
+        return Err(exit::usage(format!(
+            "--robots {robots}: a launch deploys at most {MAX_ROBOTS} robots, so certificates for more \
+             would never be used"
+        )));
+    }
+    Ok(())
+}
+
 pub fn run(args: Args) -> Result<i32> {
     if !args.revoke.is_empty() {
         let config = revoke(&args.out, &args.revoke)?;
@@ -67,6 +81,7 @@ pub fn run(args: Args) -> Result<i32> {
         return Ok(exit::SUCCESS);
     }
     let robots = args.robots.unwrap_or_default();
+    check_robots(robots)?;
     let first = args.hosts.first().cloned().unwrap_or_else(|| "localhost".into());
     let proto = if args.listen.starts_with("tls/") { "tls" } else { "quic" };
     let connect = args.connect.unwrap_or_else(|| format!("{proto}/{first}:7447"));
@@ -91,4 +106,17 @@ pub fn run(args: Args) -> Result<i32> {
         plan.out.display()
     ));
     Ok(exit::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn more_robots_than_a_launch_deploys_is_a_usage_error() {
+        let e = check_robots(100_000).expect_err("too many");
+        assert_eq!(exit::code_of(&e), exit::USAGE);
+        assert!(e.to_string().contains("--robots 100000: a launch deploys at most 1000 robots"), "{e}");
+        assert!(check_robots(MAX_ROBOTS).is_ok());
+    }
 }

@@ -7,11 +7,9 @@
 //! refused with the file and row named (exit 1), so the tables are never
 //! computed from foreign rows.
 
-use super::sweep::{Meta, META_FILE};
+use super::sweep::{report, Meta, META_FILE};
 use crate::exit;
-use crate::sweep::budget;
 use crate::sweep::rows::{read_rows, write_all, Row};
-use crate::sweep::table::{tabulate, to_text, write_outputs};
 use crate::sweep::verify::{read_terrain_list, Expected, ListedTerrain, TERRAIN_LIST};
 use anyhow::{bail, Context, Result};
 use std::collections::BTreeMap;
@@ -104,16 +102,7 @@ pub fn run(args: Args) -> Result<i32> {
     write_all(&args.out.join("runs.csv"), &rows)?;
     let meta_text = serde_json::to_string_pretty(&meta)? + "\n";
     crate::sweep::rows::write_atomic(&args.out.join(META_FILE), meta_text.as_bytes())?;
-    let tables = tabulate(&meta.axes, &rows);
-    let mut files = write_outputs(&args.out, &meta.axes, &tables)?;
-    for t in &tables {
-        crate::outln!("{}", to_text(&meta.axes, t))?;
-    }
-    let budgets = budget::tabulate(&meta.axes, &rows, meta.max_robots);
-    files.extend(budget::write_outputs(&args.out, &meta.axes, &budgets)?);
-    for t in &budgets {
-        crate::outln!("{}", budget::to_text(&meta.axes, t))?;
-    }
+    let files = report(&args.out, &meta.axes, &rows, meta.max_robots)?;
     crate::outln!("merged {} runs into {}", rows.len(), args.out.join("runs.csv").display())?;
     for f in files {
         crate::outln!("wrote {}", f.display())?;

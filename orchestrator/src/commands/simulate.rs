@@ -13,6 +13,7 @@ use crate::out::{usage_unless_io, writing, Kind, Outputs};
 use crate::runs::summary_line;
 use crate::scenario::{self, WorldSource};
 use anyhow::Result;
+use bycoms_runtime::seconds::Zero;
 use bycoms_sim::runner::RobotEnd;
 use bycoms_sim::terrain::min_path_width;
 use bycoms_sim::terrain::Terrain;
@@ -38,7 +39,7 @@ pub struct Args {
     #[command(flatten)]
     pub run: RunArgs,
     /// Where to draw the snapshot (SVG).
-    #[arg(long, value_name = "FILE", default_value = "simulate.svg")]
+    #[arg(long, value_name = "FILE", default_value = DEFAULT_SVG)]
     pub svg: PathBuf,
     /// Do not draw the snapshot.
     #[arg(long, conflicts_with_all = ["svg", "snapshots"])]
@@ -54,7 +55,8 @@ pub struct Args {
     #[arg(long, value_name = "SECONDS", default_value_t = 20.0, requires = "animate")]
     pub animate_seconds: f64,
     /// Replace --svg and --animate if they are already SVG pictures (never
-    /// another kind of file, never the terrain).
+    /// another kind of file, never the terrain); an SVG picture at the
+    /// default simulate.svg is replaced without it.
     #[arg(long)]
     pub force: bool,
     /// Print the result as JSON on stdout, with every robot's trajectory
@@ -62,6 +64,11 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
 }
+
+/// The snapshot's default name: a picture of its own kind there is
+/// replaced without `--force` (`crate::out::replaces`), so the README's
+/// first command runs twice in one folder.
+pub const DEFAULT_SVG: &str = "simulate.svg";
 
 /// One robot in `--json`: how it ended and every position it took.
 #[derive(Debug, Serialize)]
@@ -165,19 +172,15 @@ fn check_picture_args(args: &Args) -> Result<()> {
             return Err(exit::usage(format!("--snapshots takes simulated times in seconds (≥ 0), got {t}")));
         }
     }
-    if !(args.animate_seconds.is_finite() && args.animate_seconds > 0.0) {
-        return Err(exit::usage(format!(
-            "--animate-seconds must be a positive number of seconds, got {}",
-            args.animate_seconds
-        )));
-    }
+    bycoms_runtime::seconds::check_seconds("--animate-seconds", args.animate_seconds, Zero::Refused)
+        .map_err(exit::usage)?;
     // The overwrite rule (`crate::out::files`), before the run.
     let mut rule = Outputs::new(args.force);
     if let Some(terrain) = &args.terrain {
         rule = rule.input(terrain);
     }
     if !args.no_svg {
-        rule = rule.output("--svg", &args.svg, Kind::Svg);
+        rule = rule.default_output("--svg", &args.svg, Kind::Svg, DEFAULT_SVG);
     }
     if let Some(movie) = &args.animate {
         rule = rule.output("--animate", movie, Kind::Svg);
@@ -221,8 +224,8 @@ fn draw_pictures(
             }
             None => snapshot::render_with(terrain, result, cfg.eps, title, &opts),
         };
-        crate::out::write(&args.svg, Kind::Svg, args.force, svg.as_bytes())
-            .map_err(writing("the snapshot"))?;
+        let force = crate::out::replaces(args.force, &args.svg, DEFAULT_SVG);
+        crate::out::write(&args.svg, Kind::Svg, force, svg.as_bytes()).map_err(writing("the snapshot"))?;
         written.push(format!("snapshot: {}", args.svg.display()));
     }
     if let Some(path) = &args.animate {

@@ -5,7 +5,7 @@ use crate::exit;
 use crate::sweep::budget;
 use crate::sweep::execute::{execute, Executed, Job};
 use crate::sweep::plan::{parse_axis, Axes, Shard};
-use crate::sweep::rows::RowWriter;
+use crate::sweep::rows::{Row, RowWriter};
 use crate::sweep::table::{tabulate, to_text, write_outputs};
 use crate::sweep::terrains::{generate_bins, load_bins, SweepTerrain};
 use anyhow::{bail, Context, Result};
@@ -99,6 +99,22 @@ fn usage(e: impl std::fmt::Display) -> anyhow::Error {
     exit::usage(format!("{e:#}"))
 }
 
+/// Why a runs file's row `k` (run `index`) does not belong to a sweep that
+/// plans the runs `planned`, in words ("expected run 1 of this plan", not
+/// `Some(1)`).
+fn foreign_row(path: &Path, k: usize, index: usize, planned: &[usize]) -> String {
+    let expected = match planned.get(k) {
+        Some(run) if *run == index => format!("run {run} with other parameters than this plan's"),
+        Some(run) => format!("expected run {run} of this plan"),
+        None => format!("this plan has only {}", crate::runs::count(planned.len() as u64, "run")),
+    };
+    format!(
+        "{} does not belong to this sweep (row {} is run {index}, {expected}); use another --out",
+        path.display(),
+        k + 2
+    )
+}
+
 pub fn run(args: Args) -> Result<i32> {
     let started = Instant::now();
     let axes = Axes {
@@ -112,12 +128,11 @@ pub fn run(args: Args) -> Result<i32> {
         },
     };
     axes.validate().map_err(usage)?;
-    if !(args.time_limit.is_finite() && args.time_limit > 0.0) {
-        return Err(usage("--time-limit must be a positive number of seconds"));
-    }
-    if args.max_robots == Some(0) {
-        return Err(usage("--max-robots must be at least 1"));
-    }
+    // The run parameters' one check (`crate::runs::check_run`), as `simulate` makes it.
+    let mut base = RunConfig::paper(1.0);
+    base.time_limit = args.time_limit;
+    base.max_robots = args.max_robots;
+    crate::runs::check_run(&base, &crate::runs::FLAGS)?;
     let shard = args.shard.unwrap_or(Shard::WHOLE);
     let meta = Meta {
         format: FORMAT.to_owned(),
@@ -152,14 +167,7 @@ pub fn run(args: Args) -> Result<i32> {
     let job_check = Job { axes: &axes, terrains: &terrains, base: RunConfig::paper(1.0), seed: args.seed };
     for (k, row) in done.iter().enumerate() {
         if planned.get(k) != Some(&row.index) || !job_check.matches(row) {
-            bail!(
-                "{} does not belong to this sweep (row {} is run {}, expected run {:?} of this plan); \
-                 use another --out",
-                runs_path.display(),
-                k + 2,
-                row.index,
-                planned.get(k)
-            );
+            bail!("{}", foreign_row(&runs_path, k, row.index, &planned));
         }
     }
     let pending = &planned[done.len()..];
@@ -172,9 +180,6 @@ pub fn run(args: Args) -> Result<i32> {
         );
     }
 
-    let mut base = RunConfig::paper(1.0);
-    base.time_limit = args.time_limit;
-    base.max_robots = args.max_robots;
     let job = Job { axes: &axes, terrains: &terrains, base, seed: args.seed };
     let bar = ProgressBar::new(planned.len() as u64).with_position(done.len() as u64);
     bar.set_style(
@@ -213,22 +218,30 @@ pub fn run(args: Args) -> Result<i32> {
         return Ok(exit::SUCCESS);
     }
     let rows = crate::sweep::rows::read_rows(&runs_path)?;
-    let tables = tabulate(&axes, &rows);
-    let mut files = write_outputs(&args.out, &axes, &tables)?;
-    for t in &tables {
-        crate::outln!("{}", to_text(&axes, t))?;
-    }
-    let budgets = budget::tabulate(&axes, &rows, args.max_robots);
-    files.extend(budget::write_outputs(&args.out, &axes, &budgets)?);
-    for t in &budgets {
-        crate::outln!("{}", budget::to_text(&axes, t))?;
-    }
+    let files = report(&args.out, &axes, &rows, args.max_robots)?;
     crate::outln!("{} runs in {}", rows.len(), runs_path.display())?;
     for f in files {
         crate::outln!("wrote {}", f.display())?;
     }
     crate::outln!("{speed}")?;
     Ok(exit::SUCCESS)
+}
+
+/// Writes the study's tables and robot budgets as files into `out`, then
+/// prints them (for `sweep` and `merge`); returns the files written. Every
+/// file first: a stdout that fails (`sweep > /dev/full`) loses none of them.
+pub fn report(out: &Path, axes: &Axes, rows: &[Row], max_robots: Option<u32>) -> Result<Vec<PathBuf>> {
+    let tables = tabulate(axes, rows);
+    let budgets = budget::tabulate(axes, rows, max_robots);
+    let mut files = write_outputs(out, axes, &tables)?;
+    files.extend(budget::write_outputs(out, axes, &budgets)?);
+    for t in &tables {
+        crate::outln!("{}", to_text(axes, t))?;
+    }
+    for t in &budgets {
+        crate::outln!("{}", budget::to_text(axes, t))?;
+    }
+    Ok(files)
 }
 
 /// The sweep's speed: robot-steps (control periods) simulated, wall time of
@@ -290,7 +303,18 @@ fn load_terrains(args: &Args, axes: &Axes, stop: &AtomicBool) -> Result<Vec<Vec<
     let per_bin = axes.terrains_per_bin;
     let bins = match &args.terrains {
         Some(dir) => {
-            let bins = load_bins(dir, &axes.widths, per_bin)?;
+            let loaded = load_bins(dir, &axes.widths, per_bin)?;
+            if let Some(text) = loaded.outside_text(dir) {
+                tracing::warn!("{text}");
+            }
+            if loaded.extra > 0 {
+                tracing::info!(
+                    "{} of {} not used: their bins already hold --terrains-per-bin {per_bin}",
+                    crate::runs::count(loaded.extra as u64, "terrain"),
+                    dir.display()
+                );
+            }
+            let bins = loaded.bins;
             let short: Vec<String> = axes
                 .widths
                 .iter()
@@ -345,4 +369,23 @@ fn write_terrain_list(out: &Path, axes: &Axes, terrains: &[Vec<SweepTerrain>]) -
         })
     });
     crate::sweep::rows::write_atomic(&out.join("terrains.csv"), &crate::sweep::rows::to_csv_bytes(entries)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_runs_file_of_another_sweep_is_said_in_words() {
+        let path = Path::new("out/runs.csv");
+        let said = foreign_row(path, 0, 7, &[1, 3, 5]);
+        assert_eq!(
+            said,
+            "out/runs.csv does not belong to this sweep (row 2 is run 7, expected run 1 of this plan); \
+             use another --out"
+        );
+        assert!(foreign_row(path, 3, 9, &[1, 3, 5]).contains("this plan has only 3 runs"));
+        assert!(foreign_row(path, 0, 1, &[1]).contains("run 1 with other parameters than this plan's"));
+        assert!(!foreign_row(path, 3, 9, &[1]).contains("Some"), "no Rust in the words");
+    }
 }

@@ -3,7 +3,9 @@
 //!
 //! When the candidate budget runs out first, the terrains found are still
 //! written (generation is the slow part) and the command says how many are
-//! missing and fails, so a script notices.
+//! missing and fails, so a script notices. Ctrl-C does the same: the
+//! terrains found so far are written with their index rows, and the
+//! command exits 130.
 
 use crate::exit;
 use crate::out::{usage_unless_io, Kind, Outputs};
@@ -13,6 +15,7 @@ use anyhow::{bail, Context, Result};
 use bycoms_sim::terrain::to_text;
 use serde::Serialize;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Generate `--count` terrains whose minimum path width lies in [w, w + 0.5).
 #[derive(Debug, clap::Args)]
@@ -63,17 +66,29 @@ pub fn run(args: Args) -> Result<i32> {
     // the rule, before it. It is updated, not replaced (a directory collects
     // terrains of several bins), so an index of its own kind is fine; a file
     // of another kind is never written over.
-    Outputs::new(true).output("--out", &index_path, Kind::Csv).check().map_err(usage_unless_io)?;
+    Outputs::new(true)
+        .making_folders()
+        .output("--out", &index_path, Kind::Csv)
+        .check()
+        .map_err(usage_unless_io)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
-    let bins = search_bins(
-        args.seed,
-        &[args.width],
-        args.count,
-        args.max_candidates,
-        &std::sync::atomic::AtomicBool::new(false),
-        |_, _| {},
-    )?;
+    let stop = crate::launch::interrupt_flag();
+    stop.store(false, Ordering::SeqCst);
+    let mut shown = std::time::Instant::now();
+    generate(&args, &stop, |found, needed| {
+        if shown.elapsed() >= std::time::Duration::from_secs(2) {
+            shown = std::time::Instant::now();
+            tracing::info!("{found} of {needed} terrains found");
+        }
+    })
+}
+
+/// Searches, writes what it found (also when `stop` was raised meanwhile)
+/// and says it; `on_progress(found, needed)` after each chunk of candidates.
+fn generate(args: &Args, stop: &AtomicBool, on_progress: impl FnMut(usize, usize)) -> Result<i32> {
+    let index_path = args.out.join("terrains.csv");
+    let bins = search_bins(args.seed, &[args.width], args.count, args.max_candidates, stop, on_progress)?;
     let found = &bins[0];
     let names: Vec<String> = found.iter().map(|t| file_name(t, args.width)).collect();
     for (t, name) in found.iter().zip(&names) {
@@ -96,6 +111,15 @@ pub fn run(args: Args) -> Result<i32> {
         args.width,
         args.out.display()
     )?;
+    if stop.load(Ordering::SeqCst) && found.len() < args.count {
+        tracing::warn!(
+            "interrupted: {} of the {} terrains asked for were found and written; run again with another \
+             --seed or --out for more",
+            found.len(),
+            args.count
+        );
+        return Ok(exit::INTERRUPTED);
+    }
     if found.len() < args.count {
         bail!(
             "{} of the {} terrains asked for are missing: {} candidates gave only {}; \
@@ -136,4 +160,42 @@ fn merged_index(path: &std::path::Path, new: &[u8], written: &[String]) -> Resul
         out.write_record(&row.map_err(fail)?).map_err(fail)?;
     }
     out.into_inner().map_err(|e| not_ours(&e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Ctrl-C during the search keeps the terrains found so far: their
+    /// files and their index rows, and the command says it was interrupted
+    /// (exit 130) — "work done so far is kept" (issue 31).
+    #[test]
+    fn an_interrupted_search_writes_the_terrains_found_so_far() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let args = Args {
+            width: 2.0,
+            count: 50_000,
+            seed: 1,
+            out: dir.path().to_path_buf(),
+            max_candidates: 2_000_000,
+            force: false,
+        };
+        let stop = AtomicBool::new(false);
+        let code = generate(&args, &stop, |found, _| {
+            if found >= 3 {
+                stop.store(true, Ordering::SeqCst);
+            }
+        })
+        .expect("an interrupted search is no error");
+        assert_eq!(code, exit::INTERRUPTED);
+        let files: Vec<String> = std::fs::read_dir(dir.path())
+            .expect("list")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .filter(|n| n.ends_with(".txt"))
+            .collect();
+        assert!(files.len() >= 3 && files.len() < 50_000, "{} terrains kept", files.len());
+        let index = std::fs::read_to_string(dir.path().join("terrains.csv")).expect("the index");
+        assert_eq!(index.lines().count(), files.len() + 1, "one row per file, after the header");
+        assert!(files.iter().all(|f| index.contains(f.as_str())), "{index}");
+    }
 }

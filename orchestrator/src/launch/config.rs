@@ -16,6 +16,7 @@ use crate::exit::usage;
 use crate::runs::{check_run, RunNames};
 use anyhow::{Context, Result};
 use bycoms_runtime::check_speed;
+use bycoms_runtime::seconds::{check_seconds, Zero};
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::RunConfig;
 use serde::{Deserialize, Serialize};
@@ -277,7 +278,7 @@ impl LaunchConfig {
     /// Reads a config file; missing keys keep their defaults, relative
     /// paths in it are resolved against the file's directory.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path)
+        let text = bycoms_runtime::capped::read_capped_file(path, MAX_CONFIG_BYTES)
             .with_context(|| format!("cannot read config {}", path.display()))?;
         let mut cfg =
             Self::parse(&text).map_err(|e| usage(format!("bad config {}: {e:#}", path.display())))?;
@@ -371,29 +372,20 @@ impl LaunchConfig {
         self.faults.validate()?;
         check_speed(self.speed).map_err(usage)?;
         let positive = |v: f64| v.is_finite() && v > 0.0;
-        let checks: [(&str, f64); 7] = [
-            ("gate.dwell", self.gate.dwell),
-            ("gate.max_speed", self.gate.max_speed),
-            ("supervision.register_timeout", self.supervision.register_timeout),
-            ("supervision.heartbeat_interval", self.supervision.heartbeat_interval),
-            ("supervision.heartbeat_timeout", self.supervision.heartbeat_timeout),
-            ("supervision.tick_timeout", self.supervision.tick_timeout),
-            ("supervision.shutdown_grace", self.supervision.shutdown_grace),
-        ];
-        for (key, value) in checks {
-            if !positive(value) {
-                return Err(usage(format!("{key} must be a positive number, got {value}")));
-            }
+        if !positive(self.gate.max_speed) {
+            return Err(usage(format!(
+                "gate.max_speed must be a positive number, got {}",
+                self.gate.max_speed
+            )));
         }
-        for (key, value) in [
-            ("gate.stop_speed", self.gate.stop_speed),
-            ("gate.stop_turn_rate", self.gate.stop_turn_rate),
-            ("supervision.link_grace", self.supervision.link_grace),
-        ] {
+        for (key, value) in
+            [("gate.stop_speed", self.gate.stop_speed), ("gate.stop_turn_rate", self.gate.stop_turn_rate)]
+        {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(usage(format!("{key} must be a non-negative number, got {value}")));
             }
         }
+        self.check_seconds()?;
         if self.transport.kind == Transport::Zenoh
             && self.transport.listen.is_empty()
             && self.transport.zenoh_config.is_none()
@@ -447,7 +439,27 @@ impl LaunchConfig {
         Ok(())
     }
 
-    /// A duration from seconds (validated positive and finite).
+    /// Every span of seconds, by its key and flag, through the one check
+    /// ([`bycoms_runtime::seconds`]): `--link-grace 1e300` is a usage error,
+    /// not a panic where it becomes a `Duration`.
+    fn check_seconds(&self) -> Result<()> {
+        let (gate, sup) = (&self.gate, &self.supervision);
+        let spans = [
+            ("gate.dwell (--dwell)", gate.dwell, Zero::Refused),
+            ("supervision.register_timeout (--register-timeout)", sup.register_timeout, Zero::Refused),
+            ("supervision.heartbeat_interval", sup.heartbeat_interval, Zero::Refused),
+            ("supervision.heartbeat_timeout (--heartbeat-timeout)", sup.heartbeat_timeout, Zero::Refused),
+            ("supervision.tick_timeout", sup.tick_timeout, Zero::Refused),
+            ("supervision.shutdown_grace", sup.shutdown_grace, Zero::Refused),
+            ("supervision.link_grace (--link-grace)", sup.link_grace, Zero::Allowed),
+        ];
+        for (key, value, zero) in spans {
+            check_seconds(key, value, zero).map_err(usage)?;
+        }
+        Ok(())
+    }
+
+    /// A duration from seconds (validated by [`Self::validate`]).
     pub fn secs(v: f64) -> Duration {
         Duration::from_secs_f64(v)
     }
@@ -478,6 +490,11 @@ pub fn check_endpoints(what: &str, endpoints: &[String]) -> Result<()> {
     }
     Ok(())
 }
+
+/// Largest config file read, bytes (`deploy/launch.toml`, every key with
+/// its documentation, is about 14 kB): `--config /dev/zero` must not read
+/// without end.
+pub const MAX_CONFIG_BYTES: u64 = 1024 * 1024;
 
 /// Most robots one launch deploys (sizes the shared-memory services).
 pub const MAX_ROBOTS: u32 = 1000;
@@ -559,6 +576,44 @@ mod tests {
         assert_eq!((partial.eps, partial.gate.dwell, partial.robots), (2.0, 30.0, 3));
         let bad = LaunchConfig { eps: -1.0, ..LaunchConfig::default() };
         assert!(format!("{:#}", bad.validate().unwrap_err()).contains("eps"));
+    }
+
+    #[test]
+    fn seconds_past_any_run_in_a_config_are_usage_errors_naming_the_key_and_its_range() {
+        for (text, says) in [
+            (
+                "[supervision]\nregister_timeout = 1e300",
+                "supervision.register_timeout (--register-timeout) must",
+            ),
+            (
+                "[supervision]\nheartbeat_timeout = 1e20",
+                "supervision.heartbeat_timeout (--heartbeat-timeout) must",
+            ),
+            ("[supervision]\nlink_grace = 1e300", "supervision.link_grace (--link-grace) must"),
+            ("[supervision]\nlink_grace = nan", "supervision.link_grace (--link-grace) must"),
+            ("[supervision]\ntick_timeout = inf", "supervision.tick_timeout must"),
+            ("[supervision]\nshutdown_grace = -1.0", "supervision.shutdown_grace must"),
+            ("[gate]\ndwell = 1e300", "gate.dwell (--dwell) must"),
+            ("time_limit = 1e300", "bad time_limit (--time-limit)"),
+            ("[agents.placement]\ntimeout = 1e300", "agents.placement.timeout must"),
+        ] {
+            let cfg = LaunchConfig::parse(text).expect("parses");
+            let e = cfg.validate().expect_err(text);
+            assert_eq!(crate::exit::code_of(&e), crate::exit::USAGE, "{text}: {e:#}");
+            assert!(format!("{e:#}").contains(says), "{text}: {e:#}");
+            assert!(format!("{e:#}").contains("100000000"), "the range is said: {e:#}");
+        }
+    }
+
+    #[test]
+    fn an_endless_or_huge_config_is_refused_without_reading_it_whole() {
+        let e = LaunchConfig::load(Path::new("/dev/zero")).expect_err("endless");
+        assert_eq!(format!("{e:#}"), "cannot read config /dev/zero: more than the limit of 1048576 bytes");
+        let dir = tempfile::tempdir().expect("temp dir");
+        let big = dir.path().join("big.toml");
+        std::fs::File::create(&big).and_then(|f| f.set_len(300_000_000)).expect("sparse file");
+        let e = format!("{:#}", LaunchConfig::load(&big).expect_err("too large"));
+        assert!(e.ends_with("300000000 bytes, more than the limit of 1048576 bytes"), "{e}");
     }
 
     #[test]

@@ -79,6 +79,20 @@ mod tests {
     }
 
     #[test]
+    fn a_lab_larger_than_any_terrain_is_a_usage_error_not_a_grid_past_memory() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        for width in ["1e300", "1e5"] {
+            let text =
+                bycoms_sim::lab::scenario::EXP_SHORT.replace("width = 3.0", &format!("width = {width}"));
+            let file = dir.path().join("huge.toml");
+            std::fs::write(&file, text).expect("scenario");
+            let err = lab_world(file.to_str().expect("utf-8"), 2).expect_err("too large");
+            assert_eq!(crate::exit::code_of(&err), crate::exit::USAGE, "{err:#}");
+            assert!(format!("{err:#}").contains("at most 1000 m"), "{err:#}");
+        }
+    }
+
+    #[test]
     fn the_shipped_real_robot_config_is_valid_and_in_metres() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../deploy/lab/launch.toml");
         let mut cfg = crate::launch::LaunchConfig::load(&path).expect("deploy/lab/launch.toml loads");

@@ -10,6 +10,7 @@
 
 use super::{ArenaTransform, ClientConfig, TrackerConfig};
 use bycoms_protocol::RobotId;
+use bycoms_runtime::seconds::{check_seconds, Zero};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -119,19 +120,19 @@ impl NatNetSourceConfig {
             ("mocap.natnet.tracker.max_speed", t.max_speed),
             ("mocap.natnet.arena.scale", s.scale),
             ("mocap.natnet.placement.radius", p.radius),
-            ("mocap.natnet.placement.timeout", p.timeout),
         ] {
             if !(value.is_finite() && value > 0.0) {
                 return Err(format!("{key} must be a positive number, got {value}"));
             }
         }
-        for (key, value) in
-            [("mocap.natnet.tracker.jump_slack", t.jump_slack), ("mocap.natnet.placement.hold", p.hold)]
-        {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(format!("{key} must be a non-negative number, got {value}"));
-            }
+        if !(t.jump_slack.is_finite() && t.jump_slack >= 0.0) {
+            return Err(format!(
+                "mocap.natnet.tracker.jump_slack must be a non-negative number, got {}",
+                t.jump_slack
+            ));
         }
+        check_seconds("mocap.natnet.placement.timeout", p.timeout, Zero::Refused)?;
+        check_seconds("mocap.natnet.placement.hold", p.hold, Zero::Allowed)?;
         if t.lost_after_us == 0 {
             return Err("mocap.natnet.tracker.lost_after_us must be at least 1".into());
         }

@@ -139,8 +139,45 @@ pub fn check_target(path: &Path, kind: Kind, force: bool) -> Result<(), OutputEr
     }
 }
 
+/// Whether an output at `path` may replace a file of its own kind: with
+/// `--force`, or when `path` is the command's own default name for it
+/// (`default`, e.g. `simulate.svg`). Why: running the README's first
+/// command twice in one folder must work; what a command wrote at its own
+/// default name is its own to replace, and only with its own kind (an SVG
+/// over an SVG: a recording or a terrain there is still never touched).
+pub fn replaces(force: bool, path: &Path, default: &str) -> bool {
+    fn plain(p: &Path) -> Vec<std::path::Component<'_>> {
+        p.components().filter(|c| *c != std::path::Component::CurDir).collect()
+    }
+    force || plain(path) == plain(Path::new(default))
+}
+
+/// The place of an output must take a new file: its directory (or, when
+/// the command makes the missing folders, `making_folders`, the nearest
+/// existing one) is probed with a temporary file, gone at once. Why: a
+/// picture to a missing or read-only folder was found unwritable only
+/// after the run it pictures.
+fn check_place(path: &Path, making_folders: bool) -> Result<(), OutputError> {
+    let failed = |source| OutputError::Write { path: path.to_path_buf(), source };
+    let mut dir = parent(path);
+    loop {
+        match std::fs::metadata(dir) {
+            Ok(meta) if meta.is_dir() => break,
+            Ok(_) => {
+                let what = format!("{} is not a directory", dir.display());
+                return Err(failed(std::io::Error::new(std::io::ErrorKind::NotADirectory, what)));
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound && making_folders && parent(dir) != dir => {
+                dir = parent(dir);
+            }
+            Err(e) => return Err(failed(e)),
+        }
+    }
+    tempfile::tempfile_in(dir).map(drop).map_err(failed)
+}
+
 /// What a path names, for telling whether two paths are the same file.
-#[derive(Debug, PartialEq, Eq)]
+#[derive(Debug, PartialEq, Eq, Hash)]
 enum Identity {
     /// An existing file: device and inode (links followed).
     File(u64, u64),
@@ -172,14 +209,23 @@ fn parent(path: &Path) -> &Path {
 #[derive(Debug, Default)]
 pub struct Outputs {
     inputs: Vec<PathBuf>,
-    outputs: Vec<(String, PathBuf, Kind)>,
+    outputs: Vec<(String, PathBuf, Kind, bool)>,
     force: bool,
+    making_folders: bool,
 }
 
 impl Outputs {
     /// No inputs or outputs yet; `force` is the command's `--force`.
     pub fn new(force: bool) -> Outputs {
         Outputs { force, ..Outputs::default() }
+    }
+
+    /// The command makes the folders its outputs go in (`terrain --out
+    /// DIR`, `certs --out DIR`): a missing one is fine if the nearest
+    /// existing folder takes files.
+    pub fn making_folders(mut self) -> Outputs {
+        self.making_folders = true;
+        self
     }
 
     /// A file the command reads.
@@ -190,31 +236,53 @@ impl Outputs {
 
     /// A file of `kind` the command writes, named by `flag` (for messages).
     pub fn output(mut self, flag: &str, path: impl AsRef<Path>, kind: Kind) -> Outputs {
-        self.outputs.push((flag.to_string(), path.as_ref().to_path_buf(), kind));
+        self.outputs.push((flag.to_string(), path.as_ref().to_path_buf(), kind, self.force));
+        self
+    }
+
+    /// An output whose command has a default name for it (`simulate.svg`):
+    /// at that name a file of its own kind is replaced without `--force`
+    /// ([`replaces`]).
+    pub fn default_output(
+        mut self,
+        flag: &str,
+        path: impl AsRef<Path>,
+        kind: Kind,
+        default: &str,
+    ) -> Outputs {
+        let force = replaces(self.force, path.as_ref(), default);
+        self.outputs.push((flag.to_string(), path.as_ref().to_path_buf(), kind, force));
         self
     }
 
     /// Applies the rule to every output: not an input, not another output,
     /// and [`check_target`]. Call it before anything starts.
     pub fn check(&self) -> Result<(), OutputError> {
-        let mut inputs = Vec::new();
+        use std::collections::{HashMap, HashSet};
+        let mut inputs = HashMap::new();
         for input in &self.inputs {
             // An input that does not exist is the command's own error to report.
             if let Ok(id @ Identity::File(..)) = identity(input) {
-                inputs.push((id, input));
+                inputs.entry(id).or_insert(input);
             }
         }
-        let mut seen: Vec<(Identity, &str, &Path)> = Vec::new();
-        for (flag, path, kind) in &self.outputs {
+        // By identity and by folder probed: a command with thousands of
+        // outputs (`certs --robots 1000`) checks each once, not each against all.
+        let mut seen: HashMap<Identity, (&str, &Path)> = HashMap::new();
+        let mut probed = HashSet::new();
+        for (flag, path, kind, force) in &self.outputs {
+            if probed.insert(parent(path).to_path_buf()) {
+                check_place(path, self.making_folders)?;
+            }
             let id = identity(path)?;
-            if let Some((_, input)) = inputs.iter().find(|(i, _)| *i == id) {
+            if let Some(input) = inputs.get(&id) {
                 return Err(OutputError::IsInput {
                     flag: flag.clone(),
                     path: path.clone(),
                     input: input.to_path_buf(),
                 });
             }
-            if let Some((_, other, other_path)) = seen.iter().find(|(i, ..)| *i == id) {
+            if let Some((other, other_path)) = seen.get(&id) {
                 return Err(OutputError::SameOutput {
                     flag: flag.clone(),
                     path: path.clone(),
@@ -222,8 +290,8 @@ impl Outputs {
                     other_path: other_path.to_path_buf(),
                 });
             }
-            check_target(path, *kind, self.force)?;
-            seen.push((id, flag, path));
+            check_target(path, *kind, *force)?;
+            seen.insert(id, (flag, path));
         }
         Ok(())
     }
@@ -368,6 +436,46 @@ mod tests {
             .output("--animate", &other, Kind::Svg)
             .check()
             .is_ok());
+    }
+
+    #[test]
+    fn an_output_whose_place_takes_no_file_is_refused_before_the_work() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let file = dir.path().join("plain.txt");
+        std::fs::write(&file, b"x").expect("file");
+        for out in [file.join("run.svg"), file.join("deeper/run.svg")] {
+            for rule in [Outputs::new(true), Outputs::new(true).making_folders()] {
+                let refused = rule.output("--svg", &out, Kind::Svg).check().expect_err("no place");
+                assert!(matches!(refused, OutputError::Write { .. }), "{refused:?}");
+                assert!(refused.to_string().contains("cannot write"), "{refused}");
+            }
+        }
+        // Missing folders are refused, unless the command makes them.
+        let deep = dir.path().join("a/b/run.svg");
+        let refused = Outputs::new(false).output("--svg", &deep, Kind::Svg).check().expect_err("no folder");
+        assert!(refused.to_string().contains("cannot write"), "{refused}");
+        assert!(Outputs::new(false).making_folders().output("--svg", &deep, Kind::Svg).check().is_ok());
+        assert!(!dir.path().join("a").exists(), "the probe leaves nothing behind");
+        let names: Vec<_> = std::fs::read_dir(dir.path()).expect("list").collect();
+        assert_eq!(names.len(), 1, "only plain.txt: {names:?}");
+    }
+
+    #[test]
+    fn a_command_replaces_its_own_kind_at_its_default_name_without_force() {
+        assert!(replaces(false, Path::new("simulate.svg"), "simulate.svg"));
+        assert!(replaces(false, Path::new("./simulate.svg"), "simulate.svg"));
+        assert!(!replaces(false, Path::new("other.svg"), "simulate.svg"));
+        assert!(!replaces(false, Path::new("sub/simulate.svg"), "simulate.svg"));
+        assert!(replaces(true, Path::new("other.svg"), "simulate.svg"));
+        let dir = tempfile::tempdir().expect("temp dir");
+        let svg = dir.path().join("simulate.svg");
+        std::fs::write(&svg, b"<svg></svg>").expect("svg");
+        let own = Outputs::new(false).default_output("--svg", &svg, Kind::Svg, svg.to_str().expect("utf-8"));
+        assert!(own.check().is_ok(), "its own default picture");
+        std::fs::write(&svg, b"S..\n..G\n").expect("terrain");
+        let other =
+            Outputs::new(false).default_output("--svg", &svg, Kind::Svg, svg.to_str().expect("utf-8"));
+        assert!(matches!(other.check(), Err(OutputError::OtherKind { .. })), "never another kind");
     }
 
     #[test]

@@ -7,8 +7,8 @@ pub mod kind;
 pub mod stdout;
 
 pub use files::{
-    check_target, usage_unless_io, write, write_atomic, write_private, write_with, writing, OutputError,
-    Outputs,
+    check_target, replaces, usage_unless_io, write, write_atomic, write_private, write_with, writing,
+    OutputError, Outputs,
 };
 pub use kind::Kind;
 pub use stdout::line;

@@ -21,7 +21,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 static STDOUT_CLOSED: AtomicBool = AtomicBool::new(false);
 
 /// Writes `text` and a newline to stdout. A closed stdout is not an error
-/// (nothing more is written to it); any other write error is.
+/// (nothing more is written to it); any other write error is, and says it
+/// was stdout ("cannot write to stdout: No space left on device": `sweep >
+/// /dev/full` said only the latter, as if one of its files had failed).
 pub fn line(text: &str) -> std::io::Result<()> {
     if STDOUT_CLOSED.load(Ordering::Relaxed) {
         return Ok(());
@@ -32,7 +34,8 @@ pub fn line(text: &str) -> std::io::Result<()> {
             STDOUT_CLOSED.store(true, Ordering::Relaxed);
             Ok(())
         }
-        other => other,
+        Err(e) => Err(std::io::Error::new(e.kind(), format!("cannot write to stdout: {e}"))),
+        Ok(()) => Ok(()),
     }
 }
 

@@ -53,7 +53,9 @@ fn parse_rows(text: &str, path: &Path) -> Result<Vec<Row>> {
     if text.is_empty() {
         return Ok(Vec::new());
     }
-    if !text.starts_with(HEADER) {
+    // A shard that went through a Windows editor or transfer ends its
+    // lines in CR LF: the same rows (the CSV reader takes either end).
+    if text.lines().next() != Some(HEADER.trim_end()) {
         bail!("{} is not a bycoms runs CSV (unexpected header)", path.display());
     }
     let mut reader = csv::Reader::from_reader(text.as_bytes());
@@ -159,6 +161,22 @@ mod tests {
             robots_used: 3,
             beacons: 2,
         }
+    }
+
+    #[test]
+    fn rows_with_cr_lf_line_ends_are_the_same_rows() {
+        let mut w = csv::Writer::from_writer(Vec::new());
+        for i in 0..3 {
+            w.serialize(row(i)).unwrap();
+        }
+        let text = String::from_utf8(w.into_inner().unwrap()).unwrap();
+        let crlf = text.replace('\n', "\r\n");
+        let path = Path::new("runs-shard-0-of-2.csv");
+        let rows = parse_rows(&crlf, path).expect("a CR LF shard is a runs CSV");
+        assert_eq!(rows, parse_rows(&text, path).expect("LF"));
+        assert_eq!(rows.len(), 3);
+        let other = parse_rows("a,b\r\n1,2\r\n", path).unwrap_err().to_string();
+        assert!(other.contains("not a bycoms runs CSV"), "{other}");
     }
 
     #[test]

@@ -47,7 +47,7 @@ pub fn first_feasible(seed: u64, budget: u64) -> Option<(u64, Generated)> {
 
 /// Fills every bin with `per_bin` generated terrains; `on_progress(filled, needed)`
 /// is called after each chunk. Fails if `budget` candidates do not suffice,
-/// or if `stop` is raised (Ctrl-C).
+/// or if `stop` is raised (Ctrl-C; the sweep needs all of its terrains).
 pub fn generate_bins(
     seed: u64,
     bins: &[f64],
@@ -57,6 +57,9 @@ pub fn generate_bins(
     on_progress: impl FnMut(usize, usize),
 ) -> Result<Vec<Vec<SweepTerrain>>> {
     let found = search_bins(seed, bins, per_bin, budget, stop, on_progress)?;
+    if stop.load(Ordering::Relaxed) {
+        bail!("interrupted while generating terrains");
+    }
     if found.iter().any(|b| b.len() < per_bin) {
         let fill: Vec<String> =
             bins.iter().zip(&found).map(|(b, t)| format!("{b}: {}/{per_bin}", t.len())).collect();
@@ -69,9 +72,10 @@ pub fn generate_bins(
     Ok(found)
 }
 
-/// Like [`generate_bins`], but when `budget` candidates run out it returns
-/// what it found (some bins hold fewer than `per_bin`) instead of failing,
-/// so `orchestrator terrain` can keep the terrains it did find.
+/// Like [`generate_bins`], but when `budget` candidates run out, or `stop`
+/// is raised (Ctrl-C: the caller checks it), it returns what it found (some
+/// bins hold fewer than `per_bin`) instead of failing, so `orchestrator
+/// terrain` can keep the terrains it did find.
 pub fn search_bins(
     seed: u64,
     bins: &[f64],
@@ -87,7 +91,7 @@ pub fn search_bins(
     let mut next = 0u64;
     while out.iter().any(|b| b.len() < per_bin) && next < budget {
         if stop.load(Ordering::Relaxed) {
-            bail!("interrupted while generating terrains");
+            break;
         }
         let end = (next + CHUNK).min(budget);
         let found: Vec<(u64, Generated, f64)> = (next..end)
@@ -118,9 +122,43 @@ pub fn search_bins(
     Ok(out)
 }
 
+/// The terrains of a directory filed into width bins, and those left out.
+#[derive(Debug)]
+pub struct Loaded {
+    /// Each bin's terrains, at most `per_bin`, in name order.
+    pub bins: Vec<Vec<SweepTerrain>>,
+    /// Terrains whose width lies in no bin: (name, width), in name order.
+    pub outside: Vec<(String, f64)>,
+    /// Terrains of a bin that already had `per_bin`.
+    pub extra: usize,
+}
+
+impl Loaded {
+    /// The terrains left out because no bin takes their width, in words
+    /// (`None` when every terrain fits a bin): how many, and which.
+    pub fn outside_text(&self, dir: &Path) -> Option<String> {
+        const SHOWN: usize = 20;
+        if self.outside.is_empty() {
+            return None;
+        }
+        let mut names: Vec<String> =
+            self.outside.iter().take(SHOWN).map(|(id, w)| format!("{id} (width {w:.2})")).collect();
+        if self.outside.len() > SHOWN {
+            names.push(format!("and {} more", self.outside.len() - SHOWN));
+        }
+        Some(format!(
+            "{} of {} lie in no width bin of --widths and are not used: {}",
+            crate::runs::count(self.outside.len() as u64, "terrain"),
+            dir.display(),
+            names.join(", ")
+        ))
+    }
+}
+
 /// Reads every `*.txt` terrain in `dir` (sorted by name), measures its width
-/// and files it into its bin; at most `per_bin` per bin, extra ones ignored.
-pub fn load_bins(dir: &Path, bins: &[f64], per_bin: usize) -> Result<Vec<Vec<SweepTerrain>>> {
+/// and files it into its bin; at most `per_bin` per bin. Those left out are
+/// counted ([`Loaded`]) for the command to say.
+pub fn load_bins(dir: &Path, bins: &[f64], per_bin: usize) -> Result<Loaded> {
     let mut paths: Vec<_> = std::fs::read_dir(dir)
         .with_context(|| format!("cannot read terrain directory {}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -139,13 +177,13 @@ pub fn load_bins(dir: &Path, bins: &[f64], per_bin: usize) -> Result<Vec<Vec<Swe
             Ok(SweepTerrain { id, terrain, width, threshold: None })
         })
         .collect();
-    let mut out: Vec<Vec<SweepTerrain>> = vec![Vec::new(); bins.len()];
+    let mut out = Loaded { bins: vec![Vec::new(); bins.len()], outside: Vec::new(), extra: 0 };
     for t in loaded {
         let t = t?;
-        if let Some(b) = bin_of(t.width, bins) {
-            if out[b].len() < per_bin {
-                out[b].push(t);
-            }
+        match bin_of(t.width, bins) {
+            Some(b) if out.bins[b].len() < per_bin => out.bins[b].push(t),
+            Some(_) => out.extra += 1,
+            None => out.outside.push((t.id, t.width)),
         }
     }
     Ok(out)
@@ -159,6 +197,47 @@ pub fn file_name(t: &SweepTerrain, bin: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn terrains_of_a_directory_outside_every_bin_are_counted_and_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let open = |n: usize| {
+            let mut rows = vec![".".repeat(n); n];
+            rows[0].replace_range(0..1, "S");
+            rows[n - 1].replace_range(n - 1..n, "G");
+            rows.join("\n") + "\n"
+        };
+        for name in ["a.txt", "b.txt", "c.txt"] {
+            std::fs::write(dir.path().join(name), open(12)).unwrap();
+        }
+        let width = min_path_width(&bycoms_sim::terrain::parse(&open(12)).unwrap());
+        let loaded = load_bins(dir.path(), &[width + 1.0], 1).unwrap();
+        assert!(loaded.bins.iter().all(Vec::is_empty));
+        let names: Vec<&str> = loaded.outside.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["a", "b", "c"]);
+        let text = loaded.outside_text(dir.path()).expect("said");
+        assert!(text.starts_with("3 terrains of "), "{text}");
+        assert!(text.contains("lie in no width bin of --widths and are not used: a (width "), "{text}");
+        let bin = (width * 2.0).floor() / 2.0;
+        let kept = load_bins(dir.path(), &[bin], 1).unwrap();
+        assert_eq!((kept.bins[0].len(), kept.extra), (1, 2), "one per bin, two more");
+        assert!(kept.outside.is_empty() && kept.outside_text(dir.path()).is_none());
+    }
+
+    #[test]
+    fn an_interrupted_search_keeps_what_it_found_and_generation_fails() {
+        let stop = AtomicBool::new(false);
+        let kept = search_bins(5, &[2.0, 2.5], 1000, 100_000, &stop, |found, _| {
+            if found > 0 {
+                stop.store(true, Ordering::Relaxed);
+            }
+        })
+        .expect("an interrupted search is not an error");
+        let found: usize = kept.iter().map(Vec::len).sum();
+        assert!(found > 0 && found < 2000, "kept {found} of 2000");
+        let err = generate_bins(5, &[2.0], 1000, 100_000, &stop, |_, _| {}).unwrap_err();
+        assert!(err.to_string().contains("interrupted"), "{err}");
+    }
 
     #[test]
     fn bins_are_half_open() {

@@ -14,11 +14,18 @@ use clap::{Args, Command, FromArgMatches};
 /// summary's achieved speed for what a machine really does).
 pub const MAX_SPEED: f64 = 100_000.0;
 
-/// The real-time speed-up must be positive, finite and at most [`MAX_SPEED`]
-/// (shared by `launch`, `bench scale` and the agent).
+/// Slowest real-time speed-up: a control period of 0.1 s / speed stays at
+/// most 100 s, so every wall-time span divided by the speed-up is a valid
+/// `Duration` (`--speed 1e-300` made one of 1e299 s: a panic).
+pub const MIN_SPEED: f64 = 0.001;
+
+/// The real-time speed-up must be a number in [[`MIN_SPEED`],
+/// [`MAX_SPEED`]] (shared by `launch`, `bench scale` and the agent).
 pub fn check_speed(speed: f64) -> Result<(), String> {
-    if !(speed.is_finite() && speed > 0.0 && speed <= MAX_SPEED) {
-        return Err(format!("the real-time speed-up must be a number in (0, {MAX_SPEED}], got {speed}"));
+    if !(MIN_SPEED..=MAX_SPEED).contains(&speed) {
+        return Err(format!(
+            "the real-time speed-up must be a number in [{MIN_SPEED}, {MAX_SPEED}], got {speed:?}"
+        ));
     }
     Ok(())
 }
@@ -204,6 +211,18 @@ mod tests {
         assert_eq!(other, "zenoh failed (thread tx-3): index out of bounds");
         assert_eq!(zenoh_failure("main", "src/ours.rs", "index out of bounds"), None, "our own panics stay");
         assert_eq!(zenoh_failure("rx-robot", "src/ours.rs", "index out of bounds"), None);
+    }
+
+    #[test]
+    fn speed_ups_whose_periods_are_no_duration_are_refused() {
+        for bad in [0.0, 1e-300, 1e-4, -1.0, f64::NAN, f64::INFINITY, 1e9] {
+            let e = check_speed(bad).expect_err("refused");
+            assert!(e.contains("in [0.001, 100000]"), "{e}");
+        }
+        for good in [MIN_SPEED, 1.0, MAX_SPEED] {
+            assert!(check_speed(good).is_ok(), "{good}");
+            assert!(std::time::Duration::try_from_secs_f64(0.5 / good).is_ok());
+        }
     }
 
     #[test]

@@ -52,9 +52,7 @@ impl Default for FailsafeArgs {
 impl FailsafeArgs {
     /// The grace period, if the value is usable.
     pub fn grace(&self) -> Result<Duration, String> {
-        Duration::try_from_secs_f64(self.grace_s).map_err(|_| {
-            format!("--orchestrator-grace must be a finite number of seconds ≥ 0, not {}", self.grace_s)
-        })
+        crate::seconds::check_seconds("--orchestrator-grace", self.grace_s, crate::seconds::Zero::Allowed)
     }
 
     /// The failsafe these flags describe.

@@ -5,6 +5,10 @@
 //!
 //! * [`stats`] — the one quantile and median of measured figures (always
 //!   built: no dependencies);
+//! * [`seconds`] — the one check of a number of seconds from a flag or a
+//!   config key (always built);
+//! * [`capped`] — the one reader of a user's text file with a size cap
+//!   (always built);
 //! * [`logging`] (feature `logging`) — one logging setup: `tracing` on
 //!   stderr, `RUST_LOG`, `--log-format text|json`, status lines, the text
 //!   of an error;
@@ -26,8 +30,10 @@
 //!   and zenoh set-up.
 #![forbid(unsafe_code)]
 
+pub mod capped;
 #[cfg(feature = "logging")]
 pub mod logging;
+pub mod seconds;
 pub mod stats;
 
 #[cfg(feature = "process")]

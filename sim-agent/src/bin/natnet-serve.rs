@@ -4,11 +4,11 @@
 //! `command_port=N data_port=M` on stdout once listening, for tests and
 //! scripts that bind port 0.
 
+use bycoms_runtime::seconds::Zero;
 use bycoms_sim::natnet_server::{NatNetServer, ServerConfig};
 use clap::Parser;
 use std::io::{BufRead, Write};
 use std::net::{IpAddr, SocketAddr};
-use std::time::Duration;
 
 #[derive(Parser)]
 #[command(name = "natnet-serve", version, about)]
@@ -30,7 +30,8 @@ struct Cli {
 }
 
 fn run(cli: &Cli) -> anyhow::Result<()> {
-    let text = std::fs::read_to_string(&cli.config)
+    let limit = bycoms_sim::lab::scenario::MAX_FILE_BYTES;
+    let text = bycoms_runtime::capped::read_capped_file(&cli.config, limit)
         .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", cli.config.display()))?;
     let config: ServerConfig =
         toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", cli.config.display()))?;
@@ -39,8 +40,10 @@ fn run(cli: &Cli) -> anyhow::Result<()> {
     writeln!(out, "command_port={} data_port={}", server.command_addr().port(), server.data_addr().port())?;
     out.flush()?;
     match cli.seconds {
-        Some(s) if s.is_finite() && s >= 0.0 => std::thread::sleep(Duration::from_secs_f64(s)),
-        Some(s) => anyhow::bail!("--seconds must be finite and ≥ 0, got {s}"),
+        Some(s) => std::thread::sleep(
+            bycoms_runtime::seconds::check_seconds("--seconds", s, Zero::Allowed)
+                .map_err(anyhow::Error::msg)?,
+        ),
         None => for _ in std::io::stdin().lock().lines() {},
     }
     drop(server);

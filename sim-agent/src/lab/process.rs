@@ -35,6 +35,7 @@ use bycoms_protocol::msg::{Deploy, Pose};
 use bycoms_protocol::{NameError, RobotId, Swarm};
 use bycoms_runtime::cli::quiet_iceoryx2;
 use bycoms_runtime::failsafe::Failsafe;
+use bycoms_runtime::seconds::{check_seconds, Zero};
 use bycoms_runtime::{check_speed, BusArgs, BusOpenError, ExitCause, Lifeline, OnBus};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -92,6 +93,28 @@ pub struct LabArgs {
 impl LabArgs {
     /// The subcommand of `sim-agent` that runs the lab.
     pub const SUBCOMMAND: &'static str = "lab";
+
+    /// Checks what clap cannot: the speed-up, `--duration` (the one check
+    /// of seconds, `bycoms_runtime::seconds`), the mocap period, the NatNet
+    /// rate.
+    pub fn validate(&self) -> Result<(), LabError> {
+        check_speed(self.speed).map_err(LabError::Args)?;
+        if let Some(d) = self.duration {
+            check_seconds("--duration", d, Zero::Allowed).map_err(LabError::Args)?;
+        }
+        if self.mocap_ms == 0 {
+            return Err(LabError::Args("--mocap-ms must be at least 1".into()));
+        }
+        // At least one frame a second: a frame period is a span of seconds
+        // too (`--natnet-rate 1e-300` made one of 1e300 s).
+        if !(1.0..=10_000.0).contains(&self.natnet_rate) {
+            return Err(LabError::Args(format!(
+                "--natnet-rate must be a number of Hz in [1, 10000], got {:?}",
+                self.natnet_rate
+            )));
+        }
+        Ok(())
+    }
 
     /// Scenario `scenario` with the robots of `robots` in `swarm`, every
     /// other flag at its default (what `sim-agent lab --scenario S --robots
@@ -167,8 +190,8 @@ pub enum LabError {
     ReadScenario {
         /// The file.
         path: String,
-        /// What the OS said.
-        source: std::io::Error,
+        /// What the OS said, or that it is too large or not text.
+        source: bycoms_runtime::capped::CappedError,
     },
     /// The scenario is unknown or malformed.
     #[error("scenario {name}: {source}")]
@@ -202,7 +225,7 @@ pub enum LabError {
 pub fn load_scenario(name: &str) -> Result<Scenario, LabError> {
     let path = std::path::Path::new(name);
     if path.is_file() {
-        let text = std::fs::read_to_string(path)
+        let text = bycoms_runtime::capped::read_capped_file(path, super::scenario::MAX_FILE_BYTES)
             .map_err(|source| LabError::ReadScenario { path: name.to_owned(), source })?;
         Scenario::parse(&text)
     } else {
@@ -335,7 +358,8 @@ pub fn main_with(args: &LabArgs) -> i32 {
 /// Reads and checks a NatNet faults file.
 fn read_faults(path: &std::path::Path) -> Result<Faults, LabError> {
     let bad = |why: String| LabError::Args(format!("--natnet-faults {}: {why}", path.display()));
-    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    let text = bycoms_runtime::capped::read_capped_file(path, super::scenario::MAX_FILE_BYTES)
+        .map_err(|e| bad(e.to_string()))?;
     let faults: Faults = toml::from_str(&text).map_err(|e| bad(e.to_string()))?;
     if !(0.0..=1.0).contains(&faults.frame_loss) {
         return Err(bad(format!("frame_loss must be in [0, 1], got {}", faults.frame_loss)));
@@ -348,13 +372,7 @@ fn read_faults(path: &std::path::Path) -> Result<Faults, LabError> {
 
 fn run(args: &LabArgs) -> Result<Option<ExitCause>, LabError> {
     let mut lifeline = Lifeline::install(args.parent_pid)?;
-    check_speed(args.speed).map_err(LabError::Args)?;
-    if args.duration.is_some_and(|d| !(d.is_finite() && d >= 0.0)) || args.mocap_ms == 0 {
-        return Err(LabError::Args("--duration must be ≥ 0 and --mocap-ms ≥ 1".into()));
-    }
-    if !(args.natnet_rate.is_finite() && args.natnet_rate > 0.0) {
-        return Err(LabError::Args("--natnet-rate must be a positive number of Hz".into()));
-    }
+    args.validate()?;
     let scenario = load_scenario(&args.scenario)?;
     let mut robots = RobotsFile::read(&args.robots)?;
     // The scenario's robots are the file's first ones (one file serves
@@ -428,6 +446,7 @@ fn run_on<B: Bus>(
     let mut operator = Operator::open(bus, &swarm)?;
     let mut lab = Lab::wired(scenario, wiring, args.seed)?;
     tracing::info!(scenario = lab.scenario().name, robots = n, speed = args.speed, "lab running");
+    // Checked by `LabArgs::validate`: a valid span.
     let end = args.duration.map(Duration::from_secs_f64);
     let mocap_every = Duration::from_millis(args.mocap_ms);
     let mut next_mocap = Duration::ZERO;

@@ -53,11 +53,13 @@ pub enum RobotsError {
         /// What the OS said.
         source: std::io::Error,
     },
-    /// The file is larger than any sane robots file.
-    #[error("{} is larger than {MAX_FILE_LEN} bytes", path.display())]
-    TooLarge {
+    /// The file is larger than any sane robots file, or not text.
+    #[error("cannot read robots file {}: {source}; is this a robots file?", path.display())]
+    Unusable {
         /// The file.
         path: PathBuf,
+        /// What is wrong with it (its size, bytes that are not text).
+        source: bycoms_runtime::capped::CappedError,
     },
     /// The TOML is malformed or has unknown keys.
     #[error("bad robots file {}: {source}", path.display())]
@@ -81,13 +83,13 @@ pub enum RobotsError {
     Key(#[from] KeyFileError),
 }
 
+/// The file's text through the one capped reader ([`bycoms_runtime::capped`]).
 fn read_limited(path: &Path) -> Result<String, RobotsError> {
-    let read = |source| RobotsError::Read { path: path.to_path_buf(), source };
-    let len = std::fs::metadata(path).map_err(read)?.len();
-    if len > MAX_FILE_LEN {
-        return Err(RobotsError::TooLarge { path: path.to_path_buf() });
-    }
-    std::fs::read_to_string(path).map_err(read)
+    use bycoms_runtime::capped::{read_capped_file, CappedError};
+    read_capped_file(path, MAX_FILE_LEN).map_err(|e| match e {
+        CappedError::Io(source) => RobotsError::Read { path: path.to_path_buf(), source },
+        source => RobotsError::Unusable { path: path.to_path_buf(), source },
+    })
 }
 
 impl RobotsFile {
@@ -159,6 +161,9 @@ mod tests {
         let p = write(dir.path(), "r.toml", &format!("[[robot]]\nid = 1\n{ROBOT}"));
         let e = RobotsFile::read(&p).unwrap().keys().unwrap_err().to_string();
         assert!(e.contains("64 hexadecimal digits"), "{e}");
+        // Endless or huge files are refused without being read whole.
+        let e = RobotsFile::read(Path::new("/dev/zero")).unwrap_err().to_string();
+        assert!(e.contains("/dev/zero: more than the limit of 65536 bytes"), "{e}");
         assert!(RobotsFile::read(&dir.path().join("missing.toml"))
             .unwrap_err()
             .to_string()

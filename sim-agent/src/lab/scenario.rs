@@ -9,6 +9,7 @@
 
 use super::body::{BodyConfig, Obstacle};
 use super::sound::SoundConfig;
+use crate::terrain::MAX_SIDE;
 use serde::{Deserialize, Serialize};
 
 /// A point, m.
@@ -74,12 +75,21 @@ pub enum ScenarioError {
         /// The scenario.
         name: String,
         /// What is wrong.
-        why: &'static str,
+        why: String,
     },
     /// No built-in scenario has this name.
     #[error("no built-in lab scenario '{0}' (built in: exp-short, exp-long)")]
     Unknown(String),
 }
+
+/// The largest arena side, m: a launch draws and records a lab's arena as a
+/// terrain of one cell per metre, and terrains are at most [`MAX_SIDE`]
+/// cells across (the bound of terrain files, so a lab scenario is bounded
+/// as they are; `width = 1e5` once asked for a 10 GB grid).
+pub const MAX_SIDE_M: f64 = MAX_SIDE as f64;
+
+/// Largest scenario file read, bytes (the built-in ones are about 2 kB).
+pub const MAX_FILE_BYTES: u64 = 64 * 1024;
 
 /// The built-in `exp-short` file.
 pub const EXP_SHORT: &str = include_str!("../../../deploy/lab/exp-short.toml");
@@ -90,10 +100,15 @@ impl Scenario {
     /// Parses and checks a scenario file's text.
     pub fn parse(text: &str) -> Result<Self, ScenarioError> {
         let s: Scenario = toml::from_str(text)?;
-        let invalid = |why| Err(ScenarioError::Invalid { name: s.name.clone(), why });
+        let invalid = |why: &str| Err(ScenarioError::Invalid { name: s.name.clone(), why: why.to_owned() });
         let inside = |x: f64, y: f64| (0.0..=s.width).contains(&x) && (0.0..=s.height).contains(&y);
-        if !(s.width > 0.0 && s.height > 0.0) {
-            return invalid("width and height must be positive");
+        let side = |m: f64| m > 0.0 && m <= MAX_SIDE_M;
+        if !(side(s.width) && side(s.height)) {
+            return invalid(&format!(
+                "width and height must be positive and at most {MAX_SIDE_M} m (a launch's terrain has a cell \
+                 per metre, at most {MAX_SIDE} across), got {} m × {} m",
+                s.width, s.height
+            ));
         }
         if !inside(s.start.x, s.start.y) || !inside(s.goal.x, s.goal.y) {
             return invalid("start and goal must lie in the arena");
@@ -140,5 +155,11 @@ mod tests {
         let outside = EXP_SHORT.replace("goal = { x = 2.6", "goal = { x = 9.6");
         let err = Scenario::parse(&outside).unwrap_err().to_string();
         assert!(err.contains("start and goal"), "{err}");
+        // An arena no launch could draw: bounded as terrain files are.
+        for (key, bad) in [("width", "1e300"), ("width", "1e5"), ("height", "nan"), ("height", "-2.0")] {
+            let line = EXP_SHORT.lines().find(|l| l.starts_with(&format!("{key} ="))).expect("key");
+            let err = Scenario::parse(&EXP_SHORT.replace(line, &format!("{key} = {bad}"))).unwrap_err();
+            assert!(err.to_string().contains("at most 1000 m"), "{key} = {bad}: {err}");
+        }
     }
 }

@@ -18,6 +18,7 @@ use crate::RunConfig;
 use bycoms_runtime::cli::{check_speed, command_with_subcommand, parse_with_subcommand};
 use bycoms_runtime::failsafe::FailsafeArgs;
 use bycoms_runtime::logging::LogArgs;
+use bycoms_runtime::seconds::{check_seconds, Zero};
 use bycoms_runtime::{BusArgs, Transport};
 use clap::Command;
 use std::path::PathBuf;
@@ -217,12 +218,7 @@ impl AgentArgs {
                         (--terrain FILE --eps E ...)"
                 .into());
         }
-        if !(self.settings_timeout.is_finite() && self.settings_timeout > 0.0) {
-            return Err(format!(
-                "--settings-timeout must be a positive number of seconds, got {}",
-                self.settings_timeout
-            ));
-        }
+        check_seconds("--settings-timeout", self.settings_timeout, Zero::Refused)?;
         self.failsafe.grace()?;
         self.bus.validate()
     }
@@ -464,7 +460,10 @@ mod tests {
         }
         let full = parse("--swarm lab --robot 2 --terrain t.txt --eps 3 --seed 3").unwrap();
         assert!(full.has_settings() && full.validate().is_ok());
-        let bad_wait = AgentArgs { settings_timeout: 0.0, ..bare };
-        assert!(bad_wait.validate().unwrap_err().contains("--settings-timeout"));
+        for wait in [0.0, 1e300, 1e20, f64::NAN, -1.0] {
+            let bad_wait = AgentArgs { settings_timeout: wait, ..bare.clone() };
+            let e = bad_wait.validate().unwrap_err();
+            assert!(e.starts_with("--settings-timeout must be a number of seconds in (0, "), "{e}");
+        }
     }
 }

@@ -5,7 +5,8 @@
 //! One line per row, the FIRST line is the HIGHEST y row; `#` impassable,
 //! `.` free, `S` start cell, `G` goal cell. Start and goal are the centres of
 //! their cells; when a letter is absent the default of [`Terrain::new`] is
-//! used. Accepted besides: `\r\n` line ends, a UTF-8 byte-order mark (as
+//! used. Accepted besides: `\r\n` line ends (lines ended by `\r` alone are
+//! refused, saying so), a UTF-8 byte-order mark (as
 //! some editors write), a missing final newline and blank lines at the end.
 //! Nothing else is (no comments, no blank lines between rows): a typo should
 //! be an error with a line and column, not a silently different world. A
@@ -41,6 +42,9 @@ pub enum ParseErrorKind {
     TooWide,
     /// More than [`MAX_SIDE`] rows.
     TooTall { rows: usize },
+    /// Lines end in a carriage return alone (classic Mac OS): refused with
+    /// that said, not as one line too wide or with an unknown character.
+    CrOnly,
 }
 
 impl fmt::Display for ParseErrorKind {
@@ -64,6 +68,10 @@ impl fmt::Display for ParseErrorKind {
             Self::StartIsGoal => write!(f, "the start and the goal are the same cell"),
             Self::TooWide => write!(f, "more than the limit of {MAX_SIDE} cells across"),
             Self::TooTall { rows } => write!(f, "{rows} rows, more than the limit of {MAX_SIDE}"),
+            Self::CrOnly => write!(
+                f,
+                "the lines end in a carriage return (CR) alone; save the file with LF or CR LF line ends"
+            ),
         }
     }
 }
@@ -86,6 +94,10 @@ pub fn parse(text: &str) -> Result<Terrain, ParseError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     // Blank lines at the end (and the final newline) are no rows.
     let text = text.trim_end_matches(['\n', '\r']);
+    if text.contains('\r') && !text.contains('\n') {
+        let column = text.find('\r').map_or(1, |at| text[..at].chars().count() + 1);
+        return Err(err(1, column, ParseErrorKind::CrOnly));
+    }
     let lines: Vec<&str> = text.split('\n').map(|l| l.strip_suffix('\r').unwrap_or(l)).collect();
     let width = lines.first().map_or(0, |l| l.chars().take(MAX_SIDE + 1).count());
     if width == 0 {

@@ -10,6 +10,7 @@
 
 use super::format::{parse, ParseError, MAX_SIDE};
 use super::grid::Terrain;
+use bycoms_runtime::capped::{read_capped, read_capped_file, CappedError};
 use std::io::Read;
 use std::path::Path;
 
@@ -53,21 +54,22 @@ pub fn read_terrain_file(path: &Path) -> Result<Terrain, ReadError> {
 /// [`MAX_FILE_BYTES`] bytes (an agent hands the text on: its run settings
 /// carry it).
 pub fn read_text(reader: impl Read) -> Result<String, ReadError> {
-    let mut bytes = Vec::new();
-    reader.take(MAX_FILE_BYTES + 1).read_to_end(&mut bytes)?;
-    if bytes.len() as u64 > MAX_FILE_BYTES {
-        return Err(ReadError::TooLarge { size: None });
-    }
-    String::from_utf8(bytes).map_err(|_| ReadError::NotText)
+    read_capped(reader, MAX_FILE_BYTES).map_err(ReadError::from)
 }
 
 /// A terrain file's text, unparsed; a file larger than [`MAX_FILE_BYTES`]
-/// is refused from its length, before anything is read.
+/// is refused from its length, before anything is read (the one capped
+/// reader, [`bycoms_runtime::capped`]).
 pub fn read_text_file(path: &Path) -> Result<String, ReadError> {
-    let file = std::fs::File::open(path)?;
-    let meta = file.metadata()?;
-    if meta.is_file() && meta.len() > MAX_FILE_BYTES {
-        return Err(ReadError::TooLarge { size: Some(meta.len()) });
+    read_capped_file(path, MAX_FILE_BYTES).map_err(ReadError::from)
+}
+
+impl From<CappedError> for ReadError {
+    fn from(e: CappedError) -> Self {
+        match e {
+            CappedError::Io(e) => ReadError::Io(e),
+            CappedError::TooLarge { size, .. } => ReadError::TooLarge { size },
+            CappedError::NotText => ReadError::NotText,
+        }
     }
-    read_text(file)
 }

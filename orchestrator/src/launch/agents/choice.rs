@@ -14,6 +14,7 @@ use super::AgentSource;
 use crate::mocap::PlacementConfig;
 use anyhow::{Context, Result};
 use bycoms_protocol::bus::zenoh::AliveWatch;
+use bycoms_runtime::seconds::{check_seconds, Zero};
 use bycoms_runtime::Transport;
 use bycoms_sim::lab::robots::RobotsFile;
 use serde::{Deserialize, Serialize};
@@ -127,9 +128,11 @@ impl AgentsConfig {
         }
         let p = &self.placement;
         let positive = |v: f64| v.is_finite() && v > 0.0;
-        if !(positive(p.radius) && positive(p.timeout) && p.hold.is_finite() && p.hold >= 0.0) {
-            return Err("agents.placement: radius and timeout must be positive, hold ≥ 0".into());
+        if !positive(p.radius) {
+            return Err(format!("agents.placement.radius must be a positive number, got {}", p.radius));
         }
+        check_seconds("agents.placement.timeout", p.timeout, Zero::Refused)?;
+        check_seconds("agents.placement.hold", p.hold, Zero::Allowed)?;
         match self.source {
             AgentSourceKind::Spawned => Ok(()),
             AgentSourceKind::Remote if !zenoh => {

@@ -142,3 +142,17 @@ fn grids_beyond_the_side_limit_are_refused() {
     let at_limit = text_with(MAX_SIDE, MAX_SIDE, &[]);
     assert_eq!(parse(&at_limit).unwrap().width(), MAX_SIDE);
 }
+
+#[test]
+fn lines_ended_by_a_carriage_return_alone_are_refused_saying_so() {
+    // A wide one used to be "more than the limit of 1000 cells across".
+    let row = ".".repeat(600);
+    let wide = format!("S{row}\r{row}G\r");
+    for text in ["S.\r.G\r", "S.\r.G", wide.as_str()] {
+        let e = parse(text).unwrap_err();
+        assert_eq!(e.kind, ParseErrorKind::CrOnly, "{text:?}");
+        assert!(e.to_string().contains("carriage return (CR) alone"), "{e}");
+        assert_eq!(e.line, 1);
+    }
+    assert_eq!(kind("S.\r.G").1, 3, "the column of the first CR");
+}
