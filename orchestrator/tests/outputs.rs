@@ -84,13 +84,19 @@ fn draw_never_replaces_its_recording_or_another_recording() {
         let o = orchestrator_in(dir.path(), &[&["draw", "a.mcap", "--out", "b.mcap"], force].concat());
         refused(&o, "is an MCAP recording, not an SVG picture", &kept);
     }
-    // Its own kind: a new picture, then again only with --force.
-    let o = orchestrator_in(dir.path(), &["draw", "a.mcap"]);
+    // Its own default picture (FILE.svg) it replaces, as `simulate` does
+    // (issue 31): drawing a recording twice in one folder works.
+    for _ in 0..2 {
+        let o = orchestrator_in(dir.path(), &["draw", "a.mcap"]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    }
+    // Another picture of its kind: a new one, then again only with --force.
+    let o = orchestrator_in(dir.path(), &["draw", "a.mcap", "--out", "mine.svg"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let svg = std::fs::read(dir.path().join("a.svg")).expect("a.svg");
-    let o = orchestrator_in(dir.path(), &["draw", "a.mcap"]);
-    refused(&o, "give --force to replace it", &[(&dir.path().join("a.svg"), &svg)]);
-    let o = orchestrator_in(dir.path(), &["draw", "a.mcap", "--force"]);
+    let svg = std::fs::read(dir.path().join("mine.svg")).expect("mine.svg");
+    let o = orchestrator_in(dir.path(), &["draw", "a.mcap", "--out", "mine.svg"]);
+    refused(&o, "give --force to replace it", &[(&dir.path().join("mine.svg"), &svg)]);
+    let o = orchestrator_in(dir.path(), &["draw", "a.mcap", "--out", "mine.svg", "--force"]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
 

@@ -29,21 +29,29 @@ pub struct Args {
     /// gradient as arrows whose length is V_ave (real robots' telemetry).
     #[arg(long)]
     pub measurements: bool,
-    /// Replace --out if it is already an SVG picture (never anything else, never FILE itself).
+    /// Replace --out if it is already an SVG picture (never anything else, never FILE itself;
+    /// FILE.svg, the default, is replaced without it).
     #[arg(long)]
     pub force: bool,
 }
 
 /// Where the picture goes: --out, or FILE with the extension .svg.
 fn out_path(args: &Args) -> PathBuf {
-    args.out.clone().unwrap_or_else(|| args.file.with_extension("svg"))
+    args.out.clone().unwrap_or_else(|| default_out(args))
+}
+
+/// The picture's default name: FILE with the extension .svg. A picture
+/// there is this command's own, replaced without --force
+/// (`crate::out::replaces`), so drawing a recording twice works.
+fn default_out(args: &Args) -> PathBuf {
+    args.file.with_extension("svg")
 }
 
 pub fn run(args: Args) -> Result<i32> {
     // Refused before anything is read: the picture never replaces the recording or another file.
     Outputs::new(args.force)
         .input(&args.file)
-        .output("--out", out_path(&args), Kind::Svg)
+        .default_output("--out", out_path(&args), Kind::Svg, &default_out(&args).to_string_lossy())
         .check()
         .map_err(usage_unless_io)?;
     let run = read_run(&args.file)?;
@@ -113,7 +121,8 @@ fn unit_of(config: &serde_json::Value) -> Unit {
 
 fn write(args: &Args, svg: &str) -> Result<i32> {
     let out = out_path(args);
-    crate::out::write(&out, Kind::Svg, args.force, svg.as_bytes()).map_err(writing("the picture"))?;
+    let force = crate::out::replaces(args.force, &out, &default_out(args).to_string_lossy());
+    crate::out::write(&out, Kind::Svg, force, svg.as_bytes()).map_err(writing("the picture"))?;
     crate::outln!("picture: {}", out.display())?;
     Ok(crate::exit::SUCCESS)
 }
