@@ -233,6 +233,38 @@ fn a_forged_pose_at_the_goal_does_not_win() {
     assert_eq!(report.bad, 1);
 }
 
+/// Issue 31: poses of robot 2 at the goal, one every 0.1 s from halfway
+/// to its deployment on (steps 5, 6, … in real time, behind its agent's
+/// clock), and a forger who answers robot 2's `Deploy` with a pose at the
+/// goal before its agent does. On either clock the run is the clean one:
+/// robot 2 starts where it was deployed, and its agent's poses are judged
+/// against that start, not against a forgery ("ahead of the launch's
+/// clock").
+#[test]
+fn poses_at_the_goal_before_a_robot_is_deployed_neither_start_it_nor_refuse_its_own() {
+    let case = long_case();
+    for realtime in [Some(1.0), Some(5.0), None] {
+        // Lockstep ticks of 20 ms: robot 1 moves for about a second.
+        let link = harness::Link::perfect(10_000);
+        let clean_schedule = Schedule { realtime, link, ..Schedule::clean(1, 3) };
+        let clean = harness::run(&case, &clean_schedule);
+        let deployed_us =
+            clean.gates.iter().zip(&clean.gate_times_us).find(|(g, _)| g.robot.0 == 2).map(|(_, t)| *t);
+        let Some(deployed_us) = deployed_us.filter(|&t| t > 500_000) else {
+            panic!("{realtime:?}: robot 2 is deployed late in the clean run: {deployed_us:?} µs");
+        };
+        for forgery in [Foreign::GoalSeries { robot: 2, sent: 0 }, Foreign::RacesTheDeploy(2)] {
+            let what = format!("{forgery:?} on the {realtime:?} clock");
+            let mut s = clean_schedule.clone();
+            s.foreign = vec![(deployed_us / 2, forgery)];
+            let report = harness::run(&case, &s);
+            harness::check(&report, &s).unwrap_or_else(|e| panic!("{what}: {e}"));
+            same_run(&clean, &report, &what);
+            assert!(report.bad >= 1, "{what}: refused and counted");
+        }
+    }
+}
+
 #[test]
 fn a_stray_register_of_another_protocol_is_counted_and_never_fatal() {
     let case = long_case();

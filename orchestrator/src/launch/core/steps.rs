@@ -320,8 +320,9 @@ impl Core {
         if let Some(slot) = self.slot(id) {
             slot.state = SlotState::Deploying;
         }
-        // Deploying puts the robot at the start: its next pose may jump.
-        self.anchors.release(id);
+        // Deploying puts the robot at the start: its start pose is judged by
+        // where it was put, not by any pose of it from before.
+        self.anchors.forget(id);
         self.pending_deploy = Some(deploy);
         self.phase = Phase::AwaitingStartPose(id, AnswerWait::new(now, self.setup.tick_timeout_us));
     }
