@@ -97,36 +97,58 @@ fn one_seed() {
 fn without_faults_lockstep_equals_simulate_bit_for_bit() {
     for seed in 0..432 {
         let case = Case::small(seed);
-        let expected = bycoms_sim::run(&case.terrain, &case.run_config());
         let report = harness::run(&case, &Schedule::clean(seed, case.robots));
-        let ending = report.ending.as_ref().unwrap_or_else(|| panic!("seed {seed}: {:?}", report.failure));
-        let outcome = match expected.outcome {
-            bycoms_sim::Outcome::Arrived => Outcome::Arrived,
-            bycoms_sim::Outcome::TimeLimit => Outcome::TimeLimit,
-            bycoms_sim::Outcome::RobotsExhausted => Outcome::RobotsExhausted,
-        };
-        assert_eq!(ending.outcome, outcome, "seed {seed}");
-        assert_eq!(report.spent, expected.steps, "seed {seed}: steps");
-        for run in &expected.robots {
-            let (state, steps, pose) = report.robots[run.id as usize - 1];
-            let want = match run.end {
-                RobotEnd::Stuck => SlotState::Stuck,
-                RobotEnd::Arrived => SlotState::Arrived,
-                RobotEnd::Moving => SlotState::Unfinished,
-            };
-            assert_eq!(state, want, "seed {seed} robot {}", run.id);
-            assert_eq!(steps, run.steps, "seed {seed} robot {}", run.id);
-            let pose = pose.expect("a deployed robot has a pose");
-            assert_eq!(
-                (pose.x.to_bits(), pose.y.to_bits()),
-                (run.position.x.to_bits(), run.position.y.to_bits()),
-                "seed {seed} robot {}",
-                run.id
-            );
-        }
-        let deployed = report.gates.iter().filter(|g| g.kind == GateKind::Deployed).count();
-        assert_eq!(deployed as u32, expected.robots_used, "seed {seed}");
+        assert_simulates(&case, &report, &format!("seed {seed}"));
     }
+}
+
+/// Issue 31: `--dwell 1e9` never ended, whatever the time limit (a robot
+/// that stopped was watched until it had stood still for the dwell). The
+/// time limit bounds every run, and the result is still `simulate`'s: a
+/// robot standing still when the time is up stopped within it.
+#[test]
+fn a_dwell_longer_than_the_run_ends_at_the_time_limit_as_simulate_does() {
+    for seed in (0..432).step_by(7) {
+        let mut case = Case::small(seed);
+        case.dwell = 1e9;
+        let schedule = Schedule::clean(seed, case.robots);
+        let report = harness::run(&case, &schedule);
+        harness::check(&report, &schedule).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        assert_simulates(&case, &report, &format!("seed {seed}, dwell 1e9 s"));
+    }
+}
+
+/// `report`'s launch ended as `simulate` runs `case`: outcome, budget, and
+/// every robot's end, steps and position, bit for bit.
+fn assert_simulates(case: &Case, report: &Report, what: &str) {
+    let expected = bycoms_sim::run(&case.terrain, &case.run_config());
+    let ending = report.ending.as_ref().unwrap_or_else(|| panic!("{what}: {:?}", report.failure));
+    let outcome = match expected.outcome {
+        bycoms_sim::Outcome::Arrived => Outcome::Arrived,
+        bycoms_sim::Outcome::TimeLimit => Outcome::TimeLimit,
+        bycoms_sim::Outcome::RobotsExhausted => Outcome::RobotsExhausted,
+    };
+    assert_eq!(ending.outcome, outcome, "{what}");
+    assert_eq!(report.spent, expected.steps, "{what}: steps");
+    for run in &expected.robots {
+        let (state, steps, pose) = report.robots[run.id as usize - 1];
+        let want = match run.end {
+            RobotEnd::Stuck => SlotState::Stuck,
+            RobotEnd::Arrived => SlotState::Arrived,
+            RobotEnd::Moving => SlotState::Unfinished,
+        };
+        assert_eq!(state, want, "{what} robot {}", run.id);
+        assert_eq!(steps, run.steps, "{what} robot {}", run.id);
+        let pose = pose.expect("a deployed robot has a pose");
+        assert_eq!(
+            (pose.x.to_bits(), pose.y.to_bits()),
+            (run.position.x.to_bits(), run.position.y.to_bits()),
+            "{what} robot {}",
+            run.id
+        );
+    }
+    let deployed = report.gates.iter().filter(|g| g.kind == GateKind::Deployed).count();
+    assert_eq!(deployed as u32, expected.robots_used, "{what}");
 }
 
 /// A robot that froze says so (`Parked`) and, once the gate has judged it,
