@@ -243,6 +243,10 @@ impl Core {
             self.outputs.push_back(Output::Gate(event));
             self.note(format!("robot {topic}: deployed at ({:.2}, {:.2})", pose.x, pose.y));
         } else if self.referee.watched() == Some(topic) {
+            if let Some(tick) = self.tick.as_mut().filter(|t| t.pose_of == Some(topic) && pose.step >= t.step)
+            {
+                tick.pose_of = None;
+            }
             if let Some(v) = self.referee.observe(topic, pose) {
                 self.queue.push_back(Pending::Verdict(topic, v));
             }
@@ -307,6 +311,9 @@ impl Core {
     pub(super) fn on_death(&mut self, now: u64, id: u32, gone: Gone) {
         if let Some(tick) = self.tick.as_mut() {
             tick.awaiting.remove(&id);
+            if tick.pose_of == Some(id) {
+                tick.pose_of = None;
+            }
         }
         let abort = self.setup.on_death == OnDeath::Abort;
         let noticed_unix_ms = self.unix_ms(now);
@@ -433,7 +440,8 @@ impl Core {
                 self.outputs.push_back(Output::Send(id, ToAgent::Deploy(deploy)));
                 self.resends += 1;
             }
-            let Some(t) = self.tick.as_ref().filter(|t| t.awaiting.contains(&id)).map(|t| t.step) else {
+            let owes = |t: &&TickWait| t.awaiting.contains(&id) || t.pose_of == Some(id);
+            let Some(t) = self.tick.as_ref().filter(owes).map(|t| t.step) else {
                 continue;
             };
             if let Some(bearing) = self.last_bearing.filter(|b| b.robot.0 == id && b.step == t) {

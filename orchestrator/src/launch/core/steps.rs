@@ -27,26 +27,27 @@ impl Core {
                 self.relay_at = now + self.setup.wall_period_us.max(1);
             }
             if let Some(tick) = self.tick.as_mut() {
-                if !tick.awaiting.is_empty() {
-                    let held = tick.awaiting.iter().any(|&id| {
+                if tick.open() {
+                    let owing = tick.owing();
+                    let held = owing.iter().any(|&id| {
                         let s = &self.slots[id as usize - 1];
                         s.alive && s.outages.last().is_some_and(|o| o.back_unix_ms.is_none())
                     });
                     let resend = tick.wait.resend_due(now, held);
                     let expired = tick.wait.expired(now);
-                    let awaiting: Vec<u32> = tick.awaiting.iter().copied().collect();
                     if resend {
-                        self.resend(&awaiting);
+                        self.resend(&owing);
                     }
                     if !expired {
                         return;
                     }
-                    for id in awaiting {
+                    for id in owing {
                         self.outputs.push_back(Output::Kill(id));
                         self.on_death(now, id, Gone::NoTickReply);
                     }
                     continue;
                 }
+                self.answer_time.answered(&tick.wait, now);
                 self.ticks = tick.step;
                 self.tick = None;
             }
@@ -324,7 +325,7 @@ impl Core {
         // where it was put, not by any pose of it from before.
         self.anchors.forget(id);
         self.pending_deploy = Some(deploy);
-        self.phase = Phase::AwaitingStartPose(id, AnswerWait::new(now, self.setup.tick_timeout_us));
+        self.phase = Phase::AwaitingStartPose(id, self.answer_wait(now));
     }
 
     /// One lockstep tick: the moving robot's bearing, the relays, `Tick` to
@@ -354,8 +355,15 @@ impl Core {
         for &id in &live {
             self.outputs.push_back(Output::Send(id, ToAgent::Tick(Tick { step: t })));
         }
-        let wait = AnswerWait::new(now, self.setup.tick_timeout_us);
-        self.tick = Some(TickWait { step: t, awaiting: live.into_iter().collect(), wait });
+        let wait = self.answer_wait(now);
+        let pose_of = watched.filter(|id| live.contains(id));
+        self.tick = Some(TickWait { step: t, awaiting: live.into_iter().collect(), pose_of, wait });
+    }
+
+    /// A wait for answers from `now`: up to the tick timeout, re-sending
+    /// first after the answer time seen so far.
+    pub(super) fn answer_wait(&self, now: u64) -> AnswerWait {
+        AnswerWait::new(now, self.setup.tick_timeout_us, self.answer_time.first_resend_us())
     }
 
     /// Acts on every queued verdict; the outcome if the run is won.

@@ -141,6 +141,7 @@ impl Schedule {
             delay_max_us: min + spread,
             drop: [0.0, 0.0, 0.01, 0.05][rng.gen_range(0..4)],
             duplicate: [0.0, 0.01, 0.1][rng.gen_range(0..3)],
+            inbound_only: false,
         };
         let tick_us = match s.realtime {
             Some(speed) => (100_000.0 / speed) as u64,

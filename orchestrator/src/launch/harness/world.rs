@@ -66,6 +66,7 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             resends: 0,
             end_us: 0,
             bad: 0,
+            lost: 0,
             stepped: vec![0; n],
             last_tick: vec![None; n],
             deploys_sent: vec![0; n],
@@ -463,6 +464,7 @@ impl World<'_> {
         self.report.ticks = core.ticks();
         self.report.resends = core.resends();
         self.report.end_us = self.now;
+        self.report.lost = self.net.lost;
         self.report
     }
 
