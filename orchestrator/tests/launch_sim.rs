@@ -621,3 +621,58 @@ fn the_launch_says_what_it_waits_for() {
     assert!(deploy, "robot 1 is told to deploy");
     assert_eq!(waiting(&core), Some(("robot 1's start pose".into(), 0)));
 }
+
+/// Issue 31: at `--speed 100000` every robot's agent was started twice: a
+/// robot deployed and judged in one `advance` (its start pose and the poses
+/// of its dwell arrived together) left its prespawned successor looking not
+/// started, and the successor was started again.
+#[test]
+fn a_robot_deployed_and_judged_at_once_starts_its_successor_once() {
+    use bycoms_orchestrator::launch::core::{Core, Input, Output};
+    use bycoms_protocol::msg::{FromAgent, Pose, Register, RobotKind, ToAgent};
+    use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
+    let case = Case::small(0);
+    let schedule = Schedule { realtime: Some(100_000.0), ..Schedule::clean(0, case.robots) };
+    let mut core = Core::new(harness::setup(&case, &schedule));
+    let mut starts = vec![0; case.robots as usize];
+    let mut deployed = false;
+    let mut drain = |core: &mut Core, starts: &mut Vec<u32>| {
+        while let Some(out) = core.poll_output() {
+            match out {
+                Output::Start(id) => starts[id as usize - 1] += 1,
+                Output::Send(1, ToAgent::Deploy(_)) => deployed = true,
+                _ => {}
+            }
+        }
+        deployed
+    };
+    core.advance(0);
+    drain(&mut core, &mut starts);
+    core.handle(0, Input::Started { robot: 1, pid: Some(7), how: "started".into() });
+    let register = Register {
+        robot: RobotId(1),
+        kind: RobotKind::Simulated,
+        protocol_version: PROTOCOL_VERSION,
+        instance: 1,
+        settings: 0,
+        failsafe_grace_ms: 0,
+    };
+    core.handle(10, Input::Report(FromAgent::Register(register)));
+    let mut now = 10;
+    while !drain(&mut core, &mut starts) {
+        core.advance(now);
+        now += 1;
+        assert!(now < 1_000_000, "robot 1 is told to deploy");
+    }
+    // Its start pose and two simulated seconds of standing still, at once.
+    let start = case.terrain.start();
+    for step in 0..=20 {
+        let pose =
+            Pose { robot: RobotId(1), x: start.x, y: start.y, heading: 0.0, step, time_us: step * 100_000 };
+        core.handle(now, Input::Pose { topic: 1, pose });
+    }
+    core.advance(now);
+    drain(&mut core, &mut starts);
+    assert_eq!(core.slots()[0].state(), SlotState::Stuck, "deployed and judged in one advance");
+    assert_eq!(starts[..2], [1, 1], "each agent started once");
+}

@@ -66,7 +66,7 @@ impl Core {
                     return true;
                 }
                 for id in 1..=self.setup.robots {
-                    self.outputs.push_back(Output::Start(id));
+                    self.start_agent(id);
                 }
                 // Robots are needed when their turn comes, unless every one is.
                 self.phase = if self.setup.missing == Missing::Fail {
@@ -94,7 +94,7 @@ impl Core {
                 Some(SlotState::Spawned) => false,
                 Some(SlotState::Waiting) => {
                     // Started once more (it died before it registered).
-                    self.outputs.push_back(Output::Start(id));
+                    self.start_agent(id);
                     false
                 }
                 _ => {
@@ -145,7 +145,7 @@ impl Core {
                             .slot_ref(next)
                             .is_some_and(|s| s.state == SlotState::Waiting && s.restarts == 0);
                     if prespawn {
-                        self.outputs.push_back(Output::Start(next));
+                        self.start_agent(next);
                     }
                     self.phase = Phase::Watching;
                     true
@@ -205,7 +205,7 @@ impl Core {
                 return true;
             }
             Some(SlotState::Waiting) => {
-                self.outputs.push_back(Output::Start(id));
+                self.start_agent(id);
                 self.phase = Phase::AwaitingRegistration(id);
                 // The shell starts it before the core goes on.
                 return false;
@@ -214,6 +214,18 @@ impl Core {
         }
         self.phase = Phase::AwaitingRegistration(id);
         true
+    }
+
+    /// Asks the shell to start robot `id`'s agent; from now on it is
+    /// starting, so no second start is asked for it. Why at once: a shell
+    /// carries the start out after `advance`, and at a high speed-up a robot
+    /// deployed and judged in one `advance` had its prespawned successor
+    /// started twice (the successor still looked not started).
+    pub(super) fn start_agent(&mut self, id: u32) {
+        self.outputs.push_back(Output::Start(id));
+        if let Some(slot) = self.slot(id).filter(|s| s.state == SlotState::Waiting) {
+            slot.state = SlotState::Spawned;
+        }
     }
 
     /// Makes sure robot `id` hears every beacon before it moves: an agent's
