@@ -141,13 +141,24 @@ fn bad_input_exits_non_zero_with_a_clear_message() {
         (&["simulate", "--eps", "1e-300", "--no-svg"], "bad --eps", 2),
         (&["launch", "--eps", "1e-300"], "bad eps (--eps)", 2),
         (&["launch", "--eps", "0"], "bad eps (--eps)", 2),
-        (&["launch", "--clock", "realtime", "--speed", "1e9"], "speed-up must be a number in", 2),
+        (
+            &["launch", "--clock", "realtime", "--speed", "1e9"],
+            "bad speed (--speed): the real-time speed-up must be a number in (0, 1000]",
+            2,
+        ),
+        // Issue 31: accepted, it started two agents per robot and judged
+        // every robot stuck before its first bearing came.
+        (
+            &["launch", "--clock", "realtime", "--speed", "100000"],
+            "bad speed (--speed): the real-time speed-up must be a number in (0, 1000], got 100000",
+            2,
+        ),
         (&["sweep", "--eps", "", "--out", "/tmp/x"], "--eps is empty", 2),
         (&["sweep", "--eps", "1e-300", "--out", "/tmp/x"], "bad --eps", 2),
         (&["sweep", "--widths", "1,,2"], "--widths", 2),
         (&["sweep", "--shard", "5/4"], "need 0 ≤ i < n", 2),
         (&["terrain", "--width", "0", "--count", "1", "--out", "/tmp/x"], "--width must lie", 2),
-        (&["bench", "scale", "--speed", "0"], "speed-up must be a number in", 2),
+        (&["bench", "scale", "--speed", "0"], "bad --speed: the real-time speed-up must be a number in", 2),
         (
             &["simulate", "--svg", "/nonexistent/dir/out.svg"],
             "cannot write the snapshot to /nonexistent/dir/out.svg: No such file",
