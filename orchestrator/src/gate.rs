@@ -138,6 +138,28 @@ impl Watch {
         self.verdict
     }
 
+    /// Control periods of pose time from the start pose to the latest pose
+    /// (the dwell included).
+    pub fn watched_periods(&self) -> u64 {
+        active_periods(self.start.time_us, self.last.time_us, self.params.period_us)
+    }
+
+    /// The run's time is up while the robot stands still: it is judged
+    /// stuck now (returned once), without waiting out the rest of the dwell.
+    /// Why: the dwell only makes sure that a robot has stopped, and past the
+    /// time limit nothing a robot does counts any more; a still robot has
+    /// stopped within the limit, as the runner counts it. Without this a
+    /// dwell longer than the run (`--dwell 1e9`) watched a robot that had
+    /// stopped for ever, whatever the time limit. `None` for a robot that
+    /// moves (the budget ends it) or was judged already.
+    pub fn still_at_the_limit(&mut self) -> Option<Verdict> {
+        if self.verdict.is_some() || self.still_since_us.is_none() {
+            return None;
+        }
+        self.verdict = Some(Verdict::Stuck(self.last));
+        self.verdict
+    }
+
     /// Takes the robot's next pose; returns the verdict when it is reached
     /// (once). Poses older than the latest are ignored.
     pub fn observe(&mut self, pose: Pose) -> Option<Verdict> {

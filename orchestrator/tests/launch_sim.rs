@@ -97,36 +97,58 @@ fn one_seed() {
 fn without_faults_lockstep_equals_simulate_bit_for_bit() {
     for seed in 0..432 {
         let case = Case::small(seed);
-        let expected = bycoms_sim::run(&case.terrain, &case.run_config());
         let report = harness::run(&case, &Schedule::clean(seed, case.robots));
-        let ending = report.ending.as_ref().unwrap_or_else(|| panic!("seed {seed}: {:?}", report.failure));
-        let outcome = match expected.outcome {
-            bycoms_sim::Outcome::Arrived => Outcome::Arrived,
-            bycoms_sim::Outcome::TimeLimit => Outcome::TimeLimit,
-            bycoms_sim::Outcome::RobotsExhausted => Outcome::RobotsExhausted,
-        };
-        assert_eq!(ending.outcome, outcome, "seed {seed}");
-        assert_eq!(report.spent, expected.steps, "seed {seed}: steps");
-        for run in &expected.robots {
-            let (state, steps, pose) = report.robots[run.id as usize - 1];
-            let want = match run.end {
-                RobotEnd::Stuck => SlotState::Stuck,
-                RobotEnd::Arrived => SlotState::Arrived,
-                RobotEnd::Moving => SlotState::Unfinished,
-            };
-            assert_eq!(state, want, "seed {seed} robot {}", run.id);
-            assert_eq!(steps, run.steps, "seed {seed} robot {}", run.id);
-            let pose = pose.expect("a deployed robot has a pose");
-            assert_eq!(
-                (pose.x.to_bits(), pose.y.to_bits()),
-                (run.position.x.to_bits(), run.position.y.to_bits()),
-                "seed {seed} robot {}",
-                run.id
-            );
-        }
-        let deployed = report.gates.iter().filter(|g| g.kind == GateKind::Deployed).count();
-        assert_eq!(deployed as u32, expected.robots_used, "seed {seed}");
+        assert_simulates(&case, &report, &format!("seed {seed}"));
     }
+}
+
+/// Issue 31: `--dwell 1e9` never ended, whatever the time limit (a robot
+/// that stopped was watched until it had stood still for the dwell). The
+/// time limit bounds every run, and the result is still `simulate`'s: a
+/// robot standing still when the time is up stopped within it.
+#[test]
+fn a_dwell_longer_than_the_run_ends_at_the_time_limit_as_simulate_does() {
+    for seed in (0..432).step_by(7) {
+        let mut case = Case::small(seed);
+        case.dwell = 1e9;
+        let schedule = Schedule::clean(seed, case.robots);
+        let report = harness::run(&case, &schedule);
+        harness::check(&report, &schedule).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        assert_simulates(&case, &report, &format!("seed {seed}, dwell 1e9 s"));
+    }
+}
+
+/// `report`'s launch ended as `simulate` runs `case`: outcome, budget, and
+/// every robot's end, steps and position, bit for bit.
+fn assert_simulates(case: &Case, report: &Report, what: &str) {
+    let expected = bycoms_sim::run(&case.terrain, &case.run_config());
+    let ending = report.ending.as_ref().unwrap_or_else(|| panic!("{what}: {:?}", report.failure));
+    let outcome = match expected.outcome {
+        bycoms_sim::Outcome::Arrived => Outcome::Arrived,
+        bycoms_sim::Outcome::TimeLimit => Outcome::TimeLimit,
+        bycoms_sim::Outcome::RobotsExhausted => Outcome::RobotsExhausted,
+    };
+    assert_eq!(ending.outcome, outcome, "{what}");
+    assert_eq!(report.spent, expected.steps, "{what}: steps");
+    for run in &expected.robots {
+        let (state, steps, pose) = report.robots[run.id as usize - 1];
+        let want = match run.end {
+            RobotEnd::Stuck => SlotState::Stuck,
+            RobotEnd::Arrived => SlotState::Arrived,
+            RobotEnd::Moving => SlotState::Unfinished,
+        };
+        assert_eq!(state, want, "{what} robot {}", run.id);
+        assert_eq!(steps, run.steps, "{what} robot {}", run.id);
+        let pose = pose.expect("a deployed robot has a pose");
+        assert_eq!(
+            (pose.x.to_bits(), pose.y.to_bits()),
+            (run.position.x.to_bits(), run.position.y.to_bits()),
+            "{what} robot {}",
+            run.id
+        );
+    }
+    let deployed = report.gates.iter().filter(|g| g.kind == GateKind::Deployed).count();
+    assert_eq!(deployed as u32, expected.robots_used, "{what}");
 }
 
 /// A robot that froze says so (`Parked`) and, once the gate has judged it,
@@ -231,6 +253,38 @@ fn a_forged_pose_at_the_goal_does_not_win() {
     let report = harness::run(&case, &s);
     same_run(&clean, &report, "forged pose at the goal");
     assert_eq!(report.bad, 1);
+}
+
+/// Issue 31: poses of robot 2 at the goal, one every 0.1 s from halfway
+/// to its deployment on (steps 5, 6, … in real time, behind its agent's
+/// clock), and a forger who answers robot 2's `Deploy` with a pose at the
+/// goal before its agent does. On either clock the run is the clean one:
+/// robot 2 starts where it was deployed, and its agent's poses are judged
+/// against that start, not against a forgery ("ahead of the launch's
+/// clock").
+#[test]
+fn poses_at_the_goal_before_a_robot_is_deployed_neither_start_it_nor_refuse_its_own() {
+    let case = long_case();
+    for realtime in [Some(1.0), Some(5.0), None] {
+        // Lockstep ticks of 20 ms: robot 1 moves for about a second.
+        let link = harness::Link::perfect(10_000);
+        let clean_schedule = Schedule { realtime, link, ..Schedule::clean(1, 3) };
+        let clean = harness::run(&case, &clean_schedule);
+        let deployed_us =
+            clean.gates.iter().zip(&clean.gate_times_us).find(|(g, _)| g.robot.0 == 2).map(|(_, t)| *t);
+        let Some(deployed_us) = deployed_us.filter(|&t| t > 500_000) else {
+            panic!("{realtime:?}: robot 2 is deployed late in the clean run: {deployed_us:?} µs");
+        };
+        for forgery in [Foreign::GoalSeries { robot: 2, sent: 0 }, Foreign::RacesTheDeploy(2)] {
+            let what = format!("{forgery:?} on the {realtime:?} clock");
+            let mut s = clean_schedule.clone();
+            s.foreign = vec![(deployed_us / 2, forgery)];
+            let report = harness::run(&case, &s);
+            harness::check(&report, &s).unwrap_or_else(|e| panic!("{what}: {e}"));
+            same_run(&clean, &report, &what);
+            assert!(report.bad >= 1, "{what}: refused and counted");
+        }
+    }
 }
 
 #[test]
@@ -487,4 +541,142 @@ fn a_failsafe_report_is_recorded_once() {
     let refusals =
         outputs.iter().filter(|o| matches!(o, Output::Send(_, bycoms_protocol::msg::ToAgent::Refused(_))));
     assert_eq!(refusals.count(), 0, "a long failsafe grace and the launch's settings are welcome");
+}
+
+/// Issue 31: lockstep with `[faults] drop = 0.05` took 114 s where the run
+/// takes 0.15 s, silent, and ended otherwise than without faults. A lost
+/// answer (a `TickDone`, or the moving robot's pose) costs a re-send after
+/// a few answer times, not a second, and the tick waits for the moving
+/// robot's pose, so the run is the one without faults, bit for bit.
+#[test]
+fn lost_answers_in_lockstep_cost_a_quick_resend_and_change_nothing() {
+    let mut lost = 0;
+    for seed in (0..432).step_by(9) {
+        let case = Case::small(seed);
+        // A robot never deployed may still be registering: not part of the run.
+        let alike = |mut r: Report| {
+            for robot in r.robots.iter_mut().filter(|r| r.0 == SlotState::Spawned) {
+                robot.0 = SlotState::Registered;
+            }
+            r
+        };
+        let clean = alike(harness::run(
+            &case,
+            &Schedule { link: harness::Link::perfect(50), ..Schedule::clean(seed, case.robots) },
+        ));
+        for drop in [0.05, 0.3] {
+            let what = format!("seed {seed}, drop {drop}");
+            let lossy =
+                Schedule { link: harness::Link::faults(50, drop), ..Schedule::clean(seed, case.robots) };
+            let report = harness::run(&case, &lossy);
+            harness::check(&report, &lossy).unwrap_or_else(|e| panic!("{what}: {e}"));
+            let report = alike(report);
+            same_run(&clean, &report, &what);
+            assert_simulates(&case, &report, &what);
+            // A lost registration costs a heartbeat (0.5 s); anything else
+            // a re-send after a few answer times.
+            let bound = clean.end_us + 1_000_000 + report.lost * 20_000;
+            assert!(
+                report.end_us <= bound,
+                "{what}: {} µs, {} lost, clean {} µs",
+                report.end_us,
+                report.lost,
+                clean.end_us
+            );
+            lost += report.lost;
+        }
+    }
+    assert!(lost > 1000, "messages were lost: {lost}");
+}
+
+/// Issue 31: a launch that waited looked hung. What it waits for is said
+/// in words (the terminal prints it when a wait lasts, `launch::progress`).
+#[test]
+fn the_launch_says_what_it_waits_for() {
+    use bycoms_orchestrator::launch::core::{Core, Input};
+    use bycoms_protocol::msg::{FromAgent, Register, RobotKind, TickDone, ToAgent};
+    use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
+    let case = Case::small(0);
+    let mut core = Core::new(harness::setup(&case, &Schedule::clean(0, case.robots)));
+    let waiting = |core: &Core| core.waiting().map(|w| (w.what, w.resent));
+    core.advance(0);
+    core.handle(0, Input::Started { robot: 1, pid: Some(7), how: "started".into() });
+    core.advance(0);
+    assert_eq!(waiting(&core), Some(("robot 1's agent to register".into(), 0)));
+    let register = Register {
+        robot: RobotId(1),
+        kind: RobotKind::Simulated,
+        protocol_version: PROTOCOL_VERSION,
+        instance: 1,
+        settings: 0,
+        failsafe_grace_ms: 0,
+    };
+    core.handle(1_000, Input::Report(FromAgent::Register(register)));
+    core.advance(1_000);
+    assert_eq!(waiting(&core), Some(("robot 1's answer to tick 1".into(), 0)));
+    // Nothing comes: sent again after a tenth of a second (nothing timed yet).
+    core.advance(101_000);
+    assert_eq!(waiting(&core), Some(("robot 1's answer to tick 1".into(), 1)));
+    while core.poll_output().is_some() {}
+    core.handle(102_000, Input::Report(FromAgent::TickDone(TickDone { robot: RobotId(1), step: 1 })));
+    core.advance(102_000);
+    let deploy = std::iter::from_fn(|| core.poll_output())
+        .any(|o| matches!(o, bycoms_orchestrator::launch::core::Output::Send(1, ToAgent::Deploy(_))));
+    assert!(deploy, "robot 1 is told to deploy");
+    assert_eq!(waiting(&core), Some(("robot 1's start pose".into(), 0)));
+}
+
+/// Issue 31: at `--speed 100000` every robot's agent was started twice: a
+/// robot deployed and judged in one `advance` (its start pose and the poses
+/// of its dwell arrived together) left its prespawned successor looking not
+/// started, and the successor was started again.
+#[test]
+fn a_robot_deployed_and_judged_at_once_starts_its_successor_once() {
+    use bycoms_orchestrator::launch::core::{Core, Input, Output};
+    use bycoms_protocol::msg::{FromAgent, Pose, Register, RobotKind, ToAgent};
+    use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
+    let case = Case::small(0);
+    let schedule = Schedule { realtime: Some(100_000.0), ..Schedule::clean(0, case.robots) };
+    let mut core = Core::new(harness::setup(&case, &schedule));
+    let mut starts = vec![0; case.robots as usize];
+    let mut deployed = false;
+    let mut drain = |core: &mut Core, starts: &mut Vec<u32>| {
+        while let Some(out) = core.poll_output() {
+            match out {
+                Output::Start(id) => starts[id as usize - 1] += 1,
+                Output::Send(1, ToAgent::Deploy(_)) => deployed = true,
+                _ => {}
+            }
+        }
+        deployed
+    };
+    core.advance(0);
+    drain(&mut core, &mut starts);
+    core.handle(0, Input::Started { robot: 1, pid: Some(7), how: "started".into() });
+    let register = Register {
+        robot: RobotId(1),
+        kind: RobotKind::Simulated,
+        protocol_version: PROTOCOL_VERSION,
+        instance: 1,
+        settings: 0,
+        failsafe_grace_ms: 0,
+    };
+    core.handle(10, Input::Report(FromAgent::Register(register)));
+    let mut now = 10;
+    while !drain(&mut core, &mut starts) {
+        core.advance(now);
+        now += 1;
+        assert!(now < 1_000_000, "robot 1 is told to deploy");
+    }
+    // Its start pose and two simulated seconds of standing still, at once.
+    let start = case.terrain.start();
+    for step in 0..=20 {
+        let pose =
+            Pose { robot: RobotId(1), x: start.x, y: start.y, heading: 0.0, step, time_us: step * 100_000 };
+        core.handle(now, Input::Pose { topic: 1, pose });
+    }
+    core.advance(now);
+    drain(&mut core, &mut starts);
+    assert_eq!(core.slots()[0].state(), SlotState::Stuck, "deployed and judged in one advance");
+    assert_eq!(starts[..2], [1, 1], "each agent started once");
 }

@@ -45,7 +45,7 @@ pub struct Args {
     /// Clock: lockstep (fast, bit-identical to `simulate`) or realtime [default: lockstep].
     #[arg(long, value_enum)]
     pub clock: Option<Clock>,
-    /// Real-time speed-up: 10 Hz × speed [default: 10].
+    /// Real-time speed-up: 10 Hz × speed, at most 1000 (a period of 100 µs) [default: 10].
     #[arg(long, allow_negative_numbers = true)]
     pub speed: Option<f64>,
     /// Simulated time budget, seconds of robot motion [default: 10000].

@@ -370,7 +370,7 @@ impl LaunchConfig {
     pub fn validate(&self) -> Result<()> {
         check_run(&self.run_config(), &CONFIG_KEYS)?;
         self.faults.validate()?;
-        check_speed(self.speed).map_err(usage)?;
+        check_speed(self.speed).map_err(|e| usage(format!("bad speed (--speed): {e}")))?;
         let positive = |v: f64| v.is_finite() && v > 0.0;
         if !positive(self.gate.max_speed) {
             return Err(usage(format!(

@@ -17,7 +17,7 @@ use super::core::{Ending, Input, Output, Slot, SlotState};
 use super::events::EVENT_SCHEMA;
 use super::ports::Ports;
 use super::poses::{PoseSink, PoseSource};
-use super::progress::Progress;
+use super::progress::{Progress, Waits};
 use super::summary::{Outcome, RealtimeReport, RecordingSummary, RobotEnd, RobotSummary, Summary};
 use super::World;
 use crate::record::schema;
@@ -49,6 +49,8 @@ pub struct Driver {
     begun: Instant,
     endpoints: Vec<String>,
     poses: Vec<(u32, Pose)>,
+    /// What the launch waits for, said when a wait lasts.
+    waits: Waits,
 }
 
 /// What a driver is built from.
@@ -100,6 +102,7 @@ impl Driver {
             begun,
             endpoints,
             poses: Vec::new(),
+            waits: Waits::new(Instant::now()),
         }
     }
 
@@ -260,7 +263,21 @@ impl Driver {
         if self.progress.due() {
             self.redraw();
         }
+        self.say_waits();
         Ok(())
+    }
+
+    /// Says what the launch waits for, when a wait lasts.
+    fn say_waits(&mut self) {
+        let now = Instant::now();
+        if !self.waits.due(now) {
+            return;
+        }
+        let waiting = self.core.waiting();
+        let what = waiting.as_ref().map(|w| w.what.as_str());
+        if let Some(line) = self.waits.line(what, waiting.as_ref().map_or(0, |w| w.resent), now) {
+            self.progress.event(&line);
+        }
     }
 
     /// Redraws every robot's live line.

@@ -55,7 +55,7 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
     if agents == 0 || !(seconds.is_finite() && seconds > 0.0) {
         return Err(crate::exit::usage("--agents and --seconds must be positive"));
     }
-    bycoms_runtime::check_speed(speed).map_err(crate::exit::usage)?;
+    bycoms_runtime::check_speed(speed).map_err(|e| crate::exit::usage(format!("bad --speed: {e}")))?;
     let files = super::limits::files_needed(agents, Transport::Ipc);
     super::limits::ensure_open_files(files, agents).map_err(crate::exit::usage)?;
     let stop = super::interrupt_flag();

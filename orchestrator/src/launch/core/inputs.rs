@@ -5,6 +5,10 @@
 
 use super::*;
 
+/// How far from its `Deploy`'s position a simulated robot's start pose may
+/// lie, units: its agent puts it there exactly.
+const START_TOLERANCE: f64 = 1e-6;
+
 impl Core {
     pub(super) fn on_started(&mut self, id: u32, pid: Option<u32>, how: &str) {
         if let Some(slot) = self.slot(id) {
@@ -193,16 +197,20 @@ impl Core {
         } else {
             plausible::Clock::Realtime { now_us: now, speed: self.setup.speed }
         };
-        let carried = matches!(self.phase, Phase::Placing(id, _) if id == topic);
-        match self.anchors.accept(topic, &pose, clock, carried) {
+        let judged = match state {
+            SlotState::Registered | SlotState::Absent => {
+                return self.on_pose_before_deployment(topic, pose, clock)
+            }
+            SlotState::Deploying => {
+                self.anchors.accept_start(topic, &pose, clock, self.start_at()).map(|()| true)
+            }
+            _ => self.anchors.accept(topic, &pose, clock),
+        };
+        match judged {
             Ok(true) => {}
             // A repeat or a late sample: nothing new (the gate has seen it).
             Ok(false) => return,
-            Err(why) => {
-                let text = format!("pose of robot {topic} at step {} refused: {why}", pose.step);
-                self.outputs.push_back(Output::Bad(BadKind::Refused, text));
-                return;
-            }
+            Err(why) => return self.refuse_pose(topic, &pose, why),
         }
         if self.setup.agents.forward_poses {
             self.outputs.push_back(Output::Forward(pose));
@@ -235,6 +243,10 @@ impl Core {
             self.outputs.push_back(Output::Gate(event));
             self.note(format!("robot {topic}: deployed at ({:.2}, {:.2})", pose.x, pose.y));
         } else if self.referee.watched() == Some(topic) {
+            if let Some(tick) = self.tick.as_mut().filter(|t| t.pose_of == Some(topic) && pose.step >= t.step)
+            {
+                tick.pose_of = None;
+            }
             if let Some(v) = self.referee.observe(topic, pose) {
                 self.queue.push_back(Pending::Verdict(topic, v));
             }
@@ -244,6 +256,47 @@ impl Core {
         if !lockstep && self.queue.is_empty() {
             self.send_bearing(topic, &pose, pose.step + 1);
         }
+    }
+
+    /// A pose of robot `id` before its deployment: it anchors nothing and
+    /// starts nothing. While an operator places the robot, the placement
+    /// check reads it (if it is plausible on its own); otherwise a robot on
+    /// motion capture is seen standing by (nothing to do), and a simulated
+    /// robot has no pose before it is deployed: someone else's.
+    fn on_pose_before_deployment(&mut self, id: u32, pose: Pose, clock: plausible::Clock) {
+        let placing = matches!(self.phase, Phase::Placing(placed, _) if placed == id);
+        if !placing {
+            if self.setup.agents.placement.is_none() {
+                let text =
+                    format!("pose of robot {id} at step {} refused: robot {id} is not deployed", pose.step);
+                self.outputs.push_back(Output::Bad(BadKind::Refused, text));
+            }
+            return;
+        }
+        if let Err(why) = self.anchors.check_alone(&pose, clock) {
+            return self.refuse_pose(id, &pose, why);
+        }
+        if self.setup.agents.forward_poses {
+            self.outputs.push_back(Output::Forward(pose));
+        }
+        if let Some(slot) = self.slot(id) {
+            slot.last_pose = Some(pose);
+        }
+    }
+
+    fn refuse_pose(&mut self, id: u32, pose: &Pose, why: Implausible) {
+        let text = format!("pose of robot {id} at step {} refused: {why}", pose.step);
+        self.outputs.push_back(Output::Bad(BadKind::Refused, text));
+    }
+
+    /// Where a robot is put at its deployment, and how far from there its
+    /// start pose may lie: a simulated robot is put exactly at the
+    /// `Deploy`'s position; a real one was checked within the placement
+    /// radius of the start before it was enabled.
+    pub(super) fn start_at(&self) -> plausible::StartAt {
+        let start = self.setup.start;
+        let tolerance = self.setup.agents.placement.map_or(START_TOLERANCE, |p| p.radius);
+        plausible::StartAt { x: start.x, y: start.y, tolerance }
     }
 
     /// Sends robot `id` its goal bearing from `pose` (the runner's function).
@@ -258,6 +311,9 @@ impl Core {
     pub(super) fn on_death(&mut self, now: u64, id: u32, gone: Gone) {
         if let Some(tick) = self.tick.as_mut() {
             tick.awaiting.remove(&id);
+            if tick.pose_of == Some(id) {
+                tick.pose_of = None;
+            }
         }
         let abort = self.setup.on_death == OnDeath::Abort;
         let noticed_unix_ms = self.unix_ms(now);
@@ -385,7 +441,8 @@ impl Core {
                 self.outputs.push_back(Output::Send(id, ToAgent::Deploy(deploy)));
                 self.resends += 1;
             }
-            let Some(t) = self.tick.as_ref().filter(|t| t.awaiting.contains(&id)).map(|t| t.step) else {
+            let owes = |t: &&TickWait| t.awaiting.contains(&id) || t.pose_of == Some(id);
+            let Some(t) = self.tick.as_ref().filter(owes).map(|t| t.step) else {
                 continue;
             };
             if let Some(bearing) = self.last_bearing.filter(|b| b.robot.0 == id && b.step == t) {

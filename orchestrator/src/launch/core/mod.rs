@@ -47,7 +47,7 @@ mod wait;
 pub use plausible::Implausible;
 pub use referee::{Closed, Referee};
 pub use slot::{FrameCount, Slot, SlotState};
-pub use wait::{AnswerWait, RESEND_US};
+pub use wait::{AnswerTime, AnswerWait, MIN_RESEND_US, RESEND_US};
 
 use super::agents::{Gone, Reach};
 use super::config::{Missing, OnDeath};
@@ -206,6 +206,15 @@ pub enum Output {
     Carried(u32, bool),
 }
 
+/// What the launch waits for, in words (see [`Core::waiting`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Waiting {
+    /// What, e.g. "robot 2's answer to tick 345".
+    pub what: String,
+    /// Times it was sent again.
+    pub resent: u32,
+}
+
 /// How a launch ended.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Ending {
@@ -258,8 +267,28 @@ pub struct Placing {
 #[derive(Clone, Debug)]
 struct TickWait {
     step: u64,
+    /// The agents whose `TickDone` has not come.
     awaiting: BTreeSet<u32>,
+    /// The robot under watch, until its pose of this step has come: the
+    /// next tick's bearing and the gate's judgement are made from it, so a
+    /// tick whose pose was lost on the way is not over (its `TickDone` may
+    /// have come).
+    pose_of: Option<u32>,
     wait: AnswerWait,
+}
+
+impl TickWait {
+    /// Whether something of this tick is still awaited.
+    fn open(&self) -> bool {
+        !self.awaiting.is_empty() || self.pose_of.is_some()
+    }
+
+    /// The agents that still owe this tick something, in id order.
+    fn owing(&self) -> Vec<u32> {
+        let mut ids: BTreeSet<u32> = self.awaiting.clone();
+        ids.extend(self.pose_of);
+        ids.into_iter().collect()
+    }
 }
 
 /// The launch, as data.
@@ -280,6 +309,8 @@ pub struct Core {
     late: VecDeque<u32>,
     last_bearing: Option<GoalBearing>,
     resends: u64,
+    /// How long answers take (when waits re-send first).
+    answer_time: AnswerTime,
     queue: VecDeque<Pending>,
     fatal: Option<String>,
     interrupted: bool,
@@ -311,6 +342,7 @@ impl Core {
             late: VecDeque::new(),
             last_bearing: None,
             resends: 0,
+            answer_time: AnswerTime::default(),
             queue: VecDeque::new(),
             fatal: None,
             interrupted: false,
@@ -360,6 +392,43 @@ impl Core {
         self.slot_ref(id).is_some_and(|s| s.alive)
     }
 
+    /// What the launch waits for now, if it waits for an agent: its
+    /// registration, its answer to the tick in flight (or its pose of that
+    /// tick), its start pose. The terminal says it when a wait lasts, so a
+    /// launch that waits is never silent.
+    pub fn waiting(&self) -> Option<Waiting> {
+        let robots = |ids: &[u32]| {
+            let list: Vec<String> = ids.iter().map(u32::to_string).collect();
+            let noun = if ids.len() == 1 { "robot" } else { "robots" };
+            format!("{noun} {}", list.join(", "))
+        };
+        if let Some(t) = self.tick.as_ref().filter(|t| t.open()) {
+            let answers: Vec<u32> = t.awaiting.iter().copied().collect();
+            let what = match t.pose_of.filter(|id| !t.awaiting.contains(id)) {
+                Some(id) if answers.is_empty() => format!("robot {id}'s pose of tick {}", t.step),
+                Some(id) => {
+                    format!("{}'s answers to tick {} and robot {id}'s pose of it", robots(&answers), t.step)
+                }
+                None if answers.len() == 1 => format!("{}'s answer to tick {}", robots(&answers), t.step),
+                None => format!("{}'s answers to tick {}", robots(&answers), t.step),
+            };
+            return Some(Waiting { what, resent: t.wait.resent() });
+        }
+        let what = match self.phase {
+            Phase::AwaitingEveryone => {
+                let ids: Vec<u32> =
+                    self.slots.iter().filter(|s| s.state == SlotState::Spawned).map(|s| s.id).collect();
+                format!("the agents of {} to register", robots(&ids))
+            }
+            Phase::AwaitingRegistration(id) => format!("robot {id}'s agent to register"),
+            Phase::AwaitingStartPose(id, wait) => {
+                return Some(Waiting { what: format!("robot {id}'s start pose"), resent: wait.resent() });
+            }
+            _ => return None,
+        };
+        Some(Waiting { what, resent: 0 })
+    }
+
     /// The next thing to do.
     pub fn poll_output(&mut self) -> Option<Output> {
         self.outputs.pop_front()
@@ -372,7 +441,7 @@ impl Core {
         }
         let mut due: Option<u64> = None;
         let mut at = |t: u64| due = Some(due.map_or(t, |d| d.min(t)));
-        if let Some(tick) = self.tick.as_ref().filter(|t| !t.awaiting.is_empty()) {
+        if let Some(tick) = self.tick.as_ref().filter(|t| t.open()) {
             at(tick.wait.next_due());
         }
         match self.phase {

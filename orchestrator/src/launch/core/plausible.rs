@@ -24,8 +24,20 @@
 //!   we know of runs faster than 1 kHz), so a huge step cannot pass with a
 //!   small time;
 //! * it moved no faster than `max_speed` from the anchor (over at least one
-//!   period), unless the anchor was dropped: a deployment puts a robot at
-//!   the start, an operator carries a robot there ([`Anchors::release`]).
+//!   period).
+//!
+//! Where anchors come from: only from a deployed robot. A robot's first
+//! anchor is its start pose ([`Anchors::accept_start`]), which must lie
+//! where the robot was put at its deployment (a simulated robot exactly at
+//! its `Deploy`'s position; a real one within the placement radius the
+//! operator's placement was checked against). A pose of a robot before its
+//! deployment anchors nothing ([`Anchors::check_alone`]: what the
+//! placement check reads), and [`Anchors::forget`] drops what a robot had
+//! when it is deployed. Why: anyone may publish on a robot's pose topic, and
+//! a pose at the goal published before the robot was deployed became its
+//! start pose (the run "won"), or its time became the reference its agent's
+//! own poses were then refused against ("ahead of the launch's clock").
+//! A refused pose never becomes an anchor.
 
 use bycoms_protocol::msg::Pose;
 
@@ -38,6 +50,8 @@ pub enum Implausible {
     FromTheFuture,
     /// A jump faster than a robot drives (units per simulated second).
     TooFast(f64),
+    /// A start pose this far (units) from where the robot was deployed.
+    NotWhereDeployed(f64),
 }
 
 impl std::fmt::Display for Implausible {
@@ -46,6 +60,7 @@ impl std::fmt::Display for Implausible {
             Self::NotFinite => write!(f, "a coordinate is not a finite number"),
             Self::FromTheFuture => write!(f, "its step or time is ahead of the launch's clock"),
             Self::TooFast(v) => write!(f, "it would have moved at {v:.2} units/s"),
+            Self::NotWhereDeployed(d) => write!(f, "it is {d:.2} units from where the robot was deployed"),
         }
     }
 }
@@ -76,11 +91,21 @@ struct Anchor {
     pose: Pose,
     /// Launch time it was accepted at, µs.
     at_us: u64,
-    /// Whether the speed check applies from it.
-    speed_checked: bool,
 }
 
-/// The last accepted pose of every robot.
+/// Where a robot was put at its deployment, and how far from there its
+/// start pose may lie (units).
+#[derive(Clone, Copy, Debug)]
+pub struct StartAt {
+    /// The deployment's position.
+    pub x: f64,
+    /// The deployment's position.
+    pub y: f64,
+    /// The largest distance from it.
+    pub tolerance: f64,
+}
+
+/// The last accepted pose of every deployed robot.
 #[derive(Clone, Debug)]
 pub struct Anchors {
     period_us: u64,
@@ -94,11 +119,11 @@ impl Anchors {
         Self { period_us: period_us.max(1), max_speed, anchors: vec![None; robots as usize] }
     }
 
-    /// The next pose of robot `id` may jump (deployed at the start, carried
-    /// by hand): no speed check from the current anchor.
-    pub fn release(&mut self, id: u32) {
-        if let Some(Some(a)) = self.slot(id) {
-            a.speed_checked = false;
+    /// Robot `id` is being deployed: whatever it had is dropped, its start
+    /// pose ([`Anchors::accept_start`]) is its first anchor.
+    pub fn forget(&mut self, id: u32) {
+        if let Some(slot) = self.slot(id) {
+            *slot = None;
         }
     }
 
@@ -106,61 +131,100 @@ impl Anchors {
         id.checked_sub(1).and_then(|i| self.anchors.get_mut(i as usize))
     }
 
-    /// Checks robot `id`'s `pose` and, if it is plausible and newer than
-    /// the anchor, makes it the anchor: `Ok(true)`. A plausible pose that
-    /// is not newer (a repeat, a late sample) is `Ok(false)`: not an error,
-    /// but nothing to apply. `carried`: the robot is being carried (any
-    /// speed goes).
-    pub fn accept(&mut self, id: u32, pose: &Pose, clock: Clock, carried: bool) -> Result<bool, Implausible> {
+    /// Checks a pose on its own, against no anchor (finite, and in
+    /// lockstep not ahead of the tick), and keeps nothing: a pose of a robot
+    /// not deployed yet (what a placement check reads).
+    pub fn check_alone(&self, pose: &Pose, clock: Clock) -> Result<(), Implausible> {
+        check_clock(pose, None, clock, self.period_us)
+    }
+
+    /// Robot `id`'s start pose after its deployment: plausible on its own
+    /// and within `at.tolerance` of where it was put; it becomes the anchor.
+    pub fn accept_start(
+        &mut self,
+        id: u32,
+        pose: &Pose,
+        clock: Clock,
+        at: StartAt,
+    ) -> Result<(), Implausible> {
+        check_clock(pose, None, clock, self.period_us)?;
+        let distance = (pose.x - at.x).hypot(pose.y - at.y);
+        if distance > at.tolerance {
+            return Err(Implausible::NotWhereDeployed(distance));
+        }
+        if let Some(slot) = self.slot(id) {
+            *slot = Some(Anchor { pose: *pose, at_us: at_us(clock) });
+        }
+        Ok(())
+    }
+
+    /// Checks deployed robot `id`'s `pose` against its anchor and, if it is
+    /// plausible and newer, makes it the anchor: `Ok(true)`. A plausible
+    /// pose that is not newer (a repeat, a late sample) is `Ok(false)`: not
+    /// an error, but nothing to apply. A robot without an anchor (no start
+    /// pose yet) has nothing to apply either.
+    pub fn accept(&mut self, id: u32, pose: &Pose, clock: Clock) -> Result<bool, Implausible> {
         let (period, max_speed) = (self.period_us, self.max_speed);
         let Some(slot) = self.slot(id) else { return Ok(false) };
-        if !(pose.x.is_finite() && pose.y.is_finite() && pose.heading.is_finite()) {
-            return Err(Implausible::NotFinite);
+        let Some(anchor) = *slot else {
+            check_clock(pose, None, clock, period)?;
+            return Ok(false);
+        };
+        check_clock(pose, Some(&anchor), clock, period)?;
+        // An older pose (a repeat, a late sample) is plausible but does not
+        // move the anchor back.
+        if pose.step <= anchor.pose.step {
+            return Ok(false);
         }
-        let anchor = *slot;
-        match clock {
-            Clock::Lockstep { newest_step } => {
-                let end_us = newest_step.saturating_add(1).saturating_mul(period);
-                if pose.step > newest_step || pose.time_us > end_us {
+        let dt_us = pose.time_us.saturating_sub(anchor.pose.time_us).max(period);
+        let distance = (pose.x - anchor.pose.x).hypot(pose.y - anchor.pose.y);
+        let speed = distance / (dt_us as f64 * 1e-6);
+        if speed > max_speed {
+            return Err(Implausible::TooFast(speed));
+        }
+        *slot = Some(Anchor { pose: *pose, at_us: at_us(clock) });
+        Ok(true)
+    }
+}
+
+/// The launch time an anchor is taken at (lockstep: no wall time).
+fn at_us(clock: Clock) -> u64 {
+    match clock {
+        Clock::Realtime { now_us, .. } => now_us,
+        Clock::Lockstep { .. } => 0,
+    }
+}
+
+/// A pose's coordinates and its step and time against the clock (and, in
+/// real time, against the anchor when there is one).
+fn check_clock(pose: &Pose, anchor: Option<&Anchor>, clock: Clock, period: u64) -> Result<(), Implausible> {
+    if !(pose.x.is_finite() && pose.y.is_finite() && pose.heading.is_finite()) {
+        return Err(Implausible::NotFinite);
+    }
+    match clock {
+        Clock::Lockstep { newest_step } => {
+            let end_us = newest_step.saturating_add(1).saturating_mul(period);
+            if pose.step > newest_step || pose.time_us > end_us {
+                return Err(Implausible::FromTheFuture);
+            }
+        }
+        Clock::Realtime { now_us, speed } => {
+            if let Some(a) = anchor {
+                let waited = now_us.saturating_sub(a.at_us) as f64 * speed * 2.0;
+                let slack = (2.0 * period as f64).max(REALTIME_SLACK_US * speed);
+                let allowed = a.pose.time_us as f64 + waited + slack;
+                if pose.time_us as f64 > allowed {
+                    return Err(Implausible::FromTheFuture);
+                }
+                let steps = pose.step.saturating_sub(a.pose.step);
+                let ms = pose.time_us.saturating_sub(a.pose.time_us) / 1000;
+                if steps > ms + 1 {
                     return Err(Implausible::FromTheFuture);
                 }
             }
-            Clock::Realtime { now_us, speed } => {
-                if let Some(a) = anchor {
-                    let waited = now_us.saturating_sub(a.at_us) as f64 * speed * 2.0;
-                    let slack = (2.0 * period as f64).max(REALTIME_SLACK_US * speed);
-                    let allowed = a.pose.time_us as f64 + waited + slack;
-                    if pose.time_us as f64 > allowed {
-                        return Err(Implausible::FromTheFuture);
-                    }
-                    let steps = pose.step.saturating_sub(a.pose.step);
-                    let ms = pose.time_us.saturating_sub(a.pose.time_us) / 1000;
-                    if steps > ms + 1 {
-                        return Err(Implausible::FromTheFuture);
-                    }
-                }
-            }
         }
-        if let Some(a) = anchor.filter(|a| a.speed_checked && !carried && pose.step > a.pose.step) {
-            let dt_us = pose.time_us.saturating_sub(a.pose.time_us).max(period);
-            let distance = (pose.x - a.pose.x).hypot(pose.y - a.pose.y);
-            let speed = distance / (dt_us as f64 * 1e-6);
-            if speed > max_speed {
-                return Err(Implausible::TooFast(speed));
-            }
-        }
-        let at_us = match clock {
-            Clock::Realtime { now_us, .. } => now_us,
-            Clock::Lockstep { .. } => 0,
-        };
-        // An older pose (a repeat, a late sample) is plausible but does not
-        // move the anchor back.
-        let newer = anchor.is_none_or(|a| pose.step > a.pose.step);
-        if newer {
-            *slot = Some(Anchor { pose: *pose, at_us, speed_checked: !carried });
-        }
-        Ok(newer)
     }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -176,33 +240,64 @@ mod tests {
         Clock::Lockstep { newest_step }
     }
 
-    #[test]
-    fn lockstep_refuses_steps_and_times_ahead_of_the_tick() {
-        let mut a = Anchors::new(2, 100_000, 5.0);
-        assert_eq!(a.accept(1, &pose(3, 0.0), lockstep(3), false), Ok(true));
-        assert_eq!(a.accept(1, &pose(u64::MAX, 0.0), lockstep(4), false), Err(Implausible::FromTheFuture));
-        let mut late = pose(4, 0.1);
-        late.time_us = 10_000_000_000;
-        assert_eq!(a.accept(1, &late, lockstep(4), false), Err(Implausible::FromTheFuture));
-        assert_eq!(a.accept(1, &pose(4, 0.1), lockstep(4), false), Ok(true));
+    /// Deployed at (x, 0), exactly.
+    fn at(x: f64) -> StartAt {
+        StartAt { x, y: 0.0, tolerance: 1e-9 }
     }
 
     #[test]
-    fn a_jump_faster_than_a_robot_drives_is_refused_unless_released_or_carried() {
-        let mut a = Anchors::new(1, 100_000, 5.0);
-        a.accept(1, &pose(1, 0.0), lockstep(1), false).unwrap();
-        assert!(
-            matches!(a.accept(1, &pose(2, 20.0), lockstep(2), false), Err(Implausible::TooFast(v)) if v > 100.0)
-        );
-        assert_eq!(a.accept(1, &pose(2, 0.1), lockstep(2), false), Ok(true), "1 unit/s");
-        assert_eq!(a.accept(1, &pose(3, 20.0), lockstep(3), true), Ok(true), "carried");
-        a.release(1);
+    fn lockstep_refuses_steps_and_times_ahead_of_the_tick() {
+        let mut a = Anchors::new(2, 100_000, 5.0);
+        assert_eq!(a.accept_start(1, &pose(3, 0.0), lockstep(3), at(0.0)), Ok(()));
+        assert_eq!(a.accept(1, &pose(u64::MAX, 0.0), lockstep(4)), Err(Implausible::FromTheFuture));
+        let mut late = pose(4, 0.1);
+        late.time_us = 10_000_000_000;
+        assert_eq!(a.accept(1, &late, lockstep(4)), Err(Implausible::FromTheFuture));
+        assert_eq!(a.accept(1, &pose(4, 0.1), lockstep(4)), Ok(true));
         assert_eq!(
-            a.accept(1, &pose(4, 0.0), lockstep(4), false),
-            Ok(true),
-            "released: the next pose may jump"
+            a.accept_start(2, &pose(5, 0.0), lockstep(4), at(0.0)),
+            Err(Implausible::FromTheFuture),
+            "a start pose is held to the clock too"
         );
-        assert!(a.accept(1, &pose(5, 20.0), lockstep(5), false).is_err(), "checked again after that");
+    }
+
+    #[test]
+    fn a_jump_faster_than_a_robot_drives_is_refused() {
+        let mut a = Anchors::new(1, 100_000, 5.0);
+        a.accept_start(1, &pose(1, 0.0), lockstep(1), at(0.0)).unwrap();
+        assert!(
+            matches!(a.accept(1, &pose(2, 20.0), lockstep(2)), Err(Implausible::TooFast(v)) if v > 100.0)
+        );
+        assert_eq!(a.accept(1, &pose(2, 0.1), lockstep(2)), Ok(true), "1 unit/s");
+        assert_eq!(a.accept(1, &pose(2, 0.1), lockstep(2)), Ok(false), "a repeat: nothing new");
+        assert!(a.accept(1, &pose(3, 20.0), lockstep(3)).is_err(), "the refused jump anchored nothing");
+    }
+
+    /// The forgery: poses at the goal before the robot was
+    /// deployed. They anchor nothing, the deployment's start pose must lie
+    /// where the robot was put, and the genuine poses that follow are
+    /// judged against the genuine start pose.
+    #[test]
+    fn a_robot_starts_where_it_was_deployed_whatever_was_said_before() {
+        let mut a = Anchors::new(1, 100_000, 5.0);
+        let rt = |now_us| Clock::Realtime { now_us, speed: 1.0 };
+        let goal = |step| Pose { y: 44.5, ..pose(step, 44.5) };
+        assert_eq!(a.check_alone(&goal(5), rt(60_000_000)), Ok(()), "plausible on its own");
+        assert_eq!(a.accept(1, &goal(5), rt(60_000_000)), Ok(false), "but nothing to apply");
+        a.forget(1);
+        assert_eq!(
+            a.accept_start(1, &goal(6), rt(60_100_000), at(1.5)),
+            Err(Implausible::NotWhereDeployed(43.0_f64.hypot(44.5)))
+        );
+        // The genuine agent's clock ran for a minute: its start pose is not
+        // "ahead" of the forgery, which never became a reference.
+        assert_eq!(a.accept_start(1, &pose(600, 1.5), rt(60_150_000), at(1.5)), Ok(()));
+        assert_eq!(a.accept(1, &pose(601, 1.6), rt(60_250_000)), Ok(true));
+        assert!(a.accept(1, &goal(602), rt(60_350_000)).is_err(), "and the goal is far");
+        // A placed robot may be within the placement radius.
+        let placed = StartAt { x: 1.5, y: 0.0, tolerance: 0.5 };
+        a.forget(1);
+        assert_eq!(a.accept_start(1, &pose(700, 1.9), rt(70_000_000), placed), Ok(()));
     }
 
     #[test]
@@ -211,10 +306,11 @@ mod tests {
         for bad in [f64::NAN, f64::INFINITY] {
             let mut p = pose(1, 0.0);
             p.y = bad;
-            assert_eq!(a.accept(1, &p, lockstep(1), false), Err(Implausible::NotFinite));
+            assert_eq!(a.accept_start(1, &p, lockstep(1), at(0.0)), Err(Implausible::NotFinite));
+            assert_eq!(a.check_alone(&p, lockstep(1)), Err(Implausible::NotFinite));
             p.y = 0.0;
             p.heading = bad;
-            assert_eq!(a.accept(1, &p, lockstep(1), false), Err(Implausible::NotFinite));
+            assert_eq!(a.accept_start(1, &p, lockstep(1), at(0.0)), Err(Implausible::NotFinite));
         }
     }
 
@@ -222,14 +318,14 @@ mod tests {
     fn real_time_refuses_a_huge_step_or_a_time_ahead_of_the_clock() {
         let mut a = Anchors::new(1, 100_000, 5.0);
         let rt = |now_us| Clock::Realtime { now_us, speed: 5.0 };
-        assert_eq!(a.accept(1, &pose(10, 0.0), rt(0), false), Ok(true));
+        assert_eq!(a.accept_start(1, &pose(10, 0.0), rt(0), at(0.0)), Ok(()));
         // 20 ms of launch time at 5x: 0.2 s of pose time allowed (+0.2 s).
-        assert_eq!(a.accept(1, &pose(11, 0.1), rt(20_000), false), Ok(true));
+        assert_eq!(a.accept(1, &pose(11, 0.1), rt(20_000)), Ok(true));
         let mut huge = pose(12, 0.2);
         huge.step = u64::MAX;
-        assert_eq!(a.accept(1, &huge, rt(40_000), false), Err(Implausible::FromTheFuture));
-        assert_eq!(a.accept(1, &pose(100, 0.2), rt(40_000), false), Err(Implausible::FromTheFuture));
-        assert_eq!(a.accept(1, &pose(12, 0.2), rt(40_000), false), Ok(true));
+        assert_eq!(a.accept(1, &huge, rt(40_000)), Err(Implausible::FromTheFuture));
+        assert_eq!(a.accept(1, &pose(100, 0.2), rt(40_000)), Err(Implausible::FromTheFuture));
+        assert_eq!(a.accept(1, &pose(12, 0.2), rt(40_000)), Ok(true));
     }
 
     /// A loaded machine: the orchestrator read the anchor late, the agent
@@ -239,9 +335,9 @@ mod tests {
     fn real_time_accepts_a_pose_after_skipped_periods_read_right_after_a_late_anchor() {
         let mut a = Anchors::new(1, 100_000, 5.0);
         let rt = |now_us| Clock::Realtime { now_us, speed: 10.0 };
-        assert_eq!(a.accept(1, &pose(10, 0.0), rt(45_000), false), Ok(true));
-        assert_eq!(a.accept(1, &pose(16, 0.3), rt(50_000), false), Ok(true));
+        assert_eq!(a.accept_start(1, &pose(10, 0.0), rt(45_000), at(0.0)), Ok(()));
+        assert_eq!(a.accept(1, &pose(16, 0.3), rt(50_000)), Ok(true));
         // Still no further than half a second of wall time ahead.
-        assert_eq!(a.accept(1, &pose(100, 0.3), rt(55_000), false), Err(Implausible::FromTheFuture));
+        assert_eq!(a.accept(1, &pose(100, 0.3), rt(55_000)), Err(Implausible::FromTheFuture));
     }
 }

@@ -71,17 +71,24 @@ impl Referee {
 
     /// Robot `id`'s next pose: the verdict, once reached (poses of other
     /// robots are not the referee's business). A pose past the budget gives
-    /// none: [`Referee::budget_spent`] ends the robot at the limit.
+    /// none: [`Referee::budget_spent`] ends the robot at the limit. A robot
+    /// that stands still when its watch runs past what is left of the
+    /// budget is stuck then, whatever is left of the dwell, so the time
+    /// limit bounds every run.
     pub fn observe(&mut self, id: u32, pose: Pose) -> Option<Verdict> {
         let (watched, watch) = self.watch.as_mut()?;
         if *watched != id {
             return None;
         }
         let verdict = watch.observe(pose);
+        let left = self.limit.saturating_sub(self.spent);
         // A verdict on a pose past the budget is not one: the runner stops
         // at the limit, and the budget rule ends the robot there.
-        if watch.active_steps() > self.limit.saturating_sub(self.spent) {
+        if watch.active_steps() > left {
             return None;
+        }
+        if verdict.is_none() && watch.watched_periods() > left {
+            return watch.still_at_the_limit();
         }
         verdict
     }
@@ -159,6 +166,29 @@ mod tests {
         let closed = r.close(1).expect("watched");
         assert_eq!((closed.steps, r.spent()), (3, 3));
         assert_eq!(r.close(1), None);
+    }
+
+    /// Issue 31: `--dwell 1e9` with a time limit watched a robot that had
+    /// stopped for ever. Past the budget a still robot is stuck, with the
+    /// active steps it had (as the runner counts it).
+    #[test]
+    fn a_dwell_longer_than_the_run_ends_at_the_time_limit() {
+        let params = GateParams { dwell_us: 1_000_000_000_000_000, ..params() };
+        let mut r = Referee::new(params, 50, true);
+        r.open(1, pose(0, 0.0), 0);
+        let mut verdict = None;
+        let mut last = 0;
+        for s in 1..=10_000 {
+            let x = 0.1 * s.min(20) as f64;
+            last = s;
+            if let Some(v) = r.observe(1, pose(s, x)) {
+                verdict = Some(v);
+                break;
+            }
+        }
+        assert!(matches!(verdict, Some(Verdict::Stuck(p)) if p.x == 2.0), "{verdict:?}");
+        assert_eq!(last, 51, "judged one period past the budget");
+        assert_eq!(r.close(1).map(|c| c.steps), Some(20), "its active steps");
     }
 
     #[test]

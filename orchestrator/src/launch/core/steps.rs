@@ -27,26 +27,27 @@ impl Core {
                 self.relay_at = now + self.setup.wall_period_us.max(1);
             }
             if let Some(tick) = self.tick.as_mut() {
-                if !tick.awaiting.is_empty() {
-                    let held = tick.awaiting.iter().any(|&id| {
+                if tick.open() {
+                    let owing = tick.owing();
+                    let held = owing.iter().any(|&id| {
                         let s = &self.slots[id as usize - 1];
                         s.alive && s.outages.last().is_some_and(|o| o.back_unix_ms.is_none())
                     });
                     let resend = tick.wait.resend_due(now, held);
                     let expired = tick.wait.expired(now);
-                    let awaiting: Vec<u32> = tick.awaiting.iter().copied().collect();
                     if resend {
-                        self.resend(&awaiting);
+                        self.resend(&owing);
                     }
                     if !expired {
                         return;
                     }
-                    for id in awaiting {
+                    for id in owing {
                         self.outputs.push_back(Output::Kill(id));
                         self.on_death(now, id, Gone::NoTickReply);
                     }
                     continue;
                 }
+                self.answer_time.answered(&tick.wait, now);
                 self.ticks = tick.step;
                 self.tick = None;
             }
@@ -65,7 +66,7 @@ impl Core {
                     return true;
                 }
                 for id in 1..=self.setup.robots {
-                    self.outputs.push_back(Output::Start(id));
+                    self.start_agent(id);
                 }
                 // Robots are needed when their turn comes, unless every one is.
                 self.phase = if self.setup.missing == Missing::Fail {
@@ -93,7 +94,7 @@ impl Core {
                 Some(SlotState::Spawned) => false,
                 Some(SlotState::Waiting) => {
                     // Started once more (it died before it registered).
-                    self.outputs.push_back(Output::Start(id));
+                    self.start_agent(id);
                     false
                 }
                 _ => {
@@ -144,7 +145,7 @@ impl Core {
                             .slot_ref(next)
                             .is_some_and(|s| s.state == SlotState::Waiting && s.restarts == 0);
                     if prespawn {
-                        self.outputs.push_back(Output::Start(next));
+                        self.start_agent(next);
                     }
                     self.phase = Phase::Watching;
                     true
@@ -204,7 +205,7 @@ impl Core {
                 return true;
             }
             Some(SlotState::Waiting) => {
-                self.outputs.push_back(Output::Start(id));
+                self.start_agent(id);
                 self.phase = Phase::AwaitingRegistration(id);
                 // The shell starts it before the core goes on.
                 return false;
@@ -213,6 +214,18 @@ impl Core {
         }
         self.phase = Phase::AwaitingRegistration(id);
         true
+    }
+
+    /// Asks the shell to start robot `id`'s agent; from now on it is
+    /// starting, so no second start is asked for it. Why at once: a shell
+    /// carries the start out after `advance`, and at a high speed-up a robot
+    /// deployed and judged in one `advance` had its prespawned successor
+    /// started twice (the successor still looked not started).
+    pub(super) fn start_agent(&mut self, id: u32) {
+        self.outputs.push_back(Output::Start(id));
+        if let Some(slot) = self.slot(id).filter(|s| s.state == SlotState::Waiting) {
+            slot.state = SlotState::Spawned;
+        }
     }
 
     /// Makes sure robot `id` hears every beacon before it moves: an agent's
@@ -320,10 +333,11 @@ impl Core {
         if let Some(slot) = self.slot(id) {
             slot.state = SlotState::Deploying;
         }
-        // Deploying puts the robot at the start: its next pose may jump.
-        self.anchors.release(id);
+        // Deploying puts the robot at the start: its start pose is judged by
+        // where it was put, not by any pose of it from before.
+        self.anchors.forget(id);
         self.pending_deploy = Some(deploy);
-        self.phase = Phase::AwaitingStartPose(id, AnswerWait::new(now, self.setup.tick_timeout_us));
+        self.phase = Phase::AwaitingStartPose(id, self.answer_wait(now));
     }
 
     /// One lockstep tick: the moving robot's bearing, the relays, `Tick` to
@@ -353,8 +367,15 @@ impl Core {
         for &id in &live {
             self.outputs.push_back(Output::Send(id, ToAgent::Tick(Tick { step: t })));
         }
-        let wait = AnswerWait::new(now, self.setup.tick_timeout_us);
-        self.tick = Some(TickWait { step: t, awaiting: live.into_iter().collect(), wait });
+        let wait = self.answer_wait(now);
+        let pose_of = watched.filter(|id| live.contains(id));
+        self.tick = Some(TickWait { step: t, awaiting: live.into_iter().collect(), pose_of, wait });
+    }
+
+    /// A wait for answers from `now`: up to the tick timeout, re-sending
+    /// first after the answer time seen so far.
+    pub(super) fn answer_wait(&self, now: u64) -> AnswerWait {
+        AnswerWait::new(now, self.setup.tick_timeout_us, self.answer_time.first_resend_us())
     }
 
     /// Acts on every queued verdict; the outcome if the run is won.

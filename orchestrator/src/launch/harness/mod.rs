@@ -137,6 +137,8 @@ pub struct Report {
     pub end_us: u64,
     /// Inputs the core counted as bad traffic.
     pub bad: u64,
+    /// Messages the network lost (drops and partitions).
+    pub lost: u64,
     /// Ticks each robot's agent stepped.
     pub stepped: Vec<u64>,
     /// The last `Tick` that reached each robot's agent (none: never one).

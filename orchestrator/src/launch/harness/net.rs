@@ -43,12 +43,28 @@ pub struct Link {
     pub drop: f64,
     /// Probability a message arrives twice.
     pub duplicate: f64,
+    /// Losses and duplicates only on the orchestrator's receiving side
+    /// (agent reports and poses), as a launch's `[faults]` injects them;
+    /// else on every message.
+    pub inbound_only: bool,
 }
 
 impl Link {
     /// A perfect link: every message after `delay_us`, in order.
     pub fn perfect(delay_us: u64) -> Self {
-        Self { delay_min_us: delay_us, delay_max_us: delay_us, drop: 0.0, duplicate: 0.0 }
+        Self {
+            delay_min_us: delay_us,
+            delay_max_us: delay_us,
+            drop: 0.0,
+            duplicate: 0.0,
+            inbound_only: false,
+        }
+    }
+
+    /// A link of `delay_us` that loses a share `drop` of what the
+    /// orchestrator receives (a launch's `[faults] drop`).
+    pub fn faults(delay_us: u64, drop: f64) -> Self {
+        Self { drop, inbound_only: true, ..Self::perfect(delay_us) }
     }
 }
 
@@ -103,11 +119,14 @@ impl Net {
 
     /// Sends `packet` at `now`; `robot` is the agent at the other end.
     pub fn send(&mut self, now: u64, robot: u32, packet: Packet) {
-        if self.cut(robot, now) || self.rng.gen_bool(self.link.drop.clamp(0.0, 1.0)) {
+        let inbound = matches!(packet, Packet::Report(_) | Packet::Pose { relay: false, .. });
+        let faulty = inbound || !self.link.inbound_only;
+        let (drop, duplicate) = if faulty { (self.link.drop, self.link.duplicate) } else { (0.0, 0.0) };
+        if self.cut(robot, now) || self.rng.gen_bool(drop.clamp(0.0, 1.0)) {
             self.lost += 1;
             return;
         }
-        let copies = if self.rng.gen_bool(self.link.duplicate.clamp(0.0, 1.0)) { 2 } else { 1 };
+        let copies = if self.rng.gen_bool(duplicate.clamp(0.0, 1.0)) { 2 } else { 1 };
         for _ in 0..copies {
             let delay = self
                 .rng

@@ -45,6 +45,19 @@ pub enum Foreign {
     OtherSettings(u32),
     /// A report from a robot that is not in the launch.
     UnknownRobot,
+    /// Poses of robot `robot` at the goal, one every 0.1 s from its time
+    /// on (steps 5, 6, 7, … in real time; the tick in lockstep), most of
+    /// them before the robot is deployed: they must neither set where it
+    /// starts nor become the reference its own poses are judged against.
+    GoalSeries {
+        /// The robot.
+        robot: u32,
+        /// Poses of the series sent so far.
+        sent: u32,
+    },
+    /// A pose of robot `.0` at the goal the moment it is told to deploy (a
+    /// forger who watches the bus races its agent's start pose).
+    RacesTheDeploy(u32),
 }
 
 /// Everything that goes wrong in one harness launch.
@@ -128,6 +141,7 @@ impl Schedule {
             delay_max_us: min + spread,
             drop: [0.0, 0.0, 0.01, 0.05][rng.gen_range(0..4)],
             duplicate: [0.0, 0.01, 0.1][rng.gen_range(0..3)],
+            inbound_only: false,
         };
         let tick_us = match s.realtime {
             Some(speed) => (100_000.0 / speed) as u64,
@@ -169,7 +183,7 @@ impl Schedule {
 
 fn foreign(rng: &mut Xoshiro256PlusPlus, robots: u32) -> Foreign {
     let id = rng.gen_range(1..=robots);
-    match rng.gen_range(0..9) {
+    match rng.gen_range(0..11) {
         0 => Foreign::StepFromTheFuture(id),
         1 => Foreign::HugeStep(id),
         2 => Foreign::NotFinite(id),
@@ -178,6 +192,8 @@ fn foreign(rng: &mut Xoshiro256PlusPlus, robots: u32) -> Foreign {
         5 => Foreign::WrongVersion(id),
         6 => Foreign::ShortGrace(id),
         7 => Foreign::OtherSettings(id),
+        8 => Foreign::GoalSeries { robot: id, sent: 0 },
+        9 => Foreign::RacesTheDeploy(id),
         _ => Foreign::UnknownRobot,
     }
 }

@@ -34,6 +34,8 @@ pub(super) struct World<'a> {
     pub(super) heartbeat_timeout_us: u64,
     pub(super) link_grace_us: u64,
     pub(super) early_deaths_left: Vec<u32>,
+    /// Robots a forger races at their next `Deploy` ([`Foreign::RacesTheDeploy`]).
+    pub(super) racers: Vec<u32>,
 }
 
 pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, Vec<Call>) {
@@ -64,6 +66,7 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             resends: 0,
             end_us: 0,
             bad: 0,
+            lost: 0,
             stepped: vec![0; n],
             last_tick: vec![None; n],
             deploys_sent: vec![0; n],
@@ -75,6 +78,7 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
         heartbeat_timeout_us: (cfg.supervision.heartbeat_timeout * 1e6) as u64,
         link_grace_us: (cfg.supervision.link_grace * 1e6) as u64,
         early_deaths_left: schedule.early_deaths.clone(),
+        racers: Vec::new(),
     };
     world.plan();
     world.play();
@@ -174,12 +178,19 @@ impl World<'_> {
             match out {
                 Output::Start(id) => self.start(id),
                 Output::Send(id, msg) => {
-                    if matches!(msg, ToAgent::Deploy(_)) {
+                    let deploy = matches!(msg, ToAgent::Deploy(_));
+                    if deploy {
                         if let Some(d) = self.report.deploys_sent.get_mut(id as usize - 1) {
                             *d += 1;
                         }
                     }
                     self.net.send(now, id, Packet::ToAgent(id, msg));
+                    if let Some(i) = self.racers.iter().position(|&r| r == id).filter(|_| deploy) {
+                        // The forger saw the `Deploy` and answers first.
+                        self.racers.swap_remove(i);
+                        let pose = forged::at_the_goal(id, self.case.terrain.goal(), self.core.ticks());
+                        self.core.handle(now, Input::Pose { topic: id, pose });
+                    }
                 }
                 Output::Relay(pose) => {
                     self.net.send(now, 0, Packet::Pose { topic: pose.robot.0, pose, relay: true });
@@ -366,13 +377,21 @@ impl World<'_> {
                 }
                 self.core.handle(now, input);
             }
-            Event::Forge(f) => match f.input(self) {
-                Some(input) => self.core.handle(now, input),
-                // Not possible yet (the robot has no pose): a little later,
-                // while the launch runs.
-                None if self.core.ending().is_none() => self.at(now + 10_000, Event::Forge(f)),
-                None => {}
-            },
+            Event::Forge(Foreign::RacesTheDeploy(id)) => self.racers.push(id),
+            Event::Forge(f) => {
+                if let Some(next) = f.next(self) {
+                    self.at(now + 100_000, Event::Forge(next));
+                }
+                match f.input(self) {
+                    Some(input) => self.core.handle(now, input),
+                    // A series goes on without the pose that made no sense.
+                    None if matches!(f, Foreign::GoalSeries { .. }) => {}
+                    // Not possible yet (the robot has no pose): a little
+                    // later, while the launch runs.
+                    None if self.core.ending().is_none() => self.at(now + 10_000, Event::Forge(f)),
+                    None => {}
+                }
+            }
             Event::SecondAgent(id) if !self.registered(id) => {
                 // A second agent for a registered robot: later, once it is.
                 if self.core.ending().is_none() {
@@ -445,6 +464,7 @@ impl World<'_> {
         self.report.ticks = core.ticks();
         self.report.resends = core.resends();
         self.report.end_us = self.now;
+        self.report.lost = self.net.lost;
         self.report
     }
 
