@@ -24,6 +24,19 @@ use bycoms_orchestrator::launch::Outcome;
 use bycoms_protocol::msg::GateKind;
 use bycoms_sim::runner::RobotEnd;
 
+/// Robot `robot`'s first `Register` from a simulated agent, as the
+/// harness's cases take it (no settings fingerprint, no failsafe grace).
+fn simulated_register(robot: u32) -> bycoms_protocol::msg::Register {
+    bycoms_protocol::msg::Register {
+        robot: bycoms_protocol::RobotId(robot),
+        kind: bycoms_protocol::msg::RobotKind::Simulated,
+        protocol_version: bycoms_protocol::PROTOCOL_VERSION,
+        instance: 1,
+        settings: 0,
+        failsafe_grace_ms: 0,
+    }
+}
+
 /// Lockstep ticks a small case runs at most (faults fall within them).
 const TICKS: u64 = 400;
 
@@ -594,8 +607,8 @@ fn lost_answers_in_lockstep_cost_a_quick_resend_and_change_nothing() {
 #[test]
 fn the_launch_says_what_it_waits_for() {
     use bycoms_orchestrator::launch::core::{Core, Input};
-    use bycoms_protocol::msg::{FromAgent, Register, RobotKind, TickDone, ToAgent};
-    use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
+    use bycoms_protocol::msg::{FromAgent, TickDone, ToAgent};
+    use bycoms_protocol::RobotId;
     let case = Case::small(0);
     let mut core = Core::new(harness::setup(&case, &Schedule::clean(0, case.robots)));
     let waiting = |core: &Core| core.waiting().map(|w| (w.what, w.resent));
@@ -603,14 +616,7 @@ fn the_launch_says_what_it_waits_for() {
     core.handle(0, Input::Started { robot: 1, pid: Some(7), how: "started".into() });
     core.advance(0);
     assert_eq!(waiting(&core), Some(("robot 1's agent to register".into(), 0)));
-    let register = Register {
-        robot: RobotId(1),
-        kind: RobotKind::Simulated,
-        protocol_version: PROTOCOL_VERSION,
-        instance: 1,
-        settings: 0,
-        failsafe_grace_ms: 0,
-    };
+    let register = simulated_register(1);
     core.handle(1_000, Input::Report(FromAgent::Register(register)));
     core.advance(1_000);
     assert_eq!(waiting(&core), Some(("robot 1's answer to tick 1".into(), 0)));
@@ -633,8 +639,8 @@ fn the_launch_says_what_it_waits_for() {
 #[test]
 fn a_robot_deployed_and_judged_at_once_starts_its_successor_once() {
     use bycoms_orchestrator::launch::core::{Core, Input, Output};
-    use bycoms_protocol::msg::{FromAgent, Pose, Register, RobotKind, ToAgent};
-    use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
+    use bycoms_protocol::msg::{FromAgent, Pose, ToAgent};
+    use bycoms_protocol::RobotId;
     let case = Case::small(0);
     let schedule = Schedule { realtime: Some(100_000.0), ..Schedule::clean(0, case.robots) };
     let mut core = Core::new(harness::setup(&case, &schedule));
@@ -653,14 +659,7 @@ fn a_robot_deployed_and_judged_at_once_starts_its_successor_once() {
     core.advance(0);
     drain(&mut core, &mut starts);
     core.handle(0, Input::Started { robot: 1, pid: Some(7), how: "started".into() });
-    let register = Register {
-        robot: RobotId(1),
-        kind: RobotKind::Simulated,
-        protocol_version: PROTOCOL_VERSION,
-        instance: 1,
-        settings: 0,
-        failsafe_grace_ms: 0,
-    };
+    let register = simulated_register(1);
     core.handle(10, Input::Report(FromAgent::Register(register)));
     let mut now = 10;
     while !drain(&mut core, &mut starts) {

@@ -23,6 +23,23 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
+/// The lines `child` prints on its (piped) stdout, on a channel fed by a
+/// thread that ends at its EOF: a test waits for a line with
+/// `recv_timeout`, never without a deadline.
+pub fn stdout_lines(child: &mut Child) -> std::sync::mpsc::Receiver<String> {
+    use std::io::BufRead;
+    let stdout = child.stdout.take().expect("piped stdout");
+    let (tx, lines) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    lines
+}
+
 /// The iceoryx2 configuration the launched processes use: their own root
 /// when `$BYCOMS_IPC_ISOLATION` is set (CI sets it for the whole run).
 pub fn iox_config() -> bycoms_protocol::bus::ipc::root::Config {

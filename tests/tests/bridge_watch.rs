@@ -13,7 +13,6 @@ use bycoms_protocol::msg::{GateEvent, GateKind};
 use bycoms_protocol::{RobotId, Swarm};
 use bycoms_runtime::ipc_config;
 use bycoms_tests::{swarm_name, Proc};
-use std::io::{BufRead, BufReader};
 use std::net::TcpListener;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
@@ -51,15 +50,7 @@ impl Watch {
             .stderr(Stdio::inherit())
             .spawn()
             .expect("python3 starts");
-        let stdout = child.stdout.take().expect("piped stdout");
-        let (tx, lines) = mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
+        let lines = bycoms_tests::stdout_lines(&mut child);
         Watch { child, lines, seen: Vec::new() }
     }
 

@@ -14,7 +14,7 @@
 //! `.ci/run` (which installs them) with `--include-ignored`.
 
 use bycoms_tests::{swarm_name, Proc};
-use std::io::{BufRead, BufReader, Write};
+use std::io::Write;
 use std::net::TcpListener;
 use std::path::PathBuf;
 use std::process::{Child, ChildStdin, Command, Stdio};
@@ -39,15 +39,7 @@ impl Listener {
             .stderr(Stdio::inherit())
             .spawn()
             .expect("python3 starts");
-        let stdout = child.stdout.take().expect("piped stdout");
-        let (tx, lines) = mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
+        let lines = bycoms_tests::stdout_lines(&mut child);
         let stdin = child.stdin.take();
         Listener { child, stdin, lines }
     }
