@@ -117,7 +117,12 @@ fn a_short_cut_is_ridden_out_and_the_run_still_gives_the_simulate_result() {
     for (i, done) in agents_done(agents).iter().enumerate() {
         assert_eq!(done.status.code(), Some(0), "agent {}: {}", i + 1, done.stderr);
         // The re-sends after the cut left no tick stepped on a stale bearing.
-        assert!(!done.stderr.contains("stepped on an earlier tick's goal bearing"), "agent {}: {}", i + 1, done.stderr);
+        assert!(
+            !done.stderr.contains("stepped on an earlier tick's goal bearing"),
+            "agent {}: {}",
+            i + 1,
+            done.stderr
+        );
     }
 }
 
@@ -272,7 +277,12 @@ fn a_cut_longer_than_the_grace_is_recorded_and_ends_the_run_cleanly() {
             assert!(done.stderr.contains("robot stopped, exiting"), "agent {}: {}", i + 1, done.stderr);
         }
         // The re-sends after the cut left no tick stepped on a stale bearing.
-        assert!(!done.stderr.contains("stepped on an earlier tick's goal bearing"), "agent {}: {}", i + 1, done.stderr);
+        assert!(
+            !done.stderr.contains("stepped on an earlier tick's goal bearing"),
+            "agent {}: {}",
+            i + 1,
+            done.stderr
+        );
     }
 }
 
