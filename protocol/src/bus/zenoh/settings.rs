@@ -95,7 +95,7 @@ impl ZenohBus {
                     None => query.reply(query.key_expr().clone(), payload.to_vec()).wait(),
                     Some(why) => {
                         let n = count.fetch_add(1, Ordering::Relaxed) + 1;
-                        if n <= LOG_FIRST || n % 1000 == 0 {
+                        if n <= LOG_FIRST || n.is_multiple_of(1000) {
                             tracing::warn!(n, "an agent asked for the run's settings and was refused: {why}");
                         }
                         query.reply_err(why.into_bytes()).wait()
