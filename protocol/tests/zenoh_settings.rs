@@ -2,14 +2,16 @@
 //! queryable on `bycoms/<swarm>/settings` and gets the served bytes whole
 //! (far beyond one bus message), every time it asks; another swarm's key
 //! gets no answer, within the asked wait; the answer stops when the server
-//! is dropped.
+//! is dropped. An asker naming a robot outside the launch is refused with
+//! the reason and counted; one naming none (an older agent) is answered.
 //!
 //! Every session listens on a loopback port the kernel handed out; every
 //! wait has a timeout.
 #![cfg(feature = "zenoh")]
 
+use bycoms_protocol::bus::zenoh::settings::SettingsAnswer;
 use bycoms_protocol::bus::zenoh::{Mode, ZenohBus, ZenohConfig};
-use bycoms_protocol::Swarm;
+use bycoms_protocol::{RobotId, Swarm};
 use core::time::Duration;
 use std::net::TcpListener;
 use std::time::Instant;
@@ -46,17 +48,27 @@ fn swarm(tag: &str) -> Swarm {
     Swarm::new(&format!("s{}-{tag}", std::process::id())).expect("valid swarm")
 }
 
-/// Asks until an answer comes, for up to 5 s (the client's routes to the
-/// router's queryable are declared asynchronously after it connects).
-fn fetch_soon(bus: &ZenohBus, swarm: &Swarm) -> Option<Vec<u8>> {
+/// Asks as robot `robot` until an answer comes, for up to 5 s (the
+/// client's routes to the router's queryable are declared asynchronously
+/// after it connects).
+fn answer_soon(bus: &ZenohBus, swarm: &Swarm, robot: Option<u32>) -> Option<SettingsAnswer> {
     let deadline = Instant::now() + Duration::from_secs(5);
     while Instant::now() < deadline {
         // Each ask waits up to 500 ms for an answer: no pause between asks.
-        if let Some(bytes) = bus.fetch_settings(swarm, Duration::from_millis(500)).expect("query") {
-            return Some(bytes);
+        let asked = bus.fetch_settings(swarm, robot.map(RobotId), Duration::from_millis(500));
+        if let Some(answer) = asked.expect("query") {
+            return Some(answer);
         }
     }
     None
+}
+
+/// The settings robot 1 gets, within 5 s.
+fn fetch_soon(bus: &ZenohBus, swarm: &Swarm) -> Option<Vec<u8>> {
+    match answer_soon(bus, swarm, Some(1)) {
+        Some(SettingsAnswer::Settings(bytes)) => Some(bytes),
+        other => panic!("robot 1 was not answered its settings: {other:?}"),
+    }
 }
 
 #[test]
@@ -65,13 +77,14 @@ fn a_client_gets_the_served_settings_whole_and_another_swarm_gets_nothing() {
     let lab = swarm("lab");
     // A terrain's worth of bytes, every value of a byte in it.
     let served: Vec<u8> = (0..5000u32).map(|i| (i % 251) as u8).collect();
-    let server = router.serve_settings(&lab, served.clone()).expect("serve");
+    let server = router.serve_settings(&lab, served.clone(), 3).expect("serve");
     let client = client_of(&endpoint);
     assert_eq!(fetch_soon(&client, &lab).as_deref(), Some(&served[..]), "the whole payload");
     assert_eq!(fetch_soon(&client, &lab).as_deref(), Some(&served[..]), "again, for every asker");
     // Another swarm's settings: nobody answers, within the wait asked for.
     let asked = Instant::now();
-    let other = client.fetch_settings(&swarm("other"), Duration::from_millis(300)).expect("query");
+    let other = client.fetch_settings(&swarm("other"), Some(RobotId(1)), Duration::from_millis(300));
+    let other = other.expect("query");
     assert_eq!(other, None);
     assert!(asked.elapsed() < Duration::from_secs(3), "the wait is bounded: {:?}", asked.elapsed());
     // Served for as long as the server lives: once the undeclaration has
@@ -80,7 +93,27 @@ fn a_client_gets_the_served_settings_whole_and_another_swarm_gets_nothing() {
     let deadline = Instant::now() + Duration::from_secs(5);
     let mut answered = true;
     while answered && Instant::now() < deadline {
-        answered = client.fetch_settings(&lab, Duration::from_millis(300)).expect("query").is_some();
+        answered = client
+            .fetch_settings(&lab, Some(RobotId(1)), Duration::from_millis(300))
+            .expect("query")
+            .is_some();
     }
     assert!(!answered, "still answered 5 s after the server was dropped");
+}
+
+#[test]
+fn an_asker_for_a_robot_outside_the_launch_is_refused_and_counted() {
+    let (router, endpoint) = router();
+    let lab = swarm("strangers");
+    let served = vec![1u8, 2, 3];
+    let server = router.serve_settings(&lab, served.clone(), 3).expect("serve");
+    let client = client_of(&endpoint);
+    // The launch's robots, and an agent of an older build (no robot named).
+    assert_eq!(answer_soon(&client, &lab, Some(3)), Some(SettingsAnswer::Settings(served.clone())));
+    assert_eq!(answer_soon(&client, &lab, None), Some(SettingsAnswer::Settings(served)));
+    assert_eq!(server.refused(), 0);
+    // Robot 9 of 3: refused, saying why, and counted.
+    let why = "robot 9 is not one of the launch's robots (it has robots 1 to 3)";
+    assert_eq!(answer_soon(&client, &lab, Some(9)), Some(SettingsAnswer::Refused(why.into())));
+    assert_eq!(server.refused(), 1);
 }

@@ -282,28 +282,28 @@ fn a_robot_whose_agent_never_comes_is_skipped_or_named_with_missing_fail() {
     assert_exit_cleanly(agents);
 }
 
-/// Robot 5 of a swarm of 5 is a valid agent, but the launch has 3 robots:
-/// it reports on robot 5's topic, which the launch does not read, and is
-/// never answered (a report naming robot 5 on a robot of the launch's
-/// topic would be counted as forged: `bad_traffic.rs`).
+/// Robot 9 when the launch has 3: its reports would go to robot 9's topic,
+/// which the launch does not read, so the launch refuses it its settings
+/// (the agent names its robot when it asks): the agent exits refused
+/// (status 3) saying why, before it ever runs, and the launch counts it as
+/// bad traffic (`unknown_robot`) and goes on undisturbed.
 #[test]
-fn an_agent_of_a_robot_outside_the_launch_is_ignored() {
+fn an_agent_of_a_robot_outside_the_launch_is_counted_and_refused() {
     let world = World::long_obstacle();
     let swarm = swarm_name("remote-stranger");
     let (orch, endpoint) = orchestrator(&world, &swarm, &[]);
-    // Robot 5 with the launch's settings (taken from the orchestrator).
-    let mut stranger = bare_agent(&endpoint, &swarm, 5);
-    stranger
-        .stderr_line(Duration::from_secs(20), |l| l.contains("asking the orchestrator for").then_some(()))
-        .expect("the stranger joins");
+    let stranger = bare_agent(&endpoint, &swarm, 9).wait(Duration::from_secs(30));
+    assert_eq!(stranger.status.code(), Some(3), "the stranger is refused:\n{}", stranger.stderr);
+    let why = "refused by the orchestrator for robot 9: robot 9 is not one of the launch's robots \
+               (it has robots 1 to 3)";
+    assert!(stranger.stderr.contains(why), "{}", stranger.stderr);
+    assert!(!stranger.stderr.contains("got the run's settings"), "it never runs:\n{}", stranger.stderr);
     let agents: Vec<Proc> = (1..=3).map(|k| agent(&world, &endpoint, &swarm, k, 3)).collect();
     let out = orch.wait(Duration::from_secs(180));
     assert_same_as_simulate(&out, &world.expected);
-    assert!(!out.stderr.contains("robot 5"), "the launch heard of robot 5:\n{}", out.stderr);
+    assert!(bad(&out.json(), "unknown_robot") >= 1, "{}", out.json());
+    assert!(out.stderr.contains("robot 9 is not one of the launch's robots"), "{}", out.stderr);
     assert_exit_cleanly(agents);
-    // The stranger was never anyone's agent: it is still there, unharmed.
-    assert!(!bycoms_tests::is_zombie(stranger.pid()), "the stranger crashed");
-    stranger.kill();
 }
 
 #[test]

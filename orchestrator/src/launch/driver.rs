@@ -21,6 +21,7 @@ use super::progress::{Progress, Waits};
 use super::summary::{Outcome, RealtimeReport, RecordingSummary, RobotEnd, RobotSummary, Summary};
 use super::World;
 use crate::record::schema;
+use bycoms_protocol::bus::zenoh::settings::SettingsServer;
 use bycoms_protocol::msg::{Pose, ToAgent};
 use bycoms_sim::sim_agent::AgentArgs;
 use bycoms_sim::Vec2;
@@ -48,6 +49,9 @@ pub struct Driver {
     /// When `launch::run` was called (before the bus was opened).
     begun: Instant,
     endpoints: Vec<String>,
+    /// zenoh: the run's settings, served to the end; its refusals (askers
+    /// for robots outside the launch) count as `unknown_robot`.
+    settings: Option<SettingsServer>,
     poses: Vec<(u32, Pose)>,
     /// What the launch waits for, said when a wait lasts.
     waits: Waits,
@@ -73,12 +77,15 @@ pub struct Parts {
     pub begun: Instant,
     /// zenoh: where the orchestrator listens.
     pub endpoints: Vec<String>,
+    /// zenoh: the settings server (held to the end, its refusals counted).
+    pub settings: Option<SettingsServer>,
 }
 
 impl Driver {
     /// A driver around a new core for `parts`.
     pub fn new(parts: Parts) -> Self {
-        let Parts { cfg, world, ports, agents, pose_source, template, stop, begun, endpoints } = parts;
+        let Parts { cfg, world, ports, agents, pose_source, template, stop, begun, endpoints, settings } =
+            parts;
         let setup = super::setup::setup(&cfg, &world, &template, agents.as_ref(), pose_source.as_ref());
         let mut ports = ports;
         // The core's setup and calls go into the recording: `replay` feeds
@@ -101,9 +108,19 @@ impl Driver {
             epoch: Instant::now(),
             begun,
             endpoints,
+            settings,
             poses: Vec::new(),
             waits: Waits::new(Instant::now()),
         }
+    }
+
+    /// The bad traffic seen: the ports' counts, and the settings queries of
+    /// agents of robots outside the launch (their reports go to topics
+    /// the ports do not read).
+    fn traffic(&self) -> bycoms_runtime::Traffic {
+        let mut traffic = self.ports.traffic;
+        traffic.unknown_robot += self.settings.as_ref().map_or(0, SettingsServer::refused);
+        traffic
     }
 
     fn now(&self) -> u64 {
@@ -385,7 +402,7 @@ impl Driver {
             realtime,
             beacons,
             robots,
-            bad_traffic: self.ports.traffic,
+            bad_traffic: self.traffic(),
             recording: None,
             picture: None,
             transport: self.cfg.transport.kind.as_str().into(),

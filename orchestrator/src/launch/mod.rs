@@ -219,11 +219,12 @@ pub fn run_serving(
     let template = setup::agent_template(&cfg, swarm_name, endpoints.clone());
     // zenoh: the run's settings for agents started elsewhere with only
     // where to connect, their swarm and robot id; served to the end.
-    let _settings_served = match &zenoh {
+    let settings_served = match &zenoh {
         Some(z) => {
             let settings = setup::run_settings(&template, &world);
-            let served =
-                z.serve_settings(&swarm, settings.encode()).context("cannot serve the run's settings")?;
+            let served = z
+                .serve_settings(&swarm, settings.encode(), cfg.robots)
+                .context("cannot serve the run's settings")?;
             tracing::info!(
                 key = swarm.settings().as_str(),
                 fingerprint = format_args!("{:016x}", settings.fingerprint()),
@@ -253,6 +254,7 @@ pub fn run_serving(
         stop,
         begun,
         endpoints,
+        settings: settings_served,
     });
     let summary = driver.run();
     if let Some(live) = live {

@@ -12,8 +12,9 @@
 //! (SIGINT, SIGTERM, SIGHUP, SIGQUIT: interrupted, as the orchestrator and
 //! the gateway say it), 2 for a usage error (bad flags or values, a bad swarm
 //! name or `--connect` endpoint), 3 when the
-//! orchestrator refused the agent (its robot already has one, other
-//! settings, a short grace) or its settings differ from the launch's, 4 when the
+//! orchestrator refused the agent (its robot already has one or is not one
+//! of the launch's, other settings, a short grace) or its settings differ
+//! from the launch's, 4 when the
 //! failsafe stopped the robot and exited (orchestrator lost), 1 for any
 //! other error (unreadable terrain, bus failure, no settings from the
 //! orchestrator in time), printed on stderr first.
@@ -86,7 +87,7 @@ pub fn main_with(args: &AgentArgs) -> i32 {
                 // Bad values are usage errors, like clap's own (exit code 2).
                 AgentError::Args(_) | AgentError::Swarm(_) => 2,
                 // The launch would refuse it: as a refusal.
-                AgentError::SettingsDiffer(_) => 3,
+                AgentError::SettingsDiffer(_) | AgentError::Settings(FetchError::Refused { .. }) => 3,
                 _ => 1,
             }
         }
@@ -159,7 +160,8 @@ impl OnBus for RunAgent<'_> {
             // launch that does not answer soon does not hold the agent up.
             wait = wait.min(CHECK_WAIT);
         }
-        let launch = match (settings::fetch(bus, self.swarm, wait), &self.own) {
+        let robot = RobotId(self.args.robot);
+        let launch = match (settings::fetch(bus, self.swarm, robot, wait), &self.own) {
             (Ok(launch), _) => launch,
             // With settings of its own the agent can go on: the launch
             // refuses its `Register` if the fingerprints differ.

@@ -58,8 +58,8 @@ impl Clock {
 /// Over zenoh it needs only where to connect, its swarm and its robot id:
 /// it asks the orchestrator for the run's settings (terrain, ε, noise,
 /// seed, clock, speed, swarm size). Started with settings flags it checks
-/// them against the launch's and exits naming the first difference. It
-/// registers, waits for its deployment, then senses the field of the
+/// them against the launch's and exits naming the first difference. A
+/// launch without its robot refuses it (status 3). It registers, waits for its deployment, then senses the field of the
 /// beacons the orchestrator sends it (each earlier robot's last pose,
 /// summed in robot-id order), runs the BYCOMS
 /// controller on its goal bearing, moves its simulated body and publishes its

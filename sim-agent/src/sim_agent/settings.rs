@@ -32,8 +32,9 @@
 use super::options::{AgentArgs, Clock};
 use crate::sensing::NoiseModel;
 use crate::RunConfig;
+use bycoms_protocol::bus::zenoh::settings::SettingsAnswer;
 use bycoms_protocol::bus::zenoh::ZenohBus;
-use bycoms_protocol::Swarm;
+use bycoms_protocol::{RobotId, Swarm};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use std::time::{Duration, Instant};
@@ -240,6 +241,14 @@ pub enum FetchError {
         /// How long the agent asked.
         waited: Duration,
     },
+    /// The orchestrator refused this agent's robot (not one of the launch's).
+    #[error("refused by the orchestrator for robot {robot}: {why}")]
+    Refused {
+        /// The agent's robot.
+        robot: u32,
+        /// Why, in the orchestrator's words (or the agent's own check).
+        why: String,
+    },
     /// The orchestrator's answer is no settings this agent reads.
     #[error("the orchestrator's run settings: {0}")]
     Decode(#[from] DecodeError),
@@ -248,10 +257,17 @@ pub enum FetchError {
     Bus(#[from] bycoms_protocol::bus::BusError),
 }
 
-/// Asks the orchestrator of `swarm` for the run's settings on `bus`, again
-/// every second until it answers (it may not have declared them yet), for
-/// up to `wait`; says every few seconds that it is still waiting.
-pub fn fetch(bus: &ZenohBus, swarm: &Swarm, wait: Duration) -> Result<RunSettings, FetchError> {
+/// Asks the orchestrator of `swarm` for the run's settings on `bus` as the
+/// agent of `robot`, again every second until it answers (it may not have
+/// declared them yet), for up to `wait`; says every few seconds that it is
+/// still waiting. A launch without `robot` refuses it (and so does this
+/// agent, should an older orchestrator answer anyway: its swarm is smaller).
+pub fn fetch(
+    bus: &ZenohBus,
+    swarm: &Swarm,
+    robot: RobotId,
+    wait: Duration,
+) -> Result<RunSettings, FetchError> {
     let key = swarm.settings();
     let begun = Instant::now();
     let mut said = begun;
@@ -266,8 +282,8 @@ pub fn fetch(bus: &ZenohBus, swarm: &Swarm, wait: Duration) -> Result<RunSetting
             });
         }
         let asked = Instant::now();
-        if let Some(bytes) = bus.fetch_settings(swarm, left.min(ASK_EVERY))? {
-            let settings = RunSettings::decode(&bytes)?;
+        if let Some(answer) = bus.fetch_settings(swarm, Some(robot), left.min(ASK_EVERY))? {
+            let settings = launch_settings(answer, robot)?;
             tracing::info!(
                 fingerprint = format_args!("{:016x}", settings.fingerprint()),
                 eps = settings.eps,
@@ -293,6 +309,24 @@ pub fn fetch(bus: &ZenohBus, swarm: &Swarm, wait: Duration) -> Result<RunSetting
     }
 }
 
+/// The settings of the orchestrator's `answer` to the agent of `robot`, or
+/// why it may not run them.
+fn launch_settings(answer: SettingsAnswer, robot: RobotId) -> Result<RunSettings, FetchError> {
+    let refused = |why: String| FetchError::Refused { robot: robot.0, why };
+    let settings = match answer {
+        SettingsAnswer::Settings(bytes) => RunSettings::decode(&bytes)?,
+        SettingsAnswer::Refused(why) => return Err(refused(why)),
+    };
+    if !(1..=settings.swarm_size).contains(&robot.0) {
+        let n = settings.swarm_size;
+        return Err(refused(format!(
+            "robot {} is not one of the launch's robots (it has robots 1 to {n})",
+            robot.0
+        )));
+    }
+    Ok(settings)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -308,6 +342,19 @@ mod tests {
             swarm_size: 3,
             heartbeat_ms: 100,
         }
+    }
+
+    #[test]
+    fn an_agent_outside_the_launch_does_not_run_its_settings() {
+        let served = || SettingsAnswer::Settings(paper().encode());
+        assert_eq!(launch_settings(served(), RobotId(3)).expect("robot 3 of 3").swarm_size, 3);
+        // An orchestrator that answers anyone (an older one): the agent's own check.
+        let own = launch_settings(served(), RobotId(9)).expect_err("robot 9 of 3");
+        let text = "refused by the orchestrator for robot 9: robot 9 is not one of the launch's robots (it has robots 1 to 3)";
+        assert_eq!(own.to_string(), text);
+        let why = "robot 9 is not one of the launch's robots (it has robots 1 to 3)";
+        let refused = launch_settings(SettingsAnswer::Refused(why.into()), RobotId(9)).expect_err("refused");
+        assert_eq!(refused.to_string(), text);
     }
 
     #[test]
