@@ -199,7 +199,7 @@ mod tests {
             while self.now < until {
                 self.now += FRAME_US.min(until - self.now);
                 self.step(None);
-                if frames && self.now % FRAME_US == 0 {
+                if frames && self.now.is_multiple_of(FRAME_US) {
                     self.frame += 1;
                     if self.deployed {
                         self.x += 0.2 * FRAME_US as f64 / 1e6;
