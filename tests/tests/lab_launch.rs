@@ -260,7 +260,7 @@ fn a_cut_robot_link_makes_the_robot_a_beacon_within_500_ms_and_the_next_robot_go
 }
 
 #[test]
-fn killing_a_gateway_then_the_lab_ends_the_launch_and_leaves_no_process() {
+fn killing_a_gateway_then_the_lab_ends_the_launch_saying_motion_capture_is_gone_and_leaves_no_process() {
     let _turn = Turn::take();
     let dir = tempfile::tempdir().expect("temp dir");
     let swarm = swarm_name("labkill");
@@ -282,11 +282,17 @@ fn killing_a_gateway_then_the_lab_ends_the_launch_and_leaves_no_process() {
     let lab_pid = lab.pid();
     lab.kill();
     let out = run.wait(Duration::from_secs(60));
-    assert_eq!(out.status.code(), Some(3), "no robot arrived:\n{}", out.stderr);
+    // The room is gone, not robot 2's link: said as such (an error, exit 1).
+    assert_eq!(out.status.code(), Some(1), "motion capture gone:\n{}", out.stderr);
     let j = out.json();
-    assert_eq!(ends(&j), ["died", "died", "not_deployed"], "{j}");
+    assert_eq!(j["outcome"], "error", "{j}");
+    let error = j["error"].as_str().unwrap_or_default();
+    assert!(error.starts_with("motion capture gone: no pose of any robot for "), "{j}");
+    assert!(error.contains("link was lost with it"), "said at the first lost link: {j}");
+    assert!(out.stderr.contains(error), "the error is said:\n{}", out.stderr);
+    assert_eq!(ends(&j), ["died", "moving", "not_deployed"], "{j}");
     assert!(j["robots"][0]["death"]["reason"].as_str().unwrap_or_default().contains("signal: 9"), "{j}");
-    assert!(j["robots"][1]["death"]["reason"].as_str().unwrap_or_default().contains("link"), "{j}");
+    assert!(j["robots"][1]["death"].is_null(), "robot 2 is not judged dead for its link: {j}");
     drop(lab);
     assert!(is_zombie(lab_pid) && is_zombie(first), "the lab and the killed gateway are gone");
     assert_no_gateway_left(&swarm);

@@ -120,15 +120,7 @@ impl GatewayArgs {
         if self.heartbeat_ms == 0 {
             return Err("--heartbeat-ms must be at least 1".into());
         }
-        // A swarm of 0, or one this robot is not in, sizes the bus wrongly
-        // for every process of the swarm: said, not silently stretched.
-        if let Some(n) = self.swarm_size.filter(|&n| n < self.robot.max(1)) {
-            return Err(format!(
-                "--swarm-size {n}: robot {} is not one of the swarm's robots 1..={n}; give the swarm's size \
-                 (at least {})",
-                self.robot, self.robot
-            ));
-        }
+        bycoms_runtime::cli::check_swarm_size(self.robot, self.swarm_size)?;
         self.failsafe.grace()?;
         self.bus.validate()
     }

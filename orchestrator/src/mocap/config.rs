@@ -10,7 +10,7 @@
 
 use super::{ArenaTransform, ClientConfig, TrackerConfig};
 use bycoms_protocol::RobotId;
-use bycoms_runtime::seconds::{check_seconds, Zero};
+use bycoms_runtime::seconds::{check_seconds, Zero, MAX_SECONDS};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -136,6 +136,15 @@ impl NatNetSourceConfig {
         if t.lost_after_us == 0 {
             return Err("mocap.natnet.tracker.lost_after_us must be at least 1".into());
         }
+        // Added to an `Instant` for every command: near u64::MAX it
+        // overflowed (a panic); 0 is no socket timeout at all.
+        let reply_ms = self.client.reply_timeout_ms;
+        let max_ms = (MAX_SECONDS * 1000.0) as u64;
+        if !(1..=max_ms).contains(&reply_ms) {
+            return Err(format!(
+                "mocap.natnet.client.reply_timeout_ms must be a number of milliseconds in [1, {max_ms}], got {reply_ms}"
+            ));
+        }
         Ok(())
     }
 }
@@ -192,5 +201,23 @@ mod tests {
         let err = toml::from_str::<MocapConfig>(&twice).unwrap().validate(2).unwrap_err();
         assert!(err.contains("both robot 1"), "{err}");
         assert_eq!(MocapConfig::default().validate(5), Ok(()));
+    }
+
+    #[test]
+    fn a_reply_timeout_past_any_run_or_of_zero_is_named() {
+        let with = |ms: u64| {
+            let text = LAB.replace(
+                "server = \"127.0.0.1:1510\"",
+                &format!("server = \"127.0.0.1:1510\"\nreply_timeout_ms = {ms}"),
+            );
+            toml::from_str::<MocapConfig>(&text).expect("parses").validate(2)
+        };
+        for ms in [u64::MAX, 100_000_000_001, 0] {
+            let err = with(ms).unwrap_err();
+            let says = format!("mocap.natnet.client.reply_timeout_ms must be a number of milliseconds in [1, 100000000000], got {ms}");
+            assert_eq!(err, says);
+        }
+        assert_eq!(with(100_000_000_000), Ok(()));
+        assert_eq!(with(1), Ok(()));
     }
 }

@@ -35,6 +35,19 @@ pub fn check_speed(speed: f64) -> Result<(), String> {
     Ok(())
 }
 
+/// `--swarm-size` must hold robot `robot`: a swarm of 0, or one this robot
+/// is not in, sizes the bus wrongly for every process of the swarm, so it
+/// is said, not silently stretched (shared by `agent` and `sim-agent`).
+pub fn check_swarm_size(robot: u32, swarm_size: Option<u32>) -> Result<(), String> {
+    match swarm_size.filter(|&n| n < robot.max(1)) {
+        Some(n) => Err(format!(
+            "--swarm-size {n}: robot {robot} is not one of the swarm's robots 1..={n}; give the swarm's size \
+             (at least {robot})"
+        )),
+        None => Ok(()),
+    }
+}
+
 /// The command line of a swarm binary `name` (`sim-agent`, `agent`) whose
 /// own flags `M` and the logging flags sit at the top level, next to one
 /// subcommand `sub` with flags `S`.

@@ -107,9 +107,12 @@ impl LabArgs {
         }
         // At least one frame a second: a frame period is a span of seconds
         // too (`--natnet-rate 1e-300` made one of 1e300 s).
-        if !(1.0..=10_000.0).contains(&self.natnet_rate) {
+        let rates = crate::natnet_server::config::RATE_HZ;
+        if !rates.contains(&self.natnet_rate) {
             return Err(LabError::Args(format!(
-                "--natnet-rate must be a number of Hz in [1, 10000], got {:?}",
+                "--natnet-rate must be a number of Hz in [{}, {}], got {:?}",
+                rates.start(),
+                rates.end(),
                 self.natnet_rate
             )));
         }

@@ -114,12 +114,23 @@ pub struct Swap {
     pub to_s: f64,
 }
 
+/// The frame rates a server streams at, Hz: at least one frame a second (a
+/// frame period is a span of seconds too: `rate_hz = 1e-300` made one of
+/// 1e300 s, a panic), at most 10 000 (shared with `sim-agent lab
+/// --natnet-rate`).
+pub const RATE_HZ: std::ops::RangeInclusive<f64> = 1.0..=10_000.0;
+
 impl ServerConfig {
-    /// Checks what serde cannot: a positive rate, unique ids and names,
+    /// Checks what serde cannot: a rate in [`RATE_HZ`], unique ids and names,
     /// probabilities in range.
     pub fn validate(&self) -> Result<(), String> {
-        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0 && self.rate_hz <= 10_000.0) {
-            return Err(format!("rate_hz must be in (0, 10000], got {}", self.rate_hz));
+        if !RATE_HZ.contains(&self.rate_hz) {
+            return Err(format!(
+                "rate_hz must be a number of Hz in [{}, {}], got {:?}",
+                RATE_HZ.start(),
+                RATE_HZ.end(),
+                self.rate_hz
+            ));
         }
         if !(0.0..=1.0).contains(&self.faults.frame_loss) {
             return Err(format!("faults.frame_loss must be in [0, 1], got {}", self.faults.frame_loss));

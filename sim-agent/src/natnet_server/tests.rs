@@ -112,8 +112,14 @@ fn config_rejects_duplicates_and_bad_rates() {
     let mut c = config(Faults::default());
     c.bodies[1].id = 1;
     assert!(c.validate().unwrap_err().contains("twice"));
-    let c = ServerConfig { rate_hz: 0.0, ..config(Faults::default()) };
-    assert!(c.validate().is_err());
+    for rate_hz in [0.0, 1e-300, 0.5, 10_000.5, f64::NAN, f64::INFINITY] {
+        let c = ServerConfig { rate_hz, ..config(Faults::default()) };
+        let e = c.validate().expect_err("out of range");
+        assert_eq!(e, format!("rate_hz must be a number of Hz in [1, 10000], got {rate_hz:?}"));
+    }
+    for rate_hz in [1.0, 120.0, 10_000.0] {
+        assert_eq!(ServerConfig { rate_hz, ..config(Faults::default()) }.validate(), Ok(()));
+    }
     let toml = "rate_hz = 120.0\nbodies = []\nunknown = 1\n";
     assert!(toml::from_str::<ServerConfig>(toml).is_err(), "unknown keys are refused");
 }

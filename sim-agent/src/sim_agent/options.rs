@@ -192,7 +192,8 @@ impl AgentArgs {
         cfg
     }
 
-    /// Robots in the swarm as the bus is sized for.
+    /// Robots in the swarm as the bus is sized for (a `--swarm-size` that
+    /// does not hold the robot is refused by [`AgentArgs::validate`]).
     pub fn swarm_size(&self) -> u32 {
         self.swarm_size.unwrap_or(self.robot).max(self.robot)
     }
@@ -219,6 +220,7 @@ impl AgentArgs {
                 .into());
         }
         check_seconds("--settings-timeout", self.settings_timeout, Zero::Refused)?;
+        bycoms_runtime::cli::check_swarm_size(self.robot, self.swarm_size)?;
         self.failsafe.grace()?;
         self.bus.validate()
     }
@@ -373,6 +375,19 @@ mod tests {
         assert!(bad_grace.validate().unwrap_err().contains("--orchestrator-grace"));
         let bad = AgentArgs { eps: Some(f64::NAN), ..parsed };
         assert!(bad.validate().is_err());
+    }
+
+    /// A swarm that does not hold the robot is a usage error, as `agent`'s
+    /// (it was quietly raised to the robot's id).
+    #[test]
+    fn a_swarm_size_below_the_robot_is_refused() {
+        for (size, robot) in [(0, 1), (2, 5)] {
+            let flags = format!("--swarm s --robot {robot} --swarm-size {size} --terrain - --eps 0.1");
+            let e = parse(&flags).expect("parses").validate().expect_err("refused");
+            assert!(e.starts_with(&format!("--swarm-size {size}: robot {robot} is not one of")), "{e}");
+        }
+        let fits = parse("--swarm s --robot 5 --swarm-size 5 --terrain - --eps 0.1").expect("parses");
+        assert_eq!((fits.validate(), fits.swarm_size()), (Ok(()), 5));
     }
 
     fn parse(flags: &str) -> Result<AgentArgs, clap::Error> {

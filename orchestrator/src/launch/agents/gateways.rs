@@ -67,6 +67,11 @@ enum At {
     Elsewhere(Remote),
 }
 
+/// How long a gateway hears nothing from its robot before it reports the
+/// robot's link lost (`Link { up: false }`), in robot time (the gateway
+/// divides it by the run's speed).
+pub const LINK_TIMEOUT: Duration = Duration::from_millis(300);
+
 /// How long a robot link reported lost must stay lost before the robot is
 /// gone (wall time): with the gateway's 300 ms timeout, 450 ms after the
 /// cut at real-time speed, under the 500 ms the gate allows itself.
@@ -91,7 +96,7 @@ impl Gateways {
     }
 
     fn with(at: At) -> Self {
-        Self { at, link_timeout_ms: 300, lost_links: BTreeMap::new() }
+        Self { at, link_timeout_ms: LINK_TIMEOUT.as_millis() as u64, lost_links: BTreeMap::new() }
     }
 
     fn inner(&self) -> &dyn AgentSource {

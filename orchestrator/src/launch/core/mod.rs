@@ -31,7 +31,8 @@
 //! what the shells read; `inputs.rs` the bookkeeping of each input;
 //! `steps.rs` the decisions (the phase machine); `referee.rs` the gate and
 //! the budget; `plausible.rs` which poses can be believed; `wait.rs` the
-//! re-send timer; `slot.rs` one robot's record; `log.rs` the record of
+//! re-send timer; `silence.rs` motion capture gone (real robots);
+//! `slot.rs` one robot's record; `log.rs` the record of
 //! every call, which `orchestrator replay` plays back; `beacons.rs` the
 //! beacons the simulated agents are told.
 
@@ -40,6 +41,7 @@ mod inputs;
 pub mod log;
 mod plausible;
 pub mod referee;
+mod silence;
 mod slot;
 mod steps;
 mod wait;
@@ -321,6 +323,9 @@ pub struct Core {
     relay_frame: u64,
     ending: Option<Ending>,
     beacons: beacons::BeaconTable,
+    /// When motion capture last handed over each robot's pose, µs
+    /// (`silence.rs`).
+    mocap_heard: Vec<Option<u64>>,
 }
 
 impl Core {
@@ -353,6 +358,7 @@ impl Core {
             relay_frame: 0,
             ending: None,
             beacons: beacons::BeaconTable::default(),
+            mocap_heard: vec![None; setup.robots as usize],
             setup,
         }
     }
@@ -457,6 +463,9 @@ impl Core {
         if !self.setup.lockstep && self.phase != Phase::Begin {
             at(self.relay_at);
         }
+        if let Some(t) = self.mocap_due() {
+            at(t);
+        }
         due
     }
 
@@ -474,8 +483,19 @@ impl Core {
                 self.fatal.get_or_insert(e);
             }
             Input::Report(msg) => self.on_report(now, msg),
-            Input::Pose { topic, pose } => self.on_pose(now, topic, pose),
-            Input::Gone(id, gone) => self.on_death(now, id, gone),
+            Input::Pose { topic, pose } => {
+                self.mocap_heard(now, topic);
+                self.on_pose(now, topic, pose);
+            }
+            Input::Gone(id, gone) => {
+                // A robot lost with the room is not judged dead for it: the
+                // launch ends saying the room is gone (`silence.rs`).
+                let lost_link = matches!(gone, Gone::RobotLinkLost).then_some(id);
+                match self.mocap_gone(now, lost_link) {
+                    Some(error) => self.fatal = Some(error),
+                    None => self.on_death(now, id, gone),
+                }
+            }
             Input::Reach(id, change) => self.on_reach(now, id, change),
             Input::Interrupt => self.interrupted = true,
             Input::Said(id, words) => {

@@ -11,6 +11,11 @@ impl Core {
             if self.ending.is_some() {
                 return;
             }
+            // First: what else went wrong then (robots lost, a fatal
+            // error) followed from it.
+            if let Some(gone) = self.mocap_gone(now, None) {
+                return self.end(Outcome::Error, Some(gone));
+            }
             if let Some(e) = self.fatal.clone() {
                 self.name_the_missing();
                 let error = self.fatal.take().unwrap_or(e);
