@@ -143,14 +143,14 @@ fn bad_input_exits_non_zero_with_a_clear_message() {
         (&["launch", "--eps", "0"], "bad eps (--eps)", 2),
         (
             &["launch", "--clock", "realtime", "--speed", "1e9"],
-            "bad speed (--speed): the real-time speed-up must be a number in (0, 1000]",
+            "bad speed (--speed): the real-time speed-up must be a number in [0.001, 1000]",
             2,
         ),
         // Issue 31: accepted, it started two agents per robot and judged
         // every robot stuck before its first bearing came.
         (
             &["launch", "--clock", "realtime", "--speed", "100000"],
-            "bad speed (--speed): the real-time speed-up must be a number in (0, 1000], got 100000",
+            "bad speed (--speed): the real-time speed-up must be a number in [0.001, 1000], got 100000",
             2,
         ),
         (&["sweep", "--eps", "", "--out", "/tmp/x"], "--eps is empty", 2),

@@ -72,6 +72,8 @@ struct Active {
     start_at: Vec2,
     /// Every later pose taken: pose time and position.
     moves: Vec<(u64, Vec2)>,
+    /// The step of each of `moves`, and whether it changed the pose.
+    steps: Vec<(u64, bool)>,
 }
 
 impl Active {
@@ -82,7 +84,8 @@ impl Active {
         let start_us = (latest.step == deployed.step).then_some(latest.time_us);
         let last = Pose { step: deployed.step, ..latest };
         let start_at = Vec2::new(latest.x, latest.y);
-        Self { start_step: deployed.step, start_us, last, last_change_us: None, start_at, moves: Vec::new() }
+        let (moves, steps) = (Vec::new(), Vec::new());
+        Self { start_step: deployed.step, start_us, last, last_change_us: None, start_at, moves, steps }
     }
 
     /// From a robot's first pose.
@@ -94,6 +97,7 @@ impl Active {
             last_change_us: None,
             start_at: Vec2::new(pose.x, pose.y),
             moves: Vec::new(),
+            steps: Vec::new(),
         }
     }
 
@@ -101,11 +105,27 @@ impl Active {
         if pose.step <= self.last.step {
             return;
         }
-        if !same_pose(pose, &self.last) {
+        let changed = !same_pose(pose, &self.last);
+        if changed {
             self.last_change_us = Some(pose.time_us);
         }
         self.last = *pose;
         self.moves.push((pose.time_us, Vec2::new(pose.x, pose.y)));
+        self.steps.push((pose.step, changed));
+    }
+
+    /// The gate judged it on its pose of `step`: poses of later steps
+    /// (motion capture's frames of a batch are recorded before the gate's
+    /// decision on the first of them) are not its run, as they are not the
+    /// summary's. Without a pose of that step (a decision on the start
+    /// pose), nothing is cut.
+    fn end_at(&mut self, step: u64) {
+        let Some(judged) = self.steps.iter().position(|(s, _)| *s == step) else { return };
+        let kept = judged + 1;
+        self.moves.truncate(kept);
+        self.steps.truncate(kept);
+        let last_change = self.steps.iter().rposition(|(_, changed)| *changed);
+        self.last_change_us = last_change.map(|i| self.moves[i].0);
     }
 
     fn start_us(&self, period_us: u64) -> u64 {
@@ -193,6 +213,9 @@ impl Trace {
             }
             track.deployed = true;
             return;
+        }
+        if let Some(active) = &mut track.active {
+            active.end_at(event.step);
         }
         track.end = Some(event.kind);
         track.at = Some(Vec2::new(event.x, event.y));
@@ -304,6 +327,32 @@ mod tests {
         assert_eq!(r.time, 0.4);
         assert_eq!(r.beacons, [Vec2::new(2.0, 1.0), Vec2::new(0.5, 1.0)]);
         assert_eq!(r.robots[2].end, RobotEnd::Arrived);
+    }
+
+    /// Motion capture's frames of a batch are recorded before the gate's
+    /// decision on the first of them: frames after the pose it was judged on
+    /// are no part of its run (the title once said 40.4 s where the summary
+    /// said 40.3 s, issue 31).
+    #[test]
+    fn frames_recorded_after_the_judged_pose_are_not_the_run() {
+        let t = |s: u64| s * 100_000;
+        let mut trace = Trace::new();
+        trace.pose(&at(1, 0, 0.0, 0));
+        trace.gate(&GateEvent { robot: RobotId(1), kind: GateKind::Deployed, x: 0.0, y: 1.0, step: 0 });
+        for (s, x) in [(1, 1.0), (2, 2.0), (3, 2.5)] {
+            trace.pose(&at(1, s, x, t(s)));
+        }
+        let judged = GateEvent {
+            robot: RobotId(1),
+            kind: GateKind::Stopped { arrived: true },
+            x: 2.0,
+            y: 1.0,
+            step: 2,
+        };
+        trace.gate(&judged);
+        let r = trace.result(0.1);
+        assert_eq!(r.robots[0].steps, 2, "the frame of step 3 came after the verdict on step 2");
+        assert_eq!(r.robots[0].trajectory.last(), Some(&Vec2::new(2.0, 1.0)));
     }
 
     #[test]
