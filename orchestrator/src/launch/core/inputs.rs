@@ -191,12 +191,7 @@ impl Core {
             return;
         }
         let state = slot.state;
-        let clock = if lockstep {
-            let newest_step = self.tick.as_ref().map_or(self.ticks, |t| t.step);
-            plausible::Clock::Lockstep { newest_step }
-        } else {
-            plausible::Clock::Realtime { now_us: now, speed: self.setup.speed }
-        };
+        let clock = self.pose_clock(now);
         let judged = match state {
             SlotState::Registered | SlotState::Absent => {
                 return self.on_pose_before_deployment(topic, pose, clock)
@@ -225,23 +220,7 @@ impl Core {
             slot.frames.observe(pose.step);
         }
         if state == SlotState::Deploying && self.referee.watched().is_none() {
-            // The start pose: the robot is deployed and under watch.
-            let start = self.referee.open(topic, pose, self.ticks);
-            let reaction = self.decided_at.map(|d| now.saturating_sub(d));
-            let Some(slot) = self.slot(topic) else { return };
-            slot.state = SlotState::Moving;
-            slot.deployed_tick = Some(start.step + 1);
-            slot.reaction_us = reaction;
-            self.first_moving_us.get_or_insert(now);
-            let event = GateEvent {
-                robot: pose.robot,
-                kind: GateKind::Deployed,
-                x: pose.x,
-                y: pose.y,
-                step: start.step,
-            };
-            self.outputs.push_back(Output::Gate(event));
-            self.note(format!("robot {topic}: deployed at ({:.2}, {:.2})", pose.x, pose.y));
+            self.deployed(now, topic, pose);
         } else if self.referee.watched() == Some(topic) {
             if let Some(tick) = self.tick.as_mut().filter(|t| t.pose_of == Some(topic) && pose.step >= t.step)
             {
@@ -256,6 +235,33 @@ impl Core {
         if !lockstep && self.queue.is_empty() {
             self.send_bearing(topic, &pose, pose.step + 1);
         }
+    }
+
+    /// The clock a pose is judged against: the tick in flight in lockstep,
+    /// the launch's time (and speed-up) in real time.
+    fn pose_clock(&self, now: u64) -> plausible::Clock {
+        if self.setup.lockstep {
+            let newest_step = self.tick.as_ref().map_or(self.ticks, |t| t.step);
+            plausible::Clock::Lockstep { newest_step }
+        } else {
+            plausible::Clock::Realtime { now_us: now, speed: self.setup.speed }
+        }
+    }
+
+    /// Robot `topic`'s start pose, accepted: it is deployed and under the
+    /// gate's watch from there.
+    fn deployed(&mut self, now: u64, topic: u32, pose: Pose) {
+        let start = self.referee.open(topic, pose, self.ticks);
+        let reaction = self.decided_at.map(|d| now.saturating_sub(d));
+        let Some(slot) = self.slot(topic) else { return };
+        slot.state = SlotState::Moving;
+        slot.deployed_tick = Some(start.step + 1);
+        slot.reaction_us = reaction;
+        self.first_moving_us.get_or_insert(now);
+        let event =
+            GateEvent { robot: pose.robot, kind: GateKind::Deployed, x: pose.x, y: pose.y, step: start.step };
+        self.outputs.push_back(Output::Gate(event));
+        self.note(format!("robot {topic}: deployed at ({:.2}, {:.2})", pose.x, pose.y));
     }
 
     /// A pose of robot `id` before its deployment: it anchors nothing and

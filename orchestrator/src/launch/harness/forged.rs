@@ -43,40 +43,18 @@ impl Foreign {
                 Some(Input::Pose { topic: id, pose: forged })
             }
             Foreign::OtherRobotsPose { topic, robot } => {
-                let p = Pose {
-                    robot: RobotId(robot),
-                    x: goal.x,
-                    y: goal.y,
-                    heading: 0.0,
-                    step: tick,
-                    time_us: tick * 100_000,
-                };
-                Some(Input::Pose { topic, pose: p })
+                Some(Input::Pose { topic, pose: at_the_goal(robot, goal, tick) })
             }
-            Foreign::WrongVersion(id) => Some(Input::Report(FromAgent::Register(Register {
-                robot: RobotId(id),
-                kind: bycoms_protocol::msg::RobotKind::Simulated,
-                protocol_version: bycoms_protocol::PROTOCOL_VERSION + 1,
-                instance: 0xf0e1,
-                settings: 0,
-                failsafe_grace_ms: 0,
-            }))),
-            Foreign::ShortGrace(id) => Some(Input::Report(FromAgent::Register(Register {
-                robot: RobotId(id),
-                kind: bycoms_protocol::msg::RobotKind::Simulated,
-                protocol_version: bycoms_protocol::PROTOCOL_VERSION,
-                instance: 0xf0e2,
-                settings: 0,
-                failsafe_grace_ms: 1,
-            }))),
-            Foreign::OtherSettings(id) => Some(Input::Report(FromAgent::Register(Register {
-                robot: RobotId(id),
-                kind: bycoms_protocol::msg::RobotKind::Simulated,
-                protocol_version: bycoms_protocol::PROTOCOL_VERSION,
-                instance: 0xf0e3,
-                settings: !SETTINGS,
-                failsafe_grace_ms: 0,
-            }))),
+            Foreign::WrongVersion(id) => {
+                let version = bycoms_protocol::PROTOCOL_VERSION + 1;
+                Some(register(Register { protocol_version: version, ..forged_register(id, 0xf0e1) }))
+            }
+            Foreign::ShortGrace(id) => {
+                Some(register(Register { failsafe_grace_ms: 1, ..forged_register(id, 0xf0e2) }))
+            }
+            Foreign::OtherSettings(id) => {
+                Some(register(Register { settings: !SETTINGS, ..forged_register(id, 0xf0e3) }))
+            }
             Foreign::UnknownRobot => {
                 Some(Input::Report(FromAgent::Heartbeat(Heartbeat { robot: RobotId(999), seq: 1 })))
             }
@@ -118,6 +96,23 @@ fn series_targets(state: SlotState) -> bool {
             | SlotState::Deploying
             | SlotState::Moving
     )
+}
+
+/// A `Register` of robot `id` by a process of `instance`, otherwise as the
+/// harness's own agents send it; each forgery changes one field.
+fn forged_register(id: u32, instance: u64) -> Register {
+    Register {
+        robot: RobotId(id),
+        kind: bycoms_protocol::msg::RobotKind::Simulated,
+        protocol_version: bycoms_protocol::PROTOCOL_VERSION,
+        instance,
+        settings: 0,
+        failsafe_grace_ms: 0,
+    }
+}
+
+fn register(r: Register) -> Input {
+    Input::Report(FromAgent::Register(r))
 }
 
 /// Poses in one series of forgeries at the goal.
