@@ -496,47 +496,31 @@ fn a_zenoh_runtime_that_cannot_start_ends_the_launch_at_once() {
 /// the study is written all the same (issue 31).
 #[test]
 fn a_full_stdout_is_named_and_costs_no_file() {
+    let sweep = |out: &Path| {
+        let mut args =
+            vec!["sweep", "--eps", "3", "--widths", "3", "--terrains-per-bin", "1", "--noise", "off"];
+        args.extend(["--time-limit", "300", "--seed", "3", "--out", out.to_str().unwrap()]);
+        args.into_iter().map(String::from).collect::<Vec<_>>()
+    };
+    let files = |dir: &Path| {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    };
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("sw");
     let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_orchestrator"))
-        .args(["sweep", "--eps", "3", "--widths", "3", "--terrains-per-bin", "1", "--noise", "off"])
-        .args(["--time-limit", "300", "--seed", "3", "--out", out.to_str().unwrap()])
-        .stdout(full)
-        .output()
-        .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_orchestrator")).args(sweep(&out)).stdout(full).output().unwrap();
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("cannot write to stdout: No space left on device"), "{}", stderr(&o));
-    let mut names: Vec<String> = std::fs::read_dir(&out)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
     let whole = tempfile::tempdir().unwrap();
-    let o = orchestrator(&[
-        "sweep",
-        "--eps",
-        "3",
-        "--widths",
-        "3",
-        "--terrains-per-bin",
-        "1",
-        "--noise",
-        "off",
-        "--time-limit",
-        "300",
-        "--seed",
-        "3",
-        "--out",
-        whole.path().to_str().unwrap(),
-    ]);
+    let args = sweep(whole.path());
+    let o = orchestrator(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert!(o.status.success(), "{}", stderr(&o));
-    let mut expected: Vec<String> = std::fs::read_dir(whole.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    expected.sort();
-    assert_eq!(names, expected, "the same files as with a working stdout");
+    assert_eq!(files(&out), files(whole.path()), "the same files as with a working stdout");
 }
 
 /// A shard whose lines end in CR LF (a Windows transfer) merges as the same rows (issue 31).
