@@ -341,3 +341,113 @@ fn replayed_poses_pass_the_suite() {
     let report = run_all(&mut ReplayFixture { feed: None });
     assert_eq!(report.not_applicable(), ["what_a_source_cannot_use_is_never_fatal"], "{report:?}");
 }
+
+/// The ROS 2 fixture's placement settings (not the defaults).
+const ROS2_PLACEMENT: bycoms_orchestrator::mocap::PlacementConfig =
+    bycoms_orchestrator::mocap::PlacementConfig { radius: 0.3, hold: 0.25, timeout: 20.0 };
+
+/// A ROS 2 motion-capture driver: each emitted pose is put as a
+/// `geometry_msgs/msg/PoseStamped` (Z up, metres = arena units, the pose's
+/// time as its stamp) on its robot's topic's rmw_zenoh key, with an
+/// rmw_zenoh attachment, on the same zenoh session the source subscribes
+/// on (zenoh delivers a session's own puts to its subscribers: no network).
+struct Ros2Fixture {
+    session: zenoh::Session,
+    publishers: BTreeMap<u32, bycoms_ros2::rmw_zenoh::Publisher>,
+}
+
+impl Ros2Fixture {
+    fn new() -> Self {
+        use bycoms_protocol::bus::zenoh::{Mode, ZenohBus};
+        let config = bycoms_runtime::zenoh_config(Mode::Peer, Vec::new(), Vec::new(), None);
+        let session = ZenohBus::open(config).expect("zenoh session").session().clone();
+        Self { session, publishers: BTreeMap::new() }
+    }
+
+    fn topic(robot: u32) -> String {
+        format!("/mocap/robot{robot}/pose")
+    }
+
+    fn put(&mut self, robot: u32, cdr: Vec<u8>) {
+        use bycoms_ros2::msgs::{PoseStamped, RosMessage};
+        use bycoms_ros2::rmw_zenoh::{Endpoint, EntityKind, Node, Publisher, Qos};
+        use zenoh::Wait;
+        let session = &self.session;
+        let publisher = self.publishers.entry(robot).or_insert_with(|| {
+            let node = Node {
+                domain_id: 0,
+                zid: "d0d0".into(),
+                id: 0,
+                enclave: "/".into(),
+                namespace: "/".into(),
+                name: "driver".into(),
+            };
+            let endpoint = Endpoint {
+                id: u64::from(robot),
+                kind: EntityKind::Publisher,
+                topic: Self::topic(robot),
+                ros_type: PoseStamped::DESCRIPTION.name.into(),
+                type_hash: PoseStamped::DESCRIPTION.rihs01(),
+                qos: Qos::best_effort(1),
+            };
+            Publisher::new(&node, &endpoint).expect("publisher")
+        });
+        let attachment = publisher.next_attachment(1_700_000_000_000_000_000).encode().to_vec();
+        session.put(publisher.key_expr.as_str(), cdr).attachment(attachment).wait().expect("put");
+    }
+}
+
+impl PoseFixture for Ros2Fixture {
+    fn expected(&self) -> Expected {
+        Expected {
+            kind: "ros2",
+            on_the_bus: false,
+            rejects_jumps: true,
+            garbage: Garbage::Counted,
+            placement: Some(ROS2_PLACEMENT),
+        }
+    }
+
+    fn emit_garbage(&mut self, robot: u32) {
+        self.put(robot, vec![0x00, 0x01, 0x00, 0x00, 0x13]);
+    }
+
+    fn source(&mut self) -> (Box<dyn PoseSource>, Swarm) {
+        use bycoms_orchestrator::launch::poses::ros2::Ros2Poses;
+        use bycoms_orchestrator::launch::ros2::Ros2Config;
+        use bycoms_orchestrator::mocap::{ArenaTransform, Ros2MocapConfig, TrackerConfig, UpAxis};
+        let config = Ros2MocapConfig {
+            topics: (1..=3).map(|k| (Self::topic(k), RobotId(k))).collect(),
+            arena: ArenaTransform { up: UpAxis::Z, origin: [0.0; 3], scale: 1.0 },
+            // As NatNet's fixture: every plausible move passes, a kilometre jump does not.
+            tracker: TrackerConfig { max_speed: 1000.0, jump_slack: 1.0, lost_after_us: 10_000_000 },
+            placement: ROS2_PLACEMENT,
+            graph_timeout: 5.0,
+        };
+        let source = Ros2Poses::open(&config, &Ros2Config::default(), &self.session).expect("subscribe");
+        (Box::new(source), Swarm::new("suite").expect("swarm"))
+    }
+
+    fn emit(&mut self, robot: u32, pose: &Pose) {
+        use bycoms_ros2::msgs::{Header, Point, Pose as RosPose, PoseStamped, Quaternion, RosMessage, Time};
+        let stamp = Time::from_nanos(1_700_000_000_000_000_000 + pose.time_us as i64 * 1000);
+        let msg = PoseStamped {
+            header: Header { stamp, frame_id: "world".into() },
+            pose: RosPose {
+                position: Point { x: pose.x, y: pose.y, z: 0.2 },
+                orientation: Quaternion::from_yaw(pose.heading),
+            },
+        };
+        self.put(robot, msg.to_cdr());
+    }
+
+    fn tolerance(&self) -> f64 {
+        1e-9 // the heading, through a quaternion and back
+    }
+}
+
+#[test]
+fn ros2_poses_pass_the_suite() {
+    let report = run_all(&mut Ros2Fixture::new());
+    assert_eq!(report.not_applicable(), Vec::<&str>::new(), "{report:?}");
+}

@@ -101,6 +101,13 @@ pub struct Args {
     /// domain id, namespace; default domain 0, namespace /). Needs --transport zenoh.
     #[arg(long)]
     pub ros2: bool,
+    /// Join the ROS 2 graph as a zenoh client of the lab's router
+    /// (`rmw_zenohd`, e.g. tcp/192.168.1.2:7447) instead of over the
+    /// launch's own zenoh session (`ros2.router`); implies --ros2 and
+    /// needs no --transport zenoh. No router there ends the launch before
+    /// it starts; a router without ROS 2 nodes of the domain is warned about.
+    #[arg(long, value_name = "ENDPOINT")]
+    pub ros2_router: Option<String>,
     /// What a dead agent means [default: beacon].
     #[arg(long, value_enum)]
     pub on_agent_death: Option<OnDeath>,
@@ -232,8 +239,11 @@ impl Args {
         if self.no_prespawn {
             cfg.gate.prespawn = false;
         }
-        if self.ros2 && cfg.ros2.is_none() {
+        if (self.ros2 || self.ros2_router.is_some()) && cfg.ros2.is_none() {
             cfg.ros2 = Some(launch::ros2::Ros2Config::default());
+        }
+        if let (Some(router), Some(ros2)) = (&self.ros2_router, cfg.ros2.as_mut()) {
+            ros2.router = Some(router.clone());
         }
         cfg.validate()?;
         Ok(cfg)
@@ -404,6 +414,30 @@ mod tests {
         std::fs::write(&file, "[transport]\nkind = \"zenoh\"\n[ros2]\nnamespace = \"lab\"\n").expect("write");
         let err = format!("{:#}", config(&["--config", file.to_str().expect("utf-8")]).unwrap_err());
         assert!(err.contains("ros2.namespace"), "{err}");
+    }
+
+    /// `--ros2-router` joins the lab's graph as a client: no zenoh
+    /// transport needed, the endpoint checked; a ROS 2 mocap source needs a
+    /// session too, and may not read the launch's own pose topics.
+    #[test]
+    fn a_ros2_router_needs_no_zenoh_transport_and_ros2_mocap_needs_a_graph() {
+        let cfg = config(&["--ros2-router", "tcp/127.0.0.1:7447"]).unwrap();
+        assert_eq!(cfg.ros2.and_then(|r| r.router).as_deref(), Some("tcp/127.0.0.1:7447"));
+        let err = format!("{:#}", config(&["--ros2-router", "127.0.0.1:7447"]).unwrap_err());
+        assert!(err.contains("ros2.router"), "{err}");
+        let dir = tempfile::tempdir().expect("temp dir");
+        let file = dir.path().join("launch.toml");
+        let mocap = "robots = 1\n[mocap]\nsource = \"ros2\"\n[mocap.ros2.topics]\n\"/robot_1/pose\" = 1\n\
+                     [mocap.ros2.tracker]\nmax_speed = 1.0\njump_slack = 0.1\nlost_after_us = 500000\n";
+        std::fs::write(&file, mocap).expect("write");
+        let path = file.to_str().expect("utf-8");
+        let err = format!("{:#}", config(&["--config", path]).unwrap_err());
+        assert!(err.contains("needs a zenoh session") && err.contains("ros2.router"), "{err}");
+        let err =
+            format!("{:#}", config(&["--config", path, "--ros2-router", "tcp/127.0.0.1:7447"]).unwrap_err());
+        assert!(err.contains("/robot_1/pose is a topic this launch publishes its own poses on"), "{err}");
+        std::fs::write(&file, mocap.replace("/robot_1/pose", "/vrpn_mocap/robot1/pose")).expect("write");
+        config(&["--config", path, "--ros2-router", "tcp/127.0.0.1:7447"]).expect("a driver's topic");
     }
 
     #[test]

@@ -408,14 +408,7 @@ impl LaunchConfig {
         if let Some(addr) = &self.serve {
             check_serve(addr)?;
         }
-        if let Some(ros2) = &self.ros2 {
-            ros2.validate().map_err(usage)?;
-            if self.transport.kind != Transport::Zenoh {
-                return Err(usage(
-                    "ros2 (--ros2) publishes on the launch's zenoh session: set transport.kind = \"zenoh\"",
-                ));
-            }
-        }
+        self.check_ros2()?;
         if let Some(name) = &self.swarm {
             check_swarm(name)?;
         }
@@ -483,6 +476,37 @@ pub fn check_swarm(name: &str) -> Result<bycoms_protocol::Swarm> {
 /// zenoh endpoints from the user, named `what` (`--listen`,
 /// `transport.listen`): a usage error for the first one that is not
 /// `LINK/HOST:PORT` ([`bycoms_protocol::bus::zenoh::check_endpoint`]).
+impl LaunchConfig {
+    /// `[ros2]` and a ROS 2 mocap source: a graph to reach (a router, or
+    /// the launch's zenoh session), a router endpoint that parses, and no
+    /// mocap topic that is one of the launch's own pose topics (it would
+    /// hear its own poses as motion capture).
+    fn check_ros2(&self) -> Result<()> {
+        let ros2 = self.ros2.clone().unwrap_or_default();
+        let wanted = self.ros2.is_some() || self.mocap.source == crate::mocap::MocapSource::Ros2;
+        if !wanted {
+            return Ok(());
+        }
+        ros2.validate().map_err(usage)?;
+        if let Some(router) = &ros2.router {
+            check_endpoints("ros2.router", std::slice::from_ref(router))?;
+        } else if self.transport.kind != Transport::Zenoh {
+            return Err(usage(
+                "ros2 (--ros2, mocap.source = \"ros2\") needs a zenoh session: set ros2.router \
+                 (--ros2-router, the lab's rmw_zenohd) or transport.kind = \"zenoh\"",
+            ));
+        }
+        let (Some(mocap), Some(_)) = (&self.mocap.ros2, &self.ros2) else { return Ok(()) };
+        match (1..=self.robots).map(|k| ros2.pose_topic(k)).find(|t| mocap.topics.contains_key(t)) {
+            Some(topic) => Err(usage(format!(
+                "mocap.ros2.topics: {topic} is a topic this launch publishes its own poses on (ros2.namespace): \
+                 map the driver's topics"
+            ))),
+            None => Ok(()),
+        }
+    }
+}
+
 pub fn check_endpoints(what: &str, endpoints: &[String]) -> Result<()> {
     for endpoint in endpoints {
         bycoms_protocol::bus::zenoh::check_endpoint(endpoint)

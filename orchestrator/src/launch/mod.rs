@@ -55,6 +55,7 @@ pub mod procfs;
 pub mod progress;
 pub mod recording;
 pub mod ros2;
+pub mod ros2_graph;
 pub mod scale;
 pub mod setup;
 pub mod summary;
@@ -200,7 +201,12 @@ pub fn run_serving(
     let transport::Opened { bus, endpoints, links, presence: _presence, zenoh } =
         transport::open(&cfg.transport, &cfg.faults, cfg.robots, &swarm_name)?;
     let bus: SharedBus = bus;
-    let pose_source = poses::open(&cfg.mocap, cfg.robots, &bus, swarm)?;
+    // The ROS 2 graph's session: a client of the lab's router, or the launch's own.
+    let ros2_settings = cfg.ros2.clone().unwrap_or_default();
+    let wants_ros2 = cfg.ros2.is_some() || cfg.mocap.source == crate::mocap::MocapSource::Ros2;
+    let ros2_session = if wants_ros2 { ros2_graph::session(&ros2_settings, zenoh.as_ref())? } else { None };
+    let graph = ros2_session.as_ref().map(|s| (&ros2_settings, s));
+    let pose_source = poses::open(&cfg.mocap, cfg.robots, &bus, swarm, graph)?;
     let mut ports =
         Ports::open(bus, swarm, cfg.robots, recording).context("cannot open the orchestrator's ports")?;
     let live = match (&cfg.serve, serve) {
@@ -211,8 +217,8 @@ pub fn run_serving(
         bycoms_runtime::logging::status_line(&live.banner());
         ports.observers.push(live.observer());
     }
-    if let (Some(ros2), Some(z)) = (&cfg.ros2, &zenoh) {
-        ports.observers.push(Box::new(ros2::Ros2Bridge::open(ros2, z.session(), cfg.robots)?));
+    if let (Some(ros2), Some(session)) = (&cfg.ros2, &ros2_session) {
+        ports.observers.push(Box::new(ros2::Ros2Bridge::open(ros2, session, cfg.robots)?));
     }
     ports.observers.iter_mut().for_each(|o| o.world(&swarm_name, &world, &cfg, scene.as_ref()));
     ports.show_scene();

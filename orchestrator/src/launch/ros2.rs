@@ -35,11 +35,15 @@ pub struct Ros2Config {
     pub domain_id: u32,
     /// The namespace of the node and of each robot's pose topic (`/` or `/name…`).
     pub namespace: String,
+    /// The lab's ROS 2 router (`rmw_zenohd`, `tcp/HOST:7447`): the launch
+    /// joins the graph as its zenoh client (`launch/ros2_graph.rs`); absent,
+    /// over the launch's own zenoh session.
+    pub router: Option<String>,
 }
 
 impl Default for Ros2Config {
     fn default() -> Self {
-        Self { domain_id: 0, namespace: "/".into() }
+        Self { domain_id: 0, namespace: "/".into(), router: None }
     }
 }
 

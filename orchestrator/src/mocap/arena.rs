@@ -74,7 +74,13 @@ impl ArenaTransform {
     /// Converts a mocap position (metres) and quaternion (qx, qy, qz, qw).
     /// `None` if the quaternion is degenerate (zero or not finite).
     pub fn to_arena(&self, position: [f32; 3], orientation: [f32; 4]) -> Option<ArenaPose> {
-        let [qx, qy, qz, qw] = orientation.map(f64::from);
+        self.to_arena_f64(position.map(f64::from), orientation.map(f64::from))
+    }
+
+    /// [`Self::to_arena`] of a pose in double precision (a ROS 2
+    /// `geometry_msgs/msg/Pose`: position in metres, quaternion x, y, z, w).
+    pub fn to_arena_f64(&self, position: [f64; 3], orientation: [f64; 4]) -> Option<ArenaPose> {
+        let [qx, qy, qz, qw] = orientation;
         let q = Quaternion::new(qw, qx, qy, qz);
         let norm = q.norm();
         if !(norm.is_finite() && norm > 1e-6) || position.iter().any(|p| !p.is_finite()) {
@@ -84,7 +90,7 @@ impl ArenaTransform {
         let forward = rotation * Vector3::x();
         let (fx, fy) = self.ground(forward);
         let heading = fy.atan2(fx);
-        let p = Vector3::from(position.map(f64::from)) - Vector3::from(self.origin);
+        let p = Vector3::from(position) - Vector3::from(self.origin);
         let (x, y) = self.ground(p);
         Some(ArenaPose { x: x * self.scale, y: y * self.scale, heading })
     }

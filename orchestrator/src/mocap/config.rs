@@ -5,8 +5,13 @@
 //! the orchestrator reads OptiTrack (`source = "natnet"`), and then needs
 //! the server's address, which rigid body is which robot, the axis
 //! convention and how long a body may be unseen before it is reported
-//! lost, plus how the operator places each robot at the start. Every key
-//! is documented in `deploy/launch.toml` (commented out: not the default).
+//! lost, plus how the operator places each robot at the start. A lab whose
+//! motion capture already runs in ROS 2 (`source = "ros2"`: a driver such
+//! as vrpn_mocap or motion_capture_tracking publishing one
+//! `geometry_msgs/msg/PoseStamped` topic per body) maps topics to robots
+//! the way NatNet maps body names, with the same axes, tracker and
+//! placement keys. Every key is documented in `deploy/launch.toml`
+//! (commented out: not the default).
 
 use super::{ArenaTransform, ClientConfig, TrackerConfig};
 use bycoms_protocol::RobotId;
@@ -23,16 +28,50 @@ pub enum MocapSource {
     Bus,
     /// OptiTrack NatNet (a real lab, or the emulated lab's `natnet-serve`).
     Natnet,
+    /// A ROS 2 motion-capture driver's `PoseStamped` topics, over rmw_zenoh.
+    Ros2,
 }
 
 /// `[mocap]`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MocapConfig {
-    /// `bus` or `natnet`.
+    /// `bus`, `natnet` or `ros2`.
     pub source: MocapSource,
     /// `[mocap.natnet]`: required with `source = "natnet"`.
     pub natnet: Option<NatNetSourceConfig>,
+    /// `[mocap.ros2]`: required with `source = "ros2"`.
+    pub ros2: Option<Ros2MocapConfig>,
+}
+
+/// `[mocap.ros2]`: poses from a ROS 2 motion-capture driver, one
+/// `geometry_msgs/msg/PoseStamped` topic per robot (positions in metres,
+/// REP-103: Z up), read over rmw_zenoh in the `[ros2]` table's domain.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ros2MocapConfig {
+    /// Topic (fully qualified, e.g. `/vrpn_mocap/robot1/pose`) → robot id.
+    pub topics: BTreeMap<String, RobotId>,
+    /// Driver frame → arena: up axis (default `z`, ROS's), origin, scale.
+    #[serde(default = "ros_arena")]
+    pub arena: ArenaTransform,
+    /// Plausible motion and the lost-body time (the NatNet tracker's keys).
+    pub tracker: TrackerConfig,
+    /// The operator's placement of each robot at the start.
+    #[serde(default)]
+    pub placement: PlacementConfig,
+    /// Warn when a mapped topic has no publisher in the ROS 2 graph this
+    /// long (s) after the launch started (a wrong domain, topic or router).
+    #[serde(default = "graph_timeout")]
+    pub graph_timeout: f64,
+}
+
+fn ros_arena() -> ArenaTransform {
+    ArenaTransform { up: super::UpAxis::Z, ..ArenaTransform::default() }
+}
+
+fn graph_timeout() -> f64 {
+    5.0
 }
 
 /// `[mocap.natnet]`: the NatNet source.
@@ -75,17 +114,114 @@ impl MocapConfig {
     /// Checks the section against a launch of `robots` robots; the message
     /// names the key.
     pub fn validate(&self, robots: u32) -> Result<(), String> {
-        let Some(natnet) = &self.natnet else {
-            return match self.source {
-                MocapSource::Bus => Ok(()),
-                MocapSource::Natnet => Err("mocap.source = \"natnet\" needs a [mocap.natnet] section".into()),
-            };
+        let source = match self.source {
+            MocapSource::Bus => "bus",
+            MocapSource::Natnet => "natnet",
+            MocapSource::Ros2 => "ros2",
         };
-        if self.source == MocapSource::Bus {
-            return Err("[mocap.natnet] is set but mocap.source is \"bus\"".into());
+        let tables = [
+            ("natnet", self.natnet.is_some(), MocapSource::Natnet),
+            ("ros2", self.ros2.is_some(), MocapSource::Ros2),
+        ];
+        if let Some((table, ..)) = tables.iter().find(|(_, set, wanted)| *set && self.source != *wanted) {
+            return Err(format!("[mocap.{table}] is set but mocap.source is \"{source}\""));
         }
-        natnet.validate(robots)
+        if let Some((table, ..)) = tables.iter().find(|(_, set, wanted)| !*set && self.source == *wanted) {
+            return Err(format!("mocap.source = \"{table}\" needs a [mocap.{table}] section"));
+        }
+        match (&self.natnet, &self.ros2) {
+            (Some(natnet), _) => natnet.validate(robots),
+            (_, Some(ros2)) => ros2.validate(robots),
+            _ => Ok(()),
+        }
     }
+}
+
+/// Every mapped name (a body, a topic) is one robot, ids from 1, and every
+/// robot of the launch has one; `key` names the table in messages.
+fn check_mapping(key: &str, what: &str, map: &BTreeMap<String, RobotId>, robots: u32) -> Result<(), String> {
+    let mut seen = BTreeMap::new();
+    for (name, robot) in map {
+        if robot.0 == 0 {
+            return Err(format!("{key}.{name} = 0 is not a robot (ids start at 1)"));
+        }
+        if let Some(other) = seen.insert(*robot, name) {
+            return Err(format!("{key}: {other} and {name} are both robot {}", robot.0));
+        }
+    }
+    match (1..=robots).find(|k| !seen.contains_key(&RobotId(*k))) {
+        Some(missing) => Err(format!("{key}: no {what} is robot {missing}")),
+        None => Ok(()),
+    }
+}
+
+/// The tracker's, the axes' and the placement's numbers, named under `key`
+/// (`mocap.natnet`, `mocap.ros2`).
+fn check_tracking(
+    key: &str,
+    t: &TrackerConfig,
+    s: &ArenaTransform,
+    p: &PlacementConfig,
+) -> Result<(), String> {
+    for (name, value) in
+        [("tracker.max_speed", t.max_speed), ("arena.scale", s.scale), ("placement.radius", p.radius)]
+    {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(format!("{key}.{name} must be a positive number, got {value}"));
+        }
+    }
+    if !(t.jump_slack.is_finite() && t.jump_slack >= 0.0) {
+        return Err(format!("{key}.tracker.jump_slack must be a non-negative number, got {}", t.jump_slack));
+    }
+    check_seconds(&format!("{key}.placement.timeout"), p.timeout, Zero::Refused)?;
+    check_seconds(&format!("{key}.placement.hold"), p.hold, Zero::Allowed)?;
+    if t.lost_after_us == 0 {
+        return Err(format!("{key}.tracker.lost_after_us must be at least 1"));
+    }
+    Ok(())
+}
+
+impl Ros2MocapConfig {
+    /// The settings for a launch of `robots` robots: topics of later robots
+    /// are left out (as [`NatNetSourceConfig::for_robots`]).
+    pub fn for_robots(&self, robots: u32) -> Self {
+        let mut cfg = self.clone();
+        cfg.topics.retain(|_, robot| robot.0 <= robots);
+        cfg
+    }
+
+    /// Checks the ROS 2 settings against a launch of `robots` robots.
+    pub fn validate(&self, robots: u32) -> Result<(), String> {
+        for topic in self.topics.keys() {
+            if !is_topic_name(topic) {
+                return Err(format!(
+                    "mocap.ros2.topics: {topic:?} is not a fully qualified ROS 2 topic name \
+                     (`/name/name`, letters, digits and `_`)"
+                ));
+            }
+        }
+        check_mapping("mocap.ros2.topics", "topic", &self.topics, robots)?;
+        check_tracking("mocap.ros2", &self.tracker, &self.arena, &self.placement)?;
+        check_seconds("mocap.ros2.graph_timeout", self.graph_timeout, Zero::Allowed)?;
+        Ok(())
+    }
+}
+
+/// A fully qualified ROS 2 name: `/`, then names of letters, digits and `_`
+/// (not starting with a digit) separated by single `/`. `allow_root`: `/`
+/// alone (a namespace) is one too.
+pub fn is_ros_name(name: &str, allow_root: bool) -> bool {
+    name.strip_prefix('/').is_some_and(|rest| {
+        (allow_root && rest.is_empty())
+            || rest.split('/').all(|n| {
+                n.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+                    && n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+            })
+    })
+}
+
+fn is_topic_name(name: &str) -> bool {
+    is_ros_name(name, false)
 }
 
 impl NatNetSourceConfig {
@@ -101,41 +237,8 @@ impl NatNetSourceConfig {
     /// Checks the NatNet settings against a launch of `robots` robots
     /// (bodies of later robots are allowed: see [`Self::for_robots`]).
     pub fn validate(&self, robots: u32) -> Result<(), String> {
-        let mut seen = BTreeMap::new();
-        for (name, robot) in &self.bodies {
-            if robot.0 == 0 {
-                return Err(format!("mocap.natnet.bodies.{name} = 0 is not a robot (ids start at 1)"));
-            }
-            if let Some(other) = seen.insert(*robot, name) {
-                return Err(format!("mocap.natnet.bodies: {other} and {name} are both robot {}", robot.0));
-            }
-        }
-        if let Some(missing) = (1..=robots).find(|k| !seen.contains_key(&RobotId(*k))) {
-            return Err(format!("mocap.natnet.bodies: no rigid body is robot {missing}"));
-        }
-        let t = &self.tracker;
-        let s = &self.arena;
-        let p = &self.placement;
-        for (key, value) in [
-            ("mocap.natnet.tracker.max_speed", t.max_speed),
-            ("mocap.natnet.arena.scale", s.scale),
-            ("mocap.natnet.placement.radius", p.radius),
-        ] {
-            if !(value.is_finite() && value > 0.0) {
-                return Err(format!("{key} must be a positive number, got {value}"));
-            }
-        }
-        if !(t.jump_slack.is_finite() && t.jump_slack >= 0.0) {
-            return Err(format!(
-                "mocap.natnet.tracker.jump_slack must be a non-negative number, got {}",
-                t.jump_slack
-            ));
-        }
-        check_seconds("mocap.natnet.placement.timeout", p.timeout, Zero::Refused)?;
-        check_seconds("mocap.natnet.placement.hold", p.hold, Zero::Allowed)?;
-        if t.lost_after_us == 0 {
-            return Err("mocap.natnet.tracker.lost_after_us must be at least 1".into());
-        }
+        check_mapping("mocap.natnet.bodies", "rigid body", &self.bodies, robots)?;
+        check_tracking("mocap.natnet", &self.tracker, &self.arena, &self.placement)?;
         // Added to an `Instant` for every command: near u64::MAX it
         // overflowed (a panic); 0 is no socket timeout at all.
         let reply_ms = self.client.reply_timeout_ms;
@@ -193,7 +296,7 @@ mod tests {
         let zero = LAB.replace("robot2 = 2", "robot2 = 0");
         let err = toml::from_str::<MocapConfig>(&zero).unwrap().validate(2).unwrap_err();
         assert!(err.contains("bodies.robot2"), "{err}");
-        let natnet_off = MocapConfig { source: MocapSource::Natnet, natnet: None };
+        let natnet_off = MocapConfig { source: MocapSource::Natnet, natnet: None, ros2: None };
         assert!(natnet_off.validate(1).unwrap_err().contains("[mocap.natnet]"));
         let err = toml::from_str::<MocapConfig>(&LAB.replace("jump_slack", "jump_slak")).unwrap_err();
         assert!(err.to_string().contains("jump_slak"), "{err}");
@@ -219,5 +322,44 @@ mod tests {
         }
         assert_eq!(with(100_000_000_000), Ok(()));
         assert_eq!(with(1), Ok(()));
+    }
+
+    const ROS2: &str = r#"
+        source = "ros2"
+        [ros2.topics]
+        "/vrpn_mocap/robot1/pose" = 1
+        "/vrpn_mocap/robot2/pose" = 2
+        [ros2.tracker]
+        max_speed = 0.6
+        jump_slack = 0.05
+        lost_after_us = 500000
+    "#;
+
+    /// The ROS 2 section: Z up by default (REP-103), the same mapping and
+    /// tracker checks as NatNet, each naming its `mocap.ros2` key.
+    #[test]
+    fn a_ros2_section_parses_with_ros_axes_and_every_mistake_is_named() {
+        let cfg: MocapConfig = toml::from_str(ROS2).unwrap();
+        let ros2 = cfg.ros2.as_ref().expect("ros2");
+        assert_eq!(
+            (cfg.source, ros2.arena.up, ros2.graph_timeout),
+            (MocapSource::Ros2, super::super::UpAxis::Z, 5.0)
+        );
+        cfg.validate(2).unwrap();
+        assert_eq!(ros2.for_robots(1).topics.len(), 1);
+        let again: MocapConfig = toml::from_str(&toml::to_string(&cfg).unwrap()).unwrap();
+        assert_eq!(again, cfg);
+        let err = |text: String| toml::from_str::<MocapConfig>(&text).unwrap().validate(2).unwrap_err();
+        assert!(cfg.validate(3).unwrap_err().contains("mocap.ros2.topics: no topic is robot 3"));
+        let e = err(ROS2.replace("\"/vrpn_mocap/robot2/pose\"", "\"vrpn/robot2\""));
+        assert!(e.contains("\"vrpn/robot2\" is not a fully qualified ROS 2 topic name"), "{e}");
+        let e = err(ROS2.replace("= 2", "= 1"));
+        assert!(e.contains("both robot 1"), "{e}");
+        let e = err(ROS2.replace("max_speed = 0.6", "max_speed = -1.0"));
+        assert_eq!(e, "mocap.ros2.tracker.max_speed must be a positive number, got -1");
+        let e = err(ROS2.replace("source = \"ros2\"", "source = \"natnet\""));
+        assert_eq!(e, "[mocap.ros2] is set but mocap.source is \"natnet\"");
+        let bare = MocapConfig { source: MocapSource::Ros2, ..MocapConfig::default() };
+        assert_eq!(bare.validate(1).unwrap_err(), "mocap.source = \"ros2\" needs a [mocap.ros2] section");
     }
 }

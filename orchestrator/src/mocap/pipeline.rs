@@ -71,7 +71,7 @@ impl FramePipeline {
         let poses = self.tracker.frame(step, time_us, &sightings);
         let events = self.tracker.drain_events();
         for event in &events {
-            self.report(event);
+            report(event, self.bodies.name(event.robot()));
         }
         PoseBatch { step, time_us, poses, events }
     }
@@ -80,21 +80,20 @@ impl FramePipeline {
     pub fn body_name(&self, robot: RobotId) -> &str {
         self.bodies.name(robot)
     }
+}
 
-    /// Says what went wrong, naming the body as Motive does.
-    fn report(&self, event: &TrackEvent) {
-        match *event {
-            TrackEvent::Lost { robot, since_us } => {
-                let name = self.bodies.name(robot);
-                tracing::warn!(body = name, %robot, since_us, "mocap body {name} ({robot}) lost: no trusted pose for longer than the lost-body time");
-            }
-            TrackEvent::Recovered { robot, at_us } => {
-                tracing::info!(body = self.bodies.name(robot), %robot, at_us, "mocap body tracked again");
-            }
-            TrackEvent::JumpRejected { robot, distance, allowed, at_us, .. } => {
-                let name = self.bodies.name(robot);
-                tracing::warn!(body = name, %robot, distance, allowed, at_us, "mocap pose of {name} ({robot}) jumped farther than it can drive: rejected (identity swap?)");
-            }
+/// Says what went wrong, naming the body as the operator knows it (its
+/// Motive name, or its ROS 2 topic): the one wording of every mocap source.
+pub fn report(event: &TrackEvent, name: &str) {
+    match *event {
+        TrackEvent::Lost { robot, since_us } => {
+            tracing::warn!(body = name, %robot, since_us, "mocap body {name} ({robot}) lost: no trusted pose for longer than the lost-body time");
+        }
+        TrackEvent::Recovered { robot, at_us } => {
+            tracing::info!(body = name, %robot, at_us, "mocap body tracked again");
+        }
+        TrackEvent::JumpRejected { robot, distance, allowed, at_us, .. } => {
+            tracing::warn!(body = name, %robot, distance, allowed, at_us, "mocap pose of {name} ({robot}) jumped farther than it can drive: rejected (identity swap?)");
         }
     }
 }

@@ -81,6 +81,17 @@ pub enum TrackEvent {
     },
 }
 
+impl TrackEvent {
+    /// The robot it is about.
+    pub fn robot(&self) -> RobotId {
+        match *self {
+            Self::Lost { robot, .. } | Self::Recovered { robot, .. } | Self::JumpRejected { robot, .. } => {
+                robot
+            }
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug)]
 struct Track {
     last: Option<(ArenaPose, u64)>,

@@ -289,6 +289,63 @@ pub fn liveliness_token(node: &Node, endpoint: Option<&Endpoint>) -> Result<Stri
     Ok(parts.join("/"))
 }
 
+/// What a liveliness token of the ROS 2 graph says, read back (what
+/// rmw_zenoh's graph cache reads: `ros2 topic info` lists these).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TokenView {
+    /// `ROS_DOMAIN_ID`.
+    pub domain_id: u32,
+    /// The zenoh session id of its owner.
+    pub zid: String,
+    /// Node, publisher, subscription, service or client.
+    pub kind: EntityKind,
+    /// The node's name (unmangled).
+    pub node: String,
+    /// The topic or service (unmangled); empty for a node.
+    pub topic: String,
+    /// The DDS type name (`geometry_msgs::msg::dds_::PoseStamped_`); empty for a node.
+    pub dds_type: String,
+    /// The `RIHS01_…` type hash; empty for a node.
+    pub type_hash: String,
+}
+
+impl TokenView {
+    /// Reads a token made as [`liveliness_token`] makes them (rmw_zenoh's
+    /// `Entity::make`); `None` if it is not one.
+    pub fn parse(token: &str) -> Option<Self> {
+        let parts: Vec<&str> = token.split('/').collect();
+        if parts.first() != Some(&ADMIN_SPACE) || parts.len() < 9 {
+            return None;
+        }
+        let kind = [
+            EntityKind::Node,
+            EntityKind::Publisher,
+            EntityKind::Subscription,
+            EntityKind::Service,
+            EntityKind::Client,
+        ]
+        .into_iter()
+        .find(|k| k.code() == parts[5])?;
+        let unmangle = |s: &str| s.replace('%', "/");
+        let endpoint = (kind != EntityKind::Node).then(|| parts.get(9..12)).flatten();
+        let (topic, dds_type, type_hash) = match endpoint {
+            Some([topic, dds_type, hash]) => (unmangle(topic), (*dds_type).to_string(), (*hash).to_string()),
+            Some(_) => return None,
+            None if kind == EntityKind::Node => Default::default(),
+            None => return None,
+        };
+        Some(Self {
+            domain_id: parts[1].parse().ok()?,
+            zid: parts[2].to_string(),
+            kind,
+            node: unmangle(parts[8]),
+            topic,
+            dds_type,
+            type_hash,
+        })
+    }
+}
+
 /// The entity's GID: XXH3-128 of its token, low 64 bits then high 64 bits,
 /// each little-endian (the 128-bit value little-endian).
 pub fn gid(token: &str) -> [u8; 16] {

@@ -356,3 +356,30 @@ fn the_pins_are_what_rosbags_xxhash_and_zenoh_say_today() {
     }
     assert_eq!(live["attachment"], PINNED_ATTACHMENT);
 }
+
+/// A token reads back as what it announces: the documented talker's
+/// publisher, the listener's node; anything else is not a token.
+#[test]
+fn tokens_read_back_as_what_they_announce() {
+    use bycoms_ros2::rmw_zenoh::TokenView;
+    let (talker, publisher) = talker();
+    let token = liveliness_token(&talker, Some(&publisher)).expect("token");
+    let view = TokenView::parse(&token).expect("a token");
+    assert_eq!(
+        (view.domain_id, view.zid.as_str(), view.kind, view.node.as_str(), view.topic.as_str()),
+        (2, "8b20917502ee955ac4476e0266340d5c", EntityKind::Publisher, "talker", "/chatter")
+    );
+    assert_eq!((view.dds_type.as_str(), view.type_hash), ("std_msgs::msg::dds_::String_", STRING.rihs01()));
+    let node =
+        TokenView::parse("@ros2_lv/2/aac3178e146ba6f1fc6e6a4085e77f21/0/0/NN/%/%/listener").expect("node");
+    assert_eq!((node.kind, node.node.as_str(), node.topic.as_str()), (EntityKind::Node, "listener", ""));
+    for bad in [
+        "",
+        "@ros2_lv/2/z/0/0/XX/%/%/n",
+        "@ros2_lv/x/z/0/0/NN/%/%/n",
+        "bycoms/s/alive",
+        "@ros2_lv/2/z/0/1/MP/%/%/n",
+    ] {
+        assert_eq!(TokenView::parse(bad), None, "{bad}");
+    }
+}

@@ -16,7 +16,7 @@
 //! frames alike.
 
 use super::{PoseError, PoseSink, PoseSource};
-use crate::mocap::{ArenaPose, NatNetPoseSource, PlacementConfig};
+use crate::mocap::{ArenaPose, NatNetPoseSource, PlacementConfig, PoseTracker};
 use crate::record::schema::{NATNET_FRAME, NATNET_MODELDEF};
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::RobotId;
@@ -32,11 +32,7 @@ pub const MODELDEF_LEAF: &str = crate::record::schema::NATNET_MODELDEF_LEAF;
 pub struct NatNetPoses {
     source: NatNetPoseSource,
     opened: BTreeSet<u32>,
-    /// Robots the operator is carrying to the start, with the last pose
-    /// handed over for each: their track is forgotten before every frame,
-    /// so no hand-speed move is taken for an identity swap, and anchored at
-    /// that last pose once the robot is placed.
-    carried: BTreeMap<u32, Option<Pose>>,
+    carried: Carried,
     defs_recorded: bool,
     placement: Option<PlacementConfig>,
 }
@@ -47,7 +43,7 @@ impl NatNetPoses {
         Self {
             source,
             opened: BTreeSet::new(),
-            carried: BTreeMap::new(),
+            carried: Carried::default(),
             defs_recorded: false,
             placement: None,
         }
@@ -66,9 +62,40 @@ impl NatNetPoses {
     }
 
     fn forget_carried(&mut self) {
-        let tracker = self.source.pipeline_mut().tracker_mut();
-        for &id in self.carried.keys() {
+        self.carried.forget_in(self.source.pipeline_mut().tracker_mut());
+    }
+}
+
+/// Robots the operator is carrying to the start, with the last pose
+/// handed over for each: their track is forgotten before every frame (or
+/// sample), so no hand-speed move is taken for an identity swap, and
+/// anchored at that last pose once the robot is placed. One rule for every
+/// source with a tracker (NatNet, ROS 2).
+#[derive(Debug, Default)]
+pub struct Carried(BTreeMap<u32, Option<Pose>>);
+
+impl Carried {
+    /// Forgets every carried robot's track in `tracker` (before a frame).
+    pub fn forget_in(&self, tracker: &mut PoseTracker) {
+        for &id in self.0.keys() {
             tracker.forget(RobotId(id));
+        }
+    }
+
+    /// A pose handed over: the last one of its robot, if carried.
+    pub fn seen(&mut self, pose: &Pose) {
+        if let Some(last) = self.0.get_mut(&pose.robot.0) {
+            *last = Some(*pose);
+        }
+    }
+
+    /// [`PoseSource::carried`]: robot `id` carried (`by_hand`) or placed,
+    /// then anchored in `tracker` where it was last seen.
+    pub fn set(&mut self, id: u32, by_hand: bool, tracker: &mut PoseTracker) {
+        if by_hand {
+            self.0.insert(id, None);
+        } else if let Some(Some(p)) = self.0.remove(&id) {
+            tracker.anchor(RobotId(id), ArenaPose { x: p.x, y: p.y, heading: p.heading }, p.time_us);
         }
     }
 }
@@ -104,9 +131,7 @@ impl PoseSource for NatNetPoses {
             };
             sink.record_source_bytes(FRAME_LEAF, NATNET_FRAME, self.source.last_frame().0);
             for pose in batch.poses.iter().filter(|p| self.opened.contains(&p.robot.0)) {
-                if let Some(last) = self.carried.get_mut(&pose.robot.0) {
-                    *last = Some(*pose);
-                }
+                self.carried.seen(pose);
                 sink.pose(pose.robot.0, *pose);
             }
         }
@@ -114,12 +139,7 @@ impl PoseSource for NatNetPoses {
     }
 
     fn carried(&mut self, id: u32, by_hand: bool) {
-        if by_hand {
-            self.carried.insert(id, None);
-        } else if let Some(Some(p)) = self.carried.remove(&id) {
-            let at = ArenaPose { x: p.x, y: p.y, heading: p.heading };
-            self.source.pipeline_mut().tracker_mut().anchor(RobotId(id), at, p.time_us);
-        }
+        self.carried.set(id, by_hand, self.source.pipeline_mut().tracker_mut());
     }
 }
 
@@ -205,7 +225,8 @@ mod documented {
     fn the_documented_natnet_example_is_valid() {
         let file = include_str!("../../../../deploy/launch.toml");
         let start = file.find("# The NatNet source").expect("the example is documented");
-        let example: String = file[start..]
+        let end = file.find(super::super::ros2::DOCUMENTED).unwrap_or(file.len());
+        let example: String = file[start..end]
             .lines()
             .skip(1)
             .map(|l| l.strip_prefix("# ").or_else(|| l.strip_prefix('#')).unwrap_or(l))

@@ -3,7 +3,8 @@
 //! Why a trait: the gate judges motion from poses only, and a lab has
 //! several ways to see its robots. Today the simulated agents publish
 //! their own simulated motion capture on the bus ([`bus::BusPoses`]); a lab
-//! has OptiTrack (NatNet) and a replay of a recorded session. Each kind
+//! has OptiTrack (NatNet, [`mocap::NatNetPoses`]), or its mocap in ROS 2
+//! ([`ros2::Ros2Poses`]), and a replay of a recorded session. Each kind
 //! implements [`PoseSource`]; the engine holds a `Box<dyn PoseSource>` and
 //! knows none of them. A source needs no bus.
 //!
@@ -30,6 +31,7 @@
 
 pub mod bus;
 pub mod mocap;
+pub mod ros2;
 
 use super::recording::Recording;
 use crate::record::schema;
@@ -38,16 +40,27 @@ use bycoms_protocol::msg::Pose;
 use bycoms_protocol::{encode, RobotId, Swarm, MAX_MESSAGE_LEN};
 use bycoms_runtime::Traffic;
 
+/// The ROS 2 graph a source may read: its settings and session.
+pub type Ros2Graph<'a> = (&'a super::ros2::Ros2Config, &'a zenoh::Session);
+
 /// The pose source `mocap` asks for, for a launch of `robots` robots of
-/// `swarm` on `bus`: the swarm's own bus, or NatNet. The seam's one
-/// factory: a new kind of source enters here and nowhere else.
+/// `swarm` on `bus`: the swarm's own bus, NatNet, or a ROS 2 driver's
+/// topics in `ros2`'s graph. The seam's one factory: a new kind of source
+/// enters here and nowhere else.
 pub fn open(
     mocap: &crate::mocap::MocapConfig,
     robots: u32,
     bus: &super::transport::SharedBus,
     swarm: Swarm,
+    ros2: Option<Ros2Graph<'_>>,
 ) -> anyhow::Result<Box<dyn PoseSource>> {
     use anyhow::Context;
+    if let (crate::mocap::MocapSource::Ros2, Some(config)) = (&mocap.source, &mocap.ros2) {
+        let (settings, session) =
+            ros2.context("mocap.source = \"ros2\" needs a ROS 2 session (ros2.router)")?;
+        let source = ros2::Ros2Poses::open(&config.for_robots(robots), settings, session)?;
+        return Ok(Box::new(source));
+    }
     Ok(match (&mocap.source, &mocap.natnet) {
         (crate::mocap::MocapSource::Natnet, Some(natnet)) => Box::new(
             mocap::NatNetPoses::new(
