@@ -272,4 +272,27 @@ mod tests {
         assert!(said[0].contains("/r2 is published as") && said[0].contains(&wrong), "{said:?}");
         assert!(said[1].contains("nobody publishes /r3") && said[1].contains("\"/other\""), "{said:?}");
     }
+
+    /// Over loopback: no router at the endpoint is an error naming it and
+    /// `rmw_zenohd` (soon, not a hang); a router with a node of the domain
+    /// is joined, its graph seen (and another domain's is not).
+    #[test]
+    fn no_router_is_an_error_naming_it_and_a_router_with_a_graph_is_joined() {
+        use bycoms_protocol::bus::zenoh::{Mode, ZenohBus};
+        let endpoint = crate::launch::transport::with_free_port("tcp/127.0.0.1:0").expect("a free port");
+        let cfg = Ros2Config { router: Some(endpoint.clone()), ..Ros2Config::default() };
+        let began = std::time::Instant::now();
+        let err = session(&cfg, None).expect_err("nothing listens there").to_string();
+        assert!(err.contains(&format!("no zenoh router answers at {endpoint}")), "{err}");
+        assert!(err.contains("rmw_zenohd"), "{err}");
+        assert!(began.elapsed() < Duration::from_secs(10), "said within {:?}", began.elapsed());
+
+        let config = bycoms_runtime::zenoh_config(Mode::Router, vec![endpoint.clone()], Vec::new(), None);
+        let router = ZenohBus::open(config).expect("the lab's router");
+        let token = format!("@ros2_lv/0/{}/0/0/NN/%/%/driver", router.session().zid());
+        let _node = router.session().liveliness().declare_token(token).wait().expect("token");
+        let joined = session(&cfg, None).expect("a router answers").expect("a session");
+        assert_eq!(graph_members(&joined, 0), 1, "the driver's node");
+        assert_eq!(graph_members(&joined, 7), 0, "no node of domain 7");
+    }
 }

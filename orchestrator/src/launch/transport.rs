@@ -255,7 +255,7 @@ fn port_of(endpoint: &str) -> Option<&str> {
 
 /// `endpoint` with a port 0 replaced by a free port of its host: a UDP
 /// port for `quic/` (QUIC runs over UDP), a TCP port otherwise.
-fn with_free_port(endpoint: &str) -> Result<String, TransportError> {
+pub(crate) fn with_free_port(endpoint: &str) -> Result<String, TransportError> {
     let (proto, addr, tail) = split(endpoint).ok_or_else(|| TransportError::Endpoint(endpoint.into()))?;
     let (host, port) = addr.rsplit_once(':').ok_or_else(|| TransportError::Endpoint(endpoint.into()))?;
     if port != "0" {
