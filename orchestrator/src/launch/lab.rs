@@ -114,5 +114,20 @@ mod tests {
         }
         let bodies = natnet.mocap.natnet.as_ref().expect("[mocap.natnet]").for_robots(2).bodies;
         assert_eq!(bodies.keys().collect::<Vec<_>>(), ["robot1", "robot2"]);
+        // The ROS 2 variant: the same gate and tracker, one topic per body.
+        let mut ros2 = crate::launch::LaunchConfig::load(&path.with_file_name("launch-ros2.toml"))
+            .expect("launch-ros2.toml loads");
+        assert_eq!((ros2.gate.clone(), ros2.goal_radius), (cfg.gate.clone(), cfg.goal_radius));
+        for robots in [2, 3] {
+            ros2.robots = robots;
+            ros2.validate().expect("valid for exp-short and exp-long alike");
+        }
+        let topics = ros2.mocap.ros2.as_ref().expect("[mocap.ros2]");
+        let natnet_tracking = natnet.mocap.natnet.as_ref().expect("[mocap.natnet]");
+        assert_eq!((topics.tracker, topics.placement), (natnet_tracking.tracker, natnet_tracking.placement));
+        assert_eq!(
+            topics.for_robots(2).topics.keys().collect::<Vec<_>>(),
+            ["/vrpn_mocap/robot1/pose", "/vrpn_mocap/robot2/pose"]
+        );
     }
 }
