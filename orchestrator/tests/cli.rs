@@ -492,6 +492,28 @@ fn a_zenoh_runtime_that_cannot_start_ends_the_launch_at_once() {
     assert!(begun.elapsed() < std::time::Duration::from_secs(8), "took {:?}", begun.elapsed());
 }
 
+/// `--ros2-router` with no router there (a port taken from the OS and let
+/// go): the launch ends at once, before any agent starts, exit 1, naming
+/// the endpoint and the lab's router to start (never a silent run that
+/// nobody in the ROS 2 graph sees).
+#[test]
+fn a_ros2_router_that_does_not_answer_ends_the_launch_naming_it() {
+    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let router = format!("tcp/127.0.0.1:{port}");
+    let swarm = format!("ros2-norouter-{}", std::process::id());
+    let begun = std::time::Instant::now();
+    let o = Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .args(["launch", "--robots", "1", "--swarm", &swarm, "--ros2-router", &router])
+        .output()
+        .expect("spawn orchestrator");
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains(&format!("ros2: no zenoh router answers at {router}")), "{err}");
+    assert!(err.contains("rmw_zenohd"), "{err}");
+    assert!(!err.contains("registered"), "no agent was started: {err}");
+    assert!(begun.elapsed() < std::time::Duration::from_secs(8), "took {:?}", begun.elapsed());
+}
+
 /// `sweep > /dev/full`: stdout is named as what failed, and every file of
 /// the study is written all the same (issue 31).
 #[test]

@@ -201,10 +201,7 @@ pub fn run_serving(
     let transport::Opened { bus, endpoints, links, presence: _presence, zenoh } =
         transport::open(&cfg.transport, &cfg.faults, cfg.robots, &swarm_name)?;
     let bus: SharedBus = bus;
-    // The ROS 2 graph's session: a client of the lab's router, or the launch's own.
-    let ros2_settings = cfg.ros2.clone().unwrap_or_default();
-    let wants_ros2 = cfg.ros2.is_some() || cfg.mocap.source == crate::mocap::MocapSource::Ros2;
-    let ros2_session = if wants_ros2 { ros2_graph::session(&ros2_settings, zenoh.as_ref())? } else { None };
+    let (ros2_settings, ros2_session) = ros2_graph::for_launch(&cfg, zenoh.as_ref())?;
     let graph = ros2_session.as_ref().map(|s| (&ros2_settings, s));
     let pose_source = poses::open(&cfg.mocap, cfg.robots, &bus, swarm, graph)?;
     let mut ports =

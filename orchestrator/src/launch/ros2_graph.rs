@@ -33,6 +33,19 @@ use zenoh::Wait;
 /// How long the graph is asked for its tokens when the session opens.
 const GRAPH_QUERY: Duration = Duration::from_secs(2);
 
+/// A launch's ROS 2 settings (its `[ros2]` table, or the defaults) and
+/// session, when it publishes (`[ros2]`) or reads its poses from ROS 2
+/// (`mocap.source = "ros2"`); no session otherwise.
+pub fn for_launch(
+    cfg: &super::LaunchConfig,
+    launch: Option<&ZenohBus>,
+) -> anyhow::Result<(Ros2Config, Option<zenoh::Session>)> {
+    let settings = cfg.ros2.clone().unwrap_or_default();
+    let wanted = cfg.ros2.is_some() || cfg.mocap.source == crate::mocap::MocapSource::Ros2;
+    let session = if wanted { session(&settings, launch)? } else { None };
+    Ok((settings, session))
+}
+
 /// The zenoh session ROS 2 traffic goes over: a client session to
 /// `cfg.router` when it is set, else the launch's own (`launch`, if it runs
 /// zenoh); `None` when neither exists (refused earlier by the config check).
