@@ -16,7 +16,9 @@ PyPI xxhash's XXH3-128 of the token, the 33-byte attachment packed by hand.
 usage: ros2_mocap_driver.py NATNET_COMMAND_PORT ROUTER DOMAIN ID=TOPIC...
 Prints `ready` once the router listens, the tokens are declared and the
 NatNet client runs; on a line on stdin (or its end), one JSON report:
-{"frames": N, "published": {TOPIC: COUNT}}.
+{"frames": N, "published": {TOPIC: COUNT}, "subscriptions": [[NODE,
+TOPIC, DDS TYPE, HASH], ...], "type_hash": rosbags' PoseStamped hash}: the subscription tokens (MS) of the graph,
+read as `ros2 topic info` reads them (what subscribes to what).
 """
 
 import json
@@ -119,7 +121,15 @@ def main():
     node = "mocap_driver"
     node_token = session.liveliness().declare_token(f"@ros2_lv/{domain}/{zid}/0/0/NN/%/%/{node}")
     publishers = {k: Publisher(session, domain, zid, node, 10 + k, t) for k, t in topics.items()}
-    lock, frames = threading.Lock(), [0]
+    lock, frames, subscriptions = threading.Lock(), [0], set()
+
+    def on_token(sample):
+        parts = str(sample.key_expr).split("/")
+        if sample.kind == zenoh.SampleKind.PUT and len(parts) >= 13 and parts[5] == "MS":
+            with lock:
+                subscriptions.add((parts[8], parts[9].replace("%", "/"), parts[10], parts[11]))
+
+    graph = session.liveliness().declare_subscriber(f"@ros2_lv/{domain}/**", on_token)
 
     def on_frame(data):
         with lock:
@@ -136,9 +146,14 @@ def main():
     print("ready", file=out, flush=True)
     sys.stdin.readline()
     with lock:
-        report = {"frames": frames[0], "published": {topics[k]: p.seq for k, p in publishers.items()}}
+        report = {
+            "frames": frames[0],
+            "published": {topics[k]: p.seq for k, p in publishers.items()},
+            "subscriptions": sorted(subscriptions),
+            "type_hash": TS.hash_rihs01(POSE_STAMPED),
+        }
     print(json.dumps(report), file=out, flush=True)
-    del node_token
+    del node_token, graph
     # The SDK's unicast data thread blocks in recvfrom for ever: end here.
     os._exit(0)
 

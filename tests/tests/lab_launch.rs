@@ -520,9 +520,15 @@ fn exp_long_with_poses_from_a_ros2_mocap_driver_reaches_the_goal() {
     assert!(out.stderr.contains("the ROS 2 graph is there"), "{}", out.stderr);
     assert!(!out.stderr.contains("nobody publishes"), "every topic has its publisher:\n{}", out.stderr);
     let report = driver.report();
+    let hash = report["type_hash"].as_str().expect("rosbags' hash of PoseStamped");
     for k in 1..=3 {
-        let sent = report["published"][format!("/vrpn_mocap/robot{k}/pose")].as_u64().unwrap_or(0);
+        let topic = format!("/vrpn_mocap/robot{k}/pose");
+        let sent = report["published"][&topic].as_u64().unwrap_or(0);
         assert!(sent > 0, "robot {k}'s poses were published: {report}");
+        // The launch's subscription, as `ros2 topic info` would list it.
+        let seen = serde_json::json!(["bycoms_mocap", topic, "geometry_msgs::msg::dds_::PoseStamped_", hash]);
+        let subscriptions = report["subscriptions"].as_array().expect("subscriptions");
+        assert!(subscriptions.contains(&seen), "the graph sees {seen}: {report}");
     }
     assert_no_gateway_left(&swarm);
     let lab = lab_summary(lab);
