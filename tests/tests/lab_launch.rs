@@ -489,7 +489,9 @@ impl Drop for Ros2Driver {
 /// shipped `deploy/lab/launch-ros2.toml` (its router endpoint replaced by
 /// the test's), joins that router as a zenoh client, finds the graph,
 /// takes every robot's poses from those topics and runs the experiment to
-/// its outcome: robots 1 and 2 stuck, robot 3 at the goal.
+/// its outcome: robots 1 and 2 stuck, robot 3 at the goal; its recording
+/// replays to the same decisions, and the driver sees the launch's
+/// subscriptions in the graph.
 #[test]
 #[ignore = "needs python3 with eclipse-zenoh==1.10.2, rosbags==0.11.9, xxhash==4.1.0 and natnetsdk==4.1.1"]
 fn exp_long_with_poses_from_a_ros2_mocap_driver_reaches_the_goal() {
@@ -510,10 +512,18 @@ fn exp_long_with_poses_from_a_ros2_mocap_driver_reaches_the_goal() {
     assert!(text.contains("router = \"tcp/127.0.0.1:7447\""), "the shipped file names rmw_zenohd's port");
     let config = dir.path().join("launch.toml");
     std::fs::write(&config, text.replace("tcp/127.0.0.1:7447", &router)).expect("config");
-    let out = launch_with(&config, &swarm, "exp-long", 3, &file, &[]).wait(Duration::from_secs(180));
+    let record = dir.path().join("run.mcap");
+    let record = record.to_str().expect("utf-8");
+    let out = launch_with(&config, &swarm, "exp-long", 3, &file, &["--record", record])
+        .wait(Duration::from_secs(180));
     let lab = assert_arrived(&out, lab);
     let j = out.json();
     assert_eq!(ends(&j), ["stuck", "stuck", "arrived"], "{j}");
+    // The trusted poses are recorded: the gate re-runs from them to the same decisions.
+    let replay = Proc::orchestrator(&["replay", record]).wait(Duration::from_secs(60));
+    assert_eq!(replay.status.code(), Some(0), "{}\n{}", replay.stdout, replay.stderr);
+    assert!(replay.stdout.contains("MATCH:"), "{}", replay.stdout);
+    assert_eq!(replay.stdout.matches("  same ").count(), 6, "{}", replay.stdout);
     let (x3, y3) = (j["robots"][2]["x"].as_f64().expect("x"), j["robots"][2]["y"].as_f64().expect("y"));
     assert!((x3 - 3.0).hypot(y3 - 1.0) <= 0.15, "robot 3 within the goal radius: ({x3}, {y3})");
     assert!(out.stderr.contains("connected to the ROS 2 router as a zenoh client"), "{}", out.stderr);
