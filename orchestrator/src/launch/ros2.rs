@@ -57,14 +57,7 @@ impl Ros2Config {
     /// then names of letters, digits and `_` separated by single `/`.
     pub fn validate(&self) -> Result<(), String> {
         let ns = &self.namespace;
-        let names_ok = ns.strip_prefix('/').is_some_and(|rest| {
-            rest.is_empty()
-                || rest.split('/').all(|n| {
-                    n.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
-                        && n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
-                })
-        });
-        if names_ok {
+        if bycoms_ros2::rmw_zenoh::is_fully_qualified(ns, true) {
             Ok(())
         } else {
             Err(format!("ros2.namespace {ns:?} is not a ROS 2 namespace: `/` or `/name`, `/a/b` (letters, digits, `_`)"))

@@ -207,21 +207,8 @@ impl Ros2MocapConfig {
     }
 }
 
-/// A fully qualified ROS 2 name: `/`, then names of letters, digits and `_`
-/// (not starting with a digit) separated by single `/`. `allow_root`: `/`
-/// alone (a namespace) is one too.
-pub fn is_ros_name(name: &str, allow_root: bool) -> bool {
-    name.strip_prefix('/').is_some_and(|rest| {
-        (allow_root && rest.is_empty())
-            || rest.split('/').all(|n| {
-                n.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
-                    && n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
-            })
-    })
-}
-
 fn is_topic_name(name: &str) -> bool {
-    is_ros_name(name, false)
+    bycoms_ros2::rmw_zenoh::is_fully_qualified(name, false)
 }
 
 impl NatNetSourceConfig {

@@ -56,6 +56,20 @@ pub fn dds_type_name(ros_type: &str) -> String {
     out
 }
 
+/// A fully qualified ROS 2 name as the launch accepts one: `/`, then
+/// names of letters, digits and `_` (not starting with a digit) separated
+/// by single `/`; with `allow_root`, `/` alone too (a namespace). Stricter
+/// than rcl (no `~`, no substitutions): what a config names is used as is.
+pub fn is_fully_qualified(name: &str, allow_root: bool) -> bool {
+    name.strip_prefix('/').is_some_and(|rest| {
+        (allow_root && rest.is_empty())
+            || rest.split('/').all(|n| {
+                n.chars().next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+                    && n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+            })
+    })
+}
+
 /// `/` → `%`, as rmw_zenoh mangles names inside a token.
 pub fn mangle(name: &str) -> String {
     name.replace('/', "%")
