@@ -6,6 +6,7 @@
 //! with its seed.
 
 use super::net::{Link, Partition};
+use crate::launch::setup::Seams;
 use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
@@ -93,6 +94,23 @@ pub struct Schedule {
 }
 
 impl Schedule {
+    /// What the seams of this schedule's launch say of themselves: spawned
+    /// agents, or remote ones (the properties `launch/agents/spawned.rs`
+    /// and `remote.rs` give), with poses on the bus.
+    pub fn seams(&self) -> Seams {
+        Seams {
+            kind: if self.remote { "remote" } else { "spawned" },
+            all_at_once: self.remote,
+            needs_placement: false,
+            stop_when_stuck: false,
+            start_hint: "",
+            wants_poses: false,
+            senses_beacons: true,
+            poses_on_the_bus: true,
+            mocap_placement: None,
+        }
+    }
+
     /// Nothing goes wrong: a perfect 50 µs link, prompt registrations.
     pub fn clean(seed: u64, robots: u32) -> Self {
         Self {
