@@ -40,7 +40,7 @@ use super::agents::{Gone, Reach};
 use super::config::{Clock, LaunchConfig, Missing, OnDeath};
 use super::core::log::{Call, Logged};
 use super::core::{Ending, Input, Output, Setup, SlotState};
-use super::summary::Outcome;
+use super::summary::{Decided, Outcome, RobotEnd};
 use crate::draw::snapshot::Unit;
 use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Heartbeat, Pose, Register, ToAgent};
 use bycoms_protocol::RobotId;
@@ -143,12 +143,17 @@ pub struct Report {
     pub last_tick: Vec<Option<u64>>,
     /// Deployments each robot got (agents that took a `Deploy`).
     pub deploys_sent: Vec<u64>,
+    /// `Stop`s sent to each robot.
+    pub stops_sent: Vec<u64>,
     /// Robots that registered after their turn was skipped.
     pub late: Vec<u32>,
     /// Virtual time of each gate event (parallel to `gates`), µs.
     pub gate_times_us: Vec<u64>,
     /// When each robot's first registration reached the core, µs.
     pub registered_us: Vec<Option<u64>>,
+    /// What the summary states ([`super::summary::of`] at the end, with
+    /// the schedule's recording failure).
+    pub decided: Option<Decided>,
 }
 
 /// A harness launch as a launch of the `orchestrator` would be: its

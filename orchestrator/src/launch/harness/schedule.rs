@@ -91,18 +91,23 @@ pub struct Schedule {
     pub foreign: Vec<(u64, Foreign)>,
     /// Ctrl-C, and when.
     pub interrupt_at_us: Option<u64>,
+    /// The recording fails as the launch ends (the summary must say error).
+    pub recording_fails: bool,
+    /// The agent source tells a stuck robot to stop (as gateways do).
+    pub stop_when_stuck: bool,
 }
 
 impl Schedule {
     /// What the seams of this schedule's launch say of themselves: spawned
     /// agents, or remote ones (the properties `launch/agents/spawned.rs`
-    /// and `remote.rs` give), with poses on the bus.
+    /// and `remote.rs` give), with poses on the bus; stuck robots told to
+    /// stop when the schedule says so (`gateways.rs`'s property).
     pub fn seams(&self) -> Seams {
         Seams {
             kind: if self.remote { "remote" } else { "spawned" },
             all_at_once: self.remote,
             needs_placement: false,
-            stop_when_stuck: false,
+            stop_when_stuck: self.stop_when_stuck,
             start_hint: "",
             wants_poses: false,
             senses_beacons: true,
@@ -126,6 +131,8 @@ impl Schedule {
             second_agents: Vec::new(),
             foreign: Vec::new(),
             interrupt_at_us: None,
+            recording_fails: false,
+            stop_when_stuck: false,
         }
     }
 
@@ -195,6 +202,8 @@ impl Schedule {
         if rng.gen_bool(0.05) {
             s.interrupt_at_us = Some(rng.gen_range(0..horizon_us));
         }
+        s.recording_fails = rng.gen_bool(0.05);
+        s.stop_when_stuck = rng.gen_bool(0.3);
         s
     }
 }

@@ -79,9 +79,11 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             stepped: vec![0; n],
             last_tick: vec![None; n],
             deploys_sent: vec![0; n],
+            stops_sent: vec![0; n],
             late: Vec::new(),
             gate_times_us: Vec::new(),
             registered_us: vec![None; n],
+            decided: None,
         },
         register_timeout_us,
         heartbeat_timeout_us,
@@ -187,10 +189,13 @@ impl World<'_> {
                 Output::Start(id) => self.start(id),
                 Output::Send(id, msg) => {
                     let deploy = matches!(msg, ToAgent::Deploy(_));
-                    if deploy {
-                        if let Some(d) = self.report.deploys_sent.get_mut(id as usize - 1) {
-                            *d += 1;
-                        }
+                    let counter = match msg {
+                        ToAgent::Deploy(_) => Some(&mut self.report.deploys_sent),
+                        ToAgent::Stop => Some(&mut self.report.stops_sent),
+                        _ => None,
+                    };
+                    if let Some(n) = counter.and_then(|c| c.get_mut(id as usize - 1)) {
+                        *n += 1;
                     }
                     self.net.send(now, id, Packet::ToAgent(id, msg));
                     if let Some(i) = self.racers.iter().position(|&r| r == id).filter(|_| deploy) {
@@ -442,6 +447,8 @@ impl World<'_> {
     pub(super) fn finish(mut self) -> Report {
         let core = &self.core;
         self.report.ending = core.ending().cloned();
+        let recording = if self.schedule.recording_fails { Err("disk full (harness)") } else { Ok(()) };
+        self.report.decided = core.ending().map(|e| super::super::summary::of(core, e, recording));
         self.report.robots = core.slots().iter().map(|s| (s.state(), s.steps(), s.last_pose())).collect();
         self.report.deaths = core.slots().iter().map(|s| s.death().map(|d| d.reason.clone())).collect();
         self.report.late = core.slots().iter().filter(|s| s.joined_late()).map(|s| s.id()).collect();
