@@ -8,6 +8,10 @@
 //! every delay, loss, duplicate, partition, crash, late or missing
 //! registration, second agent and forged message, and [`run`] plays a
 //! launch through the real [`Core`] in virtual time in microseconds of CPU.
+//! The harness runs production code on both sides: the core's [`Setup`] is
+//! the launch's own (`launch::setup::setup_of`, [`Launch`]), each agent is
+//! the `sim-agent` process's own [`AgentCore`] (its message rules, real
+//! heartbeat periods), and the summary's verdict is `summary::of`.
 //! [`check`] states the properties every schedule must keep; the
 //! differential properties (parity with `simulate`, forgeries and short
 //! partitions change nothing) compare two runs. A failing schedule is
