@@ -188,6 +188,46 @@ fn a_frozen_robot_gets_no_tick_after_its_verdict() {
     assert!(judged_before_the_end > 100, "only {judged_before_the_end} robots judged before the end");
 }
 
+/// The harness's agents are built as the launch's spawned agents are:
+/// from its agent template and run settings (no restated periods: they
+/// beat every 100 ms, every 500 ms once parked), and the core's setup
+/// carries the fingerprint those agents register with.
+#[test]
+fn harness_agents_beat_and_register_as_the_launch_tells_its_agents() {
+    use std::time::Duration;
+    let case = Case::small(0);
+    let schedule = Schedule::clean(0, case.robots);
+    let launch = harness::Launch::of(&case, &schedule);
+    assert_eq!(launch.timing.heartbeat, Duration::from_millis(100));
+    assert_eq!(launch.timing.parked_heartbeat, Duration::from_millis(500));
+    assert_eq!(launch.setup(&schedule).settings, launch.settings.fingerprint());
+    assert_eq!(launch.setup(&schedule), harness::setup(&case, &schedule));
+}
+
+/// Agents that stop stuck robots (the gateways' property, through the
+/// launch's own setup) are told `Stop` once per robot judged stuck, and
+/// nothing else changes: in lockstep a judged robot gets no tick anyway,
+/// and the sim-agent's own rules park it (`Parked`, slower heartbeats).
+#[test]
+fn stop_when_stuck_stops_each_stuck_robot_once_and_changes_nothing_else() {
+    let mut stopped = 0;
+    for seed in 0..120 {
+        let case = Case::small(seed);
+        let clean = Schedule::clean(seed, case.robots);
+        let stopping = Schedule { stop_when_stuck: true, ..clean.clone() };
+        let (base, report) = (harness::run(&case, &clean), harness::run(&case, &stopping));
+        harness::check(&report, &stopping).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        same_run(&base, &report, &format!("seed {seed}, stop when stuck"));
+        for (k, (state, _, _)) in report.robots.iter().enumerate() {
+            let expected = u64::from(matches!(state, SlotState::Stuck | SlotState::Arrived));
+            assert_eq!(report.stops_sent[k], expected, "seed {seed} robot {}: Stops for {state:?}", k + 1);
+            assert_eq!(base.stops_sent[k], u64::from(*state == SlotState::Arrived), "seed {seed} without");
+            stopped += usize::from(*state == SlotState::Stuck);
+        }
+    }
+    assert!(stopped > 100, "only {stopped} stuck robots stopped");
+}
+
 fn same_run(a: &Report, b: &Report, what: &str) {
     assert_eq!(a.ending, b.ending, "{what}: ending");
     assert_eq!(a.gates, b.gates, "{what}: gate events");
