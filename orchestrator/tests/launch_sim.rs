@@ -60,7 +60,7 @@ fn schedules_keep_the_properties() {
         std::env::var("BYCOMS_SIM_SCHEDULES").ok().and_then(|v| v.parse().ok()).unwrap_or(10_000);
     // Every schedule is independent and deterministic from its seed: they
     // are played on every core, and the tallies do not depend on the order.
-    let played: Vec<(String, Option<String>, u64, u64)> = (0..count)
+    let played: Vec<(String, Option<String>, u64, u64, [bool; 3])> = (0..count)
         .into_par_iter()
         .map(|seed| {
             let (_, schedule, report) = one(seed);
@@ -73,13 +73,23 @@ fn schedules_keep_the_properties() {
             let ending = report.ending.expect("checked");
             // The kind of error, without the robot numbers.
             let error = ending.error.map(|e| e.chars().filter(|c| !c.is_ascii_digit()).take(60).collect());
-            (format!("{:?}", ending.outcome), error, report.bad, report.resends)
+            // What a launch can be that the schedules must reach.
+            let covered = [
+                schedule.gateway_seams && report.forwarded > 0,
+                schedule.stop_when_stuck && report.stops_sent.iter().sum::<u64>() > 0,
+                schedule.recording_fails,
+            ];
+            (format!("{:?}", ending.outcome), error, report.bad, report.resends, covered)
         })
         .collect();
     let mut outcomes = std::collections::BTreeMap::new();
     let mut errors = std::collections::BTreeMap::new();
     let (mut bad, mut resends) = (0u64, 0u64);
-    for (outcome, error, b, r) in played {
+    let mut covered = [0u64; 3];
+    for (outcome, error, b, r, c) in played {
+        for (n, c) in covered.iter_mut().zip(c) {
+            *n += u64::from(c);
+        }
         *outcomes.entry(outcome).or_insert(0u64) += 1;
         if let Some(kind) = error {
             *errors.entry(kind).or_insert(0u64) += 1;
@@ -89,8 +99,10 @@ fn schedules_keep_the_properties() {
     }
     eprintln!("{count} schedules: outcomes {outcomes:?}, bad traffic counted {bad}, re-sends {resends}");
     eprintln!("errors: {errors:#?}");
+    eprintln!("gateway seams with poses forwarded, stuck robots stopped, recordings failed: {covered:?}");
     // The schedules reach every kind of ending, or they test too little.
     if count >= 1000 {
+        assert!(covered.iter().all(|&n| n > 0), "a kind of launch never drawn: {covered:?}");
         for o in ["Arrived", "RobotsExhausted", "TimeLimit", "Interrupted"] {
             assert!(outcomes.contains_key(o), "no schedule ended {o}: {outcomes:?}");
         }

@@ -63,11 +63,12 @@ fn check_stops(report: &Report, schedule: &Schedule) -> Result<(), String> {
         let stuck = verdict.is_some_and(|g| g.kind == GateKind::Stopped { arrived: false });
         let arrived = verdict.is_some_and(|g| g.kind == GateKind::Stopped { arrived: true });
         let alive = report.deaths.get(i).is_some_and(Option::is_none);
-        let expected = arrived || (stuck && schedule.stop_when_stuck);
+        let stop_when_stuck = schedule.seams().stop_when_stuck;
+        let expected = arrived || (stuck && stop_when_stuck);
         if stops > 0 && !expected {
             return Err(format!("robot {id} told to stop ({stops}×) after {:?}", verdict.map(|g| g.kind)));
         }
-        if stuck && schedule.stop_when_stuck && alive && stops == 0 {
+        if stuck && stop_when_stuck && alive && stops == 0 {
             return Err(format!("robot {id} judged stuck and never told to stop"));
         }
     }
@@ -148,6 +149,13 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
     }
     check_summary(report, schedule, ending)?;
     check_stops(report, schedule)?;
+    let seams = schedule.seams();
+    if !seams.senses_beacons && report.beacons_sent > 0 {
+        return Err(format!("{} beacons sent to agents that hear each other", report.beacons_sent));
+    }
+    if seams.poses_on_the_bus && report.forwarded > 0 {
+        return Err(format!("{} poses forwarded though they are on the bus", report.forwarded));
+    }
     // Re-sends are bounded: at most every awaited robot once a second, and
     // a few for each message lost (a wait's first re-sends come after a
     // few answer times, each twice as late as the one before).

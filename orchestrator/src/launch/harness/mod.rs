@@ -149,6 +149,10 @@ pub struct Report {
     pub deploys_sent: Vec<u64>,
     /// `Stop`s sent to each robot.
     pub stops_sent: Vec<u64>,
+    /// `Beacon`s sent to agents.
+    pub beacons_sent: u64,
+    /// Poses passed on to the agents (`Output::Forward`).
+    pub forwarded: u64,
     /// Robots that registered after their turn was skipped.
     pub late: Vec<u32>,
     /// Virtual time of each gate event (parallel to `gates`), µs.

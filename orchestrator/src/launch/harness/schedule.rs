@@ -95,23 +95,33 @@ pub struct Schedule {
     pub recording_fails: bool,
     /// The agent source tells a stuck robot to stop (as gateways do).
     pub stop_when_stuck: bool,
+    /// Real time, remote: the agents have the gateways' properties (all at
+    /// once, stuck robots stopped, the launch's poses forwarded to them,
+    /// no beacons: real robots hear each other), the poses not on the bus.
+    pub gateway_seams: bool,
 }
 
 impl Schedule {
     /// What the seams of this schedule's launch say of themselves: spawned
     /// agents, or remote ones (the properties `launch/agents/spawned.rs`
-    /// and `remote.rs` give), with poses on the bus; stuck robots told to
-    /// stop when the schedule says so (`gateways.rs`'s property).
+    /// and `remote.rs` give), with poses on the bus, stuck robots told to
+    /// stop when the schedule says so; or the gateways' properties
+    /// (`gateways.rs`, but placement) with poses from motion capture.
     pub fn seams(&self) -> Seams {
+        let gateway = self.gateway_seams;
         Seams {
-            kind: if self.remote { "remote" } else { "spawned" },
-            all_at_once: self.remote,
+            kind: match (gateway, self.remote) {
+                (true, _) => "gateway",
+                (false, true) => "remote",
+                (false, false) => "spawned",
+            },
+            all_at_once: self.remote || gateway,
             needs_placement: false,
-            stop_when_stuck: self.stop_when_stuck,
+            stop_when_stuck: self.stop_when_stuck || gateway,
             start_hint: "",
-            wants_poses: false,
-            senses_beacons: true,
-            poses_on_the_bus: true,
+            wants_poses: gateway,
+            senses_beacons: !gateway,
+            poses_on_the_bus: !gateway,
             mocap_placement: None,
         }
     }
@@ -133,6 +143,7 @@ impl Schedule {
             interrupt_at_us: None,
             recording_fails: false,
             stop_when_stuck: false,
+            gateway_seams: false,
         }
     }
 
@@ -204,6 +215,7 @@ impl Schedule {
         }
         s.recording_fails = rng.gen_bool(0.05);
         s.stop_when_stuck = rng.gen_bool(0.3);
+        s.gateway_seams = s.remote && s.realtime.is_some() && rng.gen_bool(0.5);
         s
     }
 }

@@ -80,6 +80,8 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             last_tick: vec![None; n],
             deploys_sent: vec![0; n],
             stops_sent: vec![0; n],
+            beacons_sent: 0,
+            forwarded: 0,
             late: Vec::new(),
             gate_times_us: Vec::new(),
             registered_us: vec![None; n],
@@ -189,6 +191,7 @@ impl World<'_> {
                 Output::Start(id) => self.start(id),
                 Output::Send(id, msg) => {
                     let deploy = matches!(msg, ToAgent::Deploy(_));
+                    self.report.beacons_sent += u64::from(matches!(msg, ToAgent::Beacon(_)));
                     let counter = match msg {
                         ToAgent::Deploy(_) => Some(&mut self.report.deploys_sent),
                         ToAgent::Stop => Some(&mut self.report.stops_sent),
@@ -224,8 +227,8 @@ impl World<'_> {
                     }
                 }
                 Output::Bad(..) => self.report.bad += 1,
-                Output::Forward(_)
-                | Output::Event(_)
+                Output::Forward(_) => self.report.forwarded += 1,
+                Output::Event(_)
                 | Output::Note(_)
                 | Output::RobotLink(..)
                 | Output::SimTime(_)
