@@ -53,6 +53,10 @@ fn one(seed: u64) -> (Case, Schedule, Report) {
     (case, schedule, report)
 }
 
+/// One schedule's tally: outcome, kind of error, bad traffic, re-sends,
+/// and which kinds of launch it was (see `covered`).
+type Played = (String, Option<String>, u64, u64, [bool; 3]);
+
 #[test]
 fn schedules_keep_the_properties() {
     use rayon::prelude::*;
@@ -60,7 +64,7 @@ fn schedules_keep_the_properties() {
         std::env::var("BYCOMS_SIM_SCHEDULES").ok().and_then(|v| v.parse().ok()).unwrap_or(10_000);
     // Every schedule is independent and deterministic from its seed: they
     // are played on every core, and the tallies do not depend on the order.
-    let played: Vec<(String, Option<String>, u64, u64, [bool; 3])> = (0..count)
+    let played: Vec<Played> = (0..count)
         .into_par_iter()
         .map(|seed| {
             let (_, schedule, report) = one(seed);
