@@ -53,6 +53,10 @@ fn one(seed: u64) -> (Case, Schedule, Report) {
     (case, schedule, report)
 }
 
+/// One schedule's tally: outcome, kind of error, bad traffic, re-sends,
+/// and which kinds of launch it was (see `covered`).
+type Played = (String, Option<String>, u64, u64, [bool; 3]);
+
 #[test]
 fn schedules_keep_the_properties() {
     use rayon::prelude::*;
@@ -60,7 +64,7 @@ fn schedules_keep_the_properties() {
         std::env::var("BYCOMS_SIM_SCHEDULES").ok().and_then(|v| v.parse().ok()).unwrap_or(10_000);
     // Every schedule is independent and deterministic from its seed: they
     // are played on every core, and the tallies do not depend on the order.
-    let played: Vec<(String, Option<String>, u64, u64)> = (0..count)
+    let played: Vec<Played> = (0..count)
         .into_par_iter()
         .map(|seed| {
             let (_, schedule, report) = one(seed);
@@ -73,13 +77,23 @@ fn schedules_keep_the_properties() {
             let ending = report.ending.expect("checked");
             // The kind of error, without the robot numbers.
             let error = ending.error.map(|e| e.chars().filter(|c| !c.is_ascii_digit()).take(60).collect());
-            (format!("{:?}", ending.outcome), error, report.bad, report.resends)
+            // What a launch can be that the schedules must reach.
+            let covered = [
+                schedule.gateway_seams && report.forwarded > 0,
+                schedule.stop_when_stuck && report.stops_sent.iter().sum::<u64>() > 0,
+                schedule.recording_fails,
+            ];
+            (format!("{:?}", ending.outcome), error, report.bad, report.resends, covered)
         })
         .collect();
     let mut outcomes = std::collections::BTreeMap::new();
     let mut errors = std::collections::BTreeMap::new();
     let (mut bad, mut resends) = (0u64, 0u64);
-    for (outcome, error, b, r) in played {
+    let mut covered = [0u64; 3];
+    for (outcome, error, b, r, c) in played {
+        for (n, c) in covered.iter_mut().zip(c) {
+            *n += u64::from(c);
+        }
         *outcomes.entry(outcome).or_insert(0u64) += 1;
         if let Some(kind) = error {
             *errors.entry(kind).or_insert(0u64) += 1;
@@ -89,8 +103,10 @@ fn schedules_keep_the_properties() {
     }
     eprintln!("{count} schedules: outcomes {outcomes:?}, bad traffic counted {bad}, re-sends {resends}");
     eprintln!("errors: {errors:#?}");
+    eprintln!("gateway seams with poses forwarded, stuck robots stopped, recordings failed: {covered:?}");
     // The schedules reach every kind of ending, or they test too little.
     if count >= 1000 {
+        assert!(covered.iter().all(|&n| n > 0), "a kind of launch never drawn: {covered:?}");
         for o in ["Arrived", "RobotsExhausted", "TimeLimit", "Interrupted"] {
             assert!(outcomes.contains_key(o), "no schedule ended {o}: {outcomes:?}");
         }
@@ -186,6 +202,46 @@ fn a_frozen_robot_gets_no_tick_after_its_verdict() {
     // Most stuck robots were judged long before their run ended: without
     // `Parked` each of them would have been ticked to the end.
     assert!(judged_before_the_end > 100, "only {judged_before_the_end} robots judged before the end");
+}
+
+/// The harness's agents are built as the launch's spawned agents are:
+/// from its agent template and run settings (no restated periods: they
+/// beat every 100 ms, every 500 ms once parked), and the core's setup
+/// carries the fingerprint those agents register with.
+#[test]
+fn harness_agents_beat_and_register_as_the_launch_tells_its_agents() {
+    use std::time::Duration;
+    let case = Case::small(0);
+    let schedule = Schedule::clean(0, case.robots);
+    let launch = harness::Launch::of(&case, &schedule);
+    assert_eq!(launch.timing.heartbeat, Duration::from_millis(100));
+    assert_eq!(launch.timing.parked_heartbeat, Duration::from_millis(500));
+    assert_eq!(launch.setup(&schedule).settings, launch.settings.fingerprint());
+    assert_eq!(launch.setup(&schedule), harness::setup(&case, &schedule));
+}
+
+/// Agents that stop stuck robots (the gateways' property, through the
+/// launch's own setup) are told `Stop` once per robot judged stuck, and
+/// nothing else changes: in lockstep a judged robot gets no tick anyway,
+/// and the sim-agent's own rules park it (`Parked`, slower heartbeats).
+#[test]
+fn stop_when_stuck_stops_each_stuck_robot_once_and_changes_nothing_else() {
+    let mut stopped = 0;
+    for seed in 0..120 {
+        let case = Case::small(seed);
+        let clean = Schedule::clean(seed, case.robots);
+        let stopping = Schedule { stop_when_stuck: true, ..clean.clone() };
+        let (base, report) = (harness::run(&case, &clean), harness::run(&case, &stopping));
+        harness::check(&report, &stopping).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        same_run(&base, &report, &format!("seed {seed}, stop when stuck"));
+        for (k, (state, _, _)) in report.robots.iter().enumerate() {
+            let expected = u64::from(matches!(state, SlotState::Stuck | SlotState::Arrived));
+            assert_eq!(report.stops_sent[k], expected, "seed {seed} robot {}: Stops for {state:?}", k + 1);
+            assert_eq!(base.stops_sent[k], u64::from(*state == SlotState::Arrived), "seed {seed} without");
+            stopped += usize::from(*state == SlotState::Stuck);
+        }
+    }
+    assert!(stopped > 100, "only {stopped} stuck robots stopped");
 }
 
 fn same_run(a: &Report, b: &Report, what: &str) {

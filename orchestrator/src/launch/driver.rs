@@ -18,13 +18,12 @@ use super::events::EVENT_SCHEMA;
 use super::ports::Ports;
 use super::poses::{PoseSink, PoseSource};
 use super::progress::{Progress, Waits};
-use super::summary::{Outcome, RealtimeReport, RecordingSummary, RobotEnd, RobotSummary, Summary};
+use super::summary::{RealtimeReport, RecordingSummary, Summary};
 use super::World;
 use crate::record::schema;
 use bycoms_protocol::bus::zenoh::settings::SettingsServer;
 use bycoms_protocol::msg::{Pose, ToAgent};
 use bycoms_sim::sim_agent::AgentArgs;
-use bycoms_sim::Vec2;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -314,7 +313,6 @@ impl Driver {
     /// same way: `Shutdown` to every agent still running, a grace period,
     /// an end for the ones that did not exit, the recording finished.
     fn finish(mut self, ending: Ending) -> Summary {
-        let Ending { outcome, error } = ending;
         let running: Vec<u32> =
             self.core.slots().iter().filter(|s| self.agents.is_running(s.id())).map(Slot::id).collect();
         let live = running.len();
@@ -346,20 +344,11 @@ impl Driver {
         }
         self.redraw();
         self.progress.finish();
-        let slots = self.core.slots();
-        let robots: Vec<RobotSummary> = slots.iter().map(robot_summary).collect();
-        let beacons = slots
-            .iter()
-            .filter(|s| matches!(s.state(), SlotState::Stuck | SlotState::Died))
-            .filter_map(|s| s.last_pose().map(|p| Vec2::new(p.x, p.y)))
-            .collect();
+        let decided = super::summary::of(&self.core, &ending, Ok(()));
         let dt = self.template.run_config().kinematics.dt;
         let wall_s = self.epoch.elapsed().as_secs_f64();
-        let realtime = (self.cfg.clock == Clock::Realtime).then(|| {
-            let (seen, missed) =
-                slots.iter().fold((0, 0), |(s, m), slot| (s + slot.frames().seen, m + slot.frames().missed));
-            RealtimeReport::new(self.cfg.speed, seen, missed)
-        });
+        let realtime = (self.cfg.clock == Clock::Realtime)
+            .then(|| RealtimeReport::new(self.cfg.speed, decided.frames.0, decided.frames.1));
         if let Some(rt) = realtime.as_ref().filter(|rt| !rt.faithful) {
             tracing::warn!(
                 missed_periods = rt.missed_periods,
@@ -373,8 +362,7 @@ impl Driver {
                 rt.achieved_speed
             );
         }
-        let spent = self.core.spent();
-        let ticks = self.core.ticks();
+        let (spent, ticks) = (decided.steps, decided.ticks);
         let first_moving = self.core.first_moving_us().map(|us| {
             (self.epoch.saturating_duration_since(self.begun) + Duration::from_micros(us)).as_secs_f64()
         });
@@ -386,10 +374,10 @@ impl Driver {
             seed: self.cfg.seed,
             clock: self.cfg.clock.as_str().into(),
             speed: (self.cfg.clock == Clock::Realtime).then_some(self.cfg.speed),
-            success: outcome == Outcome::Arrived,
-            outcome,
-            error,
-            robots_used: robots.iter().filter(|r| r.deployed_tick.is_some()).count() as u32,
+            success: decided.verdict.success,
+            outcome: decided.verdict.outcome,
+            error: decided.verdict.error,
+            robots_used: decided.robots_used,
             steps: spent,
             time_s: self.template.run_config().kinematics.time_of(spent),
             ticks,
@@ -400,15 +388,15 @@ impl Driver {
                 Clock::Realtime => realtime.as_ref().map_or(self.cfg.speed, |rt| rt.achieved_speed),
             },
             realtime,
-            beacons,
-            robots,
+            beacons: decided.beacons,
+            robots: decided.robots,
             bad_traffic: self.traffic(),
             recording: None,
             picture: None,
             transport: self.cfg.transport.kind.as_str().into(),
             endpoints: std::mem::take(&mut self.endpoints),
             first_moving_s: first_moving,
-            resends: self.core.resends(),
+            resends: decided.resends,
             shutdown_killed: killed,
         };
         // The observers see the scene to its last gate event.
@@ -432,9 +420,8 @@ impl Driver {
             }
             Ok(None) => {}
             Err(e) => {
-                summary.outcome = Outcome::Error;
-                summary.success = false;
-                summary.error.get_or_insert(format!("recording failed: {e}"));
+                let v = super::summary::verdict(&ending, Err(&e.to_string()));
+                (summary.outcome, summary.success, summary.error) = (v.outcome, v.success, v.error);
             }
         }
         summary
@@ -455,34 +442,5 @@ impl Driver {
             &heading,
             self.world.unit,
         ))
-    }
-}
-
-fn robot_summary(s: &Slot) -> RobotSummary {
-    let end = match s.state() {
-        SlotState::Stuck => RobotEnd::Stuck,
-        SlotState::Arrived => RobotEnd::Arrived,
-        SlotState::Died => RobotEnd::Died,
-        SlotState::Unfinished | SlotState::Moving => RobotEnd::Moving,
-        SlotState::Absent => RobotEnd::Absent,
-        _ => RobotEnd::NotDeployed,
-    };
-    let deployed = !matches!(end, RobotEnd::NotDeployed | RobotEnd::Absent);
-    let pose = s.last_pose().filter(|_| deployed);
-    RobotSummary {
-        id: s.id(),
-        pid: s.pid(),
-        end,
-        x: pose.map(|p| p.x),
-        y: pose.map(|p| p.y),
-        x_bits: pose.map(|p| p.x.to_bits()),
-        y_bits: pose.map(|p| p.y.to_bits()),
-        steps: s.steps(),
-        deployed_tick: s.deployed_tick().filter(|_| deployed),
-        decided_tick: s.decided_tick(),
-        mode: s.mode(),
-        gate_reaction_us: s.reaction_us(),
-        death: s.death().cloned(),
-        outages: s.outages().to_vec(),
     }
 }

@@ -18,6 +18,49 @@ use bycoms_sim::Vec2;
 use std::path::PathBuf;
 use std::time::{SystemTime, UNIX_EPOCH};
 
+/// What the seams say of themselves that the core's setup needs: the
+/// agent source's and the pose source's properties, as plain values (so
+/// the launch harness declares the seams it simulates and gets the very
+/// setup a launch with them gets).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Seams {
+    /// The agent source's kind ([`AgentSource::kind`]).
+    pub kind: &'static str,
+    /// [`AgentSource::all_at_once`].
+    pub all_at_once: bool,
+    /// [`AgentSource::needs_placement`].
+    pub needs_placement: bool,
+    /// [`AgentSource::stop_when_stuck`].
+    pub stop_when_stuck: bool,
+    /// [`AgentSource::start_hint`].
+    pub start_hint: &'static str,
+    /// [`AgentSource::wants_poses`].
+    pub wants_poses: bool,
+    /// [`AgentSource::senses_beacons`].
+    pub senses_beacons: bool,
+    /// [`PoseSource::on_the_bus`].
+    pub poses_on_the_bus: bool,
+    /// [`PoseSource::placement`].
+    pub mocap_placement: Option<crate::mocap::PlacementConfig>,
+}
+
+impl Seams {
+    /// What `agents` and `poses` say of themselves.
+    pub fn of(agents: &dyn AgentSource, poses: &dyn PoseSource) -> Self {
+        Self {
+            kind: agents.kind(),
+            all_at_once: agents.all_at_once(),
+            needs_placement: agents.needs_placement(),
+            stop_when_stuck: agents.stop_when_stuck(),
+            start_hint: agents.start_hint(),
+            wants_poses: agents.wants_poses(),
+            senses_beacons: agents.senses_beacons(),
+            poses_on_the_bus: poses.on_the_bus(),
+            mocap_placement: poses.placement(),
+        }
+    }
+}
+
 /// The core's setup for a launch of `cfg` in `world`.
 pub fn setup(
     cfg: &LaunchConfig,
@@ -26,9 +69,22 @@ pub fn setup(
     agents: &dyn AgentSource,
     poses: &dyn PoseSource,
 ) -> Setup {
+    let unix_ms = SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_millis() as u64).unwrap_or(0);
+    setup_of(cfg, world, template, &Seams::of(agents, poses), unix_ms)
+}
+
+/// The core's setup for a launch of `cfg` in `world` with seams `seams`,
+/// started at `unix_base_ms` (ms since the Unix epoch).
+pub fn setup_of(
+    cfg: &LaunchConfig,
+    world: &World,
+    template: &AgentArgs,
+    seams: &Seams,
+    unix_base_ms: u64,
+) -> Setup {
     let mut run = template.run_config();
     run.time_limit = cfg.time_limit;
-    let placement = agents.needs_placement().then(|| poses.placement().unwrap_or(cfg.agents.placement));
+    let placement = seams.needs_placement.then(|| seams.mocap_placement.unwrap_or(cfg.agents.placement));
     Setup {
         robots: cfg.robots,
         lockstep: cfg.clock == Clock::Lockstep,
@@ -46,15 +102,15 @@ pub fn setup(
         link_grace_s: cfg.supervision.link_grace,
         register_timeout_s: cfg.supervision.register_timeout,
         agents: AgentTraits {
-            kind: agents.kind().to_string(),
-            all_at_once: agents.all_at_once(),
-            stop_when_stuck: agents.stop_when_stuck(),
-            start_hint: agents.start_hint().to_string(),
+            kind: seams.kind.to_string(),
+            all_at_once: seams.all_at_once,
+            stop_when_stuck: seams.stop_when_stuck,
+            start_hint: seams.start_hint.to_string(),
             placement,
-            forward_poses: !poses.on_the_bus() && agents.wants_poses(),
-            beacons: agents.senses_beacons(),
+            forward_poses: !seams.poses_on_the_bus && seams.wants_poses,
+            beacons: seams.senses_beacons,
         },
-        unix_base_ms: SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_millis() as u64).unwrap_or(0),
+        unix_base_ms,
         settings: run_settings(template, world).fingerprint(),
     }
 }

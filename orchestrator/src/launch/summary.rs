@@ -5,7 +5,8 @@
 //! launch with `simulate`) can check "bit for bit" without trusting a
 //! decimal round trip.
 
-use crate::runs::{count, verdict};
+use super::core::{Core, Ending, Slot, SlotState};
+use crate::runs::{count, verdict as verdict_line};
 use bycoms_runtime::Traffic;
 use bycoms_sim::Vec2;
 use schemars::JsonSchema;
@@ -253,7 +254,7 @@ impl Summary {
             Outcome::Error => return format!("error: {}", self.error.as_deref().unwrap_or("unknown")),
         };
         let arrived = self.robots.iter().find(|r| r.end == RobotEnd::Arrived).map(|r| r.id);
-        verdict(sim, self.robots_used, arrived, self.time_s, self.beacons.len())
+        verdict_line(sim, self.robots_used, arrived, self.time_s, self.beacons.len())
     }
 
     /// The human-readable summary: the verdict, one line per deployed
@@ -321,6 +322,114 @@ impl Summary {
     }
 }
 
+/// What a launch decided, as its summary states it: a projection of the
+/// core at its end ([`of`]).
+///
+/// Why one function: "deployed", "success", "robots used" and what a
+/// failed recording does to the outcome used to be decided in the driver,
+/// where the launch harness could not check them. Here they are decided
+/// once; the driver fills the summary with them and the harness checks them
+/// on every schedule.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Decided {
+    /// How it ended (and the summary's `success`, `error`).
+    pub verdict: Verdict,
+    /// Robots deployed: the robots with a deployment tick.
+    pub robots_used: u32,
+    /// Every robot.
+    pub robots: Vec<RobotSummary>,
+    /// Positions of the beacons (stuck and dead robots), in robot order.
+    pub beacons: Vec<Vec2>,
+    /// Active control periods charged.
+    pub steps: u64,
+    /// Lockstep ticks run.
+    pub ticks: u64,
+    /// Commands sent again.
+    pub resends: u64,
+    /// Real time: frames seen and missed, over every robot.
+    pub frames: (u64, u64),
+}
+
+/// The outcome, `success` and `error` of a launch.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Verdict {
+    /// Why it ended.
+    pub outcome: Outcome,
+    /// A robot arrived (and nothing failed after).
+    pub success: bool,
+    /// The error that ended it.
+    pub error: Option<String>,
+}
+
+/// The verdict of a launch that ended with `ending`, whose recording
+/// failed with `Err(why)` or did not: a failed recording makes any
+/// outcome an error (the run cannot be replayed or drawn), keeping an
+/// earlier error's words.
+pub fn verdict(ending: &Ending, recording: Result<(), &str>) -> Verdict {
+    let (outcome, error) = match recording {
+        Ok(()) => (ending.outcome, ending.error.clone()),
+        Err(why) => {
+            (Outcome::Error, Some(ending.error.clone().unwrap_or_else(|| format!("recording failed: {why}"))))
+        }
+    };
+    Verdict { success: outcome == Outcome::Arrived, outcome, error }
+}
+
+/// The summary's figures of `core`, which ended with `ending`, its
+/// recording having failed (`Err(why)`) or not.
+pub fn of(core: &Core, ending: &Ending, recording: Result<(), &str>) -> Decided {
+    let slots = core.slots();
+    let robots: Vec<RobotSummary> = slots.iter().map(robot_summary).collect();
+    let beacons = slots
+        .iter()
+        .filter(|s| matches!(s.state(), SlotState::Stuck | SlotState::Died))
+        .filter_map(|s| s.last_pose().map(|p| Vec2::new(p.x, p.y)))
+        .collect();
+    let frames = slots.iter().fold((0, 0), |(s, m), slot| (s + slot.frames().seen, m + slot.frames().missed));
+    Decided {
+        verdict: verdict(ending, recording),
+        robots_used: robots.iter().filter(|r| r.deployed_tick.is_some()).count() as u32,
+        robots,
+        beacons,
+        steps: core.spent(),
+        ticks: core.ticks(),
+        resends: core.resends(),
+        frames,
+    }
+}
+
+/// One robot's line of the summary: a robot is deployed once its slot is
+/// past its start (stuck, arrived, died, moving or unfinished); only a
+/// deployed robot has a position and a deployment tick.
+fn robot_summary(s: &Slot) -> RobotSummary {
+    let end = match s.state() {
+        SlotState::Stuck => RobotEnd::Stuck,
+        SlotState::Arrived => RobotEnd::Arrived,
+        SlotState::Died => RobotEnd::Died,
+        SlotState::Unfinished | SlotState::Moving => RobotEnd::Moving,
+        SlotState::Absent => RobotEnd::Absent,
+        _ => RobotEnd::NotDeployed,
+    };
+    let deployed = !matches!(end, RobotEnd::NotDeployed | RobotEnd::Absent);
+    let pose = s.last_pose().filter(|_| deployed);
+    RobotSummary {
+        id: s.id(),
+        pid: s.pid(),
+        end,
+        x: pose.map(|p| p.x),
+        y: pose.map(|p| p.y),
+        x_bits: pose.map(|p| p.x.to_bits()),
+        y_bits: pose.map(|p| p.y.to_bits()),
+        steps: s.steps(),
+        deployed_tick: s.deployed_tick().filter(|_| deployed),
+        decided_tick: s.decided_tick(),
+        mode: s.mode(),
+        gate_reaction_us: s.reaction_us(),
+        death: s.death().cloned(),
+        outages: s.outages().to_vec(),
+    }
+}
+
 /// "4", "4–6", "4–6, 9": sorted ids as ranges; `None` when empty.
 fn id_ranges(ids: &[u32]) -> Option<String> {
     let mut parts: Vec<String> = Vec::new();
@@ -341,6 +450,23 @@ fn id_ranges(ids: &[u32]) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_failed_recording_makes_any_outcome_an_error_keeping_an_earlier_error() {
+        let ending = |outcome, error: Option<&str>| Ending { outcome, error: error.map(String::from) };
+        let arrived = ending(Outcome::Arrived, None);
+        assert_eq!(
+            verdict(&arrived, Ok(())),
+            Verdict { outcome: Outcome::Arrived, success: true, error: None }
+        );
+        let failed = verdict(&arrived, Err("disk full"));
+        assert_eq!(failed.outcome, Outcome::Error);
+        assert!(!failed.success);
+        assert_eq!(failed.error.as_deref(), Some("recording failed: disk full"));
+        let error = ending(Outcome::Error, Some("robot 2's agent died"));
+        assert_eq!(verdict(&error, Err("disk full")).error.as_deref(), Some("robot 2's agent died"));
+        assert!(!verdict(&ending(Outcome::TimeLimit, None), Ok(())).success);
+    }
 
     fn robot(id: u32, end: RobotEnd, steps: u64) -> RobotSummary {
         let deployed = end != RobotEnd::NotDeployed;

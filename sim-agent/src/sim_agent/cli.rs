@@ -22,7 +22,7 @@
 use super::options::AgentArgs;
 use super::run::{Agent, AgentPorts, Timing};
 use super::settings::{self, FetchError, RunSettings};
-use super::AgentCore;
+use super::RobotCore;
 use crate::terrain::{self, ReadError, Terrain};
 use bycoms_protocol::bus::zenoh::{AliveWatch, ZenohBus};
 use bycoms_protocol::bus::{Bus, BusError};
@@ -221,18 +221,7 @@ pub fn run_on<B: Bus>(
         "agent on the bus"
     );
     let cfg = settings.run_config();
-    let dt = cfg.kinematics.dt;
-    let timing = Timing {
-        clock: settings.clock,
-        period: Duration::from_secs_f64(dt / settings.speed),
-        dt_us: (dt * 1e6).round() as u64,
-        heartbeat: Duration::from_millis(settings.heartbeat_ms),
-        // The launch's own agents are told; one started by hand beats as usual.
-        parked_heartbeat: Duration::from_millis(
-            args.parked_heartbeat_ms.unwrap_or(settings.heartbeat_ms).max(settings.heartbeat_ms),
-        ),
-    };
-    let mut agent = Agent::new(AgentCore::new(id, terrain, cfg), ports, timing);
+    let mut agent = Agent::new(RobotCore::new(id, terrain, cfg), ports, timing(args, settings));
     agent.set_settings(fingerprint);
     if let Some((failsafe, watch)) = failsafe {
         agent.watch_orchestrator(failsafe, watch);
@@ -255,6 +244,23 @@ pub fn run_on<B: Bus>(
         tracing::debug!(?cause, "exiting: {}", notes.join(", "));
     }
     Ok(cause)
+}
+
+/// The timing of an agent started with `args` running `settings`: its
+/// period on either clock and its heartbeats (the launch harness's agents
+/// take theirs from here too).
+pub fn timing(args: &AgentArgs, settings: &RunSettings) -> Timing {
+    let dt = settings.run_config().kinematics.dt;
+    Timing {
+        clock: settings.clock,
+        period: Duration::from_secs_f64(dt / settings.speed),
+        dt_us: (dt * 1e6).round() as u64,
+        heartbeat: Duration::from_millis(settings.heartbeat_ms),
+        // The launch's own agents are told; one started by hand beats as usual.
+        parked_heartbeat: Duration::from_millis(
+            args.parked_heartbeat_ms.unwrap_or(settings.heartbeat_ms).max(settings.heartbeat_ms),
+        ),
+    }
 }
 
 /// What an agent says as it exits: the warnings (something went wrong:

@@ -1,7 +1,8 @@
-//! One simulated robot as a state machine, without any IO.
+//! One simulated robot as a state machine, without any IO: [`RobotCore`].
 //!
 //! Why sans-IO: the bus loop (`run`) only moves messages; everything that
-//! decides *what* the robot does lives here, where a test can drive it
+//! decides *what* the robot does lives here (and the agent's message rules
+//! around it in [`super::rules`]), where a test can drive it
 //! message by message against the in-process runner. The step itself is
 //! [`SimRobot::step`] — the very code `runner::run` calls — so a lockstep run
 //! over processes reproduces the runner bit for bit as long as this module
@@ -66,6 +67,8 @@ pub enum Reject {
         /// The number received.
         got: u32,
     },
+    /// A `Tick` to an agent on the real-time clock (it steps on its own).
+    TickInRealTime,
 }
 
 impl core::fmt::Display for Reject {
@@ -76,6 +79,7 @@ impl core::fmt::Display for Reject {
             Self::NotFinite => write!(f, "non-finite value"),
             Self::BadKinematics => write!(f, "the turn step does not divide the full circle"),
             Self::BeaconOutOfOrder { expected, got } => write!(f, "beacon {got} where {expected} was next"),
+            Self::TickInRealTime => write!(f, "Tick on a real-time agent"),
         }
     }
 }
@@ -86,7 +90,7 @@ struct Deployed {
 }
 
 /// One simulated robot: body, controller, noise, the field of its peers.
-pub struct AgentCore {
+pub struct RobotCore {
     id: RobotId,
     terrain: Terrain,
     cfg: RunConfig,
@@ -101,7 +105,7 @@ pub struct AgentCore {
     steps: u64,
 }
 
-impl AgentCore {
+impl RobotCore {
     /// An idle robot `id` in `terrain`, with the run's parameters (ε, noise,
     /// seed, kinematics, field constant) taken from `cfg` as the runner does.
     pub fn new(id: RobotId, terrain: Terrain, cfg: RunConfig) -> Self {
@@ -139,8 +143,8 @@ impl AgentCore {
 
     /// The reports that answer lockstep tick `step` (after its pose):
     /// `Parked` while the robot will never move again, so the orchestrator
-    /// stops ticking it, then `TickDone`. The agent process and the launch
-    /// harness's virtual agent both answer with these.
+    /// stops ticking it, then `TickDone` ([`super::rules::AgentCore`]
+    /// answers a tick with these).
     pub fn tick_answer(&self, step: u64) -> impl Iterator<Item = FromAgent> {
         let robot = self.id;
         let parked = self.parked().then_some(FromAgent::Parked(Parked { robot, step }));

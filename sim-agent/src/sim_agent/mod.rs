@@ -10,7 +10,11 @@
 //!
 //! * [`core`] — the robot as a sans-IO state machine around
 //!   [`crate::robot::SimRobot`], the same step the in-process runner takes;
-//! * [`run`] — the single-threaded bus loop (lockstep or real time);
+//! * [`rules`] — the agent's message rules as a sans-IO state machine
+//!   ([`AgentCore`]: registration, heartbeats, deploy, ticks, beacons, real-time
+//!   periods), which the launch harness drives too;
+//! * [`run`] — the single-threaded bus loop (lockstep or real time) that
+//!   carries out what [`AgentCore`] says;
 //! * [`settings`] — the run's settings, their encoding and fingerprint, and
 //!   how an agent over zenoh gets the launch's;
 //! * [`options`] / [`cli`] — the command line and `main`.
@@ -23,10 +27,12 @@
 pub mod cli;
 pub mod core;
 pub mod options;
+pub mod rules;
 pub mod run;
 pub mod settings;
 
-pub use self::core::{AgentCore, Phase, Reject};
-pub use cli::{main_with, run_on, AgentError};
+pub use self::core::{Phase, Reject, RobotCore};
+pub use cli::{main_with, run_on, timing, AgentError};
 pub use options::{AgentArgs, Clock, DEFAULT_SETTINGS_TIMEOUT_S};
+pub use rules::{AgentCore, Counts, Leave, Rules, Said};
 pub use settings::RunSettings;

@@ -1,4 +1,6 @@
-//! The agent's bus loop: move messages between the bus and [`AgentCore`].
+//! The agent's bus loop: move messages between the bus and [`AgentCore`]
+//! (the message rules, `rules`), which decides everything; the loop only
+//! waits, reads its clock and publishes what the core says.
 //!
 //! Why one thread and bounded waits: an iceoryx2 bus is confined to the
 //! thread that opened it, and an agent must notice a dead parent or a
@@ -24,13 +26,14 @@
 //! before the agent got to it is skipped and counted as missed (the frame
 //! number in the pose jumps), as it would be on a real robot.
 
-use super::core::{AgentCore, Phase, Reject};
+use super::core::{Reject, RobotCore};
 use super::options::Clock;
+use super::rules::{AgentCore, Leave, Rules, Said};
 use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
-use bycoms_protocol::msg::{FromAgent, Heartbeat, Pose, Register, RobotKind, Status, ToAgent};
+use bycoms_protocol::msg::{FromAgent, Pose, ToAgent};
 use bycoms_protocol::naming::Member;
-use bycoms_protocol::{RobotId, Swarm, PROTOCOL_VERSION};
+use bycoms_protocol::{RobotId, Swarm};
 use bycoms_runtime::failsafe::{Failsafe, Verdict};
 use bycoms_runtime::lifeline::{ExitCause, Lifeline};
 use bycoms_runtime::traffic::{BadKind, Traffic};
@@ -84,6 +87,22 @@ pub struct Timing {
 }
 
 impl Timing {
+    /// The core's rules for an agent of this timing, process `instance`,
+    /// run settings of fingerprint `settings` (0: none), no failsafe.
+    pub fn rules(&self, instance: u64, settings: u64) -> Rules {
+        let micros = |d: Duration| u64::try_from(d.as_micros()).unwrap_or(u64::MAX);
+        Rules {
+            clock: self.clock,
+            dt_us: self.dt_us,
+            period_us: micros(self.period).max(1),
+            heartbeat_us: micros(self.heartbeat),
+            parked_heartbeat_us: micros(self.parked_heartbeat),
+            instance,
+            settings,
+            failsafe_grace_ms: 0,
+        }
+    }
+
     /// The heartbeat period of a robot that is `parked` or not.
     pub fn heartbeat_of(&self, parked: bool) -> Duration {
         if parked {
@@ -113,42 +132,28 @@ pub struct Agent<B: Bus> {
     ports: AgentPorts<B>,
     timing: Timing,
     who: String,
-    stats: AgentStats,
-    heartbeat_seq: u64,
-    next_heartbeat: Instant,
-    tick: u64,
-    /// Whether the orchestrator has sent this agent anything yet; until it
-    /// has, every heartbeat repeats the `Register` (it may have been lost).
-    heard_orchestrator: bool,
-    /// The `Deploy` taken (a repeat of it is answered, another refused).
-    deployed: Option<bycoms_protocol::msg::Deploy>,
-    /// This process's instance ([`bycoms_runtime::instance`]), sent in `Register`.
-    instance: u64,
+    traffic: Traffic,
+    /// The loop's clock: the core's time is µs since this.
+    epoch: Instant,
     /// zenoh: the failsafe and the liveliness watch that feeds it.
     failsafe: Option<(Failsafe, AliveWatch)>,
-    /// The fingerprint of the run settings this agent was started with,
-    /// sent in `Register` (0: none).
-    settings: u64,
+    /// What the core said and the loop has not sent yet.
+    said: Vec<Said>,
 }
 
 impl<B: Bus> Agent<B> {
-    /// An agent around `core` on `ports`.
-    pub fn new(core: AgentCore, ports: AgentPorts<B>, timing: Timing) -> Self {
-        let who = format!("sim-agent[robot {}]", core.id().0);
+    /// An agent around `robot` on `ports`.
+    pub fn new(robot: RobotCore, ports: AgentPorts<B>, timing: Timing) -> Self {
+        let who = format!("sim-agent[robot {}]", robot.id().0);
         Self {
-            core,
+            core: AgentCore::new(robot, timing.rules(bycoms_runtime::instance(), 0)),
             ports,
             timing,
             who,
-            stats: AgentStats::default(),
-            heartbeat_seq: 0,
-            next_heartbeat: Instant::now(),
-            tick: 0,
-            heard_orchestrator: false,
-            deployed: None,
-            instance: bycoms_runtime::instance(),
+            traffic: Traffic::default(),
+            epoch: Instant::now(),
             failsafe: None,
-            settings: 0,
+            said: Vec::new(),
         }
     }
 
@@ -156,14 +161,25 @@ impl<B: Bus> Agent<B> {
     /// this agent runs ([`super::settings::RunSettings::fingerprint`]; 0,
     /// the default, says "none": the launch takes it whatever its own).
     pub fn set_settings(&mut self, fingerprint: u64) {
-        self.settings = fingerprint;
+        self.core.set_settings(fingerprint);
     }
 
     /// Watches the orchestrator's liveliness on `watch`: once it has been
     /// gone for longer than the failsafe's grace, the robot stops, and the
     /// loop ends with [`ExitCause::OrchestratorLost`] or goes on, by policy.
     pub fn watch_orchestrator(&mut self, failsafe: Failsafe, watch: AliveWatch) {
+        self.core.set_failsafe_grace_ms(failsafe.grace_ms());
         self.failsafe = Some((failsafe, watch));
+    }
+
+    /// The core's time now, µs.
+    fn now(&self) -> u64 {
+        u64::try_from(self.epoch.elapsed().as_micros()).unwrap_or(u64::MAX)
+    }
+
+    /// The wall instant of core time `at`.
+    fn instant(&self, at: u64) -> Instant {
+        self.epoch + Duration::from_micros(at)
     }
 
     /// Feeds the failsafe what zenoh saw and acts on its verdict.
@@ -203,12 +219,20 @@ impl<B: Bus> Agent<B> {
 
     /// What the agent counted so far.
     pub fn stats(&self) -> AgentStats {
-        self.stats
+        let c = self.core.counts();
+        AgentStats {
+            traffic: self.traffic,
+            periods: c.periods,
+            missed: c.missed,
+            stale_bearings: c.stale_bearings,
+        }
     }
 
     /// Registers, then runs until `Shutdown`, a signal or the parent's death.
     pub fn run(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, BusError> {
-        self.register()?;
+        let now = self.now();
+        self.core.start(now, &mut self.said);
+        self.send()?;
         match self.timing.clock {
             Clock::Lockstep => self.run_lockstep(lifeline),
             Clock::Realtime => self.run_realtime(lifeline),
@@ -228,9 +252,9 @@ impl<B: Bus> Agent<B> {
             // machine's two cores otherwise, and still 0.7 of one when they
             // woke every slice and beat ten times a second.
             let idle = self.core.parked();
-            let wait = match idle {
-                true => self.next_heartbeat.saturating_duration_since(Instant::now()).max(SLICE),
-                false => SLICE,
+            let wait = match (idle, self.core.next_heartbeat()) {
+                (true, Some(at)) => self.instant(at).saturating_duration_since(Instant::now()).max(SLICE),
+                _ => SLICE,
             };
             if let Received::Exit(cause) = self.receive(wait, idle)? {
                 return Ok(cause);
@@ -238,30 +262,22 @@ impl<B: Bus> Agent<B> {
         }
     }
 
-    /// Real time: a period is due every `period` from the start. Waiting on
-    /// the bus's event listener is woken at once by a message but times out
-    /// only to the kernel's jiffy (it oversleeps by up to ~8 ms), so the
-    /// listener is used only while the deadline is more than [`PRECISE`]
-    /// away, and the last stretch is a precise sleep with the commands that
-    /// came meanwhile handled right after it.
+    /// Real time: a period is due every `period` from the start (the
+    /// core's [`AgentCore::next_period`]). Waiting on the bus's event
+    /// listener is woken at once by a message but times out only to the
+    /// kernel's jiffy (it oversleeps by up to ~8 ms), so the listener is
+    /// used only while the deadline is more than [`PRECISE`] away, and the
+    /// last stretch is a precise sleep with the commands that came
+    /// meanwhile handled right after it.
     fn run_realtime(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, BusError> {
-        let period_ns = self.timing.period.as_nanos().max(1);
-        let t0 = Instant::now();
-        let mut next: u64 = 1;
         loop {
             if let Some(cause) = lifeline.check().or_else(|| self.check_failsafe()) {
                 return Ok(cause);
             }
             self.heartbeat_if_due()?;
-            let due =
-                t0 + Duration::from_nanos(u64::try_from(period_ns * u128::from(next)).unwrap_or(u64::MAX));
-            let now = Instant::now();
-            if now >= due {
-                let index = u64::try_from(now.duration_since(t0).as_nanos() / period_ns).unwrap_or(u64::MAX);
-                self.stats.missed += index.saturating_sub(next);
-                self.stats.periods += 1;
-                self.period(index)?;
-                next = index.saturating_add(1);
+            let now = self.now();
+            if self.core.period_if_due(now, &mut self.said) {
+                self.send()?;
                 // An agent that is always late would otherwise never read
                 // its commands (no bearing, no `Shutdown`): take what came.
                 if let Some(cause) = self.drain_commands()? {
@@ -269,7 +285,8 @@ impl<B: Bus> Agent<B> {
                 }
                 continue;
             }
-            let left = due.duration_since(now);
+            let due = self.instant(self.core.next_period().unwrap_or(now));
+            let left = due.saturating_duration_since(Instant::now());
             if left > PRECISE {
                 if let Received::Exit(cause) = self.receive((left - PRECISE).min(SLICE), false)? {
                     return Ok(cause);
@@ -294,7 +311,6 @@ impl<B: Bus> Agent<B> {
         }
     }
 
-    /// Waits up to `timeout` for one command and handles it.
     /// Takes the next command within `timeout`; `idle`: nothing is
     /// expected soon ([`TypedSubscriber::recv_idle`]).
     fn receive(&mut self, timeout: Duration, idle: bool) -> Result<Received, BusError> {
@@ -304,161 +320,58 @@ impl<B: Bus> Agent<B> {
             self.ports.commands.recv_timeout(timeout)
         };
         match next {
-            Ok(Some(cmd)) => Ok(match self.handle(cmd)? {
-                Some(cause) => Received::Exit(cause),
-                None => Received::Handled,
-            }),
+            Ok(Some(cmd)) => {
+                let leave = self.core.handle(&cmd, &mut self.said);
+                self.send()?;
+                Ok(match leave {
+                    Some(Leave::Shutdown) => Received::Exit(ExitCause::Shutdown),
+                    Some(Leave::Refused) => {
+                        if let ToAgent::Refused(r) = cmd {
+                            tracing::error!(
+                                robot = r.robot.0,
+                                "refused by the orchestrator for robot {}: {}",
+                                r.robot.0,
+                                r.why
+                            );
+                        }
+                        Received::Exit(ExitCause::Refused)
+                    }
+                    None => Received::Handled,
+                })
+            }
             Ok(None) => Ok(Received::Nothing),
-            Err(e) => match self.stats.traffic.absorb(&self.who, "to_agent", e) {
+            Err(e) => match self.traffic.absorb(&self.who, "to_agent", e) {
                 None => Ok(Received::Handled),
                 Some(fatal) => Err(fatal),
             },
         }
     }
 
-    fn handle(&mut self, cmd: ToAgent) -> Result<Option<ExitCause>, BusError> {
-        if let ToAgent::Refused(r) = cmd {
-            // Every agent on this robot's topic hears a refusal; only the
-            // refused instance leaves, the one the orchestrator kept stays.
-            if r.instance == self.instance {
-                tracing::error!(
-                    robot = r.robot.0,
-                    "refused by the orchestrator for robot {}: {}",
-                    r.robot.0,
-                    r.why
-                );
-                return Ok(Some(ExitCause::Refused));
-            }
-            return Ok(None);
-        }
-        self.heard_orchestrator = true;
-        match cmd {
-            ToAgent::Deploy(d) => match self.core.deploy(&d) {
-                // Motion capture sees the robot at its start at once: this
-                // pose is the gate's "deployed" acknowledgement, and the
-                // status after it wakes an orchestrator waiting on reports.
-                Ok(()) => {
-                    self.deployed = Some(d);
-                    self.publish_pose(self.tick)?;
-                    let status =
-                        Status { robot: self.core.id(), mode: self.core.mode() as u8, step: self.tick };
-                    self.report(FromAgent::Status(status))?;
-                }
-                // The same `Deploy` again (re-sent when its answer was
-                // lost): answered again with where the robot is. Another
-                // one is refused and counted.
-                Err(Reject::AlreadyDeployed) if self.deployed == Some(d) => {
-                    self.publish_pose(self.tick)?;
-                    let status =
-                        Status { robot: self.core.id(), mode: self.core.mode() as u8, step: self.tick };
-                    self.report(FromAgent::Status(status))?;
-                }
-                Err(r) => self.refuse(r),
-            },
-            ToAgent::GoalBearing(b) => {
-                if let Err(r) = self.core.set_bearing(&b) {
-                    self.refuse(r);
-                }
-            }
-            ToAgent::Tick(t) => match self.timing.clock {
-                // A tick already stepped is a repeat (the orchestrator
-                // re-sends what went unanswered, e.g. across a cut link):
-                // answered again, never stepped twice.
-                Clock::Lockstep if t.step <= self.tick => {
-                    if t.step == self.tick {
-                        self.publish_pose(self.tick)?;
-                        self.tick_done(t.step)?;
-                    } else {
-                        tracing::debug!(who = %self.who, step = t.step, at = self.tick, "an old tick, ignored");
-                    }
-                }
-                Clock::Lockstep => {
-                    if self.core.phase() == Phase::Moving
-                        && self.core.bearing().is_some_and(|b| b.step != t.step)
-                    {
-                        self.stats.stale_bearings += 1;
-                    }
-                    self.period(t.step)?;
-                    self.tick_done(t.step)?;
-                }
-                Clock::Realtime => {
-                    self.stats.traffic.count(&self.who, BadKind::Refused, &"Tick on a real-time agent");
-                }
-            },
-            ToAgent::Stop => self.core.stop(),
-            ToAgent::Shutdown => return Ok(Some(ExitCause::Shutdown)),
-            ToAgent::Refused(_) => {}
-            ToAgent::Beacon(b) => {
-                if let Err(r) = self.core.beacon(&b) {
+    fn heartbeat_if_due(&mut self) -> Result<(), BusError> {
+        let now = self.now();
+        self.core.beat_if_due(now, &mut self.said);
+        self.send()
+    }
+
+    /// Carries out what the core said: publishes, counts refusals.
+    fn send(&mut self) -> Result<(), BusError> {
+        for said in std::mem::take(&mut self.said) {
+            match said {
+                Said::Report(r) => self.report(r)?,
+                Said::Pose(p) => self.ports.pose.publish(&p)?,
+                Said::Refused(r) => {
                     if matches!(r, Reject::BeaconOutOfOrder { .. }) {
                         tracing::error!(who = %self.who, "{r}: the field may miss a robot until it is sent again");
                     }
-                    self.refuse(r);
+                    count_reject(&mut self.traffic, &self.who, r);
                 }
             }
         }
-        Ok(None)
-    }
-
-    /// One control period numbered `step`.
-    fn period(&mut self, step: u64) -> Result<(), BusError> {
-        self.tick = step;
-        let stepped = self.core.step();
-        self.publish_pose(step)?;
-        if stepped {
-            let status = Status { robot: self.core.id(), mode: self.core.mode() as u8, step };
-            self.report(FromAgent::Status(status))?;
-        }
         Ok(())
-    }
-
-    /// Answers lockstep tick `step` ([`AgentCore::tick_answer`]).
-    fn tick_done(&mut self, step: u64) -> Result<(), BusError> {
-        for report in self.core.tick_answer(step) {
-            self.report(report)?;
-        }
-        Ok(())
-    }
-
-    fn publish_pose(&mut self, step: u64) -> Result<(), BusError> {
-        match self.core.pose(step, step.saturating_mul(self.timing.dt_us)) {
-            Some(pose) => self.ports.pose.publish(&pose),
-            None => Ok(()),
-        }
-    }
-
-    fn heartbeat_if_due(&mut self) -> Result<(), BusError> {
-        let now = Instant::now();
-        if now < self.next_heartbeat {
-            return Ok(());
-        }
-        self.next_heartbeat = now + self.timing.heartbeat_of(self.core.parked());
-        self.heartbeat_seq += 1;
-        // A lost `Register` would leave the agent heard (heartbeats) but
-        // never registered: repeat it until the orchestrator answers.
-        if !self.heard_orchestrator && self.heartbeat_seq > 1 {
-            self.register()?;
-        }
-        self.report(FromAgent::Heartbeat(Heartbeat { robot: self.core.id(), seq: self.heartbeat_seq }))
-    }
-
-    fn register(&self) -> Result<(), BusError> {
-        self.report(FromAgent::Register(Register {
-            robot: self.core.id(),
-            kind: RobotKind::Simulated,
-            protocol_version: PROTOCOL_VERSION,
-            instance: self.instance,
-            settings: self.settings,
-            failsafe_grace_ms: self.failsafe.as_ref().map_or(0, |(f, _)| f.grace_ms()),
-        }))
     }
 
     fn report(&self, msg: FromAgent) -> Result<(), BusError> {
         self.ports.report.publish(&msg)
-    }
-
-    fn refuse(&mut self, r: Reject) {
-        count_reject(&mut self.stats.traffic, &self.who, r);
     }
 }
 
@@ -466,7 +379,10 @@ fn count_reject(traffic: &mut Traffic, who: &str, r: Reject) {
     let kind = match r {
         Reject::WrongRobot { .. } => BadKind::UnknownRobot,
         Reject::AlreadyDeployed => BadKind::Duplicate,
-        Reject::NotFinite | Reject::BadKinematics | Reject::BeaconOutOfOrder { .. } => BadKind::Refused,
+        Reject::NotFinite
+        | Reject::BadKinematics
+        | Reject::BeaconOutOfOrder { .. }
+        | Reject::TickInRealTime => BadKind::Refused,
     };
     traffic.count(who, kind, &r);
 }

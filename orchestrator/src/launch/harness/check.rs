@@ -18,6 +18,63 @@ pub fn exit_code(ending: &Ending) -> i32 {
     }
 }
 
+/// The summary ([`super::super::summary::of`]) says what happened: the
+/// core's outcome (an error if the recording failed), success only when a
+/// robot arrived, as robots used the robots that took a `Deploy` and were
+/// judged or still moving (each with a position, no other robot with one),
+/// the budget the core charged.
+fn check_summary(report: &Report, schedule: &Schedule, ending: &Ending) -> Result<(), String> {
+    let Some(d) = &report.decided else { return Err("no summary".into()) };
+    let v = &d.verdict;
+    let outcome = if schedule.recording_fails { Outcome::Error } else { ending.outcome };
+    if v.outcome != outcome || v.success != (outcome == Outcome::Arrived) {
+        return Err(format!("summary says {:?} (success {}) for {:?}", v.outcome, v.success, ending.outcome));
+    }
+    if (v.outcome == Outcome::Error) != v.error.as_ref().is_some_and(|e| !e.trim().is_empty()) {
+        return Err(format!("summary outcome {:?} with error {:?}", v.outcome, v.error));
+    }
+    let arrived = d.robots.iter().filter(|r| r.end == RobotEnd::Arrived).count();
+    if ending.outcome == Outcome::Arrived && arrived != 1 {
+        return Err(format!("arrived, but {arrived} robots arrived in the summary"));
+    }
+    let deployed: Vec<u32> =
+        report.gates.iter().filter(|g| g.kind == GateKind::Deployed).map(|g| g.robot.0).collect();
+    if d.robots_used as usize != deployed.len() {
+        return Err(format!("{} robots used, {} deployment events", d.robots_used, deployed.len()));
+    }
+    for r in &d.robots {
+        let used = deployed.contains(&r.id);
+        if used != r.deployed_tick.is_some() || used != r.x.is_some() {
+            return Err(format!("robot {} deployed: {used}, but the summary says {r:?}", r.id));
+        }
+    }
+    if d.steps != report.spent || d.steps != d.robots.iter().map(|r| r.steps).sum::<u64>() {
+        return Err(format!("summary steps {} for {} spent", d.steps, report.spent));
+    }
+    Ok(())
+}
+
+/// `Stop` goes to the robot that arrived and, when the agents stop stuck
+/// robots, to each robot judged stuck whose agent still ran; to no other.
+fn check_stops(report: &Report, schedule: &Schedule) -> Result<(), String> {
+    for (i, &stops) in report.stops_sent.iter().enumerate() {
+        let id = i as u32 + 1;
+        let verdict = report.gates.iter().find(|g| g.robot.0 == id && g.kind != GateKind::Deployed);
+        let stuck = verdict.is_some_and(|g| g.kind == GateKind::Stopped { arrived: false });
+        let arrived = verdict.is_some_and(|g| g.kind == GateKind::Stopped { arrived: true });
+        let alive = report.deaths.get(i).is_some_and(Option::is_none);
+        let stop_when_stuck = schedule.seams().stop_when_stuck;
+        let expected = arrived || (stuck && stop_when_stuck);
+        if stops > 0 && !expected {
+            return Err(format!("robot {id} told to stop ({stops}×) after {:?}", verdict.map(|g| g.kind)));
+        }
+        if stuck && stop_when_stuck && alive && stops == 0 {
+            return Err(format!("robot {id} judged stuck and never told to stop"));
+        }
+    }
+    Ok(())
+}
+
 /// The properties every schedule keeps; the first broken one, in words.
 pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
     if let Some(f) = &report.failure {
@@ -89,6 +146,15 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
     let arrived = report.robots.iter().filter(|r| r.0 == SlotState::Arrived).count();
     if arrived > 1 || (arrived == 1) != (ending.outcome == Outcome::Arrived) {
         return Err(format!("{arrived} robots arrived, outcome {:?}", ending.outcome));
+    }
+    check_summary(report, schedule, ending)?;
+    check_stops(report, schedule)?;
+    let seams = schedule.seams();
+    if !seams.senses_beacons && report.beacons_sent > 0 {
+        return Err(format!("{} beacons sent to agents that hear each other", report.beacons_sent));
+    }
+    if seams.poses_on_the_bus && report.forwarded > 0 {
+        return Err(format!("{} poses forwarded though they are on the bus", report.forwarded));
     }
     // Re-sends are bounded: at most every awaited robot once a second, and
     // a few for each message lost (a wait's first re-sends come after a

@@ -52,9 +52,10 @@ impl Foreign {
             Foreign::ShortGrace(id) => {
                 Some(register(Register { failsafe_grace_ms: 1, ..forged_register(id, 0xf0e2) }))
             }
-            Foreign::OtherSettings(id) => {
-                Some(register(Register { settings: !SETTINGS, ..forged_register(id, 0xf0e3) }))
-            }
+            Foreign::OtherSettings(id) => Some(register(Register {
+                settings: !w.launch.settings.fingerprint(),
+                ..forged_register(id, 0xf0e3)
+            })),
             Foreign::UnknownRobot => {
                 Some(Input::Report(FromAgent::Heartbeat(Heartbeat { robot: RobotId(999), seq: 1 })))
             }

@@ -8,6 +8,10 @@
 //! every delay, loss, duplicate, partition, crash, late or missing
 //! registration, second agent and forged message, and [`run`] plays a
 //! launch through the real [`Core`] in virtual time in microseconds of CPU.
+//! The harness runs production code on both sides: the core's [`Setup`] is
+//! the launch's own (`launch::setup::setup_of`, [`Launch`]), each agent is
+//! the `sim-agent` process's own [`AgentCore`] (its message rules, real
+//! heartbeat periods), and the summary's verdict is `summary::of`.
 //! [`check`] states the properties every schedule must keep; the
 //! differential properties (parity with `simulate`, forgeries and short
 //! partitions change nothing) compare two runs. A failing schedule is
@@ -29,7 +33,7 @@ mod net;
 mod schedule;
 mod world;
 
-pub use agent::{Agent, Sent};
+pub use agent::Agent;
 pub use check::{check, exit_code};
 pub use figures::{missing_robots, MissingFigures};
 pub use net::{Link, Net, Packet, Partition};
@@ -37,14 +41,16 @@ pub use schedule::{Crash, Foreign, Schedule};
 use world::play;
 
 use super::agents::{Gone, Reach};
-use super::config::{LaunchConfig, Missing, OnDeath};
+use super::config::{Clock, LaunchConfig, Missing, OnDeath};
 use super::core::log::{Call, Logged};
-use super::core::{AgentTraits, Ending, Input, Output, Setup, SlotState};
-use super::summary::Outcome;
-use crate::gate::GateParams;
+use super::core::{Ending, Input, Output, Setup, SlotState};
+use super::summary::{Decided, Outcome, RobotEnd};
+use crate::draw::snapshot::Unit;
 use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Heartbeat, Pose, Register, ToAgent};
 use bycoms_protocol::RobotId;
 use bycoms_sim::sensing::NoiseModel;
+use bycoms_sim::sim_agent::run::Timing;
+use bycoms_sim::sim_agent::{AgentArgs, AgentCore, RobotCore, RunSettings, Said};
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::{RunConfig, Vec2};
 use std::cmp::Reverse;
@@ -53,10 +59,6 @@ use std::os::unix::process::ExitStatusExt;
 
 /// Virtual time after which a launch that has not ended is a failure, µs.
 pub const HANG_US: u64 = 4_000_000_000;
-
-/// The fingerprint of every harness launch's settings: its agents register
-/// with it, a forged agent with another one is refused.
-pub(super) const SETTINGS: u64 = 0x5e77_1465_b1c0_0001;
 
 /// The world and run parameters of a harness launch.
 #[derive(Clone, Debug)]
@@ -145,56 +147,88 @@ pub struct Report {
     pub last_tick: Vec<Option<u64>>,
     /// Deployments each robot got (agents that took a `Deploy`).
     pub deploys_sent: Vec<u64>,
+    /// `Stop`s sent to each robot.
+    pub stops_sent: Vec<u64>,
+    /// `Beacon`s sent to agents.
+    pub beacons_sent: u64,
+    /// Poses passed on to the agents (`Output::Forward`).
+    pub forwarded: u64,
     /// Robots that registered after their turn was skipped.
     pub late: Vec<u32>,
     /// Virtual time of each gate event (parallel to `gates`), µs.
     pub gate_times_us: Vec<u64>,
     /// When each robot's first registration reached the core, µs.
     pub registered_us: Vec<Option<u64>>,
+    /// What the summary states ([`super::summary::of`] at the end, with
+    /// the schedule's recording failure).
+    pub decided: Option<Decided>,
 }
 
-/// The core's setup for `case` with agents of `schedule`'s kind and clock.
-pub fn setup(case: &Case, schedule: &Schedule) -> Setup {
-    let remote = schedule.remote;
-    let speed = schedule.realtime.unwrap_or(1.0);
-    let cfg = LaunchConfig::default();
-    let run = case.run_config();
-    let period_us = (run.kinematics.dt * 1e6).round() as u64;
-    Setup {
-        robots: case.robots,
-        lockstep: schedule.realtime.is_none(),
-        params: GateParams {
-            goal: case.terrain.goal(),
-            goal_radius: run.success_radius,
-            stop_speed: cfg.gate.stop_speed,
-            stop_turn_rate: cfg.gate.stop_turn_rate,
-            dwell_us: (case.dwell * 1e6).round() as u64,
-            period_us,
-        },
-        step_limit: run.step_limit(),
-        wall_period_us: (period_us as f64 / speed) as u64,
-        speed,
-        tick_timeout_us: (cfg.supervision.tick_timeout * 1e6) as u64,
-        on_death: case.on_death,
-        missing: case.missing,
-        prespawn: true,
-        start: case.terrain.start(),
-        goal: case.terrain.goal(),
-        max_speed: cfg.gate.max_speed,
-        link_grace_s: cfg.supervision.link_grace,
-        register_timeout_s: cfg.supervision.register_timeout,
-        agents: AgentTraits {
-            kind: if remote { "remote" } else { "spawned" }.into(),
-            all_at_once: remote,
-            stop_when_stuck: false,
-            start_hint: String::new(),
-            placement: None,
-            forward_poses: false,
-            beacons: true,
-        },
-        unix_base_ms: 0,
-        settings: SETTINGS,
+/// A harness launch as a launch of the `orchestrator` would be: its
+/// config, world, agent template and run settings, made by the launch's
+/// own functions (`launch::setup`), so the core's [`Setup`] and the
+/// agents' rules are the real ones.
+pub struct Launch {
+    /// The launch's config.
+    pub cfg: LaunchConfig,
+    /// Its world.
+    pub world: super::World,
+    /// The flags of every agent it starts.
+    pub template: AgentArgs,
+    /// The run's settings (the agents' and the launch's, one fingerprint).
+    pub settings: RunSettings,
+    /// The agents' timing, as a spawned agent computes it from `template`.
+    pub timing: Timing,
+}
+
+impl Launch {
+    /// The launch of `case` under `schedule`.
+    pub fn of(case: &Case, schedule: &Schedule) -> Self {
+        let mut cfg = LaunchConfig {
+            robots: case.robots,
+            eps: case.eps,
+            time_limit: case.time_limit,
+            ..LaunchConfig::default()
+        };
+        (cfg.noise, cfg.seed) = (case.noise.is_some(), case.noise.unwrap_or(0));
+        (cfg.clock, cfg.speed) = match schedule.realtime {
+            Some(speed) => (Clock::Realtime, speed),
+            None => (Clock::Lockstep, 1.0),
+        };
+        cfg.gate.dwell = case.dwell;
+        cfg.gate.on_agent_death = case.on_death;
+        cfg.supervision.missing = case.missing;
+        let text = bycoms_sim::terrain::format::to_text(&case.terrain);
+        let (start, goal) = (case.terrain.start(), case.terrain.goal());
+        let world = match super::World::new("harness".into(), text, start, goal, Unit::Cell) {
+            Ok(world) => world,
+            Err(e) => unreachable!("a terrain's own text parses: {e:#}"),
+        };
+        let template = super::setup::agent_template(&cfg, "harness".into(), Vec::new());
+        let settings = super::setup::run_settings(&template, &world);
+        let timing = bycoms_sim::sim_agent::timing(&template, &settings);
+        Self { cfg, world, template, settings, timing }
     }
+
+    /// The core's setup, with the seams of `schedule`'s agents, from the
+    /// launch's own [`super::setup::setup_of`].
+    pub fn setup(&self, schedule: &Schedule) -> Setup {
+        super::setup::setup_of(&self.cfg, &self.world, &self.template, &schedule.seams(), 0)
+    }
+
+    /// Robot `id`'s simulated agent as the process would be (process
+    /// `instance`), registering first at `register_at` (never if none).
+    pub fn agent(&self, id: u32, instance: u64, register_at: Option<u64>) -> Agent {
+        let robot = RobotCore::new(RobotId(id), self.world.terrain.clone(), self.settings.run_config());
+        let rules = self.timing.rules(instance, self.settings.fingerprint());
+        Agent::new(AgentCore::new(robot, rules), register_at)
+    }
+}
+
+/// The core's setup for `case` with agents of `schedule`'s kind and clock:
+/// the launch's own ([`Launch::setup`]).
+pub fn setup(case: &Case, schedule: &Schedule) -> Setup {
+    Launch::of(case, schedule).setup(schedule)
 }
 
 /// Plays one launch of `case` under `schedule` to its end.

@@ -6,6 +6,7 @@
 //! with its seed.
 
 use super::net::{Link, Partition};
+use crate::launch::setup::Seams;
 use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
@@ -90,9 +91,41 @@ pub struct Schedule {
     pub foreign: Vec<(u64, Foreign)>,
     /// Ctrl-C, and when.
     pub interrupt_at_us: Option<u64>,
+    /// The recording fails as the launch ends (the summary must say error).
+    pub recording_fails: bool,
+    /// The agent source tells a stuck robot to stop (as gateways do).
+    pub stop_when_stuck: bool,
+    /// Real time, remote: the agents have the gateways' properties (all at
+    /// once, stuck robots stopped, the launch's poses forwarded to them,
+    /// no beacons: real robots hear each other), the poses not on the bus.
+    pub gateway_seams: bool,
 }
 
 impl Schedule {
+    /// What the seams of this schedule's launch say of themselves: spawned
+    /// agents, or remote ones (the properties `launch/agents/spawned.rs`
+    /// and `remote.rs` give), with poses on the bus, stuck robots told to
+    /// stop when the schedule says so; or the gateways' properties
+    /// (`gateways.rs`, but placement) with poses from motion capture.
+    pub fn seams(&self) -> Seams {
+        let gateway = self.gateway_seams;
+        Seams {
+            kind: match (gateway, self.remote) {
+                (true, _) => "gateway",
+                (false, true) => "remote",
+                (false, false) => "spawned",
+            },
+            all_at_once: self.remote || gateway,
+            needs_placement: false,
+            stop_when_stuck: self.stop_when_stuck || gateway,
+            start_hint: "",
+            wants_poses: gateway,
+            senses_beacons: !gateway,
+            poses_on_the_bus: !gateway,
+            mocap_placement: None,
+        }
+    }
+
     /// Nothing goes wrong: a perfect 50 µs link, prompt registrations.
     pub fn clean(seed: u64, robots: u32) -> Self {
         Self {
@@ -108,6 +141,9 @@ impl Schedule {
             second_agents: Vec::new(),
             foreign: Vec::new(),
             interrupt_at_us: None,
+            recording_fails: false,
+            stop_when_stuck: false,
+            gateway_seams: false,
         }
     }
 
@@ -177,6 +213,9 @@ impl Schedule {
         if rng.gen_bool(0.05) {
             s.interrupt_at_us = Some(rng.gen_range(0..horizon_us));
         }
+        s.recording_fails = rng.gen_bool(0.05);
+        s.stop_when_stuck = rng.gen_bool(0.3);
+        s.gateway_seams = s.remote && s.realtime.is_some() && rng.gen_bool(0.5);
         s
     }
 }

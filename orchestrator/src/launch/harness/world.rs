@@ -17,6 +17,8 @@ pub(super) enum Event {
 /// A launch in virtual time.
 pub(super) struct World<'a> {
     pub(super) case: &'a Case,
+    /// The launch as the `orchestrator` would make it (setup, agents).
+    pub(super) launch: Launch,
     pub(super) schedule: &'a Schedule,
     pub(super) core: Logged,
     pub(super) net: Net,
@@ -39,12 +41,19 @@ pub(super) struct World<'a> {
 }
 
 pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, Vec<Call>) {
-    let cfg = LaunchConfig::default();
+    let launch = Launch::of(case, schedule);
+    let cfg = &launch.cfg;
     let n = case.robots as usize;
+    let (register_timeout_us, heartbeat_timeout_us, link_grace_us) = (
+        (cfg.supervision.register_timeout * 1e6) as u64,
+        (cfg.supervision.heartbeat_timeout * 1e6) as u64,
+        (cfg.supervision.link_grace * 1e6) as u64,
+    );
     let mut world = World {
         case,
+        core: Logged::new(launch.setup(schedule), logged),
+        launch,
         schedule,
-        core: Logged::new(setup(case, schedule), logged),
         net: Net::new(schedule.link.clone(), schedule.partitions.clone(), schedule.seed),
         agents: (0..n).map(|_| None).collect(),
         impostors: Vec::new(),
@@ -70,13 +79,17 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             stepped: vec![0; n],
             last_tick: vec![None; n],
             deploys_sent: vec![0; n],
+            stops_sent: vec![0; n],
+            beacons_sent: 0,
+            forwarded: 0,
             late: Vec::new(),
             gate_times_us: Vec::new(),
             registered_us: vec![None; n],
+            decided: None,
         },
-        register_timeout_us: (cfg.supervision.register_timeout * 1e6) as u64,
-        heartbeat_timeout_us: (cfg.supervision.heartbeat_timeout * 1e6) as u64,
-        link_grace_us: (cfg.supervision.link_grace * 1e6) as u64,
+        register_timeout_us,
+        heartbeat_timeout_us,
+        link_grace_us,
         early_deaths_left: schedule.early_deaths.clone(),
         racers: Vec::new(),
     };
@@ -142,8 +155,7 @@ impl World<'_> {
                 self.core.deadline(),
                 self.net.next_at(),
                 self.events.peek().map(|Reverse((at, _, _))| *at),
-                self.agents.iter().flatten().filter(|a| a.alive).filter_map(|a| a.next_beat).min(),
-                self.agents.iter().flatten().filter(|a| a.alive).filter_map(|a| a.next_period).min(),
+                self.agents.iter().flatten().filter_map(Agent::deadline).min(),
                 self.watchdog_due(),
             ]
             .into_iter()
@@ -179,10 +191,14 @@ impl World<'_> {
                 Output::Start(id) => self.start(id),
                 Output::Send(id, msg) => {
                     let deploy = matches!(msg, ToAgent::Deploy(_));
-                    if deploy {
-                        if let Some(d) = self.report.deploys_sent.get_mut(id as usize - 1) {
-                            *d += 1;
-                        }
+                    self.report.beacons_sent += u64::from(matches!(msg, ToAgent::Beacon(_)));
+                    let counter = match msg {
+                        ToAgent::Deploy(_) => Some(&mut self.report.deploys_sent),
+                        ToAgent::Stop => Some(&mut self.report.stops_sent),
+                        _ => None,
+                    };
+                    if let Some(n) = counter.and_then(|c| c.get_mut(id as usize - 1)) {
+                        *n += 1;
                     }
                     self.net.send(now, id, Packet::ToAgent(id, msg));
                     if let Some(i) = self.racers.iter().position(|&r| r == id).filter(|_| deploy) {
@@ -211,8 +227,8 @@ impl World<'_> {
                     }
                 }
                 Output::Bad(..) => self.report.bad += 1,
-                Output::Forward(_)
-                | Output::Event(_)
+                Output::Forward(_) => self.report.forwarded += 1,
+                Output::Event(_)
                 | Output::Note(_)
                 | Output::RobotLink(..)
                 | Output::SimTime(_)
@@ -220,11 +236,6 @@ impl World<'_> {
                 | Output::Carried(..) => {}
             }
         }
-    }
-
-    /// Real time: one control period in wall µs.
-    pub(super) fn wall_period_us(&self) -> Option<u64> {
-        self.schedule.realtime.map(|speed| (self.case.run_config().kinematics.dt * 1e6 / speed) as u64)
     }
 
     pub(super) fn start(&mut self, id: u32) {
@@ -237,15 +248,7 @@ impl World<'_> {
             return;
         }
         let delay = self.schedule.register_delay_us.get(i).copied().unwrap_or(Some(50_000));
-        let instance = 0x1000 + u64::from(id);
-        let agent = Agent::new(
-            id,
-            instance,
-            self.case.terrain.clone(),
-            self.case.run_config(),
-            delay.map(|d| self.now + d),
-            self.wall_period_us(),
-        );
+        let agent = self.launch.agent(id, 0x1000 + u64::from(id), delay.map(|d| self.now + d));
         self.agents[i] = Some(agent);
         self.started_at[i] = Some(self.now);
         if let Some(left) = self.early_deaths_left.get_mut(i).filter(|n| **n > 0) {
@@ -314,15 +317,10 @@ impl World<'_> {
             self.arrive(packet);
         }
         let mut sent = Vec::new();
-        for a in self.agents.iter_mut().flatten().filter(|a| a.alive) {
-            if a.next_beat.is_some_and(|t| t <= now) {
-                a.beat(now, &mut sent);
-            }
-            if a.next_period.is_some_and(|t| t <= now) {
-                let before = a.stepped;
-                a.period(now, &mut sent);
-                self.report.stepped[a.id() as usize - 1] += a.stepped - before;
-            }
+        for a in self.agents.iter_mut().flatten().filter(|a| a.deadline().is_some_and(|t| t <= now)) {
+            let before = a.stepped();
+            a.advance(now, &mut sent);
+            self.report.stepped[a.id() as usize - 1] += a.stepped() - before;
             for s in sent.drain(..) {
                 Self::send_from(&mut self.net, now, a.id(), s);
             }
@@ -330,10 +328,12 @@ impl World<'_> {
         self.watchdog();
     }
 
-    pub(super) fn send_from(net: &mut Net, now: u64, id: u32, sent: Sent) {
-        match sent {
-            Sent::Report(r) => net.send(now, id, Packet::Report(r)),
-            Sent::Pose(p) => net.send(now, id, Packet::Pose { topic: id, pose: p, relay: false }),
+    pub(super) fn send_from(net: &mut Net, now: u64, id: u32, said: Said) {
+        match said {
+            Said::Report(r) => net.send(now, id, Packet::Report(r)),
+            Said::Pose(p) => net.send(now, id, Packet::Pose { topic: id, pose: p, relay: false }),
+            // The process counts and logs what it refused; nothing is sent.
+            Said::Refused(_) => {}
         }
     }
 
@@ -399,16 +399,9 @@ impl World<'_> {
                 }
             }
             Event::SecondAgent(id) => {
-                let mut a = Agent::new(
-                    id,
-                    0xbad0 + u64::from(id),
-                    self.case.terrain.clone(),
-                    self.case.run_config(),
-                    Some(now),
-                    self.wall_period_us(),
-                );
+                let mut a = self.launch.agent(id, 0xbad0 + u64::from(id), Some(now));
                 let mut sent = Vec::new();
-                a.beat(now, &mut sent);
+                a.advance(now, &mut sent);
                 for s in sent {
                     Self::send_from(&mut self.net, now, id, s);
                 }
@@ -437,9 +430,9 @@ impl World<'_> {
             Packet::ToAgent(id, cmd) => {
                 let mut sent = Vec::new();
                 if let Some(Some(a)) = self.agents.get_mut(id as usize - 1) {
-                    let before = a.stepped;
+                    let before = a.stepped();
                     a.command(&cmd, &mut sent);
-                    self.report.stepped[id as usize - 1] += a.stepped - before;
+                    self.report.stepped[id as usize - 1] += a.stepped() - before;
                     if let (ToAgent::Tick(t), true) = (&cmd, a.alive) {
                         self.report.last_tick[id as usize - 1] = Some(t.step);
                     }
@@ -457,6 +450,8 @@ impl World<'_> {
     pub(super) fn finish(mut self) -> Report {
         let core = &self.core;
         self.report.ending = core.ending().cloned();
+        let recording = if self.schedule.recording_fails { Err("disk full (harness)") } else { Ok(()) };
+        self.report.decided = core.ending().map(|e| super::super::summary::of(core, e, recording));
         self.report.robots = core.slots().iter().map(|s| (s.state(), s.steps(), s.last_pose())).collect();
         self.report.deaths = core.slots().iter().map(|s| s.death().map(|d| d.reason.clone())).collect();
         self.report.late = core.slots().iter().filter(|s| s.joined_late()).map(|s| s.id()).collect();

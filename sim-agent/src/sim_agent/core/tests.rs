@@ -16,7 +16,7 @@ fn drive(terrain: &Terrain, cfg: &RunConfig) -> Vec<(RobotEnd, Vec2, u64)> {
     let mut out = Vec::new();
     let mut total = 0;
     for id in 1..=cfg.max_robots.unwrap_or(u32::MAX) {
-        let mut core = AgentCore::new(RobotId(id), terrain.clone(), cfg.clone());
+        let mut core = RobotCore::new(RobotId(id), terrain.clone(), cfg.clone());
         for (i, p) in stuck.iter().enumerate() {
             core.beacon(&Beacon { robot: p.robot, x: p.x, y: p.y, seq: i as u32 + 1 }).unwrap();
         }
@@ -85,7 +85,7 @@ fn matches_the_runner_bit_for_bit() {
 
 #[test]
 fn refuses_foreign_and_malformed_messages() {
-    let mut core = AgentCore::new(RobotId(2), Terrain::paper(), RunConfig::paper(2.0));
+    let mut core = RobotCore::new(RobotId(2), Terrain::paper(), RunConfig::paper(2.0));
     let other = Deploy { robot: RobotId(3), x: 1.0, y: 1.0, heading: 0.0 };
     assert_eq!(core.deploy(&other), Err(Reject::WrongRobot { got: RobotId(3) }));
     let nan = Deploy { robot: RobotId(2), x: f64::NAN, y: 1.0, heading: 0.0 };

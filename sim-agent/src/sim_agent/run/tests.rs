@@ -50,7 +50,7 @@ fn start_agent(bus: &MemoryBus, swarm: &Swarm, heartbeat: Duration) -> (Commands
         parked_heartbeat: heartbeat,
     };
     let agent = std::thread::spawn(move || {
-        let core = AgentCore::new(RobotId(1), Terrain::paper(), RunConfig::paper(2.0));
+        let core = RobotCore::new(RobotId(1), Terrain::paper(), RunConfig::paper(2.0));
         Agent::new(core, ports, timing).run(&mut Lifeline::detached())
     });
     (commands, agent)

@@ -1,0 +1,317 @@
+//! The agent's message rules as a sans-IO state machine: [`AgentCore`].
+//!
+//! Why sans-IO: the rules of a `sim-agent` (register until heard from,
+//! heartbeats every `heartbeat` and every `parked_heartbeat` once the robot
+//! will never move again, `Deploy` answered with the start pose and a
+//! repeat of it answered again, a `Tick` stepped once and a repeated one
+//! answered without stepping, real-time periods on the agent's own clock,
+//! beacons, `Stop`, `Shutdown`, a refusal of this instance) used to live
+//! inside the bus loop, and the launch harness restated them by hand —
+//! and drifted. Here they take one command (or the time) at a time, with
+//! `now` given, and answer with what to send; the bus loop (`run`) only
+//! carries that out, and the harness drives this same core in virtual time.
+//!
+//! Time is in microseconds of the caller's clock (the bus loop's since it
+//! started, the harness's virtual time); the core never reads a clock.
+//! The robot itself (body, controller, field) is the [`RobotCore`].
+
+use super::core::{Phase, Reject, RobotCore};
+use super::options::Clock;
+use bycoms_protocol::msg::{Deploy, FromAgent, Heartbeat, Pose, Register, RobotKind, Status, ToAgent};
+use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
+
+/// The timing and identity an agent runs with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rules {
+    /// Lockstep or real time.
+    pub clock: Clock,
+    /// Simulated duration of one period, µs (the poses' `time_us` step).
+    pub dt_us: u64,
+    /// Real time: wall duration of one period (0.1 s / speed), µs.
+    pub period_us: u64,
+    /// Heartbeat period, µs.
+    pub heartbeat_us: u64,
+    /// Heartbeat period once the robot is parked (it gets no more ticks), µs.
+    pub parked_heartbeat_us: u64,
+    /// This process's instance ([`bycoms_runtime::instance`]), sent in `Register`.
+    pub instance: u64,
+    /// The fingerprint of the run settings it was started with (0: none).
+    pub settings: u64,
+    /// Its failsafe's grace, ms (0: no failsafe).
+    pub failsafe_grace_ms: u32,
+}
+
+/// What the agent sends, in order.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Said {
+    /// A report to the orchestrator.
+    Report(FromAgent),
+    /// Its pose on its own topic (simulated motion capture).
+    Pose(Pose),
+    /// A command it refused (counted and logged by the shell, never fatal).
+    Refused(Reject),
+}
+
+/// Why the agent leaves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Leave {
+    /// The orchestrator said `Shutdown`.
+    Shutdown,
+    /// The orchestrator refused this instance.
+    Refused,
+}
+
+/// What the rules counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counts {
+    /// Real-time periods run.
+    pub periods: u64,
+    /// Real-time periods skipped because the agent was late.
+    pub missed: u64,
+    /// Lockstep periods whose goal bearing was not for that period.
+    pub stale_bearings: u64,
+}
+
+/// One agent's message rules around its robot.
+pub struct AgentCore {
+    robot: RobotCore,
+    rules: Rules,
+    counts: Counts,
+    heartbeat_seq: u64,
+    /// When it next beats (none: not started).
+    next_heartbeat: Option<u64>,
+    /// Real time: its clock's start and the number of the next period.
+    realtime: Option<(u64, u64)>,
+    tick: u64,
+    /// Whether the orchestrator has sent it anything yet; until it has,
+    /// every heartbeat repeats the `Register` (it may have been lost).
+    heard: bool,
+    /// The `Deploy` taken (a repeat of it is answered, another refused).
+    deployed: Option<Deploy>,
+}
+
+impl AgentCore {
+    /// The rules `rules` around `robot`, not started.
+    pub fn new(robot: RobotCore, rules: Rules) -> Self {
+        Self {
+            robot,
+            rules,
+            counts: Counts::default(),
+            heartbeat_seq: 0,
+            next_heartbeat: None,
+            realtime: None,
+            tick: 0,
+            heard: false,
+            deployed: None,
+        }
+    }
+
+    /// Its robot.
+    pub fn robot(&self) -> &RobotCore {
+        &self.robot
+    }
+
+    /// Its robot's id.
+    pub fn id(&self) -> RobotId {
+        self.robot.id()
+    }
+
+    /// What it counted so far.
+    pub fn counts(&self) -> Counts {
+        self.counts
+    }
+
+    /// Sets the fingerprint of its run settings (sent in the next `Register`).
+    pub fn set_settings(&mut self, fingerprint: u64) {
+        self.rules.settings = fingerprint;
+    }
+
+    /// Sets its failsafe's grace (sent in the next `Register`).
+    pub fn set_failsafe_grace_ms(&mut self, ms: u32) {
+        self.rules.failsafe_grace_ms = ms;
+    }
+
+    /// Starts at `now`: registers and beats; a real-time clock starts here.
+    pub fn start(&mut self, now: u64, out: &mut Vec<Said>) {
+        out.push(Said::Report(FromAgent::Register(self.register())));
+        self.next_heartbeat = Some(now);
+        if self.rules.clock == Clock::Realtime {
+            self.realtime = Some((now, 1));
+        }
+        self.beat_if_due(now, out);
+    }
+
+    /// When its next heartbeat is due (none: not started).
+    pub fn next_heartbeat(&self) -> Option<u64> {
+        self.next_heartbeat
+    }
+
+    /// Real time: when its next period is due (none: lockstep, not started).
+    pub fn next_period(&self) -> Option<u64> {
+        let (t0, next) = self.realtime?;
+        Some(t0.saturating_add(self.rules.period_us.max(1).saturating_mul(next)))
+    }
+
+    /// Its next timer: a heartbeat or a real-time period.
+    pub fn deadline(&self) -> Option<u64> {
+        [self.next_heartbeat, self.next_period()].into_iter().flatten().min()
+    }
+
+    /// Whether its robot will never move again (it then beats slower).
+    pub fn parked(&self) -> bool {
+        self.robot.parked()
+    }
+
+    /// Whatever is due at `now`: a heartbeat, a real-time period.
+    pub fn advance(&mut self, now: u64, out: &mut Vec<Said>) {
+        self.beat_if_due(now, out);
+        self.period_if_due(now, out);
+    }
+
+    /// A heartbeat if one is due at `now` (with a `Register` before it
+    /// while the orchestrator has said nothing: it may have been lost).
+    pub fn beat_if_due(&mut self, now: u64, out: &mut Vec<Said>) {
+        match self.next_heartbeat {
+            Some(due) if now >= due => {}
+            _ => return,
+        }
+        let period = if self.parked() { self.rules.parked_heartbeat_us } else { self.rules.heartbeat_us };
+        self.next_heartbeat = Some(now.saturating_add(period.max(1)));
+        self.heartbeat_seq += 1;
+        if !self.heard && self.heartbeat_seq > 1 {
+            out.push(Said::Report(FromAgent::Register(self.register())));
+        }
+        let beat = Heartbeat { robot: self.id(), seq: self.heartbeat_seq };
+        out.push(Said::Report(FromAgent::Heartbeat(beat)));
+    }
+
+    /// Real time: the period due at `now`, if one is, numbered by the time
+    /// since its clock started; the periods it was late for are skipped and
+    /// counted as missed (the frame number in the pose jumps), as on a real
+    /// robot. Returns whether a period ran.
+    pub fn period_if_due(&mut self, now: u64, out: &mut Vec<Said>) -> bool {
+        let (Some(due), Some((t0, next))) = (self.next_period(), self.realtime) else { return false };
+        if now < due {
+            return false;
+        }
+        let index = (now - t0) / self.rules.period_us.max(1);
+        self.counts.missed += index.saturating_sub(next);
+        self.counts.periods += 1;
+        self.period(index, out);
+        self.realtime = Some((t0, index.saturating_add(1)));
+        true
+    }
+
+    /// Takes command `cmd` at `now`; says why the agent leaves if it does.
+    pub fn handle(&mut self, cmd: &ToAgent, out: &mut Vec<Said>) -> Option<Leave> {
+        if let ToAgent::Refused(r) = cmd {
+            // Every agent on this robot's topic hears a refusal; only the
+            // refused instance leaves, the one the orchestrator kept stays.
+            return (r.instance == self.rules.instance).then_some(Leave::Refused);
+        }
+        self.heard = true;
+        match cmd {
+            ToAgent::Deploy(d) => self.deploy(d, out),
+            ToAgent::GoalBearing(b) => {
+                if let Err(r) = self.robot.set_bearing(b) {
+                    out.push(Said::Refused(r));
+                }
+            }
+            ToAgent::Tick(t) => self.tick(t.step, out),
+            ToAgent::Stop => self.robot.stop(),
+            ToAgent::Shutdown => return Some(Leave::Shutdown),
+            ToAgent::Refused(_) => {}
+            ToAgent::Beacon(b) => {
+                if let Err(r) = self.robot.beacon(b) {
+                    out.push(Said::Refused(r));
+                }
+            }
+        }
+        None
+    }
+
+    /// Stops the robot where it is (its failsafe's verdict).
+    pub fn stop(&mut self) {
+        self.robot.stop();
+    }
+
+    fn deploy(&mut self, d: &Deploy, out: &mut Vec<Said>) {
+        match self.robot.deploy(d) {
+            // Motion capture sees the robot at its start at once: this pose
+            // is the gate's "deployed" acknowledgement, and the status after
+            // it wakes an orchestrator waiting on reports.
+            Ok(()) => {
+                self.deployed = Some(*d);
+                self.answer_deploy(out);
+            }
+            // The same `Deploy` again (re-sent when its answer was lost):
+            // answered again with where the robot is. Another is refused.
+            Err(Reject::AlreadyDeployed) if self.deployed == Some(*d) => self.answer_deploy(out),
+            Err(r) => out.push(Said::Refused(r)),
+        }
+    }
+
+    fn answer_deploy(&mut self, out: &mut Vec<Said>) {
+        self.pose(self.tick, out);
+        out.push(Said::Report(FromAgent::Status(self.status(self.tick))));
+    }
+
+    fn tick(&mut self, step: u64, out: &mut Vec<Said>) {
+        match self.rules.clock {
+            Clock::Realtime => out.push(Said::Refused(Reject::TickInRealTime)),
+            // A tick already stepped is a repeat (the orchestrator re-sends
+            // what went unanswered, e.g. across a cut link): answered again,
+            // never stepped twice.
+            Clock::Lockstep if step <= self.tick => {
+                if step == self.tick {
+                    self.pose(step, out);
+                    out.extend(self.robot.tick_answer(step).map(Said::Report));
+                } else {
+                    tracing::debug!(robot = self.id().0, step, at = self.tick, "an old tick, ignored");
+                }
+            }
+            Clock::Lockstep => {
+                if self.robot.phase() == Phase::Moving && self.robot.bearing().is_some_and(|b| b.step != step)
+                {
+                    self.counts.stale_bearings += 1;
+                }
+                self.period(step, out);
+                out.extend(self.robot.tick_answer(step).map(Said::Report));
+            }
+        }
+    }
+
+    /// One control period numbered `step`: step, the pose, a status if it stepped.
+    fn period(&mut self, step: u64, out: &mut Vec<Said>) {
+        self.tick = step;
+        let stepped = self.robot.step();
+        self.pose(step, out);
+        if stepped {
+            out.push(Said::Report(FromAgent::Status(self.status(step))));
+        }
+    }
+
+    fn pose(&self, step: u64, out: &mut Vec<Said>) {
+        if let Some(p) = self.robot.pose(step, step.saturating_mul(self.rules.dt_us)) {
+            out.push(Said::Pose(p));
+        }
+    }
+
+    fn status(&self, step: u64) -> Status {
+        Status { robot: self.id(), mode: self.robot.mode() as u8, step }
+    }
+
+    fn register(&self) -> Register {
+        Register {
+            robot: self.id(),
+            kind: RobotKind::Simulated,
+            protocol_version: PROTOCOL_VERSION,
+            instance: self.rules.instance,
+            settings: self.rules.settings,
+            failsafe_grace_ms: self.rules.failsafe_grace_ms,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
