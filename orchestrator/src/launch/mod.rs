@@ -40,6 +40,7 @@
 
 pub mod agents;
 pub mod config;
+pub mod control;
 pub mod core;
 pub mod crowd;
 pub mod driver;
@@ -57,6 +58,7 @@ pub mod recording;
 pub mod ros2;
 pub mod scale;
 pub mod setup;
+pub mod status;
 pub mod summary;
 pub mod swarm_lock;
 pub mod transport;
@@ -242,6 +244,8 @@ pub fn run_serving(
         LaunchConfig::secs(cfg.supervision.heartbeat_interval * f64::from(agents::remote::QUIET_HEARTBEATS)),
         links,
     )?;
+    let control =
+        control::Control::serve(swarm.as_str(), zenoh.as_ref()).context("cannot serve status and stop")?;
     let stop = interrupt_flag();
     stop.store(false, Ordering::SeqCst);
     let driver = driver::Driver::new(driver::Parts {
@@ -255,6 +259,7 @@ pub fn run_serving(
         begun,
         endpoints,
         settings: settings_served,
+        control: Some(control),
     });
     let summary = driver.run();
     if let Some(live) = live {

@@ -39,8 +39,8 @@ use world::play;
 use super::agents::{Gone, Reach};
 use super::config::{LaunchConfig, Missing, OnDeath};
 use super::core::log::{Call, Logged};
-use super::core::{AgentTraits, Ending, Input, Output, Setup, SlotState};
-use super::summary::Outcome;
+use super::core::{AgentTraits, Ending, Input, Output, Setup, SlotState, Stop};
+use super::summary::{Outcome, StopSummary};
 use crate::gate::GateParams;
 use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Heartbeat, Pose, Register, ToAgent};
 use bycoms_protocol::RobotId;
@@ -151,7 +151,18 @@ pub struct Report {
     pub gate_times_us: Vec<u64>,
     /// When each robot's first registration reached the core, µs.
     pub registered_us: Vec<Option<u64>>,
+    /// Every `Stop` sent: when, to which robot.
+    pub stops_sent: Vec<(u64, u32)>,
+    /// The stop asked from outside, as the core recorded it.
+    pub stopped: Option<StopSummary>,
+    /// Robots whose agents ran when the launch ended.
+    pub running_at_end: Vec<u32>,
 }
+
+/// Who asks a harness schedule's stop, and why.
+pub const STOP_WHO: &str = "the harness";
+/// Why a harness schedule's stop is asked.
+pub const STOP_WHY: &str = "a seeded stop";
 
 /// The core's setup for `case` with agents of `schedule`'s kind and clock.
 pub fn setup(case: &Case, schedule: &Schedule) -> Setup {

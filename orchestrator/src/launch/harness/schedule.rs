@@ -90,6 +90,9 @@ pub struct Schedule {
     pub foreign: Vec<(u64, Foreign)>,
     /// Ctrl-C, and when.
     pub interrupt_at_us: Option<u64>,
+    /// A stop asked from outside (`orchestrator stop`), when, and whether
+    /// `--now`.
+    pub stop_at_us: Option<(u64, bool)>,
 }
 
 impl Schedule {
@@ -108,6 +111,7 @@ impl Schedule {
             second_agents: Vec::new(),
             foreign: Vec::new(),
             interrupt_at_us: None,
+            stop_at_us: None,
         }
     }
 
@@ -176,6 +180,10 @@ impl Schedule {
         }
         if rng.gen_bool(0.05) {
             s.interrupt_at_us = Some(rng.gen_range(0..horizon_us));
+        }
+        // Drawn last, so the schedules drawn before stops existed are kept.
+        if rng.gen_bool(0.05) {
+            s.stop_at_us = Some((rng.gen_range(0..horizon_us), rng.gen_bool(0.7)));
         }
         s
     }
