@@ -322,3 +322,78 @@ pub fn ask_zenoh(
     }
     Ok(answers)
 }
+
+/// What one launch said, or why it said nothing.
+#[derive(Debug)]
+pub struct Reached {
+    /// The swarm.
+    pub swarm: String,
+    /// Its answer, or why there is none (its launch is gone).
+    pub answer: std::result::Result<Answer, String>,
+}
+
+/// Where the asker looks for launches.
+pub enum Asker {
+    /// This host's launches (their sockets).
+    Local,
+    /// Launches reachable over this zenoh session.
+    Zenoh(ZenohBus),
+}
+
+/// How long an asker waits for answers.
+pub const ANSWER_TIMEOUT: Duration = Duration::from_secs(3);
+
+impl Asker {
+    /// Opens a zenoh client session to `endpoint` (with the zenoh config
+    /// `config`, for certificates), or looks on this host without one.
+    pub fn open(connect: Option<&str>, config: Option<PathBuf>) -> Result<Self> {
+        let Some(endpoint) = connect else { return Ok(Self::Local) };
+        let cfg = bycoms_runtime::zenoh_config(
+            bycoms_protocol::bus::zenoh::Mode::Client,
+            Vec::new(),
+            vec![endpoint.to_owned()],
+            config,
+        );
+        let bus = ZenohBus::open(cfg).with_context(|| format!("cannot reach {endpoint} over zenoh"))?;
+        Ok(Self::Zenoh(bus))
+    }
+
+    /// Asks every launch it can see (of `swarm`, or all): their answers,
+    /// and the launches that are gone, in swarm order.
+    pub fn ask(&self, swarm: Option<&str>, ask: &Ask) -> Result<Vec<Reached>> {
+        let mut reached = match self {
+            Self::Local => local_launches()
+                .into_iter()
+                .filter(|l| swarm.is_none_or(|s| s == l.swarm))
+                .map(|l| {
+                    let answer = if l.running {
+                        ask_socket(&l.socket, ask, ANSWER_TIMEOUT).map_err(|e| crate::exit::message(&e))
+                    } else {
+                        Err("gone: its launch ended without removing its lock (killed)".into())
+                    };
+                    Reached { swarm: l.swarm, answer }
+                })
+                .collect(),
+            Self::Zenoh(z) => ask_zenoh(z, swarm, ask, ANSWER_TIMEOUT)?
+                .into_iter()
+                .map(|(key, answer)| {
+                    let swarm = key.trim_start_matches("bycoms/").trim_end_matches("/control").to_owned();
+                    Reached { swarm, answer: Ok(answer) }
+                })
+                .collect::<Vec<_>>(),
+        };
+        reached.sort_by(|a, b| a.swarm.cmp(&b.swarm));
+        Ok(reached)
+    }
+
+    /// Where it looks, in words (for "no launch runs …").
+    pub fn place(&self) -> String {
+        match self {
+            Self::Local => match bycoms_protocol::bus::ipc::root::tag_from_env() {
+                Some(tag) => format!("on this host (isolation tag {tag})"),
+                None => "on this host".into(),
+            },
+            Self::Zenoh(z) => format!("over zenoh at {}", z.config().connect.join(", ")),
+        }
+    }
+}
