@@ -40,11 +40,12 @@ pub struct Args {
     pub why: String,
 }
 
-/// Who asks, in words: user, host and pid.
+/// Who asks, in words: user id, host and pid.
 pub fn who(command: &str) -> String {
-    let user = std::env::var("USER").unwrap_or_else(|_| "someone".into());
+    use std::os::unix::fs::MetadataExt;
+    let uid = std::fs::metadata("/proc/self").map(|m| m.uid().to_string()).unwrap_or_else(|_| "?".into());
     let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
-    format!("{command} ({user}@{}, pid {})", host.trim(), std::process::id())
+    format!("{command} (uid {uid} on {}, pid {})", host.trim(), std::process::id())
 }
 
 pub fn run(args: Args) -> Result<i32> {

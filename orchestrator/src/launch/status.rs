@@ -142,7 +142,64 @@ pub fn text(s: &LaunchStatus) -> String {
     }
     let idle = s.robots.iter().filter(|r| r.state == SlotState::Waiting.words()).count();
     if idle > 0 {
-        out.push_str(&format!("  {idle} robots not started yet\n"));
+        out.push_str(&format!("  {} not started yet\n", crate::runs::count(idle as u64, "robot")));
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::launch::core::{Input, Output, Stop};
+    use crate::launch::harness::{self, Case, Schedule};
+    use bycoms_protocol::msg::Pose;
+    use bycoms_protocol::RobotId;
+
+    fn facts() -> Facts {
+        Facts {
+            swarm: "lab".into(),
+            clock: "lockstep".into(),
+            transport: "ipc".into(),
+            recording: Some("run.mcap".into()),
+            pid: 42,
+            uptime_s: 2.5,
+        }
+    }
+
+    /// The status says what the core holds: its phase and wait, each
+    /// robot's state, whether its agent runs, how old its last pose is,
+    /// and, once asked, who stops the launch.
+    #[test]
+    fn a_status_is_a_projection_of_the_core() {
+        let case = Case::small(3);
+        let mut core = Core::new(harness::setup(&case, &Schedule::clean(3, case.robots)));
+        core.advance(0);
+        while let Some(out) = core.poll_output() {
+            if let Output::Start(robot) = out {
+                core.handle(0, Input::Started { robot, pid: Some(7), how: "started".into() });
+            }
+        }
+        core.advance(0);
+        let pose = Pose { robot: RobotId(1), x: 1.0, y: 2.0, heading: 0.5, step: 0, time_us: 0 };
+        core.handle(1_000_000, Input::Pose { topic: 1, pose });
+        let s = of(&core, 1_500_000, &facts());
+        assert_eq!(s.phase, "awaiting robot 1's registration");
+        assert_eq!(s.waiting.as_deref(), Some("robot 1's agent to register"));
+        assert_eq!((s.robots[0].state.as_str(), s.robots[0].running), ("starting", true));
+        assert_eq!(s.robots[0].pose_age_s, Some(0.5));
+        assert_eq!(s.robots[0].pose, None, "a pose of a robot not deployed is not believed");
+        assert_eq!((s.robots[1].state.as_str(), s.robots[1].running), ("waiting", false));
+        assert_eq!((s.swarm.as_str(), s.pid, s.stopping.as_deref()), ("lab", 42, None));
+        let shown = text(&s);
+        assert!(shown.contains("robot 1: starting, seen 0.5 s ago"), "{shown}");
+        assert!(shown.contains("recording: run.mcap"), "{shown}");
+
+        let stop = Stop { now: true, who: "me".into(), why: "a test".into() };
+        core.handle(2_000_000, Input::Stop(stop));
+        core.advance(2_000_000);
+        let s = of(&core, 2_000_000, &facts());
+        assert_eq!(s.phase, "finished");
+        assert_eq!(s.stopping.as_deref(), Some("stop now asked by me: a test"));
+        assert_eq!(core.stopped().map(|s| s.told.clone()), Some(vec![1]), "robot 1's agent ran");
+    }
 }

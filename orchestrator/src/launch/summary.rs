@@ -415,6 +415,7 @@ mod tests {
             first_moving_s: None,
             resends: 0,
             shutdown_killed: Vec::new(),
+            stop: None,
         }
     }
 
