@@ -106,6 +106,8 @@ pub fn control_key(swarm: &str) -> String {
 /// A launch's control servers; dropping it closes them.
 pub struct Control {
     requests: Receiver<Request>,
+    /// For other ways in (the ROS 2 stop service, `ros2_stop.rs`).
+    sender: Sender<Request>,
     socket: Option<SocketServer>,
     _queryable: Option<zenoh::query::Queryable<()>>,
 }
@@ -117,8 +119,13 @@ impl Control {
         let (tx, requests) = channel();
         let tag = bycoms_protocol::bus::ipc::root::tag_from_env();
         let socket = SocketServer::open(&socket_path(tag.as_deref(), swarm), tx.clone())?;
-        let queryable = zenoh.map(|z| serve_zenoh(z, swarm, tx)).transpose()?;
-        Ok(Self { requests, socket: Some(socket), _queryable: queryable })
+        let queryable = zenoh.map(|z| serve_zenoh(z, swarm, tx.clone())).transpose()?;
+        Ok(Self { requests, sender: tx, socket: Some(socket), _queryable: queryable })
+    }
+
+    /// Where another server hands its requests in.
+    pub fn sender(&self) -> Sender<Request> {
+        self.sender.clone()
     }
 
     /// The requests that came in since the last call.

@@ -56,6 +56,7 @@ pub mod procfs;
 pub mod progress;
 pub mod recording;
 pub mod ros2;
+pub mod ros2_stop;
 pub mod scale;
 pub mod setup;
 pub mod status;
@@ -246,6 +247,11 @@ pub fn run_serving(
     )?;
     let control =
         control::Control::serve(swarm.as_str(), zenoh.as_ref()).context("cannot serve status and stop")?;
+    // `--ros2`: the stop service, held to the end; its calls are stop questions.
+    let _ros2_stop = match (&cfg.ros2, &zenoh) {
+        (Some(ros2), Some(z)) => Some(ros2_stop::Ros2Stop::open(ros2, z.session(), control.sender())?),
+        _ => None,
+    };
     let stop = interrupt_flag();
     stop.store(false, Ordering::SeqCst);
     let driver = driver::Driver::new(driver::Parts {
