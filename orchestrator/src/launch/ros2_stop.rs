@@ -130,3 +130,34 @@ fn respond(query: &zenoh::query::Query, asked: Option<Attachment>, answer: &Answ
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The service's key expression and token, pinned: rmw_zenoh's format
+    /// (`bycoms-ros2`'s functions, themselves pinned against rmw_zenoh's
+    /// examples) with the Trigger hash rosbags computes
+    /// (`protocol/ros2/tests/golden.rs`, `PINNED_SERVICES`).
+    #[test]
+    fn the_stop_service_is_announced_as_rmw_zenoh_announces_a_trigger_service() {
+        let hash = "RIHS01_eeff2cd6fa5ad9d27cdf4dec64818317839b62f212a91e6b5304b634b2062c5f";
+        let (key, token) = service_wire(&Ros2Config::default(), "1a2b").expect("wire");
+        assert_eq!(key, format!("0/emergency/std_srvs::srv::dds_::Trigger_/{hash}"));
+        assert_eq!(
+            token,
+            format!("@ros2_lv/0/1a2b/0/1000000/SS/%/%/bycoms/%emergency/std_srvs::srv::dds_::Trigger_/{hash}/::,10:,:,:,,")
+        );
+        let lab = Ros2Config { domain_id: 7, namespace: "/lab".into() };
+        assert_eq!(service_name(&lab), "/lab/emergency");
+        assert!(service_wire(&lab, "1a2b").expect("wire").0.starts_with("7/lab/emergency/"));
+    }
+
+    #[test]
+    fn a_stop_answer_is_a_successful_trigger_response_and_anything_else_is_not() {
+        let stopping = Answer::Stopping { swarm: "lab".into(), now: true, recording: None, pid: 1 };
+        let r = response(&stopping);
+        assert!(r.success && r.message.contains("lab"), "{r:?}");
+        assert!(!response(&Answer::Refused("no".into())).success);
+    }
+}
