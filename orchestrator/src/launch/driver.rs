@@ -313,6 +313,11 @@ impl Driver {
                 Ask::Stop { now, who, why } => {
                     tracing::warn!(now, who, why, "a stop was asked");
                     self.feed(Input::Stop(Stop { now, who, why }));
+                    // Decided and carried out before the answer: "stopping"
+                    // means every running robot was sent `Stop` (`now`).
+                    let at = self.now();
+                    self.core.advance(at);
+                    self.carry_out();
                     Answer::Stopping {
                         swarm: self.template.swarm.clone(),
                         now,
