@@ -118,9 +118,21 @@ impl Control {
     pub fn serve(swarm: &str, zenoh: Option<&ZenohBus>) -> Result<Self> {
         let (tx, requests) = channel();
         let tag = bycoms_protocol::bus::ipc::root::tag_from_env();
-        let socket = SocketServer::open(&socket_path(tag.as_deref(), swarm), tx.clone())?;
+        // Without its socket (a path past the OS's 108 bytes, a read-only
+        // directory) the launch still runs: it says so, and only this
+        // host's `status` and `stop` cannot reach it.
+        let socket = match SocketServer::open(&socket_path(tag.as_deref(), swarm), tx.clone()) {
+            Ok(socket) => Some(socket),
+            Err(e) => {
+                tracing::warn!(
+                    "orchestrator status and stop cannot reach this launch: {}",
+                    crate::exit::message(&e)
+                );
+                None
+            }
+        };
         let queryable = zenoh.map(|z| serve_zenoh(z, swarm, tx.clone())).transpose()?;
-        Ok(Self { requests, sender: tx, socket: Some(socket), _queryable: queryable })
+        Ok(Self { requests, sender: tx, socket, _queryable: queryable })
     }
 
     /// Where another server hands its requests in.
