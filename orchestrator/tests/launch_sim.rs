@@ -735,3 +735,47 @@ fn a_robot_deployed_and_judged_at_once_starts_its_successor_once() {
     assert_eq!(core.slots()[0].state(), SlotState::Stuck, "deployed and judged in one advance");
     assert_eq!(starts[..2], [1, 1], "each agent started once");
 }
+
+/// Issue 34: `orchestrator stop --now` at a seeded moment of a drawn
+/// schedule (any clock, any faults): the launch ends interrupted, every
+/// robot whose agent ran is told `Stop` in the launch's last step, and the
+/// summary's record names who asked and why. A graceful stop tells no one
+/// (the agents get `Shutdown` as after Ctrl-C).
+#[test]
+fn a_stop_at_a_seeded_moment_tells_every_running_robot_at_once_and_names_who() {
+    use rand::{Rng, SeedableRng};
+    let mut told = 0usize;
+    for seed in 0..300u64 {
+        let case = Case::small(seed);
+        let mut schedule = Schedule::draw(seed, case.robots, TICKS);
+        schedule.interrupt_at_us = None;
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed ^ 0x5709);
+        let at_once = seed % 4 != 0;
+        schedule.stop_at_us = Some((rng.gen_range(0..3_000_000), at_once));
+        let report = harness::run(&case, &schedule);
+        harness::check(&report, &schedule).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        let ending = report.ending.as_ref().expect("checked");
+        let Some(stop) = report.stopped.as_ref() else {
+            // The launch ended before the stop came.
+            assert_ne!(ending.outcome, Outcome::Interrupted, "seed {seed}");
+            continue;
+        };
+        if ending.outcome == Outcome::Error {
+            continue;
+        }
+        assert_eq!(ending.outcome, Outcome::Interrupted, "seed {seed}");
+        assert_eq!((stop.who.as_str(), stop.why.as_str()), (harness::STOP_WHO, harness::STOP_WHY));
+        if at_once {
+            assert_eq!(stop.told, report.running_at_end, "seed {seed}");
+            let last: Vec<u32> =
+                report.stop_log.iter().filter(|s| s.0 == report.end_us).map(|s| s.1).collect();
+            for id in &stop.told {
+                assert!(last.contains(id), "seed {seed}: robot {id} not told Stop at the end");
+            }
+            told += stop.told.len();
+        } else {
+            assert!(stop.told.is_empty(), "seed {seed}");
+        }
+    }
+    assert!(told > 100, "too few robots were told to stop ({told}): the test tests too little");
+}

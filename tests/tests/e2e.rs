@@ -16,6 +16,7 @@ mod deploy_files;
 mod docs;
 mod foxglove_recording;
 mod gateway_lab;
+mod lab_day;
 mod lab_launch;
 mod launch_report;
 mod live_view;

@@ -120,3 +120,72 @@ fn a_ros2_client_finds_every_topic_and_decodes_every_sample_of_a_launch() {
         assert_eq!((&last[0], &last[1], &last[2]), (&robot["x"], &robot["y"], &"world".into()), "robot {id}");
     }
 }
+
+/// Issue 32 item 4: the stop service. An independent client (eclipse-zenoh
+/// and rosbags, `tests/python/ros2_stop_call.py`) finds `/emergency` by its
+/// `SS` token, calls it as rmw_zenoh's client does, and gets
+/// `success = true` in CDR with its own sequence number and GID in the
+/// reply's attachment; the launch stops every running robot at once and
+/// its summary names the service as who stopped it.
+#[test]
+#[ignore = "needs python3 with eclipse-zenoh==1.10.2, rosbags==0.11.9 and xxhash==4.1.0"]
+fn calling_the_ros2_stop_service_stops_every_robot() {
+    let port = TcpListener::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port();
+    let router = format!("tcp/127.0.0.1:{port}");
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/ros2_stop_call.py");
+    let mut child = Command::new("python3")
+        .arg(&script)
+        .args([router.as_str(), "0"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("python3 starts");
+    let lines = bycoms_tests::stdout_lines(&mut child);
+    let mut caller = Listener { stdin: child.stdin.take(), child, lines };
+    assert_eq!(caller.line("ready line"), "ready");
+    let swarm = swarm_name("ros2stop");
+    let orch = Proc::orchestrator(&[
+        "launch",
+        "--clock",
+        "realtime",
+        "--speed",
+        "1",
+        "--swarm",
+        &swarm,
+        "--json",
+        "--ros2",
+        "--transport",
+        "zenoh",
+        "--listen",
+        "tcp/127.0.0.1:0",
+        "--connect",
+        &router,
+    ]);
+    assert_eq!(caller.line("found line"), "found /emergency");
+    // Once robot 1 moves, so that a robot is running when the call comes.
+    bycoms_tests::wait_for(Duration::from_secs(30), || {
+        let out = Proc::orchestrator(&["status", "--json", "--swarm", &swarm]).wait(Duration::from_secs(20));
+        let line: serde_json::Value = serde_json::from_str(out.stdout.lines().next()?).ok()?;
+        (line["status"]["robots"][0]["state"] == "moving").then_some(())
+    })
+    .expect("robot 1 moves within 30 s");
+    let mut stdin = caller.stdin.take().expect("stdin");
+    stdin.write_all(b"call\n").expect("write to the caller");
+    drop(stdin);
+    let report: serde_json::Value = serde_json::from_str(&caller.line("report")).expect("JSON");
+    assert_eq!(report["replies"], 1, "{report}");
+    assert_eq!(report["success"], true, "{report}");
+    assert!(report["message"].as_str().is_some_and(|m| m.contains(&swarm)), "{report}");
+    assert_eq!((&report["same_sequence"], &report["same_gid"]), (&true.into(), &true.into()), "{report}");
+    assert_eq!(report["key"], report["expected_key"], "{report}");
+    let done = orch.wait(Duration::from_secs(30));
+    assert_eq!(done.status.code(), Some(130), "{}", done.stderr);
+    let stop = &done.json()["stop"];
+    assert_eq!(stop["now"], true, "{stop}");
+    assert!(
+        stop["who"].as_str().is_some_and(|w| w.starts_with("ros2 service /emergency (client ")),
+        "{stop}"
+    );
+    assert!(stop["told"].as_array().is_some_and(|t| t.first() == Some(&1.into())), "{stop}");
+}

@@ -13,6 +13,8 @@ pub mod merge;
 pub mod record;
 pub mod replay;
 pub mod simulate;
+pub mod status;
+pub mod stop;
 pub mod sweep;
 pub mod terrain;
 pub mod world;
@@ -59,6 +61,16 @@ pub enum Command {
     Bridge(bridge::Args),
     /// Make a lab CA, orchestrator and robot certificates, and zenoh configs with the ACL.
     Certs(certs::Args),
+    /// Show every running launch this host (or, with --connect, zenoh) can see: phase, robots, poses, uptime.
+    ///
+    /// As the launch itself answers; a launch that died shows as gone. Exit codes: 0 at least
+    /// one launch answered (also when Ctrl-C ends --watch), 1 none runs, 2 usage.
+    Status(status::Args),
+    /// Stop a running launch from another terminal or host: gracefully, or --now every robot at once.
+    ///
+    /// The launch records who asked and why in its summary (`stop`) and exits 130. Exit codes:
+    /// 0 the launch said it stops, 1 no launch answered, 2 usage (several run and --swarm is missing).
+    Stop(stop::Args),
     /// Run one simulated robot (what `launch` starts when no `sim-agent` binary sits next to it).
     #[command(hide = true)]
     SimAgent(bycoms_sim::sim_agent::AgentArgs),
@@ -80,6 +92,8 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Completions(args) => completions::run(&args),
         Command::Bridge(args) => bridge::run(args),
         Command::Certs(args) => certs::run(args),
+        Command::Status(args) => status::run(args),
+        Command::Stop(args) => stop::run(args),
         Command::SimAgent(args) => Ok(bycoms_sim::sim_agent::main_with(&args)),
     }
 }

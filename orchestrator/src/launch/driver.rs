@@ -12,12 +12,14 @@
 
 use super::agents::{AgentPlan, AgentSource, Gone, Started};
 use super::config::{Clock, LaunchConfig};
+use super::control::{Answer, Ask, Control, Request};
 use super::core::log::{self, Logged};
-use super::core::{Ending, Input, Output, Slot, SlotState};
+use super::core::{Ending, Input, Output, Slot, SlotState, Stop};
 use super::events::EVENT_SCHEMA;
 use super::ports::Ports;
 use super::poses::{PoseSink, PoseSource};
 use super::progress::{Progress, Waits};
+use super::status::{self, Facts, LaunchStatus};
 use super::summary::{RealtimeReport, RecordingSummary, Summary};
 use super::World;
 use crate::record::schema;
@@ -54,6 +56,9 @@ pub struct Driver {
     poses: Vec<(u32, Pose)>,
     /// What the launch waits for, said when a wait lasts.
     waits: Waits,
+    /// `orchestrator status` and `stop` (and the ROS 2 stop service) reach
+    /// the launch here (`control.rs`).
+    control: Option<Control>,
 }
 
 /// What a driver is built from.
@@ -78,13 +83,26 @@ pub struct Parts {
     pub endpoints: Vec<String>,
     /// zenoh: the settings server (held to the end, its refusals counted).
     pub settings: Option<SettingsServer>,
+    /// Where status and stop questions come in.
+    pub control: Option<Control>,
 }
 
 impl Driver {
     /// A driver around a new core for `parts`.
     pub fn new(parts: Parts) -> Self {
-        let Parts { cfg, world, ports, agents, pose_source, template, stop, begun, endpoints, settings } =
-            parts;
+        let Parts {
+            cfg,
+            world,
+            ports,
+            agents,
+            pose_source,
+            template,
+            stop,
+            begun,
+            endpoints,
+            settings,
+            control,
+        } = parts;
         let setup = super::setup::setup(&cfg, &world, &template, agents.as_ref(), pose_source.as_ref());
         let mut ports = ports;
         // The core's setup and calls go into the recording: `replay` feeds
@@ -110,6 +128,7 @@ impl Driver {
             settings,
             poses: Vec::new(),
             waits: Waits::new(Instant::now()),
+            control,
         }
     }
 
@@ -276,11 +295,52 @@ impl Driver {
         for (robot, change) in self.agents.reach() {
             self.feed(Input::Reach(robot, change));
         }
+        self.answer_questions();
         if self.progress.due() {
             self.redraw();
         }
         self.say_waits();
         Ok(())
+    }
+
+    /// Answers the status and stop questions that came in; a stop is the
+    /// core's input, so the launch ends by the core's one rule.
+    fn answer_questions(&mut self) {
+        let Some(requests) = self.control.as_ref().map(Control::take) else { return };
+        for Request { ask, reply } in requests {
+            let answer = match ask {
+                Ask::Stop { now, who, why } => {
+                    tracing::warn!(now, who, why, "a stop was asked");
+                    self.feed(Input::Stop(Stop { now, who, why }));
+                    // Decided and carried out before the answer: "stopping"
+                    // means every running robot was sent `Stop` (`now`).
+                    let at = self.now();
+                    self.core.advance(at);
+                    self.carry_out();
+                    Answer::Stopping {
+                        swarm: self.template.swarm.clone(),
+                        now,
+                        recording: self.cfg.record.as_ref().map(|p| p.display().to_string()),
+                        pid: std::process::id(),
+                    }
+                }
+                Ask::Status => Answer::Status(Box::new(self.status())),
+            };
+            reply(&answer);
+        }
+    }
+
+    /// Where the launch stands (`orchestrator status`).
+    pub fn status(&self) -> LaunchStatus {
+        let facts = Facts {
+            swarm: self.template.swarm.clone(),
+            clock: self.cfg.clock.as_str().into(),
+            transport: self.cfg.transport.kind.as_str().into(),
+            recording: self.cfg.record.as_ref().map(|p| p.display().to_string()),
+            pid: std::process::id(),
+            uptime_s: self.begun.elapsed().as_secs_f64(),
+        };
+        status::of(&self.core, self.now(), &facts)
     }
 
     /// Says what the launch waits for, when a wait lasts.
@@ -398,6 +458,7 @@ impl Driver {
             first_moving_s: first_moving,
             resends: decided.resends,
             shutdown_killed: killed,
+            stop: self.core.stopped().cloned(),
         };
         // The observers see the scene to its last gate event.
         self.ports.recording.sync();

@@ -36,6 +36,9 @@ pub enum EventKind {
     /// Its agent's failsafe stopped it: the agent had not heard the
     /// orchestrator for longer than its grace (see `reason`).
     FailsafeFired,
+    /// Told `Stop` by a stop asked from outside (`orchestrator stop --now`,
+    /// the ROS 2 stop service; `reason` names who and why).
+    Stopped,
 }
 
 /// One event of a robot's agent.

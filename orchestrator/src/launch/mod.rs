@@ -40,6 +40,7 @@
 
 pub mod agents;
 pub mod config;
+pub mod control;
 pub mod core;
 pub mod crowd;
 pub mod driver;
@@ -56,8 +57,10 @@ pub mod progress;
 pub mod recording;
 pub mod ros2;
 pub mod ros2_graph;
+pub mod ros2_stop;
 pub mod scale;
 pub mod setup;
+pub mod status;
 pub mod summary;
 pub mod swarm_lock;
 pub mod transport;
@@ -245,6 +248,14 @@ pub fn run_serving(
         LaunchConfig::secs(cfg.supervision.heartbeat_interval * f64::from(agents::remote::QUIET_HEARTBEATS)),
         links,
     )?;
+    let control =
+        control::Control::serve(swarm.as_str(), zenoh.as_ref()).context("cannot serve status and stop")?;
+    // `--ros2`: the stop service, held to the end; its calls are stop questions.
+    // On the ROS 2 session (the lab's router, or the launch's own), as the topics.
+    let _ros2_stop = match (&cfg.ros2, &ros2_session) {
+        (Some(ros2), Some(session)) => Some(ros2_stop::Ros2Stop::open(ros2, session, control.sender())?),
+        _ => None,
+    };
     let stop = interrupt_flag();
     stop.store(false, Ordering::SeqCst);
     let driver = driver::Driver::new(driver::Parts {
@@ -258,6 +269,7 @@ pub fn run_serving(
         begun,
         endpoints,
         settings: settings_served,
+        control: Some(control),
     });
     let summary = driver.run();
     if let Some(live) = live {

@@ -238,6 +238,25 @@ pub struct Summary {
     /// Robots whose agents did not exit within the shutdown grace after
     /// `Shutdown` and were ended (spawned agents killed; remote ones named).
     pub shutdown_killed: Vec<u32>,
+    /// A stop asked from outside (`orchestrator stop`, the ROS 2 stop
+    /// service): who, why, and which robots were told `Stop`.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub stop: Option<StopSummary>,
+}
+
+/// A stop asked of the launch from outside, as the summary records it.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, JsonSchema)]
+pub struct StopSummary {
+    /// `--now`: every running robot was told `Stop` before the end.
+    pub now: bool,
+    /// Who asked.
+    pub who: String,
+    /// Why, as the asker said it (may be empty).
+    pub why: String,
+    /// When it was taken in, ms since the Unix epoch.
+    pub unix_ms: u64,
+    /// The robots told `Stop`, all in one step (empty for a graceful stop).
+    pub told: Vec<u32>,
 }
 
 impl Summary {
@@ -249,7 +268,12 @@ impl Summary {
             Outcome::TimeLimit => bycoms_sim::Outcome::TimeLimit,
             Outcome::Interrupted => {
                 let deployed = count(u64::from(self.robots_used), "robot");
-                return format!("interrupted after {:.1} s ({deployed} deployed)", self.time_s);
+                let how = match &self.stop {
+                    Some(s) if s.why.is_empty() => format!("stopped by {}", s.who),
+                    Some(s) => format!("stopped by {} ({})", s.who, s.why),
+                    None => "interrupted".into(),
+                };
+                return format!("{how} after {:.1} s ({deployed} deployed)", self.time_s);
             }
             Outcome::Error => return format!("error: {}", self.error.as_deref().unwrap_or("unknown")),
         };
@@ -517,6 +541,7 @@ mod tests {
             first_moving_s: None,
             resends: 0,
             shutdown_killed: Vec::new(),
+            stop: None,
         }
     }
 

@@ -190,10 +190,25 @@ pub fn sweep(dir: &Path) -> usize {
         // file meanwhile sees that the path no longer names it.
         if std::fs::remove_file(&path).is_ok() {
             removed += 1;
+            // And its control socket (`launch/control.rs`), if it left one.
+            let _ = std::fs::remove_file(path.with_extension("sock"));
         }
         let _ = file.unlock();
     }
     removed
+}
+
+/// Whether a live process holds the lock file at `path` (a launch runs).
+pub fn is_held(path: &Path) -> bool {
+    let Ok(file) = File::open(path) else { return false };
+    match file.try_lock() {
+        Ok(()) => {
+            let _ = file.unlock();
+            false
+        }
+        Err(TryLockError::WouldBlock) => true,
+        Err(TryLockError::Error(_)) => false,
+    }
 }
 
 impl Drop for SwarmLock {

@@ -44,6 +44,7 @@ pub mod referee;
 mod silence;
 mod slot;
 mod steps;
+mod stop;
 mod wait;
 
 pub use plausible::Implausible;
@@ -54,7 +55,7 @@ pub use wait::{AnswerTime, AnswerWait, MIN_RESEND_US, RESEND_US};
 use super::agents::{Gone, Reach};
 use super::config::{Missing, OnDeath};
 use super::events::{EventKind, LaunchEvent};
-use super::summary::{Death, Outage, Outcome};
+use super::summary::{Death, Outage, Outcome, StopSummary};
 use crate::gate::{GateParams, Verdict};
 use crate::mocap::{PlacementConfig, PlacementWatch};
 use bycoms_protocol::msg::{
@@ -172,6 +173,22 @@ pub enum Input {
     /// process's last error line: the reason it gives for an absent or
     /// lost robot). Last, so older recorded logs still decode.
     Said(u32, String),
+    /// A stop asked from outside the launch (`orchestrator stop`, the ROS 2
+    /// stop service): graceful ends the launch as Ctrl-C does; `now` first
+    /// tells every running robot `Stop` (`stop.rs`). Last, so older
+    /// recorded logs still decode.
+    Stop(Stop),
+}
+
+/// A stop asked of the launch, and by whom (see [`Input::Stop`]).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Stop {
+    /// Every running robot is told `Stop` at once before the launch ends.
+    pub now: bool,
+    /// Who asked, e.g. `orchestrator stop (pid 4242 on lab-3)`.
+    pub who: String,
+    /// Why, as the asker said it (may be empty).
+    pub why: String,
 }
 
 /// Something to do, from [`Core::poll_output`].
@@ -326,6 +343,8 @@ pub struct Core {
     /// When motion capture last handed over each robot's pose, µs
     /// (`silence.rs`).
     mocap_heard: Vec<Option<u64>>,
+    /// The stop asked from outside, once asked (`stop.rs`).
+    stop: Option<StopSummary>,
 }
 
 impl Core {
@@ -359,6 +378,7 @@ impl Core {
             ending: None,
             beacons: beacons::BeaconTable::default(),
             mocap_heard: vec![None; setup.robots as usize],
+            stop: None,
             setup,
         }
     }
@@ -392,6 +412,10 @@ impl Core {
     /// Launch time of the first robot's start pose, µs.
     pub fn first_moving_us(&self) -> Option<u64> {
         self.first_moving_us
+    }
+    /// When motion capture last handed over robot `id`'s pose, µs.
+    pub fn pose_heard(&self, id: u32) -> Option<u64> {
+        id.checked_sub(1).and_then(|i| self.mocap_heard.get(i as usize).copied().flatten())
     }
     /// Whether robot `id`'s agent is started and not gone.
     pub fn is_running(&self, id: u32) -> bool {
@@ -503,6 +527,7 @@ impl Core {
                     slot.last_error = Some(words);
                 }
             }
+            Input::Stop(stop) => self.on_stop(now, stop),
         }
     }
 

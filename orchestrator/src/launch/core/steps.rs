@@ -24,6 +24,9 @@ impl Core {
             if self.interrupted {
                 return self.end(Outcome::Interrupted, None);
             }
+            if self.stop_due() {
+                return self.stop_all();
+            }
             if !self.setup.lockstep && self.phase != Phase::Begin && now >= self.relay_at {
                 self.relay_frame += 1;
                 let sim_us = (now as f64 * self.setup.speed) as u64;

@@ -143,6 +143,7 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
             }
         }
     }
+    check_stop(report, schedule, ending)?;
     let arrived = report.robots.iter().filter(|r| r.0 == SlotState::Arrived).count();
     if arrived > 1 || (arrived == 1) != (ending.outcome == Outcome::Arrived) {
         return Err(format!("{arrived} robots arrived, outcome {:?}", ending.outcome));
@@ -167,6 +168,43 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
             report.resends,
             report.end_us / 1_000_000
         ));
+    }
+    Ok(())
+}
+
+/// A stop asked from outside: when it ended the launch, the summary names
+/// who and why, and with `now` every robot whose agent ran was told `Stop`
+/// once, all at the launch's last step.
+fn check_stop(report: &Report, schedule: &Schedule, ending: &Ending) -> Result<(), String> {
+    let Some(stop) = &report.stopped else {
+        return match schedule.stop_at_us {
+            Some((at, _)) if at < report.end_us => Err(format!("a stop asked at {at} µs was not taken in")),
+            _ => Ok(()),
+        };
+    };
+    if ending.outcome != Outcome::Interrupted && ending.outcome != Outcome::Error {
+        return Err(format!("a stop was taken in but the launch ended {:?}", ending.outcome));
+    }
+    if stop.who != STOP_WHO || stop.why != STOP_WHY {
+        return Err(format!("the stop is recorded as by {:?} for {:?}", stop.who, stop.why));
+    }
+    if Some(stop.now) != schedule.stop_at_us.map(|s| s.1) {
+        return Err(format!("a stop with now = {} recorded, {:?} asked", stop.now, schedule.stop_at_us));
+    }
+    // Ctrl-C or an error taken in the same step end the launch first.
+    let (asked_at, _) = schedule.stop_at_us.unwrap_or_default();
+    let first =
+        ending.outcome == Outcome::Interrupted && schedule.interrupt_at_us.is_none_or(|i| i > asked_at);
+    if !first {
+        return Ok(());
+    }
+    let at_end: Vec<u32> = report.stop_log.iter().filter(|s| s.0 == report.end_us).map(|s| s.1).collect();
+    let expected = if stop.now { report.running_at_end.clone() } else { Vec::new() };
+    if stop.told != expected {
+        return Err(format!("robots {:?} told to stop, {expected:?} were running", stop.told));
+    }
+    if let Some(missed) = stop.told.iter().find(|id| !at_end.contains(id)) {
+        return Err(format!("robot {missed} was not sent Stop in the launch's last step"));
     }
     Ok(())
 }

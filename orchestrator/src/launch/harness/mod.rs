@@ -43,8 +43,8 @@ use world::play;
 use super::agents::{Gone, Reach};
 use super::config::{Clock, LaunchConfig, Missing, OnDeath};
 use super::core::log::{Call, Logged};
-use super::core::{Ending, Input, Output, Setup, SlotState};
-use super::summary::{Decided, Outcome, RobotEnd};
+use super::core::{Ending, Input, Output, Setup, SlotState, Stop};
+use super::summary::{Decided, Outcome, RobotEnd, StopSummary};
 use crate::draw::snapshot::Unit;
 use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Heartbeat, Pose, Register, ToAgent};
 use bycoms_protocol::RobotId;
@@ -162,7 +162,18 @@ pub struct Report {
     /// What the summary states ([`super::summary::of`] at the end, with
     /// the schedule's recording failure).
     pub decided: Option<Decided>,
+    /// Every `Stop` sent: when, to which robot.
+    pub stop_log: Vec<(u64, u32)>,
+    /// The stop asked from outside, as the core recorded it.
+    pub stopped: Option<StopSummary>,
+    /// Robots whose agents ran when the launch ended.
+    pub running_at_end: Vec<u32>,
 }
+
+/// Who asks a harness schedule's stop, and why.
+pub const STOP_WHO: &str = "the harness";
+/// Why a harness schedule's stop is asked.
+pub const STOP_WHY: &str = "a seeded stop";
 
 /// A harness launch as a launch of the `orchestrator` would be: its
 /// config, world, agent template and run settings, made by the launch's

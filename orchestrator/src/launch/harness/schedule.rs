@@ -99,6 +99,9 @@ pub struct Schedule {
     /// once, stuck robots stopped, the launch's poses forwarded to them,
     /// no beacons: real robots hear each other), the poses not on the bus.
     pub gateway_seams: bool,
+    /// A stop asked from outside (`orchestrator stop`), when, and whether
+    /// `--now`.
+    pub stop_at_us: Option<(u64, bool)>,
 }
 
 impl Schedule {
@@ -144,6 +147,7 @@ impl Schedule {
             recording_fails: false,
             stop_when_stuck: false,
             gateway_seams: false,
+            stop_at_us: None,
         }
     }
 
@@ -216,6 +220,10 @@ impl Schedule {
         s.recording_fails = rng.gen_bool(0.05);
         s.stop_when_stuck = rng.gen_bool(0.3);
         s.gateway_seams = s.remote && s.realtime.is_some() && rng.gen_bool(0.5);
+        // Drawn last, so the schedules drawn before stops existed are kept.
+        if rng.gen_bool(0.05) {
+            s.stop_at_us = Some((rng.gen_range(0..horizon_us), rng.gen_bool(0.7)));
+        }
         s
     }
 }

@@ -12,6 +12,8 @@ pub(super) enum Event {
     Forge(Foreign),
     SecondAgent(u32),
     Interrupt,
+    /// `orchestrator stop` (`--now` or not).
+    Stop(bool),
 }
 
 /// A launch in virtual time.
@@ -86,6 +88,9 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             gate_times_us: Vec::new(),
             registered_us: vec![None; n],
             decided: None,
+            stop_log: Vec::new(),
+            stopped: None,
+            running_at_end: Vec::new(),
         },
         register_timeout_us,
         heartbeat_timeout_us,
@@ -120,6 +125,9 @@ impl World<'_> {
         }
         if let Some(at) = s.interrupt_at_us {
             self.at(at, Event::Interrupt);
+        }
+        if let Some((at, now)) = s.stop_at_us {
+            self.at(at, Event::Stop(now));
         }
         if s.remote {
             let lease = 400_000;
@@ -190,6 +198,9 @@ impl World<'_> {
             match out {
                 Output::Start(id) => self.start(id),
                 Output::Send(id, msg) => {
+                    if msg == ToAgent::Stop {
+                        self.report.stop_log.push((now, id));
+                    }
                     let deploy = matches!(msg, ToAgent::Deploy(_));
                     self.report.beacons_sent += u64::from(matches!(msg, ToAgent::Beacon(_)));
                     let counter = match msg {
@@ -408,6 +419,10 @@ impl World<'_> {
                 self.impostors.push(a);
             }
             Event::Interrupt => self.core.handle(now, Input::Interrupt),
+            Event::Stop(at_once) => {
+                let stop = Stop { now: at_once, who: STOP_WHO.into(), why: STOP_WHY.into() };
+                self.core.handle(now, Input::Stop(stop));
+            }
         }
     }
 
@@ -455,6 +470,8 @@ impl World<'_> {
         self.report.robots = core.slots().iter().map(|s| (s.state(), s.steps(), s.last_pose())).collect();
         self.report.deaths = core.slots().iter().map(|s| s.death().map(|d| d.reason.clone())).collect();
         self.report.late = core.slots().iter().filter(|s| s.joined_late()).map(|s| s.id()).collect();
+        self.report.stopped = core.stopped().cloned();
+        self.report.running_at_end = core.slots().iter().filter(|s| s.alive()).map(|s| s.id()).collect();
         self.report.spent = core.spent();
         self.report.ticks = core.ticks();
         self.report.resends = core.resends();

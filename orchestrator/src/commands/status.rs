@@ -1,0 +1,121 @@
+//! `orchestrator status`: every running launch this host can see (or,
+//! with `--connect`, every launch reachable over zenoh), as the launch
+//! itself says it stands: swarm, clock, phase, each robot's state, last
+//! pose and its age, recording, uptime.
+//!
+//! Why asked of the launch: its logs say what happened, not where it
+//! stands; the launch answers from its core (`launch/status.rs`) over its
+//! control socket or queryable (`launch/control.rs`). A launch whose lock
+//! file no process holds, or that stopped answering, shows as gone.
+//!
+//! `--watch` redraws every `--interval` seconds until Ctrl-C (and says
+//! which launches went away since the last look). Exit codes: 0 at least
+//! one launch answered, 1 none runs.
+
+use crate::exit;
+use crate::launch::config::{check_endpoints, check_swarm};
+use crate::launch::control::{Answer, Ask, Asker, Reached};
+use crate::launch::status;
+use crate::outln;
+use anyhow::Result;
+use std::collections::BTreeSet;
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+/// Shortest and longest redraw interval of `--watch`, s.
+const INTERVAL_RANGE: (f64, f64) = (0.1, 60.0);
+
+/// Show the running launches: phase, robots, poses, recording, uptime.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Only this swarm's launch.
+    #[arg(long, value_name = "NAME")]
+    pub swarm: Option<String>,
+    /// Ask launches on other hosts over zenoh, at this endpoint.
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Option<String>,
+    /// zenoh JSON5 config read first (certificates; deploy/zenoh/).
+    #[arg(long, value_name = "FILE.json5", requires = "connect")]
+    pub zenoh_config: Option<PathBuf>,
+    /// One JSON object per launch and line (`{"swarm", "status"}` or `{"swarm", "gone"}`).
+    #[arg(long)]
+    pub json: bool,
+    /// Redraw until Ctrl-C.
+    #[arg(long)]
+    pub watch: bool,
+    /// Seconds between redraws of `--watch` (0.1 to 60).
+    #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = bycoms_runtime::seconds::seconds)]
+    pub interval: f64,
+}
+
+pub fn run(args: Args) -> Result<i32> {
+    if let Some(s) = &args.swarm {
+        check_swarm(s)?;
+    }
+    if let Some(c) = &args.connect {
+        check_endpoints("--connect", std::slice::from_ref(c))?;
+    }
+    let (lo, hi) = INTERVAL_RANGE;
+    if !(lo..=hi).contains(&args.interval) {
+        return Err(exit::usage(format!("--interval must be from {lo} to {hi} s, not {}", args.interval)));
+    }
+    let asker = Asker::open(args.connect.as_deref(), args.zenoh_config.clone())?;
+    let stop = crate::launch::interrupt_flag();
+    let mut seen = BTreeSet::new();
+    loop {
+        let reached = asker.ask(args.swarm.as_deref(), &Ask::Status)?;
+        let answered = show(&reached, &seen, args.json)?;
+        if !args.watch {
+            if answered == 0 {
+                anyhow::bail!("no launch runs {}", asker.place());
+            }
+            return Ok(exit::SUCCESS);
+        }
+        seen = reached.iter().filter(|r| r.answer.is_ok()).map(|r| r.swarm.clone()).collect();
+        if answered == 0 {
+            outln!("no launch runs {}", asker.place())?;
+        }
+        let until = Instant::now() + Duration::from_secs_f64(args.interval);
+        while Instant::now() < until {
+            if stop.load(Ordering::SeqCst) {
+                return Ok(exit::SUCCESS);
+            }
+            std::thread::sleep(
+                Duration::from_millis(50).min(until.saturating_duration_since(Instant::now())),
+            );
+        }
+        if !args.json {
+            outln!("")?;
+        }
+    }
+}
+
+/// Prints what each launch said (and the launches gone since `before`);
+/// how many answered.
+fn show(reached: &[Reached], before: &BTreeSet<String>, json: bool) -> Result<usize> {
+    let mut answered = 0;
+    for r in reached {
+        match &r.answer {
+            Ok(Answer::Status(s)) => {
+                answered += 1;
+                if json {
+                    outln!("{}", serde_json::json!({ "swarm": r.swarm, "status": s }))?;
+                } else {
+                    outln!("{}", status::text(s).trim_end())?;
+                }
+            }
+            Ok(other) => outln!("swarm {}: an unexpected answer {other:?}", r.swarm)?,
+            Err(why) if json => outln!("{}", serde_json::json!({ "swarm": r.swarm, "gone": why }))?,
+            Err(why) => outln!("swarm {}: {why}", r.swarm)?,
+        }
+    }
+    for gone in before.iter().filter(|s| !reached.iter().any(|r| &r.swarm == *s && r.answer.is_ok())) {
+        if json {
+            outln!("{}", serde_json::json!({ "swarm": gone, "gone": "its launch ended" }))?;
+        } else {
+            outln!("swarm {gone}: gone (its launch ended)")?;
+        }
+    }
+    Ok(answered)
+}

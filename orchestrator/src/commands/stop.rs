@@ -1,0 +1,102 @@
+//! `orchestrator stop`: ends a running launch from another terminal (this
+//! host's launches) or another host (`--connect`, over zenoh).
+//!
+//! Why a command and not a signal: a signal reaches only a process of this
+//! host whose pid one knows, and says neither who nor why. The stop is
+//! asked of the launch itself (`launch/control.rs`), which takes it as one
+//! input of its core (`launch/core/stop.rs`): graceful, it ends as after
+//! Ctrl-C; `--now`, every running robot is told `Stop` at once first. The
+//! launch records who asked and why in its summary and events.
+//!
+//! Exit codes: 0 the launch said it stops; 1 no launch answered (none
+//! runs, or it died); 2 a usage error (several launches and no `--swarm`).
+
+use crate::exit;
+use crate::launch::config::{check_endpoints, check_swarm};
+use crate::launch::control::{Answer, Ask, Asker};
+use crate::outln;
+use anyhow::Result;
+use std::path::PathBuf;
+
+/// Stop a running launch: gracefully (as Ctrl-C) or every robot at once.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Tell every robot `Stop` at once (robots become beacons where they
+    /// stand), then end the launch; without it the launch ends as after Ctrl-C.
+    #[arg(long)]
+    pub now: bool,
+    /// The launch's swarm (needed when several launches run).
+    #[arg(long, value_name = "NAME")]
+    pub swarm: Option<String>,
+    /// Ask a launch on another host over zenoh, at this endpoint (the
+    /// launch's `--listen`, or the lab's router).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Option<String>,
+    /// zenoh JSON5 config read first (certificates; deploy/zenoh/).
+    #[arg(long, value_name = "FILE.json5", requires = "connect")]
+    pub zenoh_config: Option<PathBuf>,
+    /// Why, recorded in the launch's summary with who asked.
+    #[arg(long, value_name = "TEXT", default_value = "")]
+    pub why: String,
+}
+
+/// Who asks, in words: user id, host and pid.
+pub fn who(command: &str) -> String {
+    use std::os::unix::fs::MetadataExt;
+    let uid = std::fs::metadata("/proc/self").map(|m| m.uid().to_string()).unwrap_or_else(|_| "?".into());
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
+    format!("{command} (uid {uid} on {}, pid {})", host.trim(), std::process::id())
+}
+
+pub fn run(args: Args) -> Result<i32> {
+    if let Some(s) = &args.swarm {
+        check_swarm(s)?;
+    }
+    if let Some(c) = &args.connect {
+        check_endpoints("--connect", std::slice::from_ref(c))?;
+    }
+    let asker = Asker::open(args.connect.as_deref(), args.zenoh_config.clone())?;
+    // Which launch: the one named, or the only one running.
+    let swarm = match &args.swarm {
+        Some(s) => s.clone(),
+        None => {
+            let running: Vec<String> = asker
+                .ask(None, &Ask::Status)?
+                .into_iter()
+                .filter(|r| r.answer.is_ok())
+                .map(|r| r.swarm)
+                .collect();
+            match running.as_slice() {
+                [] => anyhow::bail!("no launch runs {}", asker.place()),
+                [one] => one.clone(),
+                many => {
+                    return Err(exit::usage(format!(
+                        "{} launches run {} ({}): pick one with --swarm",
+                        many.len(),
+                        asker.place(),
+                        many.join(", ")
+                    )))
+                }
+            }
+        }
+    };
+    let ask = Ask::Stop { now: args.now, who: who("orchestrator stop"), why: args.why.clone() };
+    let reached = asker.ask(Some(&swarm), &ask)?;
+    let Some(r) = reached.into_iter().next() else {
+        anyhow::bail!("no launch of swarm {swarm:?} runs {}", asker.place());
+    };
+    match r.answer {
+        Ok(Answer::Stopping { swarm, now, recording, pid }) => {
+            let how =
+                if now { "every robot was told to stop; the launch ends" } else { "the launch winds down" };
+            outln!("stopping swarm {swarm} (orchestrator pid {pid}): {how}")?;
+            if let Some(path) = recording {
+                outln!("its recording: {path}")?;
+            }
+            Ok(exit::SUCCESS)
+        }
+        Ok(Answer::Refused(why)) => anyhow::bail!("the launch of swarm {swarm:?} refused: {why}"),
+        Ok(other) => anyhow::bail!("the launch of swarm {swarm:?} answered something else: {other:?}"),
+        Err(why) => anyhow::bail!("the launch of swarm {swarm:?} did not answer: {why}"),
+    }
+}

@@ -1,0 +1,95 @@
+//! A lab day (issue 34): `orchestrator status` and `orchestrator stop`
+//! against a real launch, from another process, over this host's control
+//! socket (iceoryx2 launch) and over zenoh (`--connect`).
+//!
+//! The launch runs in real time at 1×, so it is still running when asked;
+//! every wait has a deadline. The stop's rule itself (every running robot
+//! told `Stop` in one step, who and why recorded) is tested in virtual
+//! time by `orchestrator/tests/launch_sim.rs`; here the whole path: the
+//! command, the launch's answer, its summary and exit code.
+
+use bycoms_tests::{agents_of, swarm_name, wait_for, Proc};
+use serde_json::Value;
+use std::time::Duration;
+
+/// Runs `orchestrator ARGS` to its end (20 s at most).
+fn orchestrator(args: &[&str]) -> bycoms_tests::Finished {
+    Proc::orchestrator(args).wait(Duration::from_secs(20))
+}
+
+/// `status --json` until robot 1 moves: the status line of `swarm`.
+fn status_when_moving(swarm: &str, via: &[&str]) -> Value {
+    wait_for(Duration::from_secs(20), || {
+        let args = [&["status", "--json", "--swarm", swarm][..], via].concat();
+        let out = orchestrator(&args);
+        let line: Value = serde_json::from_str(out.stdout.lines().next()?).ok()?;
+        (line["status"]["robots"][0]["state"] == "moving").then_some(line)
+    })
+    .expect("status shows robot 1 moving within 20 s")
+}
+
+/// Stops `launch` with `stop --now` through `via`, and checks its answer,
+/// the launch's end and its summary's record of the stop.
+fn stop_now(launch: Proc, swarm: &str, via: &[&str]) {
+    let args = [&["stop", "--now", "--swarm", swarm, "--why", "e2e lab day"][..], via].concat();
+    let stop = orchestrator(&args);
+    assert_eq!(stop.status.code(), Some(0), "{}", stop.stderr);
+    assert!(stop.stdout.starts_with(&format!("stopping swarm {swarm} (orchestrator pid {})", launch.pid())));
+    let ended = launch.wait(Duration::from_secs(20));
+    assert_eq!(ended.status.code(), Some(130), "a stopped launch exits 130: {}", ended.stderr);
+    let summary = ended.json();
+    assert_eq!(summary["outcome"], "interrupted");
+    let record = &summary["stop"];
+    assert_eq!(record["now"], true);
+    assert_eq!(record["why"], "e2e lab day");
+    assert!(record["who"].as_str().is_some_and(|w| w.starts_with("orchestrator stop (")), "{record}");
+    // Robot 1 (moving) and robot 2 (started, waiting its turn) were told.
+    let told: Vec<u64> = record["told"].as_array().expect("told").iter().filter_map(Value::as_u64).collect();
+    assert!(told.starts_with(&[1]) && told.len() >= 2, "{record}");
+    assert!(ended.stderr.contains("every running robot was told to stop"), "{}", ended.stderr);
+}
+
+#[test]
+fn status_and_stop_now_from_another_terminal() {
+    let swarm = swarm_name("labday");
+    let launch =
+        Proc::orchestrator(&["launch", "--clock", "realtime", "--speed", "1", "--swarm", &swarm, "--json"]);
+    let line = status_when_moving(&swarm, &[]);
+    let s = &line["status"];
+    assert_eq!((s["swarm"].as_str(), s["clock"].as_str()), (Some(swarm.as_str()), Some("realtime")));
+    assert_eq!(s["pid"].as_u64(), Some(u64::from(launch.pid())));
+    assert!(s["robots"][0]["pose_age_s"].as_f64().is_some_and(|a| a < 2.0), "{s}");
+    assert!(!agents_of(&swarm).is_empty());
+    stop_now(launch, &swarm, &[]);
+    // Gone: no launch of that swarm answers any more.
+    let after = orchestrator(&["status", "--swarm", &swarm]);
+    assert_eq!(after.status.code(), Some(1), "{}", after.stdout);
+    assert!(after.stderr.contains("no launch runs on this host"), "{}", after.stderr);
+    let again = orchestrator(&["stop", "--swarm", &swarm]);
+    assert_eq!(again.status.code(), Some(1));
+    assert!(again.stderr.contains(&format!("no launch of swarm \"{swarm}\" runs")), "{}", again.stderr);
+}
+
+#[test]
+fn status_and_stop_now_over_zenoh() {
+    let swarm = swarm_name("labdayz");
+    let launch = Proc::orchestrator(&[
+        "launch",
+        "--clock",
+        "realtime",
+        "--speed",
+        "1",
+        "--transport",
+        "zenoh",
+        "--listen",
+        "tcp/127.0.0.1:0",
+        "--swarm",
+        &swarm,
+        "--json",
+    ]);
+    let endpoint = launch.logged_endpoint("tcp/127.0.0.1:", Duration::from_secs(20));
+    let via = ["--connect", endpoint.as_str()];
+    let line = status_when_moving(&swarm, &via);
+    assert_eq!(line["status"]["transport"], "zenoh");
+    stop_now(launch, &swarm, &via);
+}
