@@ -55,10 +55,14 @@ fn check_summary(report: &Report, schedule: &Schedule, ending: &Ending) -> Resul
 }
 
 /// `Stop` goes to the robot that arrived and, when the agents stop stuck
-/// robots, to each robot judged stuck whose agent still ran; to no other.
+/// robots, to each robot judged stuck whose agent still ran; to no other,
+/// but for the one `Stop` each running robot gets from a stop `now` (its
+/// own property, `check_stop`).
 fn check_stops(report: &Report, schedule: &Schedule) -> Result<(), String> {
-    for (i, &stops) in report.stops_sent.iter().enumerate() {
+    for (i, &sent) in report.stops_sent.iter().enumerate() {
         let id = i as u32 + 1;
+        let by_stop_now = report.stopped.as_ref().is_some_and(|s| s.now && s.told.contains(&id));
+        let stops = sent - u64::from(by_stop_now).min(sent);
         let verdict = report.gates.iter().find(|g| g.robot.0 == id && g.kind != GateKind::Deployed);
         let stuck = verdict.is_some_and(|g| g.kind == GateKind::Stopped { arrived: false });
         let arrived = verdict.is_some_and(|g| g.kind == GateKind::Stopped { arrived: true });
