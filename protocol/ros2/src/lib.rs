@@ -5,6 +5,7 @@
 //!
 //! * [`cdr`]: XCDR1 little-endian encoding and decoding (the payload);
 //! * [`types`]: type descriptions and their REP-2016 hashes (`RIHS01_…`);
+//! * [`display`]: the terrain map, beacon markers and diagnostics;
 //! * [`msgs`]: the messages bycoms publishes (poses, `/tf`, paths, `/clock`)
 //!   and the `PoseStamped` a ROS 2 motion-capture driver sends;
 //! * [`rmw_zenoh`]: key expressions, liveliness tokens, GIDs, attachments,
@@ -15,7 +16,16 @@
 //! implementations (PyPI `rosbags`, `xxhash`, eclipse-zenoh's serializer)
 //! by `tests/golden.rs` and `tests/python/ros2_golden.py` at the root.
 
+/// A `pub static` type description: `description!(NAME, "pkg/msg/Type", [fields…])`.
+macro_rules! description {
+    ($static:ident, $name:literal, [$($field:expr),* $(,)?]) => {
+        #[doc = concat!("The description of `", $name, "`.")]
+        pub static $static: TypeDescription = TypeDescription { name: $name, fields: &[$($field),*] };
+    };
+}
+
 pub mod cdr;
+pub mod display;
 pub mod msgs;
 pub mod rmw_zenoh;
 pub mod types;

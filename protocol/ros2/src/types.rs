@@ -100,6 +100,11 @@ impl Field {
         Self { name, base: Base::Nested(t), arity: Arity::Sequence }
     }
 
+    /// An unbounded sequence of a primitive, `T[]`.
+    pub const fn prim_sequence(name: &'static str, p: Primitive) -> Self {
+        Self { name, base: Base::Primitive(p), arity: Arity::Sequence }
+    }
+
     /// A fixed-size array of a primitive, `T[n]`.
     pub const fn array(name: &'static str, p: Primitive, n: u64) -> Self {
         Self { name, base: Base::Primitive(p), arity: Arity::Array(n) }
