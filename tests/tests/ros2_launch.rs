@@ -6,9 +6,10 @@
 //! through its liveliness token, as `ros2 topic list` does, and checks every
 //! sample with its own means (key, CDR, attachment, GID); the test then
 //! compares what it saw with the launch's own summary: every robot's last
-//! pose, sequence numbers without a gap from the first received on (what
-//! is put before the route to the router exists is lost, as any volatile
-//! ROS 2 publisher's samples are), nothing it could not decode.
+//! pose and path, the map, the beacons; every topic's sequence numbers from
+//! 1 without a gap (the client subscribes before the launch, with
+//! subscription tokens as a ROS 2 node's, so the launch waits for the
+//! route to it and loses nothing at its start); nothing it could not decode.
 //!
 //! Needs python3 with the PyPI packages: `#[ignore = "needs …"]`, run by
 //! `.ci/run` (which installs them) with `--include-ignored`.
@@ -33,7 +34,7 @@ impl Listener {
         let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/ros2_listen.py");
         let mut child = Command::new("python3")
             .arg(&script)
-            .args([endpoint, "0"])
+            .args([endpoint, "0", "3"])
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
@@ -101,14 +102,30 @@ fn a_ros2_client_finds_every_topic_and_decodes_every_sample_of_a_launch() {
     let topics = report["topics"].as_object().expect("topics");
     let mut names: Vec<&str> = topics.keys().map(String::as_str).collect();
     names.sort_unstable();
-    assert_eq!(names, ["/clock", "/robot_1/pose", "/robot_2/pose", "/robot_3/pose", "/tf"], "{report}");
+    let expected = [
+        "/beacons",
+        "/clock",
+        "/map",
+        "/robot_1/path",
+        "/robot_1/pose",
+        "/robot_2/path",
+        "/robot_2/pose",
+        "/robot_3/path",
+        "/robot_3/pose",
+        "/tf",
+    ];
+    assert_eq!(names, expected, "every topic with samples (no /diagnostics: no real robot): {report}");
     for (topic, t) in topics {
-        assert!(t["count"].as_u64().is_some_and(|n| n > 0), "{topic}: {t}");
-        // Samples put before the route to the router exists are lost, as a
-        // volatile ROS 2 publisher's are (deploy/ros2/README.md); from the
-        // first received on, none is.
+        let (count, last) = (t["count"].as_u64().expect("count"), t["last_seq"].as_u64().expect("last"));
+        // The launch waited for the route to this subscriber: every sample
+        // from the first (sequence number 1) on, none lost (≥ 99.9 % of those sent).
+        assert_eq!(t["first_seq"], 1, "{topic}: from the first sample: {t}");
         assert_eq!(t["contiguous"], true, "{topic}: sequence numbers without a gap: {t}");
+        assert!(count * 1000 >= last * 999, "{topic}: {count} of {last} sent: {t}");
     }
+    assert_eq!(topics["/map"]["count"], 1, "the map, once: {report}");
+    let map = &topics["/map"]["last"];
+    assert!(map[0].as_u64().is_some_and(|w| w > 0) && map[2].as_u64().is_some_and(|b| b > 0), "{map}");
     for key in ["undecoded", "bad_attachment", "bad_gid"] {
         assert_eq!(report[key], 0, "{key}: {report}");
     }
@@ -118,5 +135,17 @@ fn a_ros2_client_finds_every_topic_and_decodes_every_sample_of_a_launch() {
         let id = robot["id"].as_u64().expect("id");
         let last = &topics[&format!("/robot_{id}/pose")]["last"];
         assert_eq!((&last[0], &last[1], &last[2]), (&robot["x"], &robot["y"], &"world".into()), "robot {id}");
+        let trail = &topics[&format!("/robot_{id}/path")]["last"];
+        assert!(trail.as_u64().is_some_and(|n| n > 1), "robot {id}'s whole path: {trail}");
     }
+    // The beacons: every robot that stopped short of the goal.
+    let stuck: Vec<u64> = summary["robots"]
+        .as_array()
+        .expect("robots")
+        .iter()
+        .filter(|r| r["end"] == "stuck")
+        .map(|r| r["id"].as_u64().expect("id"))
+        .collect();
+    assert!(!stuck.is_empty(), "the default run has beacons: {summary}");
+    assert_eq!(topics["/beacons"]["last"], serde_json::json!(stuck), "{report}");
 }

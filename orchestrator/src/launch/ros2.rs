@@ -30,9 +30,13 @@ use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use bycoms_ros2::msgs::{
     Header, Point, Pose as RosPose, PoseStamped, Quaternion, Time, Transform, TransformStamped, Vector3,
 };
-use bycoms_ros2::rmw_zenoh::{liveliness_token, Endpoint, EntityKind, Node, Publisher};
+use bycoms_ros2::rmw_zenoh::{
+    graph_key_expr, liveliness_token, token_endpoint, Endpoint, EntityKind, Node, Publisher, ADMIN_SPACE,
+};
 use publish::{RunMessages, Sink, Topic};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeSet;
+use std::time::{Duration, Instant};
 use zenoh::Wait;
 
 /// The `[ros2]` table of a launch config.
@@ -81,18 +85,25 @@ impl Ros2Config {
     }
 }
 
+/// How long a launch waits, before its run, for the route to each ROS 2
+/// subscriber already in the graph (its liveliness token seen).
+pub const ROUTE_TIMEOUT: Duration = Duration::from_secs(5);
+/// How long a launch asks the graph for its tokens.
+const GRAPH_QUERY_TIMEOUT: Duration = Duration::from_secs(1);
+
 /// The rmw_zenoh sink: each topic's publisher (key expression, GID,
-/// sequence numbers) on the launch's zenoh session, with the node's and
-/// the publishers' liveliness tokens declared for as long as it lives.
+/// sequence numbers) declared on the launch's zenoh session, with the
+/// node's and the publishers' liveliness tokens declared for as long as it
+/// lives.
 pub struct ZenohSink {
-    session: zenoh::Session,
     _tokens: Vec<zenoh::liveliness::LivelinessToken>,
-    publishers: Vec<Publisher>,
+    publishers: Vec<(Publisher, zenoh::pubsub::Publisher<'static>)>,
     failed: bool,
 }
 
 impl ZenohSink {
-    /// Declares the node and one publisher per topic on `session`.
+    /// Declares the node and one publisher per topic on `session`, then
+    /// waits for the routes to the subscribers already in the graph.
     pub fn open(cfg: &Ros2Config, session: &zenoh::Session, topics: &[Topic]) -> anyhow::Result<Self> {
         let node = Node {
             domain_id: cfg.domain_id,
@@ -115,23 +126,102 @@ impl ZenohSink {
             };
             let wire = Publisher::new(&node, &endpoint)?;
             tokens.push(wire.token.clone());
-            publishers.push(wire);
+            let declared = session
+                .declare_publisher(wire.key_expr.clone())
+                .wait()
+                .map_err(|e| anyhow::anyhow!("ros2: cannot declare the publisher of {}: {e}", t.name))?;
+            publishers.push((wire, declared));
         }
         let declared = tokens
             .iter()
             .map(|t| session.liveliness().declare_token(t.clone()).wait())
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| anyhow::anyhow!("ros2: cannot declare a liveliness token: {e}"))?;
-        Ok(Self { session: session.clone(), _tokens: declared, publishers, failed: false })
+        let sink = Self { _tokens: declared, publishers, failed: false };
+        let waiting = subscribed_topics(session, cfg.domain_id);
+        sink.wait_for_routes(topics, &waiting);
+        Ok(sink)
+    }
+
+    /// Start-up loss: a zenoh put is dropped at its source until the
+    /// session knows a matching subscriber (the route). A ROS 2 node that
+    /// already subscribes (RViz, a recorder) would miss the run's first
+    /// samples — the map, the first poses — so, for each topic of ours a
+    /// subscription token names, this waits (up to [`ROUTE_TIMEOUT`] in
+    /// all) until the publisher matches. Subscribers that join later get
+    /// what is put from then on, as from any volatile ROS 2 publisher.
+    fn wait_for_routes(&self, topics: &[Topic], waiting: &BTreeSet<String>) {
+        let deadline = Instant::now() + ROUTE_TIMEOUT;
+        for ((_, publisher), topic) in self.publishers.iter().zip(topics) {
+            if !waiting.contains(&topic.name) {
+                continue;
+            }
+            let matches = || publisher.matching_status().wait().is_ok_and(|m| m.matching());
+            // zenoh tells the route's arrival to a listener thread; polling
+            // its status every 2 ms costs nothing for a few seconds at most.
+            let mut matched = matches();
+            while !matched && Instant::now() < deadline {
+                std::thread::sleep(Duration::from_millis(2));
+                matched = matches();
+            }
+            if !matched {
+                tracing::warn!(
+                    topic = %topic.name,
+                    "ros2: a subscriber of this topic is in the graph, but no route to it after {:?}: \
+                     its first samples may be lost",
+                    ROUTE_TIMEOUT
+                );
+            }
+        }
+        tracing::debug!(topics = waiting.len(), "ros2: routes to the graph's subscribers ready");
+    }
+}
+
+/// The topics the ROS 2 graph of `domain` already subscribes to (its
+/// subscription tokens), asked until the graph answers or
+/// [`GRAPH_QUERY_TIMEOUT`] has passed: the session connects in the
+/// background and learns the graph's tokens from its router or peers some
+/// milliseconds after, and until then only its own tokens answer. The
+/// graph has answered once a token of another session does (a ROS 2 graph
+/// with no node at all costs the timeout, once, at the start).
+fn subscribed_topics(session: &zenoh::Session, domain: u32) -> BTreeSet<String> {
+    let own = format!("{ADMIN_SPACE}/{domain}/{}/", session.zid());
+    let deadline = Instant::now() + GRAPH_QUERY_TIMEOUT;
+    loop {
+        let remaining = deadline.saturating_duration_since(Instant::now());
+        let tokens = match session.liveliness().get(graph_key_expr(domain)).timeout(remaining).wait() {
+            Ok(replies) => {
+                let mut tokens = vec![];
+                while let Ok(reply) = replies.recv() {
+                    if let Ok(sample) = reply.result() {
+                        tokens.push(sample.key_expr().as_str().to_string());
+                    }
+                }
+                tokens
+            }
+            Err(e) => {
+                tracing::warn!(error = %e, "ros2: cannot ask the graph for its subscribers");
+                return BTreeSet::new();
+            }
+        };
+        if tokens.iter().any(|t| !t.starts_with(&own)) || Instant::now() >= deadline {
+            return tokens
+                .iter()
+                .filter_map(|t| match token_endpoint(t) {
+                    Some((EntityKind::Subscription, topic)) => Some(topic),
+                    _ => None,
+                })
+                .collect();
+        }
+        std::thread::sleep(Duration::from_millis(5));
     }
 }
 
 impl Sink for ZenohSink {
     fn send(&mut self, topic: usize, _time_ns: u64, cdr: &[u8]) {
-        let wire = &mut self.publishers[topic];
+        let (wire, publisher) = &mut self.publishers[topic];
         let attachment = wire.next_attachment(wall_clock_ns()).encode();
-        let sent =
-            self.session.put(wire.key_expr.as_str(), cdr.to_vec()).attachment(attachment.to_vec()).wait();
+        let sent = publisher.put(cdr.to_vec()).attachment(attachment.to_vec()).wait();
         if let Err(e) = sent {
             // Said once: a dead session fails every put after.
             if !std::mem::replace(&mut self.failed, true) {

@@ -289,6 +289,19 @@ pub fn liveliness_token(node: &Node, endpoint: Option<&Endpoint>) -> Result<Stri
     Ok(parts.join("/"))
 }
 
+/// What an endpoint's token announces: its kind and its topic (unmangled),
+/// or `None` for a node's token or what is not an rmw_zenoh token.
+pub fn token_endpoint(token: &str) -> Option<(EntityKind, String)> {
+    let parts: Vec<&str> = token.split('/').collect();
+    if parts.len() < 13 || parts[0] != ADMIN_SPACE {
+        return None;
+    }
+    let kind = [EntityKind::Publisher, EntityKind::Subscription, EntityKind::Service, EntityKind::Client]
+        .into_iter()
+        .find(|k| k.code() == parts[5])?;
+    Some((kind, parts[9].replace('%', "/")))
+}
+
 /// The entity's GID: XXH3-128 of its token, low 64 bits then high 64 bits,
 /// each little-endian (the 128-bit value little-endian).
 pub fn gid(token: &str) -> [u8; 16] {
@@ -381,5 +394,19 @@ impl Publisher {
         let sequence_number = self.next;
         self.next += 1;
         Attachment { sequence_number, source_timestamp_ns: now_ns, gid: self.gid }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_endpoint_token_says_its_kind_and_topic() {
+        let sub = "@ros2_lv/2/aac3178e146ba6f1fc6e6a4085e77f21/0/10/MS/%/%/listener/%robot_1%pose/\
+                   geometry_msgs::msg::dds_::PoseStamped_/RIHS01_10f3/::,10:,:,:,,";
+        assert_eq!(token_endpoint(sub), Some((EntityKind::Subscription, "/robot_1/pose".into())));
+        assert_eq!(token_endpoint("@ros2_lv/2/aac3178e146ba6f1fc6e6a4085e77f21/0/0/NN/%/%/listener"), None);
+        assert_eq!(token_endpoint(&sub.replace("@ros2_lv", "@other")), None);
     }
 }
