@@ -149,3 +149,47 @@ fn a_ros2_client_finds_every_topic_and_decodes_every_sample_of_a_launch() {
     assert!(!stuck.is_empty(), "the default run has beacons: {summary}");
     assert_eq!(topics["/beacons"]["last"], serde_json::json!(stuck), "{report}");
 }
+
+/// `orchestrator record export --ros2`: a launch's recording as a ROS 2 bag,
+/// read by rosbags' rosbag2 reader (every message deserialized with the
+/// bag's own schemas, each type's hash recomputed from them) and by
+/// `mcap-ros2-support`'s decoder (`tests/python/ros2_bag.py`); the poses in
+/// the bag are the recording's, one for one.
+#[test]
+#[ignore = "needs python3 with rosbags==0.11.9, mcap==1.6.0 and mcap-ros2-support==0.6.0"]
+fn an_exported_bag_is_read_by_rosbags_and_mcap_ros2_with_every_pose_of_the_recording() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (recording, bag) = (dir.path().join("run.mcap"), dir.path().join("bag.mcap"));
+    let swarm = swarm_name("ros2bag");
+    let rec = recording.to_str().expect("utf-8");
+    let launch = Proc::orchestrator(&["launch", "--robots", "3", "--swarm", &swarm, "--record", rec]);
+    let done = launch.wait(Duration::from_secs(180));
+    assert!(done.status.success(), "the launch failed:\n{}", done.stderr);
+    let out = bag.to_str().expect("utf-8");
+    let export =
+        Proc::orchestrator(&["record", "export", "--ros2", rec, "--out", out]).wait(Duration::from_secs(60));
+    assert!(export.status.success(), "the export failed:\n{}", export.stderr);
+    // The outputs rule: an existing bag is replaced only with --force.
+    let again =
+        Proc::orchestrator(&["record", "export", "--ros2", rec, "--out", out]).wait(Duration::from_secs(60));
+    assert_eq!(again.status.code(), Some(2), "{}", again.stderr);
+    assert!(again.stderr.contains("bag.mcap") && again.stderr.contains("--force"), "{}", again.stderr);
+
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/ros2_bag.py");
+    let read = Command::new("python3").arg(script).args([rec, out]).output().expect("python3 runs");
+    assert!(read.status.success(), "the readers failed: {}", String::from_utf8_lossy(&read.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&read.stdout).expect("the script prints JSON");
+    let (rosbags, mcap) = (&report["rosbags"], &report["mcap_ros2"]);
+    assert_eq!(rosbags["undecoded"], 0, "{report}");
+    assert_eq!(rosbags["counts"], mcap["counts"], "both readers read every message: {report}");
+    assert_eq!(mcap["profile"], "ros2");
+    assert_eq!(mcap["hash_mismatch"], serde_json::json!([]), "{report}");
+    assert_eq!(mcap["no_qos"], serde_json::json!([]), "{report}");
+    assert_eq!(mcap["metadata"], serde_json::json!([["rosbag2", ["ROS_DISTRO", "serialized_metadata"]]]));
+    let counts = rosbags["counts"].as_object().expect("counts");
+    let poses: u64 = (1..=3).map(|k| counts[&format!("/robot_{k}/pose")].as_u64().expect("poses")).sum();
+    assert_eq!(poses, report["recording_poses"].as_u64().expect("recording poses"), "{report}");
+    assert_eq!(counts["/tf"], poses, "one transform per pose");
+    assert_eq!(counts["/map"], 1);
+    assert!(counts["/beacons"].as_u64().is_some_and(|n| n > 0), "{report}");
+}
