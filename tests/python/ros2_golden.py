@@ -15,6 +15,7 @@ as that test's (`FIXED` there).
 """
 
 import json
+from pathlib import Path
 
 import numpy
 
@@ -173,6 +174,21 @@ MESSAGES.update({
     "diagnostic_msgs/msg/DiagnosticStatus": STATUS,
     "diagnostic_msgs/msg/DiagnosticArray": T["diagnostic_msgs/msg/DiagnosticArray"](
         header=header(""), status=[STATUS, diagnostic_status(3, "", "", "", [])]
+    ),
+})
+
+# bycoms_msgs, read from the package's own .msg files (deploy/ros2/bycoms_msgs/msg).
+BYCOMS_MSGS = Path(__file__).resolve().parents[2] / "deploy" / "ros2" / "bycoms_msgs" / "msg"
+for _msg in sorted(BYCOMS_MSGS.glob("*.msg")):
+    TS.register(get_types_from_msg(_msg.read_text(), f"bycoms_msgs/msg/{_msg.stem}"))
+
+MESSAGES.update({
+    "bycoms_msgs/msg/GateEvent": T["bycoms_msgs/msg/GateEvent"](
+        stamp=T["builtin_interfaces/msg/Time"](sec=12, nanosec=300_000_000),
+        robot=3, kind=1, arrived=True, x=44.5, y=-1.25, step=123,
+    ),
+    "bycoms_msgs/msg/RobotState": T["bycoms_msgs/msg/RobotState"](
+        header=header("world"), robot=2, state=2, x=30.0, y=31.5, heading=-0.5, step=7,
     ),
 })
 

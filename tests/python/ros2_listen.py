@@ -22,12 +22,16 @@ usage: ros2_listen.py LISTEN_ENDPOINT DOMAIN_ID ROBOTS
 import json
 import sys
 import threading
+from pathlib import Path
 
 import xxhash
 import zenoh
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 TS = get_typestore(Stores.ROS2_JAZZY)
+# bycoms_msgs, from the package's own .msg files, as a lab's colcon build reads them.
+for _msg in sorted((Path(__file__).resolve().parents[2] / "deploy/ros2/bycoms_msgs/msg").glob("*.msg")):
+    TS.register(get_types_from_msg(_msg.read_text(), f"bycoms_msgs/msg/{_msg.stem}"))
 
 
 def dds_name(ros_type):
@@ -49,6 +53,7 @@ SHARED_TOPICS = {
     "/tf": "tf2_msgs/msg/TFMessage",
     "/map": "nav_msgs/msg/OccupancyGrid",
     "/beacons": "visualization_msgs/msg/MarkerArray",
+    "/gate": "bycoms_msgs/msg/GateEvent",
 }
 
 
@@ -57,6 +62,7 @@ def expected_topics(robots):
     for k in range(1, robots + 1):
         topics[f"/robot_{k}/pose"] = "geometry_msgs/msg/PoseStamped"
         topics[f"/robot_{k}/path"] = "nav_msgs/msg/Path"
+        topics[f"/robot_{k}/state"] = "bycoms_msgs/msg/RobotState"
     return topics
 
 
@@ -118,6 +124,10 @@ def check(samples, tokens, domain):
             entry["last"] = len(msg.poses)
         elif ros_type == "visualization_msgs/msg/MarkerArray":
             entry["last"] = sorted({m.id for m in msg.markers})
+        elif ros_type == "bycoms_msgs/msg/RobotState":
+            entry["last"] = msg.state
+        elif ros_type == "bycoms_msgs/msg/GateEvent":
+            entry["last"] = (entry["last"] or 0) + 1
         elif ros_type == "nav_msgs/msg/OccupancyGrid":
             entry["last"] = [msg.info.width, msg.info.height, int((msg.data == 100).sum())]
         elif ros_type == "rosgraph_msgs/msg/Clock":

@@ -105,13 +105,17 @@ fn a_ros2_client_finds_every_topic_and_decodes_every_sample_of_a_launch() {
     let expected = [
         "/beacons",
         "/clock",
+        "/gate",
         "/map",
         "/robot_1/path",
         "/robot_1/pose",
+        "/robot_1/state",
         "/robot_2/path",
         "/robot_2/pose",
+        "/robot_2/state",
         "/robot_3/path",
         "/robot_3/pose",
+        "/robot_3/state",
         "/tf",
     ];
     assert_eq!(names, expected, "every topic with samples (no /diagnostics: no real robot): {report}");
@@ -124,6 +128,7 @@ fn a_ros2_client_finds_every_topic_and_decodes_every_sample_of_a_launch() {
         assert!(count * 1000 >= last * 999, "{topic}: {count} of {last} sent: {t}");
     }
     assert_eq!(topics["/map"]["count"], 1, "the map, once: {report}");
+    assert_eq!(topics["/gate"]["count"], 6, "deployed and stopped, each of 3 robots: {report}");
     let map = &topics["/map"]["last"];
     assert!(map[0].as_u64().is_some_and(|w| w > 0) && map[2].as_u64().is_some_and(|b| b > 0), "{map}");
     for key in ["undecoded", "bad_attachment", "bad_gid"] {
@@ -137,6 +142,10 @@ fn a_ros2_client_finds_every_topic_and_decodes_every_sample_of_a_launch() {
         assert_eq!((&last[0], &last[1], &last[2]), (&robot["x"], &robot["y"], &"world".into()), "robot {id}");
         let trail = &topics[&format!("/robot_{id}/path")]["last"];
         assert!(trail.as_u64().is_some_and(|n| n > 1), "robot {id}'s whole path: {trail}");
+        // bycoms_msgs/RobotState: 2 a beacon, 3 arrived; waiting, moving, then that.
+        let state = &topics[&format!("/robot_{id}/state")];
+        let end = if robot["end"] == "stuck" { 2 } else { 3 };
+        assert_eq!((&state["last"], &state["count"]), (&end.into(), &3.into()), "robot {id}: {state}");
     }
     // The beacons: every robot that stopped short of the goal.
     let stuck: Vec<u64> = summary["robots"]

@@ -87,6 +87,12 @@ impl CdrWriter {
         self.buf.extend_from_slice(&v.to_le_bytes());
     }
 
+    /// A `uint64`.
+    pub fn u64(&mut self, v: u64) {
+        self.align(8);
+        self.buf.extend_from_slice(&v.to_le_bytes());
+    }
+
     /// A `float32`.
     pub fn f32(&mut self, v: f32) {
         self.align(4);

@@ -5,6 +5,7 @@
 //!
 //! * [`cdr`]: XCDR1 little-endian encoding and decoding (the payload);
 //! * [`types`]: type descriptions and their REP-2016 hashes (`RIHS01_…`);
+//! * [`bycoms_msgs`]: our own gate events and robot states (`deploy/ros2/bycoms_msgs/`);
 //! * [`display`]: the terrain map, beacon markers and diagnostics;
 //! * [`msgs`]: the messages bycoms publishes (poses, `/tf`, paths, `/clock`)
 //!   and the `PoseStamped` a ROS 2 motion-capture driver sends;
@@ -24,6 +25,7 @@ macro_rules! description {
     };
 }
 
+pub mod bycoms_msgs;
 pub mod cdr;
 pub mod display;
 pub mod msgs;

@@ -18,6 +18,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::process::Command;
 
+use bycoms_ros2::bycoms_msgs::{gate_kind, robot_state, GateEvent, RobotState};
 use bycoms_ros2::display::*;
 use bycoms_ros2::msgs::*;
 use bycoms_ros2::rmw_zenoh::{
@@ -96,6 +97,24 @@ fn fixed() -> Vec<(&'static TypeDescription, Vec<u8>)> {
             data: vec![0, 100, -1, 0, 0, 100],
         }),
         entry(&diagnostic_status()),
+        entry(&GateEvent {
+            stamp: Time { sec: 12, nanosec: 300_000_000 },
+            robot: 3,
+            kind: gate_kind::STOPPED,
+            arrived: true,
+            x: 44.5,
+            y: -1.25,
+            step: 123,
+        }),
+        entry(&RobotState {
+            header: header("world"),
+            robot: 2,
+            state: robot_state::BEACON,
+            x: 30.0,
+            y: 31.5,
+            heading: -0.5,
+            step: 7,
+        }),
         entry(&DiagnosticArray {
             header: header(""),
             status: vec![diagnostic_status(), DiagnosticStatus { level: level::STALE, ..Default::default() }],
@@ -264,6 +283,16 @@ const PINNED: &[(&str, &str, &str)] = &[
         "diagnostic_msgs/msg/DiagnosticArray",
         "RIHS01_5a8a36efb05fb25070fa0fb3810290c0e6cd4862b54a8fb975a1ee8dc55a333e",
         "0001000000f1536515cd5b07010000000000000002000000010000000f0000006279636f6d732f726f626f745f3300000c00000062617474657279206c6f77000400000063663300020000000a000000626174746572795f7600000004000000332e3400050000006c696e6b00000000030000006f6b000301000000000000000100000000000000010000000000000000000000",
+    ),
+    (
+        "bycoms_msgs/msg/GateEvent",
+        "RIHS01_7990ae8bc533bca805736ef451e0bfe2ebac11211ac90c256a1ab8342b4b8d36",
+        "000100000c00000000a3e11103000000010100000000000000404640000000000000f4bf7b00000000000000",
+    ),
+    (
+        "bycoms_msgs/msg/RobotState",
+        "RIHS01_f8469234fa1c0f25686cb338b7ca5f137d32f9b2a0b0eeeeaac4c2c03cb6a7fc",
+        "0001000000f1536515cd5b0706000000776f726c640000000200000002000000000000000000000000003e400000000000803f40000000000000e0bf0700000000000000",
     ),
 ];
 

@@ -8,8 +8,11 @@
 //! Topics (`<ns>` is the configured namespace): `/clock`, `/tf`,
 //! `<ns>/map` (the terrain, latched: transient local, depth 1),
 //! `<ns>/beacons` (each beacon and its ε circle), `/diagnostics` (real
-//! robots: battery, link, failsafe, from the gateway's reports), and per
-//! robot `<ns>/robot_<k>/pose` and `<ns>/robot_<k>/path`.
+//! robots: battery, link, failsafe, from the gateway's reports), `<ns>/gate`
+//! (`bycoms_msgs/msg/GateEvent`, each gate decision), and per robot
+//! `<ns>/robot_<k>/pose`, `<ns>/robot_<k>/path` and `<ns>/robot_<k>/state`
+//! (`bycoms_msgs/msg/RobotState`: waiting at the start, then at each gate
+//! decision about it).
 //!
 //! Paths cost: a `nav_msgs/msg/Path` holds the whole trail, so it is sent
 //! at a bounded rate, at most once per [`PATH_PERIOD_US`] of run time per
@@ -20,6 +23,7 @@
 use std::collections::BTreeMap;
 
 use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Pose};
+use bycoms_ros2::bycoms_msgs::{gate_kind, robot_state, GateEvent as RosGateEvent, RobotState};
 use bycoms_ros2::display::{
     level, marker_action, marker_type, ColorRgba, DiagnosticArray, DiagnosticStatus, Marker, MarkerArray,
     OccupancyGrid,
@@ -64,12 +68,15 @@ const TF: usize = 1;
 const MAP: usize = 2;
 const BEACONS: usize = 3;
 const DIAGNOSTICS: usize = 4;
-/// Topics before the robots' own, two each (pose, path).
-const SHARED: usize = 5;
+const GATE: usize = 5;
+/// Topics before the robots' own, [`PER_ROBOT`] each (pose, path, state).
+const SHARED: usize = 6;
+const PER_ROBOT: usize = 3;
 
 /// A robot's trail and when its path was last sent.
 #[derive(Default)]
 struct Trail {
+    last: Option<Pose>,
     path: Path,
     sent_us: Option<u64>,
     diagnostics_us: Option<u64>,
@@ -96,10 +103,12 @@ impl RunMessages {
             topic(format!("{ns}/map"), OccupancyGrid::DESCRIPTION, Qos::transient_local(1)),
             topic(format!("{ns}/beacons"), MarkerArray::DESCRIPTION, Qos::reliable(10)),
             topic("/diagnostics".into(), DiagnosticArray::DESCRIPTION, Qos::reliable(10)),
+            topic(format!("{ns}/gate"), RosGateEvent::DESCRIPTION, Qos::reliable(10)),
         ];
         for k in 1..=robots {
             topics.push(topic(cfg.pose_topic(k), PoseStamped::DESCRIPTION, Qos::reliable(10)));
             topics.push(topic(format!("{ns}/robot_{k}/path"), Path::DESCRIPTION, Qos::reliable(10)));
+            topics.push(topic(format!("{ns}/robot_{k}/state"), RobotState::DESCRIPTION, Qos::reliable(10)));
         }
         let trails = (0..robots).map(|_| Trail::default()).collect();
         Self { topics, trails, beacons: BTreeMap::new(), eps: 0.0, now_us: 0, clock_us: None }
@@ -119,6 +128,24 @@ impl RunMessages {
     pub fn world(&mut self, terrain: &Terrain, eps: f64, sink: &mut dyn Sink) {
         self.eps = eps;
         self.send(sink, MAP, 0, &occupancy_grid(terrain));
+        for index in 0..self.trails.len() {
+            self.send_state(index, robot_state::WAITING, sink);
+        }
+    }
+
+    fn send_state(&self, index: usize, state: u8, sink: &mut dyn Sink) {
+        let t = self.now_us;
+        let last = self.trails[index].last;
+        let msg = RobotState {
+            header: Header { stamp: run_time(t), frame_id: WORLD_FRAME.into() },
+            robot: index as u32 + 1,
+            state,
+            x: last.map_or(0.0, |p| p.x),
+            y: last.map_or(0.0, |p| p.y),
+            heading: last.map_or(0.0, |p| p.heading),
+            step: last.map_or(0, |p| p.step),
+        };
+        self.send(sink, SHARED + PER_ROBOT * index + 2, t, &msg);
     }
 
     /// A robot's pose: `/clock` when the run's time advanced, its pose, its
@@ -134,9 +161,10 @@ impl RunMessages {
             self.send(sink, CLOCK, t, &Clock { clock: run_time(t) });
         }
         let (stamped, transform) = ros_messages(pose);
-        self.send(sink, SHARED + 2 * index, t, &stamped);
+        self.send(sink, SHARED + PER_ROBOT * index, t, &stamped);
         self.send(sink, TF, t, &TfMessage { transforms: vec![transform] });
         let trail = &mut self.trails[index];
+        trail.last = Some(*pose);
         let far = |last: &PoseStamped| {
             let (a, b) = (last.pose.position, stamped.pose.position);
             (a.x - b.x).hypot(a.y - b.y) >= PATH_SPACING
@@ -169,7 +197,7 @@ impl RunMessages {
         trail.sent_us = Some(t);
         trail.path.header = Header { stamp: run_time(t), frame_id: WORLD_FRAME.into() };
         let path = std::mem::take(&mut trail.path);
-        self.send(sink, SHARED + 2 * index + 1, t, &path);
+        self.send(sink, SHARED + PER_ROBOT * index + 1, t, &path);
         self.trails[index].path = path;
     }
 
@@ -178,7 +206,27 @@ impl RunMessages {
     /// sent once more, whole.
     pub fn gate(&mut self, event: &GateEvent, sink: &mut dyn Sink) {
         let t = self.now_us;
+        let (kind, state) = match event.kind {
+            GateKind::Deployed => (gate_kind::DEPLOYED, robot_state::MOVING),
+            GateKind::Stopped { arrived: true } => (gate_kind::STOPPED, robot_state::ARRIVED),
+            GateKind::Stopped { arrived: false } => (gate_kind::STOPPED, robot_state::BEACON),
+            GateKind::Died => (gate_kind::DIED, robot_state::LOST),
+            GateKind::Timeout => (gate_kind::TIMEOUT, robot_state::TIMED_OUT),
+        };
+        let ros = RosGateEvent {
+            stamp: run_time(t),
+            robot: event.robot.0,
+            kind,
+            arrived: matches!(event.kind, GateKind::Stopped { arrived: true }),
+            x: event.x,
+            y: event.y,
+            step: event.step,
+        };
+        self.send(sink, GATE, t, &ros);
         let index = (event.robot.0 as usize).checked_sub(1).filter(|i| *i < self.trails.len());
+        if let Some(i) = index {
+            self.send_state(i, state, sink);
+        }
         if let (Some(i), GateKind::Stopped { .. } | GateKind::Died | GateKind::Timeout) = (index, event.kind)
         {
             if !self.trails[i].path.poses.is_empty() {
@@ -341,7 +389,7 @@ mod tests {
     }
 
     #[test]
-    fn the_topics_are_the_shared_ones_then_each_robots_pose_and_path() {
+    fn the_topics_are_the_shared_ones_then_each_robots_pose_path_and_state() {
         let run = RunMessages::new(&Ros2Config { namespace: "/lab".into(), ..Ros2Config::default() }, 2);
         let names: Vec<_> = run.topics().iter().map(|t| t.name.as_str()).collect();
         assert_eq!(
@@ -352,10 +400,13 @@ mod tests {
                 "/lab/map",
                 "/lab/beacons",
                 "/diagnostics",
+                "/lab/gate",
                 "/lab/robot_1/pose",
                 "/lab/robot_1/path",
+                "/lab/robot_1/state",
                 "/lab/robot_2/pose",
-                "/lab/robot_2/path"
+                "/lab/robot_2/path",
+                "/lab/robot_2/state"
             ]
         );
         assert_eq!(run.topics()[MAP].qos, Qos::transient_local(1), "the map is latched");
@@ -395,6 +446,20 @@ mod tests {
         run.gate(&stop(3, GateKind::Stopped { arrived: true }), &mut sent);
         assert_eq!(sent.on(&run, "/beacons"), [500_000_000, 500_000_000]);
         assert_eq!(sent.on(&run, "/robot_1/path").len(), 2, "its first, and its whole path when it stopped");
+        assert_eq!(sent.on(&run, "/gate").len(), 3, "every gate decision");
+        assert_eq!(sent.on(&run, "/robot_1/state"), [0, 500_000_000], "waiting, then a beacon");
+        let state =
+            sent.0.iter().rev().find(|(t, ..)| run.topics()[*t].name == "/robot_1/state").expect("state");
+        let beacon = RobotState {
+            header: Header { stamp: run_time(500_000), frame_id: WORLD_FRAME.into() },
+            robot: 1,
+            state: robot_state::BEACON,
+            x: 1.0,
+            y: 1.0,
+            heading: 0.0,
+            step: 5,
+        };
+        assert_eq!(state.2, beacon.to_cdr());
         let markers = beacon_markers(&run.beacons, 2.0, run_time(500_000));
         assert_eq!(markers.markers.len(), 4, "robots 1 and 2: a sphere and an ε circle each");
         let circle = &markers.markers[1];
