@@ -245,6 +245,72 @@ pub fn export<W: Write + Seek>(input: &Path, out: W, file_name: &str) -> Result<
 #[cfg(test)]
 mod tests {
     use super::*;
+    use bycoms_protocol::msg::Pose;
+    use bycoms_protocol::RobotId;
+
+    /// A bag of a few poses, read back with the `mcap` crate: what rosbag2's
+    /// reader looks for is there (the Python readers check it in
+    /// `tests/tests/ros2_launch.rs`).
+    #[test]
+    fn a_bag_is_a_ros2_profile_mcap_with_schemas_qos_hashes_and_rosbag2_metadata() {
+        let mut run = RunMessages::new(&Ros2Config::default(), 2);
+        let mut sink = BagSink::new(std::io::Cursor::new(Vec::new()), run.topics()).expect("bag");
+        run.world(&bycoms_sim::terrain::Terrain::new(5, 4), 1.5, &mut sink);
+        for step in 0..20u64 {
+            let pose = Pose {
+                robot: RobotId(1),
+                x: step as f64 * 0.2,
+                y: 1.0,
+                heading: 0.0,
+                step,
+                time_us: step * 100_000,
+            };
+            run.pose(&pose, &mut sink);
+        }
+        let pose_topic =
+            run.topics().iter().position(|t| t.name == "/robot_1/pose").expect("robot 1's pose topic");
+        assert_eq!(sink.counts()[pose_topic], 20, "robot 1's poses");
+        let bytes = sink.finish("bag.mcap").expect("finished").into_inner();
+        let summary = mcap::Summary::read(&bytes).expect("readable").expect("a summary");
+        assert_eq!(summary.channels.len(), run.topics().len());
+        for channel in summary.channels.values() {
+            let topic = run.topics().iter().find(|t| t.name == channel.topic).expect("one of ours");
+            let schema = channel.schema.as_ref().expect("a schema");
+            assert_eq!((schema.name.as_str(), schema.encoding.as_str()), (topic.description.name, "ros2msg"));
+            assert_eq!(std::str::from_utf8(&schema.data), Ok(topic.description.ros2msg().as_str()));
+            assert_eq!(channel.message_encoding, "cdr");
+            assert_eq!(channel.metadata["topic_type_hash"], topic.description.rihs01());
+            assert_eq!(channel.metadata["offered_qos_profiles"], qos_yaml(&topic.qos, ""));
+        }
+        let stats = summary.stats.expect("statistics");
+        assert_eq!(
+            stats.message_count,
+            (1 + 2) + 20 * 3 + 2,
+            "map, 2 states, 20 × (clock, pose, tf), 2 paths"
+        );
+        let mut stream = mcap::read::LinearReader::new(&bytes).expect("reader");
+        let header = stream.find_map(|r| match r {
+            Ok(mcap::records::Record::Header(h)) => Some(h),
+            _ => None,
+        });
+        assert_eq!(header.map(|h| h.profile), Some("ros2".into()));
+        let metadata: Vec<_> = mcap::read::LinearReader::new(&bytes)
+            .expect("reader")
+            .filter_map(|r| match r {
+                Ok(mcap::records::Record::Metadata(m)) => Some(m),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(metadata.len(), 1);
+        assert_eq!(metadata[0].name, "rosbag2");
+        assert_eq!(metadata[0].metadata["ROS_DISTRO"], ROS_DISTRO);
+        let yaml = &metadata[0].metadata["serialized_metadata"];
+        assert!(
+            yaml.starts_with("rosbag2_bagfile_information:\n  version: 9\n  storage_identifier: mcap\n"),
+            "{yaml}"
+        );
+        assert!(yaml.contains("message_count: 65\n"), "{yaml}");
+    }
 
     #[test]
     fn qos_is_the_yaml_list_rosbag2_writes() {
