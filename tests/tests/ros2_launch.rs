@@ -135,6 +135,15 @@ fn a_ros2_client_finds_every_topic_and_decodes_every_sample_of_a_launch() {
         assert_eq!(report[key], 0, "{key}: {report}");
     }
     assert_eq!(report["unexpected"], serde_json::json!([]), "{report}");
+    robots_as_the_launch_ended(&summary, topics);
+}
+
+/// Each robot's last pose, path and state, and the beacons, against the
+/// launch's summary.
+fn robots_as_the_launch_ended(
+    summary: &serde_json::Value,
+    topics: &serde_json::Map<String, serde_json::Value>,
+) {
     // Every robot's last pose is the one the launch ended with.
     for robot in summary["robots"].as_array().expect("robots") {
         let id = robot["id"].as_u64().expect("id");
@@ -156,7 +165,7 @@ fn a_ros2_client_finds_every_topic_and_decodes_every_sample_of_a_launch() {
         .map(|r| r["id"].as_u64().expect("id"))
         .collect();
     assert!(!stuck.is_empty(), "the default run has beacons: {summary}");
-    assert_eq!(topics["/beacons"]["last"], serde_json::json!(stuck), "{report}");
+    assert_eq!(topics["/beacons"]["last"], serde_json::json!(stuck), "{topics:?}");
 }
 
 /// `orchestrator record export --ros2`: a launch's recording as a ROS 2 bag,
