@@ -193,7 +193,10 @@ fn a_file_that_is_not_a_recording_is_one_error_for_every_reader() {
     ];
     for (name, bytes) in cases {
         std::fs::write(dir.path().join(name), bytes).expect("write");
-        for command in [&["record", "recover", name][..], &["draw", name][..], &["replay", name][..]] {
+        let export = ["record", "export", "--ros2", name, "--out", "bag.mcap"];
+        for command in
+            [&["record", "recover", name][..], &["draw", name][..], &["replay", name][..], &export[..]]
+        {
             let o = orchestrator_in(dir.path(), command);
             assert_eq!(o.status.code(), Some(1), "{command:?}: {}", stderr(&o));
             assert!(
@@ -203,15 +206,16 @@ fn a_file_that_is_not_a_recording_is_one_error_for_every_reader() {
             );
         }
         let stem = name.trim_end_matches(".mcap");
-        for made in [format!("{stem}.recovered.mcap"), format!("{stem}.svg")] {
+        for made in [format!("{stem}.recovered.mcap"), format!("{stem}.svg"), "bag.mcap".into()] {
             assert!(!dir.path().join(&made).exists(), "{made} was written for {name}");
         }
     }
 }
 
 /// Random bytes are not "an empty file"; a valid MCAP file without the run
-/// metadata is one message and one exit code (1) for all three readers, and
-/// `record recover` writes no empty "recovered" file.
+/// metadata is one message and one exit code (1) for every reader (`record
+/// recover`, `draw`, `replay`, `record export --ros2`), and none writes an
+/// empty file.
 #[test]
 fn random_bytes_and_a_foreign_mcap_file_are_one_error_for_every_reader() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -232,6 +236,7 @@ fn random_bytes_and_a_foreign_mcap_file_are_one_error_for_every_reader() {
             &["record", "recover", file, "--out", copy][..],
             &["draw", file, "--out", svg][..],
             &["replay", file][..],
+            &["record", "export", "--ros2", file, "--out", copy][..],
         ];
         for command in commands {
             let o = orchestrator_in(dir.path(), command);

@@ -15,6 +15,9 @@ as that test's (`FIXED` there).
 """
 
 import json
+from pathlib import Path
+
+import numpy
 
 import xxhash
 from rosbags.interfaces import Nodetype
@@ -127,6 +130,67 @@ MESSAGES = {
         clock=T["builtin_interfaces/msg/Time"](sec=12, nanosec=500_000_000)
     ),
 }
+
+COLOR = T["std_msgs/msg/ColorRGBA"](r=1.0, g=0.5, b=0.25, a=0.75)
+
+
+def marker(ident, text):
+    points = [T["geometry_msgs/msg/Point"](x=1.0, y=2.0, z=0.0), T["geometry_msgs/msg/Point"](x=-1.0, y=0.5, z=0.25)]
+    empty_header = T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](sec=0, nanosec=0), frame_id="")
+    return T["visualization_msgs/msg/Marker"](
+        header=header("world"), ns="beacons", id=ident, type=4, action=0,
+        pose=pose(3.0, 4.0, 0.0, 0.3826834323650898, 0.9238795325112867),
+        scale=T["geometry_msgs/msg/Vector3"](x=0.1, y=0.2, z=0.3), color=COLOR,
+        lifetime=T["builtin_interfaces/msg/Duration"](sec=0, nanosec=0), frame_locked=False,
+        points=points, colors=[], texture_resource="",
+        texture=T["sensor_msgs/msg/CompressedImage"](header=empty_header, format="", data=numpy.zeros(0, numpy.uint8)),
+        uv_coordinates=[], text=text, mesh_resource="",
+        mesh_file=T["visualization_msgs/msg/MeshFile"](filename="", data=numpy.zeros(0, numpy.uint8)),
+        mesh_use_embedded_materials=False,
+    )
+
+
+def diagnostic_status(level, name, message, hardware_id, values):
+    kv = [T["diagnostic_msgs/msg/KeyValue"](key=k, value=v) for k, v in values]
+    return T["diagnostic_msgs/msg/DiagnosticStatus"](
+        level=level, name=name, message=message, hardware_id=hardware_id, values=kv
+    )
+
+
+STATUS = diagnostic_status(1, "bycoms/robot_3", "battery low", "cf3", [("battery_v", "3.4"), ("link", "ok")])
+
+MESSAGES.update({
+    "std_msgs/msg/ColorRGBA": COLOR,
+    "visualization_msgs/msg/Marker": marker(7, "eps"),
+    "visualization_msgs/msg/MarkerArray": T["visualization_msgs/msg/MarkerArray"](markers=[marker(7, "eps"), marker(2, "b")]),
+    "nav_msgs/msg/OccupancyGrid": T["nav_msgs/msg/OccupancyGrid"](
+        header=header("world"),
+        info=T["nav_msgs/msg/MapMetaData"](
+            map_load_time=T["builtin_interfaces/msg/Time"](sec=5, nanosec=6), resolution=0.5, width=3, height=2,
+            origin=pose(-1.0, 2.0, 0.0, 0.3826834323650898, 0.9238795325112867),
+        ),
+        data=numpy.array([0, 100, -1, 0, 0, 100], numpy.int8),
+    ),
+    "diagnostic_msgs/msg/DiagnosticStatus": STATUS,
+    "diagnostic_msgs/msg/DiagnosticArray": T["diagnostic_msgs/msg/DiagnosticArray"](
+        header=header(""), status=[STATUS, diagnostic_status(3, "", "", "", [])]
+    ),
+})
+
+# bycoms_msgs, read from the package's own .msg files (deploy/ros2/bycoms_msgs/msg).
+BYCOMS_MSGS = Path(__file__).resolve().parents[2] / "deploy" / "ros2" / "bycoms_msgs" / "msg"
+for _msg in sorted(BYCOMS_MSGS.glob("*.msg")):
+    TS.register(get_types_from_msg(_msg.read_text(), f"bycoms_msgs/msg/{_msg.stem}"))
+
+MESSAGES.update({
+    "bycoms_msgs/msg/GateEvent": T["bycoms_msgs/msg/GateEvent"](
+        stamp=T["builtin_interfaces/msg/Time"](sec=12, nanosec=300_000_000),
+        robot=3, kind=1, arrived=True, x=44.5, y=-1.25, step=123,
+    ),
+    "bycoms_msgs/msg/RobotState": T["bycoms_msgs/msg/RobotState"](
+        header=header("world"), robot=2, state=2, x=30.0, y=31.5, heading=-0.5, step=7,
+    ),
+})
 
 # Tokens as rmw_zenoh's design document (docs/design) shows them.
 TOKENS = [

@@ -11,18 +11,27 @@ of the publisher's token, and the sequence numbers contiguous (none lost
 once the route exists; the last is the count sent). It prints one JSON
 report. Used by tests/tests/ros2_launch.rs.
 
-usage: ros2_listen.py LISTEN_ENDPOINT DOMAIN_ID
+Like a ROS 2 node that subscribes before the launch starts (RViz, a
+recorder), it declares a node token and one subscription token per topic
+it expects of a launch of ROBOTS robots, so the launch waits for the
+route to it before its run, and no sample is lost at the start.
+
+usage: ros2_listen.py LISTEN_ENDPOINT DOMAIN_ID ROBOTS
 """
 
 import json
 import sys
 import threading
+from pathlib import Path
 
 import xxhash
 import zenoh
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 TS = get_typestore(Stores.ROS2_JAZZY)
+# bycoms_msgs, from the package's own .msg files, as a lab's colcon build reads them.
+for _msg in sorted((Path(__file__).resolve().parents[2] / "deploy/ros2/bycoms_msgs/msg").glob("*.msg")):
+    TS.register(get_types_from_msg(_msg.read_text(), f"bycoms_msgs/msg/{_msg.stem}"))
 
 
 def dds_name(ros_type):
@@ -36,6 +45,37 @@ def parse_token(token):
     if len(parts) < 13 or parts[0] != "@ros2_lv" or parts[5] != "MP":
         return None
     return parts[9].replace("%", "/"), parts[10], parts[11]
+
+
+# The topics a launch of n robots publishes, with their types.
+SHARED_TOPICS = {
+    "/clock": "rosgraph_msgs/msg/Clock",
+    "/tf": "tf2_msgs/msg/TFMessage",
+    "/map": "nav_msgs/msg/OccupancyGrid",
+    "/beacons": "visualization_msgs/msg/MarkerArray",
+    "/gate": "bycoms_msgs/msg/GateEvent",
+}
+
+
+def expected_topics(robots):
+    topics = dict(SHARED_TOPICS)
+    for k in range(1, robots + 1):
+        topics[f"/robot_{k}/pose"] = "geometry_msgs/msg/PoseStamped"
+        topics[f"/robot_{k}/path"] = "nav_msgs/msg/Path"
+        topics[f"/robot_{k}/state"] = "bycoms_msgs/msg/RobotState"
+    return topics
+
+
+def subscription_tokens(zid, domain, robots):
+    """A node's token and its subscriptions' (reliable, depth 10), as rmw_zenoh writes them."""
+    node = f"@ros2_lv/{domain}/{zid}/0/0/NN/%/%/listener"
+    tokens = [node]
+    for eid, (topic, ros_type) in enumerate(sorted(expected_topics(robots).items()), start=1):
+        tokens.append(
+            f"@ros2_lv/{domain}/{zid}/0/{eid}/MS/%/%/listener/{topic.replace('/', '%')}/"
+            f"{dds_name(ros_type)}/{TS.hash_rihs01(ros_type)}/::,10:,:,:,,"
+        )
+    return tokens
 
 
 def open_router(listen):
@@ -80,6 +120,16 @@ def check(samples, tokens, domain):
         entry["seqs"].append(int.from_bytes(attachment[:8], "little", signed=True))
         if ros_type == "geometry_msgs/msg/PoseStamped":
             entry["last"] = [msg.pose.position.x, msg.pose.position.y, msg.header.frame_id]
+        elif ros_type == "nav_msgs/msg/Path":
+            entry["last"] = len(msg.poses)
+        elif ros_type == "visualization_msgs/msg/MarkerArray":
+            entry["last"] = sorted({m.id for m in msg.markers})
+        elif ros_type == "bycoms_msgs/msg/RobotState":
+            entry["last"] = msg.state
+        elif ros_type == "bycoms_msgs/msg/GateEvent":
+            entry["last"] = (entry["last"] or 0) + 1
+        elif ros_type == "nav_msgs/msg/OccupancyGrid":
+            entry["last"] = [msg.info.width, msg.info.height, int((msg.data == 100).sum())]
         elif ros_type == "rosgraph_msgs/msg/Clock":
             entry["last"] = msg.clock.sec * 1_000_000_000 + msg.clock.nanosec
     for entry in report["topics"].values():
@@ -93,8 +143,11 @@ def check(samples, tokens, domain):
 
 
 def main():
-    listen, domain = sys.argv[1], int(sys.argv[2])
+    listen, domain, robots = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
     session = open_router(listen)
+    declared = [
+        session.liveliness().declare_token(t) for t in subscription_tokens(session.info.zid(), domain, robots)
+    ]
     lock = threading.Lock()
     samples, tokens = [], set()
 
@@ -115,6 +168,8 @@ def main():
     with lock:
         report = check(list(samples), set(tokens), domain)
     print(json.dumps(report), flush=True)
+    for token in declared:
+        token.undeclare()
     sub.undeclare()
     graph.undeclare()
     session.close()

@@ -241,3 +241,38 @@ fn the_merge_job_reads_and_writes_the_same_volume() {
     assert_eq!(merge.inputs, [mount]);
     assert_eq!(merge.out, mount);
 }
+
+/// `deploy/ros2/bycoms.rviz` parses as YAML, its fixed frame is the
+/// launch's, and every display's topic is one `launch --ros2` publishes
+/// (a 3-robot launch, default namespace), with the type that display shows
+/// and the durability the topic is offered with.
+#[test]
+fn the_rviz_config_shows_only_topics_the_launch_publishes() {
+    use bycoms_orchestrator::launch::ros2::{publish::RunMessages, Ros2Config, WORLD_FRAME};
+    let doc = YamlLoader::load_from_str(&read("ros2/bycoms.rviz")).expect("bycoms.rviz is YAML");
+    let manager = &doc[0]["Visualization Manager"];
+    assert_eq!(manager["Global Options"]["Fixed Frame"].as_str(), Some(WORLD_FRAME));
+    let run = RunMessages::new(&Ros2Config::default(), 3);
+    let displays = manager["Displays"].as_vec().expect("displays");
+    let mut shown = 0;
+    for display in displays {
+        let class = display["Class"].as_str().expect("class");
+        let Some(topic) = display["Topic"]["Value"].as_str() else { continue };
+        let ours = run.topics().iter().find(|t| t.name == topic);
+        let ours =
+            ours.unwrap_or_else(|| panic!("bycoms.rviz shows {topic}, which the launch does not publish"));
+        let expected = match class {
+            "rviz_default_plugins/Map" => "nav_msgs/msg/OccupancyGrid",
+            "rviz_default_plugins/Pose" => "geometry_msgs/msg/PoseStamped",
+            "rviz_default_plugins/Path" => "nav_msgs/msg/Path",
+            "rviz_default_plugins/MarkerArray" => "visualization_msgs/msg/MarkerArray",
+            other => panic!("{topic}: display class {other} not checked here"),
+        };
+        assert_eq!(ours.description.name, expected, "{topic}: {class}");
+        let latched = ours.qos.durability == bycoms_ros2::rmw_zenoh::policy::TRANSIENT_LOCAL;
+        let durability = display["Topic"]["Durability Policy"].as_str();
+        assert_eq!(durability, Some(if latched { "Transient Local" } else { "Volatile" }), "{topic}");
+        shown += 1;
+    }
+    assert_eq!(shown, 8, "the map, the beacons, 3 poses and 3 paths");
+}

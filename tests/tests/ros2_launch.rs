@@ -6,9 +6,10 @@
 //! through its liveliness token, as `ros2 topic list` does, and checks every
 //! sample with its own means (key, CDR, attachment, GID); the test then
 //! compares what it saw with the launch's own summary: every robot's last
-//! pose, sequence numbers without a gap from the first received on (what
-//! is put before the route to the router exists is lost, as any volatile
-//! ROS 2 publisher's samples are), nothing it could not decode.
+//! pose and path, the map, the beacons; every topic's sequence numbers from
+//! 1 without a gap (the client subscribes before the launch, with
+//! subscription tokens as a ROS 2 node's, so the launch waits for the
+//! route to it and loses nothing at its start); nothing it could not decode.
 //!
 //! Needs python3 with the PyPI packages: `#[ignore = "needs …"]`, run by
 //! `.ci/run` (which installs them) with `--include-ignored`.
@@ -33,7 +34,7 @@ impl Listener {
         let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/ros2_listen.py");
         let mut child = Command::new("python3")
             .arg(&script)
-            .args([endpoint, "0"])
+            .args([endpoint, "0", "3"])
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
@@ -101,24 +102,114 @@ fn a_ros2_client_finds_every_topic_and_decodes_every_sample_of_a_launch() {
     let topics = report["topics"].as_object().expect("topics");
     let mut names: Vec<&str> = topics.keys().map(String::as_str).collect();
     names.sort_unstable();
-    assert_eq!(names, ["/clock", "/robot_1/pose", "/robot_2/pose", "/robot_3/pose", "/tf"], "{report}");
+    let expected = [
+        "/beacons",
+        "/clock",
+        "/gate",
+        "/map",
+        "/robot_1/path",
+        "/robot_1/pose",
+        "/robot_1/state",
+        "/robot_2/path",
+        "/robot_2/pose",
+        "/robot_2/state",
+        "/robot_3/path",
+        "/robot_3/pose",
+        "/robot_3/state",
+        "/tf",
+    ];
+    assert_eq!(names, expected, "every topic with samples (no /diagnostics: no real robot): {report}");
     for (topic, t) in topics {
-        assert!(t["count"].as_u64().is_some_and(|n| n > 0), "{topic}: {t}");
-        // Samples put before the route to the router exists are lost, as a
-        // volatile ROS 2 publisher's are (deploy/ros2/README.md); from the
-        // first received on, none is.
+        let (count, last) = (t["count"].as_u64().expect("count"), t["last_seq"].as_u64().expect("last"));
+        // The launch waited for the route to this subscriber: every sample
+        // from the first (sequence number 1) on, none lost (≥ 99.9 % of those sent).
+        assert_eq!(t["first_seq"], 1, "{topic}: from the first sample: {t}");
         assert_eq!(t["contiguous"], true, "{topic}: sequence numbers without a gap: {t}");
+        assert!(count * 1000 >= last * 999, "{topic}: {count} of {last} sent: {t}");
     }
+    assert_eq!(topics["/map"]["count"], 1, "the map, once: {report}");
+    assert_eq!(topics["/gate"]["count"], 6, "deployed and stopped, each of 3 robots: {report}");
+    let map = &topics["/map"]["last"];
+    assert!(map[0].as_u64().is_some_and(|w| w > 0) && map[2].as_u64().is_some_and(|b| b > 0), "{map}");
     for key in ["undecoded", "bad_attachment", "bad_gid"] {
         assert_eq!(report[key], 0, "{key}: {report}");
     }
     assert_eq!(report["unexpected"], serde_json::json!([]), "{report}");
+    robots_as_the_launch_ended(&summary, topics);
+}
+
+/// Each robot's last pose, path and state, and the beacons, against the
+/// launch's summary.
+fn robots_as_the_launch_ended(
+    summary: &serde_json::Value,
+    topics: &serde_json::Map<String, serde_json::Value>,
+) {
     // Every robot's last pose is the one the launch ended with.
     for robot in summary["robots"].as_array().expect("robots") {
         let id = robot["id"].as_u64().expect("id");
         let last = &topics[&format!("/robot_{id}/pose")]["last"];
         assert_eq!((&last[0], &last[1], &last[2]), (&robot["x"], &robot["y"], &"world".into()), "robot {id}");
+        let trail = &topics[&format!("/robot_{id}/path")]["last"];
+        assert!(trail.as_u64().is_some_and(|n| n > 1), "robot {id}'s whole path: {trail}");
+        // bycoms_msgs/RobotState: 2 a beacon, 3 arrived; waiting, moving, then that.
+        let state = &topics[&format!("/robot_{id}/state")];
+        let end = if robot["end"] == "stuck" { 2 } else { 3 };
+        assert_eq!((&state["last"], &state["count"]), (&end.into(), &3.into()), "robot {id}: {state}");
     }
+    // The beacons: every robot that stopped short of the goal.
+    let stuck: Vec<u64> = summary["robots"]
+        .as_array()
+        .expect("robots")
+        .iter()
+        .filter(|r| r["end"] == "stuck")
+        .map(|r| r["id"].as_u64().expect("id"))
+        .collect();
+    assert!(!stuck.is_empty(), "the default run has beacons: {summary}");
+    assert_eq!(topics["/beacons"]["last"], serde_json::json!(stuck), "{topics:?}");
+}
+
+/// `orchestrator record export --ros2`: a launch's recording as a ROS 2 bag,
+/// read by rosbags' rosbag2 reader (every message deserialized with the
+/// bag's own schemas, each type's hash recomputed from them) and by
+/// `mcap-ros2-support`'s decoder (`tests/python/ros2_bag.py`); the poses in
+/// the bag are the recording's, one for one.
+#[test]
+#[ignore = "needs python3 with rosbags==0.11.9, mcap==1.6.0 and mcap-ros2-support==0.6.0"]
+fn an_exported_bag_is_read_by_rosbags_and_mcap_ros2_with_every_pose_of_the_recording() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (recording, bag) = (dir.path().join("run.mcap"), dir.path().join("bag.mcap"));
+    let swarm = swarm_name("ros2bag");
+    let rec = recording.to_str().expect("utf-8");
+    let launch = Proc::orchestrator(&["launch", "--robots", "3", "--swarm", &swarm, "--record", rec]);
+    let done = launch.wait(Duration::from_secs(180));
+    assert!(done.status.success(), "the launch failed:\n{}", done.stderr);
+    let out = bag.to_str().expect("utf-8");
+    let export =
+        Proc::orchestrator(&["record", "export", "--ros2", rec, "--out", out]).wait(Duration::from_secs(60));
+    assert!(export.status.success(), "the export failed:\n{}", export.stderr);
+    // The outputs rule: an existing bag is replaced only with --force.
+    let again =
+        Proc::orchestrator(&["record", "export", "--ros2", rec, "--out", out]).wait(Duration::from_secs(60));
+    assert_eq!(again.status.code(), Some(2), "{}", again.stderr);
+    assert!(again.stderr.contains("bag.mcap") && again.stderr.contains("--force"), "{}", again.stderr);
+
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/ros2_bag.py");
+    let read = Command::new("python3").arg(script).args([rec, out]).output().expect("python3 runs");
+    assert!(read.status.success(), "the readers failed: {}", String::from_utf8_lossy(&read.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&read.stdout).expect("the script prints JSON");
+    let (rosbags, mcap) = (&report["rosbags"], &report["mcap_ros2"]);
+    assert_eq!(rosbags["undecoded"], 0, "{report}");
+    assert_eq!(rosbags["counts"], mcap["counts"], "both readers read every message: {report}");
+    assert_eq!(mcap["profile"], "ros2");
+    assert_eq!(mcap["hash_mismatch"], serde_json::json!([]), "{report}");
+    assert_eq!(mcap["no_qos"], serde_json::json!([]), "{report}");
+    assert_eq!(mcap["metadata"], serde_json::json!([["rosbag2", ["ROS_DISTRO", "serialized_metadata"]]]));
+    let counts = rosbags["counts"].as_object().expect("counts");
+    let poses: u64 = (1..=3).map(|k| counts[&format!("/robot_{k}/pose")].as_u64().expect("poses")).sum();
+    assert_eq!(poses, report["recording_poses"].as_u64().expect("recording poses"), "{report}");
+    assert_eq!(counts["/tf"], poses, "one transform per pose");
+    assert_eq!(counts["/map"], 1);
+    assert!(counts["/beacons"].as_u64().is_some_and(|n| n > 0), "{report}");
 }
 
 /// Issue 32 item 4: the stop service. An independent client (eclipse-zenoh

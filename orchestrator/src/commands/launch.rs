@@ -97,7 +97,8 @@ pub struct Args {
     #[arg(long)]
     pub no_prespawn: bool,
     /// Publish the run into a ROS 2 graph over rmw_zenoh: each robot's pose,
-    /// /tf and /clock, with node and publisher tokens (`[ros2]` in the config:
+    /// path and state, /tf, /clock, the map, beacons, gate events and real
+    /// robots' diagnostics, with node and publisher tokens (`[ros2]` in the config:
     /// domain id, namespace; default domain 0, namespace /). Needs --transport zenoh.
     #[arg(long)]
     pub ros2: bool,

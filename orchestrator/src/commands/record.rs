@@ -4,10 +4,15 @@
 //! `make_reader`, which needs the summary and footer a cut file lacks. It
 //! copies only what verifies: a damaged chunk is left out, said, and makes
 //! the command exit 1 (the copy is written, but it is not the whole run).
+//! `record export --ros2 IN --out OUT` writes the run as a ROS 2 bag
+//! (`crate::launch::ros2::bag`), through the same messages `launch --ros2`
+//! publishes.
 
-use crate::out::{usage_unless_io, Kind, Outputs};
+use crate::launch::ros2::bag;
+use crate::out::{usage_unless_io, write_with, Kind, Outputs};
 use crate::record::{rewrite, Part, Recovered};
 use anyhow::Result;
+use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 /// Work with `launch --record` files.
@@ -21,6 +26,28 @@ pub struct Args {
 pub enum RecordCommand {
     /// Copy every complete message that verifies of a cut or damaged recording into a finished file.
     Recover(RecoverArgs),
+    /// Write a recording's run as a ROS 2 bag (rosbag2 MCAP) that `ros2 bag play` reads.
+    Export(ExportArgs),
+}
+
+/// Write a recording's run as a ROS 2 bag: the same topics and messages as
+/// `launch --ros2` publishes (poses, /tf, /clock, paths, the map, beacons,
+/// diagnostics), in rosbag2's MCAP format (profile `ros2`, CDR, `ros2msg`
+/// schemas), timed by the run's clock.
+#[derive(Debug, clap::Args)]
+pub struct ExportArgs {
+    /// Export as a ROS 2 bag (the only export there is; required so a later format is a new flag).
+    #[arg(long, required = true)]
+    pub ros2: bool,
+    /// The launch recording (read only).
+    #[arg(value_name = "IN.mcap")]
+    pub file: PathBuf,
+    /// The bag to write.
+    #[arg(long, value_name = "OUT.mcap")]
+    pub out: PathBuf,
+    /// Replace --out if it is already an MCAP file (never anything else, never IN itself).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Copy a recording cut short (no summary, no footer) or damaged into a complete one.
@@ -44,7 +71,32 @@ pub struct RecoverArgs {
 pub fn run(args: Args) -> Result<i32> {
     match args.command {
         RecordCommand::Recover(a) => recover(a),
+        RecordCommand::Export(a) => export(a),
     }
+}
+
+fn export(args: ExportArgs) -> Result<i32> {
+    Outputs::new(args.force)
+        .input(&args.file)
+        .output("--out", &args.out, Kind::Recording)
+        .check()
+        .map_err(usage_unless_io)?;
+    let name = args.out.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let written = write_with(&args.out, |file| {
+        let (exported, out) = bag::export(&args.file, BufWriter::new(file), &name)?;
+        let file = out.into_inner().map_err(|e| anyhow::Error::new(e.into_error()))?;
+        Ok::<_, anyhow::Error>((exported, file))
+    })?;
+    let exported = written?;
+    let messages: u64 = exported.counts.values().sum();
+    crate::outln!(
+        "exported {} of {} ({}) into {}",
+        crate::runs::count(messages, "ROS 2 message"),
+        crate::runs::count(exported.counts.len() as u64, "topic"),
+        crate::runs::count(exported.poses, "pose"),
+        args.out.display()
+    )?;
+    Ok(crate::exit::SUCCESS)
 }
 
 /// `FILE.mcap` → `FILE.recovered.mcap`.

@@ -3,13 +3,15 @@
 //!
 //! Why an [`Observer`]: it must see exactly the poses the gate judged, as
 //! they are recorded, and must not change the run (lockstep parity): it
-//! only reads. Each pose becomes a `geometry_msgs/msg/PoseStamped` on
-//! `<namespace>/robot_<k>/pose` and a `tf2_msgs/msg/TFMessage` on `/tf`
-//! (`world` → `robot_<k>`), and the run's time a `rosgraph_msgs/msg/Clock`
-//! on `/clock`, each put on its rmw_zenoh key with its attachment; one node
-//! token (`<namespace>/bycoms`) and one publisher token per topic let
-//! `ros2 node list` / `ros2 topic list` find them. The bytes are
-//! `bycoms-ros2`'s, pinned against independent implementations there.
+//! only reads. One publisher, two sinks: what the run is as ROS 2 messages
+//! (topics, types, CDR bytes, run times) is computed once by
+//! [`publish::RunMessages`] (which lists the topics), and a [`publish::Sink`]
+//! puts them somewhere: [`ZenohSink`] on each topic's rmw_zenoh key with
+//! its attachment, one node token (`<namespace>/bycoms`) and one publisher
+//! token per topic so `ros2 node list` / `ros2 topic list` find them; or
+//! [`bag::BagSink`], a rosbag2 MCAP file (`orchestrator record export
+//! --ros2`). The bytes are `bycoms-ros2`'s, pinned against independent
+//! implementations there.
 //!
 //! Clocks: every `header.stamp` and `/clock` are the run's time (µs since
 //! it started, lockstep: step × dt), so ROS nodes run on it with
@@ -17,14 +19,24 @@
 //! (ns since the UNIX epoch), as rmw_zenoh stamps it. Positions are in
 //! terrain cells (1 cell = 1 unit of the `world` frame).
 
+pub mod bag;
+pub mod publish;
+
+use super::config::LaunchConfig;
 use super::observe::Observer;
-use bycoms_protocol::msg::Pose;
+use super::World;
+use crate::scene::SharedScene;
+use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use bycoms_ros2::msgs::{
-    Clock, Header, Point, Pose as RosPose, PoseStamped, Quaternion, RosMessage, TfMessage, Time, Transform,
-    TransformStamped, Vector3,
+    Header, Point, Pose as RosPose, PoseStamped, Quaternion, Time, Transform, TransformStamped, Vector3,
 };
-use bycoms_ros2::rmw_zenoh::{liveliness_token, Endpoint, EntityKind, Node, Publisher, Qos};
+use bycoms_ros2::rmw_zenoh::{
+    graph_key_expr, liveliness_token, Endpoint, EntityKind, Node, Publisher, TokenView, ADMIN_SPACE,
+};
+use publish::{RunMessages, Sink, Topic};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeSet;
+use std::time::{Duration, Instant};
 use zenoh::Wait;
 
 /// The `[ros2]` table of a launch config.
@@ -70,36 +82,26 @@ impl Ros2Config {
     }
 }
 
-/// One topic: its rmw_zenoh identity and sequence counter.
-struct Topic {
-    wire: Publisher,
-}
+/// How long a launch waits, before its run, for the route to each ROS 2
+/// subscriber already in the graph (its liveliness token seen).
+pub const ROUTE_TIMEOUT: Duration = Duration::from_secs(5);
+/// How long a launch asks the graph for its tokens.
+const GRAPH_QUERY_TIMEOUT: Duration = Duration::from_secs(1);
 
-/// Publishes the run into the ROS 2 graph (an [`Observer`] of the launch).
-pub struct Ros2Bridge {
-    session: zenoh::Session,
+/// The rmw_zenoh sink: each topic's publisher (key expression, GID,
+/// sequence numbers) declared on the launch's zenoh session, with the
+/// node's and the publishers' liveliness tokens declared for as long as it
+/// lives.
+pub struct ZenohSink {
     _tokens: Vec<zenoh::liveliness::LivelinessToken>,
-    poses: Vec<Topic>,
-    tf: Topic,
-    clock: Topic,
-    last_clock_us: Option<u64>,
+    publishers: Vec<(Publisher, zenoh::pubsub::Publisher<'static>)>,
     failed: bool,
 }
 
-fn endpoint(id: u64, topic: String, description: &'static bycoms_ros2::types::TypeDescription) -> Endpoint {
-    Endpoint {
-        id,
-        kind: EntityKind::Publisher,
-        topic,
-        ros_type: description.name.to_string(),
-        type_hash: description.rihs01(),
-        qos: Qos::reliable(10),
-    }
-}
-
-impl Ros2Bridge {
-    /// Declares the node and its publishers on `session` for `robots` robots.
-    pub fn open(cfg: &Ros2Config, session: &zenoh::Session, robots: u32) -> anyhow::Result<Self> {
+impl ZenohSink {
+    /// Declares the node and one publisher per topic on `session`, then
+    /// waits for the routes to the subscribers already in the graph.
+    pub fn open(cfg: &Ros2Config, session: &zenoh::Session, topics: &[Topic]) -> anyhow::Result<Self> {
         let node = Node {
             domain_id: cfg.domain_id,
             zid: session.zid().to_string(),
@@ -108,69 +110,142 @@ impl Ros2Bridge {
             namespace: cfg.namespace.clone(),
             name: NODE_NAME.into(),
         };
-        let mut endpoints = vec![
-            endpoint(1, "/tf".into(), TfMessage::DESCRIPTION),
-            endpoint(2, "/clock".into(), Clock::DESCRIPTION),
-        ];
-        endpoints.extend(
-            (1..=robots).map(|k| endpoint(2 + u64::from(k), cfg.pose_topic(k), PoseStamped::DESCRIPTION)),
-        );
         let mut tokens = vec![liveliness_token(&node, None)?];
-        let mut topics = Vec::new();
-        for e in &endpoints {
-            let wire = Publisher::new(&node, e)?;
+        let mut publishers = Vec::new();
+        for (i, t) in topics.iter().enumerate() {
+            let endpoint = Endpoint {
+                id: i as u64 + 1,
+                kind: EntityKind::Publisher,
+                topic: t.name.clone(),
+                ros_type: t.description.name.to_string(),
+                type_hash: t.description.rihs01(),
+                qos: t.qos,
+            };
+            let wire = Publisher::new(&node, &endpoint)?;
             tokens.push(wire.token.clone());
-            topics.push(Topic { wire });
+            let declared = session
+                .declare_publisher(wire.key_expr.clone())
+                .wait()
+                .map_err(|e| anyhow::anyhow!("ros2: cannot declare the publisher of {}: {e}", t.name))?;
+            publishers.push((wire, declared));
         }
         let declared = tokens
             .iter()
             .map(|t| session.liveliness().declare_token(t.clone()).wait())
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| anyhow::anyhow!("ros2: cannot declare a liveliness token: {e}"))?;
-        let mut topics = topics.into_iter();
-        let (tf, clock) = (topics.next().expect("/tf"), topics.next().expect("/clock"));
-        tracing::info!(
-            domain_id = cfg.domain_id,
-            node = %format_args!("{}/{NODE_NAME}", cfg.namespace.trim_end_matches('/')),
-            topics = endpoints.len(),
-            "ros2: publishing poses, /tf and /clock over rmw_zenoh"
-        );
-        Ok(Self {
-            session: session.clone(),
-            _tokens: declared,
-            poses: topics.collect(),
-            tf,
-            clock,
-            last_clock_us: None,
-            failed: false,
-        })
+        let sink = Self { _tokens: declared, publishers, failed: false };
+        let waiting = subscribed_topics(session, cfg.domain_id);
+        sink.wait_for_routes(topics, &waiting);
+        Ok(sink)
     }
 
-    fn put<M: RosMessage>(&mut self, which: Which, msg: &M) {
-        let topic = match which {
-            Which::Tf => &mut self.tf,
-            Which::Clock => &mut self.clock,
-            Which::Pose(i) => &mut self.poses[i],
+    /// Start-up loss: a zenoh put is dropped at its source until the
+    /// session knows a matching subscriber (the route). A ROS 2 node that
+    /// already subscribes (RViz, a recorder) would miss the run's first
+    /// samples — the map, the first poses — so, for each topic of ours a
+    /// subscription token names, this waits (up to [`ROUTE_TIMEOUT`] in
+    /// all) until the publisher matches. Subscribers that join later get
+    /// what is put from then on, as from any volatile ROS 2 publisher.
+    fn wait_for_routes(&self, topics: &[Topic], waiting: &BTreeSet<String>) {
+        let deadline = Instant::now() + ROUTE_TIMEOUT;
+        for ((_, publisher), topic) in self.publishers.iter().zip(topics) {
+            if !waiting.contains(&topic.name) {
+                continue;
+            }
+            let matches = || publisher.matching_status().wait().is_ok_and(|m| m.matching());
+            // zenoh tells the route's arrival to a listener thread; polling
+            // its status every 2 ms costs nothing for a few seconds at most.
+            let mut matched = matches();
+            while !matched && Instant::now() < deadline {
+                std::thread::sleep(Duration::from_millis(2));
+                matched = matches();
+            }
+            if !matched {
+                tracing::warn!(
+                    topic = %topic.name,
+                    "ros2: a subscriber of this topic is in the graph, but no route to it after {:?}: \
+                     its first samples may be lost",
+                    ROUTE_TIMEOUT
+                );
+            }
+        }
+        tracing::debug!(topics = waiting.len(), "ros2: routes to the graph's subscribers ready");
+    }
+}
+
+/// The topics the ROS 2 graph of `domain` already subscribes to (its
+/// subscription tokens), asked until the graph answers or
+/// [`GRAPH_QUERY_TIMEOUT`] has passed: the session connects in the
+/// background and learns the graph's tokens from its router or peers some
+/// milliseconds after, and until then only its own tokens answer. The
+/// graph has answered once a token of another session does (a ROS 2 graph
+/// with no node at all costs the timeout, once, at the start).
+fn subscribed_topics(session: &zenoh::Session, domain: u32) -> BTreeSet<String> {
+    let own = format!("{ADMIN_SPACE}/{domain}/{}/", session.zid());
+    let deadline = Instant::now() + GRAPH_QUERY_TIMEOUT;
+    loop {
+        let remaining = deadline.saturating_duration_since(Instant::now());
+        let tokens = match session.liveliness().get(graph_key_expr(domain)).timeout(remaining).wait() {
+            Ok(replies) => {
+                let mut tokens = vec![];
+                while let Ok(reply) = replies.recv() {
+                    if let Ok(sample) = reply.result() {
+                        tokens.push(sample.key_expr().as_str().to_string());
+                    }
+                }
+                tokens
+            }
+            Err(e) => {
+                tracing::warn!(error = %e, "ros2: cannot ask the graph for its subscribers");
+                return BTreeSet::new();
+            }
         };
-        let attachment = topic.wire.next_attachment(wall_clock_ns()).encode();
-        let sent = self
-            .session
-            .put(topic.wire.key_expr.as_str(), msg.to_cdr())
-            .attachment(attachment.to_vec())
-            .wait();
+        if tokens.iter().any(|t| !t.starts_with(&own)) || Instant::now() >= deadline {
+            return tokens
+                .iter()
+                .filter_map(|t| TokenView::parse(t).filter(|v| v.kind == EntityKind::Subscription))
+                .map(|v| v.topic)
+                .collect();
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+impl Sink for ZenohSink {
+    fn send(&mut self, topic: usize, _time_ns: u64, cdr: &[u8]) {
+        let (wire, publisher) = &mut self.publishers[topic];
+        let attachment = wire.next_attachment(wall_clock_ns()).encode();
+        let sent = publisher.put(cdr.to_vec()).attachment(attachment.to_vec()).wait();
         if let Err(e) = sent {
             // Said once: a dead session fails every put after.
             if !std::mem::replace(&mut self.failed, true) {
-                tracing::warn!(key = %topic.wire.key_expr, error = %e, "ros2: a sample was not sent");
+                tracing::warn!(key = %wire.key_expr, error = %e, "ros2: a sample was not sent");
             }
         }
     }
 }
 
-enum Which {
-    Tf,
-    Clock,
-    Pose(usize),
+/// Publishes the run into the ROS 2 graph (an [`Observer`] of the launch):
+/// the run's messages ([`RunMessages`]) into the rmw_zenoh sink.
+pub struct Ros2Bridge {
+    run: RunMessages,
+    sink: ZenohSink,
+}
+
+impl Ros2Bridge {
+    /// Declares the node and its publishers on `session` for `robots` robots.
+    pub fn open(cfg: &Ros2Config, session: &zenoh::Session, robots: u32) -> anyhow::Result<Self> {
+        let run = RunMessages::new(cfg, robots);
+        let sink = ZenohSink::open(cfg, session, run.topics())?;
+        tracing::info!(
+            domain_id = cfg.domain_id,
+            node = %format_args!("{}/{NODE_NAME}", cfg.namespace.trim_end_matches('/')),
+            topics = run.topics().len(),
+            "ros2: publishing poses, paths, /tf, /clock, the map, beacons and diagnostics over rmw_zenoh"
+        );
+        Ok(Self { run, sink })
+    }
 }
 
 /// Nanoseconds since the UNIX epoch (rmw_zenoh's `get_system_time_in_ns`).
@@ -180,7 +255,7 @@ fn wall_clock_ns() -> i64 {
 }
 
 /// The run's time `time_us` as a ROS time.
-fn run_time(time_us: u64) -> Time {
+pub fn run_time(time_us: u64) -> Time {
     Time::from_nanos(i64::try_from(time_us.saturating_mul(1_000)).unwrap_or(i64::MAX))
 }
 
@@ -199,17 +274,17 @@ pub fn ros_messages(pose: &Pose) -> (PoseStamped, TransformStamped) {
 }
 
 impl Observer for Ros2Bridge {
+    fn world(&mut self, _swarm: &str, world: &World, cfg: &LaunchConfig, _scene: Option<&SharedScene>) {
+        self.run.world(&world.terrain, cfg.eps, &mut self.sink);
+    }
     fn pose(&mut self, pose: &Pose) {
-        let Some(index) = (pose.robot.0 as usize).checked_sub(1).filter(|i| *i < self.poses.len()) else {
-            return;
-        };
-        if self.last_clock_us.is_none_or(|t| pose.time_us > t) {
-            self.last_clock_us = Some(pose.time_us);
-            self.put(Which::Clock, &Clock { clock: run_time(pose.time_us) });
-        }
-        let (stamped, transform) = ros_messages(pose);
-        self.put(Which::Pose(index), &stamped);
-        self.put(Which::Tf, &TfMessage { transforms: vec![transform] });
+        self.run.pose(pose, &mut self.sink);
+    }
+    fn gate(&mut self, event: &GateEvent) {
+        self.run.gate(event, &mut self.sink);
+    }
+    fn report(&mut self, report: &FromAgent) {
+        self.run.report(report, &mut self.sink);
     }
 }
 

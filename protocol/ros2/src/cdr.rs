@@ -87,6 +87,24 @@ impl CdrWriter {
         self.buf.extend_from_slice(&v.to_le_bytes());
     }
 
+    /// A `uint64`.
+    pub fn u64(&mut self, v: u64) {
+        self.align(8);
+        self.buf.extend_from_slice(&v.to_le_bytes());
+    }
+
+    /// A `float32`.
+    pub fn f32(&mut self, v: f32) {
+        self.align(4);
+        self.buf.extend_from_slice(&v.to_le_bytes());
+    }
+
+    /// A sequence of `uint8`, `int8` or `byte`: its count, then the bytes.
+    pub fn bytes(&mut self, v: &[u8]) {
+        self.count(v.len());
+        self.buf.extend_from_slice(v);
+    }
+
     /// A `float64`.
     pub fn f64(&mut self, v: f64) {
         self.align(8);

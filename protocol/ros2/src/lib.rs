@@ -5,6 +5,8 @@
 //!
 //! * [`cdr`]: XCDR1 little-endian encoding and decoding (the payload);
 //! * [`types`]: type descriptions and their REP-2016 hashes (`RIHS01_…`);
+//! * [`bycoms_msgs`]: our own gate events and robot states (`deploy/ros2/bycoms_msgs/`);
+//! * [`display`]: the terrain map, beacon markers and diagnostics;
 //! * [`msgs`]: the messages bycoms publishes (poses, `/tf`, paths, `/clock`)
 //!   and the `PoseStamped` a ROS 2 motion-capture driver sends;
 //! * [`rmw_zenoh`]: key expressions, liveliness tokens, GIDs, attachments,
@@ -15,7 +17,17 @@
 //! implementations (PyPI `rosbags`, `xxhash`, eclipse-zenoh's serializer)
 //! by `tests/golden.rs` and `tests/python/ros2_golden.py` at the root.
 
+/// A `pub static` type description: `description!(NAME, "pkg/msg/Type", [fields…])`.
+macro_rules! description {
+    ($static:ident, $name:literal, [$($field:expr),* $(,)?]) => {
+        #[doc = concat!("The description of `", $name, "`.")]
+        pub static $static: TypeDescription = TypeDescription { name: $name, fields: &[$($field),*] };
+    };
+}
+
+pub mod bycoms_msgs;
 pub mod cdr;
+pub mod display;
 pub mod msgs;
 pub mod rmw_zenoh;
 pub mod types;

@@ -25,13 +25,6 @@ pub trait RosMessage {
     }
 }
 
-macro_rules! description {
-    ($static:ident, $name:literal, [$($field:expr),* $(,)?]) => {
-        #[doc = concat!("The description of `", $name, "`.")]
-        pub static $static: TypeDescription = TypeDescription { name: $name, fields: &[$($field),*] };
-    };
-}
-
 description!(
     TIME,
     "builtin_interfaces/msg/Time",

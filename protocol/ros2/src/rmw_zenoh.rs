@@ -454,3 +454,19 @@ impl Publisher {
         Attachment { sequence_number, source_timestamp_ns: now_ns, gid: self.gid }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_endpoint_token_says_its_kind_and_topic() {
+        let sub = "@ros2_lv/2/aac3178e146ba6f1fc6e6a4085e77f21/0/10/MS/%/%/listener/%robot_1%pose/\
+                   geometry_msgs::msg::dds_::PoseStamped_/RIHS01_10f3/::,10:,:,:,,";
+        let view = TokenView::parse(sub).expect("a subscription's token");
+        assert_eq!((view.kind, view.topic.as_str()), (EntityKind::Subscription, "/robot_1/pose"));
+        let node = TokenView::parse("@ros2_lv/2/aac3178e146ba6f1fc6e6a4085e77f21/0/0/NN/%/%/listener");
+        assert_eq!(node.map(|v| (v.kind, v.topic)), Some((EntityKind::Node, String::new())));
+        assert_eq!(TokenView::parse(&sub.replace("@ros2_lv", "@other")), None);
+    }
+}

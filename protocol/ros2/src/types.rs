@@ -51,6 +51,36 @@ pub enum Primitive {
     String = 17,
 }
 
+impl Primitive {
+    /// Its name in a `.msg` file.
+    pub const fn msg_name(self) -> &'static str {
+        match self {
+            Self::Int8 => "int8",
+            Self::Uint8 => "uint8",
+            Self::Int16 => "int16",
+            Self::Uint16 => "uint16",
+            Self::Int32 => "int32",
+            Self::Uint32 => "uint32",
+            Self::Int64 => "int64",
+            Self::Uint64 => "uint64",
+            Self::Float32 => "float32",
+            Self::Float64 => "float64",
+            Self::Char => "char",
+            Self::Bool => "bool",
+            Self::Byte => "byte",
+            Self::String => "string",
+        }
+    }
+}
+
+/// `pkg/msg/Type` → `pkg/Type`, as a `.msg` file names a nested type.
+fn short_name(full: &str) -> String {
+    match full.split('/').collect::<Vec<_>>()[..] {
+        [pkg, _, name] => format!("{pkg}/{name}"),
+        _ => full.to_string(),
+    }
+}
+
 /// What one element of a field is.
 #[derive(Debug, Clone, Copy)]
 pub enum Base {
@@ -98,6 +128,11 @@ impl Field {
     /// An unbounded sequence of a nested type.
     pub const fn sequence(name: &'static str, t: &'static TypeDescription) -> Self {
         Self { name, base: Base::Nested(t), arity: Arity::Sequence }
+    }
+
+    /// An unbounded sequence of a primitive, `T[]`.
+    pub const fn prim_sequence(name: &'static str, p: Primitive) -> Self {
+        Self { name, base: Base::Primitive(p), arity: Arity::Sequence }
     }
 
     /// A fixed-size array of a primitive, `T[n]`.
@@ -205,6 +240,38 @@ impl TypeDescription {
             );
         }
         out.push_str("]}");
+    }
+
+    /// The type's `.msg` text as rosidl reads it: one `type name` line per
+    /// field (no constants, no comments), nested types as `pkg/Type`.
+    pub fn msg_text(&self) -> String {
+        let mut out = String::new();
+        for f in self.fields {
+            let base = match f.base {
+                Base::Primitive(p) => p.msg_name().to_string(),
+                Base::Nested(n) => short_name(n.name),
+            };
+            let suffix = match f.arity {
+                Arity::One => String::new(),
+                Arity::Array(n) => format!("[{n}]"),
+                Arity::BoundedSequence(n) => format!("[<={n}]"),
+                Arity::Sequence => "[]".into(),
+            };
+            let _ = writeln!(out, "{base}{suffix} {}", f.name);
+        }
+        out
+    }
+
+    /// The `ros2msg` schema of an MCAP bag as rosbag2 writes it
+    /// (`rosbag2_storage_mcap`'s `message_definition_cache.cpp`): the type's
+    /// text, then each type it refers to as a line of 80 `=`, `MSG: pkg/Type`
+    /// and its text.
+    pub fn ros2msg(&'static self) -> String {
+        let mut out = self.msg_text();
+        for t in self.referenced().values() {
+            let _ = write!(out, "\n{}\nMSG: {}\n{}", "=".repeat(80), short_name(t.name), t.msg_text());
+        }
+        out
     }
 
     /// The type hash, `RIHS01_` and 64 lowercase hex digits.

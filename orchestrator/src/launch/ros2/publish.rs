@@ -1,0 +1,508 @@
+//! The run as ROS 2 messages, computed once: which topics there are (name,
+//! type, QoS) and, for each thing the run does, which CDR message goes on
+//! which topic at which run time. Where they go is a [`Sink`]'s business:
+//! the live graph over rmw_zenoh (`super::Ros2Bridge`) or a rosbag2 MCAP
+//! file ([`super::bag`]); both are fed by this one publisher, so the bag and
+//! the live graph cannot differ.
+//!
+//! Topics (`<ns>` is the configured namespace): `/clock`, `/tf`,
+//! `<ns>/map` (the terrain, latched: transient local, depth 1),
+//! `<ns>/beacons` (each beacon and its ε circle), `/diagnostics` (real
+//! robots: battery, link, failsafe, from the gateway's reports), `<ns>/gate`
+//! (`bycoms_msgs/msg/GateEvent`, each gate decision), and per robot
+//! `<ns>/robot_<k>/pose`, `<ns>/robot_<k>/path` and `<ns>/robot_<k>/state`
+//! (`bycoms_msgs/msg/RobotState`: waiting at the start, then at each gate
+//! decision about it).
+//!
+//! Paths cost: a `nav_msgs/msg/Path` holds the whole trail, so it is sent
+//! at a bounded rate, at most once per [`PATH_PERIOD_US`] of run time per
+//! robot (and once more when the robot stops), and the trail keeps a pose
+//! only [`PATH_SPACING`] or more from the last one kept (its length grows
+//! with the distance driven, not with the run's duration).
+
+use std::collections::BTreeMap;
+
+use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Pose};
+use bycoms_ros2::bycoms_msgs::{gate_kind, robot_state, GateEvent as RosGateEvent, RobotState};
+use bycoms_ros2::display::{
+    level, marker_action, marker_type, ColorRgba, DiagnosticArray, DiagnosticStatus, Marker, MarkerArray,
+    OccupancyGrid,
+};
+use bycoms_ros2::msgs::{
+    Clock, Header, Path, Point, Pose as RosPose, PoseStamped, Quaternion, RosMessage, TfMessage, Time,
+    Vector3,
+};
+use bycoms_ros2::rmw_zenoh::Qos;
+use bycoms_ros2::types::TypeDescription;
+use bycoms_sim::terrain::Terrain;
+
+use super::{ros_messages, run_time, Ros2Config, WORLD_FRAME};
+
+/// One topic of the run in the ROS 2 graph.
+#[derive(Debug, Clone)]
+pub struct Topic {
+    /// Its fully qualified name (`/robot_1/pose`).
+    pub name: String,
+    /// Its type.
+    pub description: &'static TypeDescription,
+    /// The QoS it is offered with.
+    pub qos: Qos,
+}
+
+/// Where the run's ROS 2 messages go.
+pub trait Sink {
+    /// One message on topic `topic` (its index in [`RunMessages::topics`])
+    /// at `time_ns`, the run's time in nanoseconds.
+    fn send(&mut self, topic: usize, time_ns: u64, cdr: &[u8]);
+}
+
+/// A path is sent at most once per this much run time per robot.
+pub const PATH_PERIOD_US: u64 = 1_000_000;
+/// A path keeps a pose this far (frame units) or more from the last one kept.
+pub const PATH_SPACING: f64 = 0.1;
+/// Real robots' diagnostics from telemetry: at most once per this much run time per robot.
+pub const DIAGNOSTICS_PERIOD_US: u64 = 1_000_000;
+
+const CLOCK: usize = 0;
+const TF: usize = 1;
+const MAP: usize = 2;
+const BEACONS: usize = 3;
+const DIAGNOSTICS: usize = 4;
+const GATE: usize = 5;
+/// Topics before the robots' own, [`PER_ROBOT`] each (pose, path, state).
+const SHARED: usize = 6;
+const PER_ROBOT: usize = 3;
+
+/// A robot's trail and when its path was last sent.
+#[derive(Default)]
+struct Trail {
+    last: Option<Pose>,
+    path: Path,
+    sent_us: Option<u64>,
+    diagnostics_us: Option<u64>,
+}
+
+/// The run as ROS 2 messages (see the module docs).
+pub struct RunMessages {
+    topics: Vec<Topic>,
+    trails: Vec<Trail>,
+    beacons: BTreeMap<u32, Point>,
+    eps: f64,
+    now_us: u64,
+    clock_us: Option<u64>,
+}
+
+impl RunMessages {
+    /// The topics of a run of `robots` robots, nothing sent yet.
+    pub fn new(cfg: &Ros2Config, robots: u32) -> Self {
+        let ns = cfg.namespace.trim_end_matches('/');
+        let topic = |name: String, description, qos| Topic { name, description, qos };
+        let mut topics = vec![
+            topic("/clock".into(), Clock::DESCRIPTION, Qos::reliable(10)),
+            topic("/tf".into(), TfMessage::DESCRIPTION, Qos::reliable(10)),
+            topic(format!("{ns}/map"), OccupancyGrid::DESCRIPTION, Qos::transient_local(1)),
+            topic(format!("{ns}/beacons"), MarkerArray::DESCRIPTION, Qos::reliable(10)),
+            topic("/diagnostics".into(), DiagnosticArray::DESCRIPTION, Qos::reliable(10)),
+            topic(format!("{ns}/gate"), RosGateEvent::DESCRIPTION, Qos::reliable(10)),
+        ];
+        for k in 1..=robots {
+            topics.push(topic(cfg.pose_topic(k), PoseStamped::DESCRIPTION, Qos::reliable(10)));
+            topics.push(topic(format!("{ns}/robot_{k}/path"), Path::DESCRIPTION, Qos::reliable(10)));
+            topics.push(topic(format!("{ns}/robot_{k}/state"), RobotState::DESCRIPTION, Qos::reliable(10)));
+        }
+        let trails = (0..robots).map(|_| Trail::default()).collect();
+        Self { topics, trails, beacons: BTreeMap::new(), eps: 0.0, now_us: 0, clock_us: None }
+    }
+
+    /// Every topic, in the order [`Sink::send`] numbers them.
+    pub fn topics(&self) -> &[Topic] {
+        &self.topics
+    }
+
+    fn send<M: RosMessage>(&self, sink: &mut dyn Sink, topic: usize, time_us: u64, msg: &M) {
+        sink.send(topic, time_us.saturating_mul(1_000), &msg.to_cdr());
+    }
+
+    /// The run's world: the terrain as the (latched) map at time 0, and ε,
+    /// the beacons' circles' radius.
+    pub fn world(&mut self, terrain: &Terrain, eps: f64, sink: &mut dyn Sink) {
+        self.eps = eps;
+        self.send(sink, MAP, 0, &occupancy_grid(terrain));
+        for index in 0..self.trails.len() {
+            self.send_state(index, robot_state::WAITING, sink);
+        }
+    }
+
+    fn send_state(&self, index: usize, state: u8, sink: &mut dyn Sink) {
+        let t = self.now_us;
+        let last = self.trails[index].last;
+        let msg = RobotState {
+            header: Header { stamp: run_time(t), frame_id: WORLD_FRAME.into() },
+            robot: index as u32 + 1,
+            state,
+            x: last.map_or(0.0, |p| p.x),
+            y: last.map_or(0.0, |p| p.y),
+            heading: last.map_or(0.0, |p| p.heading),
+            step: last.map_or(0, |p| p.step),
+        };
+        self.send(sink, SHARED + PER_ROBOT * index + 2, t, &msg);
+    }
+
+    /// A robot's pose: `/clock` when the run's time advanced, its pose, its
+    /// transform on `/tf`, and its path when due.
+    pub fn pose(&mut self, pose: &Pose, sink: &mut dyn Sink) {
+        let Some(index) = (pose.robot.0 as usize).checked_sub(1).filter(|i| *i < self.trails.len()) else {
+            return;
+        };
+        let t = pose.time_us;
+        self.now_us = self.now_us.max(t);
+        if self.clock_us.is_none_or(|c| t > c) {
+            self.clock_us = Some(t);
+            self.send(sink, CLOCK, t, &Clock { clock: run_time(t) });
+        }
+        let (stamped, transform) = ros_messages(pose);
+        self.send(sink, SHARED + PER_ROBOT * index, t, &stamped);
+        self.send(sink, TF, t, &TfMessage { transforms: vec![transform] });
+        let trail = &mut self.trails[index];
+        trail.last = Some(*pose);
+        let far = |last: &PoseStamped| {
+            let (a, b) = (last.pose.position, stamped.pose.position);
+            (a.x - b.x).hypot(a.y - b.y) >= PATH_SPACING
+        };
+        if trail.path.poses.last().is_none_or(far) {
+            trail.path.poses.push(stamped);
+        }
+        if trail.sent_us.is_none_or(|s| t >= s + PATH_PERIOD_US) {
+            self.send_path(index, t, sink);
+        }
+        self.creep(pose, sink);
+    }
+
+    /// A beacon that creeps on is a beacon at its latest pose (as the
+    /// launch core's beacon table keeps it); sent again once it moved
+    /// [`PATH_SPACING`] or more.
+    fn creep(&mut self, pose: &Pose, sink: &mut dyn Sink) {
+        let Some(at) = self.beacons.get_mut(&pose.robot.0) else {
+            return;
+        };
+        if (at.x - pose.x).hypot(at.y - pose.y) >= PATH_SPACING {
+            (at.x, at.y) = (pose.x, pose.y);
+            let t = self.now_us;
+            self.send(sink, BEACONS, t, &beacon_markers(&self.beacons, self.eps, run_time(t)));
+        }
+    }
+
+    fn send_path(&mut self, index: usize, t: u64, sink: &mut dyn Sink) {
+        let trail = &mut self.trails[index];
+        trail.sent_us = Some(t);
+        trail.path.header = Header { stamp: run_time(t), frame_id: WORLD_FRAME.into() };
+        let path = std::mem::take(&mut trail.path);
+        self.send(sink, SHARED + PER_ROBOT * index + 1, t, &path);
+        self.trails[index].path = path;
+    }
+
+    /// A gate decision: a robot stopped short of the goal (or died) is a
+    /// beacon, and the beacons are sent again; a stopped robot's path is
+    /// sent once more, whole.
+    pub fn gate(&mut self, event: &GateEvent, sink: &mut dyn Sink) {
+        let t = self.now_us;
+        let (kind, state) = match event.kind {
+            GateKind::Deployed => (gate_kind::DEPLOYED, robot_state::MOVING),
+            GateKind::Stopped { arrived: true } => (gate_kind::STOPPED, robot_state::ARRIVED),
+            GateKind::Stopped { arrived: false } => (gate_kind::STOPPED, robot_state::BEACON),
+            GateKind::Died => (gate_kind::DIED, robot_state::LOST),
+            GateKind::Timeout => (gate_kind::TIMEOUT, robot_state::TIMED_OUT),
+        };
+        let ros = RosGateEvent {
+            stamp: run_time(t),
+            robot: event.robot.0,
+            kind,
+            arrived: matches!(event.kind, GateKind::Stopped { arrived: true }),
+            x: event.x,
+            y: event.y,
+            step: event.step,
+        };
+        self.send(sink, GATE, t, &ros);
+        let index = (event.robot.0 as usize).checked_sub(1).filter(|i| *i < self.trails.len());
+        if let Some(i) = index {
+            self.send_state(i, state, sink);
+        }
+        if let (Some(i), GateKind::Stopped { .. } | GateKind::Died | GateKind::Timeout) = (index, event.kind)
+        {
+            if !self.trails[i].path.poses.is_empty() {
+                self.send_path(i, t, sink);
+            }
+        }
+        if matches!(event.kind, GateKind::Stopped { arrived: false } | GateKind::Died) {
+            self.beacons.insert(event.robot.0, Point { x: event.x, y: event.y, z: 0.0 });
+            self.send(sink, BEACONS, t, &beacon_markers(&self.beacons, self.eps, run_time(t)));
+        }
+    }
+
+    /// An agent's report: a real robot's telemetry (at most once per
+    /// [`DIAGNOSTICS_PERIOD_US`]), link and failsafe reports become
+    /// `/diagnostics`; other reports carry no health.
+    pub fn report(&mut self, report: &FromAgent, sink: &mut dyn Sink) {
+        let robot = report.robot().0;
+        let Some(index) = (robot as usize).checked_sub(1).filter(|i| *i < self.trails.len()) else {
+            return;
+        };
+        let t = self.now_us;
+        if let FromAgent::Telemetry(_) = report {
+            let due = &mut self.trails[index].diagnostics_us;
+            if due.is_some_and(|s| t < s + DIAGNOSTICS_PERIOD_US) {
+                return;
+            }
+            *due = Some(t);
+        }
+        let Some(status) = diagnostic(report) else {
+            return;
+        };
+        let header = Header { stamp: run_time(t), frame_id: String::new() };
+        self.send(sink, DIAGNOSTICS, t, &DiagnosticArray { header, status: vec![status] });
+    }
+}
+
+/// The terrain as an occupancy grid: one cell per terrain cell (resolution
+/// 1 frame unit), row by row from (0, 0), blocked 100 and free 0.
+pub fn occupancy_grid(terrain: &Terrain) -> OccupancyGrid {
+    let width = u32::try_from(terrain.width()).unwrap_or(u32::MAX);
+    let height = u32::try_from(terrain.height()).unwrap_or(u32::MAX);
+    OccupancyGrid {
+        header: Header { stamp: Time::default(), frame_id: WORLD_FRAME.into() },
+        map_load_time: Time::default(),
+        resolution: 1.0,
+        width,
+        height,
+        origin: RosPose::default(),
+        data: terrain.blocked_cells().iter().map(|&b| if b { 100 } else { 0 }).collect(),
+    }
+}
+
+/// Points of an ε circle's outline.
+const CIRCLE_POINTS: usize = 48;
+
+/// Each beacon as a sphere (namespace `beacons`) and its ε circle as a line
+/// strip (namespace `eps`), both with the robot's number as id.
+pub fn beacon_markers(beacons: &BTreeMap<u32, Point>, eps: f64, stamp: Time) -> MarkerArray {
+    let header = Header { stamp, frame_id: WORLD_FRAME.into() };
+    let mut markers = Vec::with_capacity(beacons.len() * 2);
+    for (&robot, &at) in beacons {
+        let id = i32::try_from(robot).unwrap_or(i32::MAX);
+        let marker = |ns: &str, kind, scale: f64, color| Marker {
+            header: header.clone(),
+            ns: ns.into(),
+            id,
+            kind,
+            action: marker_action::ADD,
+            pose: RosPose { position: at, orientation: Quaternion::default() },
+            scale: Vector3(Point { x: scale, y: scale, z: scale }),
+            color,
+            ..Marker::default()
+        };
+        markers.push(marker(
+            "beacons",
+            marker_type::SPHERE,
+            0.5,
+            ColorRgba { r: 1.0, g: 0.6, b: 0.0, a: 1.0 },
+        ));
+        let mut circle =
+            marker("eps", marker_type::LINE_STRIP, 0.05, ColorRgba { r: 1.0, g: 0.6, b: 0.0, a: 0.8 });
+        circle.points = (0..=CIRCLE_POINTS)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / CIRCLE_POINTS as f64;
+                Point { x: eps * a.cos(), y: eps * a.sin(), z: 0.0 }
+            })
+            .collect();
+        markers.push(circle);
+    }
+    MarkerArray { markers }
+}
+
+/// A real robot's health as a diagnostic status, named `bycoms/robot_<k>`.
+fn diagnostic(report: &FromAgent) -> Option<DiagnosticStatus> {
+    let robot = report.robot().0;
+    let status = |lvl, message: String, values: Vec<(&str, String)>| DiagnosticStatus {
+        level: lvl,
+        name: format!("bycoms/robot_{robot}"),
+        message,
+        hardware_id: format!("robot_{robot}"),
+        values: values.into_iter().map(|(k, v)| (k.to_string(), v)).collect(),
+    };
+    Some(match report {
+        FromAgent::Telemetry(t) => {
+            let low = t.health & 1 != 0;
+            let lvl = if low { level::WARN } else { level::OK };
+            let message = if low { "battery low" } else { "ok" };
+            status(
+                lvl,
+                message.into(),
+                vec![
+                    ("battery_mv", t.battery_mv.to_string()),
+                    ("health", format!("{:#04x}", t.health)),
+                    ("state", format!("{:?}", t.state)),
+                    ("robot_drops", t.robot_drops.to_string()),
+                ],
+            )
+        }
+        FromAgent::Link(l) => status(
+            if l.up { level::OK } else { level::ERROR },
+            if l.up { "link up".into() } else { format!("link lost ({} ms silent)", l.silent_ms) },
+            vec![
+                ("link_up", l.up.to_string()),
+                ("silent_ms", l.silent_ms.to_string()),
+                ("refused", l.refused.to_string()),
+            ],
+        ),
+        FromAgent::Failsafe(f) => status(
+            level::ERROR,
+            format!("failsafe stopped the robot ({} ms without the orchestrator)", f.silent_ms),
+            vec![("failsafe", "true".into()), ("silent_ms", f.silent_ms.to_string())],
+        ),
+        _ => return None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bycoms_protocol::RobotId;
+
+    /// Every message sent: (topic name, run time ns, CDR).
+    #[derive(Default)]
+    struct Sent(Vec<(usize, u64, Vec<u8>)>);
+
+    impl Sink for Sent {
+        fn send(&mut self, topic: usize, time_ns: u64, cdr: &[u8]) {
+            self.0.push((topic, time_ns, cdr.to_vec()));
+        }
+    }
+
+    impl Sent {
+        fn on(&self, run: &RunMessages, name: &str) -> Vec<u64> {
+            self.0.iter().filter(|(t, ..)| run.topics()[*t].name == name).map(|(_, ns, _)| *ns).collect()
+        }
+    }
+
+    fn pose(robot: u32, x: f64, time_us: u64) -> Pose {
+        Pose { robot: RobotId(robot), x, y: 1.0, heading: 0.0, step: time_us / 100_000, time_us }
+    }
+
+    #[test]
+    fn the_topics_are_the_shared_ones_then_each_robots_pose_path_and_state() {
+        let run = RunMessages::new(&Ros2Config { namespace: "/lab".into(), ..Ros2Config::default() }, 2);
+        let names: Vec<_> = run.topics().iter().map(|t| t.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "/clock",
+                "/tf",
+                "/lab/map",
+                "/lab/beacons",
+                "/diagnostics",
+                "/lab/gate",
+                "/lab/robot_1/pose",
+                "/lab/robot_1/path",
+                "/lab/robot_1/state",
+                "/lab/robot_2/pose",
+                "/lab/robot_2/path",
+                "/lab/robot_2/state"
+            ]
+        );
+        assert_eq!(run.topics()[MAP].qos, Qos::transient_local(1), "the map is latched");
+    }
+
+    #[test]
+    fn clock_once_per_time_and_paths_at_most_once_a_second_of_run_time() {
+        let mut run = RunMessages::new(&Ros2Config::default(), 2);
+        let mut sent = Sent::default();
+        run.world(&Terrain::new(4, 3), 2.0, &mut sent);
+        // 3 s of run time at 10 Hz, both robots each step.
+        for step in 0..30u64 {
+            for robot in [1, 2] {
+                run.pose(&pose(robot, step as f64 * 0.06, step * 100_000), &mut sent);
+            }
+        }
+        assert_eq!(sent.on(&run, "/map"), [0]);
+        assert_eq!(sent.on(&run, "/clock").len(), 30, "one /clock per run time, not per robot");
+        assert_eq!(sent.on(&run, "/tf").len(), 60);
+        assert_eq!(sent.on(&run, "/robot_1/pose").len(), 30);
+        assert_eq!(sent.on(&run, "/robot_1/path"), [0, 1_000_000_000, 2_000_000_000]);
+        // Poses 0.06 apart: the trail keeps every other one (PATH_SPACING 0.1).
+        assert_eq!(run.trails[0].path.poses.len(), 15);
+        let grid = sent.0.iter().find(|(t, ..)| *t == MAP).expect("map");
+        assert_eq!(grid.2, occupancy_grid(&Terrain::new(4, 3)).to_cdr());
+    }
+
+    #[test]
+    fn a_stuck_or_dead_robot_is_a_beacon_and_an_arrived_one_is_not() {
+        let mut run = RunMessages::new(&Ros2Config::default(), 3);
+        let mut sent = Sent::default();
+        run.world(&Terrain::new(4, 3), 2.0, &mut sent);
+        run.pose(&pose(1, 1.0, 500_000), &mut sent);
+        let stop = |robot, kind| GateEvent { robot: RobotId(robot), kind, x: 1.0, y: 1.0, step: 5 };
+        run.gate(&stop(1, GateKind::Stopped { arrived: false }), &mut sent);
+        run.gate(&stop(2, GateKind::Died), &mut sent);
+        run.gate(&stop(3, GateKind::Stopped { arrived: true }), &mut sent);
+        assert_eq!(sent.on(&run, "/beacons"), [500_000_000, 500_000_000]);
+        assert_eq!(sent.on(&run, "/robot_1/path").len(), 2, "its first, and its whole path when it stopped");
+        assert_eq!(sent.on(&run, "/gate").len(), 3, "every gate decision");
+        assert_eq!(sent.on(&run, "/robot_1/state"), [0, 500_000_000], "waiting, then a beacon");
+        let state =
+            sent.0.iter().rev().find(|(t, ..)| run.topics()[*t].name == "/robot_1/state").expect("state");
+        let beacon = RobotState {
+            header: Header { stamp: run_time(500_000), frame_id: WORLD_FRAME.into() },
+            robot: 1,
+            state: robot_state::BEACON,
+            x: 1.0,
+            y: 1.0,
+            heading: 0.0,
+            step: 5,
+        };
+        assert_eq!(state.2, beacon.to_cdr());
+        let markers = beacon_markers(&run.beacons, 2.0, run_time(500_000));
+        assert_eq!(markers.markers.len(), 4, "robots 1 and 2: a sphere and an ε circle each");
+        let circle = &markers.markers[1];
+        assert_eq!((circle.ns.as_str(), circle.points.len()), ("eps", CIRCLE_POINTS + 1));
+        assert!(circle.points.iter().all(|p| (p.x.hypot(p.y) - 2.0).abs() < 1e-9), "radius ε");
+        // A beacon that creeps on is sent again at its new place.
+        run.pose(&pose(1, 1.5, 600_000), &mut sent);
+        assert_eq!(sent.on(&run, "/beacons").len(), 3);
+        assert_eq!(run.beacons[&1].x, 1.5);
+    }
+
+    #[test]
+    fn diagnostics_from_telemetry_at_most_once_a_second_and_every_link_report() {
+        use bycoms_protocol::msg::{LinkStatus, Telemetry};
+        let mut run = RunMessages::new(&Ros2Config::default(), 1);
+        let mut sent = Sent::default();
+        let telemetry = |battery_mv| {
+            FromAgent::Telemetry(Telemetry {
+                robot: RobotId(1),
+                period: 0,
+                state: bycoms_protocol::msg::DriveState::Driving,
+                mode: 1,
+                mics: [0.0; 6],
+                v_ave: 0.0,
+                gradient: None,
+                left: 0.0,
+                right: 0.0,
+                battery_mv,
+                health: 1,
+                robot_drops: 0,
+            })
+        };
+        for step in 0..20u64 {
+            run.pose(&pose(1, 0.0, step * 100_000), &mut sent);
+            run.report(&telemetry(3700), &mut sent);
+        }
+        run.report(
+            &FromAgent::Link(LinkStatus { robot: RobotId(1), up: false, silent_ms: 600, refused: 2 }),
+            &mut sent,
+        );
+        assert_eq!(sent.on(&run, "/diagnostics"), [0, 1_000_000_000, 1_900_000_000]);
+        let status = diagnostic(&telemetry(3700)).expect("telemetry is health");
+        assert_eq!((status.level, status.message.as_str()), (level::WARN, "battery low"));
+        assert!(status.values.contains(&("battery_mv".into(), "3700".into())));
+    }
+}
