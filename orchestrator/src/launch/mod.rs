@@ -234,14 +234,7 @@ pub fn run_serving(
         }
         None => None,
     };
-    let agents = cfg.agents.open(
-        agent,
-        LaunchConfig::secs(cfg.supervision.register_timeout),
-        LaunchConfig::secs(cfg.supervision.heartbeat_timeout),
-        LaunchConfig::secs(cfg.supervision.link_grace),
-        LaunchConfig::secs(cfg.supervision.heartbeat_interval * f64::from(agents::remote::QUIET_HEARTBEATS)),
-        links,
-    )?;
+    let agents = cfg.agents.open(agent, links)?;
     let stop = interrupt_flag();
     stop.store(false, Ordering::SeqCst);
     let driver = driver::Driver::new(driver::Parts {

@@ -5,9 +5,10 @@
 //! them (which placement settings apply, the budget in steps, the wall
 //! period) happens once, here.
 
+use super::agents::remote::QUIET_HEARTBEATS;
 use super::agents::AgentSource;
 use super::config::{Clock, LaunchConfig};
-use super::core::{AgentTraits, Setup};
+use super::core::{AgentTraits, Setup, Supervision};
 use super::poses::PoseSource;
 use super::World;
 use crate::gate::GateParams;
@@ -16,6 +17,7 @@ use bycoms_runtime::BusArgs;
 use bycoms_sim::sim_agent::{AgentArgs, RunSettings, DEFAULT_SETTINGS_TIMEOUT_S};
 use bycoms_sim::Vec2;
 use std::path::PathBuf;
+use std::time::Duration;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 /// The core's setup for a launch of `cfg` in `world`.
@@ -56,6 +58,24 @@ pub fn setup(
         },
         unix_base_ms: SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_millis() as u64).unwrap_or(0),
         settings: run_settings(template, world).fingerprint(),
+        supervision: supervision(cfg, agents.held_when_unreachable(), agents.robot_link_grace()),
+    }
+}
+
+/// The supervision timers' settings: the config's timeouts, with the link
+/// grace and the quiet rule for agents that can come back (`held`,
+/// [`AgentSource::held_when_unreachable`]) and the robot-link grace for
+/// sources of real robots ([`AgentSource::robot_link_grace`]).
+pub fn supervision(cfg: &LaunchConfig, held: bool, robot_link_grace: Option<Duration>) -> Supervision {
+    let us = |s: f64| (s * 1e6).round() as u64;
+    let sup = &cfg.supervision;
+    Supervision {
+        on: true,
+        register_timeout_us: us(sup.register_timeout),
+        heartbeat_timeout_us: us(sup.heartbeat_timeout),
+        link_grace_us: if held { us(sup.link_grace) } else { 0 },
+        quiet_us: if held { us(sup.heartbeat_interval * f64::from(QUIET_HEARTBEATS)) } else { 0 },
+        robot_link_grace_us: robot_link_grace.map(|g| g.as_micros() as u64),
     }
 }
 

@@ -10,7 +10,7 @@ use super::*;
 const START_TOLERANCE: f64 = 1e-6;
 
 impl Core {
-    pub(super) fn on_started(&mut self, id: u32, pid: Option<u32>, how: &str) {
+    pub(super) fn on_started(&mut self, now: u64, id: u32, pid: Option<u32>, how: &str) {
         if let Some(slot) = self.slot(id) {
             slot.pid = pid;
             slot.alive = true;
@@ -21,6 +21,7 @@ impl Core {
                 SlotState::Spawned
             };
         }
+        self.watch_started(now, id);
         self.note(format!("robot {id}: {how}"));
         self.event(id, EventKind::Spawned, pid, None);
     }
@@ -74,6 +75,7 @@ impl Core {
             return;
         }
         self.outputs.push_back(Output::Heard(id));
+        self.watch_heard(now, id);
         let current = self.tick.as_ref().map(|t| t.step);
         let Some(slot) = self.slot(id) else { return };
         match msg {
@@ -120,7 +122,7 @@ impl Core {
                 if !l.up {
                     tracing::warn!(robot = id, silent_ms = l.silent_ms, "robot {id}'s link is lost");
                 }
-                self.outputs.push_back(Output::RobotLink(id, l.up));
+                self.watch_robot_link(now, id, l.up);
             }
             FromAgent::Failsafe(f) => {
                 // Said when it fires and again whenever the agent hears us
@@ -315,6 +317,7 @@ impl Core {
 
     /// Robot `id`'s agent is gone: the dead-robot policy.
     pub(super) fn on_death(&mut self, now: u64, id: u32, gone: Gone) {
+        self.watch_stop(id);
         if let Some(tick) = self.tick.as_mut() {
             tick.awaiting.remove(&id);
             if tick.pose_of == Some(id) {
@@ -339,6 +342,7 @@ impl Core {
         }
         slot.alive = false;
         slot.death = Some(Death { reason: reason.clone(), noticed_unix_ms });
+        slot.gone = Some(gone);
         let state = slot.state;
         let seen = slot.last_pose.is_some();
         self.note(format!("robot {id}: agent lost — {reason}"));
@@ -377,6 +381,7 @@ impl Core {
             slot.restarts += 1;
             slot.state = SlotState::Waiting;
             slot.death = None;
+            slot.gone = None;
             self.note(format!("robot {id}: its agent is gone before it registered; starting it once more"));
             return None;
         }

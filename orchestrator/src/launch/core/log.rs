@@ -35,14 +35,23 @@ pub enum Call {
     Advance(u64),
 }
 
-/// The setup's bytes in a recording.
+/// The setup's bytes in a recording: the setup, then its supervision
+/// settings (appended, so a setup recorded before they existed decodes).
 pub fn encode_setup(setup: &Setup) -> Vec<u8> {
-    postcard::to_allocvec(setup).unwrap_or_default()
+    let mut bytes = postcard::to_allocvec(setup).unwrap_or_default();
+    bytes.extend(postcard::to_allocvec(&setup.supervision).unwrap_or_default());
+    bytes
 }
 
-/// A recorded setup.
+/// A recorded setup. One recorded before the core kept the supervision
+/// timers has none after it: it decodes with them off, and its log's
+/// recorded verdicts (`Input::Gone`, `Input::Reach`) replay as they ran.
 pub fn decode_setup(bytes: &[u8]) -> Result<Setup, postcard::Error> {
-    postcard::from_bytes(bytes)
+    let (mut setup, rest): (Setup, &[u8]) = postcard::take_from_bytes(bytes)?;
+    if !rest.is_empty() {
+        setup.supervision = postcard::from_bytes(rest)?;
+    }
+    Ok(setup)
 }
 
 /// A batch of calls' bytes in a recording.

@@ -44,11 +44,13 @@ pub mod referee;
 mod silence;
 mod slot;
 mod steps;
+mod timers;
 mod wait;
 
 pub use plausible::Implausible;
 pub use referee::{Closed, Referee};
 pub use slot::{FrameCount, Slot, SlotState};
+pub use timers::Supervision;
 pub use wait::{AnswerTime, AnswerWait, MIN_RESEND_US, RESEND_US};
 
 use super::agents::{Gone, Reach};
@@ -137,6 +139,11 @@ pub struct Setup {
     /// The fingerprint of the run's settings: an agent that registers with
     /// another (non-zero) one is refused.
     pub settings: u64,
+    /// The supervision timers' settings (`timers.rs`). Not in the setup's
+    /// own encoding: `log::encode_setup` appends it, so a setup recorded
+    /// before it existed still decodes (with the timers off).
+    #[serde(skip)]
+    pub supervision: Supervision,
 }
 
 /// Something that happened, handed to [`Core::handle`].
@@ -172,6 +179,10 @@ pub enum Input {
     /// process's last error line: the reason it gives for an absent or
     /// lost robot). Last, so older recorded logs still decode.
     Said(u32, String),
+    /// Robot `.0`'s agent's liveliness token came back (`true`) or went
+    /// (`false`): a fact; the core's timers decide what it means
+    /// (`timers.rs`). Last, so older recorded logs still decode.
+    Token(u32, bool),
 }
 
 /// Something to do, from [`Core::poll_output`].
@@ -196,10 +207,9 @@ pub enum Output {
     Bad(BadKind, String),
     /// End robot `.0`'s agent now.
     Kill(u32),
-    /// Robot `.0`'s agent was heard from (its watchdog restarts).
+    /// Robot `.0`'s agent was heard from (registered and alive: a source
+    /// asks an agent never heard from to end differently at wind-down).
     Heard(u32),
-    /// What robot `.0`'s gateway says about its robot's link.
-    RobotLink(u32, bool),
     /// What is sent from now on belongs to this simulated time, ns.
     SimTime(u64),
     /// Ask the operator to place a robot at the start.
@@ -326,6 +336,8 @@ pub struct Core {
     /// When motion capture last handed over each robot's pose, µs
     /// (`silence.rs`).
     mocap_heard: Vec<Option<u64>>,
+    /// Each robot's supervision timers (`timers.rs`).
+    watches: Vec<timers::Watch>,
 }
 
 impl Core {
@@ -359,6 +371,7 @@ impl Core {
             ending: None,
             beacons: beacons::BeaconTable::default(),
             mocap_heard: vec![None; setup.robots as usize],
+            watches: vec![timers::Watch::default(); setup.robots as usize],
             setup,
         }
     }
@@ -466,6 +479,9 @@ impl Core {
         if let Some(t) = self.mocap_due() {
             at(t);
         }
+        if let Some(t) = self.supervision_due() {
+            at(t);
+        }
         due
     }
 
@@ -478,7 +494,7 @@ impl Core {
             return;
         }
         match input {
-            Input::Started { robot, pid, how } => self.on_started(robot, pid, &how),
+            Input::Started { robot, pid, how } => self.on_started(now, robot, pid, &how),
             Input::Failed(e) => {
                 self.fatal.get_or_insert(e);
             }
@@ -487,15 +503,7 @@ impl Core {
                 self.mocap_heard(now, topic);
                 self.on_pose(now, topic, pose);
             }
-            Input::Gone(id, gone) => {
-                // A robot lost with the room is not judged dead for it: the
-                // launch ends saying the room is gone (`silence.rs`).
-                let lost_link = matches!(gone, Gone::RobotLinkLost).then_some(id);
-                match self.mocap_gone(now, lost_link) {
-                    Some(error) => self.fatal = Some(error),
-                    None => self.on_death(now, id, gone),
-                }
-            }
+            Input::Gone(id, gone) => self.gone(now, id, gone),
             Input::Reach(id, change) => self.on_reach(now, id, change),
             Input::Interrupt => self.interrupted = true,
             Input::Said(id, words) => {
@@ -503,6 +511,18 @@ impl Core {
                     slot.last_error = Some(words);
                 }
             }
+            Input::Token(id, present) => self.watch_token(now, id, present),
+        }
+    }
+
+    /// Robot `id`'s agent is gone (reported, or by a timer). A robot lost
+    /// with the room is not judged dead for it: the launch ends saying the
+    /// room is gone (`silence.rs`).
+    fn gone(&mut self, now: u64, id: u32, gone: Gone) {
+        let lost_link = matches!(gone, Gone::RobotLinkLost).then_some(id);
+        match self.mocap_gone(now, lost_link) {
+            Some(error) => self.fatal = Some(error),
+            None => self.on_death(now, id, gone),
         }
     }
 

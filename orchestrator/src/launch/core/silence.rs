@@ -150,6 +150,9 @@ mod tests {
             },
             unix_base_ms: 0,
             settings: 0,
+            // The robots' links are lost by hand here (`Input::Gone`): the
+            // timers that judge them are `timers.rs`'s tests.
+            supervision: Supervision::default(),
         }
     }
 

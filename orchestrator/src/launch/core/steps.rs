@@ -7,6 +7,7 @@ use super::*;
 impl Core {
     /// Takes every decision due at `now`.
     pub fn advance(&mut self, now: u64) {
+        self.supervise(now);
         loop {
             if self.ending.is_some() {
                 return;

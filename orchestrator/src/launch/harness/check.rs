@@ -90,6 +90,7 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
     if arrived > 1 || (arrived == 1) != (ending.outcome == Outcome::Arrived) {
         return Err(format!("{arrived} robots arrived, outcome {:?}", ending.outcome));
     }
+    notices(report)?;
     // Re-sends are bounded: at most every awaited robot once a second, and
     // a few for each message lost (a wait's first re-sends come after a
     // few answer times, each twice as late as the one before).
@@ -101,6 +102,22 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
             report.resends,
             report.end_us / 1_000_000
         ));
+    }
+    Ok(())
+}
+
+/// Every crash of a running agent and every cut of its link is noticed
+/// (the agent lost, or unreachable) within [`NOTICE_US`] of virtual time,
+/// unless the launch ended first.
+fn notices(report: &Report) -> Result<(), String> {
+    for &(id, at) in &report.faults {
+        let until = at + NOTICE_US;
+        if report.end_us < until {
+            continue;
+        }
+        if !report.noticed.iter().any(|&(r, t)| r == id && (at..=until).contains(&t)) {
+            return Err(format!("robot {id}'s crash or cut at {at} µs was not noticed within 500 ms"));
+        }
     }
     Ok(())
 }

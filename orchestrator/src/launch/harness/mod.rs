@@ -36,10 +36,11 @@ pub use net::{Link, Net, Packet, Partition};
 pub use schedule::{Crash, Foreign, Schedule};
 use world::play;
 
-use super::agents::{Gone, Reach};
+use super::agents::Gone;
 use super::config::{LaunchConfig, Missing, OnDeath};
 use super::core::log::{Call, Logged};
 use super::core::{AgentTraits, Ending, Input, Output, Setup, SlotState};
+use super::events::EventKind;
 use super::summary::Outcome;
 use crate::gate::GateParams;
 use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Heartbeat, Pose, Register, ToAgent};
@@ -151,13 +152,26 @@ pub struct Report {
     pub gate_times_us: Vec<u64>,
     /// When each robot's first registration reached the core, µs.
     pub registered_us: Vec<Option<u64>>,
+    /// Each crash of a running agent and each cut of its link, (robot, µs),
+    /// while the core held it reachable.
+    pub faults: Vec<(u32, u64)>,
+    /// When the core noticed a robot's agent lost or unreachable (its
+    /// `AgentLost` and `LinkLost` events), (robot, µs).
+    pub noticed: Vec<(u32, u64)>,
 }
+
+/// A crash or a cut link is noticed within this long, µs (the README's
+/// promise: a dead robot or a cut link is seen within 500 ms).
+pub const NOTICE_US: u64 = 500_000;
 
 /// The core's setup for `case` with agents of `schedule`'s kind and clock.
 pub fn setup(case: &Case, schedule: &Schedule) -> Setup {
     let remote = schedule.remote;
     let speed = schedule.realtime.unwrap_or(1.0);
-    let cfg = LaunchConfig::default();
+    let mut cfg = LaunchConfig::default();
+    // The harness's agents beat every 0.5 s (`agent.rs`): the quiet rule
+    // (four beats) follows the beat the agents keep.
+    cfg.supervision.heartbeat_interval = 0.5;
     let run = case.run_config();
     let period_us = (run.kinematics.dt * 1e6).round() as u64;
     Setup {
@@ -194,6 +208,7 @@ pub fn setup(case: &Case, schedule: &Schedule) -> Setup {
         },
         unix_base_ms: 0,
         settings: SETTINGS,
+        supervision: super::setup::supervision(&cfg, remote, None),
     }
 }
 
