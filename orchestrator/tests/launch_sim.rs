@@ -17,8 +17,9 @@
 //! `BYCOMS_SIM_SCHEDULES` sets how many schedules `schedules_keep_the_properties` draws
 //! (default 10 000).
 
+use bycoms_orchestrator::launch::agents::Gone;
 use bycoms_orchestrator::launch::config::{Missing, OnDeath};
-use bycoms_orchestrator::launch::core::SlotState;
+use bycoms_orchestrator::launch::core::{DiedWhen, Fault, SlotState};
 use bycoms_orchestrator::launch::harness::{self, Case, Crash, Foreign, Partition, Report, Schedule};
 use bycoms_orchestrator::launch::Outcome;
 use bycoms_protocol::msg::GateKind;
@@ -71,8 +72,10 @@ fn schedules_keep_the_properties() {
                 );
             }
             let ending = report.ending.expect("checked");
-            // The kind of error, without the robot numbers.
-            let error = ending.error.map(|e| e.chars().filter(|c| !c.is_ascii_digit()).take(60).collect());
+            // The kind of error: its variant (the core's typed fault).
+            let error = ending
+                .error
+                .map(|e| format!("{e:?}").split([' ', '(', '{']).next().unwrap_or("").to_string());
             (format!("{:?}", ending.outcome), error, report.bad, report.resends)
         })
         .collect();
@@ -360,7 +363,11 @@ fn an_agent_dying_before_it_registers_is_started_once_more_then_its_robot_is_abs
     let report = harness::run(&strict, &s);
     let ending = report.ending.unwrap();
     assert_eq!(ending.outcome, Outcome::Error);
-    assert!(ending.error.unwrap().contains("robot 1's agent never registered"));
+    assert!(
+        matches!(ending.error, Some(Fault::NeverRegistered { robot: 1, why: Gone::Exited(_), .. })),
+        "{:?}",
+        ending.error
+    );
 }
 
 #[test]
@@ -378,7 +385,14 @@ fn an_agent_dying_while_deployed_costs_one_robot_or_aborts() {
     strict.on_death = OnDeath::Abort;
     let ending = harness::run(&strict, &s).ending.unwrap();
     assert_eq!(ending.outcome, Outcome::Error);
-    assert!(ending.error.unwrap().contains("robot 1's agent died while moving"));
+    assert!(
+        matches!(
+            ending.error,
+            Some(Fault::Died { robot: 1, when: DiedWhen::Moving, why: Gone::Exited(_), .. })
+        ),
+        "{:?}",
+        ending.error
+    );
 }
 
 #[test]
@@ -390,10 +404,10 @@ fn when_no_agent_ever_registers_the_launch_ends_with_an_error_naming_the_first()
     harness::check(&report, &s).unwrap();
     let ending = report.ending.unwrap();
     assert_eq!(ending.outcome, Outcome::Error);
-    let error = ending.error.unwrap();
+    let error = ending.error.expect("an error");
     assert!(
-        error.contains("robot 1's agent never registered") && error.contains("did not register in time"),
-        "{error}"
+        matches!(error, Fault::NoneRegistered { robot: 1, why: Some(Gone::NeverRegistered), .. }),
+        "{error:?}"
     );
     assert!(
         report.robots.iter().all(|r| r.0 == SlotState::Absent),
@@ -429,9 +443,9 @@ fn remote_robots_are_needed_only_at_their_turn() {
     let ending = report.ending.unwrap();
     assert_eq!(ending.outcome, Outcome::Error);
     assert!(report.gates.is_empty(), "nothing deployed: {:?}", report.gates);
-    let error = ending.error.unwrap();
-    assert!(error.contains("of robot 2 never registered"), "{error}");
-    assert!(!error.contains("killed"), "{error}");
+    let error = ending.error.expect("an error");
+    assert!(matches!(&error, Fault::NeverCame { robots, .. } if robots == &[2]), "{error:?}");
+    assert!(!error.to_string().contains("killed"), "{error}");
 }
 
 #[test]

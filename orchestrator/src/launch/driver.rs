@@ -314,6 +314,8 @@ impl Driver {
     /// an end for the ones that did not exit, the recording finished.
     fn finish(mut self, ending: Ending) -> Summary {
         let Ending { outcome, error } = ending;
+        // The core's typed fault, in words: the summary is the edge.
+        let error = error.map(|fault| fault.to_string());
         let running: Vec<u32> =
             self.core.slots().iter().filter(|s| self.agents.is_running(s.id())).map(Slot::id).collect();
         let live = running.len();

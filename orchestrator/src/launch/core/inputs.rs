@@ -353,13 +353,16 @@ impl Core {
                 if let Some(s) = self.slot(id) {
                     s.state = SlotState::Lost;
                 }
-                abort.then(|| format!("robot {id}'s agent was lost before its deployment: {reason}"))
+                let when = DiedWhen::BeforeDeployment;
+                abort.then_some(Fault::Died { robot: id, when, why: gone, reason })
             }
             SlotState::Moving => {
                 self.queue.push_back(Pending::Died(id));
-                abort.then(|| format!("robot {id}'s agent died while moving: {reason}"))
+                abort.then_some(Fault::Died { robot: id, when: DiedWhen::Moving, why: gone, reason })
             }
-            _ => (abort && seen).then(|| format!("robot {id}'s agent died: {reason}")),
+            _ => {
+                (abort && seen).then_some(Fault::Died { robot: id, when: DiedWhen::After, why: gone, reason })
+            }
         };
         if let Some(f) = fatal {
             self.fatal.get_or_insert(f);
@@ -370,9 +373,9 @@ impl Core {
     /// `Missing::Fail` the launch ends (the error, naming it); otherwise a
     /// process started here that ended is started once more, and a robot
     /// that still has no agent is absent: skipped at its turn.
-    pub(super) fn never_registered(&mut self, id: u32, gone: Gone, reason: String) -> Option<String> {
+    pub(super) fn never_registered(&mut self, id: u32, gone: Gone, reason: String) -> Option<Fault> {
         if self.setup.missing == Missing::Fail {
-            return Some(format!("robot {id}'s agent never registered: {reason}"));
+            return Some(Fault::NeverRegistered { robot: id, why: gone, reason });
         }
         let slot = self.slot(id)?;
         // A process that ended may have met a passing trouble; one that hung

@@ -140,6 +140,7 @@ pub fn replay<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::launch::core::Supervision;
     use crate::launch::harness::{self, Case, Schedule};
 
     /// The harness's launches, logged as the driver logs them, replay to
@@ -157,6 +158,22 @@ mod tests {
             assert_eq!(gates, report.gates, "seed {seed}");
             assert_eq!(ending, report.ending, "seed {seed}");
         }
+    }
+
+    /// A setup recorded before the supervision timers were in the core (no
+    /// settings after it) decodes with them off: its log carries the seams'
+    /// verdicts as inputs and replays as it ran.
+    #[test]
+    fn a_setup_recorded_before_the_timers_decodes_with_them_off() {
+        let case = Case::small(3);
+        let setup = harness::setup(&case, &Schedule::clean(3, case.robots));
+        assert!(setup.supervision.on);
+        let old = postcard::to_allocvec(&setup).expect("encodes");
+        let decoded = decode_setup(&old).expect("an old setup decodes");
+        assert_eq!(decoded.supervision, Supervision::default());
+        assert!(!decoded.supervision.on);
+        assert_eq!(decoded, Setup { supervision: Supervision::default(), ..setup.clone() });
+        assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
     }
 
     /// A replay that is handed other inputs reaches other decisions: the

@@ -37,6 +37,7 @@
 //! beacons the simulated agents are told.
 
 mod beacons;
+mod ending;
 mod inputs;
 pub mod log;
 mod plausible;
@@ -47,6 +48,7 @@ mod steps;
 mod timers;
 mod wait;
 
+pub use ending::{DiedWhen, Fault};
 pub use plausible::Implausible;
 pub use referee::{Closed, Referee};
 pub use slot::{FrameCount, Slot, SlotState};
@@ -232,8 +234,9 @@ pub struct Waiting {
 pub struct Ending {
     /// The outcome.
     pub outcome: Outcome,
-    /// The error, for [`Outcome::Error`].
-    pub error: Option<String>,
+    /// What went wrong, for [`Outcome::Error`] (typed; its words are its
+    /// `Display`, rendered at the edge).
+    pub error: Option<Fault>,
 }
 
 /// A verdict or a death the core must act on.
@@ -324,7 +327,7 @@ pub struct Core {
     /// How long answers take (when waits re-send first).
     answer_time: AnswerTime,
     queue: VecDeque<Pending>,
-    fatal: Option<String>,
+    fatal: Option<Fault>,
     interrupted: bool,
     outputs: VecDeque<Output>,
     decided_at: Option<u64>,
@@ -496,7 +499,7 @@ impl Core {
         match input {
             Input::Started { robot, pid, how } => self.on_started(now, robot, pid, &how),
             Input::Failed(e) => {
-                self.fatal.get_or_insert(e);
+                self.fatal.get_or_insert(Fault::Failed(e));
             }
             Input::Report(msg) => self.on_report(now, msg),
             Input::Pose { topic, pose } => {

@@ -27,7 +27,7 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
     if (ending.outcome == Outcome::Error) != ending.error.is_some() {
         return Err(format!("outcome {:?} with error {:?}", ending.outcome, ending.error));
     }
-    if ending.error.as_ref().is_some_and(|e| e.trim().is_empty()) {
+    if ending.error.as_ref().is_some_and(|e| e.to_string().trim().is_empty()) {
         return Err("an error without words".into());
     }
     let _ = exit_code(ending);
