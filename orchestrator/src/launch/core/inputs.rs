@@ -1,7 +1,14 @@
 //! The core's bookkeeping of inputs: what each report, pose, death and
-//! change of reach means for the robots' slots. No decision is taken here
-//! (see `steps.rs`), so a shell can hand in everything that arrived
-//! together before the core acts on it.
+//! change of reach means for the robots' slots.
+//!
+//! Decisions taken here are only those that follow from one input alone
+//! (the list is in `mod.rs`: refusals of a registration or a pose, a start
+//! pose accepted, the dead-robot policy of a reported death, a withdrawn
+//! token without a grace, reachability lost or back). Nothing that depends
+//! on time or on other inputs of the same pass: timers, verdicts in
+//! deployment order, the tick, the phase machine and the ending are
+//! `advance`'s (`steps.rs`, `timers.rs`), so a shell can hand in everything
+//! that arrived together before the core acts on it.
 
 use super::*;
 

@@ -20,18 +20,37 @@
 //! answer), in real time it answers each pose of the moving robot with a
 //! bearing and republishes dead robots' poses once a period.
 //!
-//! Driving it: [`Core::handle`] takes in one input (state only, no
-//! decision), [`Core::advance`] then takes every decision due at `now`,
-//! [`Core::poll_output`] hands out what to do, [`Core::deadline`] says when
-//! to call `advance` again if nothing comes in. Deciding only in `advance`
-//! lets a shell hand in everything that arrived together (a tick's answers
-//! and its poses) before the core acts on it.
+//! Driving it: [`Core::handle`] takes in one input, [`Core::advance`]
+//! then takes every decision due at `now`, [`Core::poll_output`] hands out
+//! what to do, [`Core::deadline`] says when to call `advance` again if
+//! nothing comes in. Deciding in `advance` lets a shell hand in everything
+//! that arrived together (a tick's answers and its poses) before the core
+//! acts on it.
+//!
+//! Which decisions each takes. `handle` takes only those that follow from
+//! the one input alone, whatever else arrives with it: a registration
+//! refused (duplicate, other settings, short failsafe grace, another
+//! protocol) or taken (a late joiner expected again); a pose refused as
+//! implausible, a start pose accepted (the robot deployed), the gate's
+//! judgement of a pose queued; a reported death's dead-robot policy
+//! (`on_death`: absent, lost, died, started once more, or the launch's
+//! fault queued); a withdrawn token without a link grace (gone at once);
+//! reachability lost or back (noted, what was missed re-sent). `advance`
+//! takes every decision that depends on time or on everything that arrived
+//! together: the supervision timers (`timers.rs`: registration, heartbeat,
+//! quiet, link grace, robot-link grace), motion capture gone, the ending
+//! (a fault, Ctrl-C, the budget, robots exhausted), the real-time relays
+//! and beacons, the lockstep tick (re-sends, answers overdue, the next
+//! tick), the queued verdicts in deployment order, and the phase machine
+//! (choosing, registration awaited, settling, placement, deployment).
 //!
 //! Files: this one holds the types (setup, inputs, outputs, phase) and
 //! what the shells read; `inputs.rs` the bookkeeping of each input;
-//! `steps.rs` the decisions (the phase machine); `referee.rs` the gate and
-//! the budget; `plausible.rs` which poses can be believed; `wait.rs` the
-//! re-send timer; `silence.rs` motion capture gone (real robots);
+//! `steps.rs` the decisions (the phase machine); `timers.rs` the
+//! supervision timers; `ending.rs` why a launch ended in error, typed;
+//! `referee.rs` the gate and the budget; `plausible.rs` which poses can be
+//! believed; `wait.rs` the re-send timer; `silence.rs` motion capture gone
+//! (real robots);
 //! `slot.rs` one robot's record; `log.rs` the record of
 //! every call, which `orchestrator replay` plays back; `beacons.rs` the
 //! beacons the simulated agents are told.
@@ -490,8 +509,9 @@ impl Core {
 
     // ---- inputs ---------------------------------------------------------
 
-    /// Takes in one input that happened at `now` (µs of launch time). No
-    /// decision is taken here beyond bookkeeping: see [`Core::advance`].
+    /// Takes in one input that happened at `now` (µs of launch time): its
+    /// bookkeeping, and only the decisions that follow from it alone (see
+    /// the module docs); the rest is [`Core::advance`]'s.
     pub fn handle(&mut self, now: u64, input: Input) {
         if self.ending.is_some() {
             return;
