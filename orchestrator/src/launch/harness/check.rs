@@ -1,6 +1,8 @@
 //! The properties every schedule keeps, stated once: the launch ends with
 //! a clear outcome, no robot is deployed twice, verdicts come in deployment
-//! order, the budget adds up, re-sends are bounded.
+//! order, the budget adds up, every crash or cut link is noticed within
+//! 500 ms (the core's supervision timers, in virtual time), re-sends are
+//! bounded.
 
 use super::*;
 
