@@ -693,3 +693,40 @@ fn a_robot_deployed_and_judged_at_once_starts_its_successor_once() {
     assert_eq!(core.slots()[0].state(), SlotState::Stuck, "deployed and judged in one advance");
     assert_eq!(starts[..2], [1, 1], "each agent started once");
 }
+
+/// A crash and a cut link are noticed within 500 ms, in virtual time, by
+/// the core's supervision timers (what the agent-source suite used to time
+/// with real processes on wall clocks): spawned agents by their exit,
+/// remote ones by their token or their silence; and the property can fail.
+#[test]
+fn a_crash_or_a_cut_link_is_noticed_within_500_ms_in_virtual_time() {
+    let case = long_case();
+    // Real time: the run lasts seconds of virtual time (a lockstep one may
+    // be over within 500 ms), and a robot moves at its own pace.
+    let mut clean_schedule = Schedule::clean(1, 3);
+    clean_schedule.realtime = Some(1.0);
+    let clean = harness::run(&case, &clean_schedule);
+    let moving = clean.gate_times_us[0] + 1_000;
+    for remote in [false, true] {
+        let mut s = clean_schedule.clone();
+        s.remote = remote;
+        s.crashes = vec![Crash { robot: 2, at_us: moving }];
+        if remote {
+            s.partitions = vec![Partition { robot: 3, from_us: moving, until_us: moving + 6_000_000 }];
+        }
+        let report = harness::run(&case, &s);
+        harness::check(&report, &s).unwrap();
+        assert!(report.end_us > moving + harness::NOTICE_US, "the run outlasts the window");
+        let faults: Vec<u32> = report.faults.iter().map(|f| f.0).collect();
+        let want: &[u32] = if remote { &[2, 3] } else { &[2] };
+        assert_eq!(faults, want, "remote {remote}: the faults the schedule made");
+        for &(robot, at) in &report.faults {
+            let noticed = report.noticed.iter().find(|n| n.0 == robot && n.1 >= at).expect("noticed");
+            assert!(noticed.1 - at <= harness::NOTICE_US, "robot {robot}: {} µs", noticed.1 - at);
+        }
+        // Not noticed: the property fails.
+        let mut blind = report.clone();
+        blind.noticed.clear();
+        assert!(harness::check(&blind, &s).is_err(), "remote {remote}: the property can fail");
+    }
+}
