@@ -55,7 +55,14 @@ pub struct Driver {
     poses: Vec<(u32, Pose)>,
     /// What the launch waits for, said when a wait lasts.
     waits: Waits,
+    /// When the agent source was last polled (at most every
+    /// [`POLL_EVERY`]: a poll is a `wait4` per spawned agent).
+    polled_at: Option<Instant>,
 }
+
+/// Least time between two polls of the agent source: an agent's end is
+/// seen within milliseconds, and a crowd of agents costs little per pass.
+const POLL_EVERY: Duration = Duration::from_millis(5);
 
 /// What a driver is built from.
 pub struct Parts {
@@ -111,6 +118,7 @@ impl Driver {
             settings,
             poses: Vec::new(),
             waits: Waits::new(Instant::now()),
+            polled_at: None,
         }
     }
 
@@ -257,6 +265,20 @@ impl Driver {
             self.feed(Input::Pose { topic, pose });
         }
         self.poses = poses;
+        if self.polled_at.is_none_or(|t| t.elapsed() >= POLL_EVERY) {
+            self.polled_at = Some(Instant::now());
+            self.poll_agents();
+        }
+        if self.progress.due() {
+            self.redraw();
+        }
+        self.say_waits();
+        Ok(())
+    }
+
+    /// Takes in the agent source's facts: agents that ended (with their
+    /// last words), tokens that went or came back.
+    fn poll_agents(&mut self) {
         let gone = self.agents.poll();
         let unclean = gone.iter().any(|(_, g)| !matches!(g, Gone::Exited(status) if status.success()));
         for (robot, gone) in gone {
@@ -276,11 +298,6 @@ impl Driver {
         for (robot, present) in self.agents.tokens() {
             self.feed(Input::Token(robot, present));
         }
-        if self.progress.due() {
-            self.redraw();
-        }
-        self.say_waits();
-        Ok(())
     }
 
     /// Says what the launch waits for, when a wait lasts.
