@@ -3,7 +3,7 @@
 //!
 //! Each fixture states what its implementation is and does
 //! ([`Expected`]: its properties, whether its agents can end by themselves
-//! as far as it sees, what `reach` and `robot_link` do), and each test
+//! as far as it sees), and each test
 //! asserts which of the suite's checks were not applicable to it (none are
 //! skipped silently).
 //!
@@ -28,7 +28,7 @@ use bycoms_sim::sim_agent::{AgentArgs, Clock, DEFAULT_SETTINGS_TIMEOUT_S};
 use std::cell::{Cell, RefCell};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
-use suites::agents::{run_all, AgentFixture, EndsByItself, Expected, Reaches, Starts, Timeouts};
+use suites::agents::{run_all, AgentFixture, EndsByItself, Expected, Starts};
 
 /// Agent arguments of robot `id` (what a launch would pass).
 fn args(id: u32) -> AgentArgs {
@@ -69,16 +69,16 @@ impl AgentFixture for SpawnedFixture {
             ended_by: "killed",
             starts: Starts::Process,
             ends_by_itself: EndsByItself::Exits { code: 3 },
-            reach: Reaches::Never,
+            held_when_unreachable: false,
             robot_link_grace: None,
         }
     }
 
-    fn source(&self, t: Timeouts) -> Box<dyn AgentSource> {
+    fn source(&self) -> Box<dyn AgentSource> {
         let script = r#"read what; [ "$what" = exit ] && exit 3; exec sleep 30"#;
         let command =
             AgentCommand { program: "sh".into(), prefix: vec!["-c".into(), script.into(), "sh".into()] };
-        Box::new(Spawned::new(command, t.register, t.heartbeat))
+        Box::new(Spawned::new(command))
     }
 
     fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {
@@ -111,15 +111,15 @@ impl AgentFixture for RemoteFixture {
             starts: Starts::Awaited,
             ends_by_itself: EndsByItself::Cannot {
                 why: "remote agents are not started here: without their liveliness tokens their end \
-                      shows only as silence (checked as such)",
+                      shows only as silence (the core's timers judge it)",
             },
-            reach: Reaches::WithinLinkGrace,
+            held_when_unreachable: true,
             robot_link_grace: None,
         }
     }
 
-    fn source(&self, t: Timeouts) -> Box<dyn AgentSource> {
-        Box::new(Remote::new(t.register, t.heartbeat, None).with_link_grace(t.link_grace))
+    fn source(&self) -> Box<dyn AgentSource> {
+        Box::new(Remote::new(None))
     }
 
     fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {
@@ -206,7 +206,7 @@ impl AgentFixture for RemoteLivelinessFixture {
         Expected { ends_by_itself: EndsByItself::Disconnects, ..RemoteFixture.expected() }
     }
 
-    fn source(&self, t: Timeouts) -> Box<dyn AgentSource> {
+    fn source(&self) -> Box<dyn AgentSource> {
         self.tokens.borrow_mut().clear();
         let n = self.sources.get() + 1;
         self.sources.set(n);
@@ -214,7 +214,7 @@ impl AgentFixture for RemoteLivelinessFixture {
         let probe = self.router.watch_alive(&swarm).expect("probe");
         let watch = self.router.watch_alive(&swarm).expect("watch");
         *self.current.borrow_mut() = Some((swarm, probe));
-        Box::new(Remote::new(t.register, t.heartbeat, Some(watch)).with_link_grace(t.link_grace))
+        Box::new(Remote::new(Some(watch)))
     }
 
     fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {
@@ -282,15 +282,15 @@ impl AgentFixture for GatewaysFixture {
             ended_by: "killed",
             starts: Starts::Process,
             ends_by_itself: EndsByItself::Exits { code: 3 },
-            reach: Reaches::Never,
+            held_when_unreachable: false,
             robot_link_grace: Some(LINK_GRACE),
         }
     }
 
-    fn source(&self, t: Timeouts) -> Box<dyn AgentSource> {
+    fn source(&self) -> Box<dyn AgentSource> {
         let script = format!(r#"case " $* " in *" --heartbeat-ms {ENDS} "*) exit 3;; esac; exec sleep 30"#);
         let command = AgentCommand { program: "sh".into(), prefix: vec!["-c".into(), script, "sh".into()] };
-        Box::new(Gateways::new(command, self.robots.clone(), t.register, t.heartbeat))
+        Box::new(Gateways::new(command, self.robots.clone()))
     }
 
     fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {
@@ -311,12 +311,7 @@ fn gateways_pass_the_suite() {
 #[test]
 fn gateways_refuse_a_robot_the_robots_file_does_not_name() {
     let fixture = GatewaysFixture::new();
-    let timeouts = Timeouts {
-        register: Duration::from_secs(5),
-        heartbeat: Duration::from_secs(5),
-        link_grace: Duration::ZERO,
-    };
-    let mut source = fixture.source(timeouts);
+    let mut source = fixture.source();
     let (a, terrain) = fixture.plan(9, false);
     let refused = source.start(9, &AgentPlan { args: &a, terrain_text: &terrain });
     assert!(matches!(refused, Err(AgentError::NoSuchRobot { robot: 9, .. })), "{refused:?}");
@@ -386,15 +381,15 @@ impl AgentFixture for ThreadsFixture {
             ended_by: "threads told to stop",
             starts: Starts::Thread,
             ends_by_itself: EndsByItself::ThreadEnds,
-            reach: Reaches::Never,
+            held_when_unreachable: false,
             robot_link_grace: None,
         }
     }
 
-    fn source(&self, t: Timeouts) -> Box<dyn AgentSource> {
+    fn source(&self) -> Box<dyn AgentSource> {
         let bus = MemoryBus::new(Limits::default()).expect("memory bus");
         *self.bus.borrow_mut() = Some(bus.clone());
-        Box::new(Threads::new(bus, t.register, t.heartbeat))
+        Box::new(Threads::new(bus))
     }
 
     fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {

@@ -4,8 +4,8 @@
 //! Why a shell that decides nothing: every rule of a launch lives in
 //! [`Core`], which is tested in virtual time without processes. This
 //! driver only carries inputs in (reports from the bus, poses from the pose
-//! source, losses and reachability from the agent source, Ctrl-C, the time
-//! since the launch began) and the core's outputs out (messages, agent
+//! source, the agent source's facts — an agent ended, a liveliness token
+//! went or came back —, Ctrl-C, the time since the launch began) and the core's outputs out (messages, agent
 //! starts and kills, gate events, the recording, the terminal), waiting for
 //! IO until the core's next deadline. At the end it sends `Shutdown`, winds
 //! the agents down and builds the summary from the core's slots.
@@ -59,7 +59,14 @@ pub struct Driver {
     /// `orchestrator status` and `stop` (and the ROS 2 stop service) reach
     /// the launch here (`control.rs`).
     control: Option<Control>,
+    /// When the agent source was last polled (at most every
+    /// [`POLL_EVERY`]: a poll is a `wait4` per spawned agent).
+    polled_at: Option<Instant>,
 }
+
+/// Least time between two polls of the agent source: an agent's end is
+/// seen within milliseconds, and a crowd of agents costs little per pass.
+const POLL_EVERY: Duration = Duration::from_millis(5);
 
 /// What a driver is built from.
 pub struct Parts {
@@ -129,6 +136,7 @@ impl Driver {
             poses: Vec::new(),
             waits: Waits::new(Instant::now()),
             control,
+            polled_at: None,
         }
     }
 
@@ -234,7 +242,6 @@ impl Driver {
                 self.agents.kill(id);
             }
             Output::Heard(id) => self.agents.heard(id),
-            Output::RobotLink(id, up) => self.agents.robot_link(id, up),
             Output::SimTime(ns) => self.ports.recording.set_simulated_time(ns),
             Output::AskOperator(request) => self.ports.ask_operator(&request)?,
             Output::Carried(id, by_hand) => self.pose_source.carried(id, by_hand),
@@ -276,7 +283,22 @@ impl Driver {
             self.feed(Input::Pose { topic, pose });
         }
         self.poses = poses;
-        let gone = self.agents.poll(false);
+        if self.polled_at.is_none_or(|t| t.elapsed() >= POLL_EVERY) {
+            self.polled_at = Some(Instant::now());
+            self.poll_agents();
+        }
+        self.answer_questions();
+        if self.progress.due() {
+            self.redraw();
+        }
+        self.say_waits();
+        Ok(())
+    }
+
+    /// Takes in the agent source's facts: agents that ended (with their
+    /// last words), tokens that went or came back.
+    fn poll_agents(&mut self) {
+        let gone = self.agents.poll();
         let unclean = gone.iter().any(|(_, g)| !matches!(g, Gone::Exited(status) if status.success()));
         for (robot, gone) in gone {
             if let Some(words) = self.agents.last_error(robot) {
@@ -292,15 +314,9 @@ impl Driver {
             // do not clean up after each other (`IpcConfig::cleans_dead_nodes`).
             self.ports.cleanup_dead_nodes();
         }
-        for (robot, change) in self.agents.reach() {
-            self.feed(Input::Reach(robot, change));
+        for (robot, present) in self.agents.tokens() {
+            self.feed(Input::Token(robot, present));
         }
-        self.answer_questions();
-        if self.progress.due() {
-            self.redraw();
-        }
-        self.say_waits();
-        Ok(())
     }
 
     /// Answers the status and stop questions that came in; a stop is the
@@ -382,7 +398,7 @@ impl Driver {
         }
         let grace = self.cfg.supervision.shutdown_grace_for(live);
         let winding = Instant::now();
-        let killed = self.agents.wind_down(grace);
+        let killed = wind_down(self.agents.as_mut(), grace);
         tracing::debug!(
             agents = live,
             killed = killed.len(),
@@ -503,5 +519,43 @@ impl Driver {
             &heading,
             self.world.unit,
         ))
+    }
+}
+
+/// How often winding down looks whether the agents ended.
+const REAP_EVERY: Duration = Duration::from_millis(2);
+
+/// Winds `agents` down after `Shutdown` was sent: asks the ones that may
+/// have missed it to end, gives them up to `grace` (this shell's clock: the
+/// sources read none), then ends the rest; returns those it had to end.
+pub fn wind_down(agents: &mut dyn AgentSource, grace: Duration) -> Vec<u32> {
+    agents.ask_to_end();
+    let deadline = Instant::now() + grace;
+    while agents.reap() && Instant::now() < deadline {
+        std::thread::sleep(REAP_EVERY);
+    }
+    agents.end_rest()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::launch::agents::spawned::{AgentCommand, Spawned};
+
+    /// An agent that never registers and ends only on SIGTERM (as a
+    /// `sim-agent` still opening its bus: the `Shutdown` was lost on it)
+    /// is asked to end, not killed after the grace: nobody had to end it.
+    #[test]
+    fn an_agent_never_heard_from_is_asked_to_end_not_killed_after_the_grace() {
+        let script = "trap 'exit 130' TERM; while :; do sleep 0.02; done";
+        let command = AgentCommand {
+            program: "/bin/sh".into(),
+            prefix: vec!["-c".into(), script.into(), "agent".into()],
+        };
+        let mut source = Spawned::new(command);
+        source.spawn(1, &[], "").expect("spawn");
+        let killed = wind_down(&mut source, Duration::from_secs(20));
+        assert_eq!(killed, Vec::<u32>::new(), "it ended when asked, so nobody had to kill it");
+        assert!(!source.is_running(1));
     }
 }

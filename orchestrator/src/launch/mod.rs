@@ -240,14 +240,7 @@ pub fn run_serving(
         }
         None => None,
     };
-    let agents = cfg.agents.open(
-        agent,
-        LaunchConfig::secs(cfg.supervision.register_timeout),
-        LaunchConfig::secs(cfg.supervision.heartbeat_timeout),
-        LaunchConfig::secs(cfg.supervision.link_grace),
-        LaunchConfig::secs(cfg.supervision.heartbeat_interval * f64::from(agents::remote::QUIET_HEARTBEATS)),
-        links,
-    )?;
+    let agents = cfg.agents.open(agent, links)?;
     let control =
         control::Control::serve(swarm.as_str(), zenoh.as_ref()).context("cannot serve status and stop")?;
     // `--ros2`: the stop service, held to the end; its calls are stop questions.

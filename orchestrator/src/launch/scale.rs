@@ -74,7 +74,7 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
         commands.push(bus.typed_publisher(&swarm.to_agent(RobotId(id)))?);
         poses.push(bus.typed_subscriber(&swarm.pose(RobotId(id)))?);
     }
-    let mut sup = Spawned::new(agent, Duration::from_secs(600), Duration::from_secs(60));
+    let mut sup = Spawned::new(agent);
     let terrain = Terrain::paper();
     let text = to_text(&terrain);
     let started = Instant::now();
@@ -110,12 +110,12 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
             if Instant::now() > deadline || stop.load(std::sync::atomic::Ordering::SeqCst) {
                 bail!("only {} of the first {last} agents registered within 60 s", registered.len());
             }
-            // Every few ms, not per message: a forced poll is a `wait4` per
-            // agent, and the registered agents' heartbeats (10 a second
-            // each) outran a loop that polled all of them per message, so
-            // later batches' registrations were lost behind them (500
-            // agents never started).
-            if let Some((id, gone)) = sup.poll(false).into_iter().next() {
+            // Once per wait, not per message: a poll is a `wait4` per agent,
+            // and the registered agents' heartbeats (10 a second each)
+            // outran a loop that polled all of them per message, so later
+            // batches' registrations were lost behind them (500 agents
+            // never started).
+            if let Some((id, gone)) = sup.poll().into_iter().next() {
                 bail!("agent {id} is gone: {gone}");
             }
             let mut next = reports.recv_timeout(Duration::from_millis(10));
@@ -158,7 +158,7 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
         while let Ok(Some((_, msg))) = reports.try_recv() {
             sup.heard(msg.robot().0);
         }
-        if let Some((id, gone)) = sup.poll(false).into_iter().next() {
+        if let Some((id, gone)) = sup.poll().into_iter().next() {
             bail!("agent {id} is gone: {gone}");
         }
         if memories.is_empty() && end.saturating_duration_since(Instant::now()) < Duration::from_secs(2) {
@@ -171,7 +171,7 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
     for c in &commands {
         let _ = c.publish(&ToAgent::Shutdown);
     }
-    sup.wind_down(Duration::from_secs(5));
+    super::driver::wind_down(&mut sup, Duration::from_secs(5));
     let n = memories.len().max(1) as u64;
     let sum = |f: fn(&Memory) -> u64| memories.iter().map(f).sum::<u64>() / n;
     let total_missed: u64 = missed.iter().sum();

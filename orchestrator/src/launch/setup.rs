@@ -5,9 +5,10 @@
 //! them (which placement settings apply, the budget in steps, the wall
 //! period) happens once, here.
 
+use super::agents::remote::QUIET_HEARTBEATS;
 use super::agents::AgentSource;
 use super::config::{Clock, LaunchConfig};
-use super::core::{AgentTraits, Setup};
+use super::core::{AgentTraits, Setup, Supervision};
 use super::poses::PoseSource;
 use super::World;
 use crate::gate::GateParams;
@@ -16,6 +17,7 @@ use bycoms_runtime::BusArgs;
 use bycoms_sim::sim_agent::{AgentArgs, RunSettings, DEFAULT_SETTINGS_TIMEOUT_S};
 use bycoms_sim::Vec2;
 use std::path::PathBuf;
+use std::time::Duration;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 /// What the seams say of themselves that the core's setup needs: the
@@ -42,6 +44,10 @@ pub struct Seams {
     pub poses_on_the_bus: bool,
     /// [`PoseSource::placement`].
     pub mocap_placement: Option<crate::mocap::PlacementConfig>,
+    /// [`AgentSource::held_when_unreachable`].
+    pub held_when_unreachable: bool,
+    /// [`AgentSource::robot_link_grace`].
+    pub robot_link_grace: Option<Duration>,
 }
 
 impl Seams {
@@ -57,6 +63,8 @@ impl Seams {
             senses_beacons: agents.senses_beacons(),
             poses_on_the_bus: poses.on_the_bus(),
             mocap_placement: poses.placement(),
+            held_when_unreachable: agents.held_when_unreachable(),
+            robot_link_grace: agents.robot_link_grace(),
         }
     }
 }
@@ -112,6 +120,24 @@ pub fn setup_of(
         },
         unix_base_ms,
         settings: run_settings(template, world).fingerprint(),
+        supervision: supervision(cfg, seams.held_when_unreachable, seams.robot_link_grace),
+    }
+}
+
+/// The supervision timers' settings: the config's timeouts, with the link
+/// grace and the quiet rule for agents that can come back (`held`,
+/// [`AgentSource::held_when_unreachable`]) and the robot-link grace for
+/// sources of real robots ([`AgentSource::robot_link_grace`]).
+pub fn supervision(cfg: &LaunchConfig, held: bool, robot_link_grace: Option<Duration>) -> Supervision {
+    let us = |s: f64| (s * 1e6).round() as u64;
+    let sup = &cfg.supervision;
+    Supervision {
+        on: true,
+        register_timeout_us: us(sup.register_timeout),
+        heartbeat_timeout_us: us(sup.heartbeat_timeout),
+        link_grace_us: if held { us(sup.link_grace) } else { 0 },
+        quiet_us: if held { us(sup.heartbeat_interval * f64::from(QUIET_HEARTBEATS)) } else { 0 },
+        robot_link_grace_us: robot_link_grace.map(|g| g.as_micros() as u64),
     }
 }
 

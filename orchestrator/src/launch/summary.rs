@@ -390,11 +390,11 @@ pub struct Verdict {
 /// outcome an error (the run cannot be replayed or drawn), keeping an
 /// earlier error's words.
 pub fn verdict(ending: &Ending, recording: Result<(), &str>) -> Verdict {
+    // The core's typed fault, in words: the summary is the edge.
+    let words = ending.error.as_ref().map(ToString::to_string);
     let (outcome, error) = match recording {
-        Ok(()) => (ending.outcome, ending.error.clone()),
-        Err(why) => {
-            (Outcome::Error, Some(ending.error.clone().unwrap_or_else(|| format!("recording failed: {why}"))))
-        }
+        Ok(()) => (ending.outcome, words),
+        Err(why) => (Outcome::Error, Some(words.unwrap_or_else(|| format!("recording failed: {why}")))),
     };
     Verdict { success: outcome == Outcome::Arrived, outcome, error }
 }
@@ -475,9 +475,12 @@ fn id_ranges(ids: &[u32]) -> Option<String> {
 mod tests {
     use super::*;
 
+    use crate::launch::core::Fault;
+
     #[test]
     fn a_failed_recording_makes_any_outcome_an_error_keeping_an_earlier_error() {
-        let ending = |outcome, error: Option<&str>| Ending { outcome, error: error.map(String::from) };
+        let ending =
+            |outcome, error: Option<&str>| Ending { outcome, error: error.map(|e| Fault::Failed(e.into())) };
         let arrived = ending(Outcome::Arrived, None);
         assert_eq!(
             verdict(&arrived, Ok(())),

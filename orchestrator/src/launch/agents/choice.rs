@@ -19,7 +19,6 @@ use bycoms_runtime::Transport;
 use bycoms_sim::lab::robots::RobotsFile;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 /// What the transport hands the agent source: zenoh's liveliness watch on
 /// the swarm, or the in-memory bus that threads of this process share.
@@ -170,42 +169,26 @@ impl AgentsConfig {
 
     /// Builds the source: `sim_agent` runs spawned agents (threads on the
     /// memory bus, when `links` has it); `links.alive` is the swarm's
-    /// liveliness watch over zenoh, `link_grace` how long an unreachable
-    /// agent is held and `quiet` the silence that makes it unreachable
-    /// (remote agents and gateways elsewhere use all three).
-    pub fn open(
-        &self,
-        sim_agent: AgentCommand,
-        register_timeout: Duration,
-        heartbeat_timeout: Duration,
-        link_grace: Duration,
-        quiet: Duration,
-        links: AgentLinks,
-    ) -> Result<Box<dyn AgentSource>> {
+    /// liveliness watch over zenoh (remote agents and gateways elsewhere).
+    /// The supervision timeouts are the core's (`launch/setup.rs`).
+    pub fn open(&self, sim_agent: AgentCommand, links: AgentLinks) -> Result<Box<dyn AgentSource>> {
         let AgentLinks { alive, memory } = links;
         Ok(match self.source {
             // Over the in-memory bus the agents can only be threads here.
             AgentSourceKind::Spawned if memory.is_some() => {
                 let bus = memory.context("the memory bus")?;
-                Box::new(Threads::new(bus, register_timeout, heartbeat_timeout))
+                Box::new(Threads::new(bus))
             }
-            AgentSourceKind::Spawned => {
-                Box::new(Spawned::new(sim_agent, register_timeout, heartbeat_timeout))
+            AgentSourceKind::Spawned => Box::new(Spawned::new(sim_agent)),
+            AgentSourceKind::Remote => Box::new(Remote::new(alive)),
+            AgentSourceKind::Real if self.gateways == GatewaysAt::Elsewhere => {
+                Box::new(Gateways::elsewhere(Remote::new(alive)))
             }
-            AgentSourceKind::Remote => {
-                let remote = Remote::new(register_timeout, heartbeat_timeout, alive);
-                Box::new(remote.with_link_grace(link_grace).with_quiet(quiet))
-            }
-            AgentSourceKind::Real if self.gateways == GatewaysAt::Elsewhere => Box::new(Gateways::elsewhere(
-                Remote::new(register_timeout, heartbeat_timeout, alive)
-                    .with_link_grace(link_grace)
-                    .with_quiet(quiet),
-            )),
             AgentSourceKind::Real => {
                 let path = self.robots_file.as_deref().context("agents.robots_file is not set")?;
                 let robots = RobotsFile::read(path)?;
                 let gateway = gateway_command(self.gateway_bin.as_deref())?;
-                Box::new(Gateways::new(gateway, robots, register_timeout, heartbeat_timeout))
+                Box::new(Gateways::new(gateway, robots))
             }
         })
     }

@@ -19,7 +19,8 @@
 //!
 //! A robot whose link is lost (its gateway reports `Link { up: false }`
 //! after 300 ms of silence) and stays lost for [`LINK_GRACE`] more is gone
-//! for the launch: [`AgentSource::poll`] reports it
+//! for the launch: the core's robot-link timer (`launch/core/timers.rs`,
+//! the grace from [`AgentSource::robot_link_grace`]) judges it
 //! ([`Gone::RobotLinkLost`]) and ends its gateway, and the gate applies its
 //! lost-robot policy (`gate.on_agent_death`: a beacon where it was last
 //! seen, as a physically stranded robot is) — within 500 ms of the cut.
@@ -30,12 +31,11 @@
 
 use super::remote::Remote;
 use super::spawned::{AgentCommand, Spawned};
-use super::{AgentError, AgentPlan, AgentSource, Gone, Reach, Started};
+use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
 use bycoms_agent::gateway::GatewayArgs;
 use bycoms_sim::lab::robots::RobotsFile;
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Where a launch's gateways run (`agents.gateways`, `--gateways`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -54,9 +54,6 @@ pub enum GatewaysAt {
 pub struct Gateways {
     at: At,
     link_timeout_ms: u64,
-    /// Robots whose link was reported lost, since when (not yet reported
-    /// by `poll`, not restored).
-    lost_links: BTreeMap<u32, Instant>,
 }
 
 /// What runs the gateways underneath.
@@ -73,19 +70,14 @@ enum At {
 pub const LINK_TIMEOUT: Duration = Duration::from_millis(300);
 
 /// How long a robot link reported lost must stay lost before the robot is
-/// gone (wall time): with the gateway's 300 ms timeout, 450 ms after the
+/// gone (launch time): with the gateway's 300 ms timeout, 450 ms after the
 /// cut at real-time speed, under the 500 ms the gate allows itself.
 pub const LINK_GRACE: Duration = Duration::from_millis(150);
 
 impl Gateways {
     /// Gateways run here by `agent` (the `agent` executable) for `robots`.
-    pub fn new(
-        agent: AgentCommand,
-        robots: RobotsFile,
-        register_timeout: Duration,
-        heartbeat_timeout: Duration,
-    ) -> Self {
-        let inner = Spawned::new(agent, register_timeout, heartbeat_timeout);
+    pub fn new(agent: AgentCommand, robots: RobotsFile) -> Self {
+        let inner = Spawned::new(agent);
         Self::with(At::Here { robots, inner })
     }
 
@@ -96,7 +88,7 @@ impl Gateways {
     }
 
     fn with(at: At) -> Self {
-        Self { at, link_timeout_ms: LINK_TIMEOUT.as_millis() as u64, lost_links: BTreeMap::new() }
+        Self { at, link_timeout_ms: LINK_TIMEOUT.as_millis() as u64 }
     }
 
     fn inner(&self) -> &dyn AgentSource {
@@ -160,6 +152,14 @@ impl AgentSource for Gateways {
         false
     }
 
+    fn held_when_unreachable(&self) -> bool {
+        self.inner().held_when_unreachable()
+    }
+
+    fn robot_link_grace(&self) -> Option<Duration> {
+        Some(LINK_GRACE)
+    }
+
     fn kind(&self) -> &'static str {
         "gateway"
     }
@@ -204,38 +204,12 @@ impl AgentSource for Gateways {
         self.inner().pid(id)
     }
 
-    fn poll(&mut self, force: bool) -> Vec<(u32, Gone)> {
-        let mut gone = self.inner_mut().poll(force);
-        let now = Instant::now();
-        let due: Vec<u32> = self
-            .lost_links
-            .iter()
-            .filter(|(_, since)| now.duration_since(**since) >= LINK_GRACE)
-            .map(|(id, _)| *id)
-            .collect();
-        for id in due {
-            self.lost_links.remove(&id);
-            // Ended here (or dropped from the launch), so never reported
-            // twice (nor by the source underneath later).
-            if self.inner_mut().kill(id) {
-                gone.push((id, Gone::RobotLinkLost));
-            }
-        }
-        gone
+    fn poll(&mut self) -> Vec<(u32, Gone)> {
+        self.inner_mut().poll()
     }
 
-    fn robot_link(&mut self, id: u32, up: bool) {
-        if up {
-            if self.lost_links.remove(&id).is_some() {
-                tracing::info!(robot = id, "robot {id}'s link is back within the grace: it stays");
-            }
-        } else if self.inner().is_running(id) {
-            self.lost_links.entry(id).or_insert_with(Instant::now);
-        }
-    }
-
-    fn reach(&mut self) -> Vec<(u32, Reach)> {
-        self.inner_mut().reach()
+    fn tokens(&mut self) -> Vec<(u32, bool)> {
+        self.inner_mut().tokens()
     }
 
     fn last_error(&mut self, id: u32) -> Option<String> {
@@ -243,11 +217,18 @@ impl AgentSource for Gateways {
     }
 
     fn kill(&mut self, id: u32) -> bool {
-        self.lost_links.remove(&id);
         self.inner_mut().kill(id)
     }
 
-    fn wind_down(&mut self, grace: Duration) -> Vec<u32> {
-        self.inner_mut().wind_down(grace)
+    fn ask_to_end(&mut self) {
+        self.inner_mut().ask_to_end();
+    }
+
+    fn reap(&mut self) -> bool {
+        self.inner_mut().reap()
+    }
+
+    fn end_rest(&mut self) -> Vec<u32> {
+        self.inner_mut().end_rest()
     }
 }

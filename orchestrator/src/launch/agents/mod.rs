@@ -14,19 +14,26 @@
 //! (`--agents real`); [`choice`] picks one from the config.
 //!
 //! Contract (checked for every implementation by the one conformance suite,
-//! `orchestrator/tests/agent_source_suite.rs`):
+//! `orchestrator/tests/agent_source_suite.rs`): a source reports facts,
+//! never a deadline, and reads no clock. Every supervision rule
+//! (registration and heartbeat timeouts, the link grace, the quiet rule,
+//! the robot-link grace) is a timer of the launch core
+//! (`launch/core/timers.rs`), which ends an agent it judged gone with
+//! [`AgentSource::kill`].
 //!
 //! * [`AgentSource::start`] makes robot `id`'s agent exist or expected;
 //!   from then on [`AgentSource::is_running`] is true until the agent is
 //!   reported gone by [`AgentSource::poll`], killed, or wound down;
-//! * [`AgentSource::poll`] is the **single place** where a lost agent is
-//!   reported, each loss exactly once, with its [`Gone`] reason: its process
-//!   ended, it never registered within the registration timeout (counted
-//!   from `start`), it fell silent past the heartbeat timeout (counted from
-//!   the last [`AgentSource::heard`]), or its link was lost. An agent the
+//! * [`AgentSource::poll`] is the **single place** where an agent that
+//!   ended is reported, each exactly once, with its [`Gone`] reason: its
+//!   process exited (with its status), its thread ended. An agent the
 //!   engine killed itself ([`AgentSource::kill`]) is not reported again;
-//! * [`AgentSource::wind_down`] (after the engine sent `Shutdown`) gives
-//!   the agents `grace` to end, then ends the rest and names them; after it
+//! * [`AgentSource::tokens`] reports liveliness tokens that went or came
+//!   back (agents on zenoh), each change once;
+//! * winding down (after the engine sent `Shutdown`):
+//!   [`AgentSource::ask_to_end`], then [`AgentSource::reap`] until nothing
+//!   runs or the grace is over (the driver's clock, `driver::wind_down`),
+//!   then [`AgentSource::end_rest`] ends the rest and names them; after it
 //!   nothing is running. Dropping a source ends whatever is still running.
 //!
 //! The trait is object-safe and not `Send` (the launch runs on one thread:
@@ -38,7 +45,6 @@ pub mod remote;
 pub mod spawned;
 pub mod stderr_tap;
 pub mod threads;
-pub mod watchdog;
 
 use bycoms_sim::sim_agent::AgentArgs;
 use std::process::ExitStatus;
@@ -249,7 +255,7 @@ pub trait AgentSource {
         ""
     }
 
-    /// What [`AgentSource::wind_down`] does to agents that do not exit, in
+    /// What [`AgentSource::end_rest`] does to agents that do not exit, in
     /// words for the terminal. Default: they are killed.
     fn ended_by(&self) -> &'static str {
         "killed"
@@ -259,9 +265,26 @@ pub trait AgentSource {
     /// the robot's ports first, so nothing the agent sends is missed.
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError>;
 
-    /// Notes that robot `id`'s agent sent something (registration,
-    /// heartbeat, any report): it is alive and registered.
-    fn heard(&mut self, id: u32);
+    /// Notes that robot `id`'s agent registered and was heard from (a
+    /// fact, no clock: the core keeps the heartbeat timer). Default:
+    /// nothing to note.
+    fn heard(&mut self, _id: u32) {}
+
+    /// Whether an agent of this source that cannot be reached may come
+    /// back (remote agents, gateways elsewhere): then the core holds it for
+    /// the launch's link grace, and takes one silent for the quiet as
+    /// unreachable. Default: no (a lost agent is gone).
+    fn held_when_unreachable(&self) -> bool {
+        false
+    }
+
+    /// How long a robot's own link reported down (`FromAgent::Link { up:
+    /// false }`) must stay down before the core takes the robot as gone
+    /// (sources of real robots); none: robot links are not watched
+    /// (default).
+    fn robot_link_grace(&self) -> Option<Duration> {
+        None
+    }
 
     /// Whether robot `id`'s agent is started and not yet gone.
     fn is_running(&self, id: u32) -> bool;
@@ -269,26 +292,14 @@ pub trait AgentSource {
     /// The pid of robot `id`'s agent when it is a process on this host.
     fn pid(&self, id: u32) -> Option<u32>;
 
-    /// The agents that are gone since the last poll, each reported once
-    /// (the only place where losses are reported). At most one sweep per
-    /// few milliseconds unless `force`.
-    fn poll(&mut self, force: bool) -> Vec<(u32, Gone)>;
+    /// The agents that ended since the last poll (a process exited, a
+    /// thread ended), each reported once (the only place where endings are
+    /// reported).
+    fn poll(&mut self) -> Vec<(u32, Gone)>;
 
-    /// Notes what robot `id`'s gateway reported about its robot's link
-    /// (`FromAgent::Link { up }`). A source of real robots reports a robot
-    /// whose link stays lost gone ([`Gone::RobotLinkLost`]) from
-    /// [`poll`]; others ignore it (default).
-    ///
-    /// [`poll`]: AgentSource::poll
-    fn robot_link(&mut self, _id: u32, _up: bool) {}
-
-    /// The changes in reachability since the last call: an agent that was
-    /// lost for a moment ([`Reach::Lost`], its link cut or silent) and one
-    /// that is back ([`Reach::Back`]). Only sources whose agents can come
-    /// back report them (remote agents with a link grace); an agent that
-    /// stays unreachable past the grace is then reported gone by `poll`.
-    /// Default: none.
-    fn reach(&mut self) -> Vec<(u32, Reach)> {
+    /// The liveliness tokens of running agents that went (`false`) or came
+    /// back (`true`) since the last call. Default: none (no tokens).
+    fn tokens(&mut self) -> Vec<(u32, bool)> {
         Vec::new()
     }
 
@@ -302,7 +313,16 @@ pub trait AgentSource {
         None
     }
 
-    /// After `Shutdown` was sent: waits up to `grace` for every agent to
-    /// end, then ends the rest; returns those it had to end.
-    fn wind_down(&mut self, grace: Duration) -> Vec<u32>;
+    /// After `Shutdown` was sent, before the grace: asks agents that may
+    /// not have heard it to end. Default: nothing.
+    fn ask_to_end(&mut self) {}
+
+    /// During the grace: takes in the agents that ended; whether some still
+    /// run (that can be seen: an agent on another host whose leaving cannot
+    /// be seen counts as ended).
+    fn reap(&mut self) -> bool;
+
+    /// After the grace: ends every agent still running; returns those that
+    /// had to be ended.
+    fn end_rest(&mut self) -> Vec<u32>;
 }

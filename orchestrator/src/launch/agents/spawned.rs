@@ -1,10 +1,10 @@
 //! Agents spawned here: one child process per robot (the default source).
 //!
-//! Why polling and heartbeats both: a child that exits, crashes or is
-//! killed (even by `kill -9`) is seen by `try_wait` the next time the loop
-//! polls — every few milliseconds — while a child that is alive but hung
-//! only shows by its silence, so a registered agent that sends nothing for
-//! `heartbeat_timeout` is killed and treated as dead too ([`Watchdog`]).
+//! Why polling: a child that exits, crashes or is killed (even by `kill
+//! -9`) is seen by `try_wait` the next time the driver's loop polls (every
+//! pass, at most 10 ms apart). A child that is alive but hung only shows by
+//! its silence: that is the launch core's heartbeat timer
+//! (`launch/core/timers.rs`), which ends it with [`AgentSource::kill`].
 //!
 //! Agents are spawned from the thread that runs the launch (the main
 //! thread), in their own process group (a Ctrl-C in the terminal reaches the
@@ -16,14 +16,13 @@
 //! way the launch ends, it leaves no process behind.
 
 use super::stderr_tap::StderrTap;
-use super::watchdog::Watchdog;
 use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
 use std::os::unix::process::CommandExt;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// How an agent executable is invoked.
 #[derive(Clone, Debug)]
@@ -43,29 +42,25 @@ pub struct Spawned {
     taps: BTreeMap<u32, StderrTap>,
     /// The last error lines of agents reported gone, not yet taken.
     said: BTreeMap<u32, String>,
-    watchdog: Watchdog,
-    last_poll: Instant,
+    /// Agents heard from (registered): the others may have missed `Shutdown`.
+    heard: BTreeSet<u32>,
 }
 
 /// The name it had before the agents seam (`bench scale` still uses it).
 pub type Supervisor = Spawned;
-
-/// Least time between two `try_wait` sweeps.
-const POLL_EVERY: Duration = Duration::from_millis(5);
 
 /// Longest wait for an exited child's stderr to end.
 const LAST_WORDS: Duration = Duration::from_millis(100);
 
 impl Spawned {
     /// A source starting agents with `command`.
-    pub fn new(command: AgentCommand, register_timeout: Duration, heartbeat_timeout: Duration) -> Self {
+    pub fn new(command: AgentCommand) -> Self {
         Self {
             command,
             children: BTreeMap::new(),
             taps: BTreeMap::new(),
             said: BTreeMap::new(),
-            watchdog: Watchdog::new(register_timeout, heartbeat_timeout),
-            last_poll: Instant::now(),
+            heard: BTreeSet::new(),
         }
     }
 
@@ -98,7 +93,7 @@ impl Spawned {
             None => Ok(()),
         };
         self.children.insert(robot, child);
-        self.watchdog.start(robot);
+        self.heard.remove(&robot);
         // A child that died at once closes the pipe; that shows up as its
         // exit in the next poll, with its own message on stderr.
         if let Err(source) = written {
@@ -110,7 +105,7 @@ impl Spawned {
     }
 
     fn end(&mut self, robot: u32) -> bool {
-        self.watchdog.forget(robot);
+        self.heard.remove(&robot);
         self.taps.remove(&robot);
         match self.children.remove(&robot) {
             Some(mut child) => {
@@ -132,7 +127,7 @@ impl Spawned {
         use nix::sys::signal::{kill, Signal};
         use nix::unistd::Pid;
         for (id, child) in &self.children {
-            if self.watchdog.was_heard(*id) {
+            if self.heard.contains(id) {
                 continue;
             }
             if let Ok(pid) = i32::try_from(child.id()) {
@@ -163,7 +158,9 @@ impl AgentSource for Spawned {
     }
 
     fn heard(&mut self, id: u32) {
-        self.watchdog.heard(id);
+        if self.children.contains_key(&id) {
+            self.heard.insert(id);
+        }
     }
 
     fn is_running(&self, id: u32) -> bool {
@@ -174,32 +171,22 @@ impl AgentSource for Spawned {
         self.children.get(&id).map(Child::id)
     }
 
-    /// Finds the agents that are gone (exited, silent, never registered);
-    /// kills and reaps the hung ones.
-    fn poll(&mut self, force: bool) -> Vec<(u32, Gone)> {
-        let now = Instant::now();
-        if !force && now.duration_since(self.last_poll) < POLL_EVERY {
-            return Vec::new();
-        }
-        self.last_poll = now;
+    /// Finds the agents whose process exited, with their last words, and
+    /// reaps them.
+    fn poll(&mut self) -> Vec<(u32, Gone)> {
         let mut gone = Vec::new();
         for (&robot, child) in &mut self.children {
-            let verdict = match child.try_wait() {
-                Ok(Some(status)) => Some(Gone::Exited(status)),
-                Ok(None) | Err(_) => self.watchdog.overdue(robot, now),
-            };
-            if let Some(v) = verdict {
-                gone.push((robot, v));
+            if let Ok(Some(status)) = child.try_wait() {
+                gone.push((robot, Gone::Exited(status)));
             }
         }
-        for (robot, why) in &gone {
-            // An exited child's last words may still be in the pipe: wait
-            // for its end (briefly: a grandchild could hold it open).
-            let wait = if matches!(why, Gone::Exited(_)) { LAST_WORDS } else { Duration::ZERO };
-            if let Some(words) = self.taps.get(robot).and_then(|t| t.last_error(wait)) {
+        for (robot, _) in &gone {
+            // Its last words may still be in the pipe: wait for its end
+            // (briefly: a grandchild could hold it open).
+            if let Some(words) = self.taps.get(robot).and_then(|t| t.last_error(LAST_WORDS)) {
                 self.said.insert(*robot, words);
             }
-            // Kills the hung ones; reaps (or re-reaps, harmlessly) the exited.
+            // Reaps (or re-reaps, harmlessly) the exited.
             self.end(*robot);
         }
         gone
@@ -213,20 +200,23 @@ impl AgentSource for Spawned {
         self.end(id)
     }
 
-    fn wind_down(&mut self, grace: Duration) -> Vec<u32> {
+    fn ask_to_end(&mut self) {
         self.terminate_unheard();
-        let deadline = Instant::now() + grace;
-        while !self.children.is_empty() && Instant::now() < deadline {
-            let exited: Vec<u32> = self
-                .children
-                .iter_mut()
-                .filter_map(|(id, c)| (!matches!(c.try_wait(), Ok(None))).then_some(*id))
-                .collect();
-            for id in exited {
-                self.end(id);
-            }
-            std::thread::sleep(Duration::from_millis(2));
+    }
+
+    fn reap(&mut self) -> bool {
+        let exited: Vec<u32> = self
+            .children
+            .iter_mut()
+            .filter_map(|(id, c)| (!matches!(c.try_wait(), Ok(None))).then_some(*id))
+            .collect();
+        for id in exited {
+            self.end(id);
         }
+        !self.children.is_empty()
+    }
+
+    fn end_rest(&mut self) -> Vec<u32> {
         let killed: Vec<u32> = self.children.keys().copied().collect();
         self.kill_all();
         killed
@@ -236,36 +226,5 @@ impl AgentSource for Spawned {
 impl Drop for Spawned {
     fn drop(&mut self) {
         self.kill_all();
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// An agent that never registers and ends only on SIGTERM (as a
-    /// `sim-agent` still opening its bus: the `Shutdown` was lost on it).
-    fn deaf_agent() -> Spawned {
-        let script = "trap 'exit 130' TERM; while :; do sleep 0.02; done";
-        let command = AgentCommand {
-            program: "/bin/sh".into(),
-            prefix: vec!["-c".into(), script.into(), "agent".into()],
-        };
-        Spawned::new(command, Duration::from_secs(60), Duration::from_secs(60))
-    }
-
-    #[test]
-    fn an_agent_never_heard_from_is_asked_to_end_not_killed_after_the_grace() {
-        let mut source = deaf_agent();
-        source.spawn(1, &[], "").expect("spawn");
-        let begun = Instant::now();
-        let killed = source.wind_down(Duration::from_secs(20));
-        assert_eq!(killed, Vec::<u32>::new(), "it ended when asked, so nobody had to kill it");
-        assert!(
-            begun.elapsed() < Duration::from_secs(10),
-            "it did not wait out the grace: {:?}",
-            begun.elapsed()
-        );
-        assert!(!source.is_running(1));
     }
 }

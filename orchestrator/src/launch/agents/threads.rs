@@ -10,10 +10,10 @@
 //! what a kill does to a process a flag does to its thread
 //! (`Lifeline::with_flag`: the loop checks it every pass and exits).
 //!
-//! Supervision is the spawned agents': the [`Watchdog`]'s registration and
-//! heartbeat deadlines, a thread's end reported once by [`AgentSource::poll`].
+//! Supervision is the spawned agents': the core's registration and
+//! heartbeat timers (`launch/core/timers.rs`), a thread's end reported once
+//! by [`AgentSource::poll`].
 
-use super::watchdog::Watchdog;
 use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
 use bycoms_protocol::bus::memory::MemoryBus;
 use bycoms_protocol::Swarm;
@@ -23,7 +23,6 @@ use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
 
 /// One agent thread.
 struct Running {
@@ -35,19 +34,17 @@ struct Running {
 pub struct Threads {
     bus: MemoryBus,
     running: BTreeMap<u32, Running>,
-    watchdog: Watchdog,
 }
 
 impl Threads {
-    /// A source whose agents talk over `bus`, supervised with these timeouts.
-    pub fn new(bus: MemoryBus, register_timeout: Duration, heartbeat_timeout: Duration) -> Self {
-        Self { bus, running: BTreeMap::new(), watchdog: Watchdog::new(register_timeout, heartbeat_timeout) }
+    /// A source whose agents talk over `bus`.
+    pub fn new(bus: MemoryBus) -> Self {
+        Self { bus, running: BTreeMap::new() }
     }
 
     /// Ends robot `id`'s thread (its loop sees the flag within a pass) and
     /// waits for it; whether it was running.
     fn end(&mut self, id: u32) -> bool {
-        self.watchdog.forget(id);
         match self.running.remove(&id) {
             Some(r) => {
                 r.end.store(true, Ordering::SeqCst);
@@ -93,12 +90,7 @@ impl AgentSource for Threads {
             .map_err(|source| AgentError::Spawn { program: format!("agent thread {id}"), source })?;
         self.end(id);
         self.running.insert(id, Running { end, thread });
-        self.watchdog.start(id);
         Ok(Started::Thread)
-    }
-
-    fn heard(&mut self, id: u32) {
-        self.watchdog.heard(id);
     }
 
     fn is_running(&self, id: u32) -> bool {
@@ -109,18 +101,12 @@ impl AgentSource for Threads {
         None
     }
 
-    fn poll(&mut self, _force: bool) -> Vec<(u32, Gone)> {
-        let now = Instant::now();
+    fn poll(&mut self) -> Vec<(u32, Gone)> {
         let gone: Vec<(u32, Gone)> = self
             .running
             .iter()
-            .filter_map(|(&id, r)| {
-                if r.thread.is_finished() {
-                    Some((id, Gone::ThreadEnded))
-                } else {
-                    self.watchdog.overdue(id, now).map(|why| (id, why))
-                }
-            })
+            .filter(|(_, r)| r.thread.is_finished())
+            .map(|(&id, _)| (id, Gone::ThreadEnded))
             .collect();
         for (id, _) in &gone {
             self.end(*id);
@@ -132,19 +118,16 @@ impl AgentSource for Threads {
         self.end(id)
     }
 
-    fn wind_down(&mut self, grace: Duration) -> Vec<u32> {
-        let deadline = Instant::now() + grace;
-        loop {
-            let ended: Vec<u32> =
-                self.running.iter().filter(|(_, r)| r.thread.is_finished()).map(|(&id, _)| id).collect();
-            for id in ended {
-                self.end(id);
-            }
-            if self.running.is_empty() || Instant::now() >= deadline {
-                break;
-            }
-            std::thread::sleep(Duration::from_millis(2));
+    fn reap(&mut self) -> bool {
+        let ended: Vec<u32> =
+            self.running.iter().filter(|(_, r)| r.thread.is_finished()).map(|(&id, _)| id).collect();
+        for id in ended {
+            self.end(id);
         }
+        !self.running.is_empty()
+    }
+
+    fn end_rest(&mut self) -> Vec<u32> {
         let told: Vec<u32> = self.running.keys().copied().collect();
         for &id in &told {
             self.end(id);

@@ -1,7 +1,14 @@
 //! The core's bookkeeping of inputs: what each report, pose, death and
-//! change of reach means for the robots' slots. No decision is taken here
-//! (see `steps.rs`), so a shell can hand in everything that arrived
-//! together before the core acts on it.
+//! change of reach means for the robots' slots.
+//!
+//! Decisions taken here are only those that follow from one input alone
+//! (the list is in `mod.rs`: refusals of a registration or a pose, a start
+//! pose accepted, the dead-robot policy of a reported death, a withdrawn
+//! token without a grace, reachability lost or back). Nothing that depends
+//! on time or on other inputs of the same pass: timers, verdicts in
+//! deployment order, the tick, the phase machine and the ending are
+//! `advance`'s (`steps.rs`, `timers.rs`), so a shell can hand in everything
+//! that arrived together before the core acts on it.
 
 use super::*;
 
@@ -10,7 +17,7 @@ use super::*;
 const START_TOLERANCE: f64 = 1e-6;
 
 impl Core {
-    pub(super) fn on_started(&mut self, id: u32, pid: Option<u32>, how: &str) {
+    pub(super) fn on_started(&mut self, now: u64, id: u32, pid: Option<u32>, how: &str) {
         if let Some(slot) = self.slot(id) {
             slot.pid = pid;
             slot.alive = true;
@@ -21,6 +28,7 @@ impl Core {
                 SlotState::Spawned
             };
         }
+        self.watch_started(now, id);
         self.note(format!("robot {id}: {how}"));
         self.event(id, EventKind::Spawned, pid, None);
     }
@@ -74,6 +82,7 @@ impl Core {
             return;
         }
         self.outputs.push_back(Output::Heard(id));
+        self.watch_heard(now, id);
         let current = self.tick.as_ref().map(|t| t.step);
         let Some(slot) = self.slot(id) else { return };
         match msg {
@@ -120,7 +129,7 @@ impl Core {
                 if !l.up {
                     tracing::warn!(robot = id, silent_ms = l.silent_ms, "robot {id}'s link is lost");
                 }
-                self.outputs.push_back(Output::RobotLink(id, l.up));
+                self.watch_robot_link(now, id, l.up);
             }
             FromAgent::Failsafe(f) => {
                 // Said when it fires and again whenever the agent hears us
@@ -315,6 +324,7 @@ impl Core {
 
     /// Robot `id`'s agent is gone: the dead-robot policy.
     pub(super) fn on_death(&mut self, now: u64, id: u32, gone: Gone) {
+        self.watch_stop(id);
         if let Some(tick) = self.tick.as_mut() {
             tick.awaiting.remove(&id);
             if tick.pose_of == Some(id) {
@@ -339,6 +349,7 @@ impl Core {
         }
         slot.alive = false;
         slot.death = Some(Death { reason: reason.clone(), noticed_unix_ms });
+        slot.gone = Some(gone);
         let state = slot.state;
         let seen = slot.last_pose.is_some();
         self.note(format!("robot {id}: agent lost — {reason}"));
@@ -349,13 +360,16 @@ impl Core {
                 if let Some(s) = self.slot(id) {
                     s.state = SlotState::Lost;
                 }
-                abort.then(|| format!("robot {id}'s agent was lost before its deployment: {reason}"))
+                let when = DiedWhen::BeforeDeployment;
+                abort.then_some(Fault::Died { robot: id, when, why: gone, reason })
             }
             SlotState::Moving => {
                 self.queue.push_back(Pending::Died(id));
-                abort.then(|| format!("robot {id}'s agent died while moving: {reason}"))
+                abort.then_some(Fault::Died { robot: id, when: DiedWhen::Moving, why: gone, reason })
             }
-            _ => (abort && seen).then(|| format!("robot {id}'s agent died: {reason}")),
+            _ => {
+                (abort && seen).then_some(Fault::Died { robot: id, when: DiedWhen::After, why: gone, reason })
+            }
         };
         if let Some(f) = fatal {
             self.fatal.get_or_insert(f);
@@ -366,9 +380,9 @@ impl Core {
     /// `Missing::Fail` the launch ends (the error, naming it); otherwise a
     /// process started here that ended is started once more, and a robot
     /// that still has no agent is absent: skipped at its turn.
-    pub(super) fn never_registered(&mut self, id: u32, gone: Gone, reason: String) -> Option<String> {
+    pub(super) fn never_registered(&mut self, id: u32, gone: Gone, reason: String) -> Option<Fault> {
         if self.setup.missing == Missing::Fail {
-            return Some(format!("robot {id}'s agent never registered: {reason}"));
+            return Some(Fault::NeverRegistered { robot: id, why: gone, reason });
         }
         let slot = self.slot(id)?;
         // A process that ended may have met a passing trouble; one that hung
@@ -377,6 +391,7 @@ impl Core {
             slot.restarts += 1;
             slot.state = SlotState::Waiting;
             slot.death = None;
+            slot.gone = None;
             self.note(format!("robot {id}: its agent is gone before it registered; starting it once more"));
             return None;
         }

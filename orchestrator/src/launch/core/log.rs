@@ -35,14 +35,23 @@ pub enum Call {
     Advance(u64),
 }
 
-/// The setup's bytes in a recording.
+/// The setup's bytes in a recording: the setup, then its supervision
+/// settings (appended, so a setup recorded before they existed decodes).
 pub fn encode_setup(setup: &Setup) -> Vec<u8> {
-    postcard::to_allocvec(setup).unwrap_or_default()
+    let mut bytes = postcard::to_allocvec(setup).unwrap_or_default();
+    bytes.extend(postcard::to_allocvec(&setup.supervision).unwrap_or_default());
+    bytes
 }
 
-/// A recorded setup.
+/// A recorded setup. One recorded before the core kept the supervision
+/// timers has none after it: it decodes with them off, and its log's
+/// recorded verdicts (`Input::Gone`, `Input::Reach`) replay as they ran.
 pub fn decode_setup(bytes: &[u8]) -> Result<Setup, postcard::Error> {
-    postcard::from_bytes(bytes)
+    let (mut setup, rest): (Setup, &[u8]) = postcard::take_from_bytes(bytes)?;
+    if !rest.is_empty() {
+        setup.supervision = postcard::from_bytes(rest)?;
+    }
+    Ok(setup)
 }
 
 /// A batch of calls' bytes in a recording.
@@ -131,6 +140,7 @@ pub fn replay<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::launch::core::Supervision;
     use crate::launch::harness::{self, Case, Schedule};
 
     /// The harness's launches, logged as the driver logs them, replay to
@@ -148,6 +158,22 @@ mod tests {
             assert_eq!(gates, report.gates, "seed {seed}");
             assert_eq!(ending, report.ending, "seed {seed}");
         }
+    }
+
+    /// A setup recorded before the supervision timers were in the core (no
+    /// settings after it) decodes with them off: its log carries the seams'
+    /// verdicts as inputs and replays as it ran.
+    #[test]
+    fn a_setup_recorded_before_the_timers_decodes_with_them_off() {
+        let case = Case::small(3);
+        let setup = harness::setup(&case, &Schedule::clean(3, case.robots));
+        assert!(setup.supervision.on);
+        let old = postcard::to_allocvec(&setup).expect("encodes");
+        let decoded = decode_setup(&old).expect("an old setup decodes");
+        assert_eq!(decoded.supervision, Supervision::default());
+        assert!(!decoded.supervision.on);
+        assert_eq!(decoded, Setup { supervision: Supervision::default(), ..setup.clone() });
+        assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
     }
 
     /// A replay that is handed other inputs reaches other decisions: the

@@ -20,23 +20,43 @@
 //! answer), in real time it answers each pose of the moving robot with a
 //! bearing and republishes dead robots' poses once a period.
 //!
-//! Driving it: [`Core::handle`] takes in one input (state only, no
-//! decision), [`Core::advance`] then takes every decision due at `now`,
-//! [`Core::poll_output`] hands out what to do, [`Core::deadline`] says when
-//! to call `advance` again if nothing comes in. Deciding only in `advance`
-//! lets a shell hand in everything that arrived together (a tick's answers
-//! and its poses) before the core acts on it.
+//! Driving it: [`Core::handle`] takes in one input, [`Core::advance`]
+//! then takes every decision due at `now`, [`Core::poll_output`] hands out
+//! what to do, [`Core::deadline`] says when to call `advance` again if
+//! nothing comes in. Deciding in `advance` lets a shell hand in everything
+//! that arrived together (a tick's answers and its poses) before the core
+//! acts on it.
+//!
+//! Which decisions each takes. `handle` takes only those that follow from
+//! the one input alone, whatever else arrives with it: a registration
+//! refused (duplicate, other settings, short failsafe grace, another
+//! protocol) or taken (a late joiner expected again); a pose refused as
+//! implausible, a start pose accepted (the robot deployed), the gate's
+//! judgement of a pose queued; a reported death's dead-robot policy
+//! (`on_death`: absent, lost, died, started once more, or the launch's
+//! fault queued); a withdrawn token without a link grace (gone at once);
+//! reachability lost or back (noted, what was missed re-sent). `advance`
+//! takes every decision that depends on time or on everything that arrived
+//! together: the supervision timers (`timers.rs`: registration, heartbeat,
+//! quiet, link grace, robot-link grace), motion capture gone, the ending
+//! (a fault, Ctrl-C, the budget, robots exhausted), the real-time relays
+//! and beacons, the lockstep tick (re-sends, answers overdue, the next
+//! tick), the queued verdicts in deployment order, and the phase machine
+//! (choosing, registration awaited, settling, placement, deployment).
 //!
 //! Files: this one holds the types (setup, inputs, outputs, phase) and
 //! what the shells read; `inputs.rs` the bookkeeping of each input;
-//! `steps.rs` the decisions (the phase machine); `referee.rs` the gate and
-//! the budget; `plausible.rs` which poses can be believed; `wait.rs` the
-//! re-send timer; `silence.rs` motion capture gone (real robots);
+//! `steps.rs` the decisions (the phase machine); `timers.rs` the
+//! supervision timers; `ending.rs` why a launch ended in error, typed;
+//! `referee.rs` the gate and the budget; `plausible.rs` which poses can be
+//! believed; `wait.rs` the re-send timer; `silence.rs` motion capture gone
+//! (real robots);
 //! `slot.rs` one robot's record; `log.rs` the record of
 //! every call, which `orchestrator replay` plays back; `beacons.rs` the
 //! beacons the simulated agents are told.
 
 mod beacons;
+mod ending;
 mod inputs;
 pub mod log;
 mod plausible;
@@ -45,11 +65,14 @@ mod silence;
 mod slot;
 mod steps;
 mod stop;
+mod timers;
 mod wait;
 
+pub use ending::{DiedWhen, Fault};
 pub use plausible::Implausible;
 pub use referee::{Closed, Referee};
 pub use slot::{FrameCount, Slot, SlotState};
+pub use timers::Supervision;
 pub use wait::{AnswerTime, AnswerWait, MIN_RESEND_US, RESEND_US};
 
 use super::agents::{Gone, Reach};
@@ -138,6 +161,11 @@ pub struct Setup {
     /// The fingerprint of the run's settings: an agent that registers with
     /// another (non-zero) one is refused.
     pub settings: u64,
+    /// The supervision timers' settings (`timers.rs`). Not in the setup's
+    /// own encoding: `log::encode_setup` appends it, so a setup recorded
+    /// before it existed still decodes (with the timers off).
+    #[serde(skip)]
+    pub supervision: Supervision,
 }
 
 /// Something that happened, handed to [`Core::handle`].
@@ -171,13 +199,16 @@ pub enum Input {
     Interrupt,
     /// Robot `.0`'s agent's last error before it was reported gone (its
     /// process's last error line: the reason it gives for an absent or
-    /// lost robot). Last, so older recorded logs still decode.
+    /// lost robot).
     Said(u32, String),
     /// A stop asked from outside the launch (`orchestrator stop`, the ROS 2
     /// stop service): graceful ends the launch as Ctrl-C does; `now` first
-    /// tells every running robot `Stop` (`stop.rs`). Last, so older
-    /// recorded logs still decode.
+    /// tells every running robot `Stop` (`stop.rs`).
     Stop(Stop),
+    /// Robot `.0`'s agent's liveliness token came back (`true`) or went
+    /// (`false`): a fact; the core's timers decide what it means
+    /// (`timers.rs`). Last, so older recorded logs still decode.
+    Token(u32, bool),
 }
 
 /// A stop asked of the launch, and by whom (see [`Input::Stop`]).
@@ -213,10 +244,9 @@ pub enum Output {
     Bad(BadKind, String),
     /// End robot `.0`'s agent now.
     Kill(u32),
-    /// Robot `.0`'s agent was heard from (its watchdog restarts).
+    /// Robot `.0`'s agent was heard from (registered and alive: a source
+    /// asks an agent never heard from to end differently at wind-down).
     Heard(u32),
-    /// What robot `.0`'s gateway says about its robot's link.
-    RobotLink(u32, bool),
     /// What is sent from now on belongs to this simulated time, ns.
     SimTime(u64),
     /// Ask the operator to place a robot at the start.
@@ -239,8 +269,9 @@ pub struct Waiting {
 pub struct Ending {
     /// The outcome.
     pub outcome: Outcome,
-    /// The error, for [`Outcome::Error`].
-    pub error: Option<String>,
+    /// What went wrong, for [`Outcome::Error`] (typed; its words are its
+    /// `Display`, rendered at the edge).
+    pub error: Option<Fault>,
 }
 
 /// A verdict or a death the core must act on.
@@ -331,7 +362,7 @@ pub struct Core {
     /// How long answers take (when waits re-send first).
     answer_time: AnswerTime,
     queue: VecDeque<Pending>,
-    fatal: Option<String>,
+    fatal: Option<Fault>,
     interrupted: bool,
     outputs: VecDeque<Output>,
     decided_at: Option<u64>,
@@ -345,6 +376,8 @@ pub struct Core {
     mocap_heard: Vec<Option<u64>>,
     /// The stop asked from outside, once asked (`stop.rs`).
     stop: Option<StopSummary>,
+    /// Each robot's supervision timers (`timers.rs`).
+    watches: Vec<timers::Watch>,
 }
 
 impl Core {
@@ -379,6 +412,7 @@ impl Core {
             beacons: beacons::BeaconTable::default(),
             mocap_heard: vec![None; setup.robots as usize],
             stop: None,
+            watches: vec![timers::Watch::default(); setup.robots as usize],
             setup,
         }
     }
@@ -490,36 +524,32 @@ impl Core {
         if let Some(t) = self.mocap_due() {
             at(t);
         }
+        if let Some(t) = self.supervision_due() {
+            at(t);
+        }
         due
     }
 
     // ---- inputs ---------------------------------------------------------
 
-    /// Takes in one input that happened at `now` (µs of launch time). No
-    /// decision is taken here beyond bookkeeping: see [`Core::advance`].
+    /// Takes in one input that happened at `now` (µs of launch time): its
+    /// bookkeeping, and only the decisions that follow from it alone (see
+    /// the module docs); the rest is [`Core::advance`]'s.
     pub fn handle(&mut self, now: u64, input: Input) {
         if self.ending.is_some() {
             return;
         }
         match input {
-            Input::Started { robot, pid, how } => self.on_started(robot, pid, &how),
+            Input::Started { robot, pid, how } => self.on_started(now, robot, pid, &how),
             Input::Failed(e) => {
-                self.fatal.get_or_insert(e);
+                self.fatal.get_or_insert(Fault::Failed(e));
             }
             Input::Report(msg) => self.on_report(now, msg),
             Input::Pose { topic, pose } => {
                 self.mocap_heard(now, topic);
                 self.on_pose(now, topic, pose);
             }
-            Input::Gone(id, gone) => {
-                // A robot lost with the room is not judged dead for it: the
-                // launch ends saying the room is gone (`silence.rs`).
-                let lost_link = matches!(gone, Gone::RobotLinkLost).then_some(id);
-                match self.mocap_gone(now, lost_link) {
-                    Some(error) => self.fatal = Some(error),
-                    None => self.on_death(now, id, gone),
-                }
-            }
+            Input::Gone(id, gone) => self.gone(now, id, gone),
             Input::Reach(id, change) => self.on_reach(now, id, change),
             Input::Interrupt => self.interrupted = true,
             Input::Said(id, words) => {
@@ -528,6 +558,18 @@ impl Core {
                 }
             }
             Input::Stop(stop) => self.on_stop(now, stop),
+            Input::Token(id, present) => self.watch_token(now, id, present),
+        }
+    }
+
+    /// Robot `id`'s agent is gone (reported, or by a timer). A robot lost
+    /// with the room is not judged dead for it: the launch ends saying the
+    /// room is gone (`silence.rs`).
+    fn gone(&mut self, now: u64, id: u32, gone: Gone) {
+        let lost_link = matches!(gone, Gone::RobotLinkLost).then_some(id);
+        match self.mocap_gone(now, lost_link) {
+            Some(error) => self.fatal = Some(error),
+            None => self.on_death(now, id, gone),
         }
     }
 

@@ -85,18 +85,13 @@ impl Core {
     /// The error that ends the launch when motion capture has been silent
     /// too long at `now`: for its limit alone, or, when robot `lost_link`'s
     /// link is lost, for the gateways' link timeout.
-    pub(super) fn mocap_gone(&self, now: u64, lost_link: Option<u32>) -> Option<String> {
+    pub(super) fn mocap_gone(&self, now: u64, lost_link: Option<u32>) -> Option<Fault> {
         let (last, (link, alone)) = (self.mocap_last_us()?, self.mocap_limits_us()?);
         let silent = now.saturating_sub(last);
-        let ms = silent / 1000;
+        let (silent_ms, dwell_ms) = (silent / 1000, alone / 1000);
         match lost_link {
-            Some(id) if silent >= link => Some(format!(
-                "motion capture gone: no pose of any robot for {ms} ms, and robot {id}'s link was lost with it (the lab, its cameras or their network are gone)"
-            )),
-            _ if silent >= alone => Some(format!(
-                "motion capture gone: no pose of any robot for {ms} ms (the gate's dwell is {} ms)",
-                alone / 1000
-            )),
+            Some(_) if silent >= link => Some(Fault::MocapGone { silent_ms, lost_link, dwell_ms }),
+            _ if silent >= alone => Some(Fault::MocapGone { silent_ms, lost_link: None, dwell_ms }),
             _ => None,
         }
     }
@@ -150,6 +145,9 @@ mod tests {
             },
             unix_base_ms: 0,
             settings: 0,
+            // The robots' links are lost by hand here (`Input::Gone`): the
+            // timers that judge them are `timers.rs`'s tests.
+            supervision: Supervision::default(),
         }
     }
 
@@ -242,10 +240,8 @@ mod tests {
         lab.step(Some(Input::Gone(1, Gone::RobotLinkLost)));
         let ending = lab.core.ending().expect("the launch ended");
         assert_eq!(ending.outcome, Outcome::Error);
-        let error = ending.error.as_deref().unwrap_or_default();
-        let said =
-            "motion capture gone: no pose of any robot for 450 ms, and robot 2's link was lost with it";
-        assert!(error.starts_with(said), "{error}");
+        let fault = Fault::MocapGone { silent_ms: 450, lost_link: Some(2), dwell_ms: 2_000 };
+        assert_eq!(ending.error, Some(fault));
         assert!(lab.core.slots().iter().all(|s| s.death.is_none()), "no robot judged dead for its link");
     }
 
@@ -284,11 +280,10 @@ mod tests {
         assert_eq!(lab.core.mocap_due(), Some(cut + 2_000_000), "the core's deadline includes it");
         lab.run(cut + 2_000_000, false);
         let ending = lab.core.ending().expect("the launch ended");
-        let error = ending.error.as_deref().unwrap_or_default();
-        assert_eq!(
-            error,
-            "motion capture gone: no pose of any robot for 2000 ms (the gate's dwell is 2000 ms)"
-        );
+        let fault = ending.error.clone().expect("an error");
+        assert_eq!(fault, Fault::MocapGone { silent_ms: 2_000, lost_link: None, dwell_ms: 2_000 });
+        let said = "motion capture gone: no pose of any robot for 2000 ms (the gate's dwell is 2000 ms)";
+        assert_eq!(fault.to_string(), said, "in words at the edge");
     }
 
     /// Lockstep and simulated agents: silence is the agents waiting.

@@ -5,6 +5,7 @@
 //! from them at the end. Only the core writes them; the shells read them
 //! through [`super::Core::slots`].
 
+use crate::launch::agents::Gone;
 use crate::launch::summary::{Death, Outage};
 use bycoms_protocol::msg::Pose;
 
@@ -85,6 +86,9 @@ pub struct Slot {
     pub(super) late: bool,
     /// Its agent's last error before it was gone (`Input::Said`).
     pub(super) last_error: Option<String>,
+    /// Why its agent is gone, typed (its death's reason in words is
+    /// [`Gone::said`]).
+    pub(super) gone: Option<Gone>,
     /// Its agent said that its failsafe stopped it.
     pub(super) failsafe_fired: bool,
     /// Lockstep: its agent said its robot will never move again
@@ -131,6 +135,7 @@ impl Slot {
             beacon_robots: 0,
             beacons_sent_at: 0,
             last_error: None,
+            gone: None,
         }
     }
 
@@ -175,6 +180,10 @@ impl Slot {
         self.reaction_us
     }
     /// Why its agent is gone, if it is.
+    pub fn gone(&self) -> Option<Gone> {
+        self.gone
+    }
+    /// How its agent's death was noticed, in words and time.
     pub fn death(&self) -> Option<&Death> {
         self.death.as_ref()
     }

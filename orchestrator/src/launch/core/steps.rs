@@ -7,6 +7,7 @@ use super::*;
 impl Core {
     /// Takes every decision due at `now`.
     pub fn advance(&mut self, now: u64) {
+        self.supervise(now);
         loop {
             if self.ending.is_some() {
                 return;
@@ -302,17 +303,15 @@ impl Core {
         }
         if now >= placing.since.saturating_add(self.placement_timeout_us()) {
             let start = self.setup.start;
-            let last = self
-                .placement
-                .as_ref()
-                .and_then(|w| w.last())
-                .map_or("never".into(), |p| format!("at ({:.2}, {:.2})", p.x, p.y));
-            let timeout = self.setup.agents.placement.map_or(0.0, |c| c.timeout);
+            let last = self.placement.as_ref().and_then(|w| w.last()).map(|p| (p.x, p.y));
+            let timeout_s = self.setup.agents.placement.map_or(0.0, |c| c.timeout);
             self.outputs.push_back(Output::Carried(id, false));
-            self.fatal.get_or_insert(format!(
-                "robot {id} was not seen at the start ({:.2}, {:.2}) within {timeout} s (last seen: {last})",
-                start.x, start.y
-            ));
+            self.fatal.get_or_insert(Fault::NotPlaced {
+                robot: id,
+                start: (start.x, start.y),
+                timeout_s,
+                last,
+            });
             return true;
         }
         if now >= placing.reminded.saturating_add(REMIND_EVERY_US) {
@@ -461,15 +460,13 @@ impl Core {
     /// When every robot was tried and no agent ever registered, the launch
     /// did not run at all (a broken agent executable, a wrong protocol):
     /// an error naming the first robot and why, not "robots exhausted".
-    pub(super) fn none_registered(&self) -> Option<String> {
+    pub(super) fn none_registered(&self) -> Option<Fault> {
         if self.slots.iter().any(|s| s.registered_before_tick.is_some()) {
             return None;
         }
-        let first = self.slots.iter().find_map(|s| s.death.as_ref().map(|d| (s.id, d)))?;
-        Some(format!(
-            "no agent ever registered: robot {}'s agent never registered: {}",
-            first.0, first.1.reason
-        ))
+        let first = self.slots.iter().find(|s| s.death.is_some())?;
+        let reason = first.death.as_ref().map(|d| d.reason.clone()).unwrap_or_default();
+        Some(Fault::NoneRegistered { robot: first.id, why: first.gone, reason })
     }
 
     /// While every agent is awaited at the start, one error names every
@@ -478,26 +475,24 @@ impl Core {
         if self.phase != Phase::AwaitingEveryone {
             return;
         }
-        let never: Vec<String> = self
+        let never: Vec<u32> = self
             .slots
             .iter()
             .filter(|s| s.state == SlotState::Spawned && s.death.is_some())
-            .map(|s| s.id.to_string())
+            .map(|s| s.id)
             .collect();
         if !never.is_empty() {
-            let noun = if never.len() == 1 { "robot" } else { "robots" };
-            self.fatal = Some(format!(
-                "the {} agents of {noun} {} never registered within {} s{}",
-                self.setup.agents.kind,
-                never.join(", "),
-                self.setup.register_timeout_s,
-                self.setup.agents.start_hint
-            ));
+            self.fatal = Some(Fault::NeverCame {
+                robots: never,
+                kind: self.setup.agents.kind.clone(),
+                timeout_s: self.setup.register_timeout_s,
+                hint: self.setup.agents.start_hint.clone(),
+            });
         }
     }
 
     /// The launch is over: a robot still under watch is unfinished.
-    pub(super) fn end(&mut self, outcome: Outcome, error: Option<String>) {
+    pub(super) fn end(&mut self, outcome: Outcome, error: Option<Fault>) {
         if let Some(closed) = self.referee.watched().and_then(|id| self.referee.close(id)) {
             if let Some(slot) = self.slot(closed.robot) {
                 slot.state = SlotState::Unfinished;

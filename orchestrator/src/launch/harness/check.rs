@@ -1,6 +1,8 @@
 //! The properties every schedule keeps, stated once: the launch ends with
 //! a clear outcome, no robot is deployed twice, verdicts come in deployment
-//! order, the budget adds up, re-sends are bounded.
+//! order, the budget adds up, every crash or cut link is noticed within
+//! 500 ms (the core's supervision timers, in virtual time), re-sends are
+//! bounded.
 
 use super::*;
 
@@ -88,7 +90,7 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
     if (ending.outcome == Outcome::Error) != ending.error.is_some() {
         return Err(format!("outcome {:?} with error {:?}", ending.outcome, ending.error));
     }
-    if ending.error.as_ref().is_some_and(|e| e.trim().is_empty()) {
+    if ending.error.as_ref().is_some_and(|e| e.to_string().trim().is_empty()) {
         return Err("an error without words".into());
     }
     let _ = exit_code(ending);
@@ -161,6 +163,7 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
     if seams.poses_on_the_bus && report.forwarded > 0 {
         return Err(format!("{} poses forwarded though they are on the bus", report.forwarded));
     }
+    notices(report)?;
     // Re-sends are bounded: at most every awaited robot once a second, and
     // a few for each message lost (a wait's first re-sends come after a
     // few answer times, each twice as late as the one before).
@@ -209,6 +212,22 @@ fn check_stop(report: &Report, schedule: &Schedule, ending: &Ending) -> Result<(
     }
     if let Some(missed) = stop.told.iter().find(|id| !at_end.contains(id)) {
         return Err(format!("robot {missed} was not sent Stop in the launch's last step"));
+    }
+    Ok(())
+}
+
+/// Every crash of a running agent and every cut of its link is noticed
+/// (the agent lost, or unreachable) within [`NOTICE_US`] of virtual time,
+/// unless the launch ended first.
+fn notices(report: &Report) -> Result<(), String> {
+    for &(id, at) in &report.faults {
+        let until = at + NOTICE_US;
+        if report.end_us < until {
+            continue;
+        }
+        if !report.noticed.iter().any(|&(r, t)| r == id && (at..=until).contains(&t)) {
+            return Err(format!("robot {id}'s crash or cut at {at} µs was not noticed within 500 ms"));
+        }
     }
     Ok(())
 }

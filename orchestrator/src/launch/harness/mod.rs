@@ -40,10 +40,11 @@ pub use net::{Link, Net, Packet, Partition};
 pub use schedule::{Crash, Foreign, Schedule};
 use world::play;
 
-use super::agents::{Gone, Reach};
+use super::agents::Gone;
 use super::config::{Clock, LaunchConfig, Missing, OnDeath};
 use super::core::log::{Call, Logged};
 use super::core::{Ending, Input, Output, Setup, SlotState, Stop};
+use super::events::EventKind;
 use super::summary::{Decided, Outcome, RobotEnd, StopSummary};
 use crate::draw::snapshot::Unit;
 use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Heartbeat, Pose, Register, ToAgent};
@@ -168,7 +169,17 @@ pub struct Report {
     pub stopped: Option<StopSummary>,
     /// Robots whose agents ran when the launch ended.
     pub running_at_end: Vec<u32>,
+    /// Each crash of a running agent and each cut of its link, (robot, µs),
+    /// while the core held it reachable.
+    pub faults: Vec<(u32, u64)>,
+    /// When the core noticed a robot's agent lost or unreachable (its
+    /// `AgentLost` and `LinkLost` events), (robot, µs).
+    pub noticed: Vec<(u32, u64)>,
 }
+
+/// A crash or a cut link is noticed within this long, µs (the README's
+/// promise: a dead robot or a cut link is seen within 500 ms).
+pub const NOTICE_US: u64 = 500_000;
 
 /// Who asks a harness schedule's stop, and why.
 pub const STOP_WHO: &str = "the harness";

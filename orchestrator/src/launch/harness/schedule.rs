@@ -126,6 +126,8 @@ impl Schedule {
             senses_beacons: !gateway,
             poses_on_the_bus: !gateway,
             mocap_placement: None,
+            held_when_unreachable: self.remote,
+            robot_link_grace: gateway.then_some(crate::launch::agents::gateways::LINK_GRACE),
         }
     }
 

@@ -14,7 +14,14 @@ pub(super) enum Event {
     Interrupt,
     /// `orchestrator stop` (`--now` or not).
     Stop(bool),
+    /// A partition cuts robot `.0`'s link now (the network drops its
+    /// packets; noted for the detection property).
+    Cut(u32),
 }
+
+/// How long a cut link's liveliness token outlives it (zenoh's lease,
+/// `Liveness::FAST`).
+const LEASE_US: u64 = 400_000;
 
 /// A launch in virtual time.
 pub(super) struct World<'a> {
@@ -26,17 +33,11 @@ pub(super) struct World<'a> {
     pub(super) net: Net,
     pub(super) agents: Vec<Option<Agent>>,
     pub(super) impostors: Vec<Agent>,
-    pub(super) started_at: Vec<Option<u64>>,
-    pub(super) heard_at: Vec<Option<u64>>,
-    pub(super) unreachable: Vec<bool>,
     pub(super) events: BinaryHeap<Reverse<(u64, u64, usize)>>,
     pub(super) event_list: Vec<Option<Event>>,
     pub(super) seq: u64,
     pub(super) now: u64,
     pub(super) report: Report,
-    pub(super) register_timeout_us: u64,
-    pub(super) heartbeat_timeout_us: u64,
-    pub(super) link_grace_us: u64,
     pub(super) early_deaths_left: Vec<u32>,
     /// Robots a forger races at their next `Deploy` ([`Foreign::RacesTheDeploy`]).
     pub(super) racers: Vec<u32>,
@@ -44,13 +45,7 @@ pub(super) struct World<'a> {
 
 pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, Vec<Call>) {
     let launch = Launch::of(case, schedule);
-    let cfg = &launch.cfg;
     let n = case.robots as usize;
-    let (register_timeout_us, heartbeat_timeout_us, link_grace_us) = (
-        (cfg.supervision.register_timeout * 1e6) as u64,
-        (cfg.supervision.heartbeat_timeout * 1e6) as u64,
-        (cfg.supervision.link_grace * 1e6) as u64,
-    );
     let mut world = World {
         case,
         core: Logged::new(launch.setup(schedule), logged),
@@ -59,9 +54,6 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
         net: Net::new(schedule.link.clone(), schedule.partitions.clone(), schedule.seed),
         agents: (0..n).map(|_| None).collect(),
         impostors: Vec::new(),
-        started_at: vec![None; n],
-        heard_at: vec![None; n],
-        unreachable: vec![false; n],
         events: BinaryHeap::new(),
         event_list: Vec::new(),
         seq: 0,
@@ -91,10 +83,9 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             stop_log: Vec::new(),
             stopped: None,
             running_at_end: Vec::new(),
+            faults: Vec::new(),
+            noticed: Vec::new(),
         },
-        register_timeout_us,
-        heartbeat_timeout_us,
-        link_grace_us,
         early_deaths_left: schedule.early_deaths.clone(),
         racers: Vec::new(),
     };
@@ -130,22 +121,16 @@ impl World<'_> {
             self.at(at, Event::Stop(now));
         }
         if s.remote {
-            let lease = 400_000;
+            // A cut link's liveliness token goes after one lease and comes
+            // back with the link: facts; the core's timers judge them.
             for p in &s.partitions {
-                let lost = p.from_us + lease;
+                let lost = p.from_us + LEASE_US;
                 if lost >= p.until_us {
                     continue;
                 }
-                self.at(lost, Event::Tell(Input::Reach(p.robot, Reach::Lost)));
-                if p.until_us - lost <= self.link_grace_us {
-                    self.at(p.until_us, Event::Tell(Input::Reach(p.robot, Reach::Back)));
-                } else {
-                    let grace_ms = self.link_grace_us / 1000;
-                    self.at(
-                        lost + self.link_grace_us,
-                        Event::Tell(Input::Gone(p.robot, Gone::Unreachable { grace_ms })),
-                    );
-                }
+                self.at(p.from_us, Event::Cut(p.robot));
+                self.at(lost, Event::Tell(Input::Token(p.robot, false)));
+                self.at(p.until_us, Event::Tell(Input::Token(p.robot, true)));
             }
         }
     }
@@ -164,7 +149,6 @@ impl World<'_> {
                 self.net.next_at(),
                 self.events.peek().map(|Reverse((at, _, _))| *at),
                 self.agents.iter().flatten().filter_map(Agent::deadline).min(),
-                self.watchdog_due(),
             ]
             .into_iter()
             .flatten()
@@ -226,22 +210,15 @@ impl World<'_> {
                     self.report.gates.push(e);
                     self.report.gate_times_us.push(now);
                 }
-                Output::Kill(id) => {
-                    if let Some(Some(a)) = self.agents.get_mut(id as usize - 1) {
-                        a.alive = false;
-                    }
-                    self.started_at[id as usize - 1] = None;
-                }
-                Output::Heard(id) => {
-                    if let Some(h) = self.heard_at.get_mut(id as usize - 1) {
-                        *h = Some(now);
-                    }
+                Output::Kill(id) => self.kill(id),
+                Output::Event(e) if matches!(e.event, EventKind::AgentLost | EventKind::LinkLost) => {
+                    self.report.noticed.push((e.robot, now));
                 }
                 Output::Bad(..) => self.report.bad += 1,
                 Output::Forward(_) => self.report.forwarded += 1,
                 Output::Event(_)
+                | Output::Heard(_)
                 | Output::Note(_)
-                | Output::RobotLink(..)
                 | Output::SimTime(_)
                 | Output::AskOperator(_)
                 | Output::Carried(..) => {}
@@ -253,7 +230,6 @@ impl World<'_> {
         let i = id as usize - 1;
         if self.schedule.remote && self.agents[i].as_ref().is_some_and(|a| a.alive) {
             // A remote agent exists on its own: expected again, not made.
-            self.started_at[i] = Some(self.now);
             let now = self.now;
             self.core.handle(now, Input::Started { robot: id, pid: None, how: "awaiting its agent".into() });
             return;
@@ -261,7 +237,6 @@ impl World<'_> {
         let delay = self.schedule.register_delay_us.get(i).copied().unwrap_or(Some(50_000));
         let agent = self.launch.agent(id, 0x1000 + u64::from(id), delay.map(|d| self.now + d));
         self.agents[i] = Some(agent);
-        self.started_at[i] = Some(self.now);
         if let Some(left) = self.early_deaths_left.get_mut(i).filter(|n| **n > 0) {
             *left -= 1;
             let at = self.now + 5_000;
@@ -276,39 +251,17 @@ impl World<'_> {
         self.core.handle(now, Input::Started { robot: id, pid, how: how.into() });
     }
 
-    /// The agent source's timers: registration and heartbeat timeouts.
-    pub(super) fn watchdog_due(&self) -> Option<u64> {
-        (0..self.agents.len())
-            .filter_map(|i| {
-                let started = self.started_at[i]?;
-                match self.heard_at[i] {
-                    None => Some(started + self.register_timeout_us),
-                    Some(_) if self.unreachable[i] => None,
-                    Some(h) => Some(h + self.heartbeat_timeout_us),
-                }
-            })
-            .min()
-    }
-
-    pub(super) fn watchdog(&mut self) {
-        let now = self.now;
-        for i in 0..self.agents.len() {
-            let Some(started) = self.started_at[i] else { continue };
-            let gone = match self.heard_at[i] {
-                None if now >= started + self.register_timeout_us => Some(Gone::NeverRegistered),
-                Some(h) if !self.unreachable[i] && now >= h + self.heartbeat_timeout_us => Some(Gone::Silent),
-                _ => None,
-            };
-            if let Some(gone) = gone {
-                self.started_at[i] = None;
-                // A remote agent that never registered still exists on its
-                // host (it may come late); anything else was killed.
-                let outlives = self.schedule.remote && gone == Gone::NeverRegistered;
-                if let Some(a) = self.agents[i].as_mut().filter(|_| !outlives) {
-                    a.alive = false;
-                }
-                self.core.handle(now, Input::Gone(i as u32 + 1, gone));
-            }
+    /// The core ended robot `id`'s agent: a process is killed; a remote
+    /// agent is only dropped from the launch, and one that never registered
+    /// still exists on its host (it may come late).
+    pub(super) fn kill(&mut self, id: u32) {
+        let i = id as usize - 1;
+        let absent = self.core.slots().get(i).is_some_and(|s| s.state() == SlotState::Absent);
+        if self.schedule.remote && absent {
+            return;
+        }
+        if let Some(Some(a)) = self.agents.get_mut(i) {
+            a.alive = false;
         }
     }
 
@@ -336,7 +289,6 @@ impl World<'_> {
                 Self::send_from(&mut self.net, now, a.id(), s);
             }
         }
-        self.watchdog();
     }
 
     pub(super) fn send_from(net: &mut Net, now: u64, id: u32, said: Said) {
@@ -354,39 +306,31 @@ impl World<'_> {
             Event::Crash(id) => {
                 let alive =
                     self.agents.get(id as usize - 1).and_then(Option::as_ref).is_some_and(|a| a.alive);
-                if alive && self.started_at[id as usize - 1].is_some() {
+                if alive && self.core.is_running(id) {
                     if let Some(Some(a)) = self.agents.get_mut(id as usize - 1) {
                         a.alive = false;
                     }
-                    self.started_at[id as usize - 1] = None;
-                    let gone = if self.schedule.remote {
-                        Gone::Disconnected
+                    self.fault(id);
+                    // A process's end is seen within a few milliseconds,
+                    // with its last error line (what a shell's tap reads);
+                    // a remote agent's token goes with its session.
+                    if self.schedule.remote {
+                        self.at(now + 5_000, Event::Tell(Input::Token(id, false)));
                     } else {
-                        Gone::Exited(std::process::ExitStatus::from_raw(9))
-                    };
-                    // The process's end is seen within a few milliseconds,
-                    // with its last error line (what a shell's tap reads).
-                    if !self.schedule.remote {
                         let words = format!("robot {id}'s agent crashed (harness)");
                         self.at(now + 5_000, Event::Tell(Input::Said(id, words)));
+                        let status = std::process::ExitStatus::from_raw(9);
+                        self.at(now + 5_000, Event::Tell(Input::Gone(id, Gone::Exited(status))));
                     }
-                    self.at(now + 5_000, Event::Tell(Input::Gone(id, gone)));
                 }
             }
-            Event::Tell(input) => {
-                if let Input::Reach(id, r) = &input {
-                    self.unreachable[*id as usize - 1] = *r == Reach::Lost;
-                    if *r == Reach::Back {
-                        self.heard_at[*id as usize - 1] = Some(now);
-                    }
+            Event::Tell(input) => self.core.handle(now, input),
+            Event::Cut(id) => {
+                let alive =
+                    self.agents.get(id as usize - 1).and_then(Option::as_ref).is_some_and(|a| a.alive);
+                if alive && self.core.is_running(id) {
+                    self.fault(id);
                 }
-                if let Input::Gone(id, _) = &input {
-                    self.started_at[*id as usize - 1] = None;
-                    if let Some(Some(a)) = self.agents.get_mut(*id as usize - 1) {
-                        a.alive = false;
-                    }
-                }
-                self.core.handle(now, input);
             }
             Event::Forge(Foreign::RacesTheDeploy(id)) => self.racers.push(id),
             Event::Forge(f) => {
@@ -478,6 +422,20 @@ impl World<'_> {
         self.report.end_us = self.now;
         self.report.lost = self.net.lost;
         self.report
+    }
+
+    /// Robot `id`'s agent crashed or its link was cut now: the launch must
+    /// notice within [`NOTICE_US`] ([`check`]), unless it already holds
+    /// the robot as unreachable.
+    fn fault(&mut self, id: u32) {
+        let held = self
+            .core
+            .slots()
+            .get(id as usize - 1)
+            .is_some_and(|s| s.outages().last().is_some_and(|o| o.back_unix_ms.is_none()));
+        if !held {
+            self.report.faults.push((id, self.now));
+        }
     }
 
     /// Whether robot `id` has a registered agent.
