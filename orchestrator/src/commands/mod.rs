@@ -7,6 +7,7 @@ pub mod bench;
 pub mod bridge;
 pub mod certs;
 pub mod completions;
+pub mod doctor;
 pub mod draw;
 pub mod launch;
 pub mod merge;
@@ -59,6 +60,8 @@ pub enum Command {
     Bridge(bridge::Args),
     /// Make a lab CA, orchestrator and robot certificates, and zenoh configs with the ACL.
     Certs(certs::Args),
+    /// Check this host before a lab day: certificates, limits, ports, leftovers, NatNet.
+    Doctor(doctor::Args),
     /// Run one simulated robot (what `launch` starts when no `sim-agent` binary sits next to it).
     #[command(hide = true)]
     SimAgent(bycoms_sim::sim_agent::AgentArgs),
@@ -80,6 +83,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Completions(args) => completions::run(&args),
         Command::Bridge(args) => bridge::run(args),
         Command::Certs(args) => certs::run(args),
+        Command::Doctor(args) => doctor::run(args),
         Command::SimAgent(args) => Ok(bycoms_sim::sim_agent::main_with(&args)),
     }
 }

@@ -1,0 +1,107 @@
+//! `orchestrator doctor`: the checks of `crate::doctor` for a planned
+//! launch, said as findings (text, or `--json`), exit 1 on any error.
+
+use crate::doctor::{self, host, Finding};
+use crate::exit;
+use crate::launch::agents::choice::AgentSourceKind;
+use crate::launch::agents::gateways::GatewaysAt;
+use crate::launch::config::{LaunchConfig, MAX_ROBOTS};
+use crate::mocap::MocapSource;
+use anyhow::Result;
+use bycoms_sim::lab::robots::RobotsFile;
+use std::path::PathBuf;
+use std::time::{Duration, SystemTime};
+
+/// Check this host before a lab day: certificates, limits, ports, leftovers, NatNet.
+///
+/// Each finding names its check, its level (ok, warn, error), its cause and
+/// its fix. Exit 0 when nothing is an error, 1 when something is, 2 on a
+/// usage error. Checks of this host only: certificates in --certs DIR
+/// (chain, common names, expiry: a warning under 30 days, the ACL names
+/// every robot), the open-files and memory limits for the planned robot
+/// count, the gateways' UDP ports of the robots file free, iceoryx2 files
+/// of dead swarms, and the NatNet server answering (when the config's
+/// [mocap] source is natnet).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The launch config of the lab day (its robots, transport, robots file, [mocap]).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Planned robot count [default: the config's].
+    #[arg(long, value_name = "N")]
+    pub robots: Option<u32>,
+    /// The directory `orchestrator certs` wrote (ca.pem, orchestrator.json5, robot-K.pem).
+    #[arg(long, value_name = "DIR")]
+    pub certs: Option<PathBuf>,
+    /// Print the findings as JSON: {"findings": [{check, level, cause, fix}], "errors", "warnings"}.
+    #[arg(long)]
+    pub json: bool,
+    /// Remove iceoryx2 files of dead processes and unheld swarm locks first.
+    #[arg(long)]
+    pub clean: bool,
+    /// How long the NatNet server may take to answer each of 3 attempts, ms.
+    #[arg(long, value_name = "MS", default_value_t = 500)]
+    pub timeout_ms: u64,
+}
+
+/// The findings for the plan of `args` (read config, robot count).
+pub fn findings(args: &Args, now: SystemTime) -> Result<Vec<Finding>> {
+    let config = match &args.config {
+        Some(path) => LaunchConfig::load(path)?,
+        None => LaunchConfig::default(),
+    };
+    let robots = args.robots.unwrap_or(config.robots);
+    if robots == 0 || robots > MAX_ROBOTS {
+        return Err(exit::usage(format!("--robots {robots}: a launch deploys 1 to {MAX_ROBOTS} robots")));
+    }
+    let mut found = vec![host::open_files_here(robots, config.transport.kind)];
+    found.extend(host::available_mb().map(|mb| host::memory(robots, mb)));
+    if let Some(dir) = &args.certs {
+        found.extend(doctor::certs::check(dir, robots, now));
+    }
+    let agents = &config.agents;
+    if agents.source == AgentSourceKind::Real && agents.gateways == GatewaysAt::Here {
+        if let Some(path) = &agents.robots_file {
+            match RobotsFile::read(path) {
+                Ok(file) => {
+                    let gateways: Vec<_> = file.robots.iter().map(|r| (r.id, r.gateway)).collect();
+                    found.extend(host::udp_ports(&gateways));
+                }
+                Err(e) => found.push(Finding::error("udp-ports", e.to_string(), "fix agents.robots_file")),
+            }
+        }
+    }
+    found.push(host::iceoryx2_leftovers());
+    if let (MocapSource::Natnet, Some(natnet)) = (config.mocap.source, &config.mocap.natnet) {
+        found.push(host::natnet(&natnet.client, Duration::from_millis(args.timeout_ms)));
+    }
+    Ok(found)
+}
+
+/// Removes what dead swarms left on this host's bus (`--clean`).
+fn clean() -> Result<()> {
+    use bycoms_protocol::bus::ipc::cleanup_stale_resources;
+    bycoms_runtime::cli::quiet_iceoryx2();
+    let report = cleanup_stale_resources::<iceoryx2::service::ipc::Service>()?;
+    let locks = crate::launch::swarm_lock::sweep(&crate::launch::swarm_lock::lock_dir());
+    bycoms_runtime::logging::status_line(&format!(
+        "doctor: removed the files of {} dead iceoryx2 nodes ({} could not be removed) and {locks} unheld swarm locks",
+        report.cleaned, report.failed
+    ));
+    Ok(())
+}
+
+pub fn run(args: Args) -> Result<i32> {
+    if args.clean {
+        clean()?;
+    }
+    let found = findings(&args, SystemTime::now())?;
+    if args.json {
+        crate::outln!("{}", serde_json::to_string_pretty(&doctor::json(&found))?)?;
+    } else {
+        for line in doctor::text(&found) {
+            crate::outln!("{line}")?;
+        }
+    }
+    Ok(if doctor::any_error(&found) { exit::ERROR } else { exit::SUCCESS })
+}
