@@ -5,14 +5,14 @@ use crate::doctor::{self, host, Finding};
 use crate::exit;
 use crate::launch::agents::choice::AgentSourceKind;
 use crate::launch::agents::gateways::GatewaysAt;
-use crate::launch::config::{LaunchConfig, MAX_ROBOTS};
+use crate::launch::config::{check_endpoints, check_swarm, LaunchConfig, MAX_ROBOTS};
 use crate::mocap::MocapSource;
 use anyhow::Result;
 use bycoms_sim::lab::robots::RobotsFile;
 use std::path::PathBuf;
 use std::time::{Duration, SystemTime};
 
-/// Check this host before a lab day: certificates, limits, ports, leftovers, NatNet.
+/// Check this host before a lab day: certificates, limits, ports, leftovers, NatNet, zenoh.
 ///
 /// Each finding names its check, its level (ok, warn, error), its cause and
 /// its fix. Exit 0 when nothing is an error, 1 when something is, 2 on a
@@ -21,7 +21,8 @@ use std::time::{Duration, SystemTime};
 /// every robot), the open-files and memory limits for the planned robot
 /// count, the gateways' UDP ports of the robots file free, iceoryx2 files
 /// of dead swarms, and the NatNet server answering (when the config's
-/// [mocap] source is natnet).
+/// [mocap] source is natnet). With --connect: the orchestrator's zenoh
+/// endpoint reached as a robot's host would, and its liveliness seen.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// The launch config of the lab day (its robots, transport, robots file, [mocap]).
@@ -39,7 +40,19 @@ pub struct Args {
     /// Remove iceoryx2 files of dead processes and unheld swarm locks first.
     #[arg(long)]
     pub clean: bool,
-    /// How long the NatNet server may take to answer each of 3 attempts, ms.
+    /// Reach this zenoh endpoint as a robot's host would (client mode), e.g.
+    /// quic/orchestrator.lab:7447, and with --swarm (or the config's swarm)
+    /// see the orchestrator's liveliness there.
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Option<String>,
+    /// With --connect: the robot's zenoh config read first (certs/robot-1.json5).
+    #[arg(long, value_name = "FILE", requires = "connect")]
+    pub zenoh_config: Option<PathBuf>,
+    /// With --connect: the swarm whose orchestrator must be alive [default: the config's swarm].
+    #[arg(long, value_name = "NAME", requires = "connect")]
+    pub swarm: Option<String>,
+    /// How long the NatNet server (and with --connect, the zenoh session and
+    /// the orchestrator's liveliness) may take to answer each of 3 attempts, ms.
     #[arg(long, value_name = "MS", default_value_t = 500)]
     pub timeout_ms: u64,
 }
@@ -74,6 +87,17 @@ pub fn findings(args: &Args, now: SystemTime) -> Result<Vec<Finding>> {
     found.push(host::iceoryx2_leftovers());
     if let (MocapSource::Natnet, Some(natnet)) = (config.mocap.source, &config.mocap.natnet) {
         found.push(host::natnet(&natnet.client, Duration::from_millis(args.timeout_ms)));
+    }
+    if let Some(endpoint) = &args.connect {
+        check_endpoints("--connect", std::slice::from_ref(endpoint))?;
+        let swarm = args.swarm.as_ref().or(config.swarm.as_ref()).map(|s| check_swarm(s)).transpose()?;
+        let reach = doctor::zenoh::Reach {
+            endpoint: endpoint.clone(),
+            zenoh_config: args.zenoh_config.clone(),
+            swarm,
+            timeout: Duration::from_millis(args.timeout_ms),
+        };
+        found.extend(doctor::zenoh::check(&reach));
     }
     Ok(found)
 }

@@ -10,14 +10,17 @@
 //! The checks read what the launch reads (the launch config, its robots
 //! file, the certificates `orchestrator certs` wrote) and reuse the
 //! launch's own arithmetic (`launch::limits`), so the doctor and the
-//! launch cannot disagree about what is enough. This slice checks this
-//! host only: the zenoh endpoints both ways, the orchestrator's liveliness
-//! and clock offsets need the other hosts and are not checked yet.
+//! launch cannot disagree about what is enough. With `--connect` it also
+//! reaches the orchestrator's zenoh endpoint as a robot's host would and
+//! looks for the orchestrator's liveliness ([`zenoh`]); the other
+//! direction and clock offsets need a doctor on the other hosts and are
+//! not checked yet.
 
 pub mod certs;
 pub mod host;
 #[cfg(test)]
 mod tests;
+pub mod zenoh;
 
 use serde::Serialize;
 

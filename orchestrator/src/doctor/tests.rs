@@ -174,3 +174,47 @@ fn the_report_counts_and_the_json_has_the_documented_shape() {
     assert_eq!(j["findings"][2]["level"], "error");
     assert_eq!(j["findings"][1]["fix"], "relaunch");
 }
+
+/// A reach of `endpoint` for swarm `swarm`, waiting `ms` per step.
+fn reach(endpoint: &str, swarm: &str, ms: u64) -> super::zenoh::Reach {
+    super::zenoh::Reach {
+        endpoint: endpoint.into(),
+        zenoh_config: None,
+        swarm: Some(bycoms_protocol::Swarm::new(swarm).expect("swarm")),
+        timeout: Duration::from_millis(ms),
+    }
+}
+
+#[test]
+fn the_orchestrators_endpoint_is_reached_and_its_liveliness_seen_or_missed() {
+    use bycoms_protocol::bus::zenoh::{Mode, ZenohBus, ZenohConfig};
+    use bycoms_protocol::naming::Member;
+    let listen = crate::launch::transport::with_free_port("tcp/127.0.0.1:0").expect("free port");
+    let router = ZenohBus::open(ZenohConfig {
+        mode: Mode::Router,
+        listen: vec![listen.clone()],
+        ..ZenohConfig::default()
+    })
+    .expect("router");
+    let swarm = bycoms_protocol::Swarm::new("doctor-live").expect("swarm");
+    let _alive = router.declare_alive(&swarm, Member::Orchestrator).expect("token");
+    let found = super::zenoh::check(&reach(&listen, "doctor-live", 5_000));
+    assert_eq!(found.iter().map(|f| f.level).collect::<Vec<_>>(), [Level::Ok, Level::Ok], "{found:#?}");
+    let found = super::zenoh::check(&reach(&listen, "doctor-other", 200));
+    assert_eq!(found.iter().map(|f| f.level).collect::<Vec<_>>(), [Level::Ok, Level::Error], "{found:#?}");
+    assert!(found[1].cause.contains("no orchestrator of swarm doctor-other"), "{}", found[1].cause);
+}
+
+#[test]
+fn an_endpoint_that_never_answers_is_an_error_within_the_bounded_wait() {
+    // Accepts TCP (the backlog) and never speaks zenoh.
+    let mute = std::net::TcpListener::bind((Ipv4Addr::LOCALHOST, 0)).expect("bind");
+    let endpoint = format!("tcp/{}", mute.local_addr().expect("addr"));
+    let started = std::time::Instant::now();
+    let found = super::zenoh::check(&reach(&endpoint, "doctor-mute", 300));
+    assert_eq!(found.len(), 1, "{found:#?}");
+    assert_eq!(found[0].level, Level::Error);
+    assert!(found[0].cause.contains(&format!("{endpoint} not reached")), "{}", found[0].cause);
+    assert!(found[0].fix.contains("firewall"), "{}", found[0].fix);
+    assert!(started.elapsed() < Duration::from_secs(5), "bounded: {:?}", started.elapsed());
+}
