@@ -129,3 +129,48 @@ pub fn run(args: Args) -> Result<i32> {
     }
     Ok(if doctor::any_error(&found) { exit::ERROR } else { exit::SUCCESS })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::doctor::Level;
+
+    /// A lab config's robots file is read for the gateways' ports: one
+    /// held by this test is an error naming its robot.
+    #[test]
+    fn the_configs_robots_file_gives_the_gateway_ports_checked() {
+        let taken = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
+        let port = taken.local_addr().expect("addr").port();
+        let dir = tempfile::tempdir().expect("temp dir");
+        let robots = format!(
+            "[[robot]]\nid = 1\naddress = \"127.0.0.1:47101\"\ngateway = \"127.0.0.1:0\"\nkey_file = \"k1\"\n\n\
+             [[robot]]\nid = 2\naddress = \"127.0.0.1:47102\"\ngateway = \"127.0.0.1:{port}\"\nkey_file = \"k2\"\n"
+        );
+        std::fs::write(dir.path().join("robots.toml"), robots).expect("robots file");
+        let config = dir.path().join("launch.toml");
+        std::fs::write(&config, "robots = 2\n[agents]\nsource = \"real\"\nrobots_file = \"robots.toml\"\n")
+            .expect("config");
+        let args = Args {
+            config: Some(config),
+            robots: None,
+            certs: None,
+            json: false,
+            clean: false,
+            connect: None,
+            zenoh_config: None,
+            swarm: None,
+            timeout_ms: 100,
+        };
+        let found = findings(&args, SystemTime::now()).expect("findings");
+        let ports: Vec<_> = found.iter().filter(|f| f.check == "udp-ports").collect();
+        assert_eq!(ports.len(), 1, "{found:#?}");
+        assert_eq!(ports[0].level, Level::Error);
+        assert!(
+            ports[0].cause.contains(&format!("robot 2's gateway cannot bind 127.0.0.1:{port}")),
+            "{:?}",
+            ports[0]
+        );
+        let usage = findings(&Args { robots: Some(1001), ..args }, SystemTime::now()).expect_err("too many");
+        assert_eq!(exit::code_of(&usage), exit::USAGE);
+    }
+}

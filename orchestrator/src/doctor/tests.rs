@@ -218,3 +218,19 @@ fn an_endpoint_that_never_answers_is_an_error_within_the_bounded_wait() {
     assert!(found[0].fix.contains("firewall"), "{}", found[0].fix);
     assert!(started.elapsed() < Duration::from_secs(5), "bounded: {:?}", started.elapsed());
 }
+
+#[test]
+fn an_answering_natnet_server_is_ok() {
+    use bycoms_sim::natnet_server::NatNetServer;
+    let lab = crate::mocap::tests::lab(Default::default());
+    let server = NatNetServer::start_any_port(lab, Ipv4Addr::LOCALHOST.into()).expect("server");
+    let client = crate::mocap::ClientConfig {
+        server: server.command_addr(),
+        local: Ipv4Addr::LOCALHOST.into(),
+        multicast: None,
+        reply_timeout_ms: 1000,
+    };
+    let found = host::natnet(&client, Duration::from_secs(2));
+    assert_eq!(found.level, Level::Ok, "{found:?}");
+    assert!(found.cause.contains("answers (lab)"), "{}", found.cause);
+}
