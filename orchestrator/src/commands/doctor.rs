@@ -12,17 +12,7 @@ use bycoms_sim::lab::robots::RobotsFile;
 use std::path::PathBuf;
 use std::time::{Duration, SystemTime};
 
-/// Check this host before a lab day: certificates, limits, ports, leftovers, NatNet, zenoh.
-///
-/// Each finding names its check, its level (ok, warn, error), its cause and
-/// its fix. Exit 0 when nothing is an error, 1 when something is, 2 on a
-/// usage error. Checks of this host only: certificates in --certs DIR
-/// (chain, common names, expiry: a warning under 30 days, the ACL names
-/// every robot), the open-files and memory limits for the planned robot
-/// count, the gateways' UDP ports of the robots file free, iceoryx2 files
-/// of dead swarms, and the NatNet server answering (when the config's
-/// [mocap] source is natnet). With --connect: the orchestrator's zenoh
-/// endpoint reached as a robot's host would, and its liveliness seen.
+/// `orchestrator doctor`'s flags (its help is the `Command::Doctor` variant's).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// The launch config of the lab day (its robots, transport, robots file, [mocap]).

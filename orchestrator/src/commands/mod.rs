@@ -60,7 +60,18 @@ pub enum Command {
     Bridge(bridge::Args),
     /// Make a lab CA, orchestrator and robot certificates, and zenoh configs with the ACL.
     Certs(certs::Args),
-    /// Check this host before a lab day: certificates, limits, ports, leftovers, NatNet.
+    /// Check this host before a lab day: certificates, limits, ports, leftovers, NatNet, zenoh.
+    ///
+    /// Each finding names its check, its level (ok, warn, error), its cause
+    /// and its fix. Exit 0 when nothing is an error, 1 when something is, 2
+    /// on a usage error. Checks of this host: the certificates in --certs DIR
+    /// (chain, common names, expiry: a warning under 30 days; the ACL names
+    /// every robot), the open-files and memory limits for the planned robot
+    /// count, the gateways' UDP ports of the config's robots file free,
+    /// iceoryx2 files of dead swarms (--clean removes them), and the NatNet
+    /// server answering when the config's [mocap] source is natnet. With
+    /// --connect: the orchestrator's zenoh endpoint reached as a robot's
+    /// host would, and its liveliness seen (--swarm).
     Doctor(doctor::Args),
     /// Run one simulated robot (what `launch` starts when no `sim-agent` binary sits next to it).
     #[command(hide = true)]
