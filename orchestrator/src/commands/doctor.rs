@@ -13,7 +13,7 @@ use std::path::PathBuf;
 use std::time::{Duration, SystemTime};
 
 /// `orchestrator doctor`'s flags (its help is the `Command::Doctor` variant's).
-#[derive(Debug, clap::Args)]
+#[derive(Clone, Debug, clap::Args)]
 pub struct Args {
     /// The launch config of the lab day (its robots, transport, robots file, [mocap]).
     #[arg(long, value_name = "FILE")]
@@ -21,7 +21,8 @@ pub struct Args {
     /// Planned robot count [default: the config's].
     #[arg(long, value_name = "N")]
     pub robots: Option<u32>,
-    /// The directory `orchestrator certs` wrote (ca.pem, orchestrator.json5, robot-K.pem).
+    /// The directory `orchestrator certs` wrote (ca.pem, orchestrator.json5,
+    /// robot-K.pem) [default: the directory of the config's transport.zenoh_config].
     #[arg(long, value_name = "DIR")]
     pub certs: Option<PathBuf>,
     /// Print the findings as JSON: {"findings": [{check, level, cause, fix}], "errors", "warnings"}.
@@ -59,13 +60,19 @@ pub fn findings(args: &Args, now: SystemTime) -> Result<Vec<Finding>> {
     }
     let mut found = vec![host::open_files_here(robots, config.transport.kind)];
     found.extend(host::available_mb().map(|mb| host::memory(robots, mb)));
-    if let Some(dir) = &args.certs {
+    let zenoh_dir = config.transport.zenoh_config.as_deref().and_then(std::path::Path::parent);
+    if let Some(dir) = args.certs.as_deref().or(zenoh_dir) {
         found.extend(doctor::certs::check(dir, robots, now));
     }
     let agents = &config.agents;
     if agents.source == AgentSourceKind::Real && agents.gateways == GatewaysAt::Here {
         if let Some(path) = &agents.robots_file {
             match RobotsFile::read(path) {
+                Ok(file) if file.robots.len() < robots as usize => found.push(Finding::error(
+                    "robots-file",
+                    format!("{} names {} robots, the plan {robots}", path.display(), file.robots.len()),
+                    "add the missing robots to the robots file, or plan fewer (--robots)",
+                )),
                 Ok(file) => {
                     let gateways: Vec<_> = file.robots.iter().map(|r| (r.id, r.gateway)).collect();
                     found.extend(host::udp_ports(&gateways));
@@ -160,7 +167,46 @@ mod tests {
             "{:?}",
             ports[0]
         );
+        let more = findings(&Args { robots: Some(3), ..args.clone() }, SystemTime::now()).expect("findings");
+        let short: Vec<_> = more.iter().filter(|f| f.check == "robots-file").collect();
+        assert_eq!(short.len(), 1, "{more:#?}");
+        assert!(short[0].cause.ends_with("names 2 robots, the plan 3"), "{:?}", short[0]);
         let usage = findings(&Args { robots: Some(1001), ..args }, SystemTime::now()).expect_err("too many");
         assert_eq!(exit::code_of(&usage), exit::USAGE);
+    }
+
+    /// Without --certs, the certificates are those beside the config's
+    /// zenoh config (where `orchestrator certs` put both).
+    #[test]
+    fn the_certs_beside_the_configs_zenoh_config_are_checked() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let certs = dir.path().join("certs");
+        let plan = crate::certs::Plan {
+            robots: 1,
+            hosts: vec!["localhost".into()],
+            listen: "quic/127.0.0.1:7447".into(),
+            connect: "quic/localhost:7447".into(),
+            out: certs,
+            force: false,
+        };
+        crate::certs::generate(&plan).expect("certs");
+        let config = dir.path().join("launch.toml");
+        let toml = "robots = 2\n[transport]\nkind = \"zenoh\"\nzenoh_config = \"certs/orchestrator.json5\"\n";
+        std::fs::write(&config, toml).expect("config");
+        let args = Args {
+            config: Some(config),
+            robots: None,
+            certs: None,
+            json: true,
+            clean: false,
+            connect: None,
+            zenoh_config: None,
+            swarm: None,
+            timeout_ms: 100,
+        };
+        let found = findings(&args, SystemTime::now()).expect("findings");
+        let missing: Vec<_> = found.iter().filter(|f| f.level == Level::Error).collect();
+        assert_eq!(missing.len(), 2, "robot 2 has no certificate and no ACL entry: {found:#?}");
+        assert!(missing.iter().all(|f| f.fix.contains("--add-robots --robots 2")), "{missing:#?}");
     }
 }
