@@ -251,7 +251,7 @@ fn write_config(path: &Path, header: &str, config: &Value, force: bool) -> Resul
 
 /// A zenoh config this module wrote, read back: its comment lines dropped,
 /// the rest is JSON.
-fn read_config(path: &Path) -> Result<Value> {
+pub fn read_config(path: &Path) -> Result<Value> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let json: String =
         text.lines().filter(|l| !l.trim_start().starts_with("//")).collect::<Vec<_>>().join("\n");

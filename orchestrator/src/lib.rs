@@ -5,6 +5,7 @@
 
 pub mod certs;
 pub mod commands;
+pub mod doctor;
 pub mod draw;
 pub mod gate;
 pub mod launch;

@@ -563,3 +563,39 @@ fn a_cr_lf_shard_merges_as_the_same_rows() {
     let runs = |d: &Path| std::fs::read(d.join("runs.csv")).unwrap();
     assert_eq!(runs(again.path()), runs(merged.path()));
 }
+
+/// `orchestrator doctor`: exit 0 with a good certificate set, 1 when a
+/// robot has none (its findings in the documented `--json` shape), 2 on a
+/// usage error naming the flag.
+#[test]
+fn doctor_exits_0_1_2_and_prints_its_findings_as_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let certs = dir.path().join("certs");
+    let made = orchestrator(&["certs", "--robots", "2", "--out", certs.to_str().unwrap()]);
+    assert!(made.status.success(), "{}", stderr(&made));
+    let tag = format!("doctor-cli-{}", std::process::id());
+    let doctor = |robots: &str| {
+        Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+            .args(["doctor", "--json", "--robots", robots, "--certs", certs.to_str().unwrap()])
+            .env("BYCOMS_IPC_ISOLATION", &tag)
+            .output()
+            .expect("spawn orchestrator")
+    };
+    let good = doctor("2");
+    assert_eq!(good.status.code(), Some(0), "{}", stderr(&good));
+    let json: serde_json::Value = serde_json::from_slice(&good.stdout).expect("JSON on stdout");
+    assert_eq!(json["errors"], 0);
+    let findings = json["findings"].as_array().expect("findings");
+    for f in findings {
+        assert!(["ok", "warn", "error"].contains(&f["level"].as_str().unwrap()), "{f}");
+        assert!(f["check"].is_string() && f["cause"].is_string() && f["fix"].is_string(), "{f}");
+    }
+    assert!(findings.iter().any(|f| f["check"] == "certs" && f["level"] == "ok"), "{json}");
+    let bad = doctor("3");
+    assert_eq!(bad.status.code(), Some(1), "{}", stderr(&bad));
+    let json: serde_json::Value = serde_json::from_slice(&bad.stdout).expect("JSON on stdout");
+    assert_eq!(json["errors"], 2, "{json}");
+    let usage = doctor("0");
+    assert_eq!(usage.status.code(), Some(2));
+    assert!(stderr(&usage).contains("--robots 0"), "{}", stderr(&usage));
+}

@@ -7,6 +7,7 @@ pub mod bench;
 pub mod bridge;
 pub mod certs;
 pub mod completions;
+pub mod doctor;
 pub mod draw;
 pub mod launch;
 pub mod merge;
@@ -71,6 +72,19 @@ pub enum Command {
     /// The launch records who asked and why in its summary (`stop`) and exits 130. Exit codes:
     /// 0 the launch said it stops, 1 no launch answered, 2 usage (several run and --swarm is missing).
     Stop(stop::Args),
+    /// Check this host before a lab day: certificates, limits, ports, leftovers, NatNet, zenoh.
+    ///
+    /// Each finding names its check, its level (ok, warn, error), its cause
+    /// and its fix. Exit 0 when nothing is an error, 1 when something is, 2
+    /// on a usage error. Checks of this host: the certificates in --certs DIR
+    /// (chain, common names, expiry: a warning under 30 days; the ACL names
+    /// every robot), the open-files and memory limits for the planned robot
+    /// count, the gateways' UDP ports of the config's robots file free,
+    /// iceoryx2 files of dead swarms (--clean removes them), and the NatNet
+    /// server answering when the config's [mocap] source is natnet. With
+    /// --connect: the orchestrator's zenoh endpoint reached as a robot's
+    /// host would, and its liveliness seen (--swarm).
+    Doctor(doctor::Args),
     /// Run one simulated robot (what `launch` starts when no `sim-agent` binary sits next to it).
     #[command(hide = true)]
     SimAgent(bycoms_sim::sim_agent::AgentArgs),
@@ -94,6 +108,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Certs(args) => certs::run(args),
         Command::Status(args) => status::run(args),
         Command::Stop(args) => stop::run(args),
+        Command::Doctor(args) => doctor::run(args),
         Command::SimAgent(args) => Ok(bycoms_sim::sim_agent::main_with(&args)),
     }
 }

@@ -69,8 +69,9 @@ pub fn ensure_open_files(needed: u64, robots: u32) -> Result<FilesCheck, String>
 }
 
 /// The decision of [`ensure_open_files`] for limits `soft` and `hard`,
-/// with `raise` setting the soft limit.
-fn decide(
+/// with `raise` setting the soft limit (`orchestrator doctor` asks it
+/// with a `raise` that does nothing).
+pub fn decide(
     needed: u64,
     robots: u32,
     soft: u64,

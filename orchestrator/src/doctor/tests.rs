@@ -1,0 +1,236 @@
+//! The doctor's checks, each fault injected in a temporary directory or
+//! on a loopback socket of the test's own.
+
+use super::{certs, host, json, text, Finding, Level};
+use crate::certs::{access_control, generate, robot_cn, Plan};
+use crate::launch::config::Transport;
+use rcgen::{CertificateParams, DnType, Issuer, KeyPair};
+use std::collections::BTreeSet;
+use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
+use std::path::Path;
+use std::time::{Duration, SystemTime};
+
+/// A lab set for `robots` robots in a new temporary directory.
+fn lab(robots: u32) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let plan = Plan {
+        robots,
+        hosts: vec!["localhost".into()],
+        listen: "quic/0.0.0.0:7447".into(),
+        connect: "quic/localhost:7447".into(),
+        out: dir.path().to_path_buf(),
+        force: false,
+    };
+    generate(&plan).expect("certs");
+    dir
+}
+
+/// Replaces `dir/<file>.pem` by a certificate of common name `cn`, signed
+/// by the set's CA, valid until `until` (year, month, day).
+fn reissue(dir: &Path, file: &str, cn: &str, until: (i32, u8, u8)) {
+    let ca_pem = std::fs::read_to_string(dir.join("ca.pem")).expect("ca");
+    let key =
+        KeyPair::from_pem(&std::fs::read_to_string(dir.join("ca-key.pem")).expect("ca key")).expect("key");
+    let issuer = Issuer::from_ca_cert_pem(&ca_pem, key).expect("issuer");
+    let mut params = CertificateParams::new(vec![cn.to_string()]).expect("params");
+    params.distinguished_name.push(DnType::CommonName, cn);
+    params.not_before = rcgen::date_time_ymd(2020, 1, 1);
+    params.not_after = rcgen::date_time_ymd(until.0, until.1, until.2);
+    let cert = params.signed_by(&KeyPair::generate().expect("key"), &issuer).expect("sign");
+    std::fs::write(dir.join(format!("{file}.pem")), cert.pem()).expect("write");
+}
+
+/// 2026-06-01, a fixed "today" for the dates.
+fn today() -> SystemTime {
+    SystemTime::UNIX_EPOCH + Duration::from_secs(1_780_272_000)
+}
+
+fn problems(found: &[Finding]) -> Vec<&Finding> {
+    found.iter().filter(|f| f.level != Level::Ok).collect()
+}
+
+#[test]
+fn a_fresh_set_is_all_ok_and_a_missing_robot_is_an_error_with_its_fix() {
+    let dir = lab(2);
+    let found = certs::check(dir.path(), 2, today());
+    assert!(problems(&found).is_empty(), "{found:#?}");
+    assert_eq!(found.iter().map(|f| f.check).collect::<Vec<_>>(), ["certs", "acl"]);
+    let found = certs::check(dir.path(), 3, today());
+    let p = problems(&found);
+    assert_eq!(p.len(), 2, "{found:#?}");
+    assert!(p.iter().all(|f| f.level == Level::Error && f.fix.contains("--add-robots --robots 3")), "{p:#?}");
+    assert!(p[0].cause.contains("robot-3.pem") && p[1].cause.contains("does not name robot-3"), "{p:#?}");
+}
+
+#[test]
+fn an_expired_certificate_is_an_error_and_one_expiring_within_30_days_a_warning() {
+    let dir = lab(2);
+    reissue(dir.path(), "robot-1", "robot-1", (2026, 5, 1));
+    reissue(dir.path(), "robot-2", "robot-2", (2026, 6, 21));
+    let found = certs::check(dir.path(), 2, today());
+    let p = problems(&found);
+    assert_eq!(p.len(), 2, "{found:#?}");
+    assert_eq!(p[0].level, Level::Error);
+    assert!(p[0].cause.contains("robot-1.pem expired on 2026-05-01"), "{}", p[0].cause);
+    assert_eq!(p[1].level, Level::Warn);
+    assert!(p[1].cause.contains("robot-2.pem expires in 20 days (2026-06-21)"), "{}", p[1].cause);
+    assert!(p[1].fix.contains("orchestrator certs --add-robots"), "{}", p[1].fix);
+}
+
+#[test]
+fn a_wrong_common_name_and_another_labs_certificate_are_errors() {
+    let dir = lab(2);
+    reissue(dir.path(), "robot-1", "robot-9", (2030, 1, 1));
+    let other = lab(1);
+    std::fs::copy(other.path().join("robot-1.pem"), dir.path().join("robot-2.pem")).expect("copy");
+    let found = certs::check(dir.path(), 2, today());
+    let causes: Vec<&str> = problems(&found).iter().map(|f| f.cause.as_str()).collect();
+    assert_eq!(causes.len(), 3, "{found:#?}");
+    assert!(
+        causes[0].contains("robot-1.pem carries the common name \"robot-9\", not \"robot-1\""),
+        "{causes:?}"
+    );
+    assert!(causes[1].contains("robot-2.pem is not signed by the lab's CA"), "{causes:?}");
+    assert!(causes[2].contains("robot-2.pem carries the common name \"robot-1\""), "{causes:?}");
+}
+
+#[test]
+fn an_acl_that_misses_a_robot_is_an_error_and_a_revoked_robot_a_warning() {
+    let dir = lab(3);
+    let path = dir.path().join("orchestrator.json5");
+    let mut config = crate::certs::read_config(&path).expect("config");
+    config["access_control"] = access_control(2, &BTreeSet::from([1]));
+    std::fs::write(&path, serde_json::to_string(&config).expect("json")).expect("write");
+    let found = certs::check(dir.path(), 3, today());
+    let p = problems(&found);
+    assert_eq!(p.len(), 2, "{found:#?}");
+    assert_eq!((p[0].check, p[0].level), ("acl", Level::Warn));
+    assert!(p[0].cause.contains("robot 1 is revoked"), "{}", p[0].cause);
+    assert_eq!((p[1].check, p[1].level), ("acl", Level::Error));
+    assert!(p[1].cause.contains(&format!("does not name {}", robot_cn(3))), "{}", p[1].cause);
+}
+
+#[test]
+fn a_taken_gateway_port_is_an_error_that_names_the_robot_and_a_free_one_is_ok() {
+    let taken = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0)).expect("bind");
+    let taken_addr = taken.local_addr().expect("addr");
+    // Port 0: any free port, always bindable.
+    let free_addr = SocketAddr::from((Ipv4Addr::LOCALHOST, 0));
+    let found = host::udp_ports(&[(1, free_addr), (2, taken_addr)]);
+    assert_eq!(found.len(), 1, "{found:#?}");
+    assert_eq!(found[0].level, Level::Error);
+    assert!(
+        found[0].cause.contains(&format!("robot 2's gateway cannot bind {taken_addr}")),
+        "{}",
+        found[0].cause
+    );
+    assert!(found[0].fix.contains(&format!("sport = :{}", taken_addr.port())), "{}", found[0].fix);
+    assert_eq!(host::udp_ports(&[(1, free_addr)])[0].level, Level::Ok);
+}
+
+#[test]
+fn the_limits_say_what_the_launch_would_do() {
+    assert_eq!(host::open_files(3, Transport::Ipc, 1024, 4096).level, Level::Ok);
+    let raised = host::open_files(100, Transport::Ipc, 1024, 1 << 20);
+    assert_eq!(raised.level, Level::Ok);
+    assert!(raised.cause.contains("raises the limit from 1024"), "{}", raised.cause);
+    let refused = host::open_files(1000, Transport::Ipc, 1024, 4096);
+    assert_eq!(refused.level, Level::Error);
+    assert!(refused.cause.contains("4096") && refused.fix.contains("ulimit -Hn"), "{refused:?}");
+    assert_eq!(host::memory(100, 4096).level, Level::Ok);
+    let short = host::memory(1000, 4096);
+    assert_eq!(short.level, Level::Error);
+    assert!(short.cause.contains("6256 MB"), "{}", short.cause);
+}
+
+#[test]
+fn a_silent_natnet_server_is_an_error_within_the_bounded_wait() {
+    let silent = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0)).expect("bind");
+    let client = crate::mocap::ClientConfig {
+        server: silent.local_addr().expect("addr"),
+        local: Ipv4Addr::LOCALHOST.into(),
+        multicast: None,
+        reply_timeout_ms: 60_000,
+    };
+    let started = std::time::Instant::now();
+    let found = host::natnet(&client, Duration::from_millis(50));
+    assert_eq!(found.level, Level::Error);
+    assert!(found.cause.contains("did not answer NAT_CONNECT"), "{}", found.cause);
+    assert!(started.elapsed() < Duration::from_secs(5), "bounded: {:?}", started.elapsed());
+}
+
+#[test]
+fn the_report_counts_and_the_json_has_the_documented_shape() {
+    let found = vec![
+        Finding::ok("memory", "fine"),
+        Finding::warn("acl", "revoked", "relaunch"),
+        Finding::error("udp-ports", "taken", "stop it"),
+    ];
+    let lines = text(&found);
+    assert_eq!(lines.last().map(String::as_str), Some("doctor: 1 errors, 1 warnings, 1 ok"));
+    assert!(lines.contains(&"      fix: stop it".to_string()), "{lines:?}");
+    let j = json(&found);
+    assert_eq!((j["errors"].as_u64(), j["warnings"].as_u64()), (Some(1), Some(1)));
+    assert_eq!(j["findings"][2]["level"], "error");
+    assert_eq!(j["findings"][1]["fix"], "relaunch");
+}
+
+/// A reach of `endpoint` for swarm `swarm`, waiting `ms` per step.
+fn reach(endpoint: &str, swarm: &str, ms: u64) -> super::zenoh::Reach {
+    super::zenoh::Reach {
+        endpoint: endpoint.into(),
+        zenoh_config: None,
+        swarm: Some(bycoms_protocol::Swarm::new(swarm).expect("swarm")),
+        timeout: Duration::from_millis(ms),
+    }
+}
+
+#[test]
+fn the_orchestrators_endpoint_is_reached_and_its_liveliness_seen_or_missed() {
+    use bycoms_protocol::bus::zenoh::{Mode, ZenohBus, ZenohConfig};
+    use bycoms_protocol::naming::Member;
+    let listen = crate::launch::transport::with_free_port("tcp/127.0.0.1:0").expect("free port");
+    let router = ZenohBus::open(ZenohConfig {
+        mode: Mode::Router,
+        listen: vec![listen.clone()],
+        ..ZenohConfig::default()
+    })
+    .expect("router");
+    let swarm = bycoms_protocol::Swarm::new("doctor-live").expect("swarm");
+    let _alive = router.declare_alive(&swarm, Member::Orchestrator).expect("token");
+    let found = super::zenoh::check(&reach(&listen, "doctor-live", 5_000));
+    assert_eq!(found.iter().map(|f| f.level).collect::<Vec<_>>(), [Level::Ok, Level::Ok], "{found:#?}");
+    let found = super::zenoh::check(&reach(&listen, "doctor-other", 200));
+    assert_eq!(found.iter().map(|f| f.level).collect::<Vec<_>>(), [Level::Ok, Level::Error], "{found:#?}");
+    assert!(found[1].cause.contains("no orchestrator of swarm doctor-other"), "{}", found[1].cause);
+}
+
+#[test]
+fn an_endpoint_that_never_answers_is_an_error_within_the_bounded_wait() {
+    // Accepts TCP (the backlog) and never speaks zenoh.
+    let mute = std::net::TcpListener::bind((Ipv4Addr::LOCALHOST, 0)).expect("bind");
+    let endpoint = format!("tcp/{}", mute.local_addr().expect("addr"));
+    let started = std::time::Instant::now();
+    let found = super::zenoh::check(&reach(&endpoint, "doctor-mute", 300));
+    assert_eq!(found.len(), 1, "{found:#?}");
+    assert_eq!(found[0].level, Level::Error);
+    assert!(found[0].cause.contains(&format!("{endpoint} not reached")), "{}", found[0].cause);
+    assert!(found[0].fix.contains("firewall"), "{}", found[0].fix);
+    assert!(started.elapsed() < Duration::from_secs(5), "bounded: {:?}", started.elapsed());
+}
+
+#[test]
+fn an_answering_natnet_server_is_ok() {
+    use bycoms_sim::natnet_server::NatNetServer;
+    let lab = crate::mocap::tests::lab(Default::default());
+    let server = NatNetServer::start_any_port(lab, Ipv4Addr::LOCALHOST.into()).expect("server");
+    let client = crate::mocap::ClientConfig {
+        server: server.command_addr(),
+        local: Ipv4Addr::LOCALHOST.into(),
+        multicast: None,
+        reply_timeout_ms: 1000,
+    };
+    let found = host::natnet(&client, Duration::from_secs(2));
+    assert_eq!(found.level, Level::Ok, "{found:?}");
+    assert!(found.cause.contains("answers (lab)"), "{}", found.cause);
+}
