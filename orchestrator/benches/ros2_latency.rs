@@ -16,7 +16,7 @@
 //! after 200 warm-up poses. Prints p50, p99 and max; target p99 ≤ 1 ms.
 //!
 //! Run: `cargo bench -p bycoms-orchestrator --bench ros2_latency`
-//! (`ROS2_BENCH_POSES`, default 5000).
+//! (`BYCOMS_BENCH_SAMPLES`, default 5000).
 
 use bycoms_orchestrator::launch::observe::Observer;
 use bycoms_orchestrator::launch::ros2::{Ros2Bridge, Ros2Config};
@@ -56,7 +56,7 @@ fn report(what: &str, mut d: Vec<Duration>) {
 }
 
 fn main() {
-    let poses: usize = std::env::var("ROS2_BENCH_POSES").ok().and_then(|v| v.parse().ok()).unwrap_or(5000);
+    let poses: usize = std::env::var("BYCOMS_BENCH_SAMPLES").ok().and_then(|v| v.parse().ok()).unwrap_or(5000);
     let port = TcpListener::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port();
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let launch = session(Some(&endpoint), None);
