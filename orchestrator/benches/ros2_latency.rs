@@ -56,7 +56,8 @@ fn report(what: &str, mut d: Vec<Duration>) {
 }
 
 fn main() {
-    let poses: usize = std::env::var("BYCOMS_BENCH_SAMPLES").ok().and_then(|v| v.parse().ok()).unwrap_or(5000);
+    let poses: usize =
+        std::env::var("BYCOMS_BENCH_SAMPLES").ok().and_then(|v| v.parse().ok()).unwrap_or(5000);
     let port = TcpListener::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port();
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let launch = session(Some(&endpoint), None);
