@@ -29,15 +29,8 @@ const INTERVAL_RANGE: (f64, f64) = (0.1, 60.0);
 /// Show the running launches: phase, robots, poses, recording, uptime.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Only this swarm's launch.
-    #[arg(long, value_name = "NAME")]
-    pub swarm: Option<String>,
-    /// Ask launches on other hosts over zenoh, at this endpoint.
-    #[arg(long, value_name = "ENDPOINT")]
-    pub connect: Option<String>,
-    /// zenoh JSON5 config read first (certificates; deploy/zenoh/).
-    #[arg(long, value_name = "FILE.json5", requires = "connect")]
-    pub zenoh_config: Option<PathBuf>,
+    #[command(flatten)]
+    pub which: Which,
     /// One JSON object per launch and line (`{"swarm", "status"}` or `{"swarm", "gone"}`).
     #[arg(long)]
     pub json: bool,
@@ -49,22 +42,45 @@ pub struct Args {
     pub interval: f64,
 }
 
+/// Which launches `status` and `stop` ask, and where: one set of flags
+/// for both commands.
+#[derive(Debug, clap::Args)]
+pub struct Which {
+    /// The launch's swarm (`stop`: needed when several launches run).
+    #[arg(long, value_name = "NAME")]
+    pub swarm: Option<String>,
+    /// Ask launches on other hosts over zenoh, at this endpoint (a
+    /// launch's `--listen`, or the lab's router).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Option<String>,
+    /// zenoh JSON5 config read first (certificates; deploy/zenoh/).
+    #[arg(long, value_name = "FILE.json5", requires = "connect")]
+    pub zenoh_config: Option<PathBuf>,
+}
+
+impl Which {
+    /// The flags checked (usage errors name them), and the asker they open.
+    pub fn asker(&self) -> Result<Asker> {
+        if let Some(s) = &self.swarm {
+            check_swarm(s)?;
+        }
+        if let Some(c) = &self.connect {
+            check_endpoints("--connect", std::slice::from_ref(c))?;
+        }
+        Asker::open(self.connect.as_deref(), self.zenoh_config.clone())
+    }
+}
+
 pub fn run(args: Args) -> Result<i32> {
-    if let Some(s) = &args.swarm {
-        check_swarm(s)?;
-    }
-    if let Some(c) = &args.connect {
-        check_endpoints("--connect", std::slice::from_ref(c))?;
-    }
     let (lo, hi) = INTERVAL_RANGE;
     if !(lo..=hi).contains(&args.interval) {
         return Err(exit::usage(format!("--interval must be from {lo} to {hi} s, not {}", args.interval)));
     }
-    let asker = Asker::open(args.connect.as_deref(), args.zenoh_config.clone())?;
+    let asker = args.which.asker()?;
     let stop = crate::launch::interrupt_flag();
     let mut seen = BTreeSet::new();
     loop {
-        let reached = asker.ask(args.swarm.as_deref(), &Ask::Status)?;
+        let reached = asker.ask(args.which.swarm.as_deref(), &Ask::Status)?;
         let answered = show(&reached, &seen, args.json)?;
         if !args.watch {
             if answered == 0 {

@@ -12,11 +12,9 @@
 //! runs, or it died); 2 a usage error (several launches and no `--swarm`).
 
 use crate::exit;
-use crate::launch::config::{check_endpoints, check_swarm};
-use crate::launch::control::{Answer, Ask, Asker};
+use crate::launch::control::{Answer, Ask};
 use crate::outln;
 use anyhow::Result;
-use std::path::PathBuf;
 
 /// Stop a running launch: gracefully (as Ctrl-C) or every robot at once.
 #[derive(Debug, clap::Args)]
@@ -25,16 +23,8 @@ pub struct Args {
     /// stand), then end the launch; without it the launch ends as after Ctrl-C.
     #[arg(long)]
     pub now: bool,
-    /// The launch's swarm (needed when several launches run).
-    #[arg(long, value_name = "NAME")]
-    pub swarm: Option<String>,
-    /// Ask a launch on another host over zenoh, at this endpoint (the
-    /// launch's `--listen`, or the lab's router).
-    #[arg(long, value_name = "ENDPOINT")]
-    pub connect: Option<String>,
-    /// zenoh JSON5 config read first (certificates; deploy/zenoh/).
-    #[arg(long, value_name = "FILE.json5", requires = "connect")]
-    pub zenoh_config: Option<PathBuf>,
+    #[command(flatten)]
+    pub which: super::status::Which,
     /// Why, recorded in the launch's summary with who asked.
     #[arg(long, value_name = "TEXT", default_value = "")]
     pub why: String,
@@ -49,15 +39,9 @@ pub fn who(command: &str) -> String {
 }
 
 pub fn run(args: Args) -> Result<i32> {
-    if let Some(s) = &args.swarm {
-        check_swarm(s)?;
-    }
-    if let Some(c) = &args.connect {
-        check_endpoints("--connect", std::slice::from_ref(c))?;
-    }
-    let asker = Asker::open(args.connect.as_deref(), args.zenoh_config.clone())?;
+    let asker = args.which.asker()?;
     // Which launch: the one named, or the only one running.
-    let swarm = match &args.swarm {
+    let swarm = match &args.which.swarm {
         Some(s) => s.clone(),
         None => {
             let running: Vec<String> = asker
