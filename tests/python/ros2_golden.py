@@ -234,5 +234,17 @@ def main():
     print(json.dumps(out, indent=1, sort_keys=True))
 
 
+def open_router(listen):
+    """A zenoh router on `listen` (rmw_zenohd's place in a test), shared by
+    the ROS 2 test clients."""
+    import zenoh  # only the live clients need a session
+
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"router"')
+    conf.insert_json5("listen/endpoints", json.dumps([listen]))
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    return zenoh.open(conf)
+
+
 if __name__ == "__main__":
     main()

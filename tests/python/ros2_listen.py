@@ -27,6 +27,7 @@ from pathlib import Path
 import xxhash
 import zenoh
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from ros2_golden import open_router  # the one router of the ROS 2 test clients
 
 TS = get_typestore(Stores.ROS2_JAZZY)
 # bycoms_msgs, from the package's own .msg files, as a lab's colcon build reads them.
@@ -76,14 +77,6 @@ def subscription_tokens(zid, domain, robots):
             f"{dds_name(ros_type)}/{TS.hash_rihs01(ros_type)}/::,10:,:,:,,"
         )
     return tokens
-
-
-def open_router(listen):
-    conf = zenoh.Config()
-    conf.insert_json5("mode", '"router"')
-    conf.insert_json5("listen/endpoints", json.dumps([listen]))
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    return zenoh.open(conf)
 
 
 def check(samples, tokens, domain):

@@ -32,6 +32,7 @@ import xxhash
 import zenoh
 from natnetsdk.NatNetClient import NatNetClient
 from rosbags.typesys import Stores, get_typestore
+from ros2_golden import open_router  # the one router of the ROS 2 test clients
 
 TS = get_typestore(Stores.ROS2_JAZZY)
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
@@ -79,14 +80,6 @@ def pose_stamped(stamp_s, pos, rot):
     quat = T["geometry_msgs/msg/Quaternion"](x=float(qx), y=float(-qz), z=float(qy), w=float(qw))
     pose = T["geometry_msgs/msg/Pose"](position=point, orientation=quat)
     return T[POSE_STAMPED](header=header, pose=pose)
-
-
-def open_router(listen):
-    conf = zenoh.Config()
-    conf.insert_json5("mode", '"router"')
-    conf.insert_json5("listen/endpoints", json.dumps([listen]))
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    return zenoh.open(conf)
 
 
 def natnet_client(port, on_frame):

@@ -24,18 +24,10 @@ import zenoh
 # The service's hash and the Trigger classes as rosbags builds them (the
 # golden test's module: services hashed from their request, response and
 # event types as rosidl does; rosbags' store has no srv types).
-from ros2_golden import SERVICES, TS
+from ros2_golden import SERVICES, TS, open_router
 
 TRIGGER = "std_srvs/srv/Trigger"
 DDS = "std_srvs::srv::dds_::Trigger_"
-
-
-def open_router(listen):
-    conf = zenoh.Config()
-    conf.insert_json5("mode", '"router"')
-    conf.insert_json5("listen/endpoints", json.dumps([listen]))
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    return zenoh.open(conf)
 
 
 def find_service(session, domain, deadline):
