@@ -81,22 +81,10 @@ fn check_stops(report: &Report, schedule: &Schedule) -> Result<(), String> {
     Ok(())
 }
 
-/// The properties every schedule keeps; the first broken one, in words.
-pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
-    if let Some(f) = &report.failure {
-        return Err(f.clone());
-    }
-    let Some(ending) = &report.ending else { return Err("no ending".into()) };
-    if (ending.outcome == Outcome::Error) != ending.error.is_some() {
-        return Err(format!("outcome {:?} with error {:?}", ending.outcome, ending.error));
-    }
-    if ending.error.as_ref().is_some_and(|e| e.to_string().trim().is_empty()) {
-        return Err("an error without words".into());
-    }
-    let _ = exit_code(ending);
-    // Deployments: each robot at most once, in id order (but for robots
-    // that joined late, which take a later turn); each verdict follows its
-    // robot's deployment and precedes the next one.
+/// Deployments: each robot at most once, in id order (but for robots that
+/// joined late, which take a later turn); each verdict follows its robot's
+/// deployment and precedes the next one.
+fn check_deployments(report: &Report) -> Result<(), String> {
     let mut open: Option<u32> = None;
     let mut last_deployed = 0;
     for g in &report.gates {
@@ -120,14 +108,30 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
             }
         }
     }
-    for (i, &sent) in report.deploys_sent.iter().enumerate() {
+    for id in 1..=report.deploys_sent.len() as u32 {
         let deployed =
-            report.gates.iter().filter(|g| g.robot.0 == i as u32 + 1 && g.kind == GateKind::Deployed).count();
+            report.gates.iter().filter(|g| g.robot.0 == id && g.kind == GateKind::Deployed).count();
         if deployed > 1 {
-            return Err(format!("robot {} deployed {deployed} times", i + 1));
+            return Err(format!("robot {id} deployed {deployed} times"));
         }
-        let _ = sent;
     }
+    Ok(())
+}
+
+/// The properties every schedule keeps; the first broken one, in words.
+pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
+    if let Some(f) = &report.failure {
+        return Err(f.clone());
+    }
+    let Some(ending) = &report.ending else { return Err("no ending".into()) };
+    if (ending.outcome == Outcome::Error) != ending.error.is_some() {
+        return Err(format!("outcome {:?} with error {:?}", ending.outcome, ending.error));
+    }
+    if ending.error.as_ref().is_some_and(|e| e.to_string().trim().is_empty()) {
+        return Err("an error without words".into());
+    }
+    let _ = exit_code(ending);
+    check_deployments(report)?;
     // Nothing charged twice: the budget is the robots' active steps, and no
     // robot has more active steps than ticks ran or than its agent stepped.
     let sum: u64 = report.robots.iter().map(|r| r.1).sum();
