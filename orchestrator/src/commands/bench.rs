@@ -11,6 +11,9 @@
 //! * `bench crowd` — whole lockstep launches of N robots on a terrain where
 //!   every robot gets stuck, measured from outside: memory of all their
 //!   processes, open files, wall time per tick (`launch::crowd`);
+//! * `bench stop` — `stop --now` → every robot told `Stop` in real-time
+//!   launches of N robots, timed from the asking side over ipc and zenoh
+//!   (`launch::stopbench`);
 //! * `bench schedules` — the launch core's simulation testing
 //!   (`launch::harness`): seeded fault schedules played in virtual time,
 //!   schedules per second and robot-ticks per second, each schedule checked.
@@ -76,6 +79,24 @@ pub enum What {
         #[arg(long)]
         record: bool,
     },
+    /// `stop --now` → every robot told `Stop`: real-time launches timed from the asking side.
+    Stop {
+        /// Robots (spawned sim-agents) per launch.
+        #[arg(long, default_value_t = 100)]
+        robots: u32,
+        /// Launches (one stop each) per transport.
+        #[arg(long, default_value_t = 3)]
+        runs: u32,
+        /// The buses to measure over.
+        #[arg(long, value_enum, value_delimiter = ',', default_value = "ipc,zenoh")]
+        transport: Vec<Transport>,
+        /// Real-time speed-up of the launches (10 Hz × speed).
+        #[arg(long, default_value_t = 10.0)]
+        speed: f64,
+        /// Longest wait for every agent to run, and for the launch to exit, s.
+        #[arg(long, default_value_t = 300.0, value_name = "SECONDS", value_parser = seconds)]
+        timeout: f64,
+    },
     /// Seeded fault schedules of the launch core in virtual time, per second.
     Schedules {
         /// Schedules to play (seeds 0..N, as the test suite draws them).
@@ -99,9 +120,12 @@ pub fn run(args: Args) -> Result<i32> {
     if let What::Crowd { robots, timeout, record } = args.what {
         return crowd(robots, timeout, record, args.agent_bin, args.json);
     }
+    if let What::Stop { robots, runs, transport, speed, timeout } = args.what {
+        return stop(robots, runs, transport, speed, timeout, args.agent_bin, args.json);
+    }
     let agent = launch::agent_command(args.agent_bin.as_deref(), None)?;
     match args.what {
-        What::Schedules { .. } | What::Crowd { .. } => unreachable!("handled above"),
+        What::Schedules { .. } | What::Crowd { .. } | What::Stop { .. } => unreachable!("handled above"),
         What::Launch { runs, no_prespawn, transport } => {
             let (mut reactions, mut speeds, mut walls) = (Vec::new(), Vec::new(), Vec::new());
             let mut first_moving = Vec::new();
@@ -192,6 +216,42 @@ fn crowd(
     }
     let interrupted = rows.last().is_some_and(|r| r.ended == launch::crowd::Ended::Interrupted);
     Ok(if interrupted { crate::exit::INTERRUPTED } else { crate::exit::SUCCESS })
+}
+
+/// `bench stop`: `runs` stopped launches per transport, a line each.
+fn stop(
+    robots: u32,
+    runs: u32,
+    transports: Vec<Transport>,
+    speed: f64,
+    timeout: f64,
+    agent_bin: Option<PathBuf>,
+    json: bool,
+) -> Result<i32> {
+    if robots == 0 {
+        return Err(crate::exit::usage("--robots takes at least 1"));
+    }
+    let timeout = std::time::Duration::from_secs_f64(timeout);
+    let mut all = Vec::new();
+    for transport in transports {
+        let opts = launch::stopbench::Options {
+            robots,
+            runs,
+            transport,
+            agent_bin: agent_bin.clone(),
+            speed,
+            timeout,
+        };
+        let samples = launch::stopbench::run(&opts)?;
+        if !json {
+            crate::outln!("{}", launch::stopbench::line(transport, robots, &samples))?;
+        }
+        all.push(serde_json::json!({ "transport": transport.as_str(), "robots": robots, "runs": samples }));
+    }
+    if json {
+        crate::outln!("{}", serde_json::to_string_pretty(&all)?)?;
+    }
+    Ok(crate::exit::SUCCESS)
 }
 
 /// `bench schedules`: plays seeds `0..count` (the test suite's schedules)

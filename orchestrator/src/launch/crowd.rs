@@ -56,7 +56,7 @@ pub const SAMPLE_EVERY: Duration = Duration::from_millis(250);
 const STOP_GRACE: Duration = Duration::from_secs(30);
 
 /// Where the machine's shared memory is (iceoryx2's segments, swarm locks).
-const SHARED_MEMORY: &str = "/dev/shm";
+pub(super) const SHARED_MEMORY: &str = "/dev/shm";
 
 /// What `bench crowd` is asked to do.
 #[derive(Clone, Debug)]
@@ -217,7 +217,7 @@ fn next_sample_after(due: Instant, took: Duration) -> Instant {
 }
 
 /// The child launch, its process group killed if it is dropped running.
-struct Running(Child);
+pub(super) struct Running(pub(super) Child);
 
 impl Drop for Running {
     fn drop(&mut self) {
@@ -353,7 +353,7 @@ fn stop_launch(child: &mut Child) -> Result<std::process::ExitStatus> {
 /// Kills the processes still carrying the launch's tag (its agents run in
 /// process groups of their own and outlive a killed orchestrator until
 /// their lifeline notices); returns how many there were.
-fn end_leftovers(tag: &str) -> usize {
+pub(super) fn end_leftovers(tag: &str) -> usize {
     let left = procfs::with_env(ISOLATION_ENV, tag);
     for &pid in &left {
         let _ = kill(Pid::from_raw(pid as i32), Signal::SIGKILL);
@@ -372,7 +372,7 @@ fn end_leftovers(tag: &str) -> usize {
 /// The files of tag `tag` that are left: new entries of `/dev/shm` naming
 /// it, every file under its iceoryx2 root; and apart, the root's own
 /// segments ([`is_root_segment`]). All removed once listed.
-fn files_left(tag: &str, shm_before: &BTreeSet<PathBuf>) -> (Vec<String>, Vec<String>) {
+pub(super) fn files_left(tag: &str, shm_before: &BTreeSet<PathBuf>) -> (Vec<String>, Vec<String>) {
     let shm: Vec<PathBuf> = listing(Path::new(SHARED_MEMORY))
         .into_iter()
         .filter(|p| !shm_before.contains(p))
@@ -399,7 +399,7 @@ fn is_root_segment(file: &str) -> bool {
 
 /// Every file (not directory) under `dir`, recursively; empty when `dir` is
 /// missing.
-fn listing(dir: &Path) -> BTreeSet<PathBuf> {
+pub(super) fn listing(dir: &Path) -> BTreeSet<PathBuf> {
     let mut out = BTreeSet::new();
     let mut todo = vec![dir.to_path_buf()];
     while let Some(d) = todo.pop() {

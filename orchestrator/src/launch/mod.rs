@@ -61,6 +61,7 @@ pub mod ros2_stop;
 pub mod scale;
 pub mod setup;
 pub mod status;
+pub mod stopbench;
 pub mod summary;
 pub mod swarm_lock;
 pub mod transport;
