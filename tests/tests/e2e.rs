@@ -35,10 +35,11 @@ mod soak;
 mod supervision;
 mod watch_decoder;
 
-/// A swarm's lock file (`/dev/shm/bycoms-swarm….lock`), removed on drop:
-/// a launch removes its own when it ends, but not one killed by SIGKILL
-/// (its lock, an `flock`, went with it; the file stays). A test that kills
-/// an orchestrator holds one, so it leaves nothing in shared memory.
+/// A swarm's lock file (`/dev/shm/bycoms-swarm….lock`) and the launch's
+/// control socket beside it (`….sock`), removed on drop: a launch removes
+/// its own when it ends, but not one killed by SIGKILL (its lock, an
+/// `flock`, went with it; the files stay). A test that kills an
+/// orchestrator holds one, so it leaves nothing in shared memory.
 pub struct SwarmLockFile(std::path::PathBuf);
 
 impl SwarmLockFile {
@@ -53,5 +54,6 @@ impl SwarmLockFile {
 impl Drop for SwarmLockFile {
     fn drop(&mut self) {
         let _ = std::fs::remove_file(&self.0);
+        let _ = std::fs::remove_file(self.0.with_extension("sock"));
     }
 }
