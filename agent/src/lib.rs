@@ -4,10 +4,12 @@
 //!
 //! The controller and the firmware core are sans-IO: inputs (and, where
 //! needed, time as an argument) go in, commands come out. No clocks, no
-//! randomness, no allocation, no `std`. The in-process simulator, the
-//! `sim-agent` process, the real robot's gateway and ESP32 firmware all call
-//! the same functions, which is what makes a lockstep run over processes
-//! bit-identical to the in-process simulator.
+//! randomness, no allocation, no `std`. The in-process simulator and the
+//! `sim-agent` process call the same controller, which is what makes a
+//! lockstep run over processes bit-identical to the in-process simulator;
+//! the real robot's firmware core (ESP32, and the host under QEMU replay)
+//! calls the same functions on the robot. The gateway runs no controller:
+//! it relays between the robot's link and the bus.
 //!
 //! * [`point`] — the point-robot controller of the paper's simulation (§IV):
 //!   mode 1 (head for the goal) / mode 2 (walk along a companion's field),

@@ -20,6 +20,7 @@ mod lab_day;
 mod lab_launch;
 mod launch_report;
 mod live_view;
+mod manifests;
 mod netns_bridge_host;
 mod netns_liveliness;
 mod netns_remote;

@@ -11,7 +11,7 @@ use anyhow::Result;
 use std::io::Write;
 use std::path::PathBuf;
 
-/// Replay a launch recording through the gate.
+/// Re-run the launch core on a recording's inputs and check it reaches the recorded decisions.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// A recording written by `launch --record FILE.mcap`.
