@@ -228,6 +228,9 @@ def open_session(zenoh, endpoints, deadline):
     config.insert_json5("mode", '"client"')
     config.insert_json5("connect/endpoints", json.dumps(endpoints))
     config.insert_json5("scouting/multicast/enabled", "false")
+    # No shared memory: the Python binding leaves its segment
+    # (/dev/shm/<n>.zenoh) behind when the session closes.
+    config.insert_json5("transport/shared_memory/enabled", "false")
     while True:
         try:
             return zenoh.open(config)

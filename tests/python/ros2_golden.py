@@ -243,6 +243,10 @@ def open_router(listen):
     conf.insert_json5("mode", '"router"')
     conf.insert_json5("listen/endpoints", json.dumps([listen]))
     conf.insert_json5("scouting/multicast/enabled", "false")
+    # No shared memory: the Python binding leaves its segment
+    # (/dev/shm/<n>.zenoh) behind when the session closes, and a test must
+    # leave nothing.
+    conf.insert_json5("transport/shared_memory/enabled", "false")
     return zenoh.open(conf)
 
 
