@@ -2,15 +2,20 @@
 //! against a real launch, from another process, over this host's control
 //! socket (iceoryx2 launch) and over zenoh (`--connect`).
 //!
+//! `status --watch` is read line by line while the launch runs and after it
+//! ends (it must say the launch is gone, and end with 0 on Ctrl-C).
+//!
 //! The launch runs in real time at 1×, so it is still running when asked;
 //! every wait has a deadline. The stop's rule itself (every running robot
 //! told `Stop` in one step, who and why recorded) is tested in virtual
 //! time by `orchestrator/tests/launch_sim.rs`; here the whole path: the
 //! command, the launch's answer, its summary and exit code.
 
-use bycoms_tests::{agents_of, swarm_name, wait_for, Proc};
+use bycoms_tests::{agents_of, bin, signal, swarm_name, wait_for, Proc};
 use serde_json::Value;
-use std::time::Duration;
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc::Receiver;
+use std::time::{Duration, Instant};
 
 /// Runs `orchestrator ARGS` to its end (20 s at most).
 fn orchestrator(args: &[&str]) -> bycoms_tests::Finished {
@@ -26,6 +31,61 @@ fn status_when_moving(swarm: &str, via: &[&str]) -> Value {
         (line["status"]["robots"][0]["state"] == "moving").then_some(line)
     })
     .expect("status shows robot 1 moving within 20 s")
+}
+
+/// `orchestrator status --watch --json` of one swarm, read line by line as
+/// it redraws; killed when dropped.
+struct Watcher {
+    child: Child,
+    lines: Receiver<String>,
+}
+
+impl Watcher {
+    fn start(swarm: &str) -> Watcher {
+        let mut child = Command::new(bin("orchestrator"))
+            .args(["status", "--watch", "--json", "--interval", "0.2", "--swarm", swarm])
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("orchestrator starts");
+        let lines = bycoms_tests::stdout_lines(&mut child);
+        Watcher { child, lines }
+    }
+
+    /// The first line, within 20 s, that `accept` takes.
+    fn line_where(&self, what: &str, accept: impl Fn(&Value) -> bool) -> Value {
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while let Some(left) = deadline.checked_duration_since(Instant::now()) {
+            let Ok(line) = self.lines.recv_timeout(left) else { break };
+            let v: Value = serde_json::from_str(&line).unwrap_or_else(|e| panic!("not JSON ({e}): {line}"));
+            if accept(&v) {
+                return v;
+            }
+        }
+        panic!("status --watch printed no {what} within 20 s");
+    }
+
+    /// Ctrl-C: it ends with 0 within 10 s.
+    fn interrupt(mut self) {
+        signal(self.child.id(), nix::sys::signal::Signal::SIGINT);
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while Instant::now() < deadline {
+            if let Some(status) = self.child.try_wait().expect("try_wait") {
+                assert_eq!(status.code(), Some(0), "status --watch ends with 0 on Ctrl-C");
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        panic!("status --watch did not end within 10 s of Ctrl-C");
+    }
+}
+
+impl Drop for Watcher {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
 }
 
 /// Stops `launch` with `stop --now` through `via`, and checks its answer,
@@ -60,7 +120,13 @@ fn status_and_stop_now_from_another_terminal() {
     assert_eq!(s["pid"].as_u64(), Some(u64::from(launch.pid())));
     assert!(s["robots"][0]["pose_age_s"].as_f64().is_some_and(|a| a < 2.0), "{s}");
     assert!(!agents_of(&swarm).is_empty());
+    // A watcher redraws the launch, then says it is gone once it ends.
+    let watcher = Watcher::start(&swarm);
+    watcher.line_where("status of the swarm", |v| v["status"]["swarm"] == swarm.as_str());
     stop_now(launch, &swarm, &[]);
+    let gone = watcher.line_where("line saying the launch is gone", |v| v["gone"].is_string());
+    assert_eq!(gone["swarm"], swarm.as_str(), "{gone}");
+    watcher.interrupt();
     // Gone: no launch of that swarm answers any more.
     let after = orchestrator(&["status", "--swarm", &swarm]);
     assert_eq!(after.status.code(), Some(1), "{}", after.stdout);
