@@ -287,7 +287,7 @@ pub fn command() -> Command {
         "sim-agent",
         LabArgs::SUBCOMMAND,
         env!("CARGO_PKG_VERSION"),
-        env!("CARGO_PKG_DESCRIPTION"),
+        "One simulated robot as its own process on the bus (what `launch` starts); `lab` the emulated lab",
     )
 }
 

@@ -27,6 +27,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 mod env_vars;
+mod generated;
 
 /// The repository's root.
 fn root() -> PathBuf {
