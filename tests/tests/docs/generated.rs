@@ -11,11 +11,17 @@
 //!
 //! * `commands` (README.md): every subcommand of `orchestrator`, `agent`
 //!   and `sim-agent` with its one-line help, from their clap commands;
+//! * `messages` (protocol/PROTOCOL.md): every bus message's wire layout —
+//!   each enum's variants with their index and fields, each struct's fields,
+//!   with their types, in encoding order — traced from the types themselves
+//!   by `serde-reflection` (what postcard encodes is what serde sees);
 //! * `launch flags` (docs/LAUNCH.md): every flag of `orchestrator launch`,
 //!   its value, its default (clap's, or the `[default: …]` its help names)
 //!   and its help's first sentence.
 
 use super::{read, root};
+
+mod messages;
 use clap::{Arg, Command, CommandFactory};
 use std::path::Path;
 
@@ -26,9 +32,10 @@ struct Region {
     body: fn() -> String,
 }
 
-const REGIONS: [Region; 2] = [
+const REGIONS: [Region; 3] = [
     Region { file: "README.md", name: "commands", body: commands_table },
     Region { file: "docs/LAUNCH.md", name: "launch flags", body: launch_flags_table },
+    Region { file: "protocol/PROTOCOL.md", name: "messages", body: messages::tables },
 ];
 
 fn begin_marker(name: &str) -> String {
