@@ -194,7 +194,8 @@ fn architecture_names_every_crate_and_subcommand_and_every_path_it_names_exists(
     let file = Regex::new(r"\.(rs|md|toml|json5|py|html|sh)$").expect("regex");
     let roots = path_roots();
     let mut checked = 0;
-    for t in token.captures_iter(&doc).map(|c| c[1].to_string()) {
+    let prose = generated::without_generated(&doc);
+    for t in token.captures_iter(&prose).map(|c| c[1].to_string()) {
         let pathlike = t.contains('/') || file.is_match(t.split("::").next().unwrap_or(&t));
         let not_a_path = t.starts_with("bycoms/")
             || t.starts_with("http")
