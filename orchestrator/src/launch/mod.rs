@@ -151,12 +151,20 @@ pub fn agent_command(explicit: Option<&Path>, configured: Option<&Path>) -> Resu
     if let Some(program) = chosen {
         return Ok(AgentCommand { program, prefix: Vec::new() });
     }
-    let me = std::env::current_exe().context("cannot locate the orchestrator executable")?;
-    let beside = me.with_file_name(format!("sim-agent{}", std::env::consts::EXE_SUFFIX));
+    let (me, beside) = beside_this_executable("sim-agent")?;
     if beside.is_file() {
         return Ok(AgentCommand { program: beside, prefix: Vec::new() });
     }
     Ok(AgentCommand { program: me, prefix: vec!["sim-agent".into()] })
+}
+
+/// This executable, and where a sibling binary `name` of the workspace
+/// would sit next to it (`cargo build` puts them together): the one lookup
+/// of the agent and gateway executables.
+pub fn beside_this_executable(name: &str) -> Result<(PathBuf, PathBuf)> {
+    let me = std::env::current_exe().context("cannot locate the orchestrator executable")?;
+    let beside = me.with_file_name(format!("{name}{}", std::env::consts::EXE_SUFFIX));
+    Ok((me, beside))
 }
 
 /// The process-wide Ctrl-C flag (`bycoms_runtime::interrupt`: one handler per
