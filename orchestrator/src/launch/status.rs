@@ -8,6 +8,7 @@
 //! `status` questions with it (`launch/control.rs`).
 
 use super::core::{Core, Phase, SlotState};
+use super::summary::RevokedSummary;
 use serde::{Deserialize, Serialize};
 
 /// What only the driver knows about its launch.
@@ -68,6 +69,10 @@ pub struct LaunchStatus {
     pub stopping: Option<String>,
     /// Every robot, in id order.
     pub robots: Vec<RobotStatus>,
+    /// Robots revoked (`orchestrator revoke`), with their reports dropped
+    /// since.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub revoked: Vec<RevokedSummary>,
 }
 
 /// The phase in words.
@@ -118,6 +123,7 @@ pub fn of(core: &Core, now: u64, facts: &Facts) -> LaunchStatus {
         uptime_s: facts.uptime_s,
         stopping,
         robots,
+        revoked: core.revoked().to_vec(),
     }
 }
 
@@ -143,6 +149,14 @@ pub fn text(s: &LaunchStatus) -> String {
     let idle = s.robots.iter().filter(|r| r.state == SlotState::Waiting.words()).count();
     if idle > 0 {
         out.push_str(&format!("  {} not started yet\n", crate::runs::count(idle as u64, "robot")));
+    }
+    for r in &s.revoked {
+        let why = if r.why.is_empty() { String::new() } else { format!(" ({})", r.why) };
+        let dropped = crate::runs::count(r.dropped, "report");
+        out.push_str(&format!(
+            "  robot {} revoked by {}{why}: {dropped} of it dropped since\n",
+            r.robot, r.who
+        ));
     }
     out
 }
