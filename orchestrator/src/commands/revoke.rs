@@ -51,7 +51,7 @@ pub fn run(args: Args) -> Result<i32> {
     // The ACL first: a robot outside the lab's certificates is a usage
     // error before any launch is asked.
     if let Some(dir) = &args.certs {
-        let config = crate::certs::revoke(dir, &[robot])?;
+        let config = crate::certs::revoke(dir, &[robot], "--robot")?;
         bycoms_runtime::logging::status_line(&format!(
             "revoke: robot {robot} has no rights in {} from the next start",
             config.display()
