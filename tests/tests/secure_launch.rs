@@ -189,6 +189,7 @@ fn a_robot_revoked_mid_run_over_quic_is_stopped_dropped_refused_and_the_others_f
         "its reports were counted as dropped: {record}"
     );
     assert_eq!(j["revoked"].as_array().map(Vec::len), Some(1), "{j}");
+    eprintln!("outcome {}, revoked {record}", j["outcome"]);
     let robot1 = &j["robots"][0];
     assert_eq!(robot1["end"], "died", "a beacon where it was stopped: {robot1}");
     assert!(robot1["death"]["reason"].as_str().is_some_and(|r| r.contains("revoked by orchestrator revoke")));
