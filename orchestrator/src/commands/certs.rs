@@ -76,7 +76,7 @@ fn revoke_live(config: &Path, ids: &[u32]) -> Vec<String> {
                 Ok(Answer::Revoked { swarm, .. }) if !took.contains(&swarm) => took.push(swarm),
                 Ok(Answer::Revoked { .. } | Answer::OtherLab) => {}
                 Ok(other) => {
-                    tracing::warn!("the launch of swarm {} answered the revocation: {other:?}", r.swarm)
+                    tracing::warn!("the launch of swarm {} answered the revocation: {other:?}", r.swarm);
                 }
                 Err(why) => tracing::debug!("the launch of swarm {} did not answer: {why}", r.swarm),
             }
