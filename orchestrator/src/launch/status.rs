@@ -164,9 +164,10 @@ pub fn text(s: &LaunchStatus) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::launch::core::{Input, Output, Stop};
+    use crate::launch::core::{Input, Output, Revoke, Stop};
     use crate::launch::harness::{self, Case, Schedule};
     use bycoms_protocol::msg::Pose;
+    use bycoms_protocol::msg::{FromAgent, Heartbeat};
     use bycoms_protocol::RobotId;
 
     fn facts() -> Facts {
@@ -182,7 +183,7 @@ mod tests {
 
     /// The status says what the core holds: its phase and wait, each
     /// robot's state, whether its agent runs, how old its last pose is,
-    /// and, once asked, who stops the launch.
+    /// the robots revoked and, once asked, who stops the launch.
     #[test]
     fn a_status_is_a_projection_of_the_core() {
         let case = Case::small(3);
@@ -207,6 +208,15 @@ mod tests {
         let shown = text(&s);
         assert!(shown.contains("robot 1: starting, seen 0.5 s ago"), "{shown}");
         assert!(shown.contains("recording: run.mcap"), "{shown}");
+
+        // A revoked robot: listed with its reports dropped since.
+        core.handle(1_800_000, Input::Revoke(Revoke { robot: 2, who: "me".into(), why: "lost".into() }));
+        core.handle(1_900_000, Input::Report(FromAgent::Heartbeat(Heartbeat { robot: RobotId(2), seq: 1 })));
+        let s = of(&core, 1_900_000, &facts());
+        assert_eq!((s.revoked.len(), s.revoked[0].robot, s.revoked[0].dropped), (1, 2, 1));
+        assert_eq!(s.robots[1].state, "lost");
+        let shown = text(&s);
+        assert!(shown.contains("robot 2 revoked by me (lost): 1 report of it dropped since"), "{shown}");
 
         let stop = Stop { now: true, who: "me".into(), why: "a test".into() };
         core.handle(2_000_000, Input::Stop(stop));
