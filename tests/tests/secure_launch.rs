@@ -104,21 +104,17 @@ fn remote_agent(dir: &std::path::Path, endpoint: &str, swarm: &str, robot: u32) 
     Proc::start(&bin("sim-agent"), &args)
 }
 
-#[test]
-fn a_robot_revoked_mid_run_over_quic_is_stopped_dropped_refused_and_the_others_finish() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let endpoint = format!("quic/127.0.0.1:{}", free_port());
-    certs_for(dir.path(), 3, &endpoint);
-    let config = dir.path().join("orchestrator.json5");
-    let swarm = swarm_name("revoke");
-    let launch = Proc::orchestrator(&[
+/// A real-time launch of 3 remote robots over QUIC with the lab's
+/// `config`, at 10× so robot 1 moves long enough to be revoked.
+fn revocable_launch(config: &std::path::Path, endpoint: &str, swarm: &str) -> Proc {
+    Proc::orchestrator(&[
         "launch",
         "--agents",
         "remote",
         "--transport",
         "zenoh",
         "--listen",
-        &endpoint,
+        endpoint,
         "--zenoh-config",
         config.to_str().expect("utf-8 path"),
         "--clock",
@@ -130,9 +126,38 @@ fn a_robot_revoked_mid_run_over_quic_is_stopped_dropped_refused_and_the_others_f
         "--time-limit",
         "300",
         "--swarm",
-        &swarm,
+        swarm,
         "--json",
-    ]);
+    ])
+}
+
+/// The launch's summary `j` records robot 1's revocation (who, why, its
+/// reports dropped), robot 1 as a beacon where it was stopped, and robot 2
+/// deployed after it.
+fn assert_revoked_in_summary(j: &Value) {
+    let record = &j["revoked"][0];
+    assert_eq!((record["robot"].as_u64(), record["why"].as_str()), (Some(1), Some("e2e: stolen")), "{j}");
+    assert!(record["who"].as_str().is_some_and(|w| w.starts_with("orchestrator revoke (")), "{record}");
+    assert!(
+        record["dropped"].as_u64().is_some_and(|d| d > 0),
+        "its reports were counted as dropped: {record}"
+    );
+    assert_eq!(j["revoked"].as_array().map(Vec::len), Some(1), "{j}");
+    eprintln!("outcome {}, revoked {record}", j["outcome"]);
+    let robot1 = &j["robots"][0];
+    assert_eq!(robot1["end"], "died", "a beacon where it was stopped: {robot1}");
+    assert!(robot1["death"]["reason"].as_str().is_some_and(|r| r.contains("revoked by orchestrator revoke")));
+    assert!(j["robots"][1]["deployed_tick"].is_u64(), "robot 2 went on: {j}");
+}
+
+#[test]
+fn a_robot_revoked_mid_run_over_quic_is_stopped_dropped_refused_and_the_others_finish() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let endpoint = format!("quic/127.0.0.1:{}", free_port());
+    certs_for(dir.path(), 3, &endpoint);
+    let config = dir.path().join("orchestrator.json5");
+    let swarm = swarm_name("revoke");
+    let launch = revocable_launch(&config, &endpoint, &swarm);
     launch.logged_endpoint("quic/127.0.0.1:", Duration::from_secs(30));
     let agents: Vec<Proc> = (1..=3).map(|k| remote_agent(dir.path(), &endpoint, &swarm, k)).collect();
     launch
@@ -181,19 +206,7 @@ fn a_robot_revoked_mid_run_over_quic_is_stopped_dropped_refused_and_the_others_f
         ["arrived", "robots_exhausted", "time_limit"].contains(&j["outcome"].as_str().unwrap_or("")),
         "{j}"
     );
-    let record = &j["revoked"][0];
-    assert_eq!((record["robot"].as_u64(), record["why"].as_str()), (Some(1), Some("e2e: stolen")), "{j}");
-    assert!(record["who"].as_str().is_some_and(|w| w.starts_with("orchestrator revoke (")), "{record}");
-    assert!(
-        record["dropped"].as_u64().is_some_and(|d| d > 0),
-        "its reports were counted as dropped: {record}"
-    );
-    assert_eq!(j["revoked"].as_array().map(Vec::len), Some(1), "{j}");
-    eprintln!("outcome {}, revoked {record}", j["outcome"]);
-    let robot1 = &j["robots"][0];
-    assert_eq!(robot1["end"], "died", "a beacon where it was stopped: {robot1}");
-    assert!(robot1["death"]["reason"].as_str().is_some_and(|r| r.contains("revoked by orchestrator revoke")));
-    assert!(j["robots"][1]["deployed_tick"].is_u64(), "robot 2 went on: {j}");
+    assert_revoked_in_summary(&j);
     for (i, a) in agents.into_iter().enumerate() {
         let out = a.wait(Duration::from_secs(20));
         assert_eq!(out.status.code(), Some(0), "agent of robot {}: {}", i + 1, out.stderr);
