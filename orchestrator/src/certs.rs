@@ -41,7 +41,11 @@
 //! (`--revoke K`): the ACL gives robot K no permission and denies its
 //! common name everything. zenoh checks no certificate revocation list,
 //! so the ACL is where a revocation lives; expired certificates and those
-//! of another CA are refused by TLS itself.
+//! of another CA are refused by TLS itself. A running zenoh router keeps
+//! the ACL it started with: until the orchestrator restarts, the revoked
+//! robot still connects, and the launch itself drops its traffic
+//! (`orchestrator revoke`, or `certs --revoke` asking a running launch of
+//! this lab: `launch/core/revoke.rs`).
 
 use crate::exit;
 use crate::out::kind::ZENOH_CONFIG_MARK;
@@ -206,19 +210,22 @@ fn robots_in(out: &Path) -> u32 {
 /// certificates stay valid TLS-wise (zenoh checks no revocation list), so
 /// they can still open a session, in which nothing they send or ask for is
 /// let through. It reaches a launch when the launch starts: a running one
-/// keeps the ACL it started with (restart it). Returns the config's path.
-pub fn revoke(out: &Path, ids: &[u32]) -> Result<PathBuf> {
+/// keeps the ACL it started with (a running launch drops the robot when
+/// asked: `orchestrator revoke`, `launch/core/revoke.rs`). `flag` is the
+/// command's flag naming the robots, for usage errors. Returns the
+/// config's path.
+pub fn revoke(out: &Path, ids: &[u32], flag: &str) -> Result<PathBuf> {
     let config_path = out.join("orchestrator.json5");
     if !config_path.is_file() {
         return Err(exit::usage(format!(
-            "--revoke: {} is missing; revoke in the directory `orchestrator certs` wrote",
+            "{flag}: {} is missing; revoke in the directory `orchestrator certs` wrote",
             config_path.display()
         )));
     }
     let robots = robots_in(out);
     if let Some(k) = ids.iter().find(|&&k| k == 0 || k > robots) {
         return Err(exit::usage(format!(
-            "--revoke {k}: {} holds certificates for robots 1..={robots}",
+            "{flag} {k}: {} holds certificates for robots 1..={robots}",
             out.display()
         )));
     }

@@ -599,3 +599,50 @@ fn doctor_exits_0_1_2_and_prints_its_findings_as_json() {
     assert_eq!(usage.status.code(), Some(2));
     assert!(stderr(&usage).contains("--robots 0"), "{}", stderr(&usage));
 }
+
+/// `orchestrator revoke`: its help, usage errors (exit 2) naming the flag,
+/// exit 1 when no launch runs (the ACL, with `--certs`, rewritten all the
+/// same), and `certs --revoke` saying that no launch of the lab took it.
+#[test]
+fn revoke_exits_1_without_a_launch_2_on_usage_and_rewrites_the_acl() {
+    let dir = tempfile::tempdir().unwrap();
+    let certs = dir.path().join("certs");
+    let certs = certs.to_str().unwrap();
+    let made = orchestrator(&["certs", "--robots", "2", "--out", certs]);
+    assert!(made.status.success(), "{}", stderr(&made));
+    let tag = format!("revoke-cli-{}", std::process::id());
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+            .args(args)
+            .env("BYCOMS_IPC_ISOLATION", &tag)
+            .output()
+            .expect("spawn orchestrator")
+    };
+    let help = run(&["revoke", "--help"]);
+    assert_eq!(help.status.code(), Some(0));
+    let text = String::from_utf8_lossy(&help.stdout);
+    for flag in ["--robot", "--swarm", "--connect", "--zenoh-config", "--certs", "--why", "Exit codes"] {
+        assert!(text.contains(flag), "--help names {flag}:\n{text}");
+    }
+    for (args, says) in [
+        (&["revoke"][..], "--robot"),
+        (&["revoke", "--robot", "0"][..], "--robot 0"),
+        (&["revoke", "--robot", "3", "--certs", certs][..], "--robot 3"),
+        (&["revoke", "--robot", "1", "--swarm", "no/such"][..], "bad swarm name"),
+    ] {
+        let out = run(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
+        assert!(stderr(&out).contains(says), "{args:?}: {}", stderr(&out));
+    }
+    let config = dir.path().join("certs/orchestrator.json5");
+    let before = std::fs::read_to_string(&config).unwrap();
+    assert!(!before.contains("\"revoked\""), "a usage error writes nothing");
+    let alone = run(&["revoke", "--robot", "2", "--certs", certs]);
+    assert_eq!(alone.status.code(), Some(1), "{}", stderr(&alone));
+    assert!(stderr(&alone).contains("no launch runs on this host"), "{}", stderr(&alone));
+    let acl = bycoms_orchestrator::certs::read_config(&config).unwrap();
+    assert_eq!(bycoms_orchestrator::certs::revoked_in(&acl).into_iter().collect::<Vec<_>>(), [2]);
+    let by_certs = run(&["certs", "--revoke", "1", "--out", certs]);
+    assert_eq!(by_certs.status.code(), Some(0), "{}", stderr(&by_certs));
+    assert!(stderr(&by_certs).contains("no launch of this lab runs on this host"), "{}", stderr(&by_certs));
+}

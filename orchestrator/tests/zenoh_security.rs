@@ -320,7 +320,7 @@ fn a_revoked_robot_and_a_wrong_common_name_are_denied_while_the_others_run() {
     let endpoint = endpoint("quic");
     let made = lab(dir.path(), &endpoint);
     // Robot 1 is lost: revoked. Adding robot 3 afterwards keeps it revoked.
-    let config = revoke(dir.path(), &[1]).expect("revoke robot 1");
+    let config = revoke(dir.path(), &[1], "--revoke").expect("revoke robot 1");
     let plan = Plan {
         robots: 3,
         hosts: vec!["127.0.0.1".into()],
@@ -334,7 +334,7 @@ fn a_revoked_robot_and_a_wrong_common_name_are_denied_while_the_others_run() {
     let json: String = text.lines().filter(|l| !l.trim_start().starts_with("//")).collect();
     let value: serde_json::Value = serde_json::from_str(&json).expect("json");
     assert_eq!(revoked_in(&value).into_iter().collect::<Vec<_>>(), [1]);
-    assert!(revoke(dir.path(), &[4]).is_err(), "robot 4 has no certificate");
+    assert!(revoke(dir.path(), &[4], "--revoke").is_err(), "robot 4 has no certificate");
 
     let orch = orchestrator(&made);
     let swarm = Swarm::new("secure").expect("swarm");

@@ -57,6 +57,8 @@ fn to_agent() {
     check(ToAgent::Refused(refused), &[V, 5, 3, 0xAC, 0x02, 1, 0xB4, 0x24]);
     let refused = Refused { robot: RobotId(3), instance: 300, why: Refusal::Grace { launch_ms: 2000 } };
     check(ToAgent::Refused(refused), &[V, 5, 3, 0xAC, 0x02, 2, 0xD0, 0x0F]);
+    let refused = Refused { robot: RobotId(3), instance: 300, why: Refusal::Revoked };
+    check(ToAgent::Refused(refused), &[V, 5, 3, 0xAC, 0x02, 3]);
     let beacon = Beacon { robot: RobotId(2), x: 44.5, y: 44.25, seq: 300 };
     check(ToAgent::Beacon(beacon), &cat(&[&[V, 6, 2], &F44_5, &F44_25, &[0xAC, 0x02]]));
 }

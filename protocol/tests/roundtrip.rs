@@ -47,6 +47,7 @@ fn refusal() -> impl Strategy<Value = Refusal> {
         Just(Refusal::Duplicate),
         any::<u64>().prop_map(|launch| Refusal::Settings { launch }),
         any::<u32>().prop_map(|launch_ms| Refusal::Grace { launch_ms }),
+        Just(Refusal::Revoked),
     ]
 }
 

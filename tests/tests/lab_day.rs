@@ -1,6 +1,7 @@
 //! A lab day (issue 34): `orchestrator status` and `orchestrator stop`
 //! against a real launch, from another process, over this host's control
-//! socket (iceoryx2 launch) and over zenoh (`--connect`).
+//! socket (iceoryx2 launch) and over zenoh (`--connect`), where a robot
+//! is also revoked (`orchestrator revoke`) before the stop.
 //!
 //! `status --watch` is read line by line while the launch runs and after it
 //! ends (it must say the launch is gone, and end with 0 on Ctrl-C).
@@ -157,5 +158,11 @@ fn status_and_stop_now_over_zenoh() {
     let via = ["--connect", endpoint.as_str()];
     let line = status_when_moving(&swarm, &via);
     assert_eq!(line["status"]["transport"], "zenoh");
+    // `revoke` over the same queryable: robot 3, not started yet (robots
+    // 1 and 2 run on, and are the ones `stop --now` tells).
+    let revoke = orchestrator(&[&["revoke", "--robot", "3", "--swarm", &swarm][..], &via].concat());
+    assert_eq!(revoke.status.code(), Some(0), "{}", revoke.stderr);
+    assert!(revoke.stdout.contains("its agent was not running"), "{}", revoke.stdout);
+    eprintln!("{}", revoke.stdout.trim());
     stop_now(launch, &swarm, &via);
 }

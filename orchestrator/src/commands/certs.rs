@@ -5,8 +5,9 @@
 use crate::certs::{add_robots, generate, revoke, Plan};
 use crate::exit;
 use crate::launch::config::MAX_ROBOTS;
+use crate::launch::control::{Answer, Ask, Asker};
 use anyhow::Result;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Make a lab CA, the orchestrator's certificate, one per robot, and the
 /// matching zenoh configs (orchestrator.json5 with the ACL, robot-K.json5).
@@ -18,7 +19,8 @@ use std::path::PathBuf;
 /// An existing CA in DIR is never replaced without --force (every robot
 /// provisioned with it would be locked out); --add-robots issues
 /// certificates for more robots with it instead; --revoke K withdraws
-/// robot K's certificate (a lost or stolen robot).
+/// robot K's certificate (a lost or stolen robot) and a running launch of
+/// this lab on this host drops it at once.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Robots 1..=N get a certificate each.
@@ -51,9 +53,36 @@ pub struct Args {
     pub connect: Option<String>,
     /// Withdraw robot K's certificate (a lost or stolen robot; repeatable):
     /// orchestrator.json5's ACL in DIR denies it everything from the next
-    /// launch on (restart a running one). Nothing else changes.
+    /// launch on, and a launch of this host running with that config drops
+    /// the robot at once (as `orchestrator revoke`). Nothing else changes.
     #[arg(long, value_name = "K", conflicts_with_all = ["add_robots", "force", "robots"])]
     pub revoke: Vec<u32>,
+}
+
+/// Asks every launch of this host that runs with the lab's `config` (a
+/// launch of another lab answers that it is not) to revoke `ids` now
+/// (`launch/core/revoke.rs`): the swarms that took it. Launches gone (a
+/// lock file left by a killed one) are passed over.
+fn revoke_live(config: &Path, ids: &[u32]) -> Vec<String> {
+    let lab = std::fs::canonicalize(config).unwrap_or_else(|_| config.to_path_buf());
+    let who = super::stop::who("orchestrator certs --revoke");
+    let mut took = Vec::new();
+    for &robot in ids {
+        let why = "its certificate was revoked".to_owned();
+        let ask = Ask::Revoke { robot, who: who.clone(), why, lab: Some(lab.clone()) };
+        let reached = Asker::Local.ask(None, &ask).unwrap_or_default();
+        for r in reached {
+            match r.answer {
+                Ok(Answer::Revoked { swarm, .. }) if !took.contains(&swarm) => took.push(swarm),
+                Ok(Answer::Revoked { .. } | Answer::OtherLab) => {}
+                Ok(other) => {
+                    tracing::warn!("the launch of swarm {} answered the revocation: {other:?}", r.swarm);
+                }
+                Err(why) => tracing::debug!("the launch of swarm {} did not answer: {why}", r.swarm),
+            }
+        }
+    }
+    took
 }
 
 /// Certificates only for robots a launch can deploy (at most
@@ -71,10 +100,15 @@ fn check_robots(robots: u32) -> Result<()> {
 
 pub fn run(args: Args) -> Result<i32> {
     if !args.revoke.is_empty() {
-        let config = revoke(&args.out, &args.revoke)?;
+        let config = revoke(&args.out, &args.revoke, "--revoke")?;
         let ids: Vec<String> = args.revoke.iter().map(u32::to_string).collect();
+        let live = revoke_live(&config, &args.revoke);
+        let applied = match live.as_slice() {
+            [] => "no launch of this lab runs on this host; it applies from the next start".to_owned(),
+            swarms => format!("taken live by the running launch of swarm {}", swarms.join(", ")),
+        };
         bycoms_runtime::logging::status_line(&format!(
-            "certs: robot {} revoked in {} (restart a running launch to apply it)",
+            "certs: robot {} revoked in {}: {applied}",
             ids.join(", "),
             config.display()
         ));

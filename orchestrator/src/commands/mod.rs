@@ -13,6 +13,7 @@ pub mod launch;
 pub mod merge;
 pub mod record;
 pub mod replay;
+pub mod revoke;
 pub mod simulate;
 pub mod status;
 pub mod stop;
@@ -72,6 +73,14 @@ pub enum Command {
     /// The launch records who asked and why in its summary (`stop`) and exits 130. Exit codes:
     /// 0 the launch said it stops, 1 no launch answered, 2 usage (several run and --swarm is missing).
     Stop(stop::Args),
+    /// Take a robot's voice away in a running launch, within a second and without a restart.
+    ///
+    /// The launch tells robot K `Stop`, refuses its agent (a new registration is refused as
+    /// revoked) and drops and counts its reports; the other robots go on. With --certs DIR the
+    /// lab's ACL also denies K everything from the next start (zenoh checks no revocation list,
+    /// so until then K's certificate still connects: the launch drops its traffic). Exit codes:
+    /// 0 the launch took it, 1 no launch answered or it refused, 2 usage.
+    Revoke(revoke::Args),
     /// Check this host before a lab day: certificates, limits, ports, leftovers, NatNet, zenoh.
     ///
     /// Each finding names its check, its level (ok, warn, error), its cause
@@ -108,6 +117,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Certs(args) => certs::run(args),
         Command::Status(args) => status::run(args),
         Command::Stop(args) => stop::run(args),
+        Command::Revoke(args) => revoke::run(args),
         Command::Doctor(args) => doctor::run(args),
         Command::SimAgent(args) => Ok(bycoms_sim::sim_agent::main_with(&args)),
     }

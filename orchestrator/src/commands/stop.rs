@@ -12,7 +12,7 @@
 //! runs, or it died); 2 a usage error (several launches and no `--swarm`).
 
 use crate::exit;
-use crate::launch::control::{Answer, Ask};
+use crate::launch::control::{Answer, Ask, Asker};
 use crate::outln;
 use anyhow::Result;
 
@@ -38,32 +38,30 @@ pub fn who(command: &str) -> String {
     format!("{command} (uid {uid} on {}, pid {})", host.trim(), std::process::id())
 }
 
+/// The one launch a command that acts on a launch means: the one named
+/// with `--swarm`, or the only one running (a usage error when several
+/// run and none is named; an error when none runs).
+pub fn one_launch(asker: &Asker, swarm: Option<&str>) -> Result<String> {
+    if let Some(s) = swarm {
+        return Ok(s.to_owned());
+    }
+    let running: Vec<String> =
+        asker.ask(None, &Ask::Status)?.into_iter().filter(|r| r.answer.is_ok()).map(|r| r.swarm).collect();
+    match running.as_slice() {
+        [] => anyhow::bail!("no launch runs {}", asker.place()),
+        [one] => Ok(one.clone()),
+        many => Err(exit::usage(format!(
+            "{} launches run {} ({}): pick one with --swarm",
+            many.len(),
+            asker.place(),
+            many.join(", ")
+        ))),
+    }
+}
+
 pub fn run(args: Args) -> Result<i32> {
     let asker = args.which.asker()?;
-    // Which launch: the one named, or the only one running.
-    let swarm = match &args.which.swarm {
-        Some(s) => s.clone(),
-        None => {
-            let running: Vec<String> = asker
-                .ask(None, &Ask::Status)?
-                .into_iter()
-                .filter(|r| r.answer.is_ok())
-                .map(|r| r.swarm)
-                .collect();
-            match running.as_slice() {
-                [] => anyhow::bail!("no launch runs {}", asker.place()),
-                [one] => one.clone(),
-                many => {
-                    return Err(exit::usage(format!(
-                        "{} launches run {} ({}): pick one with --swarm",
-                        many.len(),
-                        asker.place(),
-                        many.join(", ")
-                    )))
-                }
-            }
-        }
-    };
+    let swarm = one_launch(&asker, args.which.swarm.as_deref())?;
     let ask = Ask::Stop { now: args.now, who: who("orchestrator stop"), why: args.why.clone() };
     let reached = asker.ask(Some(&swarm), &ask)?;
     let Some(r) = reached.into_iter().next() else {

@@ -1,6 +1,7 @@
 //! A running launch answers questions and takes a stop from outside:
 //! `orchestrator status` and `orchestrator stop` (issue 34), the ROS 2 stop
-//! service (issue 32) feeding the same stop.
+//! service (issue 32) feeding the same stop, and `orchestrator revoke`
+//! (and `certs --revoke`) taking a robot's voice away.
 //!
 //! Why not a bus message: a bus message holds at most 64 bytes, and a
 //! status (every robot's pose) or a stop with who and why does not fit;
@@ -58,6 +59,22 @@ pub enum Ask {
     },
     /// Where the launch stands.
     Status,
+    /// Take robot `robot`'s voice away (`orchestrator revoke`, `certs
+    /// --revoke`): told `Stop`, its agent refused and its reports dropped
+    /// from then on (`launch/core/revoke.rs`).
+    Revoke {
+        /// The robot.
+        robot: u32,
+        /// Who asks.
+        who: String,
+        /// Why (may be empty).
+        why: String,
+        /// Only a launch whose zenoh config is this file (a lab's
+        /// `orchestrator.json5`, as `certs --revoke` asks) takes it; any
+        /// other refuses.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        lab: Option<PathBuf>,
+    },
 }
 
 /// What a launch answers.
@@ -77,6 +94,22 @@ pub enum Answer {
     },
     /// Where the launch stands.
     Status(Box<LaunchStatus>),
+    /// The robot's voice is taken away (its reports dropped from now on).
+    Revoked {
+        /// The swarm.
+        swarm: String,
+        /// The robot.
+        robot: u32,
+        /// Its agent ran and was told `Stop` now.
+        told: bool,
+        /// It had been revoked before (this ask changed nothing).
+        already: bool,
+        /// The launch's pid.
+        pid: u32,
+    },
+    /// The launch does not run with the lab's zenoh config a revocation
+    /// named: not that lab's launch (nothing changed).
+    OtherLab,
     /// The question could not be understood, and why.
     Refused(String),
 }
@@ -96,6 +129,14 @@ pub struct Request {
 pub fn socket_path(tag: Option<&str>, swarm: &str) -> PathBuf {
     let lock = lock_name(tag, swarm);
     lock_dir().join(format!("{}.sock", lock.trim_end_matches(".lock")))
+}
+
+/// Whether a launch whose zenoh config is `config` is the lab `lab`
+/// names (the same file once links and relative parts are resolved; its
+/// inode changes when `certs --revoke` rewrites it).
+pub fn same_lab(lab: &Path, config: Option<&Path>) -> bool {
+    let resolved = |p: &Path| std::fs::canonicalize(p).ok();
+    config.is_some_and(|c| resolved(c).is_some_and(|c| Some(c) == resolved(lab)))
 }
 
 /// `bycoms/<swarm>/control`, the launch's queryable over zenoh.

@@ -14,7 +14,7 @@ use super::agents::{AgentPlan, AgentSource, Gone, Started};
 use super::config::{Clock, LaunchConfig};
 use super::control::{Answer, Ask, Control, Request};
 use super::core::log::{self, Logged};
-use super::core::{Ending, Input, Output, Slot, SlotState, Stop};
+use super::core::{Ending, Input, Output, Revoke, Slot, SlotState, Stop};
 use super::events::EVENT_SCHEMA;
 use super::ports::Ports;
 use super::poses::{PoseSink, PoseSource};
@@ -341,9 +341,31 @@ impl Driver {
                     }
                 }
                 Ask::Status => Answer::Status(Box::new(self.status())),
+                Ask::Revoke { robot, who, why, lab } => self.revoke(Revoke { robot, who, why }, lab),
             };
             reply(&answer);
         }
+    }
+
+    /// Takes a robot's voice away (`orchestrator revoke`): one core input,
+    /// decided and carried out (its `Stop` sent) before the answer.
+    fn revoke(&mut self, revoke: Revoke, lab: Option<std::path::PathBuf>) -> Answer {
+        if lab.is_some_and(|lab| !super::control::same_lab(&lab, self.cfg.transport.zenoh_config.as_deref()))
+        {
+            return Answer::OtherLab;
+        }
+        let (robot, robots) = (revoke.robot, self.core.slots().len());
+        if robot == 0 || robot as usize > robots {
+            return Answer::Refused(format!("robot {robot} is not in this launch (robots 1..={robots})"));
+        }
+        tracing::warn!(robot, who = %revoke.who, why = %revoke.why, "a revocation was asked");
+        let already = self.core.revoked().iter().any(|r| r.robot == robot);
+        let told = !already && self.core.is_running(robot);
+        self.feed(Input::Revoke(revoke));
+        let at = self.now();
+        self.core.advance(at);
+        self.carry_out();
+        Answer::Revoked { swarm: self.template.swarm.clone(), robot, told, already, pid: std::process::id() }
     }
 
     /// Where the launch stands (`orchestrator status`).
@@ -475,6 +497,7 @@ impl Driver {
             resends: decided.resends,
             shutdown_killed: killed,
             stop: self.core.stopped().cloned(),
+            revoked: self.core.revoked().to_vec(),
         };
         // The observers see the scene to its last gate event.
         self.ports.recording.sync();

@@ -39,6 +39,9 @@ pub enum EventKind {
     /// Told `Stop` by a stop asked from outside (`orchestrator stop --now`,
     /// the ROS 2 stop service; `reason` names who and why).
     Stopped,
+    /// Revoked (`orchestrator revoke`; `reason` names who and why): told
+    /// `Stop`, its agent refused and its reports dropped from then on.
+    Revoked,
 }
 
 /// One event of a robot's agent.

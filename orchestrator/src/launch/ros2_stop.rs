@@ -107,7 +107,9 @@ pub fn response(answer: &Answer) -> TriggerResponse {
             message: format!("stopping swarm {swarm}: every robot is told to stop"),
         },
         Answer::Refused(why) => TriggerResponse { success: false, message: why.clone() },
-        Answer::Status(_) => TriggerResponse { success: false, message: "not a stop".into() },
+        Answer::Status(_) | Answer::Revoked { .. } | Answer::OtherLab => {
+            TriggerResponse { success: false, message: "not a stop".into() }
+        }
     }
 }
 

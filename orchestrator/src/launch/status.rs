@@ -8,6 +8,7 @@
 //! `status` questions with it (`launch/control.rs`).
 
 use super::core::{Core, Phase, SlotState};
+use super::summary::RevokedSummary;
 use serde::{Deserialize, Serialize};
 
 /// What only the driver knows about its launch.
@@ -68,6 +69,10 @@ pub struct LaunchStatus {
     pub stopping: Option<String>,
     /// Every robot, in id order.
     pub robots: Vec<RobotStatus>,
+    /// Robots revoked (`orchestrator revoke`), with their reports dropped
+    /// since.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub revoked: Vec<RevokedSummary>,
 }
 
 /// The phase in words.
@@ -118,6 +123,7 @@ pub fn of(core: &Core, now: u64, facts: &Facts) -> LaunchStatus {
         uptime_s: facts.uptime_s,
         stopping,
         robots,
+        revoked: core.revoked().to_vec(),
     }
 }
 
@@ -144,15 +150,24 @@ pub fn text(s: &LaunchStatus) -> String {
     if idle > 0 {
         out.push_str(&format!("  {} not started yet\n", crate::runs::count(idle as u64, "robot")));
     }
+    for r in &s.revoked {
+        let why = if r.why.is_empty() { String::new() } else { format!(" ({})", r.why) };
+        let dropped = crate::runs::count(r.dropped, "report");
+        out.push_str(&format!(
+            "  robot {} revoked by {}{why}: {dropped} of it dropped since\n",
+            r.robot, r.who
+        ));
+    }
     out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::launch::core::{Input, Output, Stop};
+    use crate::launch::core::{Input, Output, Revoke, Stop};
     use crate::launch::harness::{self, Case, Schedule};
     use bycoms_protocol::msg::Pose;
+    use bycoms_protocol::msg::{FromAgent, Heartbeat};
     use bycoms_protocol::RobotId;
 
     fn facts() -> Facts {
@@ -168,7 +183,7 @@ mod tests {
 
     /// The status says what the core holds: its phase and wait, each
     /// robot's state, whether its agent runs, how old its last pose is,
-    /// and, once asked, who stops the launch.
+    /// the robots revoked and, once asked, who stops the launch.
     #[test]
     fn a_status_is_a_projection_of_the_core() {
         let case = Case::small(3);
@@ -193,6 +208,15 @@ mod tests {
         let shown = text(&s);
         assert!(shown.contains("robot 1: starting, seen 0.5 s ago"), "{shown}");
         assert!(shown.contains("recording: run.mcap"), "{shown}");
+
+        // A revoked robot: listed with its reports dropped since.
+        core.handle(1_800_000, Input::Revoke(Revoke { robot: 2, who: "me".into(), why: "lost".into() }));
+        core.handle(1_900_000, Input::Report(FromAgent::Heartbeat(Heartbeat { robot: RobotId(2), seq: 1 })));
+        let s = of(&core, 1_900_000, &facts());
+        assert_eq!((s.revoked.len(), s.revoked[0].robot, s.revoked[0].dropped), (1, 2, 1));
+        assert_eq!(s.robots[1].state, "lost");
+        let shown = text(&s);
+        assert!(shown.contains("robot 2 revoked by me (lost): 1 report of it dropped since"), "{shown}");
 
         let stop = Stop { now: true, who: "me".into(), why: "a test".into() };
         core.handle(2_000_000, Input::Stop(stop));

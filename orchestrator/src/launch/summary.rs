@@ -242,6 +242,26 @@ pub struct Summary {
     /// service): who, why, and which robots were told `Stop`.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub stop: Option<StopSummary>,
+    /// Robots revoked while the launch ran (`orchestrator revoke`): who,
+    /// why, when, and how many of their reports were dropped since.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub revoked: Vec<RevokedSummary>,
+}
+
+/// A robot revoked while the launch ran, as the summary and the status
+/// record it (`launch/core/revoke.rs`).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, serde::Deserialize, JsonSchema)]
+pub struct RevokedSummary {
+    /// The robot.
+    pub robot: u32,
+    /// Who revoked it.
+    pub who: String,
+    /// Why, as the asker said it (may be empty).
+    pub why: String,
+    /// When the launch took it in, ms since the Unix epoch.
+    pub unix_ms: u64,
+    /// Its reports dropped since (registrations included, each refused).
+    pub dropped: u64,
 }
 
 /// A stop asked of the launch from outside, as the summary records it.
@@ -338,6 +358,13 @@ impl Summary {
         });
         if self.bad_traffic.total() > 0 {
             out.push_str(&format!("\n  bad messages: {}", self.bad_traffic));
+        }
+        for r in &self.revoked {
+            let dropped = count(r.dropped, "report");
+            out.push_str(&format!(
+                "\n  robot {} revoked by {}: {dropped} of it dropped since",
+                r.robot, r.who
+            ));
         }
         if let Some(rec) = &self.recording {
             out.push_str(&format!("\n  recorded {} to {}", count(rec.messages, "message"), rec.path));
@@ -545,6 +572,7 @@ mod tests {
             resends: 0,
             shutdown_killed: Vec::new(),
             stop: None,
+            revoked: Vec::new(),
         }
     }
 

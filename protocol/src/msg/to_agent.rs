@@ -80,6 +80,10 @@ pub enum Refusal {
         /// The launch's link grace, ms.
         launch_ms: u32,
     },
+    /// The robot's voice was taken away (`orchestrator revoke`): the
+    /// launch refuses every agent of it from then on. Last, so an older
+    /// decoder still reads the other reasons.
+    Revoked,
 }
 
 impl core::fmt::Display for Refusal {
@@ -94,6 +98,10 @@ impl core::fmt::Display for Refusal {
                 f,
                 "this agent's failsafe grace is shorter than the launch's link grace of {launch_ms} ms: start it with --orchestrator-grace of at least {} s",
                 f64::from(*launch_ms) / 1000.0
+            ),
+            Self::Revoked => write!(
+                f,
+                "this robot was revoked in this launch (orchestrator revoke): it may not take part any more"
             ),
         }
     }

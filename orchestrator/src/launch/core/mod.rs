@@ -51,6 +51,8 @@
 //! `referee.rs` the gate and the budget; `plausible.rs` which poses can be
 //! believed; `wait.rs` the re-send timer; `silence.rs` motion capture gone
 //! (real robots);
+//! `stop.rs` a stop asked from outside; `revoke.rs` a robot's voice taken
+//! away while the launch runs;
 //! `slot.rs` one robot's record; `log.rs` the record of
 //! every call, which `orchestrator replay` plays back; `beacons.rs` the
 //! beacons the simulated agents are told.
@@ -61,6 +63,7 @@ mod inputs;
 pub mod log;
 mod plausible;
 pub mod referee;
+mod revoke;
 mod silence;
 mod slot;
 mod steps;
@@ -78,7 +81,7 @@ pub use wait::{AnswerTime, AnswerWait, MIN_RESEND_US, RESEND_US};
 use super::agents::{Gone, Reach};
 use super::config::{Missing, OnDeath};
 use super::events::{EventKind, LaunchEvent};
-use super::summary::{Death, Outage, Outcome, StopSummary};
+use super::summary::{Death, Outage, Outcome, RevokedSummary, StopSummary};
 use crate::gate::{GateParams, Verdict};
 use crate::mocap::{PlacementConfig, PlacementWatch};
 use bycoms_protocol::msg::{
@@ -209,6 +212,22 @@ pub enum Input {
     /// (`false`): a fact; the core's timers decide what it means
     /// (`timers.rs`). Last, so older recorded logs still decode.
     Token(u32, bool),
+    /// Robot `.robot`'s voice taken away (`orchestrator revoke`, `certs
+    /// --revoke` picked up by a running launch): it is told `Stop`, its
+    /// agent is refused and its reports dropped from then on
+    /// (`revoke.rs`). Appended, so older recorded logs still decode.
+    Revoke(Revoke),
+}
+
+/// A robot revoked while the launch runs, and by whom (see [`Input::Revoke`]).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Revoke {
+    /// The robot.
+    pub robot: u32,
+    /// Who asked, e.g. `orchestrator revoke (uid 1000 on lab-3, pid 4242)`.
+    pub who: String,
+    /// Why, as the asker said it (may be empty).
+    pub why: String,
 }
 
 /// A stop asked of the launch, and by whom (see [`Input::Stop`]).
@@ -378,6 +397,8 @@ pub struct Core {
     stop: Option<StopSummary>,
     /// Each robot's supervision timers (`timers.rs`).
     watches: Vec<timers::Watch>,
+    /// The robots revoked, in the order they were (`revoke.rs`).
+    revoked: Vec<RevokedSummary>,
 }
 
 impl Core {
@@ -413,6 +434,7 @@ impl Core {
             mocap_heard: vec![None; setup.robots as usize],
             stop: None,
             watches: vec![timers::Watch::default(); setup.robots as usize],
+            revoked: Vec::new(),
             setup,
         }
     }
@@ -536,7 +558,7 @@ impl Core {
     /// bookkeeping, and only the decisions that follow from it alone (see
     /// the module docs); the rest is [`Core::advance`]'s.
     pub fn handle(&mut self, now: u64, input: Input) {
-        if self.ending.is_some() {
+        if self.ending.is_some() || self.revoked_drops(&input) {
             return;
         }
         match input {
@@ -559,6 +581,7 @@ impl Core {
             }
             Input::Stop(stop) => self.on_stop(now, stop),
             Input::Token(id, present) => self.watch_token(now, id, present),
+            Input::Revoke(revoke) => self.on_revoke(now, revoke),
         }
     }
 

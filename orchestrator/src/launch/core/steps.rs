@@ -231,6 +231,9 @@ impl Core {
     /// deployed and judged in one `advance` had its prespawned successor
     /// started twice (the successor still looked not started).
     pub(super) fn start_agent(&mut self, id: u32) {
+        if self.is_revoked(id) {
+            return;
+        }
         self.outputs.push_back(Output::Start(id));
         if let Some(slot) = self.slot(id).filter(|s| s.state == SlotState::Waiting) {
             slot.state = SlotState::Spawned;

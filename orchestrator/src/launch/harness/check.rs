@@ -59,12 +59,14 @@ fn check_summary(report: &Report, schedule: &Schedule, ending: &Ending) -> Resul
 /// `Stop` goes to the robot that arrived and, when the agents stop stuck
 /// robots, to each robot judged stuck whose agent still ran; to no other,
 /// but for the one `Stop` each running robot gets from a stop `now` (its
-/// own property, `check_stop`).
+/// own property, `check_stop`) and the one a revoked robot gets (its own,
+/// `check_revoke`).
 fn check_stops(report: &Report, schedule: &Schedule) -> Result<(), String> {
     for (i, &sent) in report.stops_sent.iter().enumerate() {
         let id = i as u32 + 1;
         let by_stop_now = report.stopped.as_ref().is_some_and(|s| s.now && s.told.contains(&id));
-        let stops = sent - u64::from(by_stop_now).min(sent);
+        let by_revoke = report.after_revoke.iter().filter(|(r, o)| *r == id && is_stop(o)).count() as u64;
+        let stops = sent - (u64::from(by_stop_now) + by_revoke).min(sent);
         let verdict = report.gates.iter().find(|g| g.robot.0 == id && g.kind != GateKind::Deployed);
         let stuck = verdict.is_some_and(|g| g.kind == GateKind::Stopped { arrived: false });
         let arrived = verdict.is_some_and(|g| g.kind == GateKind::Stopped { arrived: true });
@@ -160,6 +162,7 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
     }
     check_summary(report, schedule, ending)?;
     check_stops(report, schedule)?;
+    check_revoke(report, schedule)?;
     let seams = schedule.seams();
     if !seams.senses_beacons && report.beacons_sent > 0 {
         return Err(format!("{} beacons sent to agents that hear each other", report.beacons_sent));
@@ -216,6 +219,45 @@ fn check_stop(report: &Report, schedule: &Schedule, ending: &Ending) -> Result<(
     }
     if let Some(missed) = stop.told.iter().find(|id| !at_end.contains(id)) {
         return Err(format!("robot {missed} was not sent Stop in the launch's last step"));
+    }
+    Ok(())
+}
+
+fn is_stop(out: &Output) -> bool {
+    matches!(out, Output::Send(_, ToAgent::Stop))
+}
+
+/// A robot revoked (`launch/core/revoke.rs`): taken in when asked before
+/// the end, told `Stop` at most once, and nothing from it changes the
+/// launch afterwards: the core starts, deploys, ticks, steers or hears it
+/// no more, and judges it at most once more (a beacon where it stopped).
+fn check_revoke(report: &Report, schedule: &Schedule) -> Result<(), String> {
+    let Some((at, id)) = schedule.revoke_at_us else { return Ok(()) };
+    let Some(record) = report.revoked.iter().find(|r| r.robot == id) else {
+        return match at < report.end_us {
+            true => Err(format!("robot {id}'s revocation at {at} µs was not taken in")),
+            false => Ok(()),
+        };
+    };
+    if record.who != STOP_WHO || record.why != REVOKE_WHY {
+        return Err(format!("robot {id} is recorded as revoked by {:?} for {:?}", record.who, record.why));
+    }
+    if report.running_at_end.contains(&id) {
+        return Err(format!("revoked robot {id}'s agent still counts as running"));
+    }
+    let mut stops = 0;
+    let mut judged = 0;
+    for (_, out) in report.after_revoke.iter().filter(|(r, _)| *r == id) {
+        match out {
+            Output::Send(_, ToAgent::Stop) => stops += 1,
+            Output::Send(_, ToAgent::Refused(r)) if r.why == Refusal::Revoked => {}
+            Output::Gate(g) if g.kind == GateKind::Died => judged += 1,
+            Output::Event(_) | Output::Relay(_) => {}
+            other => return Err(format!("revoked robot {id}: {other:?} after its revocation")),
+        }
+    }
+    if stops > 1 || judged > 1 {
+        return Err(format!("revoked robot {id} told Stop {stops}× and judged {judged}× after it"));
     }
     Ok(())
 }

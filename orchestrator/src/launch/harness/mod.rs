@@ -43,11 +43,11 @@ use world::play;
 use super::agents::Gone;
 use super::config::{Clock, LaunchConfig, Missing, OnDeath};
 use super::core::log::{Call, Logged};
-use super::core::{Ending, Input, Output, Setup, SlotState, Stop};
+use super::core::{Ending, Input, Output, Revoke, Setup, SlotState, Stop};
 use super::events::EventKind;
-use super::summary::{Decided, Outcome, RobotEnd, StopSummary};
+use super::summary::{Decided, Outcome, RevokedSummary, RobotEnd, StopSummary};
 use crate::draw::snapshot::Unit;
-use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Heartbeat, Pose, Register, ToAgent};
+use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Heartbeat, Pose, Refusal, Register, ToAgent};
 use bycoms_protocol::RobotId;
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::sim_agent::run::Timing;
@@ -167,6 +167,10 @@ pub struct Report {
     pub stop_log: Vec<(u64, u32)>,
     /// The stop asked from outside, as the core recorded it.
     pub stopped: Option<StopSummary>,
+    /// The robots revoked, as the core recorded them.
+    pub revoked: Vec<RevokedSummary>,
+    /// What the core put out about a robot once it was revoked, in order.
+    pub after_revoke: Vec<(u32, Output)>,
     /// Robots whose agents ran when the launch ended.
     pub running_at_end: Vec<u32>,
     /// Each crash of a running agent and each cut of its link, (robot, µs),
@@ -185,6 +189,8 @@ pub const NOTICE_US: u64 = 500_000;
 pub const STOP_WHO: &str = "the harness";
 /// Why a harness schedule's stop is asked.
 pub const STOP_WHY: &str = "a seeded stop";
+/// Why a harness schedule's revocation is asked (by [`STOP_WHO`]).
+pub const REVOKE_WHY: &str = "a seeded revocation";
 
 /// A harness launch as a launch of the `orchestrator` would be: its
 /// config, world, agent template and run settings, made by the launch's

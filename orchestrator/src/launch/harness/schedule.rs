@@ -102,6 +102,9 @@ pub struct Schedule {
     /// A stop asked from outside (`orchestrator stop`), when, and whether
     /// `--now`.
     pub stop_at_us: Option<(u64, bool)>,
+    /// A robot revoked from outside (`orchestrator revoke`): when, and
+    /// which. Not drawn: set by the tests that revoke.
+    pub revoke_at_us: Option<(u64, u32)>,
 }
 
 impl Schedule {
@@ -150,6 +153,7 @@ impl Schedule {
             stop_when_stuck: false,
             gateway_seams: false,
             stop_at_us: None,
+            revoke_at_us: None,
         }
     }
 

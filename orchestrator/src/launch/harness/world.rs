@@ -82,6 +82,8 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             decided: None,
             stop_log: Vec::new(),
             stopped: None,
+            revoked: Vec::new(),
+            after_revoke: Vec::new(),
             running_at_end: Vec::new(),
             faults: Vec::new(),
             noticed: Vec::new(),
@@ -119,6 +121,10 @@ impl World<'_> {
         }
         if let Some((at, now)) = s.stop_at_us {
             self.at(at, Event::Stop(now));
+        }
+        if let Some((at, robot)) = s.revoke_at_us {
+            let revoke = Revoke { robot, who: STOP_WHO.into(), why: REVOKE_WHY.into() };
+            self.at(at, Event::Tell(Input::Revoke(revoke)));
         }
         if s.remote {
             // A cut link's liveliness token goes after one lease and comes
@@ -179,6 +185,9 @@ impl World<'_> {
     pub(super) fn carry_out(&mut self) {
         while let Some(out) = self.core.poll_output() {
             let now = self.now;
+            if let Some(id) = about(&out).filter(|&id| self.core.revoked().iter().any(|r| r.robot == id)) {
+                self.report.after_revoke.push((id, out.clone()));
+            }
             match out {
                 Output::Start(id) => self.start(id),
                 Output::Send(id, msg) => {
@@ -415,6 +424,7 @@ impl World<'_> {
         self.report.deaths = core.slots().iter().map(|s| s.death().map(|d| d.reason.clone())).collect();
         self.report.late = core.slots().iter().filter(|s| s.joined_late()).map(|s| s.id()).collect();
         self.report.stopped = core.stopped().cloned();
+        self.report.revoked = core.revoked().to_vec();
         self.report.running_at_end = core.slots().iter().filter(|s| s.alive()).map(|s| s.id()).collect();
         self.report.spent = core.spent();
         self.report.ticks = core.ticks();
@@ -449,5 +459,21 @@ impl World<'_> {
     /// Robot `id`'s true latest pose (its agent's), for forgeries.
     pub(super) fn true_pose(&self, id: u32) -> Option<Pose> {
         self.core.slots().get(id as usize - 1).and_then(|s| s.last_pose())
+    }
+}
+
+/// The robot an output is about, if it is about one.
+fn about(out: &Output) -> Option<u32> {
+    match out {
+        Output::Start(id)
+        | Output::Send(id, _)
+        | Output::Kill(id)
+        | Output::Heard(id)
+        | Output::Carried(id, _) => Some(*id),
+        Output::Relay(pose) | Output::Forward(pose) => Some(pose.robot.0),
+        Output::Gate(e) => Some(e.robot.0),
+        Output::Event(e) => Some(e.robot),
+        Output::AskOperator(d) => Some(d.robot.0),
+        Output::Note(_) | Output::Bad(..) | Output::SimTime(_) => None,
     }
 }
