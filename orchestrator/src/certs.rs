@@ -26,7 +26,8 @@
 //! `bycoms/*/robot/<k>/**` (its pose and its reports, `from_agent`) and
 //! declare only its own liveliness token `bycoms/*/alive/robot/<k>`, lets
 //! every robot subscribe to and receive anything under `bycoms/**`, and
-//! ask for the run's settings (`bycoms/*/settings`). The orchestrator
+//! ask for the run's settings (`bycoms/*/settings`) and the
+//! orchestrator's clock (`bycoms/*/clock`, to measure their offset). The orchestrator
 //! drops a report whose robot id is not its key's, so no certificate can
 //! speak for another robot.
 //! A lab's CA is its trust: every robot provisioned with it is locked out
@@ -151,9 +152,10 @@ pub fn access_control(robots: u32, revoked: &BTreeSet<u32>) -> Value {
             "flows": ["ingress", "egress"], "permission": "allow", "key_exprs": ["bycoms/**"] }),
         json!({ "id": "robots-receive", "messages": ["put", "delete"], "flows": ["egress"],
             "permission": "allow", "key_exprs": ["bycoms/**"] }),
-        // The run's settings: a robot asks, the orchestrator answers.
+        // The run's settings and the orchestrator's clock: a robot asks,
+        // the orchestrator answers.
         json!({ "id": "robots-settings", "messages": ["query", "reply"], "flows": ["ingress", "egress"],
-            "permission": "allow", "key_exprs": ["bycoms/*/settings"] }),
+            "permission": "allow", "key_exprs": ["bycoms/*/settings", "bycoms/*/clock"] }),
     ];
     let mut subjects = vec![json!({ "id": ORCHESTRATOR_CN, "cert_common_names": [ORCHESTRATOR_CN] })];
     let mut policies = vec![json!({ "rules": ["orchestrator-all"], "subjects": [ORCHESTRATOR_CN] })];

@@ -21,6 +21,7 @@ mod lab_launch;
 mod launch_report;
 mod live_view;
 mod netns_bridge_host;
+mod netns_doctor;
 mod netns_liveliness;
 mod netns_remote;
 mod parity;

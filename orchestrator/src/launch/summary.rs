@@ -5,12 +5,12 @@
 //! launch with `simulate`) can check "bit for bit" without trusting a
 //! decimal round trip.
 
-use super::core::{Core, Ending, Slot, SlotState};
+use super::core::{ClockReading, Core, Ending, Slot, SlotState};
 use crate::runs::{count, verdict as verdict_line};
 use bycoms_runtime::Traffic;
 use bycoms_sim::Vec2;
 use schemars::JsonSchema;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// A position as the summary writes it (the schema of `bycoms_sim::Vec2`).
@@ -159,6 +159,32 @@ pub struct RobotSummary {
     pub death: Option<Death>,
     /// Times its agent was unreachable (remote agents), in order.
     pub outages: Vec<Outage>,
+    /// Its host's clock against the orchestrator's, as its agent last
+    /// measured it (agents over zenoh; none: not measured).
+    pub clock: Option<ClockSummary>,
+}
+
+/// A host's clock offset to the orchestrator's (`launch/core/clocks.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ClockSummary {
+    /// The host's clock minus the orchestrator's, ms (positive: ahead).
+    pub offset_ms: f64,
+    /// The round trip of the measurement, ms (the offset is right to
+    /// within half of it).
+    pub round_trip_ms: f64,
+    /// When it was measured (reported), ms since the Unix epoch.
+    pub measured_unix_ms: u64,
+}
+
+impl ClockSummary {
+    /// The summary of `reading`, reported at launch time `at_us` of `core`.
+    pub fn of(core: &Core, reading: ClockReading) -> Self {
+        Self {
+            offset_ms: reading.offset_us as f64 / 1000.0,
+            round_trip_ms: f64::from(reading.round_trip_us) / 1000.0,
+            measured_unix_ms: core.unix_ms(reading.at_us),
+        }
+    }
 }
 
 /// The recording, when one was made.
@@ -403,7 +429,7 @@ pub fn verdict(ending: &Ending, recording: Result<(), &str>) -> Verdict {
 /// recording having failed (`Err(why)`) or not.
 pub fn of(core: &Core, ending: &Ending, recording: Result<(), &str>) -> Decided {
     let slots = core.slots();
-    let robots: Vec<RobotSummary> = slots.iter().map(robot_summary).collect();
+    let robots: Vec<RobotSummary> = slots.iter().map(|s| robot_summary(core, s)).collect();
     let beacons = slots
         .iter()
         .filter(|s| matches!(s.state(), SlotState::Stuck | SlotState::Died))
@@ -425,7 +451,7 @@ pub fn of(core: &Core, ending: &Ending, recording: Result<(), &str>) -> Decided 
 /// One robot's line of the summary: a robot is deployed once its slot is
 /// past its start (stuck, arrived, died, moving or unfinished); only a
 /// deployed robot has a position and a deployment tick.
-fn robot_summary(s: &Slot) -> RobotSummary {
+fn robot_summary(core: &Core, s: &Slot) -> RobotSummary {
     let end = match s.state() {
         SlotState::Stuck => RobotEnd::Stuck,
         SlotState::Arrived => RobotEnd::Arrived,
@@ -451,6 +477,7 @@ fn robot_summary(s: &Slot) -> RobotSummary {
         gate_reaction_us: s.reaction_us(),
         death: s.death().cloned(),
         outages: s.outages().to_vec(),
+        clock: s.clock().map(|c| ClockSummary::of(core, c)),
     }
 }
 
@@ -512,6 +539,7 @@ mod tests {
             gate_reaction_us: None,
             death: None,
             outages: Vec::new(),
+            clock: None,
         }
     }
 

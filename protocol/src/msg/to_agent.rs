@@ -80,6 +80,15 @@ pub enum Refusal {
         /// The launch's link grace, ms.
         launch_ms: u32,
     },
+    /// The agent's host clock is off the orchestrator's by more than the
+    /// launch's limit (its `FromAgent::Clock`).
+    Clock {
+        /// The measured offset, ms (the agent's clock minus the
+        /// orchestrator's, saturating).
+        offset_ms: i32,
+        /// The launch's limit, ms.
+        limit_ms: u32,
+    },
 }
 
 impl core::fmt::Display for Refusal {
@@ -94,6 +103,12 @@ impl core::fmt::Display for Refusal {
                 f,
                 "this agent's failsafe grace is shorter than the launch's link grace of {launch_ms} ms: start it with --orchestrator-grace of at least {} s",
                 f64::from(*launch_ms) / 1000.0
+            ),
+            Self::Clock { offset_ms, limit_ms } => write!(
+                f,
+                "this host's clock is {} ms {} the orchestrator's, past the launch's limit of {limit_ms} ms: synchronise both hosts' clocks (chrony: `chronyc tracking` shows the offset, `chronyc makestep` steps it; or ntpd / systemd-timesyncd) and start the agent again",
+                offset_ms.unsigned_abs(),
+                if *offset_ms < 0 { "behind" } else { "ahead of" }
             ),
         }
     }
