@@ -284,7 +284,7 @@ mod tests {
         let s = ClockSample::from_stamps(t0, t1, t1, t3);
         assert_eq!(s.round_trip_us, 1000);
         assert!((s.offset_us - skew).unsigned_abs() <= s.round_trip_us / 2, "{s:?}");
-        assert_eq!(s.offset_us, skew - 400);
+        assert_eq!(s.offset_us, skew + 400, "off by half the difference of the two ways");
     }
 
     #[test]
