@@ -307,6 +307,19 @@ impl Summary {
         verdict_line(sim, self.robots_used, arrived, self.time_s, self.beacons.len())
     }
 
+    /// The agents' host clocks in one line: the largest offset (and whose)
+    /// and the longest round trip; none when no agent measured one.
+    fn clock_line(&self) -> Option<String> {
+        let clocks = self.robots.iter().filter_map(|r| r.clock.map(|c| (r.id, c)));
+        let (id, worst) =
+            clocks.clone().max_by(|a, b| a.1.offset_ms.abs().total_cmp(&b.1.offset_ms.abs()))?;
+        let trip = clocks.map(|(_, c)| c.round_trip_ms).fold(0.0, f64::max);
+        Some(format!(
+            "clock offsets to the orchestrator: at most {:+.1} ms (robot {id}), round trips at most {trip:.1} ms",
+            worst.offset_ms
+        ))
+    }
+
     /// The human-readable summary: the verdict, one line per deployed
     /// robot, one line for all robots never deployed.
     pub fn text(&self) -> String {
@@ -364,6 +377,9 @@ impl Summary {
         });
         if self.bad_traffic.total() > 0 {
             out.push_str(&format!("\n  bad messages: {}", self.bad_traffic));
+        }
+        if let Some(line) = self.clock_line() {
+            out.push_str(&format!("\n  {line}"));
         }
         if let Some(rec) = &self.recording {
             out.push_str(&format!("\n  recorded {} to {}", count(rec.messages, "message"), rec.path));
@@ -631,5 +647,18 @@ mod tests {
         let text = summary(vec![robot(1, RobotEnd::NotDeployed, 0)], Some(never)).text();
         assert!(!text.contains("achieved"), "{text}");
         assert!(text.contains("no control period ran"), "{text}");
+    }
+
+    #[test]
+    fn the_text_names_the_largest_clock_offset_and_round_trip() {
+        let mut robots = vec![robot(1, RobotEnd::Stuck, 3), robot(2, RobotEnd::Arrived, 4)];
+        assert_eq!(summary(robots.clone(), None).clock_line(), None, "none measured: no line");
+        let clock = |offset_ms, round_trip_ms| ClockSummary { offset_ms, round_trip_ms, measured_unix_ms: 1 };
+        robots[0].clock = Some(clock(-42.5, 0.8));
+        robots[1].clock = Some(clock(3.0, 1.6));
+        let text = summary(robots, None).text();
+        let line =
+            "clock offsets to the orchestrator: at most -42.5 ms (robot 1), round trips at most 1.6 ms";
+        assert!(text.contains(line), "{text}");
     }
 }
