@@ -25,8 +25,10 @@
 //! certificate common name, default deny) lets robot `k` publish only on
 //! `bycoms/*/robot/<k>/**` (its pose and its reports, `from_agent`) and
 //! declare only its own liveliness token `bycoms/*/alive/robot/<k>`, lets
-//! every robot subscribe to and receive anything under `bycoms/**`, and
-//! ask for the run's settings (`bycoms/*/settings`). The orchestrator
+//! every robot subscribe to and receive anything under `bycoms/**` and see
+//! the orchestrator's liveliness token (`bycoms/*/alive/orchestrator`), and
+//! ask for the run's settings (`bycoms/*/settings`) and the
+//! orchestrator's clock (`bycoms/*/clock`, to measure their offset). The orchestrator
 //! drops a report whose robot id is not its key's, so no certificate can
 //! speak for another robot.
 //! A lab's CA is its trust: every robot provisioned with it is locked out
@@ -155,9 +157,15 @@ pub fn access_control(robots: u32, revoked: &BTreeSet<u32>) -> Value {
             "flows": ["ingress", "egress"], "permission": "allow", "key_exprs": ["bycoms/**"] }),
         json!({ "id": "robots-receive", "messages": ["put", "delete"], "flows": ["egress"],
             "permission": "allow", "key_exprs": ["bycoms/**"] }),
-        // The run's settings: a robot asks, the orchestrator answers.
+        // The orchestrator's liveliness token reaches the robots (their
+        // failsafe, `doctor --connect`): without it zenoh's ACL withholds
+        // the token's declaration from them.
+        json!({ "id": "robots-see-orchestrator", "messages": ["liveliness_token"], "flows": ["egress"],
+            "permission": "allow", "key_exprs": ["bycoms/*/alive/orchestrator"] }),
+        // The run's settings and the orchestrator's clock: a robot asks,
+        // the orchestrator answers.
         json!({ "id": "robots-settings", "messages": ["query", "reply"], "flows": ["ingress", "egress"],
-            "permission": "allow", "key_exprs": ["bycoms/*/settings"] }),
+            "permission": "allow", "key_exprs": ["bycoms/*/settings", "bycoms/*/clock"] }),
     ];
     let mut subjects = vec![json!({ "id": ORCHESTRATOR_CN, "cert_common_names": [ORCHESTRATOR_CN] })];
     let mut policies = vec![json!({ "rules": ["orchestrator-all"], "subjects": [ORCHESTRATOR_CN] })];
@@ -171,7 +179,7 @@ pub fn access_control(robots: u32, revoked: &BTreeSet<u32>) -> Value {
             "flows": ["ingress", "egress"], "permission": "allow", "key_exprs": [format!("bycoms/*/alive/robot/{k}")] }));
         subjects.push(json!({ "id": cn, "cert_common_names": [cn] }));
         policies.push(json!({ "rules": [format!("{cn}-publish"), format!("{cn}-alive"), "robots-listen",
-            "robots-receive", "robots-settings"], "subjects": [cn] }));
+            "robots-receive", "robots-see-orchestrator", "robots-settings"], "subjects": [cn] }));
     }
     if !revoked.is_empty() {
         rules.push(json!({ "id": REVOKED, "messages": ["put", "delete", "declare_subscriber", "query",

@@ -59,6 +59,9 @@ fn to_agent() {
     check(ToAgent::Refused(refused), &[V, 5, 3, 0xAC, 0x02, 2, 0xD0, 0x0F]);
     let refused = Refused { robot: RobotId(3), instance: 300, why: Refusal::Revoked };
     check(ToAgent::Refused(refused), &[V, 5, 3, 0xAC, 0x02, 3]);
+    let why = Refusal::Clock { offset_ms: -2000, limit_ms: 500 };
+    let refused = Refused { robot: RobotId(3), instance: 300, why };
+    check(ToAgent::Refused(refused), &[V, 5, 3, 0xAC, 0x02, 4, 0x9F, 0x1F, 0xF4, 0x03]);
     let beacon = Beacon { robot: RobotId(2), x: 44.5, y: 44.25, seq: 300 };
     check(ToAgent::Beacon(beacon), &cat(&[&[V, 6, 2], &F44_5, &F44_25, &[0xAC, 0x02]]));
 }
@@ -99,6 +102,8 @@ fn from_agent() {
     let fired = FailsafeFired { robot: RobotId(2), silent_ms: 2100 };
     check(FromAgent::Failsafe(fired), &[V, 6, 2, 0xB4, 0x10]);
     check(FromAgent::Parked(Parked { robot: RobotId(5), step: 300 }), &[V, 7, 5, 0xAC, 0x02]);
+    let clock = ClockOffset { robot: RobotId(2), offset_us: -1500, round_trip_us: 800 };
+    check(FromAgent::Clock(clock), &[V, 8, 2, 0xB7, 0x17, 0xA0, 0x06]);
 }
 
 /// f32 little-endian: 0.5, 1.0, 0.25, -0.5.

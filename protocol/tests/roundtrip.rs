@@ -48,6 +48,7 @@ fn refusal() -> impl Strategy<Value = Refusal> {
         any::<u64>().prop_map(|launch| Refusal::Settings { launch }),
         any::<u32>().prop_map(|launch_ms| Refusal::Grace { launch_ms }),
         Just(Refusal::Revoked),
+        (any::<i32>(), any::<u32>()).prop_map(|(offset_ms, limit_ms)| Refusal::Clock { offset_ms, limit_ms }),
     ]
 }
 
@@ -117,6 +118,9 @@ fn from_agent() -> impl Strategy<Value = FromAgent> {
         (robot(), any::<u32>())
             .prop_map(|(robot, silent_ms)| FromAgent::Failsafe(FailsafeFired { robot, silent_ms })),
         (robot(), any::<u64>()).prop_map(|(robot, step)| FromAgent::Parked(Parked { robot, step })),
+        (robot(), any::<i64>(), any::<u32>()).prop_map(|(robot, offset_us, round_trip_us)| {
+            FromAgent::Clock(ClockOffset { robot, offset_us, round_trip_us })
+        }),
     ]
 }
 
@@ -186,7 +190,7 @@ fn largest_encodings_fit_max_message_len() {
     let s = u64::MAX;
     let f = f64::MAX;
     let pose = Pose { robot: r, x: f, y: f, heading: f, step: s, time_us: s };
-    let largest: [(&str, usize); 10] = [
+    let largest: [(&str, usize); 11] = [
         (
             "to_agent",
             len(&ToAgent::GoalBearing(GoalBearing { robot: r, bearing: f, step: s }))
@@ -213,6 +217,15 @@ fn largest_encodings_fit_max_message_len() {
         (
             "link",
             len(&FromAgent::Link(LinkStatus { robot: r, up: true, silent_ms: u32::MAX, refused: u32::MAX })),
+        ),
+        (
+            "clock",
+            len(&FromAgent::Clock(ClockOffset { robot: r, offset_us: i64::MIN, round_trip_us: u32::MAX }))
+                .max(len(&ToAgent::Refused(Refused {
+                    robot: r,
+                    instance: s,
+                    why: Refusal::Clock { offset_ms: i32::MIN, limit_ms: u32::MAX },
+                }))),
         ),
         ("mocap", len(&pose)),
         ("sensor", len(&Sensor::Pose(pose))),

@@ -1,4 +1,4 @@
-//! The run's settings over zenoh: a client session asks the router's
+//! The run's settings (and, last, the orchestrator's clock) over zenoh: a client session asks the router's
 //! queryable on `bycoms/<swarm>/settings` and gets the served bytes whole
 //! (far beyond one bus message), every time it asks; another swarm's key
 //! gets no answer, within the asked wait; the answer stops when the server
@@ -116,4 +116,31 @@ fn an_asker_for_a_robot_outside_the_launch_is_refused_and_counted() {
     let why = "robot 9 is not one of the launch's robots (it has robots 1 to 3)";
     assert_eq!(answer_soon(&client, &lab, Some(9)), Some(SettingsAnswer::Refused(why.into())));
     assert_eq!(server.refused(), 1);
+}
+
+/// The orchestrator's clock over zenoh (`bus::zenoh::clock`): a client
+/// measures an offset near zero on one host, and near a skew given to its
+/// clock (as the test-only `BYCOMS_TEST_CLOCK_SKEW_MS` does), within half
+/// the round trip; another swarm's clock is not answered; a probe reports
+/// at once.
+#[test]
+fn the_orchestrators_clock_is_measured_with_its_round_trip() {
+    use bycoms_protocol::bus::zenoh::clock::HostClock;
+    let (router, endpoint) = router();
+    let lab = swarm("clock");
+    let _served = router.serve_clock(&lab).expect("serve the clock");
+    let client = client_of(&endpoint);
+    let wait = Duration::from_secs(2);
+    let same = client.measure_clock(&lab, HostClock::default(), wait).expect("query").expect("answered");
+    // One host: the offset is within half the round trip (and the scheduler's noise).
+    let slack = same.round_trip_us as i64 / 2 + 20_000;
+    assert!(same.offset_us.abs() <= slack, "{same:?}");
+    let ahead = HostClock { skew_us: 2_000_000 };
+    let skewed = client.measure_clock(&lab, ahead, wait).expect("query").expect("answered");
+    assert!((skewed.offset_us - 2_000_000).abs() <= skewed.round_trip_us as i64 / 2 + 20_000, "{skewed:?}");
+    let none = client.measure_clock(&swarm("clock-other"), HostClock::default(), Duration::from_millis(200));
+    assert_eq!(none.expect("query"), None, "nobody serves another swarm's clock");
+    let probe = client.clock_probe(&lab, ahead);
+    let first = probe.wait(wait).expect("the probe measures at once");
+    assert!(first.offset_us > 1_900_000, "{first:?}");
 }

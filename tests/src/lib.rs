@@ -120,8 +120,14 @@ fn collect(mut r: impl Read + Send + 'static) -> std::thread::JoinHandle<String>
 impl Proc {
     /// Starts `program` with `args`, capturing stdout and stderr.
     pub fn start(program: &PathBuf, args: &[String]) -> Proc {
+        Self::start_with_env(program, args, &[])
+    }
+
+    /// [`Proc::start`] with `env` added to the environment.
+    pub fn start_with_env(program: &PathBuf, args: &[String], env: &[(&str, &str)]) -> Proc {
         let mut child = Command::new(program)
             .args(args)
+            .envs(env.iter().copied())
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())

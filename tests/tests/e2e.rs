@@ -22,6 +22,7 @@ mod launch_report;
 mod live_view;
 mod manifests;
 mod netns_bridge_host;
+mod netns_doctor;
 mod netns_liveliness;
 mod netns_remote;
 mod parity;

@@ -17,6 +17,10 @@
 //!   launch goes on undisturbed;
 //! * a second agent for an already registered robot is refused (exit 3),
 //!   counted, and never replaces the first;
+//! * clock offsets: an agent whose host clock is 2 s ahead (the test-only
+//!   `BYCOMS_TEST_CLOCK_SKEW_MS`) is refused (exit 3) with how to fix it,
+//!   healthy ones are taken, and their offsets are in `status` and the
+//!   summary;
 //! * liveliness: a killed agent is reported lost (its link) within 500 ms;
 //!   agents whose orchestrator is gone past `--orchestrator-grace` stop
 //!   their robot and exit (status 4) or wait, by `--on-orchestrator-lost`.
@@ -329,6 +333,45 @@ fn a_second_agent_for_a_registered_robot_is_refused() {
     assert_same_as_simulate(&out, &world.expected);
     assert!(bad(&out.json(), "duplicate") >= 1, "{}", out.json());
     assert!(out.stderr.contains("robot 1 registered again by another agent"), "{}", out.stderr);
+    assert_exit_cleanly(agents);
+}
+
+/// A host whose clock is 2 s ahead is refused at registration with how
+/// to fix it; healthy agents are taken, their measured offsets shown by
+/// `orchestrator status` and in the summary, and the run is unchanged.
+#[test]
+fn an_agent_whose_clock_is_off_is_refused_and_offsets_are_reported() {
+    let world = World::long_obstacle();
+    let swarm = swarm_name("remote-clock");
+    let (orch, endpoint) = orchestrator(&world, &swarm, &[]);
+    let robot = ["--transport", "zenoh", "--connect", &endpoint, "--swarm", &swarm, "--robot", "1"];
+    let skew = [(bycoms_protocol::bus::zenoh::clock::SKEW_ENV, "2000")];
+    let skewed = Proc::start_with_env(&bin("sim-agent"), &robot.map(String::from), &skew);
+    let skewed = skewed.wait(Duration::from_secs(30));
+    assert_eq!(skewed.status.code(), Some(3), "refused:\n{}", skewed.stderr);
+    let said = &skewed.stderr;
+    assert!(said.contains("refused by the orchestrator for robot 1: this host's clock is"), "{said}");
+    assert!(said.contains("ms ahead of the orchestrator's, past the launch's limit of 500 ms"), "{said}");
+    assert!(said.contains("chrony"), "{said}");
+    let mut agents = vec![bare_agent(&endpoint, &swarm, 1)];
+    registered(&orch, 1);
+    let asked = Proc::orchestrator(&["status", "--json", "--swarm", &swarm, "--connect", &endpoint])
+        .wait(Duration::from_secs(20));
+    let line: Value = serde_json::from_str(asked.stdout.lines().next().unwrap_or_default())
+        .unwrap_or_else(|e| panic!("status --json: {e}\n{}\n{}", asked.stdout, asked.stderr));
+    let shown = &line["status"]["robots"][0]["clock"];
+    assert!(shown["offset_ms"].as_f64().is_some_and(|ms| ms.abs() < 100.0), "{line}");
+    assert!(shown["round_trip_ms"].as_f64().is_some_and(|ms| ms >= 0.0), "{line}");
+    agents.extend((2..=3).map(|k| bare_agent(&endpoint, &swarm, k)));
+    let out = orch.wait(Duration::from_secs(180));
+    assert_same_as_simulate(&out, &world.expected);
+    let j = out.json();
+    for r in j["robots"].as_array().expect("robots") {
+        let clock = &r["clock"];
+        assert!(clock["offset_ms"].as_f64().is_some_and(|ms| ms.abs() < 100.0), "{r}");
+        assert!(clock["measured_unix_ms"].as_u64().is_some_and(|t| t <= unix_ms()), "{r}");
+    }
+    assert!(out.stderr.contains("refused: this host's clock is"), "{}", out.stderr);
     assert_exit_cleanly(agents);
 }
 

@@ -22,6 +22,7 @@
 use super::bench::BenchArgs;
 use super::core::{GatewayCore, Timers};
 use super::run::{Gateway, GatewayPorts, RunError};
+use bycoms_protocol::bus::zenoh::clock::ClockProbe;
 use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_protocol::bus::{Bus, BusError};
 use bycoms_protocol::link::{KeyFileError, LinkKey};
@@ -283,7 +284,7 @@ fn run(args: &GatewayArgs) -> Result<ExitCause, GatewayError> {
     let size = args.swarm_size.unwrap_or(args.robot).max(args.robot);
     let node = format!("bycoms-{}-gateway-{}", swarm.as_str(), id.0);
     let core = GatewayCore::new(id, key, args.timers(), u64::from_le_bytes(seed), Instant::now());
-    let then = RunGateway { args, swarm: &swarm, core, socket, lifeline: &mut lifeline };
+    let then = RunGateway { args, swarm: &swarm, core, socket, lifeline: &mut lifeline, clock: None };
     args.bus.open(&swarm, Some(Member::Agent(id)), Some(&args.failsafe), size, node, then).map_err(|e| {
         match e {
             BusOpenError::Args(a) => GatewayError::Args(a),
@@ -299,10 +300,15 @@ struct RunGateway<'a> {
     core: GatewayCore,
     socket: UdpSocket,
     lifeline: &'a mut Lifeline,
+    /// zenoh: this host's clock offset to the orchestrator's, measured.
+    clock: Option<ClockProbe>,
 }
 
 impl OnBus for RunGateway<'_> {
     type Output = Result<ExitCause, GatewayError>;
+    fn clock(&mut self, probe: ClockProbe) {
+        self.clock = Some(probe);
+    }
     fn run<B: Bus>(self, bus: &B, failsafe: Option<(Failsafe, AliveWatch)>) -> Self::Output {
         let args = self.args;
         let ports = GatewayPorts::open(bus, self.swarm, self.core.robot())?;
@@ -310,6 +316,9 @@ impl OnBus for RunGateway<'_> {
         let mut gateway = Gateway::new(self.core, ports, self.socket, heartbeat).map_err(RunError::from)?;
         if let Some((failsafe, watch)) = failsafe {
             gateway.watch_orchestrator(failsafe, watch);
+        }
+        if let Some(probe) = self.clock {
+            gateway.report_clock(probe);
         }
         tracing::info!(bind = %args.bind, speed = args.speed, transport = args.bus.transport.as_str(), "gateway listening for its robot");
         let cause = gateway.run(self.lifeline)?;

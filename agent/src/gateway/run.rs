@@ -13,6 +13,7 @@
 //! command therefore waits at most one slice before it goes to the robot.
 
 use super::core::{GatewayCore, Output};
+use bycoms_protocol::bus::zenoh::clock::{self, ClockProbe};
 use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
 use bycoms_protocol::msg::{FromAgent, Heartbeat, Pose, Register, RobotKind, ToAgent};
@@ -78,6 +79,9 @@ pub struct Gateway<B: Bus> {
     stats: GatewayStats,
     /// zenoh: the failsafe and the liveliness watch that feeds it.
     failsafe: Option<(Failsafe, AliveWatch)>,
+    /// zenoh: the measurement of this host's clock offset to the
+    /// orchestrator's, reported as it comes (`FromAgent::Clock`).
+    clock: Option<ClockProbe>,
 }
 
 impl<B: Bus> Gateway<B> {
@@ -90,7 +94,16 @@ impl<B: Bus> Gateway<B> {
     ) -> io::Result<Self> {
         socket.set_read_timeout(Some(SLICE))?;
         let who = format!("agent[robot {}]", core.robot().0);
-        Ok(Self { core, ports, socket, heartbeat_every, who, stats: GatewayStats::default(), failsafe: None })
+        Ok(Self {
+            core,
+            ports,
+            socket,
+            heartbeat_every,
+            who,
+            stats: GatewayStats::default(),
+            failsafe: None,
+            clock: None,
+        })
     }
 
     /// Watches the orchestrator's liveliness on `watch` (zenoh): once it has
@@ -147,8 +160,30 @@ impl<B: Bus> Gateway<B> {
         &self.stats
     }
 
+    /// Reports this host's clock offset to the orchestrator's as `probe`
+    /// measures it: the first before the `Register` (waited for up to
+    /// [`clock::FIRST_WAIT`]), so the launch judges the registration by it.
+    pub fn report_clock(&mut self, probe: ClockProbe) {
+        self.clock = Some(probe);
+    }
+
+    /// Publishes the clock offsets measured since the last call (waiting
+    /// up to `wait` for one).
+    fn clock_reports(&mut self, wait: Option<Duration>) -> Result<(), BusError> {
+        let Some(probe) = &self.clock else { return Ok(()) };
+        let samples = match wait {
+            Some(wait) => probe.wait(wait).into_iter().collect(),
+            None => probe.take(),
+        };
+        for sample in samples {
+            self.ports.report.publish(&clock::report(self.core.robot(), sample))?;
+        }
+        Ok(())
+    }
+
     /// Registers, then runs until `Shutdown`, a signal or the parent's death.
     pub fn run(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, RunError> {
+        self.clock_reports(Some(clock::FIRST_WAIT))?;
         let robot = self.core.robot();
         let register = Register {
             robot,
@@ -175,6 +210,7 @@ impl<B: Bus> Gateway<B> {
             }
             let now = Instant::now();
             if now >= next_heartbeat {
+                self.clock_reports(None)?;
                 seq += 1;
                 next_heartbeat = now + self.heartbeat_every;
                 if !heard_orchestrator && seq > 1 {

@@ -33,7 +33,9 @@ pub struct Args {
     pub clean: bool,
     /// Reach this zenoh endpoint as a robot's host would (client mode), e.g.
     /// quic/orchestrator.lab:7447, and with --swarm (or the config's swarm)
-    /// see the orchestrator's liveliness there.
+    /// see the orchestrator's liveliness there and measure this host's clock
+    /// offset to it (warn past supervision.clock_warn, 100 ms; error past
+    /// supervision.clock_limit, 500 ms).
     #[arg(long, value_name = "ENDPOINT")]
     pub connect: Option<String>,
     /// With --connect: the robot's zenoh config read first (certs/robot-1.json5).
@@ -93,6 +95,7 @@ pub fn findings(args: &Args, now: SystemTime) -> Result<Vec<Finding>> {
             zenoh_config: args.zenoh_config.clone(),
             swarm,
             timeout: Duration::from_millis(args.timeout_ms),
+            clocks: crate::launch::setup::clock_limits(&config),
         };
         found.extend(doctor::zenoh::check(&reach));
     }

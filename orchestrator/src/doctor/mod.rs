@@ -11,10 +11,12 @@
 //! file, the certificates `orchestrator certs` wrote) and reuse the
 //! launch's own arithmetic (`launch::limits`), so the doctor and the
 //! launch cannot disagree about what is enough. With `--connect` it also
-//! reaches the orchestrator's zenoh endpoint as a robot's host would and
-//! looks for the orchestrator's liveliness ([`zenoh`]); the other
-//! direction and clock offsets need a doctor on the other hosts and are
-//! not checked yet.
+//! reaches the orchestrator's zenoh endpoint as a robot's host would,
+//! looks for the orchestrator's liveliness and measures this host's clock
+//! offset to the orchestrator's ([`zenoh`]); run on a robot's host, that
+//! is the check of that host. The other direction (the orchestrator
+//! reaching each host) needs a doctor on the other hosts and is not
+//! checked yet.
 
 pub mod certs;
 pub mod host;
@@ -50,7 +52,7 @@ impl Level {
 /// One result of one check.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct Finding {
-    /// The check (`certs`, `open-files`, `memory`, `udp-ports`, `iceoryx2`, `natnet`).
+    /// The check (`certs`, `open-files`, `memory`, `udp-ports`, `iceoryx2`, `natnet`, `zenoh`, `clock`).
     pub check: &'static str,
     /// How bad.
     pub level: Level,

@@ -182,6 +182,7 @@ fn reach(endpoint: &str, swarm: &str, ms: u64) -> super::zenoh::Reach {
         zenoh_config: None,
         swarm: Some(bycoms_protocol::Swarm::new(swarm).expect("swarm")),
         timeout: Duration::from_millis(ms),
+        clocks: crate::launch::core::ClockLimits { warn_us: 100_000, limit_us: 500_000 },
     }
 }
 
@@ -199,7 +200,13 @@ fn the_orchestrators_endpoint_is_reached_and_its_liveliness_seen_or_missed() {
     let swarm = bycoms_protocol::Swarm::new("doctor-live").expect("swarm");
     let _alive = router.declare_alive(&swarm, Member::Orchestrator).expect("token");
     let found = super::zenoh::check(&reach(&listen, "doctor-live", 5_000));
-    assert_eq!(found.iter().map(|f| f.level).collect::<Vec<_>>(), [Level::Ok, Level::Ok], "{found:#?}");
+    assert_eq!(found.iter().map(|f| f.level).collect::<Vec<_>>(), [Level::Ok, Level::Ok, Level::Error]);
+    assert!(found[2].cause.contains("did not answer the clock query"), "{found:#?}");
+    let _clock = router.serve_clock(&swarm).expect("clock");
+    let found = super::zenoh::check(&reach(&listen, "doctor-live", 5_000));
+    assert_eq!(found.iter().map(|f| f.level).collect::<Vec<_>>(), [Level::Ok, Level::Ok, Level::Ok]);
+    assert_eq!(found[2].check, "clock");
+    assert!(found[2].cause.contains("ms off the orchestrator's (round trip"), "{found:#?}");
     let found = super::zenoh::check(&reach(&listen, "doctor-other", 200));
     assert_eq!(found.iter().map(|f| f.level).collect::<Vec<_>>(), [Level::Ok, Level::Error], "{found:#?}");
     assert!(found[1].cause.contains("no orchestrator of swarm doctor-other"), "{}", found[1].cause);
@@ -233,4 +240,27 @@ fn an_answering_natnet_server_is_ok() {
     let found = host::natnet(&client, Duration::from_secs(2));
     assert_eq!(found.level, Level::Ok, "{found:?}");
     assert!(found.cause.contains("answers (lab)"), "{}", found.cause);
+}
+
+/// A clock offset is judged by the launch's limits either way, and the fix
+/// names chrony.
+#[test]
+fn a_clock_offset_is_ok_a_warning_or_an_error() {
+    use bycoms_protocol::bus::zenoh::clock::ClockSample;
+    let limits = crate::launch::core::ClockLimits { warn_us: 100_000, limit_us: 500_000 };
+    let at = |offset_us| {
+        super::zenoh::clock_finding(Ok(Some(ClockSample { offset_us, round_trip_us: 1_200 })), limits)
+    };
+    let ok = at(-40_000);
+    assert_eq!((ok.check, ok.level), ("clock", Level::Ok));
+    assert!(ok.cause.contains("-40.0 ms off the orchestrator's (round trip 1.2 ms)"), "{}", ok.cause);
+    let warn = at(250_000);
+    assert_eq!(warn.level, Level::Warn);
+    assert!(warn.cause.contains("more than 100 ms") && warn.fix.contains("chrony"), "{warn:?}");
+    let error = at(-750_000);
+    assert_eq!(error.level, Level::Error);
+    assert!(error.cause.contains("more than 500 ms, the launch refuses"), "{}", error.cause);
+    assert!(error.fix.contains("chronyc makestep"), "{}", error.fix);
+    let silent = super::zenoh::clock_finding(Ok(None), limits);
+    assert_eq!(silent.level, Level::Error);
 }

@@ -1,6 +1,9 @@
 //! The zenoh endpoint a robot's host connects to, reached from here
-//! (`doctor --connect`), and the orchestrator's liveliness token seen
-//! through it (with a swarm name).
+//! (`doctor --connect`), and, with a swarm name, the orchestrator's
+//! liveliness token seen through it and this host's clock offset to the
+//! orchestrator's, measured as the agents measure it
+//! (`bus::zenoh::clock`, judged by the launch's own limits,
+//! `launch/core/clocks.rs`).
 //!
 //! Why bounded by a thread: opening a client session to a host that
 //! accepts TCP but never answers zenoh's handshake (a wrong port, a
@@ -11,6 +14,8 @@
 //! orchestrator's ACL or TLS would refuse fails here the same way.
 
 use super::Finding;
+use crate::launch::core::{ClockLimits, ClockVerdict};
+use bycoms_protocol::bus::zenoh::clock::{ClockSample, HostClock};
 use bycoms_protocol::bus::zenoh::{Mode, Presence, ZenohBus, ZenohConfig};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::Swarm;
@@ -19,6 +24,7 @@ use std::sync::mpsc;
 use std::time::Duration;
 
 const CHECK: &str = "zenoh";
+const CLOCK: &str = "clock";
 
 /// What `doctor --connect` checks.
 #[derive(Clone, Debug)]
@@ -31,6 +37,8 @@ pub struct Reach {
     pub swarm: Option<Swarm>,
     /// How long each step may take.
     pub timeout: Duration,
+    /// The clock offsets the launch warns about and refuses.
+    pub clocks: ClockLimits,
 }
 
 /// Connects as an agent would, then waits for the orchestrator's token.
@@ -67,7 +75,39 @@ pub fn check(reach: &Reach) -> Vec<Finding> {
         ),
         Err(e) => Finding::error(CHECK, e.to_string(), "check the robot's zenoh config and the ACL"),
     });
+    if found.last().is_some_and(|f| f.level == super::Level::Ok) {
+        let measured = bus.measure_clock(swarm, HostClock::from_env(), reach.timeout);
+        found.push(clock_finding(measured.map_err(|e| e.to_string()), reach.clocks));
+    }
     found
+}
+
+/// The finding of a clock measurement (`None`: nobody answered).
+pub fn clock_finding(measured: Result<Option<ClockSample>, String>, limits: ClockLimits) -> Finding {
+    const FIX: &str = "synchronise this host's clock with the orchestrator's: run chrony (or ntpd, systemd-timesyncd) on both against the same server (`chronyc tracking` shows the offset, `chronyc makestep` steps it)";
+    let s = match measured {
+        Ok(Some(s)) => s,
+        Ok(None) => {
+            return Finding::error(
+                CLOCK,
+                "the orchestrator did not answer the clock query (an orchestrator of an older build, or the ACL denies bycoms/*/clock)",
+                "update the orchestrator, or regenerate the zenoh configs with `orchestrator certs`",
+            )
+        }
+        Err(e) => return Finding::error(CLOCK, e, "check the robot's zenoh config and the ACL"),
+    };
+    let (ms, rtt) = (s.offset_us as f64 / 1000.0, s.round_trip_us as f64 / 1000.0);
+    let (warn, limit) = (limits.warn_us / 1000, limits.limit_us / 1000);
+    let cause = format!("this host's clock is {ms:+.1} ms off the orchestrator's (round trip {rtt:.1} ms)");
+    match limits.judge(s.offset_us) {
+        ClockVerdict::Fine => Finding::ok(CLOCK, cause),
+        ClockVerdict::Warn => Finding::warn(CLOCK, format!("{cause}: more than {warn} ms"), FIX),
+        ClockVerdict::Refuse => Finding::error(
+            CLOCK,
+            format!("{cause}: more than {limit} ms, the launch refuses this host's agents"),
+            FIX,
+        ),
+    }
 }
 
 fn unreachable(endpoint: &str, cause: &str) -> Finding {

@@ -190,6 +190,12 @@ pub struct SupervisionConfig {
     /// launch starts get an `--orchestrator-grace` no shorter than this
     /// (`setup::agent_template`); agents started by hand need one as long.
     pub link_grace: f64,
+    /// Agents over zenoh: a host whose clock is off the orchestrator's by
+    /// more than this (as the agent measured it) is warned about.
+    pub clock_warn: f64,
+    /// Agents over zenoh: a host whose clock is off by more than this is
+    /// refused at registration. 0: not checked.
+    pub clock_limit: f64,
     /// What a robot whose agent never registers means.
     pub missing: Missing,
 }
@@ -269,6 +275,8 @@ impl Default for SupervisionConfig {
             tick_timeout: 5.0,
             shutdown_grace: 1.0,
             link_grace: 2.0,
+            clock_warn: 0.1,
+            clock_limit: 0.5,
             missing: Missing::Skip,
         }
     }
@@ -445,6 +453,8 @@ impl LaunchConfig {
             ("supervision.tick_timeout", sup.tick_timeout, Zero::Refused),
             ("supervision.shutdown_grace", sup.shutdown_grace, Zero::Refused),
             ("supervision.link_grace (--link-grace)", sup.link_grace, Zero::Allowed),
+            ("supervision.clock_warn", sup.clock_warn, Zero::Allowed),
+            ("supervision.clock_limit", sup.clock_limit, Zero::Allowed),
         ];
         for (key, value, zero) in spans {
             check_seconds(key, value, zero).map_err(usage)?;

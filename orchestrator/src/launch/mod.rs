@@ -249,6 +249,12 @@ pub fn run_serving(
         }
         None => None,
     };
+    // zenoh: the orchestrator's clock, which agents and `doctor --connect`
+    // measure their offset against (`launch/core/clocks.rs`); to the end.
+    let _clock_served = match &zenoh {
+        Some(z) => Some(z.serve_clock(&swarm).context("cannot serve the orchestrator's clock")?),
+        None => None,
+    };
     let agents = cfg.agents.open(agent, links)?;
     let control =
         control::Control::serve(swarm.as_str(), zenoh.as_ref()).context("cannot serve status and stop")?;

@@ -8,7 +8,7 @@
 use super::agents::remote::QUIET_HEARTBEATS;
 use super::agents::AgentSource;
 use super::config::{Clock, LaunchConfig};
-use super::core::{AgentTraits, Setup, Supervision};
+use super::core::{AgentTraits, ClockLimits, Setup, Supervision};
 use super::poses::PoseSource;
 use super::World;
 use crate::gate::GateParams;
@@ -121,7 +121,14 @@ pub fn setup_of(
         unix_base_ms,
         settings: run_settings(template, world).fingerprint(),
         supervision: supervision(cfg, seams.held_when_unreachable, seams.robot_link_grace),
+        clocks: clock_limits(cfg),
     }
+}
+
+/// The limits of the agents' clock offsets: the config's, in µs.
+pub fn clock_limits(cfg: &LaunchConfig) -> ClockLimits {
+    let us = |s: f64| (s * 1e6).round() as u64;
+    ClockLimits { warn_us: us(cfg.supervision.clock_warn), limit_us: us(cfg.supervision.clock_limit) }
 }
 
 /// The supervision timers' settings: the config's timeouts, with the link

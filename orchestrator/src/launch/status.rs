@@ -8,7 +8,7 @@
 //! `status` questions with it (`launch/control.rs`).
 
 use super::core::{Core, Phase, SlotState};
-use super::summary::RevokedSummary;
+use super::summary::{ClockSummary, RevokedSummary};
 use serde::{Deserialize, Serialize};
 
 /// What only the driver knows about its launch.
@@ -42,6 +42,10 @@ pub struct RobotStatus {
     pub pose: Option<[f64; 3]>,
     /// Seconds since motion capture last handed over its pose.
     pub pose_age_s: Option<f64>,
+    /// Its host's clock offset to the orchestrator's, as last measured
+    /// (agents over zenoh).
+    #[serde(default)]
+    pub clock: Option<ClockSummary>,
 }
 
 /// A running launch's status.
@@ -101,6 +105,7 @@ pub fn of(core: &Core, now: u64, facts: &Facts) -> LaunchStatus {
             running: s.alive(),
             pose: s.last_pose().map(|p| [p.x, p.y, p.heading]),
             pose_age_s: core.pose_heard(s.id()).map(|t| now.saturating_sub(t) as f64 / 1e6),
+            clock: s.clock().map(|c| ClockSummary::of(core, c)),
         })
         .collect();
     let stopping = core.stopped().map(|s| {
@@ -144,7 +149,11 @@ pub fn text(s: &LaunchStatus) -> String {
         let pose = r.pose.map(|[x, y, _]| format!(" at ({x:.2}, {y:.2})")).unwrap_or_default();
         let age = r.pose_age_s.map(|a| format!(", seen {a:.1} s ago")).unwrap_or_default();
         let run = if r.running { "" } else { " (agent not running)" };
-        out.push_str(&format!("  robot {}: {}{pose}{age}{run}\n", r.id, r.state));
+        let clock = r
+            .clock
+            .map(|c| format!(", clock {:+.1} ms (round trip {:.1} ms)", c.offset_ms, c.round_trip_ms))
+            .unwrap_or_default();
+        out.push_str(&format!("  robot {}: {}{pose}{age}{clock}{run}\n", r.id, r.state));
     }
     let idle = s.robots.iter().filter(|r| r.state == SlotState::Waiting.words()).count();
     if idle > 0 {

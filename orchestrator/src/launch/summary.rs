@@ -5,12 +5,12 @@
 //! launch with `simulate`) can check "bit for bit" without trusting a
 //! decimal round trip.
 
-use super::core::{Core, Ending, Slot, SlotState};
+use super::core::{ClockReading, Core, Ending, Slot, SlotState};
 use crate::runs::{count, verdict as verdict_line};
 use bycoms_runtime::Traffic;
 use bycoms_sim::Vec2;
 use schemars::JsonSchema;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// A position as the summary writes it (the schema of `bycoms_sim::Vec2`).
@@ -159,6 +159,32 @@ pub struct RobotSummary {
     pub death: Option<Death>,
     /// Times its agent was unreachable (remote agents), in order.
     pub outages: Vec<Outage>,
+    /// Its host's clock against the orchestrator's, as its agent last
+    /// measured it (agents over zenoh; none: not measured).
+    pub clock: Option<ClockSummary>,
+}
+
+/// A host's clock offset to the orchestrator's (`launch/core/clocks.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ClockSummary {
+    /// The host's clock minus the orchestrator's, ms (positive: ahead).
+    pub offset_ms: f64,
+    /// The round trip of the measurement, ms (the offset is right to
+    /// within half of it).
+    pub round_trip_ms: f64,
+    /// When it was measured (reported), ms since the Unix epoch.
+    pub measured_unix_ms: u64,
+}
+
+impl ClockSummary {
+    /// The summary of `reading`, reported at launch time `at_us` of `core`.
+    pub fn of(core: &Core, reading: ClockReading) -> Self {
+        Self {
+            offset_ms: reading.offset_us as f64 / 1000.0,
+            round_trip_ms: f64::from(reading.round_trip_us) / 1000.0,
+            measured_unix_ms: core.unix_ms(reading.at_us),
+        }
+    }
 }
 
 /// The recording, when one was made.
@@ -301,6 +327,19 @@ impl Summary {
         verdict_line(sim, self.robots_used, arrived, self.time_s, self.beacons.len())
     }
 
+    /// The agents' host clocks in one line: the largest offset (and whose)
+    /// and the longest round trip; none when no agent measured one.
+    fn clock_line(&self) -> Option<String> {
+        let clocks = self.robots.iter().filter_map(|r| r.clock.map(|c| (r.id, c)));
+        let (id, worst) =
+            clocks.clone().max_by(|a, b| a.1.offset_ms.abs().total_cmp(&b.1.offset_ms.abs()))?;
+        let trip = clocks.map(|(_, c)| c.round_trip_ms).fold(0.0, f64::max);
+        Some(format!(
+            "clock offsets to the orchestrator: at most {:+.1} ms (robot {id}), round trips at most {trip:.1} ms",
+            worst.offset_ms
+        ))
+    }
+
     /// The human-readable summary: the verdict, one line per deployed
     /// robot, one line for all robots never deployed.
     pub fn text(&self) -> String {
@@ -366,6 +405,9 @@ impl Summary {
                 r.robot, r.who
             ));
         }
+        if let Some(line) = self.clock_line() {
+            out.push_str(&format!("\n  {line}"));
+        }
         if let Some(rec) = &self.recording {
             out.push_str(&format!("\n  recorded {} to {}", count(rec.messages, "message"), rec.path));
         }
@@ -430,7 +472,7 @@ pub fn verdict(ending: &Ending, recording: Result<(), &str>) -> Verdict {
 /// recording having failed (`Err(why)`) or not.
 pub fn of(core: &Core, ending: &Ending, recording: Result<(), &str>) -> Decided {
     let slots = core.slots();
-    let robots: Vec<RobotSummary> = slots.iter().map(robot_summary).collect();
+    let robots: Vec<RobotSummary> = slots.iter().map(|s| robot_summary(core, s)).collect();
     let beacons = slots
         .iter()
         .filter(|s| matches!(s.state(), SlotState::Stuck | SlotState::Died))
@@ -452,7 +494,7 @@ pub fn of(core: &Core, ending: &Ending, recording: Result<(), &str>) -> Decided 
 /// One robot's line of the summary: a robot is deployed once its slot is
 /// past its start (stuck, arrived, died, moving or unfinished); only a
 /// deployed robot has a position and a deployment tick.
-fn robot_summary(s: &Slot) -> RobotSummary {
+fn robot_summary(core: &Core, s: &Slot) -> RobotSummary {
     let end = match s.state() {
         SlotState::Stuck => RobotEnd::Stuck,
         SlotState::Arrived => RobotEnd::Arrived,
@@ -478,6 +520,7 @@ fn robot_summary(s: &Slot) -> RobotSummary {
         gate_reaction_us: s.reaction_us(),
         death: s.death().cloned(),
         outages: s.outages().to_vec(),
+        clock: s.clock().map(|c| ClockSummary::of(core, c)),
     }
 }
 
@@ -539,6 +582,7 @@ mod tests {
             gate_reaction_us: None,
             death: None,
             outages: Vec::new(),
+            clock: None,
         }
     }
 
@@ -631,5 +675,18 @@ mod tests {
         let text = summary(vec![robot(1, RobotEnd::NotDeployed, 0)], Some(never)).text();
         assert!(!text.contains("achieved"), "{text}");
         assert!(text.contains("no control period ran"), "{text}");
+    }
+
+    #[test]
+    fn the_text_names_the_largest_clock_offset_and_round_trip() {
+        let mut robots = vec![robot(1, RobotEnd::Stuck, 3), robot(2, RobotEnd::Arrived, 4)];
+        assert_eq!(summary(robots.clone(), None).clock_line(), None, "none measured: no line");
+        let clock = |offset_ms, round_trip_ms| ClockSummary { offset_ms, round_trip_ms, measured_unix_ms: 1 };
+        robots[0].clock = Some(clock(-42.5, 0.8));
+        robots[1].clock = Some(clock(3.0, 1.6));
+        let text = summary(robots, None).text();
+        let line =
+            "clock offsets to the orchestrator: at most -42.5 ms (robot 1), round trips at most 1.6 ms";
+        assert!(text.contains(line), "{text}");
     }
 }

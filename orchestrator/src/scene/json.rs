@@ -91,6 +91,8 @@ pub enum TelemetryKind {
     Failsafe,
     /// Lockstep: the robot will never move again (it is ticked no more).
     Parked,
+    /// The agent's host clock against the orchestrator's.
+    Clock,
 }
 
 /// One agent report (the decoded `from_agents` traffic of one robot).
@@ -112,6 +114,8 @@ pub struct Telemetry {
     pub agent: Option<&'static str>,
     /// Whether the robot's link is up (link).
     pub link_up: Option<bool>,
+    /// The host clock's offset to the orchestrator's, µs (clock).
+    pub clock_offset_us: Option<i64>,
 }
 
 impl From<&FromAgent> for Telemetry {
@@ -125,6 +129,7 @@ impl From<&FromAgent> for Telemetry {
             protocol_version: None,
             agent: None,
             link_up: None,
+            clock_offset_us: None,
         };
         match m {
             FromAgent::Register(r) => {
@@ -158,6 +163,10 @@ impl From<&FromAgent> for Telemetry {
             FromAgent::Parked(p) => {
                 t.kind = TelemetryKind::Parked;
                 t.step = Some(p.step);
+            }
+            FromAgent::Clock(c) => {
+                t.kind = TelemetryKind::Clock;
+                t.clock_offset_us = Some(c.offset_us);
             }
         }
         t

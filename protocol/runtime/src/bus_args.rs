@@ -16,6 +16,7 @@
 use crate::bus_config::{ipc_config, zenoh_config};
 use crate::failsafe::{Failsafe, FailsafeArgs};
 use bycoms_protocol::bus::ipc::IpcBus;
+use bycoms_protocol::bus::zenoh::clock::{ClockProbe, HostClock};
 use bycoms_protocol::bus::zenoh::{AliveWatch, Mode, ZenohBus, ZenohConfig};
 use bycoms_protocol::bus::{Bus, BusError};
 use bycoms_protocol::naming::Member;
@@ -87,6 +88,10 @@ pub trait OnBus {
     fn wait_for_orchestrator(&self) -> Option<Duration> {
         None
     }
+    /// Over zenoh, an agent (a member that is a robot's): the measurement
+    /// of its host's clock offset to the orchestrator's, running from now
+    /// (`bus::zenoh::clock`), for its loop to report. Dropped by default.
+    fn clock(&mut self, _probe: ClockProbe) {}
     /// Runs on `bus`; over zenoh, `failsafe` is the failsafe and the
     /// liveliness watch that feeds it (`None` over iceoryx2, where the
     /// process's lifeline ties it to the orchestrator's).
@@ -174,6 +179,9 @@ impl BusArgs {
                     Some(f) => Some((f, bus.watch_alive_of(swarm, Member::Orchestrator)?)),
                     None => None,
                 };
+                if matches!(member, Some(Member::Agent(_))) {
+                    then.clock(bus.clock_probe(swarm, HostClock::from_env()));
+                }
                 Ok(then.run(&bus, failsafe))
             }
             Transport::Memory => Err(BusOpenError::Args(

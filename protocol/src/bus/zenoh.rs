@@ -42,6 +42,7 @@
 //! [`Wait`]: ::zenoh::Wait
 
 pub mod certs;
+pub mod clock;
 mod liveliness;
 mod ports;
 pub mod settings;

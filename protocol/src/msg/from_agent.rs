@@ -205,6 +205,23 @@ pub struct Parked {
     pub step: u64,
 }
 
+/// The agent's host clock's offset to the orchestrator's, as the agent
+/// measured it (`bus::zenoh::clock`: NTP's exchange over zenoh, the
+/// shortest of a few round trips). Sent before the first `Register` and
+/// after each measurement again (every 10 s); over zenoh only. A launch
+/// refuses an agent whose offset is past its limit
+/// ([`crate::msg::Refusal::Clock`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ClockOffset {
+    /// The agent's robot.
+    pub robot: RobotId,
+    /// The agent's clock minus the orchestrator's, µs (positive: ahead).
+    pub offset_us: i64,
+    /// The round trip of the exchange it comes from, µs (saturating): the
+    /// offset is right to within half of it.
+    pub round_trip_us: u32,
+}
+
 /// Everything an agent tells the orchestrator. (Not `Eq`: telemetry
 /// carries floats.)
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -225,6 +242,8 @@ pub enum FromAgent {
     Failsafe(FailsafeFired),
     /// Lockstep: the robot will never move again.
     Parked(Parked),
+    /// The agent's host clock's offset to the orchestrator's (zenoh).
+    Clock(ClockOffset),
 }
 
 impl FromAgent {
@@ -239,6 +258,7 @@ impl FromAgent {
             Self::Link(m) => m.robot,
             Self::Failsafe(m) => m.robot,
             Self::Parked(m) => m.robot,
+            Self::Clock(m) => m.robot,
         }
     }
 }

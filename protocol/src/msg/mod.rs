@@ -25,8 +25,8 @@ pub mod sensor;
 pub mod to_agent;
 
 pub use from_agent::{
-    DriveState, FailsafeFired, FromAgent, Heartbeat, LinkStatus, Parked, Register, RobotKind, Status,
-    Telemetry, TickDone,
+    ClockOffset, DriveState, FailsafeFired, FromAgent, Heartbeat, LinkStatus, Parked, Register, RobotKind,
+    Status, Telemetry, TickDone,
 };
 pub use gate::{GateEvent, GateKind};
 pub use mocap::Pose;

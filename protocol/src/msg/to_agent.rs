@@ -84,6 +84,15 @@ pub enum Refusal {
     /// launch refuses every agent of it from then on. Last, so an older
     /// decoder still reads the other reasons.
     Revoked,
+    /// The agent's host clock is off the orchestrator's by more than the
+    /// launch's limit (its `FromAgent::Clock`).
+    Clock {
+        /// The measured offset, ms (the agent's clock minus the
+        /// orchestrator's, saturating).
+        offset_ms: i32,
+        /// The launch's limit, ms.
+        limit_ms: u32,
+    },
 }
 
 impl core::fmt::Display for Refusal {
@@ -102,6 +111,12 @@ impl core::fmt::Display for Refusal {
             Self::Revoked => write!(
                 f,
                 "this robot was revoked in this launch (orchestrator revoke): it may not take part any more"
+            ),
+            Self::Clock { offset_ms, limit_ms } => write!(
+                f,
+                "this host's clock is {} ms {} the orchestrator's, past the launch's limit of {limit_ms} ms: synchronise both hosts' clocks (chrony: `chronyc tracking` shows the offset, `chronyc makestep` steps it; or ntpd / systemd-timesyncd) and start the agent again",
+                offset_ms.unsigned_abs(),
+                if *offset_ms < 0 { "behind" } else { "ahead of" }
             ),
         }
     }

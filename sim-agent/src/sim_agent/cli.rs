@@ -24,6 +24,7 @@ use super::run::{Agent, AgentPorts, Timing};
 use super::settings::{self, FetchError, RunSettings};
 use super::RobotCore;
 use crate::terrain::{self, ReadError, Terrain};
+use bycoms_protocol::bus::zenoh::clock::ClockProbe;
 use bycoms_protocol::bus::zenoh::{AliveWatch, ZenohBus};
 use bycoms_protocol::bus::{Bus, BusError};
 use bycoms_protocol::naming::Member;
@@ -121,7 +122,7 @@ fn run(args: &AgentArgs) -> Result<ExitCause, AgentError> {
     };
     let id = RobotId(args.robot);
     let node = format!("bycoms-{}-robot-{}", swarm.as_str(), id.0);
-    let then = RunAgent { args, swarm: &swarm, own, launch: None, lifeline: &mut lifeline };
+    let then = RunAgent { args, swarm: &swarm, own, launch: None, lifeline: &mut lifeline, clock: None };
     args.bus
         .open(&swarm, Some(Member::Agent(id)), Some(&args.failsafe), args.swarm_size(), node, then)
         .map_err(|e| match e {
@@ -142,6 +143,8 @@ struct RunAgent<'a> {
     /// zenoh: the launch's settings, as the orchestrator handed them over.
     launch: Option<RunSettings>,
     lifeline: &'a mut Lifeline,
+    /// zenoh: this host's clock offset to the orchestrator's, measured.
+    clock: Option<ClockProbe>,
 }
 
 impl OnBus for RunAgent<'_> {
@@ -191,7 +194,11 @@ impl OnBus for RunAgent<'_> {
         let path = self.args.terrain.clone().unwrap_or_else(|| "(the orchestrator's settings)".into());
         let terrain = terrain::parse(&settings.terrain)
             .map_err(|e| AgentError::Terrain { path, source: ReadError::Parse(e) })?;
-        run_on(bus, self.args, &settings, self.swarm, terrain, self.lifeline, failsafe)
+        run_on(bus, self.args, &settings, self.swarm, terrain, self.lifeline, failsafe, self.clock)
+    }
+
+    fn clock(&mut self, probe: ClockProbe) {
+        self.clock = Some(probe);
     }
 }
 
@@ -200,7 +207,9 @@ impl OnBus for RunAgent<'_> {
 /// it on a thread of its own process (`orchestrator`'s `launch/agents/
 /// threads.rs`) with a [`Lifeline::with_flag`] for its end. The robot runs
 /// `settings` (`terrain` is their terrain, parsed) and registers with their
-/// fingerprint; `args` give its id.
+/// fingerprint; `args` give its id. Over zenoh it watches the
+/// orchestrator (`failsafe`) and reports its clock offset (`clock`).
+#[allow(clippy::too_many_arguments)]
 pub fn run_on<B: Bus>(
     bus: &B,
     args: &AgentArgs,
@@ -209,6 +218,7 @@ pub fn run_on<B: Bus>(
     terrain: Terrain,
     lifeline: &mut Lifeline,
     failsafe: Option<(Failsafe, AliveWatch)>,
+    clock: Option<ClockProbe>,
 ) -> Result<ExitCause, AgentError> {
     let id = RobotId(args.robot);
     let ports = AgentPorts::open(bus, swarm, id)?;
@@ -225,6 +235,9 @@ pub fn run_on<B: Bus>(
     agent.set_settings(fingerprint);
     if let Some((failsafe, watch)) = failsafe {
         agent.watch_orchestrator(failsafe, watch);
+    }
+    if let Some(probe) = clock {
+        agent.report_clock(probe);
     }
     let cause = agent.run(lifeline)?;
     let (warnings, notes) = exit_notes(&agent.stats());

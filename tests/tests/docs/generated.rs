@@ -185,7 +185,11 @@ fn refresh(repository: &Path) -> Vec<String> {
             )
         });
         if fresh != text {
-            std::fs::write(&path, fresh).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            // Whole or not at all: the other docs tests read these files
+            // at the same time.
+            let temporary = path.with_extension("md.generated");
+            std::fs::write(&temporary, fresh).unwrap_or_else(|e| panic!("{}: {e}", temporary.display()));
+            std::fs::rename(&temporary, &path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             stale.push(format!("{} ({})", region.file, region.name));
         }
     }

@@ -83,7 +83,7 @@ impl AgentSource for Threads {
             .name(format!("agent-{id}"))
             .spawn(move || {
                 let mut lifeline = Lifeline::with_flag(flag);
-                if let Err(e) = run_on(&bus, &args, &settings, &swarm, terrain, &mut lifeline, None) {
+                if let Err(e) = run_on(&bus, &args, &settings, &swarm, terrain, &mut lifeline, None, None) {
                     tracing::error!(robot = id, "robot {id}'s agent thread failed: {e}");
                 }
             })

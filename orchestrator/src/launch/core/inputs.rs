@@ -43,6 +43,10 @@ impl Core {
                 .push_back(Output::Bad(BadKind::UnknownRobot, format!("{msg:?} from an unknown robot")));
             return;
         }
+        // Measured before the agent registers, to be judged with it.
+        if let FromAgent::Clock(c) = &msg {
+            self.on_clock(now, c);
+        }
         let Some(slot) = self.slot(id) else { return };
         let registered = slot.registered_before_tick.is_some();
         let kept = slot.instance;
@@ -72,7 +76,7 @@ impl Core {
                 return;
             }
             if !registered {
-                if let Some(why) = self.refusal_of(r) {
+                if let Some(why) = self.refusal_of(r).or_else(|| self.clock_refusal(id)) {
                     self.refuse(id, r.instance, why);
                     return;
                 }
@@ -123,8 +127,9 @@ impl Core {
                     tick.awaiting.remove(&id);
                 }
             }
-            // A real robot's telemetry is for recorders and monitors.
-            FromAgent::Telemetry(_) => {}
+            // A real robot's telemetry is for recorders and monitors; a
+            // clock offset was kept above.
+            FromAgent::Telemetry(_) | FromAgent::Clock(_) => {}
             FromAgent::Link(l) => {
                 if !l.up {
                     tracing::warn!(robot = id, silent_ms = l.silent_ms, "robot {id}'s link is lost");

@@ -36,10 +36,12 @@ pub enum Call {
 }
 
 /// The setup's bytes in a recording: the setup, then its supervision
-/// settings (appended, so a setup recorded before they existed decodes).
+/// settings, then its clock limits (each appended, so a setup recorded
+/// before it existed decodes).
 pub fn encode_setup(setup: &Setup) -> Vec<u8> {
     let mut bytes = postcard::to_allocvec(setup).unwrap_or_default();
     bytes.extend(postcard::to_allocvec(&setup.supervision).unwrap_or_default());
+    bytes.extend(postcard::to_allocvec(&setup.clocks).unwrap_or_default());
     bytes
 }
 
@@ -49,7 +51,11 @@ pub fn encode_setup(setup: &Setup) -> Vec<u8> {
 pub fn decode_setup(bytes: &[u8]) -> Result<Setup, postcard::Error> {
     let (mut setup, rest): (Setup, &[u8]) = postcard::take_from_bytes(bytes)?;
     if !rest.is_empty() {
-        setup.supervision = postcard::from_bytes(rest)?;
+        let (supervision, rest) = postcard::take_from_bytes(rest)?;
+        setup.supervision = supervision;
+        if !rest.is_empty() {
+            setup.clocks = postcard::from_bytes(rest)?;
+        }
     }
     Ok(setup)
 }
@@ -172,7 +178,23 @@ mod tests {
         let decoded = decode_setup(&old).expect("an old setup decodes");
         assert_eq!(decoded.supervision, Supervision::default());
         assert!(!decoded.supervision.on);
-        assert_eq!(decoded, Setup { supervision: Supervision::default(), ..setup.clone() });
+        let off = Setup { supervision: Supervision::default(), clocks: Default::default(), ..setup.clone() };
+        assert_eq!(decoded, off);
+        assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
+    }
+
+    /// A setup recorded before the clock limits (the setup and its
+    /// supervision only) decodes with them off; one with them keeps them.
+    #[test]
+    fn a_setup_recorded_before_the_clock_limits_decodes_with_them_off() {
+        let case = Case::small(4);
+        let mut setup = harness::setup(&case, &Schedule::clean(4, case.robots));
+        setup.clocks = crate::launch::core::ClockLimits { warn_us: 100_000, limit_us: 500_000 };
+        let mut old = postcard::to_allocvec(&setup).expect("encodes");
+        old.extend(postcard::to_allocvec(&setup.supervision).expect("encodes"));
+        let decoded = decode_setup(&old).expect("an older setup decodes");
+        assert!(!decoded.clocks.on());
+        assert_eq!(decoded, Setup { clocks: Default::default(), ..setup.clone() });
         assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
     }
 

@@ -53,11 +53,12 @@
 //! (real robots);
 //! `stop.rs` a stop asked from outside; `revoke.rs` a robot's voice taken
 //! away while the launch runs;
-//! `slot.rs` one robot's record; `log.rs` the record of
+//! `slot.rs` one robot's record; `clocks.rs` the agents' clock offsets; `log.rs` the record of
 //! every call, which `orchestrator replay` plays back; `beacons.rs` the
 //! beacons the simulated agents are told.
 
 mod beacons;
+mod clocks;
 mod ending;
 mod inputs;
 pub mod log;
@@ -71,6 +72,7 @@ mod stop;
 mod timers;
 mod wait;
 
+pub use clocks::{ClockLimits, ClockReading, ClockVerdict};
 pub use ending::{DiedWhen, Fault};
 pub use plausible::Implausible;
 pub use referee::{Closed, Referee};
@@ -85,7 +87,8 @@ use super::summary::{Death, Outage, Outcome, RevokedSummary, StopSummary};
 use crate::gate::{GateParams, Verdict};
 use crate::mocap::{PlacementConfig, PlacementWatch};
 use bycoms_protocol::msg::{
-    Deploy, FromAgent, GateEvent, GateKind, GoalBearing, Pose, Refusal, Refused, Register, Tick, ToAgent,
+    ClockOffset, Deploy, FromAgent, GateEvent, GateKind, GoalBearing, Pose, Refusal, Refused, Register, Tick,
+    ToAgent,
 };
 use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
 use bycoms_runtime::BadKind;
@@ -169,6 +172,10 @@ pub struct Setup {
     /// before it existed still decodes (with the timers off).
     #[serde(skip)]
     pub supervision: Supervision,
+    /// The limits of the agents' clock offsets (`clocks.rs`). Appended
+    /// after the supervision by `log::encode_setup`, for the same reason.
+    #[serde(skip)]
+    pub clocks: ClockLimits,
 }
 
 /// Something that happened, handed to [`Core::handle`].
@@ -615,7 +622,8 @@ impl Core {
         self.outputs.push_back(Output::Event(LaunchEvent { robot, event, pid, source, reason, state }));
     }
 
-    fn unix_ms(&self, now: u64) -> u64 {
+    /// Launch time `now` (µs) in ms since the Unix epoch.
+    pub fn unix_ms(&self, now: u64) -> u64 {
         self.setup.unix_base_ms + now / 1000
     }
 }

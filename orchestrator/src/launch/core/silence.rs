@@ -148,6 +148,7 @@ mod tests {
             // The robots' links are lost by hand here (`Input::Gone`): the
             // timers that judge them are `timers.rs`'s tests.
             supervision: Supervision::default(),
+            clocks: ClockLimits::default(),
         }
     }
 

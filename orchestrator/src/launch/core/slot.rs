@@ -5,6 +5,7 @@
 //! from them at the end. Only the core writes them; the shells read them
 //! through [`super::Core::slots`].
 
+use super::ClockReading;
 use crate::launch::agents::Gone;
 use crate::launch::summary::{Death, Outage};
 use bycoms_protocol::msg::Pose;
@@ -91,6 +92,8 @@ pub struct Slot {
     pub(super) gone: Option<Gone>,
     /// Its agent said that its failsafe stopped it.
     pub(super) failsafe_fired: bool,
+    /// Its host's last reported clock offset (`clocks.rs`).
+    pub(super) clock: Option<ClockReading>,
     /// Lockstep: its agent said its robot will never move again
     /// (`Parked`), so it is ticked no more unless the gate watches it.
     pub(super) parked: bool,
@@ -129,6 +132,7 @@ impl Slot {
             restarts: 0,
             late: false,
             failsafe_fired: false,
+            clock: None,
             parked: false,
             beacons_synced: 0,
             beacon_seq: 0,
@@ -194,6 +198,10 @@ impl Slot {
     /// Times its agent was unreachable.
     pub fn outages(&self) -> &[Outage] {
         &self.outages
+    }
+    /// Its host's last reported clock offset to the orchestrator's.
+    pub fn clock(&self) -> Option<ClockReading> {
+        self.clock
     }
     /// Whether it registered after its turn had been skipped (and so took
     /// a later turn, out of id order).
