@@ -191,7 +191,7 @@ pub struct Report {
 }
 
 /// Longest simulated time of a launch of real robots, s.
-pub const GATEWAY_TIME_LIMIT: f64 = 12.0;
+pub const GATEWAY_TIME_LIMIT: f64 = 6.0;
 
 /// A crash or a cut link is noticed within this long, µs (the README's
 /// promise: a dead robot or a cut link is seen within 500 ms).

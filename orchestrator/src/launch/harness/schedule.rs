@@ -14,7 +14,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 /// The share of drawn schedules with real gateway agents (each plays
 /// seconds of real time at the robots' own rates: kept few, so the
 /// schedules per CI run stay within their time).
-const GATEWAY_AGENTS: f64 = 0.03;
+const GATEWAY_AGENTS: f64 = 0.01;
 
 /// An agent's crash.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -202,7 +202,7 @@ impl Schedule {
             )
         });
         for _ in 0..rng.gen_range(0..3) {
-            let from_us = rng.gen_range(0..6_000_000);
+            let from_us = rng.gen_range(0..4_000_000);
             let length = [100_000, 1_000_000, 3_000_000][rng.gen_range(0..3)];
             self.robot_cuts.push(Partition {
                 robot: rng.gen_range(1..=self.robots),
