@@ -161,7 +161,7 @@ impl RealRobot {
 
     fn us(&self, at: Instant) -> u64 {
         let d = at.saturating_duration_since(self.base);
-        d.as_micros() as u64 + u64::from(d.subsec_nanos() % 1000 != 0)
+        d.as_micros() as u64 + u64::from(!d.subsec_nanos().is_multiple_of(1000))
     }
 
     fn cut(&self, at: u64) -> bool {

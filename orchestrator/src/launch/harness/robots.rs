@@ -88,7 +88,7 @@ impl World<'_> {
     }
 
     /// Hands robot `id`'s gateway what came for it; its answers go out.
-    pub(super) fn to_real(&mut self, id: u32, what: impl FnOnce(&mut RealRobot, u64, &mut Vec<FromAgent>)) {
+    pub(super) fn tell_real(&mut self, id: u32, what: impl FnOnce(&mut RealRobot, u64, &mut Vec<FromAgent>)) {
         let now = self.now;
         let mut out = Vec::new();
         if let Some(Some(r)) = self.reals.get_mut(id as usize - 1) {

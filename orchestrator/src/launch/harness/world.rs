@@ -374,7 +374,9 @@ impl World<'_> {
                     self.fault(id);
                 }
             }
-            Event::Orchestrator(id, alive) => self.to_real(id, |r, now, out| r.orchestrator(now, alive, out)),
+            Event::Orchestrator(id, alive) => {
+                self.tell_real(id, |r, now, out| r.orchestrator(now, alive, out));
+            }
             Event::RobotCut(id, until_us) => self.robot_cut(id, until_us),
             Event::Place(id, at) => self.place(id, at),
             Event::Forge(Foreign::RacesTheDeploy(id)) => self.racers.push(id),
@@ -431,9 +433,9 @@ impl World<'_> {
                     self.core.handle(now, Input::Pose { topic, pose });
                 }
             }
-            Packet::Forwarded(pose) => self.to_real(pose.robot.0, |r, _, _| r.pose(&pose)),
+            Packet::Forwarded(pose) => self.tell_real(pose.robot.0, |r, _, _| r.pose(&pose)),
             Packet::ToAgent(id, cmd) => {
-                self.to_real(id, |r, now, out| r.command(now, &cmd, out));
+                self.tell_real(id, |r, now, out| r.command(now, &cmd, out));
                 let mut sent = Vec::new();
                 if let Some(Some(a)) = self.agents.get_mut(id as usize - 1) {
                     let before = a.stepped();
