@@ -115,7 +115,10 @@ fn schedules_keep_the_properties() {
     );
     // The schedules reach every kind of ending, or they test too little.
     if count >= 1000 {
-        assert!(covered.iter().all(|&n| n > 0), "a kind of launch never drawn: {covered:?}");
+        // Real robots are one schedule in 200 (they cost the most): their
+        // kinds are required from 5 000 schedules on.
+        let kinds = if count >= 5000 { covered.len() } else { 3 };
+        assert!(covered[..kinds].iter().all(|&n| n > 0), "a kind of launch never drawn: {covered:?}");
         for o in ["Arrived", "RobotsExhausted", "TimeLimit", "Interrupted"] {
             assert!(outcomes.contains_key(o), "no schedule ended {o}: {outcomes:?}");
         }

@@ -14,7 +14,7 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 /// The share of drawn schedules with real gateway agents (each plays
 /// seconds of real time at the robots' own rates: kept few, so the
 /// schedules per CI run stay within their time).
-const GATEWAY_AGENTS: f64 = 0.01;
+const GATEWAY_AGENTS: f64 = 0.005;
 
 /// An agent's crash.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
