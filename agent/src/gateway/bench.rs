@@ -75,7 +75,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         let bus = IpcBus::new(config)?;
         let ports = GatewayPorts::open(&bus, &gw_swarm, RobotId(1))?;
         let core = GatewayCore::new(RobotId(1), gw_key, Timers::paper(1.0), 1, Instant::now());
-        let mut gw = Gateway::new(core, ports, gw_socket, Duration::from_millis(100))?;
+        let mut gw = Gateway::new(core, ports, gw_socket, Duration::from_millis(100), None)?;
         gw.run(&mut Lifeline::detached())?;
         Ok(gw.stats().relay_ns.clone())
     });

@@ -313,10 +313,8 @@ impl OnBus for RunGateway<'_> {
         let args = self.args;
         let ports = GatewayPorts::open(bus, self.swarm, self.core.robot())?;
         let heartbeat = Duration::from_millis(args.heartbeat_ms);
-        let mut gateway = Gateway::new(self.core, ports, self.socket, heartbeat).map_err(RunError::from)?;
-        if let Some((failsafe, watch)) = failsafe {
-            gateway.watch_orchestrator(failsafe, watch);
-        }
+        let mut gateway =
+            Gateway::new(self.core, ports, self.socket, heartbeat, failsafe).map_err(RunError::from)?;
         if let Some(probe) = self.clock {
             gateway.report_clock(probe);
         }

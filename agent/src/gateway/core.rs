@@ -276,6 +276,41 @@ impl GatewayCore {
         }
     }
 
+    /// When [`GatewayCore::poll`] next has something to do (none: only
+    /// when something comes in). A past instant means: now.
+    pub fn deadline(&self) -> Option<Instant> {
+        let after = |last: Option<Instant>, every: Duration| Some(last.map_or(self.started, |t| t + every));
+        let link = match self.last_valid {
+            Some(t) if self.up => Some(t + self.timers.link_timeout),
+            _ => None,
+        };
+        let goal = if self.enabled && self.goal_world.is_some() && self.heading.is_some() {
+            after(self.last_goal, self.timers.goal_every)
+        } else {
+            None
+        };
+        let beat = match self.link.session() {
+            Some(_) => after(self.last_sent, self.timers.heartbeat_every),
+            None => None,
+        };
+        let refused = if self.link.drops().total() != self.refused_reported {
+            after(self.last_refused_report, REFUSED_REPORT_EVERY)
+        } else {
+            None
+        };
+        [link, goal, beat, refused].into_iter().flatten().min()
+    }
+
+    /// Whether the robot is enabled (deployed, not stopped since).
+    pub fn enabled(&self) -> bool {
+        self.enabled
+    }
+
+    /// Whether the robot has been told to stop (and not enabled since).
+    pub fn stopped(&self) -> bool {
+        self.stopped
+    }
+
     fn stop(&mut self, now: Instant) {
         self.enabled = false;
         self.stopped = true;
@@ -331,7 +366,9 @@ impl GatewayCore {
         LinkStatus { robot: self.robot, up, silent_ms, refused }
     }
 
-    fn report(&mut self, msg: FromAgent) {
+    /// Queues `msg` for the robot's `from_agent` (the session's own
+    /// reports go out in order with the core's).
+    pub fn report(&mut self, msg: FromAgent) {
         self.out.push_back(Output::Report(msg));
     }
 }

@@ -13,8 +13,11 @@
 //!
 //! * [`core`] — the gateway as a sans-IO state machine (datagrams, bus
 //!   commands, poses and `now` in; datagrams and bus reports out);
-//! * [`run`] — the single-threaded loop around it: a UDP socket and the
-//!   bus (iceoryx2, or zenoh from a bridge host);
+//! * [`session`] — the bus-side rules around it, sans-IO too (register
+//!   until heard, heartbeats, the orchestrator-liveliness failsafe,
+//!   shutdown and refusal);
+//! * [`run`] — the single-threaded loop around them: a UDP socket and the
+//!   bus (iceoryx2, or zenoh from a bridge host), moving bytes only;
 //! * [`cli`] — the command line and `main`;
 //! * [`bench`] — `agent bench`: the gateway's added latency.
 //!
@@ -32,6 +35,8 @@ pub mod bench;
 pub mod cli;
 pub mod core;
 pub mod run;
+pub mod session;
 
 pub use cli::{main_with, GatewayArgs, GatewayError};
 pub use core::{GatewayCore, Output, Timers};
+pub use session::Session;

@@ -1,8 +1,9 @@
-//! The gateway's loop: one UDP socket, the bus, and [`GatewayCore`].
+//! The gateway's loop: one UDP socket, the bus, and the [`Session`] (its
+//! rules, sans-IO) around [`GatewayCore`]; the loop only moves bytes.
 //!
-//! Over zenoh (a gateway on a bridge host) it also watches the
-//! orchestrator's liveliness: gone past the failsafe's grace, the robot is
-//! told to stop (the same [`Failsafe`] as sim-agent's).
+//! Over zenoh (a gateway on a bridge host) it also feeds the session the
+//! orchestrator's liveliness, for the failsafe (the same [`Failsafe`] as
+//! sim-agent's).
 //!
 //! Why one thread with a short receive timeout: an iceoryx2 bus is confined
 //! to the thread that opened it, and the robot's datagrams must be relayed
@@ -13,13 +14,14 @@
 //! command therefore waits at most one slice before it goes to the robot.
 
 use super::core::{GatewayCore, Output};
+use super::session::Session;
 use bycoms_protocol::bus::zenoh::clock::{self, ClockProbe};
 use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
-use bycoms_protocol::msg::{FromAgent, Heartbeat, Pose, Register, RobotKind, ToAgent};
+use bycoms_protocol::msg::{FromAgent, Pose, ToAgent};
 use bycoms_protocol::naming::Member;
-use bycoms_protocol::{RobotId, Swarm, PROTOCOL_VERSION};
-use bycoms_runtime::failsafe::{Failsafe, Verdict};
+use bycoms_protocol::{RobotId, Swarm};
+use bycoms_runtime::failsafe::Failsafe;
 use bycoms_runtime::{instance, BadKind, ExitCause, Lifeline, Traffic};
 use std::io;
 use std::net::UdpSocket;
@@ -71,104 +73,59 @@ pub struct GatewayStats {
 
 /// One gateway process's loop.
 pub struct Gateway<B: Bus> {
-    core: GatewayCore,
+    session: Session,
     ports: GatewayPorts<B>,
     socket: UdpSocket,
-    heartbeat_every: Duration,
     who: String,
     stats: GatewayStats,
-    /// zenoh: the failsafe and the liveliness watch that feeds it.
-    failsafe: Option<(Failsafe, AliveWatch)>,
+    /// zenoh: the liveliness watch that feeds the session's failsafe.
+    watch: Option<AliveWatch>,
     /// zenoh: the measurement of this host's clock offset to the
     /// orchestrator's, reported as it comes (`FromAgent::Clock`).
     clock: Option<ClockProbe>,
 }
 
 impl<B: Bus> Gateway<B> {
-    /// A gateway around `core`, serving the robot on `socket`.
+    /// A gateway around `core`, serving the robot on `socket`, beating
+    /// every `heartbeat_every`; over zenoh it watches the orchestrator's
+    /// liveliness with `failsafe` (see [`Session`]: once gone past the
+    /// grace, the robot is stopped — its firmware told `Stop`, its own
+    /// 500 ms failsafe holding it if that is lost — and the loop ends with
+    /// [`ExitCause::OrchestratorLost`] or goes on, by policy).
     pub fn new(
         core: GatewayCore,
         ports: GatewayPorts<B>,
         socket: UdpSocket,
         heartbeat_every: Duration,
+        failsafe: Option<(Failsafe, AliveWatch)>,
     ) -> io::Result<Self> {
         socket.set_read_timeout(Some(SLICE))?;
         let who = format!("agent[robot {}]", core.robot().0);
-        Ok(Self {
-            core,
-            ports,
-            socket,
-            heartbeat_every,
-            who,
-            stats: GatewayStats::default(),
-            failsafe: None,
-            clock: None,
-        })
+        let (failsafe, watch) = failsafe.unzip();
+        let session = Session::new(core, heartbeat_every, instance(), failsafe);
+        Ok(Self { session, ports, socket, who, stats: GatewayStats::default(), watch, clock: None })
     }
 
-    /// Watches the orchestrator's liveliness on `watch` (zenoh): once it has
-    /// been gone for longer than the failsafe's grace, the robot is stopped
-    /// (its firmware is told `Stop`, and its own 500 ms failsafe holds it
-    /// if that is lost), and the loop ends with
-    /// [`ExitCause::OrchestratorLost`] or goes on, by policy.
-    pub fn watch_orchestrator(&mut self, failsafe: Failsafe, watch: AliveWatch) {
-        self.failsafe = Some((failsafe, watch));
-    }
-
-    /// Feeds the failsafe what zenoh saw and acts on its verdict.
-    fn check_failsafe(&mut self) -> Result<Option<ExitCause>, RunError> {
-        let Some((failsafe, watch)) = self.failsafe.as_mut() else { return Ok(None) };
+    /// Feeds the session what zenoh saw of the orchestrator.
+    fn watch_orchestrator(&mut self) {
+        let Some(watch) = self.watch.as_mut() else { return };
         while let Some(event) = watch.try_recv() {
             if event.member == Member::Orchestrator {
-                match event.presence {
-                    Presence::Alive => failsafe.orchestrator_alive(event.at),
-                    Presence::Lost => failsafe.orchestrator_lost(event.at),
-                }
+                self.session.orchestrator(event.presence == Presence::Alive, event.at);
             }
         }
-        let verdict = failsafe.check(Instant::now());
-        if let Some(report) = verdict.report(self.core.robot()) {
-            // Best effort: the link may be cut (a reminder follows its return).
-            let _ = self.ports.report.publish(&report);
-        }
-        let (lost_for, exit) = match verdict {
-            Verdict::Run => return Ok(None),
-            Verdict::Remind { lost_for } => {
-                tracing::info!(?lost_for, "orchestrator back: told it that the failsafe stopped the robot");
-                return Ok(None);
-            }
-            Verdict::Stop { lost_for } => (lost_for, false),
-            Verdict::StopAndExit { lost_for } => (lost_for, true),
-        };
-        tracing::error!(
-            ?lost_for,
-            "orchestrator lost past the grace period: robot stopped, {}",
-            if exit { "exiting" } else { "waiting" }
-        );
-        self.core.on_command(&ToAgent::Stop, Instant::now()).ok();
-        self.flush(None)?;
-        Ok(exit.then_some(ExitCause::OrchestratorLost))
-    }
-
-    /// The core (drop counters, link state).
-    pub fn core(&self) -> &GatewayCore {
-        &self.core
-    }
-
-    /// What was counted so far.
-    pub fn stats(&self) -> &GatewayStats {
-        &self.stats
     }
 
     /// Reports this host's clock offset to the orchestrator's as `probe`
-    /// measures it: the first before the `Register` (waited for up to
-    /// [`clock::FIRST_WAIT`]), so the launch judges the registration by it.
+    /// measures it: the first measurement before the first `Register`
+    /// (waiting up to [`clock::FIRST_WAIT`]), so the launch judges the
+    /// registration by it, then each new one as it comes.
     pub fn report_clock(&mut self, probe: ClockProbe) {
         self.clock = Some(probe);
     }
 
     /// Publishes the clock offsets measured since the last call (waiting
-    /// up to `wait` for one).
+    /// up to `wait` for one when given).
     fn clock_reports(&mut self, wait: Option<Duration>) -> Result<(), BusError> {
         let Some(probe) = &self.clock else { return Ok(()) };
         let samples = match wait {
@@ -176,53 +133,44 @@ impl<B: Bus> Gateway<B> {
             None => probe.take(),
         };
         for sample in samples {
-            self.ports.report.publish(&clock::report(self.core.robot(), sample))?;
+            self.ports.report.publish(&clock::report(self.session.core().robot(), sample))?;
         }
         Ok(())
+    }
+
+    /// The core (drop counters, link state).
+    pub fn core(&self) -> &GatewayCore {
+        self.session.core()
+    }
+
+    /// What was counted so far.
+    pub fn stats(&self) -> &GatewayStats {
+        &self.stats
     }
 
     /// Registers, then runs until `Shutdown`, a signal or the parent's death.
     pub fn run(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, RunError> {
         self.clock_reports(Some(clock::FIRST_WAIT))?;
-        let robot = self.core.robot();
-        let register = Register {
-            robot,
-            kind: RobotKind::Real,
-            protocol_version: PROTOCOL_VERSION,
-            instance: instance(),
-            settings: 0,
-            failsafe_grace_ms: self.failsafe.as_ref().map_or(0, |(f, _)| f.grace_ms()),
-        };
-        self.ports.report.publish(&FromAgent::Register(register))?;
-        let (mut seq, mut next_heartbeat) = (0u64, Instant::now());
-        // Until the orchestrator sends a command, every heartbeat repeats
-        // the `Register` (a lost one would leave the robot never enabled).
-        let mut heard_orchestrator = false;
+        self.session.start(Instant::now());
         let mut buf = [0u8; 2048];
         loop {
+            self.clock_reports(None)?;
             if let Some(cause) = lifeline.check() {
-                self.core.on_command(&ToAgent::Stop, Instant::now()).ok();
+                self.session.end(Instant::now());
                 self.flush(None)?;
                 return Ok(cause);
             }
-            if let Some(cause) = self.check_failsafe()? {
+            self.watch_orchestrator();
+            let exit = self.session.poll(Instant::now());
+            self.flush(None)?;
+            if let Some(cause) = exit {
                 return Ok(cause);
-            }
-            let now = Instant::now();
-            if now >= next_heartbeat {
-                self.clock_reports(None)?;
-                seq += 1;
-                next_heartbeat = now + self.heartbeat_every;
-                if !heard_orchestrator && seq > 1 {
-                    self.ports.report.publish(&FromAgent::Register(register))?;
-                }
-                self.ports.report.publish(&FromAgent::Heartbeat(Heartbeat { robot, seq }))?;
             }
             match self.socket.recv_from(&mut buf) {
                 Ok((n, from)) => {
                     let got = Instant::now();
-                    if let Err(reason) = self.core.on_datagram(&buf[..n], from, got) {
-                        tracing::debug!(robot = robot.0, %from, %reason, "link frame refused");
+                    if let Err(reason) = self.session.on_datagram(&buf[..n], from, got) {
+                        tracing::debug!(robot = self.core().robot().0, %from, %reason, "link frame refused");
                     }
                     self.flush(Some(got))?;
                 }
@@ -232,52 +180,32 @@ impl<B: Bus> Gateway<B> {
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
                 Err(e) => return Err(e.into()),
             }
-            let (exit, commanded) = self.drain_bus()?;
-            heard_orchestrator |= commanded;
+            let exit = self.drain_bus()?;
+            self.flush(None)?;
             if let Some(cause) = exit {
-                self.flush(None)?;
                 return Ok(cause);
             }
-            self.core.poll(Instant::now());
-            self.flush(None)?;
         }
     }
 
-    /// Handles every waiting command and pose: (why to exit, if `Shutdown`
-    /// or this gateway's refusal came; whether any command came).
-    fn drain_bus(&mut self) -> Result<(Option<ExitCause>, bool), BusError> {
-        let mut commanded = false;
+    /// Hands every waiting pose and command to the session: why to exit,
+    /// if `Shutdown` or this gateway's refusal came.
+    fn drain_bus(&mut self) -> Result<Option<ExitCause>, BusError> {
         loop {
             match self.ports.own_pose.try_recv() {
-                Ok(Some(pose)) => self.core.on_pose(&pose),
+                Ok(Some(pose)) => self.session.on_pose(&pose),
                 Ok(None) => break,
                 Err(e) => self.absorb("pose", e)?,
             }
         }
         loop {
             match self.ports.commands.try_recv() {
-                // Another gateway holds this robot: leave (a refusal of
-                // another instance is not for us).
-                Ok(Some(ToAgent::Refused(r))) if r.instance == instance() => {
-                    tracing::error!(
-                        robot = r.robot.0,
-                        "refused by the orchestrator for robot {}: {}",
-                        r.robot.0,
-                        r.why
-                    );
-                    self.core.on_command(&ToAgent::Stop, Instant::now()).ok();
-                    return Ok((Some(ExitCause::Refused), commanded));
-                }
-                Ok(Some(ToAgent::Refused(_))) => {}
-                Ok(Some(cmd)) => {
-                    commanded = true;
-                    match self.core.on_command(&cmd, Instant::now()) {
-                        Ok(true) => return Ok((Some(ExitCause::Shutdown), true)),
-                        Ok(false) => {}
-                        Err(r) => self.stats.traffic.count(&self.who, BadKind::Refused, &r),
-                    }
-                }
-                Ok(None) => return Ok((None, commanded)),
+                Ok(Some(cmd)) => match self.session.on_command(&cmd, Instant::now()) {
+                    Ok(None) => {}
+                    Ok(Some(cause)) => return Ok(Some(cause)),
+                    Err(r) => self.stats.traffic.count(&self.who, BadKind::Refused, &r),
+                },
+                Ok(None) => return Ok(None),
                 Err(e) => self.absorb("to_agent", e)?,
             }
         }
@@ -294,7 +222,7 @@ impl<B: Bus> Gateway<B> {
     /// the datagram that caused it arrived (for the relay latency).
     fn flush(&mut self, received: Option<Instant>) -> Result<(), RunError> {
         let mut relayed = false;
-        while let Some(out) = self.core.poll_output() {
+        while let Some(out) = self.session.poll_output() {
             match out {
                 Output::Datagram(bytes, to) => match self.socket.send_to(&bytes, to) {
                     Ok(_) => {}
@@ -306,6 +234,10 @@ impl<B: Bus> Gateway<B> {
                         ) => {}
                     Err(e) => return Err(e.into()),
                 },
+                // Best effort: the link may be cut (a reminder follows its return).
+                Output::Report(msg @ FromAgent::Failsafe(_)) => {
+                    let _ = self.ports.report.publish(&msg);
+                }
                 Output::Report(msg) => {
                     relayed |= matches!(msg, FromAgent::Telemetry(_));
                     self.ports.report.publish(&msg)?;

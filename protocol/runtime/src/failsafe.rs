@@ -185,6 +185,14 @@ impl Failsafe {
         self.tripped
     }
 
+    /// When [`Failsafe::check`] next has something to do on its own: the
+    /// first instant past the grace period, while the orchestrator is gone
+    /// and the failsafe has not fired (none otherwise).
+    pub fn deadline(&self) -> Option<Instant> {
+        let since = self.lost_since.filter(|_| !self.tripped)?;
+        Some(since + self.grace + Duration::from_nanos(1))
+    }
+
     /// What to do at `now`. `Stop` / `StopAndExit` is returned once, when
     /// the grace period has run out; `Remind` once each time the
     /// orchestrator came back after that; `Run` otherwise.

@@ -171,6 +171,7 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
         return Err(format!("{} poses forwarded though they are on the bus", report.forwarded));
     }
     notices(report)?;
+    check_real_robots(report, schedule, ending)?;
     // Re-sends are bounded: at most every awaited robot once a second, and
     // a few for each message lost (a wait's first re-sends come after a
     // few answer times, each twice as late as the one before).
@@ -274,6 +275,30 @@ fn notices(report: &Report) -> Result<(), String> {
         if !report.noticed.iter().any(|&(r, t)| r == id && (at..=until).contains(&t)) {
             return Err(format!("robot {id}'s crash or cut at {at} µs was not noticed within 500 ms"));
         }
+    }
+    Ok(())
+}
+
+/// Gateway agents: the real robots kept their safety promises (`real.rs`:
+/// told `Stop`, a robot stops within [`super::STOP_BOUND_US`]; a gateway
+/// that lost the orchestrator past its grace stopped its robot; a robot
+/// whose gateway is gone stops on its own; no goal without a pose), the
+/// core deployed only robots motion capture saw at the start, and a launch
+/// that ended waiting for a placement names a robot the operator did not
+/// place, after the placement timeout.
+fn check_real_robots(report: &Report, schedule: &Schedule, ending: &Ending) -> Result<(), String> {
+    if let Some(v) = report.violations.first() {
+        return Err(v.clone());
+    }
+    let Some(Fault::NotPlaced { robot, .. }) = &ending.error else { return Ok(()) };
+    let placing = schedule.placing.get(*robot as usize - 1);
+    if !schedule.gateways || matches!(placing, None | Some(Placing::Prompt(_))) {
+        return Err(format!("the launch ended NotPlaced for robot {robot}, placed as {placing:?}"));
+    }
+    let asked = report.asked_us.get(*robot as usize - 1).copied().flatten();
+    let timeout_us = (PLACEMENT.timeout * 1e6) as u64;
+    if asked.is_none_or(|t| report.end_us < t + timeout_us) {
+        return Err(format!("robot {robot} NotPlaced at {} µs, asked at {asked:?}", report.end_us));
     }
     Ok(())
 }

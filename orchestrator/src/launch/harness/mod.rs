@@ -30,6 +30,8 @@ mod check;
 mod figures;
 mod forged;
 mod net;
+mod real;
+mod robots;
 mod schedule;
 mod world;
 
@@ -37,13 +39,14 @@ pub use agent::Agent;
 pub use check::{check, exit_code};
 pub use figures::{missing_robots, MissingFigures};
 pub use net::{Link, Net, Packet, Partition};
-pub use schedule::{Crash, Foreign, Schedule};
+pub use real::{Body, RealRobot, ORPHAN_BOUND_US, STOP_BOUND_US};
+pub use schedule::{Crash, Foreign, Placing, Schedule, PLACEMENT};
 use world::play;
 
 use super::agents::Gone;
 use super::config::{Clock, LaunchConfig, Missing, OnDeath};
 use super::core::log::{Call, Logged};
-use super::core::{Ending, Input, Output, Revoke, Setup, SlotState, Stop};
+use super::core::{Ending, Fault, Input, Output, Revoke, Setup, SlotState, Stop};
 use super::events::EventKind;
 use super::summary::{Decided, Outcome, RevokedSummary, RobotEnd, StopSummary};
 use crate::draw::snapshot::Unit;
@@ -179,7 +182,20 @@ pub struct Report {
     /// When the core noticed a robot's agent lost or unreachable (its
     /// `AgentLost` and `LinkLost` events), (robot, µs).
     pub noticed: Vec<(u32, u64)>,
+    /// Gateway agents: safety promises the real robots broke, and robots
+    /// deployed though motion capture did not see them at the start.
+    pub violations: Vec<String>,
+    /// Gateway agents: when the operator was first asked to place each
+    /// robot, µs.
+    pub asked_us: Vec<Option<u64>>,
+    /// Gateway agents: robots whose telemetry said `Driving` at least once.
+    pub drove: Vec<u32>,
+    /// Gateway agents: robots whose gateway's failsafe stopped them.
+    pub tripped: Vec<u32>,
 }
+
+/// Longest simulated time of a launch of real robots, s.
+pub const GATEWAY_TIME_LIMIT: f64 = 6.0;
 
 /// A crash or a cut link is noticed within this long, µs (the README's
 /// promise: a dead robot or a cut link is seen within 500 ms).
@@ -223,6 +239,11 @@ impl Launch {
             Some(speed) => (Clock::Realtime, speed),
             None => (Clock::Lockstep, 1.0),
         };
+        if schedule.gateways {
+            // Real robots run in real time: a short launch keeps the
+            // schedule's cost in check.
+            cfg.time_limit = cfg.time_limit.min(GATEWAY_TIME_LIMIT);
+        }
         cfg.gate.dwell = case.dwell;
         cfg.gate.on_agent_death = case.on_death;
         cfg.supervision.missing = case.missing;

@@ -30,6 +30,9 @@ pub enum Packet {
         /// The orchestrator's relay of a dead robot.
         relay: bool,
     },
+    /// A pose from motion capture the orchestrator passes on to the
+    /// robot's gateway (`Output::Forward`).
+    Forwarded(Pose),
 }
 
 /// The network's faults.

@@ -7,8 +7,14 @@
 
 use super::net::{Link, Partition};
 use crate::launch::setup::Seams;
+use crate::mocap::PlacementConfig;
 use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
+
+/// The share of drawn schedules with real gateway agents (each plays
+/// seconds of real time at the robots' own rates: kept few, so the
+/// schedules per CI run stay within their time).
+const GATEWAY_AGENTS: f64 = 0.005;
 
 /// An agent's crash.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -61,6 +67,25 @@ pub enum Foreign {
     RacesTheDeploy(u32),
 }
 
+/// What the operator does when asked to place a robot at the start
+/// (real robots: the launch enables one once motion capture sees it there).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Placing {
+    /// Places it at the start this long after being asked, µs.
+    Prompt(u64),
+    /// Never places it.
+    Never,
+    /// Places it beside the start (outside the placement radius), µs.
+    OffStart(u64),
+    /// Places it at the start, then moves it off before the hold is over, µs.
+    MovedOff(u64),
+}
+
+/// How the harness's operator places robots: within 0.5 of the start, seen
+/// there for 0.2 s, within 3 s (short, so a robot never placed ends its
+/// launch quickly).
+pub const PLACEMENT: PlacementConfig = PlacementConfig { radius: 0.5, hold: 0.2, timeout: 3.0 };
+
 /// Everything that goes wrong in one harness launch.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Schedule {
@@ -105,6 +130,14 @@ pub struct Schedule {
     /// A robot revoked from outside (`orchestrator revoke`): when, and
     /// which. Not drawn: set by the tests that revoke.
     pub revoke_at_us: Option<(u64, u32)>,
+    /// Real robots behind real gateways (`real.rs`): the launch's gateway
+    /// setup, placement by an operator, poses from motion capture.
+    pub gateways: bool,
+    /// Gateway agents: robot links (robot ↔ gateway WiFi) cut.
+    pub robot_cuts: Vec<Partition>,
+    /// Gateway agents: per robot, what the operator does when asked to
+    /// place it.
+    pub placing: Vec<Placing>,
 }
 
 impl Schedule {
@@ -114,6 +147,9 @@ impl Schedule {
     /// stop when the schedule says so; or the gateways' properties
     /// (`gateways.rs`, but placement) with poses from motion capture.
     pub fn seams(&self) -> Seams {
+        if self.gateways {
+            return self.gateway_agents_seams();
+        }
         let gateway = self.gateway_seams;
         Seams {
             kind: match (gateway, self.remote) {
@@ -132,6 +168,67 @@ impl Schedule {
             held_when_unreachable: self.remote,
             robot_link_grace: gateway.then_some(crate::launch::agents::gateways::LINK_GRACE),
         }
+    }
+
+    /// The seams of real gateway agents: what `launch/agents/gateways.rs`
+    /// says of itself (here or, when remote, elsewhere), with motion
+    /// capture's placement ([`PLACEMENT`]).
+    fn gateway_agents_seams(&self) -> Seams {
+        Seams {
+            kind: "gateway",
+            all_at_once: true,
+            needs_placement: true,
+            stop_when_stuck: true,
+            start_hint: "",
+            wants_poses: true,
+            senses_beacons: false,
+            poses_on_the_bus: false,
+            mocap_placement: Some(PLACEMENT),
+            held_when_unreachable: self.remote,
+            robot_link_grace: Some(crate::launch::agents::gateways::LINK_GRACE),
+        }
+    }
+
+    /// Makes this schedule one of real robots behind gateways (real time,
+    /// speed 1: real robots run on their own clocks), drawing robot-link
+    /// cuts and the operator's placements from `rng`.
+    fn real_robots(&mut self, rng: &mut Xoshiro256PlusPlus) {
+        (self.gateways, self.gateway_seams, self.realtime) = (true, false, Some(1.0));
+        // Poses come from motion capture, not the bus: no one forges them.
+        self.foreign.retain(|(_, f)| {
+            matches!(
+                f,
+                Foreign::WrongVersion(_)
+                    | Foreign::ShortGrace(_)
+                    | Foreign::OtherSettings(_)
+                    | Foreign::UnknownRobot
+            )
+        });
+        for _ in 0..rng.gen_range(0..3) {
+            let from_us = rng.gen_range(0..4_000_000);
+            let length = [100_000, 1_000_000, 3_000_000][rng.gen_range(0..3)];
+            self.robot_cuts.push(Partition {
+                robot: rng.gen_range(1..=self.robots),
+                from_us,
+                until_us: from_us + length,
+            });
+        }
+        self.placing = (0..self.robots)
+            .map(|_| match rng.gen_range(0..20) {
+                0 => Placing::Never,
+                1 => Placing::OffStart(rng.gen_range(0..1_000_000)),
+                2 => Placing::MovedOff(rng.gen_range(0..1_000_000)),
+                _ => Placing::Prompt(rng.gen_range(0..2_000_000)),
+            })
+            .collect();
+    }
+
+    /// This schedule with real robots behind real gateways, each placed
+    /// the moment the operator is asked, no robot link cut.
+    pub fn with_real_robots(mut self) -> Self {
+        (self.gateways, self.gateway_seams, self.realtime) = (true, false, Some(1.0));
+        self.placing = vec![Placing::Prompt(0); self.robots as usize];
+        self
     }
 
     /// Nothing goes wrong: a perfect 50 µs link, prompt registrations.
@@ -154,6 +251,9 @@ impl Schedule {
             gateway_seams: false,
             stop_at_us: None,
             revoke_at_us: None,
+            gateways: false,
+            robot_cuts: Vec::new(),
+            placing: Vec::new(),
         }
     }
 
@@ -229,6 +329,9 @@ impl Schedule {
         // Drawn last, so the schedules drawn before stops existed are kept.
         if rng.gen_bool(0.05) {
             s.stop_at_us = Some((rng.gen_range(0..horizon_us), rng.gen_bool(0.7)));
+        }
+        if rng.gen_bool(GATEWAY_AGENTS) {
+            s.real_robots(&mut rng);
         }
         s
     }

@@ -17,6 +17,13 @@ pub(super) enum Event {
     /// A partition cuts robot `.0`'s link now (the network drops its
     /// packets; noted for the detection property).
     Cut(u32),
+    /// Robot `.0`'s gateway sees the orchestrator's liveliness token
+    /// come (`true`) or go.
+    Orchestrator(u32, bool),
+    /// Robot `.0`'s robot link is cut until `.1` µs.
+    RobotCut(u32, u64),
+    /// The operator puts robot `.0` down here.
+    Place(u32, Vec2),
 }
 
 /// How long a cut link's liveliness token outlives it (zenoh's lease,
@@ -32,6 +39,10 @@ pub(super) struct World<'a> {
     pub(super) core: Logged,
     pub(super) net: Net,
     pub(super) agents: Vec<Option<Agent>>,
+    /// Gateway schedules: the real robots.
+    pub(super) reals: Vec<Option<RealRobot>>,
+    pub(super) next_mocap: u64,
+    pub(super) mocap_frames: u64,
     pub(super) impostors: Vec<Agent>,
     pub(super) events: BinaryHeap<Reverse<(u64, u64, usize)>>,
     pub(super) event_list: Vec<Option<Event>>,
@@ -53,6 +64,9 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
         schedule,
         net: Net::new(schedule.link.clone(), schedule.partitions.clone(), schedule.seed),
         agents: (0..n).map(|_| None).collect(),
+        reals: (0..n).map(|_| None).collect(),
+        next_mocap: 0,
+        mocap_frames: 0,
         impostors: Vec::new(),
         events: BinaryHeap::new(),
         event_list: Vec::new(),
@@ -87,6 +101,10 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             running_at_end: Vec::new(),
             faults: Vec::new(),
             noticed: Vec::new(),
+            violations: Vec::new(),
+            asked_us: vec![None; n],
+            drove: Vec::new(),
+            tripped: Vec::new(),
         },
         early_deaths_left: schedule.early_deaths.clone(),
         racers: Vec::new(),
@@ -137,7 +155,15 @@ impl World<'_> {
                 self.at(p.from_us, Event::Cut(p.robot));
                 self.at(lost, Event::Tell(Input::Token(p.robot, false)));
                 self.at(p.until_us, Event::Tell(Input::Token(p.robot, true)));
+                if s.gateways {
+                    // The gateway loses the orchestrator's token as well.
+                    self.at(lost, Event::Orchestrator(p.robot, false));
+                    self.at(p.until_us, Event::Orchestrator(p.robot, true));
+                }
             }
+        }
+        for c in &s.robot_cuts {
+            self.at(c.from_us, Event::RobotCut(c.robot, c.until_us));
         }
     }
 
@@ -155,6 +181,7 @@ impl World<'_> {
                 self.net.next_at(),
                 self.events.peek().map(|Reverse((at, _, _))| *at),
                 self.agents.iter().flatten().filter_map(Agent::deadline).min(),
+                self.reals_deadline(),
             ]
             .into_iter()
             .flatten()
@@ -195,6 +222,9 @@ impl World<'_> {
                         self.report.stop_log.push((now, id));
                     }
                     let deploy = matches!(msg, ToAgent::Deploy(_));
+                    if deploy && self.schedule.gateways {
+                        self.check_placed(id);
+                    }
                     self.report.beacons_sent += u64::from(matches!(msg, ToAgent::Beacon(_)));
                     let counter = match msg {
                         ToAgent::Deploy(_) => Some(&mut self.report.deploys_sent),
@@ -224,12 +254,15 @@ impl World<'_> {
                     self.report.noticed.push((e.robot, now));
                 }
                 Output::Bad(..) => self.report.bad += 1,
-                Output::Forward(_) => self.report.forwarded += 1,
+                Output::Forward(pose) => {
+                    self.report.forwarded += 1;
+                    self.net.send(now, pose.robot.0, Packet::Forwarded(pose));
+                }
+                Output::AskOperator(deploy) => self.ask_operator(deploy.robot.0),
                 Output::Event(_)
                 | Output::Heard(_)
                 | Output::Note(_)
                 | Output::SimTime(_)
-                | Output::AskOperator(_)
                 | Output::Carried(..) => {}
             }
         }
@@ -237,15 +270,19 @@ impl World<'_> {
 
     pub(super) fn start(&mut self, id: u32) {
         let i = id as usize - 1;
-        if self.schedule.remote && self.agents[i].as_ref().is_some_and(|a| a.alive) {
+        if self.schedule.remote && self.alive(id) {
             // A remote agent exists on its own: expected again, not made.
             let now = self.now;
             self.core.handle(now, Input::Started { robot: id, pid: None, how: "awaiting its agent".into() });
             return;
         }
-        let delay = self.schedule.register_delay_us.get(i).copied().unwrap_or(Some(50_000));
-        let agent = self.launch.agent(id, 0x1000 + u64::from(id), delay.map(|d| self.now + d));
-        self.agents[i] = Some(agent);
+        if self.schedule.gateways {
+            self.start_real(id);
+        } else {
+            let delay = self.schedule.register_delay_us.get(i).copied().unwrap_or(Some(50_000));
+            let agent = self.launch.agent(id, 0x1000 + u64::from(id), delay.map(|d| self.now + d));
+            self.agents[i] = Some(agent);
+        }
         if let Some(left) = self.early_deaths_left.get_mut(i).filter(|n| **n > 0) {
             *left -= 1;
             let at = self.now + 5_000;
@@ -271,6 +308,11 @@ impl World<'_> {
         }
         if let Some(Some(a)) = self.agents.get_mut(i) {
             a.alive = false;
+        }
+        // A remote gateway is only forgotten: it goes on, cut off or not.
+        let now = self.now;
+        if let Some(Some(r)) = self.reals.get_mut(i).filter(|_| !self.schedule.remote) {
+            r.end(now);
         }
     }
 
@@ -298,6 +340,7 @@ impl World<'_> {
                 Self::send_from(&mut self.net, now, a.id(), s);
             }
         }
+        self.advance_reals();
     }
 
     pub(super) fn send_from(net: &mut Net, now: u64, id: u32, said: Said) {
@@ -313,11 +356,12 @@ impl World<'_> {
         let now = self.now;
         match event {
             Event::Crash(id) => {
-                let alive =
-                    self.agents.get(id as usize - 1).and_then(Option::as_ref).is_some_and(|a| a.alive);
-                if alive && self.core.is_running(id) {
+                if self.alive(id) && self.core.is_running(id) {
                     if let Some(Some(a)) = self.agents.get_mut(id as usize - 1) {
                         a.alive = false;
+                    }
+                    if let Some(Some(r)) = self.reals.get_mut(id as usize - 1) {
+                        r.end(now);
                     }
                     self.fault(id);
                     // A process's end is seen within a few milliseconds,
@@ -335,12 +379,15 @@ impl World<'_> {
             }
             Event::Tell(input) => self.core.handle(now, input),
             Event::Cut(id) => {
-                let alive =
-                    self.agents.get(id as usize - 1).and_then(Option::as_ref).is_some_and(|a| a.alive);
-                if alive && self.core.is_running(id) {
+                if self.alive(id) && self.core.is_running(id) {
                     self.fault(id);
                 }
             }
+            Event::Orchestrator(id, alive) => {
+                self.tell_real(id, |r, now, out| r.orchestrator(now, alive, out));
+            }
+            Event::RobotCut(id, until_us) => self.robot_cut(id, until_us),
+            Event::Place(id, at) => self.place(id, at),
             Event::Forge(Foreign::RacesTheDeploy(id)) => self.racers.push(id),
             Event::Forge(f) => {
                 if let Some(next) = f.next(self) {
@@ -395,7 +442,9 @@ impl World<'_> {
                     self.core.handle(now, Input::Pose { topic, pose });
                 }
             }
+            Packet::Forwarded(pose) => self.tell_real(pose.robot.0, |r, _, _| r.pose(&pose)),
             Packet::ToAgent(id, cmd) => {
+                self.tell_real(id, |r, now, out| r.command(now, &cmd, out));
                 let mut sent = Vec::new();
                 if let Some(Some(a)) = self.agents.get_mut(id as usize - 1) {
                     let before = a.stepped();
@@ -431,13 +480,14 @@ impl World<'_> {
         self.report.resends = core.resends();
         self.report.end_us = self.now;
         self.report.lost = self.net.lost;
+        self.collect_violations();
         self.report
     }
 
     /// Robot `id`'s agent crashed or its link was cut now: the launch must
     /// notice within [`NOTICE_US`] ([`check`]), unless it already holds
     /// the robot as unreachable.
-    fn fault(&mut self, id: u32) {
+    pub(super) fn fault(&mut self, id: u32) {
         let held = self
             .core
             .slots()
@@ -446,6 +496,12 @@ impl World<'_> {
         if !held {
             self.report.faults.push((id, self.now));
         }
+    }
+
+    /// Whether robot `id`'s agent (simulated, or real gateway) runs.
+    pub(super) fn alive(&self, id: u32) -> bool {
+        let agent = self.agents.get(id as usize - 1).and_then(Option::as_ref).is_some_and(|a| a.alive);
+        agent || self.real_alive(id)
     }
 
     /// Whether robot `id` has a registered agent.
