@@ -195,6 +195,17 @@ fn a_robot_revoked_mid_run_over_quic_is_stopped_dropped_refused_and_the_others_f
         again.stderr
     );
 
+    // Over QUIC with the orchestrator's own config, as from another
+    // terminal of its host: the asker is a client and listens on nothing,
+    // so it does not collide with the launch's port.
+    let config_text = config.to_str().expect("utf-8 path");
+    let args = ["status", "--json", "--swarm", &swarm, "--connect", &endpoint, "--zenoh-config", config_text];
+    let status = Proc::orchestrator(&args).wait(Duration::from_secs(20));
+    assert_eq!(status.status.code(), Some(0), "{}", status.stderr);
+    let line: Value = serde_json::from_str(status.stdout.lines().next().unwrap_or_default())
+        .unwrap_or_else(|e| panic!("status --json over QUIC ({e}): {}", status.stdout));
+    assert_eq!(line["status"]["revoked"][0]["robot"], 1, "{line}");
+
     // A new agent for robot 1 is refused as revoked (exit 3).
     let second = remote_agent(dir.path(), &endpoint, &swarm, 1).wait(Duration::from_secs(30));
     assert_eq!(second.status.code(), Some(3), "{}", second.stderr);

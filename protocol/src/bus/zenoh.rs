@@ -197,9 +197,12 @@ impl ZenohConfig {
         };
         set("mode", format!("{:?}", self.mode.as_str()))?;
         // Without a base file, an empty list means "none" (zenoh's default
-        // would make a router listen on port 7447 of every interface).
+        // would make a router listen on port 7447 of every interface). A
+        // client listens only where it is told: the orchestrator's own file,
+        // read by `orchestrator status --connect` on its host, must not make
+        // the asker listen on the launch's port.
         let own = self.base_config.is_none();
-        if own || !self.listen.is_empty() {
+        if own || !self.listen.is_empty() || self.mode == Mode::Client {
             set("listen/endpoints", json_strings(&self.listen))?;
         }
         if own || !self.connect.is_empty() {
