@@ -128,7 +128,7 @@ pub fn run(args: Args) -> Result<i32> {
         What::Schedules { .. } | What::Crowd { .. } | What::Stop { .. } => unreachable!("handled above"),
         What::Launch { runs, no_prespawn, transport } => {
             let (mut reactions, mut speeds, mut walls) = (Vec::new(), Vec::new(), Vec::new());
-            let mut first_moving = Vec::new();
+            let (mut first_moving, mut tick_us, mut per_tick) = (Vec::new(), Vec::new(), Vec::new());
             for i in 0..runs.max(1) {
                 let mut cfg = LaunchConfig {
                     swarm: Some(format!("bench-{}-{i}", std::process::id())),
@@ -146,7 +146,13 @@ pub fn run(args: Args) -> Result<i32> {
                 speeds.push(s.sim_speed);
                 walls.push(s.wall_s);
                 first_moving.extend(s.first_moving_s);
+                if s.ticks > 0 {
+                    tick_us.push(s.tick_us);
+                    per_tick.push(s.ticked_agents as f64 / s.ticks as f64);
+                }
             }
+            tick_us.sort_by(f64::total_cmp);
+            per_tick.sort_by(f64::total_cmp);
             first_moving.sort_by(f64::total_cmp);
             reactions.sort_by(f64::total_cmp);
             speeds.sort_by(f64::total_cmp);
@@ -157,12 +163,14 @@ pub fn run(args: Args) -> Result<i32> {
                 "gate_reaction_ms": { "p50": percentile(&reactions, 0.5), "max": percentile(&reactions, 1.0), "n": reactions.len() },
                 "lockstep_sim_s_per_wall_s": { "p50": percentile(&speeds, 0.5), "min": percentile(&speeds, 0.0) },
                 "wall_s": { "p50": percentile(&walls, 0.5), "max": percentile(&walls, 1.0) },
+                "tick_us": { "p50": percentile(&tick_us, 0.5), "max": percentile(&tick_us, 1.0) },
+                "agents_per_tick": { "p50": percentile(&per_tick, 0.5) },
             });
             if args.json {
                 crate::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
             } else {
                 crate::outln!(
-                    "launch --robots 3 (lockstep, {}, prespawn {}), {runs} runs:\n  launch → first robot moving p50 {:.3} s, max {:.3} s\n  gate reaction p50 {:.3} ms, max {:.3} ms ({} deployments)\n  lockstep speed p50 {:.0} simulated s per wall s (min {:.0}); wall time p50 {:.2} s, max {:.2} s",
+                    "launch --robots 3 (lockstep, {}, prespawn {}), {runs} runs:\n  launch → first robot moving p50 {:.3} s, max {:.3} s\n  gate reaction p50 {:.3} ms, max {:.3} ms ({} deployments)\n  lockstep speed p50 {:.0} simulated s per wall s (min {:.0}); wall time p50 {:.2} s, max {:.2} s\n  a tick (its Ticks to its last answer) p50 {:.1} µs, max {:.1} µs; agents ticked per tick p50 {:.2}",
                     transport.as_str(),
                     !no_prespawn,
                     percentile(&first_moving, 0.5),
@@ -173,7 +181,10 @@ pub fn run(args: Args) -> Result<i32> {
                     percentile(&speeds, 0.5),
                     percentile(&speeds, 0.0),
                     percentile(&walls, 0.5),
-                    percentile(&walls, 1.0)
+                    percentile(&walls, 1.0),
+                    percentile(&tick_us, 0.5),
+                    percentile(&tick_us, 1.0),
+                    percentile(&per_tick, 0.5)
                 )?;
             }
         }

@@ -110,8 +110,14 @@ pub struct Row {
     pub ticks: Option<u64>,
     /// Wall time of the launch (the summary's `wall_s`).
     pub wall_s: Option<f64>,
-    /// `wall_s / ticks`, ms.
+    /// `wall_s / ticks`, ms (the agents' start and wind-down included).
     pub ms_per_tick: Option<f64>,
+    /// A tick's own wall time (the summary's `tick_us`: its `Tick`s to its
+    /// last answer, ticks without a re-send), ms.
+    pub clock_ms_per_tick: Option<f64>,
+    /// Agents ticked per tick (the summary's `ticked_agents / ticks`): what
+    /// a tick costs over this is what one stepping agent costs.
+    pub agents_per_tick: Option<f64>,
     /// Peak open files of the orchestrator.
     pub peak_files_orchestrator: usize,
     /// Peak open files of the busiest agent.
@@ -292,6 +298,10 @@ impl Launch<'_> {
         let get = |key: &str| summary.as_ref().and_then(|s| s.get(key));
         let ticks = get("ticks").and_then(serde_json::Value::as_u64);
         let wall_s = get("wall_s").and_then(serde_json::Value::as_f64);
+        let per_tick = |key: &str, scale: f64| match (get(key).and_then(serde_json::Value::as_f64), ticks) {
+            (Some(v), Some(t)) if t > 0 => Some(scale * v / t as f64),
+            _ => None,
+        };
         let message = get("error")
             .and_then(|e| e.as_str())
             .map(str::to_owned)
@@ -313,10 +323,9 @@ impl Launch<'_> {
             peak_orchestrator_pss_mb: mb(peaks.orchestrator_pss_kb),
             ticks,
             wall_s,
-            ms_per_tick: match (wall_s, ticks) {
-                (Some(w), Some(t)) if t > 0 => Some(1e3 * w / t as f64),
-                _ => None,
-            },
+            ms_per_tick: per_tick("wall_s", 1e3),
+            clock_ms_per_tick: get("tick_us").and_then(serde_json::Value::as_f64).map(|us| us / 1e3),
+            agents_per_tick: per_tick("ticked_agents", 1.0),
             peak_files_orchestrator: peaks.files_orchestrator,
             peak_files_agent: peaks.files_agent,
             peak_agents: peaks.agents,
@@ -436,7 +445,7 @@ pub fn table(rows: &[Row]) -> String {
         SAMPLE_EVERY.as_millis()
     );
     out.push_str(&format!(
-        "{:>6} {:>8} {:>9} {:>8} {:>8} {:>8} {:>8} {:>9} {:>10} {:>11} {:>7} {:>6} {:>6}\n",
+        "{:>6} {:>8} {:>9} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>8} {:>10} {:>11} {:>7} {:>6} {:>6}\n",
         "robots",
         "rec MB",
         "PSS MB",
@@ -445,6 +454,8 @@ pub fn table(rows: &[Row]) -> String {
         "ticks",
         "wall s",
         "ms/tick",
+        "clock ms",
+        "agents",
         "files orch",
         "files agent",
         "agents",
@@ -463,7 +474,7 @@ pub fn table(rows: &[Row]) -> String {
             continue;
         }
         out.push_str(&format!(
-            "{:>6} {:>8} {:>9.1} {:>8.2} {:>8.1} {:>8} {:>8} {:>9} {:>10} {:>11} {:>7} {:>6} {:>6}",
+            "{:>6} {:>8} {:>9.1} {:>8.2} {:>8.1} {:>8} {:>8} {:>9} {:>9} {:>8} {:>10} {:>11} {:>7} {:>6} {:>6}",
             r.robots,
             r.recording_bytes.map_or("–".to_owned(), |b| format!("{:.1}", b as f64 / 1e6)),
             r.peak_pss_mb,
@@ -472,6 +483,8 @@ pub fn table(rows: &[Row]) -> String {
             r.ticks.map_or("–".to_owned(), |t| t.to_string()),
             opt(r.wall_s, 2),
             opt(r.ms_per_tick, 2),
+            opt(r.clock_ms_per_tick, 3),
+            opt(r.agents_per_tick, 2),
             r.peak_files_orchestrator,
             r.peak_files_agent,
             r.peak_agents,
@@ -528,7 +541,9 @@ pub fn table(rows: &[Row]) -> String {
     }
     let sample_ms = rows.iter().map(|r| r.sample_ms).fold(0.0, f64::max);
     out.push_str(&format!(
-        "PSS: orchestrator and all agents together, peak of the samples; a sample took up to {sample_ms:.1} ms"
+        "PSS: orchestrator and all agents together, peak of the samples; a sample took up to {sample_ms:.1} ms\n\
+         ms/tick: wall time over ticks; clock ms: a tick's own time (its Ticks to its last answer, ticks without \
+         a re-send); agents: agents ticked per tick"
     ));
     out
 }

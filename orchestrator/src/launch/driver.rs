@@ -479,6 +479,8 @@ impl Driver {
             steps: spent,
             time_s: self.template.run_config().kinematics.time_of(spent),
             ticks,
+            ticked_agents: self.core.ticked_agents(),
+            tick_us: self.core.tick_us(),
             wall_s,
             sim_speed: match self.cfg.clock {
                 Clock::Lockstep if wall_s > 0.0 => ticks as f64 * dt / wall_s,

@@ -229,6 +229,13 @@ pub struct Summary {
     pub time_s: f64,
     /// Lockstep ticks run, including the gate's dwell and settle ticks.
     pub ticks: u64,
+    /// `Tick`s sent over all ticks (each agent once a tick, re-sends not
+    /// counted): `ticked_agents / ticks` agents step in a tick.
+    pub ticked_agents: u64,
+    /// Mean wall time of a lockstep tick, from its `Tick`s to its last
+    /// answer, µs, over the ticks answered without a re-send: what a tick
+    /// costs (`wall_s` also holds the agents' start and the wind-down).
+    pub tick_us: f64,
     /// Wall-clock duration, s.
     pub wall_s: f64,
     /// Simulated seconds per wall second: over the whole launch in lockstep
@@ -602,6 +609,8 @@ mod tests {
             steps: 11,
             time_s: 1.1,
             ticks: 1,
+            ticked_agents: 1,
+            tick_us: 80.0,
             wall_s: 0.5,
             sim_speed: 2.0,
             realtime,

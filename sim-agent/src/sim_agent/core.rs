@@ -214,10 +214,14 @@ impl RobotCore {
         let expected = self.beacon_seq.saturating_add(1);
         self.beacon_seq = self.beacon_seq.max(b.seq);
         let p = Vec2::new(b.x, b.y);
-        if self.peers.insert(b.robot.0, p) != Some(p) {
+        let before = self.peers.insert(b.robot.0, p);
+        if before != Some(p) {
             self.beacons_stale = true;
         }
-        if b.seq == expected {
+        // A repeat (sent again with its tick, which had been lost) is taken
+        // quietly.
+        let repeat = b.seq < expected && before == Some(p);
+        if b.seq == expected || repeat {
             Ok(())
         } else {
             Err(Reject::BeaconOutOfOrder { expected, got: b.seq })

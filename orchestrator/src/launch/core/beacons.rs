@@ -140,33 +140,59 @@ impl Core {
             return;
         }
         let version = self.beacons.version();
-        let mut sends = Vec::new();
-        for slot in self.slots.iter_mut() {
+        for i in 0..self.slots.len() {
+            let slot = &self.slots[i];
             let may_move =
                 matches!(slot.state, SlotState::Registered | SlotState::Deploying | SlotState::Moving);
-            if !slot.alive
-                || slot.registered_before_tick.is_none()
-                || !may_move
-                || slot.beacons_synced == version
+            if slot.alive
+                && slot.registered_before_tick.is_some()
+                && may_move
+                && slot.beacons_synced != version
             {
-                continue;
-            }
-            let (changes, synced) = self.beacons.changed_since(slot.beacons_synced, slot.id, PER_SEND);
-            slot.beacons_synced = synced;
-            let sent = !changes.is_empty();
-            let mut new_robot = false;
-            for c in changes {
-                slot.beacon_seq += 1;
-                new_robot |= c.new_robot;
-                slot.beacon_robots += usize::from(c.new_robot);
-                let beacon = Beacon { robot: RobotId(c.robot), x: c.x, y: c.y, seq: slot.beacon_seq };
-                sends.push((slot.id, ToAgent::Beacon(beacon)));
-            }
-            if (sent && self.setup.lockstep) || new_robot {
-                slot.beacons_sent_at = mark;
+                self.send_beacons_to(i, mark);
             }
         }
-        self.outputs.extend(sends.into_iter().map(|(id, msg)| Output::Send(id, msg)));
+    }
+
+    /// Lockstep: the beacons sent to robot `id` before tick `mark`'s
+    /// `Tick` again, with the same numbers, when that tick is re-sent to it
+    /// (they may have been lost with it, e.g. in a cut; an agent takes a
+    /// repeat quietly). Why: an agent not deployed yet is ticked only when
+    /// it is sent beacons, so the launch goes on while it is cut off, and
+    /// what it was sent then must reach it before it is deployed.
+    pub(super) fn resend_beacons(&mut self, id: u32, mark: u64) {
+        let Some(i) = id.checked_sub(1).map(|i| i as usize).filter(|&i| i < self.slots.len()) else { return };
+        let slot = &mut self.slots[i];
+        if !self.setup.lockstep || slot.beacons_sent_at != mark || slot.beacon_seq == slot.beacons_before.1 {
+            return;
+        }
+        (slot.beacons_synced, slot.beacon_seq, slot.beacon_robots) = slot.beacons_before;
+        self.send_beacons_to(i, mark);
+    }
+
+    /// Sends the agent of slot `i` the changes it was not sent, at most
+    /// [`PER_SEND`].
+    fn send_beacons_to(&mut self, i: usize, mark: u64) {
+        let lockstep = self.setup.lockstep;
+        let slot = &mut self.slots[i];
+        let (changes, synced) = self.beacons.changed_since(slot.beacons_synced, slot.id, PER_SEND);
+        let before = (slot.beacons_synced, slot.beacon_seq, slot.beacon_robots);
+        slot.beacons_synced = synced;
+        let sent = !changes.is_empty();
+        let mut new_robot = false;
+        for c in changes {
+            slot.beacon_seq += 1;
+            new_robot |= c.new_robot;
+            slot.beacon_robots += usize::from(c.new_robot);
+            let beacon = Beacon { robot: RobotId(c.robot), x: c.x, y: c.y, seq: slot.beacon_seq };
+            self.outputs.push_back(Output::Send(slot.id, ToAgent::Beacon(beacon)));
+        }
+        if (sent && lockstep) || new_robot {
+            slot.beacons_sent_at = mark;
+        }
+        if sent && lockstep {
+            slot.beacons_before = before;
+        }
     }
 
     /// Real time: when robot `id`'s agent will hold every beacon if nothing

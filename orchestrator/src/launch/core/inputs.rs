@@ -478,6 +478,7 @@ impl Core {
                 self.relay_dead(t, t * self.setup.params.period_us);
                 relayed = true;
             }
+            self.resend_beacons(id, t);
             self.outputs.push_back(Output::Send(id, ToAgent::Tick(Tick { step: t })));
             self.resends += 1;
         }

@@ -378,6 +378,12 @@ pub struct Core {
     tick: Option<TickWait>,
     ticks: u64,
     ticks_started: u64,
+    /// `Tick`s sent, first sends only: agents stepped over all ticks.
+    ticked_agents: u64,
+    /// Wall time inside the ticks answered without a re-send, µs, and
+    /// their number: what a tick costs, without the waits for agents to
+    /// start or for lost messages.
+    tick_time: (u64, u64),
     next: u32,
     pending_deploy: Option<Deploy>,
     /// Robots that registered after their turn was skipped, in the order
@@ -422,6 +428,8 @@ impl Core {
             tick: None,
             ticks: 0,
             ticks_started: 0,
+            ticked_agents: 0,
+            tick_time: (0, 0),
             next: 1,
             pending_deploy: None,
             late: VecDeque::new(),
@@ -463,6 +471,21 @@ impl Core {
     /// Completed lockstep ticks.
     pub fn ticks(&self) -> u64 {
         self.ticks
+    }
+    /// `Tick`s sent (each agent once a tick, re-sends not counted): over
+    /// [`Self::ticks`], the agents a tick wakes.
+    pub fn ticked_agents(&self) -> u64 {
+        self.ticked_agents
+    }
+    /// Mean wall time of a tick from its `Tick`s to its last answer, µs,
+    /// over the ticks answered without a re-send (0: none).
+    pub fn tick_us(&self) -> f64 {
+        let (us, n) = self.tick_time;
+        if n == 0 {
+            0.0
+        } else {
+            us as f64 / n as f64
+        }
     }
     /// Active steps charged to the budget.
     pub fn spent(&self) -> u64 {

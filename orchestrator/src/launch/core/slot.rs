@@ -107,6 +107,9 @@ pub struct Slot {
     /// agent holds them once it answered that tick). Real time: when the
     /// last new robot was sent, µs.
     pub(super) beacons_sent_at: u64,
+    /// Lockstep: `beacons_synced`, `beacon_seq` and `beacon_robots` before
+    /// the last beacons sent, so that a re-sent tick re-sends them too.
+    pub(super) beacons_before: (u64, u32, usize),
 }
 
 impl Slot {
@@ -138,6 +141,7 @@ impl Slot {
             beacon_seq: 0,
             beacon_robots: 0,
             beacons_sent_at: 0,
+            beacons_before: (0, 0, 0),
             last_error: None,
             gone: None,
         }

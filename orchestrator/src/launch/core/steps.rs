@@ -57,6 +57,10 @@ impl Core {
                     continue;
                 }
                 self.answer_time.answered(&tick.wait, now);
+                if tick.wait.resent() == 0 {
+                    self.tick_time.0 += now.saturating_sub(tick.wait.since());
+                    self.tick_time.1 += 1;
+                }
                 self.ticks = tick.step;
                 self.tick = None;
             }
@@ -365,15 +369,25 @@ impl Core {
         self.send_beacons(t);
         self.ticks_started += 1;
         // A parked robot will never move again: its last pose stands, and
-        // only the robot the gate watches needs a pose every step.
+        // only the robot the gate watches needs a pose every step. A robot
+        // not deployed yet steps nothing: its agent is ticked only to take
+        // beacons sent before this tick (its answer says it holds them) and
+        // while it settles (so its tick count is the launch's when it is
+        // deployed); else it costs the tick nothing.
         let watched = self.referee.watched();
+        let settling = match self.phase {
+            Phase::Settling(id, _) => Some(id),
+            _ => None,
+        };
         let live: Vec<u32> = self
             .slots
             .iter()
             .filter(|s| s.alive && s.registered_before_tick.is_some() && s.state != SlotState::Lost)
             .filter(|s| !s.parked || watched == Some(s.id))
+            .filter(|s| s.state != SlotState::Registered || settling == Some(s.id) || s.beacons_sent_at == t)
             .map(|s| s.id)
             .collect();
+        self.ticked_agents += live.len() as u64;
         for &id in &live {
             self.outputs.push_back(Output::Send(id, ToAgent::Tick(Tick { step: t })));
         }

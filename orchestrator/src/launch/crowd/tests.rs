@@ -14,6 +14,8 @@ fn row(robots: u32, ended: Ended) -> Row {
         ticks: Some(129),
         wall_s: Some(0.94),
         ms_per_tick: Some(7.3),
+        clock_ms_per_tick: Some(6.1),
+        agents_per_tick: Some(1.5),
         peak_files_orchestrator: 256,
         peak_files_agent: 37,
         peak_agents: 10,

@@ -40,6 +40,11 @@ impl Agent {
         self.core.robot().steps()
     }
 
+    /// Whether its robot is not deployed yet.
+    pub fn idle(&self) -> bool {
+        self.core.robot().phase() == bycoms_sim::sim_agent::Phase::Idle
+    }
+
     /// When it next does something on its own (none: never).
     pub fn deadline(&self) -> Option<u64> {
         match (self.alive, self.started) {

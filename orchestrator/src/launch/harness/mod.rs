@@ -149,6 +149,9 @@ pub struct Report {
     pub stepped: Vec<u64>,
     /// The last `Tick` that reached each robot's agent (none: never one).
     pub last_tick: Vec<Option<u64>>,
+    /// `Tick`s that reached each robot's agent before its robot was
+    /// deployed (repeats included).
+    pub idle_ticks: Vec<u64>,
     /// Deployments each robot got (agents that took a `Deploy`).
     pub deploys_sent: Vec<u64>,
     /// `Stop`s sent to each robot.

@@ -86,6 +86,7 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             lost: 0,
             stepped: vec![0; n],
             last_tick: vec![None; n],
+            idle_ticks: vec![0; n],
             deploys_sent: vec![0; n],
             stops_sent: vec![0; n],
             beacons_sent: 0,
@@ -448,7 +449,9 @@ impl World<'_> {
                 let mut sent = Vec::new();
                 if let Some(Some(a)) = self.agents.get_mut(id as usize - 1) {
                     let before = a.stepped();
+                    let idle = matches!(cmd, ToAgent::Tick(_)) && a.idle();
                     a.command(&cmd, &mut sent);
+                    self.report.idle_ticks[id as usize - 1] += u64::from(idle);
                     self.report.stepped[id as usize - 1] += a.stepped() - before;
                     if let (ToAgent::Tick(t), true) = (&cmd, a.alive) {
                         self.report.last_tick[id as usize - 1] = Some(t.step);

@@ -4,8 +4,10 @@
 //! thousand of them; polling each subscriber for every message cost about
 //! 0.4 ms per message at 1000 topics (a round trip 17× the plain one,
 //! `protocol/benches/bus_hop.rs`). A topic's publisher rings the shared
-//! doorbell with its member id ([`TopicName::doorbell_member`], the robot
-//! id), so the fan-in reads only the topics that rang. A notification
+//! doorbell with its member's event id ([`TopicName::doorbell_member`], the
+//! robot id, folded onto 63 event ids: `ports::member_event_id`), so the
+//! fan-in reads only the topics that share the id that rang (1 at up to 63
+//! robots, 16 at 1000). A notification
 //! without a known id, a wait that ended without one, a reader that only
 //! ever looks without waiting and has not looked everywhere for a wait
 //! slice, and a bus without event wake-ups fall back to one round over
@@ -13,7 +15,8 @@
 //! slice.
 
 use super::ports::{
-    event_wait, pubsub_service, service_name, wait_for, waker, Slept, Waker, EVENT_WAIT_SLICE, EVERY_MEMBER,
+    event_wait, member_event_id, pubsub_service, service_name, wait_for, waker, Slept, Waker,
+    EVENT_WAIT_SLICE, EVERY_MEMBER,
 };
 use super::IpcConfig;
 use crate::bus::{copy_out, BusError, Subscribe, FAN_IN_TAG};
@@ -54,8 +57,12 @@ pub(super) fn open_fan_in<S: IoxService>(
                 .map_err(|e| BusError::backend("create subscriber", Some(topic), e))
         })
         .collect::<Result<Vec<_>, BusError>>()?;
-    let members =
-        topics.iter().enumerate().filter_map(|(i, t)| t.doorbell_member().map(|m| (m as usize, i))).collect();
+    let mut members: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for (i, topic) in topics.iter().enumerate() {
+        if let Some(m) = topic.doorbell_member() {
+            members.entry(member_event_id(m)).or_default().push(i);
+        }
+    }
     Ok(IpcFanIn {
         subscribers,
         members,
@@ -73,8 +80,8 @@ pub(super) fn open_fan_in<S: IoxService>(
 /// that share one doorbell, read where the doorbell says.
 pub struct IpcFanIn<S: IoxService> {
     subscribers: Vec<Subscriber<S, [u8], ()>>,
-    /// A doorbell member id → the index of its topic.
-    members: BTreeMap<usize, usize>,
+    /// An event id → the indices of the topics whose members ring with it.
+    members: BTreeMap<usize, Vec<usize>>,
     waker: Waker<S>,
     bell: TopicName,
     /// Topics that rang and may hold messages, oldest first.
@@ -93,7 +100,7 @@ impl<S: IoxService> IpcFanIn<S> {
     /// round).
     fn note(&self, id: usize) {
         match self.members.get(&id) {
-            Some(&i) => self.rang.borrow_mut().push_back(i),
+            Some(topics) => self.rang.borrow_mut().extend(topics),
             None => self.round.set(true),
         }
     }
@@ -204,6 +211,31 @@ mod tests {
     use crate::{RobotId, Swarm};
     use core::time::Duration;
     use std::time::Instant;
+
+    /// More robots than event ids: robots 2, 65 and 128 ring with one id,
+    /// and the message of each is found (by reading the few topics of that
+    /// id, or the round of a slice later), tagged with its own topic, once.
+    #[test]
+    fn a_fan_in_finds_a_ring_among_robots_that_share_its_event_id() {
+        let iso = Isolated::new("shared-id");
+        let config = IpcConfig { isolation: Some(iso.tag().to_owned()), ..IpcConfig::default() };
+        let swarm = Swarm::new("shared-id").expect("valid swarm");
+        let topics: Vec<_> = (1..=130).map(|k| *swarm.pose(RobotId(k)).name()).collect();
+        let reader = IpcBus::new(config.clone()).expect("iceoryx2 node");
+        let fan_in = reader.fan_in(&topics).expect("fan-in");
+        let mut buf = [0u8; 64 + FAN_IN_TAG];
+        assert_eq!(fan_in.try_recv_into(&mut buf).expect("receive"), None, "nothing sent yet");
+        let writer = IpcBus::new(config).expect("iceoryx2 node");
+        for robot in [65u32, 2, 128] {
+            let publisher = writer.publisher(&topics[robot as usize - 1]).expect("publisher");
+            publisher.publish(&robot.to_le_bytes()).expect("publish");
+            let n = fan_in.recv_timeout_into(&mut buf, Duration::from_secs(5)).expect("receive");
+            let n = n.unwrap_or_else(|| panic!("robot {robot}'s message is found"));
+            let bytes = robot.to_le_bytes();
+            assert_eq!(untag(&buf[..n]), Some((robot as usize - 1, &bytes[..])), "robot {robot}");
+        }
+        assert_eq!(fan_in.try_recv_into(&mut buf).expect("receive"), None, "each message once");
+    }
 
     /// A reader that only looks without waiting still gets a message whose
     /// publisher did not ring (here one that polls), within a slice or so.

@@ -59,11 +59,24 @@ pub(super) fn pubsub_service<S: IoxService>(
         .map_err(|e| BusError::backend("open publish-subscribe service", Some(topic), e))
 }
 
-/// The largest event id of every event service: a report topic rings its
-/// doorbell with its robot's id (up to the bus's publisher limit, which
-/// grows with the swarm), so a fan-in knows which topic to read.
-pub(super) fn event_id_max(config: &IpcConfig) -> usize {
-    config.max_publishers.max(255)
+/// The largest event id of every event service. A report topic rings its
+/// doorbell with the event id of its robot ([`member_event_id`]), so a
+/// fan-in knows which few topics to read.
+///
+/// Why so few ids, and not one per robot: iceoryx2 keeps a counter per
+/// event id in every listener, and every wake-up of a listener swaps each
+/// of them back to zero (`CountingBitSet::reset_all`), whether it rang or
+/// not. With an id per robot (up to the publisher limit, which grows with
+/// the swarm) that was 1 000 atomic swaps per wake-up of every agent and of
+/// the fan-in at 1 000 robots, and 256 at 3: 18 % of a lockstep launch's
+/// samples (`perf`, issue 35). With 64 a fan-in reads the few topics that
+/// share the id that rang (one in 63 of them) instead.
+pub(super) const EVENT_ID_MAX: usize = 63;
+
+/// The event id robot `member` rings its doorbell with: 1 to
+/// [`EVENT_ID_MAX`], round robin; 0 is a ring from no known member.
+pub(super) fn member_event_id(member: u32) -> usize {
+    1 + (member.saturating_sub(1) as usize) % EVENT_ID_MAX
 }
 
 pub(super) fn event_service<S: IoxService>(
@@ -75,7 +88,7 @@ pub(super) fn event_service<S: IoxService>(
     let (publishers, subscribers) = config.ports_of(topic);
     node.service_builder(name)
         .event()
-        .event_id_max_value(event_id_max(config))
+        .event_id_max_value(EVENT_ID_MAX)
         .max_notifiers(publishers)
         .max_listeners(subscribers)
         .max_nodes(config.max_nodes)
@@ -134,13 +147,8 @@ impl<S: IoxService> Bells<S> {
             .notifier_builder()
             .create()
             .map_err(|e| BusError::backend("create notifier", Some(&doorbell), e))?;
-        let bell = Arc::new(Bell {
-            id_max: event_id_max(config),
-            service,
-            notifier,
-            doorbell,
-            listeners: Mutex::new(Listeners::default()),
-        });
+        let bell =
+            Arc::new(Bell { service, notifier, doorbell, listeners: Mutex::new(Listeners::default()) });
         open.insert(doorbell, Arc::clone(&bell));
         Ok(bell)
     }
@@ -171,7 +179,6 @@ pub(super) struct Bell<S: IoxService> {
     service: event::PortFactory<S>,
     notifier: Notifier<S>,
     doorbell: TopicName,
-    id_max: usize,
     listeners: Mutex<Listeners>,
 }
 
@@ -194,16 +201,7 @@ pub(super) const EVERY_MEMBER: &str = "*";
 impl<S: IoxService> Bell<S> {
     /// Wakes the readers of `member` and the family's fan-ins.
     fn ring(&self, member: u32) -> Result<(), BusError> {
-        let id = member as usize;
-        if id > self.id_max {
-            // An id the event service cannot carry: wake everyone, who look
-            // at every topic when the id is not theirs.
-            return self
-                .notifier
-                .notify()
-                .map(drop)
-                .map_err(|e| BusError::backend("notify", Some(&self.doorbell), e));
-        }
+        let id = member_event_id(member);
         let mut listeners = self.listeners.lock().unwrap_or_else(PoisonError::into_inner);
         let now = Instant::now();
         let count = self.service.dynamic_config().number_of_listeners();

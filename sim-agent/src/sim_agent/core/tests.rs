@@ -104,6 +104,12 @@ fn refuses_foreign_and_malformed_messages() {
     // A new position of robot 1 replaces the old one.
     let moved = Beacon { robot: RobotId(1), x: 3.5, y: 3.0, seq: 4 };
     assert_eq!(core.beacon(&moved), Ok(()));
+    // A repeat (re-sent with a tick that was lost) is taken quietly; an old
+    // number with a new position is still reported.
+    assert_eq!(core.beacon(&moved), Ok(()));
+    let stale = Beacon { robot: RobotId(1), x: 3.25, y: 3.0, seq: 4 };
+    assert_eq!(core.beacon(&stale), Err(Reject::BeaconOutOfOrder { expected: 5, got: 4 }));
+    assert_eq!(core.beacon(&moved), Err(Reject::BeaconOutOfOrder { expected: 5, got: 4 }));
     assert_eq!(core.beacons().collect::<Vec<_>>(), [(1, Vec2::new(3.5, 3.0)), (4, Vec2::new(5.0, 3.0))]);
     let ok = Deploy { robot: RobotId(2), x: 15.5, y: 15.5, heading: 0.5 };
     core.deploy(&ok).unwrap();
