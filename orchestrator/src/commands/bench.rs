@@ -127,66 +127,7 @@ pub fn run(args: Args) -> Result<i32> {
     match args.what {
         What::Schedules { .. } | What::Crowd { .. } | What::Stop { .. } => unreachable!("handled above"),
         What::Launch { runs, no_prespawn, transport } => {
-            let (mut reactions, mut speeds, mut walls) = (Vec::new(), Vec::new(), Vec::new());
-            let (mut first_moving, mut tick_us, mut per_tick) = (Vec::new(), Vec::new(), Vec::new());
-            for i in 0..runs.max(1) {
-                let mut cfg = LaunchConfig {
-                    swarm: Some(format!("bench-{}-{i}", std::process::id())),
-                    ..Default::default()
-                };
-                cfg.gate.prespawn = !no_prespawn;
-                cfg.transport.kind = transport;
-                let world = launch_cmd::world(&cfg)?;
-                let s = launch::run(cfg, world, agent.clone())?;
-                if s.outcome != Outcome::Arrived {
-                    bail!("run {i} did not end as expected: {}", s.line());
-                }
-                reactions
-                    .extend(s.robots.iter().filter_map(|r| r.gate_reaction_us).map(|us| us as f64 / 1e3));
-                speeds.push(s.sim_speed);
-                walls.push(s.wall_s);
-                first_moving.extend(s.first_moving_s);
-                if s.ticks > 0 {
-                    tick_us.push(s.tick_us);
-                    per_tick.push(s.ticked_agents as f64 / s.ticks as f64);
-                }
-            }
-            tick_us.sort_by(f64::total_cmp);
-            per_tick.sort_by(f64::total_cmp);
-            first_moving.sort_by(f64::total_cmp);
-            reactions.sort_by(f64::total_cmp);
-            speeds.sort_by(f64::total_cmp);
-            walls.sort_by(f64::total_cmp);
-            let figures = serde_json::json!({
-                "runs": runs, "prespawn": !no_prespawn, "transport": transport.as_str(),
-                "first_moving_s": { "p50": percentile(&first_moving, 0.5), "max": percentile(&first_moving, 1.0) },
-                "gate_reaction_ms": { "p50": percentile(&reactions, 0.5), "max": percentile(&reactions, 1.0), "n": reactions.len() },
-                "lockstep_sim_s_per_wall_s": { "p50": percentile(&speeds, 0.5), "min": percentile(&speeds, 0.0) },
-                "wall_s": { "p50": percentile(&walls, 0.5), "max": percentile(&walls, 1.0) },
-                "tick_us": { "p50": percentile(&tick_us, 0.5), "max": percentile(&tick_us, 1.0) },
-                "agents_per_tick": { "p50": percentile(&per_tick, 0.5) },
-            });
-            if args.json {
-                crate::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
-            } else {
-                crate::outln!(
-                    "launch --robots 3 (lockstep, {}, prespawn {}), {runs} runs:\n  launch → first robot moving p50 {:.3} s, max {:.3} s\n  gate reaction p50 {:.3} ms, max {:.3} ms ({} deployments)\n  lockstep speed p50 {:.0} simulated s per wall s (min {:.0}); wall time p50 {:.2} s, max {:.2} s\n  a tick (its Ticks to its last answer) p50 {:.1} µs, max {:.1} µs; agents ticked per tick p50 {:.2}",
-                    transport.as_str(),
-                    !no_prespawn,
-                    percentile(&first_moving, 0.5),
-                    percentile(&first_moving, 1.0),
-                    percentile(&reactions, 0.5),
-                    percentile(&reactions, 1.0),
-                    reactions.len(),
-                    percentile(&speeds, 0.5),
-                    percentile(&speeds, 0.0),
-                    percentile(&walls, 0.5),
-                    percentile(&walls, 1.0),
-                    percentile(&tick_us, 0.5),
-                    percentile(&tick_us, 1.0),
-                    percentile(&per_tick, 0.5)
-                )?;
-            }
+            launch_figures(runs, no_prespawn, transport, agent, args.json)?;
         }
         What::Scale { agents, seconds, speed } => {
             let r = launch::scale::run(agent, agents, seconds, speed)?;
@@ -202,6 +143,75 @@ pub fn run(args: Args) -> Result<i32> {
         }
     }
     Ok(crate::exit::SUCCESS)
+}
+
+/// `bench launch`: `runs` default launches of 3 robots, and their figures
+/// (first robot moving, gate reaction, lockstep speed, a tick's time).
+fn launch_figures(
+    runs: u32,
+    no_prespawn: bool,
+    transport: Transport,
+    agent: launch::AgentCommand,
+    json: bool,
+) -> Result<()> {
+    let (mut reactions, mut speeds, mut walls) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut first_moving, mut tick_us, mut per_tick) = (Vec::new(), Vec::new(), Vec::new());
+    for i in 0..runs.max(1) {
+        let mut cfg =
+            LaunchConfig { swarm: Some(format!("bench-{}-{i}", std::process::id())), ..Default::default() };
+        cfg.gate.prespawn = !no_prespawn;
+        cfg.transport.kind = transport;
+        let world = launch_cmd::world(&cfg)?;
+        let s = launch::run(cfg, world, agent.clone())?;
+        if s.outcome != Outcome::Arrived {
+            bail!("run {i} did not end as expected: {}", s.line());
+        }
+        reactions.extend(s.robots.iter().filter_map(|r| r.gate_reaction_us).map(|us| us as f64 / 1e3));
+        speeds.push(s.sim_speed);
+        walls.push(s.wall_s);
+        first_moving.extend(s.first_moving_s);
+        if s.ticks > 0 {
+            tick_us.push(s.tick_us);
+            per_tick.push(s.ticked_agents as f64 / s.ticks as f64);
+        }
+    }
+    tick_us.sort_by(f64::total_cmp);
+    per_tick.sort_by(f64::total_cmp);
+    first_moving.sort_by(f64::total_cmp);
+    reactions.sort_by(f64::total_cmp);
+    speeds.sort_by(f64::total_cmp);
+    walls.sort_by(f64::total_cmp);
+    let figures = serde_json::json!({
+        "runs": runs, "prespawn": !no_prespawn, "transport": transport.as_str(),
+        "first_moving_s": { "p50": percentile(&first_moving, 0.5), "max": percentile(&first_moving, 1.0) },
+        "gate_reaction_ms": { "p50": percentile(&reactions, 0.5), "max": percentile(&reactions, 1.0), "n": reactions.len() },
+        "lockstep_sim_s_per_wall_s": { "p50": percentile(&speeds, 0.5), "min": percentile(&speeds, 0.0) },
+        "wall_s": { "p50": percentile(&walls, 0.5), "max": percentile(&walls, 1.0) },
+        "tick_us": { "p50": percentile(&tick_us, 0.5), "max": percentile(&tick_us, 1.0) },
+        "agents_per_tick": { "p50": percentile(&per_tick, 0.5) },
+    });
+    if json {
+        crate::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
+    } else {
+        crate::outln!(
+            "launch --robots 3 (lockstep, {}, prespawn {}), {runs} runs:\n  launch → first robot moving p50 {:.3} s, max {:.3} s\n  gate reaction p50 {:.3} ms, max {:.3} ms ({} deployments)\n  lockstep speed p50 {:.0} simulated s per wall s (min {:.0}); wall time p50 {:.2} s, max {:.2} s\n  a tick (its Ticks to its last answer) p50 {:.1} µs, max {:.1} µs; agents ticked per tick p50 {:.2}",
+            transport.as_str(),
+            !no_prespawn,
+            percentile(&first_moving, 0.5),
+            percentile(&first_moving, 1.0),
+            percentile(&reactions, 0.5),
+            percentile(&reactions, 1.0),
+            reactions.len(),
+            percentile(&speeds, 0.5),
+            percentile(&speeds, 0.0),
+            percentile(&walls, 0.5),
+            percentile(&walls, 1.0),
+            percentile(&tick_us, 0.5),
+            percentile(&tick_us, 1.0),
+            percentile(&per_tick, 0.5)
+        )?;
+    }
+    Ok(())
 }
 
 /// `bench crowd`: one launch per swarm size, the figures of each.

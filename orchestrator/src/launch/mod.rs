@@ -73,6 +73,9 @@ pub use config::{Clock, LaunchConfig, Missing, OnDeath};
 pub use summary::{Outcome, RobotEnd, Summary};
 
 use anyhow::{Context, Result};
+use bycoms_protocol::bus::zenoh::clock::ClockServer;
+use bycoms_protocol::bus::zenoh::settings::SettingsServer;
+use bycoms_protocol::bus::zenoh::ZenohBus;
 use bycoms_protocol::Swarm;
 use bycoms_sim::Vec2;
 use ports::Ports;
@@ -232,29 +235,8 @@ pub fn run_serving(
     ports.observers.iter_mut().for_each(|o| o.world(&swarm_name, &world, &cfg, scene.as_ref()));
     ports.show_scene();
     let template = setup::agent_template(&cfg, swarm_name, endpoints.clone());
-    // zenoh: the run's settings for agents started elsewhere with only
-    // where to connect, their swarm and robot id; served to the end.
-    let settings_served = match &zenoh {
-        Some(z) => {
-            let settings = setup::run_settings(&template, &world);
-            let served = z
-                .serve_settings(&swarm, settings.encode(), cfg.robots)
-                .context("cannot serve the run's settings")?;
-            tracing::info!(
-                key = swarm.settings().as_str(),
-                fingerprint = format_args!("{:016x}", settings.fingerprint()),
-                "zenoh: the run's settings are served to agents"
-            );
-            Some(served)
-        }
-        None => None,
-    };
-    // zenoh: the orchestrator's clock, which agents and `doctor --connect`
-    // measure their offset against (`launch/core/clocks.rs`); to the end.
-    let _clock_served = match &zenoh {
-        Some(z) => Some(z.serve_clock(&swarm).context("cannot serve the orchestrator's clock")?),
-        None => None,
-    };
+    let (settings_served, _clock_served) =
+        serve_over_zenoh(zenoh.as_ref(), &swarm, &template, &world, cfg.robots)?;
     let agents = cfg.agents.open(agent, links)?;
     let control =
         control::Control::serve(swarm.as_str(), zenoh.as_ref()).context("cannot serve status and stop")?;
@@ -284,4 +266,28 @@ pub fn run_serving(
         live.end(&summary);
     }
     Ok(summary)
+}
+
+/// Over zenoh, what the launch serves to the end: the run's settings, for
+/// agents started elsewhere with only where to connect, their swarm and
+/// robot id; and the orchestrator's clock, which agents and `doctor
+/// --connect` measure their offset against (`launch/core/clocks.rs`).
+fn serve_over_zenoh(
+    zenoh: Option<&ZenohBus>,
+    swarm: &Swarm,
+    template: &bycoms_sim::sim_agent::AgentArgs,
+    world: &World,
+    robots: u32,
+) -> Result<(Option<SettingsServer>, Option<ClockServer>)> {
+    let Some(z) = zenoh else { return Ok((None, None)) };
+    let settings = setup::run_settings(template, world);
+    let served =
+        z.serve_settings(swarm, settings.encode(), robots).context("cannot serve the run's settings")?;
+    tracing::info!(
+        key = swarm.settings().as_str(),
+        fingerprint = format_args!("{:016x}", settings.fingerprint()),
+        "zenoh: the run's settings are served to agents"
+    );
+    let clock = z.serve_clock(swarm).context("cannot serve the orchestrator's clock")?;
+    Ok((Some(served), Some(clock)))
 }
