@@ -411,6 +411,17 @@ impl Driver {
     /// same way: `Shutdown` to every agent still running, a grace period,
     /// an end for the ones that did not exit, the recording finished.
     fn finish(mut self, ending: Ending) -> Summary {
+        let killed = self.wind_down_agents();
+        self.redraw();
+        self.progress.finish();
+        let mut summary = self.summary(&ending, killed);
+        self.close_recording(&mut summary, &ending);
+        summary
+    }
+
+    /// Tells every running agent `Shutdown` and waits out the grace: the
+    /// robots whose agents had to be killed.
+    fn wind_down_agents(&mut self) -> Vec<u32> {
         let running: Vec<u32> =
             self.core.slots().iter().filter(|s| self.agents.is_running(s.id())).map(Slot::id).collect();
         let live = running.len();
@@ -440,9 +451,13 @@ impl Driver {
                 ids.join(", ")
             ));
         }
-        self.redraw();
-        self.progress.finish();
-        let decided = super::summary::of(&self.core, &ending, Ok(()));
+        killed
+    }
+
+    /// The summary of the launch as the core decided it (`summary::of`),
+    /// with the driver's own figures: wall time, speed, real-time report.
+    fn summary(&mut self, ending: &Ending, killed: Vec<u32>) -> Summary {
+        let decided = super::summary::of(&self.core, ending, Ok(()));
         let dt = self.template.run_config().kinematics.dt;
         let wall_s = self.epoch.elapsed().as_secs_f64();
         let realtime = (self.cfg.clock == Clock::Realtime)
@@ -464,7 +479,7 @@ impl Driver {
         let first_moving = self.core.first_moving_us().map(|us| {
             (self.epoch.saturating_duration_since(self.begun) + Duration::from_micros(us)).as_secs_f64()
         });
-        let mut summary = Summary {
+        Summary {
             swarm: self.template.swarm.clone(),
             terrain: self.world.name.clone(),
             eps: self.cfg.eps,
@@ -500,16 +515,22 @@ impl Driver {
             shutdown_killed: killed,
             stop: self.core.stopped().cloned(),
             revoked: self.core.revoked().to_vec(),
-        };
+        }
+    }
+
+    /// Shows the scene to its end, draws the picture, writes the summary
+    /// into the recording and closes it; a recording that fails to close
+    /// changes the verdict.
+    fn close_recording(&mut self, summary: &mut Summary, ending: &Ending) {
         // The observers see the scene to its last gate event.
         self.ports.recording.sync();
         self.ports.show_scene();
         if let Some(trace) = self.ports.recording.take_trace() {
-            summary.picture = self.picture(&trace, &summary);
+            summary.picture = self.picture(&trace, summary);
         }
         if self.ports.recording.is_on() {
             let topic = format!("bycoms/{}/summary", summary.swarm);
-            self.ports.recording.json(&topic, super::events::SUMMARY_SCHEMA, &summary);
+            self.ports.recording.json(&topic, super::events::SUMMARY_SCHEMA, &*summary);
         }
         let recording = std::mem::replace(&mut self.ports.recording, super::recording::Recording::off());
         match recording.finish() {
@@ -522,11 +543,10 @@ impl Driver {
             }
             Ok(None) => {}
             Err(e) => {
-                let v = super::summary::verdict(&ending, Err(&e.to_string()));
+                let v = super::summary::verdict(ending, Err(&e.to_string()));
                 (summary.outcome, summary.success, summary.error) = (v.outcome, v.success, v.error);
             }
         }
-        summary
     }
 
     /// The snapshot picture of the run from what crossed the bus (`--svg`).
