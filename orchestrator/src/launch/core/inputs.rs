@@ -35,92 +35,27 @@ impl Core {
 
     pub(super) fn on_report(&mut self, now: u64, msg: FromAgent) {
         let id = msg.robot().0;
-        let ticks_started = self.ticks_started;
-        let all_at_once = self.setup.agents.all_at_once;
-        let known = self.slot_ref(id).is_some_and(|s| s.state != SlotState::Waiting);
-        if !known {
-            self.outputs
-                .push_back(Output::Bad(BadKind::UnknownRobot, format!("{msg:?} from an unknown robot")));
-            return;
-        }
-        // Measured before the agent registers, to be judged with it.
-        if let FromAgent::Clock(c) = &msg {
-            self.on_clock(now, c);
-        }
-        let Some(slot) = self.slot(id) else { return };
-        let registered = slot.registered_before_tick.is_some();
-        let kept = slot.instance;
-        // Until its `Register` arrives an agent is not heard from: a
-        // registration that was lost must not be hidden by heartbeats (the
-        // agent repeats it with every heartbeat until it is answered, and
-        // the registration timeout still applies).
-        if !registered && !matches!(msg, FromAgent::Register(_)) {
-            return;
-        }
-        if let FromAgent::Register(r) = &msg {
-            if r.protocol_version != PROTOCOL_VERSION {
-                // Anyone may send anything on a bus: counted, never fatal.
-                // The robot is still awaited (its registration timeout
-                // applies) and, should its own agent never register, its
-                // death says why.
-                let v = r.protocol_version;
-                if !registered {
-                    slot.foreign_version = Some(v);
-                }
-                let text = format!("robot {id} registers with protocol {v}");
-                self.outputs.push_back(Output::Bad(BadKind::WrongVersion, text));
-                return;
-            }
-            if registered && kept != Some(r.instance) {
-                self.refuse(id, r.instance, Refusal::Duplicate);
-                return;
-            }
-            if !registered {
-                if let Some(why) = self.refusal_of(r).or_else(|| self.clock_refusal(id)) {
-                    self.refuse(id, r.instance, why);
-                    return;
-                }
-            }
-        }
-        if !registered && matches!(msg, FromAgent::Register(_)) && !self.may_register(id) {
-            return;
-        }
+        let Some(registered) = self.admit(now, &msg) else { return };
         self.outputs.push_back(Output::Heard(id));
         self.watch_heard(now, id);
         let current = self.tick.as_ref().map(|t| t.step);
-        let Some(slot) = self.slot(id) else { return };
         match msg {
             // A repeat: the agent had not heard from us yet when it sent it.
             FromAgent::Register(_) if registered => {}
-            FromAgent::Register(r) => {
-                slot.instance = Some(r.instance);
-                slot.parked = false;
-                slot.registered_before_tick = Some(ticks_started);
-                slot.registered_at = Some(now);
-                if slot.state == SlotState::Spawned {
-                    slot.state = SlotState::Registered;
-                }
-                if slot.state == SlotState::Absent {
-                    slot.state = SlotState::Registered;
-                    slot.late = true;
-                    slot.death = None;
-                    self.late.push_back(id);
-                    // Expected again: its source supervises it from now on.
-                    self.outputs.push_back(Output::Start(id));
-                    self.note(format!("robot {id}: registered late; it takes the next turn"));
-                    self.event(id, EventKind::JoinedLate, None, None);
-                } else if all_at_once {
-                    let instance = r.instance;
-                    self.note(format!("robot {id}: agent registered (instance {instance:016x})"));
+            FromAgent::Register(r) => self.on_register(now, id, r.instance),
+            FromAgent::Heartbeat(_) => {}
+            FromAgent::Status(s) => {
+                if let Some(slot) = self.slot(id) {
+                    slot.mode = s.mode;
                 }
             }
-            FromAgent::Heartbeat(_) => {}
-            FromAgent::Status(s) => slot.mode = s.mode,
             // Only a deployed robot can be parked: an agent that says so
             // before would miss the ticks that number its start pose.
             FromAgent::Parked(_) => {
-                slot.parked |=
-                    matches!(slot.state, SlotState::Moving | SlotState::Stuck | SlotState::Arrived);
+                if let Some(slot) = self.slot(id) {
+                    slot.parked |=
+                        matches!(slot.state, SlotState::Moving | SlotState::Stuck | SlotState::Arrived);
+                }
             }
             FromAgent::TickDone(t) => {
                 if let Some(tick) = self.tick.as_mut().filter(|_| Some(t.step) == current) {
@@ -128,7 +63,7 @@ impl Core {
                 }
             }
             // A real robot's telemetry is for recorders and monitors; a
-            // clock offset was kept above.
+            // clock offset was kept when the report was admitted.
             FromAgent::Telemetry(_) | FromAgent::Clock(_) => {}
             FromAgent::Link(l) => {
                 if !l.up {
@@ -136,24 +71,106 @@ impl Core {
                 }
                 self.watch_robot_link(now, id, l.up);
             }
-            FromAgent::Failsafe(f) => {
-                // Said when it fires and again whenever the agent hears us
-                // after that: recorded once.
-                if !slot.failsafe_fired {
-                    slot.failsafe_fired = true;
-                    let ms = f.silent_ms;
-                    self.note(format!(
-                        "robot {id}: its agent's failsafe stopped it (the orchestrator was gone for {ms} ms)"
-                    ));
-                    self.event(
-                        id,
-                        EventKind::FailsafeFired,
-                        None,
-                        Some(format!("orchestrator gone for {ms} ms")),
-                    );
-                }
+            FromAgent::Failsafe(f) => self.on_failsafe(id, f.silent_ms),
+        }
+    }
+
+    /// Whether a report is taken (`Some`), and whether its agent had
+    /// registered before it. A report of an unknown robot is bad traffic;
+    /// a clock offset is kept even before its agent registers (to judge
+    /// the registration by it); until its `Register` arrives an agent is
+    /// not heard from: a registration that was lost must not be hidden by
+    /// heartbeats (the agent repeats it with every heartbeat until it is
+    /// answered, and the registration timeout still applies).
+    fn admit(&mut self, now: u64, msg: &FromAgent) -> Option<bool> {
+        let id = msg.robot().0;
+        let known = self.slot_ref(id).is_some_and(|s| s.state != SlotState::Waiting);
+        if !known {
+            self.outputs
+                .push_back(Output::Bad(BadKind::UnknownRobot, format!("{msg:?} from an unknown robot")));
+            return None;
+        }
+        if let FromAgent::Clock(c) = msg {
+            self.on_clock(now, c);
+        }
+        let registered = self.slot_ref(id)?.registered_before_tick.is_some();
+        match msg {
+            FromAgent::Register(r) => {
+                let taken = self.register_taken(id, r, registered);
+                (taken && (registered || self.may_register(id))).then_some(registered)
+            }
+            _ => registered.then_some(true),
+        }
+    }
+
+    /// Whether a `Register` is taken: of our protocol version (anyone may
+    /// send anything on a bus: counted, never fatal; the robot is still
+    /// awaited and, should its own agent never register, its death says
+    /// why), not a second agent for a registered robot, and not refused.
+    fn register_taken(&mut self, id: u32, r: &Register, registered: bool) -> bool {
+        let Some(slot) = self.slot(id) else { return false };
+        let kept = slot.instance;
+        if r.protocol_version != PROTOCOL_VERSION {
+            let v = r.protocol_version;
+            if !registered {
+                slot.foreign_version = Some(v);
+            }
+            let text = format!("robot {id} registers with protocol {v}");
+            self.outputs.push_back(Output::Bad(BadKind::WrongVersion, text));
+            return false;
+        }
+        if registered && kept != Some(r.instance) {
+            self.refuse(id, r.instance, Refusal::Duplicate);
+            return false;
+        }
+        if !registered {
+            if let Some(why) = self.refusal_of(r).or_else(|| self.clock_refusal(id)) {
+                self.refuse(id, r.instance, why);
+                return false;
             }
         }
+        true
+    }
+
+    /// An agent's first `Register` taken: it speaks for its robot from now
+    /// on; an agent that was given up for lost joins late, for the next turn.
+    fn on_register(&mut self, now: u64, id: u32, instance: u64) {
+        let (ticks_started, all_at_once) = (self.ticks_started, self.setup.agents.all_at_once);
+        let Some(slot) = self.slot(id) else { return };
+        slot.instance = Some(instance);
+        slot.parked = false;
+        slot.registered_before_tick = Some(ticks_started);
+        slot.registered_at = Some(now);
+        if slot.state == SlotState::Spawned {
+            slot.state = SlotState::Registered;
+        }
+        if slot.state == SlotState::Absent {
+            slot.state = SlotState::Registered;
+            slot.late = true;
+            slot.death = None;
+            self.late.push_back(id);
+            // Expected again: its source supervises it from now on.
+            self.outputs.push_back(Output::Start(id));
+            self.note(format!("robot {id}: registered late; it takes the next turn"));
+            self.event(id, EventKind::JoinedLate, None, None);
+        } else if all_at_once {
+            self.note(format!("robot {id}: agent registered (instance {instance:016x})"));
+        }
+    }
+
+    /// An agent's failsafe stopped its robot: said when it fires and again
+    /// whenever the agent hears us after that, recorded once.
+    fn on_failsafe(&mut self, id: u32, silent_ms: u32) {
+        let Some(slot) = self.slot(id) else { return };
+        if slot.failsafe_fired {
+            return;
+        }
+        slot.failsafe_fired = true;
+        self.note(format!(
+            "robot {id}: its agent's failsafe stopped it (the orchestrator was gone for {silent_ms} ms)"
+        ));
+        let why = Some(format!("orchestrator gone for {silent_ms} ms"));
+        self.event(id, EventKind::FailsafeFired, None, why);
     }
 
     /// Why an agent's first `Register` must be refused, if it must: run
