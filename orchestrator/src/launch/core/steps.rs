@@ -73,23 +73,7 @@ impl Core {
     /// One step of the phase machine; false when it must wait.
     pub(super) fn step_phase(&mut self, now: u64) -> bool {
         match self.phase {
-            Phase::Begin => {
-                if !self.setup.agents.all_at_once {
-                    self.phase = Phase::Choosing;
-                    return true;
-                }
-                for id in 1..=self.setup.robots {
-                    self.start_agent(id);
-                }
-                // Robots are needed when their turn comes, unless every one is.
-                self.phase = if self.setup.missing == Missing::Fail {
-                    Phase::AwaitingEveryone
-                } else {
-                    Phase::Choosing
-                };
-                // Starting is carried out by the shell before the core goes on.
-                false
-            }
+            Phase::Begin => self.step_begin(),
             Phase::AwaitingEveryone => {
                 let waiting =
                     self.slots.iter().any(|s| matches!(s.state, SlotState::Spawned | SlotState::Waiting));
@@ -99,77 +83,107 @@ impl Core {
                 !waiting
             }
             Phase::Choosing | Phase::Watching => self.step_watching(now),
-            Phase::AwaitingRegistration(id) => match self.slot_ref(id).map(|s| s.state) {
-                Some(SlotState::Registered) => {
-                    self.settle(id, now);
-                    true
-                }
-                Some(SlotState::Spawned) => false,
-                Some(SlotState::Waiting) => {
-                    // Started once more (it died before it registered).
-                    self.start_agent(id);
-                    false
-                }
-                _ => {
-                    self.next = self.next.max(id + 1);
-                    self.phase = Phase::Choosing;
-                    true
-                }
-            },
-            Phase::Settling(id, until) => {
-                if until.is_some_and(|u| now < u) {
-                    return false;
-                }
-                if !self.beacons_held(id, now) && self.slot_ref(id).is_some_and(|s| s.alive) {
-                    // More beacons than one send holds, or sent just now:
-                    // lockstep runs another tick (it moves no robot), real
-                    // time waits for the next period's send.
-                    if self.setup.lockstep {
-                        self.start_tick(now);
-                        return true;
-                    }
-                    return false;
-                }
-                self.settled(id, now);
+            Phase::AwaitingRegistration(id) => self.step_registration(id, now),
+            Phase::Settling(id, until) => self.step_settling(id, until, now),
+            Phase::Placing(id, placing) => self.step_placing(id, placing, now),
+            Phase::AwaitingStartPose(id, wait) => self.step_start_pose(id, wait, now),
+            Phase::Finished => false,
+        }
+    }
+
+    /// The launch begins: with every agent at once (remote agents, real
+    /// robots) they are all started, and awaited when each one is needed.
+    fn step_begin(&mut self) -> bool {
+        if !self.setup.agents.all_at_once {
+            self.phase = Phase::Choosing;
+            return true;
+        }
+        for id in 1..=self.setup.robots {
+            self.start_agent(id);
+        }
+        // Robots are needed when their turn comes, unless every one is.
+        self.phase =
+            if self.setup.missing == Missing::Fail { Phase::AwaitingEveryone } else { Phase::Choosing };
+        // Starting is carried out by the shell before the core goes on.
+        false
+    }
+
+    /// Robot `id`'s agent was started for its turn: settle it once it
+    /// registered, start it again if it died first, skip it when it is gone.
+    fn step_registration(&mut self, id: u32, now: u64) -> bool {
+        match self.slot_ref(id).map(|s| s.state) {
+            Some(SlotState::Registered) => {
+                self.settle(id, now);
                 true
             }
-            Phase::Placing(id, placing) => self.step_placing(id, placing, now),
-            Phase::AwaitingStartPose(id, mut wait) => match self.slot_ref(id).map(|s| s.state) {
-                Some(SlotState::Deploying) => {
-                    if wait.resend_due(now, self.unreachable(id)) {
-                        self.resend(&[id]);
-                    }
-                    if wait.expired(now) {
-                        self.pending_deploy = None;
-                        self.outputs.push_back(Output::Kill(id));
-                        self.on_death(now, id, Gone::NoStartPose);
-                        self.phase = Phase::Choosing;
-                        return true;
-                    }
-                    self.phase = Phase::AwaitingStartPose(id, wait);
-                    false
+            Some(SlotState::Spawned) => false,
+            Some(SlotState::Waiting) => {
+                // Started once more (it died before it registered).
+                self.start_agent(id);
+                false
+            }
+            _ => {
+                self.next = self.next.max(id + 1);
+                self.phase = Phase::Choosing;
+                true
+            }
+        }
+    }
+
+    /// Robot `id` settles: its beacons are sent before it is deployed.
+    fn step_settling(&mut self, id: u32, until: Option<u64>, now: u64) -> bool {
+        if until.is_some_and(|u| now < u) {
+            return false;
+        }
+        if !self.beacons_held(id, now) && self.slot_ref(id).is_some_and(|s| s.alive) {
+            // More beacons than one send holds, or sent just now:
+            // lockstep runs another tick (it moves no robot), real
+            // time waits for the next period's send.
+            if self.setup.lockstep {
+                self.start_tick(now);
+                return true;
+            }
+            return false;
+        }
+        self.settled(id, now);
+        true
+    }
+
+    /// Robot `id` was told `Deploy`: re-send it while unanswered, give up
+    /// when its start pose never comes, watch it once it moves.
+    fn step_start_pose(&mut self, id: u32, mut wait: AnswerWait, now: u64) -> bool {
+        match self.slot_ref(id).map(|s| s.state) {
+            Some(SlotState::Deploying) => {
+                if wait.resend_due(now, self.unreachable(id)) {
+                    self.resend(&[id]);
                 }
-                Some(SlotState::Moving) => {
+                if wait.expired(now) {
                     self.pending_deploy = None;
-                    self.next = self.next.max(id + 1);
-                    let next = self.next;
-                    let prespawn = self.setup.prespawn
-                        && self
-                            .slot_ref(next)
-                            .is_some_and(|s| s.state == SlotState::Waiting && s.restarts == 0);
-                    if prespawn {
-                        self.start_agent(next);
-                    }
-                    self.phase = Phase::Watching;
-                    true
-                }
-                _ => {
-                    self.pending_deploy = None;
+                    self.outputs.push_back(Output::Kill(id));
+                    self.on_death(now, id, Gone::NoStartPose);
                     self.phase = Phase::Choosing;
-                    true
+                    return true;
                 }
-            },
-            Phase::Finished => false,
+                self.phase = Phase::AwaitingStartPose(id, wait);
+                false
+            }
+            Some(SlotState::Moving) => {
+                self.pending_deploy = None;
+                self.next = self.next.max(id + 1);
+                let next = self.next;
+                let prespawn = self.setup.prespawn
+                    && self.slot_ref(next).is_some_and(|s| s.state == SlotState::Waiting && s.restarts == 0);
+                if prespawn {
+                    self.start_agent(next);
+                }
+                self.phase = Phase::Watching;
+                true
+            }
+            _ => {
+                self.pending_deploy = None;
+                self.phase = Phase::Choosing;
+                true
+            }
         }
     }
 
