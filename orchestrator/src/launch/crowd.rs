@@ -41,7 +41,7 @@ use serde::Serialize;
 use std::collections::BTreeSet;
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -241,51 +241,10 @@ impl Launch<'_> {
         let shm_before = listing(Path::new(SHARED_MEMORY));
         let (out_path, err_path) =
             (self.dir.join(format!("launch-{n}.json")), self.dir.join(format!("launch-{n}.log")));
-        let mut cmd = Command::new(self.exe);
-        cmd.arg("launch")
-            .arg("--terrain")
-            .arg(self.terrain)
-            .args(["--robots", &n.to_string(), "--dwell", "1", "--stop-turn-rate", "0"])
-            .args(["--time-limit", "1e7", "--json", "--swarm", &tag]);
-        if let Some(bin) = &self.opts.agent_bin {
-            cmd.arg("--agent-bin").arg(bin);
-        }
         let recording = self.record.then(|| self.dir.join(format!("launch-{n}.mcap")));
-        if let Some(file) = &recording {
-            cmd.arg("--record").arg(file);
-        }
-        cmd.env(ISOLATION_ENV, &tag)
-            .stdin(Stdio::null())
-            .stdout(std::fs::File::create(&out_path).context("launch output file")?)
-            .stderr(std::fs::File::create(&err_path).context("launch log file")?)
-            // Its own group: a timeout kills the launch, not the bench.
-            .process_group(0);
+        let mut cmd = self.command(&tag, &out_path, &err_path, recording.as_deref())?;
         let mut child = Running(cmd.spawn().context("cannot start the launch")?);
-        let pid = child.0.id();
-        let started = Instant::now();
-        let mut peaks = Peaks::default();
-        let mut next_sample = started;
-        let mut ended = Ended::Ran;
-        let status = loop {
-            if let Some(status) = child.0.try_wait()? {
-                break status;
-            }
-            let interrupted = stop.load(Ordering::SeqCst);
-            if interrupted || started.elapsed() > self.opts.timeout {
-                ended = if interrupted { Ended::Interrupted } else { Ended::TimedOut };
-                tracing::warn!(robots = n, "stopping the launch ({ended:?})");
-                break stop_launch(&mut child.0)?;
-            }
-            if Instant::now() >= next_sample {
-                let t0 = Instant::now();
-                peaks.sample(pid);
-                next_sample = next_sample_after(next_sample, t0.elapsed());
-            }
-            // Short naps: the launch's end is noticed within 20 ms.
-            std::thread::sleep(
-                next_sample.saturating_duration_since(Instant::now()).min(Duration::from_millis(20)),
-            );
-        };
+        let (status, peaks, mut ended) = self.watch(&mut child, stop)?;
         let processes_left = end_leftovers(&tag);
         let (files_left, root_segments) = files_left(&tag, &shm_before);
         let stdout = std::fs::read_to_string(&out_path).unwrap_or_default();
@@ -341,11 +300,72 @@ impl Launch<'_> {
             },
         })
     }
+
+    /// The launch's command line: the crowd's terrain, every robot sticking
+    /// at once, its summary and log to files, its own process group.
+    fn command(
+        &self,
+        tag: &str,
+        out_path: &Path,
+        err_path: &Path,
+        recording: Option<&Path>,
+    ) -> Result<Command> {
+        let mut cmd = Command::new(self.exe);
+        cmd.arg("launch")
+            .arg("--terrain")
+            .arg(self.terrain)
+            .args(["--robots", &self.robots.to_string(), "--dwell", "1", "--stop-turn-rate", "0"])
+            .args(["--time-limit", "1e7", "--json", "--swarm", tag]);
+        if let Some(bin) = &self.opts.agent_bin {
+            cmd.arg("--agent-bin").arg(bin);
+        }
+        if let Some(file) = recording {
+            cmd.arg("--record").arg(file);
+        }
+        cmd.env(ISOLATION_ENV, tag)
+            .stdin(Stdio::null())
+            .stdout(std::fs::File::create(out_path).context("launch output file")?)
+            .stderr(std::fs::File::create(err_path).context("launch log file")?)
+            // Its own group: a timeout kills the launch, not the bench.
+            .process_group(0);
+        Ok(cmd)
+    }
+
+    /// Samples the running launch's memory and files until it ends, the
+    /// bench is interrupted or the timeout passes: how it ended.
+    fn watch(&self, child: &mut Running, stop: &AtomicBool) -> Result<(ExitStatus, Peaks, Ended)> {
+        let pid = child.0.id();
+        let started = Instant::now();
+        let mut peaks = Peaks::default();
+        let mut next_sample = started;
+        let mut ended = Ended::Ran;
+        let status = loop {
+            if let Some(status) = child.0.try_wait()? {
+                break status;
+            }
+            let interrupted = stop.load(Ordering::SeqCst);
+            if interrupted || started.elapsed() > self.opts.timeout {
+                ended = if interrupted { Ended::Interrupted } else { Ended::TimedOut };
+                tracing::warn!(robots = self.robots, "stopping the launch ({ended:?})");
+                break stop_launch(&mut child.0)?;
+            }
+            if Instant::now() >= next_sample {
+                let t0 = Instant::now();
+                peaks.sample(pid);
+                next_sample = next_sample_after(next_sample, t0.elapsed());
+            }
+            // Short naps: the launch's end is noticed within 20 ms.
+            std::thread::sleep(
+                next_sample.saturating_duration_since(Instant::now()).min(Duration::from_millis(20)),
+            );
+        };
+        Ok((status, peaks, ended))
+    }
 }
 
 /// Stops a running launch as Ctrl-C would (SIGINT to its group: it winds
 /// its agents down in order), then kills the group after [`STOP_GRACE`].
-fn stop_launch(child: &mut Child) -> Result<std::process::ExitStatus> {
+fn stop_launch(child: &mut Child) -> Result<ExitStatus> {
     let group = Pid::from_raw(child.id() as i32);
     let _ = killpg(group, Signal::SIGINT);
     let deadline = Instant::now() + STOP_GRACE;
