@@ -518,6 +518,20 @@ pub fn table(rows: &[Row]) -> String {
         }
         out.push('\n');
     }
+    out.push_str(&row_notes(rows));
+    out.push_str(&recording_costs(rows));
+    let sample_ms = rows.iter().map(|r| r.sample_ms).fold(0.0, f64::max);
+    out.push_str(&format!(
+        "PSS: orchestrator and all agents together, peak of the samples; a sample took up to {sample_ms:.1} ms\n\
+         ms/tick: wall time over ticks; clock ms: a tick's own time (its Ticks to its last answer, ticks without \
+         a re-send); agents: agents ticked per tick"
+    ));
+    out
+}
+
+/// Under the table: each run's error, the files and processes it left.
+fn row_notes(rows: &[Row]) -> String {
+    let mut out = String::new();
     for r in rows {
         if let Some(m) = r.message.as_ref().filter(|_| r.ended == Ended::Ran) {
             out.push_str(&format!("{} robots: error: {m}\n", r.robots));
@@ -542,6 +556,13 @@ pub fn table(rows: &[Row]) -> String {
             ));
         }
     }
+    out
+}
+
+/// Under the table: what recording cost, for each size run both without
+/// and with `--record` (in that order).
+fn recording_costs(rows: &[Row]) -> String {
+    let mut out = String::new();
     for pair in rows.windows(2) {
         let (plain, recorded) = (&pair[0], &pair[1]);
         if plain.robots != recorded.robots || plain.recording_bytes.is_some() {
@@ -559,12 +580,6 @@ pub fn table(rows: &[Row]) -> String {
             100.0 * (slow / fast - 1.0)
         ));
     }
-    let sample_ms = rows.iter().map(|r| r.sample_ms).fold(0.0, f64::max);
-    out.push_str(&format!(
-        "PSS: orchestrator and all agents together, peak of the samples; a sample took up to {sample_ms:.1} ms\n\
-         ms/tick: wall time over ticks; clock ms: a tick's own time (its Ticks to its last answer, ticks without \
-         a re-send); agents: agents ticked per tick"
-    ));
     out
 }
 
