@@ -26,6 +26,7 @@ use bycoms_sim::terrain::{to_text, Terrain};
 use serde::Serialize;
 use std::collections::BTreeSet;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 type Bus = IpcBus;
@@ -78,56 +79,7 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
     let terrain = Terrain::paper();
     let text = to_text(&terrain);
     let started = Instant::now();
-    let mut registered = BTreeSet::new();
-    // Started in batches: hundreds of processes opening the same iceoryx2
-    // services at once contend for them and slow every start down (500
-    // agents: batches of 25 started in 6.2 s, of 100 in 5.3 s, all at once
-    // in 9.2 s, one run each on a loaded machine).
-    for first in (1..=agents).step_by(BATCH as usize) {
-        let last = (first + BATCH - 1).min(agents);
-        for id in first..=last {
-            let args = AgentArgs {
-                swarm: name.clone(),
-                robot: id,
-                terrain: Some(PathBuf::from("-")),
-                eps: Some(2.0),
-                noise: false,
-                seed: 0,
-                clock: Clock::Realtime,
-                speed,
-                swarm_size: Some(agents),
-                parent_pid: Some(std::process::id() as i32),
-                heartbeat_ms: 100,
-                parked_heartbeat_ms: None,
-                settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
-                bus: BusArgs { transport: Transport::Ipc, connect: Vec::new(), zenoh_config: None },
-                failsafe: Default::default(),
-            };
-            sup.spawn(id, &args.to_flags(), &text)?;
-        }
-        let deadline = Instant::now() + Duration::from_secs(60);
-        while registered.len() < last as usize {
-            if Instant::now() > deadline || stop.load(std::sync::atomic::Ordering::SeqCst) {
-                bail!("only {} of the first {last} agents registered within 60 s", registered.len());
-            }
-            // Once per wait, not per message: a poll is a `wait4` per agent,
-            // and the registered agents' heartbeats (10 a second each)
-            // outran a loop that polled all of them per message, so later
-            // batches' registrations were lost behind them (500 agents
-            // never started).
-            if let Some((id, gone)) = sup.poll().into_iter().next() {
-                bail!("agent {id} is gone: {gone}");
-            }
-            let mut next = reports.recv_timeout(Duration::from_millis(10));
-            while let Ok(Some((_, msg))) = next {
-                sup.heard(msg.robot().0);
-                if let FromAgent::Register(r) = msg {
-                    registered.insert(r.robot.0);
-                }
-                next = reports.try_recv();
-            }
-        }
-    }
+    start_in_batches(&mut sup, &reports, &name, agents, speed, &text, &stop)?;
     let start_s = started.elapsed().as_secs_f64();
     let (start, goal) = (terrain.start(), terrain.goal());
     let heading = start.bearing_to(goal);
@@ -153,7 +105,7 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
             }
         }
     };
-    while Instant::now() < end && !stop.load(std::sync::atomic::Ordering::SeqCst) {
+    while Instant::now() < end && !stop.load(Ordering::SeqCst) {
         drain(&mut last, &mut missed, &mut periods);
         while let Ok(Some((_, msg))) = reports.try_recv() {
             sup.heard(msg.robot().0);
@@ -172,10 +124,92 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
         let _ = c.publish(&ToAgent::Shutdown);
     }
     super::driver::wind_down(&mut sup, Duration::from_secs(5));
+    Ok(report(agents, seconds, periods, &missed, &memories, start_s))
+}
+
+/// The flags of agent `id` of a scale run: the paper's terrain from
+/// stdin, real time at 10 Hz × `speed`, the bus of this host.
+fn agent_args(name: &str, id: u32, agents: u32, speed: f64) -> AgentArgs {
+    AgentArgs {
+        swarm: name.to_owned(),
+        robot: id,
+        terrain: Some(PathBuf::from("-")),
+        eps: Some(2.0),
+        noise: false,
+        seed: 0,
+        clock: Clock::Realtime,
+        speed,
+        swarm_size: Some(agents),
+        parent_pid: Some(std::process::id() as i32),
+        heartbeat_ms: 100,
+        parked_heartbeat_ms: None,
+        settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
+        bus: BusArgs { transport: Transport::Ipc, connect: Vec::new(), zenoh_config: None },
+        failsafe: Default::default(),
+    }
+}
+
+/// Starts the agents in batches, each batch registered before the next.
+///
+/// Why batches: hundreds of processes opening the same iceoryx2 services
+/// at once contend for them and slow every start down (500 agents: batches
+/// of 25 started in 6.2 s, of 100 in 5.3 s, all at once in 9.2 s, one run
+/// each on a loaded machine).
+fn start_in_batches(
+    sup: &mut Spawned,
+    reports: &TypedFanIn<<Bus as bycoms_protocol::bus::Bus>::FanIn, FromAgent>,
+    name: &str,
+    agents: u32,
+    speed: f64,
+    text: &str,
+    stop: &AtomicBool,
+) -> Result<()> {
+    let mut registered = BTreeSet::new();
+    for first in (1..=agents).step_by(BATCH as usize) {
+        let last = (first + BATCH - 1).min(agents);
+        for id in first..=last {
+            let args = agent_args(name, id, agents, speed);
+            sup.spawn(id, &args.to_flags(), text)?;
+        }
+        let deadline = Instant::now() + Duration::from_secs(60);
+        while registered.len() < last as usize {
+            if Instant::now() > deadline || stop.load(Ordering::SeqCst) {
+                bail!("only {} of the first {last} agents registered within 60 s", registered.len());
+            }
+            // Once per wait, not per message: a poll is a `wait4` per agent,
+            // and the registered agents' heartbeats (10 a second each)
+            // outran a loop that polled all of them per message, so later
+            // batches' registrations were lost behind them (500 agents
+            // never started).
+            if let Some((id, gone)) = sup.poll().into_iter().next() {
+                bail!("agent {id} is gone: {gone}");
+            }
+            let mut next = reports.recv_timeout(Duration::from_millis(10));
+            while let Ok(Some((_, msg))) = next {
+                sup.heard(msg.robot().0);
+                if let FromAgent::Register(r) = msg {
+                    registered.insert(r.robot.0);
+                }
+                next = reports.try_recv();
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The figures of a scale run: periods missed, and the agents' memory.
+fn report(
+    agents: u32,
+    seconds: f64,
+    periods: u64,
+    missed: &[u64],
+    memories: &[Memory],
+    start_s: f64,
+) -> ScaleReport {
     let n = memories.len().max(1) as u64;
     let sum = |f: fn(&Memory) -> u64| memories.iter().map(f).sum::<u64>() / n;
     let total_missed: u64 = missed.iter().sum();
-    Ok(ScaleReport {
+    ScaleReport {
         agents,
         seconds,
         periods,
@@ -192,5 +226,5 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
         max_rss_kb: memories.iter().map(|m| m.rss_kb).max().unwrap_or(0),
         max_pss_kb: memories.iter().map(|m| m.pss_kb).max().unwrap_or(0),
         start_s,
-    })
+    }
 }
