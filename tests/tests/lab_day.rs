@@ -70,15 +70,9 @@ impl Watcher {
     /// Ctrl-C: it ends with 0 within 10 s.
     fn interrupt(mut self) {
         signal(self.child.id(), nix::sys::signal::Signal::SIGINT);
-        let deadline = Instant::now() + Duration::from_secs(10);
-        while Instant::now() < deadline {
-            if let Some(status) = self.child.try_wait().expect("try_wait") {
-                assert_eq!(status.code(), Some(0), "status --watch ends with 0 on Ctrl-C");
-                return;
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        panic!("status --watch did not end within 10 s of Ctrl-C");
+        let status = wait_for(Duration::from_secs(10), || self.child.try_wait().expect("try_wait"))
+            .expect("status --watch ends within 10 s of Ctrl-C");
+        assert_eq!(status.code(), Some(0), "status --watch ends with 0 on Ctrl-C");
     }
 }
 
