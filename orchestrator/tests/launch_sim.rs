@@ -786,13 +786,15 @@ fn a_robot_deployed_and_judged_at_once_starts_its_successor_once() {
 
 /// Issue 34: `orchestrator stop --now` at a seeded moment of a drawn
 /// schedule (any clock, any faults): the launch ends interrupted, every
-/// robot whose agent ran is told `Stop` in the launch's last step, and the
-/// summary's record names who asked and why. A graceful stop tells no one
-/// (the agents get `Shutdown` as after Ctrl-C).
+/// robot whose agent ran is told `Stop` at once, the agents (the real
+/// sim-agent core and gateways) answer it and the launch ends once they
+/// did (the harness's `check_stop`), and the summary's record names who
+/// asked and why. A graceful stop tells no one (the agents get `Shutdown`
+/// as after Ctrl-C).
 #[test]
 fn a_stop_at_a_seeded_moment_tells_every_running_robot_at_once_and_names_who() {
     use rand::{Rng, SeedableRng};
-    let mut told = 0usize;
+    let (mut told, mut answered) = (0usize, 0usize);
     for seed in 0..300u64 {
         let case = Case::small(seed);
         let mut schedule = Schedule::draw(seed, case.robots, TICKS);
@@ -814,18 +816,18 @@ fn a_stop_at_a_seeded_moment_tells_every_running_robot_at_once_and_names_who() {
         assert_eq!(ending.outcome, Outcome::Interrupted, "seed {seed}");
         assert_eq!((stop.who.as_str(), stop.why.as_str()), (harness::STOP_WHO, harness::STOP_WHY));
         if at_once {
-            assert_eq!(stop.told, report.running_at_end, "seed {seed}");
-            let last: Vec<u32> =
-                report.stop_log.iter().filter(|s| s.0 == report.end_us).map(|s| s.1).collect();
-            for id in &stop.told {
-                assert!(last.contains(id), "seed {seed}: robot {id} not told Stop at the end");
+            for id in &report.running_at_end {
+                assert!(stop.told.contains(id), "seed {seed}: robot {id} ran and was not told Stop");
             }
             told += stop.told.len();
+            answered += stop.answered.len();
         } else {
             assert!(stop.told.is_empty(), "seed {seed}");
         }
     }
     assert!(told > 100, "too few robots were told to stop ({told}): the test tests too little");
+    // Lossy buses and partitions silence some; most answer.
+    assert!(answered * 4 > told * 3, "only {answered} of {told} robots told answered");
 }
 
 /// A robot revoked while it moves (`orchestrator revoke`, in virtual

@@ -104,6 +104,7 @@ fn from_agent() {
     check(FromAgent::Parked(Parked { robot: RobotId(5), step: 300 }), &[V, 7, 5, 0xAC, 0x02]);
     let clock = ClockOffset { robot: RobotId(2), offset_us: -1500, round_trip_us: 800 };
     check(FromAgent::Clock(clock), &[V, 8, 2, 0xB7, 0x17, 0xA0, 0x06]);
+    check(FromAgent::StopDone(StopDone { robot: RobotId(4), on_link: true }), &[V, 9, 4, 1]);
 }
 
 /// f32 little-endian: 0.5, 1.0, 0.25, -0.5.

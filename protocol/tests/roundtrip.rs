@@ -121,6 +121,8 @@ fn from_agent() -> impl Strategy<Value = FromAgent> {
         (robot(), any::<i64>(), any::<u32>()).prop_map(|(robot, offset_us, round_trip_us)| {
             FromAgent::Clock(ClockOffset { robot, offset_us, round_trip_us })
         }),
+        (robot(), any::<bool>())
+            .prop_map(|(robot, on_link)| FromAgent::StopDone(StopDone { robot, on_link })),
     ]
 }
 

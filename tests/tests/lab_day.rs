@@ -90,6 +90,8 @@ fn stop_now(launch: Proc, swarm: &str, via: &[&str]) {
     let stop = orchestrator(&args);
     assert_eq!(stop.status.code(), Some(0), "{}", stop.stderr);
     assert!(stop.stdout.starts_with(&format!("stopping swarm {swarm} (orchestrator pid {})", launch.pid())));
+    // Answered once the robots answered: the simulated agents say they stopped.
+    assert!(stop.stdout.contains(" robots said they stopped (the last after "), "{}", stop.stdout);
     let ended = launch.wait(Duration::from_secs(20));
     assert_eq!(ended.status.code(), Some(130), "a stopped launch exits 130: {}", ended.stderr);
     let summary = ended.json();
@@ -102,6 +104,17 @@ fn stop_now(launch: Proc, swarm: &str, via: &[&str]) {
     let told: Vec<u64> = record["told"].as_array().expect("told").iter().filter_map(Value::as_u64).collect();
     assert!(told.starts_with(&[1]) && told.len() >= 2, "{record}");
     assert!(ended.stderr.contains("every running robot was told to stop"), "{}", ended.stderr);
+    // Each agent told answered that its robot stopped, in well under the wait.
+    let answered: Vec<u64> =
+        record["answered"].as_array().expect("answered").iter().filter_map(|a| a["robot"].as_u64()).collect();
+    let mut sorted = answered.clone();
+    sorted.sort_unstable();
+    assert_eq!(sorted, told, "{record}");
+    assert_eq!(record["unanswered"].as_array().map(Vec::len), Some(0), "{record}");
+    let slowest =
+        record["answered"].as_array().into_iter().flatten().filter_map(|a| a["after_us"].as_u64()).max();
+    assert!(slowest.is_some_and(|us| us < 1_000_000), "{record}");
+    assert!(ended.stderr.contains("every robot told answered that it stopped"), "{}", ended.stderr);
 }
 
 #[test]

@@ -279,4 +279,5 @@ fn calling_the_ros2_stop_service_stops_every_robot() {
         "{stop}"
     );
     assert!(stop["told"].as_array().is_some_and(|t| t.first() == Some(&1.into())), "{stop}");
+    assert_eq!(stop["told"].as_array().map(Vec::len), stop["answered"].as_array().map(Vec::len), "{stop}");
 }

@@ -25,7 +25,7 @@
 use crate::angle::wrap;
 use bycoms_protocol::link::{DropCounters, MAX_FRAME_LEN};
 use bycoms_protocol::link::{DropReason, GatewayEvent, GatewayLink, LinkKey, Payload, RobotState, SessionId};
-use bycoms_protocol::msg::{FromAgent, LinkStatus, Pose, Status, Telemetry, ToAgent};
+use bycoms_protocol::msg::{FromAgent, LinkStatus, Pose, Status, StopDone, Telemetry, ToAgent};
 use bycoms_protocol::RobotId;
 use rand::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -226,7 +226,12 @@ impl GatewayCore {
                 self.send_goal(now);
             }
             ToAgent::Tick(_) => return Err(Refused::Tick),
-            ToAgent::Stop => self.stop(now),
+            // Answered every time (the orchestrator re-sends `Stop` until
+            // it hears this), saying whether the stop frame went out.
+            ToAgent::Stop => {
+                let on_link = self.stop(now);
+                self.report(FromAgent::StopDone(StopDone { robot: self.robot, on_link }));
+            }
             ToAgent::Shutdown => {
                 self.stop(now);
                 return Ok(true);
@@ -311,10 +316,17 @@ impl GatewayCore {
         self.stopped
     }
 
-    fn stop(&mut self, now: Instant) {
+    /// Stops the robot for good, on the gateway's own account (its
+    /// failsafe, a refusal, its end): nobody to answer.
+    pub fn stop_robot(&mut self, now: Instant) {
+        self.stop(now);
+    }
+
+    /// Stops the robot for good; whether the stop frame went out.
+    fn stop(&mut self, now: Instant) -> bool {
         self.enabled = false;
         self.stopped = true;
-        self.send(Payload::Stop, now);
+        self.send(Payload::Stop, now)
     }
 
     /// Re-sends Enable or Stop when the robot's state contradicts them
@@ -342,16 +354,21 @@ impl GatewayCore {
         self.send(Payload::Goal { bearing }, now);
     }
 
-    fn send(&mut self, payload: Payload, now: Instant) {
-        let Some(peer) = self.peer else { return };
+    /// Sends `payload` to the robot; whether it went out.
+    fn send(&mut self, payload: Payload, now: Instant) -> bool {
+        let Some(peer) = self.peer else { return false };
         let mut buf = [0u8; MAX_FRAME_LEN];
         match self.link.send(payload, &mut buf) {
             Ok(frame) => {
                 self.out.push_back(Output::Datagram(frame.to_vec(), peer));
                 self.last_sent = Some(now);
+                true
             }
             // No session yet: the robot hears it all once it connects.
-            Err(e) => tracing::debug!(robot = self.robot.0, ?payload, "not sent: {e}"),
+            Err(e) => {
+                tracing::debug!(robot = self.robot.0, ?payload, "not sent: {e}");
+                false
+            }
         }
     }
 

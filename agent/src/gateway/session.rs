@@ -191,8 +191,7 @@ impl Session {
     }
 
     fn stop(&mut self, now: Instant) {
-        // `Stop` is never refused.
-        let _ = self.core.on_command(&ToAgent::Stop, now);
+        self.core.stop_robot(now);
     }
 }
 

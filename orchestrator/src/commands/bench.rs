@@ -11,7 +11,7 @@
 //! * `bench crowd` — whole lockstep launches of N robots on a terrain where
 //!   every robot gets stuck, measured from outside: memory of all their
 //!   processes, open files, wall time per tick (`launch::crowd`);
-//! * `bench stop` — `stop --now` → every robot told `Stop` in real-time
+//! * `bench stop` — `stop --now` → every robot stopped (its agent answered `Stop`) in real-time
 //!   launches of N robots, timed from the asking side over ipc and zenoh
 //!   (`launch::stopbench`);
 //! * `bench schedules` — the launch core's simulation testing
@@ -79,7 +79,7 @@ pub enum What {
         #[arg(long)]
         record: bool,
     },
-    /// `stop --now` → every robot told `Stop`: real-time launches timed from the asking side.
+    /// `stop --now` → every robot stopped (answered `Stop`): real-time launches timed from the asking side.
     Stop {
         /// Robots (spawned sim-agents) per launch.
         #[arg(long, default_value_t = 100)]

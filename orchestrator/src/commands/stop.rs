@@ -68,9 +68,15 @@ pub fn run(args: Args) -> Result<i32> {
         anyhow::bail!("no launch of swarm {swarm:?} runs {}", asker.place());
     };
     match r.answer {
-        Ok(Answer::Stopping { swarm, now, recording, pid }) => {
-            let how =
-                if now { "every robot was told to stop; the launch ends" } else { "the launch winds down" };
+        Ok(Answer::Stopping { swarm, now, told, answered, slowest_us, recording, pid }) => {
+            let how = match (now, slowest_us) {
+                (false, _) => "the launch winds down".to_string(),
+                (true, Some(us)) => format!(
+                    "{answered} of {told} robots said they stopped (the last after {:.1} ms); the launch ends",
+                    us as f64 / 1000.0
+                ),
+                (true, None) => format!("{answered} of {told} robots said they stopped; the launch ends"),
+            };
             outln!("stopping swarm {swarm} (orchestrator pid {pid}): {how}")?;
             if let Some(path) = recording {
                 outln!("its recording: {path}")?;

@@ -82,11 +82,22 @@ pub enum Ask {
 #[serde(rename_all = "snake_case")]
 pub enum Answer {
     /// The launch stops; its summary follows where the launch writes it.
+    /// Given once the launch has ended: with `now`, after every robot told
+    /// `Stop` answered it or the stop's wait was over.
     Stopping {
         /// The swarm.
         swarm: String,
         /// Whether every robot was told `Stop` at once.
         now: bool,
+        /// Robots told `Stop` (`now`).
+        #[serde(default)]
+        told: u32,
+        /// Robots that answered that they stopped.
+        #[serde(default)]
+        answered: u32,
+        /// The last answer, µs after the stop was taken in.
+        #[serde(default)]
+        slowest_us: Option<u64>,
         /// Where the launch's recording will be, if it records.
         recording: Option<String>,
         /// The launch's pid, whose end the asker may await.

@@ -12,7 +12,7 @@
 
 use super::agents::{AgentPlan, AgentSource, Gone, Started};
 use super::config::{Clock, LaunchConfig};
-use super::control::{Answer, Ask, Control, Request};
+use super::control::{Answer, Ask, Control, Reply, Request};
 use super::core::log::{self, Logged};
 use super::core::{Ending, Input, Output, Revoke, Slot, SlotState, Stop};
 use super::events::EVENT_SCHEMA;
@@ -59,6 +59,9 @@ pub struct Driver {
     /// `orchestrator status` and `stop` (and the ROS 2 stop service) reach
     /// the launch here (`control.rs`).
     control: Option<Control>,
+    /// The replies to stops asked, given once the launch has ended (a stop
+    /// `now` ends after the robots' answers).
+    stop_replies: Vec<Reply>,
     /// When the agent source was last polled (at most every
     /// [`POLL_EVERY`]: a poll is a `wait4` per spawned agent).
     polled_at: Option<Instant>,
@@ -136,6 +139,7 @@ impl Driver {
             poses: Vec::new(),
             waits: Waits::new(Instant::now()),
             control,
+            stop_replies: Vec::new(),
             polled_at: None,
         }
     }
@@ -166,7 +170,9 @@ impl Driver {
             self.record_calls();
             self.ports.show_scene();
             if let Some(ending) = self.core.ending() {
-                break ending.clone();
+                let ending = ending.clone();
+                self.answer_stops();
+                break ending;
             }
             let wait = if acted {
                 Duration::ZERO
@@ -328,21 +334,38 @@ impl Driver {
                 Ask::Stop { now, who, why } => {
                     tracing::warn!(now, who, why, "a stop was asked");
                     self.feed(Input::Stop(Stop { now, who, why }));
-                    // Decided and carried out before the answer: "stopping"
-                    // means every running robot was sent `Stop` (`now`).
                     let at = self.now();
                     self.core.advance(at);
                     self.carry_out();
-                    Answer::Stopping {
-                        swarm: self.template.swarm.clone(),
-                        now,
-                        recording: self.cfg.record.as_ref().map(|p| p.display().to_string()),
-                        pid: std::process::id(),
-                    }
+                    // Answered once the launch has ended (`answer_stops`).
+                    self.stop_replies.push(reply);
+                    continue;
                 }
                 Ask::Status => Answer::Status(Box::new(self.status())),
                 Ask::Revoke { robot, who, why, lab } => self.revoke(Revoke { robot, who, why }, lab),
             };
+            reply(&answer);
+        }
+    }
+
+    /// Answers the stops asked, the launch having ended: with `now`, how
+    /// many robots were told `Stop` and answered it, and the slowest answer.
+    fn answer_stops(&mut self) {
+        if self.stop_replies.is_empty() {
+            return;
+        }
+        let stop = self.core.stopped();
+        let answered = stop.map_or(&[][..], |s| &s.answered[..]);
+        let answer = Answer::Stopping {
+            swarm: self.template.swarm.clone(),
+            now: stop.is_some_and(|s| s.now),
+            told: stop.map_or(0, |s| s.told.len() as u32),
+            answered: answered.len() as u32,
+            slowest_us: answered.iter().map(|a| a.after_us).max(),
+            recording: self.cfg.record.as_ref().map(|p| p.display().to_string()),
+            pid: std::process::id(),
+        };
+        for reply in self.stop_replies.drain(..) {
             reply(&answer);
         }
     }

@@ -102,9 +102,9 @@ impl Ros2Stop {
 /// The `TriggerResponse` a stop answer becomes.
 pub fn response(answer: &Answer) -> TriggerResponse {
     match answer {
-        Answer::Stopping { swarm, .. } => TriggerResponse {
+        Answer::Stopping { swarm, told, answered, .. } => TriggerResponse {
             success: true,
-            message: format!("stopping swarm {swarm}: every robot is told to stop"),
+            message: format!("swarm {swarm} stopped: {answered} of {told} robots said they stopped"),
         },
         Answer::Refused(why) => TriggerResponse { success: false, message: why.clone() },
         Answer::Status(_) | Answer::Revoked { .. } | Answer::OtherLab => {
@@ -157,7 +157,15 @@ mod tests {
 
     #[test]
     fn a_stop_answer_is_a_successful_trigger_response_and_anything_else_is_not() {
-        let stopping = Answer::Stopping { swarm: "lab".into(), now: true, recording: None, pid: 1 };
+        let stopping = Answer::Stopping {
+            swarm: "lab".into(),
+            now: true,
+            told: 3,
+            answered: 3,
+            slowest_us: Some(900),
+            recording: None,
+            pid: 1,
+        };
         let r = response(&stopping);
         assert!(r.success && r.message.contains("lab"), "{r:?}");
         assert!(!response(&Answer::Refused("no".into())).success);

@@ -175,8 +175,9 @@ mod tests {
     use super::*;
     use crate::launch::core::{Input, Output, Revoke, Stop};
     use crate::launch::harness::{self, Case, Schedule};
+    use crate::launch::summary::StopAnswer;
     use bycoms_protocol::msg::Pose;
-    use bycoms_protocol::msg::{FromAgent, Heartbeat};
+    use bycoms_protocol::msg::{FromAgent, Heartbeat, StopDone};
     use bycoms_protocol::RobotId;
 
     fn facts() -> Facts {
@@ -231,8 +232,15 @@ mod tests {
         core.handle(2_000_000, Input::Stop(stop));
         core.advance(2_000_000);
         let s = of(&core, 2_000_000, &facts());
-        assert_eq!(s.phase, "finished");
+        assert_ne!(s.phase, "finished", "robot 1's answer is awaited");
         assert_eq!(s.stopping.as_deref(), Some("stop now asked by me: a test"));
         assert_eq!(core.stopped().map(|s| s.told.clone()), Some(vec![1]), "robot 1's agent ran");
+        let done = StopDone { robot: RobotId(1), on_link: false };
+        core.handle(2_000_500, Input::Report(FromAgent::StopDone(done)));
+        core.advance(2_000_500);
+        let s = of(&core, 2_000_500, &facts());
+        assert_eq!(s.phase, "finished");
+        let answered = core.stopped().map(|s| s.answered.clone()).unwrap_or_default();
+        assert_eq!(answered, [StopAnswer { robot: 1, after_us: 500, on_link: false }]);
     }
 }

@@ -10,13 +10,15 @@
 //! sticks and its agent stays alive), asks its `status` until every
 //! robot's agent runs (bounded), then asks `Stop { now: true }` and times
 //!
-//! * until the launch's answer: the driver answers only after the core told
-//!   every running robot `Stop` and the driver sent it on the bus;
+//! * until the launch's answer: the launch answers once every robot told
+//!   `Stop` answered that it stopped (`StopDone`: a simulated agent stands
+//!   still, a gateway sent its robot the link's stop frame), or the stop's
+//!   wait (1 s) was over: command → every robot stopped;
 //! * until the launch process has exited (agents wound down, summary written).
 //!
-//! The launch's summary (`stop.told`) says how many robots were told;
-//! agents do not acknowledge a `Stop`, so the bench checks `told` = N, not
-//! that each agent took it in.
+//! The answer says how many robots were told and answered, and when the
+//! last answer came in the launch's own time (`slowest`, without the
+//! asking and answering around it).
 
 use super::config::Transport;
 use super::control::{ask_socket, socket_path, Answer, Ask, Asker};
@@ -51,10 +53,14 @@ pub struct Options {
 pub struct Sample {
     /// Robots whose agent ran when the stop was asked.
     pub running: usize,
-    /// Robots the launch told `Stop` (its summary's `stop.told`).
+    /// Robots the launch told `Stop`.
     pub told: usize,
-    /// Ask → the launch's answer, ms.
+    /// Robots that answered that they stopped.
+    pub answered: usize,
+    /// Ask → the launch's answer (every robot stopped), ms.
     pub answer_ms: f64,
+    /// The stop taken in → the last robot's answer, in the launch, ms.
+    pub slowest_ms: f64,
     /// Ask → the launch process exited, ms.
     pub exit_ms: f64,
 }
@@ -138,9 +144,9 @@ fn one(opts: &Options, exe: &Path, terrain: &Path, dir: &Path, tag: &str) -> Res
     let t0 = Instant::now();
     let answer = place.ask(&ask)?;
     let answer_ms = t0.elapsed().as_secs_f64() * 1e3;
-    if !matches!(answer, Answer::Stopping { now: true, .. }) {
+    let Answer::Stopping { now: true, told, answered, slowest_us, .. } = answer else {
         bail!("the launch answered {answer:?} to the stop");
-    }
+    };
     let deadline = t0 + opts.timeout;
     let exit_ms = loop {
         if child.0.try_wait()?.is_some() {
@@ -151,10 +157,8 @@ fn one(opts: &Options, exe: &Path, terrain: &Path, dir: &Path, tag: &str) -> Res
         }
         std::thread::sleep(Duration::from_micros(500));
     };
-    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&out)?)
-        .context("the launch printed no JSON summary")?;
-    let told = summary.pointer("/stop/told").and_then(serde_json::Value::as_array).map_or(0, Vec::len);
-    Ok(Sample { running, told, answer_ms, exit_ms })
+    let slowest_ms = slowest_us.map_or(f64::NAN, |us| us as f64 / 1e3);
+    Ok(Sample { running, told: told as usize, answered: answered as usize, answer_ms, slowest_ms, exit_ms })
 }
 
 /// A zenoh client of the launch at `port`, once the launch listens there.
@@ -196,14 +200,16 @@ pub fn line(transport: Transport, robots: u32, samples: &[Sample]) -> String {
         let v: Vec<f64> = samples.iter().map(f).collect();
         bycoms_runtime::stats::quantile(&v, p).unwrap_or(f64::NAN)
     };
-    let told_all = samples.iter().filter(|s| s.told == robots as usize).count();
+    let all = samples.iter().filter(|s| s.told == robots as usize && s.answered == s.told).count();
     format!(
-        "stop --now, {robots} robots over {}, {} runs: answer p50 {:.1} ms, max {:.1} ms; \
-         launch exited p50 {:.1} ms, max {:.1} ms; every robot told Stop in {told_all} of {} runs",
+        "stop --now, {robots} robots over {}, {} runs: every robot stopped (answered) p50 {:.1} ms, \
+         max {:.1} ms (in the launch p50 {:.1} ms); launch exited p50 {:.1} ms, max {:.1} ms; \
+         every robot told and answered in {all} of {} runs",
         transport.as_str(),
         samples.len(),
         q(|s| s.answer_ms, 0.5),
         q(|s| s.answer_ms, 1.0),
+        q(|s| s.slowest_ms, 0.5),
         q(|s| s.exit_ms, 0.5),
         q(|s| s.exit_ms, 1.0),
         samples.len()
@@ -215,13 +221,21 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_line_gives_p50_max_and_how_many_runs_told_every_robot() {
-        let s = |answer_ms, exit_ms, told| Sample { running: 3, told, answer_ms, exit_ms };
+    fn the_line_gives_p50_max_and_how_many_runs_had_every_robot_answer() {
+        let s = |answer_ms, exit_ms, answered| Sample {
+            running: 3,
+            told: 3,
+            answered,
+            answer_ms,
+            slowest_ms: answer_ms / 2.0,
+            exit_ms,
+        };
         let samples = [s(3.0, 30.0, 3), s(1.0, 10.0, 3), s(2.0, 20.0, 2)];
         assert_eq!(
             line(Transport::Ipc, 3, &samples),
-            "stop --now, 3 robots over ipc, 3 runs: answer p50 2.0 ms, max 3.0 ms; \
-             launch exited p50 20.0 ms, max 30.0 ms; every robot told Stop in 2 of 3 runs"
+            "stop --now, 3 robots over ipc, 3 runs: every robot stopped (answered) p50 2.0 ms, \
+             max 3.0 ms (in the launch p50 1.0 ms); launch exited p50 20.0 ms, max 30.0 ms; \
+             every robot told and answered in 2 of 3 runs"
         );
     }
 }

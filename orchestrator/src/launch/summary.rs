@@ -310,6 +310,22 @@ pub struct StopSummary {
     pub unix_ms: u64,
     /// The robots told `Stop`, all in one step (empty for a graceful stop).
     pub told: Vec<u32>,
+    /// The robots that answered it (`StopDone`), in the order they did.
+    pub answered: Vec<StopAnswer>,
+    /// The robots told that did not answer within the stop's wait (or whose
+    /// agent ended first).
+    pub unanswered: Vec<u32>,
+}
+
+/// A robot's answer to a stop `now`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, JsonSchema)]
+pub struct StopAnswer {
+    /// The robot.
+    pub robot: u32,
+    /// From the stop taken in to its answer, µs.
+    pub after_us: u64,
+    /// Its robot link's stop frame went out (a gateway's real robot).
+    pub on_link: bool,
 }
 
 impl Summary {

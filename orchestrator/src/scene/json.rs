@@ -93,6 +93,8 @@ pub enum TelemetryKind {
     Parked,
     /// The agent's host clock against the orchestrator's.
     Clock,
+    /// The robot is stopped: the answer to `Stop`.
+    StopDone,
 }
 
 /// One agent report (the decoded `from_agents` traffic of one robot).
@@ -168,6 +170,7 @@ impl From<&FromAgent> for Telemetry {
                 t.kind = TelemetryKind::Clock;
                 t.clock_offset_us = Some(c.offset_us);
             }
+            FromAgent::StopDone(_) => t.kind = TelemetryKind::StopDone,
         }
         t
     }

@@ -222,6 +222,22 @@ pub struct ClockOffset {
     pub round_trip_us: u32,
 }
 
+/// The answer to `Stop`: the agent has stopped its robot (issue 34: a
+/// stop asked from outside counts a robot stopped only once it says so).
+/// Sent for every `Stop` taken, so the orchestrator re-sends a `Stop` until
+/// this comes (a lost copy costs one re-send). A simulated robot stands
+/// still from then on; a gateway says whether the robot link's stop frame
+/// went out (`on_link`: false while the robot has no link session, when
+/// the robot's own failsafe stops it).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StopDone {
+    /// The agent's robot.
+    pub robot: RobotId,
+    /// The stop went out on a robot link (a gateway's stop frame); false
+    /// for a simulated robot, which has no link.
+    pub on_link: bool,
+}
+
 /// Everything an agent tells the orchestrator. (Not `Eq`: telemetry
 /// carries floats.)
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -244,6 +260,8 @@ pub enum FromAgent {
     Parked(Parked),
     /// The agent's host clock's offset to the orchestrator's (zenoh).
     Clock(ClockOffset),
+    /// The robot is stopped: the answer to `Stop`.
+    StopDone(StopDone),
 }
 
 impl FromAgent {
@@ -259,6 +277,7 @@ impl FromAgent {
             Self::Failsafe(m) => m.robot,
             Self::Parked(m) => m.robot,
             Self::Clock(m) => m.robot,
+            Self::StopDone(m) => m.robot,
         }
     }
 }

@@ -26,7 +26,7 @@ pub mod to_agent;
 
 pub use from_agent::{
     ClockOffset, DriveState, FailsafeFired, FromAgent, Heartbeat, LinkStatus, Parked, Register, RobotKind,
-    Status, Telemetry, TickDone,
+    Status, StopDone, Telemetry, TickDone,
 };
 pub use gate::{GateEvent, GateKind};
 pub use mocap::Pose;

@@ -17,7 +17,9 @@
 
 use super::core::{Phase, Reject, RobotCore};
 use super::options::Clock;
-use bycoms_protocol::msg::{Deploy, FromAgent, Heartbeat, Pose, Register, RobotKind, Status, ToAgent};
+use bycoms_protocol::msg::{
+    Deploy, FromAgent, Heartbeat, Pose, Register, RobotKind, Status, StopDone, ToAgent,
+};
 use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
 
 /// The timing and identity an agent runs with.
@@ -218,7 +220,12 @@ impl AgentCore {
                 }
             }
             ToAgent::Tick(t) => self.tick(t.step, out),
-            ToAgent::Stop => self.robot.stop(),
+            // Answered every time: the orchestrator re-sends `Stop` until
+            // it hears this.
+            ToAgent::Stop => {
+                self.robot.stop();
+                out.push(Said::Report(FromAgent::StopDone(StopDone { robot: self.id(), on_link: false })));
+            }
             ToAgent::Shutdown => return Some(Leave::Shutdown),
             ToAgent::Refused(_) => {}
             ToAgent::Beacon(b) => {

@@ -120,7 +120,8 @@ fn deploy_enables_and_goal_bearings_reach_the_robot_in_its_own_frame() {
     assert_eq!(b.deliver().0, [RobotEvent::Goal(0.0)]);
     // Stop: no more goals, Stop on the wire; Shutdown stops too and says exit.
     b.gw.on_command(&ToAgent::Stop, b.at(130)).unwrap();
-    assert_eq!(b.deliver().0, [RobotEvent::Stop]);
+    let stop_done = FromAgent::StopDone(StopDone { robot: RobotId(1), on_link: true });
+    assert_eq!(b.deliver(), (vec![RobotEvent::Stop], vec![stop_done]), "answered once the stop frame is out");
     b.gw.poll(b.at(300));
     assert!(!b.deliver().0.contains(&RobotEvent::Goal(0.0)));
     assert_eq!(b.gw.on_command(&ToAgent::Shutdown, b.at(310)), Ok(true));

@@ -49,8 +49,8 @@ fn registers_again_with_each_heartbeat_until_the_orchestrator_speaks() {
     s.poll(t0 + ms(200));
     let third = reports(&mut s);
     assert!(
-        matches!(third[..], [FromAgent::Heartbeat(h)] if h.seq == 3),
-        "heard from: no more Register: {third:?}"
+        matches!(third[..], [FromAgent::StopDone(d), FromAgent::Heartbeat(h)] if h.seq == 3 && !d.on_link),
+        "the Stop answered (no robot session: no frame), then heard from: no more Register: {third:?}"
     );
 }
 

@@ -31,6 +31,7 @@ impl Core {
         self.watch_started(now, id);
         self.note(format!("robot {id}: {how}"));
         self.event(id, EventKind::Spawned, pid, None);
+        self.started_while_stopping(id);
     }
 
     pub(super) fn on_report(&mut self, now: u64, msg: FromAgent) {
@@ -72,6 +73,7 @@ impl Core {
                 self.watch_robot_link(now, id, l.up);
             }
             FromAgent::Failsafe(f) => self.on_failsafe(id, f.silent_ms),
+            FromAgent::StopDone(d) => self.on_stop_done(now, id, d.on_link),
         }
     }
 
@@ -98,6 +100,12 @@ impl Core {
             FromAgent::Register(r) => {
                 let taken = self.register_taken(id, r, registered);
                 (taken && (registered || self.may_register(id))).then_some(registered)
+            }
+            // An agent started but not registered yet was told a stop
+            // `now` too: its answer counts, though it is not heard from.
+            FromAgent::StopDone(d) if !registered => {
+                self.on_stop_done(now, id, d.on_link);
+                None
             }
             _ => registered.then_some(true),
         }
@@ -376,6 +384,9 @@ impl Core {
         let seen = slot.last_pose.is_some();
         self.note(format!("robot {id}: agent lost — {reason}"));
         self.event(id, EventKind::AgentLost, None, Some(reason.clone()));
+        if self.gone_while_stopping(id) {
+            return;
+        }
         let fatal = match state {
             SlotState::Spawned => self.never_registered(id, gone, reason),
             SlotState::Registered | SlotState::Deploying => {

@@ -77,6 +77,7 @@ pub use ending::{DiedWhen, Fault};
 pub use plausible::Implausible;
 pub use referee::{Closed, Referee};
 pub use slot::{FrameCount, Slot, SlotState};
+pub use stop::STOP_WAIT_US;
 pub use timers::Supervision;
 pub use wait::{AnswerTime, AnswerWait, MIN_RESEND_US, RESEND_US};
 
@@ -408,6 +409,8 @@ pub struct Core {
     mocap_heard: Vec<Option<u64>>,
     /// The stop asked from outside, once asked (`stop.rs`).
     stop: Option<StopSummary>,
+    /// A stop `now` awaiting its answers (`stop.rs`).
+    stopping: Option<stop::Stopping>,
     /// Each robot's supervision timers (`timers.rs`).
     watches: Vec<timers::Watch>,
     /// The robots revoked, in the order they were (`revoke.rs`).
@@ -448,6 +451,7 @@ impl Core {
             beacons: beacons::BeaconTable::default(),
             mocap_heard: vec![None; setup.robots as usize],
             stop: None,
+            stopping: None,
             watches: vec![timers::Watch::default(); setup.robots as usize],
             revoked: Vec::new(),
             setup,
@@ -554,6 +558,11 @@ impl Core {
     pub fn deadline(&self) -> Option<u64> {
         if self.ending.is_some() {
             return None;
+        }
+        // A stop `now` under way decides nothing else but the robots'
+        // supervision (`stop.rs`).
+        if let Some(t) = self.stop_due_at() {
+            return Some(self.supervision_due().map_or(t, |s| s.min(t)));
         }
         let mut due: Option<u64> = None;
         let mut at = |t: u64| due = Some(due.map_or(t, |d| d.min(t)));

@@ -25,8 +25,11 @@ impl Core {
             if self.interrupted {
                 return self.end(Outcome::Interrupted, None);
             }
+            if self.stop_answers(now) {
+                return;
+            }
             if self.stop_due() {
-                return self.stop_all();
+                return self.stop_all(now);
             }
             if !self.setup.lockstep && self.phase != Phase::Begin && now >= self.relay_at {
                 self.relay_frame += 1;
@@ -532,6 +535,7 @@ impl Core {
             }
         }
         self.tick = None;
+        self.close_stop();
         self.phase = Phase::Finished;
         self.ending = Some(Ending { outcome, error });
     }

@@ -58,15 +58,20 @@ fn check_summary(report: &Report, schedule: &Schedule, ending: &Ending) -> Resul
 
 /// `Stop` goes to the robot that arrived and, when the agents stop stuck
 /// robots, to each robot judged stuck whose agent still ran; to no other,
-/// but for the one `Stop` each running robot gets from a stop `now` (its
-/// own property, `check_stop`) and the one a revoked robot gets (its own,
-/// `check_revoke`).
+/// but for the `Stop`s each running robot gets from a stop `now` until it
+/// answers (its own property, `check_stop`) and the one a revoked robot
+/// gets (its own, `check_revoke`).
 fn check_stops(report: &Report, schedule: &Schedule) -> Result<(), String> {
+    let asked_at = schedule.stop_at_us.map_or(u64::MAX, |s| s.0);
     for (i, &sent) in report.stops_sent.iter().enumerate() {
         let id = i as u32 + 1;
-        let by_stop_now = report.stopped.as_ref().is_some_and(|s| s.now && s.told.contains(&id));
+        let told = report.stopped.as_ref().is_some_and(|s| s.now && s.told.contains(&id));
+        let by_stop_now = match told {
+            true => report.stop_log.iter().filter(|s| s.1 == id && s.0 >= asked_at).count() as u64,
+            false => 0,
+        };
         let by_revoke = report.after_revoke.iter().filter(|(r, o)| *r == id && is_stop(o)).count() as u64;
-        let stops = sent - (u64::from(by_stop_now) + by_revoke).min(sent);
+        let stops = sent - (by_stop_now + by_revoke).min(sent);
         let verdict = report.gates.iter().find(|g| g.robot.0 == id && g.kind != GateKind::Deployed);
         let stuck = verdict.is_some_and(|g| g.kind == GateKind::Stopped { arrived: false });
         let arrived = verdict.is_some_and(|g| g.kind == GateKind::Stopped { arrived: true });
@@ -188,8 +193,10 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
 }
 
 /// A stop asked from outside: when it ended the launch, the summary names
-/// who and why, and with `now` every robot whose agent ran was told `Stop`
-/// once, all at the launch's last step.
+/// who and why. With `now`, every robot whose agent ran was told `Stop`
+/// once, all in one step (`told_stop_at`), each told answered it or is
+/// named silent, and the launch ended once all had answered or the stop's
+/// wait was over ([`STOP_WAIT_US`]).
 fn check_stop(report: &Report, schedule: &Schedule, ending: &Ending) -> Result<(), String> {
     let Some(stop) = &report.stopped else {
         return match schedule.stop_at_us {
@@ -213,15 +220,57 @@ fn check_stop(report: &Report, schedule: &Schedule, ending: &Ending) -> Result<(
     if !first {
         return Ok(());
     }
-    let at_end: Vec<u32> = report.stop_log.iter().filter(|s| s.0 == report.end_us).map(|s| s.1).collect();
-    let expected = if stop.now { report.running_at_end.clone() } else { Vec::new() };
-    if stop.told != expected {
-        return Err(format!("robots {:?} told to stop, {expected:?} were running", stop.told));
+    if !stop.now {
+        return match stop.told.is_empty() {
+            true => Ok(()),
+            false => Err(format!("a graceful stop told robots {:?} to stop", stop.told)),
+        };
     }
-    if let Some(missed) = stop.told.iter().find(|id| !at_end.contains(id)) {
-        return Err(format!("robot {missed} was not sent Stop in the launch's last step"));
+    if let Some(missed) = report.running_at_end.iter().find(|id| !stop.told.contains(id)) {
+        return Err(format!("robot {missed} ran at the end and was never told to stop"));
+    }
+    check_stop_answers(report, asked_at, stop)
+}
+
+/// A stop `now`'s answers: told all in one step at or after it was asked,
+/// each robot told answered once or is named silent, the launch over by the
+/// stop's wait, and early only when every robot answered.
+fn check_stop_answers(report: &Report, asked_at: u64, stop: &StopSummary) -> Result<(), String> {
+    let Some(at) = told_stop_at(report, asked_at, stop) else {
+        return match stop.told.is_empty() {
+            true => Ok(()),
+            false => Err(format!("robots {:?} told to stop, but not all in one step", stop.told)),
+        };
+    };
+    let mut heard: Vec<u32> =
+        stop.answered.iter().map(|a| a.robot).chain(stop.unanswered.iter().copied()).collect();
+    heard.sort_unstable();
+    let mut told = stop.told.clone();
+    told.sort_unstable();
+    if heard != told {
+        return Err(format!("told {told:?}, answered or silent {heard:?}"));
+    }
+    if report.end_us > at + STOP_WAIT_US {
+        return Err(format!("a stop told at {at} µs ended the launch only at {} µs", report.end_us));
+    }
+    if let Some(late) = stop.answered.iter().find(|a| at + a.after_us > report.end_us) {
+        return Err(format!("robot {} answered after the end", late.robot));
     }
     Ok(())
+}
+
+/// When the robots a stop `now` told were sent `Stop`: the step in which
+/// the first robot it told was, at or after it was asked. The robots
+/// running then were told all in that step; the ones whose agents started
+/// later (their start asked before the stop) are told after it, each when
+/// it started, and come last in `told`.
+fn told_stop_at(report: &Report, asked_at: u64, stop: &StopSummary) -> Option<u64> {
+    let first = *stop.told.first()?;
+    let at = report.stop_log.iter().find(|s| s.0 >= asked_at && s.1 == first)?.0;
+    let sent_at = |id: &u32| report.stop_log.iter().find(|s| s.0 >= at && s.1 == *id).map(|s| s.0);
+    let times: Vec<Option<u64>> = stop.told.iter().map(sent_at).collect();
+    let together = times.iter().take_while(|t| **t == Some(at)).count();
+    times[together..].iter().all(|t| t.is_some_and(|t| t > at)).then_some(at)
 }
 
 fn is_stop(out: &Output) -> bool {

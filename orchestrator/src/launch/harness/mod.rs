@@ -46,7 +46,7 @@ use world::play;
 use super::agents::Gone;
 use super::config::{Clock, LaunchConfig, Missing, OnDeath};
 use super::core::log::{Call, Logged};
-use super::core::{Ending, Fault, Input, Output, Revoke, Setup, SlotState, Stop};
+use super::core::{Ending, Fault, Input, Output, Revoke, Setup, SlotState, Stop, STOP_WAIT_US};
 use super::events::EventKind;
 use super::summary::{Decided, Outcome, RevokedSummary, RobotEnd, StopSummary};
 use crate::draw::snapshot::Unit;

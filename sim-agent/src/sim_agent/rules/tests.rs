@@ -31,6 +31,7 @@ fn reports(said: &[Said]) -> Vec<&'static str> {
             Said::Report(FromAgent::Status(_)) => "status",
             Said::Report(FromAgent::TickDone(_)) => "done",
             Said::Report(FromAgent::Parked(_)) => "parked",
+            Said::Report(FromAgent::StopDone(d)) if !d.on_link => "stop done",
             Said::Report(_) => "other",
             Said::Pose(_) => "pose",
             Said::Refused(_) => "refused",
@@ -62,7 +63,11 @@ fn registers_with_every_beat_until_heard_then_beats_slower_once_parked() {
     a.advance(200 * MS, &mut out);
     assert_eq!(reports(&out), ["heartbeat"], "heard: no more Register");
     assert_eq!(a.deadline(), Some(300 * MS), "a moving robot beats every 100 ms");
+    out.clear();
     a.handle(&ToAgent::Stop, &mut out);
+    assert_eq!(reports(&out), ["stop done"], "a Stop is answered at once");
+    a.handle(&ToAgent::Stop, &mut out);
+    assert_eq!(reports(&out), ["stop done", "stop done"], "and again when re-sent");
     a.advance(300 * MS, &mut out);
     assert_eq!(a.deadline(), Some(800 * MS), "a parked one every 500 ms");
 }
@@ -98,7 +103,9 @@ fn a_tick_is_stepped_once_and_a_repeat_answered_again() {
     out.clear();
     a.handle(&ToAgent::Tick(Tick { step: 2 }), &mut out);
     assert_eq!(a.counts().stale_bearings, 1, "tick 2 came with the bearing of tick 1");
+    out.clear();
     a.handle(&ToAgent::Stop, &mut out);
+    assert_eq!(reports(&out), ["stop done"], "lockstep answers a Stop at once too, not with a tick");
     out.clear();
     a.handle(&ToAgent::Tick(Tick { step: 3 }), &mut out);
     assert_eq!(reports(&out), ["pose", "parked", "done"]);
