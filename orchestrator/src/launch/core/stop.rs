@@ -29,6 +29,15 @@ use crate::launch::summary::StopAnswer;
 /// launch ends anyway and names the robots that did not answer.
 pub const STOP_WAIT_US: u64 = 1_000_000;
 
+/// The first re-send of `Stop` to a silent robot, µs: a few control
+/// periods of a simulated robot at speed 10, well under the stop's wait.
+/// Not the answer time of the launch's other waits (`wait.rs`): a real-time
+/// launch has none timed (its first re-send would be 100 ms), and a robot
+/// whose agent had just started when the stop came (its commands not
+/// subscribed yet) lost the first `Stop` (`bench stop`: the launch answered
+/// after 110 ms instead of 10).
+const STOP_RESEND_US: u64 = 20_000;
+
 /// A stop `now` under way: `Stop` sent, answers awaited.
 #[derive(Clone, Debug)]
 pub(super) struct Stopping {
@@ -89,7 +98,7 @@ impl Core {
         self.stop = Some(stop);
         // Nothing else is decided while the answers are awaited.
         self.tick = None;
-        let wait = AnswerWait::new(now, STOP_WAIT_US, self.answer_time.first_resend_us());
+        let wait = AnswerWait::new(now, STOP_WAIT_US, STOP_RESEND_US);
         self.stopping = Some(Stopping { wait, awaiting: running.into_iter().collect() });
         self.stop_answers(now);
     }
