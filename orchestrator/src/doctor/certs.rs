@@ -20,8 +20,8 @@ use x509_parser::prelude::FromDer as _;
 
 const CHECK: &str = "certs";
 
-/// A certificate expiring within this many days is a warning.
-pub const WARN_DAYS: i64 = 30;
+/// A certificate expiring within this many days is a warning (every doctor's).
+pub use bycoms_runtime::doctor::WARN_DAYS;
 
 /// The first certificate of the PEM file `path`, as DER, or why not.
 fn read_der(path: &Path) -> Result<Vec<u8>, String> {

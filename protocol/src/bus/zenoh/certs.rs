@@ -112,6 +112,25 @@ pub fn check(
     Ok(())
 }
 
+/// The certificates `config` names: this process's own, then the lab's
+/// CA (empty: an unsecured config).
+pub fn named(config: &::zenoh::Config) -> Vec<PathBuf> {
+    let mut paths: Vec<PathBuf> = OWN.iter().filter_map(|k| path_of(config, k)).collect();
+    paths.dedup();
+    paths.extend(path_of(config, CA));
+    paths
+}
+
+/// When the first certificate of the PEM file `path` expires: seconds
+/// since the Unix epoch and the date (`2027-01-31`), for a doctor's
+/// warning ahead of the expiry [`check`] refuses.
+pub fn not_after(path: &Path) -> Result<(i64, String), CertificateError> {
+    let der = read_der(path)?;
+    let cert = parse(&der, path)?;
+    let t = cert.validity().not_after;
+    Ok((t.timestamp(), t.to_datetime().date().to_string()))
+}
+
 /// The first certificate of the PEM file `path`, as DER.
 fn read_der(path: &Path) -> Result<Vec<u8>, CertificateError> {
     let bytes = std::fs::read(path)
