@@ -214,7 +214,7 @@ pub fn command() -> Command {
     command_with_subcommands::<GatewayArgs, AgentCommand>(
         "agent",
         env!("CARGO_PKG_VERSION"),
-        "One real robot's gateway between its authenticated UDP link and the BYCOMS bus",
+        "One real robot's gateway between its authenticated UDP link and the BYCOMS bus; `bench` its added latency, `doctor` this host's checks",
     )
 }
 

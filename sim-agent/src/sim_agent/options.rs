@@ -316,7 +316,7 @@ pub fn command() -> Command {
     command_with_subcommands::<AgentArgs, SimAgentCommand>(
         "sim-agent",
         env!("CARGO_PKG_VERSION"),
-        "One simulated robot as its own process on the bus (what `launch` starts); `lab` the emulated lab",
+        "One simulated robot as its own process on the bus (what `launch` starts); `lab` the emulated lab, `doctor` this host's checks",
     )
 }
 
