@@ -115,3 +115,38 @@ fn the_logging_flags_go_before_or_after_the_subcommand() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("cannot be used with '--swarm <SWARM>'"), "{err}");
 }
+
+/// `agent doctor`: a bad endpoint is a usage error (2) before anything is
+/// checked; an orchestrator that is not there is an error finding (1) in
+/// the JSON report, with its fix.
+#[test]
+fn the_doctor_exits_2_for_a_usage_error_and_1_for_an_error_finding() {
+    let (code, err) = agent(&["doctor", "--connect", "nowhere", "--swarm", "gwcli", "--robot", "1"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("bad --connect endpoint \"nowhere\""), "{err}");
+    // A port nobody listens on: refused at once.
+    let port = std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).expect("port").port();
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let args = [
+        "doctor",
+        "--json",
+        "--timeout-ms",
+        "2000",
+        "--connect",
+        &endpoint,
+        "--swarm",
+        "gwcli",
+        "--robot",
+        "1",
+    ];
+    let out =
+        Command::new(env!("CARGO_BIN_EXE_agent")).args(args).stdin(Stdio::null()).output().expect("run");
+    assert_eq!(out.status.code(), Some(1), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("the JSON report");
+    let zenoh = report["findings"].as_array().expect("findings").iter().find(|f| f["check"] == "zenoh");
+    let zenoh = zenoh.expect("a zenoh finding");
+    assert_eq!(zenoh["level"], "error", "{report}");
+    assert!(zenoh["cause"].as_str().is_some_and(|c| c.contains("not reached")), "{report}");
+    assert!(zenoh["fix"].as_str().is_some_and(|f| f.contains("firewall")), "{report}");
+    assert_eq!(report["errors"], 1, "{report}");
+}

@@ -15,6 +15,11 @@
 //! * a taken port (a robot's gateway on the UDP port the orchestrator's
 //!   QUIC listens on): `udp-ports` error, exit 1.
 //!
+//! The robots' host's own doctors (`agent doctor`, `sim-agent doctor`: the
+//! same zenoh checks, with the robot's certificate and the gateway's port)
+//! are run on `b` against the healthy setup, the skewed clock and the wrong
+//! common name.
+//!
 //! `#[ignore = "needs root …"]`; asked for where namespaces are not
 //! permitted (not root, no `ip`), it fails, saying why.
 
@@ -31,8 +36,14 @@ const PORT: u16 = 7447;
 /// `orchestrator doctor ARGS --json` in `host` (with `env`): its exit code
 /// and findings.
 fn doctor(host: &Host, args: &[&str], env: &[(&str, &str)]) -> (Option<i32>, Vec<Value>) {
+    doctor_of("orchestrator", host, args, env)
+}
+
+/// `PROGRAM doctor ARGS --json` in `host` (with `env`): its exit code and
+/// findings (`orchestrator`, `agent`, `sim-agent`).
+fn doctor_of(program: &str, host: &Host, args: &[&str], env: &[(&str, &str)]) -> (Option<i32>, Vec<Value>) {
     let args = [&["doctor", "--json", "--timeout-ms", "2000"][..], args].concat();
-    let out = host.start_with_env("orchestrator", &args, env).wait(Duration::from_secs(60));
+    let out = host.start_with_env(program, &args, env).wait(Duration::from_secs(60));
     let j: Value = serde_json::from_str(&out.stdout)
         .unwrap_or_else(|e| panic!("doctor --json: {e}\n{}\n{}", out.stdout, out.stderr));
     (out.status.code(), j["findings"].as_array().cloned().unwrap_or_default())
@@ -108,6 +119,28 @@ fn doctor_across_two_hosts_finds_each_fault() {
     assert_eq!(code, Some(1), "skewed: {found:#?}");
     assert!(has(&found, "clock", "error", "more than 500 ms"), "{found:#?}");
 
+    // The robots' host's own doctors, without the orchestrator binary's flags.
+    let gateway_port = format!("{}:47201", hosts.b.addr);
+    let robot_1 = ["--connect", &endpoint, "--zenoh-config", robot, "--swarm", &swarm, "--robot", "1"];
+    let gateway = [&robot_1[..], &["--bind", &gateway_port]].concat();
+    let (code, found) = doctor_of("agent", &hosts.b, &gateway, &[]);
+    assert_eq!(code, Some(0), "agent doctor, healthy: {found:#?}");
+    for (check, words) in [
+        ("zenoh", "is alive at"),
+        ("clock", "ms off the orchestrator's"),
+        ("certs", "robot-1's certificate signed by the lab's CA"),
+        ("udp-ports", "UDP ports are free"),
+        ("open-files", "open files"),
+    ] {
+        assert!(has(&found, check, "ok", words), "agent doctor, {check}: {found:#?}");
+    }
+    let (code, found) = doctor_of("sim-agent", &hosts.b, &robot_1, &[]);
+    assert_eq!(code, Some(0), "sim-agent doctor, healthy: {found:#?}");
+    assert!(has(&found, "clock", "ok", "ms off the orchestrator's"), "{found:#?}");
+    let (code, found) = doctor_of("sim-agent", &hosts.b, &robot_1, &[("BYCOMS_TEST_CLOCK_SKEW_MS", "2000")]);
+    assert_eq!(code, Some(1), "sim-agent doctor, skewed: {found:#?}");
+    assert!(has(&found, "clock", "error", "more than 500 ms"), "{found:#?}");
+
     hosts.cut().expect("cut");
     let (code, found) = doctor(&hosts.b, &from_b, &[]);
     hosts.restore().expect("restore");
@@ -120,6 +153,9 @@ fn doctor_across_two_hosts_finds_each_fault() {
     let (code, found) = doctor(&hosts.b, &from_b, &[]);
     assert_eq!(code, Some(1), "wrong common name: {found:#?}");
     assert!(has(&found, "certs", "error", "carries the common name \"robot-7\""), "{found:#?}");
+    let (code, found) = doctor_of("agent", &hosts.b, &gateway, &[]);
+    assert_eq!(code, Some(1), "agent doctor, wrong common name: {found:#?}");
+    assert!(has(&found, "certs", "error", "is \"robot-7\"'s, not \"robot-1\"'s"), "{found:#?}");
     reissue_robot_1(certs.path(), "robot-1", (2021, 1, 1));
     let (code, found) = doctor(&hosts.b, &from_b, &[]);
     assert_eq!(code, Some(1), "expired: {found:#?}");

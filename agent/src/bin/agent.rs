@@ -1,5 +1,6 @@
-//! `agent`: one real robot's gateway (see `bycoms_agent::gateway`), or with
-//! `agent bench` the gateway's added-latency figures. Thin `main`: parse,
+//! `agent`: one real robot's gateway (see `bycoms_agent::gateway`), with
+//! `agent bench` the gateway's added-latency figures, or with `agent
+//! doctor` the checks of this host (`bycoms_runtime::doctor`). Thin `main`: parse,
 //! run, exit code. The command line is the library's
 //! (`bycoms_agent::gateway::cli::command`), shared with whoever starts a gateway
 //! (`GatewayArgs::to_flags`).
@@ -16,6 +17,10 @@ fn main() {
                 tracing::error!("{}", bycoms_runtime::logging::error_text(e.as_ref()));
                 std::process::exit(1);
             }
+        }
+        AgentRun::Doctor(doctor) => {
+            bycoms_runtime::cli::tune_zenoh_runtime();
+            std::process::exit(doctor.main());
         }
         AgentRun::Gateway(gateway) => {
             bycoms_runtime::cli::tune_zenoh_runtime();

@@ -42,11 +42,6 @@ pub struct BenchArgs {
     pub interval_ms: u64,
 }
 
-impl BenchArgs {
-    /// The subcommand of `agent` that runs the bench.
-    pub const SUBCOMMAND: &'static str = "bench";
-}
-
 fn frame(step: u32) -> Payload {
     Payload::Telemetry(Telemetry {
         step,

@@ -29,7 +29,8 @@ use bycoms_protocol::link::{KeyFileError, LinkKey};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{NameError, RobotId, Swarm};
 use bycoms_runtime::cli::quiet_iceoryx2;
-use bycoms_runtime::cli::{command_with_subcommand, parse_with_subcommand};
+use bycoms_runtime::cli::{command_with_subcommands, parse_with_subcommands};
+use bycoms_runtime::doctor::{HostArgs, HostNeeds};
 use bycoms_runtime::failsafe::{Failsafe, FailsafeArgs};
 use bycoms_runtime::lifeline::LifelineError;
 use bycoms_runtime::logging::LogArgs;
@@ -165,22 +166,55 @@ impl GatewayArgs {
     }
 }
 
+/// Check this robot's gateway host before a lab day, as its gateway will
+/// run: the open-files limit, the robot link's UDP port free (--bind), this
+/// robot's certificate in its zenoh config, the orchestrator's endpoint
+/// reached, its liveliness seen and this host's clock offset to it.
+///
+/// Each finding names its cause and its fix; exit 0 without an error, 1
+/// with one, 2 for a usage error. `orchestrator doctor --connect` runs the
+/// same zenoh checks where the orchestrator binary is installed.
+#[derive(Clone, Debug, PartialEq, Eq, clap::Args)]
+pub struct DoctorArgs {
+    /// The UDP address the gateway will listen on (its robot's flashed
+    /// gateway address, the robots file's `gateway`): checked bindable.
+    #[arg(long, value_name = "ADDR")]
+    pub bind: Option<SocketAddr>,
+    #[command(flatten)]
+    pub host: HostArgs,
+}
+
+impl DoctorArgs {
+    /// Runs the doctor; returns the exit code (see [`DoctorArgs`]).
+    pub fn main(&self) -> i32 {
+        let needs = HostNeeds { files: bycoms_runtime::doctor::host::AGENT_FILES, bind: self.bind };
+        bycoms_runtime::doctor::main_with(&self.host, needs)
+    }
+}
+
+/// `agent`'s subcommands (their help is their flags' doc comment).
+#[derive(Clone, Debug, PartialEq, clap::Subcommand)]
+pub enum AgentCommand {
+    Bench(BenchArgs),
+    Doctor(DoctorArgs),
+}
+
 /// The whole `agent` command line: the gateway's flags ([`GatewayArgs`])
-/// and the logging flags at the top level, the added-latency bench as the
-/// `bench` subcommand ([`BenchArgs`]).
+/// and the logging flags at the top level, the added-latency bench and
+/// the host's doctor as the `bench` and `doctor` subcommands
+/// ([`AgentCommand`]).
 ///
 /// As `sim-agent` and its `lab`: the gateway's flags stay at the top level
 /// (launchers start `agent --swarm … --robot …`), a subcommand lifts their
 /// requirement and the two exclude each other, so `agent --help` lists
-/// `bench` and `agent bench --help` has the bench's own usage line; the
-/// logging flags go before or after `bench` ([`command_with_subcommand`]
-/// says how and why).
+/// `bench` and `doctor`, and `agent bench --help` has the bench's own usage
+/// line; the logging flags go before or after the subcommand
+/// ([`command_with_subcommands`] says how and why).
 pub fn command() -> Command {
-    command_with_subcommand::<GatewayArgs, BenchArgs>(
+    command_with_subcommands::<GatewayArgs, AgentCommand>(
         "agent",
-        BenchArgs::SUBCOMMAND,
         env!("CARGO_PKG_VERSION"),
-        "One real robot's gateway between its authenticated UDP link and the BYCOMS bus",
+        "One real robot's gateway between its authenticated UDP link and the BYCOMS bus; `bench` its added latency, `doctor` this host's checks",
     )
 }
 
@@ -191,6 +225,8 @@ pub enum AgentRun {
     Gateway(GatewayArgs),
     /// `agent bench`: the gateway's added latency.
     Bench(BenchArgs),
+    /// `agent doctor`: this host's checks.
+    Doctor(DoctorArgs),
 }
 
 /// Parses an `agent` command line (`argv[0]` first) with [`command`]: the
@@ -201,8 +237,13 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
-    let (log, chosen) = parse_with_subcommand(command, BenchArgs::SUBCOMMAND, argv)?;
-    Ok((log, chosen.map_or_else(AgentRun::Gateway, AgentRun::Bench)))
+    let (log, chosen) = parse_with_subcommands(command, argv)?;
+    let run = match chosen {
+        Err(gateway) => AgentRun::Gateway(gateway),
+        Ok(AgentCommand::Bench(bench)) => AgentRun::Bench(bench),
+        Ok(AgentCommand::Doctor(doctor)) => AgentRun::Doctor(doctor),
+    };
+    Ok((log, run))
 }
 
 /// Why a gateway could not run.
@@ -453,5 +494,29 @@ mod command_tests {
         assert!(err.contains("--robot"), "{err}");
         let help = command().render_help().to_string();
         assert!(help.lines().any(|l| l.trim_start().starts_with("bench ")), "{help}");
+        assert!(help.lines().any(|l| l.trim_start().starts_with("doctor ")), "{help}");
+    }
+
+    #[test]
+    fn doctor_is_a_subcommand_with_the_host_s_flags_and_the_gateway_s_port() {
+        let args = [
+            "doctor",
+            "--connect",
+            "quic/o:7447",
+            "--swarm",
+            "lab",
+            "--robot",
+            "3",
+            "--bind",
+            "10.0.0.2:9000",
+        ];
+        let AgentRun::Doctor(d) = run_of(&args).expect("parses") else { panic!("not the doctor") };
+        assert_eq!(d.bind, Some("10.0.0.2:9000".parse().unwrap()));
+        assert_eq!((d.host.connect.as_str(), d.host.swarm.as_str(), d.host.robot), ("quic/o:7447", "lab", 3));
+        assert_eq!((d.host.timeout_ms, d.host.json, &d.host.zenoh_config), (500, false, &None));
+        let err = run_of(&["doctor", "--swarm", "lab", "--robot", "3"]).unwrap_err().to_string();
+        assert!(err.contains("--connect") && err.contains("Usage: agent doctor"), "{err}");
+        let help = command().find_subcommand_mut("doctor").expect("doctor").render_help().to_string();
+        assert!(help.starts_with("Check this robot's gateway host"), "{help}");
     }
 }

@@ -253,3 +253,6 @@ impl<B: Bus> Gateway<B> {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests;

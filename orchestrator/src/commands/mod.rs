@@ -92,7 +92,9 @@ pub enum Command {
     /// iceoryx2 files of dead swarms (--clean removes them), and the NatNet
     /// server answering when the config's [mocap] source is natnet. With
     /// --connect: the orchestrator's zenoh endpoint reached as a robot's
-    /// host would, and its liveliness seen (--swarm).
+    /// host would, its liveliness seen (--swarm) and this host's clock
+    /// offset to it. A robot's host without this binary runs the same
+    /// checks with `agent doctor` or `sim-agent doctor`.
     Doctor(doctor::Args),
     /// Run one simulated robot (what `launch` starts when no `sim-agent` binary sits next to it).
     #[command(hide = true)]

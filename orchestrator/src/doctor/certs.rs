@@ -12,34 +12,25 @@
 
 use super::Finding;
 use crate::certs::{read_config, revoked_in, robot_cn, ORCHESTRATOR_CN};
+use bycoms_protocol::bus::zenoh::certs as zenoh_certs;
 use std::collections::BTreeSet;
 use std::path::Path;
 use std::time::SystemTime;
 use x509_parser::certificate::X509Certificate;
-use x509_parser::prelude::FromDer as _;
 
 const CHECK: &str = "certs";
 
-/// A certificate expiring within this many days is a warning.
-pub const WARN_DAYS: i64 = 30;
+/// A certificate expiring within this many days is a warning (every doctor's).
+pub use bycoms_runtime::doctor::WARN_DAYS;
 
-/// The first certificate of the PEM file `path`, as DER, or why not.
+/// The first certificate of the PEM file `path`, as DER, or why not (the
+/// agents' own reader, `bus::zenoh::certs`).
 fn read_der(path: &Path) -> Result<Vec<u8>, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let not_pem = || format!("{} is not a PEM certificate", path.display());
-    let pem =
-        x509_parser::pem::Pem::iter_from_buffer(&bytes).next().ok_or_else(not_pem)?.map_err(|_| not_pem())?;
-    Ok(pem.contents)
+    zenoh_certs::read_der(path).map_err(|e| e.0)
 }
 
 fn parse<'a>(der: &'a [u8], path: &Path) -> Result<X509Certificate<'a>, String> {
-    X509Certificate::from_der(der)
-        .map(|(_, c)| c)
-        .map_err(|e| format!("{} is not a valid certificate ({e})", path.display()))
-}
-
-fn common_name(cert: &X509Certificate<'_>) -> String {
-    cert.subject().iter_common_name().next().and_then(|cn| cn.as_str().ok()).unwrap_or_default().to_owned()
+    zenoh_certs::parse(der, path).map_err(|e| e.0)
 }
 
 fn unix_secs(now: SystemTime) -> i64 {
@@ -106,7 +97,7 @@ pub fn check(dir: &Path, robots: u32, now: SystemTime) -> Vec<Finding> {
             let cause = format!("{} is not signed by the lab's CA {}", path.display(), ca_path.display());
             found.push(Finding::error(CHECK, cause, format!("remove it, then {add}")));
         }
-        let cn = common_name(&cert);
+        let cn = zenoh_certs::name_of(&cert);
         if cn != name {
             let cause = format!("{} carries the common name {cn:?}, not {name:?}", path.display());
             found.push(Finding::error(CHECK, cause, format!("remove it, then {add}")));

@@ -1,6 +1,7 @@
 //! The checks of this host: open-files and memory limits for the planned
-//! robot count, the gateways' UDP ports free, iceoryx2 leftovers of dead
-//! swarms, and the NatNet server answering.
+//! robot count, the gateways' UDP ports free (`bycoms_runtime::doctor::host`,
+//! shared with `agent doctor`), iceoryx2 leftovers of dead swarms, and the
+//! NatNet server answering.
 //!
 //! Why with the launch's own numbers: the open-files decision is
 //! `launch::limits`'s (the doctor asks it with a `raise` that does
@@ -12,7 +13,6 @@ use super::Finding;
 use crate::launch::config::Transport;
 use crate::launch::limits::{decide, files_needed, FilesCheck};
 use crate::mocap::{ClientConfig, NatNetClient};
-use std::net::{SocketAddr, UdpSocket};
 use std::time::Duration;
 
 /// Memory of a launch besides its robots, MB (the orchestrator of a
@@ -72,30 +72,8 @@ pub fn available_mb() -> Option<u64> {
     Some(kb / 1024)
 }
 
-/// Whether each robot's gateway address (`(robot, address)`) can be bound here.
-pub fn udp_ports(gateways: &[(u32, SocketAddr)]) -> Vec<Finding> {
-    const CHECK: &str = "udp-ports";
-    let mut found = Vec::new();
-    for &(robot, addr) in gateways {
-        if let Err(e) = UdpSocket::bind(addr) {
-            let fix = match e.kind() {
-                std::io::ErrorKind::AddrInUse => {
-                    format!("stop what holds it (`ss -ulpn 'sport = :{}'`: a gateway or emulated lab left running), or give robot {robot} another gateway port", addr.port())
-                }
-                _ => format!("give robot {robot} a gateway address of this host in the robots file"),
-            };
-            found.push(Finding::error(
-                CHECK,
-                format!("robot {robot}'s gateway cannot bind {addr}: {e}"),
-                fix,
-            ));
-        }
-    }
-    if found.is_empty() {
-        found.push(Finding::ok(CHECK, format!("the {} gateways' UDP ports are free", gateways.len())));
-    }
-    found
-}
+/// Whether each robot's gateway address can be bound here (every host's check).
+pub use bycoms_runtime::doctor::host::udp_ports;
 
 /// Dead nodes iceoryx2 still keeps files of (on this process's bus:
 /// `BYCOMS_IPC_ISOLATION` selects it), and unheld swarm lock files.

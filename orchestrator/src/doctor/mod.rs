@@ -13,99 +13,21 @@
 //! launch cannot disagree about what is enough. With `--connect` it also
 //! reaches the orchestrator's zenoh endpoint as a robot's host would,
 //! looks for the orchestrator's liveliness and measures this host's clock
-//! offset to the orchestrator's ([`zenoh`]); run on a robot's host, that
-//! is the check of that host. The other direction (the orchestrator
-//! reaching each host) needs a doctor on the other hosts and is not
-//! checked yet.
+//! offset to the orchestrator's ([`zenoh`]). A robot's host without the
+//! orchestrator binary runs the same check with `agent doctor` or
+//! `sim-agent doctor` (with its certificate, its gateway's port and its
+//! open-files limit): the shared checks live once in
+//! `bycoms_runtime::doctor`, this module keeps the orchestrator's own (the
+//! certificate set against the ACL, memory, iceoryx2 leftovers, NatNet).
+//! The other direction (the orchestrator reaching each host) is not
+//! checked: each host's doctor checks its own way in.
 
 pub mod certs;
 pub mod host;
 #[cfg(test)]
 mod tests;
-pub mod zenoh;
 
-use serde::Serialize;
-
-/// How bad a finding is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Level {
-    /// Checked and fine.
-    Ok,
-    /// Works today, needs attention soon (e.g. a certificate expiring within 30 days).
-    Warn,
-    /// The launch would fail or misbehave.
-    Error,
-}
-
-impl Level {
-    /// The word of the text report.
-    pub fn word(self) -> &'static str {
-        match self {
-            Level::Ok => "ok",
-            Level::Warn => "warn",
-            Level::Error => "error",
-        }
-    }
-}
-
-/// One result of one check.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
-pub struct Finding {
-    /// The check (`certs`, `open-files`, `memory`, `udp-ports`, `iceoryx2`, `natnet`, `zenoh`, `clock`).
-    pub check: &'static str,
-    /// How bad.
-    pub level: Level,
-    /// What was found (for `ok`: what was checked).
-    pub cause: String,
-    /// What to do (empty for `ok`).
-    pub fix: String,
-}
-
-impl Finding {
-    /// A check that passed.
-    pub fn ok(check: &'static str, cause: impl Into<String>) -> Self {
-        Self { check, level: Level::Ok, cause: cause.into(), fix: String::new() }
-    }
-
-    /// A warning with its fix.
-    pub fn warn(check: &'static str, cause: impl Into<String>, fix: impl Into<String>) -> Self {
-        Self { check, level: Level::Warn, cause: cause.into(), fix: fix.into() }
-    }
-
-    /// An error with its fix.
-    pub fn error(check: &'static str, cause: impl Into<String>, fix: impl Into<String>) -> Self {
-        Self { check, level: Level::Error, cause: cause.into(), fix: fix.into() }
-    }
-}
-
-/// Whether any finding is an error (the doctor then exits 1).
-pub fn any_error(findings: &[Finding]) -> bool {
-    findings.iter().any(|f| f.level == Level::Error)
-}
-
-/// The findings as lines of text: `LEVEL check: cause` and, below a
-/// finding that is not ok, `  fix: …`.
-pub fn text(findings: &[Finding]) -> Vec<String> {
-    let mut lines = Vec::new();
-    for f in findings {
-        lines.push(format!("{:<5} {}: {}", f.level.word(), f.check, f.cause));
-        if !f.fix.is_empty() {
-            lines.push(format!("      fix: {}", f.fix));
-        }
-    }
-    let count = |l: Level| findings.iter().filter(|f| f.level == l).count();
-    lines.push(format!(
-        "doctor: {} errors, {} warnings, {} ok",
-        count(Level::Error),
-        count(Level::Warn),
-        count(Level::Ok)
-    ));
-    lines
-}
-
-/// The findings as the JSON `--json` prints: `{"findings": [...], "errors": n, "warnings": n}`.
-pub fn json(findings: &[Finding]) -> serde_json::Value {
-    let count = |l: Level| findings.iter().filter(|f| f.level == l).count();
-    serde_json::json!({ "findings": findings, "errors": count(Level::Error), "warnings": count(Level::Warn) })
-}
+/// The findings, their report and the zenoh check are every host's
+/// (`bycoms_runtime::doctor`, shared with `agent doctor` and `sim-agent
+/// doctor`).
+pub use bycoms_runtime::doctor::{any_error, json, text, zenoh, Finding, Level};

@@ -1,12 +1,13 @@
-//! The doctor's checks, each fault injected in a temporary directory or
-//! on a loopback socket of the test's own.
+//! The orchestrator's own checks, each fault injected in a temporary
+//! directory or on a loopback socket of the test's own (the checks every
+//! host shares are tested where they live, `bycoms_runtime::doctor`).
 
-use super::{certs, host, json, text, Finding, Level};
+use super::{certs, host, Finding, Level};
 use crate::certs::{access_control, generate, robot_cn, Plan};
 use crate::launch::config::Transport;
 use rcgen::{CertificateParams, DnType, Issuer, KeyPair};
 use std::collections::BTreeSet;
-use std::net::{Ipv4Addr, SocketAddr, UdpSocket};
+use std::net::{Ipv4Addr, UdpSocket};
 use std::path::Path;
 use std::time::{Duration, SystemTime};
 
@@ -111,24 +112,6 @@ fn an_acl_that_misses_a_robot_is_an_error_and_a_revoked_robot_a_warning() {
 }
 
 #[test]
-fn a_taken_gateway_port_is_an_error_that_names_the_robot_and_a_free_one_is_ok() {
-    let taken = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0)).expect("bind");
-    let taken_addr = taken.local_addr().expect("addr");
-    // Port 0: any free port, always bindable.
-    let free_addr = SocketAddr::from((Ipv4Addr::LOCALHOST, 0));
-    let found = host::udp_ports(&[(1, free_addr), (2, taken_addr)]);
-    assert_eq!(found.len(), 1, "{found:#?}");
-    assert_eq!(found[0].level, Level::Error);
-    assert!(
-        found[0].cause.contains(&format!("robot 2's gateway cannot bind {taken_addr}")),
-        "{}",
-        found[0].cause
-    );
-    assert!(found[0].fix.contains(&format!("sport = :{}", taken_addr.port())), "{}", found[0].fix);
-    assert_eq!(host::udp_ports(&[(1, free_addr)])[0].level, Level::Ok);
-}
-
-#[test]
 fn the_limits_say_what_the_launch_would_do() {
     assert_eq!(host::open_files(3, Transport::Ipc, 1024, 4096).level, Level::Ok);
     let raised = host::open_files(100, Transport::Ipc, 1024, 1 << 20);
@@ -160,73 +143,6 @@ fn a_silent_natnet_server_is_an_error_within_the_bounded_wait() {
 }
 
 #[test]
-fn the_report_counts_and_the_json_has_the_documented_shape() {
-    let found = vec![
-        Finding::ok("memory", "fine"),
-        Finding::warn("acl", "revoked", "relaunch"),
-        Finding::error("udp-ports", "taken", "stop it"),
-    ];
-    let lines = text(&found);
-    assert_eq!(lines.last().map(String::as_str), Some("doctor: 1 errors, 1 warnings, 1 ok"));
-    assert!(lines.contains(&"      fix: stop it".to_string()), "{lines:?}");
-    let j = json(&found);
-    assert_eq!((j["errors"].as_u64(), j["warnings"].as_u64()), (Some(1), Some(1)));
-    assert_eq!(j["findings"][2]["level"], "error");
-    assert_eq!(j["findings"][1]["fix"], "relaunch");
-}
-
-/// A reach of `endpoint` for swarm `swarm`, waiting `ms` per step.
-fn reach(endpoint: &str, swarm: &str, ms: u64) -> super::zenoh::Reach {
-    super::zenoh::Reach {
-        endpoint: endpoint.into(),
-        zenoh_config: None,
-        swarm: Some(bycoms_protocol::Swarm::new(swarm).expect("swarm")),
-        timeout: Duration::from_millis(ms),
-        clocks: crate::launch::core::ClockLimits { warn_us: 100_000, limit_us: 500_000 },
-    }
-}
-
-#[test]
-fn the_orchestrators_endpoint_is_reached_and_its_liveliness_seen_or_missed() {
-    use bycoms_protocol::bus::zenoh::{Mode, ZenohBus, ZenohConfig};
-    use bycoms_protocol::naming::Member;
-    let listen = crate::launch::transport::with_free_port("tcp/127.0.0.1:0").expect("free port");
-    let router = ZenohBus::open(ZenohConfig {
-        mode: Mode::Router,
-        listen: vec![listen.clone()],
-        ..ZenohConfig::default()
-    })
-    .expect("router");
-    let swarm = bycoms_protocol::Swarm::new("doctor-live").expect("swarm");
-    let _alive = router.declare_alive(&swarm, Member::Orchestrator).expect("token");
-    let found = super::zenoh::check(&reach(&listen, "doctor-live", 5_000));
-    assert_eq!(found.iter().map(|f| f.level).collect::<Vec<_>>(), [Level::Ok, Level::Ok, Level::Error]);
-    assert!(found[2].cause.contains("did not answer the clock query"), "{found:#?}");
-    let _clock = router.serve_clock(&swarm).expect("clock");
-    let found = super::zenoh::check(&reach(&listen, "doctor-live", 5_000));
-    assert_eq!(found.iter().map(|f| f.level).collect::<Vec<_>>(), [Level::Ok, Level::Ok, Level::Ok]);
-    assert_eq!(found[2].check, "clock");
-    assert!(found[2].cause.contains("ms off the orchestrator's (round trip"), "{found:#?}");
-    let found = super::zenoh::check(&reach(&listen, "doctor-other", 200));
-    assert_eq!(found.iter().map(|f| f.level).collect::<Vec<_>>(), [Level::Ok, Level::Error], "{found:#?}");
-    assert!(found[1].cause.contains("no orchestrator of swarm doctor-other"), "{}", found[1].cause);
-}
-
-#[test]
-fn an_endpoint_that_never_answers_is_an_error_within_the_bounded_wait() {
-    // Accepts TCP (the backlog) and never speaks zenoh.
-    let mute = std::net::TcpListener::bind((Ipv4Addr::LOCALHOST, 0)).expect("bind");
-    let endpoint = format!("tcp/{}", mute.local_addr().expect("addr"));
-    let started = std::time::Instant::now();
-    let found = super::zenoh::check(&reach(&endpoint, "doctor-mute", 300));
-    assert_eq!(found.len(), 1, "{found:#?}");
-    assert_eq!(found[0].level, Level::Error);
-    assert!(found[0].cause.contains(&format!("{endpoint} not reached")), "{}", found[0].cause);
-    assert!(found[0].fix.contains("firewall"), "{}", found[0].fix);
-    assert!(started.elapsed() < Duration::from_secs(5), "bounded: {:?}", started.elapsed());
-}
-
-#[test]
 fn an_answering_natnet_server_is_ok() {
     use bycoms_sim::natnet_server::NatNetServer;
     let lab = crate::mocap::tests::lab(Default::default());
@@ -240,27 +156,4 @@ fn an_answering_natnet_server_is_ok() {
     let found = host::natnet(&client, Duration::from_secs(2));
     assert_eq!(found.level, Level::Ok, "{found:?}");
     assert!(found.cause.contains("answers (lab)"), "{}", found.cause);
-}
-
-/// A clock offset is judged by the launch's limits either way, and the fix
-/// names chrony.
-#[test]
-fn a_clock_offset_is_ok_a_warning_or_an_error() {
-    use bycoms_protocol::bus::zenoh::clock::ClockSample;
-    let limits = crate::launch::core::ClockLimits { warn_us: 100_000, limit_us: 500_000 };
-    let at = |offset_us| {
-        super::zenoh::clock_finding(Ok(Some(ClockSample { offset_us, round_trip_us: 1_200 })), limits)
-    };
-    let ok = at(-40_000);
-    assert_eq!((ok.check, ok.level), ("clock", Level::Ok));
-    assert!(ok.cause.contains("-40.0 ms off the orchestrator's (round trip 1.2 ms)"), "{}", ok.cause);
-    let warn = at(250_000);
-    assert_eq!(warn.level, Level::Warn);
-    assert!(warn.cause.contains("more than 100 ms") && warn.fix.contains("chrony"), "{warn:?}");
-    let error = at(-750_000);
-    assert_eq!(error.level, Level::Error);
-    assert!(error.cause.contains("more than 500 ms, the launch refuses"), "{}", error.cause);
-    assert!(error.fix.contains("chronyc makestep"), "{}", error.fix);
-    let silent = super::zenoh::clock_finding(Ok(None), limits);
-    assert_eq!(silent.level, Level::Error);
 }

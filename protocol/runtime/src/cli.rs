@@ -1,13 +1,13 @@
 //! What the command line and `main` of every swarm binary share: the
 //! real-time speed-up's one check, the assembly and the parser of a command
-//! line whose own flags sit beside one subcommand (`sim-agent` and `sim-agent
-//! lab`, `agent` and `agent bench`), and the set-up of the iceoryx2 and
-//! zenoh libraries in a process of ours.
+//! line whose own flags sit beside its subcommands (`sim-agent` and
+//! `sim-agent lab` / `doctor`, `agent` and `agent bench` / `doctor`), and
+//! the set-up of the iceoryx2 and zenoh libraries in a process of ours.
 
 use crate::logging::LogArgs;
 use clap::error::ErrorKind;
 use clap::parser::ValueSource;
-use clap::{Args, Command, FromArgMatches};
+use clap::{Args, Command, FromArgMatches, Subcommand};
 
 /// Fastest real-time speed-up: a control period of 0.1 s / 1000 = 100 µs
 /// of wall time, about what an agent and the orchestrator turn around in
@@ -49,14 +49,15 @@ pub fn check_swarm_size(robot: u32, swarm_size: Option<u32>) -> Result<(), Strin
 }
 
 /// The command line of a swarm binary `name` (`sim-agent`, `agent`) whose
-/// own flags `M` and the logging flags sit at the top level, next to one
-/// subcommand `sub` with flags `S`.
+/// own flags `M` and the logging flags sit at the top level, next to the
+/// subcommands of `S` (a `clap::Subcommand` enum: `lab` and `doctor`,
+/// `bench` and `doctor`).
 ///
 /// The top level's flags stay at the top level (launchers start
-/// `sim-agent --swarm … --robot …`) next to the subcommand: one clap
+/// `sim-agent --swarm … --robot …`) next to the subcommands: one clap
 /// command where a subcommand lifts the top level's required flags
 /// (`subcommand_negates_reqs`) and the two exclude each other (checked by
-/// [`parse_with_subcommand`]), so `--help` lists the subcommand and `NAME
+/// [`parse_with_subcommands`]), so `--help` lists the subcommands and `NAME
 /// SUB --help` has the subcommand's own usage line. The logging flags are
 /// `global`: they go before or after the subcommand (clap's own
 /// `args_conflicts_with_subcommands` would refuse them before it, as it
@@ -66,26 +67,23 @@ pub fn check_swarm_size(robot: u32, swarm_size: Option<u32>) -> Result<(), Strin
 /// (the bus and failsafe flags) when the subcommand is used. (The about
 /// line is set last: `augment_args` applies each struct's doc comment as
 /// the command's about.)
-pub fn command_with_subcommand<M: Args, S: Args>(
+pub fn command_with_subcommands<M: Args, S: Subcommand>(
     name: &'static str,
-    sub: &'static str,
     version: &'static str,
     about: &'static str,
 ) -> Command {
-    let subcommand = S::augment_args(Command::new(sub));
-    let top = Command::new(name).subcommand_negates_reqs(true).subcommand(subcommand);
+    let top = S::augment_subcommands(Command::new(name).subcommand_negates_reqs(true));
     LogArgs::augment_args(M::augment_args(top)).version(version).about(about).long_about(None::<&str>)
 }
 
 /// Parses `argv` (`argv[0]` first) with `command` (made by
-/// [`command_with_subcommand`]): the logging flags, and the top level's
-/// flags (`Err`) or the subcommand `sub`'s (`Ok`). A top-level flag given
-/// with the subcommand is refused (an argument conflict, as clap's own
+/// [`command_with_subcommands`]): the logging flags, and the top level's
+/// flags (`Err`) or the chosen subcommand's (`Ok`). A top-level flag given
+/// with a subcommand is refused (an argument conflict, as clap's own
 /// check says it); the logging flags, global, are not top-level flags.
 /// Errors carry the usage line of the command they are about.
-pub fn parse_with_subcommand<M: FromArgMatches, S: FromArgMatches, I, T>(
+pub fn parse_with_subcommands<M: FromArgMatches, S: FromArgMatches, I, T>(
     command: fn() -> Command,
-    sub: &str,
     argv: I,
 ) -> Result<(LogArgs, Result<S, M>), clap::Error>
 where
@@ -109,8 +107,8 @@ where
     }
     let log = LogArgs::from_arg_matches(&matches).map_err(formatted)?;
     let chosen = match matches.subcommand() {
-        Some((name, flags)) if name == sub => Ok(S::from_arg_matches(flags).map_err(formatted)?),
-        _ => Err(M::from_arg_matches(&matches).map_err(formatted)?),
+        Some(_) => Ok(S::from_arg_matches(&matches).map_err(formatted)?),
+        None => Err(M::from_arg_matches(&matches).map_err(formatted)?),
     };
     Ok((log, chosen))
 }
@@ -200,17 +198,24 @@ mod tests {
 
     /// A subcommand's flags.
     #[derive(Debug, PartialEq, clap::Args)]
-    struct Sub {
+    struct SubArgs {
         #[arg(long, default_value_t = 1)]
         frames: u32,
     }
 
+    /// The subcommands.
+    #[derive(Debug, PartialEq, clap::Subcommand)]
+    enum Sub {
+        Sub(SubArgs),
+        Other(SubArgs),
+    }
+
     fn command() -> Command {
-        command_with_subcommand::<Top, Sub>("swarm-binary", "sub", "0", "a test")
+        command_with_subcommands::<Top, Sub>("swarm-binary", "0", "a test")
     }
 
     fn parse(args: &[&str]) -> Result<(LogArgs, Result<Sub, Top>), clap::Error> {
-        parse_with_subcommand(command, "sub", std::iter::once("swarm-binary").chain(args.iter().copied()))
+        parse_with_subcommands(command, std::iter::once("swarm-binary").chain(args.iter().copied()))
     }
 
     #[test]
@@ -257,7 +262,7 @@ mod tests {
             &["sub", "--frames", "3", "--log-format", "json"],
         ] {
             let (log, chosen) = parse(args).unwrap_or_else(|e| panic!("{args:?}: {e}"));
-            assert_eq!((log.log_format, chosen), (Json, Ok(Sub { frames: 3 })), "{args:?}");
+            assert_eq!((log.log_format, chosen), (Json, Ok(Sub::Sub(SubArgs { frames: 3 }))), "{args:?}");
         }
         for args in [&["--log-format", "json", "--robot", "2"][..], &["--robot", "2", "--log-format", "json"]]
         {
@@ -271,6 +276,8 @@ mod tests {
             "{err}"
         );
         assert!(parse(&["sub", "--robot", "2"]).is_err(), "the top level's flags are not the subcommand's");
+        let (_, other) = parse(&["other", "--frames", "4"]).expect("the second subcommand");
+        assert_eq!(other, Ok(Sub::Other(SubArgs { frames: 4 })));
         assert!(parse(&[]).unwrap_err().to_string().contains("--robot"), "required without the subcommand");
     }
 }

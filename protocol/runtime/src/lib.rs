@@ -26,8 +26,13 @@
 //! * [`bus_config`] — the iceoryx2 sizing ([`ipc_config`]) and the zenoh
 //!   settings ([`zenoh_config`]) every process of a swarm must share;
 //! * [`cli`] — what every swarm binary's command line and `main` share:
-//!   the speed-up check, a command line with one subcommand, the iceoryx2
-//!   and zenoh set-up.
+//!   the speed-up check, a command line with subcommands, the iceoryx2
+//!   and zenoh set-up;
+//!
+//! and behind `doctor` (with `process`):
+//!
+//! * [`doctor`] — the findings of every host's doctor and the checks they
+//!   share (`orchestrator doctor`, `agent doctor`, `sim-agent doctor`).
 #![forbid(unsafe_code)]
 
 pub mod capped;
@@ -42,6 +47,8 @@ pub mod bus_args;
 pub mod bus_config;
 #[cfg(feature = "process")]
 pub mod cli;
+#[cfg(feature = "doctor")]
+pub mod doctor;
 #[cfg(feature = "process")]
 pub mod failsafe;
 #[cfg(feature = "process")]

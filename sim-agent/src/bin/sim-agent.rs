@@ -1,6 +1,7 @@
 //! `sim-agent`: one simulated BYCOMS robot as its own process (see
-//! `bycoms_sim::sim_agent`), or with `sim-agent lab …` the emulated lab
-//! of real robots (see `bycoms_sim::lab::process`). Thin `main`: parse, run,
+//! `bycoms_sim::sim_agent`), with `sim-agent lab …` the emulated lab
+//! of real robots (see `bycoms_sim::lab::process`), or with `sim-agent
+//! doctor` the checks of this host (`bycoms_runtime::doctor`). Thin `main`: parse, run,
 //! exit code. The command line is the library's
 //! (`bycoms_sim::sim_agent::options::command`), shared with whoever
 //! starts a `sim-agent` (`AgentArgs::to_flags`, `LabArgs::to_args`).
@@ -14,6 +15,7 @@ fn main() {
     let code = match run {
         SimAgentRun::Lab(lab) => bycoms_sim::lab::process::main_with(&lab),
         SimAgentRun::Robot(agent) => bycoms_sim::sim_agent::main_with(&agent),
+        SimAgentRun::Doctor(doctor) => doctor.main(),
     };
     std::process::exit(code);
 }

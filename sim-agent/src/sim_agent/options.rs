@@ -15,7 +15,8 @@
 use crate::lab::process::LabArgs;
 use crate::sensing::NoiseModel;
 use crate::RunConfig;
-use bycoms_runtime::cli::{check_speed, command_with_subcommand, parse_with_subcommand};
+use bycoms_runtime::cli::{check_speed, command_with_subcommands, parse_with_subcommands};
+use bycoms_runtime::doctor::{HostArgs, HostNeeds};
 use bycoms_runtime::failsafe::FailsafeArgs;
 use bycoms_runtime::logging::LogArgs;
 use bycoms_runtime::seconds::{check_seconds, Zero};
@@ -276,18 +277,46 @@ impl AgentArgs {
     }
 }
 
-/// The whole `sim-agent` command line: the robot's flags ([`AgentArgs`])
-/// and the logging flags at the top level, the emulated lab as the `lab`
-/// subcommand ([`LabArgs`]).
+/// Check this robot's host before a lab day, as its `sim-agent` will run
+/// over zenoh: the open-files limit, this robot's certificate in its zenoh
+/// config, the orchestrator's endpoint reached, its liveliness seen and this
+/// host's clock offset to it.
 ///
-/// Assembled by [`command_with_subcommand`] (the runtime's, shared with
-/// `agent` and its `bench`), which says how and why.
+/// Each finding names its cause and its fix; exit 0 without an error, 1
+/// with one, 2 for a usage error. `orchestrator doctor --connect` runs the
+/// same zenoh checks where the orchestrator binary is installed.
+#[derive(Clone, Debug, PartialEq, Eq, clap::Args)]
+pub struct DoctorArgs {
+    #[command(flatten)]
+    pub host: HostArgs,
+}
+
+impl DoctorArgs {
+    /// Runs the doctor; returns the exit code (see [`DoctorArgs`]).
+    pub fn main(&self) -> i32 {
+        let needs = HostNeeds { files: bycoms_runtime::doctor::host::AGENT_FILES, bind: None };
+        bycoms_runtime::doctor::main_with(&self.host, needs)
+    }
+}
+
+/// `sim-agent`'s subcommands (their help is their flags' doc comment).
+#[derive(Clone, Debug, PartialEq, clap::Subcommand)]
+pub enum SimAgentCommand {
+    Lab(LabArgs),
+    Doctor(DoctorArgs),
+}
+
+/// The whole `sim-agent` command line: the robot's flags ([`AgentArgs`])
+/// and the logging flags at the top level, the emulated lab and the host's
+/// doctor as the `lab` and `doctor` subcommands ([`SimAgentCommand`]).
+///
+/// Assembled by [`command_with_subcommands`] (the runtime's, shared with
+/// `agent` and its `bench` and `doctor`), which says how and why.
 pub fn command() -> Command {
-    command_with_subcommand::<AgentArgs, LabArgs>(
+    command_with_subcommands::<AgentArgs, SimAgentCommand>(
         "sim-agent",
-        LabArgs::SUBCOMMAND,
         env!("CARGO_PKG_VERSION"),
-        "One simulated robot as its own process on the bus (what `launch` starts); `lab` the emulated lab",
+        "One simulated robot as its own process on the bus (what `launch` starts); `lab` the emulated lab, `doctor` this host's checks",
     )
 }
 
@@ -298,6 +327,8 @@ pub enum SimAgentRun {
     Robot(AgentArgs),
     /// `sim-agent lab`: the emulated lab.
     Lab(LabArgs),
+    /// `sim-agent doctor`: this host's checks.
+    Doctor(DoctorArgs),
 }
 
 /// Parses a `sim-agent` command line (`argv[0]` first) with [`command`]:
@@ -308,8 +339,13 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
-    let (log, chosen) = parse_with_subcommand(command, LabArgs::SUBCOMMAND, argv)?;
-    Ok((log, chosen.map_or_else(SimAgentRun::Robot, SimAgentRun::Lab)))
+    let (log, chosen) = parse_with_subcommands(command, argv)?;
+    let run = match chosen {
+        Err(robot) => SimAgentRun::Robot(robot),
+        Ok(SimAgentCommand::Lab(lab)) => SimAgentRun::Lab(lab),
+        Ok(SimAgentCommand::Doctor(doctor)) => SimAgentRun::Doctor(doctor),
+    };
+    Ok((log, run))
 }
 
 #[cfg(test)]
@@ -419,6 +455,36 @@ mod tests {
             SimAgentRun::Lab(a) => a,
             other => panic!("not the lab: {other:?}"),
         }
+    }
+
+    #[test]
+    fn doctor_is_a_subcommand_with_the_host_s_flags() {
+        let args = "doctor --connect tcp/10.0.0.5:7447 --swarm lab --robot 2 --json --timeout-ms 900";
+        let SimAgentRun::Doctor(d) = run_of(args.split(' ').map(String::from).collect()) else {
+            panic!("not the doctor")
+        };
+        assert_eq!(
+            (d.host.connect.as_str(), d.host.swarm.as_str(), d.host.robot),
+            ("tcp/10.0.0.5:7447", "lab", 2)
+        );
+        assert_eq!((d.host.timeout_ms, d.host.json), (900, true));
+        let e = parse_from([
+            "sim-agent",
+            "doctor",
+            "--connect",
+            "tcp/h:1",
+            "--swarm",
+            "s",
+            "--robot",
+            "1",
+            "--bind",
+            "x",
+        ]);
+        assert!(e.is_err(), "--bind is the gateway's");
+        let help = command().find_subcommand_mut("doctor").expect("doctor").render_help().to_string();
+        assert!(help.starts_with("Check this robot's host"), "{help}");
+        let top = command().render_help().to_string();
+        assert!(top.lines().any(|l| l.trim_start().starts_with("doctor ")), "{top}");
     }
 
     #[test]

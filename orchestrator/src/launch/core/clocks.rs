@@ -10,7 +10,10 @@
 //! (the summary and `status` show it) and judges it against the limits of
 //! its [`ClockLimits`] (from the config's `supervision.clock_warn` and
 //! `supervision.clock_limit` via `setup.rs`; off over iceoryx2, where
-//! every agent shares the orchestrator's clock).
+//! every agent shares the orchestrator's clock). The judging arithmetic
+//! ([`ClockLimits::judge`]) lives beside the measurement in
+//! `bus::zenoh::clock`, so the doctors of the robots' hosts (`agent
+//! doctor`, `sim-agent doctor`) judge an offset as the launch does.
 //!
 //! The rule: an offset past the limit refuses a registration
 //! ([`Refusal::Clock`], whose text says how to fix the clock); past the
@@ -21,14 +24,7 @@
 
 use super::*;
 
-/// The limits a launch judges clock offsets by, µs (0: not judged).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct ClockLimits {
-    /// Past this an offset is noted (and warned about).
-    pub warn_us: u64,
-    /// Past this an agent is refused at registration.
-    pub limit_us: u64,
-}
+pub use bycoms_protocol::bus::zenoh::clock::{ClockLimits, ClockVerdict};
 
 /// One robot's last measured clock offset.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -41,42 +37,12 @@ pub struct ClockReading {
     pub at_us: u64,
 }
 
-/// What an offset is, judged.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ClockVerdict {
-    /// Within the warning (or not judged).
-    Fine,
-    /// Past the warning, within the limit.
-    Warn,
-    /// Past the limit.
-    Refuse,
-}
-
-impl ClockLimits {
-    /// Whether the launch judges offsets at all.
-    pub fn on(&self) -> bool {
-        self.limit_us > 0
-    }
-
-    /// The verdict on an offset of `offset_us`.
-    pub fn judge(&self, offset_us: i64) -> ClockVerdict {
-        let off = offset_us.unsigned_abs();
-        if self.on() && off > self.limit_us {
-            ClockVerdict::Refuse
-        } else if self.warn_us > 0 && off > self.warn_us {
-            ClockVerdict::Warn
-        } else {
-            ClockVerdict::Fine
-        }
-    }
-
-    /// The refusal of an agent whose host is `offset_us` off.
-    fn refusal(&self, offset_us: i64) -> Refusal {
-        let ms = (offset_us / 1000).clamp(i64::from(i32::MIN), i64::from(i32::MAX));
-        Refusal::Clock {
-            offset_ms: ms as i32,
-            limit_ms: u32::try_from(self.limit_us / 1000).unwrap_or(u32::MAX),
-        }
+/// The refusal of an agent whose host is `offset_us` off, past `limits`.
+fn refusal(limits: &ClockLimits, offset_us: i64) -> Refusal {
+    let ms = (offset_us / 1000).clamp(i64::from(i32::MIN), i64::from(i32::MAX));
+    Refusal::Clock {
+        offset_ms: ms as i32,
+        limit_ms: u32::try_from(limits.limit_us / 1000).unwrap_or(u32::MAX),
     }
 }
 
@@ -112,7 +78,7 @@ impl Core {
         let reading = self.slot_ref(id).and_then(|s| s.clock)?;
         match limits.judge(reading.offset_us) {
             ClockVerdict::Fine => None,
-            ClockVerdict::Refuse => Some(limits.refusal(reading.offset_us)),
+            ClockVerdict::Refuse => Some(refusal(&limits, reading.offset_us)),
             ClockVerdict::Warn => {
                 let ms = reading.offset_us as f64 / 1000.0;
                 let warn = limits.warn_us / 1000;
@@ -134,24 +100,13 @@ mod tests {
     const LIMITS: ClockLimits = ClockLimits { warn_us: 100_000, limit_us: 500_000 };
 
     #[test]
-    fn offsets_are_judged_by_their_size_either_way() {
-        assert_eq!(LIMITS.judge(0), ClockVerdict::Fine);
-        assert_eq!(LIMITS.judge(100_000), ClockVerdict::Fine, "the warning is past 100 ms");
-        assert_eq!(LIMITS.judge(-100_001), ClockVerdict::Warn);
-        assert_eq!(LIMITS.judge(500_000), ClockVerdict::Warn);
-        assert_eq!(LIMITS.judge(500_001), ClockVerdict::Refuse);
-        assert_eq!(LIMITS.judge(i64::MIN), ClockVerdict::Refuse);
-        assert_eq!(ClockLimits::default().judge(i64::MAX), ClockVerdict::Fine, "off: nothing judged");
-    }
-
-    #[test]
     fn a_refusal_says_how_far_which_way_and_how_to_fix_it() {
-        let why = LIMITS.refusal(-2_000_400);
+        let why = refusal(&LIMITS, -2_000_400);
         assert_eq!(why, Refusal::Clock { offset_ms: -2000, limit_ms: 500 });
         let text = why.to_string();
         assert!(text.contains("2000 ms behind the orchestrator's"), "{text}");
         assert!(text.contains("limit of 500 ms") && text.contains("chrony"), "{text}");
-        let ahead = LIMITS.refusal(i64::MAX).to_string();
+        let ahead = refusal(&LIMITS, i64::MAX).to_string();
         assert!(ahead.contains("ahead of"), "{ahead}");
     }
 

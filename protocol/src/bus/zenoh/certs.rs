@@ -112,8 +112,28 @@ pub fn check(
     Ok(())
 }
 
-/// The first certificate of the PEM file `path`, as DER.
-fn read_der(path: &Path) -> Result<Vec<u8>, CertificateError> {
+/// The certificates `config` names: this process's own, then the lab's
+/// CA (empty: an unsecured config).
+pub fn named(config: &::zenoh::Config) -> Vec<PathBuf> {
+    let mut paths: Vec<PathBuf> = OWN.iter().filter_map(|k| path_of(config, k)).collect();
+    paths.dedup();
+    paths.extend(path_of(config, CA));
+    paths
+}
+
+/// When the first certificate of the PEM file `path` expires: seconds
+/// since the Unix epoch and the date (`2027-01-31`), for a doctor's
+/// warning ahead of the expiry [`check`] refuses.
+pub fn not_after(path: &Path) -> Result<(i64, String), CertificateError> {
+    let der = read_der(path)?;
+    let cert = parse(&der, path)?;
+    let t = cert.validity().not_after;
+    Ok((t.timestamp(), t.to_datetime().date().to_string()))
+}
+
+/// The first certificate of the PEM file `path`, as DER (also the
+/// orchestrator's doctor's reader of the whole set).
+pub fn read_der(path: &Path) -> Result<Vec<u8>, CertificateError> {
     let bytes = std::fs::read(path)
         .map_err(|e| CertificateError(format!("cannot read the certificate {}: {e}", path.display())))?;
     let not_pem = || CertificateError(format!("{}: not a PEM certificate", path.display()));
@@ -122,14 +142,15 @@ fn read_der(path: &Path) -> Result<Vec<u8>, CertificateError> {
     Ok(pem.contents)
 }
 
-fn parse<'a>(der: &'a [u8], path: &Path) -> Result<X509Certificate<'a>, CertificateError> {
+/// The certificate `der` read from `path` (named in the error).
+pub fn parse<'a>(der: &'a [u8], path: &Path) -> Result<X509Certificate<'a>, CertificateError> {
     X509Certificate::from_der(der)
         .map(|(_, cert)| cert)
         .map_err(|e| CertificateError(format!("{}: not a valid certificate ({e})", path.display())))
 }
 
 /// The certificate's common name (empty if it has none).
-fn name_of(cert: &X509Certificate<'_>) -> String {
+pub fn name_of(cert: &X509Certificate<'_>) -> String {
     cert.subject().iter_common_name().next().and_then(|cn| cn.as_str().ok()).unwrap_or_default().to_owned()
 }
 

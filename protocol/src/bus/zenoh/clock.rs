@@ -62,6 +62,58 @@ pub fn report(robot: crate::RobotId, sample: ClockSample) -> crate::msg::FromAge
     })
 }
 
+/// The limits a clock offset is judged by, µs (0: not judged): the
+/// launch's (its config's `supervision.clock_warn` and `clock_limit`,
+/// refusing an agent past the limit) and every doctor's (`orchestrator
+/// doctor --connect`, `agent doctor`, `sim-agent doctor`).
+///
+/// Why here, beside the measurement: the launch core and the doctors of
+/// the robots' hosts (which cannot depend on the orchestrator) must judge
+/// an offset with one arithmetic, and this is the lowest module all of
+/// them reach.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct ClockLimits {
+    /// Past this an offset is noted (and warned about).
+    pub warn_us: u64,
+    /// Past this an agent is refused at registration.
+    pub limit_us: u64,
+}
+
+/// What an offset is, judged.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ClockVerdict {
+    /// Within the warning (or not judged).
+    Fine,
+    /// Past the warning, within the limit.
+    Warn,
+    /// Past the limit.
+    Refuse,
+}
+
+impl ClockLimits {
+    /// A launch's defaults (the config's `supervision.clock_warn` 0.1 s and
+    /// `supervision.clock_limit` 0.5 s): warn past 100 ms, refuse past
+    /// 500 ms, zenoh's own bound on a sample stamped in the future.
+    pub const LAB: Self = Self { warn_us: 100_000, limit_us: 500_000 };
+
+    /// Whether offsets are judged at all.
+    pub fn on(&self) -> bool {
+        self.limit_us > 0
+    }
+
+    /// The verdict on an offset of `offset_us` (either way).
+    pub fn judge(&self, offset_us: i64) -> ClockVerdict {
+        let off = offset_us.unsigned_abs();
+        if self.on() && off > self.limit_us {
+            ClockVerdict::Refuse
+        } else if self.warn_us > 0 && off > self.warn_us {
+            ClockVerdict::Warn
+        } else {
+            ClockVerdict::Fine
+        }
+    }
+}
+
 /// This host's wall clock as agents and the doctor read it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct HostClock {
@@ -266,6 +318,18 @@ impl ClockProbe {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn offsets_are_judged_by_their_size_either_way() {
+        const LIMITS: ClockLimits = ClockLimits::LAB;
+        assert_eq!(LIMITS.judge(0), ClockVerdict::Fine);
+        assert_eq!(LIMITS.judge(100_000), ClockVerdict::Fine, "the warning is past 100 ms");
+        assert_eq!(LIMITS.judge(-100_001), ClockVerdict::Warn);
+        assert_eq!(LIMITS.judge(500_000), ClockVerdict::Warn);
+        assert_eq!(LIMITS.judge(500_001), ClockVerdict::Refuse);
+        assert_eq!(LIMITS.judge(i64::MIN), ClockVerdict::Refuse);
+        assert_eq!(ClockLimits::default().judge(i64::MAX), ClockVerdict::Fine, "off: nothing judged");
+    }
 
     #[test]
     fn an_asker_ahead_by_a_second_on_a_symmetric_path() {

@@ -1,9 +1,9 @@
 //! The zenoh endpoint a robot's host connects to, reached from here
-//! (`doctor --connect`), and, with a swarm name, the orchestrator's
-//! liveliness token seen through it and this host's clock offset to the
-//! orchestrator's, measured as the agents measure it
-//! (`bus::zenoh::clock`, judged by the launch's own limits,
-//! `launch/core/clocks.rs`).
+//! (`orchestrator doctor --connect`, `agent doctor`, `sim-agent doctor`),
+//! and, with a swarm name, the orchestrator's liveliness token seen
+//! through it and this host's clock offset to the orchestrator's,
+//! measured as the agents measure it and judged as the launch judges it
+//! (`bus::zenoh::clock`: [`ClockLimits::judge`], the launch core's rule).
 //!
 //! Why bounded by a thread: opening a client session to a host that
 //! accepts TCP but never answers zenoh's handshake (a wrong port, a
@@ -14,8 +14,7 @@
 //! orchestrator's ACL or TLS would refuse fails here the same way.
 
 use super::Finding;
-use crate::launch::core::{ClockLimits, ClockVerdict};
-use bycoms_protocol::bus::zenoh::clock::{ClockSample, HostClock};
+use bycoms_protocol::bus::zenoh::clock::{ClockLimits, ClockSample, ClockVerdict, HostClock};
 use bycoms_protocol::bus::zenoh::{Mode, Presence, ZenohBus, ZenohConfig};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::Swarm;
