@@ -2,7 +2,7 @@
 //! straight/turn boundary.
 
 use super::*;
-use core::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+use core::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
 
 fn cfg() -> ControllerConfig {
     ControllerConfig::paper(2.0) // g_th = 0.25
@@ -120,4 +120,31 @@ fn full_bypass_cycle() {
     let out = c.step(&input(0.0, 0.2, 2.0, -0.3));
     assert_eq!(out.mode, Mode::Goal);
     assert_eq!(out.target, 0.0);
+}
+
+#[test]
+fn cached_steps_equal_plain_steps_bit_for_bit() {
+    // Runs of turns with the same field and goal angles (the cache reused),
+    // then new angles (refreshed), through both modes; seeded xorshift.
+    let mut state = 0x5eed_cafe_f00d_0001u64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (mut plain, mut cached) = (Controller::new(cfg()), Controller::new(cfg()));
+    let mut cache = FieldGoal::default();
+    let mut modes = [0usize; 2];
+    for _ in 0..2_000 {
+        let (goal, field, g) = (TAU * next() - PI, TAU * next() - PI, 0.5 * next());
+        for _ in 0..8 {
+            let i = input(goal, g, field, TAU * next() - PI);
+            let (a, b) = (plain.step(&i), cached.step_cached(&i, &mut cache));
+            assert_eq!((a.mode, a.motion), (b.mode, b.motion), "{i:?}");
+            assert_eq!(a.target.to_bits(), b.target.to_bits(), "{i:?}");
+            modes[a.mode as usize - 1] += 1;
+        }
+    }
+    assert!(modes.iter().all(|&n| n > 1_000), "both modes visited: {modes:?}");
 }
