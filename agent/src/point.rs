@@ -160,9 +160,14 @@ impl Controller {
 pub struct FieldGoal {
     /// The bits of (φf, φg) the values below belong to.
     key: Option<(u64, u64)>,
-    between: Option<f64>,
+    /// wrap(φf − φg): θfg with its sign.
+    signed: Option<f64>,
     tangent: Option<f64>,
 }
+
+/// Smallest |θfg| and π − |θfg| for which the tangent is taken from the
+/// sign of θfg alone; the roundings of either way are below 1e-14 rad.
+const TANGENT_MARGIN: f64 = 1e-9;
 
 impl FieldGoal {
     /// Forgets the values unless they belong to these two angles.
@@ -170,7 +175,7 @@ impl FieldGoal {
     fn refresh(&mut self, field_direction: f64, goal_bearing: f64) {
         let key = (field_direction.to_bits(), goal_bearing.to_bits());
         if self.key != Some(key) {
-            *self = Self { key: Some(key), between: None, tangent: None };
+            *self = Self { key: Some(key), signed: None, tangent: None };
         }
     }
 
@@ -180,18 +185,38 @@ impl FieldGoal {
         (f64::from_bits(f), f64::from_bits(g))
     }
 
-    /// θfg = |φf − φg| wrapped, in [0, π].
+    /// wrap(φf − φg), in (−π, π].
     #[inline]
-    fn between(&mut self) -> f64 {
+    fn signed(&mut self) -> f64 {
         let (f, g) = self.angles();
-        *self.between.get_or_insert_with(|| between(f, g))
+        *self.signed.get_or_insert_with(|| wrap(f - g))
     }
 
-    /// [`tangent_towards`]`(φf, φg)`.
+    /// θfg = |φf − φg| wrapped, in [0, π] (the bits of [`between`]).
+    #[inline]
+    fn between(&mut self) -> f64 {
+        libm::fabs(self.signed())
+    }
+
+    /// [`tangent_towards`]`(φf, φg)`: with φf counter-clockwise of φg
+    /// (θfg ∈ (0, π)) the clockwise perpendicular is the closer one, with
+    /// φf clockwise of it the other; only near a tie (θfg near 0 or ±π,
+    /// within [`TANGENT_MARGIN`]) are the two compared as there.
     #[inline]
     fn tangent(&mut self) -> f64 {
+        if let Some(t) = self.tangent {
+            return t;
+        }
+        let d = self.signed();
         let (f, g) = self.angles();
-        *self.tangent.get_or_insert_with(|| tangent_towards(f, g))
+        let t = if d > TANGENT_MARGIN && d < PI - TANGENT_MARGIN {
+            wrap(f - FRAC_PI_2)
+        } else if d < -TANGENT_MARGIN && d > -PI + TANGENT_MARGIN {
+            wrap(f + FRAC_PI_2)
+        } else {
+            tangent_towards(f, g)
+        };
+        *self.tangent.insert(t)
     }
 }
 

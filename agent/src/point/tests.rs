@@ -148,3 +148,30 @@ fn cached_steps_equal_plain_steps_bit_for_bit() {
     }
     assert!(modes.iter().all(|&n| n > 1_000), "both modes visited: {modes:?}");
 }
+
+#[test]
+fn cached_tangent_equals_the_compared_one_near_ties() {
+    // The field direction at and around the goal bearing and its opposite,
+    // float by float and by up to 1e-6 rad (the cache's sign rule and its
+    // fallback on either side of the margin).
+    let mut seen = 0;
+    for goal in [0.0, 0.7, -2.9, PI, -PI + 1e-12, FRAC_PI_2] {
+        for base in [goal, wrap(goal + PI)] {
+            let mut fields: Vec<f64> =
+                (-20i64..=20).map(|d| f64::from_bits((base.to_bits() as i64 + d) as u64)).collect();
+            fields.extend((-60..=60).map(|e| base + f64::from(e) * 1.7e-8));
+            for field in fields.into_iter().map(wrap) {
+                let i = input(goal, 1.0, field, 0.0);
+                let mut cache = FieldGoal::default();
+                let mut c = Controller::new(cfg());
+                c.mode = Mode::Bypass;
+                let out = c.step_cached(&i, &mut cache);
+                if out.mode == Mode::Bypass {
+                    assert_eq!(out.target.to_bits(), tangent_towards(field, goal).to_bits(), "{i:?}");
+                    seen += 1;
+                }
+            }
+        }
+    }
+    assert!(seen > 500, "{seen} bypass periods");
+}
