@@ -35,4 +35,4 @@ pub mod firmware;
 pub mod gateway;
 pub mod point;
 
-pub use point::{Controller, ControllerConfig, Input, Mode, Motion, Output};
+pub use point::{Controller, ControllerConfig, FieldGoal, Input, Mode, Motion, Output};

@@ -124,11 +124,22 @@ impl Controller {
     }
 
     /// One control period: update the mode, choose target and motion.
+    #[inline]
     pub fn step(&mut self, input: &Input) -> Output {
-        self.mode = next_mode(self.mode, input, self.config.g_th);
+        self.step_cached(input, &mut FieldGoal::default())
+    }
+
+    /// [`Self::step`], taking the parts of the decision that depend only on
+    /// the field direction and the goal bearing from `cache` (and filling
+    /// it): a simulated robot turning in place without sensing noise senses
+    /// the same two angles period after period. The same bits as `step`.
+    #[inline]
+    pub fn step_cached(&mut self, input: &Input, cache: &mut FieldGoal) -> Output {
+        cache.refresh(input.field_direction, input.goal_bearing);
+        self.mode = next_mode_cached(self.mode, input, self.config.g_th, cache);
         let target = match self.mode {
             Mode::Goal => input.goal_bearing,
-            Mode::Bypass => tangent_towards(input.field_direction, input.goal_bearing),
+            Mode::Bypass => cache.tangent(),
         };
         let error = wrap(target - input.heading);
         let motion = choose_motion(error, self.config.straight_tolerance);
@@ -141,22 +152,95 @@ impl Controller {
     }
 }
 
+/// What a period's decision computes from the field direction φf and the
+/// goal bearing φg alone — their angle θfg and the tangent towards the
+/// goal — each computed when first needed and kept while both angles stay
+/// the same, bit for bit ([`Controller::step_cached`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FieldGoal {
+    /// The bits of (φf, φg) the values below belong to.
+    key: Option<(u64, u64)>,
+    /// wrap(φf − φg): θfg with its sign.
+    signed: Option<f64>,
+    tangent: Option<f64>,
+}
+
+/// Smallest |θfg| and π − |θfg| for which the tangent is taken from the
+/// sign of θfg alone; the roundings of either way are below 1e-14 rad.
+const TANGENT_MARGIN: f64 = 1e-9;
+
+impl FieldGoal {
+    /// Forgets the values unless they belong to these two angles.
+    #[inline]
+    fn refresh(&mut self, field_direction: f64, goal_bearing: f64) {
+        let key = (field_direction.to_bits(), goal_bearing.to_bits());
+        if self.key != Some(key) {
+            *self = Self { key: Some(key), signed: None, tangent: None };
+        }
+    }
+
+    #[inline]
+    fn angles(&self) -> (f64, f64) {
+        let (f, g) = self.key.expect("FieldGoal::refresh before use");
+        (f64::from_bits(f), f64::from_bits(g))
+    }
+
+    /// wrap(φf − φg), in (−π, π].
+    #[inline]
+    fn signed(&mut self) -> f64 {
+        let (f, g) = self.angles();
+        *self.signed.get_or_insert_with(|| wrap(f - g))
+    }
+
+    /// θfg = |φf − φg| wrapped, in [0, π] (the bits of [`between`]).
+    #[inline]
+    fn between(&mut self) -> f64 {
+        libm::fabs(self.signed())
+    }
+
+    /// [`tangent_towards`]`(φf, φg)`: with φf counter-clockwise of φg
+    /// (θfg ∈ (0, π)) the clockwise perpendicular is the closer one, with
+    /// φf clockwise of it the other; only near a tie (θfg near 0 or ±π,
+    /// within [`TANGENT_MARGIN`]) are the two compared as there.
+    #[inline]
+    fn tangent(&mut self) -> f64 {
+        if let Some(t) = self.tangent {
+            return t;
+        }
+        let d = self.signed();
+        let (f, g) = self.angles();
+        let t = if d > TANGENT_MARGIN && d < PI - TANGENT_MARGIN {
+            wrap(f - FRAC_PI_2)
+        } else if d < -TANGENT_MARGIN && d > -PI + TANGENT_MARGIN {
+            wrap(f + FRAC_PI_2)
+        } else {
+            tangent_towards(f, g)
+        };
+        *self.tangent.insert(t)
+    }
+}
+
 /// The switching rules between the modes (paper §IV-C).
+#[inline]
 pub fn next_mode(mode: Mode, input: &Input, g_th: f64) -> Mode {
+    let mut cache = FieldGoal::default();
+    cache.refresh(input.field_direction, input.goal_bearing);
+    next_mode_cached(mode, input, g_th, &mut cache)
+}
+
+/// [`next_mode`] with θfg from `cache` (refreshed for `input`).
+#[inline]
+fn next_mode_cached(mode: Mode, input: &Input, g_th: f64, cache: &mut FieldGoal) -> Mode {
     match mode {
         Mode::Goal => {
-            if input.field_intensity >= g_th
-                && between(input.field_direction, input.goal_bearing) <= FRAC_PI_2
-            {
+            if input.field_intensity >= g_th && cache.between() <= FRAC_PI_2 {
                 Mode::Bypass
             } else {
                 Mode::Goal
             }
         }
         Mode::Bypass => {
-            if between(input.heading, input.goal_bearing) < FRAC_PI_2
-                && between(input.field_direction, input.goal_bearing) > FRAC_PI_2
-            {
+            if between(input.heading, input.goal_bearing) < FRAC_PI_2 && cache.between() > FRAC_PI_2 {
                 Mode::Goal
             } else {
                 Mode::Bypass
@@ -168,6 +252,7 @@ pub fn next_mode(mode: Mode, input: &Input, g_th: f64) -> Mode {
 /// Of the two perpendiculars to the gradient, the one closer to the goal
 /// bearing. On an exact tie (gradient parallel to the goal bearing) the
 /// counter-clockwise one (φf + π/2) is taken, so the choice is deterministic.
+#[inline]
 pub fn tangent_towards(field_direction: f64, goal_bearing: f64) -> f64 {
     let ccw = wrap(field_direction + FRAC_PI_2);
     let cw = wrap(field_direction - FRAC_PI_2);
@@ -181,6 +266,7 @@ pub fn tangent_towards(field_direction: f64, goal_bearing: f64) -> f64 {
 /// Straight when the heading error is within tolerance (inclusive), else
 /// turn towards the target: a positive error means the target is
 /// counter-clockwise of the heading.
+#[inline]
 pub fn choose_motion(heading_error: f64, tolerance: f64) -> Motion {
     if libm::fabs(heading_error) <= tolerance {
         Motion::Straight

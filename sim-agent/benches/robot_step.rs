@@ -2,8 +2,8 @@
 //!
 //! One "robot-step" is what the runner does per control period: a
 //! [`Deployment::step`] (noise when on, field sample over all beacons, goal
-//! bearing and controller when needed, kinematics), then the terrain check
-//! and the arrival test (squared distance, as the runner). Run:
+//! bearing and controller when needed, kinematics), then, after a move, the
+//! terrain check and the arrival test (squared distance, as the runner). Run:
 //! `cargo bench -p bycoms-sim --bench robot_step`.
 //!
 //! A deployment's periods differ in cost (a turn in place reuses the last
@@ -15,7 +15,7 @@
 //! `plain_step` is the same period done by `SimRobot::step` with the bearing
 //! computed every period (what the agent process does), for comparison.
 
-use bycoms_agent::ControllerConfig;
+use bycoms_agent::{ControllerConfig, Motion};
 use bycoms_sim::body::{HeadingTable, Kinematics};
 use bycoms_sim::field::Beacons;
 use bycoms_sim::robot::{Deployment, MotionCones, SimRobot};
@@ -52,10 +52,11 @@ fn bench_steps(bencher: divan::Bencher, n: usize, noise: bool) {
     let (table, cones, field) = (&table, &cones, &field);
     let mut d = Deployment::new(fresh.clone(), table, cones, field, goal);
     bencher.bench_local(move || {
-        d.step();
+        // As the runner: the checks follow a move (a turn stays where they passed).
+        let moved = d.step() == Motion::Straight;
         let p = d.robot.body.pos;
         let (dx, dy) = (p.x - goal.x, p.y - goal.y);
-        if terrain.is_blocked_at(p) || dx * dx + dy * dy <= 0.25 {
+        if moved && (terrain.is_blocked_at(p) || dx * dx + dy * dy <= 0.25) {
             d = Deployment::new(fresh.clone(), table, cones, field, goal);
         }
         divan::black_box(p)

@@ -13,7 +13,7 @@ use crate::sensing::SensingNoise;
 use crate::Vec2;
 use bycoms_agent::angle::wrap;
 use bycoms_agent::point::choose_motion;
-use bycoms_agent::{Controller, ControllerConfig, Input, Mode, Motion, Output};
+use bycoms_agent::{Controller, ControllerConfig, FieldGoal, Input, Mode, Motion, Output};
 
 /// A simulated robot between deployment and stop.
 #[derive(Clone, Debug)]
@@ -164,6 +164,9 @@ pub struct Deployment<'a> {
     /// The exact sample one straight period ahead, computed with the last
     /// exact one ([`Beacons::sample_pair`]): used if the robot goes there.
     ahead: Option<(Vec2, FieldSample)>,
+    /// The controller's values of the sensed field direction and the goal
+    /// bearing (kept while both stay the same: turns without noise).
+    field_goal: FieldGoal,
 }
 
 /// A [`Deployment`]'s upper bounds of the exact field sum.
@@ -219,6 +222,7 @@ impl<'a> Deployment<'a> {
             bearing: None,
             direction: None,
             ahead: None,
+            field_goal: FieldGoal::default(),
         }
     }
 
@@ -294,7 +298,7 @@ impl<'a> Deployment<'a> {
             heading,
             dt: r.dt,
         };
-        let out = r.controller.step(&input);
+        let out = r.controller.step_cached(&input, &mut self.field_goal);
         r.body.apply(out.motion, self.table);
         out.motion
     }

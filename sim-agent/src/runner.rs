@@ -12,7 +12,9 @@
 //! No shortcuts: every period of every robot is simulated, up to the time
 //! limit. Each period is a [`Deployment::step`], which does what
 //! `SimRobot::step` does (same bits) while skipping work whose result is
-//! unchanged or unused (see there). (An exact loop detector — Brent's algorithm on the robot's state
+//! unchanged or unused (see there); the terrain and arrival checks follow
+//! a move only, since a turn in place leaves the robot where the last
+//! period's checks passed. (An exact loop detector — Brent's algorithm on the robot's state
 //! bits — was tried and removed: orbiting robots drift by rounding and never
 //! repeat a state exactly, so it never fired; the full study meets its time
 //! budget without it.)
@@ -23,7 +25,7 @@ use crate::robot::{Deployment, MotionCones, SimRobot};
 use crate::sensing::{robot_seed, NoiseModel, SensingNoise};
 use crate::terrain::Terrain;
 use crate::Vec2;
-use bycoms_agent::ControllerConfig;
+use bycoms_agent::{ControllerConfig, Motion};
 use serde::{Deserialize, Serialize};
 
 /// Everything that parameterises a run besides the terrain.
@@ -225,11 +227,15 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
                 outcome = Some(Outcome::TimeLimit);
                 break RobotEnd::Moving;
             }
-            deployment.step();
+            let motion = deployment.step();
             steps += 1;
             let p = deployment.robot.body.pos;
             if cfg.record_trajectories {
                 trajectory.push(p);
+            }
+            if motion != Motion::Straight && steps - first_step > 1 {
+                // Turned in place where the last period's checks passed.
+                continue;
             }
             if terrain.is_blocked_at(p) {
                 break RobotEnd::Stuck;

@@ -2,7 +2,7 @@
 //! straight/turn boundary.
 
 use super::*;
-use core::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+use core::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
 
 fn cfg() -> ControllerConfig {
     ControllerConfig::paper(2.0) // g_th = 0.25
@@ -120,4 +120,58 @@ fn full_bypass_cycle() {
     let out = c.step(&input(0.0, 0.2, 2.0, -0.3));
     assert_eq!(out.mode, Mode::Goal);
     assert_eq!(out.target, 0.0);
+}
+
+#[test]
+fn cached_steps_equal_plain_steps_bit_for_bit() {
+    // Runs of turns with the same field and goal angles (the cache reused),
+    // then new angles (refreshed), through both modes; seeded xorshift.
+    let mut state = 0x5eed_cafe_f00d_0001u64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let (mut plain, mut cached) = (Controller::new(cfg()), Controller::new(cfg()));
+    let mut cache = FieldGoal::default();
+    let mut modes = [0usize; 2];
+    for _ in 0..2_000 {
+        let (goal, field, g) = (TAU * next() - PI, TAU * next() - PI, 0.5 * next());
+        for _ in 0..8 {
+            let i = input(goal, g, field, TAU * next() - PI);
+            let (a, b) = (plain.step(&i), cached.step_cached(&i, &mut cache));
+            assert_eq!((a.mode, a.motion), (b.mode, b.motion), "{i:?}");
+            assert_eq!(a.target.to_bits(), b.target.to_bits(), "{i:?}");
+            modes[a.mode as usize - 1] += 1;
+        }
+    }
+    assert!(modes.iter().all(|&n| n > 1_000), "both modes visited: {modes:?}");
+}
+
+#[test]
+fn cached_tangent_equals_the_compared_one_near_ties() {
+    // The field direction at and around the goal bearing and its opposite,
+    // float by float and by up to 1e-6 rad (the cache's sign rule and its
+    // fallback on either side of the margin).
+    let mut seen = 0;
+    for goal in [0.0, 0.7, -2.9, PI, -PI + 1e-12, FRAC_PI_2] {
+        for base in [goal, wrap(goal + PI)] {
+            let mut fields: Vec<f64> =
+                (-20i64..=20).map(|d| f64::from_bits((base.to_bits() as i64 + d) as u64)).collect();
+            fields.extend((-60..=60).map(|e| base + f64::from(e) * 1.7e-8));
+            for field in fields.into_iter().map(wrap) {
+                let i = input(goal, 1.0, field, 0.0);
+                let mut cache = FieldGoal::default();
+                let mut c = Controller::new(cfg());
+                c.mode = Mode::Bypass;
+                let out = c.step_cached(&i, &mut cache);
+                if out.mode == Mode::Bypass {
+                    assert_eq!(out.target.to_bits(), tangent_towards(field, goal).to_bits(), "{i:?}");
+                    seen += 1;
+                }
+            }
+        }
+    }
+    assert!(seen > 500, "{seen} bypass periods");
 }
