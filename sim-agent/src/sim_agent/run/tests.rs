@@ -9,7 +9,7 @@ use crate::terrain::Terrain;
 use crate::RunConfig;
 use bycoms_protocol::bus::memory::MemoryBus;
 use bycoms_protocol::bus::Limits;
-use bycoms_protocol::msg::Tick;
+use bycoms_protocol::msg::{StopDone, Tick};
 use bycoms_runtime::lifeline::Lifeline;
 
 /// Reads reports until `heartbeats` heartbeats came; returns the number of
@@ -182,10 +182,14 @@ fn a_stopped_robot_says_it_is_parked_with_every_tick_it_still_gets() {
     assert_eq!(reports_of_a_tick(&reports), vec![done(1)]);
     let moving = next_pose(&poses);
     commands.publish(&ToAgent::Stop).expect("stop");
-    // Stopped: `Parked` before each `TickDone`, and the pose stands.
+    // Stopped: the `Stop` answered at once, then `Parked` before each
+    // `TickDone`, and the pose stands.
+    let stop_done = FromAgent::StopDone(StopDone { robot: RobotId(1), on_link: false });
     for step in [2, 3] {
         tick(step);
-        assert_eq!(reports_of_a_tick(&reports), vec![parked(step), done(step)]);
+        let mut expected = if step == 2 { vec![stop_done] } else { vec![] };
+        expected.extend([parked(step), done(step)]);
+        assert_eq!(reports_of_a_tick(&reports), expected);
         let pose = next_pose(&poses);
         assert_eq!((pose.x, pose.y, pose.heading, pose.step), (moving.x, moving.y, moving.heading, step));
     }
