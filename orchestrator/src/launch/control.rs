@@ -30,7 +30,7 @@ use serde::{Deserialize, Serialize};
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::{UnixListener, UnixStream};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{channel, Receiver, Sender};
 use std::sync::Arc;
 use std::time::Duration;
@@ -223,12 +223,13 @@ impl SocketServer {
         let thread = std::thread::Builder::new()
             .name("bycoms-control".into())
             .spawn(move || {
+                let reading = Arc::new(AtomicUsize::new(0));
                 for stream in listener.incoming() {
                     if stop.load(Ordering::SeqCst) {
                         return;
                     }
                     if let Ok(stream) = stream {
-                        take_question(stream, &tx);
+                        read_aside(stream, &tx, &reading);
                     }
                 }
             })
@@ -246,6 +247,30 @@ impl Drop for SocketServer {
             let _ = t.join();
         }
         let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+/// Questions read at once at most, each on a thread of its own: an asker
+/// that connects and says nothing (for up to [`ASK_TIMEOUT`]) must not
+/// hold up a `stop` behind it. Past this many, a question is read on the
+/// accepting thread.
+const READING_AT_ONCE: usize = 16;
+
+/// Reads the question of `stream` on a thread of its own (see
+/// [`READING_AT_ONCE`]).
+fn read_aside(stream: UnixStream, tx: &Sender<Request>, reading: &Arc<AtomicUsize>) {
+    if reading.fetch_add(1, Ordering::SeqCst) >= READING_AT_ONCE {
+        reading.fetch_sub(1, Ordering::SeqCst);
+        return take_question(stream, tx);
+    }
+    let (tx, count) = (tx.clone(), reading.clone());
+    let spawned = std::thread::Builder::new().name("bycoms-control-ask".into()).spawn(move || {
+        take_question(stream, &tx);
+        count.fetch_sub(1, Ordering::SeqCst);
+    });
+    if let Err(e) = spawned {
+        reading.fetch_sub(1, Ordering::SeqCst);
+        tracing::warn!(error = %e, "a control question was not read: no thread for it");
     }
 }
 
@@ -466,5 +491,34 @@ impl Asker {
             },
             Self::Zenoh(z) => format!("over zenoh at {}", z.config().connect.join(", ")),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An asker that connects and says nothing does not hold up the next
+    /// one: its question is answered while the first still waits.
+    #[test]
+    fn a_silent_asker_does_not_hold_up_the_next() {
+        let dir = tempfile::tempdir().expect("temporary directory");
+        let path = dir.path().join("control.sock");
+        let (tx, requests) = channel();
+        let _server = SocketServer::open(&path, tx).expect("serve");
+        let _silent = UnixStream::connect(&path).expect("a silent asker connects");
+        let asking = {
+            let path = path.clone();
+            std::thread::spawn(move || ask_socket(&path, &Ask::Status, Duration::from_secs(5)))
+        };
+        // The question arrives while the silent asker still holds its
+        // connection (its read waits up to 2 s).
+        let Request { ask, reply } = requests
+            .recv_timeout(Duration::from_millis(1500))
+            .expect("the second question came before the first asker's read timed out");
+        assert_eq!(ask, Ask::Status);
+        reply(&Answer::Refused("a test".into()));
+        let answer = asking.join().expect("asker thread").expect("answered");
+        assert_eq!(answer, Answer::Refused("a test".into()));
     }
 }
