@@ -39,6 +39,9 @@ impl Core {
         let unix_ms = self.unix_ms(now);
         self.revoked.push(RevokedSummary { robot: id, who, why, unix_ms, dropped: 0 });
         self.watch_stop(id);
+        // A stop `now` under way no longer awaits it: its answer would be
+        // dropped.
+        self.gone_while_stopping(id);
         self.late.retain(|&late| late != id);
         if let Some(tick) = self.tick.as_mut() {
             tick.awaiting.remove(&id);

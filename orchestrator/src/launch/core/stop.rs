@@ -149,9 +149,9 @@ impl Core {
         }
     }
 
-    /// Robot `id`'s agent ended during a stop `now`: it answers no more
-    /// (named silent). Whether a stop was under way: then its death is
-    /// recorded but decides nothing (no fault, no new start).
+    /// Robot `id`'s agent ended (or was revoked) during a stop `now`: it
+    /// answers no more (named silent). Whether a stop was under way: then
+    /// its death is recorded but decides nothing (no fault, no new start).
     pub(super) fn gone_while_stopping(&mut self, id: u32) -> bool {
         let Some(stopping) = self.stopping.as_mut() else { return false };
         if stopping.awaiting.remove(&id) {
@@ -281,5 +281,22 @@ mod tests {
         assert_eq!(stop.unanswered, [2, 3]);
         assert_eq!(stop.answered.len(), 1);
         assert!(core.slots()[1].death().is_some(), "robot 2's death is recorded");
+    }
+
+    /// A robot revoked while a stop `now` awaits it is named silent at once
+    /// (its answer would be dropped): the launch ends when the others have
+    /// answered, not after the whole wait.
+    #[test]
+    fn a_robot_revoked_during_a_stop_is_not_awaited() {
+        let mut core = running();
+        core.handle(2_000, stop_now());
+        core.advance(2_000);
+        stops(&mut core);
+        core.handle(3_000, Input::Revoke(Revoke { robot: 3, who: "me".into(), why: "stolen".into() }));
+        core.handle(3_500, done(1));
+        core.handle(4_000, done(2));
+        core.advance(4_000);
+        assert_eq!(core.ending().map(|e| e.outcome), Some(Outcome::Interrupted), "nobody else to await");
+        assert_eq!(core.stopped().map(|s| s.unanswered.clone()), Some(vec![3]));
     }
 }
