@@ -197,7 +197,8 @@ fn await_all_running(place: &Where, child: &mut Running, opts: &Options) -> Resu
 /// The figures of one transport's runs, in one line.
 pub fn line(transport: Transport, robots: u32, samples: &[Sample]) -> String {
     let q = |f: fn(&Sample) -> f64, p: f64| {
-        let v: Vec<f64> = samples.iter().map(f).collect();
+        // A run without answers has no slowest answer (NaN): left out.
+        let v: Vec<f64> = samples.iter().map(f).filter(|v| !v.is_nan()).collect();
         bycoms_runtime::stats::quantile(&v, p).unwrap_or(f64::NAN)
     };
     let all = samples.iter().filter(|s| s.told == robots as usize && s.answered == s.told).count();

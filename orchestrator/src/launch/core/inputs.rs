@@ -31,7 +31,6 @@ impl Core {
         self.watch_started(now, id);
         self.note(format!("robot {id}: {how}"));
         self.event(id, EventKind::Spawned, pid, None);
-        self.started_while_stopping(id);
     }
 
     pub(super) fn on_report(&mut self, now: u64, msg: FromAgent) {

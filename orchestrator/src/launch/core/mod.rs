@@ -560,9 +560,10 @@ impl Core {
             return None;
         }
         // A stop `now` under way decides nothing else but the robots'
-        // supervision (`stop.rs`).
+        // supervision and motion capture gone (`stop.rs`).
         if let Some(t) = self.stop_due_at() {
-            return Some(self.supervision_due().map_or(t, |s| s.min(t)));
+            let others = [self.supervision_due(), self.mocap_due()];
+            return Some(others.into_iter().flatten().fold(t, u64::min));
         }
         let mut due: Option<u64> = None;
         let mut at = |t: u64| due = Some(due.map_or(t, |d| d.min(t)));

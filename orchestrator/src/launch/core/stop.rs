@@ -96,8 +96,10 @@ impl Core {
         self.note(format!("{by}; every running robot was told to stop ({})", running.len()));
         stop.told = running.clone();
         self.stop = Some(stop);
-        // Nothing else is decided while the answers are awaited.
-        self.tick = None;
+        // Nothing else is decided while the answers are awaited (`advance`
+        // returns before the tick; a tick in flight stays, so the poses it
+        // still brings are judged against it, not refused as from the
+        // future).
         let wait = AnswerWait::new(now, STOP_WAIT_US, STOP_RESEND_US);
         self.stopping = Some(Stopping { wait, awaiting: running.into_iter().collect() });
         self.stop_answers(now);
@@ -160,15 +162,6 @@ impl Core {
             }
         }
         true
-    }
-
-    /// Robot `id`'s agent started during a stop `now` (asked to start
-    /// before it): it is told `Stop` too, and its answer awaited.
-    pub(super) fn started_while_stopping(&mut self, id: u32) {
-        let (Some(stopping), Some(stop)) = (self.stopping.as_mut(), self.stop.as_mut()) else { return };
-        stopping.awaiting.insert(id);
-        stop.told.push(id);
-        self.outputs.push_back(Output::Send(id, ToAgent::Stop));
     }
 
     /// When a stop under way is due again.

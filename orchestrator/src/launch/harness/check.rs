@@ -229,13 +229,16 @@ fn check_stop(report: &Report, schedule: &Schedule, ending: &Ending) -> Result<(
     if let Some(missed) = report.running_at_end.iter().find(|id| !stop.told.contains(id)) {
         return Err(format!("robot {missed} ran at the end and was never told to stop"));
     }
-    check_stop_answers(report, asked_at, stop)
+    check_stop_answers(report, schedule, stop)
 }
 
 /// A stop `now`'s answers: told all in one step at or after it was asked,
 /// each robot told answered once or is named silent, the launch over by the
-/// stop's wait, and early only when every robot answered.
-fn check_stop_answers(report: &Report, asked_at: u64, stop: &StopSummary) -> Result<(), String> {
+/// stop's wait, and early (without a Ctrl-C) only when every robot still
+/// running had answered; no robot sent `Stop` again after it answered
+/// (but a revoked one, told by its revocation).
+fn check_stop_answers(report: &Report, schedule: &Schedule, stop: &StopSummary) -> Result<(), String> {
+    let asked_at = schedule.stop_at_us.map_or(0, |s| s.0);
     let Some(at) = told_stop_at(report, asked_at, stop) else {
         return match stop.told.is_empty() {
             true => Ok(()),
@@ -256,21 +259,31 @@ fn check_stop_answers(report: &Report, asked_at: u64, stop: &StopSummary) -> Res
     if let Some(late) = stop.answered.iter().find(|a| at + a.after_us > report.end_us) {
         return Err(format!("robot {} answered after the end", late.robot));
     }
+    let interrupted = schedule.interrupt_at_us.is_some_and(|i| (asked_at..=report.end_us).contains(&i));
+    let early = report.end_us < at + STOP_WAIT_US && !interrupted;
+    if let Some(id) = stop.unanswered.iter().find(|id| early && report.running_at_end.contains(id)) {
+        return Err(format!(
+            "the stop ended at {} µs without robot {id}'s answer, before its wait",
+            report.end_us
+        ));
+    }
+    let revoked = |id: u32| report.revoked.iter().any(|r| r.robot == id);
+    for a in stop.answered.iter().filter(|a| !revoked(a.robot)) {
+        if let Some(t) = report.stop_log.iter().find(|s| s.1 == a.robot && s.0 > at + a.after_us) {
+            return Err(format!("robot {} sent Stop at {} µs after it answered", a.robot, t.0));
+        }
+    }
     Ok(())
 }
 
 /// When the robots a stop `now` told were sent `Stop`: the step in which
-/// the first robot it told was, at or after it was asked. The robots
-/// running then were told all in that step; the ones whose agents started
-/// later (their start asked before the stop) are told after it, each when
-/// it started, and come last in `told`.
+/// the first robot it told was, at or after it was asked, if every robot
+/// it told was sent `Stop` in that same step.
 fn told_stop_at(report: &Report, asked_at: u64, stop: &StopSummary) -> Option<u64> {
     let first = *stop.told.first()?;
     let at = report.stop_log.iter().find(|s| s.0 >= asked_at && s.1 == first)?.0;
-    let sent_at = |id: &u32| report.stop_log.iter().find(|s| s.0 >= at && s.1 == *id).map(|s| s.0);
-    let times: Vec<Option<u64>> = stop.told.iter().map(sent_at).collect();
-    let together = times.iter().take_while(|t| **t == Some(at)).count();
-    times[together..].iter().all(|t| t.is_some_and(|t| t > at)).then_some(at)
+    let sent_at = |id: &u32| report.stop_log.iter().any(|s| s.0 == at && s.1 == *id);
+    stop.told.iter().all(sent_at).then_some(at)
 }
 
 fn is_stop(out: &Output) -> bool {
