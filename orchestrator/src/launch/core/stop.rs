@@ -20,7 +20,9 @@
 //! long after, on a robot link or not) and the silent ones in the record.
 //! An agent that ends meanwhile is counted silent (its robot is stopped
 //! by its own failsafe, not by this stop); its death is recorded but
-//! decides nothing: no fault, no new start.
+//! decides nothing: no fault, no new start, no gate verdict (a robot that
+//! was moving ends `unfinished`, as every moving robot of a stopped
+//! launch does). A robot revoked meanwhile is counted silent too.
 
 use super::*;
 use crate::launch::summary::StopAnswer;
