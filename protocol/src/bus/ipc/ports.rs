@@ -4,7 +4,14 @@
 //! tens of nanoseconds, a sleep and wake-up through the kernel costs
 //! microseconds. A subscriber that finds nothing therefore busy-waits for a
 //! short budget (most lockstep replies arrive within it), then sleeps until
-//! a publisher's notification or its own deadline. No wait is ever
+//! a publisher's notification or its own deadline. The busy-wait yields
+//! the processor between looks (`sched_yield`, well under a microsecond)
+//! instead of spinning in place: with more busy processes than cores (a
+//! lockstep launch on two cores: orchestrator, agents, a build), a reader
+//! spinning in place held the core the process that must answer it was
+//! waiting for, until the scheduler took it away; yielding hands it over
+//! at once. `bench launch`: a tick 78–82 → 25–30 µs at load 3.6, 85–98
+//! → 36–52 µs at load 4.5 (issue 35, docs/BENCHMARKS.md "Third pass"). No wait is ever
 //! unbounded, and a sleep on the event listener is capped at
 //! [`EVENT_WAIT_SLICE`] so a publisher that never notifies (one configured
 //! with [`Wake::Poll`]) still gets through, and floored at
@@ -456,20 +463,30 @@ impl<S: IoxService> Subscribe for IpcSubscriber<S> {
     }
 
     fn recv_timeout_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError> {
+        self.wait(buf, timeout, self.waker.spin(), false)
+    }
+
+    fn recv_idle_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError> {
+        self.wait(buf, timeout, Duration::ZERO, true)
+    }
+}
+
+impl<S: IoxService> IpcSubscriber<S> {
+    /// Receives within `timeout`: busy-waits for `spin`, then sleeps (one
+    /// sleep for all of what is left when `idle`).
+    fn wait(
+        &self,
+        buf: &mut [u8],
+        timeout: Duration,
+        spin: Duration,
+        idle: bool,
+    ) -> Result<Option<usize>, BusError> {
         if let Waker::Event { listener, .. } = &self.waker {
             // Listen before looking, so nothing sent after the look is slept through.
             listener.get()?;
         }
-        let sleep = |left, poll_sleep: &mut Duration| self.waker.sleep(&self.topic, left, poll_sleep, false);
-        wait_for(self.waker.spin(), buf, timeout, |buf| self.try_recv_into(buf), sleep)
-    }
-
-    fn recv_idle_into(&self, buf: &mut [u8], timeout: Duration) -> Result<Option<usize>, BusError> {
-        if let Waker::Event { listener, .. } = &self.waker {
-            listener.get()?;
-        }
-        let sleep = |left, poll_sleep: &mut Duration| self.waker.sleep(&self.topic, left, poll_sleep, true);
-        wait_for(Duration::ZERO, buf, timeout, |buf| self.try_recv_into(buf), sleep)
+        let sleep = |left, poll_sleep: &mut Duration| self.waker.sleep(&self.topic, left, poll_sleep, idle);
+        wait_for(spin, buf, timeout, |buf| self.try_recv_into(buf), sleep)
     }
 }
 
@@ -508,7 +525,8 @@ pub(super) fn wait_for(
             return Ok(None);
         }
         if now.duration_since(start) < spin {
-            core::hint::spin_loop();
+            // Yield, not `spin_loop`: see the module docs.
+            std::thread::yield_now();
             continue;
         }
         if let Slept::Interrupted = sleep(left, &mut poll_sleep)? {
