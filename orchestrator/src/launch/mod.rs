@@ -46,6 +46,7 @@ pub mod crowd;
 pub mod driver;
 pub mod events;
 pub mod faults;
+#[cfg(any(test, feature = "testing"))]
 pub mod harness;
 pub mod lab;
 pub mod limits;
