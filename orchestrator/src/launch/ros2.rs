@@ -20,7 +20,10 @@
 //! terrain cells (1 cell = 1 unit of the `world` frame).
 
 pub mod bag;
+mod config;
 pub mod publish;
+
+pub use config::Ros2Config;
 
 use super::config::LaunchConfig;
 use super::observe::Observer;
@@ -34,53 +37,14 @@ use bycoms_ros2::rmw_zenoh::{
     graph_key_expr, liveliness_token, Endpoint, EntityKind, Node, Publisher, TokenView, ADMIN_SPACE,
 };
 use publish::{RunMessages, Sink, Topic};
-use serde::{Deserialize, Serialize};
 use std::collections::BTreeSet;
 use std::time::{Duration, Instant};
 use zenoh::Wait;
-
-/// The `[ros2]` table of a launch config.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Ros2Config {
-    /// `ROS_DOMAIN_ID` of the graph to join.
-    pub domain_id: u32,
-    /// The namespace of the node and of each robot's pose topic (`/` or `/name…`).
-    pub namespace: String,
-    /// The lab's ROS 2 router (`rmw_zenohd`, `tcp/HOST:7447`): the launch
-    /// joins the graph as its zenoh client (`launch/ros2_graph.rs`); absent,
-    /// over the launch's own zenoh session.
-    pub router: Option<String>,
-}
-
-impl Default for Ros2Config {
-    fn default() -> Self {
-        Self { domain_id: 0, namespace: "/".into(), router: None }
-    }
-}
 
 /// The frame every pose and transform is in.
 pub const WORLD_FRAME: &str = "world";
 /// The node's name.
 pub const NODE_NAME: &str = "bycoms";
-
-impl Ros2Config {
-    /// A usage error unless the namespace is a ROS 2 namespace: `/`, or `/`
-    /// then names of letters, digits and `_` separated by single `/`.
-    pub fn validate(&self) -> Result<(), String> {
-        let ns = &self.namespace;
-        if bycoms_ros2::rmw_zenoh::is_fully_qualified(ns, true) {
-            Ok(())
-        } else {
-            Err(format!("ros2.namespace {ns:?} is not a ROS 2 namespace: `/` or `/name`, `/a/b` (letters, digits, `_`)"))
-        }
-    }
-
-    /// Robot `k`'s pose topic.
-    pub fn pose_topic(&self, robot: u32) -> String {
-        format!("{}/robot_{robot}/pose", self.namespace.trim_end_matches('/'))
-    }
-}
 
 /// How long a launch waits, before its run, for the route to each ROS 2
 /// subscriber already in the graph (its liveliness token seen).
