@@ -17,6 +17,8 @@
 //! * `bench schedules` — the launch core's simulation testing
 //!   (`launch::harness`): seeded fault schedules played in virtual time,
 //!   schedules per second and robot-ticks per second, each schedule checked.
+//!   Only in a build with `--features testing` (the harness is a test
+//!   harness, kept out of the release binary).
 //!
 //! Figures are printed, never asserted: speed is proven here, not in timed
 //! unit tests.
@@ -97,7 +99,8 @@ pub enum What {
         #[arg(long, default_value_t = 300.0, value_name = "SECONDS", value_parser = seconds)]
         timeout: f64,
     },
-    /// Seeded fault schedules of the launch core in virtual time, per second.
+    /// Seeded fault schedules of the launch core in virtual time, per second (a build with `--features testing` only).
+    #[cfg(feature = "testing")]
     Schedules {
         /// Schedules to play (seeds 0..N, as the test suite draws them).
         #[arg(long, default_value_t = 10_000)]
@@ -114,6 +117,7 @@ fn percentile(values: &[f64], p: f64) -> f64 {
 }
 
 pub fn run(args: Args) -> Result<i32> {
+    #[cfg(feature = "testing")]
     if let What::Schedules { count, rounds } = args.what {
         return schedules(count, rounds, args.json);
     }
@@ -125,7 +129,9 @@ pub fn run(args: Args) -> Result<i32> {
     }
     let agent = launch::agent_command(args.agent_bin.as_deref(), None)?;
     match args.what {
-        What::Schedules { .. } | What::Crowd { .. } | What::Stop { .. } => unreachable!("handled above"),
+        #[cfg(feature = "testing")]
+        What::Schedules { .. } => unreachable!("handled above"),
+        What::Crowd { .. } | What::Stop { .. } => unreachable!("handled above"),
         What::Launch { runs, no_prespawn, transport } => {
             launch_figures(runs, no_prespawn, transport, agent, args.json)?;
         }
@@ -275,6 +281,7 @@ fn stop(
     Ok(crate::exit::SUCCESS)
 }
 
+#[cfg(feature = "testing")]
 /// `bench schedules`: plays seeds `0..count` (the test suite's schedules)
 /// `rounds` times and reports the median rate; every schedule is checked.
 fn schedules(count: u64, rounds: u32, json: bool) -> Result<i32> {

@@ -8,7 +8,6 @@
 //! `~/.config/fish/completions/orchestrator.fish`.
 
 use anyhow::Result;
-use clap::CommandFactory;
 use clap_complete::Shell;
 
 #[derive(Debug, clap::Args)]
@@ -18,9 +17,9 @@ pub struct Args {
     pub shell: Shell,
 }
 
-/// Writes the script for `args.shell` to stdout.
-pub fn run(args: &Args) -> Result<i32> {
-    let mut cli = super::Cli::command();
+/// Writes the script for `args.shell` to stdout, for the command line
+/// `cli` (the program's own, handed down by `commands`).
+pub fn run(args: &Args, mut cli: clap::Command) -> Result<i32> {
     let name = cli.get_name().to_owned();
     clap_complete::generate(args.shell, &mut cli, name, &mut std::io::stdout());
     Ok(crate::exit::SUCCESS)

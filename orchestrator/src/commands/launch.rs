@@ -338,16 +338,20 @@ pub fn run(args: Args) -> Result<i32> {
 
 #[cfg(test)]
 mod tests {
-    use crate::commands::{Cli, Command};
     use crate::launch::{Clock, LaunchConfig};
     use clap::Parser;
 
+    /// `orchestrator launch`'s flags alone (the command line around them is
+    /// `commands`'s, which uses this file).
+    #[derive(Parser)]
+    #[command(name = "launch")]
+    struct Cli {
+        #[command(flatten)]
+        args: super::Args,
+    }
+
     fn config(args: &[&str]) -> anyhow::Result<LaunchConfig> {
-        let cli = Cli::try_parse_from([&["orchestrator", "launch"], args].concat())?;
-        match cli.command {
-            Command::Launch(a) => a.config(),
-            _ => unreachable!("parsed a launch"),
-        }
+        Cli::try_parse_from([&["launch"], args].concat())?.args.config()
     }
 
     #[test]
@@ -378,8 +382,7 @@ mod tests {
     fn the_defaults_help_prints_are_the_defaults() {
         use clap::CommandFactory;
         const PROSE: [&str; 4] = ["swarm", "record", "svg", "agent-bin"];
-        let cli = Cli::command();
-        let launch = cli.find_subcommand("launch").expect("the launch subcommand");
+        let launch = Cli::command();
         let defaults = LaunchConfig::default();
         let (mut checked, mut prose) = (Vec::new(), Vec::new());
         for arg in launch.get_arguments() {

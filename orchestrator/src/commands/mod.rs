@@ -114,7 +114,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Record(args) => record::run(args),
         Command::Replay(args) => replay::run(args),
         Command::Bench(args) => bench::run(args),
-        Command::Completions(args) => completions::run(&args),
+        Command::Completions(args) => completions::run(&args, <Cli as clap::CommandFactory>::command()),
         Command::Bridge(args) => bridge::run(args),
         Command::Certs(args) => certs::run(args),
         Command::Status(args) => status::run(args),

@@ -11,10 +11,10 @@
 
 pub use super::agents::choice::{AgentSourceKind, AgentsConfig};
 pub use super::agents::gateways::GatewaysAt;
-use super::faults::FaultsConfig;
 use crate::exit::usage;
 use crate::runs::{check_run, RunNames};
 use anyhow::{Context, Result};
+use bycoms_protocol::bus::fault::FaultConfig;
 use bycoms_runtime::check_speed;
 use bycoms_runtime::seconds::{check_seconds, Zero};
 use bycoms_sim::sensing::NoiseModel;
@@ -541,6 +541,54 @@ fn check_serve(addr: &str) -> Result<()> {
         return Err(bad());
     }
     Ok(())
+}
+
+/// The `[faults]` section: probabilities per received message.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FaultsConfig {
+    /// Probability that a message is lost.
+    pub drop: f64,
+    /// Probability that a message is delivered twice.
+    pub duplicate: f64,
+    /// Probability that a message is held back for `delay_ms`.
+    pub delay: f64,
+    /// How long a delayed message is held, ms.
+    pub delay_ms: u64,
+    /// Probability that a message is swapped with its successor.
+    pub reorder: f64,
+    /// Seed of the fault decisions.
+    pub seed: u64,
+}
+
+impl Default for FaultsConfig {
+    fn default() -> Self {
+        Self { drop: 0.0, duplicate: 0.0, delay: 0.0, delay_ms: 10, reorder: 0.0, seed: 0 }
+    }
+}
+
+impl FaultsConfig {
+    /// Whether any fault is enabled.
+    pub fn is_on(&self) -> bool {
+        [self.drop, self.duplicate, self.delay, self.reorder].iter().any(|&p| p != 0.0)
+    }
+
+    /// The protocol crate's form.
+    pub fn fault_config(&self) -> FaultConfig {
+        FaultConfig {
+            drop: self.drop,
+            duplicate: self.duplicate,
+            delay: self.delay,
+            delay_by: Duration::from_millis(self.delay_ms),
+            reorder: self.reorder,
+            seed: self.seed,
+        }
+    }
+
+    /// Checks every rate lies in 0..=1 (a usage error otherwise).
+    pub fn validate(&self) -> Result<()> {
+        self.fault_config().validate().map_err(|why| usage(format!("faults: {why}")))
+    }
 }
 
 #[cfg(test)]

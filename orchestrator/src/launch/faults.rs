@@ -10,60 +10,15 @@
 //! the same seed.
 
 use super::transport::{Backend, LaunchBus};
-use crate::exit::usage;
 use anyhow::Result;
-use bycoms_protocol::bus::fault::{FaultBus, FaultConfig};
-use serde::{Deserialize, Serialize};
+use bycoms_protocol::bus::fault::FaultBus;
 use std::rc::Rc;
-use std::time::Duration;
 
-/// The `[faults]` section: probabilities per received message.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct FaultsConfig {
-    /// Probability that a message is lost.
-    pub drop: f64,
-    /// Probability that a message is delivered twice.
-    pub duplicate: f64,
-    /// Probability that a message is held back for `delay_ms`.
-    pub delay: f64,
-    /// How long a delayed message is held, ms.
-    pub delay_ms: u64,
-    /// Probability that a message is swapped with its successor.
-    pub reorder: f64,
-    /// Seed of the fault decisions.
-    pub seed: u64,
-}
+pub use super::config::FaultsConfig;
 
-impl Default for FaultsConfig {
-    fn default() -> Self {
-        Self { drop: 0.0, duplicate: 0.0, delay: 0.0, delay_ms: 10, reorder: 0.0, seed: 0 }
-    }
-}
-
+/// The fault layer on the launch's transport (the `[faults]` table itself
+/// is the config's).
 impl FaultsConfig {
-    /// Whether any fault is enabled.
-    pub fn is_on(&self) -> bool {
-        [self.drop, self.duplicate, self.delay, self.reorder].iter().any(|&p| p != 0.0)
-    }
-
-    /// The protocol crate's form.
-    pub fn fault_config(&self) -> FaultConfig {
-        FaultConfig {
-            drop: self.drop,
-            duplicate: self.duplicate,
-            delay: self.delay,
-            delay_by: Duration::from_millis(self.delay_ms),
-            reorder: self.reorder,
-            seed: self.seed,
-        }
-    }
-
-    /// Checks every rate lies in 0..=1 (a usage error otherwise).
-    pub fn validate(&self) -> Result<()> {
-        self.fault_config().validate().map_err(|why| usage(format!("faults: {why}")))
-    }
-
     /// `bus` as the launch's transport: wrapped in the fault layer when a
     /// fault is enabled, as it is otherwise.
     pub fn wrap<B>(&self, bus: B) -> Result<Rc<dyn LaunchBus>>

@@ -46,6 +46,7 @@ pub mod crowd;
 pub mod driver;
 pub mod events;
 pub mod faults;
+#[cfg(any(test, feature = "testing"))]
 pub mod harness;
 pub mod lab;
 pub mod limits;
@@ -65,110 +66,26 @@ pub mod stopbench;
 pub mod summary;
 pub mod swarm_lock;
 pub mod transport;
+mod world;
 
 #[doc(inline)]
 pub use self::core::Core;
+pub use agents::executable::{agent_command, beside_this_executable, AGENT_BIN_ENV};
 pub use agents::spawned::AgentCommand;
 pub use config::{Clock, LaunchConfig, Missing, OnDeath};
 pub use summary::{Outcome, RobotEnd, Summary};
+pub use world::World;
 
 use anyhow::{Context, Result};
 use bycoms_protocol::bus::zenoh::clock::ClockServer;
 use bycoms_protocol::bus::zenoh::settings::SettingsServer;
 use bycoms_protocol::bus::zenoh::ZenohBus;
 use bycoms_protocol::Swarm;
-use bycoms_sim::Vec2;
 use ports::Ports;
 use recording::Recording;
-use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use transport::SharedBus;
-
-/// The world as the orchestrator knows it: where robots start and the goal.
-/// The terrain text is handed on to the simulated agents (they parse it as
-/// a process would); the orchestrator parses it once, here.
-#[derive(Clone, Debug)]
-pub struct World {
-    /// Where the terrain came from.
-    pub name: String,
-    /// The terrain in the text format, for the agents' simulated bodies.
-    pub terrain_text: String,
-    /// The same terrain, parsed once (its start and goal are the run's),
-    /// for the scene and the picture.
-    pub terrain: bycoms_sim::terrain::Terrain,
-    /// Start position.
-    pub start: Vec2,
-    /// Goal position.
-    pub goal: Vec2,
-    /// What a unit of it is: a cell of a simulated terrain, or a metre of a
-    /// lab (how its pictures are drawn).
-    pub unit: crate::draw::snapshot::Unit,
-}
-
-impl World {
-    /// The world of terrain `text` (which must parse) with the run's
-    /// `start` and `goal`.
-    pub fn new(
-        name: String,
-        text: String,
-        start: Vec2,
-        goal: Vec2,
-        unit: crate::draw::snapshot::Unit,
-    ) -> Result<Self> {
-        let mut terrain = bycoms_sim::terrain::parse(&text).context("the launch's terrain")?;
-        terrain.set_start(start);
-        terrain.set_goal(goal);
-        Ok(Self { name, terrain_text: text, terrain, start, goal, unit })
-    }
-
-    /// A 3×3 world with one wall cell, start bottom left, goal top right
-    /// (the unit tests' world).
-    #[cfg(test)]
-    pub(crate) fn tiny() -> Self {
-        let text = "..G\n.#.\nS..\n".to_string();
-        Self::new(
-            "tiny".into(),
-            text,
-            Vec2::new(0.5, 0.5),
-            Vec2::new(2.5, 2.5),
-            crate::draw::snapshot::Unit::Cell,
-        )
-        .expect("the tiny world parses")
-    }
-}
-
-/// Environment variable naming the agent executable.
-pub const AGENT_BIN_ENV: &str = "BYCOMS_SIM_AGENT";
-
-/// Which executable runs the agents: `explicit` (the `--agent-bin` flag),
-/// else `$BYCOMS_SIM_AGENT`, else `configured` (the config file), else
-/// `sim-agent` next to this executable, else this executable itself as
-/// `orchestrator sim-agent` (so `cargo run --bin orchestrator`, which builds
-/// no other binary, still works).
-pub fn agent_command(explicit: Option<&Path>, configured: Option<&Path>) -> Result<AgentCommand> {
-    let chosen = explicit
-        .map(Path::to_path_buf)
-        .or_else(|| std::env::var_os(AGENT_BIN_ENV).map(PathBuf::from))
-        .or_else(|| configured.map(Path::to_path_buf));
-    if let Some(program) = chosen {
-        return Ok(AgentCommand { program, prefix: Vec::new() });
-    }
-    let (me, beside) = beside_this_executable("sim-agent")?;
-    if beside.is_file() {
-        return Ok(AgentCommand { program: beside, prefix: Vec::new() });
-    }
-    Ok(AgentCommand { program: me, prefix: vec!["sim-agent".into()] })
-}
-
-/// This executable, and where a sibling binary `name` of the workspace
-/// would sit next to it (`cargo build` puts them together): the one lookup
-/// of the agent and gateway executables.
-pub fn beside_this_executable(name: &str) -> Result<(PathBuf, PathBuf)> {
-    let me = std::env::current_exe().context("cannot locate the orchestrator executable")?;
-    let beside = me.with_file_name(format!("{name}{}", std::env::consts::EXE_SUFFIX));
-    Ok((me, beside))
-}
 
 /// The process-wide Ctrl-C flag (`bycoms_runtime::interrupt`: one handler per
 /// process, shared by every command and the agents' lifeline).

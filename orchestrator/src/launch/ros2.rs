@@ -20,67 +20,28 @@
 //! terrain cells (1 cell = 1 unit of the `world` frame).
 
 pub mod bag;
+mod config;
+mod messages;
 pub mod publish;
+
+pub use config::Ros2Config;
+pub use messages::{ros_messages, run_time, WORLD_FRAME};
 
 use super::config::LaunchConfig;
 use super::observe::Observer;
 use super::World;
 use crate::scene::SharedScene;
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
-use bycoms_ros2::msgs::{
-    Header, Point, Pose as RosPose, PoseStamped, Quaternion, Time, Transform, TransformStamped, Vector3,
-};
 use bycoms_ros2::rmw_zenoh::{
     graph_key_expr, liveliness_token, Endpoint, EntityKind, Node, Publisher, TokenView, ADMIN_SPACE,
 };
 use publish::{RunMessages, Sink, Topic};
-use serde::{Deserialize, Serialize};
 use std::collections::BTreeSet;
 use std::time::{Duration, Instant};
 use zenoh::Wait;
 
-/// The `[ros2]` table of a launch config.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Ros2Config {
-    /// `ROS_DOMAIN_ID` of the graph to join.
-    pub domain_id: u32,
-    /// The namespace of the node and of each robot's pose topic (`/` or `/name…`).
-    pub namespace: String,
-    /// The lab's ROS 2 router (`rmw_zenohd`, `tcp/HOST:7447`): the launch
-    /// joins the graph as its zenoh client (`launch/ros2_graph.rs`); absent,
-    /// over the launch's own zenoh session.
-    pub router: Option<String>,
-}
-
-impl Default for Ros2Config {
-    fn default() -> Self {
-        Self { domain_id: 0, namespace: "/".into(), router: None }
-    }
-}
-
-/// The frame every pose and transform is in.
-pub const WORLD_FRAME: &str = "world";
 /// The node's name.
 pub const NODE_NAME: &str = "bycoms";
-
-impl Ros2Config {
-    /// A usage error unless the namespace is a ROS 2 namespace: `/`, or `/`
-    /// then names of letters, digits and `_` separated by single `/`.
-    pub fn validate(&self) -> Result<(), String> {
-        let ns = &self.namespace;
-        if bycoms_ros2::rmw_zenoh::is_fully_qualified(ns, true) {
-            Ok(())
-        } else {
-            Err(format!("ros2.namespace {ns:?} is not a ROS 2 namespace: `/` or `/name`, `/a/b` (letters, digits, `_`)"))
-        }
-    }
-
-    /// Robot `k`'s pose topic.
-    pub fn pose_topic(&self, robot: u32) -> String {
-        format!("{}/robot_{robot}/pose", self.namespace.trim_end_matches('/'))
-    }
-}
 
 /// How long a launch waits, before its run, for the route to each ROS 2
 /// subscriber already in the graph (its liveliness token seen).
@@ -254,25 +215,6 @@ fn wall_clock_ns() -> i64 {
     i64::try_from(since.as_nanos()).unwrap_or(i64::MAX)
 }
 
-/// The run's time `time_us` as a ROS time.
-pub fn run_time(time_us: u64) -> Time {
-    Time::from_nanos(i64::try_from(time_us.saturating_mul(1_000)).unwrap_or(i64::MAX))
-}
-
-/// A pose as ROS 2 messages: the robot's `PoseStamped` and its transform.
-pub fn ros_messages(pose: &Pose) -> (PoseStamped, TransformStamped) {
-    let header = Header { stamp: run_time(pose.time_us), frame_id: WORLD_FRAME.into() };
-    let orientation = Quaternion::from_yaw(pose.heading);
-    let position = Point { x: pose.x, y: pose.y, z: 0.0 };
-    let stamped = PoseStamped { header: header.clone(), pose: RosPose { position, orientation } };
-    let transform = TransformStamped {
-        header,
-        child_frame_id: format!("robot_{}", pose.robot.0),
-        transform: Transform { translation: Vector3(position), rotation: orientation },
-    };
-    (stamped, transform)
-}
-
 impl Observer for Ros2Bridge {
     fn world(&mut self, _swarm: &str, world: &World, cfg: &LaunchConfig, _scene: Option<&SharedScene>) {
         self.run.world(&world.terrain, cfg.eps, &mut self.sink);
@@ -292,6 +234,7 @@ impl Observer for Ros2Bridge {
 mod tests {
     use super::*;
     use bycoms_protocol::RobotId;
+    use bycoms_ros2::msgs::Time;
 
     #[test]
     fn namespaces_are_checked_and_name_the_key() {

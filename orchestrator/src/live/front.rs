@@ -25,6 +25,9 @@ use std::time::Duration;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
 
+/// The page, compiled in.
+pub const PAGE: &str = include_str!("page.html");
+
 /// Longest request head accepted.
 pub const MAX_HEAD: usize = 16 * 1024;
 /// A client must send its request head within this long.
@@ -117,8 +120,8 @@ async fn connection(mut stream: TcpStream, peer: SocketAddr, backend: SocketAddr
             Ok(())
         }
         Some(Request::Page { head_only }) => {
-            let body = if head_only { "" } else { super::PAGE };
-            respond(&mut stream, "200 OK", "text/html; charset=utf-8", super::PAGE.len(), body).await
+            let body = if head_only { "" } else { PAGE };
+            respond(&mut stream, "200 OK", "text/html; charset=utf-8", PAGE.len(), body).await
         }
         Some(Request::NoSubprotocol) => {
             tracing::info!(%peer, "live view: refused a WebSocket client that offers no foxglove.sdk.v1");

@@ -56,9 +56,6 @@ use std::time::Duration;
 /// the last state (the verdict) is the one message a viewer must get.
 pub const FINAL_DRAIN: Duration = Duration::from_millis(500);
 
-/// The page, compiled in.
-pub const PAGE: &str = include_str!("page.html");
-
 /// Why the live view could not start.
 #[derive(Debug, thiserror::Error)]
 pub enum LiveError {

@@ -1,5 +1,6 @@
 //! The one error type of the recorder and its reader.
 
+use std::fmt;
 use std::io;
 use std::path::PathBuf;
 
@@ -71,7 +72,7 @@ pub enum RecordError {
         /// The file that was read.
         path: PathBuf,
         /// Where and what.
-        damage: super::read::Damage,
+        damage: Damage,
     },
     /// A JSON record could not be serialized.
     #[error("cannot encode a JSON record for topic {topic:?}: {source}")]
@@ -91,4 +92,44 @@ pub enum RecordError {
         /// `encoding/schema` of the rejected call.
         requested: String,
     },
+}
+
+/// Which part of a file is damaged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Part {
+    /// A chunk: its CRC fails, or it does not decompress or parse. Its messages are not read.
+    Chunk,
+    /// An attachment whose CRC fails.
+    Attachment,
+    /// A record outside the chunks that does not parse.
+    Record,
+    /// The data section's CRC (in its DataEnd record) fails: a record outside the chunks
+    /// (metadata, message indexes) is damaged.
+    DataSection,
+    /// The summary section's CRC (in the footer) fails: the indexes other readers seek with.
+    Summary,
+}
+
+/// One damaged part of a recording: where it starts and what is wrong.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Damage {
+    /// Byte offset of the damaged record in the file.
+    pub offset: u64,
+    /// What it is.
+    pub part: Part,
+    /// What the check said.
+    pub why: String,
+}
+
+impl fmt::Display for Damage {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let what = match self.part {
+            Part::Chunk => "the chunk",
+            Part::Attachment => "the attachment",
+            Part::Record => "the record",
+            Part::DataSection => "the data section (checked at its end record)",
+            Part::Summary => "the summary section (checked at the footer)",
+        };
+        write!(f, "{what} at byte {} is damaged: {}", self.offset, self.why)
+    }
 }

@@ -98,8 +98,8 @@ use std::time::{Duration, Instant};
 use mcap::records::MessageHeader;
 use mcap::{WriteOptions, Writer};
 
-pub use error::RecordError;
-pub use read::{open_recording, read_counts, recover, Damage, End, Item, Part, Reader, Recovered};
+pub use error::{Damage, Part, RecordError};
+pub use read::{open_recording, read_counts, recover, End, Item, Reader, Recovered};
 pub use rewrite::rewrite;
 pub use schema::{JSON, POSTCARD};
 

@@ -44,7 +44,7 @@ use mcap::records::{self, op, MessageHeader, Metadata, Record, SchemaHeader};
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use mcap::{Attachment, Channel, McapError};
 
-use super::{schema, RecordError};
+use super::{schema, Damage, Part, RecordError};
 
 /// The most bytes one chunk may hold once decompressed: what reading a chunk may take in
 /// memory (it is decompressed whole and its CRC checked before any of its messages is handed
@@ -70,46 +70,6 @@ pub enum Item<'a> {
     Metadata(Metadata),
     /// An attachment whose CRC verified (a launch writes none; other tools may).
     Attachment(Attachment<'a>),
-}
-
-/// Which part of a file is damaged.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Part {
-    /// A chunk: its CRC fails, or it does not decompress or parse. Its messages are not read.
-    Chunk,
-    /// An attachment whose CRC fails.
-    Attachment,
-    /// A record outside the chunks that does not parse.
-    Record,
-    /// The data section's CRC (in its DataEnd record) fails: a record outside the chunks
-    /// (metadata, message indexes) is damaged.
-    DataSection,
-    /// The summary section's CRC (in the footer) fails: the indexes other readers seek with.
-    Summary,
-}
-
-/// One damaged part of a recording: where it starts and what is wrong.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Damage {
-    /// Byte offset of the damaged record in the file.
-    pub offset: u64,
-    /// What it is.
-    pub part: Part,
-    /// What the check said.
-    pub why: String,
-}
-
-impl fmt::Display for Damage {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let what = match self.part {
-            Part::Chunk => "the chunk",
-            Part::Attachment => "the attachment",
-            Part::Record => "the record",
-            Part::DataSection => "the data section (checked at its end record)",
-            Part::Summary => "the summary section (checked at the footer)",
-        };
-        write!(f, "{what} at byte {} is damaged: {}", self.offset, self.why)
-    }
 }
 
 /// How reading a recording ended.

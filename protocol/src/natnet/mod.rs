@@ -22,11 +22,14 @@
 //! make it panic (a fuzz target drives [`parse_packet`]).
 
 mod command;
+mod error;
 mod frame;
 mod modeldef;
+mod version;
 mod wire;
 
 pub use command::{ConnectRequest, Response, ServerInfo, SERVER_NAME_LEN};
+pub use error::Error;
 pub use frame::{
     Asset, Channels, FrameOfData, LabeledMarker, MarkerSet, RigidBody, Skeleton, Suffix, TRACKING_VALID,
 };
@@ -34,6 +37,7 @@ pub use modeldef::{
     AssetDescription, CameraDescription, DataDescription, MarkerDescription, MarkerSetDescription,
     ModelDefinitions, RigidBodyDescription, RigidBodyMarkerDescription, SkeletonDescription,
 };
+pub use version::Version;
 
 use wire::{Reader, Writer};
 
@@ -63,113 +67,6 @@ pub mod message_id {
     pub const KEEPALIVE: u16 = 10;
     /// Server → client: the request was not understood.
     pub const UNRECOGNIZED_REQUEST: u16 = 100;
-}
-
-/// A NatNet bitstream version (major.minor): the frame layout depends on it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct Version {
-    /// Major version (4 for NatNet 4.x).
-    pub major: u8,
-    /// Minor version.
-    pub minor: u8,
-}
-
-impl Version {
-    /// NatNet 4.0 (Motive 3.0): no per-section byte sizes, no assets.
-    pub const V4_0: Self = Self { major: 4, minor: 0 };
-    /// NatNet 4.1 (Motive 3.1): per-section byte sizes and assets.
-    pub const V4_1: Self = Self { major: 4, minor: 1 };
-
-    /// Sections carry their byte size after their count (4.1+).
-    pub(crate) fn has_sizes(self) -> bool {
-        self >= Self::V4_1
-    }
-
-    /// Refuses layouts older than 4.0, which this codec does not speak.
-    pub(crate) fn check(self) -> Result<(), Error> {
-        if self.major < 4 {
-            return Err(Error::UnsupportedVersion(self.major, self.minor));
-        }
-        Ok(())
-    }
-}
-
-/// Why a NatNet packet could not be parsed or encoded.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[non_exhaustive]
-pub enum Error {
-    /// The bytes ended inside a field.
-    #[error("NatNet packet truncated: {what} at byte {at}")]
-    Truncated {
-        /// The field being read.
-        what: &'static str,
-        /// Its offset in the payload.
-        at: usize,
-    },
-    /// The header announces more payload than the datagram holds.
-    #[error("NatNet header announces {announced} payload bytes, datagram has {available}")]
-    LengthMismatch {
-        /// Payload length in the header.
-        announced: usize,
-        /// Bytes after the header.
-        available: usize,
-    },
-    /// A count is negative or larger than the rest of the packet can hold.
-    #[error("NatNet {what} count {count} at byte {at} is impossible for the packet's length")]
-    BadCount {
-        /// What was counted.
-        what: &'static str,
-        /// The count read.
-        count: i32,
-        /// Its offset in the payload.
-        at: usize,
-    },
-    /// A string has no terminating NUL.
-    #[error("NatNet string ({what}) at byte {at} has no terminating NUL")]
-    Unterminated {
-        /// The string field.
-        what: &'static str,
-        /// Its offset in the payload.
-        at: usize,
-    },
-    /// A string is not UTF-8.
-    #[error("NatNet string ({what}) at byte {at} is not UTF-8")]
-    NotUtf8 {
-        /// The string field.
-        what: &'static str,
-        /// Its offset in the payload.
-        at: usize,
-    },
-    /// The message id is none NatNet 4.x defines.
-    #[error("unknown NatNet message id {0}")]
-    UnknownMessage(u16),
-    /// A model definition of a kind this codec does not decode, in a 4.0
-    /// stream (which has no size to skip it by).
-    #[error("NatNet model definition of kind {0} cannot be skipped without 4.1 sizes")]
-    UnsupportedDescription(i32),
-    /// Bytes were left after a complete message.
-    #[error("{extra} unexpected byte(s) after a complete NatNet {what}")]
-    TrailingBytes {
-        /// The message.
-        what: &'static str,
-        /// How many bytes were left.
-        extra: usize,
-    },
-    /// The message cannot be encoded: too long for its field.
-    #[error("NatNet {what} too large to encode")]
-    TooLarge {
-        /// The field or message.
-        what: &'static str,
-    },
-    /// Frames and model definitions before NatNet 4.0 are not supported.
-    #[error("NatNet {0}.{1} frames are not supported (4.x only)")]
-    UnsupportedVersion(u8, u8),
-    /// A string to encode contains a NUL byte.
-    #[error("NatNet string ({what}) contains a NUL byte")]
-    InteriorNul {
-        /// The string field.
-        what: &'static str,
-    },
 }
 
 /// One NatNet message, either direction.

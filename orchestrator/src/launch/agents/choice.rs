@@ -199,7 +199,7 @@ fn gateway_command(explicit: Option<&Path>) -> Result<AgentCommand> {
     if let Some(program) = explicit {
         return Ok(AgentCommand { program: program.to_path_buf(), prefix: Vec::new() });
     }
-    let (me, beside) = crate::launch::beside_this_executable("agent")?;
+    let (me, beside) = super::executable::beside_this_executable("agent")?;
     anyhow::ensure!(
         beside.is_file(),
         "no gateway executable: `agent` is not next to {} (build it with `cargo build -p bycoms-agent`, \

@@ -40,6 +40,7 @@
 //! spawned children must be spawned from the main thread, see `spawned`).
 
 pub mod choice;
+pub mod executable;
 pub mod gateways;
 pub mod remote;
 pub mod spawned;
