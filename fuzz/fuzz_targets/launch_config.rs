@@ -6,7 +6,7 @@
 //! launch_config`.
 #![no_main]
 
-use bycoms_orchestrator::launch::LaunchConfig;
+use bycoms_launch::LaunchConfig;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

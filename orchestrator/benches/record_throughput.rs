@@ -26,10 +26,10 @@
 //! (`BYCOMS_BENCH_ROBOTS=N` sets the crowd's robots, default 20; `--quick`
 //! skips the recorder part).
 
+use bycoms_launch::config::Transport;
+use bycoms_launch::{self as launch, Clock, LaunchConfig};
 use bycoms_orchestrator::commands::launch::world;
-use bycoms_orchestrator::launch::config::Transport;
-use bycoms_orchestrator::launch::{self, Clock, LaunchConfig};
-use bycoms_orchestrator::record::{read_counts, Recorder, CHUNK_SIZE};
+use bycoms_record::{read_counts, Recorder, CHUNK_SIZE};
 use std::path::Path;
 use std::time::Instant;
 

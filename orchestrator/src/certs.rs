@@ -36,7 +36,7 @@
 //! So [`generate`] never replaces an existing CA unless told to
 //! (`--force`), and [`add_robots`] issues certificates for more robots with
 //! the CA already there (`--add-robots`). Every file goes through the
-//! overwrite rule of all outputs (`crate::out::files`): all are checked
+//! overwrite rule of all outputs (`bycoms_runtime::out::files`): all are checked
 //! before the first is written, and each is written whole or not at all.
 //!
 //! A lost or stolen robot's certificate is withdrawn with [`revoke`]
@@ -47,12 +47,12 @@
 //! the ACL it started with: until the orchestrator restarts, the revoked
 //! robot still connects, and the launch itself drops its traffic
 //! (`orchestrator revoke`, or `certs --revoke` asking a running launch of
-//! this lab: `launch/core/revoke.rs`).
+//! this lab: `orchestrator/launch/src/core/revoke.rs`).
 
-use crate::exit;
-use crate::out::kind::ZENOH_CONFIG_MARK;
-use crate::out::{self, usage_unless_io, Kind, Outputs};
 use anyhow::{Context, Result};
+use bycoms_runtime::exit;
+use bycoms_runtime::out::kind::ZENOH_CONFIG_MARK;
+use bycoms_runtime::out::{self, usage_unless_io, Kind, Outputs};
 use rcgen::{BasicConstraints, CertificateParams, DnType, ExtendedKeyUsagePurpose, IsCa, Issuer, KeyPair};
 use serde_json::{json, Value};
 use std::collections::BTreeSet;
@@ -219,7 +219,7 @@ fn robots_in(out: &Path) -> u32 {
 /// they can still open a session, in which nothing they send or ask for is
 /// let through. It reaches a launch when the launch starts: a running one
 /// keeps the ACL it started with (a running launch drops the robot when
-/// asked: `orchestrator revoke`, `launch/core/revoke.rs`). `flag` is the
+/// asked: `orchestrator revoke`, `orchestrator/launch/src/core/revoke.rs`). `flag` is the
 /// command's flag naming the robots, for usage errors. Returns the
 /// config's path.
 pub fn revoke(out: &Path, ids: &[u32], flag: &str) -> Result<PathBuf> {
@@ -274,12 +274,6 @@ pub fn read_config(path: &Path) -> Result<Value> {
         .with_context(|| format!("{} is not a config written by `orchestrator certs`", path.display()))
 }
 
-/// Whether zenoh authenticates and encrypts `endpoint` with the TLS
-/// settings of these configs (`quic/` and `tls/`).
-pub fn is_secured(endpoint: &str) -> bool {
-    endpoint.starts_with("quic/") || endpoint.starts_with("tls/")
-}
-
 /// Checks what every call checks: robots, hosts, secured endpoints.
 fn check_plan(plan: &Plan) -> Result<()> {
     anyhow::ensure!(plan.robots >= 1, "--robots must be at least 1");
@@ -289,7 +283,7 @@ fn check_plan(plan: &Plan) -> Result<()> {
     }
     for (flag, endpoint) in [("--listen", &plan.listen), ("--connect", &plan.connect)] {
         anyhow::ensure!(
-            is_secured(endpoint),
+            bycoms_protocol::bus::zenoh::is_secured(endpoint),
             "{flag} {endpoint}: certificates are for secured endpoints, quic/HOST:PORT or tls/HOST:PORT"
         );
     }

@@ -4,7 +4,8 @@
 //! subcommand, turn its result into an explicit exit code. Each subcommand
 //! lives in its own file under `commands/`.
 
-use bycoms_orchestrator::{commands, exit};
+use bycoms_orchestrator::commands;
+use bycoms_runtime::exit;
 use clap::Parser;
 
 fn main() {

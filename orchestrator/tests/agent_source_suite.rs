@@ -7,15 +7,15 @@
 //! asserts which of the suite's checks were not applicable to it (none are
 //! skipped silently).
 //!
-//! [`AgentSource`]: bycoms_orchestrator::launch::agents::AgentSource
+//! [`AgentSource`]: bycoms_launch::agents::AgentSource
 
 use crate::suites;
 
-use bycoms_orchestrator::launch::agents::gateways::{Gateways, LINK_GRACE};
-use bycoms_orchestrator::launch::agents::remote::Remote;
-use bycoms_orchestrator::launch::agents::spawned::{AgentCommand, Spawned};
-use bycoms_orchestrator::launch::agents::threads::Threads;
-use bycoms_orchestrator::launch::agents::{AgentError, AgentPlan, AgentSource};
+use bycoms_launch::agents::gateways::{Gateways, LINK_GRACE};
+use bycoms_launch::agents::remote::Remote;
+use bycoms_launch::agents::spawned::{AgentCommand, Spawned};
+use bycoms_launch::agents::threads::Threads;
+use bycoms_launch::agents::{AgentError, AgentPlan, AgentSource};
 use bycoms_protocol::bus::memory::MemoryBus;
 use bycoms_protocol::bus::zenoh::{AliveToken, AliveWatch, Mode, Presence, ZenohBus, ZenohConfig};
 use bycoms_protocol::bus::{BusExt, Limits};

@@ -451,7 +451,7 @@ fn merge_refuses_a_shard_of_another_sweep_and_names_it() {
 
 #[test]
 fn a_live_swarm_is_refused_whatever_the_temp_dir_with_a_usage_error() {
-    use bycoms_orchestrator::launch::swarm_lock::SwarmLock;
+    use bycoms_launch::swarm_lock::SwarmLock;
     // The swarm held as a live launch holds it (this process, its TMPDIR;
     // the isolation tag, if any, is inherited by the launch below).
     let swarm = format!("lockscope{}", std::process::id());

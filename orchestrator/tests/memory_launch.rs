@@ -1,12 +1,12 @@
 //! A whole launch in one process: the in-memory bus (`transport.kind =
-//! "memory"`), its agents as threads (`launch/agents/threads.rs`), the real
+//! "memory"`), its agents as threads (`orchestrator/launch/src/agents/threads.rs`), the real
 //! driver, ports and core — no shared memory, no sockets, no processes.
 //! Lockstep gives `simulate`'s result bit for bit, as the launches over
 //! iceoryx2 and zenoh do (`tests/tests/parity.rs`).
 
+use bycoms_launch::config::Transport;
+use bycoms_launch::{self as launch, Clock, LaunchConfig, Outcome, RobotEnd};
 use bycoms_orchestrator::commands::launch::world;
-use bycoms_orchestrator::launch::config::Transport;
-use bycoms_orchestrator::launch::{self, Clock, LaunchConfig, Outcome, RobotEnd};
 use bycoms_sim::terrain::parse;
 
 fn memory_launch(clock: Clock) -> (LaunchConfig, launch::Summary) {

@@ -7,7 +7,7 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use bycoms_orchestrator::record::Recorder;
+use bycoms_record::Recorder;
 
 fn orchestrator_in(dir: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_orchestrator"))

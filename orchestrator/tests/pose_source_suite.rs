@@ -1,14 +1,14 @@
 //! The poses seam's conformance suite (`suites/poses.rs`) against every
 //! [`PoseSource`]: add a fixture and one `#[test]` per implementation.
 //!
-//! [`PoseSource`]: bycoms_orchestrator::launch::poses::PoseSource
+//! [`PoseSource`]: bycoms_launch::poses::PoseSource
 
 use crate::suites;
 
-use bycoms_orchestrator::launch::poses::bus::BusPoses;
-use bycoms_orchestrator::launch::poses::{PoseSink, PoseSource};
-use bycoms_orchestrator::launch::recording::Recording;
-use bycoms_orchestrator::launch::transport::{AnyPublisher, SharedBus};
+use bycoms_launch::poses::bus::BusPoses;
+use bycoms_launch::poses::{PoseSink, PoseSource};
+use bycoms_launch::recording::Recording;
+use bycoms_launch::transport::{AnyPublisher, SharedBus};
 use bycoms_protocol::bus::memory::MemoryBus;
 use bycoms_protocol::bus::Limits;
 use bycoms_protocol::msg::Pose;
@@ -21,8 +21,8 @@ use suites::poses::{run_all, Expected, Garbage, PoseFixture};
 
 /// The NatNet fixture's placement settings (not the defaults, so that the
 /// suite sees the source report its own).
-const NATNET_PLACEMENT: bycoms_orchestrator::mocap::PlacementConfig =
-    bycoms_orchestrator::mocap::PlacementConfig { radius: 0.25, hold: 0.5, timeout: 30.0 };
+const NATNET_PLACEMENT: bycoms_mocap::PlacementConfig =
+    bycoms_mocap::PlacementConfig { radius: 0.25, hold: 0.5, timeout: 30.0 };
 
 /// The agents' simulated mocap: poses published on the (in-memory) bus.
 struct BusFixture {
@@ -220,8 +220,8 @@ impl PoseFixture for NatNetFixture {
     }
 
     fn source(&mut self) -> (Box<dyn PoseSource>, Swarm) {
-        use bycoms_orchestrator::launch::poses::mocap::NatNetPoses;
-        use bycoms_orchestrator::mocap::{
+        use bycoms_launch::poses::mocap::NatNetPoses;
+        use bycoms_mocap::{
             ArenaTransform, ClientConfig, NatNetPoseSource, NatNetSourceConfig, TrackerConfig,
         };
         let config = NatNetSourceConfig {
@@ -295,7 +295,7 @@ fn natnet_poses_record_the_model_definitions_and_every_frame() {
     }
     assert_eq!(got.len(), 4, "{got:?}");
     recording.finish().expect("finish");
-    let counts = bycoms_orchestrator::record::read_counts(&path).expect("read back");
+    let counts = bycoms_record::read_counts(&path).expect("read back");
     assert_eq!(counts.get("bycoms/suite/mocap/natnet_modeldef"), Some(&1), "{counts:?}");
     assert_eq!(counts.get("bycoms/suite/mocap/natnet"), Some(&4), "{counts:?}");
     assert_eq!(counts.get("bycoms/suite/robot/1/pose"), Some(&4), "the trusted poses: {counts:?}");
@@ -343,8 +343,8 @@ fn replayed_poses_pass_the_suite() {
 }
 
 /// The ROS 2 fixture's placement settings (not the defaults).
-const ROS2_PLACEMENT: bycoms_orchestrator::mocap::PlacementConfig =
-    bycoms_orchestrator::mocap::PlacementConfig { radius: 0.3, hold: 0.25, timeout: 20.0 };
+const ROS2_PLACEMENT: bycoms_mocap::PlacementConfig =
+    bycoms_mocap::PlacementConfig { radius: 0.3, hold: 0.25, timeout: 20.0 };
 
 /// A ROS 2 motion-capture driver: each emitted pose is put as a
 /// `geometry_msgs/msg/PoseStamped` (Z up, metres = arena units, the pose's
@@ -413,9 +413,9 @@ impl PoseFixture for Ros2Fixture {
     }
 
     fn source(&mut self) -> (Box<dyn PoseSource>, Swarm) {
-        use bycoms_orchestrator::launch::poses::ros2::Ros2Poses;
-        use bycoms_orchestrator::launch::ros2::Ros2Config;
-        use bycoms_orchestrator::mocap::{ArenaTransform, Ros2MocapConfig, TrackerConfig, UpAxis};
+        use bycoms_launch::poses::ros2::Ros2Poses;
+        use bycoms_launch::ros2::Ros2Config;
+        use bycoms_mocap::{ArenaTransform, Ros2MocapConfig, TrackerConfig, UpAxis};
         let config = Ros2MocapConfig {
             topics: (1..=3).map(|k| (Self::topic(k), RobotId(k))).collect(),
             arena: ArenaTransform { up: UpAxis::Z, origin: [0.0; 3], scale: 1.0 },

@@ -3,14 +3,14 @@
 //! recording, finished or cut anywhere, they find the same poses and gate events and stop at
 //! the same record for the same reason.
 
-use bycoms_orchestrator::draw::run::read_run;
-use bycoms_orchestrator::launch::LaunchConfig;
-use bycoms_orchestrator::record::schema::{self, Topics};
-use bycoms_orchestrator::record::{recover, rewrite, Recorder};
+use bycoms_launch::LaunchConfig;
 use bycoms_orchestrator::replay::{read_recording, Entry};
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose, Tick, ToAgent};
 use bycoms_protocol::{encode, RobotId, Swarm, MAX_MESSAGE_LEN};
+use bycoms_record::schema::{self, Topics};
+use bycoms_record::{recover, rewrite, Recorder};
 use bycoms_sim::Vec2;
+use bycoms_study::draw::run::read_run;
 
 /// A recording shaped like a launch's: run metadata, commands, poses (and one that does not
 /// decode), gate events, in several chunks. Returns its bytes and how many poses and gate
@@ -66,7 +66,7 @@ fn draw_replay_and_recover_read_the_same_messages_of_a_file_cut_anywhere() {
     let dir = tempfile::tempdir().expect("temp dir");
     let (bytes, poses, gates) = launch_like(dir.path());
     let (cut, fixed) = (dir.path().join("cut.mcap"), dir.path().join("fixed.mcap"));
-    let on_bus = |recovered: &bycoms_orchestrator::record::Recovered| -> u64 {
+    let on_bus = |recovered: &bycoms_record::Recovered| -> u64 {
         let on = |topic: &str| topic.ends_with("/pose") || topic.ends_with("/gate");
         recovered.counts.iter().filter(|(t, _)| on(t)).map(|(_, n)| n).sum()
     };
@@ -138,7 +138,7 @@ fn a_damaged_chunk_is_refused_by_draw_and_replay_and_left_out_by_record_recover(
         ),
     };
     let code = bycoms_orchestrator::commands::record::run(args).expect("recover runs");
-    assert_eq!(code, bycoms_orchestrator::exit::ERROR, "a chunk was left out");
+    assert_eq!(code, bycoms_runtime::exit::ERROR, "a chunk was left out");
     let copy = recover(&fixed).expect("the copy reads");
     assert!(copy.is_complete() && copy.damage.is_empty(), "the copy verifies: {copy:?}");
     let all = (poses + gates) as u64 + 1 + 1 + 120; // + garbage pose, run, ticks

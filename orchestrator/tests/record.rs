@@ -12,7 +12,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use bycoms_orchestrator::record::{read_counts, recover, schema, RecordError, Recorder};
+use bycoms_record::{read_counts, recover, schema, RecordError, Recorder};
 
 const TOPICS: [&str; 3] = ["bycoms/s1/agent/0/to_agent", "bycoms/s1/agent/0/pose", "bycoms/s1/tick"];
 const SCHEMAS: [&str; 3] = ["bycoms.ToAgent", "bycoms.Pose", "bycoms.Tick"];
@@ -391,12 +391,12 @@ fn every_cut_of_a_recording_rewrites_into_a_complete_one_with_the_same_messages(
         let _ = std::fs::remove_file(&fixed);
         if streamed.messages == 0 {
             // Cut before the run metadata: nothing to recover, and nothing is written.
-            let refused = bycoms_orchestrator::record::rewrite(&cut, &fixed);
+            let refused = bycoms_record::rewrite(&cut, &fixed);
             assert!(matches!(refused, Err(RecordError::NotLaunch { .. })), "cut at {len}: {refused:?}");
             assert!(!fixed.exists(), "cut at {len}: a copy was written");
             continue;
         }
-        let rewritten = bycoms_orchestrator::record::rewrite(&cut, &fixed).expect("rewrite");
+        let rewritten = bycoms_record::rewrite(&cut, &fixed).expect("rewrite");
         assert_eq!(
             (rewritten.messages, &rewritten.counts),
             (streamed.messages, &streamed.counts),
@@ -412,7 +412,7 @@ fn every_cut_of_a_recording_rewrites_into_a_complete_one_with_the_same_messages(
     }
     let junk = dir.path().join("junk");
     std::fs::write(&junk, b"not a recording at all").expect("junk");
-    assert!(matches!(bycoms_orchestrator::record::rewrite(&junk, &fixed), Err(RecordError::NotMcap { .. })));
+    assert!(matches!(bycoms_record::rewrite(&junk, &fixed), Err(RecordError::NotMcap { .. })));
 }
 
 /// A copy of `from` written by the mcap crate's writer with `compression`
@@ -443,11 +443,10 @@ fn zstd_and_lz4_recordings_read_like_uncompressed_ones() {
         let read = recover(&packed).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(read.is_complete(), "{name}: {:?}", read.stopped_by);
         assert_eq!(read.counts, expected, "{name}");
-        let run = bycoms_orchestrator::draw::run::read_run(&packed).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let run = bycoms_study::draw::run::read_run(&packed).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(run.stopped_by.is_none(), "{name}: {:?}", run.stopped_by);
         let fixed = dir.path().join(format!("{name}.recovered.mcap"));
-        let copied =
-            bycoms_orchestrator::record::rewrite(&packed, &fixed).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let copied = bycoms_record::rewrite(&packed, &fixed).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(copied.counts, expected, "{name}: record recover copies every message");
     }
 }

@@ -11,12 +11,12 @@
 //! (zenoh's liveliness watch and the orchestrator's token, the memory bus)
 //! that only the transport may unpack.
 //!
-//! [`LaunchBus`]: bycoms_orchestrator::launch::transport::LaunchBus
-//! [`transport::open`]: bycoms_orchestrator::launch::transport::open
+//! [`LaunchBus`]: bycoms_launch::transport::LaunchBus
+//! [`transport::open`]: bycoms_launch::transport::open
 
-use bycoms_orchestrator::launch::config::{Transport, TransportConfig};
-use bycoms_orchestrator::launch::faults::FaultsConfig;
-use bycoms_orchestrator::launch::transport::{self, Opened};
+use bycoms_launch::config::{Transport, TransportConfig};
+use bycoms_launch::faults::FaultsConfig;
+use bycoms_launch::transport::{self, Opened};
 use bycoms_protocol::{Swarm, TopicName};
 use bycoms_runtime::ipc_config;
 use std::time::Duration;

@@ -47,10 +47,9 @@ fn main() {
     let hosts = TwoHosts::create("cuts").expect("namespaces");
     let dir = tempfile::tempdir().expect("temp dir");
     let terrain = dir.path().join("terrain.txt");
-    let world = bycoms_orchestrator::scenario::load(&bycoms_orchestrator::scenario::WorldSource::Scenario(
-        "long-obstacle".into(),
-    ))
-    .expect("built-in scenario");
+    let world =
+        bycoms_study::scenario::load(&bycoms_study::scenario::WorldSource::Scenario("long-obstacle".into()))
+            .expect("built-in scenario");
     std::fs::write(&terrain, bycoms_sim::terrain::to_text(&world.terrain)).expect("terrain");
     let terrain = terrain.to_str().expect("utf-8");
     let swarm = swarm_name("cuts");

@@ -55,11 +55,11 @@
 //! agent holds two pipes of this process (its stdout and stderr): the bench
 //! raises its soft open-files limit to the hard one.
 
-use bycoms_orchestrator::scenario::{load, WorldSource};
 use bycoms_runtime::{BusArgs, Transport};
 use bycoms_sim::sim_agent::AgentArgs;
 use bycoms_sim::terrain::to_text;
 use bycoms_sim::{run, RunConfig, RunResult};
+use bycoms_study::scenario::{load, WorldSource};
 use bycoms_tests::netns::{not_permitted, Star, PORT};
 use bycoms_tests::{agents_of, bin, is_zombie, simulate_differences, swarm_name, wait_for, Finished, Proc};
 use nix::sys::resource::{getrlimit, setrlimit, Resource};

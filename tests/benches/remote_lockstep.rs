@@ -18,10 +18,10 @@
 //! namespaces; `RUNS=N`, default 5). Without namespaces the two-host row is
 //! left out with a notice.
 
-use bycoms_orchestrator::scenario::{load, WorldSource};
 use bycoms_runtime::{BusArgs, Transport};
 use bycoms_sim::sim_agent::AgentArgs;
 use bycoms_sim::terrain::to_text;
+use bycoms_study::scenario::{load, WorldSource};
 use bycoms_tests::netns::{not_permitted, TwoHosts};
 use bycoms_tests::{swarm_name, Proc};
 use serde_json::Value;

@@ -101,7 +101,7 @@ fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() 
 }
 
 /// A forged pose cannot stall, win or change a real launch (the harness
-/// pins every rule in virtual time, `orchestrator/tests/launch_sim.rs`;
+/// pins every rule in virtual time, `orchestrator/launch/tests/launch_sim.rs`;
 /// this is the same through the bus and the driver): a pose of robot 1 with
 /// step `u64::MAX` and one with a NaN coordinate, published on robot 1's
 /// pose topic while it moves, are refused and counted; one at the goal
@@ -119,8 +119,8 @@ fn forged_poses_are_refused_counted_and_change_nothing() {
     let bus = IpcBus::new(ipc_config(3)).expect("bus");
     let pose_topic = bus.publisher(swarm.pose(RobotId(1)).name()).expect("pose publisher");
     let future = Pose { step: u64::MAX, ..moving };
-    let world = bycoms_orchestrator::scenario::load(&bycoms_orchestrator::scenario::WorldSource::Scenario(
-        bycoms_orchestrator::scenario::DEFAULT.into(),
+    let world = bycoms_study::scenario::load(&bycoms_study::scenario::WorldSource::Scenario(
+        bycoms_study::scenario::DEFAULT.into(),
     ))
     .expect("the default scenario");
     let goal = world.terrain.goal();

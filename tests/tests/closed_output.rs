@@ -3,7 +3,7 @@
 //! and for `launch` the usual orderly end — agents shut down, the recording
 //! finished, no iceoryx2 node of the swarm left behind.
 
-use bycoms_orchestrator::record::recover;
+use bycoms_record::recover;
 use bycoms_tests::{agents_of, bin, swarm_name};
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};

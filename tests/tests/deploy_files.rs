@@ -5,7 +5,7 @@
 //! Indexed Job whose shard count matches its completions.
 
 use bycoms_orchestrator::commands::{Cli, Command};
-use bycoms_orchestrator::exit;
+use bycoms_runtime::exit;
 use clap::Parser;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -248,7 +248,7 @@ fn the_merge_job_reads_and_writes_the_same_volume() {
 /// and the durability the topic is offered with.
 #[test]
 fn the_rviz_config_shows_only_topics_the_launch_publishes() {
-    use bycoms_orchestrator::launch::ros2::{publish::RunMessages, Ros2Config, WORLD_FRAME};
+    use bycoms_launch::ros2::{publish::RunMessages, Ros2Config, WORLD_FRAME};
     let doc = YamlLoader::load_from_str(&read("ros2/bycoms.rviz")).expect("bycoms.rviz is YAML");
     let manager = &doc[0]["Visualization Manager"];
     assert_eq!(manager["Global Options"]["Fixed Frame"].as_str(), Some(WORLD_FRAME));

@@ -47,7 +47,7 @@ pub struct SwarmLockFile(std::path::PathBuf);
 impl SwarmLockFile {
     /// The lock file of swarm `swarm` (under this process's bus tag).
     pub fn of(swarm: &str) -> Self {
-        use bycoms_orchestrator::launch::swarm_lock::{lock_dir, lock_name};
+        use bycoms_launch::swarm_lock::{lock_dir, lock_name};
         let tag = bycoms_protocol::bus::ipc::root::tag_from_env();
         SwarmLockFile(lock_dir().join(lock_name(tag.as_deref(), swarm)))
     }

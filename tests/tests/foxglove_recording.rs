@@ -11,7 +11,7 @@
 //! (`-- --include-ignored`), and there a missing package fails them.
 
 use crate::SwarmLockFile;
-use bycoms_orchestrator::record::recover;
+use bycoms_record::recover;
 use bycoms_tests::{agents_of, swarm_name, wait_for, Proc};
 use serde_json::Value;
 use std::path::{Path, PathBuf};

@@ -9,7 +9,7 @@
 //! The launch runs in real time at 1×, so it is still running when asked;
 //! every wait has a deadline. The stop's rule itself (every running robot
 //! told `Stop` in one step, who and why recorded) is tested in virtual
-//! time by `orchestrator/tests/launch_sim.rs`; here the whole path: the
+//! time by `orchestrator/launch/tests/launch_sim.rs`; here the whole path: the
 //! command, the launch's answer, its summary and exit code.
 
 use bycoms_tests::{agents_of, bin, signal, swarm_name, wait_for, Proc};

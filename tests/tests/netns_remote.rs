@@ -19,9 +19,9 @@
 //! Each test is `#[ignore = "needs root …"]`; asked for where namespaces
 //! are not permitted (not root, no `ip`), it fails, saying why.
 
-use bycoms_orchestrator::scenario::{load, WorldSource};
 use bycoms_sim::terrain::to_text;
 use bycoms_sim::{run, RunConfig, RunResult};
+use bycoms_study::scenario::{load, WorldSource};
 use bycoms_tests::netns::{two_hosts, Host, TwoHosts};
 use bycoms_tests::{simulate_differences, swarm_name, Finished, Proc};
 use std::path::{Path, PathBuf};

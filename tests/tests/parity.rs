@@ -3,7 +3,7 @@
 //! and final positions bit for bit (`x_bits`/`y_bits` against
 //! `f64::to_bits`) and the same step counts.
 //!
-//! Step mapping (documented in `orchestrator/src/gate.rs`): a
+//! Step mapping (documented in `orchestrator/study/src/gate.rs`): a
 //! robot's `steps` in the launch summary are its *active* periods — from its
 //! start pose to its last change of pose — which is the runner's
 //! `RobotRun::steps`; the gate's dwell and settle ticks move no robot and
@@ -15,11 +15,11 @@
 //! time limit; and the same over zenoh (loopback tcp, port 0) instead of
 //! iceoryx2.
 
-use bycoms_orchestrator::scenario::{load, WorldSource};
 use bycoms_sim::runner::RobotEnd;
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::terrain::{generate, to_text, GenParams, Terrain};
 use bycoms_sim::{run, Outcome, RunConfig};
+use bycoms_study::scenario::{load, WorldSource};
 use bycoms_tests::{simulate_differences, swarm_name, Proc};
 use std::time::Duration;
 

@@ -352,7 +352,7 @@ struct LockFiles<'a>(&'a str);
 
 impl Drop for LockFiles<'_> {
     fn drop(&mut self) {
-        use bycoms_orchestrator::launch::swarm_lock::{lock_dir, lock_name};
+        use bycoms_launch::swarm_lock::{lock_dir, lock_name};
         let prefix = lock_name(Some(self.0), "");
         let prefix = prefix.trim_end_matches(".lock");
         let Ok(dir) = std::fs::read_dir(lock_dir()) else { return };

@@ -2,7 +2,7 @@
 //! that reads back with exactly the counts the launch reports, and whose
 //! per-topic counts match what the run did.
 
-use bycoms_orchestrator::record::recover;
+use bycoms_record::recover;
 use bycoms_tests::{swarm_name, Proc};
 use std::time::Duration;
 

@@ -30,10 +30,10 @@
 //! the agents.
 
 use crate::SwarmLockFile;
-use bycoms_orchestrator::scenario::{load, WorldSource};
 use bycoms_sim::runner::RobotEnd;
 use bycoms_sim::terrain::to_text;
 use bycoms_sim::{run, RunConfig, RunResult};
+use bycoms_study::scenario::{load, WorldSource};
 use bycoms_tests::{bin, simulate_differences, swarm_name, Finished, Proc};
 use serde_json::Value;
 use std::path::PathBuf;

@@ -16,7 +16,7 @@
 //! closing note of the operations issue reports a longer run) and
 //! `BYCOMS_SOAK_PARALLEL` how many run at once (default 3).
 
-use bycoms_orchestrator::exit;
+use bycoms_runtime::exit;
 use bycoms_sim::seed::mix;
 use bycoms_tests::{agents_of, signal, swarm_name, wait_for, Proc};
 use serde_json::Value;
@@ -157,7 +157,7 @@ fn one_launch(seed: u64, i: u64, dir: &Path) -> String {
     }
     let left = wait_for(Duration::from_secs(5), || agents_of(&swarm).is_empty().then_some(()));
     assert!(left.is_some(), "{what}: agents left behind: {:?}", agents_of(&swarm));
-    let recovered = bycoms_orchestrator::record::recover(&record).expect("readable MCAP");
+    let recovered = bycoms_record::recover(&record).expect("readable MCAP");
     assert!(recovered.is_complete(), "{what}: {:?}", recovered.stopped_by);
     let events = gate_events(&record, &swarm);
     assert_eq!(

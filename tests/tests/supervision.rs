@@ -8,7 +8,7 @@
 //! every wait has a deadline; swarm names are unique per test.
 
 use crate::SwarmLockFile;
-use bycoms_orchestrator::record::{read_counts, recover};
+use bycoms_record::{read_counts, recover};
 use bycoms_tests::{agents_of, is_zombie, signal, swarm_name, wait_for, wait_for_pose, Proc};
 use iceoryx2::node::NodeView;
 use nix::sys::signal::Signal;

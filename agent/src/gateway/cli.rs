@@ -15,7 +15,7 @@
 //! next to the robots' access point.
 //!
 //! One typed builder: whoever starts a gateway (the orchestrator's
-//! `launch/agents/gateways.rs`) fills a [`GatewayArgs`] and passes its
+//! `orchestrator/launch/src/agents/gateways.rs`) fills a [`GatewayArgs`] and passes its
 //! [`GatewayArgs::to_flags`]; the binary parses them with [`command`] (via
 //! [`parse_from`]), and the round-trip tests below hold the two together.
 

@@ -24,9 +24,9 @@
 //! unit tests.
 
 use crate::commands::launch as launch_cmd;
-use crate::launch::config::Transport;
-use crate::launch::{self, LaunchConfig, Outcome};
 use anyhow::{bail, Result};
+use bycoms_launch::config::Transport;
+use bycoms_launch::{self as launch, LaunchConfig, Outcome};
 use bycoms_runtime::seconds::seconds;
 use std::path::PathBuf;
 
@@ -136,11 +136,11 @@ pub fn run(args: Args) -> Result<i32> {
             launch_figures(runs, no_prespawn, transport, agent, args.json)?;
         }
         What::Scale { agents, seconds, speed } => {
-            let r = launch::scale::run(agent, agents, seconds, speed)?;
+            let r = bycoms_bench::scale::run(agent, agents, seconds, speed)?;
             if args.json {
-                crate::outln!("{}", serde_json::to_string_pretty(&r)?)?;
+                bycoms_runtime::outln!("{}", serde_json::to_string_pretty(&r)?)?;
             } else {
-                crate::outln!(
+                bycoms_runtime::outln!(
                     "{} agents at {} Hz for {} s (all started in {:.1} s): {} of {} periods missed ({:.4} %, {} agents missed any)\n  memory per agent: RSS {} kB mean (anon {}, file {}, shmem {}), max {} kB; PSS {} kB mean, max {} kB",
                     r.agents, 10.0 * speed, r.seconds, r.start_s, r.missed, r.periods, r.missed_percent, r.agents_with_misses,
                     r.mean.rss_kb, r.mean.rss_anon_kb, r.mean.rss_file_kb, r.mean.rss_shmem_kb, r.max_rss_kb, r.mean.pss_kb, r.max_pss_kb
@@ -148,7 +148,7 @@ pub fn run(args: Args) -> Result<i32> {
             }
         }
     }
-    Ok(crate::exit::SUCCESS)
+    Ok(bycoms_runtime::exit::SUCCESS)
 }
 
 /// `bench launch`: `runs` default launches of 3 robots, and their figures
@@ -197,9 +197,9 @@ fn launch_figures(
         "agents_per_tick": { "p50": percentile(&per_tick, 0.5) },
     });
     if json {
-        crate::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
+        bycoms_runtime::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
     } else {
-        crate::outln!(
+        bycoms_runtime::outln!(
             "launch --robots 3 (lockstep, {}, prespawn {}), {runs} runs:\n  launch → first robot moving p50 {:.3} s, max {:.3} s\n  gate reaction p50 {:.3} ms, max {:.3} ms ({} deployments)\n  lockstep speed p50 {:.0} simulated s per wall s (min {:.0}); wall time p50 {:.2} s, max {:.2} s\n  a tick (its Ticks to its last answer) p50 {:.1} µs, max {:.1} µs; agents ticked per tick p50 {:.2}",
             transport.as_str(),
             !no_prespawn,
@@ -229,20 +229,20 @@ fn crowd(
     json: bool,
 ) -> Result<i32> {
     if robots.is_empty() || robots.contains(&0) {
-        return Err(crate::exit::usage("--robots takes swarm sizes of at least 1"));
+        return Err(bycoms_runtime::exit::usage("--robots takes swarm sizes of at least 1"));
     }
     // In range: the value parser's one check of seconds.
     let timeout = std::time::Duration::from_secs_f64(timeout);
-    let opts = launch::crowd::Options { robots, agent_bin, timeout, record };
-    let rows = launch::crowd::run(&opts)?;
+    let opts = bycoms_bench::crowd::Options { robots, agent_bin, timeout, record };
+    let rows = bycoms_bench::crowd::run(&opts)?;
     if json {
-        let figures = serde_json::json!({ "terrain": launch::crowd::ALL_STUCK, "launches": rows });
-        crate::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
+        let figures = serde_json::json!({ "terrain": bycoms_bench::crowd::ALL_STUCK, "launches": rows });
+        bycoms_runtime::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
     } else {
-        crate::outln!("{}", launch::crowd::table(&rows))?;
+        bycoms_runtime::outln!("{}", bycoms_bench::crowd::table(&rows))?;
     }
-    let interrupted = rows.last().is_some_and(|r| r.ended == launch::crowd::Ended::Interrupted);
-    Ok(if interrupted { crate::exit::INTERRUPTED } else { crate::exit::SUCCESS })
+    let interrupted = rows.last().is_some_and(|r| r.ended == bycoms_bench::crowd::Ended::Interrupted);
+    Ok(if interrupted { bycoms_runtime::exit::INTERRUPTED } else { bycoms_runtime::exit::SUCCESS })
 }
 
 /// `bench stop`: `runs` stopped launches per transport, a line each.
@@ -256,12 +256,12 @@ fn stop(
     json: bool,
 ) -> Result<i32> {
     if robots == 0 {
-        return Err(crate::exit::usage("--robots takes at least 1"));
+        return Err(bycoms_runtime::exit::usage("--robots takes at least 1"));
     }
     let timeout = std::time::Duration::from_secs_f64(timeout);
     let mut all = Vec::new();
     for transport in transports {
-        let opts = launch::stopbench::Options {
+        let opts = bycoms_bench::stopbench::Options {
             robots,
             runs,
             transport,
@@ -269,23 +269,23 @@ fn stop(
             speed,
             timeout,
         };
-        let samples = launch::stopbench::run(&opts)?;
+        let samples = bycoms_bench::stopbench::run(&opts)?;
         if !json {
-            crate::outln!("{}", launch::stopbench::line(transport, robots, &samples))?;
+            bycoms_runtime::outln!("{}", bycoms_bench::stopbench::line(transport, robots, &samples))?;
         }
         all.push(serde_json::json!({ "transport": transport.as_str(), "robots": robots, "runs": samples }));
     }
     if json {
-        crate::outln!("{}", serde_json::to_string_pretty(&all)?)?;
+        bycoms_runtime::outln!("{}", serde_json::to_string_pretty(&all)?)?;
     }
-    Ok(crate::exit::SUCCESS)
+    Ok(bycoms_runtime::exit::SUCCESS)
 }
 
 #[cfg(feature = "testing")]
 /// `bench schedules`: plays seeds `0..count` (the test suite's schedules)
 /// `rounds` times and reports the median rate; every schedule is checked.
 fn schedules(count: u64, rounds: u32, json: bool) -> Result<i32> {
-    use crate::launch::harness::{self, Case, Schedule};
+    use bycoms_launch::harness::{self, Case, Schedule};
     let mut rates = Vec::new();
     let mut ticks = 0u64;
     let mut tick_rates = Vec::new();
@@ -348,14 +348,14 @@ fn schedules(count: u64, rounds: u32, json: bool) -> Result<i32> {
             "robot_ticks_per_s": { "p50": ticks_p50 },
             "robot_ticks_per_round": ticks,
         });
-        crate::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
+        bycoms_runtime::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
     } else {
-        crate::outln!(
+        bycoms_runtime::outln!(
             "{count} schedules × {rounds} rounds: median {p50:.0} schedules/s (min {min:.0}, max {max:.0}); \
              {ticks_p50:.0} robot-ticks/s ({ticks} robot-ticks per round)"
         )?;
         for (kind, first_ms, wait_s, absent, deployed) in &missing {
-            crate::outln!(
+            bycoms_runtime::outln!(
                 "50 {kind} robots, 5 never come, 5 die before registering (virtual time): first deployment \
                  {first_ms:.1} ms after robot 1's registration; longest wait {wait_s:.2} s per absent robot \
                  (registration timeout 10 s); {absent} absent, {deployed} deployed"

@@ -27,14 +27,14 @@
 //! loses the oldest samples of a topic past its buffer (64), like any slow
 //! iceoryx2 subscriber — the launch itself never waits for the bridge.
 
-use crate::exit;
-use crate::launch::config::{check_endpoints, check_swarm};
-use crate::launch::interrupt_flag;
 use anyhow::{Context, Result};
+use bycoms_launch::config::{check_endpoints, check_swarm};
+use bycoms_launch::interrupt_flag;
 use bycoms_protocol::bus::ipc::{IpcBus, IpcFanIn};
 use bycoms_protocol::bus::zenoh::{Congestion, Mode, ZenohBus, ZenohConfig, ZenohPublisher};
 use bycoms_protocol::bus::{untag, Bus, Limits, Publish, Subscribe, FAN_IN_TAG};
 use bycoms_protocol::{RobotId, Swarm, TopicName, MAX_MESSAGE_LEN};
+use bycoms_runtime::exit;
 use bycoms_runtime::ipc_config;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;

@@ -3,10 +3,10 @@
 //! does not have to learn openssl to deploy securely (see `crate::certs`).
 
 use crate::certs::{add_robots, generate, revoke, Plan};
-use crate::exit;
-use crate::launch::config::MAX_ROBOTS;
-use crate::launch::control::{Answer, Ask, Asker};
 use anyhow::Result;
+use bycoms_launch::config::MAX_ROBOTS;
+use bycoms_launch::control::{Answer, Ask, Asker};
+use bycoms_runtime::exit;
 use std::path::{Path, PathBuf};
 
 /// Make a lab CA, the orchestrator's certificate, one per robot, and the
@@ -61,7 +61,7 @@ pub struct Args {
 
 /// Asks every launch of this host that runs with the lab's `config` (a
 /// launch of another lab answers that it is not) to revoke `ids` now
-/// (`launch/core/revoke.rs`): the swarms that took it. Launches gone (a
+/// (`orchestrator/launch/src/core/revoke.rs`): the swarms that took it. Launches gone (a
 /// lock file left by a killed one) are passed over.
 fn revoke_live(config: &Path, ids: &[u32]) -> Vec<String> {
     let lab = std::fs::canonicalize(config).unwrap_or_else(|_| config.to_path_buf());
@@ -120,7 +120,7 @@ pub fn run(args: Args) -> Result<i32> {
     let proto = if args.listen.starts_with("tls/") { "tls" } else { "quic" };
     let connect = args.connect.unwrap_or_else(|| format!("{proto}/{first}:7447"));
     for (flag, endpoint) in [("--listen", &args.listen), ("--connect", &connect)] {
-        if !crate::certs::is_secured(endpoint) {
+        if !bycoms_protocol::bus::zenoh::is_secured(endpoint) {
             return Err(exit::usage(format!(
                 "{flag} {endpoint}: certificates are for secured endpoints, quic/HOST:PORT or tls/HOST:PORT"
             )));

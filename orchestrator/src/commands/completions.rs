@@ -22,5 +22,5 @@ pub struct Args {
 pub fn run(args: &Args, mut cli: clap::Command) -> Result<i32> {
     let name = cli.get_name().to_owned();
     clap_complete::generate(args.shell, &mut cli, name, &mut std::io::stdout());
-    Ok(crate::exit::SUCCESS)
+    Ok(bycoms_runtime::exit::SUCCESS)
 }

@@ -2,12 +2,12 @@
 //! launch, said as findings (text, or `--json`), exit 1 on any error.
 
 use crate::doctor::{self, host, Finding};
-use crate::exit;
-use crate::launch::agents::choice::AgentSourceKind;
-use crate::launch::agents::gateways::GatewaysAt;
-use crate::launch::config::{check_endpoints, check_swarm, LaunchConfig, MAX_ROBOTS};
-use crate::mocap::MocapSource;
 use anyhow::Result;
+use bycoms_launch::agents::choice::AgentSourceKind;
+use bycoms_launch::agents::gateways::GatewaysAt;
+use bycoms_launch::config::{check_endpoints, check_swarm, LaunchConfig, MAX_ROBOTS};
+use bycoms_mocap::MocapSource;
+use bycoms_runtime::exit;
 use bycoms_sim::lab::robots::RobotsFile;
 use std::path::PathBuf;
 use std::time::{Duration, SystemTime};
@@ -95,7 +95,7 @@ pub fn findings(args: &Args, now: SystemTime) -> Result<Vec<Finding>> {
             zenoh_config: args.zenoh_config.clone(),
             swarm,
             timeout: Duration::from_millis(args.timeout_ms),
-            clocks: crate::launch::setup::clock_limits(&config),
+            clocks: bycoms_launch::setup::clock_limits(&config),
         };
         found.extend(doctor::zenoh::check(&reach));
     }
@@ -107,7 +107,7 @@ fn clean() -> Result<()> {
     use bycoms_protocol::bus::ipc::cleanup_stale_resources;
     bycoms_runtime::cli::quiet_iceoryx2();
     let report = cleanup_stale_resources::<iceoryx2::service::ipc::Service>()?;
-    let locks = crate::launch::swarm_lock::sweep(&crate::launch::swarm_lock::lock_dir());
+    let locks = bycoms_launch::swarm_lock::sweep(&bycoms_launch::swarm_lock::lock_dir());
     bycoms_runtime::logging::status_line(&format!(
         "doctor: removed the files of {} dead iceoryx2 nodes ({} could not be removed) and {locks} unheld swarm locks",
         report.cleaned, report.failed
@@ -121,10 +121,10 @@ pub fn run(args: Args) -> Result<i32> {
     }
     let found = findings(&args, SystemTime::now())?;
     if args.json {
-        crate::outln!("{}", serde_json::to_string_pretty(&doctor::json(&found))?)?;
+        bycoms_runtime::outln!("{}", serde_json::to_string_pretty(&doctor::json(&found))?)?;
     } else {
         for line in doctor::text(&found) {
-            crate::outln!("{line}")?;
+            bycoms_runtime::outln!("{line}")?;
         }
     }
     Ok(if doctor::any_error(&found) { exit::ERROR } else { exit::SUCCESS })

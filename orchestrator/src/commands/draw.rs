@@ -5,14 +5,14 @@
 //! metadata channel, trajectories from the recorded poses, beacons from the
 //! gate decisions (`draw::run`, `draw::trace`).
 
-use crate::draw::run::read_run;
-use crate::draw::snapshot::Unit;
-use crate::draw::trace::picture_in;
-use crate::exit::usage;
-use crate::out::{usage_unless_io, writing, Kind, Outputs};
 use anyhow::{Context, Result};
+use bycoms_runtime::exit::usage;
+use bycoms_runtime::out::{usage_unless_io, writing, Kind, Outputs};
 use bycoms_sim::terrain::parse;
 use bycoms_sim::RunConfig;
+use bycoms_study::draw::run::read_run;
+use bycoms_study::draw::snapshot::Unit;
+use bycoms_study::draw::trace::picture_in;
 use std::path::PathBuf;
 
 /// Draw a recorded launch (`launch --record FILE.mcap`) as an SVG snapshot.
@@ -42,7 +42,7 @@ fn out_path(args: &Args) -> PathBuf {
 
 /// The picture's default name: FILE with the extension .svg. A picture
 /// there is this command's own, replaced without --force
-/// (`crate::out::replaces`), so drawing a recording twice works.
+/// (`bycoms_runtime::out::replaces`), so drawing a recording twice works.
 fn default_out(args: &Args) -> PathBuf {
     args.file.with_extension("svg")
 }
@@ -121,10 +121,10 @@ fn unit_of(config: &serde_json::Value) -> Unit {
 
 fn write(args: &Args, svg: &str) -> Result<i32> {
     let out = out_path(args);
-    let force = crate::out::replaces(args.force, &out, &default_out(args).to_string_lossy());
-    crate::out::write(&out, Kind::Svg, force, svg.as_bytes()).map_err(writing("the picture"))?;
-    crate::outln!("picture: {}", out.display())?;
-    Ok(crate::exit::SUCCESS)
+    let force = bycoms_runtime::out::replaces(args.force, &out, &default_out(args).to_string_lossy());
+    bycoms_runtime::out::write(&out, Kind::Svg, force, svg.as_bytes()).map_err(writing("the picture"))?;
+    bycoms_runtime::outln!("picture: {}", out.display())?;
+    Ok(bycoms_runtime::exit::SUCCESS)
 }
 
 #[cfg(test)]

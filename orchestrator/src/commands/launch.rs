@@ -1,17 +1,17 @@
 //! `orchestrator launch`: one robot per agent process, deployed one at a
-//! time through the gate (see `crate::launch`).
+//! time through the gate (see `bycoms_launch`).
 //!
 //! This file only merges the settings (defaults < `--config` < flags),
 //! loads the world, runs the launch and turns its summary into output and
 //! an exit code.
 
-use crate::exit;
-use crate::launch::config::{AgentSourceKind, GatewaysAt, Transport};
-use crate::launch::{self, Clock, LaunchConfig, Missing, OnDeath, Outcome, World};
-use crate::out::{Kind, Outputs};
-use crate::scenario::{self, WorldSource};
 use anyhow::Result;
+use bycoms_launch::config::{AgentSourceKind, GatewaysAt, Transport};
+use bycoms_launch::{self as launch, Clock, LaunchConfig, Missing, OnDeath, Outcome, World};
+use bycoms_runtime::exit;
+use bycoms_runtime::out::{Kind, Outputs};
 use bycoms_sim::terrain::to_text;
+use bycoms_study::scenario::{self, WorldSource};
 use std::path::PathBuf;
 
 /// Deploy robots one at a time as separate agent processes (over iceoryx2 or zenoh).
@@ -266,7 +266,7 @@ pub fn world(cfg: &LaunchConfig) -> Result<World> {
         to_text(&w.terrain),
         w.terrain.start(),
         w.terrain.goal(),
-        crate::draw::snapshot::Unit::Cell,
+        bycoms_study::draw::snapshot::Unit::Cell,
     )
 }
 
@@ -297,17 +297,17 @@ fn outputs(args: &Args, cfg: &LaunchConfig) -> Outputs {
 
 pub fn run(args: Args) -> Result<i32> {
     let cfg = args.config()?;
-    // Refused before anything starts (the rule: `crate::out::files`).
-    outputs(&args, &cfg).check().map_err(crate::out::usage_unless_io)?;
+    // Refused before anything starts (the rule: `bycoms_runtime::out::files`).
+    outputs(&args, &cfg).check().map_err(bycoms_runtime::out::usage_unless_io)?;
     let world = world(&cfg)?;
     let agent = launch::agent_command(args.agent_bin.as_deref(), cfg.agent_bin.as_deref())?;
     let cfg_svg = cfg.svg.clone();
     let summary = launch::run_serving(cfg, world, agent, Some(crate::live::serve))?;
     if args.json {
         bycoms_runtime::logging::status_line(&summary.line());
-        crate::outln!("{}", serde_json::to_string_pretty(&summary)?)?;
+        bycoms_runtime::outln!("{}", serde_json::to_string_pretty(&summary)?)?;
     } else {
-        crate::outln!("{}", summary.text())?;
+        bycoms_runtime::outln!("{}", summary.text())?;
         if let Some(e) = &summary.error {
             tracing::error!("{e}");
         }
@@ -315,7 +315,7 @@ pub fn run(args: Args) -> Result<i32> {
     // The result is printed first: a picture that cannot be written loses nothing else.
     let mut code = None;
     if let Some(path) = &cfg_svg {
-        let write = |svg: &str| crate::out::write(path, Kind::Svg, args.force, svg.as_bytes());
+        let write = |svg: &str| bycoms_runtime::out::write(path, Kind::Svg, args.force, svg.as_bytes());
         match summary.picture.as_deref().map(write) {
             Some(Ok(())) => bycoms_runtime::logging::status_line(&format!("picture: {}", path.display())),
             Some(Err(e)) => {
@@ -338,7 +338,7 @@ pub fn run(args: Args) -> Result<i32> {
 
 #[cfg(test)]
 mod tests {
-    use crate::launch::{Clock, LaunchConfig};
+    use bycoms_launch::{Clock, LaunchConfig};
     use clap::Parser;
 
     /// `orchestrator launch`'s flags alone (the command line around them is
@@ -370,7 +370,7 @@ mod tests {
             config(&["--config", path, "--eps", "4", "--noise", "false", "--clock", "realtime"]).unwrap();
         assert_eq!((both.eps, both.robots, both.noise, both.clock), (4.0, 7, false, Clock::Realtime));
         let zenoh = config(&["--transport", "zenoh", "--listen", "tcp/0.0.0.0:7447"]).unwrap();
-        assert_eq!(zenoh.transport.kind, crate::launch::config::Transport::Zenoh);
+        assert_eq!(zenoh.transport.kind, bycoms_launch::config::Transport::Zenoh);
         assert_eq!(zenoh.transport.listen, ["tcp/0.0.0.0:7447"]);
     }
 
@@ -412,7 +412,7 @@ mod tests {
         let err = format!("{:#}", config(&["--ros2"]).unwrap_err());
         assert!(err.contains("--ros2") && err.contains("zenoh"), "{err}");
         let zenoh = ["--ros2", "--transport", "zenoh", "--listen", "tcp/127.0.0.1:0"];
-        assert_eq!(config(&zenoh).unwrap().ros2, Some(crate::launch::ros2::Ros2Config::default()));
+        assert_eq!(config(&zenoh).unwrap().ros2, Some(bycoms_launch::ros2::Ros2Config::default()));
         let dir = tempfile::tempdir().expect("temp dir");
         let file = dir.path().join("launch.toml");
         std::fs::write(&file, "[transport]\nkind = \"zenoh\"\n[ros2]\nnamespace = \"lab\"\n").expect("write");

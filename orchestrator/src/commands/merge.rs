@@ -2,16 +2,16 @@
 //! same runs.csv, tables and heatmaps a single `sweep` would have written.
 //!
 //! Every row is checked against its directory's sweep (`sweep.json`,
-//! `terrains.csv`; see `crate::sweep::verify`) before anything is written:
+//! `terrains.csv`; see `bycoms_study::sweep::verify`) before anything is written:
 //! a shard file of another sweep, or a row that contradicts itself, is
 //! refused with the file and row named (exit 1), so the tables are never
 //! computed from foreign rows.
 
 use super::sweep::{report, Meta, META_FILE};
-use crate::exit;
-use crate::sweep::rows::{read_rows, write_all, Row};
-use crate::sweep::verify::{read_terrain_list, Expected, ListedTerrain, TERRAIN_LIST};
 use anyhow::{bail, Context, Result};
+use bycoms_runtime::exit;
+use bycoms_study::sweep::rows::{read_rows, write_all, Row};
+use bycoms_study::sweep::verify::{read_terrain_list, Expected, ListedTerrain, TERRAIN_LIST};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -101,11 +101,11 @@ pub fn run(args: Args) -> Result<i32> {
     let rows: Vec<Row> = rows.into_values().collect();
     write_all(&args.out.join("runs.csv"), &rows)?;
     let meta_text = serde_json::to_string_pretty(&meta)? + "\n";
-    crate::sweep::rows::write_atomic(&args.out.join(META_FILE), meta_text.as_bytes())?;
+    bycoms_study::sweep::rows::write_atomic(&args.out.join(META_FILE), meta_text.as_bytes())?;
     let files = report(&args.out, &meta.axes, &rows, meta.max_robots)?;
-    crate::outln!("merged {} runs into {}", rows.len(), args.out.join("runs.csv").display())?;
+    bycoms_runtime::outln!("merged {} runs into {}", rows.len(), args.out.join("runs.csv").display())?;
     for f in files {
-        crate::outln!("wrote {}", f.display())?;
+        bycoms_runtime::outln!("wrote {}", f.display())?;
     }
     Ok(exit::SUCCESS)
 }

@@ -128,8 +128,8 @@ pub fn run(cli: Cli) -> Result<i32> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::launch::setup::agent_template;
-    use crate::launch::LaunchConfig;
+    use bycoms_launch::setup::agent_template;
+    use bycoms_launch::LaunchConfig;
     use bycoms_sim::sim_agent::options::{parse_from, SimAgentRun};
 
     /// `orchestrator sim-agent` (what a launch runs when no `sim-agent`

@@ -5,13 +5,13 @@
 //! copies only what verifies: a damaged chunk is left out, said, and makes
 //! the command exit 1 (the copy is written, but it is not the whole run).
 //! `record export --ros2 IN --out OUT` writes the run as a ROS 2 bag
-//! (`crate::launch::ros2::bag`), through the same messages `launch --ros2`
+//! (`bycoms_launch::ros2::bag`), through the same messages `launch --ros2`
 //! publishes.
 
-use crate::launch::ros2::bag;
-use crate::out::{usage_unless_io, write_with, Kind, Outputs};
-use crate::record::{rewrite, Part, Recovered};
 use anyhow::Result;
+use bycoms_launch::ros2::bag;
+use bycoms_record::{rewrite, Part, Recovered};
+use bycoms_runtime::out::{usage_unless_io, write_with, Kind, Outputs};
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
@@ -89,14 +89,14 @@ fn export(args: ExportArgs) -> Result<i32> {
     })?;
     let exported = written?;
     let messages: u64 = exported.counts.values().sum();
-    crate::outln!(
+    bycoms_runtime::outln!(
         "exported {} of {} ({}) into {}",
-        crate::runs::count(messages, "ROS 2 message"),
-        crate::runs::count(exported.counts.len() as u64, "topic"),
-        crate::runs::count(exported.poses, "pose"),
+        bycoms_study::runs::count(messages, "ROS 2 message"),
+        bycoms_study::runs::count(exported.counts.len() as u64, "topic"),
+        bycoms_study::runs::count(exported.poses, "pose"),
         args.out.display()
     )?;
-    Ok(crate::exit::SUCCESS)
+    Ok(bycoms_runtime::exit::SUCCESS)
 }
 
 /// `FILE.mcap` → `FILE.recovered.mcap`.
@@ -115,7 +115,7 @@ fn recover(args: RecoverArgs) -> Result<i32> {
         .check()
         .map_err(usage_unless_io)?;
     let recovered = rewrite(&args.file, &out)?;
-    crate::outln!("{}", recovered_line(&recovered, &out))?;
+    bycoms_runtime::outln!("{}", recovered_line(&recovered, &out))?;
     for damage in &recovered.damage {
         tracing::warn!("{}: {damage}", args.file.display());
     }
@@ -126,15 +126,15 @@ fn recover(args: RecoverArgs) -> Result<i32> {
             left_out(&recovered),
             out.display()
         );
-        return Ok(crate::exit::ERROR);
+        return Ok(bycoms_runtime::exit::ERROR);
     }
-    Ok(crate::exit::SUCCESS)
+    Ok(bycoms_runtime::exit::SUCCESS)
 }
 
 /// What was copied, in one line.
 fn recovered_line(recovered: &Recovered, out: &Path) -> String {
-    let topics = crate::runs::count(recovered.counts.len() as u64, "topic");
-    let messages = crate::runs::count(recovered.messages, "message");
+    let topics = bycoms_study::runs::count(recovered.counts.len() as u64, "topic");
+    let messages = bycoms_study::runs::count(recovered.messages, "message");
     let copied = format!("{messages} on {topics} into {}", out.display());
     let mut line = match &recovered.stopped_by {
         Some(why) => format!("recovered {copied} (the recording ends early: {why})"),
@@ -153,17 +153,17 @@ fn left_out(recovered: &Recovered) -> String {
     let mut parts = vec![];
     let chunks = count(Part::Chunk);
     if chunks > 0 {
-        parts.push(crate::runs::count(chunks, "chunk"));
+        parts.push(bycoms_study::runs::count(chunks, "chunk"));
     }
     if recovered.orphans > 0 {
         parts.push(format!(
             "{} whose channel a dropped chunk defined",
-            crate::runs::count(recovered.orphans, "message")
+            bycoms_study::runs::count(recovered.orphans, "message")
         ));
     }
     for (part, name) in [(Part::Attachment, "attachment"), (Part::Record, "record")] {
         if count(part) > 0 {
-            parts.push(crate::runs::count(count(part), name));
+            parts.push(bycoms_study::runs::count(count(part), name));
         }
     }
     if count(Part::DataSection) > 0 {

@@ -5,9 +5,9 @@
 //! the recording reader's error, `record::Reader`, the same as for `draw`
 //! and `record recover`).
 
-use crate::exit;
 use crate::replay::{read_recording, rejudge, Comparison, Line};
 use anyhow::Result;
+use bycoms_runtime::exit;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -45,7 +45,7 @@ pub fn run(args: Args) -> Result<i32> {
                 return Ok(exit::ERROR);
             }
             let n = calls.len();
-            (crate::launch::core::log::replay(setup, calls).0, format!("the launch core, {n} recorded calls"))
+            (bycoms_launch::core::log::replay(setup, calls).0, format!("the launch core, {n} recorded calls"))
         }
         None => (rejudge(&recorded), "the gate's referee, from the poses (no core log)".to_string()),
     };

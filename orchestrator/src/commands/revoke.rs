@@ -6,8 +6,8 @@
 //! zenoh router keeps the access-control list it started with, so a robot
 //! whose certificate was withdrawn (`certs --revoke`) still connects over
 //! QUIC until the orchestrator restarts. The launch itself therefore drops
-//! the robot (`launch/core/revoke.rs`): asked over the same control channel
-//! as `status` and `stop` (`launch/control.rs`), it tells the robot `Stop`,
+//! the robot (`orchestrator/launch/src/core/revoke.rs`): asked over the same control channel
+//! as `status` and `stop` (`orchestrator/launch/src/control.rs`), it tells the robot `Stop`,
 //! refuses its agent and drops (and counts) its reports from then on; the
 //! others go on. The answer says how long the launch took, from here.
 //!
@@ -17,10 +17,10 @@
 //! `--swarm`).
 
 use super::stop::{one_launch, who};
-use crate::exit;
-use crate::launch::control::{Answer, Ask};
-use crate::outln;
 use anyhow::Result;
+use bycoms_launch::control::{Answer, Ask};
+use bycoms_runtime::exit;
+use bycoms_runtime::outln;
 use std::path::PathBuf;
 use std::time::Instant;
 

@@ -7,17 +7,17 @@
 //! of it.
 
 use crate::commands::world::RunArgs;
-use crate::draw::{animate, snapshot, timeline};
-use crate::exit;
-use crate::out::{usage_unless_io, writing, Kind, Outputs};
-use crate::runs::summary_line;
-use crate::scenario::{self, WorldSource};
 use anyhow::Result;
+use bycoms_runtime::exit;
+use bycoms_runtime::out::{usage_unless_io, writing, Kind, Outputs};
 use bycoms_runtime::seconds::Zero;
 use bycoms_sim::runner::RobotEnd;
 use bycoms_sim::terrain::min_path_width;
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::{run as run_world, Outcome, RunConfig, RunResult, Vec2};
+use bycoms_study::draw::{animate, snapshot, timeline};
+use bycoms_study::runs::summary_line;
+use bycoms_study::scenario::{self, WorldSource};
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -66,7 +66,7 @@ pub struct Args {
 }
 
 /// The snapshot's default name: a picture of its own kind there is
-/// replaced without `--force` (`crate::out::replaces`), so the README's
+/// replaced without `--force` (`bycoms_runtime::out::replaces`), so the README's
 /// first command runs twice in one folder.
 pub const DEFAULT_SVG: &str = "simulate.svg";
 
@@ -150,16 +150,16 @@ pub fn run(args: Args) -> Result<i32> {
     );
     if args.json {
         bycoms_runtime::logging::status_line(&summary);
-        crate::outln!("{}", serde_json::to_string_pretty(&report)?)?;
+        bycoms_runtime::outln!("{}", serde_json::to_string_pretty(&report)?)?;
     } else {
-        crate::outln!("{summary}")?;
+        bycoms_runtime::outln!("{summary}")?;
     }
     // Pictures last: the result above is never lost to a picture's error.
     for written in draw_pictures(&args, &world, &cfg, &result)? {
         if args.json {
             bycoms_runtime::logging::status_line(&written);
         } else {
-            crate::outln!("{written}")?;
+            bycoms_runtime::outln!("{written}")?;
         }
     }
     Ok(if result.success { exit::SUCCESS } else { exit::NOT_ARRIVED })
@@ -174,7 +174,7 @@ fn check_picture_args(args: &Args) -> Result<()> {
     }
     bycoms_runtime::seconds::check_seconds("--animate-seconds", args.animate_seconds, Zero::Refused)
         .map_err(exit::usage)?;
-    // The overwrite rule (`crate::out::files`), before the run.
+    // The overwrite rule (`bycoms_runtime::out::files`), before the run.
     let mut rule = Outputs::new(args.force);
     if let Some(terrain) = &args.terrain {
         rule = rule.input(terrain);
@@ -218,20 +218,24 @@ fn draw_pictures(
                 }
                 let moments: Vec<(u64, String)> = times
                     .iter()
-                    .map(|&t| (timeline::step_of(t, dt), format!("t = {} s", crate::draw::svg::number(t))))
+                    .map(|&t| {
+                        (timeline::step_of(t, dt), format!("t = {} s", bycoms_study::draw::svg::number(t)))
+                    })
                     .collect();
                 snapshot::render_strip(terrain, result, cfg.eps, title, &moments, &opts)
             }
             None => snapshot::render_with(terrain, result, cfg.eps, title, &opts),
         };
-        let force = crate::out::replaces(args.force, &args.svg, DEFAULT_SVG);
-        crate::out::write(&args.svg, Kind::Svg, force, svg.as_bytes()).map_err(writing("the snapshot"))?;
+        let force = bycoms_runtime::out::replaces(args.force, &args.svg, DEFAULT_SVG);
+        bycoms_runtime::out::write(&args.svg, Kind::Svg, force, svg.as_bytes())
+            .map_err(writing("the snapshot"))?;
         written.push(format!("snapshot: {}", args.svg.display()));
     }
     if let Some(path) = &args.animate {
         let movie = animate::Movie { seconds: args.animate_seconds, field_constant: cfg.field_constant };
         let svg = animate::render(terrain, result, cfg.eps, title, &movie);
-        crate::out::write(path, Kind::Svg, args.force, svg.as_bytes()).map_err(writing("the animation"))?;
+        bycoms_runtime::out::write(path, Kind::Svg, args.force, svg.as_bytes())
+            .map_err(writing("the animation"))?;
         written.push(format!("animation: {}", path.display()));
     }
     Ok(written)

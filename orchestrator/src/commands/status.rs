@@ -4,20 +4,20 @@
 //! pose and its age, recording, uptime.
 //!
 //! Why asked of the launch: its logs say what happened, not where it
-//! stands; the launch answers from its core (`launch/status.rs`) over its
-//! control socket or queryable (`launch/control.rs`). A launch whose lock
+//! stands; the launch answers from its core (`orchestrator/launch/src/status.rs`) over its
+//! control socket or queryable (`orchestrator/launch/src/control.rs`). A launch whose lock
 //! file no process holds, or that stopped answering, shows as gone.
 //!
 //! `--watch` redraws every `--interval` seconds until Ctrl-C (and says
 //! which launches went away since the last look). Exit codes: 0 at least
 //! one launch answered, 1 none runs.
 
-use crate::exit;
-use crate::launch::config::{check_endpoints, check_swarm};
-use crate::launch::control::{Answer, Ask, Asker, Reached};
-use crate::launch::status;
-use crate::outln;
 use anyhow::Result;
+use bycoms_launch::config::{check_endpoints, check_swarm};
+use bycoms_launch::control::{Answer, Ask, Asker, Reached};
+use bycoms_launch::status;
+use bycoms_runtime::exit;
+use bycoms_runtime::outln;
 use std::collections::BTreeSet;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
@@ -77,7 +77,7 @@ pub fn run(args: Args) -> Result<i32> {
         return Err(exit::usage(format!("--interval must be from {lo} to {hi} s, not {}", args.interval)));
     }
     let asker = args.which.asker()?;
-    let stop = crate::launch::interrupt_flag();
+    let stop = bycoms_launch::interrupt_flag();
     let mut seen = BTreeSet::new();
     loop {
         let reached = asker.ask(args.which.swarm.as_deref(), &Ask::Status)?;

@@ -3,18 +3,18 @@
 //!
 //! Why a command and not a signal: a signal reaches only a process of this
 //! host whose pid one knows, and says neither who nor why. The stop is
-//! asked of the launch itself (`launch/control.rs`), which takes it as one
-//! input of its core (`launch/core/stop.rs`): graceful, it ends as after
+//! asked of the launch itself (`orchestrator/launch/src/control.rs`), which takes it as one
+//! input of its core (`orchestrator/launch/src/core/stop.rs`): graceful, it ends as after
 //! Ctrl-C; `--now`, every running robot is told `Stop` at once first. The
 //! launch records who asked and why in its summary and events.
 //!
 //! Exit codes: 0 the launch said it stops; 1 no launch answered (none
 //! runs, or it died); 2 a usage error (several launches and no `--swarm`).
 
-use crate::exit;
-use crate::launch::control::{Answer, Ask, Asker};
-use crate::outln;
 use anyhow::Result;
+use bycoms_launch::control::{Answer, Ask, Asker};
+use bycoms_runtime::exit;
+use bycoms_runtime::outln;
 
 /// Stop a running launch: gracefully (as Ctrl-C) or every robot at once.
 #[derive(Debug, clap::Args)]

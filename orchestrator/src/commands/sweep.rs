@@ -1,16 +1,16 @@
 //! `orchestrator sweep`: the paper's simulation study (§V), resumable and
-//! shardable. See `crate::sweep` for how the pieces fit.
+//! shardable. See `bycoms_study::sweep` for how the pieces fit.
 
-use crate::exit;
-use crate::sweep::budget;
-use crate::sweep::execute::{execute, Executed, Job};
-use crate::sweep::plan::{parse_axis, Axes, Shard};
-use crate::sweep::rows::{Row, RowWriter};
-use crate::sweep::table::{tabulate, to_text, write_outputs};
-use crate::sweep::terrains::{generate_bins, load_bins, SweepTerrain};
 use anyhow::{bail, Context, Result};
+use bycoms_runtime::exit;
 use bycoms_sim::terrain::WidthModel;
 use bycoms_sim::RunConfig;
+use bycoms_study::sweep::budget;
+use bycoms_study::sweep::execute::{execute, Executed, Job};
+use bycoms_study::sweep::plan::{parse_axis, Axes, Shard};
+use bycoms_study::sweep::rows::{Row, RowWriter};
+use bycoms_study::sweep::table::{tabulate, to_text, write_outputs};
+use bycoms_study::sweep::terrains::{generate_bins, load_bins, SweepTerrain};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -94,7 +94,7 @@ pub fn runs_file(shard: Shard) -> String {
     }
 }
 
-/// A bad option value: exit code 2 (see `crate::exit`).
+/// A bad option value: exit code 2 (see `bycoms_runtime::exit`).
 fn usage(e: impl std::fmt::Display) -> anyhow::Error {
     exit::usage(format!("{e:#}"))
 }
@@ -106,7 +106,7 @@ fn foreign_row(path: &Path, k: usize, index: usize, planned: &[usize]) -> String
     let expected = match planned.get(k) {
         Some(run) if *run == index => format!("run {run} with other parameters than this plan's"),
         Some(run) => format!("expected run {run} of this plan"),
-        None => format!("this plan has only {}", crate::runs::count(planned.len() as u64, "run")),
+        None => format!("this plan has only {}", bycoms_study::runs::count(planned.len() as u64, "run")),
     };
     format!(
         "{} does not belong to this sweep (row {} is run {index}, {expected}); use another --out",
@@ -128,11 +128,11 @@ pub fn run(args: Args) -> Result<i32> {
         },
     };
     axes.validate().map_err(usage)?;
-    // The run parameters' one check (`crate::runs::check_run`), as `simulate` makes it.
+    // The run parameters' one check (`bycoms_study::runs::check_run`), as `simulate` makes it.
     let mut base = RunConfig::paper(1.0);
     base.time_limit = args.time_limit;
     base.max_robots = args.max_robots;
-    crate::runs::check_run(&base, &crate::runs::FLAGS)?;
+    bycoms_study::runs::check_run(&base, &bycoms_study::runs::FLAGS)?;
     let shard = args.shard.unwrap_or(Shard::WHOLE);
     let meta = Meta {
         format: FORMAT.to_owned(),
@@ -146,7 +146,7 @@ pub fn run(args: Args) -> Result<i32> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     check_meta(&args.out, &meta)?;
-    let stop_handle = crate::launch::interrupt_flag();
+    let stop_handle = bycoms_launch::interrupt_flag();
     let stop: &AtomicBool = &stop_handle;
     stop.store(false, Ordering::SeqCst);
 
@@ -203,27 +203,27 @@ pub fn run(args: Args) -> Result<i32> {
             planned.len(),
             runs_path.display()
         );
-        crate::outln!("{speed}")?;
+        bycoms_runtime::outln!("{speed}")?;
         return Ok(exit::INTERRUPTED);
     }
     if !shard.is_whole() {
-        crate::outln!(
+        bycoms_runtime::outln!(
             "shard {}/{} done: {} runs in {}; combine the shards with `orchestrator merge`",
             shard.index,
             shard.count,
             planned.len(),
             runs_path.display()
         )?;
-        crate::outln!("{speed}")?;
+        bycoms_runtime::outln!("{speed}")?;
         return Ok(exit::SUCCESS);
     }
-    let rows = crate::sweep::rows::read_rows(&runs_path)?;
+    let rows = bycoms_study::sweep::rows::read_rows(&runs_path)?;
     let files = report(&args.out, &axes, &rows, args.max_robots)?;
-    crate::outln!("{} runs in {}", rows.len(), runs_path.display())?;
+    bycoms_runtime::outln!("{} runs in {}", rows.len(), runs_path.display())?;
     for f in files {
-        crate::outln!("wrote {}", f.display())?;
+        bycoms_runtime::outln!("wrote {}", f.display())?;
     }
-    crate::outln!("{speed}")?;
+    bycoms_runtime::outln!("{speed}")?;
     Ok(exit::SUCCESS)
 }
 
@@ -236,10 +236,10 @@ pub fn report(out: &Path, axes: &Axes, rows: &[Row], max_robots: Option<u32>) ->
     let mut files = write_outputs(out, axes, &tables)?;
     files.extend(budget::write_outputs(out, axes, &budgets)?);
     for t in &tables {
-        crate::outln!("{}", to_text(axes, t))?;
+        bycoms_runtime::outln!("{}", to_text(axes, t))?;
     }
     for t in &budgets {
-        crate::outln!("{}", budget::to_text(axes, t))?;
+        bycoms_runtime::outln!("{}", budget::to_text(axes, t))?;
     }
     Ok(files)
 }
@@ -282,7 +282,7 @@ fn check_meta(out: &Path, meta: &Meta) -> Result<()> {
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|e| e == "csv"))
         .filter(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with("runs")))
-        .any(|p| crate::sweep::rows::read_rows(&p).map_or(true, |rows| !rows.is_empty()));
+        .any(|p| bycoms_study::sweep::rows::read_rows(&p).map_or(true, |rows| !rows.is_empty()));
     if !same && has_rows {
         bail!(
             "{} holds a different sweep ({}); use another --out or delete it",
@@ -296,7 +296,7 @@ fn check_meta(out: &Path, meta: &Meta) -> Result<()> {
 /// Records the sweep's identity (atomically: shards may start together).
 fn write_meta(out: &Path, meta: &Meta) -> Result<()> {
     let text = serde_json::to_string_pretty(meta)? + "\n";
-    crate::sweep::rows::write_atomic(&out.join(META_FILE), text.as_bytes())
+    bycoms_study::sweep::rows::write_atomic(&out.join(META_FILE), text.as_bytes())
 }
 
 fn load_terrains(args: &Args, axes: &Axes, stop: &AtomicBool) -> Result<Vec<Vec<SweepTerrain>>> {
@@ -310,7 +310,7 @@ fn load_terrains(args: &Args, axes: &Axes, stop: &AtomicBool) -> Result<Vec<Vec<
             if loaded.extra > 0 {
                 tracing::info!(
                     "{} of {} not used: their bins already hold --terrains-per-bin {per_bin}",
-                    crate::runs::count(loaded.extra as u64, "terrain"),
+                    bycoms_study::runs::count(loaded.extra as u64, "terrain"),
                     dir.display()
                 );
             }
@@ -368,7 +368,10 @@ fn write_terrain_list(out: &Path, axes: &Axes, terrains: &[Vec<SweepTerrain>]) -
             threshold: t.threshold,
         })
     });
-    crate::sweep::rows::write_atomic(&out.join("terrains.csv"), &crate::sweep::rows::to_csv_bytes(entries)?)
+    bycoms_study::sweep::rows::write_atomic(
+        &out.join("terrains.csv"),
+        &bycoms_study::sweep::rows::to_csv_bytes(entries)?,
+    )
 }
 
 #[cfg(test)]

@@ -7,12 +7,12 @@
 //! terrains found so far are written with their index rows, and the
 //! command exits 130.
 
-use crate::exit;
-use crate::out::{usage_unless_io, Kind, Outputs};
-use crate::sweep::rows::to_csv_bytes;
-use crate::sweep::terrains::{file_name, search_bins};
 use anyhow::{bail, Context, Result};
+use bycoms_runtime::exit;
+use bycoms_runtime::out::{usage_unless_io, Kind, Outputs};
 use bycoms_sim::terrain::to_text;
+use bycoms_study::sweep::rows::to_csv_bytes;
+use bycoms_study::sweep::terrains::{file_name, search_bins};
 use serde::Serialize;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -51,7 +51,7 @@ struct IndexEntry<'a> {
 }
 
 pub fn run(args: Args) -> Result<i32> {
-    let top = 2.0 * bycoms_sim::terrain::width::MAX_CLEARANCE - crate::sweep::terrains::BIN_SIZE;
+    let top = 2.0 * bycoms_sim::terrain::width::MAX_CLEARANCE - bycoms_study::sweep::terrains::BIN_SIZE;
     if !(args.width.is_finite() && (1.0..=top).contains(&args.width)) {
         return Err(exit::usage(format!(
             "--width must lie in [1, {top}] cells (feasible terrains measure at least 1), got {}",
@@ -73,7 +73,7 @@ pub fn run(args: Args) -> Result<i32> {
         .map_err(usage_unless_io)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
-    let stop = crate::launch::interrupt_flag();
+    let stop = bycoms_launch::interrupt_flag();
     stop.store(false, Ordering::SeqCst);
     let mut shown = std::time::Instant::now();
     generate(&args, &stop, |found, needed| {
@@ -93,7 +93,7 @@ fn generate(args: &Args, stop: &AtomicBool, on_progress: impl FnMut(usize, usize
     let names: Vec<String> = found.iter().map(|t| file_name(t, args.width)).collect();
     for (t, name) in found.iter().zip(&names) {
         let path = args.out.join(name);
-        crate::out::write(&path, Kind::Terrain, args.force, to_text(&t.terrain).as_bytes())
+        bycoms_runtime::out::write(&path, Kind::Terrain, args.force, to_text(&t.terrain).as_bytes())
             .map_err(usage_unless_io)?;
     }
     let index = found.iter().zip(&names).map(|(t, name)| IndexEntry {
@@ -103,9 +103,9 @@ fn generate(args: &Args, stop: &AtomicBool, on_progress: impl FnMut(usize, usize
         threshold: t.threshold,
     });
     let merged = merged_index(&index_path, &to_csv_bytes(index)?, &names).map_err(exit::usage)?;
-    crate::out::write(&index_path, Kind::Csv, true, &merged).map_err(usage_unless_io)?;
+    bycoms_runtime::out::write(&index_path, Kind::Csv, true, &merged).map_err(usage_unless_io)?;
     let plural = if found.len() == 1 { "" } else { "s" };
-    crate::outln!(
+    bycoms_runtime::outln!(
         "wrote {} terrain{plural} of width bin {} to {}",
         found.len(),
         args.width,

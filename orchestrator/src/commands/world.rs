@@ -1,12 +1,12 @@
 //! Options shared by the commands that run the simulated world. Their
 //! validation (every bad value gets a message naming the option) and the
-//! verdict sentence of a run are `crate::runs`, below the launch and the
+//! verdict sentence of a run are `bycoms_study::runs`, below the launch and the
 //! study, which use them too.
 
-use crate::runs::{check_run, FLAGS};
 use anyhow::Result;
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::RunConfig;
+use bycoms_study::runs::{check_run, FLAGS};
 use clap::Args as ClapArgs;
 
 /// Run parameters of the simulated world.

@@ -120,7 +120,7 @@ fn acl(dir: &Path, robots: u32, add: &str) -> Vec<Finding> {
     let path = dir.join("orchestrator.json5");
     let config = match read_config(&path) {
         Ok(config) => config,
-        Err(e) => return vec![Finding::error(ACL, crate::exit::message(&e), add.to_string())],
+        Err(e) => return vec![Finding::error(ACL, bycoms_runtime::exit::message(&e), add.to_string())],
     };
     let revoked = revoked_in(&config);
     let subjects = config["access_control"]["subjects"].as_array().cloned().unwrap_or_default();

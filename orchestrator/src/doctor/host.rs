@@ -10,9 +10,9 @@
 //! (docs/BENCHMARKS.md).
 
 use super::Finding;
-use crate::launch::config::Transport;
-use crate::launch::limits::{decide, files_needed, FilesCheck};
-use crate::mocap::{ClientConfig, NatNetClient};
+use bycoms_launch::config::Transport;
+use bycoms_launch::limits::{decide, files_needed, FilesCheck};
+use bycoms_mocap::{ClientConfig, NatNetClient};
 use std::time::Duration;
 
 /// Memory of a launch besides its robots, MB (the orchestrator of a

@@ -4,7 +4,7 @@
 
 use super::{certs, host, Finding, Level};
 use crate::certs::{access_control, generate, robot_cn, Plan};
-use crate::launch::config::Transport;
+use bycoms_launch::config::Transport;
 use rcgen::{CertificateParams, DnType, Issuer, KeyPair};
 use std::collections::BTreeSet;
 use std::net::{Ipv4Addr, UdpSocket};
@@ -129,7 +129,7 @@ fn the_limits_say_what_the_launch_would_do() {
 #[test]
 fn a_silent_natnet_server_is_an_error_within_the_bounded_wait() {
     let silent = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0)).expect("bind");
-    let client = crate::mocap::ClientConfig {
+    let client = bycoms_mocap::ClientConfig {
         server: silent.local_addr().expect("addr"),
         local: Ipv4Addr::LOCALHOST.into(),
         multicast: None,
@@ -145,9 +145,9 @@ fn a_silent_natnet_server_is_an_error_within_the_bounded_wait() {
 #[test]
 fn an_answering_natnet_server_is_ok() {
     use bycoms_sim::natnet_server::NatNetServer;
-    let lab = crate::mocap::tests::lab(Default::default());
+    let lab = bycoms_mocap::testing::lab(Default::default());
     let server = NatNetServer::start_any_port(lab, Ipv4Addr::LOCALHOST.into()).expect("server");
-    let client = crate::mocap::ClientConfig {
+    let client = bycoms_mocap::ClientConfig {
         server: server.command_addr(),
         local: Ipv4Addr::LOCALHOST.into(),
         multicast: None,

@@ -4,7 +4,7 @@
 //! Two kinds of channel, all under `bycoms/<swarm>/`:
 //!
 //! * **The scene** — exactly what the recording's decoded channels carry
-//!   ([`crate::scene`]: `scene` SceneUpdate, `tf`, `log`, `gate/json`,
+//!   ([`bycoms_record::scene`]: `scene` SceneUpdate, `tf`, `log`, `gate/json`,
 //!   `robot/<k>/pose/json`, `robot/<k>/mode`, `robot/<k>/telemetry`), one
 //!   SDK channel per topic, created when its first message comes. Foxglove's
 //!   3D, Log, Plot and Raw Messages panels show them as they are.
@@ -21,12 +21,12 @@
 //! listener, so nothing falls between the two.
 
 use super::state::{LiveState, WorldView};
-use crate::launch::recording::now_ns;
-use crate::launch::{LaunchConfig, World};
-use crate::record::schema;
-use crate::scene::json::json_schema;
-use crate::scene::{Out, SharedScene};
+use bycoms_launch::recording::now_ns;
+use bycoms_launch::{LaunchConfig, World};
 use bycoms_protocol::msg::{GateEvent, Pose};
+use bycoms_record::scene::json::json_schema;
+use bycoms_record::scene::{Out, SharedScene};
+use bycoms_record::schema;
 use foxglove::websocket::{ChannelView, Client, ServerListener};
 use foxglove::{Context, RawChannel, Schema, SinkId};
 use serde::Serialize;

@@ -18,7 +18,7 @@
 //!   internal loopback port. Proxying bytes (rather than re-implementing the
 //!   protocol) keeps one implementation of the stream; the cost is one
 //!   loopback hop and the SDK seeing every client as 127.0.0.1.
-//! * **The scene is [`crate::scene`]'s**, the very messages the recording's
+//! * **The scene is [`bycoms_record::scene`]'s**, the very messages the recording's
 //!   decoded channels hold (SceneUpdate, FrameTransforms, Log, JSON), so a
 //!   lab sees the same thing live in Foxglove and later in the file.
 //! * **The page speaks the same protocol.** It connects to the same port as
@@ -32,7 +32,7 @@
 //!   summary; the launch knows it only by its seam
 //!   (`launch::observe::View`), started by [`serve`], which
 //!   `orchestrator launch` hands to `launch::run_serving`
-//!   (ARCHITECTURE.md, "Layers of the orchestrator").
+//!   (ARCHITECTURE.md, "Crates of the orchestrator").
 
 mod channels;
 mod front;
@@ -42,10 +42,10 @@ mod tests;
 
 pub use channels::{state_topic, world_topic};
 
-use crate::launch::observe::{Observer, View};
-use crate::launch::{LaunchConfig, Summary, World};
-use crate::scene::{Out, SharedScene};
+use bycoms_launch::observe::{Observer, View};
+use bycoms_launch::{LaunchConfig, Summary, World};
 use bycoms_protocol::msg::{GateEvent, Pose};
+use bycoms_record::scene::{Out, SharedScene};
 use channels::Channels;
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};

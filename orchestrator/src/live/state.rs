@@ -7,7 +7,7 @@
 //! watch, the verdict) and hands it to each viewer that subscribes, then
 //! again after every gate event. Pure data, no I/O: the unit tests drive it.
 
-use crate::launch::{LaunchConfig, World};
+use bycoms_launch::{LaunchConfig, World};
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use schemars::JsonSchema;
 use serde::Serialize;

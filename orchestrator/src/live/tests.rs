@@ -5,11 +5,11 @@
 use super::front::{classify, Request};
 use super::state::{LiveState, RobotState, TRAIL_STEP};
 use super::{state_topic, world_topic, LiveView};
-use crate::launch::observe::Observer;
-use crate::launch::{LaunchConfig, World};
-use crate::scene::{Scene, SceneWorld, SharedScene};
+use bycoms_launch::observe::Observer;
+use bycoms_launch::{LaunchConfig, World};
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use bycoms_protocol::RobotId;
+use bycoms_record::scene::{Scene, SceneWorld, SharedScene};
 use foxglove::messages::SceneUpdate;
 use foxglove::Decode;
 use serde_json::{json, Value};

@@ -11,16 +11,16 @@
 //! pose: a recorded `Died` event is taken as given (the watch closes there).
 
 use super::read::{Entry, Recorded};
-use crate::gate::{GateParams, Verdict};
-use crate::launch::core::{Closed, Referee};
-use crate::launch::Clock;
+use bycoms_launch::core::{Closed, Referee};
+use bycoms_launch::Clock;
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose, ToAgent};
 use bycoms_protocol::RobotId;
+use bycoms_study::gate::{GateParams, Verdict};
 
 /// The gate parameters and step budget of a recorded run.
 pub fn gate_params(recorded: &Recorded) -> (GateParams, u64) {
     let cfg = &recorded.run.config;
-    let params = crate::launch::setup::gate_params(cfg, recorded.run.goal);
+    let params = bycoms_launch::setup::gate_params(cfg, recorded.run.goal);
     let mut run = bycoms_sim::RunConfig::paper(cfg.eps);
     run.time_limit = cfg.time_limit;
     (params, run.step_limit())

@@ -31,7 +31,7 @@ pub enum ReplayError {
     /// The file cannot be opened or is not MCAP (the recording reader's
     /// errors, the same for `draw` and `record recover`).
     #[error(transparent)]
-    Record(#[from] crate::record::RecordError),
+    Record(#[from] bycoms_record::RecordError),
     /// The `run` record does not parse.
     #[error("the run metadata on {topic} does not parse: {reason}")]
     BadRunMeta {

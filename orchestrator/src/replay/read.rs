@@ -14,13 +14,13 @@
 //! here, by its own codec (`launch::core::log`).
 
 use super::ReplayError;
-use crate::launch::core::log::{self, Call};
-use crate::launch::core::Setup;
-use crate::launch::LaunchConfig;
-use crate::record::decode::{decode_message, Content};
-use crate::record::{Item, Reader};
+use bycoms_launch::core::log::{self, Call};
+use bycoms_launch::core::Setup;
+use bycoms_launch::LaunchConfig;
 use bycoms_protocol::msg::{GateEvent, Pose, ToAgent};
 use bycoms_protocol::RobotId;
+use bycoms_record::decode::{decode_message, Content};
+use bycoms_record::{Item, Reader};
 use bycoms_sim::Vec2;
 use serde::Deserialize;
 use std::path::Path;
@@ -107,7 +107,7 @@ impl Recorded {
         calls
             .iter()
             .filter_map(|c| match c {
-                Call::Handle(_, crate::launch::core::Input::Pose { pose, .. }) => Some(pose),
+                Call::Handle(_, bycoms_launch::core::Input::Pose { pose, .. }) => Some(pose),
                 _ => None,
             })
             .find(|input| !recorded.any(|p| bits(p) == bits(input)))
@@ -163,7 +163,7 @@ pub fn read_recording(path: &Path) -> Result<Recorded, ReplayError> {
         Ok(())
     })?;
     end.launch_recording(path)?;
-    let run = run.ok_or_else(|| crate::record::RecordError::NotLaunch {
+    let run = run.ok_or_else(|| bycoms_record::RecordError::NotLaunch {
         path: path.to_path_buf(),
         reason: "its run metadata does not parse".into(),
     })?;

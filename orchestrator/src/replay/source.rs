@@ -4,8 +4,8 @@
 //! Why in `replay` and not in `mocap/`: it reads a recording with the
 //! replay's reader ([`Recorded`]), which knows the launch core's log, so it
 //! sits above the launch, as the replay does; motion capture sits below
-//! (ARCHITECTURE.md, "Layers of the orchestrator"). It re-runs the NatNet
-//! pipeline (`crate::mocap`) on recorded frames.
+//! (ARCHITECTURE.md, "Crates of the orchestrator"). It re-runs the NatNet
+//! pipeline (`bycoms_mocap`) on recorded frames.
 //!
 //! Why two ways: every pose the gate saw is in the recording on its
 //! robot's pose topic (whatever the source), so those are replayed as
@@ -21,8 +21,8 @@
 //! never have handed them over.
 
 use super::{Entry, Recorded};
-use crate::launch::poses::{PoseError, PoseSink, PoseSource};
-use crate::mocap::{BodyMap, FramePipeline, NatNetSourceConfig, PoseTracker};
+use bycoms_launch::poses::{PoseError, PoseSink, PoseSource};
+use bycoms_mocap::{BodyMap, FramePipeline, NatNetSourceConfig, PoseTracker};
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::natnet::{parse_packet_versioned, Error as NatNetError, Packet, Version};
 use std::collections::BTreeSet;

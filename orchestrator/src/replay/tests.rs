@@ -3,7 +3,7 @@
 //! recordings.)
 
 use super::*;
-use crate::launch::LaunchConfig;
+use bycoms_launch::LaunchConfig;
 use bycoms_protocol::msg::{Deploy, GoalBearing, Pose, Tick, ToAgent};
 use bycoms_protocol::RobotId;
 use bycoms_sim::Vec2;
@@ -38,7 +38,7 @@ fn event(robot: u32, kind: GateKind, x: f64, step: u64) -> GateEvent {
 /// after the 2 s dwell); robot 2 drives straight to the goal.
 fn two_robots() -> Recorded {
     let config = LaunchConfig {
-        gate: crate::launch::config::GateConfig { dwell: 2.0, ..Default::default() },
+        gate: bycoms_launch::config::GateConfig { dwell: 2.0, ..Default::default() },
         ..LaunchConfig::default()
     };
     let mut e = Vec::new();

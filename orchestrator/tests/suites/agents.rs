@@ -14,7 +14,7 @@
 //! source reads no clock and decides no deadline. The supervision rules
 //! (registration and heartbeat timeouts, link grace, quiet, robot-link
 //! grace) are the launch core's timers, tested in virtual time
-//! (`launch/core/timers.rs` and the harness's schedules); here it is only
+//! (`orchestrator/launch/src/core/timers.rs` and the harness's schedules); here it is only
 //! checked that a source reports no silent agent by itself.
 //!
 //! A check that cannot apply to an implementation (an agent that ends by
@@ -22,8 +22,8 @@
 //! [`Report`] with the reason, never skipped silently (see `suites/mod.rs`).
 
 use super::Report;
-use bycoms_orchestrator::launch::agents::{AgentPlan, AgentSource, Gone, Started};
-use bycoms_orchestrator::launch::driver::wind_down;
+use bycoms_launch::agents::{AgentPlan, AgentSource, Gone, Started};
+use bycoms_launch::driver::wind_down;
 use bycoms_sim::sim_agent::AgentArgs;
 use std::time::{Duration, Instant};
 

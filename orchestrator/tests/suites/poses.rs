@@ -14,8 +14,8 @@
 //! is named in the returned [`Report`] (see `suites/mod.rs`).
 
 use super::Report;
-use bycoms_orchestrator::launch::poses::{PoseSink, PoseSource};
-use bycoms_orchestrator::launch::recording::Recording;
+use bycoms_launch::poses::{PoseSink, PoseSource};
+use bycoms_launch::recording::Recording;
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::{RobotId, Swarm};
 use bycoms_runtime::Traffic;
@@ -36,7 +36,7 @@ pub struct Expected {
     /// What becomes of bytes the source cannot use.
     pub garbage: Garbage,
     /// [`PoseSource::placement`]: the source's own placement settings.
-    pub placement: Option<bycoms_orchestrator::mocap::PlacementConfig>,
+    pub placement: Option<bycoms_mocap::PlacementConfig>,
 }
 
 /// What becomes of bytes a source cannot use.

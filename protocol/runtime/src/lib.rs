@@ -12,6 +12,9 @@
 //! * [`logging`] (feature `logging`) — one logging setup: `tracing` on
 //!   stderr, `RUST_LOG`, `--log-format text|json`, status lines, the text
 //!   of an error;
+//! * [`exit`] and [`out`] (feature `commands`) — how a command of the
+//!   orchestrator's crates ends (exit codes, the usage error) and what it
+//!   puts out (stdout lines, the one overwrite rule, atomic writes);
 //!
 //! and behind `process` (the default) the pieces of a swarm process:
 //!
@@ -40,6 +43,11 @@ pub mod capped;
 pub mod logging;
 pub mod seconds;
 pub mod stats;
+
+#[cfg(feature = "commands")]
+pub mod exit;
+#[cfg(feature = "commands")]
+pub mod out;
 
 #[cfg(feature = "process")]
 pub mod bus_args;

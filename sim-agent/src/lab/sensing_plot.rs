@@ -4,7 +4,7 @@
 //!
 //! Why hand-written SVG: two line charts need a few polylines and labels,
 //! and the orchestrator's picture module lives in a crate that depends on
-//! this one (see `orchestrator/src/draw/mod.rs` for why no plotting crate).
+//! this one (see `orchestrator/study/src/draw/mod.rs` for why no plotting crate).
 
 use super::characterise::SensingRow;
 use std::fmt::Write;

@@ -204,7 +204,7 @@ impl OnBus for RunAgent<'_> {
 
 /// The agent's loop on `bus`, whatever its backend: an agent process runs
 /// it on the bus of its `--transport`; a launch over the in-memory bus runs
-/// it on a thread of its own process (`orchestrator`'s `launch/agents/
+/// it on a thread of its own process (`orchestrator`'s `orchestrator/launch/src/agents/
 /// threads.rs`) with a [`Lifeline::with_flag`] for its end. The robot runs
 /// `settings` (`terrain` is their terrain, parsed) and registers with their
 /// fingerprint; `args` give its id. Over zenoh it watches the

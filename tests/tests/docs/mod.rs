@@ -218,7 +218,7 @@ fn crate_row<'a>(doc: &'a str, dir: &str) -> &'a str {
 }
 
 /// The names a text gives in backticks, each cut into its segments:
-/// `launch/agents/` gives `launch` and `agents`, `bycoms_runtime::stats` gives
+/// `orchestrator/launch/src/agents/` gives `launch` and `agents`, `bycoms_runtime::stats` gives
 /// `bycoms_runtime` and `stats`, `lab/process.rs` gives `lab` and `process`.
 fn named_segments(text: &str) -> BTreeSet<String> {
     let token = Regex::new(r"`([^`]+)`").expect("regex");
@@ -414,7 +414,7 @@ fn readers_documents() -> Vec<PathBuf> {
 }
 
 /// Every path the README and `docs/` name in backticks or link to, from
-/// one of the repository's top-level folders (`orchestrator/src/gate.rs`,
+/// one of the repository's top-level folders (`orchestrator/study/src/gate.rs`,
 /// `deploy/lab/`), exists: moved text must not point at what is gone.
 /// Names of outputs (`study/`, `run.mcap`) start elsewhere and are left out.
 #[test]

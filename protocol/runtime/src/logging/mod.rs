@@ -215,7 +215,7 @@ mod tests {
                 (
                     tracing::enabled!(target: "zenoh::net::runtime", tracing::Level::INFO),
                     tracing::enabled!(target: "zenoh_transport::unicast", tracing::Level::WARN),
-                    tracing::enabled!(target: "bycoms_orchestrator::launch", tracing::Level::INFO),
+                    tracing::enabled!(target: "bycoms_launch::driver", tracing::Level::INFO),
                 )
             })
         };

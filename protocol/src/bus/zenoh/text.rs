@@ -29,6 +29,12 @@ impl fmt::Display for EndpointError {
 
 impl core::error::Error for EndpointError {}
 
+/// Whether zenoh authenticates and encrypts `endpoint` (`quic/` and `tls/`,
+/// with the TLS settings of the configs `orchestrator certs` writes).
+pub fn is_secured(endpoint: &str) -> bool {
+    endpoint.starts_with("quic/") || endpoint.starts_with("tls/")
+}
+
 /// Checks that `endpoint` is `LINK/HOST:PORT` (optionally followed by
 /// zenoh's `?metadata` or `#config`), LINK one of [`LINKS`], HOST not empty
 /// and PORT a number 0..=65535. Whether HOST resolves is for the session to

@@ -1,0 +1,254 @@
+//! Which agent source a launch uses (`[agents]`, `--agents`), and the one
+//! place that builds it.
+//!
+//! Why here and not in the engine: the engine holds a `Box<dyn
+//! AgentSource>` and nothing else about agents; choosing and configuring
+//! the kind (which executable, which robots file) happens once, before the
+//! launch starts.
+
+use super::gateways::{Gateways, GatewaysAt};
+use super::remote::Remote;
+use super::spawned::{AgentCommand, Spawned};
+use super::threads::Threads;
+use super::AgentSource;
+use anyhow::{Context, Result};
+use bycoms_mocap::PlacementConfig;
+use bycoms_protocol::bus::zenoh::AliveWatch;
+use bycoms_runtime::seconds::{check_seconds, Zero};
+use bycoms_runtime::Transport;
+use bycoms_sim::lab::robots::RobotsFile;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// What the transport hands the agent source: zenoh's liveliness watch on
+/// the swarm, or the in-memory bus that threads of this process share.
+#[derive(Default)]
+pub struct AgentLinks {
+    /// zenoh: every member's liveliness token.
+    pub alive: Option<AliveWatch>,
+    /// memory: the launch's bus.
+    pub memory: Option<bycoms_protocol::bus::memory::MemoryBus>,
+}
+
+/// Where a launch's agents come from (`agents.source`, `--agents`): which
+/// [`AgentSource`](super::AgentSource) [`AgentsConfig::open`] builds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum AgentSourceKind {
+    /// One `sim-agent` process per robot, started here (the default).
+    #[default]
+    Spawned,
+    /// Started by hand on other hosts (`sim-agent --transport zenoh
+    /// --connect ...`); the launch waits for every robot to register.
+    Remote,
+    /// Real robots: one `agent` gateway per robot, started here for each
+    /// robot of `agents.robots_file` or elsewhere (`agents.gateways`); each
+    /// robot is enabled when it is deployed.
+    Real,
+}
+
+/// `[agents]`: where agents come from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AgentsConfig {
+    /// `spawned` (default), `remote` or `real`.
+    pub source: AgentSourceKind,
+    /// `real`: the lab's robots file (each robot's address, its gateway's
+    /// address, its key file; `deploy/lab/robots.toml`).
+    pub robots_file: Option<PathBuf>,
+    /// `real`: the gateway executable; default `agent` next to the
+    /// orchestrator.
+    pub gateway_bin: Option<PathBuf>,
+    /// `real`: where the gateways run: `here` (started by this launch, one
+    /// per robot of the robots file) or `elsewhere` (started by hand on a
+    /// bridge host over zenoh, awaited as remote agents are).
+    pub gateways: GatewaysAt,
+    /// `real`: the lab scenario (a built-in name, `exp-short` /
+    /// `exp-long`, or a scenario file): the launch's start, goal and arena
+    /// in metres (`launch::lab`).
+    pub scenario: Option<String>,
+    /// `real`: how the operator's placement of each robot at the start is
+    /// confirmed (metres, lab seconds). With `[mocap] source = "natnet"`,
+    /// `[mocap.natnet.placement]` is used instead.
+    #[serde(default = "real_placement")]
+    pub placement: PlacementConfig,
+}
+
+/// Placement of a real crawler robot (metres): within 10 cm of the start
+/// for 0.5 s of motion capture; the operator has 10 minutes.
+pub fn real_placement() -> PlacementConfig {
+    PlacementConfig { radius: 0.1, hold: 0.5, timeout: 600.0 }
+}
+
+impl Default for AgentsConfig {
+    fn default() -> Self {
+        Self {
+            source: AgentSourceKind::default(),
+            robots_file: None,
+            gateway_bin: None,
+            gateways: GatewaysAt::Here,
+            scenario: None,
+            placement: real_placement(),
+        }
+    }
+}
+
+impl AgentsConfig {
+    /// Whether this launch starts its agents' processes (spawned agents,
+    /// gateways here), rather than awaiting them.
+    pub fn started_here(&self) -> bool {
+        match self.source {
+            AgentSourceKind::Spawned => true,
+            AgentSourceKind::Remote => false,
+            AgentSourceKind::Real => self.gateways == GatewaysAt::Here,
+        }
+    }
+
+    /// Checks the choice against the rest of the launch's configuration.
+    pub fn validate(&self, robots: u32, transport: Transport, lockstep: bool) -> Result<(), String> {
+        let zenoh = transport == Transport::Zenoh;
+        if transport == Transport::Memory && self.source != AgentSourceKind::Spawned {
+            return Err("transport.kind = \"memory\" runs the agents as threads here: it needs agents.source = \"spawned\"".into());
+        }
+        if self.scenario.is_some() && self.source != AgentSourceKind::Real {
+            return Err(
+                "agents.scenario (--lab-scenario) is for real robots (agents.source = \"real\")".into()
+            );
+        }
+        if self.gateways == GatewaysAt::Elsewhere && self.source != AgentSourceKind::Real {
+            return Err("agents.gateways (--gateways) is for real robots (agents.source = \"real\")".into());
+        }
+        if self.gateways == GatewaysAt::Elsewhere && !zenoh {
+            return Err(
+                "agents.gateways = \"elsewhere\" needs transport.kind = \"zenoh\" (--transport zenoh): \
+                        gateways on other hosts join over zenoh"
+                    .into(),
+            );
+        }
+        let p = &self.placement;
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if !positive(p.radius) {
+            return Err(format!("agents.placement.radius must be a positive number, got {}", p.radius));
+        }
+        check_seconds("agents.placement.timeout", p.timeout, Zero::Refused)?;
+        check_seconds("agents.placement.hold", p.hold, Zero::Allowed)?;
+        match self.source {
+            AgentSourceKind::Spawned => Ok(()),
+            AgentSourceKind::Remote if !zenoh => {
+                Err("agents.source = \"remote\" needs transport.kind = \"zenoh\" (--transport zenoh)".into())
+            }
+            AgentSourceKind::Remote => Ok(()),
+            AgentSourceKind::Real if lockstep => {
+                Err("agents.source = \"real\" needs clock = \"realtime\" (a real robot cannot be stepped)"
+                    .into())
+            }
+            AgentSourceKind::Real if self.scenario.is_none() => Err(
+                "agents.source = \"real\" needs agents.scenario (--lab-scenario exp-short|exp-long|FILE): \
+                 the lab's start, goal and arena in metres"
+                    .into(),
+            ),
+            // The robots file (addresses, keys) is the gateways' business.
+            AgentSourceKind::Real if self.gateways == GatewaysAt::Elsewhere => Ok(()),
+            AgentSourceKind::Real => match &self.robots_file {
+                None => Err("agents.source = \"real\" needs agents.robots_file (--robots-file)".into()),
+                Some(path) => {
+                    let file = RobotsFile::read(path).map_err(|e| e.to_string())?;
+                    let have = file.robots.len() as u32;
+                    if have < robots {
+                        return Err(format!(
+                            "the robots file {} names {have} robots, the launch needs {robots}",
+                            path.display()
+                        ));
+                    }
+                    file.keys().map_err(|e| e.to_string())?;
+                    Ok(())
+                }
+            },
+        }
+    }
+
+    /// Builds the source: `sim_agent` runs spawned agents (threads on the
+    /// memory bus, when `links` has it); `links.alive` is the swarm's
+    /// liveliness watch over zenoh (remote agents and gateways elsewhere).
+    /// The supervision timeouts are the core's (`orchestrator/launch/src/setup.rs`).
+    pub fn open(&self, sim_agent: AgentCommand, links: AgentLinks) -> Result<Box<dyn AgentSource>> {
+        let AgentLinks { alive, memory } = links;
+        Ok(match self.source {
+            // Over the in-memory bus the agents can only be threads here.
+            AgentSourceKind::Spawned if memory.is_some() => {
+                let bus = memory.context("the memory bus")?;
+                Box::new(Threads::new(bus))
+            }
+            AgentSourceKind::Spawned => Box::new(Spawned::new(sim_agent)),
+            AgentSourceKind::Remote => Box::new(Remote::new(alive)),
+            AgentSourceKind::Real if self.gateways == GatewaysAt::Elsewhere => {
+                Box::new(Gateways::elsewhere(Remote::new(alive)))
+            }
+            AgentSourceKind::Real => {
+                let path = self.robots_file.as_deref().context("agents.robots_file is not set")?;
+                let robots = RobotsFile::read(path)?;
+                let gateway = gateway_command(self.gateway_bin.as_deref())?;
+                Box::new(Gateways::new(gateway, robots))
+            }
+        })
+    }
+}
+
+/// The gateway executable: `explicit`, else `agent` next to this executable.
+fn gateway_command(explicit: Option<&Path>) -> Result<AgentCommand> {
+    if let Some(program) = explicit {
+        return Ok(AgentCommand { program: program.to_path_buf(), prefix: Vec::new() });
+    }
+    let (me, beside) = super::executable::beside_this_executable("agent")?;
+    anyhow::ensure!(
+        beside.is_file(),
+        "no gateway executable: `agent` is not next to {} (build it with `cargo build -p bycoms-agent`, \
+         or set agents.gateway_bin)",
+        me.display()
+    );
+    Ok(AgentCommand { program: beside, prefix: Vec::new() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn real(gateways: GatewaysAt) -> AgentsConfig {
+        AgentsConfig {
+            source: AgentSourceKind::Real,
+            gateways,
+            scenario: Some("exp-short".into()),
+            ..AgentsConfig::default()
+        }
+    }
+
+    #[test]
+    fn gateways_run_here_over_either_bus_or_elsewhere_over_zenoh() {
+        // Here: the robots file names each robot's gateway, over ipc or zenoh.
+        for transport in [Transport::Ipc, Transport::Zenoh] {
+            let err = real(GatewaysAt::Here).validate(2, transport, false).unwrap_err();
+            assert!(err.contains("agents.robots_file"), "{transport:?}: {err}");
+        }
+        // Elsewhere: no robots file here (it is the gateways'), but zenoh.
+        assert_eq!(real(GatewaysAt::Elsewhere).validate(2, Transport::Zenoh, false), Ok(()));
+        let err = real(GatewaysAt::Elsewhere).validate(2, Transport::Ipc, false).unwrap_err();
+        assert!(err.contains("--transport zenoh"), "{err}");
+        // Only real robots have gateways.
+        let spawned = AgentsConfig { source: AgentSourceKind::Spawned, ..real(GatewaysAt::Elsewhere) };
+        let err =
+            AgentsConfig { scenario: None, ..spawned }.validate(2, Transport::Zenoh, false).unwrap_err();
+        assert!(err.contains("agents.gateways"), "{err}");
+        // Real robots are never stepped, wherever their gateways run.
+        let err = real(GatewaysAt::Elsewhere).validate(2, Transport::Zenoh, true).unwrap_err();
+        assert!(err.contains("realtime"), "{err}");
+    }
+
+    #[test]
+    fn only_agents_started_here_are_started_here() {
+        assert!(AgentsConfig::default().started_here());
+        assert!(real(GatewaysAt::Here).started_here());
+        assert!(!real(GatewaysAt::Elsewhere).started_here());
+        let remote = AgentsConfig { source: AgentSourceKind::Remote, ..AgentsConfig::default() };
+        assert!(!remote.started_here());
+    }
+}

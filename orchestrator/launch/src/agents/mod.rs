@@ -1,0 +1,329 @@
+//! The agents seam: where a launch's agents come from.
+//!
+//! Why a trait: the engine and the gate care that robot `k` has an agent
+//! that registers, answers and may die — not whether that agent is a
+//! process spawned here ([`spawned::Spawned`], today's default), a
+//! `sim-agent` started by hand on another host (remote agents), or a real
+//! robot behind an `agent` gateway process. Each kind implements
+//! [`AgentSource`]; the engine holds a `Box<dyn AgentSource>` and nothing
+//! else about them. Messages never go through a source: every agent,
+//! whatever its kind, talks to the orchestrator over the launch's bus
+//! (`orchestrator/launch/src/ports.rs`); a source only starts agents, watches their
+//! liveness and ends them. The kinds: [`spawned::Spawned`] (default),
+//! [`remote::Remote`] (`--agents remote`), [`gateways::Gateways`]
+//! (`--agents real`); [`choice`] picks one from the config.
+//!
+//! Contract (checked for every implementation by the one conformance suite,
+//! `orchestrator/tests/agent_source_suite.rs`): a source reports facts,
+//! never a deadline, and reads no clock. Every supervision rule
+//! (registration and heartbeat timeouts, the link grace, the quiet rule,
+//! the robot-link grace) is a timer of the launch core
+//! (`orchestrator/launch/src/core/timers.rs`), which ends an agent it judged gone with
+//! [`AgentSource::kill`].
+//!
+//! * [`AgentSource::start`] makes robot `id`'s agent exist or expected;
+//!   from then on [`AgentSource::is_running`] is true until the agent is
+//!   reported gone by [`AgentSource::poll`], killed, or wound down;
+//! * [`AgentSource::poll`] is the **single place** where an agent that
+//!   ended is reported, each exactly once, with its [`Gone`] reason: its
+//!   process exited (with its status), its thread ended. An agent the
+//!   engine killed itself ([`AgentSource::kill`]) is not reported again;
+//! * [`AgentSource::tokens`] reports liveliness tokens that went or came
+//!   back (agents on zenoh), each change once;
+//! * winding down (after the engine sent `Shutdown`):
+//!   [`AgentSource::ask_to_end`], then [`AgentSource::reap`] until nothing
+//!   runs or the grace is over (the driver's clock, `driver::wind_down`),
+//!   then [`AgentSource::end_rest`] ends the rest and names them; after it
+//!   nothing is running. Dropping a source ends whatever is still running.
+//!
+//! The trait is object-safe and not `Send` (the launch runs on one thread:
+//! spawned children must be spawned from the main thread, see `spawned`).
+
+pub mod choice;
+pub mod executable;
+pub mod gateways;
+pub mod remote;
+pub mod spawned;
+pub mod stderr_tap;
+pub mod threads;
+
+use bycoms_sim::sim_agent::AgentArgs;
+use std::process::ExitStatus;
+use std::time::Duration;
+
+/// What an agent needs to be started: its flags and the world.
+#[derive(Clone, Copy, Debug)]
+pub struct AgentPlan<'a> {
+    /// The agent's arguments (robot id, swarm, run parameters, clock,
+    /// transport endpoints).
+    pub args: &'a AgentArgs,
+    /// The terrain in the text format (simulated agents build their world
+    /// from it; real robots have the real one).
+    pub terrain_text: &'a str,
+}
+
+/// What [`AgentSource::start`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Started {
+    /// A process was started on this host.
+    Process {
+        /// Its pid.
+        pid: u32,
+    },
+    /// Nothing was started here: the agent is expected to come and register
+    /// (a remote agent, a robot's gateway started elsewhere).
+    Awaited,
+    /// A thread of this process was started (in-memory launches).
+    Thread,
+}
+
+impl std::fmt::Display for Started {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Process { pid } => write!(f, "agent started (pid {pid})"),
+            Self::Awaited => write!(f, "awaiting its agent"),
+            Self::Thread => write!(f, "agent started (a thread of this process)"),
+        }
+    }
+}
+
+/// Why an agent is gone.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Gone {
+    /// The process exited (or was killed by a signal).
+    Exited(#[serde(with = "raw_status")] ExitStatus),
+    /// Registered, alive, but silent past the heartbeat timeout (ended:
+    /// killed, or dropped from the launch when not ours to kill).
+    Silent,
+    /// Never registered within the registration timeout (ended).
+    NeverRegistered,
+    /// Did not answer a lockstep tick in time (ended).
+    NoTickReply,
+    /// Did not report its start pose in time after `Deploy` (ended).
+    NoStartPose,
+    /// Its link to the orchestrator was lost (a remote agent or gateway).
+    Disconnected,
+    /// No contact with it (its link was lost, or it fell silent) for longer
+    /// than the launch's link grace (`supervision.link_grace`, seconds ×
+    /// 1000): it was unreachable and did not come back.
+    Unreachable {
+        /// The grace it had, in milliseconds.
+        grace_ms: u64,
+    },
+    /// A real robot's own link (robot ↔ gateway) was lost: its gateway
+    /// reported `Link { up: false }`; the gateway was ended.
+    RobotLinkLost,
+    /// Its thread (an in-memory launch's agent) ended.
+    ThreadEnded,
+}
+
+impl Gone {
+    /// What happened, and what the launch did about it. An agent that
+    /// missed a deadline is ended: `killed` when it is a process of this
+    /// host (`ours`), else (a remote agent, a gateway on a bridge host,
+    /// a thread) only dropped from the launch — a process on another host
+    /// is not ours to kill, and it was not.
+    pub fn said(&self, ours: bool) -> String {
+        let ended = if ours { "and was killed" } else { "and was dropped from the launch" };
+        match self {
+            Self::Exited(status) => format!("its process ended ({status})"),
+            Self::Silent => format!("it fell silent (no heartbeat) {ended}"),
+            Self::NeverRegistered => format!("it did not register in time {ended}"),
+            Self::NoTickReply => format!("it did not answer a lockstep tick in time {ended}"),
+            Self::NoStartPose => {
+                format!("it did not report its start pose in time after being deployed {ended}")
+            }
+            Self::Disconnected => "its link to the orchestrator was lost".into(),
+            Self::Unreachable { grace_ms } => format!(
+                "its link to the orchestrator was lost and did not come back within the {} s link grace",
+                *grace_ms as f64 / 1000.0
+            ),
+            Self::RobotLinkLost => "the robot's link to its gateway was lost".into(),
+            Self::ThreadEnded => "its agent thread ended".into(),
+        }
+    }
+}
+
+/// As [`Gone::said`] of an agent that is a process of this host.
+impl std::fmt::Display for Gone {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.said(true))
+    }
+}
+
+/// An exit status as its raw `wait` status (the launch core's input log,
+/// `launch::core::log`, records it).
+mod raw_status {
+    use serde::{Deserialize, Deserializer, Serializer};
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::ExitStatus;
+
+    pub fn serialize<S: Serializer>(status: &ExitStatus, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_i32(status.into_raw())
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<ExitStatus, D::Error> {
+        i32::deserialize(d).map(ExitStatus::from_raw)
+    }
+}
+
+/// A change in whether an agent can be reached (see [`AgentSource::reach`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Reach {
+    /// No contact any more (liveliness token gone, or silent past the
+    /// heartbeat timeout): the engine holds the robot until it is back or
+    /// the grace is over.
+    Lost,
+    /// Heard from again within the grace.
+    Back,
+}
+
+/// Why an agent could not be started.
+#[derive(Debug, thiserror::Error)]
+pub enum AgentError {
+    /// The agent executable could not be started.
+    #[error("cannot start the agent {program}: {source}")]
+    Spawn {
+        /// The executable.
+        program: String,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// The terrain could not be handed to the agent.
+    #[error("cannot hand the terrain to robot {robot}'s agent: {source}")]
+    Handoff {
+        /// The robot.
+        robot: u32,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// The robot is not one this source can provide.
+    #[error("robot {robot} has no agent in this launch: {why}")]
+    NoSuchRobot {
+        /// The robot.
+        robot: u32,
+        /// Why not.
+        why: String,
+    },
+    /// Any other failure of a source (its own typed error, boxed).
+    #[error(transparent)]
+    Other(Box<dyn std::error::Error + Send + Sync>),
+}
+
+/// Where agents come from; see the module docs for the contract.
+pub trait AgentSource {
+    /// The kind of source (`spawned`, `remote`, `gateway`), for logs.
+    fn kind(&self) -> &'static str;
+
+    /// Whether the agents exist independently of the launch (remote agents,
+    /// robots): then the core starts (or expects) every robot's agent at
+    /// the beginning, instead of each when (or just before) its robot is
+    /// needed. Each robot is still needed only at its turn.
+    fn all_at_once(&self) -> bool {
+        false
+    }
+
+    /// Whether an operator puts each robot at the start (confirmed by
+    /// motion capture) before it is enabled: real robots. Default: no
+    /// (simulated agents are put there by `Deploy` itself).
+    fn needs_placement(&self) -> bool {
+        false
+    }
+
+    /// Whether a robot judged stuck is told to `Stop`: a real robot would
+    /// keep pushing against what holds it. Default: no.
+    fn stop_when_stuck(&self) -> bool {
+        false
+    }
+
+    /// Whether the agents want the poses the launch sees when those do not
+    /// come over the bus (a gateway turns bearings into its robot's frame
+    /// with them). Default: no.
+    fn wants_poses(&self) -> bool {
+        false
+    }
+
+    /// Whether the agents sense the beacons the launch sends them
+    /// (`ToAgent::Beacon`): simulated robots. Default: yes (real robots
+    /// hear each other instead).
+    fn senses_beacons(&self) -> bool {
+        true
+    }
+
+    /// How to start an agent that never came, for the error that names the
+    /// robots whose agents never registered (empty: nothing to say).
+    fn start_hint(&self) -> &'static str {
+        ""
+    }
+
+    /// What [`AgentSource::end_rest`] does to agents that do not exit, in
+    /// words for the terminal. Default: they are killed.
+    fn ended_by(&self) -> &'static str {
+        "killed"
+    }
+
+    /// Starts robot `id`'s agent, or starts expecting it. The engine opens
+    /// the robot's ports first, so nothing the agent sends is missed.
+    fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError>;
+
+    /// Notes that robot `id`'s agent registered and was heard from (a
+    /// fact, no clock: the core keeps the heartbeat timer). Default:
+    /// nothing to note.
+    fn heard(&mut self, _id: u32) {}
+
+    /// Whether an agent of this source that cannot be reached may come
+    /// back (remote agents, gateways elsewhere): then the core holds it for
+    /// the launch's link grace, and takes one silent for the quiet as
+    /// unreachable. Default: no (a lost agent is gone).
+    fn held_when_unreachable(&self) -> bool {
+        false
+    }
+
+    /// How long a robot's own link reported down (`FromAgent::Link { up:
+    /// false }`) must stay down before the core takes the robot as gone
+    /// (sources of real robots); none: robot links are not watched
+    /// (default).
+    fn robot_link_grace(&self) -> Option<Duration> {
+        None
+    }
+
+    /// Whether robot `id`'s agent is started and not yet gone.
+    fn is_running(&self, id: u32) -> bool;
+
+    /// The pid of robot `id`'s agent when it is a process on this host.
+    fn pid(&self, id: u32) -> Option<u32>;
+
+    /// The agents that ended since the last poll (a process exited, a
+    /// thread ended), each reported once (the only place where endings are
+    /// reported).
+    fn poll(&mut self) -> Vec<(u32, Gone)>;
+
+    /// The liveliness tokens of running agents that went (`false`) or came
+    /// back (`true`) since the last call. Default: none (no tokens).
+    fn tokens(&mut self) -> Vec<(u32, bool)> {
+        Vec::new()
+    }
+
+    /// Ends robot `id`'s agent now (kill a process, drop a remote agent);
+    /// whether it was running. It is not reported by `poll` afterwards.
+    fn kill(&mut self, id: u32) -> bool;
+
+    /// The last error robot `id`'s agent said before [`AgentSource::poll`]
+    /// reported it gone (a process's last error line), taken once.
+    fn last_error(&mut self, _id: u32) -> Option<String> {
+        None
+    }
+
+    /// After `Shutdown` was sent, before the grace: asks agents that may
+    /// not have heard it to end. Default: nothing.
+    fn ask_to_end(&mut self) {}
+
+    /// During the grace: takes in the agents that ended; whether some still
+    /// run (that can be seen: an agent on another host whose leaving cannot
+    /// be seen counts as ended).
+    fn reap(&mut self) -> bool;
+
+    /// After the grace: ends every agent still running; returns those that
+    /// had to be ended.
+    fn end_rest(&mut self) -> Vec<u32>;
+}

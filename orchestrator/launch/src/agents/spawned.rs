@@ -1,0 +1,230 @@
+//! Agents spawned here: one child process per robot (the default source).
+//!
+//! Why polling: a child that exits, crashes or is killed (even by `kill
+//! -9`) is seen by `try_wait` the next time the driver's loop polls (every
+//! pass, at most 10 ms apart). A child that is alive but hung only shows by
+//! its silence: that is the launch core's heartbeat timer
+//! (`orchestrator/launch/src/core/timers.rs`), which ends it with [`AgentSource::kill`].
+//!
+//! Agents are spawned from the thread that runs the launch (the main
+//! thread), in their own process group (a Ctrl-C in the terminal reaches the
+//! orchestrator only, which then shuts them down in order), with
+//! `--parent-pid` so they exit if the orchestrator dies. Their standard
+//! error passes through ours ([`StderrTap`]), and the last error line of an
+//! agent that is gone is the launch's reason for it. Dropping the
+//! [`Spawned`] source kills and reaps every child still running: whatever
+//! way the launch ends, it leaves no process behind.
+
+use super::stderr_tap::StderrTap;
+use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
+use std::collections::{BTreeMap, BTreeSet};
+use std::io::Write;
+use std::os::unix::process::CommandExt;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+/// How an agent executable is invoked.
+#[derive(Clone, Debug)]
+pub struct AgentCommand {
+    /// The executable.
+    pub program: PathBuf,
+    /// Arguments before the agent's flags (`["sim-agent"]` when the
+    /// orchestrator runs agents itself).
+    pub prefix: Vec<String>,
+}
+
+/// The running agent processes, by robot id.
+pub struct Spawned {
+    command: AgentCommand,
+    children: BTreeMap<u32, Child>,
+    /// Each child's standard error, passed through, its last error kept.
+    taps: BTreeMap<u32, StderrTap>,
+    /// The last error lines of agents reported gone, not yet taken.
+    said: BTreeMap<u32, String>,
+    /// Agents heard from (registered): the others may have missed `Shutdown`.
+    heard: BTreeSet<u32>,
+}
+
+/// The name it had before the agents seam (`bench scale` still uses it).
+pub type Supervisor = Spawned;
+
+/// Longest wait for an exited child's stderr to end.
+const LAST_WORDS: Duration = Duration::from_millis(100);
+
+impl Spawned {
+    /// A source starting agents with `command`.
+    pub fn new(command: AgentCommand) -> Self {
+        Self {
+            command,
+            children: BTreeMap::new(),
+            taps: BTreeMap::new(),
+            said: BTreeMap::new(),
+            heard: BTreeSet::new(),
+        }
+    }
+
+    /// Starts robot `robot`'s agent with `flags`, writing `stdin_text` (the
+    /// terrain) to its standard input. Returns its pid.
+    pub fn spawn(&mut self, robot: u32, flags: &[String], stdin_text: &str) -> Result<u32, AgentError> {
+        let mut child = Command::new(&self.command.program)
+            .args(&self.command.prefix)
+            .args(flags)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .process_group(0)
+            .spawn()
+            .map_err(|source| AgentError::Spawn {
+                program: self.command.program.display().to_string(),
+                source,
+            })?;
+        let pid = child.id();
+        if let Some(stderr) = child.stderr.take() {
+            // Without the tap the child's lines still reach nobody else;
+            // a thread that cannot start is an error like a failed spawn.
+            let tap = StderrTap::start(stderr, format!("agent-{robot}-stderr")).map_err(|source| {
+                AgentError::Spawn { program: self.command.program.display().to_string(), source }
+            })?;
+            self.taps.insert(robot, tap);
+        }
+        let written = match child.stdin.take() {
+            Some(mut stdin) => stdin.write_all(stdin_text.as_bytes()),
+            None => Ok(()),
+        };
+        self.children.insert(robot, child);
+        self.heard.remove(&robot);
+        // A child that died at once closes the pipe; that shows up as its
+        // exit in the next poll, with its own message on stderr.
+        if let Err(source) = written {
+            if source.kind() != std::io::ErrorKind::BrokenPipe {
+                return Err(AgentError::Handoff { robot, source });
+            }
+        }
+        Ok(pid)
+    }
+
+    fn end(&mut self, robot: u32) -> bool {
+        self.heard.remove(&robot);
+        self.taps.remove(&robot);
+        match self.children.remove(&robot) {
+            Some(mut child) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Asks the agents never heard from to end (SIGTERM: their lifeline
+    /// ends them in order, exit 130). Why: an agent still starting (the
+    /// next robot's, started ahead while the previous one moves) may not
+    /// have its command topic open yet, so the `Shutdown` the launch sent
+    /// at its end was lost on it; it used to be killed after the whole
+    /// grace, "did not exit after Shutdown", at the end of healthy runs.
+    fn terminate_unheard(&mut self) {
+        use nix::sys::signal::{kill, Signal};
+        use nix::unistd::Pid;
+        for (id, child) in &self.children {
+            if self.heard.contains(id) {
+                continue;
+            }
+            if let Ok(pid) = i32::try_from(child.id()) {
+                // Already gone: seen by `try_wait` next.
+                let _ = kill(Pid::from_raw(pid), Signal::SIGTERM);
+            }
+        }
+    }
+
+    fn kill_all(&mut self) {
+        let ids: Vec<u32> = self.children.keys().copied().collect();
+        for id in ids {
+            self.end(id);
+        }
+    }
+}
+
+impl AgentSource for Spawned {
+    fn kind(&self) -> &'static str {
+        "spawned"
+    }
+
+    fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {
+        let mut args = plan.args.clone();
+        args.robot = id;
+        let pid = self.spawn(id, &args.to_flags(), plan.terrain_text)?;
+        Ok(Started::Process { pid })
+    }
+
+    fn heard(&mut self, id: u32) {
+        if self.children.contains_key(&id) {
+            self.heard.insert(id);
+        }
+    }
+
+    fn is_running(&self, id: u32) -> bool {
+        self.children.contains_key(&id)
+    }
+
+    fn pid(&self, id: u32) -> Option<u32> {
+        self.children.get(&id).map(Child::id)
+    }
+
+    /// Finds the agents whose process exited, with their last words, and
+    /// reaps them.
+    fn poll(&mut self) -> Vec<(u32, Gone)> {
+        let mut gone = Vec::new();
+        for (&robot, child) in &mut self.children {
+            if let Ok(Some(status)) = child.try_wait() {
+                gone.push((robot, Gone::Exited(status)));
+            }
+        }
+        for (robot, _) in &gone {
+            // Its last words may still be in the pipe: wait for its end
+            // (briefly: a grandchild could hold it open).
+            if let Some(words) = self.taps.get(robot).and_then(|t| t.last_error(LAST_WORDS)) {
+                self.said.insert(*robot, words);
+            }
+            // Reaps (or re-reaps, harmlessly) the exited.
+            self.end(*robot);
+        }
+        gone
+    }
+
+    fn last_error(&mut self, id: u32) -> Option<String> {
+        self.said.remove(&id)
+    }
+
+    fn kill(&mut self, id: u32) -> bool {
+        self.end(id)
+    }
+
+    fn ask_to_end(&mut self) {
+        self.terminate_unheard();
+    }
+
+    fn reap(&mut self) -> bool {
+        let exited: Vec<u32> = self
+            .children
+            .iter_mut()
+            .filter_map(|(id, c)| (!matches!(c.try_wait(), Ok(None))).then_some(*id))
+            .collect();
+        for id in exited {
+            self.end(id);
+        }
+        !self.children.is_empty()
+    }
+
+    fn end_rest(&mut self) -> Vec<u32> {
+        let killed: Vec<u32> = self.children.keys().copied().collect();
+        self.kill_all();
+        killed
+    }
+}
+
+impl Drop for Spawned {
+    fn drop(&mut self) {
+        self.kill_all();
+    }
+}

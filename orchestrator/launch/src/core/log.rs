@@ -1,0 +1,212 @@
+//! The core's calls, as a launch made them: what `replay` feeds the same
+//! core.
+//!
+//! Why a log of calls and not of messages: the core is deterministic, so
+//! its decisions follow from the inputs it was handed *and* from when the
+//! shell asked it to decide (`advance`): a shell hands in everything that
+//! arrived together (a tick's answers and its poses) before the core acts,
+//! and a replay that advanced after every input could decide earlier than
+//! the launch did. So the driver records every [`Call`] with its launch
+//! time — [`Call::Handle`] and [`Call::Advance`] — and the setup the core
+//! was made with; [`replay`] makes a new core from that setup, makes the
+//! same calls in the same order, and hands back the gate events it
+//! publishes, which `orchestrator replay` compares with the recorded ones.
+//! A recording made before this log existed is re-judged from its poses
+//! (`replay::judge`), with the launch's own referee.
+//!
+//! The log is postcard (the bus's own encoding), one recording message per
+//! pass of the driver's loop, on `bycoms/<swarm>/core/calls`; the setup is
+//! one message on `bycoms/<swarm>/core/setup`.
+
+use super::{Core, Ending, Input, Output, Setup};
+use bycoms_protocol::msg::GateEvent;
+use serde::{Deserialize, Serialize};
+
+// Their schema names in a recording are `record::schema::{CORE_SETUP,
+// CORE_CALLS}` (postcard of [`Setup`], of `Vec<Call>`), the one list of a
+// recording's schema names.
+
+/// One call a shell made on the core.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Call {
+    /// [`Core::handle`] at this launch time (µs).
+    Handle(u64, Input),
+    /// [`Core::advance`] at this launch time (µs).
+    Advance(u64),
+}
+
+/// The setup's bytes in a recording: the setup, then its supervision
+/// settings, then its clock limits (each appended, so a setup recorded
+/// before it existed decodes).
+pub fn encode_setup(setup: &Setup) -> Vec<u8> {
+    let mut bytes = postcard::to_allocvec(setup).unwrap_or_default();
+    bytes.extend(postcard::to_allocvec(&setup.supervision).unwrap_or_default());
+    bytes.extend(postcard::to_allocvec(&setup.clocks).unwrap_or_default());
+    bytes
+}
+
+/// A recorded setup. One recorded before the core kept the supervision
+/// timers has none after it: it decodes with them off, and its log's
+/// recorded verdicts (`Input::Gone`, `Input::Reach`) replay as they ran.
+pub fn decode_setup(bytes: &[u8]) -> Result<Setup, postcard::Error> {
+    let (mut setup, rest): (Setup, &[u8]) = postcard::take_from_bytes(bytes)?;
+    if !rest.is_empty() {
+        let (supervision, rest) = postcard::take_from_bytes(rest)?;
+        setup.supervision = supervision;
+        if !rest.is_empty() {
+            setup.clocks = postcard::from_bytes(rest)?;
+        }
+    }
+    Ok(setup)
+}
+
+/// A batch of calls' bytes in a recording.
+pub fn encode_calls(calls: &[Call]) -> Vec<u8> {
+    postcard::to_allocvec(calls).unwrap_or_default()
+}
+
+/// A recorded batch of calls.
+pub fn decode_calls(bytes: &[u8]) -> Result<Vec<Call>, postcard::Error> {
+    postcard::from_bytes(bytes)
+}
+
+/// A core whose calls are logged: the driver's core.
+pub struct Logged {
+    core: Core,
+    calls: Vec<Call>,
+    on: bool,
+}
+
+impl Logged {
+    /// A new core for `setup`; calls are kept only when `on` (a recording).
+    pub fn new(setup: Setup, on: bool) -> Self {
+        Self { core: Core::new(setup), calls: Vec::new(), on }
+    }
+
+    /// [`Core::handle`], logged.
+    pub fn handle(&mut self, now: u64, input: Input) {
+        if self.on {
+            self.calls.push(Call::Handle(now, input.clone()));
+        }
+        self.core.handle(now, input);
+    }
+
+    /// [`Core::advance`], logged.
+    pub fn advance(&mut self, now: u64) {
+        if self.on {
+            self.calls.push(Call::Advance(now));
+        }
+        self.core.advance(now);
+    }
+
+    /// [`Core::poll_output`].
+    pub fn poll_output(&mut self) -> Option<Output> {
+        self.core.poll_output()
+    }
+
+    /// The calls made since the last time they were taken.
+    pub fn take_calls(&mut self) -> Vec<Call> {
+        std::mem::take(&mut self.calls)
+    }
+}
+
+impl std::ops::Deref for Logged {
+    type Target = Core;
+    fn deref(&self) -> &Core {
+        &self.core
+    }
+}
+
+/// What a core made from `setup` does when given `calls`: the gate events
+/// it publishes, in order, and how it ends (none: the calls end first, as
+/// in a recording cut short).
+pub fn replay<'a>(
+    setup: Setup,
+    calls: impl IntoIterator<Item = &'a Call>,
+) -> (Vec<GateEvent>, Option<Ending>) {
+    let mut core = Core::new(setup);
+    let mut gates = Vec::new();
+    let mut drain = |core: &mut Core| {
+        while let Some(out) = core.poll_output() {
+            if let Output::Gate(event) = out {
+                gates.push(event);
+            }
+        }
+    };
+    for call in calls {
+        match call {
+            Call::Handle(now, input) => core.handle(*now, input.clone()),
+            Call::Advance(now) => core.advance(*now),
+        }
+        drain(&mut core);
+    }
+    (gates, core.ending().cloned())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::Supervision;
+    use crate::harness::{self, Case, Schedule};
+
+    /// The harness's launches, logged as the driver logs them, replay to
+    /// the same gate events and ending, through the encoding.
+    #[test]
+    fn a_logged_launch_replays_to_the_same_decisions() {
+        for seed in 0..40 {
+            let case = Case::small(seed);
+            let schedule = Schedule::draw(seed, case.robots, 400);
+            let (report, setup, calls) = harness::run_logged(&case, &schedule);
+            let bytes = encode_calls(&calls);
+            let calls = decode_calls(&bytes).expect("decodes");
+            let setup = decode_setup(&encode_setup(&setup)).expect("decodes");
+            let (gates, ending) = replay(setup, &calls);
+            assert_eq!(gates, report.gates, "seed {seed}");
+            assert_eq!(ending, report.ending, "seed {seed}");
+        }
+    }
+
+    /// A setup recorded before the supervision timers were in the core (no
+    /// settings after it) decodes with them off: its log carries the seams'
+    /// verdicts as inputs and replays as it ran.
+    #[test]
+    fn a_setup_recorded_before_the_timers_decodes_with_them_off() {
+        let case = Case::small(3);
+        let setup = harness::setup(&case, &Schedule::clean(3, case.robots));
+        assert!(setup.supervision.on);
+        let old = postcard::to_allocvec(&setup).expect("encodes");
+        let decoded = decode_setup(&old).expect("an old setup decodes");
+        assert_eq!(decoded.supervision, Supervision::default());
+        assert!(!decoded.supervision.on);
+        let off = Setup { supervision: Supervision::default(), clocks: Default::default(), ..setup.clone() };
+        assert_eq!(decoded, off);
+        assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
+    }
+
+    /// A setup recorded before the clock limits (the setup and its
+    /// supervision only) decodes with them off; one with them keeps them.
+    #[test]
+    fn a_setup_recorded_before_the_clock_limits_decodes_with_them_off() {
+        let case = Case::small(4);
+        let mut setup = harness::setup(&case, &Schedule::clean(4, case.robots));
+        setup.clocks = crate::core::ClockLimits { warn_us: 100_000, limit_us: 500_000 };
+        let mut old = postcard::to_allocvec(&setup).expect("encodes");
+        old.extend(postcard::to_allocvec(&setup.supervision).expect("encodes"));
+        let decoded = decode_setup(&old).expect("an older setup decodes");
+        assert!(!decoded.clocks.on());
+        assert_eq!(decoded, Setup { clocks: Default::default(), ..setup.clone() });
+        assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
+    }
+
+    /// A replay that is handed other inputs reaches other decisions: the
+    /// comparison can fail.
+    #[test]
+    fn a_changed_input_changes_the_replay() {
+        let case = Case::small(3);
+        let (report, setup, mut calls) = harness::run_logged(&case, &Schedule::clean(3, case.robots));
+        // Drop every pose of robot 1: it is never seen to start.
+        calls.retain(|c| !matches!(c, Call::Handle(_, Input::Pose { topic: 1, .. })));
+        let (gates, _) = replay(setup, &calls);
+        assert_ne!(gates, report.gates);
+    }
+}

@@ -1,0 +1,189 @@
+//! A robot's voice taken away while the launch runs: `orchestrator revoke`
+//! and `orchestrator certs --revoke` picked up by a running launch (issue 34).
+//!
+//! Why in the core: zenoh checks no certificate revocation list, and a
+//! running zenoh router keeps the access-control list it started with. So
+//! over QUIC or TLS a revoked robot's certificate still opens a session and
+//! its agent can still publish on its own topics until the orchestrator is
+//! restarted with the rewritten ACL (`certs.rs`). The launch therefore takes
+//! the voice away itself, by one rule tested in virtual time:
+//!
+//! * the robot is told `Stop` once, if its agent runs (a simulated agent
+//!   stays put, a gateway sends its robot the link's stop frame);
+//! * from then on nothing from it changes the launch: each of its reports
+//!   is dropped and counted (the summary's and the status's `revoked`,
+//!   `dropped`), a `Register` for it (any agent instance) is refused with
+//!   [`Refusal::Revoked`], and what its agent source says of it (started,
+//!   gone, unreachable, its token) is ignored;
+//! * it counts as a dead robot whose death the launch goes on from,
+//!   whatever `supervision.on_death` says (the operator chose it, it is no
+//!   fault): moving, it becomes a beacon where it stopped (gate event
+//!   `died`, summary `end: died`); not deployed yet, it is lost and skipped
+//!   at its turn (summary `not_deployed`); already decided (stuck,
+//!   arrived), it keeps its end. Its death's reason says who revoked it
+//!   and why. Its poses are ignored as a dead robot's are.
+//!
+//! The first revocation of a robot counts; asking again changes nothing.
+
+use super::*;
+
+impl Core {
+    /// Takes robot `revoke.robot`'s voice away (see the module docs).
+    pub(super) fn on_revoke(&mut self, now: u64, revoke: Revoke) {
+        let Revoke { robot: id, who, why } = revoke;
+        if self.slot_ref(id).is_none() || self.is_revoked(id) {
+            return;
+        }
+        let by =
+            if why.is_empty() { format!("revoked by {who}") } else { format!("revoked by {who}: {why}") };
+        let unix_ms = self.unix_ms(now);
+        self.revoked.push(RevokedSummary { robot: id, who, why, unix_ms, dropped: 0 });
+        self.watch_stop(id);
+        // A stop `now` under way no longer awaits it: its answer would be
+        // dropped.
+        self.gone_while_stopping(id);
+        self.late.retain(|&late| late != id);
+        if let Some(tick) = self.tick.as_mut() {
+            tick.awaiting.remove(&id);
+            if tick.pose_of == Some(id) {
+                tick.pose_of = None;
+            }
+        }
+        let Some(slot) = self.slot(id) else { return };
+        let running = slot.alive;
+        slot.alive = false;
+        if slot.death.is_none() {
+            slot.death = Some(Death { reason: by.clone(), noticed_unix_ms: unix_ms });
+        }
+        match slot.state {
+            SlotState::Moving => self.queue.push_back(Pending::Died(id)),
+            SlotState::Stuck | SlotState::Arrived | SlotState::Died | SlotState::Unfinished => {}
+            _ => slot.state = SlotState::Lost,
+        }
+        if running {
+            self.outputs.push_back(Output::Send(id, ToAgent::Stop));
+        }
+        let told = if running { "told to stop" } else { "its agent was not running" };
+        self.note(format!("robot {id}: {by}; {told}; its reports are dropped from now on"));
+        self.event(id, EventKind::Revoked, None, Some(by));
+    }
+
+    /// Whether robot `id` was revoked.
+    pub(super) fn is_revoked(&self, id: u32) -> bool {
+        self.revoked.iter().any(|r| r.robot == id)
+    }
+
+    /// The robots revoked so far, in the order they were, each with the
+    /// reports of it dropped since.
+    pub fn revoked(&self) -> &[RevokedSummary] {
+        &self.revoked
+    }
+
+    /// Whether `input` is about a revoked robot, and so changes nothing:
+    /// a report is counted as dropped (a `Register` is also refused), what
+    /// its agent source says of it is ignored. Poses go on to the dead
+    /// robot's rule (ignored, not counted: the launch's own relays of a
+    /// beacon come back on its topic).
+    pub(super) fn revoked_drops(&mut self, input: &Input) -> bool {
+        let id = match input {
+            Input::Report(msg) => msg.robot().0,
+            Input::Started { robot, .. } => *robot,
+            Input::Gone(id, _) | Input::Reach(id, _) | Input::Said(id, _) | Input::Token(id, _) => *id,
+            _ => return false,
+        };
+        let Some(record) = self.revoked.iter_mut().find(|r| r.robot == id) else { return false };
+        if let Input::Report(msg) = input {
+            record.dropped += 1;
+            if let FromAgent::Register(r) = msg {
+                self.refuse(id, r.instance, Refusal::Revoked);
+            }
+        }
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::harness::{self, Case, Schedule};
+    use bycoms_protocol::msg::{Heartbeat, RobotKind};
+
+    fn register(robot: u32, instance: u64) -> Input {
+        Input::Report(FromAgent::Register(Register {
+            robot: RobotId(robot),
+            kind: RobotKind::Simulated,
+            protocol_version: PROTOCOL_VERSION,
+            instance,
+            settings: 0,
+            failsafe_grace_ms: 0,
+        }))
+    }
+
+    fn revoke(robot: u32) -> Input {
+        Input::Revoke(Revoke { robot, who: "me".into(), why: "stolen".into() })
+    }
+
+    /// Everything the core put out since the last call.
+    fn outputs(core: &mut Core) -> Vec<Output> {
+        std::iter::from_fn(|| core.poll_output()).collect()
+    }
+
+    /// In virtual time: a running robot revoked is told `Stop` once, a
+    /// robot not started yet is told nothing; from then on a `Register` of
+    /// either is refused as revoked, every report counted as dropped, what
+    /// the agent source says of them ignored; neither is ever started or
+    /// deployed again, and the launch goes on with the next robot.
+    #[test]
+    fn a_revoked_robot_is_stopped_once_refused_silenced_and_skipped() {
+        let case = Case { robots: 3, ..Case::small(3) };
+        let mut core = Core::new(harness::setup(&case, &Schedule::clean(3, case.robots)));
+        core.advance(0);
+        assert!(outputs(&mut core).contains(&Output::Start(1)), "spawned agents start at their turn");
+        core.handle(0, Input::Started { robot: 1, pid: Some(7), how: "started".into() });
+        core.handle(1_000, register(1, 11));
+        core.advance(1_000);
+        outputs(&mut core);
+
+        core.handle(2_000, revoke(2));
+        let out = outputs(&mut core);
+        assert!(!out.iter().any(|o| matches!(o, Output::Send(..))), "robot 2's agent never ran: {out:?}");
+        assert!(out.iter().any(|o| matches!(o, Output::Event(e) if e.event == EventKind::Revoked)));
+        core.handle(3_000, revoke(1));
+        assert_eq!(core.slots()[0].state(), SlotState::Lost);
+        let out = outputs(&mut core);
+        let stops = out.iter().filter(|o| **o == Output::Send(1, ToAgent::Stop)).count();
+        assert_eq!(stops, 1, "robot 1's agent ran: told Stop once: {out:?}");
+        core.handle(4_000, revoke(1));
+        assert!(outputs(&mut core).is_empty(), "a second revocation changes nothing");
+
+        core.handle(5_000, register(2, 22));
+        let refused = Refused { robot: RobotId(2), instance: 22, why: Refusal::Revoked };
+        assert!(outputs(&mut core).contains(&Output::Send(2, ToAgent::Refused(refused))));
+        core.handle(6_000, Input::Report(FromAgent::Heartbeat(Heartbeat { robot: RobotId(1), seq: 9 })));
+        core.handle(6_000, Input::Gone(1, Gone::Disconnected));
+        core.handle(6_000, Input::Reach(1, Reach::Lost));
+        core.handle(6_000, Input::Started { robot: 2, pid: None, how: "late".into() });
+        let dropped: Vec<(u32, u64)> = core.revoked().iter().map(|r| (r.robot, r.dropped)).collect();
+        assert_eq!(dropped, [(2, 1), (1, 1)], "in the order revoked, each report counted");
+        assert!(core.slots()[0].outages().is_empty(), "nothing the source says of robot 1 counts");
+        assert!(!core.is_running(2));
+
+        for t in (10_000..200_000).step_by(10_000) {
+            core.advance(t);
+            for out in outputs(&mut core) {
+                if let Output::Start(id) = out {
+                    assert_eq!(id, 3, "only robot 3 is started after 1 and 2 were revoked");
+                    core.handle(t, Input::Started { robot: 3, pid: Some(9), how: "started".into() });
+                }
+            }
+        }
+        assert_eq!(
+            core.phase(),
+            Phase::AwaitingRegistration(3),
+            "the launch went on with robot 3: {:?}",
+            core.ending()
+        );
+        let death = core.slots()[1].death().map(|d| d.reason.clone());
+        assert_eq!(death.as_deref(), Some("revoked by me: stolen"));
+    }
+}

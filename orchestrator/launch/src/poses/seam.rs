@@ -1,0 +1,125 @@
+//! The seam itself: what a pose source is ([`PoseSource`]), why one fails
+//! ([`PoseError`]), and where it hands its poses ([`PoseSink`]).
+//!
+//! Why a file of its own: every source (`bus.rs`, `mocap.rs`, `ros2.rs`)
+//! implements these, and `mod.rs` opens the sources (no file cycles).
+
+use crate::recording::Recording;
+use bycoms_protocol::bus::BusError;
+use bycoms_protocol::msg::Pose;
+use bycoms_protocol::{encode, RobotId, Swarm, MAX_MESSAGE_LEN};
+use bycoms_record::schema;
+use bycoms_runtime::Traffic;
+
+/// Why a pose source failed (fatally: the launch ends).
+#[derive(Debug, thiserror::Error)]
+pub enum PoseError {
+    /// The bus failed.
+    #[error("pose source: {0}")]
+    Bus(#[from] BusError),
+    /// Any other failure of a source (its own typed error, boxed).
+    #[error(transparent)]
+    Other(Box<dyn std::error::Error + Send + Sync>),
+}
+
+/// Where the gate's poses come from; see the module docs for the contract.
+pub trait PoseSource {
+    /// The kind of source (`bus`, `natnet`, `replay`), for logs.
+    fn kind(&self) -> &'static str;
+    /// Whether the source reads the launch's bus and records the raw bytes
+    /// itself ([`PoseSink::raw`]); otherwise the sink records decoded poses.
+    fn on_the_bus(&self) -> bool;
+    /// Starts handing over robot `id`'s poses (before its agent starts).
+    fn open_robot(&mut self, id: u32) -> Result<(), PoseError>;
+    /// Hands every pose that arrived since the last call to `sink`; never
+    /// waits.
+    fn drain(&mut self, sink: &mut PoseSink<'_>) -> Result<(), PoseError>;
+    /// Robot `id` is being carried to the start by hand (`true`), or has
+    /// been placed there (`false`). While it is carried any speed is
+    /// plausible: a source that rejects moves faster than a robot drives
+    /// (motion capture's identity-swap check) must hand them over; once it
+    /// is placed, that check starts again from where it was placed. Sources
+    /// without such a check ignore it (the default).
+    fn carried(&mut self, _id: u32, _by_hand: bool) {}
+    /// How this source confirms that a robot was placed at the start, when
+    /// it has settings of its own for that (NatNet's `[mocap.natnet.placement]`);
+    /// `None` (the default): the agents' `[agents.placement]` applies.
+    fn placement(&self) -> Option<bycoms_mocap::PlacementConfig> {
+        None
+    }
+}
+
+/// Where a source hands its poses: the engine's intake, with the recording
+/// and the bad-traffic counters of the launch.
+pub struct PoseSink<'a> {
+    recording: &'a mut Recording,
+    traffic: &'a mut Traffic,
+    swarm: &'a Swarm,
+    poses: &'a mut Vec<(u32, Pose)>,
+    record_decoded: bool,
+    recorded: u64,
+}
+
+const WHO: &str = "launch";
+
+impl<'a> PoseSink<'a> {
+    /// A sink appending to `poses`. `record_decoded`: record each handed
+    /// pose (for sources that are not on the bus; see the module docs).
+    pub fn new(
+        recording: &'a mut Recording,
+        traffic: &'a mut Traffic,
+        swarm: &'a Swarm,
+        poses: &'a mut Vec<(u32, Pose)>,
+        record_decoded: bool,
+    ) -> Self {
+        Self { recording, traffic, swarm, poses, record_decoded, recorded: 0 }
+    }
+
+    /// One pose of robot `robot` as the source saw it.
+    pub fn pose(&mut self, robot: u32, pose: Pose) {
+        if self.record_decoded {
+            let mut buf = [0u8; MAX_MESSAGE_LEN];
+            match encode(&pose, &mut buf) {
+                Ok(bytes) => {
+                    let topic = self.swarm.pose(RobotId(robot));
+                    self.recording.bytes(topic.name().as_str(), schema::POSE, bytes);
+                    self.recorded += 1;
+                }
+                // A pose always fits one message; should it not, it is
+                // still judged, and the failure shows in the log.
+                Err(e) => tracing::warn!(robot, "cannot record a pose: {e}"),
+            }
+        }
+        self.poses.push((robot, pose));
+    }
+
+    /// The bytes of one message as they crossed the bus on `topic`, before
+    /// decoding (bus sources only).
+    pub fn raw(&mut self, topic: &str, bytes: &[u8]) {
+        self.recording.bytes(topic, schema::POSE, bytes);
+        self.recorded += 1;
+    }
+
+    /// Something the source could not use, from `topic`: counted (and
+    /// logged, thinned) if it is bad traffic, returned if it is fatal.
+    pub fn bad(&mut self, topic: &str, error: BusError) -> Result<(), PoseError> {
+        match self.traffic.absorb(WHO, topic, error) {
+            None => Ok(()),
+            Some(fatal) => Err(fatal.into()),
+        }
+    }
+
+    /// Records what a source received that is not a pose — e.g. a mocap
+    /// frame's datagram, so a replay can derive the poses again — on
+    /// `bycoms/<swarm>/<leaf>` with `schema`. Not counted in
+    /// [`PoseSink::recorded`] (which counts poses).
+    pub fn record_source_bytes(&mut self, leaf: &str, schema: &str, bytes: &[u8]) {
+        let topic = schema::Topics::new(self.swarm.as_str()).leaf(leaf);
+        self.recording.bytes(&topic, schema, bytes);
+    }
+
+    /// Messages recorded through this sink (raw or decoded).
+    pub fn recorded(&self) -> u64 {
+        self.recorded
+    }
+}

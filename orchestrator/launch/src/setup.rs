@@ -1,0 +1,271 @@
+//! The launch core's [`Setup`] from the config and the seams' properties.
+//!
+//! Why apart from the core: the core knows no config file and no kind of
+//! agent, transport or mocap; it gets numbers and properties. Resolving
+//! them (which placement settings apply, the budget in steps, the wall
+//! period) happens once, here.
+
+use super::agents::remote::QUIET_HEARTBEATS;
+use super::agents::AgentSource;
+use super::config::{Clock, LaunchConfig};
+use super::core::{AgentTraits, ClockLimits, Setup, Supervision};
+use super::poses::PoseSource;
+use super::World;
+use bycoms_runtime::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};
+use bycoms_runtime::BusArgs;
+use bycoms_sim::sim_agent::{AgentArgs, RunSettings, DEFAULT_SETTINGS_TIMEOUT_S};
+use bycoms_sim::Vec2;
+use bycoms_study::gate::GateParams;
+use std::path::PathBuf;
+use std::time::Duration;
+use std::time::{SystemTime, UNIX_EPOCH};
+
+/// What the seams say of themselves that the core's setup needs: the
+/// agent source's and the pose source's properties, as plain values (so
+/// the launch harness declares the seams it simulates and gets the very
+/// setup a launch with them gets).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Seams {
+    /// The agent source's kind ([`AgentSource::kind`]).
+    pub kind: &'static str,
+    /// [`AgentSource::all_at_once`].
+    pub all_at_once: bool,
+    /// [`AgentSource::needs_placement`].
+    pub needs_placement: bool,
+    /// [`AgentSource::stop_when_stuck`].
+    pub stop_when_stuck: bool,
+    /// [`AgentSource::start_hint`].
+    pub start_hint: &'static str,
+    /// [`AgentSource::wants_poses`].
+    pub wants_poses: bool,
+    /// [`AgentSource::senses_beacons`].
+    pub senses_beacons: bool,
+    /// [`PoseSource::on_the_bus`].
+    pub poses_on_the_bus: bool,
+    /// [`PoseSource::placement`].
+    pub mocap_placement: Option<bycoms_mocap::PlacementConfig>,
+    /// [`AgentSource::held_when_unreachable`].
+    pub held_when_unreachable: bool,
+    /// [`AgentSource::robot_link_grace`].
+    pub robot_link_grace: Option<Duration>,
+}
+
+impl Seams {
+    /// What `agents` and `poses` say of themselves.
+    pub fn of(agents: &dyn AgentSource, poses: &dyn PoseSource) -> Self {
+        Self {
+            kind: agents.kind(),
+            all_at_once: agents.all_at_once(),
+            needs_placement: agents.needs_placement(),
+            stop_when_stuck: agents.stop_when_stuck(),
+            start_hint: agents.start_hint(),
+            wants_poses: agents.wants_poses(),
+            senses_beacons: agents.senses_beacons(),
+            poses_on_the_bus: poses.on_the_bus(),
+            mocap_placement: poses.placement(),
+            held_when_unreachable: agents.held_when_unreachable(),
+            robot_link_grace: agents.robot_link_grace(),
+        }
+    }
+}
+
+/// The core's setup for a launch of `cfg` in `world`.
+pub fn setup(
+    cfg: &LaunchConfig,
+    world: &World,
+    template: &AgentArgs,
+    agents: &dyn AgentSource,
+    poses: &dyn PoseSource,
+) -> Setup {
+    let unix_ms = SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_millis() as u64).unwrap_or(0);
+    setup_of(cfg, world, template, &Seams::of(agents, poses), unix_ms)
+}
+
+/// The core's setup for a launch of `cfg` in `world` with seams `seams`,
+/// started at `unix_base_ms` (ms since the Unix epoch).
+pub fn setup_of(
+    cfg: &LaunchConfig,
+    world: &World,
+    template: &AgentArgs,
+    seams: &Seams,
+    unix_base_ms: u64,
+) -> Setup {
+    let mut run = template.run_config();
+    run.time_limit = cfg.time_limit;
+    let placement = seams.needs_placement.then(|| seams.mocap_placement.unwrap_or(cfg.agents.placement));
+    Setup {
+        robots: cfg.robots,
+        lockstep: cfg.clock == Clock::Lockstep,
+        params: gate_params(cfg, world.goal),
+        step_limit: run.step_limit(),
+        wall_period_us: cfg.wall_period().as_micros() as u64,
+        speed: cfg.speed,
+        tick_timeout_us: (cfg.supervision.tick_timeout * 1e6) as u64,
+        on_death: cfg.gate.on_agent_death,
+        missing: cfg.supervision.missing,
+        prespawn: cfg.gate.prespawn,
+        start: world.start,
+        goal: world.goal,
+        max_speed: cfg.gate.max_speed,
+        link_grace_s: cfg.supervision.link_grace,
+        register_timeout_s: cfg.supervision.register_timeout,
+        agents: AgentTraits {
+            kind: seams.kind.to_string(),
+            all_at_once: seams.all_at_once,
+            stop_when_stuck: seams.stop_when_stuck,
+            start_hint: seams.start_hint.to_string(),
+            placement,
+            forward_poses: !seams.poses_on_the_bus && seams.wants_poses,
+            beacons: seams.senses_beacons,
+        },
+        unix_base_ms,
+        settings: run_settings(template, world).fingerprint(),
+        supervision: supervision(cfg, seams.held_when_unreachable, seams.robot_link_grace),
+        clocks: clock_limits(cfg),
+    }
+}
+
+/// The limits of the agents' clock offsets: the config's, in µs.
+pub fn clock_limits(cfg: &LaunchConfig) -> ClockLimits {
+    let us = |s: f64| (s * 1e6).round() as u64;
+    ClockLimits { warn_us: us(cfg.supervision.clock_warn), limit_us: us(cfg.supervision.clock_limit) }
+}
+
+/// The supervision timers' settings: the config's timeouts, with the link
+/// grace and the quiet rule for agents that can come back (`held`,
+/// [`AgentSource::held_when_unreachable`]) and the robot-link grace for
+/// sources of real robots ([`AgentSource::robot_link_grace`]).
+pub fn supervision(cfg: &LaunchConfig, held: bool, robot_link_grace: Option<Duration>) -> Supervision {
+    let us = |s: f64| (s * 1e6).round() as u64;
+    let sup = &cfg.supervision;
+    Supervision {
+        on: true,
+        register_timeout_us: us(sup.register_timeout),
+        heartbeat_timeout_us: us(sup.heartbeat_timeout),
+        link_grace_us: if held { us(sup.link_grace) } else { 0 },
+        quiet_us: if held { us(sup.heartbeat_interval * f64::from(QUIET_HEARTBEATS)) } else { 0 },
+        robot_link_grace_us: robot_link_grace.map(|g| g.as_micros() as u64),
+    }
+}
+
+/// The run's settings: what spawned agents build from `template`'s flags
+/// and the terrain text they are handed, and what the launch serves to
+/// agents started elsewhere (over zenoh). One builder
+/// ([`RunSettings::of`]) on both sides, so one fingerprint.
+pub fn run_settings(template: &AgentArgs, world: &World) -> RunSettings {
+    match RunSettings::of(template, world.terrain_text.clone()) {
+        Some(settings) => settings,
+        None => unreachable!("the launch's agent template always carries --eps"),
+    }
+}
+
+/// The gate's motion test for `cfg` with the goal at `goal`.
+pub fn gate_params(cfg: &LaunchConfig, goal: Vec2) -> GateParams {
+    GateParams {
+        goal,
+        goal_radius: cfg.goal_radius,
+        stop_speed: cfg.gate.stop_speed,
+        stop_turn_rate: cfg.gate.stop_turn_rate,
+        dwell_us: (cfg.gate.dwell * 1e6).round() as u64,
+        period_us: cfg.dt_us(),
+    }
+}
+
+/// The flags of every agent this launch starts (the robot id is set per
+/// agent): the run's parameters, the bus and where it listens, and a
+/// failsafe grace no shorter than the launch's link grace. An agent that
+/// lost the orchestrator for longer than its grace stops its robot and
+/// exits; with a shorter grace than the launch's, a cut the launch would
+/// ride out (holding the robot, then resuming) would cost the robot.
+pub fn agent_template(cfg: &LaunchConfig, swarm: String, endpoints: Vec<String>) -> AgentArgs {
+    let failsafe =
+        FailsafeArgs { grace_s: cfg.supervision.link_grace.max(DEFAULT_GRACE_S), ..FailsafeArgs::default() };
+    AgentArgs {
+        swarm,
+        robot: 1,
+        terrain: Some(PathBuf::from("-")),
+        eps: Some(cfg.eps),
+        noise: cfg.noise,
+        seed: cfg.seed,
+        clock: cfg.clock,
+        speed: cfg.speed,
+        swarm_size: Some(cfg.robots),
+        parent_pid: Some(std::process::id() as i32),
+        heartbeat_ms: heartbeat_ms(cfg),
+        parked_heartbeat_ms: Some(parked_heartbeat_ms(cfg)),
+        settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
+        bus: BusArgs { transport: cfg.transport.kind, connect: endpoints, zenoh_config: None },
+        failsafe,
+    }
+}
+
+/// The agents' heartbeat period, ms.
+fn heartbeat_ms(cfg: &LaunchConfig) -> u64 {
+    (cfg.supervision.heartbeat_interval * 1000.0).round().max(1.0) as u64
+}
+
+/// A parked robot's agent's heartbeat period, ms: a quarter of the
+/// heartbeat timeout (four beats per timeout, as the default 0.1 s beat
+/// has twenty), at most 1 s, never faster than the heartbeat. Such a robot
+/// gets no tick and will not move again; its agent only says it is alive.
+fn parked_heartbeat_ms(cfg: &LaunchConfig) -> u64 {
+    let quarter = (cfg.supervision.heartbeat_timeout * 1000.0 / 4.0).floor() as u64;
+    quarter.min(1000).max(heartbeat_ms(cfg))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parked_agents_beat_four_times_per_heartbeat_timeout_at_most_once_a_second() {
+        let parked = |interval: f64, timeout: f64| {
+            let mut cfg = LaunchConfig::default();
+            (cfg.supervision.heartbeat_interval, cfg.supervision.heartbeat_timeout) = (interval, timeout);
+            agent_template(&cfg, "s".into(), Vec::new()).parked_heartbeat_ms
+        };
+        assert_eq!(parked(0.1, 2.0), Some(500), "the defaults");
+        assert_eq!(parked(0.1, 10.0), Some(1000), "at most 1 s");
+        assert_eq!(parked(0.1, 0.3), Some(100), "never faster than the heartbeat");
+        let flags = agent_template(&LaunchConfig::default(), "s".into(), Vec::new()).to_flags();
+        assert!(flags.windows(2).any(|w| w == ["--parked-heartbeat-ms", "500"]), "{flags:?}");
+    }
+
+    #[test]
+    fn started_agents_hold_on_at_least_as_long_as_the_launch_holds_them() {
+        let mut cfg = LaunchConfig::default();
+        let grace = |cfg: &LaunchConfig| agent_template(cfg, "s".into(), Vec::new()).failsafe.grace_s;
+        assert_eq!(grace(&cfg), DEFAULT_GRACE_S);
+        cfg.supervision.link_grace = 5.0;
+        assert_eq!(grace(&cfg), 5.0);
+        cfg.supervision.link_grace = 0.0;
+        assert_eq!(grace(&cfg), DEFAULT_GRACE_S);
+        let flags = agent_template(&cfg, "s".into(), Vec::new()).to_flags();
+        assert!(flags.windows(2).any(|w| w[0] == "--orchestrator-grace"), "{flags:?}");
+    }
+
+    #[test]
+    fn the_launch_s_fingerprint_is_what_its_spawned_agents_compute() {
+        use bycoms_sim::sim_agent::options::{parse_from, SimAgentRun};
+        let world = World::tiny();
+        let mut cfg =
+            LaunchConfig { eps: 0.1 + 0.2, seed: 7, noise: true, speed: 2.5, ..LaunchConfig::default() };
+        cfg.robots = 5;
+        let template = agent_template(&cfg, "s".into(), Vec::new());
+        let launch = run_settings(&template, &world);
+        // Robot 3 as spawned: the template's flags, the terrain on stdin.
+        let mut args = template.clone();
+        args.robot = 3;
+        let flags = std::iter::once("sim-agent".to_string()).chain(args.to_flags());
+        let SimAgentRun::Robot(parsed) = parse_from(flags).expect("the flags parse").1 else {
+            panic!("a robot's flags")
+        };
+        assert_eq!(parsed, args, "sim-agent reads what the launch means");
+        let agent = RunSettings::of(&parsed, world.terrain_text.clone()).expect("settings");
+        assert_eq!(agent, launch);
+        assert_eq!(agent.fingerprint(), launch.fingerprint());
+        assert_ne!(launch.fingerprint(), 0);
+        assert_eq!(launch.swarm_size, 5);
+        assert_eq!(launch.eps.to_bits(), (0.1f64 + 0.2).to_bits());
+    }
+}

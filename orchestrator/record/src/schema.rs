@@ -1,0 +1,176 @@
+//! Every schema name, message encoding and topic a launch recording uses, defined once.
+//!
+//! Why one module: a recording is written in one place (the launch: `launch::ports`,
+//! `launch::recording`, `launch::events`, the scene, the mocap sources) and read in three
+//! (`draw`, `replay`, `record recover`, all through [`super::read`] and [`super::decode`]). A
+//! name spelled twice drifts: the reader silently stops finding what the writer wrote, and
+//! old recordings stop replaying. Writers and readers import the names from here; the
+//! dispatch from a name to a decoded message is in [`super::decode`], also once.
+//!
+//! Bus topics (`bycoms/<swarm>/robot/<k>/pose`, …/to_agent, …/from_agent, …/gate,
+//! …/operator) are the protocol's (`bycoms_protocol::Swarm`): a recording keeps the names the
+//! bus uses. The topics below are the recording's own, beside them in the same tree.
+
+use bycoms_protocol::RobotId;
+
+/// Message encoding of raw protocol bytes (bus messages exactly as they crossed the bus).
+pub const POSTCARD: &str = "postcard";
+
+/// Message encoding of the JSON channels.
+pub const JSON: &str = "json";
+
+// Bus messages, recorded as postcard bytes (schema encoding empty: postcard is not
+// self-describing).
+
+/// Orchestrator → agent commands (`robot/<k>/to_agent`).
+pub const TO_AGENT: &str = "bycoms.ToAgent";
+/// Agent → orchestrator reports (`robot/<k>/from_agent`).
+pub const FROM_AGENT: &str = "bycoms.FromAgent";
+/// Motion capture poses (`robot/<k>/pose`).
+pub const POSE: &str = "bycoms.Pose";
+/// Gate decisions (`gate`).
+pub const GATE: &str = "bycoms.GateEvent";
+/// Placement requests to the lab's operator (`operator`).
+pub const OPERATOR: &str = "bycoms.Deploy";
+
+// The launch core's log (postcard of `launch::core::log`'s types): what the replay re-runs.
+
+/// The launch core's setup (`core/setup`).
+pub const CORE_SETUP: &str = "bycoms.CoreSetup";
+/// Calls the launch made on its core (`core/calls`).
+pub const CORE_CALLS: &str = "bycoms.CoreCalls";
+
+// Motion capture as received (the NatNet datagram's bytes).
+
+/// A NatNet frame of data (`mocap/natnet`).
+pub const NATNET_FRAME: &str = "natnet.FrameOfData";
+/// The NatNet model definitions, a `NAT_MODELDEF` packet (`mocap/natnet_modeldef`).
+pub const NATNET_MODELDEF: &str = "natnet.ModelDef";
+
+// The launch's JSON channels (`launch::events`), each with a JSON schema.
+
+/// The run's metadata (`run`), written first: terrain, start, goal, configuration.
+pub const RUN: &str = "bycoms.LaunchConfig";
+/// Agents' comings and goings (`events`).
+pub const EVENT: &str = "bycoms.LaunchEvent";
+/// The launch summary (`summary`).
+pub const SUMMARY: &str = "bycoms.LaunchSummary";
+
+// The scene's JSON channels (`crate::scene::json`); its protobuf channels use Foxglove's
+// well-known schema names (`foxglove.SceneUpdate`, …), which the SDK names.
+
+/// A robot's pose as JSON (`robot/<k>/pose/json`).
+pub const ROBOT_POSE: &str = "bycoms.RobotPose";
+/// A robot's controller mode (`robot/<k>/mode`).
+pub const ROBOT_MODE: &str = "bycoms.RobotMode";
+/// A robot's agent reports as JSON (`robot/<k>/telemetry`).
+pub const TELEMETRY: &str = "bycoms.Telemetry";
+/// A gate decision as JSON (`gate/json`).
+pub const GATE_DECISION: &str = "bycoms.GateDecision";
+
+// The live view's own JSON channels (`bycoms_orchestrator::live`): not recorded, named here with the rest
+// so that one file lists every schema name the orchestrator writes.
+
+/// The live view's run state (`bycoms_orchestrator::live`).
+pub const LIVE_STATE: &str = "bycoms.live.State";
+/// The live view's world (`bycoms_orchestrator::live`).
+pub const LIVE_WORLD: &str = "bycoms.live.World";
+
+/// Name of the metadata record that says what the log times mean.
+pub const CLOCK_METADATA: &str = "bycoms.clock";
+
+/// The recording's own topics of one swarm, all under `bycoms/<swarm>/`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Topics {
+    prefix: String,
+}
+
+impl Topics {
+    /// The topics of swarm `swarm`.
+    pub fn new(swarm: &str) -> Self {
+        Self { prefix: format!("bycoms/{swarm}") }
+    }
+    /// A topic `leaf` of the swarm, `bycoms/<swarm>/<leaf>`.
+    pub fn leaf(&self, leaf: &str) -> String {
+        format!("{}/{leaf}", self.prefix)
+    }
+    /// The run metadata ([`RUN`]).
+    pub fn run(&self) -> String {
+        self.leaf(RUN_LEAF)
+    }
+    /// `foxglove.SceneUpdate`.
+    pub fn scene(&self) -> String {
+        self.leaf("scene")
+    }
+    /// `foxglove.FrameTransforms`.
+    pub fn tf(&self) -> String {
+        self.leaf("tf")
+    }
+    /// `foxglove.Log`.
+    pub fn log(&self) -> String {
+        self.leaf("log")
+    }
+    /// Gate decisions as JSON ([`GATE_DECISION`]).
+    pub fn gate_json(&self) -> String {
+        self.leaf("gate/json")
+    }
+    /// Robot `k`'s poses as JSON ([`ROBOT_POSE`]).
+    pub fn pose_json(&self, k: u32) -> String {
+        format!("{}/robot/{k}/pose/json", self.prefix)
+    }
+    /// Robot `k`'s mode ([`ROBOT_MODE`]).
+    pub fn mode(&self, k: u32) -> String {
+        format!("{}/robot/{k}/mode", self.prefix)
+    }
+    /// Robot `k`'s agent reports ([`TELEMETRY`]).
+    pub fn telemetry(&self, k: u32) -> String {
+        format!("{}/robot/{k}/telemetry", self.prefix)
+    }
+}
+
+/// Leaf of the run metadata topic.
+pub const RUN_LEAF: &str = "run";
+/// Leaf of the recorded NatNet frames ([`NATNET_FRAME`]).
+pub const NATNET_FRAME_LEAF: &str = "mocap/natnet";
+/// Leaf of the recorded NatNet model definitions ([`NATNET_MODELDEF`]).
+pub const NATNET_MODELDEF_LEAF: &str = "mocap/natnet_modeldef";
+
+/// Whether `topic` is a swarm's run metadata topic (`bycoms/<swarm>/run`), whatever the swarm.
+pub fn is_run_topic(topic: &str) -> bool {
+    topic.strip_suffix(RUN_LEAF).is_some_and(|rest| rest.ends_with('/'))
+}
+
+/// The robot of a `…/robot/<k>/…` topic, whatever the swarm (a recording's reader does not
+/// know the swarm before it has read the run metadata).
+pub fn robot_of_topic(topic: &str) -> Option<RobotId> {
+    let mut parts = topic.split('/');
+    parts.by_ref().find(|p| *p == "robot")?;
+    parts.next()?.parse().ok().map(RobotId)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn robot_ids_come_from_the_topic() {
+        assert_eq!(robot_of_topic("bycoms/s/robot/12/to_agent"), Some(RobotId(12)));
+        assert_eq!(robot_of_topic("bycoms/s/gate"), None);
+        assert_eq!(robot_of_topic("bycoms/s/robot/x/pose"), None);
+    }
+
+    #[test]
+    fn the_run_topic_is_known_by_its_leaf() {
+        assert!(is_run_topic(&Topics::new("lab-1").run()));
+        assert!(!is_run_topic("bycoms/lab-1/rerun"));
+        assert!(!is_run_topic("run"));
+    }
+
+    /// The bus topics the recording keeps are the protocol's, under the same prefix.
+    #[test]
+    fn the_recordings_topics_share_the_protocols_tree() {
+        let swarm = bycoms_protocol::Swarm::new("lab-1").expect("a swarm name");
+        let gate = *swarm.gate().name();
+        assert_eq!(Topics::new("lab-1").leaf("gate"), gate.as_str());
+    }
+}

@@ -1,0 +1,100 @@
+//! A launch's run read back from its recording: the run metadata (terrain,
+//! start, goal, ε, clock), every pose and gate decision, and real robots'
+//! telemetry, decoded from the bus bytes — what `orchestrator draw
+//! FILE.mcap` draws.
+//!
+//! Read with the recording's one streaming reader ([`bycoms_record::Reader`],
+//! as `replay` and `record recover` read), its messages decoded by
+//! [`bycoms_record::decode`], so a recording cut by a crash draws up to its
+//! last complete chunk.
+//!
+//! Why in `draw` and not in `record`: reading a run back for its picture
+//! builds the picture's [`Trace`] and [`Measurements`]; the recording knows
+//! no pictures (pictures sit above it, ARCHITECTURE.md, "Layers of the
+//! orchestrator").
+
+use std::path::Path;
+
+use serde::Deserialize;
+
+use super::measurements::Measurements;
+use super::trace::Trace;
+use bycoms_record::decode::{decode_message, Content};
+use bycoms_record::read::{Item, Reader};
+use bycoms_record::{schema, RecordError};
+
+/// The run metadata a launch records first.
+#[derive(Debug, Clone, Deserialize)]
+pub struct RunMeta {
+    /// Where the terrain came from.
+    pub terrain: String,
+    /// The terrain in the text format (recordings since this field exists).
+    pub terrain_text: Option<String>,
+    /// Start position.
+    pub start: bycoms_sim::Vec2,
+    /// Goal position.
+    pub goal: bycoms_sim::Vec2,
+    /// The swarm name.
+    #[serde(default)]
+    pub swarm: Option<String>,
+    /// The launch configuration (ε, clock, …) as recorded.
+    pub config: serde_json::Value,
+}
+
+impl RunMeta {
+    /// ε of the run.
+    pub fn eps(&self) -> Option<f64> {
+        self.config["eps"].as_f64()
+    }
+
+    /// `lockstep` or `realtime`.
+    pub fn clock(&self) -> &str {
+        self.config["clock"].as_str().unwrap_or("?")
+    }
+}
+
+/// What a recording says about its run.
+#[derive(Debug, Clone)]
+pub struct RecordedRun {
+    /// The run metadata, unless it does not parse.
+    pub meta: Option<RunMeta>,
+    /// Poses and gate decisions in recording order.
+    pub trace: Trace,
+    /// Poses and robot telemetry, for the measurement picture.
+    pub measurements: Measurements,
+    /// Bus messages on pose or gate channels that did not decode (garbage is recorded too).
+    pub undecodable: u64,
+    /// `None` if read to its end; otherwise why reading stopped (a cut recording).
+    pub stopped_by: Option<String>,
+}
+
+/// Reads the run of the recording at `path`: a launch recording
+/// ([`RecordError::NotLaunch`] otherwise), undamaged ([`RecordError::Damaged`]).
+pub fn read_run(path: &Path) -> Result<RecordedRun, RecordError> {
+    let mut run = RecordedRun {
+        meta: None,
+        trace: Trace::new(),
+        measurements: Measurements::new(),
+        undecodable: 0,
+        stopped_by: None,
+    };
+    let end = Reader::open(path)?.stream(|item| {
+        let Item::Message { channel, data, .. } = item else { return Ok::<_, RecordError>(()) };
+        match decode_message(channel, data) {
+            // The first run record is the run's.
+            Content::Run(json) if run.meta.is_none() => run.meta = serde_json::from_slice(json).ok(),
+            Content::Pose(pose) => {
+                run.trace.pose(&pose);
+                run.measurements.pose(&pose);
+            }
+            Content::Report(report) => run.measurements.report(&report),
+            Content::Gate(event) => run.trace.gate(&event),
+            Content::Undecodable { schema: schema::POSE | schema::GATE } => run.undecodable += 1,
+            _ => {}
+        }
+        Ok(())
+    })?;
+    end.launch_recording(path)?;
+    run.stopped_by = end.stopped_by;
+    Ok(run)
+}
