@@ -17,8 +17,7 @@
 //!
 //! The same reader also sees files: in every workspace crate with a `src/`,
 //! no two files may use each other, directly or round a loop (see "No file
-//! cycles" below for what a use between files is, and the list of the
-//! cycles still to break).
+//! cycles" below for what a use between files is).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

@@ -24,19 +24,6 @@
 
 use super::*;
 
-pub use bycoms_protocol::bus::zenoh::clock::{ClockLimits, ClockVerdict};
-
-/// One robot's last measured clock offset.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct ClockReading {
-    /// Its host's clock minus the orchestrator's, µs.
-    pub offset_us: i64,
-    /// The round trip of the measurement, µs.
-    pub round_trip_us: u32,
-    /// When it was reported, µs of launch time.
-    pub at_us: u64,
-}
-
 /// The refusal of an agent whose host is `offset_us` off, past `limits`.
 fn refusal(limits: &ClockLimits, offset_us: i64) -> Refusal {
     let ms = (offset_us / 1000).clamp(i64::from(i32::MIN), i64::from(i32::MAX));

@@ -57,7 +57,9 @@
 //! every call, which `orchestrator replay` plays back; `beacons.rs` the
 //! beacons the simulated agents are told.
 
+mod beacon_table;
 mod beacons;
+mod clock_reading;
 mod clocks;
 mod ending;
 mod inputs;
@@ -69,17 +71,19 @@ mod silence;
 mod slot;
 mod steps;
 mod stop;
+mod stopping;
 mod timers;
 mod wait;
+mod watch;
 
-pub use clocks::{ClockLimits, ClockReading, ClockVerdict};
+pub use clock_reading::{ClockLimits, ClockReading, ClockVerdict};
 pub use ending::{DiedWhen, Fault};
 pub use plausible::Implausible;
 pub use referee::{Closed, Referee};
 pub use slot::{FrameCount, Slot, SlotState};
-pub use stop::STOP_WAIT_US;
-pub use timers::Supervision;
+pub use stopping::STOP_WAIT_US;
 pub use wait::{AnswerTime, AnswerWait, MIN_RESEND_US, RESEND_US};
+pub use watch::Supervision;
 
 use super::agents::{Gone, Reach};
 use super::config::{Missing, OnDeath};
@@ -403,16 +407,16 @@ pub struct Core {
     relay_at: u64,
     relay_frame: u64,
     ending: Option<Ending>,
-    beacons: beacons::BeaconTable,
+    beacons: beacon_table::BeaconTable,
     /// When motion capture last handed over each robot's pose, µs
     /// (`silence.rs`).
     mocap_heard: Vec<Option<u64>>,
     /// The stop asked from outside, once asked (`stop.rs`).
     stop: Option<StopSummary>,
     /// A stop `now` awaiting its answers (`stop.rs`).
-    stopping: Option<stop::Stopping>,
+    stopping: Option<stopping::Stopping>,
     /// Each robot's supervision timers (`timers.rs`).
-    watches: Vec<timers::Watch>,
+    watches: Vec<watch::Watch>,
     /// The robots revoked, in the order they were (`revoke.rs`).
     revoked: Vec<RevokedSummary>,
 }
@@ -448,11 +452,11 @@ impl Core {
             relay_at: 0,
             relay_frame: 0,
             ending: None,
-            beacons: beacons::BeaconTable::default(),
+            beacons: beacon_table::BeaconTable::default(),
             mocap_heard: vec![None; setup.robots as usize],
             stop: None,
             stopping: None,
-            watches: vec![timers::Watch::default(); setup.robots as usize],
+            watches: vec![watch::Watch::default(); setup.robots as usize],
             revoked: Vec::new(),
             setup,
         }

@@ -24,29 +24,9 @@
 //! was moving ends `unfinished`, as every moving robot of a stopped
 //! launch does). A robot revoked meanwhile is counted silent too.
 
+use super::stopping::{Stopping, STOP_RESEND_US};
 use super::*;
 use crate::summary::StopAnswer;
-
-/// How long a stop `now` waits for every robot's answer, µs: past it the
-/// launch ends anyway and names the robots that did not answer.
-pub const STOP_WAIT_US: u64 = 1_000_000;
-
-/// The first re-send of `Stop` to a silent robot, µs: a few control
-/// periods of a simulated robot at speed 10, well under the stop's wait.
-/// Not the answer time of the launch's other waits (`wait.rs`): a real-time
-/// launch has none timed (its first re-send would be 100 ms), and a robot
-/// whose agent had just started when the stop came (its commands not
-/// subscribed yet) lost the first `Stop` (`bench stop`: the launch answered
-/// after 110 ms instead of 10).
-const STOP_RESEND_US: u64 = 20_000;
-
-/// A stop `now` under way: `Stop` sent, answers awaited.
-#[derive(Clone, Debug)]
-pub(super) struct Stopping {
-    wait: AnswerWait,
-    /// The robots whose `StopDone` has not come.
-    awaiting: BTreeSet<u32>,
-}
 
 impl Core {
     /// Books a stop (the first one asked).

@@ -20,65 +20,8 @@
 //! these timers decodes with them off ([`Supervision::on`] false): its
 //! recorded log carries the seams' verdicts as inputs, and replays as it ran.
 
+use super::watch::Watch;
 use super::*;
-
-/// The supervision settings of a launch, µs.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Supervision {
-    /// Whether the core keeps the timers (false: a setup recorded before
-    /// it did; the verdicts are inputs then).
-    pub on: bool,
-    /// A started agent must register within this long.
-    pub register_timeout_us: u64,
-    /// A registered agent silent this long is gone ([`Gone::Silent`]), or
-    /// unreachable with a link grace.
-    pub heartbeat_timeout_us: u64,
-    /// How long an unreachable agent is held before it is gone
-    /// ([`Gone::Unreachable`]); zero: no holding (a withdrawn token is
-    /// [`Gone::Disconnected`] at once). Agents that can come back only
-    /// (remote agents, gateways elsewhere).
-    pub link_grace_us: u64,
-    /// With a link grace: the silence after which a heard agent is
-    /// unreachable (zero: only the heartbeat timeout). Not for a parked
-    /// robot's agent: it beats slower (four times per heartbeat timeout).
-    pub quiet_us: u64,
-    /// How long a robot's own link reported down must stay down before the
-    /// robot is gone ([`Gone::RobotLinkLost`]); none: robot links are not
-    /// watched (simulated agents have none).
-    pub robot_link_grace_us: Option<u64>,
-}
-
-/// One robot's timers (all µs of launch time).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Watch {
-    /// Supervised since its agent was started (none: not supervised).
-    started: Option<u64>,
-    /// When it was last heard from, once registered.
-    heard: Option<u64>,
-    /// Unreachable since (link grace running).
-    unreachable: Option<u64>,
-    /// Its robot's link down since (robot-link grace running).
-    link_down: Option<u64>,
-}
-
-impl Watch {
-    /// The next time one of this robot's timers expires (`quiet`: its
-    /// quiet rule, none for a parked robot).
-    fn due(&self, s: &Supervision, quiet: u64) -> Option<u64> {
-        let started = self.started?;
-        let hold = s.link_grace_us > 0;
-        let mut due = match (self.unreachable, self.heard) {
-            (Some(since), _) => since.saturating_add(s.link_grace_us),
-            (None, Some(h)) if hold && quiet > 0 => h.saturating_add(quiet.min(s.heartbeat_timeout_us)),
-            (None, Some(h)) => h.saturating_add(s.heartbeat_timeout_us),
-            (None, None) => started.saturating_add(s.register_timeout_us),
-        };
-        if let (Some(down), Some(grace)) = (self.link_down, s.robot_link_grace_us) {
-            due = due.min(down.saturating_add(grace));
-        }
-        Some(due)
-    }
-}
 
 /// What an expired timer means.
 enum Expired {

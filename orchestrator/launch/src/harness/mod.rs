@@ -41,7 +41,7 @@ pub use figures::{missing_robots, MissingFigures};
 pub use net::{Link, Net, Packet, Partition};
 pub use real::{Body, RealRobot, ORPHAN_BOUND_US, STOP_BOUND_US};
 pub use schedule::{Crash, Foreign, Placing, Schedule, PLACEMENT};
-use world::play;
+pub use world::{run, run_logged};
 
 use super::agents::Gone;
 use super::config::{Clock, LaunchConfig, Missing, OnDeath};
@@ -281,16 +281,4 @@ impl Launch {
 /// the launch's own ([`Launch::setup`]).
 pub fn setup(case: &Case, schedule: &Schedule) -> Setup {
     Launch::of(case, schedule).setup(schedule)
-}
-
-/// Plays one launch of `case` under `schedule` to its end.
-pub fn run(case: &Case, schedule: &Schedule) -> Report {
-    play(case, schedule, false).0
-}
-
-/// [`run`], with the core's setup and every call made on it, as a launch
-/// records them (`launch::core::log`).
-pub fn run_logged(case: &Case, schedule: &Schedule) -> (Report, Setup, Vec<Call>) {
-    let (report, calls) = play(case, schedule, true);
-    (report, setup(case, schedule), calls)
 }

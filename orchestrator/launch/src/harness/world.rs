@@ -54,6 +54,18 @@ pub(super) struct World<'a> {
     pub(super) racers: Vec<u32>,
 }
 
+/// Plays one launch of `case` under `schedule` to its end.
+pub fn run(case: &Case, schedule: &Schedule) -> Report {
+    play(case, schedule, false).0
+}
+
+/// [`run`], with the core's setup and every call made on it, as a launch
+/// records them (`launch::core::log`).
+pub fn run_logged(case: &Case, schedule: &Schedule) -> (Report, Setup, Vec<Call>) {
+    let (report, calls) = play(case, schedule, true);
+    (report, setup(case, schedule), calls)
+}
+
 pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, Vec<Call>) {
     let launch = Launch::of(case, schedule);
     let n = case.robots as usize;
