@@ -11,6 +11,7 @@
 
 use crate::suites;
 
+use bycoms_lab::robots::RobotsFile;
 use bycoms_launch::agents::gateways::{Gateways, LINK_GRACE};
 use bycoms_launch::agents::remote::Remote;
 use bycoms_launch::agents::spawned::{AgentCommand, Spawned};
@@ -23,8 +24,7 @@ use bycoms_protocol::msg::{FromAgent, ToAgent};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{RobotId, Swarm};
 use bycoms_runtime::{BusArgs, Transport};
-use bycoms_sim::lab::robots::RobotsFile;
-use bycoms_sim::sim_agent::{AgentArgs, Clock, DEFAULT_SETTINGS_TIMEOUT_S};
+use bycoms_sim_agent::{AgentArgs, Clock, DEFAULT_SETTINGS_TIMEOUT_S};
 use std::cell::{Cell, RefCell};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};

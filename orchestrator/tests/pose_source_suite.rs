@@ -132,8 +132,8 @@ struct NatNetFixture {
 }
 
 mod natnet_fixture {
+    use bycoms_natnet_server::{model_definitions, BodyConfig, Faults, ServerConfig};
     use bycoms_protocol::natnet::{encode_packet, parse_packet, Packet, ServerInfo, Version};
-    use bycoms_sim::natnet_server::{model_definitions, BodyConfig, Faults, ServerConfig};
 
     pub fn server_info() -> Packet {
         Packet::ServerInfo(ServerInfo {
@@ -244,8 +244,8 @@ impl PoseFixture for NatNetFixture {
     }
 
     fn emit(&mut self, robot: u32, pose: &Pose) {
+        use bycoms_natnet_server::BodyPose;
         use bycoms_protocol::natnet::{encode_packet, FrameOfData, Packet, RigidBody, Version};
-        use bycoms_sim::natnet_server::BodyPose;
         let body = BodyPose::yawed([pose.x as f32, 0.0, -pose.y as f32], pose.heading as f32);
         let mut frame = FrameOfData { frame_number: pose.step as i32, ..FrameOfData::default() };
         frame.rigid_bodies.push(RigidBody {

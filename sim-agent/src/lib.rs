@@ -10,14 +10,10 @@
 pub mod body;
 pub mod field;
 pub mod geom;
-pub mod lab;
-pub mod natnet_server;
 pub mod robot;
 pub mod runner;
 pub mod seed;
 pub mod sensing;
-#[cfg(feature = "process")]
-pub mod sim_agent;
 pub mod terrain;
 
 pub use geom::Vec2;

@@ -14,7 +14,7 @@
 
 use bycoms_runtime::failsafe::FailsafeArgs;
 use bycoms_runtime::{BusArgs, Transport};
-use bycoms_sim::sim_agent::{AgentArgs, Clock};
+use bycoms_sim_agent::{AgentArgs, Clock};
 use bycoms_tests::netns::{not_permitted, TwoHosts};
 use bycoms_tests::{swarm_name, Proc};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};

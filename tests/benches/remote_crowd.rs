@@ -56,9 +56,9 @@
 //! raises its soft open-files limit to the hard one.
 
 use bycoms_runtime::{BusArgs, Transport};
-use bycoms_sim::sim_agent::AgentArgs;
 use bycoms_sim::terrain::to_text;
 use bycoms_sim::{run, RunConfig, RunResult};
+use bycoms_sim_agent::AgentArgs;
 use bycoms_study::scenario::{load, WorldSource};
 use bycoms_tests::netns::{not_permitted, Star, PORT};
 use bycoms_tests::{agents_of, bin, is_zombie, simulate_differences, swarm_name, wait_for, Finished, Proc};

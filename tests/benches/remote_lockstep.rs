@@ -19,8 +19,8 @@
 //! left out with a notice.
 
 use bycoms_runtime::{BusArgs, Transport};
-use bycoms_sim::sim_agent::AgentArgs;
 use bycoms_sim::terrain::to_text;
+use bycoms_sim_agent::AgentArgs;
 use bycoms_study::scenario::{load, WorldSource};
 use bycoms_tests::netns::{not_permitted, TwoHosts};
 use bycoms_tests::{swarm_name, Proc};

@@ -10,6 +10,7 @@
 //! a port-0 socket cannot be handed over.
 
 use bycoms_agent::gateway::GatewayArgs;
+use bycoms_lab::process::LabArgs;
 use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::BusExt;
 use bycoms_protocol::link::{
@@ -18,7 +19,6 @@ use bycoms_protocol::link::{
 use bycoms_protocol::msg::{Deploy, DriveState, FromAgent, GoalBearing, Pose, RobotKind, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
 use bycoms_runtime::ipc_config;
-use bycoms_sim::lab::process::LabArgs;
 use bycoms_tests::{bin, is_zombie, signal, swarm_name, wait_for, Proc};
 use nix::sys::signal::Signal;
 use std::net::{SocketAddr, UdpSocket};

@@ -70,7 +70,7 @@ fn agent_in(host: &Host, endpoint: &str, swarm: &str, terrain: &Path, robot: u32
     let mut args = vec!["--transport", "zenoh", "--connect", endpoint, "--swarm", swarm, "--swarm-size", "3"];
     args.extend(["--robot", &robot, "--terrain", terrain, "--eps", "3"]);
     args.extend(extra);
-    host.start_with_env("sim-agent", &args, &[("RUST_LOG", "info,bycoms_sim::sim_agent::cli=debug")])
+    host.start_with_env("sim-agent", &args, &[("RUST_LOG", "info,bycoms_sim_agent::cli=debug")])
 }
 
 #[test]

@@ -465,7 +465,7 @@ fn runnable_blocks_are_parsed_as_the_readme_says() {
         Ok("orchestrator simulate")
     );
     assert_eq!(
-        local("cargo run -p bycoms-sim --bin natnet-serve -- --x 1").as_deref(),
+        local("cargo run -p bycoms-natnet-server --bin natnet-serve -- --x 1").as_deref(),
         Ok("natnet-serve --x 1")
     );
     assert_eq!(

@@ -26,7 +26,7 @@ use std::time::Duration;
 /// The bus kind, shared with the agents (`--transport`).
 pub use bycoms_runtime::Transport;
 /// How simulated time advances: the one clock enum, shared with the agents.
-pub use bycoms_sim::sim_agent::Clock;
+pub use bycoms_sim_agent::Clock;
 
 /// What the gate does when an agent process dies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]

@@ -25,7 +25,7 @@ use super::World;
 use bycoms_protocol::bus::zenoh::settings::SettingsServer;
 use bycoms_protocol::msg::{Pose, ToAgent};
 use bycoms_record::schema;
-use bycoms_sim::sim_agent::AgentArgs;
+use bycoms_sim_agent::AgentArgs;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};

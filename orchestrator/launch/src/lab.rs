@@ -23,9 +23,9 @@
 
 use super::World;
 use anyhow::{Context, Result};
+use bycoms_lab::process::load_scenario;
+use bycoms_lab::scenario::Scenario;
 use bycoms_runtime::exit::usage;
-use bycoms_sim::lab::process::load_scenario;
-use bycoms_sim::lab::scenario::Scenario;
 use bycoms_sim::terrain::{to_text, Terrain};
 use bycoms_sim::Vec2;
 
@@ -85,8 +85,7 @@ mod tests {
     fn a_lab_larger_than_any_terrain_is_a_usage_error_not_a_grid_past_memory() {
         let dir = tempfile::tempdir().expect("temp dir");
         for width in ["1e300", "1e5"] {
-            let text =
-                bycoms_sim::lab::scenario::EXP_SHORT.replace("width = 3.0", &format!("width = {width}"));
+            let text = bycoms_lab::scenario::EXP_SHORT.replace("width = 3.0", &format!("width = {width}"));
             let file = dir.path().join("huge.toml");
             std::fs::write(&file, text).expect("scenario");
             let err = lab_world(file.to_str().expect("utf-8"), 2).expect_err("too large");

@@ -186,7 +186,7 @@ pub fn run_serving(
 fn serve_over_zenoh(
     zenoh: Option<&ZenohBus>,
     swarm: &Swarm,
-    template: &bycoms_sim::sim_agent::AgentArgs,
+    template: &bycoms_sim_agent::AgentArgs,
     world: &World,
     robots: u32,
 ) -> Result<(Option<SettingsServer>, Option<ClockServer>)> {

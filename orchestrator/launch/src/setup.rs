@@ -13,8 +13,8 @@ use super::poses::PoseSource;
 use super::World;
 use bycoms_runtime::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};
 use bycoms_runtime::BusArgs;
-use bycoms_sim::sim_agent::{AgentArgs, RunSettings, DEFAULT_SETTINGS_TIMEOUT_S};
 use bycoms_sim::Vec2;
+use bycoms_sim_agent::{AgentArgs, RunSettings, DEFAULT_SETTINGS_TIMEOUT_S};
 use bycoms_study::gate::GateParams;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -246,7 +246,7 @@ mod tests {
 
     #[test]
     fn the_launch_s_fingerprint_is_what_its_spawned_agents_compute() {
-        use bycoms_sim::sim_agent::options::{parse_from, SimAgentRun};
+        use bycoms_sim_agent::options::{parse_from, SimAgentRun};
         let world = World::tiny();
         let mut cfg =
             LaunchConfig { eps: 0.1 + 0.2, seed: 7, noise: true, speed: 2.5, ..LaunchConfig::default() };

@@ -12,12 +12,12 @@
 //! (`MOCAP_BENCH_SECONDS`, default 5, sets the duration per rate).
 
 use bycoms_mocap::{ArenaTransform, ClientConfig, NatNetPoseSource, NatNetSourceConfig, TrackerConfig};
+use bycoms_natnet_server::{BodyConfig, Faults, NatNetServer, ServerConfig};
 use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::BusExt;
 use bycoms_protocol::msg::{GoalBearing, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
 use bycoms_runtime::ipc_config;
-use bycoms_sim::natnet_server::{BodyConfig, Faults, NatNetServer, ServerConfig};
 use bycoms_sim::Vec2;
 use std::collections::BTreeMap;
 use std::net::Ipv4Addr;

@@ -4,9 +4,9 @@
 //! Run: `cargo bench -p bycoms-orchestrator --bench mocap_frame`.
 
 use bycoms_mocap::{ArenaTransform, BodyMap, FramePipeline, PoseTracker, TrackerConfig};
+use bycoms_natnet_server::{model_definitions, BodyConfig, BodyPose, Faults, FrameMaker, ServerConfig};
 use bycoms_protocol::natnet::{encode_packet, parse_packet, Packet, Version};
 use bycoms_protocol::RobotId;
-use bycoms_sim::natnet_server::{model_definitions, BodyConfig, BodyPose, Faults, FrameMaker, ServerConfig};
 use std::collections::BTreeMap;
 
 fn main() {

@@ -4,8 +4,8 @@
 //! `testing`).
 
 use crate::{ArenaTransform, ClientConfig, NatNetPoseSource, NatNetSourceConfig, TrackerConfig};
+use bycoms_natnet_server::{BodyConfig, Faults, NatNetServer, ServerConfig};
 use bycoms_protocol::RobotId;
-use bycoms_sim::natnet_server::{BodyConfig, Faults, NatNetServer, ServerConfig};
 use std::collections::BTreeMap;
 
 /// The emulated server's frame rate.

@@ -5,14 +5,12 @@
 
 use super::testing::{lab, udp_config, RATE, SCALE};
 use super::*;
+use bycoms_natnet_server::{model_definitions, BodyPose, Faults, FrameMaker, Occlusion, OcclusionMode, Swap};
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::natnet::{
     encode_packet, parse_packet, DataDescription, ModelDefinitions, Packet, Version,
 };
 use bycoms_protocol::RobotId;
-use bycoms_sim::natnet_server::{
-    model_definitions, BodyPose, Faults, FrameMaker, Occlusion, OcclusionMode, Swap,
-};
 use bycoms_sim::Vec2;
 use bycoms_study::gate::{GateParams, Verdict, Watch};
 use std::collections::BTreeMap;
@@ -191,7 +189,7 @@ fn model_definitions_of_the_lab_resolve_all_robots() {
 
 #[test]
 fn the_natnet_source_reads_the_emulated_lab_over_udp() {
-    use bycoms_sim::natnet_server::NatNetServer;
+    use bycoms_natnet_server::NatNetServer;
     use std::net::Ipv4Addr;
     let server = NatNetServer::start_any_port(lab(Faults::default()), Ipv4Addr::LOCALHOST.into()).unwrap();
     let config = udp_config(&server);

@@ -3,12 +3,12 @@
 
 use crate::doctor::{self, host, Finding};
 use anyhow::Result;
+use bycoms_lab::robots::RobotsFile;
 use bycoms_launch::agents::choice::AgentSourceKind;
 use bycoms_launch::agents::gateways::GatewaysAt;
 use bycoms_launch::config::{check_endpoints, check_swarm, LaunchConfig, MAX_ROBOTS};
 use bycoms_mocap::MocapSource;
 use bycoms_runtime::exit;
-use bycoms_sim::lab::robots::RobotsFile;
 use std::path::PathBuf;
 use std::time::{Duration, SystemTime};
 

@@ -97,9 +97,9 @@ pub fn run(args: Args) -> Result<i32> {
 
 /// The lab scenario of a run of real robots (its room, frames and start),
 /// if the recording names one that can be loaded here.
-fn lab_room(config: &serde_json::Value) -> Option<bycoms_sim::lab::scenario::Scenario> {
+fn lab_room(config: &serde_json::Value) -> Option<bycoms_lab::scenario::Scenario> {
     let name = config["agents"]["scenario"].as_str()?;
-    match bycoms_sim::lab::process::load_scenario(name) {
+    match bycoms_lab::process::load_scenario(name) {
         Ok(scenario) => Some(scenario),
         Err(e) => {
             tracing::warn!(

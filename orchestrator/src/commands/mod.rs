@@ -98,7 +98,7 @@ pub enum Command {
     Doctor(doctor::Args),
     /// Run one simulated robot (what `launch` starts when no `sim-agent` binary sits next to it).
     #[command(hide = true)]
-    SimAgent(bycoms_sim::sim_agent::AgentArgs),
+    SimAgent(bycoms_sim_agent::AgentArgs),
 }
 
 /// Runs the parsed command; returns the process exit code.
@@ -121,7 +121,7 @@ pub fn run(cli: Cli) -> Result<i32> {
         Command::Stop(args) => stop::run(args),
         Command::Revoke(args) => revoke::run(args),
         Command::Doctor(args) => doctor::run(args),
-        Command::SimAgent(args) => Ok(bycoms_sim::sim_agent::main_with(&args)),
+        Command::SimAgent(args) => Ok(bycoms_sim_agent::main_with(&args)),
     }
 }
 
@@ -130,7 +130,7 @@ mod tests {
     use super::*;
     use bycoms_launch::setup::agent_template;
     use bycoms_launch::LaunchConfig;
-    use bycoms_sim::sim_agent::options::{parse_from, SimAgentRun};
+    use bycoms_sim_agent::options::{parse_from, SimAgentRun};
 
     /// `orchestrator sim-agent` (what a launch runs when no `sim-agent`
     /// binary sits beside it) reads an agent's flags as `sim-agent` does.

@@ -144,7 +144,7 @@ fn a_silent_natnet_server_is_an_error_within_the_bounded_wait() {
 
 #[test]
 fn an_answering_natnet_server_is_ok() {
-    use bycoms_sim::natnet_server::NatNetServer;
+    use bycoms_natnet_server::NatNetServer;
     let lab = bycoms_mocap::testing::lab(Default::default());
     let server = NatNetServer::start_any_port(lab, Ipv4Addr::LOCALHOST.into()).expect("server");
     let client = bycoms_mocap::ClientConfig {

@@ -24,7 +24,7 @@
 use super::Report;
 use bycoms_launch::agents::{AgentPlan, AgentSource, Gone, Started};
 use bycoms_launch::driver::wind_down;
-use bycoms_sim::sim_agent::AgentArgs;
+use bycoms_sim_agent::AgentArgs;
 use std::time::{Duration, Instant};
 
 /// What [`AgentSource::start`] starts for this kind.

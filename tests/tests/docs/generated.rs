@@ -104,7 +104,7 @@ fn commands_table() -> String {
     let binaries = [
         bycoms_orchestrator::commands::Cli::command(),
         bycoms_agent::gateway::cli::command(),
-        bycoms_sim::sim_agent::options::command(),
+        bycoms_sim_agent::options::command(),
     ];
     for binary in &binaries {
         let name = binary.get_name().to_string();

@@ -1,7 +1,7 @@
 //! The recorder: the emulated lab's `exp-short` with the firmware cores in
 //! this process, each robot's every firmware call written to the input file.
 //!
-//! Why not `bycoms_sim::lab::Lab` itself: its emulated ESP32s talk UDP and
+//! Why not `bycoms_lab::Lab` itself: its emulated ESP32s talk UDP and
 //! keep their firmware calls to themselves. This loop is the same lab —
 //! its scenario, its sound (`sample_frames`: 1/d, propagation delay, wall
 //! echoes, motor vibration, ADC noise), its crawler bodies, its 5 ms
@@ -23,11 +23,11 @@
 use bycoms_agent::acoustic::ADC_MAX;
 use bycoms_agent::angle::wrap;
 use bycoms_fw_replay::{tag, Boot, NoMeter, Shell, LISTENED, MAGIC, MIC_BYTES};
+use bycoms_lab::body::{arena_walls, Crawler, Obstacle};
+use bycoms_lab::scenario::Scenario;
+use bycoms_lab::sound::{mic_positions, sample_frames, Room, Speaker};
 use bycoms_protocol::link::{GatewayEvent, GatewayLink, LinkKey, Payload, SessionId};
 use bycoms_protocol::RobotId;
-use bycoms_sim::lab::body::{arena_walls, Crawler, Obstacle};
-use bycoms_sim::lab::scenario::Scenario;
-use bycoms_sim::lab::sound::{mic_positions, sample_frames, Room, Speaker};
 use core::time::Duration;
 use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -265,7 +265,7 @@ pub fn record(limit: Duration, seed: u64) -> Recording {
             }
         }
 
-        // The lab's step (sim-agent/src/lab/world.rs).
+        // The lab's step (sim-agent/lab/src/world.rs).
         for (i, r) in robots.iter_mut().enumerate() {
             if r.pump(now) && i == current && arrived_at.is_none() {
                 enabled = false; // a new session starts disabled: enable again

@@ -12,11 +12,11 @@ use super::spawned::{AgentCommand, Spawned};
 use super::threads::Threads;
 use super::AgentSource;
 use anyhow::{Context, Result};
+use bycoms_lab::robots::RobotsFile;
 use bycoms_mocap::PlacementConfig;
 use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_runtime::seconds::{check_seconds, Zero};
 use bycoms_runtime::Transport;
-use bycoms_sim::lab::robots::RobotsFile;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 

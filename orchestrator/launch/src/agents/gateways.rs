@@ -33,7 +33,7 @@ use super::remote::Remote;
 use super::spawned::{AgentCommand, Spawned};
 use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
 use bycoms_agent::gateway::GatewayArgs;
-use bycoms_sim::lab::robots::RobotsFile;
+use bycoms_lab::robots::RobotsFile;
 use serde::{Deserialize, Serialize};
 use std::time::Duration;
 

@@ -47,7 +47,7 @@ pub mod spawned;
 pub mod stderr_tap;
 pub mod threads;
 
-use bycoms_sim::sim_agent::AgentArgs;
+use bycoms_sim_agent::AgentArgs;
 use std::process::ExitStatus;
 use std::time::Duration;
 

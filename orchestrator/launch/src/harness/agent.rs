@@ -7,11 +7,11 @@
 //! from, heartbeats every 100 ms and slower once parked, `Deploy`, ticks,
 //! real-time periods, beacons) are the process's [`AgentCore`], built from
 //! the launch's agent template and run settings as a spawned agent builds
-//! them (`bycoms_sim::sim_agent::timing`). What this file adds is only what
+//! them (`bycoms_sim_agent::timing`). What this file adds is only what
 //! a process is: it starts at a time (or never registers), and it is
 //! alive until it leaves, crashes or is killed.
 
-use bycoms_sim::sim_agent::{AgentCore, Said};
+use bycoms_sim_agent::{AgentCore, Said};
 
 /// One simulated agent: the process around an [`AgentCore`].
 pub struct Agent {
@@ -42,7 +42,7 @@ impl Agent {
 
     /// Whether its robot is not deployed yet.
     pub fn idle(&self) -> bool {
-        self.core.robot().phase() == bycoms_sim::sim_agent::Phase::Idle
+        self.core.robot().phase() == bycoms_sim_agent::Phase::Idle
     }
 
     /// When it next does something on its own (none: never).

@@ -52,10 +52,10 @@ use super::summary::{Decided, Outcome, RevokedSummary, RobotEnd, StopSummary};
 use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Heartbeat, Pose, Refusal, Register, ToAgent};
 use bycoms_protocol::RobotId;
 use bycoms_sim::sensing::NoiseModel;
-use bycoms_sim::sim_agent::run::Timing;
-use bycoms_sim::sim_agent::{AgentArgs, AgentCore, RobotCore, RunSettings, Said};
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::{RunConfig, Vec2};
+use bycoms_sim_agent::run::Timing;
+use bycoms_sim_agent::{AgentArgs, AgentCore, RobotCore, RunSettings, Said};
 use bycoms_study::draw::snapshot::Unit;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -258,7 +258,7 @@ impl Launch {
         };
         let template = super::setup::agent_template(&cfg, "harness".into(), Vec::new());
         let settings = super::setup::run_settings(&template, &world);
-        let timing = bycoms_sim::sim_agent::timing(&template, &settings);
+        let timing = bycoms_sim_agent::timing(&template, &settings);
         Self { cfg, world, template, settings, timing }
     }
 

@@ -147,7 +147,7 @@ impl PoseSource for NatNetPoses {
 mod tests {
     use super::*;
     use bycoms_mocap::testing::{lab, udp_source};
-    use bycoms_sim::natnet_server::{BodyPose, Faults};
+    use bycoms_natnet_server::{BodyPose, Faults};
     use bycoms_sim::Vec2;
 
     /// Drains `source` for `wait` (or until `until` holds for a handed pose)
@@ -179,7 +179,7 @@ mod tests {
     /// starts from the start again: a jump away is rejected.
     #[test]
     fn a_robot_carried_to_the_start_is_seen_there_and_tracked_from_there() {
-        use bycoms_sim::natnet_server::NatNetServer;
+        use bycoms_natnet_server::NatNetServer;
         use std::net::Ipv4Addr;
         let server =
             NatNetServer::start_any_port(lab(Faults::default()), Ipv4Addr::LOCALHOST.into()).unwrap();

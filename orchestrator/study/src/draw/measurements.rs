@@ -12,8 +12,8 @@
 //! send no telemetry, so their recordings draw positions only.
 
 use super::svg::{escape, number, Svg};
+use bycoms_lab::scenario::Scenario;
 use bycoms_protocol::msg::{FromAgent, Pose};
-use bycoms_sim::lab::scenario::Scenario;
 use bycoms_sim::Vec2;
 use std::collections::BTreeMap;
 
@@ -350,7 +350,7 @@ mod tests {
 
     #[test]
     fn the_lab_room_its_frames_and_the_start_are_drawn() {
-        let room = bycoms_sim::lab::process::load_scenario("exp-short").expect("built-in scenario");
+        let room = bycoms_lab::process::load_scenario("exp-short").expect("built-in scenario");
         let mut m = Measurements::new();
         m.pose(&pose(1, room.start.x, room.start.y, 0.0));
         let svg = m.picture_in(Vec2::new(room.goal.x, room.goal.y), "exp-short", Some(&room));

@@ -10,7 +10,7 @@
 //!
 //! This module knows only bytes: what they encode (and their fingerprint,
 //! the `settings` of `Register`) is the agent crate's
-//! (`bycoms_sim::sim_agent::settings`; PROTOCOL.md, "The run's
+//! (`bycoms_sim_agent::settings`; PROTOCOL.md, "The run's
 //! settings"). The answer is the payload as served, one reply per query.
 //!
 //! Who asks: an agent names its robot in the query (selector parameter

@@ -1,0 +1,165 @@
+//! Lab scenarios: the room, the frames, the start, the goal and the robots'
+//! tones, as TOML files in `deploy/lab/` (two built in: `exp-short`,
+//! `exp-long`, after the paper's fig:exp_inside_short / fig:exp_inside_long).
+//!
+//! Why files: a lab is rebuilt by hand for each experiment; its description
+//! should be data a user edits, checked strictly (unknown keys are errors),
+//! not code. The paper gives no dimensions for its room or frames, so the
+//! built-in geometry is ours and documented in the files.
+
+use super::body::{BodyConfig, Obstacle};
+use super::sound::SoundConfig;
+use bycoms_sim::terrain::MAX_SIDE;
+use serde::{Deserialize, Serialize};
+
+/// A point, m.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Point {
+    /// x, m.
+    pub x: f64,
+    /// y, m.
+    pub y: f64,
+}
+
+/// A pose, m and rad.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pose {
+    /// x, m.
+    pub x: f64,
+    /// y, m.
+    pub y: f64,
+    /// Heading, rad.
+    pub heading: f64,
+}
+
+/// One lab scenario.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Name, for logs.
+    pub name: String,
+    /// Arena width (x), m; the walls reflect sound.
+    pub width: f64,
+    /// Arena height (y), m.
+    pub height: f64,
+    /// Where every robot is placed when deployed.
+    pub start: Pose,
+    /// The goal.
+    pub goal: Point,
+    /// A robot has arrived within this distance of the goal, m.
+    pub goal_radius: f64,
+    /// One tone per robot, Hz, in deployment order.
+    pub tones: Vec<f64>,
+    /// The aluminium frames.
+    #[serde(default)]
+    pub obstacles: Vec<Obstacle>,
+    /// Sound model.
+    #[serde(default)]
+    pub sound: SoundConfig,
+    /// Crawler bodies.
+    #[serde(default)]
+    pub body: BodyConfig,
+}
+
+/// Why a scenario was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    /// Not valid TOML for a scenario.
+    #[error("scenario file: {0}")]
+    Parse(#[from] toml::de::Error),
+    /// Parsed, but inconsistent.
+    #[error("scenario '{name}': {why}")]
+    Invalid {
+        /// The scenario.
+        name: String,
+        /// What is wrong.
+        why: String,
+    },
+    /// No built-in scenario has this name.
+    #[error("no built-in lab scenario '{0}' (built in: exp-short, exp-long)")]
+    Unknown(String),
+}
+
+/// The largest arena side, m: a launch draws and records a lab's arena as a
+/// terrain of one cell per metre, and terrains are at most [`MAX_SIDE`]
+/// cells across (the bound of terrain files, so a lab scenario is bounded
+/// as they are; `width = 1e5` once asked for a 10 GB grid).
+pub const MAX_SIDE_M: f64 = MAX_SIDE as f64;
+
+/// Largest scenario file read, bytes (the built-in ones are about 2 kB).
+pub const MAX_FILE_BYTES: u64 = 64 * 1024;
+
+/// The built-in `exp-short` file.
+pub const EXP_SHORT: &str = include_str!("../../../deploy/lab/exp-short.toml");
+/// The built-in `exp-long` file.
+pub const EXP_LONG: &str = include_str!("../../../deploy/lab/exp-long.toml");
+
+impl Scenario {
+    /// Parses and checks a scenario file's text.
+    pub fn parse(text: &str) -> Result<Self, ScenarioError> {
+        let s: Scenario = toml::from_str(text)?;
+        let invalid = |why: &str| Err(ScenarioError::Invalid { name: s.name.clone(), why: why.to_owned() });
+        let inside = |x: f64, y: f64| (0.0..=s.width).contains(&x) && (0.0..=s.height).contains(&y);
+        let side = |m: f64| m > 0.0 && m <= MAX_SIDE_M;
+        if !(side(s.width) && side(s.height)) {
+            return invalid(&format!(
+                "width and height must be positive and at most {MAX_SIDE_M} m (a launch's terrain has a cell \
+                 per metre, at most {MAX_SIDE} across), got {} m × {} m",
+                s.width, s.height
+            ));
+        }
+        if !inside(s.start.x, s.start.y) || !inside(s.goal.x, s.goal.y) {
+            return invalid("start and goal must lie in the arena");
+        }
+        if s.tones.is_empty() || s.tones.iter().any(|t| !(t.is_finite() && *t > 0.0)) {
+            return invalid("tones must be one positive frequency per robot");
+        }
+        if s.obstacles.iter().any(|o| !(o.x0 < o.x1 && o.y0 < o.y1)) {
+            return invalid("an obstacle needs x0 < x1 and y0 < y1");
+        }
+        if s.obstacles.iter().any(|o| o.distance(s.start.x, s.start.y) < s.body.radius) {
+            return invalid("the start overlaps an obstacle");
+        }
+        Ok(s)
+    }
+
+    /// A built-in scenario by name.
+    pub fn builtin(name: &str) -> Result<Self, ScenarioError> {
+        match name {
+            "exp-short" => Self::parse(EXP_SHORT),
+            "exp-long" => Self::parse(EXP_LONG),
+            other => Err(ScenarioError::Unknown(other.to_owned())),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn built_in_scenarios_parse() {
+        let short = Scenario::builtin("exp-short").unwrap();
+        assert_eq!((short.tones.len(), short.obstacles.len()), (2, 1));
+        let long = Scenario::builtin("exp-long").unwrap();
+        assert_eq!(long.tones, vec![224.0, 320.0, 512.0]);
+        assert!(matches!(Scenario::builtin("exp-x"), Err(ScenarioError::Unknown(_))));
+    }
+
+    #[test]
+    fn bad_scenarios_are_refused_with_a_reason() {
+        let bad_key = EXP_SHORT.replace("goal_radius", "goal_radios");
+        assert!(matches!(Scenario::parse(&bad_key), Err(ScenarioError::Parse(_))));
+        let outside = EXP_SHORT.replace("goal = { x = 2.6", "goal = { x = 9.6");
+        let err = Scenario::parse(&outside).unwrap_err().to_string();
+        assert!(err.contains("start and goal"), "{err}");
+        // An arena no launch could draw: bounded as terrain files are.
+        for (key, bad) in [("width", "1e300"), ("width", "1e5"), ("height", "nan"), ("height", "-2.0")] {
+            let line = EXP_SHORT.lines().find(|l| l.starts_with(&format!("{key} ="))).expect("key");
+            let err = Scenario::parse(&EXP_SHORT.replace(line, &format!("{key} = {bad}"))).unwrap_err();
+            assert!(err.to_string().contains("at most 1000 m"), "{key} = {bad}: {err}");
+        }
+    }
+}

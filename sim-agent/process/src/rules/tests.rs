@@ -1,0 +1,155 @@
+//! The message rules in virtual time, without a bus: heartbeats at their
+//! two rates, `Register` repeated until heard from, a tick stepped once,
+//! real-time periods numbered by the clock, refusals of this instance only.
+
+use super::*;
+use bycoms_protocol::msg::{GoalBearing, Refused, Tick};
+use bycoms_sim::terrain::Terrain;
+use bycoms_sim::RunConfig;
+
+const MS: u64 = 1_000;
+
+fn core(clock: Clock) -> AgentCore {
+    let rules = Rules {
+        clock,
+        dt_us: 100 * MS,
+        period_us: 20 * MS,
+        heartbeat_us: 100 * MS,
+        parked_heartbeat_us: 500 * MS,
+        instance: 7,
+        settings: 0x5e7,
+        failsafe_grace_ms: 0,
+    };
+    AgentCore::new(RobotCore::new(RobotId(1), Terrain::paper(), RunConfig::paper(2.0)), rules)
+}
+
+fn reports(said: &[Said]) -> Vec<&'static str> {
+    said.iter()
+        .map(|s| match s {
+            Said::Report(FromAgent::Register(_)) => "register",
+            Said::Report(FromAgent::Heartbeat(_)) => "heartbeat",
+            Said::Report(FromAgent::Status(_)) => "status",
+            Said::Report(FromAgent::TickDone(_)) => "done",
+            Said::Report(FromAgent::Parked(_)) => "parked",
+            Said::Report(FromAgent::StopDone(d)) if !d.on_link => "stop done",
+            Said::Report(_) => "other",
+            Said::Pose(_) => "pose",
+            Said::Refused(_) => "refused",
+        })
+        .collect()
+}
+
+fn deploy() -> ToAgent {
+    ToAgent::Deploy(Deploy { robot: RobotId(1), x: 15.5, y: 15.5, heading: 0.7 })
+}
+
+#[test]
+fn registers_with_every_beat_until_heard_then_beats_slower_once_parked() {
+    let mut a = core(Clock::Lockstep);
+    assert_eq!(a.deadline(), None, "nothing before it starts");
+    let mut out = Vec::new();
+    a.start(0, &mut out);
+    assert_eq!(reports(&out), ["register", "heartbeat"]);
+    assert_eq!(a.deadline(), Some(100 * MS));
+    out.clear();
+    a.advance(99 * MS, &mut out);
+    assert!(out.is_empty(), "nothing before the beat is due: {out:?}");
+    a.advance(100 * MS, &mut out);
+    assert_eq!(reports(&out), ["register", "heartbeat"], "unheard: the Register again");
+    out.clear();
+    assert_eq!(a.handle(&deploy(), &mut out), None);
+    assert_eq!(reports(&out), ["pose", "status"]);
+    out.clear();
+    a.advance(200 * MS, &mut out);
+    assert_eq!(reports(&out), ["heartbeat"], "heard: no more Register");
+    assert_eq!(a.deadline(), Some(300 * MS), "a moving robot beats every 100 ms");
+    out.clear();
+    a.handle(&ToAgent::Stop, &mut out);
+    assert_eq!(reports(&out), ["stop done"], "a Stop is answered at once");
+    a.handle(&ToAgent::Stop, &mut out);
+    assert_eq!(reports(&out), ["stop done", "stop done"], "and again when re-sent");
+    a.advance(300 * MS, &mut out);
+    assert_eq!(a.deadline(), Some(800 * MS), "a parked one every 500 ms");
+}
+
+#[test]
+fn registers_with_its_instance_settings_and_failsafe() {
+    let mut a = core(Clock::Lockstep);
+    a.set_settings(0xfeed);
+    a.set_failsafe_grace_ms(3_000);
+    let mut out = Vec::new();
+    a.start(0, &mut out);
+    let Said::Report(FromAgent::Register(r)) = &out[0] else { panic!("a register first: {out:?}") };
+    assert_eq!((r.robot, r.instance, r.settings, r.failsafe_grace_ms), (RobotId(1), 7, 0xfeed, 3_000));
+}
+
+#[test]
+fn a_tick_is_stepped_once_and_a_repeat_answered_again() {
+    let mut a = core(Clock::Lockstep);
+    let mut out = Vec::new();
+    a.start(0, &mut out);
+    a.handle(&deploy(), &mut out);
+    out.clear();
+    let bearing = |step| ToAgent::GoalBearing(GoalBearing { robot: RobotId(1), bearing: 0.7, step });
+    a.handle(&bearing(1), &mut out);
+    a.handle(&ToAgent::Tick(Tick { step: 1 }), &mut out);
+    assert_eq!(reports(&out), ["pose", "status", "done"]);
+    let first = out[0].clone();
+    out.clear();
+    a.handle(&ToAgent::Tick(Tick { step: 1 }), &mut out);
+    assert_eq!(reports(&out), ["pose", "done"], "a repeat: answered, not stepped");
+    assert_eq!(out[0], first);
+    assert_eq!(a.robot().steps(), 1);
+    out.clear();
+    a.handle(&ToAgent::Tick(Tick { step: 2 }), &mut out);
+    assert_eq!(a.counts().stale_bearings, 1, "tick 2 came with the bearing of tick 1");
+    out.clear();
+    a.handle(&ToAgent::Stop, &mut out);
+    assert_eq!(reports(&out), ["stop done"], "lockstep answers a Stop at once too, not with a tick");
+    out.clear();
+    a.handle(&ToAgent::Tick(Tick { step: 3 }), &mut out);
+    assert_eq!(reports(&out), ["pose", "parked", "done"]);
+}
+
+#[test]
+fn real_time_periods_follow_the_clock_and_late_ones_are_missed() {
+    let mut a = core(Clock::Realtime);
+    let mut out = Vec::new();
+    a.start(1_000, &mut out);
+    a.handle(&deploy(), &mut out);
+    a.handle(&ToAgent::GoalBearing(GoalBearing { robot: RobotId(1), bearing: 0.7, step: 0 }), &mut out);
+    assert_eq!(a.next_period(), Some(21_000));
+    out.clear();
+    assert!(!a.period_if_due(20_999, &mut out));
+    assert!(a.period_if_due(21_000, &mut out));
+    assert!(matches!(out[0], Said::Pose(Pose { step: 1, .. })), "{out:?}");
+    out.clear();
+    // Late by two periods: period 4 runs, 2 and 3 are missed.
+    assert!(a.period_if_due(1_000 + 4 * 20_000 + 5, &mut out));
+    assert!(matches!(out[0], Said::Pose(Pose { step: 4, .. })), "{out:?}");
+    assert_eq!(a.counts(), Counts { periods: 2, missed: 2, stale_bearings: 0 });
+    assert_eq!(a.next_period(), Some(1_000 + 5 * 20_000));
+    out.clear();
+    a.handle(&ToAgent::Tick(Tick { step: 9 }), &mut out);
+    assert_eq!(out, [Said::Refused(Reject::TickInRealTime)]);
+}
+
+#[test]
+fn only_a_refusal_of_this_instance_makes_it_leave() {
+    let mut a = core(Clock::Lockstep);
+    let mut out = Vec::new();
+    let refused = |instance| {
+        ToAgent::Refused(Refused {
+            robot: RobotId(1),
+            instance,
+            why: bycoms_protocol::msg::Refusal::Duplicate,
+        })
+    };
+    assert_eq!(a.handle(&refused(8), &mut out), None);
+    assert_eq!(a.handle(&refused(7), &mut out), Some(Leave::Refused));
+    assert_eq!(a.handle(&ToAgent::Shutdown, &mut out), Some(Leave::Shutdown));
+    a.handle(&deploy(), &mut out);
+    out.clear();
+    a.handle(&ToAgent::Deploy(Deploy { robot: RobotId(1), x: 1.5, y: 1.5, heading: 0.0 }), &mut out);
+    assert_eq!(out, [Said::Refused(Reject::AlreadyDeployed)], "another Deploy is refused");
+}
