@@ -11,12 +11,12 @@ pub struct Supervision {
     pub on: bool,
     /// A started agent must register within this long.
     pub register_timeout_us: u64,
-    /// A registered agent silent this long is gone ([`Gone::Silent`]), or
+    /// A registered agent silent this long is gone ([`Gone::Silent`](crate::agents::Gone::Silent)), or
     /// unreachable with a link grace.
     pub heartbeat_timeout_us: u64,
     /// How long an unreachable agent is held before it is gone
-    /// ([`Gone::Unreachable`]); zero: no holding (a withdrawn token is
-    /// [`Gone::Disconnected`] at once). Agents that can come back only
+    /// ([`Gone::Unreachable`](crate::agents::Gone::Unreachable)); zero: no holding (a withdrawn token is
+    /// [`Gone::Disconnected`](crate::agents::Gone::Disconnected) at once). Agents that can come back only
     /// (remote agents, gateways elsewhere).
     pub link_grace_us: u64,
     /// With a link grace: the silence after which a heard agent is
@@ -24,7 +24,7 @@ pub struct Supervision {
     /// robot's agent: it beats slower (four times per heartbeat timeout).
     pub quiet_us: u64,
     /// How long a robot's own link reported down must stay down before the
-    /// robot is gone ([`Gone::RobotLinkLost`]); none: robot links are not
+    /// robot is gone ([`Gone::RobotLinkLost`](crate::agents::Gone::RobotLinkLost)); none: robot links are not
     /// watched (simulated agents have none).
     pub robot_link_grace_us: Option<u64>,
 }
