@@ -167,7 +167,8 @@ mod raw_status {
     }
 }
 
-/// A change in whether an agent can be reached (see [`AgentSource::reach`](crate::agents::AgentSource::reach)).
+/// A change in whether an agent can be reached, as the agent seam reports
+/// it (`Input::Reach`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Reach {
     /// No contact any more (liveliness token gone, or silent past the
