@@ -39,6 +39,11 @@ pub use iceoryx2::prelude::Config;
 /// Environment variable with the isolation tag of a process tree.
 pub const ISOLATION_ENV: &str = "BYCOMS_IPC_ISOLATION";
 
+/// iceoryx2's built-in machine-wide root path (its `ICEORYX2_ROOT_PATH` on
+/// Linux), replaced by [`files_dir`]'s unless its configuration file sets
+/// another.
+const ICEORYX2_DEFAULT_ROOT: &str = "/tmp/iceoryx2/";
+
 /// Longest a tag may be (it becomes part of file names).
 pub const MAX_TAG_LEN: usize = 48;
 
@@ -98,7 +103,10 @@ pub fn config(tag: Option<&str>) -> Result<Config, BusError> {
     config.global.creation_timeout = CREATION_TIMEOUT;
     config.defaults.publish_subscribe.subscriber_expired_connection_buffer = EXPIRED_CONNECTIONS;
     let Some(tag) = tag else {
-        if config.global.root_path() == Config::default().global.root_path() {
+        // Compared as bytes: building a `Config::default()` to compare
+        // with cost every agent ~160 KB more resident (anonymous) memory
+        // (`bench scale`, 1000 agents: 1429 → 1249 KB each).
+        if config.global.root_path().as_bytes() == ICEORYX2_DEFAULT_ROOT.as_bytes() {
             config.global.set_root_path(&root_path(&machine_root_dir(), "machine-wide root path")?);
         }
         return Ok(config);
