@@ -92,16 +92,67 @@ impl RunSettings {
             noise: args.noise,
             seed: args.seed,
             clock: args.clock,
-            // Under lockstep the speed-up means nothing (the orchestrator's
-            // ticks pace the robot): one value, so a launch at `--speed 10`
-            // and an agent at its default 1 run the same study.
-            speed: match args.clock {
-                Clock::Lockstep => 1.0,
-                Clock::Realtime => args.speed,
-            },
+            speed: Self::speed_of(args.clock, args.speed),
             swarm_size: args.swarm_size(),
             heartbeat_ms: args.heartbeat_ms,
         })
+    }
+
+    /// The speed-up the settings hold for `speed` on `clock`: under
+    /// lockstep it means nothing (the orchestrator's ticks pace the robot),
+    /// so it is 1 there: a launch at `--speed 10` and an agent at its
+    /// default 1 run the same study.
+    pub fn speed_of(clock: Clock, speed: f64) -> f64 {
+        match clock {
+            Clock::Lockstep => 1.0,
+            Clock::Realtime => speed,
+        }
+    }
+
+    /// `args` (a robot's own flags: swarm, id, bus, failsafe) running these
+    /// settings, the terrain read from stdin (`--terrain -`; the starter
+    /// writes [`Self::terrain`] there). With [`AgentArgs::to_flags`] this is
+    /// the argv of an agent a launch starts; the agent's parser reads it back
+    /// into these settings ([`Self::of`]; tested below).
+    pub fn onto(&self, args: AgentArgs) -> AgentArgs {
+        AgentArgs {
+            terrain: Some("-".into()),
+            eps: Some(self.eps),
+            noise: self.noise,
+            seed: self.seed,
+            clock: self.clock,
+            speed: self.speed,
+            swarm_size: Some(self.swarm_size),
+            heartbeat_ms: self.heartbeat_ms,
+            ..args
+        }
+    }
+
+    /// The settings flags of an agent whose terrain is read from `terrain`
+    /// (`-`: stdin) and whose swarm size flag is `swarm_size`: the one
+    /// writer of `--eps`, `--seed`, ... ([`AgentArgs::to_flags`] uses it).
+    pub(crate) fn flags(&self, terrain: &std::path::Path, swarm_size: Option<u32>) -> Vec<String> {
+        let mut v: Vec<String> = vec![
+            "--terrain".into(),
+            terrain.display().to_string(),
+            "--eps".into(),
+            format!("{:?}", self.eps),
+            "--seed".into(),
+            self.seed.to_string(),
+            "--clock".into(),
+            self.clock.as_str().into(),
+            "--speed".into(),
+            format!("{:?}", self.speed),
+            "--heartbeat-ms".into(),
+            self.heartbeat_ms.to_string(),
+        ];
+        if self.noise {
+            v.push("--noise".into());
+        }
+        if let Some(n) = swarm_size {
+            v.extend(["--swarm-size".into(), n.to_string()]);
+        }
+        v
     }
 
     /// The run parameters these settings give (the in-process runner's for
@@ -418,6 +469,35 @@ mod tests {
         assert_ne!(of(Clock::Realtime, 1.0).fingerprint(), of(Clock::Realtime, 10.0).fingerprint());
         let no_eps = AgentArgs { eps: None, ..args(Clock::Lockstep, 1.0) };
         assert_eq!(RunSettings::of(&no_eps, String::new()), None);
+    }
+
+    /// The argv a launch gives its agents ([`RunSettings::onto`] +
+    /// [`AgentArgs::to_flags`]) is read back by the agent's parser into the
+    /// very settings, bit for bit, on both clocks.
+    #[test]
+    fn settings_given_as_flags_are_read_back_exactly() {
+        use super::super::options::{parse_from, SimAgentRun};
+        let realtime = RunSettings {
+            eps: 0.1 + 0.2,
+            seed: u64::MAX,
+            speed: 2.5,
+            noise: true,
+            clock: Clock::Realtime,
+            swarm_size: 9,
+            heartbeat_ms: 37,
+            ..paper()
+        };
+        for s in [paper(), realtime] {
+            let args = s.onto(AgentArgs::new("s", 2));
+            let argv = std::iter::once("sim-agent".to_string()).chain(args.to_flags());
+            let SimAgentRun::Robot(parsed) = parse_from(argv).expect("the flags parse").1 else {
+                panic!("not a robot")
+            };
+            assert_eq!(parsed, args);
+            let back = RunSettings::of(&parsed, s.terrain.clone()).expect("settings");
+            assert_eq!((back.eps.to_bits(), back.fingerprint()), (s.eps.to_bits(), s.fingerprint()));
+            assert_eq!(back, s);
+        }
     }
 
     #[test]
