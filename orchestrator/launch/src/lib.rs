@@ -64,7 +64,7 @@ mod world;
 
 #[doc(inline)]
 pub use self::core::Core;
-pub use agents::executable::{agent_command, beside_this_executable, AGENT_BIN_ENV};
+pub use agents::executable::{agent_command, AGENT_BIN_ENV};
 pub use agents::spawned::AgentCommand;
 pub use config::{Clock, LaunchConfig, Missing, OnDeath};
 pub use summary::{Outcome, RobotEnd, Summary};

@@ -14,9 +14,8 @@ use super::World;
 use bycoms_runtime::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};
 use bycoms_runtime::BusArgs;
 use bycoms_sim::Vec2;
-use bycoms_sim_agent::{AgentArgs, RunSettings, DEFAULT_SETTINGS_TIMEOUT_S};
+use bycoms_sim_agent::{AgentArgs, RunSettings};
 use bycoms_study::gate::GateParams;
-use std::path::PathBuf;
 use std::time::Duration;
 use std::time::{SystemTime, UNIX_EPOCH};
 

@@ -12,6 +12,7 @@
 //! is [`command`] (with [`parse_from`]), so the round-trip tests below read
 //! the flags with exactly what the binary reads them with.
 
+use super::settings::RunSettings;
 use bycoms_lab::process::LabArgs;
 use bycoms_runtime::cli::{check_speed, command_with_subcommands, parse_with_subcommands};
 use bycoms_runtime::doctor::{HostArgs, HostNeeds};
@@ -21,7 +22,6 @@ use bycoms_runtime::seconds::{check_seconds, Zero};
 use bycoms_runtime::{BusArgs, Transport};
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::RunConfig;
-use super::settings::RunSettings;
 use clap::Command;
 use std::path::PathBuf;
 
