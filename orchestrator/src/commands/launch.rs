@@ -42,9 +42,7 @@ macro_rules! launch_flags {
             /// Each flag that sets a config key, with the key (`gate.dwell`).
             #[cfg(test)]
             fn keys() -> Vec<(&'static str, String)> {
-                let mut keys = Vec::new();
-                $($(keys.push((stringify!($field), stringify!($($key).+).replace(' ', "")));)?)*
-                keys
+                vec![$($((stringify!($field), stringify!($($key).+).replace(' ', "")),)?)*]
             }
         }
     };
