@@ -12,7 +12,6 @@
 //! is [`command`] (with [`parse_from`]), so the round-trip tests below read
 //! the flags with exactly what the binary reads them with.
 
-use super::settings::RunSettings;
 use bycoms_lab::process::LabArgs;
 use bycoms_runtime::cli::{check_speed, command_with_subcommands, parse_with_subcommands};
 use bycoms_runtime::doctor::{HostArgs, HostNeeds};
@@ -238,19 +237,27 @@ impl AgentArgs {
     pub fn to_flags(&self) -> Vec<String> {
         let mut v = vec!["--swarm".into(), self.swarm.clone(), "--robot".into(), self.robot.to_string()];
         if let (Some(terrain), Some(eps)) = (&self.terrain, self.eps) {
-            // These values as given (the speed too, under lockstep), written
-            // by the settings' one flag writer.
-            let settings = RunSettings {
-                terrain: String::new(),
-                eps,
-                noise: self.noise,
-                seed: self.seed,
-                clock: self.clock,
-                speed: self.speed,
-                swarm_size: self.swarm_size(),
-                heartbeat_ms: self.heartbeat_ms,
-            };
-            v.extend(settings.flags(terrain, self.swarm_size));
+            v.extend([
+                "--terrain".into(),
+                terrain.display().to_string(),
+                "--eps".into(),
+                format!("{eps:?}"),
+                "--seed".into(),
+                self.seed.to_string(),
+                "--clock".into(),
+                self.clock.as_str().into(),
+                "--speed".into(),
+                format!("{:?}", self.speed),
+                "--heartbeat-ms".into(),
+                self.heartbeat_ms.to_string(),
+            ]);
+            if self.noise {
+                v.push("--noise".into());
+            }
+            if let Some(n) = self.swarm_size {
+                v.push("--swarm-size".into());
+                v.push(n.to_string());
+            }
             if let Some(ms) = self.parked_heartbeat_ms {
                 v.push("--parked-heartbeat-ms".into());
                 v.push(ms.to_string());

@@ -4,13 +4,13 @@
 //! Why one value: a remote agent used to be started with the launch's
 //! terrain, ε, seed, noise, clock, speed and swarm size repeated on its
 //! command line, and a mismatch silently gave another run. Now the launch
-//! builds its [`RunSettings`] once ([`RunSettings::of`], from the flags it
-//! hands its spawned agents and the terrain's text), puts their
+//! derives its [`RunSettings`] once from its config, gives them to its
+//! spawned agents as flags ([`RunSettings::onto`]), puts their
 //! [`fingerprint`](RunSettings::fingerprint) in its setup (the launch core
 //! refuses a `Register` whose non-zero `settings` differ) and, over zenoh,
 //! serves their [encoding](RunSettings::encode) on
-//! `bycoms/<swarm>/settings`. An agent builds its settings with the same
-//! function from its own flags, or fetches the launch's
+//! `bycoms/<swarm>/settings`. An agent builds its settings back from its
+//! flags ([`RunSettings::of`]), or fetches the launch's
 //! ([`fetch`]), and registers with their fingerprint: the same study
 //! gives the same bytes, hence the same fingerprint, on every host.
 //!
@@ -126,33 +126,6 @@ impl RunSettings {
             heartbeat_ms: self.heartbeat_ms,
             ..args
         }
-    }
-
-    /// The settings flags of an agent whose terrain is read from `terrain`
-    /// (`-`: stdin) and whose swarm size flag is `swarm_size`: the one
-    /// writer of `--eps`, `--seed`, ... ([`AgentArgs::to_flags`] uses it).
-    pub(crate) fn flags(&self, terrain: &std::path::Path, swarm_size: Option<u32>) -> Vec<String> {
-        let mut v: Vec<String> = vec![
-            "--terrain".into(),
-            terrain.display().to_string(),
-            "--eps".into(),
-            format!("{:?}", self.eps),
-            "--seed".into(),
-            self.seed.to_string(),
-            "--clock".into(),
-            self.clock.as_str().into(),
-            "--speed".into(),
-            format!("{:?}", self.speed),
-            "--heartbeat-ms".into(),
-            self.heartbeat_ms.to_string(),
-        ];
-        if self.noise {
-            v.push("--noise".into());
-        }
-        if let Some(n) = swarm_size {
-            v.extend(["--swarm-size".into(), n.to_string()]);
-        }
-        v
     }
 
     /// The run parameters these settings give (the in-process runner's for
