@@ -64,7 +64,7 @@ mod world;
 
 #[doc(inline)]
 pub use self::core::Core;
-pub use agents::executable::{agent_command, beside_this_executable, AGENT_BIN_ENV};
+pub use agents::executable::{agent_command, AGENT_BIN_ENV};
 pub use agents::spawned::AgentCommand;
 pub use config::{Clock, LaunchConfig, Missing, OnDeath};
 pub use summary::{Outcome, RobotEnd, Summary};
@@ -147,7 +147,7 @@ pub fn run_serving(
     ports.show_scene();
     let template = setup::agent_template(&cfg, swarm_name, endpoints.clone());
     let (settings_served, _clock_served) =
-        serve_over_zenoh(zenoh.as_ref(), &swarm, &template, &world, cfg.robots)?;
+        serve_over_zenoh(zenoh.as_ref(), &swarm, &setup::run_settings(&cfg, &world), cfg.robots)?;
     let agents = cfg.agents.open(agent, links)?;
     let control =
         control::Control::serve(swarm.as_str(), zenoh.as_ref()).context("cannot serve status and stop")?;
@@ -186,12 +186,10 @@ pub fn run_serving(
 fn serve_over_zenoh(
     zenoh: Option<&ZenohBus>,
     swarm: &Swarm,
-    template: &bycoms_sim_agent::AgentArgs,
-    world: &World,
+    settings: &bycoms_sim_agent::RunSettings,
     robots: u32,
 ) -> Result<(Option<SettingsServer>, Option<ClockServer>)> {
     let Some(z) = zenoh else { return Ok((None, None)) };
-    let settings = setup::run_settings(template, world);
     let served =
         z.serve_settings(swarm, settings.encode(), robots).context("cannot serve the run's settings")?;
     tracing::info!(

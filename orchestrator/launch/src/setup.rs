@@ -14,9 +14,8 @@ use super::World;
 use bycoms_runtime::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};
 use bycoms_runtime::BusArgs;
 use bycoms_sim::Vec2;
-use bycoms_sim_agent::{AgentArgs, RunSettings, DEFAULT_SETTINGS_TIMEOUT_S};
+use bycoms_sim_agent::{AgentArgs, RunSettings};
 use bycoms_study::gate::GateParams;
-use std::path::PathBuf;
 use std::time::Duration;
 use std::time::{SystemTime, UNIX_EPOCH};
 
@@ -119,7 +118,7 @@ pub fn setup_of(
             beacons: seams.senses_beacons,
         },
         unix_base_ms,
-        settings: run_settings(template, world).fingerprint(),
+        settings: run_settings(cfg, world).fingerprint(),
         supervision: supervision(cfg, seams.held_when_unreachable, seams.robot_link_grace),
         clocks: clock_limits(cfg),
     }
@@ -148,14 +147,27 @@ pub fn supervision(cfg: &LaunchConfig, held: bool, robot_link_grace: Option<Dura
     }
 }
 
-/// The run's settings: what spawned agents build from `template`'s flags
-/// and the terrain text they are handed, and what the launch serves to
-/// agents started elsewhere (over zenoh). One builder
-/// ([`RunSettings::of`]) on both sides, so one fingerprint.
-pub fn run_settings(template: &AgentArgs, world: &World) -> RunSettings {
-    match RunSettings::of(template, world.terrain_text.clone()) {
-        Some(settings) => settings,
-        None => unreachable!("the launch's agent template always carries --eps"),
+/// The run's settings: the one value the launch derives from its config
+/// (ε, noise, seed, clock, speed, swarm size, heartbeat) and the terrain's
+/// text. Its spawned agents are given them as flags ([`agent_template`],
+/// [`RunSettings::onto`]) and build the same value back; agents started
+/// elsewhere (over zenoh) are served their encoding. One value, so one
+/// fingerprint.
+pub fn run_settings(cfg: &LaunchConfig, world: &World) -> RunSettings {
+    settings_of(cfg, world.terrain_text.clone())
+}
+
+/// The settings of `cfg` with the terrain `terrain`.
+fn settings_of(cfg: &LaunchConfig, terrain: String) -> RunSettings {
+    RunSettings {
+        terrain,
+        eps: cfg.eps,
+        noise: cfg.noise,
+        seed: cfg.seed,
+        clock: cfg.clock,
+        speed: RunSettings::speed_of(cfg.clock, cfg.speed),
+        swarm_size: cfg.robots,
+        heartbeat_ms: heartbeat_ms(cfg),
     }
 }
 
@@ -180,23 +192,15 @@ pub fn gate_params(cfg: &LaunchConfig, goal: Vec2) -> GateParams {
 pub fn agent_template(cfg: &LaunchConfig, swarm: String, endpoints: Vec<String>) -> AgentArgs {
     let failsafe =
         FailsafeArgs { grace_s: cfg.supervision.link_grace.max(DEFAULT_GRACE_S), ..FailsafeArgs::default() };
-    AgentArgs {
-        swarm,
-        robot: 1,
-        terrain: Some(PathBuf::from("-")),
-        eps: Some(cfg.eps),
-        noise: cfg.noise,
-        seed: cfg.seed,
-        clock: cfg.clock,
-        speed: cfg.speed,
-        swarm_size: Some(cfg.robots),
+    let own = AgentArgs {
         parent_pid: Some(std::process::id() as i32),
-        heartbeat_ms: heartbeat_ms(cfg),
         parked_heartbeat_ms: Some(parked_heartbeat_ms(cfg)),
-        settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
         bus: BusArgs { transport: cfg.transport.kind, connect: endpoints, zenoh_config: None },
         failsafe,
-    }
+        ..AgentArgs::new(swarm, 1)
+    };
+    // The terrain goes on the agent's stdin (`--terrain -`), not in its flags.
+    settings_of(cfg, String::new()).onto(own)
 }
 
 /// The agents' heartbeat period, ms.
@@ -252,7 +256,7 @@ mod tests {
             LaunchConfig { eps: 0.1 + 0.2, seed: 7, noise: true, speed: 2.5, ..LaunchConfig::default() };
         cfg.robots = 5;
         let template = agent_template(&cfg, "s".into(), Vec::new());
-        let launch = run_settings(&template, &world);
+        let launch = run_settings(&cfg, &world);
         // Robot 3 as spawned: the template's flags, the terrain on stdin.
         let mut args = template.clone();
         args.robot = 3;

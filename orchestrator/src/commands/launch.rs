@@ -14,6 +14,60 @@ use bycoms_sim::terrain::to_text;
 use bycoms_study::scenario::{self, WorldSource};
 use std::path::PathBuf;
 
+/// Declares `launch`'s flags once: each field is a clap flag (its doc
+/// comment is its `--help`) and, after `=>`, how it lands on its config key:
+/// `set key` (a given value replaces the key's), `some key` (the key is an
+/// option), `list key` (given values replace the key's list). The macro
+/// writes the struct and [`Args::overlay`], which merges every such flag
+/// over the file's values; flags without `=>` (switches that are not keys,
+/// `--config`, `--agent-bin`, ...) are handled by hand in [`Args::config`].
+macro_rules! launch_flags {
+    (
+        $(#[$meta:meta])*
+        pub struct $name:ident {
+            $($(#[$field_meta:meta])* pub $field:ident: $ty:ty $(=> $how:ident $($key:ident).+)?,)*
+        }
+    ) => {
+        $(#[$meta])*
+        pub struct $name {
+            $($(#[$field_meta])* pub $field: $ty,)*
+        }
+
+        impl $name {
+            /// The flags given, over `cfg` (the defaults and the file's values).
+            fn overlay(&self, cfg: &mut LaunchConfig) {
+                $($(merge!($how, cfg.$($key).+, self.$field);)?)*
+            }
+
+            /// Each flag that sets a config key, with the key (`gate.dwell`).
+            #[cfg(test)]
+            fn keys() -> Vec<(&'static str, String)> {
+                vec![$($((stringify!($field), stringify!($($key).+).replace(' ', "")),)?)*]
+            }
+        }
+    };
+}
+
+/// One flag over one config key (see [`launch_flags`]).
+macro_rules! merge {
+    (set, $slot:expr, $flag:expr) => {
+        if let Some(v) = &$flag {
+            $slot = v.clone();
+        }
+    };
+    (some, $slot:expr, $flag:expr) => {
+        if $flag.is_some() {
+            $slot.clone_from(&$flag);
+        }
+    };
+    (list, $slot:expr, $flag:expr) => {
+        if !$flag.is_empty() {
+            $slot.clone_from(&$flag);
+        }
+    };
+}
+
+launch_flags! {
 /// Deploy robots one at a time as separate agent processes (over iceoryx2 or zenoh).
 ///
 /// With no options, runs the built-in `long-obstacle` scenario (the paper's
@@ -26,43 +80,43 @@ use std::path::PathBuf;
 pub struct Args {
     /// Robots available (deployed one at a time) [default: 3].
     #[arg(long)]
-    pub robots: Option<u32>,
+    pub robots: Option<u32> => set robots,
     /// Terrain file in the text format (overrides --scenario).
     #[arg(long, value_name = "FILE", conflicts_with = "scenario")]
-    pub terrain: Option<PathBuf>,
+    pub terrain: Option<PathBuf> => some terrain,
     /// Built-in scenario [default: long-obstacle].
     #[arg(long, value_parser = scenario::names())]
     pub scenario: Option<String>,
     /// Circumferential radius ε in cells [default: 3].
     #[arg(long, allow_negative_numbers = true)]
-    pub eps: Option<f64>,
+    pub eps: Option<f64> => set eps,
     /// Sensing noise on (`--noise`) or off (`--noise false`).
     #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]
-    pub noise: Option<bool>,
+    pub noise: Option<bool> => set noise,
     /// Run seed of the robots' noise streams [default: 0].
     #[arg(long)]
-    pub seed: Option<u64>,
+    pub seed: Option<u64> => set seed,
     /// Clock: lockstep (fast, bit-identical to `simulate`) or realtime [default: lockstep].
     #[arg(long, value_enum)]
-    pub clock: Option<Clock>,
+    pub clock: Option<Clock> => set clock,
     /// Real-time speed-up: 10 Hz × speed, at most 1000 (a period of 100 µs) [default: 10].
     #[arg(long, allow_negative_numbers = true)]
-    pub speed: Option<f64>,
+    pub speed: Option<f64> => set speed,
     /// Simulated time budget, seconds of robot motion [default: 10000].
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
-    pub time_limit: Option<f64>,
+    pub time_limit: Option<f64> => set time_limit,
     /// Arrival radius around the goal [default: 0.5].
     #[arg(long)]
-    pub goal_radius: Option<f64>,
+    pub goal_radius: Option<f64> => set goal_radius,
     /// Swarm name (topic namespace) [default: `launch-<pid>`].
     #[arg(long)]
-    pub swarm: Option<String>,
+    pub swarm: Option<String> => some swarm,
     /// Record every bus message (raw bytes) and decoded channels Foxglove shows (scene, frames,
     /// log, per-robot JSON) to this MCAP file [default: none]. Lockstep runs are logged at
     /// simulated time. An existing recording is replaced only with --force; a file that is
     /// not an MCAP recording is never overwritten.
     #[arg(long, value_name = "FILE.mcap")]
-    pub record: Option<PathBuf>,
+    pub record: Option<PathBuf> => some record,
     /// Let --record replace an existing MCAP recording and --svg an existing
     /// SVG picture (never another kind of file, never an input).
     #[arg(long)]
@@ -70,11 +124,11 @@ pub struct Args {
     /// Draw the run as an SVG snapshot (trajectories, beacons, ε circles) when it ends [default: none].
     /// An existing picture is replaced only with --force; checked before anything starts.
     #[arg(long, value_name = "FILE.svg")]
-    pub svg: Option<PathBuf>,
+    pub svg: Option<PathBuf> => some svg,
     /// Serve the live view on host:port: Foxglove connects to ws://host:port,
     /// a browser opens http://host:port/ (port 0 picks a free port; printed).
     #[arg(long, value_name = "HOST:PORT")]
-    pub serve: Option<String>,
+    pub serve: Option<String> => some serve,
     /// Print the summary as JSON on stdout; its one-line form moves to stderr, with the progress.
     #[arg(long)]
     pub json: bool,
@@ -86,13 +140,13 @@ pub struct Args {
     pub agent_bin: Option<PathBuf>,
     /// Gate: a robot still this long (simulated s) has stopped [default: 20].
     #[arg(long, value_name = "SECONDS")]
-    pub dwell: Option<f64>,
+    pub dwell: Option<f64> => set gate.dwell,
     /// Gate: slower than this (cells/s) is still [default: 0.05]...
     #[arg(long)]
-    pub stop_speed: Option<f64>,
+    pub stop_speed: Option<f64> => set gate.stop_speed,
     /// ...if it also turns slower than this (rad/s; 0 ignores turning) [default: 0.05].
     #[arg(long)]
-    pub stop_turn_rate: Option<f64>,
+    pub stop_turn_rate: Option<f64> => set gate.stop_turn_rate,
     /// Do not start the next agent while the current robot moves.
     #[arg(long)]
     pub no_prespawn: bool,
@@ -111,62 +165,63 @@ pub struct Args {
     pub ros2_router: Option<String>,
     /// What a dead agent means [default: beacon].
     #[arg(long, value_enum)]
-    pub on_agent_death: Option<OnDeath>,
+    pub on_agent_death: Option<OnDeath> => set gate.on_agent_death,
     /// A robot whose agent never registers (or, started here, dies before
     /// it registers, twice): skip it at its turn, or fail the launch
     /// [default: skip].
     #[arg(long, value_enum)]
-    pub missing: Option<Missing>,
+    pub missing: Option<Missing> => set supervision.missing,
     /// Seconds an agent has to register [default: 10].
     #[arg(long, value_name = "SECONDS")]
-    pub register_timeout: Option<f64>,
+    pub register_timeout: Option<f64> => set supervision.register_timeout,
     /// Seconds of silence after which a live agent counts as hung [default: 2].
     #[arg(long, value_name = "SECONDS")]
-    pub heartbeat_timeout: Option<f64>,
+    pub heartbeat_timeout: Option<f64> => set supervision.heartbeat_timeout,
     /// Remote agents: seconds one may be unreachable (link cut, silent)
     /// before it counts as dead; the run waits for it meanwhile and resumes
     /// when it is back; 0: dead at once [default: 2].
     #[arg(long, value_name = "SECONDS")]
-    pub link_grace: Option<f64>,
+    pub link_grace: Option<f64> => set supervision.link_grace,
     /// The bus: ipc (iceoryx2, this host) or zenoh (tcp/quic/tls, any host) [default: ipc].
     #[arg(long, value_enum)]
-    pub transport: Option<Transport>,
+    pub transport: Option<Transport> => set transport.kind,
     /// zenoh: endpoint to listen on, tcp/HOST:PORT, or quic/HOST:PORT (tls/)
     /// with certificates; port 0 takes a free one (repeatable) [default:
     /// tcp/127.0.0.1:0].
     #[arg(long, value_name = "ENDPOINT")]
-    pub listen: Vec<String>,
+    pub listen: Vec<String> => list transport.listen,
     /// zenoh: endpoint to connect to as well, e.g. a zenohd router (repeatable).
     #[arg(long, value_name = "ENDPOINT")]
-    pub connect: Vec<String>,
+    pub connect: Vec<String> => list transport.connect,
     /// zenoh: a zenoh JSON5 config file read first (TLS, access control).
     #[arg(long, value_name = "FILE")]
-    pub zenoh_config: Option<PathBuf>,
+    pub zenoh_config: Option<PathBuf> => some transport.zenoh_config,
     /// zenoh: the config file each started agent reads first, `{robot}`
     /// replaced by its id (e.g. certs/robot-{robot}.json5 from `orchestrator
     /// certs`, for quic/ and tls/ endpoints).
     #[arg(long, value_name = "FILE")]
-    pub agent_zenoh_config: Option<PathBuf>,
+    pub agent_zenoh_config: Option<PathBuf> => some transport.agent_zenoh_config,
     /// Where agents come from: spawned (a sim-agent per robot, here),
     /// remote (started by hand on other hosts with `sim-agent --transport
     /// zenoh --connect ...`; the launch waits for all) or real (an `agent`
     /// gateway per robot of --robots-file) [default: spawned].
     #[arg(long, value_enum)]
-    pub agents: Option<AgentSourceKind>,
+    pub agents: Option<AgentSourceKind> => set agents.source,
     /// Real robots: the lab's robots file (addresses and key files), for
     /// gateways started here.
     #[arg(long, value_name = "FILE")]
-    pub robots_file: Option<PathBuf>,
+    pub robots_file: Option<PathBuf> => some agents.robots_file,
     /// Real robots: where their `agent` gateways run: here (started by the
     /// launch from --robots-file) or elsewhere (started by hand on a bridge
     /// host with `agent --transport zenoh --connect ...`; needs --transport
     /// zenoh) [default: here].
     #[arg(long, value_enum)]
-    pub gateways: Option<GatewaysAt>,
+    pub gateways: Option<GatewaysAt> => set agents.gateways,
     /// Real robots: the lab scenario (exp-short, exp-long or a scenario
     /// file, see deploy/lab/): start, goal and arena in metres.
     #[arg(long, value_name = "NAME|FILE")]
-    pub lab_scenario: Option<String>,
+    pub lab_scenario: Option<String> => some agents.scenario,
+}
 }
 
 impl Args {
@@ -180,63 +235,8 @@ impl Args {
             cfg.scenario = v.clone();
             cfg.terrain = None;
         }
-        macro_rules! set {
-            ($($field:ident).+ = $value:expr) => {
-                if let Some(v) = $value.clone() {
-                    cfg.$($field).+ = v;
-                }
-            };
-        }
-        set!(robots = self.robots);
-        set!(eps = self.eps);
-        set!(noise = self.noise);
-        set!(seed = self.seed);
-        set!(clock = self.clock);
-        set!(speed = self.speed);
-        set!(time_limit = self.time_limit);
-        set!(goal_radius = self.goal_radius);
-        set!(gate.dwell = self.dwell);
-        set!(gate.stop_speed = self.stop_speed);
-        set!(gate.stop_turn_rate = self.stop_turn_rate);
-        set!(gate.on_agent_death = self.on_agent_death);
-        set!(supervision.register_timeout = self.register_timeout);
-        set!(supervision.missing = self.missing);
-        set!(supervision.heartbeat_timeout = self.heartbeat_timeout);
-        set!(supervision.link_grace = self.link_grace);
-        set!(transport.kind = self.transport);
-        set!(agents.source = self.agents);
-        set!(agents.gateways = self.gateways);
-        if self.robots_file.is_some() {
-            cfg.agents.robots_file.clone_from(&self.robots_file);
-        }
-        if self.lab_scenario.is_some() {
-            cfg.agents.scenario.clone_from(&self.lab_scenario);
-        }
-        if !self.listen.is_empty() {
-            cfg.transport.listen.clone_from(&self.listen);
-        }
-        if !self.connect.is_empty() {
-            cfg.transport.connect.clone_from(&self.connect);
-        }
-        if self.zenoh_config.is_some() {
-            cfg.transport.zenoh_config.clone_from(&self.zenoh_config);
-        }
-        if self.agent_zenoh_config.is_some() {
-            cfg.transport.agent_zenoh_config.clone_from(&self.agent_zenoh_config);
-        }
-        for (slot, value) in
-            [(&mut cfg.terrain, &self.terrain), (&mut cfg.record, &self.record), (&mut cfg.svg, &self.svg)]
-        {
-            if value.is_some() {
-                slot.clone_from(value);
-            }
-        }
-        if self.swarm.is_some() {
-            cfg.swarm.clone_from(&self.swarm);
-        }
-        if self.serve.is_some() {
-            cfg.serve.clone_from(&self.serve);
-        }
+        // Every flag that names its config key (`=> ...` above).
+        self.overlay(&mut cfg);
         if self.no_prespawn {
             cfg.gate.prespawn = false;
         }
@@ -442,6 +442,25 @@ mod tests {
         assert!(err.contains("/robot_1/pose is a topic this launch publishes its own poses on"), "{err}");
         std::fs::write(&file, mocap.replace("/robot_1/pose", "/vrpn_mocap/robot1/pose")).expect("write");
         config(&["--config", path, "--ros2-router", "tcp/127.0.0.1:7447"]).expect("a driver's topic");
+    }
+
+    /// Each flag declared with its config key names a real key (its path in
+    /// the config as serialised: the TOML key), and setting the flag changes
+    /// that key and no other.
+    #[test]
+    fn every_flag_names_its_config_key() {
+        let defaults = serde_json::to_value(LaunchConfig::default()).expect("serialises");
+        let keys = super::Args::keys();
+        assert!(keys.len() >= 30, "{keys:?}");
+        for (field, key) in keys {
+            let pointer = format!("/{}", key.replace('.', "/"));
+            assert!(defaults.pointer(&pointer).is_some(), "--{field}: no config key {key}");
+        }
+        let set = config(&["--dwell", "7", "--listen", "tcp/127.0.0.1:1", "--missing", "fail"]).unwrap();
+        let mut want = LaunchConfig::default();
+        (want.gate.dwell, want.transport.listen) = (7.0, vec!["tcp/127.0.0.1:1".into()]);
+        want.supervision.missing = bycoms_launch::Missing::Fail;
+        assert_eq!(set, want);
     }
 
     #[test]

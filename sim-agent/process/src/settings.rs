@@ -4,13 +4,13 @@
 //! Why one value: a remote agent used to be started with the launch's
 //! terrain, ε, seed, noise, clock, speed and swarm size repeated on its
 //! command line, and a mismatch silently gave another run. Now the launch
-//! builds its [`RunSettings`] once ([`RunSettings::of`], from the flags it
-//! hands its spawned agents and the terrain's text), puts their
+//! derives its [`RunSettings`] once from its config, gives them to its
+//! spawned agents as flags ([`RunSettings::onto`]), puts their
 //! [`fingerprint`](RunSettings::fingerprint) in its setup (the launch core
 //! refuses a `Register` whose non-zero `settings` differ) and, over zenoh,
 //! serves their [encoding](RunSettings::encode) on
-//! `bycoms/<swarm>/settings`. An agent builds its settings with the same
-//! function from its own flags, or fetches the launch's
+//! `bycoms/<swarm>/settings`. An agent builds its settings back from its
+//! flags ([`RunSettings::of`]), or fetches the launch's
 //! ([`fetch`]), and registers with their fingerprint: the same study
 //! gives the same bytes, hence the same fingerprint, on every host.
 //!
@@ -92,16 +92,40 @@ impl RunSettings {
             noise: args.noise,
             seed: args.seed,
             clock: args.clock,
-            // Under lockstep the speed-up means nothing (the orchestrator's
-            // ticks pace the robot): one value, so a launch at `--speed 10`
-            // and an agent at its default 1 run the same study.
-            speed: match args.clock {
-                Clock::Lockstep => 1.0,
-                Clock::Realtime => args.speed,
-            },
+            speed: Self::speed_of(args.clock, args.speed),
             swarm_size: args.swarm_size(),
             heartbeat_ms: args.heartbeat_ms,
         })
+    }
+
+    /// The speed-up the settings hold for `speed` on `clock`: under
+    /// lockstep it means nothing (the orchestrator's ticks pace the robot),
+    /// so it is 1 there: a launch at `--speed 10` and an agent at its
+    /// default 1 run the same study.
+    pub fn speed_of(clock: Clock, speed: f64) -> f64 {
+        match clock {
+            Clock::Lockstep => 1.0,
+            Clock::Realtime => speed,
+        }
+    }
+
+    /// `args` (a robot's own flags: swarm, id, bus, failsafe) running these
+    /// settings, the terrain read from stdin (`--terrain -`; the starter
+    /// writes [`Self::terrain`] there). With [`AgentArgs::to_flags`] this is
+    /// the argv of an agent a launch starts; the agent's parser reads it back
+    /// into these settings ([`Self::of`]; tested below).
+    pub fn onto(&self, args: AgentArgs) -> AgentArgs {
+        AgentArgs {
+            terrain: Some("-".into()),
+            eps: Some(self.eps),
+            noise: self.noise,
+            seed: self.seed,
+            clock: self.clock,
+            speed: self.speed,
+            swarm_size: Some(self.swarm_size),
+            heartbeat_ms: self.heartbeat_ms,
+            ..args
+        }
     }
 
     /// The run parameters these settings give (the in-process runner's for
@@ -418,6 +442,35 @@ mod tests {
         assert_ne!(of(Clock::Realtime, 1.0).fingerprint(), of(Clock::Realtime, 10.0).fingerprint());
         let no_eps = AgentArgs { eps: None, ..args(Clock::Lockstep, 1.0) };
         assert_eq!(RunSettings::of(&no_eps, String::new()), None);
+    }
+
+    /// The argv a launch gives its agents ([`RunSettings::onto`] +
+    /// [`AgentArgs::to_flags`]) is read back by the agent's parser into the
+    /// very settings, bit for bit, on both clocks.
+    #[test]
+    fn settings_given_as_flags_are_read_back_exactly() {
+        use super::super::options::{parse_from, SimAgentRun};
+        let realtime = RunSettings {
+            eps: 0.1 + 0.2,
+            seed: u64::MAX,
+            speed: 2.5,
+            noise: true,
+            clock: Clock::Realtime,
+            swarm_size: 9,
+            heartbeat_ms: 37,
+            ..paper()
+        };
+        for s in [paper(), realtime] {
+            let args = s.onto(AgentArgs::new("s", 2));
+            let argv = std::iter::once("sim-agent".to_string()).chain(args.to_flags());
+            let SimAgentRun::Robot(parsed) = parse_from(argv).expect("the flags parse").1 else {
+                panic!("not a robot")
+            };
+            assert_eq!(parsed, args);
+            let back = RunSettings::of(&parsed, s.terrain.clone()).expect("settings");
+            assert_eq!((back.eps.to_bits(), back.fingerprint()), (s.eps.to_bits(), s.fingerprint()));
+            assert_eq!(back, s);
+        }
     }
 
     #[test]

@@ -18,7 +18,7 @@ use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_runtime::seconds::{check_seconds, Zero};
 use bycoms_runtime::Transport;
 use serde::{Deserialize, Serialize};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// What the transport hands the agent source: zenoh's liveliness watch on
 /// the swarm, or the in-memory bus that threads of this process share.
@@ -187,26 +187,11 @@ impl AgentsConfig {
             AgentSourceKind::Real => {
                 let path = self.robots_file.as_deref().context("agents.robots_file is not set")?;
                 let robots = RobotsFile::read(path)?;
-                let gateway = gateway_command(self.gateway_bin.as_deref())?;
+                let gateway = super::executable::gateway_command(self.gateway_bin.as_deref())?;
                 Box::new(Gateways::new(gateway, robots))
             }
         })
     }
-}
-
-/// The gateway executable: `explicit`, else `agent` next to this executable.
-fn gateway_command(explicit: Option<&Path>) -> Result<AgentCommand> {
-    if let Some(program) = explicit {
-        return Ok(AgentCommand { program: program.to_path_buf(), prefix: Vec::new() });
-    }
-    let (me, beside) = super::executable::beside_this_executable("agent")?;
-    anyhow::ensure!(
-        beside.is_file(),
-        "no gateway executable: `agent` is not next to {} (build it with `cargo build -p bycoms-agent`, \
-         or set agents.gateway_bin)",
-        me.display()
-    );
-    Ok(AgentCommand { program: beside, prefix: Vec::new() })
 }
 
 #[cfg(test)]

@@ -1,5 +1,6 @@
 //! Which executable runs the agents, and where the workspace's sibling
-//! binaries sit: the one lookup of the agent and gateway executables.
+//! binaries sit: the one lookup of the agent and gateway executables
+//! (`agent_command`, `gateway_command`).
 //!
 //! Why a file of its own: the launch command, the benches and the choice of
 //! agents (`choice.rs`) all look executables up, and none of them may use
@@ -35,8 +36,23 @@ pub fn agent_command(explicit: Option<&Path>, configured: Option<&Path>) -> Resu
 /// This executable, and where a sibling binary `name` of the workspace
 /// would sit next to it (`cargo build` puts them together): the one lookup
 /// of the agent and gateway executables.
-pub fn beside_this_executable(name: &str) -> Result<(PathBuf, PathBuf)> {
+fn beside_this_executable(name: &str) -> Result<(PathBuf, PathBuf)> {
     let me = std::env::current_exe().context("cannot locate the orchestrator executable")?;
     let beside = me.with_file_name(format!("{name}{}", std::env::consts::EXE_SUFFIX));
     Ok((me, beside))
+}
+
+/// The gateway executable: `explicit`, else `agent` next to this executable.
+pub fn gateway_command(explicit: Option<&Path>) -> Result<AgentCommand> {
+    if let Some(program) = explicit {
+        return Ok(AgentCommand { program: program.to_path_buf(), prefix: Vec::new() });
+    }
+    let (me, beside) = beside_this_executable("agent")?;
+    anyhow::ensure!(
+        beside.is_file(),
+        "no gateway executable: `agent` is not next to {} (build it with `cargo build -p bycoms-agent`, \
+         or set agents.gateway_bin)",
+        me.display()
+    );
+    Ok(AgentCommand { program: beside, prefix: Vec::new() })
 }

@@ -257,7 +257,7 @@ impl Launch {
             Err(e) => unreachable!("a terrain's own text parses: {e:#}"),
         };
         let template = super::setup::agent_template(&cfg, "harness".into(), Vec::new());
-        let settings = super::setup::run_settings(&template, &world);
+        let settings = super::setup::run_settings(&cfg, &world);
         let timing = bycoms_sim_agent::timing(&template, &settings);
         Self { cfg, world, template, settings, timing }
     }
