@@ -16,7 +16,7 @@
 //! differential properties (parity with `simulate`, forgeries and short
 //! partitions change nothing) compare two runs. A failing schedule is
 //! replayed exactly from its seed:
-//! `BYCOMS_SIM_SEED=<seed> cargo test -p bycoms-orchestrator --test launch_sim -- one_seed`.
+//! `BYCOMS_SIM_SEED=<seed> cargo test -p bycoms-launch --test launch_sim -- one_seed`.
 //!
 //! The agents run either clock: lockstep (the core is the clock: ticks,
 //! answers, re-sends) or real time at a drawn speed (each agent steps on

@@ -1,0 +1,119 @@
+//! Without faults a lockstep launch is `simulate`'s run, bit for bit, and a tick
+//! wakes only the agents that must step.
+
+use super::*;
+
+/// Without faults, the launch's result is `simulate`'s, bit for bit.
+#[test]
+fn without_faults_lockstep_equals_simulate_bit_for_bit() {
+    for seed in 0..432 {
+        let case = Case::small(seed);
+        let report = harness::run(&case, &Schedule::clean(seed, case.robots));
+        assert_simulates(&case, &report, &format!("seed {seed}"));
+    }
+}
+
+/// Issue 31: `--dwell 1e9` never ended, whatever the time limit (a robot
+/// that stopped was watched until it had stood still for the dwell). The
+/// time limit bounds every run, and the result is still `simulate`'s: a
+/// robot standing still when the time is up stopped within it.
+#[test]
+fn a_dwell_longer_than_the_run_ends_at_the_time_limit_as_simulate_does() {
+    for seed in (0..432).step_by(7) {
+        let mut case = Case::small(seed);
+        case.dwell = 1e9;
+        let schedule = Schedule::clean(seed, case.robots);
+        let report = harness::run(&case, &schedule);
+        harness::check(&report, &schedule).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        assert_simulates(&case, &report, &format!("seed {seed}, dwell 1e9 s"));
+    }
+}
+
+/// A robot that froze says so (`Parked`) and, once the gate has judged it,
+/// gets no more ticks: a long run wakes only the agents whose robots can
+/// still move, and the result stays `simulate`'s (the test above).
+#[test]
+fn a_frozen_robot_gets_no_tick_after_its_verdict() {
+    let mut judged_before_the_end = 0;
+    for seed in 0..216 {
+        let case = Case::small(seed);
+        let report = harness::run(&case, &Schedule::clean(seed, case.robots));
+        assert!(report.ending.is_some(), "seed {seed}: {:?}", report.failure);
+        for (k, (state, _, pose)) in report.robots.iter().enumerate() {
+            if *state != SlotState::Stuck {
+                continue;
+            }
+            let judged = pose.expect("a stuck robot has a pose").step;
+            assert_eq!(report.last_tick[k], Some(judged), "seed {seed} robot {}: its last tick", k + 1);
+            judged_before_the_end += usize::from(judged < report.ticks);
+        }
+    }
+    // Most stuck robots were judged long before their run ended: without
+    // `Parked` each of them would have been ticked to the end.
+    assert!(judged_before_the_end > 100, "only {judged_before_the_end} robots judged before the end");
+}
+
+/// An agent whose robot is not deployed yet steps nothing, so a tick
+/// costs it nothing: it is ticked only when it was just sent beacons (its
+/// answer says it holds them) and while it settles, never merely because
+/// the robot before it moves (issue 35: a prespawned agent used to be
+/// ticked every tick). Each such tick carries a beacon to it, but for one
+/// settling tick per deployment; the results are unchanged (the parity
+/// tests above).
+#[test]
+fn an_agent_whose_robot_is_not_deployed_is_ticked_only_to_take_beacons_or_settle() {
+    let (mut idle, mut moving) = (0, 0);
+    for seed in 0..120 {
+        let case = Case::small(seed);
+        let report = harness::run(&case, &Schedule::clean(seed, case.robots));
+        assert!(report.ending.is_some(), "seed {seed}: {:?}", report.failure);
+        let idle_ticks: u64 = report.idle_ticks.iter().sum();
+        let deployed = report.deploys_sent.iter().filter(|&&d| d > 0).count() as u64;
+        let bound = report.beacons_sent + deployed + report.resends;
+        assert!(idle_ticks <= bound, "seed {seed}: {idle_ticks} idle ticks, at most {bound} expected");
+        idle += idle_ticks;
+        moving += report.ticks;
+    }
+    assert!(idle > 0, "settling robots are ticked");
+    assert!(idle * 4 < moving, "{idle} idle ticks in {moving} ticks");
+}
+
+/// The harness's agents are built as the launch's spawned agents are:
+/// from its agent template and run settings (no restated periods: they
+/// beat every 100 ms, every 500 ms once parked), and the core's setup
+/// carries the fingerprint those agents register with.
+#[test]
+fn harness_agents_beat_and_register_as_the_launch_tells_its_agents() {
+    use std::time::Duration;
+    let case = Case::small(0);
+    let schedule = Schedule::clean(0, case.robots);
+    let launch = harness::Launch::of(&case, &schedule);
+    assert_eq!(launch.timing.heartbeat, Duration::from_millis(100));
+    assert_eq!(launch.timing.parked_heartbeat, Duration::from_millis(500));
+    assert_eq!(launch.setup(&schedule).settings, launch.settings.fingerprint());
+    assert_eq!(launch.setup(&schedule), harness::setup(&case, &schedule));
+}
+
+/// Agents that stop stuck robots (the gateways' property, through the
+/// launch's own setup) are told `Stop` once per robot judged stuck, and
+/// nothing else changes: in lockstep a judged robot gets no tick anyway,
+/// and the sim-agent's own rules park it (`Parked`, slower heartbeats).
+#[test]
+fn stop_when_stuck_stops_each_stuck_robot_once_and_changes_nothing_else() {
+    let mut stopped = 0;
+    for seed in 0..120 {
+        let case = Case::small(seed);
+        let clean = Schedule::clean(seed, case.robots);
+        let stopping = Schedule { stop_when_stuck: true, ..clean.clone() };
+        let (base, report) = (harness::run(&case, &clean), harness::run(&case, &stopping));
+        harness::check(&report, &stopping).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        same_run(&base, &report, &format!("seed {seed}, stop when stuck"));
+        for (k, (state, _, _)) in report.robots.iter().enumerate() {
+            let expected = u64::from(matches!(state, SlotState::Stuck | SlotState::Arrived));
+            assert_eq!(report.stops_sent[k], expected, "seed {seed} robot {}: Stops for {state:?}", k + 1);
+            assert_eq!(base.stops_sent[k], u64::from(*state == SlotState::Arrived), "seed {seed} without");
+            stopped += usize::from(*state == SlotState::Stuck);
+        }
+    }
+    assert!(stopped > 100, "only {stopped} stuck robots stopped");
+}
