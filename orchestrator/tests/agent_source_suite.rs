@@ -16,7 +16,7 @@ use bycoms_launch::agents::gateways::{Gateways, LINK_GRACE};
 use bycoms_launch::agents::remote::Remote;
 use bycoms_launch::agents::spawned::{AgentCommand, Spawned};
 use bycoms_launch::agents::threads::Threads;
-use bycoms_launch::agents::{AgentError, AgentPlan, AgentSource};
+use bycoms_launch::agents::{AgentError, AgentPlan, AgentSource, Joining};
 use bycoms_protocol::bus::memory::MemoryBus;
 use bycoms_protocol::bus::zenoh::{AliveToken, AliveWatch, Mode, Presence, ZenohBus, ZenohConfig};
 use bycoms_protocol::bus::{BusExt, Limits};
@@ -24,30 +24,33 @@ use bycoms_protocol::msg::{FromAgent, ToAgent};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{RobotId, Swarm};
 use bycoms_runtime::{BusArgs, Transport};
-use bycoms_sim_agent::{AgentArgs, Clock, DEFAULT_SETTINGS_TIMEOUT_S};
+use bycoms_sim_agent::{Clock, RunSettings};
 use std::cell::{Cell, RefCell};
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use suites::agents::{run_all, AgentFixture, EndsByItself, Expected, Starts};
 
-/// Agent arguments of robot `id` (what a launch would pass).
-fn args(id: u32) -> AgentArgs {
-    AgentArgs {
+/// How the suite's agents join: swarm `suite`, over iceoryx2.
+fn joining() -> Joining {
+    Joining {
         swarm: "suite".into(),
-        robot: id,
-        terrain: Some(PathBuf::from("-")),
-        eps: Some(3.0),
+        parent_pid: Some(std::process::id() as i32),
+        bus: BusArgs { transport: Transport::Ipc, connect: Vec::new(), zenoh_config: None },
+        failsafe: Default::default(),
+        parked_heartbeat_ms: 100,
+    }
+}
+
+/// The suite's run settings (ε 3, lockstep, four robots) with `terrain`.
+fn settings(terrain: &str) -> RunSettings {
+    RunSettings {
+        terrain: terrain.into(),
+        eps: 3.0,
         noise: false,
         seed: 0,
         clock: Clock::Lockstep,
         speed: 1.0,
-        swarm_size: Some(4),
-        parent_pid: Some(std::process::id() as i32),
+        swarm_size: 4,
         heartbeat_ms: 100,
-        parked_heartbeat_ms: None,
-        settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
-        bus: BusArgs { transport: Transport::Ipc, connect: Vec::new(), zenoh_config: None },
-        failsafe: Default::default(),
     }
 }
 
@@ -81,8 +84,8 @@ impl AgentFixture for SpawnedFixture {
         Box::new(Spawned::new(command))
     }
 
-    fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {
-        (args(id), if ends_by_itself { "exit\n" } else { "stay\n" }.into())
+    fn plan(&self, _id: u32, ends_by_itself: bool) -> (Joining, RunSettings) {
+        (joining(), settings(if ends_by_itself { "exit\n" } else { "stay\n" }))
     }
 }
 
@@ -122,9 +125,9 @@ impl AgentFixture for RemoteFixture {
         Box::new(Remote::new(None))
     }
 
-    fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {
+    fn plan(&self, _id: u32, ends_by_itself: bool) -> (Joining, RunSettings) {
         assert!(!ends_by_itself, "the suite asked a remote agent to end by itself");
-        (args(id), String::new())
+        (joining(), settings(""))
     }
 }
 
@@ -217,7 +220,7 @@ impl AgentFixture for RemoteLivelinessFixture {
         Box::new(Remote::new(Some(watch)))
     }
 
-    fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {
+    fn plan(&self, id: u32, ends_by_itself: bool) -> (Joining, RunSettings) {
         let current = self.current.borrow();
         let (swarm, probe) = current.as_ref().expect("a source was made");
         let token = self.peer.declare_alive(swarm, Member::Agent(RobotId(id))).expect("token");
@@ -228,7 +231,7 @@ impl AgentFixture for RemoteLivelinessFixture {
         } else {
             self.tokens.borrow_mut().push(token);
         }
-        (AgentArgs { swarm: swarm.as_str().into(), ..args(id) }, String::new())
+        (Joining { swarm: swarm.as_str().into(), ..joining() }, settings(""))
     }
 }
 
@@ -293,12 +296,12 @@ impl AgentFixture for GatewaysFixture {
         Box::new(Gateways::new(command, self.robots.clone()))
     }
 
-    fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {
-        let mut a = args(id);
+    fn plan(&self, _id: u32, ends_by_itself: bool) -> (Joining, RunSettings) {
+        let mut run = settings("");
         if ends_by_itself {
-            a.heartbeat_ms = ENDS;
+            run.heartbeat_ms = ENDS;
         }
-        (a, String::new())
+        (joining(), run)
     }
 }
 
@@ -312,8 +315,8 @@ fn gateways_pass_the_suite() {
 fn gateways_refuse_a_robot_the_robots_file_does_not_name() {
     let fixture = GatewaysFixture::new();
     let mut source = fixture.source();
-    let (a, terrain) = fixture.plan(9, false);
-    let refused = source.start(9, &AgentPlan { args: &a, terrain_text: &terrain });
+    let (joining, settings) = fixture.plan(9, false);
+    let refused = source.start(9, &AgentPlan { joining: &joining, settings: &settings });
     assert!(matches!(refused, Err(AgentError::NoSuchRobot { robot: 9, .. })), "{refused:?}");
     assert!(!source.is_running(9), "nothing started");
 }
@@ -392,17 +395,15 @@ impl AgentFixture for ThreadsFixture {
         Box::new(Threads::new(bus))
     }
 
-    fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String) {
+    fn plan(&self, id: u32, ends_by_itself: bool) -> (Joining, RunSettings) {
         if ends_by_itself {
             let bus = self.bus.borrow().clone().expect("a source was made");
             self.shut_down_when_registered(&bus, id);
         }
         let terrain = bycoms_sim::terrain::to_text(&bycoms_sim::terrain::Terrain::paper());
-        {
-            let mut a = AgentArgs { parent_pid: None, ..args(id) };
-            a.bus.transport = Transport::Memory;
-            (a, terrain)
-        }
+        let mut joining = Joining { parent_pid: None, ..joining() };
+        joining.bus.transport = Transport::Memory;
+        (joining, settings(&terrain))
     }
 }
 

@@ -188,7 +188,7 @@ pub struct SupervisionConfig {
     /// cut, or silent) before it is treated as dead; the launch holds it
     /// meanwhile and resumes when it is back. 0: dead at once. Agents the
     /// launch starts get an `--orchestrator-grace` no shorter than this
-    /// (`setup::agent_template`); agents started by hand need one as long.
+    /// (`setup::joining`); agents started by hand need one as long.
     pub link_grace: f64,
     /// Agents over zenoh: a host whose clock is off the orchestrator's by
     /// more than this (as the agent measured it) is warned about.

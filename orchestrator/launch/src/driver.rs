@@ -10,7 +10,7 @@
 //! IO until the core's next deadline. At the end it sends `Shutdown`, winds
 //! the agents down and builds the summary from the core's slots.
 
-use super::agents::{AgentPlan, AgentSource, Gone, Started};
+use super::agents::{AgentPlan, AgentSource, Gone, Joining, Started};
 use super::config::{Clock, LaunchConfig};
 use super::control::{Answer, Ask, Control, Reply, Request};
 use super::core::log::{self, Logged};
@@ -25,7 +25,7 @@ use super::World;
 use bycoms_protocol::bus::zenoh::settings::SettingsServer;
 use bycoms_protocol::msg::{Pose, ToAgent};
 use bycoms_record::schema;
-use bycoms_sim_agent::AgentArgs;
+use bycoms_sim_agent::RunSettings;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -42,7 +42,8 @@ pub struct Driver {
     ports: Ports,
     agents: Box<dyn AgentSource>,
     pose_source: Box<dyn PoseSource>,
-    template: AgentArgs,
+    joining: Joining,
+    run: RunSettings,
     progress: Progress,
     stop: Arc<AtomicBool>,
     /// Launch time 0 (when the core was made).
@@ -83,8 +84,10 @@ pub struct Parts {
     pub agents: Box<dyn AgentSource>,
     /// Where the gate's poses come from.
     pub pose_source: Box<dyn PoseSource>,
-    /// Every agent's flags (the robot id is set per agent).
-    pub template: AgentArgs,
+    /// How every agent joins the launch.
+    pub joining: Joining,
+    /// The run's settings every agent is given.
+    pub run: RunSettings,
     /// The Ctrl-C flag.
     pub stop: Arc<AtomicBool>,
     /// When the launch command began.
@@ -106,20 +109,21 @@ impl Driver {
             ports,
             agents,
             pose_source,
-            template,
+            joining,
+            run,
             stop,
             begun,
             endpoints,
             settings,
             control,
         } = parts;
-        let setup = super::setup::setup(&cfg, &world, &template, agents.as_ref(), pose_source.as_ref());
+        let setup = super::setup::setup(&cfg, &world, &run, agents.as_ref(), pose_source.as_ref());
         let mut ports = ports;
         // The core's setup and calls go into the recording: `replay` feeds
         // them to the same core (`launch::core::log`).
         let recorded = ports.recording.is_on();
         if recorded {
-            let topic = format!("bycoms/{}/core/setup", template.swarm);
+            let topic = format!("bycoms/{}/core/setup", joining.swarm);
             ports.recording.bytes(&topic, schema::CORE_SETUP, &log::encode_setup(&setup));
         }
         Self {
@@ -130,7 +134,8 @@ impl Driver {
             ports,
             agents,
             pose_source,
-            template,
+            joining,
+            run,
             stop,
             epoch: Instant::now(),
             begun,
@@ -193,7 +198,7 @@ impl Driver {
     fn record_calls(&mut self) {
         let calls = self.core.take_calls();
         if !calls.is_empty() {
-            let topic = format!("bycoms/{}/core/calls", self.template.swarm);
+            let topic = format!("bycoms/{}/core/calls", self.joining.swarm);
             self.ports.recording.bytes(&topic, schema::CORE_CALLS, &log::encode_calls(&calls));
         }
     }
@@ -239,7 +244,7 @@ impl Driver {
             Output::Forward(pose) => self.ports.forward_pose(&pose)?,
             Output::Gate(event) => self.ports.publish_gate(&event)?,
             Output::Event(event) => {
-                let topic = format!("bycoms/{}/events", self.template.swarm);
+                let topic = format!("bycoms/{}/events", self.joining.swarm);
                 self.ports.recording.json(&topic, EVENT_SCHEMA, &event);
             }
             Output::Note(text) => self.progress.event(&text),
@@ -260,10 +265,9 @@ impl Driver {
     fn start(&mut self, id: u32) -> anyhow::Result<Started> {
         self.ports.open_robot(id)?;
         self.pose_source.open_robot(id)?;
-        let mut args = self.template.clone();
-        args.robot = id;
-        args.bus.zenoh_config = self.cfg.transport.agent_config_of(id);
-        let plan = AgentPlan { args: &args, terrain_text: &self.world.terrain_text };
+        let mut joining = self.joining.clone();
+        joining.bus.zenoh_config = self.cfg.transport.agent_config_of(id);
+        let plan = AgentPlan { joining: &joining, settings: &self.run };
         Ok(self.agents.start(id, &plan)?)
     }
 
@@ -357,7 +361,7 @@ impl Driver {
         let stop = self.core.stopped();
         let answered = stop.map_or(&[][..], |s| &s.answered[..]);
         let answer = Answer::Stopping {
-            swarm: self.template.swarm.clone(),
+            swarm: self.joining.swarm.clone(),
             now: stop.is_some_and(|s| s.now),
             told: stop.map_or(0, |s| s.told.len() as u32),
             answered: answered.len() as u32,
@@ -388,13 +392,13 @@ impl Driver {
         let at = self.now();
         self.core.advance(at);
         self.carry_out();
-        Answer::Revoked { swarm: self.template.swarm.clone(), robot, told, already, pid: std::process::id() }
+        Answer::Revoked { swarm: self.joining.swarm.clone(), robot, told, already, pid: std::process::id() }
     }
 
     /// Where the launch stands (`orchestrator status`).
     pub fn status(&self) -> LaunchStatus {
         let facts = Facts {
-            swarm: self.template.swarm.clone(),
+            swarm: self.joining.swarm.clone(),
             clock: self.cfg.clock.as_str().into(),
             transport: self.cfg.transport.kind.as_str().into(),
             recording: self.cfg.record.as_ref().map(|p| p.display().to_string()),
@@ -481,7 +485,7 @@ impl Driver {
     /// with the driver's own figures: wall time, speed, real-time report.
     fn summary(&mut self, ending: &Ending, killed: Vec<u32>) -> Summary {
         let decided = super::summary::of(&self.core, ending, Ok(()));
-        let dt = self.template.run_config().kinematics.dt;
+        let dt = self.run.run_config().kinematics.dt;
         let wall_s = self.epoch.elapsed().as_secs_f64();
         let realtime = (self.cfg.clock == Clock::Realtime)
             .then(|| RealtimeReport::new(self.cfg.speed, decided.frames.0, decided.frames.1));
@@ -503,7 +507,7 @@ impl Driver {
             (self.epoch.saturating_duration_since(self.begun) + Duration::from_micros(us)).as_secs_f64()
         });
         Summary {
-            swarm: self.template.swarm.clone(),
+            swarm: self.joining.swarm.clone(),
             terrain: self.world.name.clone(),
             eps: self.cfg.eps,
             noise: self.cfg.noise,
@@ -515,7 +519,7 @@ impl Driver {
             error: decided.verdict.error,
             robots_used: decided.robots_used,
             steps: spent,
-            time_s: self.template.run_config().kinematics.time_of(spent),
+            time_s: self.run.run_config().kinematics.time_of(spent),
             ticks,
             ticked_agents: self.core.ticked_agents(),
             tick_us: self.core.tick_us(),
@@ -578,7 +582,7 @@ impl Driver {
             "{} — ε = {}, {} launch, swarm {}",
             summary.terrain, summary.eps, summary.clock, summary.swarm
         );
-        let dt = self.template.run_config().kinematics.dt;
+        let dt = self.run.run_config().kinematics.dt;
         Some(bycoms_study::draw::trace::picture_in(
             &self.world.terrain,
             trace,

@@ -145,9 +145,9 @@ pub fn run_serving(
     }
     ports.observers.iter_mut().for_each(|o| o.world(&swarm_name, &world, &cfg, scene.as_ref()));
     ports.show_scene();
-    let template = setup::agent_template(&cfg, swarm_name, endpoints.clone());
-    let (settings_served, _clock_served) =
-        serve_over_zenoh(zenoh.as_ref(), &swarm, &setup::run_settings(&cfg, &world), cfg.robots)?;
+    let joining = setup::joining(&cfg, swarm_name, endpoints.clone());
+    let run = setup::run_settings(&cfg, &world);
+    let (settings_served, _clock_served) = serve_over_zenoh(zenoh.as_ref(), &swarm, &run, cfg.robots)?;
     let agents = cfg.agents.open(agent, links)?;
     let control =
         control::Control::serve(swarm.as_str(), zenoh.as_ref()).context("cannot serve status and stop")?;
@@ -165,7 +165,8 @@ pub fn run_serving(
         ports,
         agents,
         pose_source,
-        template,
+        joining,
+        run,
         stop,
         begun,
         endpoints,

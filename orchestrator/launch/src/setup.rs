@@ -6,7 +6,7 @@
 //! period) happens once, here.
 
 use super::agents::remote::QUIET_HEARTBEATS;
-use super::agents::AgentSource;
+use super::agents::{AgentSource, Joining};
 use super::config::{Clock, LaunchConfig};
 use super::core::{AgentTraits, ClockLimits, Setup, Supervision};
 use super::poses::PoseSource;
@@ -14,7 +14,7 @@ use super::World;
 use bycoms_runtime::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};
 use bycoms_runtime::BusArgs;
 use bycoms_sim::Vec2;
-use bycoms_sim_agent::{AgentArgs, RunSettings};
+use bycoms_sim_agent::RunSettings;
 use bycoms_study::gate::GateParams;
 use std::time::Duration;
 use std::time::{SystemTime, UNIX_EPOCH};
@@ -72,12 +72,12 @@ impl Seams {
 pub fn setup(
     cfg: &LaunchConfig,
     world: &World,
-    template: &AgentArgs,
+    settings: &RunSettings,
     agents: &dyn AgentSource,
     poses: &dyn PoseSource,
 ) -> Setup {
     let unix_ms = SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_millis() as u64).unwrap_or(0);
-    setup_of(cfg, world, template, &Seams::of(agents, poses), unix_ms)
+    setup_of(cfg, world, settings, &Seams::of(agents, poses), unix_ms)
 }
 
 /// The core's setup for a launch of `cfg` in `world` with seams `seams`,
@@ -85,11 +85,11 @@ pub fn setup(
 pub fn setup_of(
     cfg: &LaunchConfig,
     world: &World,
-    template: &AgentArgs,
+    settings: &RunSettings,
     seams: &Seams,
     unix_base_ms: u64,
 ) -> Setup {
-    let mut run = template.run_config();
+    let mut run = settings.run_config();
     run.time_limit = cfg.time_limit;
     let placement = seams.needs_placement.then(|| seams.mocap_placement.unwrap_or(cfg.agents.placement));
     Setup {
@@ -149,18 +149,14 @@ pub fn supervision(cfg: &LaunchConfig, held: bool, robot_link_grace: Option<Dura
 
 /// The run's settings: the one value the launch derives from its config
 /// (ε, noise, seed, clock, speed, swarm size, heartbeat) and the terrain's
-/// text. Its spawned agents are given them as flags ([`agent_template`],
-/// [`RunSettings::onto`]) and build the same value back; agents started
-/// elsewhere (over zenoh) are served their encoding. One value, so one
-/// fingerprint.
+/// text. The agent sources are given them with how an agent joins
+/// ([`Joining`]); a spawned agent gets them as flags
+/// ([`Joining::sim_agent`], [`RunSettings::onto`]) and builds the same
+/// value back; agents started elsewhere (over zenoh) are served their
+/// encoding. One value, so one fingerprint.
 pub fn run_settings(cfg: &LaunchConfig, world: &World) -> RunSettings {
-    settings_of(cfg, world.terrain_text.clone())
-}
-
-/// The settings of `cfg` with the terrain `terrain`.
-fn settings_of(cfg: &LaunchConfig, terrain: String) -> RunSettings {
     RunSettings {
-        terrain,
+        terrain: world.terrain_text.clone(),
         eps: cfg.eps,
         noise: cfg.noise,
         seed: cfg.seed,
@@ -183,24 +179,23 @@ pub fn gate_params(cfg: &LaunchConfig, goal: Vec2) -> GateParams {
     }
 }
 
-/// The flags of every agent this launch starts (the robot id is set per
-/// agent): the run's parameters, the bus and where it listens, and a
-/// failsafe grace no shorter than the launch's link grace. An agent that
-/// lost the orchestrator for longer than its grace stops its robot and
-/// exits; with a shorter grace than the launch's, a cut the launch would
-/// ride out (holding the robot, then resuming) would cost the robot.
-pub fn agent_template(cfg: &LaunchConfig, swarm: String, endpoints: Vec<String>) -> AgentArgs {
-    let failsafe =
-        FailsafeArgs { grace_s: cfg.supervision.link_grace.max(DEFAULT_GRACE_S), ..FailsafeArgs::default() };
-    let own = AgentArgs {
+/// How every agent of this launch joins it: the bus and where the
+/// orchestrator listens, and a failsafe grace no shorter than the launch's
+/// link grace. An agent that lost the orchestrator for longer than its
+/// grace stops its robot and exits; with a shorter grace than the
+/// launch's, a cut the launch would ride out (holding the robot, then
+/// resuming) would cost the robot.
+pub fn joining(cfg: &LaunchConfig, swarm: String, endpoints: Vec<String>) -> Joining {
+    Joining {
+        swarm,
         parent_pid: Some(std::process::id() as i32),
-        parked_heartbeat_ms: Some(parked_heartbeat_ms(cfg)),
         bus: BusArgs { transport: cfg.transport.kind, connect: endpoints, zenoh_config: None },
-        failsafe,
-        ..AgentArgs::new(swarm, 1)
-    };
-    // The terrain goes on the agent's stdin (`--terrain -`), not in its flags.
-    settings_of(cfg, String::new()).onto(own)
+        failsafe: FailsafeArgs {
+            grace_s: cfg.supervision.link_grace.max(DEFAULT_GRACE_S),
+            ..FailsafeArgs::default()
+        },
+        parked_heartbeat_ms: parked_heartbeat_ms(cfg),
+    }
 }
 
 /// The agents' heartbeat period, ms.
@@ -226,25 +221,30 @@ mod tests {
         let parked = |interval: f64, timeout: f64| {
             let mut cfg = LaunchConfig::default();
             (cfg.supervision.heartbeat_interval, cfg.supervision.heartbeat_timeout) = (interval, timeout);
-            agent_template(&cfg, "s".into(), Vec::new()).parked_heartbeat_ms
+            joining(&cfg, "s".into(), Vec::new()).parked_heartbeat_ms
         };
-        assert_eq!(parked(0.1, 2.0), Some(500), "the defaults");
-        assert_eq!(parked(0.1, 10.0), Some(1000), "at most 1 s");
-        assert_eq!(parked(0.1, 0.3), Some(100), "never faster than the heartbeat");
-        let flags = agent_template(&LaunchConfig::default(), "s".into(), Vec::new()).to_flags();
+        assert_eq!(parked(0.1, 2.0), 500, "the defaults");
+        assert_eq!(parked(0.1, 10.0), 1000, "at most 1 s");
+        assert_eq!(parked(0.1, 0.3), 100, "never faster than the heartbeat");
+        let cfg = LaunchConfig::default();
+        let flags = joining(&cfg, "s".into(), Vec::new())
+            .sim_agent(1, &run_settings(&cfg, &World::tiny()))
+            .to_flags();
         assert!(flags.windows(2).any(|w| w == ["--parked-heartbeat-ms", "500"]), "{flags:?}");
     }
 
     #[test]
     fn started_agents_hold_on_at_least_as_long_as_the_launch_holds_them() {
         let mut cfg = LaunchConfig::default();
-        let grace = |cfg: &LaunchConfig| agent_template(cfg, "s".into(), Vec::new()).failsafe.grace_s;
+        let grace = |cfg: &LaunchConfig| joining(cfg, "s".into(), Vec::new()).failsafe.grace_s;
         assert_eq!(grace(&cfg), DEFAULT_GRACE_S);
         cfg.supervision.link_grace = 5.0;
         assert_eq!(grace(&cfg), 5.0);
         cfg.supervision.link_grace = 0.0;
         assert_eq!(grace(&cfg), DEFAULT_GRACE_S);
-        let flags = agent_template(&cfg, "s".into(), Vec::new()).to_flags();
+        let flags = joining(&cfg, "s".into(), Vec::new())
+            .sim_agent(1, &run_settings(&cfg, &World::tiny()))
+            .to_flags();
         assert!(flags.windows(2).any(|w| w[0] == "--orchestrator-grace"), "{flags:?}");
     }
 
@@ -255,11 +255,9 @@ mod tests {
         let mut cfg =
             LaunchConfig { eps: 0.1 + 0.2, seed: 7, noise: true, speed: 2.5, ..LaunchConfig::default() };
         cfg.robots = 5;
-        let template = agent_template(&cfg, "s".into(), Vec::new());
         let launch = run_settings(&cfg, &world);
-        // Robot 3 as spawned: the template's flags, the terrain on stdin.
-        let mut args = template.clone();
-        args.robot = 3;
+        // Robot 3 as spawned: how it joins, the settings, the terrain on stdin.
+        let args = joining(&cfg, "s".into(), Vec::new()).sim_agent(3, &launch);
         let flags = std::iter::once("sim-agent".to_string()).chain(args.to_flags());
         let SimAgentRun::Robot(parsed) = parse_from(flags).expect("the flags parse").1 else {
             panic!("a robot's flags")

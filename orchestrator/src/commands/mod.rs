@@ -128,8 +128,8 @@ pub fn run(cli: Cli) -> Result<i32> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use bycoms_launch::setup::agent_template;
-    use bycoms_launch::LaunchConfig;
+    use bycoms_launch::setup::{joining, run_settings};
+    use bycoms_launch::{LaunchConfig, World};
     use bycoms_sim_agent::options::{parse_from, SimAgentRun};
 
     /// `orchestrator sim-agent` (what a launch runs when no `sim-agent`
@@ -137,8 +137,7 @@ mod tests {
     #[test]
     fn the_hidden_sim_agent_reads_the_flags_a_launch_passes_as_sim_agent_does() {
         let cfg = LaunchConfig { eps: 0.1 + 0.2, seed: 7, noise: true, ..LaunchConfig::default() };
-        let mut args = agent_template(&cfg, "s".into(), Vec::new());
-        args.robot = 2;
+        let args = joining(&cfg, "s".into(), Vec::new()).sim_agent(2, &run_settings(&cfg, &World::tiny()));
         let flags = args.to_flags();
         let here = Cli::try_parse_from(
             ["orchestrator", "sim-agent"].map(String::from).into_iter().chain(flags.clone()),

@@ -22,9 +22,9 @@
 //! [`Report`] with the reason, never skipped silently (see `suites/mod.rs`).
 
 use super::Report;
-use bycoms_launch::agents::{AgentPlan, AgentSource, Gone, Started};
+use bycoms_launch::agents::{AgentPlan, AgentSource, Gone, Joining, Started};
 use bycoms_launch::driver::wind_down;
-use bycoms_sim_agent::AgentArgs;
+use bycoms_sim_agent::RunSettings;
 use std::time::{Duration, Instant};
 
 /// What [`AgentSource::start`] starts for this kind.
@@ -105,18 +105,18 @@ pub trait AgentFixture {
     fn expected(&self) -> Expected;
     /// A fresh source.
     fn source(&self) -> Box<dyn AgentSource>;
-    /// Arguments and terrain text for robot `id`'s agent: one that stays
+    /// How robot `id`'s agent joins and what it runs: one that stays
     /// alive and silent until ended, or (`ends_by_itself`) one that ends by
     /// itself right after starting. Asked for an ending agent only when
     /// [`Expected::ends_by_itself`] says it can; called after
     /// [`AgentFixture::source`], for the source made last.
-    fn plan(&self, id: u32, ends_by_itself: bool) -> (AgentArgs, String);
+    fn plan(&self, id: u32, ends_by_itself: bool) -> (Joining, RunSettings);
 }
 
 /// Starts robot `id`'s agent (silent, or ending by itself).
 fn start(source: &mut dyn AgentSource, fixture: &dyn AgentFixture, id: u32, ends: bool) -> Started {
-    let (args, terrain) = fixture.plan(id, ends);
-    let plan = AgentPlan { args: &args, terrain_text: &terrain };
+    let (joining, settings) = fixture.plan(id, ends);
+    let plan = AgentPlan { joining: &joining, settings: &settings };
     source.start(id, &plan).unwrap_or_else(|e| panic!("starting robot {id}: {e}"))
 }
 

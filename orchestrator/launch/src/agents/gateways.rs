@@ -118,19 +118,19 @@ impl Gateways {
             robot: id,
             why: format!("the robots file names robots 1..={}", robots.robots.len()),
         })?;
-        let a = plan.args;
+        let (joining, settings) = (plan.joining, plan.settings);
         Ok(GatewayArgs {
-            swarm: a.swarm.clone(),
+            swarm: joining.swarm.clone(),
             robot: id,
             bind: entry.gateway,
             key_file: robots.key_path(entry),
-            swarm_size: a.swarm_size,
-            speed: a.speed,
+            swarm_size: Some(settings.swarm_size),
+            speed: settings.speed,
             link_timeout_ms: self.link_timeout_ms,
-            heartbeat_ms: a.heartbeat_ms,
-            parent_pid: a.parent_pid,
-            bus: a.bus.clone(),
-            failsafe: a.failsafe,
+            heartbeat_ms: settings.heartbeat_ms,
+            parent_pid: joining.parent_pid,
+            bus: joining.bus.clone(),
+            failsafe: joining.failsafe,
         })
     }
 }

@@ -47,19 +47,54 @@ pub mod spawned;
 pub mod stderr_tap;
 pub mod threads;
 
-use bycoms_sim_agent::AgentArgs;
+use bycoms_runtime::failsafe::FailsafeArgs;
+use bycoms_runtime::BusArgs;
+use bycoms_sim_agent::{AgentArgs, RunSettings};
 use std::process::ExitStatus;
 use std::time::Duration;
 
-/// What an agent needs to be started: its flags and the world.
+/// How an agent joins this launch, whatever its kind (a `sim-agent`, a
+/// robot's gateway): the swarm, the bus (where the orchestrator listens,
+/// the robot's own zenoh config), the failsafe grace, the orchestrator as
+/// its parent. What it runs comes apart: the launch's [`RunSettings`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Joining {
+    /// The swarm's name.
+    pub swarm: String,
+    /// The orchestrator's pid (none: an agent that outlives no parent).
+    pub parent_pid: Option<i32>,
+    /// The bus and where the orchestrator listens.
+    pub bus: BusArgs,
+    /// The failsafe when the orchestrator is lost.
+    pub failsafe: FailsafeArgs,
+    /// A simulated agent's heartbeat period once its robot is parked, ms.
+    pub parked_heartbeat_ms: u64,
+}
+
+impl Joining {
+    /// Robot `robot`'s `sim-agent` command line: how it joins, then the
+    /// run's settings (the terrain on its stdin, `--terrain -`), by the
+    /// sim-agent's own [`RunSettings::onto`].
+    pub fn sim_agent(&self, robot: u32, settings: &RunSettings) -> AgentArgs {
+        settings.onto(AgentArgs {
+            parent_pid: self.parent_pid,
+            parked_heartbeat_ms: Some(self.parked_heartbeat_ms),
+            bus: self.bus.clone(),
+            failsafe: self.failsafe,
+            ..AgentArgs::new(self.swarm.clone(), robot)
+        })
+    }
+}
+
+/// What an agent needs to be started: how it joins and what it runs.
 #[derive(Clone, Copy, Debug)]
 pub struct AgentPlan<'a> {
-    /// The agent's arguments (robot id, swarm, run parameters, clock,
-    /// transport endpoints).
-    pub args: &'a AgentArgs,
-    /// The terrain in the text format (simulated agents build their world
-    /// from it; real robots have the real one).
-    pub terrain_text: &'a str,
+    /// How it joins the launch (its robot's own zenoh config set).
+    pub joining: &'a Joining,
+    /// The run's settings, the terrain in the text format among them
+    /// (simulated agents build their world from it; real robots have the
+    /// real one).
+    pub settings: &'a RunSettings,
 }
 
 /// What [`AgentSource::start`] did.

@@ -151,9 +151,8 @@ impl AgentSource for Spawned {
     }
 
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {
-        let mut args = plan.args.clone();
-        args.robot = id;
-        let pid = self.spawn(id, &args.to_flags(), plan.terrain_text)?;
+        let args = plan.joining.sim_agent(id, plan.settings);
+        let pid = self.spawn(id, &args.to_flags(), &plan.settings.terrain)?;
         Ok(Started::Process { pid })
     }
 

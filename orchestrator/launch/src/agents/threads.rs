@@ -18,7 +18,7 @@ use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
 use bycoms_protocol::bus::memory::MemoryBus;
 use bycoms_protocol::Swarm;
 use bycoms_runtime::{Lifeline, Transport};
-use bycoms_sim_agent::{run_on, RunSettings};
+use bycoms_sim_agent::run_on;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -66,15 +66,12 @@ impl AgentSource for Threads {
     }
 
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {
-        let mut args = plan.args.clone();
-        args.robot = id;
+        let mut args = plan.joining.sim_agent(id, plan.settings);
         args.bus.transport = Transport::Memory;
         args.parent_pid = None;
         let other = |e: Box<dyn std::error::Error + Send + Sync>| AgentError::Other(e);
-        let terrain = bycoms_sim::terrain::parse(plan.terrain_text).map_err(|e| other(Box::new(e)))?;
-        // The launch's settings, as a spawned agent builds them from its flags.
-        let settings = RunSettings::of(&args, plan.terrain_text.to_owned())
-            .ok_or_else(|| other("the launch's agent flags carry no run settings".into()))?;
+        let terrain = bycoms_sim::terrain::parse(&plan.settings.terrain).map_err(|e| other(Box::new(e)))?;
+        let settings = plan.settings.clone();
         let swarm = Swarm::new(&args.swarm).map_err(|e| other(Box::new(e)))?;
         let end = Arc::new(AtomicBool::new(false));
         let bus = self.bus.clone();

@@ -6,7 +6,7 @@
 //! `simulate` bit for bit without faults. The rules (register until heard
 //! from, heartbeats every 100 ms and slower once parked, `Deploy`, ticks,
 //! real-time periods, beacons) are the process's [`AgentCore`], built from
-//! the launch's agent template and run settings as a spawned agent builds
+//! how the launch's agents join and its run settings, as a spawned agent builds
 //! them (`bycoms_sim_agent::timing`). What this file adds is only what
 //! a process is: it starts at a time (or never registers), and it is
 //! alive until it leaves, crashes or is killed.

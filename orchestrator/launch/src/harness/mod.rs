@@ -55,7 +55,7 @@ use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::{RunConfig, Vec2};
 use bycoms_sim_agent::run::Timing;
-use bycoms_sim_agent::{AgentArgs, AgentCore, RobotCore, RunSettings, Said};
+use bycoms_sim_agent::{AgentCore, RobotCore, RunSettings, Said};
 use bycoms_study::draw::snapshot::Unit;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -212,7 +212,7 @@ pub const STOP_WHY: &str = "a seeded stop";
 pub const REVOKE_WHY: &str = "a seeded revocation";
 
 /// A harness launch as a launch of the `orchestrator` would be: its
-/// config, world, agent template and run settings, made by the launch's
+/// config, world, how its agents join and its run settings, made by the launch's
 /// own functions (`launch::setup`), so the core's [`Setup`] and the
 /// agents' rules are the real ones.
 pub struct Launch {
@@ -220,11 +220,11 @@ pub struct Launch {
     pub cfg: LaunchConfig,
     /// Its world.
     pub world: super::World,
-    /// The flags of every agent it starts.
-    pub template: AgentArgs,
+    /// How every agent it starts joins it.
+    pub joining: super::agents::Joining,
     /// The run's settings (the agents' and the launch's, one fingerprint).
     pub settings: RunSettings,
-    /// The agents' timing, as a spawned agent computes it from `template`.
+    /// The agents' timing, as a spawned agent computes it from its flags.
     pub timing: Timing,
 }
 
@@ -256,16 +256,16 @@ impl Launch {
             Ok(world) => world,
             Err(e) => unreachable!("a terrain's own text parses: {e:#}"),
         };
-        let template = super::setup::agent_template(&cfg, "harness".into(), Vec::new());
+        let joining = super::setup::joining(&cfg, "harness".into(), Vec::new());
         let settings = super::setup::run_settings(&cfg, &world);
-        let timing = bycoms_sim_agent::timing(&template, &settings);
-        Self { cfg, world, template, settings, timing }
+        let timing = bycoms_sim_agent::timing(&joining.sim_agent(1, &settings), &settings);
+        Self { cfg, world, joining, settings, timing }
     }
 
     /// The core's setup, with the seams of `schedule`'s agents, from the
     /// launch's own [`super::setup::setup_of`].
     pub fn setup(&self, schedule: &Schedule) -> Setup {
-        super::setup::setup_of(&self.cfg, &self.world, &self.template, &schedule.seams(), 0)
+        super::setup::setup_of(&self.cfg, &self.world, &self.settings, &schedule.seams(), 0)
     }
 
     /// Robot `id`'s simulated agent as the process would be (process

@@ -79,7 +79,7 @@ fn an_agent_whose_robot_is_not_deployed_is_ticked_only_to_take_beacons_or_settle
 }
 
 /// The harness's agents are built as the launch's spawned agents are:
-/// from its agent template and run settings (no restated periods: they
+/// from how they join it and its run settings (no restated periods: they
 /// beat every 100 ms, every 500 ms once parked), and the core's setup
 /// carries the fingerprint those agents register with.
 #[test]
