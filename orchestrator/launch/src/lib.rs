@@ -132,19 +132,8 @@ pub fn run_serving(
     let pose_source = poses::open(&cfg.mocap, cfg.robots, &bus, swarm, graph)?;
     let mut ports =
         Ports::open(bus, swarm, cfg.robots, recording).context("cannot open the orchestrator's ports")?;
-    let live = match (&cfg.serve, serve) {
-        (Some(addr), Some(start)) => Some(start(addr)?),
-        _ => None,
-    };
-    if let Some(live) = &live {
-        bycoms_runtime::logging::status_line(&live.banner());
-        ports.observers.push(live.observer());
-    }
-    if let (Some(ros2), Some(session)) = (&cfg.ros2, &ros2_session) {
-        ports.observers.push(Box::new(ros2::Ros2Bridge::open(ros2, session, cfg.robots)?));
-    }
-    ports.observers.iter_mut().for_each(|o| o.world(&swarm_name, &world, &cfg, scene.as_ref()));
-    ports.show_scene();
+    let live =
+        observe_run(&mut ports, &cfg, &world, &swarm_name, scene.as_ref(), serve, ros2_session.as_ref())?;
     let joining = setup::joining(&cfg, swarm_name, endpoints.clone());
     let run = setup::run_settings(&cfg, &world);
     let (settings_served, _clock_served) = serve_over_zenoh(zenoh.as_ref(), &swarm, &run, cfg.robots)?;
@@ -178,6 +167,34 @@ pub fn run_serving(
         live.end(&summary);
     }
     Ok(summary)
+}
+
+/// The launch's observers, each told the run's world before any agent
+/// starts: the live view when the config asks for one (returned, to be
+/// told the summary at the end) and the ROS 2 output (`--ros2`).
+fn observe_run(
+    ports: &mut Ports,
+    cfg: &LaunchConfig,
+    world: &World,
+    swarm_name: &str,
+    scene: Option<&bycoms_record::scene::SharedScene>,
+    serve: Option<observe::Serve>,
+    ros2_session: Option<&zenoh::Session>,
+) -> Result<Option<Box<dyn observe::View>>> {
+    let live = match (&cfg.serve, serve) {
+        (Some(addr), Some(start)) => Some(start(addr)?),
+        _ => None,
+    };
+    if let Some(live) = &live {
+        bycoms_runtime::logging::status_line(&live.banner());
+        ports.observers.push(live.observer());
+    }
+    if let (Some(ros2), Some(session)) = (&cfg.ros2, ros2_session) {
+        ports.observers.push(Box::new(ros2::Ros2Bridge::open(ros2, session, cfg.robots)?));
+    }
+    ports.observers.iter_mut().for_each(|o| o.world(swarm_name, world, cfg, scene));
+    ports.show_scene();
+    Ok(live)
 }
 
 /// Over zenoh, what the launch serves to the end: the run's settings, for
