@@ -19,11 +19,6 @@ use std::rc::Rc;
 use std::time::Duration;
 use suites::poses::{run_all, Expected, Garbage, PoseFixture};
 
-/// The NatNet fixture's placement settings (not the defaults, so that the
-/// suite sees the source report its own).
-const NATNET_PLACEMENT: bycoms_mocap::PlacementConfig =
-    bycoms_mocap::PlacementConfig { radius: 0.25, hold: 0.5, timeout: 30.0 };
-
 /// The agents' simulated mocap: poses published on the (in-memory) bus.
 struct BusFixture {
     bus: SharedBus,
@@ -49,13 +44,7 @@ impl BusFixture {
 
 impl PoseFixture for BusFixture {
     fn expected(&self) -> Expected {
-        Expected {
-            kind: "bus",
-            on_the_bus: true,
-            rejects_jumps: false,
-            garbage: Garbage::Counted,
-            placement: None,
-        }
+        Expected { kind: "bus", on_the_bus: true, rejects_jumps: false, garbage: Garbage::Counted }
     }
 
     fn emit_garbage(&mut self, robot: u32) {
@@ -205,13 +194,7 @@ impl PoseFixture for NatNetFixture {
     /// (`NatNetClient::bad_packets`, warned about), not handed to the
     /// sink's `bad`: the launch's traffic counters do not see it.
     fn expected(&self) -> Expected {
-        Expected {
-            kind: "natnet",
-            on_the_bus: false,
-            rejects_jumps: true,
-            garbage: Garbage::DroppedBySource,
-            placement: Some(NATNET_PLACEMENT),
-        }
+        Expected { kind: "natnet", on_the_bus: false, rejects_jumps: true, garbage: Garbage::DroppedBySource }
     }
 
     fn emit_garbage(&mut self, _robot: u32) {
@@ -236,10 +219,9 @@ impl PoseFixture for NatNetFixture {
             // Fast enough for every plausible move of the suite (steps 0.1 s
             // apart), far too slow for its kilometre jumps (identity swaps).
             tracker: TrackerConfig { max_speed: 1000.0, jump_slack: 1.0, lost_after_us: 10_000_000 },
-            placement: NATNET_PLACEMENT,
         };
         let source = NatNetPoseSource::connect(&config).expect("connect");
-        let poses = NatNetPoses::new(source).with_placement(config.placement);
+        let poses = NatNetPoses::new(source);
         (Box::new(poses), Swarm::new("suite").expect("swarm"))
     }
 
@@ -308,13 +290,7 @@ struct ReplayFixture {
 
 impl PoseFixture for ReplayFixture {
     fn expected(&self) -> Expected {
-        Expected {
-            kind: "replay",
-            on_the_bus: false,
-            rejects_jumps: false,
-            garbage: Garbage::CannotArrive,
-            placement: None,
-        }
+        Expected { kind: "replay", on_the_bus: false, rejects_jumps: false, garbage: Garbage::CannotArrive }
     }
 
     fn emit_garbage(&mut self, _robot: u32) {
@@ -341,10 +317,6 @@ fn replayed_poses_pass_the_suite() {
     let report = run_all(&mut ReplayFixture { feed: None });
     assert_eq!(report.not_applicable(), ["what_a_source_cannot_use_is_never_fatal"], "{report:?}");
 }
-
-/// The ROS 2 fixture's placement settings (not the defaults).
-const ROS2_PLACEMENT: bycoms_mocap::PlacementConfig =
-    bycoms_mocap::PlacementConfig { radius: 0.3, hold: 0.25, timeout: 20.0 };
 
 /// A ROS 2 motion-capture driver: each emitted pose is put as a
 /// `geometry_msgs/msg/PoseStamped` (Z up, metres = arena units, the pose's
@@ -399,13 +371,7 @@ impl Ros2Fixture {
 
 impl PoseFixture for Ros2Fixture {
     fn expected(&self) -> Expected {
-        Expected {
-            kind: "ros2",
-            on_the_bus: false,
-            rejects_jumps: true,
-            garbage: Garbage::Counted,
-            placement: Some(ROS2_PLACEMENT),
-        }
+        Expected { kind: "ros2", on_the_bus: false, rejects_jumps: true, garbage: Garbage::Counted }
     }
 
     fn emit_garbage(&mut self, robot: u32) {
@@ -421,7 +387,6 @@ impl PoseFixture for Ros2Fixture {
             arena: ArenaTransform { up: UpAxis::Z, origin: [0.0; 3], scale: 1.0 },
             // As NatNet's fixture: every plausible move passes, a kilometre jump does not.
             tracker: TrackerConfig { max_speed: 1000.0, jump_slack: 1.0, lost_after_us: 10_000_000 },
-            placement: ROS2_PLACEMENT,
             graph_timeout: 5.0,
         };
         let source = Ros2Poses::open(&config, &Ros2Config::default(), &self.session).expect("subscribe");

@@ -9,6 +9,8 @@
 //! its config beside its terrain), those on the command line to the working
 //! directory.
 
+mod moved;
+
 pub use super::agents::choice::{AgentSourceKind, AgentsConfig};
 pub use super::agents::gateways::GatewaysAt;
 use anyhow::{Context, Result};
@@ -104,6 +106,9 @@ pub struct LaunchConfig {
     pub mocap: bycoms_mocap::MocapConfig,
     /// Where the agents come from (`super::agents::choice`).
     pub agents: AgentsConfig,
+    /// How the operator's placement of each real robot at the start is
+    /// confirmed by motion capture, whatever the pose source.
+    pub placement: bycoms_mocap::PlacementConfig,
 }
 
 /// The bus of a launch (`[transport]`).
@@ -225,6 +230,7 @@ impl Default for LaunchConfig {
             transport: TransportConfig::default(),
             mocap: bycoms_mocap::MocapConfig::default(),
             agents: AgentsConfig::default(),
+            placement: bycoms_mocap::PlacementConfig::default(),
         }
     }
 }
@@ -315,9 +321,21 @@ impl LaunchConfig {
         Ok(cfg)
     }
 
-    /// Parses config text.
+    /// Parses config text; a table that moved is named with its new place.
     pub fn parse(text: &str) -> Result<Self> {
-        Ok(toml::from_str(text)?)
+        toml::from_str(text).map_err(|e| match moved::old_placement_tables(text).first() {
+            Some(old) => anyhow::anyhow!(
+                "{old} is now the top-level [placement] table (one for every pose source): {e}"
+            ),
+            None => e.into(),
+        })
+    }
+
+    /// Reads the configuration a recording holds (its `run` channel's
+    /// `config`), keys that moved since it was written carried over.
+    pub fn from_recorded(mut config: serde_json::Value) -> serde_json::Result<Self> {
+        moved::upgrade_recorded(&mut config);
+        serde_json::from_value(config)
     }
 
     /// The property the `launch_config` fuzz target checks on any bytes
@@ -429,6 +447,7 @@ impl LaunchConfig {
             return Err(usage(format!("robots must be at most {MAX_ROBOTS}, got {}", self.robots)));
         }
         self.mocap.validate(self.robots).map_err(usage)?;
+        self.placement.validate().map_err(usage)?;
         self.agents
             .validate(self.robots, self.transport.kind, self.clock == Clock::Lockstep)
             .map_err(usage)?;
@@ -654,6 +673,11 @@ mod tests {
         assert!(format!("{err:#}").contains("robtos"), "{err:#}");
         let err = LaunchConfig::parse("[gate]\ndwel = 3.0").unwrap_err();
         assert!(format!("{err:#}").contains("dwel"), "{err:#}");
+        let err = LaunchConfig::parse("[mocap.natnet.placement]\nradius = 0.2").unwrap_err();
+        let said = "[mocap.natnet.placement] is now the top-level [placement] table";
+        assert!(format!("{err:#}").starts_with(said), "{err:#}");
+        let recorded = serde_json::json!({"agents": {"placement": {"radius": 0.3}}});
+        assert_eq!(LaunchConfig::from_recorded(recorded).expect("an older recording").placement.radius, 0.3);
         let partial = LaunchConfig::parse("eps = 2.0\n[gate]\ndwell = 30.0").unwrap();
         assert_eq!((partial.eps, partial.gate.dwell, partial.robots), (2.0, 30.0, 3));
         let bad = LaunchConfig { eps: -1.0, ..LaunchConfig::default() };
@@ -677,7 +701,7 @@ mod tests {
             ("[supervision]\nshutdown_grace = -1.0", "supervision.shutdown_grace must"),
             ("[gate]\ndwell = 1e300", "gate.dwell (--dwell) must"),
             ("time_limit = 1e300", "bad time_limit (--time-limit)"),
-            ("[agents.placement]\ntimeout = 1e300", "agents.placement.timeout must"),
+            ("[placement]\ntimeout = 1e300", "placement.timeout must"),
         ] {
             let cfg = LaunchConfig::parse(text).expect("parses");
             let e = cfg.validate().expect_err(text);

@@ -126,7 +126,7 @@ mod tests {
         }
         let topics = ros2.mocap.ros2.as_ref().expect("[mocap.ros2]");
         let natnet_tracking = natnet.mocap.natnet.as_ref().expect("[mocap.natnet]");
-        assert_eq!((topics.tracker, topics.placement), (natnet_tracking.tracker, natnet_tracking.placement));
+        assert_eq!((topics.tracker, &ros2.placement), (natnet_tracking.tracker, &natnet.placement));
         assert_eq!(
             topics.for_robots(2).topics.keys().collect::<Vec<_>>(),
             ["/vrpn_mocap/robot1/pose", "/vrpn_mocap/robot2/pose"]

@@ -41,8 +41,6 @@ pub struct Seams {
     pub senses_beacons: bool,
     /// [`PoseSource::on_the_bus`].
     pub poses_on_the_bus: bool,
-    /// [`PoseSource::placement`].
-    pub mocap_placement: Option<bycoms_mocap::PlacementConfig>,
     /// [`AgentSource::held_when_unreachable`].
     pub held_when_unreachable: bool,
     /// [`AgentSource::robot_link_grace`].
@@ -61,7 +59,6 @@ impl Seams {
             wants_poses: agents.wants_poses(),
             senses_beacons: agents.senses_beacons(),
             poses_on_the_bus: poses.on_the_bus(),
-            mocap_placement: poses.placement(),
             held_when_unreachable: agents.held_when_unreachable(),
             robot_link_grace: agents.robot_link_grace(),
         }
@@ -91,7 +88,7 @@ pub fn setup_of(
 ) -> Setup {
     let mut run = settings.run_config();
     run.time_limit = cfg.time_limit;
-    let placement = seams.needs_placement.then(|| seams.mocap_placement.unwrap_or(cfg.agents.placement));
+    let placement = seams.needs_placement.then_some(cfg.placement);
     Setup {
         robots: cfg.robots,
         lockstep: cfg.clock == Clock::Lockstep,

@@ -60,7 +60,6 @@ fn measure(bus: &IpcBus, swarm: &Swarm, rate_hz: f64, seconds: f64) -> Vec<Durat
             .map(|k| (format!("robot{}", k + 1), RobotId(k as u32 + 1)))
             .collect::<BTreeMap<_, _>>(),
         tracker: TrackerConfig { max_speed: 1.5, jump_slack: 0.2, lost_after_us: 500_000 },
-        placement: Default::default(),
     };
     let mut source = NatNetPoseSource::connect(&config).expect("connect");
     let moving = RobotId(1);

@@ -5,12 +5,12 @@
 //! the orchestrator reads OptiTrack (`source = "natnet"`), and then needs
 //! the server's address, which rigid body is which robot, the axis
 //! convention and how long a body may be unseen before it is reported
-//! lost, plus how the operator places each robot at the start. A lab whose
+//! lost. How the operator places each robot at the start is the launch's
+//! one `[placement]` table ([`PlacementConfig`]), whatever the source. A lab whose
 //! motion capture already runs in ROS 2 (`source = "ros2"`: a driver such
 //! as vrpn_mocap or motion_capture_tracking publishing one
 //! `geometry_msgs/msg/PoseStamped` topic per body) maps topics to robots
-//! the way NatNet maps body names, with the same axes, tracker and
-//! placement keys. Every key is documented in `deploy/launch.toml`
+//! the way NatNet maps body names, with the same axes and tracker keys. Every key is documented in `deploy/launch.toml`
 //! (commented out: not the default).
 
 use super::{ArenaTransform, ClientConfig, TrackerConfig};
@@ -57,9 +57,6 @@ pub struct Ros2MocapConfig {
     pub arena: ArenaTransform,
     /// Plausible motion and the lost-body time (the NatNet tracker's keys).
     pub tracker: TrackerConfig,
-    /// The operator's placement of each robot at the start.
-    #[serde(default)]
-    pub placement: PlacementConfig,
     /// Warn when a mapped topic has no publisher in the ROS 2 graph this
     /// long (s) after the launch started (a wrong domain, topic or router).
     #[serde(default = "graph_timeout")]
@@ -87,16 +84,15 @@ pub struct NatNetSourceConfig {
     pub bodies: BTreeMap<String, RobotId>,
     /// Plausible motion and the lost-body time.
     pub tracker: TrackerConfig,
-    /// The operator's placement of each robot at the start.
-    #[serde(default)]
-    pub placement: PlacementConfig,
 }
 
-/// How a robot's placement at the start is confirmed.
+/// How a robot's placement at the start is confirmed: the launch's
+/// `[placement]` table, one for every pose source (world units: metres in
+/// a lab, as its scenario; lab seconds).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct PlacementConfig {
-    /// The robot counts as placed within this distance of the start, arena units.
+    /// The robot counts as placed within this distance of the start, world units.
     pub radius: f64,
     /// ...seen there, tracked, for this long (s): not just carried past it.
     pub hold: f64,
@@ -104,9 +100,23 @@ pub struct PlacementConfig {
     pub timeout: f64,
 }
 
+/// A real crawler robot (metres): within 10 cm of the start for 0.5 s of
+/// motion capture; the operator has 10 minutes.
 impl Default for PlacementConfig {
     fn default() -> Self {
-        Self { radius: 0.5, hold: 1.0, timeout: 600.0 }
+        Self { radius: 0.1, hold: 0.5, timeout: 600.0 }
+    }
+}
+
+impl PlacementConfig {
+    /// Checks the numbers; the message names the key (`placement.radius`).
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.radius.is_finite() && self.radius > 0.0) {
+            return Err(format!("placement.radius must be a positive number, got {}", self.radius));
+        }
+        check_seconds("placement.timeout", self.timeout, Zero::Refused)?;
+        check_seconds("placement.hold", self.hold, Zero::Allowed)?;
+        Ok(())
     }
 }
 
@@ -155,17 +165,10 @@ fn check_mapping(key: &str, what: &str, map: &BTreeMap<String, RobotId>, robots:
     }
 }
 
-/// The tracker's, the axes' and the placement's numbers, named under `key`
-/// (`mocap.natnet`, `mocap.ros2`).
-fn check_tracking(
-    key: &str,
-    t: &TrackerConfig,
-    s: &ArenaTransform,
-    p: &PlacementConfig,
-) -> Result<(), String> {
-    for (name, value) in
-        [("tracker.max_speed", t.max_speed), ("arena.scale", s.scale), ("placement.radius", p.radius)]
-    {
+/// The tracker's and the axes' numbers, named under `key` (`mocap.natnet`,
+/// `mocap.ros2`).
+fn check_tracking(key: &str, t: &TrackerConfig, s: &ArenaTransform) -> Result<(), String> {
+    for (name, value) in [("tracker.max_speed", t.max_speed), ("arena.scale", s.scale)] {
         if !(value.is_finite() && value > 0.0) {
             return Err(format!("{key}.{name} must be a positive number, got {value}"));
         }
@@ -173,8 +176,6 @@ fn check_tracking(
     if !(t.jump_slack.is_finite() && t.jump_slack >= 0.0) {
         return Err(format!("{key}.tracker.jump_slack must be a non-negative number, got {}", t.jump_slack));
     }
-    check_seconds(&format!("{key}.placement.timeout"), p.timeout, Zero::Refused)?;
-    check_seconds(&format!("{key}.placement.hold"), p.hold, Zero::Allowed)?;
     if t.lost_after_us == 0 {
         return Err(format!("{key}.tracker.lost_after_us must be at least 1"));
     }
@@ -201,7 +202,7 @@ impl Ros2MocapConfig {
             }
         }
         check_mapping("mocap.ros2.topics", "topic", &self.topics, robots)?;
-        check_tracking("mocap.ros2", &self.tracker, &self.arena, &self.placement)?;
+        check_tracking("mocap.ros2", &self.tracker, &self.arena)?;
         check_seconds("mocap.ros2.graph_timeout", self.graph_timeout, Zero::Allowed)?;
         Ok(())
     }
@@ -225,7 +226,7 @@ impl NatNetSourceConfig {
     /// (bodies of later robots are allowed: see [`Self::for_robots`]).
     pub fn validate(&self, robots: u32) -> Result<(), String> {
         check_mapping("mocap.natnet.bodies", "rigid body", &self.bodies, robots)?;
-        check_tracking("mocap.natnet", &self.tracker, &self.arena, &self.placement)?;
+        check_tracking("mocap.natnet", &self.tracker, &self.arena)?;
         // Added to an `Instant` for every command: near u64::MAX it
         // overflowed (a panic); 0 is no socket timeout at all.
         let reply_ms = self.client.reply_timeout_ms;
@@ -265,7 +266,6 @@ mod tests {
         assert_eq!(cfg.source, MocapSource::Natnet);
         let natnet = cfg.natnet.as_ref().unwrap();
         assert_eq!(natnet.bodies["robot2"], RobotId(2));
-        assert_eq!(natnet.placement, PlacementConfig::default());
         cfg.validate(2).unwrap();
         let again: MocapConfig = toml::from_str(&toml::to_string(&cfg).unwrap()).unwrap();
         assert_eq!(again, cfg);

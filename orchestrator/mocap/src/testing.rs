@@ -40,7 +40,6 @@ pub fn udp_config(server: &NatNetServer) -> NatNetSourceConfig {
         arena: ArenaTransform { scale: SCALE, ..ArenaTransform::default() },
         bodies: BTreeMap::from([("robot1".to_string(), RobotId(1)), ("robot2".to_string(), RobotId(2))]),
         tracker: TrackerConfig { max_speed: 1.5, jump_slack: 0.2, lost_after_us: 500_000 },
-        placement: Default::default(),
     }
 }
 

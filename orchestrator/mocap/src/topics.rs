@@ -79,7 +79,7 @@ impl TopicPipeline {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{PlacementConfig, TrackerConfig, UpAxis};
+    use crate::{TrackerConfig, UpAxis};
     use bycoms_ros2::msgs::{Header, Point, Pose as RosPose, Quaternion, Time};
 
     fn config() -> Ros2MocapConfig {
@@ -88,7 +88,6 @@ mod tests {
                 .into(),
             arena: ArenaTransform { up: UpAxis::Z, origin: [1.0, 0.0, 0.0], scale: 10.0 },
             tracker: TrackerConfig { max_speed: 1.0, jump_slack: 0.1, lost_after_us: 500_000 },
-            placement: PlacementConfig::default(),
             graph_timeout: 5.0,
         }
     }

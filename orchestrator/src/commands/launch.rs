@@ -17,10 +17,14 @@ use std::path::PathBuf;
 /// Declares `launch`'s flags once: each field is a clap flag (its doc
 /// comment is its `--help`) and, after `=>`, how it lands on its config key:
 /// `set key` (a given value replaces the key's), `some key` (the key is an
-/// option), `list key` (given values replace the key's list). The macro
-/// writes the struct and [`Args::overlay`], which merges every such flag
-/// over the file's values; flags without `=>` (switches that are not keys,
-/// `--config`, `--agent-bin`, ...) are handled by hand in [`Args::config`].
+/// option), `list key` (given values replace the key's list), `by_hand key`
+/// (merged by hand in [`Args::config`], as `--scenario`, which also clears
+/// the terrain). The macro writes the struct, [`Args::overlay`], which
+/// merges every such flag over the file's values, and [`Args::keyed`]: from
+/// it `--help` prints each flag's default, read from
+/// [`LaunchConfig::default`], so a default is written once. Flags without
+/// `=>` (switches that are not keys, `--config`, `--agent-bin`, ...) are
+/// handled by hand in [`Args::config`].
 macro_rules! launch_flags {
     (
         $(#[$meta:meta])*
@@ -39,9 +43,9 @@ macro_rules! launch_flags {
                 $($(merge!($how, cfg.$($key).+, self.$field);)?)*
             }
 
-            /// Each flag that sets a config key, with the key (`gate.dwell`).
-            #[cfg(test)]
-            fn keys() -> Vec<(&'static str, String)> {
+            /// Each flag that sets a config key (its clap id, `stop_speed`),
+            /// with the key (`gate.stop_speed`).
+            fn keyed() -> Vec<(&'static str, String)> {
                 vec![$($((stringify!($field), stringify!($($key).+).replace(' ', "")),)?)*]
             }
         }
@@ -65,6 +69,53 @@ macro_rules! merge {
             $slot.clone_from(&$flag);
         }
     };
+    (by_hand, $slot:expr, $flag:expr) => {};
+}
+
+/// What `--help` adds to each flag that sets a config key: ` [default: v]`,
+/// `v` the key's value in [`LaunchConfig::default`] (a key whose default
+/// is no value, an unset option, says its default in its own words).
+fn defaults_in_help() -> impl FnMut(clap::Arg) -> clap::Arg {
+    let defaults = serde_json::to_value(LaunchConfig::default()).unwrap_or_default();
+    let keyed = Args::keyed();
+    move |arg| {
+        let key = keyed.iter().find(|(id, _)| *id == arg.get_id().as_str()).map(|(_, key)| key);
+        let pointer = key.map(|key| format!("/{}", key.replace('.', "/")));
+        match pointer.and_then(|p| shown(defaults.pointer(&p)?)) {
+            Some(value) => with_default(arg, &value),
+            None => arg,
+        }
+    }
+}
+
+/// A default as `--help` prints it (`3`, `0.05`, `lockstep`, `tcp/127.0.0.1:0`).
+fn shown(value: &serde_json::Value) -> Option<String> {
+    use serde_json::Value;
+    match value {
+        Value::Number(n) => Some(n.as_f64().map_or_else(|| n.to_string(), |f| f.to_string())),
+        Value::String(s) => Some(s.clone()),
+        Value::Bool(b) => Some(b.to_string()),
+        Value::Array(items) if !items.is_empty() => {
+            Some(items.iter().filter_map(shown).collect::<Vec<_>>().join(", "))
+        }
+        Value::Array(_) | Value::Null | Value::Object(_) => None,
+    }
+}
+
+/// `arg` with ` [default: value]` after its help (and its long help).
+fn with_default(arg: clap::Arg, value: &str) -> clap::Arg {
+    let append =
+        |help: &clap::builder::StyledStr| format!("{} [default: {value}]", help.to_string().trim_end());
+    let help = arg.get_help().map(append);
+    let long = arg.get_long_help().map(append);
+    let arg = match help {
+        Some(help) => arg.help(help),
+        None => arg,
+    };
+    match long {
+        Some(long) => arg.long_help(long),
+        None => arg,
+    }
 }
 
 launch_flags! {
@@ -77,35 +128,36 @@ launch_flags! {
 /// flags override the file. Exit codes: 0 a robot arrived, 3 none arrived,
 /// 1 error, 130 interrupted.
 #[derive(Debug, clap::Args)]
+#[command(mut_args = defaults_in_help())]
 pub struct Args {
-    /// Robots available (deployed one at a time) [default: 3].
+    /// Robots available (deployed one at a time).
     #[arg(long)]
     pub robots: Option<u32> => set robots,
     /// Terrain file in the text format (overrides --scenario).
     #[arg(long, value_name = "FILE", conflicts_with = "scenario")]
     pub terrain: Option<PathBuf> => some terrain,
-    /// Built-in scenario [default: long-obstacle].
+    /// Built-in scenario.
     #[arg(long, value_parser = scenario::names())]
-    pub scenario: Option<String>,
-    /// Circumferential radius ε in cells [default: 3].
+    pub scenario: Option<String> => by_hand scenario,
+    /// Circumferential radius ε in cells.
     #[arg(long, allow_negative_numbers = true)]
     pub eps: Option<f64> => set eps,
     /// Sensing noise on (`--noise`) or off (`--noise false`).
     #[arg(long, num_args = 0..=1, default_missing_value = "true", value_name = "BOOL")]
     pub noise: Option<bool> => set noise,
-    /// Run seed of the robots' noise streams [default: 0].
+    /// Run seed of the robots' noise streams.
     #[arg(long)]
     pub seed: Option<u64> => set seed,
-    /// Clock: lockstep (fast, bit-identical to `simulate`) or realtime [default: lockstep].
+    /// Clock: lockstep (fast, bit-identical to `simulate`) or realtime.
     #[arg(long, value_enum)]
     pub clock: Option<Clock> => set clock,
-    /// Real-time speed-up: 10 Hz × speed, at most 1000 (a period of 100 µs) [default: 10].
+    /// Real-time speed-up: 10 Hz × speed, at most 1000 (a period of 100 µs).
     #[arg(long, allow_negative_numbers = true)]
     pub speed: Option<f64> => set speed,
-    /// Simulated time budget, seconds of robot motion [default: 10000].
+    /// Simulated time budget, seconds of robot motion.
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub time_limit: Option<f64> => set time_limit,
-    /// Arrival radius around the goal [default: 0.5].
+    /// Arrival radius around the goal.
     #[arg(long)]
     pub goal_radius: Option<f64> => set goal_radius,
     /// Swarm name (topic namespace) [default: `launch-<pid>`].
@@ -138,13 +190,13 @@ pub struct Args {
     /// Agent executable [default: $BYCOMS_SIM_AGENT, else sim-agent next to orchestrator].
     #[arg(long, value_name = "FILE")]
     pub agent_bin: Option<PathBuf>,
-    /// Gate: a robot still this long (simulated s) has stopped [default: 20].
+    /// Gate: a robot still this long (simulated s) has stopped.
     #[arg(long, value_name = "SECONDS")]
     pub dwell: Option<f64> => set gate.dwell,
-    /// Gate: slower than this (cells/s) is still [default: 0.05]...
+    /// Gate: slower than this (cells/s) is still...
     #[arg(long)]
     pub stop_speed: Option<f64> => set gate.stop_speed,
-    /// ...if it also turns slower than this (rad/s; 0 ignores turning) [default: 0.05].
+    /// ...if it also turns slower than this (rad/s; 0 ignores turning).
     #[arg(long)]
     pub stop_turn_rate: Option<f64> => set gate.stop_turn_rate,
     /// Do not start the next agent while the current robot moves.
@@ -163,31 +215,29 @@ pub struct Args {
     /// it starts; a router without ROS 2 nodes of the domain is warned about.
     #[arg(long, value_name = "ENDPOINT")]
     pub ros2_router: Option<String>,
-    /// What a dead agent means [default: beacon].
+    /// What a dead agent means.
     #[arg(long, value_enum)]
     pub on_agent_death: Option<OnDeath> => set gate.on_agent_death,
     /// A robot whose agent never registers (or, started here, dies before
-    /// it registers, twice): skip it at its turn, or fail the launch
-    /// [default: skip].
+    /// it registers, twice): skip it at its turn, or fail the launch.
     #[arg(long, value_enum)]
     pub missing: Option<Missing> => set supervision.missing,
-    /// Seconds an agent has to register [default: 10].
+    /// Seconds an agent has to register.
     #[arg(long, value_name = "SECONDS")]
     pub register_timeout: Option<f64> => set supervision.register_timeout,
-    /// Seconds of silence after which a live agent counts as hung [default: 2].
+    /// Seconds of silence after which a live agent counts as hung.
     #[arg(long, value_name = "SECONDS")]
     pub heartbeat_timeout: Option<f64> => set supervision.heartbeat_timeout,
     /// Remote agents: seconds one may be unreachable (link cut, silent)
     /// before it counts as dead; the run waits for it meanwhile and resumes
-    /// when it is back; 0: dead at once [default: 2].
+    /// when it is back; 0: dead at once.
     #[arg(long, value_name = "SECONDS")]
     pub link_grace: Option<f64> => set supervision.link_grace,
-    /// The bus: ipc (iceoryx2, this host) or zenoh (tcp/quic/tls, any host) [default: ipc].
+    /// The bus: ipc (iceoryx2, this host) or zenoh (tcp/quic/tls, any host).
     #[arg(long, value_enum)]
     pub transport: Option<Transport> => set transport.kind,
     /// zenoh: endpoint to listen on, tcp/HOST:PORT, or quic/HOST:PORT (tls/)
-    /// with certificates; port 0 takes a free one (repeatable) [default:
-    /// tcp/127.0.0.1:0].
+    /// with certificates; port 0 takes a free one (repeatable).
     #[arg(long, value_name = "ENDPOINT")]
     pub listen: Vec<String> => list transport.listen,
     /// zenoh: endpoint to connect to as well, e.g. a zenohd router (repeatable).
@@ -204,7 +254,7 @@ pub struct Args {
     /// Where agents come from: spawned (a sim-agent per robot, here),
     /// remote (started by hand on other hosts with `sim-agent --transport
     /// zenoh --connect ...`; the launch waits for all) or real (an `agent`
-    /// gateway per robot of --robots-file) [default: spawned].
+    /// gateway per robot of --robots-file).
     #[arg(long, value_enum)]
     pub agents: Option<AgentSourceKind> => set agents.source,
     /// Real robots: the lab's robots file (addresses and key files), for
@@ -214,7 +264,7 @@ pub struct Args {
     /// Real robots: where their `agent` gateways run: here (started by the
     /// launch from --robots-file) or elsewhere (started by hand on a bridge
     /// host with `agent --transport zenoh --connect ...`; needs --transport
-    /// zenoh) [default: here].
+    /// zenoh).
     #[arg(long, value_enum)]
     pub gateways: Option<GatewaysAt> => set agents.gateways,
     /// Real robots: the lab scenario (exp-short, exp-long or a scenario
@@ -450,7 +500,7 @@ mod tests {
     #[test]
     fn every_flag_names_its_config_key() {
         let defaults = serde_json::to_value(LaunchConfig::default()).expect("serialises");
-        let keys = super::Args::keys();
+        let keys = super::Args::keyed();
         assert!(keys.len() >= 30, "{keys:?}");
         for (field, key) in keys {
             let pointer = format!("/{}", key.replace('.', "/"));

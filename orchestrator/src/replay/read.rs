@@ -58,8 +58,15 @@ pub struct RunMeta {
     pub start: Vec2,
     /// Goal position.
     pub goal: Vec2,
-    /// The launch's whole configuration.
+    /// The launch's whole configuration (keys that moved since carried over).
+    #[serde(deserialize_with = "recorded_config")]
     pub config: LaunchConfig,
+}
+
+/// A recording's configuration, read by [`LaunchConfig::from_recorded`].
+fn recorded_config<'de, D: serde::Deserializer<'de>>(d: D) -> Result<LaunchConfig, D::Error> {
+    let value = serde_json::Value::deserialize(d)?;
+    LaunchConfig::from_recorded(value).map_err(serde::de::Error::custom)
 }
 
 /// A recording, reduced to what the replay uses.

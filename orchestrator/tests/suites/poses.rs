@@ -35,8 +35,6 @@ pub struct Expected {
     pub rejects_jumps: bool,
     /// What becomes of bytes the source cannot use.
     pub garbage: Garbage,
-    /// [`PoseSource::placement`]: the source's own placement settings.
-    pub placement: Option<bycoms_mocap::PlacementConfig>,
 }
 
 /// What becomes of bytes a source cannot use.
@@ -156,7 +154,6 @@ fn properties_are_as_stated(fixture: &mut dyn PoseFixture) {
     let (source, _) = fixture.source();
     assert_eq!(source.kind(), want.kind, "kind");
     assert_eq!(source.on_the_bus(), want.on_the_bus, "{}: on_the_bus", want.kind);
-    assert_eq!(source.placement(), want.placement, "{}: placement", want.kind);
 }
 
 /// `carried`: while the operator carries a robot, any move is handed over,

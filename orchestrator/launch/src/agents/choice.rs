@@ -13,9 +13,7 @@ use super::threads::Threads;
 use super::AgentSource;
 use anyhow::{Context, Result};
 use bycoms_lab::robots::RobotsFile;
-use bycoms_mocap::PlacementConfig;
 use bycoms_protocol::bus::zenoh::AliveWatch;
-use bycoms_runtime::seconds::{check_seconds, Zero};
 use bycoms_runtime::Transport;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -67,17 +65,6 @@ pub struct AgentsConfig {
     /// `exp-long`, or a scenario file): the launch's start, goal and arena
     /// in metres (`launch::lab`).
     pub scenario: Option<String>,
-    /// `real`: how the operator's placement of each robot at the start is
-    /// confirmed (metres, lab seconds). With `[mocap] source = "natnet"`,
-    /// `[mocap.natnet.placement]` is used instead.
-    #[serde(default = "real_placement")]
-    pub placement: PlacementConfig,
-}
-
-/// Placement of a real crawler robot (metres): within 10 cm of the start
-/// for 0.5 s of motion capture; the operator has 10 minutes.
-pub fn real_placement() -> PlacementConfig {
-    PlacementConfig { radius: 0.1, hold: 0.5, timeout: 600.0 }
 }
 
 impl Default for AgentsConfig {
@@ -88,7 +75,6 @@ impl Default for AgentsConfig {
             gateway_bin: None,
             gateways: GatewaysAt::Here,
             scenario: None,
-            placement: real_placement(),
         }
     }
 }
@@ -125,13 +111,6 @@ impl AgentsConfig {
                     .into(),
             );
         }
-        let p = &self.placement;
-        let positive = |v: f64| v.is_finite() && v > 0.0;
-        if !positive(p.radius) {
-            return Err(format!("agents.placement.radius must be a positive number, got {}", p.radius));
-        }
-        check_seconds("agents.placement.timeout", p.timeout, Zero::Refused)?;
-        check_seconds("agents.placement.hold", p.hold, Zero::Allowed)?;
         match self.source {
             AgentSourceKind::Spawned => Ok(()),
             AgentSourceKind::Remote if !zenoh => {

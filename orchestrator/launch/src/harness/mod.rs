@@ -235,6 +235,7 @@ impl Launch {
             robots: case.robots,
             eps: case.eps,
             time_limit: case.time_limit,
+            placement: PLACEMENT,
             ..LaunchConfig::default()
         };
         (cfg.noise, cfg.seed) = (case.noise.is_some(), case.noise.unwrap_or(0));

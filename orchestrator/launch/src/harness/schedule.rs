@@ -83,7 +83,7 @@ pub enum Placing {
 
 /// How the harness's operator places robots: within 0.5 of the start, seen
 /// there for 0.2 s, within 3 s (short, so a robot never placed ends its
-/// launch quickly).
+/// launch quickly). Every harness launch's `[placement]`.
 pub const PLACEMENT: PlacementConfig = PlacementConfig { radius: 0.5, hold: 0.2, timeout: 3.0 };
 
 /// Everything that goes wrong in one harness launch.
@@ -164,15 +164,14 @@ impl Schedule {
             wants_poses: gateway,
             senses_beacons: !gateway,
             poses_on_the_bus: !gateway,
-            mocap_placement: None,
             held_when_unreachable: self.remote,
             robot_link_grace: gateway.then_some(crate::agents::gateways::LINK_GRACE),
         }
     }
 
     /// The seams of real gateway agents: what `orchestrator/launch/src/agents/gateways.rs`
-    /// says of itself (here or, when remote, elsewhere), with motion
-    /// capture's placement ([`PLACEMENT`]).
+    /// says of itself (here or, when remote, elsewhere): they need
+    /// placement (the harness's launches confirm it with [`PLACEMENT`]).
     fn gateway_agents_seams(&self) -> Seams {
         Seams {
             kind: "gateway",
@@ -183,7 +182,6 @@ impl Schedule {
             wants_poses: true,
             senses_beacons: false,
             poses_on_the_bus: false,
-            mocap_placement: Some(PLACEMENT),
             held_when_unreachable: self.remote,
             robot_link_grace: Some(crate::agents::gateways::LINK_GRACE),
         }

@@ -16,7 +16,7 @@
 //! frames alike.
 
 use super::{PoseError, PoseSink, PoseSource};
-use bycoms_mocap::{ArenaPose, NatNetPoseSource, PlacementConfig, PoseTracker};
+use bycoms_mocap::{ArenaPose, NatNetPoseSource, PoseTracker};
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::RobotId;
 use bycoms_record::schema::{NATNET_FRAME, NATNET_MODELDEF};
@@ -34,26 +34,12 @@ pub struct NatNetPoses {
     opened: BTreeSet<u32>,
     carried: Carried,
     defs_recorded: bool,
-    placement: Option<PlacementConfig>,
 }
 
 impl NatNetPoses {
     /// Wraps a connected source.
     pub fn new(source: NatNetPoseSource) -> Self {
-        Self {
-            source,
-            opened: BTreeSet::new(),
-            carried: Carried::default(),
-            defs_recorded: false,
-            placement: None,
-        }
-    }
-
-    /// Robots are confirmed at the start with `placement` (the section
-    /// `[mocap.natnet.placement]`), not with the agents' settings.
-    pub fn with_placement(mut self, placement: PlacementConfig) -> Self {
-        self.placement = Some(placement);
-        self
+        Self { source, opened: BTreeSet::new(), carried: Carried::default(), defs_recorded: false }
     }
 
     /// The source.
@@ -107,10 +93,6 @@ impl PoseSource for NatNetPoses {
 
     fn on_the_bus(&self) -> bool {
         false
-    }
-
-    fn placement(&self) -> Option<PlacementConfig> {
-        self.placement
     }
 
     fn open_robot(&mut self, id: u32) -> Result<(), PoseError> {

@@ -60,13 +60,10 @@ pub fn open(
         return Ok(Box::new(source));
     }
     Ok(match (&mocap.source, &mocap.natnet) {
-        (bycoms_mocap::MocapSource::Natnet, Some(natnet)) => Box::new(
-            mocap::NatNetPoses::new(
-                bycoms_mocap::NatNetPoseSource::connect(&natnet.for_robots(robots))
-                    .context("cannot use the NatNet mocap")?,
-            )
-            .with_placement(natnet.placement),
-        ),
+        (bycoms_mocap::MocapSource::Natnet, Some(natnet)) => Box::new(mocap::NatNetPoses::new(
+            bycoms_mocap::NatNetPoseSource::connect(&natnet.for_robots(robots))
+                .context("cannot use the NatNet mocap")?,
+        )),
         _ => Box::new(
             bus::BusPoses::new(std::rc::Rc::clone(bus), swarm, robots)
                 .context("cannot read the poses on the bus")?,

@@ -21,7 +21,7 @@ use super::mocap::Carried;
 use super::{PoseError, PoseSink, PoseSource};
 use crate::ros2::Ros2Config;
 use crate::ros2_graph::{GraphWatch, Wanted};
-use bycoms_mocap::{PlacementConfig, Ros2MocapConfig, TopicPipeline};
+use bycoms_mocap::{Ros2MocapConfig, TopicPipeline};
 use bycoms_protocol::bus::BusError;
 use bycoms_protocol::codec::CodecError;
 use bycoms_protocol::RobotId;
@@ -59,7 +59,6 @@ pub struct Ros2Poses {
     pipeline: TopicPipeline,
     opened: BTreeSet<u32>,
     carried: Carried,
-    placement: PlacementConfig,
     graph: GraphWatch,
     began: Instant,
 }
@@ -146,7 +145,6 @@ impl Ros2Poses {
             pipeline: TopicPipeline::new(config),
             opened: BTreeSet::new(),
             carried: Carried::default(),
-            placement: config.placement,
             graph: GraphWatch::new(ros2.domain_id, session.zid().to_string(), wanted, timeout),
             began: Instant::now(),
         })
@@ -165,10 +163,6 @@ impl PoseSource for Ros2Poses {
 
     fn on_the_bus(&self) -> bool {
         false
-    }
-
-    fn placement(&self) -> Option<PlacementConfig> {
-        Some(self.placement)
     }
 
     fn open_robot(&mut self, id: u32) -> Result<(), PoseError> {

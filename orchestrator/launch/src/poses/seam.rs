@@ -41,12 +41,6 @@ pub trait PoseSource {
     /// is placed, that check starts again from where it was placed. Sources
     /// without such a check ignore it (the default).
     fn carried(&mut self, _id: u32, _by_hand: bool) {}
-    /// How this source confirms that a robot was placed at the start, when
-    /// it has settings of its own for that (NatNet's `[mocap.natnet.placement]`);
-    /// `None` (the default): the agents' `[agents.placement]` applies.
-    fn placement(&self) -> Option<bycoms_mocap::PlacementConfig> {
-        None
-    }
 }
 
 /// Where a source hands its poses: the engine's intake, with the recording
