@@ -11,7 +11,13 @@
 //! The Foxglove scene is not computed by observers: the run has one
 //! [`SharedScene`], fed once per message where the message is recorded
 //! (`launch::recording`), and observers get its output ([`Observer::scene`])
-//! and the scene itself (for snapshots to late viewers).
+//! and the scene itself (for snapshots to late viewers). That output is the
+//! live view's one stream: its Foxglove channels and its page's state are
+//! both folded from it. The typed calls ([`Observer::pose`],
+//! [`Observer::gate`], [`Observer::report`]) come at once, where the
+//! message is received or sent, for an observer that must not wait for the
+//! recording's hand-over ([`super::recording::HAND_OVER_EVERY`]): the ROS 2
+//! output, whose pose latency is a target (`benches/ros2_latency.rs`).
 //!
 //! The live view itself (`launch --serve`, `bycoms_orchestrator::live`) sits above the
 //! launch (it reads the launch's world, config and summary): the launch

@@ -23,7 +23,6 @@
 use super::state::{LiveState, WorldView};
 use bycoms_launch::recording::now_ns;
 use bycoms_launch::{LaunchConfig, World};
-use bycoms_protocol::msg::{GateEvent, Pose};
 use bycoms_record::scene::json::json_schema;
 use bycoms_record::scene::{Out, SharedScene};
 use bycoms_record::schema;
@@ -152,22 +151,15 @@ impl Channels {
     }
 
     /// What the run's scene produced (the world, poses, reports, gate
-    /// events), to every subscriber.
+    /// events), to every subscriber; the page's state is folded from the
+    /// same messages, and sent after every gate decision among them.
     pub fn scene(&self, outs: &[Out]) {
         let mut inner = self.inner();
+        let decided = inner.state.take(outs);
         inner.send_scene(&self.context, outs.to_vec(), None);
-    }
-
-    /// One pose.
-    pub fn pose(&self, pose: &Pose) {
-        self.inner().state.pose(pose);
-    }
-
-    /// One gate event; the new state follows it.
-    pub fn gate(&self, event: &GateEvent) {
-        let mut inner = self.inner();
-        inner.state.gate(event);
-        inner.send_state(&self.context, None);
+        if decided {
+            inner.send_state(&self.context, None);
+        }
     }
 
     /// The run ended.

@@ -44,7 +44,6 @@ pub use channels::{state_topic, world_topic};
 
 use bycoms_launch::observe::{Observer, View};
 use bycoms_launch::{LaunchConfig, Summary, World};
-use bycoms_protocol::msg::{GateEvent, Pose};
 use bycoms_record::scene::{Out, SharedScene};
 use channels::Channels;
 use std::net::SocketAddr;
@@ -178,14 +177,6 @@ impl Observer for LiveView {
 
     fn scene(&mut self, outs: &[Out]) {
         self.inner.channels.scene(outs);
-    }
-
-    fn pose(&mut self, pose: &Pose) {
-        self.inner.channels.pose(pose);
-    }
-
-    fn gate(&mut self, event: &GateEvent) {
-        self.inner.channels.gate(event);
     }
 }
 

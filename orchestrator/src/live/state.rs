@@ -2,13 +2,18 @@
 //!
 //! Why a kept state and not only the stream: the Foxglove protocol has no
 //! history, and a person opens the page whenever they like — mid-run, or
-//! after reloading. So the live view folds every pose and gate event into
-//! this state (robots with their trails, beacons, the robot under the gate's
-//! watch, the verdict) and hands it to each viewer that subscribes, then
-//! again after every gate event. Pure data, no I/O: the unit tests drive it.
+//! after reloading. So the live view folds the run's one stream, the
+//! scene's messages (`bycoms_record::scene`: every pose that moved or
+//! turned a robot, every gate decision), into this state (robots with
+//! their trails, beacons, the robot under the gate's watch, the verdict)
+//! and hands it to each viewer that subscribes, then again after every gate
+//! decision. It is a projection of that stream, as the Foxglove channels
+//! are: the page and Foxglove see the same messages, at the same moment.
+//! Pure data, no I/O: the unit tests drive it.
 
 use bycoms_launch::{LaunchConfig, World};
-use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
+use bycoms_record::scene::json::{Decision, GateDecision, RobotPose};
+use bycoms_record::scene::{Message, Out};
 use schemars::JsonSchema;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -155,9 +160,26 @@ impl LiveState {
         &mut self.robots[at]
     }
 
+    /// Takes in what the run's scene produced; whether a gate decision was
+    /// among it (viewers get the state at once then).
+    pub fn take(&mut self, outs: &[Out]) -> bool {
+        let mut decided = false;
+        for out in outs {
+            match &out.message {
+                Message::Pose(pose) => self.pose(pose),
+                Message::Gate(decision) => {
+                    self.gate(decision);
+                    decided = true;
+                }
+                _ => {}
+            }
+        }
+        decided
+    }
+
     /// Takes in one pose.
-    pub fn pose(&mut self, pose: &Pose) {
-        let robot = self.robot(pose.robot.0, pose.x, pose.y);
+    pub fn pose(&mut self, pose: &RobotPose) {
+        let robot = self.robot(pose.robot, pose.x, pose.y);
         robot.x = pose.x;
         robot.y = pose.y;
         robot.heading = pose.heading;
@@ -167,16 +189,16 @@ impl LiveState {
         }
     }
 
-    /// Takes in one gate event.
-    pub fn gate(&mut self, event: &GateEvent) {
+    /// Takes in one gate decision.
+    pub fn gate(&mut self, event: &GateDecision) {
         self.gate_events += 1;
-        let id = event.robot.0;
-        let state = match event.kind {
-            GateKind::Deployed => RobotState::Moving,
-            GateKind::Stopped { arrived: true } => RobotState::Arrived,
-            GateKind::Stopped { arrived: false } => RobotState::Stuck,
-            GateKind::Died => RobotState::Lost,
-            GateKind::Timeout => RobotState::Timeout,
+        let id = event.robot;
+        let state = match event.decision {
+            Decision::Deployed => RobotState::Moving,
+            Decision::Arrived => RobotState::Arrived,
+            Decision::Stuck => RobotState::Stuck,
+            Decision::Died => RobotState::Lost,
+            Decision::Timeout => RobotState::Timeout,
         };
         let robot = self.robot(id, event.x, event.y);
         robot.state = state;

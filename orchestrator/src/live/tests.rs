@@ -9,6 +9,7 @@ use bycoms_launch::observe::Observer;
 use bycoms_launch::{LaunchConfig, World};
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use bycoms_protocol::RobotId;
+use bycoms_record::scene::json::{GateDecision, RobotPose};
 use bycoms_record::scene::{Scene, SceneWorld, SharedScene};
 use foxglove::messages::SceneUpdate;
 use foxglove::Decode;
@@ -28,12 +29,22 @@ fn event(robot: u32, kind: GateKind, x: f64, y: f64) -> GateEvent {
     GateEvent { robot: RobotId(robot), kind, x, y, step: 7 }
 }
 
+/// A pose as the scene hands it on.
+fn seen(robot: u32, x: f64, y: f64, step: u64) -> RobotPose {
+    RobotPose::from(&pose(robot, x, y, step))
+}
+
+/// A gate event as the scene hands it on.
+fn decided(robot: u32, kind: GateKind, x: f64, y: f64) -> GateDecision {
+    GateDecision::from(&event(robot, kind, x, y))
+}
+
 fn world() -> World {
     World::tiny()
 }
 
-/// An observer fed as a launch feeds it: the typed message, then what the
-/// run's one scene made of it.
+/// An observer fed as a launch feeds a live view: what the run's one scene
+/// made of each message.
 struct Fed {
     tap: Box<dyn Observer>,
     scene: SharedScene,
@@ -51,13 +62,11 @@ impl Fed {
     }
 
     fn pose(&mut self, p: &Pose) {
-        self.tap.pose(p);
         let outs = self.scene.lock().pose(p, 2);
         self.tap.scene(&outs);
     }
 
     fn gate(&mut self, e: &GateEvent) {
-        self.tap.gate(e);
         let outs = self.scene.lock().gate(e, 3);
         self.tap.scene(&outs);
     }
@@ -66,23 +75,23 @@ impl Fed {
 #[test]
 fn the_state_follows_poses_and_the_gate() {
     let mut s = LiveState::default();
-    s.pose(&pose(2, 1.0, 1.0, 0));
-    s.pose(&pose(1, 0.5, 0.5, 0));
+    s.pose(&seen(2, 1.0, 1.0, 0));
+    s.pose(&seen(1, 0.5, 0.5, 0));
     assert_eq!(s.robots.iter().map(|r| r.id).collect::<Vec<_>>(), [1, 2], "id order");
     // A small move is not a trail point; a move of TRAIL_STEP is.
-    s.pose(&pose(1, 0.5 + TRAIL_STEP / 2.0, 0.5, 1));
-    s.pose(&pose(1, 0.5 + TRAIL_STEP, 0.5, 2));
+    s.pose(&seen(1, 0.5 + TRAIL_STEP / 2.0, 0.5, 1));
+    s.pose(&seen(1, 0.5 + TRAIL_STEP, 0.5, 2));
     assert_eq!(s.robots[0].trail, [[0.5, 0.5], [0.5 + TRAIL_STEP, 0.5]]);
     assert_eq!(s.robots[0].x, 0.5 + TRAIL_STEP);
-    s.gate(&event(1, GateKind::Deployed, 0.5, 0.5));
+    s.gate(&decided(1, GateKind::Deployed, 0.5, 0.5));
     assert_eq!((s.robots[0].state, s.moving), (RobotState::Moving, Some(1)));
-    s.gate(&event(1, GateKind::Stopped { arrived: false }, 3.0, 4.0));
+    s.gate(&decided(1, GateKind::Stopped { arrived: false }, 3.0, 4.0));
     assert_eq!((s.robots[0].state, s.moving), (RobotState::Stuck, None));
     assert_eq!((s.beacons.len(), s.beacons[0].x, s.beacons[0].y), (1, 3.0, 4.0));
-    s.gate(&event(2, GateKind::Deployed, 1.0, 1.0));
-    s.gate(&event(2, GateKind::Died, 1.5, 1.5));
-    s.gate(&event(3, GateKind::Deployed, 0.5, 0.5));
-    s.gate(&event(3, GateKind::Stopped { arrived: true }, 2.5, 2.5));
+    s.gate(&decided(2, GateKind::Deployed, 1.0, 1.0));
+    s.gate(&decided(2, GateKind::Died, 1.5, 1.5));
+    s.gate(&decided(3, GateKind::Deployed, 0.5, 0.5));
+    s.gate(&decided(3, GateKind::Stopped { arrived: true }, 2.5, 2.5));
     let states: Vec<_> = s.robots.iter().map(|r| r.state).collect();
     assert_eq!(states, [RobotState::Stuck, RobotState::Lost, RobotState::Arrived]);
     assert_eq!((s.beacons.len(), s.gate_events), (2, 6), "stuck and lost robots are beacons");
