@@ -1,6 +1,6 @@
 //! One BYCOMS robot's agent: the controller, as one piece of code for every
 //! shell, the real robot's firmware core, and (feature `gateway`) the
-//! `agent` binary, the real robot's gateway to the bus.
+//! `gateway` binary, the real robot's gateway to the bus.
 //!
 //! The controller and the firmware core are sans-IO: inputs (and, where
 //! needed, time as an argument) go in, commands come out. No clocks, no
@@ -20,7 +20,7 @@
 //! * [`firmware`] — the real robot's firmware core: link frames and
 //!   microphone frames in, motor commands, its tone and link frames out.
 //! * [`angle`] — the angle arithmetic both share.
-//! * `gateway` (feature `gateway`, std) — the `agent` binary: one real
+//! * `gateway` (feature `gateway`, std) — the `gateway` binary: one real
 //!   robot's gateway between its authenticated UDP link and the bus.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![forbid(unsafe_code)]

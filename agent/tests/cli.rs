@@ -1,12 +1,12 @@
-//! The `agent` binary's command line: bad inputs end with a clear message
+//! The `gateway` binary's command line: bad inputs end with a clear message
 //! and a non-zero exit before anything is opened. (Also what makes
-//! `cargo test --workspace` build the `agent` executable that the
+//! `cargo test --workspace` build the `gateway` executable that the
 //! end-to-end tests in `tests/` start.)
 
 use std::process::{Command, Stdio};
 
 fn agent(args: &[&str]) -> (Option<i32>, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_agent"))
+    let out = Command::new(env!("CARGO_BIN_EXE_gateway"))
         .args(args)
         .env_remove("RUST_LOG")
         .env_remove("BYCOMS_LOG_FORMAT")
@@ -60,7 +60,7 @@ fn sigint_exits_130_like_the_orchestrator() {
     let key = dir.path().join("robot-1.key");
     std::fs::write(&key, "ab".repeat(32)).expect("key file");
     let swarm = format!("gwsigint{}", std::process::id());
-    let mut child = Command::new(env!("CARGO_BIN_EXE_agent"))
+    let mut child = Command::new(env!("CARGO_BIN_EXE_gateway"))
         .args(["--swarm", &swarm, "--robot", "1", "--bind", "127.0.0.1:0", "--key-file"])
         .arg(&key)
         .env("RUST_LOG", "info")
@@ -116,7 +116,7 @@ fn the_logging_flags_go_before_or_after_the_subcommand() {
     assert!(err.contains("cannot be used with '--swarm <SWARM>'"), "{err}");
 }
 
-/// `agent doctor`: a bad endpoint is a usage error (2) before anything is
+/// `gateway doctor`: a bad endpoint is a usage error (2) before anything is
 /// checked; an orchestrator that is not there is an error finding (1) in
 /// the JSON report, with its fix.
 #[test]
@@ -140,7 +140,7 @@ fn the_doctor_exits_2_for_a_usage_error_and_1_for_an_error_finding() {
         "1",
     ];
     let out =
-        Command::new(env!("CARGO_BIN_EXE_agent")).args(args).stdin(Stdio::null()).output().expect("run");
+        Command::new(env!("CARGO_BIN_EXE_gateway")).args(args).stdin(Stdio::null()).output().expect("run");
     assert_eq!(out.status.code(), Some(1), "{}", String::from_utf8_lossy(&out.stderr));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("the JSON report");
     let zenoh = report["findings"].as_array().expect("findings").iter().find(|f| f["check"] == "zenoh");

@@ -241,7 +241,7 @@ fn remote_agents_with_liveliness_pass_the_suite() {
     assert_eq!(report.not_applicable(), ["dropping_a_source_ends_its_agents"], "{report:?}");
 }
 
-/// Gateways of real robots: a shell stands in for the `agent` executable;
+/// Gateways of real robots: a shell stands in for the `gateway` executable;
 /// it exits (code 3) at once when its flags carry the marker heartbeat
 /// period ([`ENDS`]), else sleeps (alive and silent) until killed. The
 /// robots file names four robots with their keys, in a temporary directory.

@@ -160,7 +160,7 @@ fn bad_input_exits_non_zero_with_a_clear_message() {
         (&["terrain", "--width", "0", "--count", "1", "--out", "/tmp/x"], "--width must lie", 2),
         (&["bench", "scale", "--speed", "0"], "bad --speed: the real-time speed-up must be a number in", 2),
         // Seconds past any run: the flag or key and its range, never a panic (issue 31).
-        (&["launch", "--link-grace", "1e300"], "supervision.link_grace (--link-grace) must be a number of seconds in [0, 100000000], got 1e300", 2),
+        (&["launch", "--unreachable-grace", "1e300"], "supervision.unreachable_grace (--unreachable-grace) must be a number of seconds in [0, 100000000], got 1e300", 2),
         (&["launch", "--heartbeat-timeout", "1e20"], "supervision.heartbeat_timeout (--heartbeat-timeout) must be a number of seconds in (0, 100000000]", 2),
         (&["launch", "--register-timeout", "NaN"], "supervision.register_timeout (--register-timeout) must be a number of seconds in (0, ", 2),
         (&["launch", "--dwell", "1e300"], "gate.dwell (--dwell) must be a number of seconds in (0, ", 2),

@@ -30,18 +30,18 @@ fn a_lockstep_launch_over_the_memory_bus_equals_simulate_bit_for_bit() {
     let expected = bycoms_sim::run(&terrain, &run);
     assert_eq!(summary.error, None);
     let outcome = match expected.outcome {
-        bycoms_sim::Outcome::Arrived => Outcome::Arrived,
-        bycoms_sim::Outcome::TimeLimit => Outcome::TimeLimit,
-        bycoms_sim::Outcome::RobotsExhausted => Outcome::RobotsExhausted,
+        bycoms_sim::RunOutcome::Arrived => Outcome::Arrived,
+        bycoms_sim::RunOutcome::TimeLimit => Outcome::TimeLimit,
+        bycoms_sim::RunOutcome::RobotsExhausted => Outcome::RobotsExhausted,
     };
     assert_eq!(summary.outcome, outcome);
     assert_eq!(summary.steps, expected.steps);
     for r in &expected.robots {
         let got = &summary.robots[r.id as usize - 1];
         let want = match r.end {
-            bycoms_sim::runner::RobotEnd::Stuck => RobotEnd::Stuck,
-            bycoms_sim::runner::RobotEnd::Arrived => RobotEnd::Arrived,
-            bycoms_sim::runner::RobotEnd::Moving => RobotEnd::Moving,
+            bycoms_sim::runner::RobotRunEnd::Stuck => RobotEnd::Stuck,
+            bycoms_sim::runner::RobotRunEnd::Arrived => RobotEnd::Arrived,
+            bycoms_sim::runner::RobotRunEnd::Moving => RobotEnd::Moving,
         };
         assert_eq!(got.end, want, "robot {}", r.id);
         assert_eq!(got.steps, r.steps, "robot {}", r.id);

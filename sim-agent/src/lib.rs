@@ -17,4 +17,4 @@ pub mod sensing;
 pub mod terrain;
 
 pub use geom::Vec2;
-pub use runner::{run, Outcome, RunConfig, RunResult};
+pub use runner::{run, RunConfig, RunOutcome, RunResult};

@@ -134,7 +134,7 @@ pub enum ConfigError {
 /// Why a run ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum Outcome {
+pub enum RunOutcome {
     /// A robot reached the goal.
     Arrived,
     /// Simulated time ran out.
@@ -146,7 +146,7 @@ pub enum Outcome {
 /// How one robot's deployment ended.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
-pub enum RobotEnd {
+pub enum RobotRunEnd {
     Stuck,
     Arrived,
     /// Still moving when the run ended (time limit).
@@ -158,7 +158,7 @@ pub enum RobotEnd {
 pub struct RobotRun {
     /// 1-based deployment order.
     pub id: u32,
-    pub end: RobotEnd,
+    pub end: RobotRunEnd,
     /// Where it stopped (or was when the run ended).
     pub position: Vec2,
     /// Control periods it was deployed for.
@@ -172,7 +172,7 @@ pub struct RobotRun {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RunResult {
     pub success: bool,
-    pub outcome: Outcome,
+    pub outcome: RunOutcome,
     /// Control periods simulated in all.
     pub steps: u64,
     /// Simulated time, s.
@@ -207,11 +207,11 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
     while outcome.is_none() {
         let id = robots.len() as u32 + 1;
         if cfg.max_robots.is_some_and(|m| id > m) {
-            outcome = Some(Outcome::RobotsExhausted);
+            outcome = Some(RunOutcome::RobotsExhausted);
             break;
         }
         if steps >= limit {
-            outcome = Some(Outcome::TimeLimit);
+            outcome = Some(RunOutcome::TimeLimit);
             break;
         }
         let noise = cfg.noise.map(|m| SensingNoise::new(m, robot_seed(cfg.seed, id)));
@@ -224,8 +224,8 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
         let mut deployment = Deployment::new(robot, &table, &cones, &beacons, goal);
         let end = loop {
             if steps >= limit {
-                outcome = Some(Outcome::TimeLimit);
-                break RobotEnd::Moving;
+                outcome = Some(RunOutcome::TimeLimit);
+                break RobotRunEnd::Moving;
             }
             let motion = deployment.step();
             steps += 1;
@@ -238,23 +238,23 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
                 continue;
             }
             if terrain.is_blocked_at(p) {
-                break RobotEnd::Stuck;
+                break RobotRunEnd::Stuck;
             }
             let (dx, dy) = (p.x - goal.x, p.y - goal.y);
             if dx * dx + dy * dy <= r2 {
-                outcome = Some(Outcome::Arrived);
-                break RobotEnd::Arrived;
+                outcome = Some(RunOutcome::Arrived);
+                break RobotRunEnd::Arrived;
             }
         };
         let robot = deployment.robot;
-        if end == RobotEnd::Stuck {
+        if end == RobotRunEnd::Stuck {
             beacons.push(robot.body.pos);
         }
         robots.push(RobotRun { id, end, position: robot.body.pos, steps: steps - first_step, trajectory });
     }
-    let outcome = outcome.unwrap_or(Outcome::TimeLimit);
+    let outcome = outcome.unwrap_or(RunOutcome::TimeLimit);
     RunResult {
-        success: outcome == Outcome::Arrived,
+        success: outcome == RunOutcome::Arrived,
         outcome,
         steps,
         time: cfg.kinematics.time_of(steps),

@@ -1,9 +1,9 @@
 //! Hand-built terrains whose outcome we know (issue: "Tests that must hold").
 
-use bycoms_sim::runner::RobotEnd;
+use bycoms_sim::runner::RobotRunEnd;
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::terrain::{parse, Terrain};
-use bycoms_sim::{run, Outcome, RunConfig, Vec2};
+use bycoms_sim::{run, RunConfig, RunOutcome, Vec2};
 
 /// 60 × 60, a 2-cell-thick wall across the arena at rows 34–35 with a
 /// 3-cell gap at x = 35..38, just beside the start→goal diagonal: robot 1
@@ -44,7 +44,7 @@ fn gap_of_three_is_never_crossed_with_eps_four() {
     let cfg = RunConfig::paper(4.0);
     let r = run(&t, &cfg);
     assert!(!r.success, "crossed after {} robots", r.robots_used);
-    assert_eq!(r.outcome, Outcome::TimeLimit);
+    assert_eq!(r.outcome, RunOutcome::TimeLimit);
     assert!(r.beacons.len() >= 2, "beacons on both sides of the gap close it");
     assert!(r.beacons.iter().all(|b| b.y < 36.0), "nobody got past the wall");
 }
@@ -54,7 +54,7 @@ fn clear_straight_line_takes_exactly_one_robot() {
     let t = Terrain::paper();
     let r = run(&t, &RunConfig::paper(2.0));
     assert!(r.success);
-    assert_eq!(r.outcome, Outcome::Arrived);
+    assert_eq!(r.outcome, RunOutcome::Arrived);
     assert_eq!(r.robots_used, 1);
     assert!(r.beacons.is_empty());
     // Distance 29·√2 ≈ 41.01 at 1 unit/s, stopping within 0.5: 40.6 s ≤ t ≤ 41.1 s.
@@ -70,9 +70,9 @@ fn robot_entering_an_impassable_cell_stops_there() {
     cfg.max_robots = Some(1);
     cfg.record_trajectories = true;
     let r = run(&t, &cfg);
-    assert_eq!(r.outcome, Outcome::RobotsExhausted);
+    assert_eq!(r.outcome, RunOutcome::RobotsExhausted);
     let robot = &r.robots[0];
-    assert_eq!(robot.end, RobotEnd::Stuck);
+    assert_eq!(robot.end, RobotRunEnd::Stuck);
     let p = robot.position;
     assert!(p.x >= 25.0 && p.x < 26.0 && p.y >= 25.0 && p.y < 26.0, "{p:?}");
     assert_eq!(r.beacons, vec![p]);
@@ -90,8 +90,8 @@ fn leaving_the_arena_is_stuck() {
     let mut cfg = RunConfig::paper(1.0);
     cfg.max_robots = Some(1);
     let r = run(&t, &cfg);
-    assert_eq!(r.outcome, Outcome::RobotsExhausted);
-    assert_eq!(r.robots[0].end, RobotEnd::Stuck);
+    assert_eq!(r.outcome, RunOutcome::RobotsExhausted);
+    assert_eq!(r.robots[0].end, RobotRunEnd::Stuck);
     let p = r.beacons[0];
     assert!(p.x < 0.0 && p.x > -0.11, "stopped on the first step outside: {p:?}");
 }

@@ -47,9 +47,10 @@ fn main() {
     let hosts = TwoHosts::create("cuts").expect("namespaces");
     let dir = tempfile::tempdir().expect("temp dir");
     let terrain = dir.path().join("terrain.txt");
-    let world =
-        bycoms_study::scenario::load(&bycoms_study::scenario::WorldSource::Scenario("long-obstacle".into()))
-            .expect("built-in scenario");
+    let world = bycoms_study::scenario::load(&bycoms_study::scenario::TerrainSource::Scenario(
+        "long-obstacle".into(),
+    ))
+    .expect("built-in scenario");
     std::fs::write(&terrain, bycoms_sim::terrain::to_text(&world.terrain)).expect("terrain");
     let terrain = terrain.to_str().expect("utf-8");
     let swarm = swarm_name("cuts");
@@ -60,7 +61,7 @@ fn main() {
     let mut args = vec!["launch", "--agents", "remote", "--transport", "zenoh", "--listen", &listen];
     args.extend(clock);
     args.extend(["--json", "--swarm", &swarm, "--robots", "3", "--eps", "3", "--terrain", terrain]);
-    args.extend(["--time-limit", "100000", "--link-grace", "20"]);
+    args.extend(["--time-limit", "100000", "--unreachable-grace", "20"]);
     let orch = hosts.a.start("orchestrator", &args);
     let endpoint = orch.logged_endpoint(&format!("tcp/{}:", hosts.a.addr), Duration::from_secs(20));
     let agents: Vec<Proc> = (1..=3u32)

@@ -59,7 +59,7 @@ use bycoms_runtime::{BusArgs, Transport};
 use bycoms_sim::terrain::to_text;
 use bycoms_sim::{run, RunConfig, RunResult};
 use bycoms_sim_agent::AgentArgs;
-use bycoms_study::scenario::{load, WorldSource};
+use bycoms_study::scenario::{load, TerrainSource};
 use bycoms_tests::netns::{not_permitted, Star, PORT};
 use bycoms_tests::{agents_of, bin, is_zombie, simulate_differences, swarm_name, wait_for, Finished, Proc};
 use nix::sys::resource::{getrlimit, setrlimit, Resource};
@@ -314,7 +314,7 @@ fn main() {
     let hosts = env_u32("HOSTS", 3) as usize;
     raise_open_files();
     let dir = tempfile::tempdir().expect("temp dir");
-    let world = load(&WorldSource::Scenario(SCENARIO.into())).expect("built-in scenario").terrain;
+    let world = load(&TerrainSource::Scenario(SCENARIO.into())).expect("built-in scenario").terrain;
     let path = dir.path().join("terrain.txt");
     std::fs::write(&path, to_text(&world)).expect("write terrain");
     let mut cfg = RunConfig::paper(EPS);

@@ -21,7 +21,7 @@
 use bycoms_runtime::{BusArgs, Transport};
 use bycoms_sim::terrain::to_text;
 use bycoms_sim_agent::AgentArgs;
-use bycoms_study::scenario::{load, WorldSource};
+use bycoms_study::scenario::{load, TerrainSource};
 use bycoms_tests::netns::{not_permitted, TwoHosts};
 use bycoms_tests::{swarm_name, Proc};
 use serde_json::Value;
@@ -103,7 +103,7 @@ fn row(name: &str, runs: &[Value]) {
 fn main() {
     let runs: usize = std::env::var("RUNS").ok().and_then(|s| s.parse().ok()).unwrap_or(5);
     let dir = tempfile::tempdir().expect("temp dir");
-    let terrain = load(&WorldSource::Scenario("long-obstacle".into())).expect("scenario").terrain;
+    let terrain = load(&TerrainSource::Scenario("long-obstacle".into())).expect("scenario").terrain;
     let path: PathBuf = dir.path().join("terrain.txt");
     std::fs::write(&path, to_text(&terrain)).expect("write terrain");
     let terrain = Path::new(&path).to_str().expect("utf-8 path");

@@ -156,14 +156,14 @@ impl Host {
 /// One veth link between two namespaces: `hub` and `spoke` are its two
 /// ends, each a [`Host`] (its namespace, its veth end, its address).
 #[derive(Clone, Debug)]
-pub struct Link {
+pub struct Veth {
     /// The hub's end (`10.231.N.4k+1/30` for the hub's k-th link).
     pub hub: Host,
     /// The spoke's end (`10.231.N.4k+2/30`).
     pub spoke: Host,
 }
 
-impl Link {
+impl Veth {
     /// Cuts the link (both ends down): from now on nothing crosses it.
     pub fn cut(&self) -> Result<(), NetnsError> {
         self.hub.set_link("down")?;
@@ -190,7 +190,7 @@ impl Link {
 /// it with [`Star::hub`]; a spoke reaches it at `links[k].hub.endpoint(…)`.
 pub struct Star {
     /// One link per spoke, in order.
-    pub links: Vec<Link>,
+    pub links: Vec<Veth>,
 }
 
 impl Star {
@@ -214,7 +214,7 @@ impl Star {
         let links = (0..spokes)
             .map(|k| {
                 let end = char::from(b'b' + k as u8).to_string();
-                Link {
+                Veth {
                     hub: Host { netns: hub.clone(), veth: veth(&format!("a{end}")), addr: addr(4 * k + 1) },
                     spoke: Host { netns: netns(&end), veth: veth(&end), addr: addr(4 * k + 2) },
                 }
@@ -279,7 +279,7 @@ impl TwoHosts {
     /// Creates the namespaces, the veth pair and the addresses, links up.
     pub fn create(tag: &str) -> Result<Self, NetnsError> {
         let star = Star::create(tag, 1)?;
-        let Link { hub: a, spoke: b } = star.links[0].clone();
+        let Veth { hub: a, spoke: b } = star.links[0].clone();
         Ok(TwoHosts { a, b, star })
     }
 

@@ -119,7 +119,7 @@ fn forged_poses_are_refused_counted_and_change_nothing() {
     let bus = IpcBus::new(ipc_config(3)).expect("bus");
     let pose_topic = bus.publisher(swarm.pose(RobotId(1)).name()).expect("pose publisher");
     let future = Pose { step: u64::MAX, ..moving };
-    let world = bycoms_study::scenario::load(&bycoms_study::scenario::WorldSource::Scenario(
+    let world = bycoms_study::scenario::load(&bycoms_study::scenario::TerrainSource::Scenario(
         bycoms_study::scenario::DEFAULT.into(),
     ))
     .expect("the default scenario");

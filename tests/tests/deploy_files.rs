@@ -124,7 +124,7 @@ fn the_gateway_unit_runs_a_valid_gateway_over_zenoh_for_its_instance() {
     // The shipped examples fill in every variable the command line uses.
     let mut env = env_file(&read("systemd/gateway.env"));
     env.extend(env_file(&read("systemd/gateway-1.env")));
-    let args = program_args(one(&unit, "Service", "ExecStart"), "1", &env, "/usr/local/bin/agent");
+    let args = program_args(one(&unit, "Service", "ExecStart"), "1", &env, "/usr/local/bin/gateway");
     assert!(!args.iter().any(|a| a.contains('$')), "a variable is left: {args:?}");
     let cli = AgentCli::try_parse_from(&args).unwrap_or_else(|e| panic!("{args:?} does not parse:\n{e}"));
     let g = cli.gateway;

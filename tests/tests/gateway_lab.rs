@@ -1,4 +1,4 @@
-//! The `agent` gateway end to end, through real UDP sockets and the real
+//! The `gateway` end to end, through real UDP sockets and the real
 //! iceoryx2 bus: with the emulated lab (`sim-agent lab`) as its robot, and
 //! with the test itself playing a robot that misbehaves.
 //!
@@ -53,7 +53,7 @@ fn key(i: usize) -> LinkKey {
 fn gateway(swarm: &str, robot: u32, bind: SocketAddr, dir: &Path, size: u32) -> Proc {
     let key_file = dir.join(format!("robot-{robot}.key"));
     let args = GatewayArgs { swarm_size: Some(size), ..GatewayArgs::new(swarm, robot, bind, key_file) };
-    Proc::start(&bin("agent"), &args.to_flags())
+    Proc::start(&bin("gateway"), &args.to_flags())
 }
 
 fn lab(swarm: &str, scenario: &str, robots: &Path) -> Proc {

@@ -1,7 +1,7 @@
 //! The paper's lab experiments end to end through `orchestrator launch
 //! --agents real`: the test starts the emulated lab (`sim-agent lab`, one
 //! emulated ESP32 per robot behind a real UDP socket, true poses on the bus
-//! as simulated motion capture), and the launch starts one `agent` gateway
+//! as simulated motion capture), and the launch starts one `gateway`
 //! per robot, asks the operator (the lab's emulated one) to place each
 //! robot at the start, enables it, sends it goal bearings in the lab's
 //! frame and judges it from poses alone with the real-robot gate settings

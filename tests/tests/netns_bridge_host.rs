@@ -1,12 +1,12 @@
 //! Real robots with their gateways on a bridge host (issue 19): the
 //! orchestrator in one network namespace (`a`, the operator's laptop), the
-//! robots' `agent` gateways and the emulated lab in the other (`b`, the
+//! robots' `gateway` processes and the emulated lab in the other (`b`, the
 //! host next to the robots' access point), joined by a veth link
 //! (`bycoms_tests::netns`) and nothing else.
 //!
 //! The launch (`--agents real --gateways elsewhere --transport zenoh`)
 //! starts no process: it awaits the gateways, which join over zenoh
-//! (`agent --transport zenoh --connect tcp/A:PORT`), as the lab does (its
+//! (`gateway --transport zenoh --connect tcp/A:PORT`), as the lab does (its
 //! operator reads the placement requests and its motion capture publishes
 //! the bodies' poses over the same link). The paper's second experiment
 //! (exp-long) must come out as in the lab runs on one host: robots 1 and 2
@@ -108,7 +108,7 @@ fn exp_long_runs_with_the_gateways_and_the_lab_on_a_bridge_host() {
                 "--swarm-size",
                 "3",
             ];
-            hosts.b.start("agent", &[&args[..], &zenoh].concat())
+            hosts.b.start("gateway", &[&args[..], &zenoh].concat())
         })
         .collect();
     let out = orch.wait(Duration::from_secs(180));

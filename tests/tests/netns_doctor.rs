@@ -15,7 +15,7 @@
 //! * a taken port (a robot's gateway on the UDP port the orchestrator's
 //!   QUIC listens on): `udp-ports` error, exit 1.
 //!
-//! The robots' host's own doctors (`agent doctor`, `sim-agent doctor`: the
+//! The robots' host's own doctors (`gateway doctor`, `sim-agent doctor`: the
 //! same zenoh checks, with the robot's certificate and the gateway's port)
 //! are run on `b` against the healthy setup, the skewed clock and the wrong
 //! common name.
@@ -40,7 +40,7 @@ fn doctor(host: &Host, args: &[&str], env: &[(&str, &str)]) -> (Option<i32>, Vec
 }
 
 /// `PROGRAM doctor ARGS --json` in `host` (with `env`): its exit code and
-/// findings (`orchestrator`, `agent`, `sim-agent`).
+/// findings (`orchestrator`, `gateway`, `sim-agent`).
 fn doctor_of(program: &str, host: &Host, args: &[&str], env: &[(&str, &str)]) -> (Option<i32>, Vec<Value>) {
     let args = [&["doctor", "--json", "--timeout-ms", "2000"][..], args].concat();
     let out = host.start_with_env(program, &args, env).wait(Duration::from_secs(60));
@@ -123,8 +123,8 @@ fn doctor_across_two_hosts_finds_each_fault() {
     let gateway_port = format!("{}:47201", hosts.b.addr);
     let robot_1 = ["--connect", &endpoint, "--zenoh-config", robot, "--swarm", &swarm, "--robot", "1"];
     let gateway = [&robot_1[..], &["--bind", &gateway_port]].concat();
-    let (code, found) = doctor_of("agent", &hosts.b, &gateway, &[]);
-    assert_eq!(code, Some(0), "agent doctor, healthy: {found:#?}");
+    let (code, found) = doctor_of("gateway", &hosts.b, &gateway, &[]);
+    assert_eq!(code, Some(0), "gateway doctor, healthy: {found:#?}");
     for (check, words) in [
         ("zenoh", "is alive at"),
         ("clock", "ms off the orchestrator's"),
@@ -132,7 +132,7 @@ fn doctor_across_two_hosts_finds_each_fault() {
         ("udp-ports", "UDP ports are free"),
         ("open-files", "open files"),
     ] {
-        assert!(has(&found, check, "ok", words), "agent doctor, {check}: {found:#?}");
+        assert!(has(&found, check, "ok", words), "gateway doctor, {check}: {found:#?}");
     }
     let (code, found) = doctor_of("sim-agent", &hosts.b, &robot_1, &[]);
     assert_eq!(code, Some(0), "sim-agent doctor, healthy: {found:#?}");
@@ -153,8 +153,8 @@ fn doctor_across_two_hosts_finds_each_fault() {
     let (code, found) = doctor(&hosts.b, &from_b, &[]);
     assert_eq!(code, Some(1), "wrong common name: {found:#?}");
     assert!(has(&found, "certs", "error", "carries the common name \"robot-7\""), "{found:#?}");
-    let (code, found) = doctor_of("agent", &hosts.b, &gateway, &[]);
-    assert_eq!(code, Some(1), "agent doctor, wrong common name: {found:#?}");
+    let (code, found) = doctor_of("gateway", &hosts.b, &gateway, &[]);
+    assert_eq!(code, Some(1), "gateway doctor, wrong common name: {found:#?}");
     assert!(has(&found, "certs", "error", "is \"robot-7\"'s, not \"robot-1\"'s"), "{found:#?}");
     reissue_robot_1(certs.path(), "robot-1", (2021, 1, 1));
     let (code, found) = doctor(&hosts.b, &from_b, &[]);

@@ -21,7 +21,7 @@
 
 use bycoms_sim::terrain::to_text;
 use bycoms_sim::{run, RunConfig, RunResult};
-use bycoms_study::scenario::{load, WorldSource};
+use bycoms_study::scenario::{load, TerrainSource};
 use bycoms_tests::netns::{two_hosts, Host, TwoHosts};
 use bycoms_tests::{simulate_differences, swarm_name, Finished, Proc};
 use std::path::{Path, PathBuf};
@@ -29,7 +29,7 @@ use std::time::{Duration, Instant};
 
 /// The paper's three-robot case (long-obstacle, ε 3): expected result and terrain file.
 fn world(dir: &Path) -> (RunResult, PathBuf) {
-    let terrain = load(&WorldSource::Scenario("long-obstacle".into())).expect("built-in scenario").terrain;
+    let terrain = load(&TerrainSource::Scenario("long-obstacle".into())).expect("built-in scenario").terrain;
     let mut cfg = RunConfig::paper(3.0);
     cfg.max_robots = Some(3);
     cfg.time_limit = 10_000.0;
@@ -149,7 +149,7 @@ fn ride_out_a_short_cut(
     terrain: &Path,
     clock: &[&str],
 ) -> (CutRun, Vec<Proc>) {
-    let (orch, endpoint) = orchestrator_in(&hosts.a, swarm, terrain, clock, &["--link-grace", "20"]);
+    let (orch, endpoint) = orchestrator_in(&hosts.a, swarm, terrain, clock, &["--unreachable-grace", "20"]);
     let mut flags = vec!["--orchestrator-grace", "20"];
     flags.extend(clock);
     let agents: Vec<Proc> =
@@ -232,7 +232,8 @@ fn a_cut_longer_than_the_grace_is_recorded_and_ends_the_run_cleanly() {
     let dir = tempfile::tempdir().expect("temp dir");
     let (_, terrain) = world(dir.path());
     let swarm = swarm_name("netns-cut");
-    let (orch, endpoint) = orchestrator_in(&hosts.a, &swarm, &terrain, LOCKSTEP, &["--link-grace", "0.5"]);
+    let (orch, endpoint) =
+        orchestrator_in(&hosts.a, &swarm, &terrain, LOCKSTEP, &["--unreachable-grace", "0.5"]);
     let grace = ["--orchestrator-grace", "0.5"];
     let agents: Vec<Proc> =
         (1..=3).map(|k| agent_in(&hosts.b, &endpoint, &swarm, &terrain, k, &grace)).collect();

@@ -15,11 +15,11 @@
 //! time limit; and the same over zenoh (loopback tcp, port 0) instead of
 //! iceoryx2.
 
-use bycoms_sim::runner::RobotEnd;
+use bycoms_sim::runner::RobotRunEnd;
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::terrain::{generate, to_text, GenParams, Terrain};
-use bycoms_sim::{run, Outcome, RunConfig};
-use bycoms_study::scenario::{load, WorldSource};
+use bycoms_sim::{run, RunConfig, RunOutcome};
+use bycoms_study::scenario::{load, TerrainSource};
 use bycoms_tests::{simulate_differences, swarm_name, Proc};
 use std::time::Duration;
 
@@ -33,7 +33,7 @@ struct Case {
 }
 
 fn scenario(name: &str) -> Terrain {
-    load(&WorldSource::Scenario(name.into())).expect("built-in scenario").terrain
+    load(&TerrainSource::Scenario(name.into())).expect("built-in scenario").terrain
 }
 
 fn config(case: &Case) -> RunConfig {
@@ -45,12 +45,12 @@ fn config(case: &Case) -> RunConfig {
     cfg
 }
 
-fn check(case: &Case) -> Outcome {
+fn check(case: &Case) -> RunOutcome {
     check_over(case, &[])
 }
 
 /// [`check`] with extra launch flags (e.g. another transport).
-fn check_over(case: &Case, extra: &[&str]) -> Outcome {
+fn check_over(case: &Case, extra: &[&str]) -> RunOutcome {
     let expected = run(&case.terrain, &config(case));
     let dir = tempfile::tempdir().expect("temp dir");
     let path = dir.path().join("terrain.txt");
@@ -69,9 +69,9 @@ fn check_over(case: &Case, extra: &[&str]) -> Outcome {
     let j = out.json();
     let name = &case.name;
     let outcome = match expected.outcome {
-        Outcome::Arrived => "arrived",
-        Outcome::RobotsExhausted => "robots_exhausted",
-        Outcome::TimeLimit => "time_limit",
+        RunOutcome::Arrived => "arrived",
+        RunOutcome::RobotsExhausted => "robots_exhausted",
+        RunOutcome::TimeLimit => "time_limit",
     };
     assert_eq!(j["outcome"], outcome, "{name}: outcome; stderr:\n{}", out.stderr);
     assert_eq!(out.status.code(), Some(if expected.success { 0 } else { 3 }), "{name}: exit code");
@@ -92,9 +92,9 @@ fn the_default_launch_is_the_papers_three_robot_experiment() {
     // Robots 1 and 2 get stuck, robot 3 goes around their fields.
     let c = case("long-obstacle ε3", scenario("long-obstacle"), 3.0, None, 3, 10_000.0);
     let expected = run(&c.terrain, &config(&c));
-    let ends: Vec<RobotEnd> = expected.robots.iter().map(|r| r.end).collect();
-    assert_eq!(ends, [RobotEnd::Stuck, RobotEnd::Stuck, RobotEnd::Arrived]);
-    assert_eq!(check(&c), Outcome::Arrived);
+    let ends: Vec<RobotRunEnd> = expected.robots.iter().map(|r| r.end).collect();
+    assert_eq!(ends, [RobotRunEnd::Stuck, RobotRunEnd::Stuck, RobotRunEnd::Arrived]);
+    assert_eq!(check(&c), RunOutcome::Arrived);
 }
 
 #[test]
@@ -105,8 +105,8 @@ fn built_in_scenarios_without_noise() {
         case("gap3 ε2 (robots exhausted)", scenario("gap3"), 2.0, None, 3, 10_000.0),
         case("long-wall ε1 (time limit)", scenario("long-wall"), 1.0, None, 20, 150.0),
     ];
-    let outcomes: Vec<Outcome> = cases.iter().map(check).collect();
-    for o in [Outcome::Arrived, Outcome::RobotsExhausted, Outcome::TimeLimit] {
+    let outcomes: Vec<RunOutcome> = cases.iter().map(check).collect();
+    for o in [RunOutcome::Arrived, RunOutcome::RobotsExhausted, RunOutcome::TimeLimit] {
         assert!(outcomes.contains(&o), "no case ends with {o:?}: {outcomes:?}");
     }
 }
@@ -118,12 +118,12 @@ fn a_robot_stopping_in_the_very_last_period_is_a_beacon_in_both() {
     let c = case("long-obstacle ε3, limit 20.6 s", scenario("long-obstacle"), 3.0, None, 3, 20.6);
     let expected = run(&c.terrain, &config(&c));
     assert_eq!(expected.robots[0].steps, 206);
-    assert_eq!(expected.robots[0].end, RobotEnd::Stuck);
-    assert_eq!(check(&c), Outcome::TimeLimit);
+    assert_eq!(expected.robots[0].end, RobotRunEnd::Stuck);
+    assert_eq!(check(&c), RunOutcome::TimeLimit);
     // One period earlier the robot is still moving at the limit.
     let c = case("long-obstacle ε3, limit 20.5 s", scenario("long-obstacle"), 3.0, None, 3, 20.5);
-    assert_eq!(run(&c.terrain, &config(&c)).robots[0].end, RobotEnd::Moving);
-    assert_eq!(check(&c), Outcome::TimeLimit);
+    assert_eq!(run(&c.terrain, &config(&c)).robots[0].end, RobotRunEnd::Moving);
+    assert_eq!(check(&c), RunOutcome::TimeLimit);
 }
 
 #[test]
@@ -178,9 +178,9 @@ fn over_zenoh_too() {
     // spawns are told that endpoint.
     let zenoh = ["--transport", "zenoh", "--listen", "tcp/127.0.0.1:0"];
     let c = case("long-obstacle ε3 over zenoh", scenario("long-obstacle"), 3.0, None, 3, 10_000.0);
-    assert_eq!(check_over(&c, &zenoh), Outcome::Arrived);
+    assert_eq!(check_over(&c, &zenoh), RunOutcome::Arrived);
     let c = case("short-wall ε2.5 noise seed 3 over zenoh", scenario("short-wall"), 2.5, Some(3), 5, 3_000.0);
     check_over(&c, &zenoh);
     let c = case("gap3 ε2 over zenoh (robots exhausted)", scenario("gap3"), 2.0, None, 3, 10_000.0);
-    assert_eq!(check_over(&c, &zenoh), Outcome::RobotsExhausted);
+    assert_eq!(check_over(&c, &zenoh), RunOutcome::RobotsExhausted);
 }

@@ -38,7 +38,7 @@ use std::time::{Duration, Instant};
 /// The word of a code block's info string that marks it runnable.
 const MARKER: &str = "runnable";
 /// The workspace binaries a README command may name.
-const BINARIES: [&str; 4] = ["orchestrator", "sim-agent", "agent", "natnet-serve"];
+const BINARIES: [&str; 4] = ["orchestrator", "sim-agent", "gateway", "natnet-serve"];
 /// Longest one command may take.
 const COMMAND_TIMEOUT: Duration = Duration::from_secs(60);
 /// Longest a background command may take to end after SIGINT.

@@ -30,10 +30,10 @@
 //! the agents.
 
 use crate::SwarmLockFile;
-use bycoms_sim::runner::RobotEnd;
+use bycoms_sim::runner::RobotRunEnd;
 use bycoms_sim::terrain::to_text;
 use bycoms_sim::{run, RunConfig, RunResult};
-use bycoms_study::scenario::{load, WorldSource};
+use bycoms_study::scenario::{load, TerrainSource};
 use bycoms_tests::{bin, simulate_differences, swarm_name, Finished, Proc};
 use serde_json::Value;
 use std::path::PathBuf;
@@ -51,7 +51,7 @@ struct World {
 impl World {
     fn long_obstacle() -> Self {
         let terrain =
-            load(&WorldSource::Scenario("long-obstacle".into())).expect("built-in scenario").terrain;
+            load(&TerrainSource::Scenario("long-obstacle".into())).expect("built-in scenario").terrain;
         let mut cfg = RunConfig::paper(3.0);
         cfg.max_robots = Some(3);
         cfg.time_limit = 10_000.0;
@@ -88,7 +88,7 @@ fn agent(world: &World, endpoint: &str, swarm: &str, robot: u32, size: u32) -> P
     agent_with(world, endpoint, swarm, robot, size, &[])
 }
 
-/// [`agent`] with extra flags.
+/// [`gateway`] with extra flags.
 fn agent_with(world: &World, endpoint: &str, swarm: &str, robot: u32, size: u32, extra: &[&str]) -> Proc {
     let args: Vec<String> = [
         "--transport",
@@ -159,8 +159,8 @@ fn bad(j: &Value, kind: &str) -> u64 {
 #[test]
 fn lockstep_with_remote_agents_gives_the_simulate_result() {
     let world = World::long_obstacle();
-    let ends: Vec<RobotEnd> = world.expected.robots.iter().map(|r| r.end).collect();
-    assert_eq!(ends, [RobotEnd::Stuck, RobotEnd::Stuck, RobotEnd::Arrived]);
+    let ends: Vec<RobotRunEnd> = world.expected.robots.iter().map(|r| r.end).collect();
+    assert_eq!(ends, [RobotRunEnd::Stuck, RobotRunEnd::Stuck, RobotRunEnd::Arrived]);
     let swarm = swarm_name("remote");
     let (orch, endpoint) = orchestrator(&world, &swarm, &[]);
     let agents: Vec<Proc> = (1..=3).map(|k| agent(&world, &endpoint, &swarm, k, 3)).collect();
@@ -425,7 +425,7 @@ fn agents_stop_their_robot_when_the_orchestrator_is_gone() {
     // The agents' failsafe grace must be no shorter than the launch's link
     // grace, or the launch refuses them (an agent whose failsafe stops its
     // robot for good while the launch still waits for it).
-    let (mut orch, endpoint) = orchestrator(&world, &swarm, &["--link-grace", "0.5"]);
+    let (mut orch, endpoint) = orchestrator(&world, &swarm, &["--unreachable-grace", "0.5"]);
     let grace = ["--orchestrator-grace", "0.5"];
     let exiting: Vec<Proc> = (1..=2).map(|k| agent_with(&world, &endpoint, &swarm, k, 3, &grace)).collect();
     let wait = ["--orchestrator-grace", "0.5", "--on-orchestrator-lost", "wait"];

@@ -190,7 +190,7 @@ fn catches(pid: u32, sig: Signal) -> bool {
     mask.and_then(|m| u64::from_str_radix(m, 16).ok()).is_some_and(|m| m & (1 << (sig as i32 - 1)) != 0)
 }
 
-/// `sim-agent` interrupted exits 130, as `agent` and `orchestrator` do (it
+/// `sim-agent` interrupted exits 130, as `gateway` and `orchestrator` do (it
 /// exited 0). Started by hand over iceoryx2, it waits for a launch that
 /// never comes until the signal.
 #[test]

@@ -1,4 +1,4 @@
-//! `agent bench`: the gateway's added latency, robot frame in → bus out.
+//! `gateway bench`: the gateway's added latency, robot frame in → bus out.
 //!
 //! Why in one process with real sockets and the real bus: the figure must
 //! include everything the gateway adds — the UDP receive, the link checks

@@ -1,4 +1,4 @@
-//! The `agent` command line and `main`.
+//! The `gateway` command line and `main`.
 //!
 //! Exit codes: 0 after `Shutdown` or the parent's death; 130 after Ctrl-C
 //! (SIGINT, or SIGTERM / SIGHUP / SIGQUIT: one handler), as the
@@ -192,44 +192,44 @@ impl DoctorArgs {
     }
 }
 
-/// `agent`'s subcommands (their help is their flags' doc comment).
+/// `gateway`'s subcommands (their help is their flags' doc comment).
 #[derive(Clone, Debug, PartialEq, clap::Subcommand)]
 pub enum AgentCommand {
     Bench(BenchArgs),
     Doctor(DoctorArgs),
 }
 
-/// The whole `agent` command line: the gateway's flags ([`GatewayArgs`])
+/// The whole `gateway` command line: the gateway's flags ([`GatewayArgs`])
 /// and the logging flags at the top level, the added-latency bench and
 /// the host's doctor as the `bench` and `doctor` subcommands
 /// ([`AgentCommand`]).
 ///
 /// As `sim-agent` and its `lab`: the gateway's flags stay at the top level
-/// (launchers start `agent --swarm … --robot …`), a subcommand lifts their
-/// requirement and the two exclude each other, so `agent --help` lists
-/// `bench` and `doctor`, and `agent bench --help` has the bench's own usage
+/// (launchers start `gateway --swarm … --robot …`), a subcommand lifts their
+/// requirement and the two exclude each other, so `gateway --help` lists
+/// `bench` and `doctor`, and `gateway bench --help` has the bench's own usage
 /// line; the logging flags go before or after the subcommand
 /// ([`command_with_subcommands`] says how and why).
 pub fn command() -> Command {
     command_with_subcommands::<GatewayArgs, AgentCommand>(
-        "agent",
+        "gateway",
         env!("CARGO_PKG_VERSION"),
         "One real robot's gateway between its authenticated UDP link and the BYCOMS bus; `bench` its added latency, `doctor` this host's checks",
     )
 }
 
-/// What an `agent` command line asks for.
+/// What a `gateway` command line asks for.
 #[derive(Clone, Debug, PartialEq)]
 pub enum AgentRun {
     /// One robot's gateway (no subcommand).
     Gateway(GatewayArgs),
-    /// `agent bench`: the gateway's added latency.
+    /// `gateway bench`: the gateway's added latency.
     Bench(BenchArgs),
-    /// `agent doctor`: this host's checks.
+    /// `gateway doctor`: this host's checks.
     Doctor(DoctorArgs),
 }
 
-/// Parses an `agent` command line (`argv[0]` first) with [`command`]: the
+/// Parses a `gateway` command line (`argv[0]` first) with [`command`]: the
 /// logging flags and what to run. Errors carry the usage line of the
 /// command they are about (the bench's for `bench`).
 pub fn parse_from<I, T>(argv: I) -> Result<(LogArgs, AgentRun), clap::Error>
@@ -286,7 +286,7 @@ pub enum GatewayError {
 pub fn main_with(args: &GatewayArgs) -> i32 {
     bycoms_runtime::inherited::close_inherited_files();
     quiet_iceoryx2();
-    let _span = tracing::info_span!("agent", robot = args.robot).entered();
+    let _span = tracing::info_span!("gateway", robot = args.robot).entered();
     match run(args) {
         Ok(cause) => {
             tracing::debug!(?cause, "gateway exits");
@@ -398,7 +398,7 @@ mod command_tests {
     use bycoms_runtime::Transport;
 
     fn run_of<S: AsRef<str>>(args: &[S]) -> Result<AgentRun, clap::Error> {
-        let argv = std::iter::once("agent").chain(args.iter().map(|a| a.as_ref()));
+        let argv = std::iter::once("gateway").chain(args.iter().map(|a| a.as_ref()));
         parse_from(argv).map(|(_, run)| run)
     }
 
@@ -479,7 +479,9 @@ mod command_tests {
         let bench = run_of(&["bench", "--frames", "5", "--interval-ms", "1"]).expect("parses");
         assert_eq!(bench, AgentRun::Bench(BenchArgs { frames: 5, interval_ms: 1 }));
         // The logging flags in any position (README, "Logs and shell completions").
-        for argv in [["agent", "bench", "--log-format", "json"], ["agent", "--log-format", "json", "bench"]] {
+        for argv in
+            [["gateway", "bench", "--log-format", "json"], ["gateway", "--log-format", "json", "bench"]]
+        {
             let (log, run) = parse_from(argv).expect("the logging flags");
             assert_eq!(log.log_format, bycoms_runtime::logging::LogFormat::Json, "{argv:?}");
             assert_eq!(run, AgentRun::Bench(BenchArgs { frames: 2000, interval_ms: 2 }));
@@ -488,7 +490,7 @@ mod command_tests {
         let err = run_of(&["--swarm", "s", "bench"]).unwrap_err();
         assert_eq!(err.kind(), clap::error::ErrorKind::ArgumentConflict, "{err}");
         let err = run_of(&["bench", "--robot", "1"]).unwrap_err().to_string();
-        assert!(err.contains("Usage: agent bench"), "{err}");
+        assert!(err.contains("Usage: gateway bench"), "{err}");
         // Without it, the gateway's flags are required as before.
         let err = run_of(&["--swarm", "s"]).unwrap_err().to_string();
         assert!(err.contains("--robot"), "{err}");
@@ -515,7 +517,7 @@ mod command_tests {
         assert_eq!((d.host.connect.as_str(), d.host.swarm.as_str(), d.host.robot), ("quic/o:7447", "lab", 3));
         assert_eq!((d.host.timeout_ms, d.host.json, &d.host.zenoh_config), (500, false, &None));
         let err = run_of(&["doctor", "--swarm", "lab", "--robot", "3"]).unwrap_err().to_string();
-        assert!(err.contains("--connect") && err.contains("Usage: agent doctor"), "{err}");
+        assert!(err.contains("--connect") && err.contains("Usage: gateway doctor"), "{err}");
         let help = command().find_subcommand_mut("doctor").expect("doctor").render_help().to_string();
         assert!(help.starts_with("Check this robot's gateway host"), "{help}");
     }

@@ -1,4 +1,4 @@
-//! The `agent` binary: the gateway between one real robot and the bus
+//! The `gateway` binary: the gateway between one real robot and the bus
 //! (feature `gateway`, default).
 //!
 //! A real robot (an ESP32 running [`crate::firmware`]) speaks the
@@ -19,7 +19,7 @@
 //! * [`run`] — the single-threaded loop around them: a UDP socket and the
 //!   bus (iceoryx2, or zenoh from a bridge host), moving bytes only;
 //! * [`cli`] — the command line and `main`;
-//! * [`bench`] — `agent bench`: the gateway's added latency.
+//! * [`bench`] — `gateway bench`: the gateway's added latency.
 //!
 //! Why in `bycoms-agent`, behind a feature: the crate is one robot's
 //! agent — its controller, its firmware core (no_std) and this gateway —

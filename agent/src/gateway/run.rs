@@ -7,7 +7,7 @@
 //!
 //! Why one thread with a short receive timeout: an iceoryx2 bus is confined
 //! to the thread that opened it, and the robot's datagrams must be relayed
-//! at once (the added latency is a figure of merit: `agent bench`). So the
+//! at once (the added latency is a figure of merit: `gateway bench`). So the
 //! loop blocks on the socket for at most [`SLICE`], relays every datagram
 //! as it comes, and between datagrams drains the bus (commands, the robot's
 //! own pose), runs the core's timers and checks its [`Lifeline`]. A

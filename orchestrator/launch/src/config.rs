@@ -189,12 +189,15 @@ pub struct SupervisionConfig {
     /// plus [`SHUTDOWN_GRACE_PER_AGENT`] for every agent still running
     /// ([`SupervisionConfig::shutdown_grace_for`]).
     pub shutdown_grace: f64,
-    /// Remote agents (zenoh): how long one may be unreachable (its link
-    /// cut, or silent) before it is treated as dead; the launch holds it
-    /// meanwhile and resumes when it is back. 0: dead at once. Agents the
-    /// launch starts get an `--orchestrator-grace` no shorter than this
-    /// (`setup::joining`); agents started by hand need one as long.
-    pub link_grace: f64,
+    /// Remote agents (zenoh): how long one may be unreachable (its zenoh
+    /// connection cut, or silent) before it is treated as dead; the launch
+    /// holds it meanwhile and resumes when it is back. 0: dead at once.
+    /// Agents the launch starts get an `--orchestrator-grace` no shorter
+    /// than this (`setup::joining`); agents started by hand need one as
+    /// long. Was `link_grace` (still read, in files and recordings: "link"
+    /// is the robot link).
+    #[serde(alias = "link_grace")]
+    pub unreachable_grace: f64,
     /// Agents over zenoh: a host whose clock is off the orchestrator's by
     /// more than this (as the agent measured it) is warned about.
     pub clock_warn: f64,
@@ -280,7 +283,7 @@ impl Default for SupervisionConfig {
             heartbeat_timeout: 2.0,
             tick_timeout: 5.0,
             shutdown_grace: 1.0,
-            link_grace: 2.0,
+            unreachable_grace: 2.0,
             clock_warn: 0.1,
             clock_limit: 0.5,
             missing: Missing::Skip,
@@ -460,7 +463,7 @@ impl LaunchConfig {
     }
 
     /// Every span of seconds, by its key and flag, through the one check
-    /// ([`bycoms_runtime::seconds`]): `--link-grace 1e300` is a usage error,
+    /// ([`bycoms_runtime::seconds`]): `--unreachable-grace 1e300` is a usage error,
     /// not a panic where it becomes a `Duration`.
     fn check_seconds(&self) -> Result<()> {
         let (gate, sup) = (&self.gate, &self.supervision);
@@ -471,7 +474,7 @@ impl LaunchConfig {
             ("supervision.heartbeat_timeout (--heartbeat-timeout)", sup.heartbeat_timeout, Zero::Refused),
             ("supervision.tick_timeout", sup.tick_timeout, Zero::Refused),
             ("supervision.shutdown_grace", sup.shutdown_grace, Zero::Refused),
-            ("supervision.link_grace (--link-grace)", sup.link_grace, Zero::Allowed),
+            ("supervision.unreachable_grace (--unreachable-grace)", sup.unreachable_grace, Zero::Allowed),
             ("supervision.clock_warn", sup.clock_warn, Zero::Allowed),
             ("supervision.clock_limit", sup.clock_limit, Zero::Allowed),
         ];
@@ -695,8 +698,8 @@ mod tests {
                 "[supervision]\nheartbeat_timeout = 1e20",
                 "supervision.heartbeat_timeout (--heartbeat-timeout) must",
             ),
-            ("[supervision]\nlink_grace = 1e300", "supervision.link_grace (--link-grace) must"),
-            ("[supervision]\nlink_grace = nan", "supervision.link_grace (--link-grace) must"),
+            ("[supervision]\nlink_grace = 1e300", "supervision.unreachable_grace (--unreachable-grace) must"),
+            ("[supervision]\nlink_grace = nan", "supervision.unreachable_grace (--unreachable-grace) must"),
             ("[supervision]\ntick_timeout = inf", "supervision.tick_timeout must"),
             ("[supervision]\nshutdown_grace = -1.0", "supervision.shutdown_grace must"),
             ("[gate]\ndwell = 1e300", "gate.dwell (--dwell) must"),

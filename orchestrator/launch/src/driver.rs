@@ -2,7 +2,7 @@
 //! wall clock.
 //!
 //! Why a shell that decides nothing: every rule of a launch lives in
-//! [`Core`](crate::Core), which is tested in virtual time without processes. This
+//! [`LaunchCore`](crate::LaunchCore), which is tested in virtual time without processes. This
 //! driver only carries inputs in (reports from the bus, poses from the pose
 //! source, the agent source's facts — an agent ended, a liveliness token
 //! went or came back —, Ctrl-C, the time since the launch began) and the core's outputs out (messages, agent

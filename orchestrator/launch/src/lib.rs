@@ -63,7 +63,7 @@ pub mod transport;
 mod world;
 
 #[doc(inline)]
-pub use self::core::Core;
+pub use self::core::LaunchCore;
 pub use agents::executable::{agent_command, AGENT_BIN_ENV};
 pub use agents::spawned::AgentCommand;
 pub use config::{Clock, LaunchConfig, Missing, OnDeath};

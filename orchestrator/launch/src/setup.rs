@@ -103,7 +103,7 @@ pub fn setup_of(
         start: world.start,
         goal: world.goal,
         max_speed: cfg.gate.max_speed,
-        link_grace_s: cfg.supervision.link_grace,
+        unreachable_grace_s: cfg.supervision.unreachable_grace,
         register_timeout_s: cfg.supervision.register_timeout,
         agents: AgentTraits {
             kind: seams.kind.to_string(),
@@ -138,7 +138,7 @@ pub fn supervision(cfg: &LaunchConfig, held: bool, robot_link_grace: Option<Dura
         on: true,
         register_timeout_us: us(sup.register_timeout),
         heartbeat_timeout_us: us(sup.heartbeat_timeout),
-        link_grace_us: if held { us(sup.link_grace) } else { 0 },
+        unreachable_grace_us: if held { us(sup.unreachable_grace) } else { 0 },
         quiet_us: if held { us(sup.heartbeat_interval * f64::from(QUIET_HEARTBEATS)) } else { 0 },
         robot_link_grace_us: robot_link_grace.map(|g| g.as_micros() as u64),
     }
@@ -188,7 +188,7 @@ pub fn joining(cfg: &LaunchConfig, swarm: String, endpoints: Vec<String>) -> Joi
         parent_pid: Some(std::process::id() as i32),
         bus: BusArgs { transport: cfg.transport.kind, connect: endpoints, zenoh_config: None },
         failsafe: FailsafeArgs {
-            grace_s: cfg.supervision.link_grace.max(DEFAULT_GRACE_S),
+            grace_s: cfg.supervision.unreachable_grace.max(DEFAULT_GRACE_S),
             ..FailsafeArgs::default()
         },
         parked_heartbeat_ms: parked_heartbeat_ms(cfg),
@@ -235,9 +235,9 @@ mod tests {
         let mut cfg = LaunchConfig::default();
         let grace = |cfg: &LaunchConfig| joining(cfg, "s".into(), Vec::new()).failsafe.grace_s;
         assert_eq!(grace(&cfg), DEFAULT_GRACE_S);
-        cfg.supervision.link_grace = 5.0;
+        cfg.supervision.unreachable_grace = 5.0;
         assert_eq!(grace(&cfg), 5.0);
-        cfg.supervision.link_grace = 0.0;
+        cfg.supervision.unreachable_grace = 0.0;
         assert_eq!(grace(&cfg), DEFAULT_GRACE_S);
         let flags = joining(&cfg, "s".into(), Vec::new())
             .sim_agent(1, &run_settings(&cfg, &World::tiny()))

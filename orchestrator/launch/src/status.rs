@@ -7,7 +7,7 @@
 //! few facts only the driver knows ([`Facts`]); the driver answers
 //! `status` questions with it (`orchestrator/launch/src/control.rs`).
 
-use super::core::{Core, Phase, SlotState};
+use super::core::{LaunchCore, Phase, SlotState};
 use super::summary::{ClockSummary, RevokedSummary};
 use serde::{Deserialize, Serialize};
 
@@ -95,7 +95,7 @@ pub fn phase_words(phase: Phase) -> String {
 }
 
 /// The status of the launch `core` at launch time `now` (µs).
-pub fn of(core: &Core, now: u64, facts: &Facts) -> LaunchStatus {
+pub fn of(core: &LaunchCore, now: u64, facts: &Facts) -> LaunchStatus {
     let robots = core
         .slots()
         .iter()
@@ -197,7 +197,7 @@ mod tests {
     #[test]
     fn a_status_is_a_projection_of_the_core() {
         let case = Case::small(3);
-        let mut core = Core::new(harness::setup(&case, &Schedule::clean(3, case.robots)));
+        let mut core = LaunchCore::new(harness::setup(&case, &Schedule::clean(3, case.robots)));
         core.advance(0);
         while let Some(out) = core.poll_output() {
             if let Output::Start(robot) = out {

@@ -23,7 +23,7 @@ use bycoms_launch::core::{DiedWhen, Fault, SlotState};
 use bycoms_launch::harness::{self, Case, Crash, Foreign, Partition, Report, Schedule};
 use bycoms_launch::Outcome;
 use bycoms_protocol::msg::GateKind;
-use bycoms_sim::runner::RobotEnd;
+use bycoms_sim::runner::RobotRunEnd;
 
 /// Robot `robot`'s first `Register` from a simulated agent, as the
 /// harness's cases take it (no settings fingerprint, no failsafe grace).
@@ -139,18 +139,18 @@ fn assert_simulates(case: &Case, report: &Report, what: &str) {
     let expected = bycoms_sim::run(&case.terrain, &case.run_config());
     let ending = report.ending.as_ref().unwrap_or_else(|| panic!("{what}: {:?}", report.failure));
     let outcome = match expected.outcome {
-        bycoms_sim::Outcome::Arrived => Outcome::Arrived,
-        bycoms_sim::Outcome::TimeLimit => Outcome::TimeLimit,
-        bycoms_sim::Outcome::RobotsExhausted => Outcome::RobotsExhausted,
+        bycoms_sim::RunOutcome::Arrived => Outcome::Arrived,
+        bycoms_sim::RunOutcome::TimeLimit => Outcome::TimeLimit,
+        bycoms_sim::RunOutcome::RobotsExhausted => Outcome::RobotsExhausted,
     };
     assert_eq!(ending.outcome, outcome, "{what}");
     assert_eq!(report.spent, expected.steps, "{what}: steps");
     for run in &expected.robots {
         let (state, steps, pose) = report.robots[run.id as usize - 1];
         let want = match run.end {
-            RobotEnd::Stuck => SlotState::Stuck,
-            RobotEnd::Arrived => SlotState::Arrived,
-            RobotEnd::Moving => SlotState::Unfinished,
+            RobotRunEnd::Stuck => SlotState::Stuck,
+            RobotRunEnd::Arrived => SlotState::Arrived,
+            RobotRunEnd::Moving => SlotState::Unfinished,
         };
         assert_eq!(state, want, "{what} robot {}", run.id);
         assert_eq!(steps, run.steps, "{what} robot {}", run.id);

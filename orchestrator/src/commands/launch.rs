@@ -11,7 +11,7 @@ use bycoms_launch::{self as launch, Clock, LaunchConfig, Missing, OnDeath, Outco
 use bycoms_runtime::exit;
 use bycoms_runtime::out::{Kind, Outputs};
 use bycoms_sim::terrain::to_text;
-use bycoms_study::scenario::{self, WorldSource};
+use bycoms_study::scenario::{self, TerrainSource};
 use std::path::PathBuf;
 
 /// Declares `launch`'s flags once: each field is a clap flag (its doc
@@ -228,11 +228,12 @@ pub struct Args {
     /// Seconds of silence after which a live agent counts as hung.
     #[arg(long, value_name = "SECONDS")]
     pub heartbeat_timeout: Option<f64> => set supervision.heartbeat_timeout,
-    /// Remote agents: seconds one may be unreachable (link cut, silent)
-    /// before it counts as dead; the run waits for it meanwhile and resumes
-    /// when it is back; 0: dead at once.
-    #[arg(long, value_name = "SECONDS")]
-    pub link_grace: Option<f64> => set supervision.link_grace,
+    /// Remote agents: seconds one may be unreachable (its zenoh connection
+    /// cut, or silent) before it counts as dead; the run waits for it
+    /// meanwhile and resumes when it is back; 0: dead at once. (Was
+    /// --link-grace, still accepted: "link" is the robot link.)
+    #[arg(long, value_name = "SECONDS", alias = "link-grace")]
+    pub unreachable_grace: Option<f64> => set supervision.unreachable_grace,
     /// The bus: ipc (iceoryx2, this host) or zenoh (tcp/quic/tls, any host).
     #[arg(long, value_enum)]
     pub transport: Option<Transport> => set transport.kind,
@@ -253,7 +254,7 @@ pub struct Args {
     pub agent_zenoh_config: Option<PathBuf> => some transport.agent_zenoh_config,
     /// Where agents come from: spawned (a sim-agent per robot, here),
     /// remote (started by hand on other hosts with `sim-agent --transport
-    /// zenoh --connect ...`; the launch waits for all) or real (an `agent`
+    /// zenoh --connect ...`; the launch waits for all) or real (a `gateway`
     /// gateway per robot of --robots-file).
     #[arg(long, value_enum)]
     pub agents: Option<AgentSourceKind> => set agents.source,
@@ -261,9 +262,9 @@ pub struct Args {
     /// gateways started here.
     #[arg(long, value_name = "FILE")]
     pub robots_file: Option<PathBuf> => some agents.robots_file,
-    /// Real robots: where their `agent` gateways run: here (started by the
+    /// Real robots: where their `gateway` processes run: here (started by the
     /// launch from --robots-file) or elsewhere (started by hand on a bridge
-    /// host with `agent --transport zenoh --connect ...`; needs --transport
+    /// host with `gateway --transport zenoh --connect ...`; needs --transport
     /// zenoh).
     #[arg(long, value_enum)]
     pub gateways: Option<GatewaysAt> => set agents.gateways,
@@ -307,8 +308,8 @@ pub fn world(cfg: &LaunchConfig) -> Result<World> {
         return launch::lab::lab_world(lab, cfg.robots);
     }
     let source = match &cfg.terrain {
-        Some(path) => WorldSource::File(path.clone()),
-        None => WorldSource::Scenario(cfg.scenario.clone()),
+        Some(path) => TerrainSource::File(path.clone()),
+        None => TerrainSource::Scenario(cfg.scenario.clone()),
     };
     let w = scenario::load(&source)?;
     World::new(

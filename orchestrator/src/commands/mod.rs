@@ -94,7 +94,7 @@ pub enum Command {
     /// --connect: the orchestrator's zenoh endpoint reached as a robot's
     /// host would, its liveliness seen (--swarm) and this host's clock
     /// offset to it. A robot's host without this binary runs the same
-    /// checks with `agent doctor` or `sim-agent doctor`.
+    /// checks with `gateway doctor` or `sim-agent doctor`.
     Doctor(doctor::Args),
     /// Run one simulated robot (what `launch` starts when no `sim-agent` binary sits next to it).
     #[command(hide = true)]

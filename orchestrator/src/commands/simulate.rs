@@ -11,13 +11,13 @@ use anyhow::Result;
 use bycoms_runtime::exit;
 use bycoms_runtime::out::{usage_unless_io, writing, Kind, Outputs};
 use bycoms_runtime::seconds::Zero;
-use bycoms_sim::runner::RobotEnd;
+use bycoms_sim::runner::RobotRunEnd;
 use bycoms_sim::terrain::min_path_width;
 use bycoms_sim::terrain::Terrain;
-use bycoms_sim::{run as run_world, Outcome, RunConfig, RunResult, Vec2};
+use bycoms_sim::{run as run_world, RunConfig, RunOutcome, RunResult, Vec2};
 use bycoms_study::draw::{animate, snapshot, timeline};
 use bycoms_study::runs::summary_line;
-use bycoms_study::scenario::{self, WorldSource};
+use bycoms_study::scenario::{self, TerrainSource};
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -75,7 +75,7 @@ pub const DEFAULT_SVG: &str = "simulate.svg";
 pub struct RobotReport<'a> {
     /// 1-based deployment order.
     pub id: u32,
-    pub end: RobotEnd,
+    pub end: RobotRunEnd,
     /// Control periods it was deployed for.
     pub steps: u64,
     /// Where it stopped (or was at the end).
@@ -92,7 +92,7 @@ pub struct Report<'a> {
     pub eps: f64,
     pub noise: bool,
     pub success: bool,
-    pub outcome: Outcome,
+    pub outcome: RunOutcome,
     pub time_s: f64,
     pub steps: u64,
     pub robots_used: u32,
@@ -104,9 +104,9 @@ pub struct Report<'a> {
 
 pub fn run(args: Args) -> Result<i32> {
     let source = match (&args.terrain, args.seed) {
-        (Some(path), _) => WorldSource::File(path.clone()),
-        (None, Some(seed)) => WorldSource::Generated(seed),
-        (None, None) => WorldSource::Scenario(args.scenario.clone()),
+        (Some(path), _) => TerrainSource::File(path.clone()),
+        (None, Some(seed)) => TerrainSource::Generated(seed),
+        (None, None) => TerrainSource::Scenario(args.scenario.clone()),
     };
     check_picture_args(&args)?;
     let world = scenario::load(&source)?;
@@ -191,7 +191,7 @@ fn check_picture_args(args: &Args) -> Result<()> {
 /// Writes the snapshot (or strip) and the movie; returns "snapshot: FILE" lines.
 fn draw_pictures(
     args: &Args,
-    world: &scenario::World,
+    world: &scenario::NamedTerrain,
     cfg: &RunConfig,
     result: &RunResult,
 ) -> Result<Vec<String>> {

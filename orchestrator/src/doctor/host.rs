@@ -1,6 +1,6 @@
 //! The checks of this host: open-files and memory limits for the planned
 //! robot count, the gateways' UDP ports free (`bycoms_runtime::doctor::host`,
-//! shared with `agent doctor`), iceoryx2 leftovers of dead swarms, and the
+//! shared with `gateway doctor`), iceoryx2 leftovers of dead swarms, and the
 //! NatNet server answering.
 //!
 //! Why with the launch's own numbers: the open-files decision is

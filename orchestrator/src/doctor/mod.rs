@@ -14,7 +14,7 @@
 //! reaches the orchestrator's zenoh endpoint as a robot's host would,
 //! looks for the orchestrator's liveliness and measures this host's clock
 //! offset to the orchestrator's ([`zenoh`]). A robot's host without the
-//! orchestrator binary runs the same check with `agent doctor` or
+//! orchestrator binary runs the same check with `gateway doctor` or
 //! `sim-agent doctor` (with its certificate, its gateway's port and its
 //! open-files limit): the shared checks live once in
 //! `bycoms_runtime::doctor`, this module keeps the orchestrator's own (the
@@ -28,6 +28,6 @@ pub mod host;
 mod tests;
 
 /// The findings, their report and the zenoh check are every host's
-/// (`bycoms_runtime::doctor`, shared with `agent doctor` and `sim-agent
+/// (`bycoms_runtime::doctor`, shared with `gateway doctor` and `sim-agent
 /// doctor`).
 pub use bycoms_runtime::doctor::{any_error, json, text, zenoh, Finding, Level};

@@ -11,7 +11,7 @@
 
 use anyhow::Result;
 use bycoms_runtime::exit::usage;
-use bycoms_sim::runner::{ConfigError, RobotEnd};
+use bycoms_sim::runner::{ConfigError, RobotRunEnd};
 use bycoms_sim::terrain::ReadError;
 use bycoms_sim::{RunConfig, RunResult};
 
@@ -77,24 +77,24 @@ pub fn count(n: u64, noun: &str) -> String {
 /// `robots_used`, since a robot whose agent died before it was deployed
 /// keeps its number but is not used.
 pub fn verdict(
-    outcome: bycoms_sim::Outcome,
+    outcome: bycoms_sim::RunOutcome,
     robots_used: u32,
     arrived: Option<u32>,
     time_s: f64,
     beacons: usize,
 ) -> String {
-    use bycoms_sim::Outcome;
+    use bycoms_sim::RunOutcome;
     let beacons = count(beacons as u64, "beacon");
     match outcome {
-        Outcome::Arrived => {
+        RunOutcome::Arrived => {
             let robot = arrived.unwrap_or(robots_used);
             format!("robot {robot} arrived after {time_s:.1} s ({beacons})")
         }
-        Outcome::RobotsExhausted if robots_used == 1 => {
+        RunOutcome::RobotsExhausted if robots_used == 1 => {
             format!("the only robot got stuck after {time_s:.1} s")
         }
-        Outcome::RobotsExhausted => format!("all {robots_used} robots got stuck after {time_s:.1} s"),
-        Outcome::TimeLimit => format!(
+        RunOutcome::RobotsExhausted => format!("all {robots_used} robots got stuck after {time_s:.1} s"),
+        RunOutcome::TimeLimit => format!(
             "no robot arrived within {time_s:.0} s ({}, {beacons})",
             count(u64::from(robots_used), "robot")
         ),
@@ -105,7 +105,7 @@ pub fn verdict(
 /// `launch` prints too ([`verdict`]), naming the
 /// robot that arrived by its number.
 pub fn summary_line(r: &RunResult) -> String {
-    let arrived = r.robots.iter().find(|k| k.end == RobotEnd::Arrived).map(|k| k.id);
+    let arrived = r.robots.iter().find(|k| k.end == RobotRunEnd::Arrived).map(|k| k.id);
     verdict(r.outcome, r.robots_used, arrived, r.time, r.beacons.len())
 }
 
@@ -121,29 +121,32 @@ pub fn file_error(path: &std::path::Path, e: ReadError) -> anyhow::Error {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use bycoms_sim::{Outcome, Vec2};
+    use bycoms_sim::{RunOutcome, Vec2};
 
     #[test]
     fn the_verdict_counts_in_words() {
         assert_eq!(
-            verdict(Outcome::Arrived, 3, Some(4), 98.25, 2),
+            verdict(RunOutcome::Arrived, 3, Some(4), 98.25, 2),
             "robot 4 arrived after 98.2 s (2 beacons)"
         );
-        assert_eq!(verdict(Outcome::Arrived, 2, None, 5.0, 1), "robot 2 arrived after 5.0 s (1 beacon)");
+        assert_eq!(verdict(RunOutcome::Arrived, 2, None, 5.0, 1), "robot 2 arrived after 5.0 s (1 beacon)");
         assert_eq!(
-            verdict(Outcome::TimeLimit, 1, None, 60.0, 0),
+            verdict(RunOutcome::TimeLimit, 1, None, 60.0, 0),
             "no robot arrived within 60 s (1 robot, 0 beacons)"
         );
         assert_eq!(
-            verdict(Outcome::RobotsExhausted, 1, None, 7.0, 1),
+            verdict(RunOutcome::RobotsExhausted, 1, None, 7.0, 1),
             "the only robot got stuck after 7.0 s"
         );
-        assert_eq!(verdict(Outcome::RobotsExhausted, 3, None, 7.0, 3), "all 3 robots got stuck after 7.0 s");
+        assert_eq!(
+            verdict(RunOutcome::RobotsExhausted, 3, None, 7.0, 3),
+            "all 3 robots got stuck after 7.0 s"
+        );
     }
 
-    fn result(outcome: Outcome, robots_used: u32, beacons: usize) -> RunResult {
+    fn result(outcome: RunOutcome, robots_used: u32, beacons: usize) -> RunResult {
         RunResult {
-            success: outcome == Outcome::Arrived,
+            success: outcome == RunOutcome::Arrived,
             outcome,
             steps: 10,
             time: 1.0,
@@ -155,22 +158,28 @@ mod tests {
 
     #[test]
     fn summaries_count_in_words_with_the_right_plural() {
-        assert_eq!(summary_line(&result(Outcome::Arrived, 2, 1)), "robot 2 arrived after 1.0 s (1 beacon)");
-        assert_eq!(summary_line(&result(Outcome::Arrived, 1, 0)), "robot 1 arrived after 1.0 s (0 beacons)");
         assert_eq!(
-            summary_line(&result(Outcome::TimeLimit, 1, 0)),
+            summary_line(&result(RunOutcome::Arrived, 2, 1)),
+            "robot 2 arrived after 1.0 s (1 beacon)"
+        );
+        assert_eq!(
+            summary_line(&result(RunOutcome::Arrived, 1, 0)),
+            "robot 1 arrived after 1.0 s (0 beacons)"
+        );
+        assert_eq!(
+            summary_line(&result(RunOutcome::TimeLimit, 1, 0)),
             "no robot arrived within 1 s (1 robot, 0 beacons)"
         );
         assert_eq!(
-            summary_line(&result(Outcome::TimeLimit, 3, 2)),
+            summary_line(&result(RunOutcome::TimeLimit, 3, 2)),
             "no robot arrived within 1 s (3 robots, 2 beacons)"
         );
         assert_eq!(
-            summary_line(&result(Outcome::RobotsExhausted, 1, 1)),
+            summary_line(&result(RunOutcome::RobotsExhausted, 1, 1)),
             "the only robot got stuck after 1.0 s"
         );
         assert_eq!(
-            summary_line(&result(Outcome::RobotsExhausted, 4, 4)),
+            summary_line(&result(RunOutcome::RobotsExhausted, 4, 4)),
             "all 4 robots got stuck after 1.0 s"
         );
     }

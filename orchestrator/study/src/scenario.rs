@@ -41,7 +41,7 @@ pub fn names() -> clap::builder::PossibleValuesParser {
 
 /// Where a world comes from.
 #[derive(Debug, Clone)]
-pub enum WorldSource {
+pub enum TerrainSource {
     File(PathBuf),
     Generated(u64),
     Scenario(String),
@@ -49,30 +49,33 @@ pub enum WorldSource {
 
 /// A terrain with a name to show in reports.
 #[derive(Debug, Clone)]
-pub struct World {
+pub struct NamedTerrain {
     pub name: String,
     pub terrain: Terrain,
 }
 
 /// Loads the world, with a message naming the file (and line/column) on error.
-pub fn load(source: &WorldSource) -> Result<World> {
+pub fn load(source: &TerrainSource) -> Result<NamedTerrain> {
     match source {
-        WorldSource::File(path) => {
+        TerrainSource::File(path) => {
             let terrain = read_terrain_file(path).map_err(|e| crate::runs::file_error(path, e))?;
-            Ok(World { name: path.display().to_string(), terrain })
+            Ok(NamedTerrain { name: path.display().to_string(), terrain })
         }
-        WorldSource::Generated(seed) => {
+        TerrainSource::Generated(seed) => {
             let (index, g) = first_feasible(*seed, 10_000).with_context(|| {
                 format!("no feasible terrain in the first 10000 candidates of seed {seed}")
             })?;
-            Ok(World { name: format!("generated (seed {seed}, candidate {index})"), terrain: g.terrain })
+            Ok(NamedTerrain {
+                name: format!("generated (seed {seed}, candidate {index})"),
+                terrain: g.terrain,
+            })
         }
-        WorldSource::Scenario(name) => {
+        TerrainSource::Scenario(name) => {
             let Some((_, _, text)) = BUILT_IN.iter().find(|(n, _, _)| n == name) else {
                 bail!("unknown scenario {name:?}");
             };
             let terrain = parse(text).with_context(|| format!("built-in scenario {name} is malformed"))?;
-            Ok(World { name: format!("scenario {name}"), terrain })
+            Ok(NamedTerrain { name: format!("scenario {name}"), terrain })
         }
     }
 }
@@ -84,14 +87,14 @@ mod tests {
     #[test]
     fn every_built_in_scenario_parses_and_is_connected() {
         for (name, _, _) in BUILT_IN {
-            let w = load(&WorldSource::Scenario(name.to_string())).unwrap();
+            let w = load(&TerrainSource::Scenario(name.to_string())).unwrap();
             assert!(bycoms_sim::terrain::is_connected(&w.terrain), "{name}");
         }
     }
 
     #[test]
     fn missing_file_is_a_clear_error() {
-        let err = load(&WorldSource::File("/nonexistent/t.txt".into())).unwrap_err();
+        let err = load(&TerrainSource::File("/nonexistent/t.txt".into())).unwrap_err();
         assert!(format!("{err:#}").contains("cannot read terrain file /nonexistent/t.txt"));
     }
 }

@@ -1,5 +1,5 @@
 //! The bus flags and the bus of every agent process: `sim-agent` and the
-//! real robot's `agent` gateway.
+//! real robot's `gateway`.
 //!
 //! Why one definition: both are members of a swarm that joins the
 //! orchestrator's bus the same way — iceoryx2 on this host, or zenoh to the

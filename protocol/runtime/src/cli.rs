@@ -1,7 +1,7 @@
 //! What the command line and `main` of every swarm binary share: the
 //! real-time speed-up's one check, the assembly and the parser of a command
 //! line whose own flags sit beside its subcommands (`sim-agent` and
-//! `sim-agent lab` / `doctor`, `agent` and `agent bench` / `doctor`), and
+//! `sim-agent lab` / `doctor`, `gateway` and `gateway bench` / `doctor`), and
 //! the set-up of the iceoryx2 and zenoh libraries in a process of ours.
 
 use crate::logging::LogArgs;
@@ -37,7 +37,7 @@ pub fn check_speed(speed: f64) -> Result<(), String> {
 
 /// `--swarm-size` must hold robot `robot`: a swarm of 0, or one this robot
 /// is not in, sizes the bus wrongly for every process of the swarm, so it
-/// is said, not silently stretched (shared by `agent` and `sim-agent`).
+/// is said, not silently stretched (shared by `gateway` and `sim-agent`).
 pub fn check_swarm_size(robot: u32, swarm_size: Option<u32>) -> Result<(), String> {
     match swarm_size.filter(|&n| n < robot.max(1)) {
         Some(n) => Err(format!(
@@ -48,7 +48,7 @@ pub fn check_swarm_size(robot: u32, swarm_size: Option<u32>) -> Result<(), Strin
     }
 }
 
-/// The command line of a swarm binary `name` (`sim-agent`, `agent`) whose
+/// The command line of a swarm binary `name` (`sim-agent`, `gateway`) whose
 /// own flags `M` and the logging flags sit at the top level, next to the
 /// subcommands of `S` (a `clap::Subcommand` enum: `lab` and `doctor`,
 /// `bench` and `doctor`).

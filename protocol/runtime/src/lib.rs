@@ -1,6 +1,6 @@
 //! What every BYCOMS swarm process shares, in one place that is not the
 //! simulator: the binaries (`orchestrator`, `sim-agent`, `natnet-serve`,
-//! the `agent` gateway) live in different crates, and a real robot's
+//! the `gateway`) live in different crates, and a real robot's
 //! gateway must not depend on the simulated world to behave like the rest.
 //!
 //! * [`stats`] — the one quantile and median of measured figures (always
@@ -25,7 +25,7 @@
 //! * [`failsafe`] — a robot whose orchestrator is gone (zenoh liveliness) stops;
 //! * [`traffic`] — bad messages are counted, never fatal;
 //! * [`bus_args`] — the bus flags and the bus of every agent process
-//!   (`sim-agent`, the `agent` gateway, `sim-agent lab`);
+//!   (`sim-agent`, the `gateway`, `sim-agent lab`);
 //! * [`bus_config`] — the iceoryx2 sizing ([`ipc_config`]) and the zenoh
 //!   settings ([`zenoh_config`]) every process of a swarm must share;
 //! * [`cli`] — what every swarm binary's command line and `main` share:
@@ -35,7 +35,7 @@
 //! and behind `doctor` (with `process`):
 //!
 //! * [`doctor`] — the findings of every host's doctor and the checks they
-//!   share (`orchestrator doctor`, `agent doctor`, `sim-agent doctor`).
+//!   share (`orchestrator doctor`, `gateway doctor`, `sim-agent doctor`).
 #![forbid(unsafe_code)]
 
 pub mod capped;

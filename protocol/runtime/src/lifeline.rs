@@ -44,7 +44,7 @@ pub enum ExitCause {
 
 impl ExitCause {
     /// The exit code of an agent process (`sim-agent`, `sim-agent lab`, the
-    /// `agent` gateway) that ended for this cause: 0 for an orderly end
+    /// `gateway`) that ended for this cause: 0 for an orderly end
     /// (`Shutdown`, the parent gone), 130 for a signal (as the orchestrator
     /// and every shell say an interrupted program ended), 3 when refused,
     /// 4 when the failsafe stopped the robot. One mapping, so the agents

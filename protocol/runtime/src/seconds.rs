@@ -1,12 +1,12 @@
 //! The one check of a number of seconds a user gives: every flag and config
-//! key that takes seconds (`--link-grace`, `supervision.register_timeout`,
+//! key that takes seconds (`--unreachable-grace`, `supervision.register_timeout`,
 //! `--settings-timeout`, `sim-agent lab --duration`, `bench scale
 //! --seconds`, `--dwell`, `--time-limit`, …) goes through [`check_seconds`]
 //! or, as a clap value parser, [`seconds`] / [`seconds_or_zero`].
 //!
 //! Why one check: `Duration::from_secs_f64` panics on a NaN, a negative
 //! number or one past `u64::MAX` seconds, and an `Instant` plus a few
-//! centuries overflows; `--link-grace 1e300` ended a launch with a panic
+//! centuries overflows; `--unreachable-grace 1e300` ended a launch with a panic
 //! (exit 101) instead of a usage error naming the flag. Every span of ours
 //! is bounded by [`MAX_SECONDS`], far below both limits and above any run
 //! (a crowd bench's time limit is 1e7 s), so what passes here is a valid
@@ -38,7 +38,7 @@ impl Zero {
 }
 
 /// `value` seconds as a duration, or the message that names `name` (a
-/// flag, a config key) and the range: "--link-grace must be a number of
+/// flag, a config key) and the range: "--unreachable-grace must be a number of
 /// seconds in [0, 100000000], got 1e300". NaN, infinities and negative
 /// numbers are refused too.
 pub fn check_seconds(name: &str, value: f64, zero: Zero) -> Result<Duration, String> {
@@ -83,14 +83,14 @@ mod tests {
     fn huge_negative_and_undefined_seconds_are_refused_with_the_name_and_the_range() {
         for bad in [1e300, 1e20, MAX_SECONDS * 1.5, f64::INFINITY, f64::NAN, -1.0, f64::NEG_INFINITY] {
             for zero in [Zero::Allowed, Zero::Refused] {
-                let e = check_seconds("--link-grace", bad, zero).expect_err("refused");
-                assert!(e.starts_with("--link-grace must be a number of seconds in "), "{e}");
+                let e = check_seconds("--unreachable-grace", bad, zero).expect_err("refused");
+                assert!(e.starts_with("--unreachable-grace must be a number of seconds in "), "{e}");
                 assert!(e.contains("0, 100000000]"), "{e}");
             }
         }
         assert_eq!(
-            check_seconds("supervision.link_grace", 0.0, Zero::Refused).unwrap_err(),
-            "supervision.link_grace must be a number of seconds in (0, 100000000], got 0.0"
+            check_seconds("supervision.unreachable_grace", 0.0, Zero::Refused).unwrap_err(),
+            "supervision.unreachable_grace must be a number of seconds in (0, 100000000], got 0.0"
         );
         assert_eq!(check_seconds("x", 0.0, Zero::Allowed), Ok(Duration::ZERO));
         assert_eq!(check_seconds("x", 2.5, Zero::Refused), Ok(Duration::from_millis(2500)));

@@ -2,7 +2,7 @@
 //! digits (surrounding whitespace allowed), e.g. `deploy/lab/keys/robot-1.key`.
 //!
 //! Why here, with the link: both ends of a lab read key files — the real
-//! robot's `agent` gateway (`--key-file`) and the emulated lab and the
+//! robot's `gateway` (`--key-file`) and the emulated lab and the
 //! launch (from the lab's robots file) — and the gateway must not depend on
 //! the simulator to read one. One reader keeps the format and its errors
 //! the same everywhere.

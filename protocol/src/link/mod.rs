@@ -1,5 +1,5 @@
 //! The robot link: authenticated UDP datagrams between one real robot
-//! (ESP32 firmware) and its gateway (the `agent` binary).
+//! (ESP32 firmware) and its gateway (the `gateway` binary).
 //!
 //! Why a protocol of its own and not the bus format: the bus runs between
 //! trusted processes on a trusted network; the robot link crosses a WiFi

@@ -14,13 +14,13 @@ use crate::RobotId;
 use serde::{Deserialize, Serialize};
 
 /// What kind of robot an agent speaks for: a simulated one (`sim-agent`)
-/// or a real one (its `agent` gateway). (Not where the launch's agents
+/// or a real one (its `gateway`). (Not where the launch's agents
 /// come from: that is the orchestrator's `AgentSourceKind`.)
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum RobotKind {
     /// A simulated body (`sim-agent`).
     Simulated,
-    /// A real robot behind its `agent` gateway (WiFi, the robot link).
+    /// A real robot behind its `gateway` (WiFi, the robot link).
     Real,
 }
 

@@ -32,7 +32,7 @@
 //! (`agent/firmware-qemu/host`) uses it without any process or bus.
 //!
 //! In-process tests run the experiments with a test gateway standing in for
-//! the `agent` gateway and the orchestrator (`tests/udp.rs`); `tests/` at
+//! the `gateway` and the orchestrator (`tests/udp.rs`); `tests/` at
 //! the workspace root runs them through the real processes.
 
 pub mod body;

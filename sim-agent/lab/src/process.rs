@@ -1,5 +1,5 @@
 //! `sim-agent lab`: the emulated lab as a process — the physical room that a
-//! real `agent` gateway talks to over UDP, with simulated motion capture on
+//! real `gateway` talks to over UDP, with simulated motion capture on
 //! the bus.
 //!
 //! Why a process: the gateway and the orchestrator must not be able to tell

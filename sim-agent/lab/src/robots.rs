@@ -3,7 +3,7 @@
 //!
 //! Why one file for both ends: the emulated lab (`sim-agent lab`) binds each
 //! robot's address and sends to its gateway, and `orchestrator launch
-//! --agents real` starts one `agent` gateway per robot on the gateway
+//! --agents real` starts one `gateway` per robot on the gateway
 //! address with the same key. A real lab writes the same file from its
 //! robots' flashed settings; reading it in one place keeps the two ends from
 //! drifting apart.

@@ -34,7 +34,7 @@ use std::collections::BTreeMap;
 
 /// Where the robot is in its life.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Phase {
+pub enum RobotPhase {
     /// Running, registered, not deployed: not in the arena yet.
     Idle,
     /// Deployed and moving under its controller.
@@ -94,7 +94,7 @@ pub struct RobotCore {
     id: RobotId,
     terrain: Terrain,
     cfg: RunConfig,
-    phase: Phase,
+    phase: RobotPhase,
     body: Option<Deployed>,
     bearing: Option<GoalBearing>,
     peers: BTreeMap<u32, Vec2>,
@@ -114,7 +114,7 @@ impl RobotCore {
             id,
             terrain,
             cfg,
-            phase: Phase::Idle,
+            phase: RobotPhase::Idle,
             body: None,
             bearing: None,
             peers: BTreeMap::new(),
@@ -131,19 +131,19 @@ impl RobotCore {
     }
 
     /// Where the robot is in its life.
-    pub fn phase(&self) -> Phase {
+    pub fn phase(&self) -> RobotPhase {
         self.phase
     }
 
     /// Whether the robot will never move again: it froze in an impassable
     /// cell or was told to stop (a [`bycoms_protocol::msg::Parked`] robot).
     pub fn parked(&self) -> bool {
-        matches!(self.phase, Phase::Frozen | Phase::Stopped)
+        matches!(self.phase, RobotPhase::Frozen | RobotPhase::Stopped)
     }
 
     /// The reports that answer lockstep tick `step` (after its pose):
     /// `Parked` while the robot will never move again, so the orchestrator
-    /// stops ticking it, then `TickDone` ([`super::rules::AgentCore`]
+    /// stops ticking it, then `TickDone` ([`super::rules::SimAgentCore`]
     /// answers a tick with these).
     pub fn tick_answer(&self, step: u64) -> impl Iterator<Item = FromAgent> {
         let robot = self.id;
@@ -179,7 +179,7 @@ impl RobotCore {
         let noise = self.cfg.noise.map(|m| SensingNoise::new(m, robot_seed(self.cfg.seed, self.id.0)));
         let robot = SimRobot::new(Vec2::new(d.x, d.y), self.cfg.controller(), noise, self.cfg.kinematics.dt);
         self.body = Some(Deployed { robot, table });
-        self.phase = Phase::Moving;
+        self.phase = RobotPhase::Moving;
         Ok(())
     }
 
@@ -195,8 +195,8 @@ impl RobotCore {
 
     /// Stops the robot where it is (it stays in the arena as a beacon).
     pub fn stop(&mut self) {
-        if self.phase == Phase::Moving {
-            self.phase = Phase::Stopped;
+        if self.phase == RobotPhase::Moving {
+            self.phase = RobotPhase::Stopped;
         }
     }
 
@@ -237,7 +237,7 @@ impl RobotCore {
     /// sense, decide, move, and freeze on entering an impassable cell.
     /// Returns whether it stepped.
     pub fn step(&mut self) -> bool {
-        if self.phase != Phase::Moving {
+        if self.phase != RobotPhase::Moving {
             return false;
         }
         let Some(bearing) = self.bearing else {
@@ -258,7 +258,7 @@ impl RobotCore {
         d.robot.step(&d.table, &self.beacons, bearing.bearing);
         self.steps += 1;
         if self.terrain.is_blocked_at(d.robot.body.pos) {
-            self.phase = Phase::Frozen;
+            self.phase = RobotPhase::Frozen;
         }
         true
     }

@@ -11,17 +11,17 @@
 //! * [`core`] — the robot as a sans-IO state machine around
 //!   [`bycoms_sim::robot::SimRobot`], the same step the in-process runner takes;
 //! * [`rules`] — the agent's message rules as a sans-IO state machine
-//!   ([`AgentCore`]: registration, heartbeats, deploy, ticks, beacons, real-time
+//!   ([`SimAgentCore`]: registration, heartbeats, deploy, ticks, beacons, real-time
 //!   periods), which the launch harness drives too;
 //! * [`run`] — the single-threaded bus loop (lockstep or real time) that
-//!   carries out what [`AgentCore`] says;
+//!   carries out what [`SimAgentCore`] says;
 //! * [`settings`] — the run's settings, their encoding and fingerprint, and
 //!   how an agent over zenoh gets the launch's;
 //! * [`options`] / [`cli`] — the command line and `main`.
 //!
 //! What every swarm process shares (the lifeline, the failsafe, instance
 //! ids, bad-traffic counting, the bus flags and sizing) is not here but in
-//! `bycoms_runtime`, so that the real robot's `agent` gateway shares it
+//! `bycoms_runtime`, so that the real robot's `gateway` shares it
 //! without depending on the simulator.
 //!
 //! Why a crate of its own: the simulated world (`bycoms_sim`) is what the
@@ -37,8 +37,8 @@ pub mod rules;
 pub mod run;
 pub mod settings;
 
-pub use self::core::{Phase, Reject, RobotCore};
+pub use self::core::{Reject, RobotCore, RobotPhase};
 pub use cli::{main_with, run_on, timing, AgentError};
 pub use options::{AgentArgs, Clock, DEFAULT_SETTINGS_TIMEOUT_S};
-pub use rules::{AgentCore, Counts, Leave, Rules, Said};
+pub use rules::{Counts, Leave, Rules, Said, SimAgentCore};
 pub use settings::RunSettings;

@@ -311,7 +311,7 @@ pub enum SimAgentCommand {
 /// doctor as the `lab` and `doctor` subcommands ([`SimAgentCommand`]).
 ///
 /// Assembled by [`command_with_subcommands`] (the runtime's, shared with
-/// `agent` and its `bench` and `doctor`), which says how and why.
+/// `gateway` and its `bench` and `doctor`), which says how and why.
 pub fn command() -> Command {
     command_with_subcommands::<AgentArgs, SimAgentCommand>(
         "sim-agent",
@@ -413,7 +413,7 @@ mod tests {
         assert!(bad.validate().is_err());
     }
 
-    /// A swarm that does not hold the robot is a usage error, as `agent`'s
+    /// A swarm that does not hold the robot is a usage error, as `gateway`'s
     /// (it was quietly raised to the robot's id).
     #[test]
     fn a_swarm_size_below_the_robot_is_refused() {

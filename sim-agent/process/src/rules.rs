@@ -1,4 +1,4 @@
-//! The agent's message rules as a sans-IO state machine: [`AgentCore`].
+//! The agent's message rules as a sans-IO state machine: [`SimAgentCore`].
 //!
 //! Why sans-IO: the rules of a `sim-agent` (register until heard from,
 //! heartbeats every `heartbeat` and every `parked_heartbeat` once the robot
@@ -15,7 +15,7 @@
 //! started, the harness's virtual time); the core never reads a clock.
 //! The robot itself (body, controller, field) is the [`RobotCore`].
 
-use super::core::{Phase, Reject, RobotCore};
+use super::core::{Reject, RobotCore, RobotPhase};
 use super::options::Clock;
 use bycoms_protocol::msg::{
     Deploy, FromAgent, Heartbeat, Pose, Register, RobotKind, Status, StopDone, ToAgent,
@@ -75,7 +75,7 @@ pub struct Counts {
 }
 
 /// One agent's message rules around its robot.
-pub struct AgentCore {
+pub struct SimAgentCore {
     robot: RobotCore,
     rules: Rules,
     counts: Counts,
@@ -92,7 +92,7 @@ pub struct AgentCore {
     deployed: Option<Deploy>,
 }
 
-impl AgentCore {
+impl SimAgentCore {
     /// The rules `rules` around `robot`, not started.
     pub fn new(robot: RobotCore, rules: Rules) -> Self {
         Self {
@@ -278,7 +278,8 @@ impl AgentCore {
                 }
             }
             Clock::Lockstep => {
-                if self.robot.phase() == Phase::Moving && self.robot.bearing().is_some_and(|b| b.step != step)
+                if self.robot.phase() == RobotPhase::Moving
+                    && self.robot.bearing().is_some_and(|b| b.step != step)
                 {
                     self.counts.stale_bearings += 1;
                 }

@@ -1,4 +1,4 @@
-//! The agent's bus loop: move messages between the bus and [`AgentCore`]
+//! The agent's bus loop: move messages between the bus and [`SimAgentCore`]
 //! (the message rules, `rules`), which decides everything; the loop only
 //! waits, reads its clock and publishes what the core says.
 //!
@@ -28,7 +28,7 @@
 
 use super::core::{Reject, RobotCore};
 use super::options::Clock;
-use super::rules::{AgentCore, Leave, Rules, Said};
+use super::rules::{Leave, Rules, Said, SimAgentCore};
 use bycoms_protocol::bus::zenoh::clock::{self, ClockProbe};
 use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
@@ -129,7 +129,7 @@ pub struct AgentStats {
 
 /// One agent process's loop.
 pub struct Agent<B: Bus> {
-    core: AgentCore,
+    core: SimAgentCore,
     ports: AgentPorts<B>,
     timing: Timing,
     who: String,
@@ -150,7 +150,7 @@ impl<B: Bus> Agent<B> {
     pub fn new(robot: RobotCore, ports: AgentPorts<B>, timing: Timing) -> Self {
         let who = format!("sim-agent[robot {}]", robot.id().0);
         Self {
-            core: AgentCore::new(robot, timing.rules(bycoms_runtime::instance(), 0)),
+            core: SimAgentCore::new(robot, timing.rules(bycoms_runtime::instance(), 0)),
             ports,
             timing,
             who,
@@ -290,7 +290,7 @@ impl<B: Bus> Agent<B> {
     }
 
     /// Real time: a period is due every `period` from the start (the
-    /// core's [`AgentCore::next_period`]). Waiting on the bus's event
+    /// core's [`SimAgentCore::next_period`]). Waiting on the bus's event
     /// listener is woken at once by a message but times out only to the
     /// kernel's jiffy (it oversleeps by up to ~8 ms), so the listener is
     /// used only while the deadline is more than [`PRECISE`] away, and the

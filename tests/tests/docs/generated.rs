@@ -9,7 +9,7 @@
 //! `<!-- end of generated NAME -->`; what lies between is the test's.
 //! The tables:
 //!
-//! * `commands` (README.md): every subcommand of `orchestrator`, `agent`
+//! * `commands` (README.md): every subcommand of `orchestrator`, `gateway`
 //!   and `sim-agent` with its one-line help, from their clap commands;
 //! * `messages` (protocol/PROTOCOL.md): every bus message's wire layout —
 //!   each enum's variants with their index and fields, each struct's fields,

@@ -179,7 +179,7 @@ fn architecture_names_every_crate_and_subcommand_and_every_path_it_names_exists(
         let package = package_name.captures(&manifest).expect("a name")[1].to_string();
         assert!(doc.contains(&format!("`{package}`")), "ARCHITECTURE.md does not name the crate `{package}`");
     }
-    for binary in ["orchestrator", "sim-agent", "agent"] {
+    for binary in ["orchestrator", "sim-agent", "gateway"] {
         let commands = subcommands(binary);
         assert!(!commands.is_empty(), "{binary} --help lists its subcommands");
         for command in commands {

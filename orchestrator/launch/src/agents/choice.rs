@@ -39,7 +39,7 @@ pub enum AgentSourceKind {
     /// Started by hand on other hosts (`sim-agent --transport zenoh
     /// --connect ...`); the launch waits for every robot to register.
     Remote,
-    /// Real robots: one `agent` gateway per robot, started here for each
+    /// Real robots: one `gateway` per robot, started here for each
     /// robot of `agents.robots_file` or elsewhere (`agents.gateways`); each
     /// robot is enabled when it is deployed.
     Real,
@@ -54,7 +54,7 @@ pub struct AgentsConfig {
     /// `real`: the lab's robots file (each robot's address, its gateway's
     /// address, its key file; `deploy/lab/robots.toml`).
     pub robots_file: Option<PathBuf>,
-    /// `real`: the gateway executable; default `agent` next to the
+    /// `real`: the gateway executable; default `gateway` next to the
     /// orchestrator.
     pub gateway_bin: Option<PathBuf>,
     /// `real`: where the gateways run: `here` (started by this launch, one

@@ -42,15 +42,15 @@ fn beside_this_executable(name: &str) -> Result<(PathBuf, PathBuf)> {
     Ok((me, beside))
 }
 
-/// The gateway executable: `explicit`, else `agent` next to this executable.
+/// The gateway executable: `explicit`, else `gateway` next to this executable.
 pub fn gateway_command(explicit: Option<&Path>) -> Result<AgentCommand> {
     if let Some(program) = explicit {
         return Ok(AgentCommand { program: program.to_path_buf(), prefix: Vec::new() });
     }
-    let (me, beside) = beside_this_executable("agent")?;
+    let (me, beside) = beside_this_executable("gateway")?;
     anyhow::ensure!(
         beside.is_file(),
-        "no gateway executable: `agent` is not next to {} (build it with `cargo build -p bycoms-agent`, \
+        "no gateway executable: `gateway` is not next to {} (build it with `cargo build -p bycoms-agent`, \
          or set agents.gateway_bin)",
         me.display()
     );

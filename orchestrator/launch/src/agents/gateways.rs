@@ -1,4 +1,4 @@
-//! Real robots behind `agent` gateways: one gateway per robot, started
+//! Real robots behind `gateway` processes: one gateway per robot, started
 //! here for each robot of a lab's robots file (`deploy/lab/robots.toml`),
 //! or started elsewhere (a bridge host next to the robots' access point,
 //! over zenoh) and awaited as remote agents are ([`GatewaysAt`]).
@@ -45,7 +45,7 @@ pub enum GatewaysAt {
     /// over zenoh connecting to this orchestrator).
     #[default]
     Here,
-    /// Started by hand on other hosts (`agent --transport zenoh --connect
+    /// Started by hand on other hosts (`gateway --transport zenoh --connect
     /// ...`), awaited here; needs the zenoh transport.
     Elsewhere,
 }
@@ -75,7 +75,7 @@ pub const LINK_TIMEOUT: Duration = Duration::from_millis(300);
 pub const LINK_GRACE: Duration = Duration::from_millis(150);
 
 impl Gateways {
-    /// Gateways run here by `agent` (the `agent` executable) for `robots`.
+    /// Gateways run here by `gateway` (the `gateway` executable) for `robots`.
     pub fn new(agent: AgentCommand, robots: RobotsFile) -> Self {
         let inner = Spawned::new(agent);
         Self::with(At::Here { robots, inner })
@@ -109,7 +109,7 @@ impl Gateways {
     /// robot's address and key, the run's speed and heartbeat, and the bus
     /// of the launch's agents (over zenoh: where this orchestrator listens,
     /// and the robot's own zenoh config). Started with its `to_flags`: the
-    /// flags the `agent` binary parses into the same [`GatewayArgs`].
+    /// flags the `gateway` binary parses into the same [`GatewayArgs`].
     pub fn args(&self, id: u32, plan: &AgentPlan<'_>) -> Result<GatewayArgs, AgentError> {
         let At::Here { robots, .. } = &self.at else {
             return Err(AgentError::NoSuchRobot { robot: id, why: "its gateway runs elsewhere".into() });
@@ -172,7 +172,7 @@ impl AgentSource for Gateways {
         match self.at {
             At::Here { .. } => "",
             At::Elsewhere(_) => {
-                " (start each robot's gateway on its bridge host with `agent --transport zenoh \
+                " (start each robot's gateway on its bridge host with `gateway --transport zenoh \
                  --connect ENDPOINT --swarm SWARM --robot K --bind ADDR --key-file FILE`)"
             }
         }

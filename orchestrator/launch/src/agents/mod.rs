@@ -4,7 +4,7 @@
 //! that registers, answers and may die — not whether that agent is a
 //! process spawned here ([`spawned::Spawned`], today's default), a
 //! `sim-agent` started by hand on another host (remote agents), or a real
-//! robot behind an `agent` gateway process. Each kind implements
+//! robot behind a `gateway` process. Each kind implements
 //! [`AgentSource`]; the engine holds a `Box<dyn AgentSource>` and nothing
 //! else about them. Messages never go through a source: every agent,
 //! whatever its kind, talks to the orchestrator over the launch's bus
@@ -139,7 +139,7 @@ pub enum Gone {
     /// Its link to the orchestrator was lost (a remote agent or gateway).
     Disconnected,
     /// No contact with it (its link was lost, or it fell silent) for longer
-    /// than the launch's link grace (`supervision.link_grace`, seconds ×
+    /// than the launch's link grace (`supervision.unreachable_grace`, seconds ×
     /// 1000): it was unreachable and did not come back.
     Unreachable {
         /// The grace it had, in milliseconds.

@@ -30,7 +30,7 @@
 //!
 //! Partitions: a lab's link drops for a moment (WiFi, a switch). Remote
 //! agents are held when unreachable ([`AgentSource::held_when_unreachable`]):
-//! with a link grace (`supervision.link_grace`) a withdrawn token or a
+//! with a link grace (`supervision.unreachable_grace`) a withdrawn token or a
 //! silent agent is first only *unreachable*; the engine holds the robot
 //! and, when the agent is heard again, re-sends what it may have missed.
 //! Only an agent unreachable for longer than the grace is gone. Silence

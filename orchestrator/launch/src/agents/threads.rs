@@ -4,7 +4,7 @@
 //! no sockets and no processes, so a test can run the whole launch — the
 //! driver, the ports, the recording, the core — in one process in a
 //! fraction of a second. Each agent is the same loop a `sim-agent` process
-//! runs (`bycoms_sim_agent::run_on`, with its `AgentCore`), on a
+//! runs (`bycoms_sim_agent::run_on`, with its `SimAgentCore`), on a
 //! thread of its own with a clone of the launch's `MemoryBus`; what a
 //! process would learn from its exit it learns from its thread ending, and
 //! what a kill does to a process a flag does to its thread

@@ -22,11 +22,11 @@
 //! version (except those of its own robot).
 
 use super::beacon_table::PER_SEND;
-use super::{Core, Output, Pose, SlotState};
+use super::{LaunchCore, Output, Pose, SlotState};
 use bycoms_protocol::msg::{Beacon, ToAgent};
 use bycoms_protocol::RobotId;
 
-impl Core {
+impl LaunchCore {
     /// Robot `id` stands at `pose` as a beacon: judged stuck, lost (where
     /// it was last seen), or a beacon that moved on.
     pub(super) fn beacon_at(&mut self, id: u32, pose: &Pose) {

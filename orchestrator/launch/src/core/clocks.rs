@@ -33,7 +33,7 @@ fn refusal(limits: &ClockLimits, offset_us: i64) -> Refusal {
     }
 }
 
-impl Core {
+impl LaunchCore {
     /// Keeps robot `c.robot`'s reported offset, registered or not (it comes
     /// before the `Register` it is judged with); a registered robot's
     /// offset past the warning is noted when it first gets there.
@@ -98,11 +98,11 @@ mod tests {
     }
 
     /// A core with clock limits on whose robot 1's agent was started.
-    fn core() -> Core {
+    fn core() -> LaunchCore {
         let case = Case::small(3);
         let mut setup = harness::setup(&case, &Schedule::clean(3, case.robots));
         setup.clocks = LIMITS;
-        let mut core = Core::new(setup);
+        let mut core = LaunchCore::new(setup);
         core.advance(0);
         while let Some(out) = core.poll_output() {
             if let Output::Start(robot) = out {
@@ -114,7 +114,7 @@ mod tests {
         core
     }
 
-    fn register(core: &mut Core, now: u64, offset_us: Option<i64>) -> Vec<Output> {
+    fn register(core: &mut LaunchCore, now: u64, offset_us: Option<i64>) -> Vec<Output> {
         let robot = RobotId(1);
         if let Some(offset_us) = offset_us {
             let c = ClockOffset { robot, offset_us, round_trip_us: 800 };

@@ -16,7 +16,7 @@ use super::*;
 /// lie, units: its agent puts it there exactly.
 const START_TOLERANCE: f64 = 1e-6;
 
-impl Core {
+impl LaunchCore {
     pub(super) fn on_started(&mut self, now: u64, id: u32, pid: Option<u32>, how: &str) {
         if let Some(slot) = self.slot(id) {
             slot.pid = pid;
@@ -187,7 +187,7 @@ impl Core {
         if r.settings != 0 && self.setup.settings != 0 && r.settings != self.setup.settings {
             return Some(Refusal::Settings { launch: self.setup.settings });
         }
-        let launch_ms = (self.setup.link_grace_s * 1000.0).ceil().min(f64::from(u32::MAX)) as u32;
+        let launch_ms = (self.setup.unreachable_grace_s * 1000.0).ceil().min(f64::from(u32::MAX)) as u32;
         (r.failsafe_grace_ms != 0 && r.failsafe_grace_ms < launch_ms).then_some(Refusal::Grace { launch_ms })
     }
 
@@ -277,12 +277,12 @@ impl Core {
 
     /// The clock a pose is judged against: the tick in flight in lockstep,
     /// the launch's time (and speed-up) in real time.
-    fn pose_clock(&self, now: u64) -> plausible::Clock {
+    fn pose_clock(&self, now: u64) -> plausible::PoseClock {
         if self.setup.lockstep {
             let newest_step = self.tick.as_ref().map_or(self.ticks, |t| t.step);
-            plausible::Clock::Lockstep { newest_step }
+            plausible::PoseClock::Lockstep { newest_step }
         } else {
-            plausible::Clock::Realtime { now_us: now, speed: self.setup.speed }
+            plausible::PoseClock::Realtime { now_us: now, speed: self.setup.speed }
         }
     }
 
@@ -307,7 +307,7 @@ impl Core {
     /// check reads it (if it is plausible on its own); otherwise a robot on
     /// motion capture is seen standing by (nothing to do), and a simulated
     /// robot has no pose before it is deployed: someone else's.
-    fn on_pose_before_deployment(&mut self, id: u32, pose: Pose, clock: plausible::Clock) {
+    fn on_pose_before_deployment(&mut self, id: u32, pose: Pose, clock: plausible::PoseClock) {
         let placing = matches!(self.phase, Phase::Placing(placed, _) if placed == id);
         if !placing {
             if self.setup.agents.placement.is_none() {
@@ -445,7 +445,7 @@ impl Core {
     }
 
     pub(super) fn on_reach(&mut self, now: u64, id: u32, change: Reach) {
-        let grace = self.setup.link_grace_s;
+        let grace = self.setup.unreachable_grace_s;
         let at = self.unix_ms(now);
         let Some(slot) = self.slot(id) else { return };
         let (kind, text) = match change {

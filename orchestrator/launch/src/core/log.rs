@@ -18,7 +18,7 @@
 //! pass of the driver's loop, on `bycoms/<swarm>/core/calls`; the setup is
 //! one message on `bycoms/<swarm>/core/setup`.
 
-use super::{Core, Ending, Input, Output, Setup};
+use super::{Ending, Input, LaunchCore, Output, Setup};
 use bycoms_protocol::msg::GateEvent;
 use serde::{Deserialize, Serialize};
 
@@ -29,9 +29,9 @@ use serde::{Deserialize, Serialize};
 /// One call a shell made on the core.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Call {
-    /// [`Core::handle`] at this launch time (µs).
+    /// [`LaunchCore::handle`] at this launch time (µs).
     Handle(u64, Input),
-    /// [`Core::advance`] at this launch time (µs).
+    /// [`LaunchCore::advance`] at this launch time (µs).
     Advance(u64),
 }
 
@@ -72,7 +72,7 @@ pub fn decode_calls(bytes: &[u8]) -> Result<Vec<Call>, postcard::Error> {
 
 /// A core whose calls are logged: the driver's core.
 pub struct Logged {
-    core: Core,
+    core: LaunchCore,
     calls: Vec<Call>,
     on: bool,
 }
@@ -80,10 +80,10 @@ pub struct Logged {
 impl Logged {
     /// A new core for `setup`; calls are kept only when `on` (a recording).
     pub fn new(setup: Setup, on: bool) -> Self {
-        Self { core: Core::new(setup), calls: Vec::new(), on }
+        Self { core: LaunchCore::new(setup), calls: Vec::new(), on }
     }
 
-    /// [`Core::handle`], logged.
+    /// [`LaunchCore::handle`], logged.
     pub fn handle(&mut self, now: u64, input: Input) {
         if self.on {
             self.calls.push(Call::Handle(now, input.clone()));
@@ -91,7 +91,7 @@ impl Logged {
         self.core.handle(now, input);
     }
 
-    /// [`Core::advance`], logged.
+    /// [`LaunchCore::advance`], logged.
     pub fn advance(&mut self, now: u64) {
         if self.on {
             self.calls.push(Call::Advance(now));
@@ -99,7 +99,7 @@ impl Logged {
         self.core.advance(now);
     }
 
-    /// [`Core::poll_output`].
+    /// [`LaunchCore::poll_output`].
     pub fn poll_output(&mut self) -> Option<Output> {
         self.core.poll_output()
     }
@@ -111,8 +111,8 @@ impl Logged {
 }
 
 impl std::ops::Deref for Logged {
-    type Target = Core;
-    fn deref(&self) -> &Core {
+    type Target = LaunchCore;
+    fn deref(&self) -> &LaunchCore {
         &self.core
     }
 }
@@ -124,9 +124,9 @@ pub fn replay<'a>(
     setup: Setup,
     calls: impl IntoIterator<Item = &'a Call>,
 ) -> (Vec<GateEvent>, Option<Ending>) {
-    let mut core = Core::new(setup);
+    let mut core = LaunchCore::new(setup);
     let mut gates = Vec::new();
-    let mut drain = |core: &mut Core| {
+    let mut drain = |core: &mut LaunchCore| {
         while let Some(out) = core.poll_output() {
             if let Output::Gate(event) = out {
                 gates.push(event);

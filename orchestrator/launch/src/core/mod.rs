@@ -20,9 +20,9 @@
 //! answer), in real time it answers each pose of the moving robot with a
 //! bearing and republishes dead robots' poses once a period.
 //!
-//! Driving it: [`Core::handle`] takes in one input, [`Core::advance`]
-//! then takes every decision due at `now`, [`Core::poll_output`] hands out
-//! what to do, [`Core::deadline`] says when to call `advance` again if
+//! Driving it: [`LaunchCore::handle`] takes in one input, [`LaunchCore::advance`]
+//! then takes every decision due at `now`, [`LaunchCore::poll_output`] hands out
+//! what to do, [`LaunchCore::deadline`] says when to call `advance` again if
 //! nothing comes in. Deciding in `advance` lets a shell hand in everything
 //! that arrived together (a tick's answers and its poses) before the core
 //! acts on it.
@@ -162,7 +162,7 @@ pub struct Setup {
     /// (units per simulated second).
     pub max_speed: f64,
     /// The link grace, s (for messages).
-    pub link_grace_s: f64,
+    pub unreachable_grace_s: f64,
     /// The registration timeout, s (for messages).
     pub register_timeout_s: f64,
     /// The agent seam's properties.
@@ -183,7 +183,7 @@ pub struct Setup {
     pub clocks: ClockLimits,
 }
 
-/// Something that happened, handed to [`Core::handle`].
+/// Something that happened, handed to [`LaunchCore::handle`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Input {
     /// Robot `robot`'s agent was started (`Output::Start` carried out).
@@ -253,7 +253,7 @@ pub struct Stop {
     pub why: String,
 }
 
-/// Something to do, from [`Core::poll_output`].
+/// Something to do, from [`LaunchCore::poll_output`].
 #[derive(Clone, Debug, PartialEq)]
 pub enum Output {
     /// Open robot `.0`'s ports and poses, start its agent, and answer with
@@ -286,7 +286,7 @@ pub enum Output {
     Carried(u32, bool),
 }
 
-/// What the launch waits for, in words (see [`Core::waiting`]).
+/// What the launch waits for, in words (see [`LaunchCore::waiting`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Waiting {
     /// What, e.g. "robot 2's answer to tick 345".
@@ -373,7 +373,7 @@ impl TickWait {
 }
 
 /// The launch, as data.
-pub struct Core {
+pub struct LaunchCore {
     setup: Setup,
     slots: Vec<Slot>,
     referee: Referee,
@@ -421,7 +421,7 @@ pub struct Core {
     revoked: Vec<RevokedSummary>,
 }
 
-impl Core {
+impl LaunchCore {
     /// A launch about to start (nothing started until the first `advance`).
     pub fn new(setup: Setup) -> Self {
         let lockstep = setup.lockstep;
@@ -600,7 +600,7 @@ impl Core {
 
     /// Takes in one input that happened at `now` (µs of launch time): its
     /// bookkeeping, and only the decisions that follow from it alone (see
-    /// the module docs); the rest is [`Core::advance`]'s.
+    /// the module docs); the rest is [`LaunchCore::advance`]'s.
     pub fn handle(&mut self, now: u64, input: Input) {
         if self.ending.is_some() || self.revoked_drops(&input) {
             return;

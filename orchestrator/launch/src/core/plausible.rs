@@ -71,7 +71,7 @@ const REALTIME_SLACK_US: f64 = 500_000.0;
 
 /// The clock a pose is checked against.
 #[derive(Clone, Copy, Debug)]
-pub enum Clock {
+pub enum PoseClock {
     /// Lockstep: the newest tick a pose may carry.
     Lockstep {
         /// The tick in flight (or the last completed one).
@@ -134,7 +134,7 @@ impl Anchors {
     /// Checks a pose on its own, against no anchor (finite, and in
     /// lockstep not ahead of the tick), and keeps nothing: a pose of a robot
     /// not deployed yet (what a placement check reads).
-    pub fn check_alone(&self, pose: &Pose, clock: Clock) -> Result<(), Implausible> {
+    pub fn check_alone(&self, pose: &Pose, clock: PoseClock) -> Result<(), Implausible> {
         check_clock(pose, None, clock, self.period_us)
     }
 
@@ -144,7 +144,7 @@ impl Anchors {
         &mut self,
         id: u32,
         pose: &Pose,
-        clock: Clock,
+        clock: PoseClock,
         at: StartAt,
     ) -> Result<(), Implausible> {
         check_clock(pose, None, clock, self.period_us)?;
@@ -163,7 +163,7 @@ impl Anchors {
     /// pose that is not newer (a repeat, a late sample) is `Ok(false)`: not
     /// an error, but nothing to apply. A robot without an anchor (no start
     /// pose yet) has nothing to apply either.
-    pub fn accept(&mut self, id: u32, pose: &Pose, clock: Clock) -> Result<bool, Implausible> {
+    pub fn accept(&mut self, id: u32, pose: &Pose, clock: PoseClock) -> Result<bool, Implausible> {
         let (period, max_speed) = (self.period_us, self.max_speed);
         let Some(slot) = self.slot(id) else { return Ok(false) };
         let Some(anchor) = *slot else {
@@ -188,27 +188,32 @@ impl Anchors {
 }
 
 /// The launch time an anchor is taken at (lockstep: no wall time).
-fn at_us(clock: Clock) -> u64 {
+fn at_us(clock: PoseClock) -> u64 {
     match clock {
-        Clock::Realtime { now_us, .. } => now_us,
-        Clock::Lockstep { .. } => 0,
+        PoseClock::Realtime { now_us, .. } => now_us,
+        PoseClock::Lockstep { .. } => 0,
     }
 }
 
 /// A pose's coordinates and its step and time against the clock (and, in
 /// real time, against the anchor when there is one).
-fn check_clock(pose: &Pose, anchor: Option<&Anchor>, clock: Clock, period: u64) -> Result<(), Implausible> {
+fn check_clock(
+    pose: &Pose,
+    anchor: Option<&Anchor>,
+    clock: PoseClock,
+    period: u64,
+) -> Result<(), Implausible> {
     if !(pose.x.is_finite() && pose.y.is_finite() && pose.heading.is_finite()) {
         return Err(Implausible::NotFinite);
     }
     match clock {
-        Clock::Lockstep { newest_step } => {
+        PoseClock::Lockstep { newest_step } => {
             let end_us = newest_step.saturating_add(1).saturating_mul(period);
             if pose.step > newest_step || pose.time_us > end_us {
                 return Err(Implausible::FromTheFuture);
             }
         }
-        Clock::Realtime { now_us, speed } => {
+        PoseClock::Realtime { now_us, speed } => {
             if let Some(a) = anchor {
                 let waited = now_us.saturating_sub(a.at_us) as f64 * speed * 2.0;
                 let slack = (2.0 * period as f64).max(REALTIME_SLACK_US * speed);
@@ -236,8 +241,8 @@ mod tests {
         Pose { robot: RobotId(1), x, y: 0.0, heading: 0.0, step, time_us: step.saturating_mul(100_000) }
     }
 
-    fn lockstep(newest_step: u64) -> Clock {
-        Clock::Lockstep { newest_step }
+    fn lockstep(newest_step: u64) -> PoseClock {
+        PoseClock::Lockstep { newest_step }
     }
 
     /// Deployed at (x, 0), exactly.
@@ -280,7 +285,7 @@ mod tests {
     #[test]
     fn a_robot_starts_where_it_was_deployed_whatever_was_said_before() {
         let mut a = Anchors::new(1, 100_000, 5.0);
-        let rt = |now_us| Clock::Realtime { now_us, speed: 1.0 };
+        let rt = |now_us| PoseClock::Realtime { now_us, speed: 1.0 };
         let goal = |step| Pose { y: 44.5, ..pose(step, 44.5) };
         assert_eq!(a.check_alone(&goal(5), rt(60_000_000)), Ok(()), "plausible on its own");
         assert_eq!(a.accept(1, &goal(5), rt(60_000_000)), Ok(false), "but nothing to apply");
@@ -317,7 +322,7 @@ mod tests {
     #[test]
     fn real_time_refuses_a_huge_step_or_a_time_ahead_of_the_clock() {
         let mut a = Anchors::new(1, 100_000, 5.0);
-        let rt = |now_us| Clock::Realtime { now_us, speed: 5.0 };
+        let rt = |now_us| PoseClock::Realtime { now_us, speed: 5.0 };
         assert_eq!(a.accept_start(1, &pose(10, 0.0), rt(0), at(0.0)), Ok(()));
         // 20 ms of launch time at 5x: 0.2 s of pose time allowed (+0.2 s).
         assert_eq!(a.accept(1, &pose(11, 0.1), rt(20_000)), Ok(true));
@@ -334,7 +339,7 @@ mod tests {
     #[test]
     fn real_time_accepts_a_pose_after_skipped_periods_read_right_after_a_late_anchor() {
         let mut a = Anchors::new(1, 100_000, 5.0);
-        let rt = |now_us| Clock::Realtime { now_us, speed: 10.0 };
+        let rt = |now_us| PoseClock::Realtime { now_us, speed: 10.0 };
         assert_eq!(a.accept_start(1, &pose(10, 0.0), rt(45_000), at(0.0)), Ok(()));
         assert_eq!(a.accept(1, &pose(16, 0.3), rt(50_000)), Ok(true));
         // Still no further than half a second of wall time ahead.

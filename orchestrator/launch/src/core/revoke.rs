@@ -27,7 +27,7 @@
 
 use super::*;
 
-impl Core {
+impl LaunchCore {
     /// Takes robot `revoke.robot`'s voice away (see the module docs).
     pub(super) fn on_revoke(&mut self, now: u64, revoke: Revoke) {
         let Revoke { robot: id, who, why } = revoke;
@@ -124,7 +124,7 @@ mod tests {
     }
 
     /// Everything the core put out since the last call.
-    fn outputs(core: &mut Core) -> Vec<Output> {
+    fn outputs(core: &mut LaunchCore) -> Vec<Output> {
         std::iter::from_fn(|| core.poll_output()).collect()
     }
 
@@ -136,7 +136,7 @@ mod tests {
     #[test]
     fn a_revoked_robot_is_stopped_once_refused_silenced_and_skipped() {
         let case = Case { robots: 3, ..Case::small(3) };
-        let mut core = Core::new(harness::setup(&case, &Schedule::clean(3, case.robots)));
+        let mut core = LaunchCore::new(harness::setup(&case, &Schedule::clean(3, case.robots)));
         core.advance(0);
         assert!(outputs(&mut core).contains(&Output::Start(1)), "spawned agents start at their turn");
         core.handle(0, Input::Started { robot: 1, pid: Some(7), how: "started".into() });

@@ -51,7 +51,7 @@ use crate::agents::gateways::LINK_TIMEOUT;
 /// is lost (see the module docs).
 pub const SILENCE: std::time::Duration = LINK_TIMEOUT;
 
-impl Core {
+impl LaunchCore {
     /// How long motion capture may be silent in this launch, wall µs:
     /// `(with a lost link, alone)`; none when it is not the robots' only
     /// witness (lockstep, simulated agents).
@@ -132,7 +132,7 @@ mod tests {
             start,
             goal,
             max_speed: 1.0,
-            link_grace_s: cfg.supervision.link_grace,
+            unreachable_grace_s: cfg.supervision.unreachable_grace,
             register_timeout_s: cfg.supervision.register_timeout,
             agents: AgentTraits {
                 kind: "gateway".into(),
@@ -155,7 +155,7 @@ mod tests {
     /// The lab in virtual time: its motion capture streams robot 1 every
     /// 50 ms, driving away from the start at 0.2 m/s once deployed.
     struct Lab {
-        core: Core,
+        core: LaunchCore,
         now: u64,
         frame: u64,
         deployed: bool,
@@ -164,7 +164,7 @@ mod tests {
 
     impl Lab {
         fn new(setup: Setup) -> Self {
-            Self { core: Core::new(setup), now: 0, frame: 0, deployed: false, x: 0.0 }
+            Self { core: LaunchCore::new(setup), now: 0, frame: 0, deployed: false, x: 0.0 }
         }
 
         fn step(&mut self, input: Option<Input>) {
@@ -292,15 +292,15 @@ mod tests {
     fn without_real_robots_silence_is_not_watched() {
         let mut setup = real_robots();
         setup.agents.placement = None;
-        assert_eq!(Core::new(setup.clone()).mocap_limits_us(), None);
+        assert_eq!(LaunchCore::new(setup.clone()).mocap_limits_us(), None);
         setup.agents.placement = Some(PlacementConfig::default());
         setup.lockstep = true;
-        assert_eq!(Core::new(setup.clone()).mocap_limits_us(), None);
+        assert_eq!(LaunchCore::new(setup.clone()).mocap_limits_us(), None);
         setup.lockstep = false;
         setup.speed = 2.0;
         let halved = Some((150_000, 1_000_000));
         assert_eq!(
-            Core::new(setup).mocap_limits_us(),
+            LaunchCore::new(setup).mocap_limits_us(),
             halved,
             "the gateways' timer and the mocap clock follow the speed"
         );

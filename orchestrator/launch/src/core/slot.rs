@@ -3,7 +3,7 @@
 //! Why a plain record: every decision about robot `k` (is it ready, may it
 //! be deployed, is it a beacon) reads these fields, and the summary is built
 //! from them at the end. Only the core writes them; the shells read them
-//! through [`super::Core::slots`].
+//! through [`super::LaunchCore::slots`].
 
 use super::ClockReading;
 use crate::agents::Gone;

@@ -1,10 +1,10 @@
-//! The core's decisions: the phase machine that [`Core::advance`] runs —
+//! The core's decisions: the phase machine that [`LaunchCore::advance`] runs —
 //! choosing, registration, settling, placement, deployment, the lockstep
 //! tick, the verdicts in deployment order, the budget and the ending.
 
 use super::*;
 
-impl Core {
+impl LaunchCore {
     /// Takes every decision due at `now`.
     pub fn advance(&mut self, now: u64) {
         self.supervise(now);

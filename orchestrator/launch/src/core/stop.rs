@@ -8,7 +8,7 @@
 //! tells every robot whose agent runs `Stop` (a simulated agent stays put,
 //! a gateway sends its robot the link's stop frame), all in the same
 //! `advance`, then ends the same way. Either records who asked and why
-//! ([`Core::stopped`]: the summary's `stop`, an event per robot told).
+//! ([`LaunchCore::stopped`]: the summary's `stop`, an event per robot told).
 //! The first stop asked wins; a later one changes nothing.
 //!
 //! A robot counts as stopped once its agent says so (`StopDone`: a
@@ -28,7 +28,7 @@ use super::stopping::{Stopping, STOP_RESEND_US};
 use super::*;
 use crate::summary::StopAnswer;
 
-impl Core {
+impl LaunchCore {
     /// Books a stop (the first one asked).
     pub(super) fn on_stop(&mut self, now: u64, stop: Stop) {
         if self.stop.is_none() {
@@ -174,7 +174,7 @@ mod tests {
     }
 
     /// The `Stop`s the core put out since the last call, by robot.
-    fn stops(core: &mut Core) -> Vec<u32> {
+    fn stops(core: &mut LaunchCore) -> Vec<u32> {
         std::iter::from_fn(|| core.poll_output())
             .filter_map(|o| match o {
                 Output::Send(id, ToAgent::Stop) => Some(id),
@@ -185,11 +185,11 @@ mod tests {
 
     /// Three robots whose agents run (all started at once, as remote
     /// agents are), registered at 1 ms.
-    fn running() -> Core {
+    fn running() -> LaunchCore {
         let case = Case { robots: 3, ..Case::small(3) };
         let mut schedule = Schedule::clean(3, case.robots);
         schedule.remote = true;
-        let mut core = Core::new(harness::setup(&case, &schedule));
+        let mut core = LaunchCore::new(harness::setup(&case, &schedule));
         core.advance(0);
         for id in 1..=3 {
             core.handle(0, Input::Started { robot: id, pid: None, how: "remote".into() });

@@ -8,7 +8,7 @@
 //! with a link grace only), the link grace (unreachable since + grace:
 //! gone) and the robot-link grace (a gateway said its robot's link is down
 //! since + grace: gone). quinn-proto keeps every connection timer in its
-//! core the same way: [`Core::deadline`] covers them, [`Core::advance`]
+//! core the same way: [`LaunchCore::deadline`] covers them, [`LaunchCore::advance`]
 //! decides them, and a test drives them in virtual time. The agent seams
 //! only report facts with no clock (a process exited, a liveliness token
 //! went or came back); being heard is a report the core takes in anyway,
@@ -31,7 +31,7 @@ enum Expired {
     Gone(Gone),
 }
 
-impl Core {
+impl LaunchCore {
     /// The timers' settings.
     fn sup(&self) -> &Supervision {
         &self.setup.supervision
@@ -71,7 +71,7 @@ impl Core {
         if present || !supervised || !self.sup().on {
             return;
         }
-        if self.sup().link_grace_us == 0 {
+        if self.sup().unreachable_grace_us == 0 {
             self.timer_gone(now, id, Gone::Disconnected);
         } else {
             self.lose(now, id);
@@ -151,10 +151,10 @@ impl Core {
                 return Some(Expired::Gone(Gone::RobotLinkLost));
             }
         }
-        let hold = s.link_grace_us > 0;
+        let hold = s.unreachable_grace_us > 0;
         match (w.unreachable, w.heard) {
-            (Some(since), _) => (now >= since.saturating_add(s.link_grace_us))
-                .then_some(Expired::Gone(Gone::Unreachable { grace_ms: s.link_grace_us / 1000 })),
+            (Some(since), _) => (now >= since.saturating_add(s.unreachable_grace_us))
+                .then_some(Expired::Gone(Gone::Unreachable { grace_ms: s.unreachable_grace_us / 1000 })),
             (None, Some(h)) => {
                 let silent = now.saturating_sub(h);
                 let quiet = hold && quiet_us > 0 && silent >= quiet_us;
@@ -194,7 +194,7 @@ mod tests {
     /// A launch of two robots in virtual time, its agents started at once
     /// and answered by hand.
     struct Lab {
-        core: Core,
+        core: LaunchCore,
         now: u64,
         /// Robots the core ended, with when.
         killed: Vec<(u32, u64)>,
@@ -215,7 +215,8 @@ mod tests {
             let mut cfg = LaunchConfig::default();
             tune(&mut cfg);
             setup.supervision = crate::setup::supervision(&cfg, held, robot_links.then_some(LINK_GRACE));
-            let mut lab = Self { core: Core::new(setup), now: 0, killed: Vec::new(), reach: Vec::new() };
+            let mut lab =
+                Self { core: LaunchCore::new(setup), now: 0, killed: Vec::new(), reach: Vec::new() };
             lab.at(0, None);
             lab
         }
@@ -326,7 +327,7 @@ mod tests {
 
     #[test]
     fn a_cut_link_is_noticed_within_500_ms_held_for_the_grace_and_back_when_heard() {
-        let mut lab = Lab::new(true, false, |c| c.supervision.link_grace = 2.0);
+        let mut lab = Lab::new(true, false, |c| c.supervision.unreachable_grace = 2.0);
         lab.register(0, 1);
         lab.register(0, 2);
         let mut t = 0;
@@ -362,14 +363,14 @@ mod tests {
 
     #[test]
     fn a_withdrawn_token_is_unreachable_with_a_grace_and_gone_at_once_without() {
-        let mut lab = Lab::new(true, false, |c| c.supervision.link_grace = 2.0);
+        let mut lab = Lab::new(true, false, |c| c.supervision.unreachable_grace = 2.0);
         lab.register(0, 1);
         lab.register(0, 2);
         lab.at(100 * MS, Some(Input::Token(1, false)));
         assert_eq!(lab.reach, [(1, EventKind::LinkLost, 100 * MS)], "at once");
         assert_eq!(lab.gone(1), None);
 
-        let mut lab = Lab::new(true, false, |c| c.supervision.link_grace = 0.0);
+        let mut lab = Lab::new(true, false, |c| c.supervision.unreachable_grace = 0.0);
         lab.register(0, 1);
         lab.register(0, 2);
         lab.at(100 * MS, Some(Input::Token(1, true)));

@@ -18,7 +18,7 @@ pub struct Supervision {
     /// ([`Gone::Unreachable`](crate::agents::Gone::Unreachable)); zero: no holding (a withdrawn token is
     /// [`Gone::Disconnected`](crate::agents::Gone::Disconnected) at once). Agents that can come back only
     /// (remote agents, gateways elsewhere).
-    pub link_grace_us: u64,
+    pub unreachable_grace_us: u64,
     /// With a link grace: the silence after which a heard agent is
     /// unreachable (zero: only the heartbeat timeout). Not for a parked
     /// robot's agent: it beats slower (four times per heartbeat timeout).
@@ -47,9 +47,9 @@ impl Watch {
     /// quiet rule, none for a parked robot).
     pub(super) fn due(&self, s: &Supervision, quiet: u64) -> Option<u64> {
         let started = self.started?;
-        let hold = s.link_grace_us > 0;
+        let hold = s.unreachable_grace_us > 0;
         let mut due = match (self.unreachable, self.heard) {
-            (Some(since), _) => since.saturating_add(s.link_grace_us),
+            (Some(since), _) => since.saturating_add(s.unreachable_grace_us),
             (None, Some(h)) if hold && quiet > 0 => h.saturating_add(quiet.min(s.heartbeat_timeout_us)),
             (None, Some(h)) => h.saturating_add(s.heartbeat_timeout_us),
             (None, None) => started.saturating_add(s.register_timeout_us),

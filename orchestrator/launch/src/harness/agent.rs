@@ -1,21 +1,21 @@
 //! A simulated robot's agent in virtual time: the `sim-agent` process's own
-//! message rules ([`AgentCore`]) with the virtual clock and the simulated
+//! message rules ([`SimAgentCore`]) with the virtual clock and the simulated
 //! network around them.
 //!
 //! Why the same core: the harness must test what runs, and reproduce
 //! `simulate` bit for bit without faults. The rules (register until heard
 //! from, heartbeats every 100 ms and slower once parked, `Deploy`, ticks,
-//! real-time periods, beacons) are the process's [`AgentCore`], built from
+//! real-time periods, beacons) are the process's [`SimAgentCore`], built from
 //! how the launch's agents join and its run settings, as a spawned agent builds
 //! them (`bycoms_sim_agent::timing`). What this file adds is only what
 //! a process is: it starts at a time (or never registers), and it is
 //! alive until it leaves, crashes or is killed.
 
-use bycoms_sim_agent::{AgentCore, Said};
+use bycoms_sim_agent::{Said, SimAgentCore};
 
-/// One simulated agent: the process around an [`AgentCore`].
+/// One simulated agent: the process around a [`SimAgentCore`].
 pub struct Agent {
-    core: AgentCore,
+    core: SimAgentCore,
     /// Alive (not crashed, killed or shut down).
     pub alive: bool,
     /// When it registers (none: never), until it has.
@@ -26,7 +26,7 @@ pub struct Agent {
 impl Agent {
     /// An agent around `core`, registering first at `register_at` (never
     /// if none).
-    pub fn new(core: AgentCore, register_at: Option<u64>) -> Self {
+    pub fn new(core: SimAgentCore, register_at: Option<u64>) -> Self {
         Self { core, alive: true, register_at, started: false }
     }
 
@@ -42,7 +42,7 @@ impl Agent {
 
     /// Whether its robot is not deployed yet.
     pub fn idle(&self) -> bool {
-        self.core.robot().phase() == bycoms_sim_agent::Phase::Idle
+        self.core.robot().phase() == bycoms_sim_agent::RobotPhase::Idle
     }
 
     /// When it next does something on its own (none: never).

@@ -7,10 +7,10 @@
 //! Here one [`Schedule`] (drawn from one `u64` by [`Schedule::draw`]) fixes
 //! every delay, loss, duplicate, partition, crash, late or missing
 //! registration, second agent and forged message, and [`run`] plays a
-//! launch through the real [`Core`] in virtual time in microseconds of CPU.
+//! launch through the real [`LaunchCore`] in virtual time in microseconds of CPU.
 //! The harness runs production code on both sides: the core's [`Setup`] is
 //! the launch's own (`launch::setup::setup_of`, [`Launch`]), each agent is
-//! the `sim-agent` process's own [`AgentCore`] (its message rules, real
+//! the `sim-agent` process's own [`SimAgentCore`] (its message rules, real
 //! heartbeat periods), and the summary's verdict is `summary::of`.
 //! [`check`] states the properties every schedule must keep; the
 //! differential properties (parity with `simulate`, forgeries and short
@@ -38,7 +38,7 @@ mod world;
 pub use agent::Agent;
 pub use check::{check, exit_code};
 pub use figures::{missing_robots, MissingFigures};
-pub use net::{Link, Net, Packet, Partition};
+pub use net::{Net, NetFaults, Packet, Partition};
 pub use real::{Body, RealRobot, ORPHAN_BOUND_US, STOP_BOUND_US};
 pub use schedule::{Crash, Foreign, Placing, Schedule, PLACEMENT};
 pub use world::{run, run_logged};
@@ -55,7 +55,7 @@ use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::{RunConfig, Vec2};
 use bycoms_sim_agent::run::Timing;
-use bycoms_sim_agent::{AgentCore, RobotCore, RunSettings, Said};
+use bycoms_sim_agent::{RobotCore, RunSettings, Said, SimAgentCore};
 use bycoms_study::draw::snapshot::Unit;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -274,7 +274,7 @@ impl Launch {
     pub fn agent(&self, id: u32, instance: u64, register_at: Option<u64>) -> Agent {
         let robot = RobotCore::new(RobotId(id), self.world.terrain.clone(), self.settings.run_config());
         let rules = self.timing.rules(instance, self.settings.fingerprint());
-        Agent::new(AgentCore::new(robot, rules), register_at)
+        Agent::new(SimAgentCore::new(robot, rules), register_at)
     }
 }
 

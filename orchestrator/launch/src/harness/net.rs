@@ -37,7 +37,7 @@ pub enum Packet {
 
 /// The network's faults.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Link {
+pub struct NetFaults {
     /// Shortest one-way delay, µs.
     pub delay_min_us: u64,
     /// Longest one-way delay, µs (a spread reorders messages).
@@ -52,7 +52,7 @@ pub struct Link {
     pub inbound_only: bool,
 }
 
-impl Link {
+impl NetFaults {
     /// A perfect link: every message after `delay_us`, in order.
     pub fn perfect(delay_us: u64) -> Self {
         Self {
@@ -91,7 +91,7 @@ impl Partition {
 
 /// The network: packets in flight, ordered by delivery time then sending order.
 pub struct Net {
-    link: Link,
+    net_faults: NetFaults,
     partitions: Vec<Partition>,
     rng: Xoshiro256PlusPlus,
     queue: BinaryHeap<Reverse<(u64, u64, usize)>>,
@@ -103,9 +103,9 @@ pub struct Net {
 
 impl Net {
     /// A network with `link`'s faults and `partitions`, drawing from `seed`.
-    pub fn new(link: Link, partitions: Vec<Partition>, seed: u64) -> Self {
+    pub fn new(net_faults: NetFaults, partitions: Vec<Partition>, seed: u64) -> Self {
         Self {
-            link,
+            net_faults,
             partitions,
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
             queue: BinaryHeap::new(),
@@ -123,17 +123,18 @@ impl Net {
     /// Sends `packet` at `now`; `robot` is the agent at the other end.
     pub fn send(&mut self, now: u64, robot: u32, packet: Packet) {
         let inbound = matches!(packet, Packet::Report(_) | Packet::Pose { relay: false, .. });
-        let faulty = inbound || !self.link.inbound_only;
-        let (drop, duplicate) = if faulty { (self.link.drop, self.link.duplicate) } else { (0.0, 0.0) };
+        let faulty = inbound || !self.net_faults.inbound_only;
+        let (drop, duplicate) =
+            if faulty { (self.net_faults.drop, self.net_faults.duplicate) } else { (0.0, 0.0) };
         if self.cut(robot, now) || self.rng.gen_bool(drop.clamp(0.0, 1.0)) {
             self.lost += 1;
             return;
         }
         let copies = if self.rng.gen_bool(duplicate.clamp(0.0, 1.0)) { 2 } else { 1 };
         for _ in 0..copies {
-            let delay = self
-                .rng
-                .gen_range(self.link.delay_min_us..=self.link.delay_max_us.max(self.link.delay_min_us));
+            let delay = self.rng.gen_range(
+                self.net_faults.delay_min_us..=self.net_faults.delay_max_us.max(self.net_faults.delay_min_us),
+            );
             let at = now + delay;
             // A message that would arrive while its receiver is cut off is lost.
             if self.cut(robot, at) {

@@ -1,4 +1,4 @@
-//! A real robot behind its gateway, in virtual time: the `agent` binary's
+//! A real robot behind its gateway, in virtual time: the `gateway` binary's
 //! own rules ([`Session`] around `GatewayCore`) on the bus side, the
 //! robot's own firmware core ([`Firmware`]) on the far side of the UDP
 //! link, and a body the world moves from the firmware's motor commands

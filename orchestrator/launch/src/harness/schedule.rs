@@ -5,7 +5,7 @@
 //! Ctrl-C) comes from one seeded generator, and the schedule is printed
 //! with its seed.
 
-use super::net::{Link, Partition};
+use super::net::{NetFaults, Partition};
 use crate::setup::Seams;
 use bycoms_mocap::PlacementConfig;
 use rand::{Rng, SeedableRng};
@@ -99,7 +99,7 @@ pub struct Schedule {
     /// The real-time clock at this speed-up (none: lockstep).
     pub realtime: Option<f64>,
     /// Delays, losses and duplicates.
-    pub link: Link,
+    pub net_faults: NetFaults,
     /// Partitions.
     pub partitions: Vec<Partition>,
     /// Crashes.
@@ -236,7 +236,7 @@ impl Schedule {
             robots,
             remote: false,
             realtime: None,
-            link: Link::perfect(50),
+            net_faults: NetFaults::perfect(50),
             partitions: Vec::new(),
             crashes: Vec::new(),
             register_delay_us: vec![Some(20_000); robots as usize],
@@ -280,7 +280,7 @@ impl Schedule {
         s.realtime = rng.gen_bool(0.3).then(|| [1.0, 5.0, 10.0][rng.gen_range(0..3)]);
         let spread = [0, 200, 5_000, 50_000][rng.gen_range(0..4)];
         let min = rng.gen_range(10..2_000);
-        s.link = Link {
+        s.net_faults = NetFaults {
             delay_min_us: min,
             delay_max_us: min + spread,
             drop: [0.0, 0.0, 0.01, 0.05][rng.gen_range(0..4)],
@@ -289,7 +289,7 @@ impl Schedule {
         };
         let tick_us = match s.realtime {
             Some(speed) => (100_000.0 / speed) as u64,
-            None => 2 * (s.link.delay_max_us + 50),
+            None => 2 * (s.net_faults.delay_max_us + 50),
         };
         let horizon_us = (ticks * tick_us).max(1_000_000);
         if s.remote {

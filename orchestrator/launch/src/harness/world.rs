@@ -74,7 +74,7 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
         core: Logged::new(launch.setup(schedule), logged),
         launch,
         schedule,
-        net: Net::new(schedule.link.clone(), schedule.partitions.clone(), schedule.seed),
+        net: Net::new(schedule.net_faults.clone(), schedule.partitions.clone(), schedule.seed),
         agents: (0..n).map(|_| None).collect(),
         reals: (0..n).map(|_| None).collect(),
         next_mocap: 0,

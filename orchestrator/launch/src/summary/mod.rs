@@ -9,7 +9,7 @@ mod records;
 
 pub use records::{Death, Outage, Outcome, Point, RevokedSummary, StopAnswer, StopSummary};
 
-use super::core::{ClockReading, Core, Ending, Slot, SlotState};
+use super::core::{ClockReading, Ending, LaunchCore, Slot, SlotState};
 use bycoms_runtime::Traffic;
 use bycoms_sim::Vec2;
 use bycoms_study::runs::{count, verdict as verdict_line};
@@ -136,7 +136,7 @@ pub struct ClockSummary {
 
 impl ClockSummary {
     /// The summary of `reading`, reported at launch time `at_us` of `core`.
-    pub fn of(core: &Core, reading: ClockReading) -> Self {
+    pub fn of(core: &LaunchCore, reading: ClockReading) -> Self {
         Self {
             offset_ms: reading.offset_us as f64 / 1000.0,
             round_trip_ms: f64::from(reading.round_trip_us) / 1000.0,
@@ -243,9 +243,9 @@ impl Summary {
     /// The one-line verdict, the same sentence as `simulate`'s.
     pub fn line(&self) -> String {
         let sim = match self.outcome {
-            Outcome::Arrived => bycoms_sim::Outcome::Arrived,
-            Outcome::RobotsExhausted => bycoms_sim::Outcome::RobotsExhausted,
-            Outcome::TimeLimit => bycoms_sim::Outcome::TimeLimit,
+            Outcome::Arrived => bycoms_sim::RunOutcome::Arrived,
+            Outcome::RobotsExhausted => bycoms_sim::RunOutcome::RobotsExhausted,
+            Outcome::TimeLimit => bycoms_sim::RunOutcome::TimeLimit,
             Outcome::Interrupted => {
                 let deployed = count(u64::from(self.robots_used), "robot");
                 let how = match &self.stop {
@@ -404,7 +404,7 @@ pub fn verdict(ending: &Ending, recording: Result<(), &str>) -> Verdict {
 
 /// The summary's figures of `core`, which ended with `ending`, its
 /// recording having failed (`Err(why)`) or not.
-pub fn of(core: &Core, ending: &Ending, recording: Result<(), &str>) -> Decided {
+pub fn of(core: &LaunchCore, ending: &Ending, recording: Result<(), &str>) -> Decided {
     let slots = core.slots();
     let robots: Vec<RobotSummary> = slots.iter().map(|s| robot_summary(core, s)).collect();
     let beacons = slots
@@ -428,7 +428,7 @@ pub fn of(core: &Core, ending: &Ending, recording: Result<(), &str>) -> Decided 
 /// One robot's line of the summary: a robot is deployed once its slot is
 /// past its start (stuck, arrived, died, moving or unfinished); only a
 /// deployed robot has a position and a deployment tick.
-fn robot_summary(core: &Core, s: &Slot) -> RobotSummary {
+fn robot_summary(core: &LaunchCore, s: &Slot) -> RobotSummary {
     let end = match s.state() {
         SlotState::Stuck => RobotEnd::Stuck,
         SlotState::Arrived => RobotEnd::Arrived,

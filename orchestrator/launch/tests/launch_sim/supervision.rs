@@ -201,7 +201,7 @@ fn agents_with_a_short_failsafe_or_other_settings_are_refused_and_change_nothing
 /// orchestrator again).
 #[test]
 fn a_failsafe_report_is_recorded_once() {
-    use bycoms_launch::core::{Core, Input, Output};
+    use bycoms_launch::core::{Input, LaunchCore, Output};
     use bycoms_launch::events::EventKind;
     use bycoms_protocol::msg::{FailsafeFired, FromAgent, Register, RobotKind};
     use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
@@ -211,10 +211,10 @@ fn a_failsafe_report_is_recorded_once() {
     schedule.remote = true;
     let setup = harness::setup(&case, &schedule);
     let settings = setup.settings;
-    let mut core = Core::new(setup);
+    let mut core = LaunchCore::new(setup);
     let mut t = 0;
     let mut outputs = Vec::new();
-    let mut step = |core: &mut Core, input: Option<Input>, outputs: &mut Vec<Output>| {
+    let mut step = |core: &mut LaunchCore, input: Option<Input>, outputs: &mut Vec<Output>| {
         t += 1_000;
         if let Some(input) = input {
             core.handle(t, input);

@@ -22,12 +22,12 @@ fn forged_and_foreign_traffic_changes_nothing_and_is_counted() {
 }
 
 #[test]
-fn a_partition_shorter_than_the_link_grace_ends_as_without_it() {
+fn a_partition_shorter_than_the_unreachable_grace_ends_as_without_it() {
     for seed in 0..200 {
         let case = Case::small(seed);
         let mut clean = Schedule::clean(seed, case.robots);
         clean.remote = true;
-        clean.link = harness::Link::perfect(20_000);
+        clean.net_faults = harness::NetFaults::perfect(20_000);
         let base = harness::run(&case, &clean);
         let mut cut = clean.clone();
         let robot = 1 + (seed % u64::from(case.robots)) as u32;
@@ -76,8 +76,8 @@ fn poses_at_the_goal_before_a_robot_is_deployed_neither_start_it_nor_refuse_its_
     let case = long_case();
     for realtime in [Some(1.0), Some(5.0), None] {
         // Lockstep ticks of 20 ms: robot 1 moves for about a second.
-        let link = harness::Link::perfect(10_000);
-        let clean_schedule = Schedule { realtime, link, ..Schedule::clean(1, 3) };
+        let net_faults = harness::NetFaults::perfect(10_000);
+        let clean_schedule = Schedule { realtime, net_faults, ..Schedule::clean(1, 3) };
         let clean = harness::run(&case, &clean_schedule);
         let deployed_us =
             clean.gates.iter().zip(&clean.gate_times_us).find(|(g, _)| g.robot.0 == 2).map(|(_, t)| *t);

@@ -22,12 +22,14 @@ fn lost_answers_in_lockstep_cost_a_quick_resend_and_change_nothing() {
         };
         let clean = alike(harness::run(
             &case,
-            &Schedule { link: harness::Link::perfect(50), ..Schedule::clean(seed, case.robots) },
+            &Schedule { net_faults: harness::NetFaults::perfect(50), ..Schedule::clean(seed, case.robots) },
         ));
         for drop in [0.05, 0.3] {
             let what = format!("seed {seed}, drop {drop}");
-            let lossy =
-                Schedule { link: harness::Link::faults(50, drop), ..Schedule::clean(seed, case.robots) };
+            let lossy = Schedule {
+                net_faults: harness::NetFaults::faults(50, drop),
+                ..Schedule::clean(seed, case.robots)
+            };
             let report = harness::run(&case, &lossy);
             harness::check(&report, &lossy).unwrap_or_else(|e| panic!("{what}: {e}"));
             let report = alike(report);
@@ -53,12 +55,12 @@ fn lost_answers_in_lockstep_cost_a_quick_resend_and_change_nothing() {
 /// in words (the terminal prints it when a wait lasts, `launch::progress`).
 #[test]
 fn the_launch_says_what_it_waits_for() {
-    use bycoms_launch::core::{Core, Input};
+    use bycoms_launch::core::{Input, LaunchCore};
     use bycoms_protocol::msg::{FromAgent, TickDone, ToAgent};
     use bycoms_protocol::RobotId;
     let case = Case::small(0);
-    let mut core = Core::new(harness::setup(&case, &Schedule::clean(0, case.robots)));
-    let waiting = |core: &Core| core.waiting().map(|w| (w.what, w.resent));
+    let mut core = LaunchCore::new(harness::setup(&case, &Schedule::clean(0, case.robots)));
+    let waiting = |core: &LaunchCore| core.waiting().map(|w| (w.what, w.resent));
     core.advance(0);
     core.handle(0, Input::Started { robot: 1, pid: Some(7), how: "started".into() });
     core.advance(0);
@@ -85,15 +87,15 @@ fn the_launch_says_what_it_waits_for() {
 /// started, and the successor was started again.
 #[test]
 fn a_robot_deployed_and_judged_at_once_starts_its_successor_once() {
-    use bycoms_launch::core::{Core, Input, Output};
+    use bycoms_launch::core::{Input, LaunchCore, Output};
     use bycoms_protocol::msg::{FromAgent, Pose, ToAgent};
     use bycoms_protocol::RobotId;
     let case = Case::small(0);
     let schedule = Schedule { realtime: Some(100_000.0), ..Schedule::clean(0, case.robots) };
-    let mut core = Core::new(harness::setup(&case, &schedule));
+    let mut core = LaunchCore::new(harness::setup(&case, &schedule));
     let mut starts = vec![0; case.robots as usize];
     let mut deployed = false;
-    let mut drain = |core: &mut Core, starts: &mut Vec<u32>| {
+    let mut drain = |core: &mut LaunchCore, starts: &mut Vec<u32>| {
         while let Some(out) = core.poll_output() {
             match out {
                 Output::Start(id) => starts[id as usize - 1] += 1,

@@ -14,7 +14,7 @@ use super::contour::Grid;
 use super::snapshot::decimate;
 use super::svg::{number, Svg};
 use super::timeline::first_steps;
-use bycoms_sim::runner::{RobotEnd, RunResult};
+use bycoms_sim::runner::{RobotRunEnd, RunResult};
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::Vec2;
 use std::fmt::Write as _;
@@ -91,7 +91,7 @@ pub fn render(terrain: &Terrain, result: &RunResult, eps: f64, title: [&str; 2],
         }
         robot.push_str("</g>");
         svg.raw(&robot);
-        if run.end == RobotEnd::Stuck {
+        if run.end == RobotRunEnd::Stuck {
             let (x, y) = px(run.position);
             svg.raw(&format!(
                 r#"<circle cx="{x:.2}" cy="{y:.2}" r="{:.2}" fill="none" stroke="{colour}" stroke-dasharray="4 3" opacity="0"><animate attributeName="opacity" values="0;1" keyTimes="0;{t1:.5}" calcMode="discrete" dur="{dur}" repeatCount="indefinite"/></circle>"#,
@@ -135,7 +135,7 @@ fn contour_frames(
         .robots
         .iter()
         .zip(first_steps(result))
-        .filter(|(r, _)| r.end == RobotEnd::Stuck)
+        .filter(|(r, _)| r.end == RobotRunEnd::Stuck)
         .map(|(r, first)| (first + r.steps, r.position))
         .collect();
     let mut grid = Grid::new(terrain.width(), terrain.height());

@@ -449,7 +449,7 @@ mod tests {
         let terrain = bycoms_sim::terrain::parse("...\n...\n").unwrap();
         let result = RunResult {
             success: false,
-            outcome: bycoms_sim::Outcome::RobotsExhausted,
+            outcome: bycoms_sim::RunOutcome::RobotsExhausted,
             steps: 0,
             time: 0.0,
             robots_used: 0,
@@ -467,14 +467,14 @@ mod tests {
         let terrain = bycoms_sim::terrain::parse("...\n...\n").unwrap();
         let stuck = bycoms_sim::runner::RobotRun {
             id: 1,
-            end: bycoms_sim::runner::RobotEnd::Stuck,
+            end: bycoms_sim::runner::RobotRunEnd::Stuck,
             position: Vec2::new(1.4, 1.0),
             steps: 2,
             trajectory: vec![Vec2::new(0.4, 1.0), Vec2::new(0.9, 1.0), Vec2::new(1.4, 1.0)],
         };
         let result = RunResult {
             success: false,
-            outcome: bycoms_sim::Outcome::RobotsExhausted,
+            outcome: bycoms_sim::RunOutcome::RobotsExhausted,
             steps: 2,
             time: 0.2,
             robots_used: 1,

@@ -7,7 +7,7 @@
 //! trajectory holds its position after each of its own periods, starting
 //! with the start point. So the state at step s needs no re-simulation.
 
-use bycoms_sim::runner::{RobotEnd, RunResult};
+use bycoms_sim::runner::{RobotRunEnd, RunResult};
 use bycoms_sim::Vec2;
 
 /// A robot as it was at one step.
@@ -55,8 +55,8 @@ pub fn robots_at(result: &RunResult, step: u64) -> Vec<RobotAt> {
             RobotAt {
                 id: r.id,
                 position: r.trajectory.get(index).copied().unwrap_or(r.position),
-                stuck: done && r.end == RobotEnd::Stuck,
-                arrived: done && r.end == RobotEnd::Arrived,
+                stuck: done && r.end == RobotRunEnd::Stuck,
+                arrived: done && r.end == RobotRunEnd::Arrived,
                 trail: index + 1,
             }
         })
@@ -71,7 +71,7 @@ pub fn step_of(seconds: f64, dt: f64) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use bycoms_sim::runner::{Outcome, RobotRun};
+    use bycoms_sim::runner::{RobotRun, RunOutcome};
 
     fn line(n: u64, x0: f64) -> Vec<Vec2> {
         (0..=n).map(|i| Vec2::new(x0 + i as f64, 0.0)).collect()
@@ -80,7 +80,7 @@ mod tests {
     fn two_robots() -> RunResult {
         RunResult {
             success: true,
-            outcome: Outcome::Arrived,
+            outcome: RunOutcome::Arrived,
             steps: 5,
             time: 0.5,
             robots_used: 2,
@@ -88,14 +88,14 @@ mod tests {
             robots: vec![
                 RobotRun {
                     id: 1,
-                    end: RobotEnd::Stuck,
+                    end: RobotRunEnd::Stuck,
                     position: Vec2::new(2.0, 0.0),
                     steps: 2,
                     trajectory: line(2, 0.0),
                 },
                 RobotRun {
                     id: 2,
-                    end: RobotEnd::Arrived,
+                    end: RobotRunEnd::Arrived,
                     position: Vec2::new(3.0, 0.0),
                     steps: 3,
                     trajectory: line(3, 0.0),

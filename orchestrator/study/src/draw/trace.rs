@@ -31,7 +31,7 @@ use crate::gate::{active_periods, same_pose};
 use crate::runs::summary_line;
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use bycoms_sim::body::Kinematics;
-use bycoms_sim::runner::{Outcome, RobotEnd, RobotRun, RunResult};
+use bycoms_sim::runner::{RobotRun, RobotRunEnd, RunOutcome, RunResult};
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::Vec2;
 use std::collections::{BTreeMap, VecDeque};
@@ -235,27 +235,27 @@ impl Trace {
         let mut beacons = Vec::new();
         for (&id, track) in self.robots.iter().filter(|(_, t)| t.active.is_some() || t.at.is_some()) {
             let end = match track.end {
-                Some(GateKind::Stopped { arrived: true }) => RobotEnd::Arrived,
-                Some(GateKind::Stopped { arrived: false } | GateKind::Died) => RobotEnd::Stuck,
-                _ => RobotEnd::Moving,
+                Some(GateKind::Stopped { arrived: true }) => RobotRunEnd::Arrived,
+                Some(GateKind::Stopped { arrived: false } | GateKind::Died) => RobotRunEnd::Stuck,
+                _ => RobotRunEnd::Moving,
             };
             let trajectory = match (&track.active, track.at) {
                 (Some(active), _) => active.trajectory(period_us),
                 (None, at) => at.into_iter().collect(),
             };
             let position = track.at.or(trajectory.last().copied()).unwrap_or(Vec2::new(0.0, 0.0));
-            if end == RobotEnd::Stuck {
+            if end == RobotRunEnd::Stuck {
                 beacons.push(position);
             }
             let steps = track.active.as_ref().map_or(0, |a| a.periods(period_us));
             robots.push(RobotRun { id, end, position, steps, trajectory });
         }
-        let success = robots.iter().any(|r| r.end == RobotEnd::Arrived);
+        let success = robots.iter().any(|r| r.end == RobotRunEnd::Arrived);
         let timed_out = self.robots.values().any(|t| t.end == Some(GateKind::Timeout));
         let outcome = match (success, timed_out) {
-            (true, _) => Outcome::Arrived,
-            (false, true) => Outcome::TimeLimit,
-            (false, false) => Outcome::RobotsExhausted,
+            (true, _) => RunOutcome::Arrived,
+            (false, true) => RunOutcome::TimeLimit,
+            (false, false) => RunOutcome::RobotsExhausted,
         };
         let steps = robots.iter().map(|r| r.steps).sum::<u64>();
         RunResult {
@@ -315,7 +315,7 @@ mod tests {
         trace.pose(&at(3, 5, 3.0, t(5)));
         trace.gate(&event(3, GateKind::Stopped { arrived: true }, 3.0));
         let r = trace.result(0.1);
-        assert_eq!(r.outcome, Outcome::Arrived);
+        assert_eq!(r.outcome, RunOutcome::Arrived);
         assert_eq!(
             r.robots.iter().map(|r| r.steps).collect::<Vec<_>>(),
             [2, 1, 1],
@@ -326,7 +326,7 @@ mod tests {
         assert_eq!(r.steps, 4);
         assert_eq!(r.time, 0.4);
         assert_eq!(r.beacons, [Vec2::new(2.0, 1.0), Vec2::new(0.5, 1.0)]);
-        assert_eq!(r.robots[2].end, RobotEnd::Arrived);
+        assert_eq!(r.robots[2].end, RobotRunEnd::Arrived);
     }
 
     /// Motion capture's frames of a batch are recorded before the gate's
@@ -361,9 +361,9 @@ mod tests {
         trace.pose(&pose(1, 0.0));
         trace.pose(&pose(1, 1.0));
         let r = trace.result(0.1);
-        assert_eq!((r.outcome, r.robots[0].end), (Outcome::RobotsExhausted, RobotEnd::Moving));
+        assert_eq!((r.outcome, r.robots[0].end), (RunOutcome::RobotsExhausted, RobotRunEnd::Moving));
         trace.gate(&event(1, GateKind::Timeout, 1.0));
-        assert_eq!(trace.result(0.1).outcome, Outcome::TimeLimit);
+        assert_eq!(trace.result(0.1).outcome, RunOutcome::TimeLimit);
     }
 
     fn at(k: u32, step: u64, x: f64, time_us: u64) -> Pose {

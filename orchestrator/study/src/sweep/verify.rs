@@ -75,7 +75,7 @@ pub struct Expected<'a> {
     pub terrains: Option<&'a [Vec<ListedTerrain>]>,
 }
 
-/// The outcomes a run can have (`bycoms_sim::Outcome`, as the CSV writes them).
+/// The outcomes a run can have (`bycoms_sim::RunOutcome`, as the CSV writes them).
 const OUTCOMES: [&str; 3] = ["arrived", "time_limit", "robots_exhausted"];
 
 impl Expected<'_> {

@@ -20,7 +20,7 @@
 //! quantile, the logging) get none of it.
 //!
 //! A host's doctor ([`HostArgs`], [`main_with`]) runs on a robot's host:
-//! the open-files limit, the gateway's UDP port (`agent` only), this
+//! the open-files limit, the gateway's UDP port (`gateway` only), this
 //! robot's certificate in its zenoh config, the orchestrator's endpoint
 //! reached, its liveliness seen and this host's clock offset to it judged
 //! by the launch's default limits ([`ClockLimits::LAB`]). Exit 0 without an
@@ -42,7 +42,7 @@ use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::{Duration, SystemTime};
 
-/// The flags of a robot's host's doctor (`agent doctor`, `sim-agent
+/// The flags of a robot's host's doctor (`gateway doctor`, `sim-agent
 /// doctor`): what this host's agent is started with, less what the
 /// doctor does not need.
 #[derive(Clone, Debug, PartialEq, Eq, clap::Args)]
@@ -79,7 +79,7 @@ pub struct HostArgs {
 pub struct HostNeeds {
     /// Open files the agent process needs ([`host::AGENT_FILES`]).
     pub files: u64,
-    /// The robot link's UDP address the gateway binds (`agent doctor --bind`).
+    /// The robot link's UDP address the gateway binds (`gateway doctor --bind`).
     pub bind: Option<SocketAddr>,
 }
 

@@ -184,7 +184,7 @@ fn the_orchestrators_endpoint_is_reached_and_its_liveliness_seen_or_missed() {
     assert!(found[1].cause.contains("no orchestrator of swarm doctor-other"), "{}", found[1].cause);
 }
 
-/// A robot's host's doctor as `agent doctor` runs it: a taken gateway port
+/// A robot's host's doctor as `gateway doctor` runs it: a taken gateway port
 /// and a live orchestrator; a bad endpoint or swarm is a usage error.
 #[test]
 fn a_hosts_doctor_runs_every_check_of_its_agent() {

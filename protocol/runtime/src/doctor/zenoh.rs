@@ -1,5 +1,5 @@
 //! The zenoh endpoint a robot's host connects to, reached from here
-//! (`orchestrator doctor --connect`, `agent doctor`, `sim-agent doctor`),
+//! (`orchestrator doctor --connect`, `gateway doctor`, `sim-agent doctor`),
 //! and, with a swarm name, the orchestrator's liveliness token seen
 //! through it and this host's clock offset to the orchestrator's,
 //! measured as the agents measure it and judged as the launch judges it

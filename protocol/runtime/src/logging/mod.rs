@@ -1,5 +1,5 @@
 //! One logging setup shared by every BYCOMS binary (`orchestrator`,
-//! `sim-agent`, `natnet-serve` and the `agent` gateway): diagnostics are
+//! `sim-agent`, `natnet-serve` and the `gateway`): diagnostics are
 //! `tracing` events, written to stderr, filtered by `RUST_LOG`, as text or
 //! as JSON lines.
 //!

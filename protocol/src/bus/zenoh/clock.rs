@@ -65,7 +65,7 @@ pub fn report(robot: crate::RobotId, sample: ClockSample) -> crate::msg::FromAge
 /// The limits a clock offset is judged by, µs (0: not judged): the
 /// launch's (its config's `supervision.clock_warn` and `clock_limit`,
 /// refusing an agent past the limit) and every doctor's (`orchestrator
-/// doctor --connect`, `agent doctor`, `sim-agent doctor`).
+/// doctor --connect`, `gateway doctor`, `sim-agent doctor`).
 ///
 /// Why here, beside the measurement: the launch core and the doctors of
 /// the robots' hosts (which cannot depend on the orchestrator) must judge

@@ -2,14 +2,14 @@
 //! orchestrator drives it, reproduces `runner::run` bit for bit.
 
 use super::*;
-use bycoms_sim::runner::{run, RobotEnd};
+use bycoms_sim::runner::{run, RobotRunEnd};
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::terrain::Terrain;
 
 /// The lockstep protocol without the bus: deploy at the start facing the
 /// goal, hand each robot the stuck robots' poses and, every period, the goal
 /// bearing from its latest pose.
-fn drive(terrain: &Terrain, cfg: &RunConfig) -> Vec<(RobotEnd, Vec2, u64)> {
+fn drive(terrain: &Terrain, cfg: &RunConfig) -> Vec<(RobotRunEnd, Vec2, u64)> {
     let (start, goal) = (terrain.start(), terrain.goal());
     let r2 = cfg.success_radius * cfg.success_radius;
     let mut stuck: Vec<Pose> = Vec::new();
@@ -25,24 +25,24 @@ fn drive(terrain: &Terrain, cfg: &RunConfig) -> Vec<(RobotEnd, Vec2, u64)> {
         let mut pose = core.pose(0, 0).unwrap();
         let end = loop {
             if total >= cfg.step_limit() {
-                break RobotEnd::Moving;
+                break RobotRunEnd::Moving;
             }
             let bearing = Vec2::new(pose.x, pose.y).bearing_to(goal);
             core.set_bearing(&GoalBearing { robot: RobotId(id), bearing, step: total }).unwrap();
             assert!(core.step());
             total += 1;
             pose = core.pose(total, 0).unwrap();
-            if core.phase() == Phase::Frozen {
-                break RobotEnd::Stuck;
+            if core.phase() == RobotPhase::Frozen {
+                break RobotRunEnd::Stuck;
             }
             let (dx, dy) = (pose.x - goal.x, pose.y - goal.y);
             if dx * dx + dy * dy <= r2 {
-                break RobotEnd::Arrived;
+                break RobotRunEnd::Arrived;
             }
         };
         out.push((end, Vec2::new(pose.x, pose.y), core.steps()));
         match end {
-            RobotEnd::Stuck => stuck.push(pose),
+            RobotRunEnd::Stuck => stuck.push(pose),
             _ => break,
         }
     }
@@ -90,7 +90,7 @@ fn refuses_foreign_and_malformed_messages() {
     assert_eq!(core.deploy(&other), Err(Reject::WrongRobot { got: RobotId(3) }));
     let nan = Deploy { robot: RobotId(2), x: f64::NAN, y: 1.0, heading: 0.0 };
     assert_eq!(core.deploy(&nan), Err(Reject::NotFinite));
-    assert_eq!(core.phase(), Phase::Idle);
+    assert_eq!(core.phase(), RobotPhase::Idle);
     assert!(!core.step(), "an idle robot does not move");
     let own = Beacon { robot: RobotId(2), x: 3.0, y: 3.0, seq: 1 };
     assert_eq!(core.beacon(&own), Err(Reject::WrongRobot { got: RobotId(2) }));
@@ -118,6 +118,6 @@ fn refuses_foreign_and_malformed_messages() {
     core.set_bearing(&GoalBearing { robot: RobotId(2), bearing: 0.5, step: 1 }).unwrap();
     assert!(core.step());
     core.stop();
-    assert_eq!(core.phase(), Phase::Stopped);
+    assert_eq!(core.phase(), RobotPhase::Stopped);
     assert!(!core.step(), "a stopped robot stays put");
 }

@@ -9,7 +9,7 @@ use bycoms_sim::RunConfig;
 
 const MS: u64 = 1_000;
 
-fn core(clock: Clock) -> AgentCore {
+fn core(clock: Clock) -> SimAgentCore {
     let rules = Rules {
         clock,
         dt_us: 100 * MS,
@@ -20,7 +20,7 @@ fn core(clock: Clock) -> AgentCore {
         settings: 0x5e7,
         failsafe_grace_ms: 0,
     };
-    AgentCore::new(RobotCore::new(RobotId(1), Terrain::paper(), RunConfig::paper(2.0)), rules)
+    SimAgentCore::new(RobotCore::new(RobotId(1), Terrain::paper(), RunConfig::paper(2.0)), rules)
 }
 
 fn reports(said: &[Said]) -> Vec<&'static str> {

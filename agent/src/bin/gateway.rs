@@ -1,5 +1,5 @@
-//! `agent`: one real robot's gateway (see `bycoms_agent::gateway`), with
-//! `agent bench` the gateway's added-latency figures, or with `agent
+//! `gateway`: one real robot's gateway (see `bycoms_agent::gateway`), with
+//! `gateway bench` the gateway's added-latency figures, or with `agent
 //! doctor` the checks of this host (`bycoms_runtime::doctor`). Thin `main`: parse,
 //! run, exit code. The command line is the library's
 //! (`bycoms_agent::gateway::cli::command`), shared with whoever starts a gateway
