@@ -4,7 +4,7 @@
 //! Why a file of its own: every source (`bus.rs`, `mocap.rs`, `ros2.rs`)
 //! implements these, and `mod.rs` opens the sources (no file cycles).
 
-use crate::recording::Recording;
+use crate::recording::{Recording, Seen};
 use bycoms_protocol::bus::BusError;
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::{encode, RobotId, Swarm, MAX_MESSAGE_LEN};
@@ -76,7 +76,12 @@ impl<'a> PoseSink<'a> {
             match encode(&pose, &mut buf) {
                 Ok(bytes) => {
                     let topic = self.swarm.pose(RobotId(robot));
-                    self.recording.bytes(topic.name().as_str(), schema::POSE, bytes);
+                    self.recording.message(
+                        topic.name().as_str(),
+                        schema::POSE,
+                        bytes,
+                        Some(Seen::Pose(pose)),
+                    );
                     self.recorded += 1;
                 }
                 // A pose always fits one message; should it not, it is
@@ -87,10 +92,11 @@ impl<'a> PoseSink<'a> {
         self.poses.push((robot, pose));
     }
 
-    /// The bytes of one message as they crossed the bus on `topic`, before
-    /// decoding (bus sources only).
-    pub fn raw(&mut self, topic: &str, bytes: &[u8]) {
-        self.recording.bytes(topic, schema::POSE, bytes);
+    /// The bytes of one message as they crossed the bus on `topic`, and
+    /// the pose they decode to, if they do (bus sources only; the pose is
+    /// then handed over with [`Self::pose`]).
+    pub fn raw(&mut self, topic: &str, bytes: &[u8], decoded: Option<&Pose>) {
+        self.recording.message(topic, schema::POSE, bytes, decoded.copied().map(Seen::Pose));
         self.recorded += 1;
     }
 

@@ -3,7 +3,7 @@
 //!
 //! Why a wrapper: recording must never stop the robots. The loop only
 //! copies what it records into a batch; the recording's own thread
-//! (`writer`) decodes, feeds the scene and writes the file. A write error is
+//! (`writer`) feeds the scene and writes the file. A write error is
 //! reported once, recording stops there (what was flushed stays readable)
 //! and the launch goes on; the error is in the summary and makes the exit
 //! code 1. The loop hands its batch over every [`HAND_OVER_EVERY`]
@@ -13,7 +13,8 @@
 //!
 //! Decoded channels: every bus message is recorded as its raw postcard
 //! bytes first (exact replay needs them); poses, gate events and agent
-//! reports are then decoded and handed to the run's one
+//! reports go with the form the launch decoded them in ([`Seen`]: no
+//! message is decoded twice) and are handed to the run's one
 //! [`bycoms_record::scene::Scene`] (shared: [`SharedScene`]), whose Foxglove
 //! messages (scene, frames, log, per-robot JSON) are recorded too and kept
 //! for the observers (the live view), so the file and a viewer are fed by
@@ -31,7 +32,7 @@ mod writer;
 use super::config::{Clock, LaunchConfig};
 use super::events::RunMeta;
 use super::World;
-use bycoms_record::decode::{decode, Content};
+use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use bycoms_record::scene::json::json_schema;
 use bycoms_record::scene::{Out, Scene, SceneWorld, SharedScene};
 use bycoms_record::schema::{self, Topics, CLOCK_METADATA};
@@ -60,6 +61,18 @@ const SYNC_TIMEOUT: Duration = Duration::from_secs(30);
 /// with the agents a lockstep tick waits for (a 1000-robot launch makes
 /// tens of thousands of passes), often enough for a live view.
 pub const HAND_OVER_EVERY: Duration = Duration::from_millis(50);
+
+/// A bus message as the launch decoded it: the one typed form the
+/// recording's scene and the picture's trace are folded from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Seen {
+    /// A robot's pose, as motion capture reported it (or the launch relayed it).
+    Pose(Pose),
+    /// A gate decision, as published.
+    Gate(GateEvent),
+    /// An agent's report.
+    Report(FromAgent),
+}
 
 /// The recording of one launch (or nothing), and the trace of its picture.
 pub struct Recording {
@@ -249,22 +262,29 @@ impl Recording {
         self.simulated_ns.unwrap_or_else(now_ns)
     }
 
-    /// Records one bus message, byte for byte, then its decoded form (on
-    /// the writer's thread; the trace here).
+    /// Records one bus message, byte for byte, that the launch did not
+    /// decode (commands, the core's log, what does not decode).
     pub fn bytes(&mut self, topic: &str, schema: &str, payload: &[u8]) {
+        self.message(topic, schema, payload, None);
+    }
+
+    /// Records one bus message, byte for byte, with what the launch decoded
+    /// of it: the scene (on the writer's thread) and the picture's trace
+    /// (here) are folded from that, never from the bytes again.
+    pub fn message(&mut self, topic: &str, schema: &str, payload: &[u8], seen: Option<Seen>) {
         if self.queue.is_none() && self.trace.is_none() {
             return;
         }
         let now = self.now();
-        if let Some(trace) = self.trace.as_mut() {
-            match decode(topic, schema, schema::POSTCARD, payload) {
-                Content::Pose(pose) => trace.pose(&pose),
-                Content::Gate(event) => trace.gate(&event),
-                _ => {}
+        if let (Some(trace), Some(seen)) = (self.trace.as_mut(), &seen) {
+            match seen {
+                Seen::Pose(pose) => trace.pose(pose),
+                Seen::Gate(event) => trace.gate(event),
+                Seen::Report(_) => {}
             }
         }
         if let Some(batch) = self.batch() {
-            batch.bus(now, topic, schema, payload);
+            batch.bus(now, topic, schema, payload, seen);
         }
     }
 

@@ -11,11 +11,39 @@ fn world() -> World {
 fn feed(rec: &mut Recording) {
     let mut buf = [0u8; MAX_MESSAGE_LEN];
     let pose = Pose { robot: RobotId(1), x: 0.5, y: 0.5, heading: 0.0, step: 0, time_us: 0 };
-    rec.bytes("bycoms/t/robot/1/pose", schema::POSE, encode(&pose, &mut buf).unwrap());
+    let seen = Some(Seen::Pose(pose));
+    rec.message("bycoms/t/robot/1/pose", schema::POSE, encode(&pose, &mut buf).unwrap(), seen);
     let moved = Pose { x: 1.5, step: 1, time_us: 100_000, ..pose };
-    rec.bytes("bycoms/t/robot/1/pose", schema::POSE, encode(&moved, &mut buf).unwrap());
+    let seen = Some(Seen::Pose(moved));
+    rec.message("bycoms/t/robot/1/pose", schema::POSE, encode(&moved, &mut buf).unwrap(), seen);
     let event = GateEvent { robot: RobotId(1), kind: GateKind::Deployed, x: 0.5, y: 0.5, step: 0 };
-    rec.bytes("bycoms/t/gate", schema::GATE, encode(&event, &mut buf).unwrap());
+    let seen = Some(Seen::Gate(event));
+    rec.message("bycoms/t/gate", schema::GATE, encode(&event, &mut buf).unwrap(), seen);
+}
+
+/// Bytes the launch did not decode (commands, garbage) feed no scene, even
+/// if they would decode: nothing is decoded twice.
+#[test]
+fn bytes_without_their_decoded_form_feed_no_scene() {
+    let cfg = LaunchConfig { serve: Some("127.0.0.1:0".into()), ..Default::default() };
+    let scene = Recording::scene_for("t", &world(), &cfg);
+    let mut rec = Recording::start("t", &world(), &cfg, scene).expect("starts");
+    rec.sync();
+    let _world = rec.take_scene();
+    let mut buf = [0u8; MAX_MESSAGE_LEN];
+    let pose = Pose { robot: RobotId(1), x: 0.5, y: 0.5, heading: 0.0, step: 0, time_us: 0 };
+    rec.bytes("bycoms/t/robot/1/pose", schema::POSE, encode(&pose, &mut buf).unwrap());
+    rec.sync();
+    assert_eq!(rec.take_scene(), Vec::new());
+    rec.message(
+        "bycoms/t/robot/1/pose",
+        schema::POSE,
+        encode(&pose, &mut buf).unwrap(),
+        Some(Seen::Pose(pose)),
+    );
+    rec.sync();
+    assert!(!rec.take_scene().is_empty(), "the decoded pose shows robot 1");
+    rec.finish().expect("finishes");
 }
 
 /// The scene's output as (topic, bytes), for comparing.

@@ -1,10 +1,11 @@
-//! The recording's own thread: it decodes, feeds the scene, encodes and
-//! writes, so the launch loop only copies bytes.
+//! The recording's own thread: it feeds the scene, encodes and writes, so
+//! the launch loop only copies bytes (and the messages it decoded anyway:
+//! nothing is decoded twice).
 //!
 //! Why a thread: in a lockstep launch the loop *is* the swarm's clock —
 //! every microsecond it spends on the recording is a microsecond every robot
 //! waits. A recorded message costs the loop a copy into a [`Batch`]; the
-//! decoding, the scene's Foxglove messages, JSON, the MCAP index, zstd and
+//! scene's Foxglove messages, JSON, the MCAP index, zstd and
 //! the writes happen here, on the other core, while the loop waits for its
 //! agents. A 1000-robot launch records about 8 million messages; written
 //! inline they doubled its wall time.
@@ -21,7 +22,7 @@
 //! batch comes ([`Recorder::flush_due_in`]), and the loop hands over what it
 //! recorded every 50 ms (`HAND_OVER_EVERY`).
 
-use bycoms_record::decode::{decode, Content};
+use super::Seen;
 use bycoms_record::scene::{Out, SharedScene};
 use bycoms_record::schema;
 use bycoms_record::{RecordError, Recorder, Summary};
@@ -48,8 +49,9 @@ pub struct Batch {
 
 /// One thing to write.
 pub enum Item {
-    /// A bus message, byte for byte, then decoded into the scene.
-    Bus { at: u64, topic: Range<usize>, schema: Range<usize>, payload: Range<usize> },
+    /// A bus message, byte for byte, and what the launch decoded of it
+    /// (if it did: commands and garbage are only bytes), for the scene.
+    Bus { at: u64, topic: Range<usize>, schema: Range<usize>, payload: Range<usize>, seen: Option<Seen> },
     /// A JSON message whose channel's schema is `schema_of()`, named `schema`.
     Json {
         at: u64,
@@ -74,11 +76,11 @@ impl Batch {
         start..self.data.len()
     }
 
-    /// Adds a bus message recorded at `at`.
-    pub fn bus(&mut self, at: u64, topic: &str, schema: &str, payload: &[u8]) {
+    /// Adds a bus message recorded at `at`, with what the launch decoded of it.
+    pub fn bus(&mut self, at: u64, topic: &str, schema: &str, payload: &[u8], seen: Option<Seen>) {
         let (topic, schema, payload) =
             (self.put(topic.as_bytes()), self.put(schema.as_bytes()), self.put(payload));
-        self.items.push(Item::Bus { at, topic, schema, payload });
+        self.items.push(Item::Bus { at, topic, schema, payload, seen });
     }
 
     /// Adds a JSON message recorded at `at`.
@@ -128,7 +130,7 @@ impl Batch {
 pub struct Writer {
     /// The file (none: the run is only shown, `launch --serve`).
     pub recorder: Option<Recorder>,
-    /// The run's scene, fed with every decoded message.
+    /// The run's scene, fed with every message the launch decoded.
     pub scene: Option<SharedScene>,
     /// The scene's output not yet taken by the loop for its observers.
     pub shown: Arc<Mutex<Vec<Out>>>,
@@ -178,11 +180,13 @@ impl Writer {
         let mut shown = Vec::new();
         for item in &batch.items {
             match item {
-                Item::Bus { at, topic, schema, payload } => {
+                Item::Bus { at, topic, schema, payload, seen } => {
                     let (topic, schema, payload) =
                         (batch.text(topic), batch.text(schema), batch.bytes(payload));
                     self.with(|r| r.record_bytes(topic, schema, *at, *at, payload));
-                    self.decoded(topic, schema, payload, *at, &mut shown);
+                    if let Some(seen) = seen {
+                        self.seen(seen, *at, &mut shown);
+                    }
                 }
                 Item::Json { at, topic, schema, schema_of, payload } => {
                     let schema_of = || Some(foxglove::Schema::new(*schema, "jsonschema", schema_of()));
@@ -211,21 +215,15 @@ impl Writer {
         }
     }
 
-    /// Decodes poses, gate events and agent reports (garbage was recorded
-    /// as bytes and is skipped here) into the scene, by the rules every
-    /// reader of the file decodes them by (`record::decode`).
-    fn decoded(&mut self, topic: &str, schema: &str, payload: &[u8], now: u64, shown: &mut Vec<Out>) {
-        // Only these feed the scene; the rest (commands are most of the
-        // traffic) is not decoded.
+    /// Feeds the scene a pose, a gate event or an agent report as the
+    /// launch decoded it (by the codec every reader of the file decodes
+    /// the recorded bytes with, `record::decode`).
+    fn seen(&mut self, seen: &Seen, now: u64, shown: &mut Vec<Out>) {
         let Some(scene) = self.scene.as_ref() else { return };
-        if !matches!(schema, schema::POSE | schema::GATE | schema::FROM_AGENT) {
-            return;
-        }
-        let outs = match decode(topic, schema, schema::POSTCARD, payload) {
-            Content::Pose(pose) => scene.lock().pose(&pose, now),
-            Content::Gate(event) => scene.lock().gate(&event, now),
-            Content::Report(report) => scene.lock().report(&report, now),
-            _ => return,
+        let outs = match seen {
+            Seen::Pose(pose) => scene.lock().pose(pose, now),
+            Seen::Gate(event) => scene.lock().gate(event, now),
+            Seen::Report(report) => scene.lock().report(report, now),
         };
         self.write_outs(&outs, now);
         shown.extend(outs);
