@@ -286,7 +286,7 @@ fn receive_recorded(
     match decode::<FromAgent>(bytes) {
         Ok(report) => {
             // Lockstep's acknowledgements (most of the reports) show nothing.
-            let seen = (!matches!(report, FromAgent::TickDone(_))).then(|| Seen::Report(report.clone()));
+            let seen = (!matches!(report, FromAgent::TickDone(_))).then_some(Seen::Report(report));
             recording.message(topic.as_str(), schema, bytes, seen);
             Ok(Some(report))
         }
