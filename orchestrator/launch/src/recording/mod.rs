@@ -27,12 +27,14 @@
 //! (ns since the Unix epoch). The file says which in its `bycoms.clock`
 //! metadata record.
 
+mod seen;
 mod writer;
+
+pub use seen::Seen;
 
 use super::config::{Clock, LaunchConfig};
 use super::events::RunMeta;
 use super::World;
-use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use bycoms_record::scene::json::json_schema;
 use bycoms_record::scene::{Out, Scene, SceneWorld, SharedScene};
 use bycoms_record::schema::{self, Topics, CLOCK_METADATA};
@@ -61,18 +63,6 @@ const SYNC_TIMEOUT: Duration = Duration::from_secs(30);
 /// with the agents a lockstep tick waits for (a 1000-robot launch makes
 /// tens of thousands of passes), often enough for a live view.
 pub const HAND_OVER_EVERY: Duration = Duration::from_millis(50);
-
-/// A bus message as the launch decoded it: the one typed form the
-/// recording's scene and the picture's trace are folded from.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Seen {
-    /// A robot's pose, as motion capture reported it (or the launch relayed it).
-    Pose(Pose),
-    /// A gate decision, as published.
-    Gate(GateEvent),
-    /// An agent's report.
-    Report(FromAgent),
-}
 
 /// The recording of one launch (or nothing), and the trace of its picture.
 pub struct Recording {

@@ -22,7 +22,7 @@
 //! batch comes ([`Recorder::flush_due_in`]), and the loop hands over what it
 //! recorded every 50 ms (`HAND_OVER_EVERY`).
 
-use super::Seen;
+use super::seen::Seen;
 use bycoms_record::scene::{Out, SharedScene};
 use bycoms_record::schema;
 use bycoms_record::{RecordError, Recorder, Summary};

@@ -158,12 +158,23 @@ fn reach(endpoint: &str, swarm: &str, ms: u64) -> zenoh::Reach {
     }
 }
 
-/// A zenoh router on a free loopback TCP port, and its endpoint.
+/// A zenoh router on a free loopback TCP port, and its endpoint. The port
+/// is free when asked, but another process may take it before zenoh binds
+/// it (tests run side by side): a few ports are tried.
 fn router() -> (ZenohBus, String) {
-    let port = TcpListener::bind((Ipv4Addr::LOCALHOST, 0)).and_then(|l| l.local_addr()).expect("port").port();
-    let listen = format!("tcp/127.0.0.1:{port}");
-    let config = ZenohConfig { mode: Mode::Router, listen: vec![listen.clone()], ..ZenohConfig::default() };
-    (ZenohBus::open(config).expect("router"), listen)
+    let mut last = None;
+    for _ in 0..5 {
+        let port =
+            TcpListener::bind((Ipv4Addr::LOCALHOST, 0)).and_then(|l| l.local_addr()).expect("port").port();
+        let listen = format!("tcp/127.0.0.1:{port}");
+        let config =
+            ZenohConfig { mode: Mode::Router, listen: vec![listen.clone()], ..ZenohConfig::default() };
+        match ZenohBus::open(config) {
+            Ok(bus) => return (bus, listen),
+            Err(e) => last = Some(e),
+        }
+    }
+    panic!("no router could listen: {last:?}")
 }
 
 #[test]
