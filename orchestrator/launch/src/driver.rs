@@ -288,9 +288,13 @@ impl Driver {
         let (recording, traffic, swarm) = self.ports.intake();
         let mut sink = PoseSink::new(recording, traffic, swarm, &mut poses, record_decoded);
         self.pose_source.drain(&mut sink)?;
-        for (topic, pose) in poses.drain(..) {
+        let numbers = sink.numbers().to_vec();
+        for ((topic, pose), recorded) in poses.drain(..).zip(numbers) {
             self.ports.observe_pose(topic, &pose);
-            self.feed(Input::Pose { topic, pose });
+            let now = self.now();
+            // Logged by its number in the recording: each pose stored once.
+            self.core.handle_pose(now, topic, pose, recorded);
+            self.carry_out();
         }
         self.poses = poses;
         if self.polled_at.is_none_or(|t| t.elapsed() >= POLL_EVERY) {

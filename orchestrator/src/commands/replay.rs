@@ -33,7 +33,16 @@ pub fn run(args: Args) -> Result<i32> {
     // The launch's own core fed the launch's own calls; a recording from
     // before the core's log is re-judged from its poses by the same referee.
     let (replayed, how) = match recorded.core_log() {
-        Some((setup, calls)) => {
+        Some(core_log) => {
+            let calls = core_log.calls;
+            if let Some((robot, n)) = core_log.missing {
+                writeln!(
+                    std::io::stdout().lock(),
+                    "MISMATCH: the core log hands the core a pose that is not on the record: robot {robot}'s pose number {n} (changed or missing)"
+                )?;
+                tracing::error!("the recording's core log names a pose the recording does not hold");
+                return Ok(exit::ERROR);
+            }
             if let Some(pose) = recorded.unrecorded_input(&calls) {
                 let mut out = std::io::stdout().lock();
                 writeln!(
@@ -45,7 +54,10 @@ pub fn run(args: Args) -> Result<i32> {
                 return Ok(exit::ERROR);
             }
             let n = calls.len();
-            (bycoms_launch::core::log::replay(setup, calls).0, format!("the launch core, {n} recorded calls"))
+            (
+                bycoms_launch::core::log::replay(core_log.setup, &calls).0,
+                format!("the launch core, {n} recorded calls"),
+            )
         }
         None => (rejudge(&recorded), "the gate's referee, from the poses (no core log)".to_string()),
     };

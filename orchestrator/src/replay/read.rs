@@ -11,7 +11,10 @@
 //! (`record::Reader`, as `draw` and `record recover` read), its messages
 //! decoded by `record::decode`, so a recording cut short by a crash replays
 //! up to its last complete chunk. Only the launch core's log is decoded
-//! here, by its own codec (`launch::core::log`).
+//! here, by its own codec (`launch::core::log`). The log names each pose
+//! the core was handed by its number on its robot's pose topic (a pose is
+//! stored once), so the pose messages are also kept by topic and number
+//! ([`Recorded::core_log`] puts them back).
 
 use super::ReplayError;
 use bycoms_launch::core::log::{self, Call};
@@ -23,6 +26,7 @@ use bycoms_record::decode::{decode_message, Content};
 use bycoms_record::{Item, Reader};
 use bycoms_sim::Vec2;
 use serde::Deserialize;
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// One record the replay uses.
@@ -76,28 +80,45 @@ pub struct Recorded {
     pub run: RunMeta,
     /// Commands, poses, frames and gate events, in log order.
     pub entries: Vec<Entry>,
+    /// Every message on each robot's pose topic, in file order (none: its
+    /// bytes do not decode): what the core log's pose numbers name.
+    pub poses_on: BTreeMap<u32, Vec<Option<Pose>>>,
     /// Why reading stopped before the footer (a cut file), if it did.
     pub stopped_by: Option<String>,
 }
 
+/// The launch core's log in a recording, its recorded poses put back.
+#[derive(Clone, Debug)]
+pub struct CoreLog {
+    /// The core's setup.
+    pub setup: Setup,
+    /// Every call made on the core, in order (up to a pose not on the record).
+    pub calls: Vec<Call>,
+    /// A pose the log names that the recording does not hold (robot, its
+    /// number on the robot's pose topic): the log is no evidence then.
+    pub missing: Option<(u32, u32)>,
+}
+
 impl Recorded {
     /// The launch core's setup and every call made on it, when the
-    /// recording holds them (recordings since the core's log).
-    pub fn core_log(&self) -> Option<(Setup, Vec<&Call>)> {
+    /// recording holds them (recordings since the core's log), with the
+    /// poses it names by number read back.
+    pub fn core_log(&self) -> Option<CoreLog> {
         let setup = self.entries.iter().find_map(|e| match e {
             Entry::CoreSetup(s) => Some((**s).clone()),
             _ => None,
         })?;
-        let calls = self
+        let logged = self
             .entries
             .iter()
             .filter_map(|e| match e {
                 Entry::CoreCalls(c) => Some(c.iter()),
                 _ => None,
             })
-            .flatten()
-            .collect();
-        Some((setup, calls))
+            .flatten();
+        let on = |robot: u32, n: u32| *self.poses_on.get(&robot)?.get(n as usize)?;
+        let (calls, missing) = log::resolve(logged, on);
+        Some(CoreLog { setup, calls, missing })
     }
 
     /// Whether every pose the core log says the core was handed is on the
@@ -105,7 +126,7 @@ impl Recorded {
     /// are the recorded traffic): the first one that is not, if any. The
     /// recorded poses may hold more (the launch's own relays, seen again
     /// on the bus); the log's must be among them, bit for bit.
-    pub fn unrecorded_input(&self, calls: &[&Call]) -> Option<Pose> {
+    pub fn unrecorded_input(&self, calls: &[Call]) -> Option<Pose> {
         let mut recorded = self.entries.iter().filter_map(|e| match e {
             Entry::Pose(p) => Some(p),
             _ => None,
@@ -134,9 +155,20 @@ impl Recorded {
 pub fn read_recording(path: &Path) -> Result<Recorded, ReplayError> {
     let mut run = None;
     let mut entries = Vec::new();
+    let mut poses_on = BTreeMap::<u32, Vec<Option<Pose>>>::new();
     let end = Reader::open(path)?.stream(|item| {
         let Item::Message { channel, data, .. } = item else { return Ok::<_, ReplayError>(()) };
-        let entry = match decode_message(channel, data) {
+        let content = decode_message(channel, data);
+        if let Some(robot) = pose_topic_robot(&channel.topic) {
+            match &content {
+                Content::Pose(pose) => poses_on.entry(robot).or_default().push(Some(*pose)),
+                Content::Undecodable { schema: bycoms_record::schema::POSE } => {
+                    poses_on.entry(robot).or_default().push(None)
+                }
+                _ => {}
+            }
+        }
+        let entry = match content {
             Content::Run(json) => {
                 let meta = serde_json::from_slice(json).map_err(|e| ReplayError::BadRunMeta {
                     topic: channel.topic.clone(),
@@ -174,5 +206,11 @@ pub fn read_recording(path: &Path) -> Result<Recorded, ReplayError> {
         path: path.to_path_buf(),
         reason: "its run metadata does not parse".into(),
     })?;
-    Ok(Recorded { run, entries, stopped_by: end.stopped_by })
+    Ok(Recorded { run, entries, poses_on, stopped_by: end.stopped_by })
+}
+
+/// Robot k of a pose topic (`bycoms/<swarm>/robot/<k>/pose`).
+fn pose_topic_robot(topic: &str) -> Option<u32> {
+    let robot = bycoms_record::schema::robot_of_topic(topic)?;
+    topic.ends_with(&format!("/robot/{}/pose", robot.0)).then_some(robot.0)
 }

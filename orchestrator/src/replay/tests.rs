@@ -59,7 +59,7 @@ fn two_robots() -> Recorded {
         e.push(pose(1, t, 1.0));
         e.push(pose(2, t, (t - 32) as f64));
     }
-    Recorded { run: run_meta(config), entries: e, stopped_by: None }
+    Recorded { run: run_meta(config), entries: e, poses_on: Default::default(), stopped_by: None }
 }
 
 #[test]
@@ -86,7 +86,12 @@ fn the_time_budget_ends_a_robot_at_its_pose_at_the_limit() {
         tick(&[1], t, &mut e);
         e.push(pose(1, t, 0.1 * (t - 1) as f64));
     }
-    let got = rejudge(&Recorded { run: run_meta(config), entries: e, stopped_by: None });
+    let got = rejudge(&Recorded {
+        run: run_meta(config),
+        entries: e,
+        poses_on: Default::default(),
+        stopped_by: None,
+    });
     // 5 periods of budget: the 6th change (step 7) is one past it, so the
     // pose at the limit is the one before (step 6).
     assert_eq!(got[1], event(1, GateKind::Timeout, 0.5, 6), "{got:?}");

@@ -19,20 +19,81 @@
 //! one message on `bycoms/<swarm>/core/setup`.
 
 use super::{Ending, Input, LaunchCore, Output, Setup};
-use bycoms_protocol::msg::GateEvent;
+use bycoms_protocol::msg::{GateEvent, Pose};
 use serde::{Deserialize, Serialize};
 
 // Their schema names in a recording are `record::schema::{CORE_SETUP,
 // CORE_CALLS}` (postcard of [`Setup`], of `Vec<Call>`), the one list of a
 // recording's schema names.
 
-/// One call a shell made on the core.
+/// One call a shell made on the core. New kinds go at the end: a
+/// recording's log is postcard, which numbers them.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Call {
     /// [`LaunchCore::handle`] at this launch time (µs).
     Handle(u64, Input),
     /// [`LaunchCore::advance`] at this launch time (µs).
     Advance(u64),
+    /// [`LaunchCore::handle`] of a pose that the recording holds already.
+    /// A pose is stored once: the log names it, [`resolve`] reads it back.
+    HandleRecordedPose {
+        /// The launch time (µs).
+        at: u64,
+        /// The robot the pose source saw it for ([`Input::Pose`]'s `topic`).
+        topic: u32,
+        /// Its number (from 0) among the messages recorded on that robot's
+        /// pose topic.
+        number: u32,
+        /// [`fingerprint`] of the pose: a pose on the record that is not
+        /// the one the core was handed (changed, or another) is caught.
+        fingerprint: u32,
+    },
+}
+
+/// A 32-bit fingerprint of a pose's every bit (FNV-1a over its fields):
+/// enough to tell the pose the core was handed from any other on the
+/// record, in 4 bytes instead of the pose's 30 or so. Written here (ten
+/// lines) rather than pulled in as a hashing crate: it must never change,
+/// and it hashes six numbers.
+pub fn fingerprint(pose: &Pose) -> u32 {
+    let words = [
+        u64::from(pose.robot.0),
+        pose.step,
+        pose.time_us,
+        pose.x.to_bits(),
+        pose.y.to_bits(),
+        pose.heading.to_bits(),
+    ];
+    words
+        .iter()
+        .flat_map(|w| w.to_le_bytes())
+        .fold(0x811c_9dc5, |h, b| (h ^ u32::from(b)).wrapping_mul(0x0100_0193))
+}
+
+/// The calls of a log with every recorded pose they name put back
+/// ([`Call::HandleRecordedPose`] → [`Call::Handle`] of an
+/// [`Input::Pose`]), `pose(robot, n)` being the `n`-th message recorded on
+/// robot's pose topic; the first pose the recording does not hold as it
+/// was handed (missing, or not the fingerprinted one), if any, as (robot,
+/// number): the log is no evidence then, and the calls up to it are
+/// returned.
+pub fn resolve<'a>(
+    calls: impl IntoIterator<Item = &'a Call>,
+    mut pose: impl FnMut(u32, u32) -> Option<Pose>,
+) -> (Vec<Call>, Option<(u32, u32)>) {
+    let mut out = Vec::new();
+    for call in calls {
+        match call {
+            Call::HandleRecordedPose { at, topic, number, fingerprint: f } => {
+                match pose(*topic, *number).filter(|p| fingerprint(p) == *f) {
+                    Some(pose) => out.push(Call::Handle(*at, Input::Pose { topic: *topic, pose })),
+                    None => return (out, Some((*topic, *number))),
+                }
+            }
+            other => out.push(other.clone()),
+        }
+    }
+    (out, None)
 }
 
 /// The setup's bytes in a recording: the setup, then its supervision
@@ -91,6 +152,20 @@ impl Logged {
         self.core.handle(now, input);
     }
 
+    /// [`LaunchCore::handle`] of robot `topic`'s pose, logged by reference
+    /// when the recording holds it as the `recorded`-th message of the
+    /// robot's pose topic ([`Call::HandleRecordedPose`]).
+    pub fn handle_pose(&mut self, now: u64, topic: u32, pose: Pose, recorded: Option<u32>) {
+        match recorded {
+            Some(number) if self.on => {
+                let fingerprint = fingerprint(&pose);
+                self.calls.push(Call::HandleRecordedPose { at: now, topic, number, fingerprint });
+                self.core.handle(now, Input::Pose { topic, pose });
+            }
+            _ => self.handle(now, Input::Pose { topic, pose }),
+        }
+    }
+
     /// [`LaunchCore::advance`], logged.
     pub fn advance(&mut self, now: u64) {
         if self.on {
@@ -137,6 +212,8 @@ pub fn replay<'a>(
         match call {
             Call::Handle(now, input) => core.handle(*now, input.clone()),
             Call::Advance(now) => core.advance(*now),
+            // Resolved first ([`resolve`]); one that is not names no pose.
+            Call::HandleRecordedPose { .. } => continue,
         }
         drain(&mut core);
     }
@@ -196,6 +273,45 @@ mod tests {
         assert!(!decoded.clocks.on());
         assert_eq!(decoded, Setup { clocks: Default::default(), ..setup.clone() });
         assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
+    }
+
+    /// A log that names its poses by their number on their robot's pose
+    /// topic (as a recording's does) resolves to the log that held them,
+    /// in fewer bytes; one naming a pose the record lacks says which.
+    #[test]
+    fn poses_named_by_their_number_resolve_to_the_same_calls() {
+        use std::collections::BTreeMap;
+        let case = Case::small(5);
+        let (_, _, calls) = harness::run_logged(&case, &Schedule::clean(5, case.robots));
+        let mut on: BTreeMap<u32, Vec<Pose>> = BTreeMap::new();
+        let named: Vec<Call> = calls
+            .iter()
+            .map(|c| match c {
+                Call::Handle(now, Input::Pose { topic, pose }) => {
+                    let list = on.entry(*topic).or_default();
+                    list.push(*pose);
+                    let (number, fingerprint) = (list.len() as u32 - 1, fingerprint(pose));
+                    Call::HandleRecordedPose { at: *now, topic: *topic, number, fingerprint }
+                }
+                other => other.clone(),
+            })
+            .collect();
+        assert!(on.values().map(Vec::len).sum::<usize>() > 10, "the run hands poses");
+        let named = decode_calls(&encode_calls(&named)).expect("decodes");
+        assert!(encode_calls(&named).len() < encode_calls(&calls).len());
+        let (resolved, missing) = resolve(&named, |robot, n| on.get(&robot)?.get(n as usize).copied());
+        assert_eq!((resolved, missing), (calls.clone(), None));
+        let (cut, missing) =
+            resolve(&named, |robot, n| if robot == 1 { None } else { Some(on[&robot][n as usize]) });
+        assert_eq!(missing, Some((1, 0)));
+        assert!(cut.len() < calls.len());
+        // A pose on the record that is not the one handed: its bits changed.
+        let moved = |robot: u32, n: u32| {
+            let mut p = on[&robot][n as usize];
+            p.x += if robot == 2 && n == 3 { 0.001 } else { 0.0 };
+            Some(p)
+        };
+        assert_eq!(resolve(&named, moved).1, Some((2, 3)));
     }
 
     /// A replay that is handed other inputs reaches other decisions: the

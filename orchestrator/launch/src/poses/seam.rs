@@ -52,6 +52,11 @@ pub struct PoseSink<'a> {
     poses: &'a mut Vec<(u32, Pose)>,
     record_decoded: bool,
     recorded: u64,
+    /// For each handed pose, its number on its topic in the recording's
+    /// file, if it is written there ([`Recording::message`]).
+    numbers: Vec<Option<u32>>,
+    /// The number of the last raw message, for the pose decoded from it.
+    last_raw: Option<u32>,
 }
 
 const WHO: &str = "launch";
@@ -66,37 +71,57 @@ impl<'a> PoseSink<'a> {
         poses: &'a mut Vec<(u32, Pose)>,
         record_decoded: bool,
     ) -> Self {
-        Self { recording, traffic, swarm, poses, record_decoded, recorded: 0 }
+        Self {
+            recording,
+            traffic,
+            swarm,
+            poses,
+            record_decoded,
+            recorded: 0,
+            numbers: Vec::new(),
+            last_raw: None,
+        }
     }
 
     /// One pose of robot `robot` as the source saw it.
     pub fn pose(&mut self, robot: u32, pose: Pose) {
-        if self.record_decoded {
-            let mut buf = [0u8; MAX_MESSAGE_LEN];
-            match encode(&pose, &mut buf) {
-                Ok(bytes) => {
-                    let topic = self.swarm.pose(RobotId(robot));
-                    self.recording.message(
-                        topic.name().as_str(),
-                        schema::POSE,
-                        bytes,
-                        Some(Seen::Pose(pose)),
-                    );
-                    self.recorded += 1;
-                }
-                // A pose always fits one message; should it not, it is
-                // still judged, and the failure shows in the log.
-                Err(e) => tracing::warn!(robot, "cannot record a pose: {e}"),
+        let number = match self.record_decoded {
+            true => self.record(robot, pose),
+            false => self.last_raw.take(),
+        };
+        self.poses.push((robot, pose));
+        self.numbers.push(number);
+    }
+
+    /// Records a decoded pose on robot `robot`'s pose topic; its number there.
+    fn record(&mut self, robot: u32, pose: Pose) -> Option<u32> {
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        match encode(&pose, &mut buf) {
+            Ok(bytes) => {
+                let topic = self.swarm.pose(RobotId(robot));
+                self.recorded += 1;
+                self.recording.message(topic.name().as_str(), schema::POSE, bytes, Some(Seen::Pose(pose)))
+            }
+            // A pose always fits one message; should it not, it is
+            // still judged, and the failure shows in the log.
+            Err(e) => {
+                tracing::warn!(robot, "cannot record a pose: {e}");
+                None
             }
         }
-        self.poses.push((robot, pose));
+    }
+
+    /// For each pose handed so far, in order, its number on its robot's
+    /// pose topic in the recording's file (none: not written there).
+    pub fn numbers(&self) -> &[Option<u32>] {
+        &self.numbers
     }
 
     /// The bytes of one message as they crossed the bus on `topic`, and
     /// the pose they decode to, if they do (bus sources only; the pose is
     /// then handed over with [`Self::pose`]).
     pub fn raw(&mut self, topic: &str, bytes: &[u8], decoded: Option<&Pose>) {
-        self.recording.message(topic, schema::POSE, bytes, decoded.copied().map(Seen::Pose));
+        self.last_raw = self.recording.message(topic, schema::POSE, bytes, decoded.copied().map(Seen::Pose));
         self.recorded += 1;
     }
 

@@ -75,6 +75,9 @@ pub struct Recording {
     /// The scene's output, filled by the writer, taken by the loop.
     shown: Arc<Mutex<Vec<Out>>>,
     trace: Option<Trace>,
+    /// Pose messages written to the file so far, per pose topic: the
+    /// number the core's log names a recorded pose by.
+    poses_on: BTreeMap<String, u32>,
 }
 
 /// The loop's end of the writer thread.
@@ -125,7 +128,14 @@ impl Queue {
 impl Recording {
     /// No recording, no picture.
     pub fn off() -> Self {
-        Self { queue: None, file: false, simulated_ns: None, shown: Arc::default(), trace: None }
+        Self {
+            queue: None,
+            file: false,
+            simulated_ns: None,
+            shown: Arc::default(),
+            trace: None,
+            poses_on: BTreeMap::new(),
+        }
     }
 
     /// The run's scene for `swarm` on `world` with `cfg`, when anyone shows
@@ -260,10 +270,13 @@ impl Recording {
 
     /// Records one bus message, byte for byte, with what the launch decoded
     /// of it: the scene (on the writer's thread) and the picture's trace
-    /// (here) are folded from that, never from the bytes again.
-    pub fn message(&mut self, topic: &str, schema: &str, payload: &[u8], seen: Option<Seen>) {
+    /// (here) are folded from that, never from the bytes again. A pose
+    /// message written to the file gets its number on its topic (from 0,
+    /// in file order, whether it decodes or not): how the core's log names
+    /// it (`core::log::Call::HandleRecordedPose`) instead of storing it again.
+    pub fn message(&mut self, topic: &str, schema: &str, payload: &[u8], seen: Option<Seen>) -> Option<u32> {
         if self.queue.is_none() && self.trace.is_none() {
-            return;
+            return None;
         }
         let now = self.now();
         if let (Some(trace), Some(seen)) = (self.trace.as_mut(), &seen) {
@@ -273,9 +286,18 @@ impl Recording {
                 Seen::Report(_) => {}
             }
         }
-        if let Some(batch) = self.batch() {
-            batch.bus(now, topic, schema, payload, seen);
+        let file = self.file;
+        let batch = self.batch()?;
+        batch.bus(now, topic, schema, payload, seen);
+        if !(file && schema == schema::POSE) {
+            return None;
         }
+        let count = match self.poses_on.get_mut(topic) {
+            Some(count) => count,
+            None => self.poses_on.entry(topic.to_owned()).or_default(),
+        };
+        *count += 1;
+        Some(*count - 1)
     }
 
     /// Records one JSON message on a channel whose schema is `T`'s JSON
