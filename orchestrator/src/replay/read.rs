@@ -163,7 +163,7 @@ pub fn read_recording(path: &Path) -> Result<Recorded, ReplayError> {
             match &content {
                 Content::Pose(pose) => poses_on.entry(robot).or_default().push(Some(*pose)),
                 Content::Undecodable { schema: bycoms_record::schema::POSE } => {
-                    poses_on.entry(robot).or_default().push(None)
+                    poses_on.entry(robot).or_default().push(None);
                 }
                 _ => {}
             }
