@@ -168,33 +168,21 @@ impl RemoteLivelinessFixture {
     fn new() -> Self {
         // zenoh's default lease (10 s): no token goes unless withdrawn,
         // however busy the machine.
-        let mut last = None;
-        for _ in 0..5 {
-            let port = std::net::TcpListener::bind("127.0.0.1:0")
-                .and_then(|l| l.local_addr())
-                .expect("a free port")
-                .port();
-            let endpoint = format!("tcp/127.0.0.1:{port}");
-            let router =
-                ZenohConfig { mode: Mode::Router, listen: vec![endpoint.clone()], ..Default::default() };
-            match ZenohBus::open(router) {
-                Ok(router) => {
-                    let peer =
-                        ZenohConfig { mode: Mode::Peer, connect: vec![endpoint], ..Default::default() };
-                    let peer = ZenohBus::open(peer).expect("peer session");
-                    return Self {
-                        router,
-                        peer,
-                        sources: Cell::new(0),
-                        current: RefCell::new(None),
-                        tokens: RefCell::new(Vec::new()),
-                    };
-                }
-                // The port was taken in between: another one.
-                Err(e) => last = Some(e),
-            }
+        let config = |endpoint: &str| ZenohConfig {
+            mode: Mode::Router,
+            listen: vec![endpoint.to_owned()],
+            ..Default::default()
+        };
+        let (router, endpoint) = ZenohBus::loopback_router(config).expect("a router on a free loopback port");
+        let peer = ZenohConfig { mode: Mode::Peer, connect: vec![endpoint], ..Default::default() };
+        let peer = ZenohBus::open(peer).expect("peer session");
+        Self {
+            router,
+            peer,
+            sources: Cell::new(0),
+            current: RefCell::new(None),
+            tokens: RefCell::new(Vec::new()),
         }
-        panic!("no router could listen: {last:?}");
     }
 }
 

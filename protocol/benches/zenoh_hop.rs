@@ -31,27 +31,19 @@ use bycoms_protocol::bus::{Bus, Publish, Subscribe};
 use bycoms_protocol::{TopicName, MAX_MESSAGE_LEN};
 use common::{figures, names, payload, ping_pong, us, WAIT};
 use core::time::Duration;
-use std::net::TcpListener;
 use std::sync::mpsc;
 use std::time::Instant;
 use zenoh::Wait as _;
 
 /// A router on a free loopback port and its endpoint.
 fn router(low_latency: bool) -> (ZenohBus, String) {
-    for _ in 0..5 {
-        let port = TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).expect("free port").port();
-        let endpoint = format!("tcp/127.0.0.1:{port}");
-        let config = ZenohConfig {
-            mode: Mode::Router,
-            listen: vec![endpoint.clone()],
-            low_latency,
-            ..ZenohConfig::default()
-        };
-        if let Ok(bus) = ZenohBus::open(config) {
-            return (bus, endpoint);
-        }
-    }
-    panic!("no router could listen");
+    let config = |endpoint: &str| ZenohConfig {
+        mode: Mode::Router,
+        listen: vec![endpoint.to_owned()],
+        low_latency,
+        ..ZenohConfig::default()
+    };
+    ZenohBus::loopback_router(config).expect("a router on a free loopback port")
 }
 
 fn peer_config(endpoint: &str, low_latency: bool) -> ZenohConfig {

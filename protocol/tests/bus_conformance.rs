@@ -98,7 +98,6 @@ mod ipc_config {
 mod zenoh_backends {
     use bycoms_protocol::bus::zenoh::{Mode, ZenohBus, ZenohConfig};
     use bycoms_protocol::bus::Limits;
-    use std::net::TcpListener;
     use std::sync::OnceLock;
 
     /// One router-mode session without links, shared by every call: all
@@ -121,24 +120,12 @@ mod zenoh_backends {
     fn router_endpoint() -> &'static str {
         static ROUTER: OnceLock<(ZenohBus, String)> = OnceLock::new();
         let (_, endpoint) = ROUTER.get_or_init(|| {
-            let mut last = None;
-            for _ in 0..5 {
-                let port = TcpListener::bind("127.0.0.1:0")
-                    .and_then(|l| l.local_addr())
-                    .expect("a free port")
-                    .port();
-                let endpoint = format!("tcp/127.0.0.1:{port}");
-                let config = ZenohConfig {
-                    mode: Mode::Router,
-                    listen: vec![endpoint.clone()],
-                    ..ZenohConfig::default()
-                };
-                match ZenohBus::open(config) {
-                    Ok(bus) => return (bus, endpoint),
-                    Err(e) => last = Some(e),
-                }
-            }
-            panic!("no router could listen: {last:?}")
+            let config = |endpoint: &str| ZenohConfig {
+                mode: Mode::Router,
+                listen: vec![endpoint.to_owned()],
+                ..ZenohConfig::default()
+            };
+            ZenohBus::loopback_router(config).expect("a router on a free loopback port")
         });
         endpoint
     }

@@ -27,21 +27,13 @@ fn free_port() -> u16 {
 
 /// A router listening on a free loopback port, and its endpoint.
 fn router() -> (ZenohBus, String) {
-    let mut last = None;
-    for _ in 0..5 {
-        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-        let config = ZenohConfig {
-            mode: Mode::Router,
-            listen: vec![endpoint.clone()],
-            congestion: BLOCK,
-            ..ZenohConfig::default()
-        };
-        match ZenohBus::open(config) {
-            Ok(bus) => return (bus, endpoint),
-            Err(e) => last = Some(e),
-        }
-    }
-    panic!("no router could listen: {last:?}")
+    let config = |endpoint: &str| ZenohConfig {
+        mode: Mode::Router,
+        listen: vec![endpoint.to_owned()],
+        congestion: BLOCK,
+        ..ZenohConfig::default()
+    };
+    ZenohBus::loopback_router(config).expect("a router on a free loopback port")
 }
 
 fn peer_of(endpoint: &str) -> ZenohBus {

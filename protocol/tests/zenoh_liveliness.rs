@@ -15,14 +15,9 @@ use bycoms_protocol::bus::zenoh::{
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{RobotId, Swarm};
 use core::time::Duration;
-use std::net::TcpListener;
 use std::time::Instant;
 
 const WAIT: Duration = Duration::from_secs(5);
-
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).expect("a free port").port()
-}
 
 fn router_on(endpoint: &str) -> Result<ZenohBus, bycoms_protocol::bus::BusError> {
     ZenohBus::open(ZenohConfig {
@@ -35,15 +30,13 @@ fn router_on(endpoint: &str) -> Result<ZenohBus, bycoms_protocol::bus::BusError>
 
 /// A router listening on a free loopback port, and its endpoint.
 fn router() -> (ZenohBus, String) {
-    let mut last = None;
-    for _ in 0..5 {
-        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-        match router_on(&endpoint) {
-            Ok(bus) => return (bus, endpoint),
-            Err(e) => last = Some(e),
-        }
-    }
-    panic!("no router could listen: {last:?}")
+    let config = |endpoint: &str| ZenohConfig {
+        mode: Mode::Router,
+        listen: vec![endpoint.to_owned()],
+        liveness: Some(Liveness::FAST),
+        ..ZenohConfig::default()
+    };
+    ZenohBus::loopback_router(config).expect("a router on a free loopback port")
 }
 
 fn peer_of(endpoint: &str) -> ZenohBus {

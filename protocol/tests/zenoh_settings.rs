@@ -13,26 +13,16 @@ use bycoms_protocol::bus::zenoh::settings::SettingsAnswer;
 use bycoms_protocol::bus::zenoh::{Mode, ZenohBus, ZenohConfig};
 use bycoms_protocol::{RobotId, Swarm};
 use core::time::Duration;
-use std::net::TcpListener;
 use std::time::Instant;
-
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).expect("a free port").port()
-}
 
 /// A router listening on a free loopback port, and its endpoint.
 fn router() -> (ZenohBus, String) {
-    let mut last = None;
-    for _ in 0..5 {
-        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-        let config =
-            ZenohConfig { mode: Mode::Router, listen: vec![endpoint.clone()], ..ZenohConfig::default() };
-        match ZenohBus::open(config) {
-            Ok(bus) => return (bus, endpoint),
-            Err(e) => last = Some(e),
-        }
-    }
-    panic!("no router could listen: {last:?}")
+    let config = |endpoint: &str| ZenohConfig {
+        mode: Mode::Router,
+        listen: vec![endpoint.to_owned()],
+        ..ZenohConfig::default()
+    };
+    ZenohBus::loopback_router(config).expect("a router on a free loopback port")
 }
 
 fn client_of(endpoint: &str) -> ZenohBus {

@@ -109,6 +109,27 @@ impl ZenohBus {
         Ok(Self { session, config: Arc::new(config), next_publisher: Arc::default(), session_tag })
     }
 
+    /// A router listening on a free loopback TCP port, and its endpoint
+    /// (tests, benches): `config` makes the router's settings for the
+    /// endpoint tried. A port that is free when asked may be taken by
+    /// another process before zenoh binds it (tests run side by side), so
+    /// a few ports are tried; the last error if none could be bound.
+    pub fn loopback_router(config: impl Fn(&str) -> ZenohConfig) -> Result<(Self, String), BusError> {
+        let mut last = BusError::InvalidConfig("no loopback port tried");
+        for _ in 0..5 {
+            let port = std::net::TcpListener::bind((core::net::Ipv4Addr::LOCALHOST, 0))
+                .and_then(|l| l.local_addr())
+                .map_err(|e| BusError::backend("find a free loopback port", None, e))?
+                .port();
+            let endpoint = format!("tcp/127.0.0.1:{port}");
+            match Self::open(config(&endpoint)) {
+                Ok(bus) => return Ok((bus, endpoint)),
+                Err(e) => last = e,
+            }
+        }
+        Err(last)
+    }
+
     /// The zenoh session (for liveliness, raw access, the benchmark).
     pub fn session(&self) -> &::zenoh::Session {
         &self.session

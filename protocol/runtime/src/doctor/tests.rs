@@ -162,19 +162,12 @@ fn reach(endpoint: &str, swarm: &str, ms: u64) -> zenoh::Reach {
 /// is free when asked, but another process may take it before zenoh binds
 /// it (tests run side by side): a few ports are tried.
 fn router() -> (ZenohBus, String) {
-    let mut last = None;
-    for _ in 0..5 {
-        let port =
-            TcpListener::bind((Ipv4Addr::LOCALHOST, 0)).and_then(|l| l.local_addr()).expect("port").port();
-        let listen = format!("tcp/127.0.0.1:{port}");
-        let config =
-            ZenohConfig { mode: Mode::Router, listen: vec![listen.clone()], ..ZenohConfig::default() };
-        match ZenohBus::open(config) {
-            Ok(bus) => return (bus, listen),
-            Err(e) => last = Some(e),
-        }
-    }
-    panic!("no router could listen: {last:?}")
+    let config = |endpoint: &str| ZenohConfig {
+        mode: Mode::Router,
+        listen: vec![endpoint.to_owned()],
+        ..ZenohConfig::default()
+    };
+    ZenohBus::loopback_router(config).expect("a router on a free loopback port")
 }
 
 #[test]
