@@ -158,29 +158,16 @@ mod tests {
 
     #[test]
     fn summaries_count_in_words_with_the_right_plural() {
-        assert_eq!(
-            summary_line(&result(RunOutcome::Arrived, 2, 1)),
-            "robot 2 arrived after 1.0 s (1 beacon)"
-        );
-        assert_eq!(
-            summary_line(&result(RunOutcome::Arrived, 1, 0)),
-            "robot 1 arrived after 1.0 s (0 beacons)"
-        );
-        assert_eq!(
-            summary_line(&result(RunOutcome::TimeLimit, 1, 0)),
-            "no robot arrived within 1 s (1 robot, 0 beacons)"
-        );
-        assert_eq!(
-            summary_line(&result(RunOutcome::TimeLimit, 3, 2)),
-            "no robot arrived within 1 s (3 robots, 2 beacons)"
-        );
-        assert_eq!(
-            summary_line(&result(RunOutcome::RobotsExhausted, 1, 1)),
-            "the only robot got stuck after 1.0 s"
-        );
-        assert_eq!(
-            summary_line(&result(RunOutcome::RobotsExhausted, 4, 4)),
-            "all 4 robots got stuck after 1.0 s"
-        );
+        let cases = [
+            (RunOutcome::Arrived, 2, 1, "robot 2 arrived after 1.0 s (1 beacon)"),
+            (RunOutcome::Arrived, 1, 0, "robot 1 arrived after 1.0 s (0 beacons)"),
+            (RunOutcome::TimeLimit, 1, 0, "no robot arrived within 1 s (1 robot, 0 beacons)"),
+            (RunOutcome::TimeLimit, 3, 2, "no robot arrived within 1 s (3 robots, 2 beacons)"),
+            (RunOutcome::RobotsExhausted, 1, 1, "the only robot got stuck after 1.0 s"),
+            (RunOutcome::RobotsExhausted, 4, 4, "all 4 robots got stuck after 1.0 s"),
+        ];
+        for (outcome, robots_used, beacons, said) in cases {
+            assert_eq!(summary_line(&result(outcome, robots_used, beacons)), said);
+        }
     }
 }
