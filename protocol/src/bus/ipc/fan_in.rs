@@ -28,7 +28,7 @@
 //! doorbells about seven times a tick (issue 35).
 
 use super::ports::{
-    event_wait, member_event_id, pubsub_service, service_name, wait_for, waker, Slept, Waker,
+    event_wait, member_event_id, pubsub_service, service_name, wait_for, waker, Bells, Slept, Waker,
     EVENT_WAIT_SLICE, EVERY_MEMBER,
 };
 use super::IpcConfig;
@@ -53,6 +53,7 @@ pub(super) fn open_fan_in<S: IoxService>(
     node: &Node<S>,
     config: &IpcConfig,
     topics: &[TopicName],
+    bells: &Bells<S>,
 ) -> Result<IpcFanIn<S>, BusError> {
     let Some(first) = topics.first() else {
         return Err(BusError::InvalidConfig("a fan-in needs at least one topic"));
@@ -83,7 +84,7 @@ pub(super) fn open_fan_in<S: IoxService>(
     Ok(IpcFanIn {
         subscribers,
         members,
-        waker: waker(node, config, &bell, Some(EVERY_MEMBER))?,
+        waker: waker(node, config, &bell, Some(EVERY_MEMBER), bells)?,
         bell,
         rang: RefCell::new(VecDeque::new()),
         round: Cell::new(true),
