@@ -2,7 +2,8 @@
 //!
 //! Why without the gate: the question is what the machine sustains, not
 //! what a run needs (a run moves one robot at a time). `N` agents are
-//! started on the real-time clock, all deployed at once on an empty arena
+//! started on the real-time clock, all deployed within one period (their
+//! phases spread, as robots deployed one by one) on an empty arena
 //! with no peers (so each step is the controller plus its body, as in a
 //! run), and watched for a while. A period counts as missed when an agent's
 //! pose frame number jumps (the agent skips a period whose deadline passed
@@ -84,8 +85,16 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
     let start_s = started.elapsed().as_secs_f64();
     let (start, goal) = (terrain.start(), terrain.goal());
     let heading = start.bearing_to(goal);
+    // Spread over one period: an agent's periods run from its deployment,
+    // and a thousand deployed at once would all wake at the same instants
+    // (0.21 % of periods missed against 0.002 % spread, 20 s at load 150),
+    // where real robots, deployed one by one, keep their own phases.
+    let period = Duration::from_secs_f64(0.1 / speed);
+    let deploying = Instant::now();
     for (i, c) in commands.iter().enumerate() {
         let robot = RobotId(i as u32 + 1);
+        let at = deploying + period.mul_f64(i as f64 / f64::from(agents));
+        std::thread::sleep(at.saturating_duration_since(Instant::now()));
         c.publish(&ToAgent::Deploy(Deploy { robot, x: start.x, y: start.y, heading }))?;
         c.publish(&ToAgent::GoalBearing(GoalBearing { robot, bearing: heading, step: 0 }))?;
     }

@@ -166,11 +166,11 @@ impl<S: IoxService> Bus for IceoryxBus<S> {
     }
 
     fn subscriber(&self, topic: &TopicName) -> Result<IpcSubscriber<S>, BusError> {
-        ports::open_subscriber(&self.node, &self.config, topic, &ports::service_name(topic)?)
+        ports::open_subscriber(&self.node, &self.config, topic, &ports::service_name(topic)?, &self.bells)
     }
 
     fn fan_in(&self, topics: &[TopicName]) -> Result<IpcFanIn<S>, BusError> {
-        fan_in::open_fan_in(&self.node, &self.config, topics)
+        fan_in::open_fan_in(&self.node, &self.config, topics, &self.bells)
     }
 
     fn limits(&self) -> Limits {

@@ -74,6 +74,21 @@ pub struct Counts {
     pub stale_bearings: u64,
 }
 
+/// Real time: the clock of an agent's control periods, which runs from its
+/// robot's deployment. Why not from its start: a robot not in the arena
+/// has nothing to step, and a thousand agents waiting for their turn that
+/// each woke ten times a second (and busy-waited before each period) took
+/// the cores the others needed to start (`bench scale`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Periods {
+    /// Lockstep, or not deployed yet: no periods.
+    Off,
+    /// Just deployed: the clock starts at the next time it is given.
+    Starting,
+    /// Running since `t0`; `next` is the number of the next period.
+    Running { t0: u64, next: u64 },
+}
+
 /// One agent's message rules around its robot.
 pub struct SimAgentCore {
     robot: RobotCore,
@@ -82,8 +97,11 @@ pub struct SimAgentCore {
     heartbeat_seq: u64,
     /// When it next beats (none: not started).
     next_heartbeat: Option<u64>,
-    /// Real time: its clock's start and the number of the next period.
-    realtime: Option<(u64, u64)>,
+    /// Real time: its periods' clock.
+    periods: Periods,
+    /// The latest time it was given (a just-deployed robot's clock starts
+    /// no earlier).
+    seen: u64,
     tick: u64,
     /// Whether the orchestrator has sent it anything yet; until it has,
     /// every heartbeat repeats the `Register` (it may have been lost).
@@ -101,7 +119,8 @@ impl SimAgentCore {
             counts: Counts::default(),
             heartbeat_seq: 0,
             next_heartbeat: None,
-            realtime: None,
+            periods: Periods::Off,
+            seen: 0,
             tick: 0,
             heard: false,
             deployed: None,
@@ -133,13 +152,11 @@ impl SimAgentCore {
         self.rules.failsafe_grace_ms = ms;
     }
 
-    /// Starts at `now`: registers and beats; a real-time clock starts here.
+    /// Starts at `now`: registers and beats. A real-time clock starts at
+    /// the robot's deployment ([`Periods`]).
     pub fn start(&mut self, now: u64, out: &mut Vec<Said>) {
         out.push(Said::Report(FromAgent::Register(self.register())));
         self.next_heartbeat = Some(now);
-        if self.rules.clock == Clock::Realtime {
-            self.realtime = Some((now, 1));
-        }
         self.beat_if_due(now, out);
     }
 
@@ -148,10 +165,17 @@ impl SimAgentCore {
         self.next_heartbeat
     }
 
-    /// Real time: when its next period is due (none: lockstep, not started).
+    /// Real time: when its next period is due (none: lockstep, or its
+    /// robot not deployed yet); just deployed, at once: its clock starts
+    /// at the next time it is given ([`Self::period_if_due`]).
     pub fn next_period(&self) -> Option<u64> {
-        let (t0, next) = self.realtime?;
-        Some(t0.saturating_add(self.rules.period_us.max(1).saturating_mul(next)))
+        match self.periods {
+            Periods::Off => None,
+            Periods::Starting => Some(self.seen),
+            Periods::Running { t0, next } => {
+                Some(t0.saturating_add(self.rules.period_us.max(1).saturating_mul(next)))
+            }
+        }
     }
 
     /// Its next timer: a heartbeat or a real-time period.
@@ -173,6 +197,7 @@ impl SimAgentCore {
     /// A heartbeat if one is due at `now` (with a `Register` before it
     /// while the orchestrator has said nothing: it may have been lost).
     pub fn beat_if_due(&mut self, now: u64, out: &mut Vec<Said>) {
+        self.seen = self.seen.max(now);
         match self.next_heartbeat {
             Some(due) if now >= due => {}
             _ => return,
@@ -188,19 +213,28 @@ impl SimAgentCore {
     }
 
     /// Real time: the period due at `now`, if one is, numbered by the time
-    /// since its clock started; the periods it was late for are skipped and
-    /// counted as missed (the frame number in the pose jumps), as on a real
-    /// robot. Returns whether a period ran.
+    /// since its clock started (at the deployment: the start pose is period
+    /// 0); the periods it was late for are skipped and counted as missed
+    /// (the frame number in the pose jumps), as on a real robot. Returns
+    /// whether a period ran.
     pub fn period_if_due(&mut self, now: u64, out: &mut Vec<Said>) -> bool {
-        let (Some(due), Some((t0, next))) = (self.next_period(), self.realtime) else { return false };
-        if now < due {
+        self.seen = self.seen.max(now);
+        let (t0, next) = match self.periods {
+            Periods::Off => return false,
+            Periods::Starting => {
+                self.periods = Periods::Running { t0: now, next: 1 };
+                return false;
+            }
+            Periods::Running { t0, next } => (t0, next),
+        };
+        if self.next_period().is_some_and(|due| now < due) {
             return false;
         }
         let index = (now - t0) / self.rules.period_us.max(1);
         self.counts.missed += index.saturating_sub(next);
         self.counts.periods += 1;
         self.period(index, out);
-        self.realtime = Some((t0, index.saturating_add(1)));
+        self.periods = Periods::Running { t0, next: index.saturating_add(1) };
         true
     }
 
@@ -249,6 +283,9 @@ impl SimAgentCore {
             // it wakes an orchestrator waiting on reports.
             Ok(()) => {
                 self.deployed = Some(*d);
+                if self.rules.clock == Clock::Realtime {
+                    self.periods = Periods::Starting;
+                }
                 self.answer_deploy(out);
             }
             // The same `Deploy` again (re-sent when its answer was lost):

@@ -8,7 +8,9 @@
 //! [`SLICE`] before checking its [`Lifeline`] and its heartbeat timer —
 //! except a parked robot's agent (it gets no more ticks), which waits until
 //! its next heartbeat, slower than a moving robot's (`--parked-heartbeat-ms`,
-//! at most 1 s from a launch): a `Shutdown` still wakes it at once.
+//! at most 1 s from a launch), and a real-time agent whose robot is not
+//! deployed yet, until its next heartbeat: a command (`Deploy`, `Shutdown`)
+//! still wakes either at once.
 //!
 //! The beacons of its field come on its command topic
 //! ([`ToAgent::Beacon`]), before the `Deploy` and in order with the ticks.
@@ -22,9 +24,12 @@
 //!
 //! Lockstep: a period is a `Tick` from the orchestrator; the goal bearing for
 //! step `t` precedes `Tick(t)` on the same topic. Real time: a period is due
-//! every `0.1 s / speed` of wall time; a period whose deadline has passed
-//! before the agent got to it is skipped and counted as missed (the frame
-//! number in the pose jumps), as it would be on a real robot.
+//! every `0.1 s / speed` of wall time from the robot's deployment; a period
+//! whose deadline has passed before the agent got to it is skipped and
+//! counted as missed (the frame number in the pose jumps), as it would be on
+//! a real robot. Until its robot is deployed a real-time agent only beats:
+//! it sleeps on its commands until its next heartbeat, without the
+//! busy-wait, like a parked one.
 
 use super::core::{Reject, RobotCore};
 use super::options::Clock;
@@ -312,7 +317,15 @@ impl<B: Bus> Agent<B> {
                 }
                 continue;
             }
-            let due = self.instant(self.core.next_period().unwrap_or(now));
+            let Some(next) = self.core.next_period() else {
+                // Not deployed yet: nothing to step until the `Deploy`,
+                // which wakes it; until then it only beats.
+                if let Received::Exit(cause) = self.receive(self.until_heartbeat(), true)? {
+                    return Ok(cause);
+                }
+                continue;
+            };
+            let due = self.instant(next);
             let left = due.saturating_duration_since(Instant::now());
             if left > PRECISE {
                 if let Received::Exit(cause) = self.receive((left - PRECISE).min(SLICE), false)? {
@@ -325,6 +338,13 @@ impl<B: Bus> Agent<B> {
                 std::thread::sleep(due.saturating_duration_since(Instant::now()));
             }
         }
+    }
+
+    /// The wait until the next heartbeat (at least [`PRECISE`]: the
+    /// listener's timeout is coarse anyway).
+    fn until_heartbeat(&self) -> Duration {
+        let at = self.core.next_heartbeat().map_or(Instant::now() + SLICE, |at| self.instant(at));
+        at.saturating_duration_since(Instant::now()).max(PRECISE)
     }
 
     /// Handles every command already waiting; the exit cause if one says so.

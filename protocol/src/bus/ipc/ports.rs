@@ -130,18 +130,43 @@ pub(super) fn open_publisher<S: IoxService>(
 }
 
 /// The shared ringers of a bus's doorbell families, one per family (see
-/// [`Bell`]), made when the bus's first publisher of the family opens.
+/// [`Bell`]), made when the bus's first publisher of the family opens; and
+/// the families' event services, opened once per bus and shared by its
+/// ringers and readers.
+///
+/// Why the services are shared: iceoryx2 keeps two files open per service
+/// handle (its static and dynamic parts), and none close-on-exec; a bus
+/// whose every subscriber opened its doorbell's service held 2 000 more
+/// files at 1000 robots (`bench scale`'s pose readers), which every agent
+/// it started inherited and closed (issue 35).
 pub(super) struct Bells<S: IoxService> {
     open: Mutex<std::collections::HashMap<TopicName, Arc<Bell<S>>>>,
+    services: Mutex<std::collections::HashMap<TopicName, Arc<event::PortFactory<S>>>>,
 }
 
 impl<S: IoxService> Default for Bells<S> {
     fn default() -> Self {
-        Self { open: Mutex::new(std::collections::HashMap::new()) }
+        Self { open: Mutex::new(Default::default()), services: Mutex::new(Default::default()) }
     }
 }
 
 impl<S: IoxService> Bells<S> {
+    /// The event service of `doorbell`, opened on the first call.
+    pub(super) fn service(
+        &self,
+        node: &Node<S>,
+        config: &IpcConfig,
+        doorbell: &TopicName,
+    ) -> Result<Arc<event::PortFactory<S>>, BusError> {
+        let mut services = self.services.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some(service) = services.get(doorbell) {
+            return Ok(Arc::clone(service));
+        }
+        let service = Arc::new(event_service(node, config, doorbell, &service_name(doorbell)?)?);
+        services.insert(*doorbell, Arc::clone(&service));
+        Ok(service)
+    }
+
     /// The ringer of `topic`'s doorbell family.
     fn bell(&self, node: &Node<S>, config: &IpcConfig, topic: &TopicName) -> Result<Arc<Bell<S>>, BusError> {
         let doorbell = topic.doorbell();
@@ -149,7 +174,7 @@ impl<S: IoxService> Bells<S> {
         if let Some(bell) = open.get(&doorbell) {
             return Ok(Arc::clone(bell));
         }
-        let service = event_service(node, config, &doorbell, &service_name(&doorbell)?)?;
+        let service = self.service(node, config, &doorbell)?;
         let notifier = service
             .notifier_builder()
             .create()
@@ -183,7 +208,7 @@ const LOOK_FOR_MISSING: Duration = Duration::from_millis(10);
 /// [`LOOK_AGAIN`]. A reader the bell missed still wakes within one
 /// [`EVENT_WAIT_SLICE`].
 pub(super) struct Bell<S: IoxService> {
-    service: event::PortFactory<S>,
+    service: Arc<event::PortFactory<S>>,
     notifier: Notifier<S>,
     doorbell: TopicName,
     listeners: Mutex<Listeners>,
@@ -266,6 +291,7 @@ pub(super) fn open_subscriber<S: IoxService>(
     config: &IpcConfig,
     topic: &TopicName,
     name: &ServiceName,
+    bells: &Bells<S>,
 ) -> Result<IpcSubscriber<S>, BusError> {
     let subscriber = pubsub_service(node, config, topic, name)?
         .subscriber_builder()
@@ -273,7 +299,7 @@ pub(super) fn open_subscriber<S: IoxService>(
         .create()
         .map_err(|e| BusError::backend("create subscriber", Some(topic), e))?;
     let member = topic.doorbell_member().map(|m| m.to_string());
-    let waker = waker(node, config, &topic.doorbell(), member.as_deref())?;
+    let waker = waker(node, config, &topic.doorbell(), member.as_deref(), bells)?;
     Ok(IpcSubscriber { subscriber, waker, topic: *topic, max_payload: config.limits.max_payload })
 }
 
@@ -287,10 +313,11 @@ pub(super) fn waker<S: IoxService>(
     config: &IpcConfig,
     bell: &TopicName,
     member: Option<&str>,
+    bells: &Bells<S>,
 ) -> Result<Waker<S>, BusError> {
     Ok(match config.wake {
         Wake::Event { spin } => {
-            let service = event_service(node, config, bell, &service_name(bell)?)?;
+            let service = bells.service(node, config, bell)?;
             let name = member.map(PortName::new).transpose();
             let name = name.map_err(|e| BusError::backend("name listener", Some(bell), e))?;
             Waker::Event {
@@ -314,7 +341,7 @@ pub(super) fn waker<S: IoxService>(
 /// sent before the listener exists is not lost: it waits in the
 /// subscriber's queue, and the first wait looks there before it sleeps.
 pub(super) struct Listening<S: IoxService> {
-    service: event::PortFactory<S>,
+    service: Arc<event::PortFactory<S>>,
     name: Option<PortName>,
     bell: TopicName,
     listener: OnceCell<Listener<S>>,

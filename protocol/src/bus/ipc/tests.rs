@@ -65,3 +65,51 @@ fn a_fan_in_read_without_waiting_finds_what_did_not_ring() {
     let n = got.expect("the unrung message is found");
     assert_eq!(untag(&buf[..n]), Some((1, &b"pose"[..])));
 }
+
+/// A small fan-in (at most `fan_in::SMALL` topics) looks at every topic
+/// instead of reading its doorbell first: what several topics hold is
+/// read, each message once and tagged with its topic, without a wait; and
+/// one that sleeps is still woken by a ring.
+#[test]
+fn a_small_fan_in_reads_every_topic_without_its_doorbell() {
+    let iso = Isolated::new("small-fan-in");
+    let iso_tag = iso.tag().to_owned();
+    let config_of = |tag: &str| IpcConfig { isolation: Some(tag.to_owned()), ..IpcConfig::default() };
+    let config = config_of(&iso_tag);
+    let swarm = Swarm::new("small-fan-in").expect("valid swarm");
+    let topics: Vec<_> = (1..=3).map(|k| *swarm.from_agent(RobotId(k)).name()).collect();
+    assert!(topics.len() <= super::fan_in::SMALL);
+    let reader = IpcBus::new(config.clone()).expect("iceoryx2 node");
+    let fan_in = reader.fan_in(&topics).expect("fan-in");
+    let mut buf = [0u8; 64 + FAN_IN_TAG];
+    assert_eq!(fan_in.try_recv_into(&mut buf).expect("receive"), None, "nothing sent yet");
+    let writer = IpcBus::new(config).expect("iceoryx2 node");
+    let publishers: Vec<_> = topics.iter().map(|t| writer.publisher(t).expect("publisher")).collect();
+    for (topic, payload) in [(0, b"a1"), (2, b"c1"), (0, b"a2")] {
+        publishers[topic].publish(payload).expect("publish");
+    }
+    let mut got = Vec::new();
+    while let Some(n) = fan_in.try_recv_into(&mut buf).expect("receive") {
+        let (topic, payload) = untag(&buf[..n]).expect("tagged");
+        got.push((topic, payload.to_vec()));
+    }
+    got.sort();
+    assert_eq!(got, [(0, b"a1".to_vec()), (0, b"a2".to_vec()), (2, b"c1".to_vec())], "each once");
+    drop(publishers);
+    // Ports stay in the thread that opened them: a bus of its own there.
+    let topic = topics[1];
+    let (read, done) = std::sync::mpsc::channel::<()>();
+    let sender = std::thread::spawn(move || {
+        let bus = IpcBus::new(config_of(&iso_tag)).expect("iceoryx2 node");
+        let publisher = bus.publisher(&topic).expect("publisher");
+        let sent = publisher.publish(b"b1");
+        // Kept open until the message was read (or the reader gave up).
+        let _ = done.recv_timeout(Duration::from_secs(10));
+        sent
+    });
+    let n = fan_in.recv_timeout_into(&mut buf, Duration::from_secs(5)).expect("receive");
+    drop(read);
+    let n = n.expect("woken by the ring, or found at the first look");
+    assert_eq!(untag(&buf[..n]), Some((1, &b"b1"[..])));
+    sender.join().expect("sender").expect("publish");
+}

@@ -115,20 +115,36 @@ fn a_tick_is_stepped_once_and_a_repeat_answered_again() {
 fn real_time_periods_follow_the_clock_and_late_ones_are_missed() {
     let mut a = core(Clock::Realtime);
     let mut out = Vec::new();
-    a.start(1_000, &mut out);
-    a.handle(&deploy(), &mut out);
-    a.handle(&ToAgent::GoalBearing(GoalBearing { robot: RobotId(1), bearing: 0.7, step: 0 }), &mut out);
-    assert_eq!(a.next_period(), Some(21_000));
+    a.start(0, &mut out);
+    // Not deployed: no periods, only heartbeats (its timer is the beat's).
+    assert_eq!(a.next_period(), None);
+    assert_eq!(a.deadline(), Some(100 * MS));
     out.clear();
-    assert!(!a.period_if_due(20_999, &mut out));
-    assert!(a.period_if_due(21_000, &mut out));
+    a.advance(100 * MS, &mut out);
+    assert_eq!(reports(&out), ["register", "heartbeat"], "no period before the Deploy: {out:?}");
+    assert_eq!(a.counts(), Counts::default());
+    // Deployed at 0.9 s: the start pose is period 0, its clock starts at
+    // the next time it is given (due at once).
+    a.advance(900 * MS, &mut out);
+    out.clear();
+    a.handle(&deploy(), &mut out);
+    assert!(matches!(out[0], Said::Pose(Pose { step: 0, time_us: 0, .. })), "{out:?}");
+    a.handle(&ToAgent::GoalBearing(GoalBearing { robot: RobotId(1), bearing: 0.7, step: 0 }), &mut out);
+    assert_eq!(a.next_period(), Some(900 * MS), "due at once: the clock starts");
+    let t0 = 901 * MS;
+    out.clear();
+    assert!(!a.period_if_due(t0, &mut out), "the clock starts, no period yet");
+    assert!(out.is_empty(), "{out:?}");
+    assert_eq!(a.next_period(), Some(t0 + 20_000));
+    assert!(!a.period_if_due(t0 + 19_999, &mut out));
+    assert!(a.period_if_due(t0 + 20_000, &mut out));
     assert!(matches!(out[0], Said::Pose(Pose { step: 1, .. })), "{out:?}");
     out.clear();
     // Late by two periods: period 4 runs, 2 and 3 are missed.
-    assert!(a.period_if_due(1_000 + 4 * 20_000 + 5, &mut out));
+    assert!(a.period_if_due(t0 + 4 * 20_000 + 5, &mut out));
     assert!(matches!(out[0], Said::Pose(Pose { step: 4, .. })), "{out:?}");
     assert_eq!(a.counts(), Counts { periods: 2, missed: 2, stale_bearings: 0 });
-    assert_eq!(a.next_period(), Some(1_000 + 5 * 20_000));
+    assert_eq!(a.next_period(), Some(t0 + 5 * 20_000));
     out.clear();
     a.handle(&ToAgent::Tick(Tick { step: 9 }), &mut out);
     assert_eq!(out, [Said::Refused(Reject::TickInRealTime)]);
