@@ -19,11 +19,12 @@ use super::events::EVENT_SCHEMA;
 use super::ports::Ports;
 use super::poses::{PoseSink, PoseSource};
 use super::progress::{Progress, Waits};
+use super::recording::Seen;
 use super::status::{self, Facts, LaunchStatus};
 use super::summary::{RealtimeReport, RecordingSummary, Summary};
 use super::World;
 use bycoms_protocol::bus::zenoh::settings::SettingsServer;
-use bycoms_protocol::msg::{Pose, ToAgent};
+use bycoms_protocol::msg::{FromAgent, Pose, ToAgent};
 use bycoms_record::schema;
 use bycoms_sim_agent::RunSettings;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -206,6 +207,13 @@ impl Driver {
     /// Hands one input to the core and carries out what it asks at once.
     fn feed(&mut self, input: Input) {
         let now = self.now();
+        // The recording's projections see the reports the core is handed
+        // (lockstep's acknowledgements, most of them, show nothing).
+        if let Input::Report(report) = &input {
+            if !matches!(report, FromAgent::TickDone(_)) {
+                self.ports.recording.seen(Seen::Report(*report));
+            }
+        }
         self.core.handle(now, input);
         self.carry_out();
     }
@@ -240,9 +248,15 @@ impl Driver {
                 }
             }
             Output::Send(id, msg) => self.ports.send(id, &msg)?,
-            Output::Relay(pose) => self.ports.relay(&pose)?,
+            Output::Relay(pose) => {
+                self.ports.relay(&pose)?;
+                self.ports.recording.seen(Seen::Pose(pose));
+            }
             Output::Forward(pose) => self.ports.forward_pose(&pose)?,
-            Output::Gate(event) => self.ports.publish_gate(&event)?,
+            Output::Gate(event) => {
+                self.ports.publish_gate(&event)?;
+                self.ports.recording.seen(Seen::Gate(event));
+            }
             Output::Event(event) => {
                 let topic = format!("bycoms/{}/events", self.joining.swarm);
                 self.ports.recording.json(&topic, EVENT_SCHEMA, &event);
@@ -294,6 +308,7 @@ impl Driver {
             let now = self.now();
             // Logged by its number in the recording: each pose stored once.
             self.core.handle_pose(now, topic, pose, recorded);
+            self.ports.recording.seen(Seen::Pose(pose));
             self.carry_out();
         }
         self.poses = poses;

@@ -16,7 +16,7 @@
 //! (`poses`), which may not be the bus at all.
 
 use super::observe::Observer;
-use super::recording::{Recording, Seen};
+use super::recording::Recording;
 use super::transport::{AnyPublisher, AnySubscriber, SharedBus};
 use bycoms_protocol::bus::{untag, BusError, FAN_IN_TAG};
 use bycoms_protocol::msg::{Deploy, FromAgent, GateEvent, Pose, ToAgent};
@@ -108,14 +108,14 @@ impl Ports {
         let Some((name, publisher)) = self.to_agent.get(&robot) else {
             return Err(BusError::InvalidConfig("command to a robot whose ports are not open"));
         };
-        send_recorded(&mut self.recording, name, publisher, schema::TO_AGENT, msg, None)
+        send_recorded(&mut self.recording, name, publisher, schema::TO_AGENT, msg)
     }
 
     /// Publishes a gate event.
     pub fn publish_gate(&mut self, event: &GateEvent) -> Result<(), BusError> {
         let (name, publisher) = &self.gate;
         // The recording adds the decoded event (`gate/json`, the log, the scene).
-        send_recorded(&mut self.recording, name, publisher, schema::GATE, event, Some(Seen::Gate(*event)))?;
+        send_recorded(&mut self.recording, name, publisher, schema::GATE, event)?;
         self.observers.iter_mut().for_each(|o| o.gate(event));
         Ok(())
     }
@@ -128,7 +128,7 @@ impl Ports {
         }
         match &self.operator {
             Some((name, publisher)) => {
-                send_recorded(&mut self.recording, name, publisher, schema::OPERATOR, request, None)
+                send_recorded(&mut self.recording, name, publisher, schema::OPERATOR, request)
             }
             None => Ok(()),
         }
@@ -143,14 +143,7 @@ impl Ports {
             self.relays.insert(robot, self.bus.publisher(&name)?);
         }
         match self.relays.get(&robot) {
-            Some(publisher) => send_recorded(
-                &mut self.recording,
-                &name,
-                publisher,
-                schema::POSE,
-                pose,
-                Some(Seen::Pose(*pose)),
-            ),
+            Some(publisher) => send_recorded(&mut self.recording, &name, publisher, schema::POSE, pose),
             None => Ok(()),
         }
     }
@@ -256,11 +249,10 @@ fn send_recorded<M: Message>(
     publisher: &Pub,
     schema: &str,
     msg: &M,
-    seen: Option<Seen>,
 ) -> Result<(), BusError> {
     let mut buf = [0u8; MAX_MESSAGE_LEN];
     let bytes = encode(msg, &mut buf)?;
-    recording.message(topic.as_str(), schema, bytes, seen);
+    recording.bytes(topic.as_str(), schema, bytes);
     publisher.publish(bytes)
 }
 
@@ -283,15 +275,10 @@ fn receive_recorded(
         }
     };
     let bytes = buf.get(..n).unwrap_or_default();
+    recording.bytes(topic.as_str(), schema, bytes);
     match decode::<FromAgent>(bytes) {
-        Ok(report) => {
-            // Lockstep's acknowledgements (most of the reports) show nothing.
-            let seen = (!matches!(report, FromAgent::TickDone(_))).then_some(Seen::Report(report));
-            recording.message(topic.as_str(), schema, bytes, seen);
-            Ok(Some(report))
-        }
+        Ok(report) => Ok(Some(report)),
         Err(e) => {
-            recording.bytes(topic.as_str(), schema, bytes);
             let _ = traffic.absorb(WHO, topic.as_str(), BusError::Codec(e));
             Ok(None)
         }

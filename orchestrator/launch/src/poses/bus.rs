@@ -89,9 +89,8 @@ impl PoseSource for BusPoses {
         for (robot, range) in &self.pending {
             let Some(name) = self.topics.get(*robot as usize - 1) else { continue };
             let bytes = self.read.get(range.clone()).unwrap_or_default();
-            let decoded = decode::<Pose>(bytes);
-            sink.raw(name.as_str(), bytes, decoded.as_ref().ok());
-            match decoded {
+            sink.raw(name.as_str(), bytes);
+            match decode::<Pose>(bytes) {
                 Ok(pose) => sink.pose(*robot, pose),
                 Err(e) => sink.bad(name.as_str(), BusError::Codec(e))?,
             }

@@ -4,7 +4,7 @@
 //! Why a file of its own: every source (`bus.rs`, `mocap.rs`, `ros2.rs`)
 //! implements these, and `mod.rs` opens the sources (no file cycles).
 
-use crate::recording::{Recording, Seen};
+use crate::recording::Recording;
 use bycoms_protocol::bus::BusError;
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::{encode, RobotId, Swarm, MAX_MESSAGE_LEN};
@@ -100,7 +100,7 @@ impl<'a> PoseSink<'a> {
             Ok(bytes) => {
                 let topic = self.swarm.pose(RobotId(robot));
                 self.recorded += 1;
-                self.recording.message(topic.name().as_str(), schema::POSE, bytes, Some(Seen::Pose(pose)))
+                self.recording.message(topic.name().as_str(), schema::POSE, bytes)
             }
             // A pose always fits one message; should it not, it is
             // still judged, and the failure shows in the log.
@@ -117,11 +117,11 @@ impl<'a> PoseSink<'a> {
         &self.numbers
     }
 
-    /// The bytes of one message as they crossed the bus on `topic`, and
-    /// the pose they decode to, if they do (bus sources only; the pose is
-    /// then handed over with [`Self::pose`]).
-    pub fn raw(&mut self, topic: &str, bytes: &[u8], decoded: Option<&Pose>) {
-        self.last_raw = self.recording.message(topic, schema::POSE, bytes, decoded.copied().map(Seen::Pose));
+    /// The bytes of one message as they crossed the bus on `topic`, before
+    /// decoding (bus sources only; a pose they decode to is then handed
+    /// over with [`Self::pose`]).
+    pub fn raw(&mut self, topic: &str, bytes: &[u8]) {
+        self.last_raw = self.recording.message(topic, schema::POSE, bytes);
         self.recorded += 1;
     }
 

@@ -12,9 +12,10 @@
 //! second.
 //!
 //! Decoded channels: every bus message is recorded as its raw postcard
-//! bytes first (exact replay needs them); poses, gate events and agent
-//! reports go with the form the launch decoded them in ([`Seen`]: no
-//! message is decoded twice) and are handed to the run's one
+//! bytes first (exact replay needs them); the core's inputs and outputs
+//! (the poses and reports it is handed, the gate events and relays it
+//! publishes: [`Seen`], as the driver hands and carries them, so no
+//! message is decoded twice) are handed to the run's one
 //! [`bycoms_record::scene::Scene`] (shared: [`SharedScene`]), whose Foxglove
 //! messages (scene, frames, log, per-robot JSON) are recorded too and kept
 //! for the observers (the live view), so the file and a viewer are fed by
@@ -262,33 +263,20 @@ impl Recording {
         self.simulated_ns.unwrap_or_else(now_ns)
     }
 
-    /// Records one bus message, byte for byte, that the launch did not
-    /// decode (commands, the core's log, what does not decode).
+    /// Records one bus message, byte for byte (exact replay reads them).
     pub fn bytes(&mut self, topic: &str, schema: &str, payload: &[u8]) {
-        self.message(topic, schema, payload, None);
+        self.message(topic, schema, payload);
     }
 
-    /// Records one bus message, byte for byte, with what the launch decoded
-    /// of it: the scene (on the writer's thread) and the picture's trace
-    /// (here) are folded from that, never from the bytes again. A pose
-    /// message written to the file gets its number on its topic (from 0,
-    /// in file order, whether it decodes or not): how the core's log names
-    /// it (`core::log::Call::HandleRecordedPose`) instead of storing it again.
-    pub fn message(&mut self, topic: &str, schema: &str, payload: &[u8], seen: Option<Seen>) -> Option<u32> {
-        if self.queue.is_none() && self.trace.is_none() {
-            return None;
-        }
+    /// Records one bus message, byte for byte; a pose message written to
+    /// the file gets its number on its topic (from 0, in file order,
+    /// whether it decodes or not): how the core's log names it
+    /// (`core::log::Call::HandleRecordedPose`) instead of storing it again.
+    pub fn message(&mut self, topic: &str, schema: &str, payload: &[u8]) -> Option<u32> {
         let now = self.now();
-        if let (Some(trace), Some(seen)) = (self.trace.as_mut(), &seen) {
-            match seen {
-                Seen::Pose(pose) => trace.pose(pose),
-                Seen::Gate(event) => trace.gate(event),
-                Seen::Report(_) => {}
-            }
-        }
         let file = self.file;
         let batch = self.batch()?;
-        batch.bus(now, topic, schema, payload, seen);
+        batch.bus(now, topic, schema, payload);
         if !(file && schema == schema::POSE) {
             return None;
         }
@@ -298,6 +286,24 @@ impl Recording {
         };
         *count += 1;
         Some(*count - 1)
+    }
+
+    /// One of the core's inputs or outputs, as the driver handed or carried
+    /// it ([`Seen`]): the scene (on the writer's thread) and the picture's
+    /// trace (here) are folded from these, the one stream of the run, never
+    /// from the recorded bytes again.
+    pub fn seen(&mut self, seen: Seen) {
+        if let Some(trace) = self.trace.as_mut() {
+            match &seen {
+                Seen::Pose(pose) => trace.pose(pose),
+                Seen::Gate(event) => trace.gate(event),
+                Seen::Report(_) => {}
+            }
+        }
+        let now = self.now();
+        if let Some(batch) = self.batch() {
+            batch.push(Item::Seen { at: now, seen });
+        }
     }
 
     /// Records one JSON message on a channel whose schema is `T`'s JSON

@@ -11,20 +11,21 @@ fn world() -> World {
 fn feed(rec: &mut Recording) {
     let mut buf = [0u8; MAX_MESSAGE_LEN];
     let pose = Pose { robot: RobotId(1), x: 0.5, y: 0.5, heading: 0.0, step: 0, time_us: 0 };
-    let seen = Some(Seen::Pose(pose));
-    rec.message("bycoms/t/robot/1/pose", schema::POSE, encode(&pose, &mut buf).unwrap(), seen);
+    rec.bytes("bycoms/t/robot/1/pose", schema::POSE, encode(&pose, &mut buf).unwrap());
+    rec.seen(Seen::Pose(pose));
     let moved = Pose { x: 1.5, step: 1, time_us: 100_000, ..pose };
-    let seen = Some(Seen::Pose(moved));
-    rec.message("bycoms/t/robot/1/pose", schema::POSE, encode(&moved, &mut buf).unwrap(), seen);
+    rec.bytes("bycoms/t/robot/1/pose", schema::POSE, encode(&moved, &mut buf).unwrap());
+    rec.seen(Seen::Pose(moved));
     let event = GateEvent { robot: RobotId(1), kind: GateKind::Deployed, x: 0.5, y: 0.5, step: 0 };
-    let seen = Some(Seen::Gate(event));
-    rec.message("bycoms/t/gate", schema::GATE, encode(&event, &mut buf).unwrap(), seen);
+    rec.bytes("bycoms/t/gate", schema::GATE, encode(&event, &mut buf).unwrap());
+    rec.seen(Seen::Gate(event));
 }
 
-/// Bytes the launch did not decode (commands, garbage) feed no scene, even
-/// if they would decode: nothing is decoded twice.
+/// Recorded bytes feed no scene, even those that would decode: the scene
+/// is folded from the core's inputs and outputs ([`Recording::seen`]),
+/// nothing is decoded twice.
 #[test]
-fn bytes_without_their_decoded_form_feed_no_scene() {
+fn bytes_feed_no_scene_the_cores_inputs_and_outputs_do() {
     let cfg = LaunchConfig { serve: Some("127.0.0.1:0".into()), ..Default::default() };
     let scene = Recording::scene_for("t", &world(), &cfg);
     let mut rec = Recording::start("t", &world(), &cfg, scene).expect("starts");
@@ -35,15 +36,30 @@ fn bytes_without_their_decoded_form_feed_no_scene() {
     rec.bytes("bycoms/t/robot/1/pose", schema::POSE, encode(&pose, &mut buf).unwrap());
     rec.sync();
     assert_eq!(rec.take_scene(), Vec::new());
-    rec.message(
-        "bycoms/t/robot/1/pose",
-        schema::POSE,
-        encode(&pose, &mut buf).unwrap(),
-        Some(Seen::Pose(pose)),
-    );
+    rec.seen(Seen::Pose(pose));
     rec.sync();
-    assert!(!rec.take_scene().is_empty(), "the decoded pose shows robot 1");
+    assert!(!rec.take_scene().is_empty(), "the pose handed to the core shows robot 1");
     rec.finish().expect("finishes");
+}
+
+/// Pose messages written to the file are numbered on their topic, in file
+/// order: the number the core's log names a recorded pose by.
+#[test]
+fn pose_messages_in_a_file_are_numbered_on_their_topic() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let cfg = LaunchConfig { record: Some(dir.path().join("r.mcap")), ..Default::default() };
+    let mut rec = Recording::start("t", &world(), &cfg, None).expect("starts");
+    let sent = [("1", schema::POSE), ("2", schema::POSE), ("1", schema::POSE), ("3", schema::GATE)];
+    let numbers: Vec<_> = sent
+        .iter()
+        .map(|(robot, schema)| rec.message(&format!("bycoms/t/robot/{robot}/x"), schema, b"x"))
+        .collect();
+    assert_eq!(numbers, [Some(0), Some(0), Some(1), None]);
+    rec.finish().expect("finishes");
+    let shown = LaunchConfig { serve: Some("127.0.0.1:0".into()), ..Default::default() };
+    let mut unfiled = Recording::start("t", &world(), &shown, None).expect("starts");
+    assert_eq!(unfiled.message("bycoms/t/robot/1/x", schema::POSE, b"x"), None, "no file, no number");
+    unfiled.finish().expect("finishes");
 }
 
 /// The scene's output as (topic, bytes), for comparing.

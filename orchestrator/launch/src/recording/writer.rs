@@ -1,6 +1,6 @@
 //! The recording's own thread: it feeds the scene, encodes and writes, so
-//! the launch loop only copies bytes (and the messages it decoded anyway:
-//! nothing is decoded twice).
+//! the launch loop only copies bytes (and the core's inputs and outputs,
+//! decoded already: nothing is decoded twice).
 //!
 //! Why a thread: in a lockstep launch the loop *is* the swarm's clock —
 //! every microsecond it spends on the recording is a microsecond every robot
@@ -49,9 +49,10 @@ pub struct Batch {
 
 /// One thing to write.
 pub enum Item {
-    /// A bus message, byte for byte, and what the launch decoded of it
-    /// (if it did: commands and garbage are only bytes), for the scene.
-    Bus { at: u64, topic: Range<usize>, schema: Range<usize>, payload: Range<usize>, seen: Option<Seen> },
+    /// A bus message, byte for byte.
+    Bus { at: u64, topic: Range<usize>, schema: Range<usize>, payload: Range<usize> },
+    /// One of the core's inputs or outputs, for the scene.
+    Seen { at: u64, seen: Seen },
     /// A JSON message whose channel's schema is `schema_of()`, named `schema`.
     Json {
         at: u64,
@@ -76,11 +77,11 @@ impl Batch {
         start..self.data.len()
     }
 
-    /// Adds a bus message recorded at `at`, with what the launch decoded of it.
-    pub fn bus(&mut self, at: u64, topic: &str, schema: &str, payload: &[u8], seen: Option<Seen>) {
+    /// Adds a bus message recorded at `at`.
+    pub fn bus(&mut self, at: u64, topic: &str, schema: &str, payload: &[u8]) {
         let (topic, schema, payload) =
             (self.put(topic.as_bytes()), self.put(schema.as_bytes()), self.put(payload));
-        self.items.push(Item::Bus { at, topic, schema, payload, seen });
+        self.items.push(Item::Bus { at, topic, schema, payload });
     }
 
     /// Adds a JSON message recorded at `at`.
@@ -180,14 +181,12 @@ impl Writer {
         let mut shown = Vec::new();
         for item in &batch.items {
             match item {
-                Item::Bus { at, topic, schema, payload, seen } => {
+                Item::Bus { at, topic, schema, payload } => {
                     let (topic, schema, payload) =
                         (batch.text(topic), batch.text(schema), batch.bytes(payload));
                     self.with(|r| r.record_bytes(topic, schema, *at, *at, payload));
-                    if let Some(seen) = seen {
-                        self.seen(seen, *at, &mut shown);
-                    }
                 }
+                Item::Seen { at, seen } => self.seen(seen, *at, &mut shown),
                 Item::Json { at, topic, schema, schema_of, payload } => {
                     let schema_of = || Some(foxglove::Schema::new(*schema, "jsonschema", schema_of()));
                     let (topic, payload) = (batch.text(topic), batch.bytes(payload));
@@ -216,8 +215,8 @@ impl Writer {
     }
 
     /// Feeds the scene a pose, a gate event or an agent report as the
-    /// launch decoded it (by the codec every reader of the file decodes
-    /// the recorded bytes with, `record::decode`).
+    /// launch core was handed or published it (decoded by the codec every
+    /// reader of the file decodes the recorded bytes with, `record::decode`).
     fn seen(&mut self, seen: &Seen, now: u64, shown: &mut Vec<Out>) {
         let Some(scene) = self.scene.as_ref() else { return };
         let outs = match seen {
