@@ -24,7 +24,7 @@ use bycoms_agent::acoustic::ADC_MAX;
 use bycoms_agent::angle::wrap;
 use bycoms_fw_replay::{tag, Boot, NoMeter, Shell, LISTENED, MAGIC, MIC_BYTES};
 use bycoms_lab::body::{arena_walls, Crawler, Obstacle};
-use bycoms_lab::scenario::Scenario;
+use bycoms_lab::scenario::{Point, Scenario};
 use bycoms_lab::sound::{mic_positions, sample_frames, Room, Speaker};
 use bycoms_protocol::link::{GatewayEvent, GatewayLink, LinkKey, Payload, SessionId};
 use bycoms_protocol::RobotId;
@@ -164,9 +164,29 @@ fn to_samples(frames: &bycoms_agent::firmware::MicFrames) -> [u8; MIC_BYTES] {
 pub fn record(limit: Duration, seed: u64) -> Recording {
     let scenario = Scenario::builtin("exp-short").expect("built-in scenario");
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let mut robots = boot_robots(&scenario, &mut rng);
+    let arena = Arena::of(&scenario);
+    let mut operator = Operator::new();
+    let mut now = Duration::ZERO;
+    let mut next_control = CONTROL_PERIOD;
+    while now < limit {
+        if operator.step(&mut robots, now, &scenario) {
+            break;
+        }
+        let restarted = arena.step(&mut robots, now, &mut next_control, operator.current, &mut rng);
+        if restarted && operator.arrived_at.is_none() {
+            operator.enabled = false; // a new session starts disabled: enable again
+        }
+        now += PHYSICS_DT;
+    }
+    finish(&robots, now, &operator)
+}
+
+/// Boots one robot per tone of `scenario`, each listening as the lab's do:
+/// the other robots' tones, then unused paper tones.
+fn boot_robots(scenario: &Scenario, rng: &mut Xoshiro256PlusPlus) -> Vec<Robot> {
     let mut robots: Vec<Robot> = Vec::new();
     for (i, &own) in scenario.tones.iter().enumerate() {
-        // As the lab does: the other robots' tones, then unused paper tones.
         let mut others = [0.0; LISTENED];
         let listened = scenario.tones.iter().copied().filter(|&t| t != own);
         let spare =
@@ -186,112 +206,152 @@ pub fn record(limit: Duration, seed: u64) -> Recording {
         };
         robots.push(Robot::boot(&boot, rng.gen_range(0.0..core::f64::consts::TAU)));
     }
-    let mut obstacles: Vec<Obstacle> = scenario.obstacles.clone();
-    obstacles.extend(arena_walls(scenario.width, scenario.height));
-    let room = Room { width: scenario.width, height: scenario.height };
-    let start = scenario.start;
-    let goal = scenario.goal;
+    robots
+}
 
-    let mut now = Duration::ZERO;
-    let mut next_control = CONTROL_PERIOD;
-    let mut current = 0usize;
-    let mut enabled = false;
-    let mut enabled_at = Duration::ZERO;
-    let mut last_goal = Duration::ZERO;
-    let (mut still_since, mut last_pos) = (Duration::ZERO, (f64::INFINITY, f64::INFINITY));
-    let mut arrived_at: Option<Duration> = None;
-    let mut stuck: Vec<usize> = vec![];
-    let mut next_battery = Duration::ZERO;
-    let mut faults_done = 0usize;
-    let mut stopped_at_goal = false;
-    let n_robots = robots.len();
+/// The gateway and the operator of the run (the test gateway of
+/// sim-agent's lab tests): which robot goes, its enabling and goal
+/// bearings, robot 2's hostile network, and who is stuck or arrived.
+struct Operator {
+    current: usize,
+    enabled: bool,
+    enabled_at: Duration,
+    last_goal: Duration,
+    still_since: Duration,
+    last_pos: (f64, f64),
+    arrived_at: Option<Duration>,
+    stuck: Vec<usize>,
+    next_battery: Duration,
+    faults_done: usize,
+    stopped_at_goal: bool,
+}
 
-    while now < limit {
-        // The gateway and the operator (the test gateway of sim-agent's lab tests).
-        let cut = current == 1 && enabled_at > Duration::ZERO && {
-            let since = now.saturating_sub(enabled_at);
+impl Operator {
+    fn new() -> Self {
+        Self {
+            current: 0,
+            enabled: false,
+            enabled_at: Duration::ZERO,
+            last_goal: Duration::ZERO,
+            still_since: Duration::ZERO,
+            last_pos: (f64::INFINITY, f64::INFINITY),
+            arrived_at: None,
+            stuck: Vec::new(),
+            next_battery: Duration::ZERO,
+            faults_done: 0,
+            stopped_at_goal: false,
+        }
+    }
+
+    /// One physics step's decisions; whether the recording ends.
+    fn step(&mut self, robots: &mut [Robot], now: Duration, scenario: &Scenario) -> bool {
+        // Robot 2's link is cut twice, 1.0–1.7 s and 2.5–3.7 s after it was enabled.
+        let cut = self.current == 1 && self.enabled_at > Duration::ZERO && {
+            let since = now.saturating_sub(self.enabled_at);
             (Duration::from_millis(1000)..Duration::from_millis(1700)).contains(&since)
                 || (Duration::from_millis(2500)..Duration::from_millis(3700)).contains(&since)
         };
-        let r = &mut robots[current];
-        if !enabled && r.link.session().is_some() && arrived_at.is_none() {
-            enabled = r.command(Payload::Enable).is_some();
-            if enabled && enabled_at == Duration::ZERO {
-                enabled_at = now;
+        self.command(&mut robots[self.current], now, cut, scenario.goal);
+        if self.current == 1 && self.enabled {
+            self.faults_done = inject_faults(robots, now.saturating_sub(self.enabled_at), self.faults_done);
+            if now >= self.next_battery {
+                // A sinking battery: 4.9 V, then 25 mV less every second.
+                let secs = now.saturating_sub(self.enabled_at).as_secs();
+                robots[1].battery(4900u16.saturating_sub(25 * secs as u16));
+                self.next_battery = now + Duration::from_secs(1);
             }
-            still_since = now;
         }
-        if enabled && !cut && now >= last_goal + GOAL_EVERY {
+        let last = self.current + 1 == robots.len();
+        self.judge(&mut robots[self.current], now, cut, last, scenario)
+    }
+
+    /// Enables the current robot once its session is up, and gives it a
+    /// goal bearing from its true pose every [`GOAL_EVERY`] while its link
+    /// is not cut.
+    fn command(&mut self, r: &mut Robot, now: Duration, cut: bool, goal: Point) {
+        if !self.enabled && r.link.session().is_some() && self.arrived_at.is_none() {
+            self.enabled = r.command(Payload::Enable).is_some();
+            if self.enabled && self.enabled_at == Duration::ZERO {
+                self.enabled_at = now;
+            }
+            self.still_since = now;
+        }
+        if self.enabled && !cut && now >= self.last_goal + GOAL_EVERY {
             if let Some(b) = r.body {
                 let bearing = wrap((goal.y - b.y).atan2(goal.x - b.x) - b.heading) as f32;
                 r.command(Payload::Goal { bearing });
             }
-            last_goal = now;
+            self.last_goal = now;
         }
-        if current == 1 && enabled {
-            faults_done = inject_faults(&mut robots, now.saturating_sub(enabled_at), faults_done);
-            if now >= next_battery {
-                // A sinking battery: 4.9 V, then 25 mV less every second.
-                let secs = now.saturating_sub(enabled_at).as_secs();
-                robots[1].battery(4900u16.saturating_sub(25 * secs as u16));
-                next_battery = now + Duration::from_secs(1);
-            }
-        }
-        let r = &mut robots[current];
-        if let Some(b) = r.body {
-            if arrived_at.is_none() && (b.x - goal.x).hypot(b.y - goal.y) < scenario.goal_radius {
-                arrived_at = Some(now);
-            }
-            if let Some(t) = arrived_at {
-                // Stopped 1 s after arriving; the recording ends 1 s later.
-                if now >= t + Duration::from_secs(1) && !stopped_at_goal {
-                    stopped_at_goal = r.command(Payload::Stop).is_some();
-                }
-                if now >= t + Duration::from_secs(2) {
-                    break;
-                }
-            } else if arrived_at.is_none() {
-                if (b.x - last_pos.0).hypot(b.y - last_pos.1) > 0.005 {
-                    last_pos = (b.x, b.y);
-                    still_since = now;
-                } else if now > still_since + Duration::from_secs(1) && !cut && current + 1 < n_robots {
-                    r.command(Payload::Stop);
-                    stuck.push(current + 1);
-                    current += 1;
-                    enabled = false;
-                    enabled_at = Duration::ZERO;
-                    last_pos = (f64::INFINITY, f64::INFINITY);
-                }
-            }
-        }
+    }
 
-        // The lab's step (sim-agent/lab/src/world.rs).
-        for (i, r) in robots.iter_mut().enumerate() {
-            if r.pump(now) && i == current && arrived_at.is_none() {
-                enabled = false; // a new session starts disabled: enable again
+    /// The gate on the current robot `r`: arrived (stopped 1 s later, the
+    /// recording ending 1 s after that: `true`), or still for 1 s with its
+    /// link up and a robot after it (stopped, a beacon; the next one goes).
+    fn judge(&mut self, r: &mut Robot, now: Duration, cut: bool, last: bool, scenario: &Scenario) -> bool {
+        let Some(b) = r.body else { return false };
+        let goal = scenario.goal;
+        if self.arrived_at.is_none() && (b.x - goal.x).hypot(b.y - goal.y) < scenario.goal_radius {
+            self.arrived_at = Some(now);
+        }
+        if let Some(t) = self.arrived_at {
+            if now >= t + Duration::from_secs(1) && !self.stopped_at_goal {
+                self.stopped_at_goal = r.command(Payload::Stop).is_some();
             }
+            return now >= t + Duration::from_secs(2);
+        }
+        if (b.x - self.last_pos.0).hypot(b.y - self.last_pos.1) > 0.005 {
+            self.last_pos = (b.x, b.y);
+            self.still_since = now;
+        } else if now > self.still_since + Duration::from_secs(1) && !cut && !last {
+            r.command(Payload::Stop);
+            self.stuck.push(self.current + 1);
+            self.current += 1;
+            self.enabled = false;
+            self.enabled_at = Duration::ZERO;
+            self.last_pos = (f64::INFINITY, f64::INFINITY);
+        }
+        false
+    }
+}
+
+/// The lab around the robots (`sim-agent/lab/src/world.rs`): the room's
+/// sound, the walls and obstacles, the crawler bodies.
+struct Arena<'a> {
+    scenario: &'a Scenario,
+    room: Room,
+    obstacles: Vec<Obstacle>,
+}
+
+impl<'a> Arena<'a> {
+    fn of(scenario: &'a Scenario) -> Self {
+        let mut obstacles: Vec<Obstacle> = scenario.obstacles.clone();
+        obstacles.extend(arena_walls(scenario.width, scenario.height));
+        Self { scenario, room: Room { width: scenario.width, height: scenario.height }, obstacles }
+    }
+
+    /// The lab's step at `now`: links pumped, bodies placed, the control
+    /// period's microphones when due, the bodies moved. Whether robot
+    /// `current` started a new session (it is then disabled).
+    fn step(
+        &self,
+        robots: &mut [Robot],
+        now: Duration,
+        next_control: &mut Duration,
+        current: usize,
+        rng: &mut Xoshiro256PlusPlus,
+    ) -> bool {
+        let start = self.scenario.start;
+        let mut restarted = false;
+        for (i, r) in robots.iter_mut().enumerate() {
+            restarted |= r.pump(now) && i == current;
             if r.body.is_none() && r.tone().is_some() {
                 r.body = Some(Crawler::new(start.x, start.y, start.heading));
             }
         }
-        if now >= next_control {
-            let speakers: Vec<Speaker> = robots
-                .iter()
-                .filter_map(|r| {
-                    let (b, f) = (r.body?, r.tone()?);
-                    Some(Speaker { x: b.x, y: b.y, freq: f, phase: r.phase })
-                })
-                .collect();
-            let t0 = now.saturating_sub(CONTROL_PERIOD).as_secs_f64();
-            for (i, r) in robots.iter_mut().enumerate() {
-                let Some(b) = r.body else { continue };
-                let mics = mic_positions(b.x, b.y, b.heading, 0.1);
-                let frames = sample_frames(&scenario.sound, &room, &speakers, &mics, r.motor(), t0, &mut rng);
-                if r.control(&to_samples(&frames), now) && i == current && arrived_at.is_none() {
-                    enabled = false;
-                }
-            }
-            next_control += CONTROL_PERIOD;
+        if now >= *next_control {
+            restarted |= self.listen(robots, now, current, rng);
+            *next_control += CONTROL_PERIOD;
         }
         let centres: Vec<Option<(f64, f64)>> = robots.iter().map(|r| r.body.map(|b| (b.x, b.y))).collect();
         for (i, r) in robots.iter_mut().enumerate() {
@@ -299,15 +359,53 @@ pub fn record(limit: Duration, seed: u64) -> Recording {
                 centres.iter().enumerate().filter(|&(j, _)| j != i).filter_map(|(_, c)| *c).collect();
             let m = r.shell.firmware().map(|f| f.motors()).unwrap_or_default();
             if let Some(b) = r.body.as_mut() {
-                b.step(&scenario.body, (m.left, m.right), PHYSICS_DT.as_secs_f64(), &obstacles, &others);
+                b.step(
+                    &self.scenario.body,
+                    (m.left, m.right),
+                    PHYSICS_DT.as_secs_f64(),
+                    &self.obstacles,
+                    &others,
+                );
             }
         }
-        now += PHYSICS_DT;
+        restarted
     }
 
+    /// One control period: every placed robot's microphones hear the
+    /// speakers of the last period. Whether robot `current` started a new
+    /// session.
+    fn listen(
+        &self,
+        robots: &mut [Robot],
+        now: Duration,
+        current: usize,
+        rng: &mut Xoshiro256PlusPlus,
+    ) -> bool {
+        let speakers: Vec<Speaker> = robots
+            .iter()
+            .filter_map(|r| {
+                let (b, f) = (r.body?, r.tone()?);
+                Some(Speaker { x: b.x, y: b.y, freq: f, phase: r.phase })
+            })
+            .collect();
+        let t0 = now.saturating_sub(CONTROL_PERIOD).as_secs_f64();
+        let mut restarted = false;
+        for (i, r) in robots.iter_mut().enumerate() {
+            let Some(b) = r.body else { continue };
+            let mics = mic_positions(b.x, b.y, b.heading, 0.1);
+            let sound = &self.scenario.sound;
+            let frames = sample_frames(sound, &self.room, &speakers, &mics, r.motor(), t0, rng);
+            restarted |= r.control(&to_samples(&frames), now) && i == current;
+        }
+        restarted
+    }
+}
+
+/// The recording of the run that ended at `now`.
+fn finish(robots: &[Robot], now: Duration, operator: &Operator) -> Recording {
     let mut input = MAGIC.to_vec();
     let mut live = String::new();
-    for r in &robots {
+    for r in robots {
         input.extend_from_slice(&r.records);
         live.push_str(&r.live);
     }
@@ -325,8 +423,8 @@ pub fn record(limit: Duration, seed: u64) -> Recording {
     let summary = format!(
         "exp-short, {:.1} s of lab time: stuck {:?}, {}; {}",
         now.as_secs_f64(),
-        stuck,
-        match arrived_at {
+        operator.stuck,
+        match operator.arrived_at {
             Some(t) => format!("robot 2 arrived at {:.1} s", t.as_secs_f64()),
             None => "no robot arrived".to_owned(),
         },
