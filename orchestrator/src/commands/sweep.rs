@@ -117,32 +117,7 @@ fn foreign_row(path: &Path, k: usize, index: usize, planned: &[usize]) -> String
 
 pub fn run(args: Args) -> Result<i32> {
     let started = Instant::now();
-    let axes = Axes {
-        eps: parse_axis(&args.eps).context("--eps").map_err(usage)?,
-        widths: parse_axis(&args.widths).context("--widths").map_err(usage)?,
-        terrains_per_bin: args.terrains_per_bin,
-        noise: match args.noise {
-            NoiseAxis::Off => vec![false],
-            NoiseAxis::On => vec![true],
-            NoiseAxis::Both => vec![false, true],
-        },
-    };
-    axes.validate().map_err(usage)?;
-    // The run parameters' one check (`bycoms_study::runs::check_run`), as `simulate` makes it.
-    let mut base = RunConfig::paper(1.0);
-    base.time_limit = args.time_limit;
-    base.max_robots = args.max_robots;
-    bycoms_study::runs::check_run(&base, &bycoms_study::runs::FLAGS)?;
-    let shard = args.shard.unwrap_or(Shard::WHOLE);
-    let meta = Meta {
-        format: FORMAT.to_owned(),
-        width_model: WidthModel::default(),
-        axes: axes.clone(),
-        seed: args.seed,
-        terrains: args.terrains.clone(),
-        max_robots: args.max_robots,
-        time_limit: args.time_limit,
-    };
+    let (axes, base, meta) = plan(&args)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
     check_meta(&args.out, &meta)?;
@@ -161,16 +136,64 @@ pub fn run(args: Args) -> Result<i32> {
     write_meta(&args.out, &meta)?;
     write_terrain_list(&args.out, &axes, &terrains)?;
 
+    let shard = args.shard.unwrap_or(Shard::WHOLE);
     let runs_path = args.out.join(runs_file(shard));
     let (mut writer, done) = RowWriter::open(&runs_path)?;
     let planned: Vec<usize> = shard.runs(axes.total_runs()).collect();
-    let job_check = Job { axes: &axes, terrains: &terrains, base: RunConfig::paper(1.0), seed: args.seed };
+    let job = Job { axes: &axes, terrains: &terrains, base, seed: args.seed };
+    check_resumed(&runs_path, &done, &planned, &job)?;
+    let bar = progress_bar(planned.len(), done.len());
+    let threads =
+        args.jobs.map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), usize::from);
+    let runs_started = Instant::now();
+    let executed = execute(&job, &planned[done.len()..], &mut writer, threads, &bar, stop)?;
+    bar.finish_and_clear();
+    drop(writer);
+    let kept = done.len() + executed.rows;
+    // Printed last (after the tables, which `merge` prints the same).
+    let speed = speed_line(executed, threads, runs_started.elapsed(), started.elapsed());
+    conclude(&args, &axes, shard, &runs_path, (kept, planned.len()), &speed)
+}
+
+/// The sweep's axes, the base of its runs, and the metadata its directory
+/// must match, from the flags (each checked, naming the flag).
+fn plan(args: &Args) -> Result<(Axes, RunConfig, Meta)> {
+    let axes = Axes {
+        eps: parse_axis(&args.eps).context("--eps").map_err(usage)?,
+        widths: parse_axis(&args.widths).context("--widths").map_err(usage)?,
+        terrains_per_bin: args.terrains_per_bin,
+        noise: match args.noise {
+            NoiseAxis::Off => vec![false],
+            NoiseAxis::On => vec![true],
+            NoiseAxis::Both => vec![false, true],
+        },
+    };
+    axes.validate().map_err(usage)?;
+    // The run parameters' one check (`bycoms_study::runs::check_run`), as `simulate` makes it.
+    let mut base = RunConfig::paper(1.0);
+    base.time_limit = args.time_limit;
+    base.max_robots = args.max_robots;
+    bycoms_study::runs::check_run(&base, &bycoms_study::runs::FLAGS)?;
+    let meta = Meta {
+        format: FORMAT.to_owned(),
+        width_model: WidthModel::default(),
+        axes: axes.clone(),
+        seed: args.seed,
+        terrains: args.terrains.clone(),
+        max_robots: args.max_robots,
+        time_limit: args.time_limit,
+    };
+    Ok((axes, base, meta))
+}
+
+/// The rows already in the runs file are this plan's first runs, made by
+/// `job` (a resumed sweep), or the file is another sweep's: an error.
+fn check_resumed(runs_path: &Path, done: &[Row], planned: &[usize], job: &Job<'_>) -> Result<()> {
     for (k, row) in done.iter().enumerate() {
-        if planned.get(k) != Some(&row.index) || !job_check.matches(row) {
-            bail!("{}", foreign_row(&runs_path, k, row.index, &planned));
+        if planned.get(k) != Some(&row.index) || !job.matches(row) {
+            bail!("{}", foreign_row(runs_path, k, row.index, planned));
         }
     }
-    let pending = &planned[done.len()..];
     if !done.is_empty() {
         tracing::info!(
             "resuming: {} of {} runs already in {}",
@@ -179,28 +202,33 @@ pub fn run(args: Args) -> Result<i32> {
             runs_path.display()
         );
     }
+    Ok(())
+}
 
-    let job = Job { axes: &axes, terrains: &terrains, base, seed: args.seed };
-    let bar = ProgressBar::new(planned.len() as u64).with_position(done.len() as u64);
+/// The progress bar of `planned` runs, `done` of them done already.
+fn progress_bar(planned: usize, done: usize) -> ProgressBar {
+    let bar = ProgressBar::new(planned as u64).with_position(done as u64);
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} runs, {msg}, eta {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let threads =
-        args.jobs.map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), usize::from);
-    let runs_started = Instant::now();
-    let executed = execute(&job, pending, &mut writer, threads, &bar, stop)?;
-    bar.finish_and_clear();
-    drop(writer);
-    let written = executed.rows;
-    // Printed last (after the tables, which `merge` prints the same).
-    let speed = speed_line(executed, threads, runs_started.elapsed(), started.elapsed());
+    bar
+}
 
-    if done.len() + written < planned.len() {
+/// What the sweep says at its end, `kept` of `planned` runs in the runs
+/// file: interrupted (run it again to resume), a shard done (merge the
+/// shards), or the whole study (its tables written and printed).
+fn conclude(
+    args: &Args,
+    axes: &Axes,
+    shard: Shard,
+    runs_path: &Path,
+    (kept, planned): (usize, usize),
+    speed: &str,
+) -> Result<i32> {
+    if kept < planned {
         tracing::warn!(
-            "interrupted: {} of {} runs kept in {}; run the same command again to resume",
-            done.len() + written,
-            planned.len(),
+            "interrupted: {kept} of {planned} runs kept in {}; run the same command again to resume",
             runs_path.display()
         );
         bycoms_runtime::outln!("{speed}")?;
@@ -208,17 +236,16 @@ pub fn run(args: Args) -> Result<i32> {
     }
     if !shard.is_whole() {
         bycoms_runtime::outln!(
-            "shard {}/{} done: {} runs in {}; combine the shards with `orchestrator merge`",
+            "shard {}/{} done: {planned} runs in {}; combine the shards with `orchestrator merge`",
             shard.index,
             shard.count,
-            planned.len(),
             runs_path.display()
         )?;
         bycoms_runtime::outln!("{speed}")?;
         return Ok(exit::SUCCESS);
     }
-    let rows = bycoms_study::sweep::rows::read_rows(&runs_path)?;
-    let files = report(&args.out, &axes, &rows, args.max_robots)?;
+    let rows = bycoms_study::sweep::rows::read_rows(runs_path)?;
+    let files = report(&args.out, axes, &rows, args.max_robots)?;
     bycoms_runtime::outln!("{} runs in {}", rows.len(), runs_path.display())?;
     for f in files {
         bycoms_runtime::outln!("wrote {}", f.display())?;
