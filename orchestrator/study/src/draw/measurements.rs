@@ -117,18 +117,7 @@ impl Measurements {
         svg.text(size / 2.0, 24.0, 15.0, "middle", &escape(title));
         axes(&mut svg, &px, (lo, hi), (top, top + plot_h), span);
         if let Some(r) = room {
-            svg.open_group("room");
-            let ((x0, y0), (x1, y1)) = (px(Vec2::new(0.0, r.height)), px(Vec2::new(r.width, 0.0)));
-            svg.rect(x0, y0, x1 - x0, y1 - y0, r##"fill="none" stroke="#444" stroke-width="1.2""##);
-            for o in &r.obstacles {
-                let ((x0, y0), (x1, y1)) = (px(Vec2::new(o.x0, o.y1)), px(Vec2::new(o.x1, o.y0)));
-                svg.rect(x0, y0, x1 - x0, y1 - y0, r##"class="obstacle" fill="#4d5d6e""##);
-            }
-            let (sx, sy) = px(Vec2::new(r.start.x, r.start.y));
-            let d = 6.0;
-            svg.line(sx - d, sy - d, sx + d, sy + d, r#"class="start" stroke="black" stroke-width="2""#);
-            svg.line(sx - d, sy + d, sx + d, sy - d, r#"class="start" stroke="black" stroke-width="2""#);
-            svg.close_group();
+            draw_room(&mut svg, &px, r);
         }
         for (&id, positions) in &self.positions {
             let colour = COLOURS[(id as usize).saturating_sub(1) % COLOURS.len()];
@@ -167,6 +156,23 @@ impl Measurements {
         svg.raw(r#"<defs><marker id="head" markerWidth="6" markerHeight="6" refX="5" refY="3" orient="auto"><path d="M0,0 L6,3 L0,6 z" fill="context-stroke"/></marker></defs>"#);
         svg.finish()
     }
+}
+
+/// The lab's room in the picture: its outline, its obstacles and the
+/// start's cross, `px` placing a point of the room.
+fn draw_room(svg: &mut Svg, px: &impl Fn(Vec2) -> (f64, f64), r: &Scenario) {
+    svg.open_group("room");
+    let ((x0, y0), (x1, y1)) = (px(Vec2::new(0.0, r.height)), px(Vec2::new(r.width, 0.0)));
+    svg.rect(x0, y0, x1 - x0, y1 - y0, r##"fill="none" stroke="#444" stroke-width="1.2""##);
+    for o in &r.obstacles {
+        let ((x0, y0), (x1, y1)) = (px(Vec2::new(o.x0, o.y1)), px(Vec2::new(o.x1, o.y0)));
+        svg.rect(x0, y0, x1 - x0, y1 - y0, r##"class="obstacle" fill="#4d5d6e""##);
+    }
+    let (sx, sy) = px(Vec2::new(r.start.x, r.start.y));
+    let d = 6.0;
+    svg.line(sx - d, sy - d, sx + d, sy + d, r#"class="start" stroke="black" stroke-width="2""#);
+    svg.line(sx - d, sy + d, sx + d, sy - d, r#"class="start" stroke="black" stroke-width="2""#);
+    svg.close_group();
 }
 
 /// Height of the legend under the x axis: the robots' colours, then what an
