@@ -87,6 +87,7 @@ pub(super) fn open_fan_in<S: IoxService>(
         waker: waker(node, config, &bell, Some(EVERY_MEMBER), bells)?,
         bell,
         rang: RefCell::new(VecDeque::new()),
+        queued: RefCell::new(vec![false; topics.len()]),
         round: Cell::new(true),
         last_round: Cell::new(Instant::now()),
         next: Cell::new(0),
@@ -102,8 +103,10 @@ pub struct IpcFanIn<S: IoxService> {
     members: BTreeMap<usize, Vec<usize>>,
     waker: Waker<S>,
     bell: TopicName,
-    /// Topics that rang and may hold messages, oldest first.
+    /// Topics that rang and may hold messages, oldest first, each once.
     rang: RefCell<VecDeque<usize>>,
+    /// Whether topic i is in `rang`, at i.
+    queued: RefCell<Vec<bool>>,
     /// Whether a round over every topic is due.
     round: Cell<bool>,
     /// When the last round found every topic empty.
@@ -117,10 +120,37 @@ impl<S: IoxService> IpcFanIn<S> {
     /// Notes which topics rang (a ring without a known member asks for a
     /// round).
     fn note(&self, id: usize) {
-        match self.members.get(&id) {
-            Some(topics) => self.rang.borrow_mut().extend(topics),
-            None => self.round.set(true),
+        let Some(topics) = self.members.get(&id) else { return self.round.set(true) };
+        let mut queued = self.queued.borrow_mut();
+        let mut rang = self.rang.borrow_mut();
+        for &i in topics {
+            // A topic already queued is read until empty anyway.
+            if let Some(q) = queued.get_mut(i).filter(|q| !**q) {
+                *q = true;
+                rang.push_back(i);
+            }
         }
+    }
+
+    /// The next message of a topic that rang, each read until empty, oldest
+    /// ring first.
+    fn take_rung(&self, buf: &mut [u8]) -> Result<Option<usize>, BusError> {
+        loop {
+            let Some(i) = self.rang.borrow().front().copied() else { return Ok(None) };
+            if let Some(n) = self.take(i, buf)? {
+                return Ok(Some(n));
+            }
+            self.rang.borrow_mut().pop_front();
+            if let Some(q) = self.queued.borrow_mut().get_mut(i) {
+                *q = false;
+            }
+        }
+    }
+
+    /// Forgets which topics rang (a small fan-in looks at all of them).
+    fn forget_rings(&self) {
+        self.rang.borrow_mut().clear();
+        self.queued.borrow_mut().fill(false);
     }
 
     /// Takes the rings that came, without waiting.
@@ -202,17 +232,18 @@ impl<S: IoxService> Subscribe for IpcFanIn<S> {
         if self.subscribers.len() <= SMALL {
             // Every topic, no doorbell (see the module docs); what rang
             // while it slept is among them.
-            self.rang.borrow_mut().clear();
+            self.forget_rings();
             return self.look_everywhere(buf);
         }
+        // The topics known to have rung first: the doorbell is read (a
+        // system call and a swap of each event counter) only once they are
+        // empty, so a burst of answers costs one read, not one per message.
+        if let Some(n) = self.take_rung(buf)? {
+            return Ok(Some(n));
+        }
         self.take_rings()?;
-        // Topics that rang, until each is empty.
-        loop {
-            let Some(i) = self.rang.borrow().front().copied() else { break };
-            if let Some(n) = self.take(i, buf)? {
-                return Ok(Some(n));
-            }
-            self.rang.borrow_mut().pop_front();
+        if let Some(n) = self.take_rung(buf)? {
+            return Ok(Some(n));
         }
         if !self.round.get() {
             if self.last_round.get().elapsed() < EVENT_WAIT_SLICE {
