@@ -60,7 +60,9 @@ impl LaunchCore {
                     continue;
                 }
                 self.answer_time.answered(&tick.wait, now);
-                if tick.wait.resent() == 0 {
+                // A settling agent's beacons sent with the last tick again
+                // (`sync_beacons`) are not a tick of their own.
+                if tick.wait.resent() == 0 && tick.step > self.ticks {
                     self.tick_time.0 += now.saturating_sub(tick.wait.since());
                     self.tick_time.1 += 1;
                 }
@@ -139,11 +141,11 @@ impl LaunchCore {
             return false;
         }
         if !self.beacons_held(id, now) && self.slot_ref(id).is_some_and(|s| s.alive) {
-            // More beacons than one send holds, or sent just now:
-            // lockstep runs another tick (it moves no robot), real
-            // time waits for the next period's send.
+            // More beacons than one send holds, or sent just now: lockstep
+            // sends the rest with the last tick again, real time waits for
+            // the next period's send.
             if self.setup.lockstep {
-                self.start_tick(now);
+                self.sync_beacons(id, now);
                 return true;
             }
             return false;

@@ -79,6 +79,9 @@ pub struct Case {
     pub time_limit: f64,
     /// The gate's dwell, s.
     pub dwell: f64,
+    /// The gate's turn rate below which a slow robot is still, rad/s (0:
+    /// turning is ignored; `simulate` has the default's rule).
+    pub stop_turn_rate: f64,
     /// What a dead agent means.
     pub on_death: OnDeath,
     /// What a robot whose agent never registers means.
@@ -104,6 +107,7 @@ impl Case {
             robots: 2 + (seed / 54 % 4) as u32,
             time_limit: [30.0, 120.0][(seed / 216 % 2) as usize],
             dwell: 1.0,
+            stop_turn_rate: crate::config::GateConfig::default().stop_turn_rate,
             on_death: OnDeath::Beacon,
             missing: Missing::Skip,
         }
@@ -249,6 +253,7 @@ impl Launch {
             cfg.time_limit = cfg.time_limit.min(GATEWAY_TIME_LIMIT);
         }
         cfg.gate.dwell = case.dwell;
+        cfg.gate.stop_turn_rate = case.stop_turn_rate;
         cfg.gate.on_agent_death = case.on_death;
         cfg.supervision.missing = case.missing;
         let text = bycoms_sim::terrain::format::to_text(&case.terrain);

@@ -2,6 +2,7 @@
 //! wakes only the agents that must step.
 
 use super::*;
+use bycoms_sim::terrain::Terrain;
 
 /// Without faults, the launch's result is `simulate`'s, bit for bit.
 #[test]
@@ -116,4 +117,36 @@ fn stop_when_stuck_stops_each_stuck_robot_once_and_changes_nothing_else() {
         }
     }
     assert!(stopped > 100, "only {stopped} stuck robots stopped");
+}
+
+/// More beacons than one send holds, and agents that register at
+/// different times, change nothing: a settling agent is sent what its
+/// settling tick's send did not hold with the last tick again, to it
+/// alone, so when its robot is deployed does not depend on how fast its
+/// agent started. Issue 35: it was sent them with ticks of their own, which
+/// stepped every creeping robot, and `launch --robots 120` on the all-stuck
+/// terrain ended after 1383 to 1399 steps in three runs. (Turning is
+/// ignored, as `bench crowd` does, so every robot sticks at once; `simulate`
+/// has no such rule, so the runs are compared with each other.)
+#[test]
+fn how_soon_agents_register_changes_nothing_with_many_beacons() {
+    // The start walled in: every robot sticks at once and stays a beacon.
+    let terrain: Terrain = ".....\n..G..\n.###.\n.#S#.\n.###.\n".parse().expect("terrain");
+    let case =
+        Case { terrain, robots: 45, time_limit: 300.0, noise: None, stop_turn_rate: 0.0, ..Case::small(0) };
+    let mut runs = Vec::new();
+    for (what, delay_us) in [("at once", 1), ("late", 20_000), ("very late", 400_000)] {
+        let mut schedule = Schedule::clean(0, case.robots);
+        schedule.register_delay_us = vec![Some(delay_us); case.robots as usize];
+        let report = harness::run(&case, &schedule);
+        harness::check(&report, &schedule).unwrap_or_else(|e| panic!("{what}: {e}"));
+        assert_eq!(report.ending.as_ref().map(|e| e.outcome), Some(Outcome::RobotsExhausted), "{what}");
+        runs.push((what, report));
+    }
+    // Every robot a beacon: robot 34 on settles with more than one send holds.
+    let stuck = runs[0].1.robots.iter().filter(|r| r.0 == SlotState::Stuck).count();
+    assert_eq!(stuck, 45, "every robot sticks");
+    for (what, report) in &runs[1..] {
+        same_run(&runs[0].1, report, what);
+    }
 }
