@@ -22,7 +22,7 @@
 //! version (except those of its own robot).
 
 use super::beacon_table::PER_SEND;
-use super::{LaunchCore, Output, Pose, SlotState, TickWait};
+use super::{LaunchCore, Output, Phase, Pose, SlotState, TickWait};
 use bycoms_protocol::msg::{Beacon, Tick, ToAgent};
 use bycoms_protocol::RobotId;
 
@@ -43,15 +43,29 @@ impl LaunchCore {
     /// Sends every agent that may still move the beacons it was not sent
     /// yet, at most [`PER_SEND`] each. `mark` is the tick whose `Tick`
     /// follows (lockstep) or the time (real time).
+    ///
+    /// In lockstep an agent whose robot is not deployed yet is sent none
+    /// until it settles ([`Self::sync_beacons`] sends it what one send does
+    /// not hold): its answer to a tick is what says it holds them, and a
+    /// beacon that creeps changes the table every tick, so every agent
+    /// waiting its turn (all of them, when they are started at once) was
+    /// ticked every tick, for nothing it needed before its turn (issue 35).
     pub(super) fn send_beacons(&mut self, mark: u64) {
         if !self.setup.agents.beacons || self.beacons.version() == 0 {
             return;
         }
         let version = self.beacons.version();
+        let settling = match self.phase {
+            Phase::Settling(id, _) => Some(id),
+            _ => None,
+        };
         for i in 0..self.slots.len() {
             let slot = &self.slots[i];
-            let may_move =
-                matches!(slot.state, SlotState::Registered | SlotState::Deploying | SlotState::Moving);
+            let may_move = match slot.state {
+                SlotState::Registered => !self.setup.lockstep || settling == Some(slot.id),
+                SlotState::Deploying | SlotState::Moving => true,
+                _ => false,
+            };
             if slot.alive
                 && slot.registered_before_tick.is_some()
                 && may_move

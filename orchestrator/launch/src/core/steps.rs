@@ -389,10 +389,10 @@ impl LaunchCore {
         self.ticks_started += 1;
         // A parked robot will never move again: its last pose stands, and
         // only the robot the gate watches needs a pose every step. A robot
-        // not deployed yet steps nothing: its agent is ticked only to take
-        // beacons sent before this tick (its answer says it holds them) and
-        // while it settles (so its tick count is the launch's when it is
-        // deployed); else it costs the tick nothing.
+        // not deployed yet steps nothing: its agent is ticked only while it
+        // settles (its answer says it holds the beacons sent before, and
+        // its tick count is the launch's when it is deployed); else it
+        // costs the tick nothing.
         let watched = self.referee.watched();
         let settling = match self.phase {
             Phase::Settling(id, _) => Some(id),
@@ -403,7 +403,7 @@ impl LaunchCore {
             .iter()
             .filter(|s| s.alive && s.registered_before_tick.is_some() && s.state != SlotState::Lost)
             .filter(|s| !s.parked || watched == Some(s.id))
-            .filter(|s| s.state != SlotState::Registered || settling == Some(s.id) || s.beacons_sent_at == t)
+            .filter(|s| s.state != SlotState::Registered || settling == Some(s.id))
             .map(|s| s.id)
             .collect();
         self.ticked_agents += live.len() as u64;
