@@ -118,6 +118,10 @@ pub struct Row {
     /// Agents ticked per tick (the summary's `ticked_agents / ticks`): what
     /// a tick costs over this is what one stepping agent costs.
     pub agents_per_tick: Option<f64>,
+    /// What one stepping agent adds to a tick, µs: a tick's own time per
+    /// agent it ticked, over the ticks while no agent was starting (the
+    /// summary's `quiet_us_per_agent`).
+    pub us_per_agent: Option<f64>,
     /// Peak open files of the orchestrator.
     pub peak_files_orchestrator: usize,
     /// Peak open files of the busiest agent.
@@ -286,6 +290,9 @@ impl Launch<'_> {
             ms_per_tick: per_tick("wall_s", 1e3),
             clock_ms_per_tick: get("tick_us").and_then(serde_json::Value::as_f64).map(|us| us / 1e3),
             agents_per_tick: per_tick("ticked_agents", 1.0),
+            us_per_agent: get("quiet_us_per_agent")
+                .and_then(serde_json::Value::as_f64)
+                .filter(|&us| us > 0.0),
             peak_files_orchestrator: peaks.files_orchestrator,
             peak_files_agent: peaks.files_agent,
             peak_agents: peaks.agents,
@@ -466,7 +473,7 @@ pub fn table(rows: &[Row]) -> String {
         SAMPLE_EVERY.as_millis()
     );
     out.push_str(&format!(
-        "{:>6} {:>8} {:>9} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>8} {:>10} {:>11} {:>7} {:>6} {:>6}\n",
+        "{:>6} {:>8} {:>9} {:>8} {:>8} {:>8} {:>8} {:>9} {:>9} {:>8} {:>8} {:>10} {:>11} {:>7} {:>6} {:>6}\n",
         "robots",
         "rec MB",
         "PSS MB",
@@ -477,6 +484,7 @@ pub fn table(rows: &[Row]) -> String {
         "ms/tick",
         "clock ms",
         "agents",
+        "µs/agent",
         "files orch",
         "files agent",
         "agents",
@@ -495,7 +503,7 @@ pub fn table(rows: &[Row]) -> String {
             continue;
         }
         out.push_str(&format!(
-            "{:>6} {:>8} {:>9.1} {:>8.2} {:>8.1} {:>8} {:>8} {:>9} {:>9} {:>8} {:>10} {:>11} {:>7} {:>6} {:>6}",
+            "{:>6} {:>8} {:>9.1} {:>8.2} {:>8.1} {:>8} {:>8} {:>9} {:>9} {:>8} {:>8} {:>10} {:>11} {:>7} {:>6} {:>6}",
             r.robots,
             r.recording_bytes.map_or("–".to_owned(), |b| format!("{:.1}", b as f64 / 1e6)),
             r.peak_pss_mb,
@@ -506,6 +514,7 @@ pub fn table(rows: &[Row]) -> String {
             opt(r.ms_per_tick, 2),
             opt(r.clock_ms_per_tick, 3),
             opt(r.agents_per_tick, 2),
+            opt(r.us_per_agent, 1),
             r.peak_files_orchestrator,
             r.peak_files_agent,
             r.peak_agents,
@@ -525,7 +534,8 @@ pub fn table(rows: &[Row]) -> String {
     out.push_str(&format!(
         "PSS: orchestrator and all agents together, peak of the samples; a sample took up to {sample_ms:.1} ms\n\
          ms/tick: wall time over ticks; clock ms: a tick's own time (its Ticks to its last answer, ticks without \
-         a re-send); agents: agents ticked per tick"
+         a re-send); agents: agents ticked per tick; µs/agent: a tick's own time per agent it ticked, over the \
+         ticks while no agent was starting (what each stepping agent adds)"
     ));
     out
 }

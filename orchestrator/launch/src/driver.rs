@@ -542,6 +542,7 @@ impl Driver {
             ticks,
             ticked_agents: self.core.ticked_agents(),
             tick_us: self.core.tick_us(),
+            quiet_us_per_agent: self.core.quiet_us_per_agent(),
             wall_s,
             sim_speed: match self.cfg.clock {
                 Clock::Lockstep if wall_s > 0.0 => ticks as f64 * dt / wall_s,

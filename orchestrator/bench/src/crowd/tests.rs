@@ -16,6 +16,7 @@ fn row(robots: u32, ended: Ended) -> Row {
         ms_per_tick: Some(7.3),
         clock_ms_per_tick: Some(6.1),
         agents_per_tick: Some(1.5),
+        us_per_agent: None,
         peak_files_orchestrator: 256,
         peak_files_agent: 37,
         peak_agents: 10,

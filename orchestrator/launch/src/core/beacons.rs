@@ -107,7 +107,8 @@ impl LaunchCore {
         }
         self.outputs.push_back(Output::Send(id, ToAgent::Tick(Tick { step: t })));
         let wait = self.answer_wait(now);
-        self.tick = Some(TickWait { step: t, awaiting: [id].into(), pose_of: None, wait });
+        self.tick =
+            Some(TickWait { step: t, awaiting: [id].into(), pose_of: None, wait, agents: 1, quiet: false });
     }
 
     /// Sends the agent of slot `i` the changes it was not sent, at most

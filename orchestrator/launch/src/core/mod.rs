@@ -356,6 +356,11 @@ struct TickWait {
     /// have come).
     pose_of: Option<u32>,
     wait: AnswerWait,
+    /// The agents it ticked.
+    agents: u32,
+    /// Whether no agent was starting when it began (see
+    /// [`LaunchCore::quiet_us_per_agent`]).
+    quiet: bool,
 }
 
 impl TickWait {
@@ -389,6 +394,9 @@ pub struct LaunchCore {
     /// their number: what a tick costs, without the waits for agents to
     /// start or for lost messages.
     tick_time: (u64, u64),
+    /// Over the ticks of `tick_time` begun and ended while no agent was
+    /// starting: their wall time, µs, and the agents they ticked.
+    quiet_tick_time: (u64, u64),
     next: u32,
     pending_deploy: Option<Deploy>,
     /// Robots that registered after their turn was skipped, in the order
@@ -437,6 +445,7 @@ impl LaunchCore {
             ticks_started: 0,
             ticked_agents: 0,
             tick_time: (0, 0),
+            quiet_tick_time: (0, 0),
             next: 1,
             pending_deploy: None,
             late: VecDeque::new(),
@@ -495,6 +504,26 @@ impl LaunchCore {
             us as f64 / n as f64
         }
     }
+    /// Wall time of a tick per agent it ticked, µs, over the ticks of
+    /// [`Self::tick_us`] begun and ended while no agent was starting (0:
+    /// none): what each agent that steps adds to a tick. Why apart: an
+    /// agent process starting (its robot's turn is next) takes a core from
+    /// the ticks around it for milliseconds, a cost of each robot, not of
+    /// each tick.
+    pub fn quiet_us_per_agent(&self) -> f64 {
+        let (us, agents) = self.quiet_tick_time;
+        if agents == 0 {
+            0.0
+        } else {
+            us as f64 / agents as f64
+        }
+    }
+
+    /// Whether an agent was started and has not registered yet.
+    fn agent_starting(&self) -> bool {
+        self.slots.iter().any(|s| s.state == SlotState::Spawned)
+    }
+
     /// Active steps charged to the budget.
     pub fn spent(&self) -> u64 {
         self.referee.spent()

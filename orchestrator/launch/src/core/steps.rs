@@ -59,20 +59,30 @@ impl LaunchCore {
                     }
                     continue;
                 }
-                self.answer_time.answered(&tick.wait, now);
-                // A settling agent's beacons sent with the last tick again
-                // (`sync_beacons`) are not a tick of their own.
-                if tick.wait.resent() == 0 && tick.step > self.ticks {
-                    self.tick_time.0 += now.saturating_sub(tick.wait.since());
-                    self.tick_time.1 += 1;
-                }
-                self.ticks = tick.step;
-                self.tick = None;
+                self.tick_answered(now);
             }
             if !self.step_phase(now) {
                 return;
             }
         }
+    }
+
+    /// The open tick was answered in full at `now`: timed, and done.
+    fn tick_answered(&mut self, now: u64) {
+        let Some(tick) = self.tick.take() else { return };
+        self.answer_time.answered(&tick.wait, now);
+        // A settling agent's beacons sent with the last tick again
+        // (`sync_beacons`) are not a tick of their own.
+        if tick.wait.resent() == 0 && tick.step > self.ticks {
+            let took = now.saturating_sub(tick.wait.since());
+            self.tick_time.0 += took;
+            self.tick_time.1 += 1;
+            if tick.quiet && !self.agent_starting() {
+                self.quiet_tick_time.0 += took;
+                self.quiet_tick_time.1 += u64::from(tick.agents);
+            }
+        }
+        self.ticks = tick.step;
     }
 
     /// One step of the phase machine; false when it must wait.
@@ -412,7 +422,9 @@ impl LaunchCore {
         }
         let wait = self.answer_wait(now);
         let pose_of = watched.filter(|id| live.contains(id));
-        self.tick = Some(TickWait { step: t, awaiting: live.into_iter().collect(), pose_of, wait });
+        let (agents, quiet) = (live.len() as u32, !self.agent_starting());
+        self.tick =
+            Some(TickWait { step: t, awaiting: live.into_iter().collect(), pose_of, wait, agents, quiet });
     }
 
     /// A wait for answers from `now`: up to the tick timeout, re-sending

@@ -194,6 +194,11 @@ pub struct Summary {
     /// answer, µs, over the ticks answered without a re-send: what a tick
     /// costs (`wall_s` also holds the agents' start and the wind-down).
     pub tick_us: f64,
+    /// Wall time of a lockstep tick per agent it ticked, µs, over the
+    /// ticks of `tick_us` while no agent was starting: what each agent
+    /// that steps adds to a tick (an agent starting takes a core from the
+    /// ticks around it, a cost of each robot).
+    pub quiet_us_per_agent: f64,
     /// Wall-clock duration, s.
     pub wall_s: f64,
     /// Simulated seconds per wall second: over the whole launch in lockstep
@@ -538,6 +543,7 @@ mod tests {
             ticks: 1,
             ticked_agents: 1,
             tick_us: 80.0,
+            quiet_us_per_agent: 60.0,
             wall_s: 0.5,
             sim_speed: 2.0,
             realtime,
