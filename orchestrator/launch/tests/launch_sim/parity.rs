@@ -123,7 +123,8 @@ fn stop_when_stuck_stops_each_stuck_robot_once_and_changes_nothing_else() {
 /// different times, change nothing: a settling agent is sent what its
 /// settling tick's send did not hold with the last tick again, to it
 /// alone, so when its robot is deployed does not depend on how fast its
-/// agent started. Issue 35: it was sent them with ticks of their own, which
+/// agent started, or whether every agent was there from the start (remote
+/// agents). Issue 35: it was sent them with ticks of their own, which
 /// stepped every creeping robot, and `launch --robots 120` on the all-stuck
 /// terrain ended after 1383 to 1399 steps in three runs. (Turning is
 /// ignored, as `bench crowd` does, so every robot sticks at once; `simulate`
@@ -135,9 +136,13 @@ fn how_soon_agents_register_changes_nothing_with_many_beacons() {
     let case =
         Case { terrain, robots: 45, time_limit: 300.0, noise: None, stop_turn_rate: 0.0, ..Case::small(0) };
     let mut runs = Vec::new();
-    for (what, delay_us) in [("at once", 1), ("late", 20_000), ("very late", 400_000)] {
+    let starts =
+        [("at once", 1, false), ("late", 20_000, false), ("very late", 400_000, false), ("remote", 1, true)];
+    for (what, delay_us, remote) in starts {
         let mut schedule = Schedule::clean(0, case.robots);
         schedule.register_delay_us = vec![Some(delay_us); case.robots as usize];
+        // Remote agents are all there from the start, waiting their turn.
+        schedule.remote = remote;
         let report = harness::run(&case, &schedule);
         harness::check(&report, &schedule).unwrap_or_else(|e| panic!("{what}: {e}"));
         assert_eq!(report.ending.as_ref().map(|e| e.outcome), Some(Outcome::RobotsExhausted), "{what}");
