@@ -377,6 +377,15 @@ impl TickWait {
     }
 }
 
+/// `total / count` (0 when nothing was counted).
+fn per((total, count): (u64, u64)) -> f64 {
+    if count == 0 {
+        0.0
+    } else {
+        total as f64 / count as f64
+    }
+}
+
 /// The launch, as data.
 pub struct LaunchCore {
     setup: Setup,
@@ -497,12 +506,7 @@ impl LaunchCore {
     /// Mean wall time of a tick from its `Tick`s to its last answer, µs,
     /// over the ticks answered without a re-send (0: none).
     pub fn tick_us(&self) -> f64 {
-        let (us, n) = self.tick_time;
-        if n == 0 {
-            0.0
-        } else {
-            us as f64 / n as f64
-        }
+        per(self.tick_time)
     }
     /// Wall time of a tick per agent it ticked, µs, over the ticks of
     /// [`Self::tick_us`] begun and ended while no agent was starting (0:
@@ -511,12 +515,7 @@ impl LaunchCore {
     /// the ticks around it for milliseconds, a cost of each robot, not of
     /// each tick.
     pub fn quiet_us_per_agent(&self) -> f64 {
-        let (us, agents) = self.quiet_tick_time;
-        if agents == 0 {
-            0.0
-        } else {
-            us as f64 / agents as f64
-        }
+        per(self.quiet_tick_time)
     }
 
     /// Whether an agent was started and has not registered yet.
