@@ -254,6 +254,21 @@ impl<'a> Deployment<'a> {
         motion
     }
 
+    /// Performs up to `max` of the turns that surely follow (those
+    /// [`Self::step`] would replay one by one) at once; returns how many.
+    #[inline]
+    pub fn skip_known_turns(&mut self, max: u64) -> u32 {
+        let j = u64::from(self.pending).min(max) as u32;
+        let n = self.table.len();
+        let k = self.robot.body.k;
+        self.robot.body.k = match self.turn {
+            Motion::TurnCcw => (k + j % n) % n,
+            _ => (k + n - j % n) % n,
+        };
+        self.pending -= j;
+        j
+    }
+
     /// One period as [`SimRobot::step`] does it: the motion, the target
     /// heading it turned towards (`None`: the goal bearing, not computed)
     /// and whether the next period's mode could change with the heading

@@ -234,7 +234,13 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
                 trajectory.push(p);
             }
             if motion != Motion::Straight && steps - first_step > 1 {
-                // Turned in place where the last period's checks passed.
+                // Turned in place where the last period's checks passed; so
+                // do the turns known to follow, the same one each period.
+                let turns = deployment.skip_known_turns(limit - steps);
+                steps += u64::from(turns);
+                if cfg.record_trajectories {
+                    trajectory.extend(std::iter::repeat_n(p, turns as usize));
+                }
                 continue;
             }
             if terrain.is_blocked_at(p) {
