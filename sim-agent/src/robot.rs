@@ -14,6 +14,7 @@ use crate::Vec2;
 use bycoms_agent::angle::wrap;
 use bycoms_agent::point::choose_motion;
 use bycoms_agent::{Controller, ControllerConfig, FieldGoal, Input, Mode, Motion, Output};
+use core::f64::consts::{FRAC_PI_2, TAU};
 
 /// A simulated robot between deployment and stop.
 #[derive(Clone, Debug)]
@@ -167,6 +168,11 @@ pub struct Deployment<'a> {
     /// The controller's values of the sensed field direction and the goal
     /// bearing (kept while both stay the same: turns without noise).
     field_goal: FieldGoal,
+    /// Turns in place already known to follow, each the same as the last
+    /// period's (without noise: [`Self::same_turns`]).
+    pending: u32,
+    /// The turn they repeat.
+    turn: Motion,
 }
 
 /// A [`Deployment`]'s upper bounds of the exact field sum.
@@ -223,12 +229,52 @@ impl<'a> Deployment<'a> {
             direction: None,
             ahead: None,
             field_goal: FieldGoal::default(),
+            pending: 0,
+            turn: Motion::Straight,
         }
     }
 
     /// One control period; returns the motion performed.
     #[inline]
     pub fn step(&mut self) -> Motion {
+        if self.pending > 0 {
+            // A turn proven the same as the last period's (`same_turns`).
+            self.pending -= 1;
+            self.robot.body.apply(self.turn, self.table);
+            return self.turn;
+        }
+        let (motion, target, exit_possible) = self.decide();
+        if motion != Motion::Straight && self.robot.noise.is_none() && !exit_possible {
+            let p = self.robot.body.pos;
+            let target =
+                target.unwrap_or_else(|| *self.bearing.get_or_insert_with(|| p.bearing_to(self.goal)));
+            self.turn = motion;
+            self.pending = self.same_turns(target, motion);
+        }
+        motion
+    }
+
+    /// Performs up to `max` of the turns that surely follow (those
+    /// [`Self::step`] would replay one by one) at once; returns how many.
+    #[inline]
+    pub fn skip_known_turns(&mut self, max: u64) -> u32 {
+        let j = u64::from(self.pending).min(max) as u32;
+        let n = self.table.len();
+        let k = self.robot.body.k;
+        self.robot.body.k = match self.turn {
+            Motion::TurnCcw => (k + j % n) % n,
+            _ => (k + n - j % n) % n,
+        };
+        self.pending -= j;
+        j
+    }
+
+    /// One period as [`SimRobot::step`] does it: the motion, the target
+    /// heading it turned towards (`None`: the goal bearing, not computed)
+    /// and whether the next period's mode could change with the heading
+    /// alone (mode 2 with the field behind: θfg > π/2).
+    #[inline]
+    fn decide(&mut self) -> (Motion, Option<f64>, bool) {
         let r = &mut self.robot;
         let (factor, offset) = match &mut r.noise {
             Some(n) => n.draw(),
@@ -286,7 +332,7 @@ impl<'a> Deployment<'a> {
                 choose_motion(wrap(bearing - heading), config.straight_tolerance)
             });
             r.body.apply(motion, self.table);
-            return motion;
+            return (motion, self.bearing, false);
         }
         let bearing = *self.bearing.get_or_insert_with(|| p.bearing_to(self.goal));
         let sample = self.sample.expect("computed above when not surely below");
@@ -300,6 +346,49 @@ impl<'a> Deployment<'a> {
         };
         let out = r.controller.step_cached(&input, &mut self.field_goal);
         r.body.apply(out.motion, self.table);
-        out.motion
+        // The controller's θfg (`FieldGoal`): the same two angles, the same bits.
+        let exit_possible =
+            out.mode == Mode::Bypass && libm::fabs(wrap(input.field_direction - bearing)) > FRAC_PI_2;
+        (out.motion, Some(out.target), exit_possible)
+    }
+
+    /// How many of the next periods, without noise and at this position,
+    /// surely repeat the last one's turn `motion` towards `target`.
+    ///
+    /// Nothing the controller reads changes while the robot turns in place
+    /// without noise but its heading: the mode stays (mode 1's rule reads
+    /// the field and the goal alone, and gave mode 1 with these very values;
+    /// mode 2's exit reads the heading, so the caller asks only when θfg ≤ π/2,
+    /// where it cannot fire), and so does the target. The motion is then
+    /// `choose_motion(wrap(target − θ_k), tol)` for the next headings θ_k,
+    /// whose true angle to the target falls (or rises) by the turn step δ
+    /// each period, from within the turn's side of ±tol towards tol, never
+    /// near ±π; the floats are within 1e-14 rad of the true values, so at
+    /// most one of them (the one at tol) can differ from its true side and
+    /// the turns are a run of periods followed by none: its end is found by
+    /// evaluating the exact decision around the estimate (e − tol)/δ.
+    fn same_turns(&self, target: f64, motion: Motion) -> u32 {
+        let table = self.table;
+        let n = table.len();
+        let tol = self.robot.controller.config().straight_tolerance;
+        let k = self.robot.body.k;
+        let heading = |i: u32| match motion {
+            Motion::TurnCcw => table.heading((k + i) % n),
+            _ => table.heading((k + n - i % n) % n),
+        };
+        let same = |i: u32| choose_motion(wrap(target - heading(i)), tol) == motion;
+        let e = libm::fabs(wrap(target - heading(0)));
+        if !e.is_finite() || !(0.0..core::f64::consts::PI).contains(&tol) {
+            return 0;
+        }
+        let estimate = (e - tol) / (TAU / f64::from(n));
+        let mut i = (estimate.max(0.0) as u32).min(n / 2);
+        while i > 0 && !same(i - 1) {
+            i -= 1;
+        }
+        while i < n / 2 && same(i) {
+            i += 1;
+        }
+        i
     }
 }

@@ -14,7 +14,10 @@
 //! `SimRobot::step` does (same bits) while skipping work whose result is
 //! unchanged or unused (see there); the terrain and arrival checks follow
 //! a move only, since a turn in place leaves the robot where the last
-//! period's checks passed. (An exact loop detector — Brent's algorithm on the robot's state
+//! period's checks passed. Without noise, the turns in place that surely
+//! repeat the last period's turn are done at once
+//! ([`Deployment::skip_known_turns`]: the heading advances and the periods
+//! are counted as if stepped one by one). (An exact loop detector — Brent's algorithm on the robot's state
 //! bits — was tried and removed: orbiting robots drift by rounding and never
 //! repeat a state exactly, so it never fired; the full study meets its time
 //! budget without it.)
@@ -234,7 +237,13 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
                 trajectory.push(p);
             }
             if motion != Motion::Straight && steps - first_step > 1 {
-                // Turned in place where the last period's checks passed.
+                // Turned in place where the last period's checks passed; so
+                // do the turns known to follow, the same one each period.
+                let turns = deployment.skip_known_turns(limit - steps);
+                steps += u64::from(turns);
+                if cfg.record_trajectories {
+                    trajectory.extend(std::iter::repeat_n(p, turns as usize));
+                }
                 continue;
             }
             if terrain.is_blocked_at(p) {

@@ -76,6 +76,50 @@ fn deployment_follows_sim_robot_step_in_a_field_near_threshold() {
     }
 }
 
+/// Turns in place without noise are done in runs (`Deployment::skip_known_turns`,
+/// as the runner does after every turn): after each run the robot must be
+/// where `SimRobot::step`, period by period, puts it, in the same mode.
+#[test]
+fn skipped_turns_follow_sim_robot_step_bit_for_bit() {
+    let kin = Kinematics::paper();
+    let (start, goal) = (Vec2::new(15.5, 15.5), Vec2::new(44.5, 44.5));
+    let table = HeadingTable::new(&kin, start.bearing_to(goal)).unwrap();
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(35);
+    let (mut skipped, mut runs) = (0u64, 0u64);
+    for case in 0..80u64 {
+        let mut beacons = Beacons::new(1.0);
+        for _ in 0..rng.gen_range(1..30) {
+            beacons.push(Vec2::new(rng.gen_range(16.0..44.0), rng.gen_range(16.0..44.0)));
+        }
+        let config = ControllerConfig::paper(rng.gen_range(1.0..5.0));
+        let cones = MotionCones::new(&table, config.straight_tolerance);
+        let mut plain = SimRobot::new(start, config, None, kin.dt);
+        let mut d =
+            Deployment::new(SimRobot::new(start, config, None, kin.dt), &table, &cones, &beacons, goal);
+        let mut period = 0u64;
+        while period < 6000 {
+            let out = plain.step(&table, &beacons, plain.body.pos.bearing_to(goal));
+            let motion = d.step();
+            period += 1;
+            assert_eq!(motion, out.motion, "case {case} period {period}");
+            if motion != bycoms_agent::Motion::Straight {
+                // At most to period 6000, as the runner stops at its limit.
+                let turns = d.skip_known_turns(6000 - period);
+                for _ in 0..turns {
+                    let again = plain.step(&table, &beacons, plain.body.pos.bearing_to(goal));
+                    assert_eq!(again.motion, motion, "case {case} period {period}: a skipped turn differs");
+                }
+                period += u64::from(turns);
+                skipped += u64::from(turns);
+                runs += u64::from(turns > 0);
+            }
+            assert_eq!(d.robot.body.state(), plain.body.state(), "case {case} period {period}");
+            assert_eq!(d.robot.mode(), plain.mode(), "case {case} period {period}");
+        }
+    }
+    assert!(skipped > 100_000 && runs > 5_000, "{skipped} turns skipped in {runs} runs");
+}
+
 #[test]
 fn cheap_mode_one_decision_agrees_with_the_controller_at_the_boundaries() {
     let kin = Kinematics::paper();
