@@ -48,6 +48,16 @@ pub const NODE_NAME: &str = "bycoms";
 pub const ROUTE_TIMEOUT: Duration = Duration::from_secs(5);
 /// How long a launch asks the graph for its tokens.
 const GRAPH_QUERY_TIMEOUT: Duration = Duration::from_secs(1);
+/// How long the routes to the graph's subscribers are given, once matched,
+/// before the run. Why: a zenoh router computes the trees that carry data
+/// to other routers at most every 100 ms after the network changed
+/// (`TREES_COMPUTATION_DELAY_MS` in zenoh 1.10's routing), while a
+/// publisher matches as soon as the subscriber's declaration arrives; what
+/// is put in between is dropped. A launch connected to a ROS 2 router that
+/// started right away lost its first 50 to 200 ticks' samples (the map
+/// among them) in one run of eight (issue 35's sixth pass, where the
+/// launch's start became faster). Two tree computations' delay.
+const ROUTES_SETTLE: Duration = Duration::from_millis(200);
 
 /// The rmw_zenoh sink: each topic's publisher (key expression, GID,
 /// sequence numbers) declared on the launch's zenoh session, with the
@@ -108,6 +118,7 @@ impl ZenohSink {
     /// subscription token names, this waits (up to [`ROUTE_TIMEOUT`] in
     /// all) until the publisher matches. Subscribers that join later get
     /// what is put from then on, as from any volatile ROS 2 publisher.
+    /// Once they match, the routes are given [`ROUTES_SETTLE`] more.
     fn wait_for_routes(&self, topics: &[Topic], waiting: &BTreeSet<String>) {
         let deadline = Instant::now() + ROUTE_TIMEOUT;
         for ((_, publisher), topic) in self.publishers.iter().zip(topics) {
@@ -130,6 +141,9 @@ impl ZenohSink {
                     ROUTE_TIMEOUT
                 );
             }
+        }
+        if self.publishers.iter().zip(topics).any(|(_, t)| waiting.contains(&t.name)) {
+            std::thread::sleep(ROUTES_SETTLE);
         }
         tracing::debug!(topics = waiting.len(), "ros2: routes to the graph's subscribers ready");
     }
