@@ -187,6 +187,59 @@ pub struct RunResult {
     pub robots: Vec<RobotRun>,
 }
 
+/// What one robot's walk is checked against: the terrain, the goal's
+/// radius (squared) and the step limit.
+struct Course<'a> {
+    terrain: &'a Terrain,
+    cfg: &'a RunConfig,
+    goal: Vec2,
+    r2: f64,
+    limit: u64,
+}
+
+impl Course<'_> {
+    /// Steps `deployment` until its robot sticks, arrives or the run's
+    /// steps reach the limit: how it ended, and the run's outcome if the
+    /// run ends with it.
+    #[inline]
+    fn walk(
+        &self,
+        deployment: &mut Deployment<'_>,
+        steps: &mut u64,
+        trajectory: &mut Vec<Vec2>,
+    ) -> (RobotRunEnd, Option<RunOutcome>) {
+        let (cfg, limit, first_step) = (self.cfg, self.limit, *steps);
+        loop {
+            if *steps >= limit {
+                return (RobotRunEnd::Moving, Some(RunOutcome::TimeLimit));
+            }
+            let motion = deployment.step();
+            *steps += 1;
+            let p = deployment.robot.body.pos;
+            if cfg.record_trajectories {
+                trajectory.push(p);
+            }
+            if motion != Motion::Straight && *steps - first_step > 1 {
+                // Turned in place where the last period's checks passed; so
+                // do the turns known to follow, the same one each period.
+                let turns = deployment.skip_known_turns(limit - *steps);
+                *steps += u64::from(turns);
+                if cfg.record_trajectories {
+                    trajectory.extend(std::iter::repeat_n(p, turns as usize));
+                }
+                continue;
+            }
+            if self.terrain.is_blocked_at(p) {
+                return (RobotRunEnd::Stuck, None);
+            }
+            let (dx, dy) = (p.x - self.goal.x, p.y - self.goal.y);
+            if dx * dx + dy * dy <= self.r2 {
+                return (RobotRunEnd::Arrived, Some(RunOutcome::Arrived));
+            }
+        }
+    }
+}
+
 /// Runs the sequential deployment on `terrain`.
 ///
 /// Panics if `cfg` fails [`RunConfig::validate`]; callers taking the
@@ -225,36 +278,9 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
         }
         let first_step = steps;
         let mut deployment = Deployment::new(robot, &table, &cones, &beacons, goal);
-        let end = loop {
-            if steps >= limit {
-                outcome = Some(RunOutcome::TimeLimit);
-                break RobotRunEnd::Moving;
-            }
-            let motion = deployment.step();
-            steps += 1;
-            let p = deployment.robot.body.pos;
-            if cfg.record_trajectories {
-                trajectory.push(p);
-            }
-            if motion != Motion::Straight && steps - first_step > 1 {
-                // Turned in place where the last period's checks passed; so
-                // do the turns known to follow, the same one each period.
-                let turns = deployment.skip_known_turns(limit - steps);
-                steps += u64::from(turns);
-                if cfg.record_trajectories {
-                    trajectory.extend(std::iter::repeat_n(p, turns as usize));
-                }
-                continue;
-            }
-            if terrain.is_blocked_at(p) {
-                break RobotRunEnd::Stuck;
-            }
-            let (dx, dy) = (p.x - goal.x, p.y - goal.y);
-            if dx * dx + dy * dy <= r2 {
-                outcome = Some(RunOutcome::Arrived);
-                break RobotRunEnd::Arrived;
-            }
-        };
+        let course = Course { terrain, cfg, goal, r2, limit };
+        let (end, ended) = course.walk(&mut deployment, &mut steps, &mut trajectory);
+        outcome = ended;
         let robot = deployment.robot;
         if end == RobotRunEnd::Stuck {
             beacons.push(robot.body.pos);
