@@ -79,8 +79,11 @@ impl AgentFixture for SpawnedFixture {
 
     fn source(&self) -> Box<dyn AgentSource> {
         let script = r#"read what; [ "$what" = exit ] && exit 3; exec sleep 30"#;
-        let command =
-            AgentCommand { program: "sh".into(), prefix: vec!["-c".into(), script.into(), "sh".into()] };
+        let command = AgentCommand {
+            program: "sh".into(),
+            prefix: vec!["-c".into(), script.into(), "sh".into()],
+            own: false,
+        };
         Box::new(Spawned::new(command))
     }
 
@@ -280,7 +283,8 @@ impl AgentFixture for GatewaysFixture {
 
     fn source(&self) -> Box<dyn AgentSource> {
         let script = format!(r#"case " $* " in *" --heartbeat-ms {ENDS} "*) exit 3;; esac; exec sleep 30"#);
-        let command = AgentCommand { program: "sh".into(), prefix: vec!["-c".into(), script, "sh".into()] };
+        let command =
+            AgentCommand { program: "sh".into(), prefix: vec!["-c".into(), script, "sh".into()], own: false };
         Box::new(Gateways::new(command, self.robots.clone()))
     }
 

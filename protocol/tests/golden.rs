@@ -64,6 +64,7 @@ fn to_agent() {
     check(ToAgent::Refused(refused), &[V, 5, 3, 0xAC, 0x02, 4, 0x9F, 0x1F, 0xF4, 0x03]);
     let beacon = Beacon { robot: RobotId(2), x: 44.5, y: 44.25, seq: 300 };
     check(ToAgent::Beacon(beacon), &cat(&[&[V, 6, 2], &F44_5, &F44_25, &[0xAC, 0x02]]));
+    check(ToAgent::Ticks(Ticks { step: 300, count: 32 }), &[V, 7, 0xAC, 0x02, 32]);
 }
 
 #[test]

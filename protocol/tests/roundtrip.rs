@@ -32,6 +32,7 @@ fn to_agent() -> impl Strategy<Value = ToAgent> {
             ToAgent::GoalBearing(GoalBearing { robot, bearing, step })
         }),
         any::<u64>().prop_map(|step| ToAgent::Tick(Tick { step })),
+        (any::<u64>(), any::<u32>()).prop_map(|(step, count)| ToAgent::Ticks(Ticks { step, count })),
         Just(ToAgent::Stop),
         Just(ToAgent::Shutdown),
         (robot(), any::<u64>(), refusal()).prop_map(|(robot, instance, why)| ToAgent::Refused(Refused {

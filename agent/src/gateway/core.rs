@@ -225,7 +225,7 @@ impl GatewayCore {
                 self.goal_world = Some(b.bearing);
                 self.send_goal(now);
             }
-            ToAgent::Tick(_) => return Err(Refused::Tick),
+            ToAgent::Tick(_) | ToAgent::Ticks(_) => return Err(Refused::Tick),
             // Answered every time (the orchestrator re-sends `Stop` until
             // it hears this), saying whether the stop frame went out.
             ToAgent::Stop => {

@@ -115,11 +115,12 @@ pub struct Row {
     /// A tick's own wall time (the summary's `tick_us`: its `Tick`s to its
     /// last answer, ticks without a re-send), ms.
     pub clock_ms_per_tick: Option<f64>,
-    /// Agents ticked per tick (the summary's `ticked_agents / ticks`): what
-    /// a tick costs over this is what one stepping agent costs.
+    /// Agents stepping per tick (the summary's `ticked_agents / ticks`:
+    /// ticked, or covered by a run of ticks): what a tick costs over this
+    /// is what one stepping agent costs.
     pub agents_per_tick: Option<f64>,
     /// What one stepping agent adds to a tick, µs: a tick's own time per
-    /// agent it ticked, over the ticks while no agent was starting (the
+    /// agent stepping in it, over the ticks while no agent was starting (the
     /// summary's `quiet_us_per_agent`).
     pub us_per_agent: Option<f64>,
     /// Peak open files of the orchestrator.
@@ -534,7 +535,8 @@ pub fn table(rows: &[Row]) -> String {
     out.push_str(&format!(
         "PSS: orchestrator and all agents together, peak of the samples; a sample took up to {sample_ms:.1} ms\n\
          ms/tick: wall time over ticks; clock ms: a tick's own time (its Ticks to its last answer, ticks without \
-         a re-send); agents: agents ticked per tick; µs/agent: a tick's own time per agent it ticked, over the \
+         a re-send); agents: agents stepping per tick (ticked, or covered by a run of ticks sent before: a creeping \
+         robot judged stuck); µs/agent: a tick's own time per stepping agent, over the \
          ticks while no agent was starting (what each stepping agent adds)"
     ));
     out

@@ -643,6 +643,7 @@ mod tests {
         let command = AgentCommand {
             program: "/bin/sh".into(),
             prefix: vec!["-c".into(), script.into(), "agent".into()],
+            own: false,
         };
         let mut source = Spawned::new(command);
         source.spawn(1, &[], "").expect("spawn");

@@ -45,6 +45,8 @@ pub struct Seams {
     pub held_when_unreachable: bool,
     /// [`AgentSource::robot_link_grace`].
     pub robot_link_grace: Option<Duration>,
+    /// [`AgentSource::ticks_at_once`].
+    pub ticks_at_once: u32,
 }
 
 impl Seams {
@@ -61,6 +63,7 @@ impl Seams {
             poses_on_the_bus: poses.on_the_bus(),
             held_when_unreachable: agents.held_when_unreachable(),
             robot_link_grace: agents.robot_link_grace(),
+            ticks_at_once: agents.ticks_at_once(),
         }
     }
 }
@@ -118,6 +121,7 @@ pub fn setup_of(
         settings: run_settings(cfg, world).fingerprint(),
         supervision: supervision(cfg, seams.held_when_unreachable, seams.robot_link_grace),
         clocks: clock_limits(cfg),
+        ticks_at_once: seams.ticks_at_once,
     }
 }
 

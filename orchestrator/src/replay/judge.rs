@@ -59,6 +59,8 @@ impl Feed {
                 self.deploying = Some(*robot);
             }
             Entry::Command { command: ToAgent::Tick(t), .. } => self.ticks = self.ticks.max(t.step),
+            // A run of ticks is sent at its first tick.
+            Entry::Command { command: ToAgent::Ticks(t), .. } => self.ticks = self.ticks.max(t.step),
             Entry::Command { command: ToAgent::GoalBearing(b), .. } if self.lockstep => {
                 self.ticks = self.ticks.max(b.step);
             }

@@ -178,6 +178,16 @@ pub trait Bus {
 pub trait Publish {
     /// Publishes one payload to every current subscriber. Never blocks.
     fn publish(&self, payload: &[u8]) -> Result<(), BusError>;
+
+    /// Publishes one payload without waking readers that sleep on the
+    /// topic: the caller publishes another on the same topic at once, and
+    /// the reader it wakes finds both, in order. Why: a wake-up is a system
+    /// call each (a datagram over iceoryx2), and an agent that runs several
+    /// lockstep periods at once publishes 32 poses together. Default: as
+    /// [`Publish::publish`] (backends whose readers wake without a ring).
+    fn publish_quietly(&self, payload: &[u8]) -> Result<(), BusError> {
+        self.publish(payload)
+    }
 }
 
 /// Receives byte payloads from one topic.

@@ -32,6 +32,15 @@ impl<P: Publish, M: Message> TypedPublisher<P, M> {
         self.inner.publish(bytes)
     }
 
+    /// Encodes and publishes one message without waking sleeping readers:
+    /// another publish on this topic follows at once
+    /// ([`Publish::publish_quietly`]).
+    pub fn publish_quietly(&self, msg: &M) -> Result<(), BusError> {
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        let bytes = encode(msg, &mut buf)?;
+        self.inner.publish_quietly(bytes)
+    }
+
     /// The byte publisher underneath.
     pub fn inner(&self) -> &P {
         &self.inner

@@ -31,7 +31,7 @@ pub use from_agent::{
 pub use gate::{GateEvent, GateKind};
 pub use mocap::Pose;
 pub use sensor::{FieldSample, Sensor};
-pub use to_agent::{Beacon, Deploy, GoalBearing, Refusal, Refused, Tick, ToAgent};
+pub use to_agent::{Beacon, Deploy, GoalBearing, Refusal, Refused, Tick, Ticks, ToAgent};
 
 impl crate::Message for ToAgent {}
 impl crate::Message for FromAgent {}

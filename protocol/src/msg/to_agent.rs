@@ -41,6 +41,27 @@ pub struct Tick {
     pub step: u64,
 }
 
+/// Lockstep clock: run `count` control periods at once, numbered `step`,
+/// `step + 1`, …, publishing each one's pose (and a status when the mode
+/// changed), then answer
+/// once with [`crate::msg::TickDone`] for `step`. If the robot parks on
+/// the way (it will never move again), it stops there and says
+/// [`crate::msg::Parked`] for that period before the answer.
+///
+/// Why: a robot judged stuck that still creeps is sent no goal bearing and
+/// no beacons any more, so its next periods depend on nothing the
+/// orchestrator could still tell it; one message steps many of them, and
+/// the orchestrator holds each pose until its tick (parity with
+/// `simulate` is kept). A `Ticks` repeated (its answer was lost) is
+/// answered again without stepping.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Ticks {
+    /// The first step to run.
+    pub step: u64,
+    /// How many periods to run (0 is taken as 1).
+    pub count: u32,
+}
+
 /// A beacon of the robot's field: robot `robot` stands at (`x`, `y`).
 ///
 /// Why the orchestrator tells it: a robot senses the robots that stopped
@@ -152,4 +173,7 @@ pub enum ToAgent {
     Refused(Refused),
     /// A robot that stands in the field (a beacon), or its new position.
     Beacon(Beacon),
+    /// Advance several lockstep periods at once (a creeping robot judged
+    /// stuck).
+    Ticks(Ticks),
 }

@@ -305,6 +305,41 @@ pub fn fan_in_wakes_for_any_topic<B: Bus, F: Fn() -> B + Sync>(make: &F) {
     });
 }
 
+/// Messages published quietly, then one published as usual, wake a fan-in
+/// waiting in another thread once, and it finds them all, in order: the
+/// quiet ones are not lost or held back behind the wake-up.
+pub fn quiet_publishes_arrive_with_the_next_one<B: Bus, F: Fn() -> B + Sync>(make: &F) {
+    let swarm = unique_swarm("quiet");
+    let topics: Vec<TopicName> = (1..=3).map(|k| *swarm.pose(RobotId(k)).name()).collect();
+    let (ready_tx, ready_rx) = mpsc::channel();
+    std::thread::scope(|s| {
+        let waiter = s.spawn(|| {
+            let bus = make();
+            let fan_in = bus.fan_in(&topics).expect("fan-in");
+            ready_tx.send(()).expect("signal ready");
+            let mut got = Vec::new();
+            while got.len() < 4 {
+                match fan_in.recv_timeout(WAIT).expect("receive") {
+                    Some(m) => got.push(m),
+                    None => break,
+                }
+            }
+            got
+        });
+        ready_rx.recv_timeout(WAIT).expect("waiter ready");
+        let bus = make();
+        let publ = bus.publisher(&topics[2]).expect("publisher");
+        for k in 1..=3u8 {
+            publ.publish_quietly(&[k]).expect("publish quietly");
+        }
+        publ.publish(&[4]).expect("publish");
+        let got = waiter.join().expect("waiter thread");
+        let got: Vec<_> = got.iter().map(|m| bycoms_protocol::bus::untag(m).expect("tagged")).collect();
+        let want: Vec<(usize, &[u8])> = vec![(2, &[1]), (2, &[2]), (2, &[3]), (2, &[4])];
+        assert_eq!(got, want);
+    });
+}
+
 /// Instantiates the whole suite for one backend: `$make` is an expression
 /// of a `Fn() -> impl Bus + Sync` factory.
 #[macro_export]
@@ -322,6 +357,10 @@ macro_rules! conformance_suite {
             #[test]
             fn fan_in_wakes_for_any_topic() {
                 c::fan_in_wakes_for_any_topic(&$make)
+            }
+            #[test]
+            fn quiet_publishes_arrive_with_the_next_one() {
+                c::quiet_publishes_arrive_with_the_next_one(&$make)
             }
             #[test]
             fn order_is_preserved() {

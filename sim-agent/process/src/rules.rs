@@ -4,7 +4,8 @@
 //! heartbeats every `heartbeat` and every `parked_heartbeat` once the robot
 //! will never move again, `Deploy` answered with the start pose and a
 //! repeat of it answered again, a `Tick` stepped once and a repeated one
-//! answered without stepping, real-time periods on the agent's own clock,
+//! answered without stepping, a `Ticks` run of several periods answered once,
+//! real-time periods on the agent's own clock,
 //! beacons, `Stop`, `Shutdown`, a refusal of this instance) used to live
 //! inside the bus loop, and the launch harness restated them by hand —
 //! and drifted. Here they take one command (or the time) at a time, with
@@ -18,7 +19,7 @@
 use super::core::{Reject, RobotCore, RobotPhase};
 use super::options::Clock;
 use bycoms_protocol::msg::{
-    Deploy, FromAgent, Heartbeat, Pose, Register, RobotKind, Status, StopDone, ToAgent,
+    Deploy, FromAgent, Heartbeat, Parked, Pose, Register, RobotKind, Status, StopDone, TickDone, ToAgent,
 };
 use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
 
@@ -103,6 +104,8 @@ pub struct SimAgentCore {
     /// no earlier).
     seen: u64,
     tick: u64,
+    /// The first step of the last `Ticks` run (a repeat of it is answered).
+    ran_from: Option<u64>,
     /// Whether the orchestrator has sent it anything yet; until it has,
     /// every heartbeat repeats the `Register` (it may have been lost).
     heard: bool,
@@ -122,6 +125,7 @@ impl SimAgentCore {
             periods: Periods::Off,
             seen: 0,
             tick: 0,
+            ran_from: None,
             heard: false,
             deployed: None,
         }
@@ -254,6 +258,7 @@ impl SimAgentCore {
                 }
             }
             ToAgent::Tick(t) => self.tick(t.step, out),
+            ToAgent::Ticks(t) => self.ticks(t.step, t.count.max(1), out),
             // Answered every time: the orchestrator re-sends `Stop` until
             // it hears this.
             ToAgent::Stop => {
@@ -315,14 +320,58 @@ impl SimAgentCore {
                 }
             }
             Clock::Lockstep => {
-                if self.robot.phase() == RobotPhase::Moving
-                    && self.robot.bearing().is_some_and(|b| b.step != step)
-                {
-                    self.counts.stale_bearings += 1;
-                }
+                self.stale_if(step);
                 self.period(step, out);
                 out.extend(self.robot.tick_answer(step).map(Said::Report));
             }
+        }
+    }
+
+    /// `count` periods from `step` at once, answered once (`ToAgent::Ticks`):
+    /// each period as a `Tick`'s, a robot that parks stops there (its
+    /// `Parked` says the step), and a run already done is answered again.
+    fn ticks(&mut self, step: u64, count: u32, out: &mut Vec<Said>) {
+        let robot = self.id();
+        let done = FromAgent::TickDone(TickDone { robot, step });
+        match self.rules.clock {
+            Clock::Realtime => out.push(Said::Refused(Reject::TickInRealTime)),
+            Clock::Lockstep if step <= self.tick => {
+                if self.ran_from == Some(step) {
+                    out.push(Said::Report(done));
+                } else {
+                    tracing::debug!(robot = robot.0, step, at = self.tick, "an old run of ticks, ignored");
+                }
+            }
+            Clock::Lockstep => {
+                self.ran_from = Some(step);
+                let mut mode = self.robot.mode() as u8;
+                for s in step..step.saturating_add(u64::from(count)) {
+                    self.stale_if(s);
+                    self.period(s, out);
+                    // A status whose mode the last one said already is
+                    // left out: the launch's record of the mode is the same
+                    // at every tick without it, and a run is 32 periods.
+                    if let Some(Said::Report(FromAgent::Status(st))) = out.last() {
+                        if st.mode == mode {
+                            out.pop();
+                        }
+                        mode = self.robot.mode() as u8;
+                    }
+                    if self.robot.parked() {
+                        out.push(Said::Report(FromAgent::Parked(Parked { robot, step: s })));
+                        break;
+                    }
+                }
+                out.push(Said::Report(done));
+            }
+        }
+    }
+
+    /// Counts a period `step` of a moving robot whose goal bearing is not
+    /// for it (a robot judged stuck is sent none any more).
+    fn stale_if(&mut self, step: u64) {
+        if self.robot.phase() == RobotPhase::Moving && self.robot.bearing().is_some_and(|b| b.step != step) {
+            self.counts.stale_bearings += 1;
         }
     }
 

@@ -22,7 +22,8 @@
 //! memory, so once the orchestrator holds `TickDone(t)` the pose of step `t`
 //! is already in its queue.
 //!
-//! Lockstep: a period is a `Tick` from the orchestrator; the goal bearing for
+//! Lockstep: a period is a `Tick` from the orchestrator (or one of a `Ticks`
+//! run, all published at once before its one `TickDone`); the goal bearing for
 //! step `t` precedes `Tick(t)` on the same topic. Real time: a period is due
 //! every `0.1 s / speed` of wall time from the robot's deployment; a period
 //! whose deadline has passed before the agent got to it is skipped and
@@ -402,11 +403,19 @@ impl<B: Bus> Agent<B> {
     }
 
     /// Carries out what the core said: publishes, counts refusals.
+    /// Publishes what the core said. Only the last message to each topic
+    /// wakes its readers, who find the ones before it too: a run of ticks
+    /// says 32 poses at once, and each wake-up is a system call.
     fn send(&mut self) -> Result<(), BusError> {
-        for said in std::mem::take(&mut self.said) {
+        let said = std::mem::take(&mut self.said);
+        let last_pose = said.iter().rposition(|s| matches!(s, Said::Pose(_)));
+        let last_report = said.iter().rposition(|s| matches!(s, Said::Report(_)));
+        for (i, said) in said.into_iter().enumerate() {
             match said {
-                Said::Report(r) => self.report(r)?,
-                Said::Pose(p) => self.ports.pose.publish(&p)?,
+                Said::Report(r) if Some(i) == last_report => self.report(r)?,
+                Said::Report(r) => self.ports.report.publish_quietly(&r)?,
+                Said::Pose(p) if Some(i) == last_pose => self.ports.pose.publish(&p)?,
+                Said::Pose(p) => self.ports.pose.publish_quietly(&p)?,
                 Said::Refused(r) => {
                     if matches!(r, Reject::BeaconOutOfOrder { .. }) {
                         tracing::error!(who = %self.who, "{r}: the field may miss a robot until it is sent again");

@@ -24,13 +24,13 @@ pub fn agent_command(explicit: Option<&Path>, configured: Option<&Path>) -> Resu
         .or_else(|| std::env::var_os(AGENT_BIN_ENV).map(PathBuf::from))
         .or_else(|| configured.map(Path::to_path_buf));
     if let Some(program) = chosen {
-        return Ok(AgentCommand { program, prefix: Vec::new() });
+        return Ok(AgentCommand { program, prefix: Vec::new(), own: false });
     }
     let (me, beside) = beside_this_executable("sim-agent")?;
     if beside.is_file() {
-        return Ok(AgentCommand { program: beside, prefix: Vec::new() });
+        return Ok(AgentCommand { program: beside, prefix: Vec::new(), own: true });
     }
-    Ok(AgentCommand { program: me, prefix: vec!["sim-agent".into()] })
+    Ok(AgentCommand { program: me, prefix: vec!["sim-agent".into()], own: true })
 }
 
 /// This executable, and where a sibling binary `name` of the workspace
@@ -45,7 +45,7 @@ fn beside_this_executable(name: &str) -> Result<(PathBuf, PathBuf)> {
 /// The gateway executable: `explicit`, else `gateway` next to this executable.
 pub fn gateway_command(explicit: Option<&Path>) -> Result<AgentCommand> {
     if let Some(program) = explicit {
-        return Ok(AgentCommand { program: program.to_path_buf(), prefix: Vec::new() });
+        return Ok(AgentCommand { program: program.to_path_buf(), prefix: Vec::new(), own: false });
     }
     let (me, beside) = beside_this_executable("gateway")?;
     anyhow::ensure!(
@@ -54,5 +54,5 @@ pub fn gateway_command(explicit: Option<&Path>) -> Result<AgentCommand> {
          or set agents.gateway_bin)",
         me.display()
     );
-    Ok(AgentCommand { program: beside, prefix: Vec::new() })
+    Ok(AgentCommand { program: beside, prefix: Vec::new(), own: false })
 }

@@ -53,6 +53,14 @@ use bycoms_sim_agent::{AgentArgs, RunSettings};
 use std::process::ExitStatus;
 use std::time::Duration;
 
+/// Lockstep: periods a creeping robot of the launch's own agents is
+/// stepped with one `ToAgent::Ticks`. Why 32: what its agent publishes
+/// for them at once (32 poses, up to 32 statuses, a `TickDone`) stays
+/// well within a topic's buffer of 64 unread messages per publisher
+/// (`bycoms_protocol::bus::DEFAULT_BUFFER`), and a run costs its tick
+/// about 32 steps of the robot (a few µs).
+pub const TICKS_AT_ONCE: u32 = 32;
+
 /// How an agent joins this launch, whatever its kind (a `sim-agent`, a
 /// robot's gateway): the swarm, the bus (where the orchestrator listens,
 /// the robot's own zenoh config), the failsafe grace, the orchestrator as
@@ -284,6 +292,14 @@ pub trait AgentSource {
     /// hear each other instead).
     fn senses_beacons(&self) -> bool {
         true
+    }
+
+    /// Lockstep: how many periods a creeping robot judged stuck may be
+    /// stepped with one message (`ToAgent::Ticks`; the core holds what its
+    /// agent sends until each step's tick). Only agents of the launch's own
+    /// build take it. Default: 1 (one `Tick` a period).
+    fn ticks_at_once(&self) -> u32 {
+        1
     }
 
     /// How to start an agent that never came, for the error that names the

@@ -16,7 +16,7 @@
 //! way the launch ends, it leaves no process behind.
 
 use super::stderr_tap::StderrTap;
-use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
+use super::{AgentError, AgentPlan, AgentSource, Gone, Started, TICKS_AT_ONCE};
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
 use std::os::unix::process::CommandExt;
@@ -32,6 +32,10 @@ pub struct AgentCommand {
     /// Arguments before the agent's flags (`["sim-agent"]` when the
     /// orchestrator runs agents itself).
     pub prefix: Vec<String>,
+    /// The launch's own `sim-agent` (beside it, or itself): of its build,
+    /// it takes `ToAgent::Ticks`. An executable chosen by name may be
+    /// another build or another program, which is sent one `Tick` a period.
+    pub own: bool,
 }
 
 /// The running agent processes, by robot id.
@@ -148,6 +152,14 @@ impl Spawned {
 impl AgentSource for Spawned {
     fn kind(&self) -> &'static str {
         "spawned"
+    }
+
+    fn ticks_at_once(&self) -> u32 {
+        if self.command.own {
+            TICKS_AT_ONCE
+        } else {
+            1
+        }
     }
 
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {

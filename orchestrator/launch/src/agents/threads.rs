@@ -57,6 +57,10 @@ impl Threads {
 }
 
 impl AgentSource for Threads {
+    fn ticks_at_once(&self) -> u32 {
+        super::TICKS_AT_ONCE
+    }
+
     fn kind(&self) -> &'static str {
         "threads"
     }

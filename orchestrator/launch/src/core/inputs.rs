@@ -10,6 +10,7 @@
 //! `advance`'s (`steps.rs`, `timers.rs`), so a shell can hand in everything
 //! that arrived together before the core acts on it.
 
+use super::held::Held;
 use super::*;
 
 /// How far from its `Deploy`'s position a simulated robot's start pose may
@@ -44,17 +45,16 @@ impl LaunchCore {
             FromAgent::Register(_) if registered => {}
             FromAgent::Register(r) => self.on_register(now, id, r.instance),
             FromAgent::Heartbeat(_) => {}
+            // Of a step after the tick in flight (an agent that ran
+            // ahead): held until that tick (`ahead.rs`).
             FromAgent::Status(s) => {
-                if let Some(slot) = self.slot(id) {
-                    slot.mode = s.mode;
+                if !self.held_back(id, s.step, Held::Mode(s.mode)) {
+                    self.take_mode(id, s.mode);
                 }
             }
-            // Only a deployed robot can be parked: an agent that says so
-            // before would miss the ticks that number its start pose.
-            FromAgent::Parked(_) => {
-                if let Some(slot) = self.slot(id) {
-                    slot.parked |=
-                        matches!(slot.state, SlotState::Moving | SlotState::Stuck | SlotState::Arrived);
+            FromAgent::Parked(p) => {
+                if !self.held_back(id, p.step, Held::Parked) {
+                    self.take_parked(id);
                 }
             }
             FromAgent::TickDone(t) => {
@@ -229,6 +229,9 @@ impl LaunchCore {
             return;
         }
         let state = slot.state;
+        if self.held_back(topic, pose.step, Held::Pose(pose)) {
+            return;
+        }
         let clock = self.pose_clock(now);
         let judged = match state {
             SlotState::Registered | SlotState::Absent => {
@@ -506,7 +509,7 @@ impl LaunchCore {
                 relayed = true;
             }
             self.resend_beacons(id, t);
-            self.outputs.push_back(Output::Send(id, ToAgent::Tick(Tick { step: t })));
+            self.outputs.push_back(Output::Send(id, self.tick_command(id, t)));
             self.resends += 1;
         }
     }

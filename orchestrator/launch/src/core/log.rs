@@ -103,6 +103,7 @@ pub fn encode_setup(setup: &Setup) -> Vec<u8> {
     let mut bytes = postcard::to_allocvec(setup).unwrap_or_default();
     bytes.extend(postcard::to_allocvec(&setup.supervision).unwrap_or_default());
     bytes.extend(postcard::to_allocvec(&setup.clocks).unwrap_or_default());
+    bytes.extend(postcard::to_allocvec(&setup.ticks_at_once).unwrap_or_default());
     bytes
 }
 
@@ -115,7 +116,11 @@ pub fn decode_setup(bytes: &[u8]) -> Result<Setup, postcard::Error> {
         let (supervision, rest) = postcard::take_from_bytes(rest)?;
         setup.supervision = supervision;
         if !rest.is_empty() {
-            setup.clocks = postcard::from_bytes(rest)?;
+            let (clocks, rest) = postcard::take_from_bytes(rest)?;
+            setup.clocks = clocks;
+            if !rest.is_empty() {
+                setup.ticks_at_once = postcard::from_bytes(rest)?;
+            }
         }
     }
     Ok(setup)
@@ -255,7 +260,12 @@ mod tests {
         let decoded = decode_setup(&old).expect("an old setup decodes");
         assert_eq!(decoded.supervision, Supervision::default());
         assert!(!decoded.supervision.on);
-        let off = Setup { supervision: Supervision::default(), clocks: Default::default(), ..setup.clone() };
+        let off = Setup {
+            supervision: Supervision::default(),
+            clocks: Default::default(),
+            ticks_at_once: 0,
+            ..setup.clone()
+        };
         assert_eq!(decoded, off);
         assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
     }
@@ -271,7 +281,26 @@ mod tests {
         old.extend(postcard::to_allocvec(&setup.supervision).expect("encodes"));
         let decoded = decode_setup(&old).expect("an older setup decodes");
         assert!(!decoded.clocks.on());
-        assert_eq!(decoded, Setup { clocks: Default::default(), ..setup.clone() });
+        assert_eq!(decoded, Setup { clocks: Default::default(), ticks_at_once: 0, ..setup.clone() });
+        assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
+    }
+
+    /// A setup recorded before runs ahead (up to its clock limits) decodes
+    /// with one `Tick` a period, as it ran; one with them keeps them.
+    #[test]
+    fn a_setup_recorded_before_runs_ahead_decodes_with_one_tick_a_period() {
+        let case = Case::small(4);
+        let setup = harness::setup(&case, &Schedule::clean(4, case.robots));
+        assert_eq!(
+            setup.ticks_at_once,
+            crate::agents::TICKS_AT_ONCE,
+            "the harness's spawned agents run ahead"
+        );
+        let mut old = postcard::to_allocvec(&setup).expect("encodes");
+        old.extend(postcard::to_allocvec(&setup.supervision).expect("encodes"));
+        old.extend(postcard::to_allocvec(&setup.clocks).expect("encodes"));
+        let decoded = decode_setup(&old).expect("an older setup decodes");
+        assert_eq!(decoded, Setup { ticks_at_once: 0, ..setup.clone() });
         assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
     }
 

@@ -55,13 +55,17 @@
 //! away while the launch runs;
 //! `slot.rs` one robot's record; `clocks.rs` the agents' clock offsets; `log.rs` the record of
 //! every call, which `orchestrator replay` plays back; `beacons.rs` the
-//! beacons the simulated agents are told.
+//! beacons the simulated agents are told; `ahead.rs` creeping robots
+//! stepped several periods per message, what they sent held (`held.rs`)
+//! until its tick.
 
+mod ahead;
 mod beacon_table;
 mod beacons;
 mod clock_reading;
 mod clocks;
 mod ending;
+mod held;
 mod inputs;
 pub mod log;
 mod plausible;
@@ -92,7 +96,7 @@ use super::summary::{Death, Outage, Outcome, RevokedSummary, StopSummary};
 use bycoms_mocap::{PlacementConfig, PlacementWatch};
 use bycoms_protocol::msg::{
     ClockOffset, Deploy, FromAgent, GateEvent, GateKind, GoalBearing, Pose, Refusal, Refused, Register, Tick,
-    ToAgent,
+    Ticks, ToAgent,
 };
 use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
 use bycoms_runtime::BadKind;
@@ -181,6 +185,13 @@ pub struct Setup {
     /// after the supervision by `log::encode_setup`, for the same reason.
     #[serde(skip)]
     pub clocks: ClockLimits,
+    /// Lockstep: a robot judged stuck that still creeps is stepped this
+    /// many periods per message ([`ToAgent::Ticks`], `ahead.rs`); 0 or 1:
+    /// one `Tick` a period. Only for agents of the launch's own build
+    /// (those it starts). Appended after the clock limits by
+    /// `log::encode_setup`, for the same reason.
+    #[serde(skip)]
+    pub ticks_at_once: u32,
 }
 
 /// Something that happened, handed to [`LaunchCore::handle`].
@@ -356,7 +367,8 @@ struct TickWait {
     /// have come).
     pose_of: Option<u32>,
     wait: AnswerWait,
-    /// The agents it ticked.
+    /// The agents that step in it: those it ticked and those whose run
+    /// ahead covers it (`ahead.rs`).
     agents: u32,
     /// Whether no agent was starting when it began (see
     /// [`LaunchCore::quiet_us_per_agent`]).
@@ -397,7 +409,8 @@ pub struct LaunchCore {
     tick: Option<TickWait>,
     ticks: u64,
     ticks_started: u64,
-    /// `Tick`s sent, first sends only: agents stepped over all ticks.
+    /// Agents stepped over all ticks: `Tick`s sent (first sends only) and
+    /// ticks covered by a run ahead (`ahead.rs`).
     ticked_agents: u64,
     /// Wall time inside the ticks answered without a re-send, µs, and
     /// their number: what a tick costs, without the waits for agents to
@@ -436,6 +449,9 @@ pub struct LaunchCore {
     watches: Vec<watch::Watch>,
     /// The robots revoked, in the order they were (`revoke.rs`).
     revoked: Vec<RevokedSummary>,
+    /// What agents that ran ahead sent for later steps, by step
+    /// (`ahead.rs`).
+    held: held::HeldBack,
 }
 
 impl LaunchCore {
@@ -476,6 +492,7 @@ impl LaunchCore {
             stopping: None,
             watches: vec![watch::Watch::default(); setup.robots as usize],
             revoked: Vec::new(),
+            held: held::HeldBack::default(),
             setup,
         }
     }
@@ -508,7 +525,8 @@ impl LaunchCore {
     pub fn tick_us(&self) -> f64 {
         per(self.tick_time)
     }
-    /// Wall time of a tick per agent it ticked, µs, over the ticks of
+    /// Wall time of a tick per agent that steps in it (ticked, or covered
+    /// by a run of ticks), µs, over the ticks of
     /// [`Self::tick_us`] begun and ended while no agent was starting (0:
     /// none): what each agent that steps adds to a tick. Why apart: an
     /// agent process starting (its robot's turn is next) takes a core from

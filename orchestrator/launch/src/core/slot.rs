@@ -110,6 +110,9 @@ pub struct Slot {
     /// Lockstep: `beacons_synced`, `beacon_seq` and `beacon_robots` before
     /// the last beacons sent, so that a re-sent tick re-sends them too.
     pub(super) beacons_before: (u64, u32, usize),
+    /// Lockstep: the first and last step of the last run of periods its
+    /// agent was sent at once (`ToAgent::Ticks`, `ahead.rs`).
+    pub(super) ran_ahead: Option<(u64, u64)>,
 }
 
 impl Slot {
@@ -142,6 +145,7 @@ impl Slot {
             beacon_robots: 0,
             beacons_sent_at: 0,
             beacons_before: (0, 0, 0),
+            ran_ahead: None,
             last_error: None,
             gone: None,
         }

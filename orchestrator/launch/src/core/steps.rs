@@ -69,6 +69,10 @@ impl LaunchCore {
 
     /// The open tick was answered in full at `now`: timed, and done.
     fn tick_answered(&mut self, now: u64) {
+        if let Some(step) = self.tick.as_ref().map(|t| t.step) {
+            // Before the tick is over: its poses are judged against it.
+            self.release_held(now, step);
+        }
         let Some(tick) = self.tick.take() else { return };
         self.answer_time.answered(&tick.wait, now);
         // A settling agent's beacons sent with the last tick again
@@ -402,7 +406,8 @@ impl LaunchCore {
         // not deployed yet steps nothing: its agent is ticked only while it
         // settles (its answer says it holds the beacons sent before, and
         // its tick count is the launch's when it is deployed); else it
-        // costs the tick nothing.
+        // costs the tick nothing. A robot that creeps once judged may run
+        // several ticks ahead (`ahead.rs`).
         let watched = self.referee.watched();
         let settling = match self.phase {
             Phase::Settling(id, _) => Some(id),
@@ -417,14 +422,19 @@ impl LaunchCore {
             .map(|s| s.id)
             .collect();
         self.ticked_agents += live.len() as u64;
+        let mut awaiting = BTreeSet::new();
         for &id in &live {
-            self.outputs.push_back(Output::Send(id, ToAgent::Tick(Tick { step: t })));
+            let runs = self.slot_ref(id).is_some_and(|s| self.runs_ahead(s));
+            let command = if runs { self.run_from(id, t) } else { Some(ToAgent::Tick(Tick { step: t })) };
+            if let Some(command) = command {
+                self.outputs.push_back(Output::Send(id, command));
+                awaiting.insert(id);
+            }
         }
         let wait = self.answer_wait(now);
         let pose_of = watched.filter(|id| live.contains(id));
         let (agents, quiet) = (live.len() as u32, !self.agent_starting());
-        self.tick =
-            Some(TickWait { step: t, awaiting: live.into_iter().collect(), pose_of, wait, agents, quiet });
+        self.tick = Some(TickWait { step: t, awaiting, pose_of, wait, agents, quiet });
     }
 
     /// A wait for answers from `now`: up to the tick timeout, re-sending

@@ -160,6 +160,9 @@ pub struct Report {
     pub deploys_sent: Vec<u64>,
     /// `Stop`s sent to each robot.
     pub stops_sent: Vec<u64>,
+    /// Runs of ticks (`ToAgent::Ticks`) sent to each robot, and the periods
+    /// they asked for in all.
+    pub runs_sent: Vec<(u64, u64)>,
     /// `Beacon`s sent to agents.
     pub beacons_sent: u64,
     /// Poses passed on to the agents (`Output::Forward`).

@@ -120,6 +120,10 @@ pub struct Schedule {
     pub recording_fails: bool,
     /// The agent source tells a stuck robot to stop (as gateways do).
     pub stop_when_stuck: bool,
+    /// Spawned agents are sent one `Tick` a period even for a robot that
+    /// creeps once judged (as agents of another build are), not runs of
+    /// them (`ToAgent::Ticks`).
+    pub one_tick_a_period: bool,
     /// Real time, remote: the agents have the gateways' properties (all at
     /// once, stuck robots stopped, the launch's poses forwarded to them,
     /// no beacons: real robots hear each other), the poses not on the bus.
@@ -166,6 +170,13 @@ impl Schedule {
             poses_on_the_bus: !gateway,
             held_when_unreachable: self.remote,
             robot_link_grace: gateway.then_some(crate::agents::gateways::LINK_GRACE),
+            // The launch's own agents run creeping robots ahead; remote ones
+            // may be of another build.
+            ticks_at_once: if gateway || self.remote || self.one_tick_a_period {
+                1
+            } else {
+                crate::agents::TICKS_AT_ONCE
+            },
         }
     }
 
@@ -184,6 +195,7 @@ impl Schedule {
             poses_on_the_bus: false,
             held_when_unreachable: self.remote,
             robot_link_grace: Some(crate::agents::gateways::LINK_GRACE),
+            ticks_at_once: 1,
         }
     }
 
@@ -246,6 +258,7 @@ impl Schedule {
             interrupt_at_us: None,
             recording_fails: false,
             stop_when_stuck: false,
+            one_tick_a_period: false,
             gateway_seams: false,
             stop_at_us: None,
             revoke_at_us: None,

@@ -101,6 +101,7 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             idle_ticks: vec![0; n],
             deploys_sent: vec![0; n],
             stops_sent: vec![0; n],
+            runs_sent: vec![(0, 0); n],
             beacons_sent: 0,
             forwarded: 0,
             late: Vec::new(),
@@ -246,6 +247,11 @@ impl World<'_> {
                     };
                     if let Some(n) = counter.and_then(|c| c.get_mut(id as usize - 1)) {
                         *n += 1;
+                    }
+                    if let (ToAgent::Ticks(t), Some(r)) =
+                        (&msg, self.report.runs_sent.get_mut(id as usize - 1))
+                    {
+                        *r = (r.0 + 1, r.1 + u64::from(t.count));
                     }
                     self.net.send(now, id, Packet::ToAgent(id, msg));
                     if let Some(i) = self.racers.iter().position(|&r| r == id).filter(|_| deploy) {

@@ -187,14 +187,17 @@ pub struct Summary {
     pub time_s: f64,
     /// Lockstep ticks run, including the gate's dwell and settle ticks.
     pub ticks: u64,
-    /// `Tick`s sent over all ticks (each agent once a tick, re-sends not
-    /// counted): `ticked_agents / ticks` agents step in a tick.
+    /// Agents stepped over all ticks: `Tick`s sent (each agent once a tick,
+    /// re-sends not counted) and the ticks that a run of ticks sent before
+    /// covers (a creeping robot judged stuck, `ToAgent::Ticks`):
+    /// `ticked_agents / ticks` agents step in a tick.
     pub ticked_agents: u64,
     /// Mean wall time of a lockstep tick, from its `Tick`s to its last
     /// answer, µs, over the ticks answered without a re-send: what a tick
     /// costs (`wall_s` also holds the agents' start and the wind-down).
     pub tick_us: f64,
-    /// Wall time of a lockstep tick per agent it ticked, µs, over the
+    /// Wall time of a lockstep tick per agent that steps in it (ticked, or
+    /// covered by a run of ticks), µs, over the
     /// ticks of `tick_us` while no agent was starting: what each agent
     /// that steps adds to a tick (an agent starting takes a core from the
     /// ticks around it, a cost of each robot).

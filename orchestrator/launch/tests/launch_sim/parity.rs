@@ -155,3 +155,41 @@ fn how_soon_agents_register_changes_nothing_with_many_beacons() {
         same_run(&runs[0].1, report, what);
     }
 }
+
+/// Issue 35: a robot judged stuck that still creeps is stepped many
+/// periods per message (`ToAgent::Ticks`), and what its agent sends for a
+/// later step is held until that step's tick: the run is the one with a
+/// `Tick` a period, bit for bit, the beacons' last positions and the
+/// robots' last modes included. (Turning is ignored, so robots turning in
+/// place are judged stuck and creep on; `simulate` has no such rule, so
+/// the runs are compared with each other. The parity tests above run
+/// ahead too: the harness's spawned agents are the launch's own.)
+#[test]
+fn creeping_robots_run_ahead_and_the_run_is_the_same() {
+    let walled: Terrain = ".....\n..G..\n.###.\n.#S#.\n.###.\n".parse().expect("terrain");
+    let crowd = Case { terrain: walled, robots: 45, time_limit: 300.0, noise: None, ..Case::small(0) };
+    let mut cases = vec![crowd];
+    cases.extend((0..108).step_by(3).map(Case::small));
+    let (mut runs, mut periods) = (0, 0);
+    for (k, case) in cases.into_iter().enumerate() {
+        let case = Case { stop_turn_rate: 0.0, ..case };
+        let ahead = Schedule::clean(k as u64, case.robots);
+        let one = Schedule { one_tick_a_period: true, ..ahead.clone() };
+        let (a, b) = (harness::run(&case, &ahead), harness::run(&case, &one));
+        harness::check(&a, &ahead).unwrap_or_else(|e| panic!("case {k}: {e}"));
+        same_run(&b, &a, &format!("case {k}, runs ahead"));
+        let summary = |r: &Report| {
+            let d = r.decided.as_ref().expect("a summary");
+            let modes: Vec<u8> = d.robots.iter().map(|s| s.mode).collect();
+            let beacons: Vec<(u64, u64)> = d.beacons.iter().map(|v| (v.x.to_bits(), v.y.to_bits())).collect();
+            (modes, beacons, d.steps, d.ticks)
+        };
+        assert_eq!(summary(&b), summary(&a), "case {k}: modes, beacons, steps, ticks");
+        assert!(b.runs_sent.iter().all(|r| r.0 == 0), "case {k}: one tick a period");
+        runs += a.runs_sent.iter().map(|r| r.0).sum::<u64>();
+        periods += a.runs_sent.iter().map(|r| r.1).sum::<u64>();
+    }
+    assert!(runs > 100, "only {runs} runs ahead");
+    // Runs end at multiples of 32: all but a robot's first are 32 long.
+    assert!(periods > runs * 16, "{periods} periods in {runs} runs");
+}

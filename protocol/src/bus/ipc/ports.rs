@@ -386,8 +386,9 @@ enum Ring<S: IoxService> {
     Member { bell: Arc<Bell<S>>, member: u32 },
 }
 
-impl<S: IoxService> Publish for IpcPublisher<S> {
-    fn publish(&self, payload: &[u8]) -> Result<(), BusError> {
+impl<S: IoxService> IpcPublisher<S> {
+    /// Puts one payload into shared memory, without a ring.
+    fn put(&self, payload: &[u8]) -> Result<(), BusError> {
         if payload.len() > self.max_payload {
             return Err(BusError::PayloadTooLarge { len: payload.len(), max: self.max_payload });
         }
@@ -397,6 +398,18 @@ impl<S: IoxService> Publish for IpcPublisher<S> {
             .loan_slice_uninit(payload.len())
             .map_err(|e| BusError::backend("loan sample", topic, e))?;
         sample.write_from_slice(payload).send().map_err(|e| BusError::backend("send", topic, e))?;
+        Ok(())
+    }
+}
+
+impl<S: IoxService> Publish for IpcPublisher<S> {
+    fn publish_quietly(&self, payload: &[u8]) -> Result<(), BusError> {
+        self.put(payload)
+    }
+
+    fn publish(&self, payload: &[u8]) -> Result<(), BusError> {
+        self.put(payload)?;
+        let topic = Some(&self.topic);
         match &self.ring {
             Ring::Nobody => Ok(()),
             Ring::Everyone(notifier) => {

@@ -1,9 +1,10 @@
 //! The message rules in virtual time, without a bus: heartbeats at their
-//! two rates, `Register` repeated until heard from, a tick stepped once,
+//! two rates, `Register` repeated until heard from, a tick stepped once (a
+//! run of them answered once),
 //! real-time periods numbered by the clock, refusals of this instance only.
 
 use super::*;
-use bycoms_protocol::msg::{GoalBearing, Refused, Tick};
+use bycoms_protocol::msg::{GoalBearing, Refused, Tick, Ticks};
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::RunConfig;
 
@@ -109,6 +110,65 @@ fn a_tick_is_stepped_once_and_a_repeat_answered_again() {
     out.clear();
     a.handle(&ToAgent::Tick(Tick { step: 3 }), &mut out);
     assert_eq!(reports(&out), ["pose", "parked", "done"]);
+}
+
+/// A run of ticks steps each period as a `Tick` would (the same poses, a
+/// status each), answers once for its first step, is answered again
+/// without stepping when repeated, and stops where the robot parks.
+#[test]
+fn a_run_of_ticks_steps_as_ticks_do_and_answers_once() {
+    let started = || {
+        let mut a = core(Clock::Lockstep);
+        let mut out = Vec::new();
+        a.start(0, &mut out);
+        a.handle(&deploy(), &mut out);
+        a.handle(&ToAgent::GoalBearing(GoalBearing { robot: RobotId(1), bearing: 0.7, step: 1 }), &mut out);
+        a
+    };
+    let (mut ticked, mut ran) = (started(), started());
+    let (mut one, mut out) = (Vec::new(), Vec::new());
+    for step in 1..=5 {
+        ticked.handle(&ToAgent::Tick(Tick { step }), &mut one);
+    }
+    ran.handle(&ToAgent::Ticks(Ticks { step: 1, count: 5 }), &mut out);
+    let poses =
+        |said: &[Said]| said.iter().filter(|s| matches!(s, Said::Pose(_))).cloned().collect::<Vec<_>>();
+    assert_eq!(poses(&out), poses(&one), "the same five poses, bit for bit");
+    let modes = |said: &[Said]| {
+        let mut last = 1;
+        let mut seen = Vec::new();
+        for s in said {
+            if let Said::Report(FromAgent::Status(st)) = s {
+                seen.push((st.step, st.mode != last));
+                last = st.mode;
+            }
+        }
+        seen
+    };
+    let changed: Vec<u64> = modes(&one).iter().filter(|m| m.1).map(|m| m.0).collect();
+    assert_eq!(
+        modes(&out).iter().map(|m| m.0).collect::<Vec<_>>(),
+        changed,
+        "a status only when the mode changed"
+    );
+    assert_eq!(reports(&out).last(), Some(&"done"));
+    assert_eq!(out.last(), Some(&Said::Report(FromAgent::TickDone(TickDone { robot: RobotId(1), step: 1 }))));
+    assert_eq!(ran.counts(), ticked.counts(), "stale bearings counted per period");
+    assert_eq!(ran.counts().stale_bearings, 4, "periods 2 to 5 on the bearing of period 1");
+    out.clear();
+    ran.handle(&ToAgent::Ticks(Ticks { step: 1, count: 5 }), &mut out);
+    assert_eq!(reports(&out), ["done"], "a repeat: answered, not stepped");
+    assert_eq!(ran.robot().steps(), 5);
+    out.clear();
+    ran.handle(&ToAgent::Stop, &mut out);
+    out.clear();
+    ran.handle(&ToAgent::Ticks(Ticks { step: 6, count: 4 }), &mut out);
+    assert_eq!(reports(&out), ["pose", "parked", "done"], "parked: stops at its first period");
+    let parked = Parked { robot: RobotId(1), step: 6 };
+    assert_eq!(out[1], Said::Report(FromAgent::Parked(parked)));
+    let mut real = core(Clock::Realtime);
+    real.handle(&ToAgent::Ticks(Ticks { step: 1, count: 2 }), &mut out);
+    assert_eq!(out.last(), Some(&Said::Refused(Reject::TickInRealTime)));
 }
 
 #[test]
