@@ -8,7 +8,7 @@
 use super::agents::remote::QUIET_HEARTBEATS;
 use super::agents::{AgentSource, Joining};
 use super::config::{Clock, LaunchConfig};
-use super::core::{AgentTraits, ClockLimits, Setup, Supervision};
+use super::core::{AgentTraits, ClockLimits, Commands, Setup, Supervision};
 use super::poses::PoseSource;
 use super::World;
 use bycoms_runtime::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};
@@ -47,6 +47,8 @@ pub struct Seams {
     pub robot_link_grace: Option<Duration>,
     /// [`AgentSource::ticks_at_once`].
     pub ticks_at_once: u32,
+    /// [`AgentSource::keeps_commands`].
+    pub keeps_commands: bool,
 }
 
 impl Seams {
@@ -64,6 +66,7 @@ impl Seams {
             held_when_unreachable: agents.held_when_unreachable(),
             robot_link_grace: agents.robot_link_grace(),
             ticks_at_once: agents.ticks_at_once(),
+            keeps_commands: agents.keeps_commands(),
         }
     }
 }
@@ -121,7 +124,7 @@ pub fn setup_of(
         settings: run_settings(cfg, world).fingerprint(),
         supervision: supervision(cfg, seams.held_when_unreachable, seams.robot_link_grace),
         clocks: clock_limits(cfg),
-        ticks_at_once: seams.ticks_at_once,
+        commands: Commands { ticks_at_once: seams.ticks_at_once, kept: seams.keeps_commands },
     }
 }
 

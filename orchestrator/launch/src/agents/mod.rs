@@ -302,6 +302,14 @@ pub trait AgentSource {
         1
     }
 
+    /// Whether a command sent to a live agent always reaches it, in order:
+    /// a bus on this host (iceoryx2, memory), where nothing is lost but
+    /// what overflows a topic's buffer. A tick re-sent to such an agent
+    /// repeats only the `Tick`. Default: no (a link that can be cut).
+    fn keeps_commands(&self) -> bool {
+        false
+    }
+
     /// How to start an agent that never came, for the error that names the
     /// robots whose agents never registered (empty: nothing to say).
     fn start_hint(&self) -> &'static str {

@@ -154,6 +154,10 @@ impl AgentSource for Spawned {
         "spawned"
     }
 
+    fn keeps_commands(&self) -> bool {
+        true
+    }
+
     fn ticks_at_once(&self) -> u32 {
         if self.command.own {
             TICKS_AT_ONCE

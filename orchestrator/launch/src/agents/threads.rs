@@ -57,6 +57,10 @@ impl Threads {
 }
 
 impl AgentSource for Threads {
+    fn keeps_commands(&self) -> bool {
+        true
+    }
+
     fn ticks_at_once(&self) -> u32 {
         super::TICKS_AT_ONCE
     }

@@ -7,7 +7,7 @@
 //! 102 at 1000 robots), each a wake-up through the kernel each way per
 //! tick. Once judged, the robot is sent no goal bearing and no beacons any
 //! more, so its next periods depend on nothing the launch could still tell
-//! it: one [`ToAgent::Ticks`] steps [`Setup::ticks_at_once`] of them, and
+//! it: one [`ToAgent::Ticks`] steps [`Commands::ticks_at_once`] of them, and
 //! its agent publishes every pose (and status) at once.
 //!
 //! What keeps the run the same: what such an agent sends for a step beyond
@@ -16,7 +16,7 @@
 //! `Tick` would have come; poses of the tick in flight are taken at once,
 //! as always. What is held past the launch's end is dropped (the
 //! simulation stopped there too). Only agents the launch started itself
-//! are sent it (`Setup::ticks_at_once` is 0 otherwise): they are of its own
+//! are sent it (`Commands::ticks_at_once` is 1 otherwise): they are of its own
 //! build and on its own host, where nothing is lost on the way.
 
 use super::held::Held;
@@ -27,7 +27,7 @@ impl LaunchCore {
     /// robot judged stuck that creeps, in lockstep, when the seam allows.
     pub(super) fn runs_ahead(&self, slot: &Slot) -> bool {
         self.setup.lockstep
-            && self.setup.ticks_at_once > 1
+            && self.setup.commands.ticks_at_once > 1
             && slot.state == SlotState::Stuck
             && !slot.parked
             && self.referee.watched() != Some(slot.id)
@@ -36,12 +36,12 @@ impl LaunchCore {
     /// Tick `t` for robot `id`'s agent, which runs ahead: `None` when an
     /// earlier run covers `t` already (nothing to send, nothing to await),
     /// else the `Ticks` that starts a new run at `t`. Runs end at the
-    /// multiples of [`Setup::ticks_at_once`] (a robot's first run is
+    /// multiples of [`Commands::ticks_at_once`] (a robot's first run is
     /// shorter), so the agents that run ahead are all woken by the same
     /// ticks: their wake-ups overlap on the cores instead of each adding
     /// its own to a tick of its own.
     pub(super) fn run_from(&mut self, id: u32, t: u64) -> Option<ToAgent> {
-        let every = u64::from(self.setup.ticks_at_once.max(1));
+        let every = u64::from(self.setup.commands.ticks_at_once.max(1));
         let slot = self.slot(id)?;
         if slot.ran_ahead.is_some_and(|(first, last)| (first..=last).contains(&t)) {
             return None;

@@ -103,7 +103,7 @@ pub fn encode_setup(setup: &Setup) -> Vec<u8> {
     let mut bytes = postcard::to_allocvec(setup).unwrap_or_default();
     bytes.extend(postcard::to_allocvec(&setup.supervision).unwrap_or_default());
     bytes.extend(postcard::to_allocvec(&setup.clocks).unwrap_or_default());
-    bytes.extend(postcard::to_allocvec(&setup.ticks_at_once).unwrap_or_default());
+    bytes.extend(postcard::to_allocvec(&setup.commands).unwrap_or_default());
     bytes
 }
 
@@ -119,7 +119,7 @@ pub fn decode_setup(bytes: &[u8]) -> Result<Setup, postcard::Error> {
             let (clocks, rest) = postcard::take_from_bytes(rest)?;
             setup.clocks = clocks;
             if !rest.is_empty() {
-                setup.ticks_at_once = postcard::from_bytes(rest)?;
+                setup.commands = postcard::from_bytes(rest)?;
             }
         }
     }
@@ -263,7 +263,7 @@ mod tests {
         let off = Setup {
             supervision: Supervision::default(),
             clocks: Default::default(),
-            ticks_at_once: 0,
+            commands: Default::default(),
             ..setup.clone()
         };
         assert_eq!(decoded, off);
@@ -281,18 +281,22 @@ mod tests {
         old.extend(postcard::to_allocvec(&setup.supervision).expect("encodes"));
         let decoded = decode_setup(&old).expect("an older setup decodes");
         assert!(!decoded.clocks.on());
-        assert_eq!(decoded, Setup { clocks: Default::default(), ticks_at_once: 0, ..setup.clone() });
+        assert_eq!(
+            decoded,
+            Setup { clocks: Default::default(), commands: Default::default(), ..setup.clone() }
+        );
         assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
     }
 
-    /// A setup recorded before runs ahead (up to its clock limits) decodes
-    /// with one `Tick` a period, as it ran; one with them keeps them.
+    /// A setup recorded before the agents' command properties (up to its
+    /// clock limits) decodes with one `Tick` a period and full re-sends, as
+    /// it ran; one with them keeps them.
     #[test]
-    fn a_setup_recorded_before_runs_ahead_decodes_with_one_tick_a_period() {
+    fn a_setup_recorded_before_the_command_properties_decodes_as_it_ran() {
         let case = Case::small(4);
         let setup = harness::setup(&case, &Schedule::clean(4, case.robots));
         assert_eq!(
-            setup.ticks_at_once,
+            setup.commands.ticks_at_once,
             crate::agents::TICKS_AT_ONCE,
             "the harness's spawned agents run ahead"
         );
@@ -300,7 +304,8 @@ mod tests {
         old.extend(postcard::to_allocvec(&setup.supervision).expect("encodes"));
         old.extend(postcard::to_allocvec(&setup.clocks).expect("encodes"));
         let decoded = decode_setup(&old).expect("an older setup decodes");
-        assert_eq!(decoded, Setup { ticks_at_once: 0, ..setup.clone() });
+        assert!(setup.commands.kept, "the harness's spawned agents keep every command");
+        assert_eq!(decoded, Setup { commands: Default::default(), ..setup.clone() });
         assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
     }
 

@@ -149,7 +149,7 @@ mod tests {
             // timers that judge them are `timers.rs`'s tests.
             supervision: Supervision::default(),
             clocks: ClockLimits::default(),
-            ticks_at_once: 1,
+            commands: Default::default(),
         }
     }
 

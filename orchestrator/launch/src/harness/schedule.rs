@@ -177,6 +177,7 @@ impl Schedule {
             } else {
                 crate::agents::TICKS_AT_ONCE
             },
+            keeps_commands: !(gateway || self.remote),
         }
     }
 
@@ -196,6 +197,7 @@ impl Schedule {
             held_when_unreachable: self.remote,
             robot_link_grace: Some(crate::agents::gateways::LINK_GRACE),
             ticks_at_once: 1,
+            keeps_commands: false,
         }
     }
 
@@ -298,7 +300,9 @@ impl Schedule {
             delay_max_us: min + spread,
             drop: [0.0, 0.0, 0.01, 0.05][rng.gen_range(0..4)],
             duplicate: [0.0, 0.01, 0.1][rng.gen_range(0..3)],
-            inbound_only: false,
+            // Commands to agents on this host are never lost (the seam
+            // keeps them): only remote links lose what they carry out.
+            inbound_only: !s.remote,
         };
         let tick_us = match s.realtime {
             Some(speed) => (100_000.0 / speed) as u64,
