@@ -124,7 +124,11 @@ pub fn setup_of(
         settings: run_settings(cfg, world).fingerprint(),
         supervision: supervision(cfg, seams.held_when_unreachable, seams.robot_link_grace),
         clocks: clock_limits(cfg),
-        commands: Commands { ticks_at_once: seams.ticks_at_once, kept: seams.keeps_commands },
+        // Injected faults lose and repeat answers: then ticks are re-sent.
+        commands: Commands {
+            ticks_at_once: seams.ticks_at_once,
+            kept: seams.keeps_commands && !cfg.faults.is_on(),
+        },
     }
 }
 

@@ -302,10 +302,12 @@ pub trait AgentSource {
         1
     }
 
-    /// Whether a command sent to a live agent always reaches it, in order:
-    /// a bus on this host (iceoryx2, memory), where nothing is lost but
-    /// what overflows a topic's buffer. A tick re-sent to such an agent
-    /// repeats only the `Tick`. Default: no (a link that can be cut).
+    /// Whether what is sent to or from a live agent always arrives, in
+    /// order, once: a bus on this host (iceoryx2, memory), where nothing is
+    /// lost but what overflows a topic's buffer. Unless the launch injects
+    /// `[faults]`, such an agent's ticks are never re-sent (an answer that
+    /// has not come is late, not lost). Default: no (a link that can be
+    /// cut).
     fn keeps_commands(&self) -> bool {
         false
     }

@@ -505,14 +505,10 @@ impl LaunchCore {
                 self.relay_dead(t, t * self.setup.params.period_us);
                 relayed = true;
             }
-            // Commands that always arrive are still queued: only the tick's
-            // answer may have been lost (`Commands::kept`).
-            if !self.setup.commands.kept {
-                if let Some(bearing) = self.last_bearing.filter(|b| b.robot.0 == id && b.step == t) {
-                    self.outputs.push_back(Output::Send(id, ToAgent::GoalBearing(bearing)));
-                }
-                self.resend_beacons(id, t);
+            if let Some(bearing) = self.last_bearing.filter(|b| b.robot.0 == id && b.step == t) {
+                self.outputs.push_back(Output::Send(id, ToAgent::GoalBearing(bearing)));
             }
+            self.resend_beacons(id, t);
             self.outputs.push_back(Output::Send(id, self.tick_command(id, t)));
             self.resends += 1;
         }

@@ -200,14 +200,17 @@ pub struct Commands {
     /// one `Tick` a period. Only for agents of the launch's own build
     /// (those it starts).
     pub ticks_at_once: u32,
-    /// A command sent to a live agent always reaches it, in order (a bus
-    /// on this host): a tick re-sent to it repeats only the `Tick`, not the
-    /// beacons and goal bearing sent with it, which are still in its queue.
-    /// Why: re-sends to an agent that is only slow (a loaded machine) would
-    /// pile up in its command topic's buffer (64 messages) and push out the
-    /// oldest, the beacons it had not read yet, so it stepped with a field
-    /// short of them (`bench crowd --robots 1000` at load 20 to 60 ended
-    /// after 12 882 to 13 263 ticks, with beacon gaps in the agents' logs).
+    /// Nothing sent to or from a live agent is lost or repeated (a bus on
+    /// this host, no injected `[faults]`): a tick is never re-sent, as an
+    /// answer that has not come is only late. Why: re-sends to an agent
+    /// that is only slow (a loaded machine) piled up in its command topic's
+    /// buffer (64 messages) with the beacons and goal bearing sent again
+    /// and pushed out the oldest, the beacons it had not read yet, so it
+    /// stepped with a field short of them (`bench crowd --robots 1000` at
+    /// load 11 to 59 ended after 12 882 to 13 263 ticks, with beacon gaps in
+    /// the agents' logs); and an answer to a re-sent tick could be taken for
+    /// the answer to the next batch of a settling agent's beacons (sent with
+    /// the same tick again), which then outran the buffer.
     pub kept: bool,
 }
 

@@ -440,6 +440,11 @@ impl LaunchCore {
     /// A wait for answers from `now`: up to the tick timeout, re-sending
     /// first after the answer time seen so far.
     pub(super) fn answer_wait(&self, now: u64) -> AnswerWait {
+        // Nothing is lost on the way to an agent on this host: its answer
+        // is late, and a re-send would only pile up (`Commands::kept`).
+        if self.setup.commands.kept {
+            return AnswerWait::without_resends(now, self.setup.tick_timeout_us);
+        }
         AnswerWait::new(now, self.setup.tick_timeout_us, self.answer_time.first_resend_us())
     }
 

@@ -60,6 +60,12 @@ impl AnswerWait {
         }
     }
 
+    /// A wait of `timeout_us` from `now` that never re-sends: for agents
+    /// whose messages are never lost on the way (a bus on this host).
+    pub fn without_resends(now: u64, timeout_us: u64) -> Self {
+        Self { resend_at: u64::MAX, interval_us: RESEND_US, ..Self::new(now, timeout_us, RESEND_US) }
+    }
+
     /// At `now`, with `held` when an awaited agent is unreachable (the
     /// deadline restarts, and re-sends come once a second): whether to
     /// re-send now.
@@ -196,5 +202,15 @@ mod tests {
         }
         let first = t.first_resend_us();
         assert!((40_000..60_000).contains(&first), "20 ms answers: {first} µs");
+    }
+
+    #[test]
+    fn a_wait_without_re_sends_has_only_its_deadline() {
+        let mut w = AnswerWait::without_resends(0, 5_000_000);
+        assert!(!w.resend_due(4_999_999, false), "never re-sent");
+        assert_eq!(w.next_due(), 5_000_000, "only its deadline is due");
+        assert!(!w.expired(4_999_999));
+        assert!(w.expired(5_000_000));
+        assert_eq!(w.resent(), 0);
     }
 }

@@ -177,7 +177,10 @@ impl Schedule {
             } else {
                 crate::agents::TICKS_AT_ONCE
             },
-            keeps_commands: !(gateway || self.remote),
+            // As the launch's setup does: not with faults injected.
+            keeps_commands: !(gateway || self.remote)
+                && self.net_faults.drop == 0.0
+                && self.net_faults.duplicate == 0.0,
         }
     }
 
