@@ -62,6 +62,8 @@ pub struct TurnGeometry {
     theta0: f64,
     /// 1/δ = n/2π.
     per_rad: f64,
+    /// 1/n.
+    per_turn: f64,
     /// T = tol/δ.
     tol: f64,
     /// [`MARGIN`] in turn steps.
@@ -88,6 +90,7 @@ impl TurnGeometry {
             n: n as i32,
             theta0,
             per_rad,
+            per_turn: 1.0 / f64::from(n),
             tol: tol * per_rad,
             margin: MARGIN * per_rad,
         })
@@ -97,9 +100,8 @@ impl TurnGeometry {
     /// (within a rounding, which the uses allow for).
     #[inline]
     fn steps_from_theta0(&self, rad: f64) -> f64 {
-        let n = f64::from(self.n);
         let x = (rad - self.theta0) * self.per_rad;
-        x - n * nearest(x / n - 0.5)
+        x - f64::from(self.n) * nearest(x * self.per_turn - 0.5)
     }
 
     /// Whether `x` (turn steps) is within the margin of a whole number.
@@ -125,7 +127,8 @@ impl TurnGeometry {
         // Clear of whole numbers by the margin: ceil and floor by rounding.
         let exit_lo = nearest(g - quarter + 0.5);
         let exit_width = (nearest(g + quarter - 0.5) - exit_lo) as i32;
-        let exit_lo = (exit_lo as i32).rem_euclid(self.n);
+        // g is within a rounding of [0, n]: exit_lo lies in (−n, 2n).
+        let exit_lo = wrap_index(exit_lo as i32, self.n);
         Some(NoisyBypass {
             geometry: *self,
             d0: wrap(fd - fg),

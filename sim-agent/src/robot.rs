@@ -319,7 +319,7 @@ impl<'a> Deployment<'a> {
     /// heading it turned towards (`None`: the goal bearing, not computed)
     /// and whether the next period's mode could change with the heading
     /// alone (mode 2 with the field behind: θfg > π/2).
-    #[inline]
+    #[inline(always)]
     fn decide(&mut self, factor: f64, offset: f64) -> (Motion, Option<f64>, bool) {
         let r = &mut self.robot;
         let p = r.body.pos;
