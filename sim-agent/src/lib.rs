@@ -8,6 +8,7 @@
 #![forbid(unsafe_code)]
 
 pub mod body;
+pub mod bypass;
 pub mod field;
 pub mod geom;
 pub mod robot;

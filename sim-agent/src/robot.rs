@@ -8,6 +8,7 @@
 //! terrain is never an input here.
 
 use crate::body::{Body, HeadingTable};
+use crate::bypass::{NoisyBypass, TurnGeometry};
 use crate::field::{Beacons, DiskBound, FieldSample};
 use crate::sensing::SensingNoise;
 use crate::Vec2;
@@ -74,11 +75,15 @@ impl SimRobot {
 /// boundary (±tol, 0, π). The controller's float φg − θ_k is within a few
 /// 1e-15 rad of the true angle (atan2 and two roundings), so such a margin
 /// cannot change its decision; anything closer goes to the exact path.
+///
+/// It also keeps the table's [`TurnGeometry`], with which a [`Deployment`]
+/// decides mode 2's noisy turns in place ([`crate::bypass`]).
 #[derive(Clone, Debug)]
 pub struct MotionCones {
     lo: Vec<(f64, f64)>,
     mid: Vec<(f64, f64)>,
     hi: Vec<(f64, f64)>,
+    turns: Option<TurnGeometry>,
 }
 
 /// Smallest |sin| of the angle to a boundary (relative to |v|₁ ≥ |v|₂) the
@@ -93,6 +98,7 @@ impl MotionCones {
             lo: (0..table.len()).map(|k| unit(heading(k) - tolerance)).collect(),
             mid: (0..table.len()).map(|k| unit(heading(k))).collect(),
             hi: (0..table.len()).map(|k| unit(heading(k) + tolerance)).collect(),
+            turns: TurnGeometry::new(table, tolerance),
         }
     }
 
@@ -145,6 +151,11 @@ impl MotionCones {
 ///   when the robot gets there;
 /// * the bearing and the direction are computed only when the controller
 ///   needs them, with the same `libm` calls as `SimRobot::step`.
+/// * with noise, once a mode-2 turn was decided at a position, the next
+///   periods there are decided from the drawn offset and the heading index
+///   by [`NoisyBypass`] (the same motion as the controller's, proven away
+///   from the boundaries; the controller decides the rest). The noise is
+///   drawn once per period either way, so the stream stays the robot's.
 ///
 /// `sim-agent/tests/deployment.rs` checks it against `SimRobot::step` bit
 /// for bit; the study's `runs.csv` is byte-identical to the plain loop's.
@@ -173,6 +184,9 @@ pub struct Deployment<'a> {
     pending: u32,
     /// The turn they repeat.
     turn: Motion,
+    /// Mode 2's decision at this position with noise, once a mode-2 turn
+    /// was decided here ([`crate::bypass`]); `None` after a move.
+    bypass: Option<NoisyBypass>,
 }
 
 /// A [`Deployment`]'s upper bounds of the exact field sum.
@@ -231,6 +245,7 @@ impl<'a> Deployment<'a> {
             field_goal: FieldGoal::default(),
             pending: 0,
             turn: Motion::Straight,
+            bypass: None,
         }
     }
 
@@ -243,8 +258,35 @@ impl<'a> Deployment<'a> {
             self.robot.body.apply(self.turn, self.table);
             return self.turn;
         }
-        let (motion, target, exit_possible) = self.decide();
-        if motion != Motion::Straight && self.robot.noise.is_none() && !exit_possible {
+        let Some(noise) = self.robot.noise.as_mut() else {
+            return self.noiseless_step();
+        };
+        let (factor, offset) = noise.draw();
+        if let Some((motion, k)) = self.bypass.and_then(|b| b.decide(offset, self.robot.body.k)) {
+            if motion == Motion::Straight {
+                self.bypass = None;
+                self.robot.body.apply(motion, self.table);
+            } else {
+                self.robot.body.k = k;
+            }
+            return motion;
+        }
+        let (motion, _, _) = self.decide(factor, offset);
+        self.bypass = match (motion, self.robot.mode(), self.direction, self.bearing) {
+            (Motion::Straight, ..) | (_, Mode::Goal, ..) => None,
+            (_, Mode::Bypass, Some(fd), Some(fg)) => {
+                self.bypass.or_else(|| self.cones.turns.and_then(|t| t.at(fd, fg)))
+            }
+            _ => None,
+        };
+        motion
+    }
+
+    /// [`Self::step`] without noise: the turns known to follow are found.
+    #[inline]
+    fn noiseless_step(&mut self) -> Motion {
+        let (motion, target, exit_possible) = self.decide(1.0, 0.0);
+        if motion != Motion::Straight && !exit_possible {
             let p = self.robot.body.pos;
             let target =
                 target.unwrap_or_else(|| *self.bearing.get_or_insert_with(|| p.bearing_to(self.goal)));
@@ -258,6 +300,10 @@ impl<'a> Deployment<'a> {
     /// [`Self::step`] would replay one by one) at once; returns how many.
     #[inline]
     pub fn skip_known_turns(&mut self, max: u64) -> u32 {
+        if self.pending == 0 {
+            // With noise always: no division on the heading's chain.
+            return 0;
+        }
         let j = u64::from(self.pending).min(max) as u32;
         let n = self.table.len();
         let k = self.robot.body.k;
@@ -273,13 +319,9 @@ impl<'a> Deployment<'a> {
     /// heading it turned towards (`None`: the goal bearing, not computed)
     /// and whether the next period's mode could change with the heading
     /// alone (mode 2 with the field behind: θfg > π/2).
-    #[inline]
-    fn decide(&mut self) -> (Motion, Option<f64>, bool) {
+    #[inline(always)]
+    fn decide(&mut self, factor: f64, offset: f64) -> (Motion, Option<f64>, bool) {
         let r = &mut self.robot;
-        let (factor, offset) = match &mut r.noise {
-            Some(n) => n.draw(),
-            None => (1.0, 0.0),
-        };
         let p = r.body.pos;
         let same = self.at.is_some_and(|a| a.x.to_bits() == p.x.to_bits() && a.y.to_bits() == p.y.to_bits());
         if !same {

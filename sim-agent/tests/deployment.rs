@@ -150,3 +150,77 @@ fn cheap_mode_one_decision_agrees_with_the_controller_at_the_boundaries() {
     // Nearly everything is decided cheaply; only the near-boundary cases are declined.
     assert!(decided > 100_000 && declined > 10_000, "{decided} decided, {declined} declined");
 }
+
+/// Mode 2's noisy turns decided from the offset (`bycoms_sim::bypass`):
+/// offsets on, next to and between every boundary of the decision (θfg at
+/// 0, ±π/2, ±π; the heading error at ±tol and π on either tangent; goal
+/// bearings at ±π/2 from a heading) give the controller's motion, or are
+/// declined; a period in which the controller leaves mode 2 is declined.
+#[test]
+fn noisy_bypass_decision_agrees_with_the_controller_at_the_boundaries() {
+    use bycoms_agent::{Controller, Input, Mode};
+    use bycoms_sim::bypass::TurnGeometry;
+    use core::f64::consts::{FRAC_PI_2, PI};
+    let kin = Kinematics::paper();
+    let config = ControllerConfig::paper(1.0);
+    let tol = config.straight_tolerance;
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(36);
+    // A controller in mode 2: the field reached straight ahead.
+    let mut bypass = Controller::new(config);
+    let ahead =
+        Input { goal_bearing: 0.0, field_intensity: 1e9, field_direction: 0.0, heading: 0.0, dt: kin.dt };
+    assert_eq!(bypass.step(&ahead).mode, Mode::Bypass);
+    let (mut decided, mut declined, mut exits, mut no_table) = (0usize, 0usize, 0usize, 0usize);
+    for case in 0..4000 {
+        let table = HeadingTable::new(&kin, rng.gen_range(-PI..PI)).unwrap();
+        let geometry = TurnGeometry::new(&table, tol).expect("the paper's table is regular");
+        let k = rng.gen_range(0..table.len());
+        let h = table.heading(k);
+        let nudge = |rng: &mut Xoshiro256PlusPlus| {
+            [0.0, 1e-15, -1e-15, 1e-12, -1e-12, 1e-9, -1e-9, 2e-8, -2e-8, 1e-6][rng.gen_range(0..10)]
+        };
+        let fd = rng.gen_range(-PI..PI);
+        let fg = match case % 3 {
+            0 => h + [FRAC_PI_2, -FRAC_PI_2][rng.gen_range(0..2)] + nudge(&mut rng),
+            _ => rng.gen_range(-PI..PI),
+        };
+        let fg = wrap(fg);
+        let Some(at) = geometry.at(fd, fg) else {
+            no_table += 1;
+            continue;
+        };
+        for _ in 0..50 {
+            let boundary = [
+                fg - fd + [0.0, FRAC_PI_2, -FRAC_PI_2, PI][rng.gen_range(0..4)],
+                h + FRAC_PI_2 - fd + [tol, -tol, PI][rng.gen_range(0..3)],
+                h - FRAC_PI_2 - fd + [tol, -tol, PI][rng.gen_range(0..3)],
+            ][rng.gen_range(0..3)];
+            let offset = match wrap(boundary) + nudge(&mut rng) {
+                o if o.abs() <= PI / 6.0 && rng.gen_bool(0.7) => o,
+                _ => rng.gen_range(-PI / 6.0..PI / 6.0),
+            };
+            let input = Input {
+                goal_bearing: fg,
+                field_intensity: 1e9,
+                field_direction: wrap(fd + offset),
+                heading: h,
+                dt: kin.dt,
+            };
+            let out = bypass.clone().step(&input);
+            exits += usize::from(out.mode == Mode::Goal);
+            match at.decide(offset, k) {
+                Some((motion, next)) => {
+                    assert_eq!(out.mode, Mode::Bypass, "case {case}: decided a period that leaves mode 2");
+                    assert_eq!(motion, out.motion, "case {case}: fd {fd} fg {fg} k {k} offset {offset}");
+                    let mut body = bycoms_sim::body::Body { pos: Vec2::new(0.0, 0.0), k };
+                    body.apply(motion, &table);
+                    assert_eq!(next, body.k, "case {case}");
+                    decided += 1;
+                }
+                None => declined += 1,
+            }
+        }
+    }
+    assert!(decided > 100_000 && declined > 10_000, "{decided} decided, {declined} declined");
+    assert!(exits > 1000 && no_table > 100, "{exits} exits, {no_table} positions without a table");
+}

@@ -95,18 +95,11 @@ pub struct Generated {
 /// # Panics
 /// If `params.width` or `params.height` is zero.
 pub fn generate(seed: u64, params: &GenParams) -> Generated {
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-    let perlin = Perlin::new(rng.gen::<u32>());
-    let threshold: f64 = rng.gen_range(-1.0..1.0);
-    let ox: f64 = rng.gen_range(0.0..256.0);
-    let oy: f64 = rng.gen_range(0.0..256.0);
-
+    let field = Field::new(seed, params);
     let mut terrain = Terrain::new(params.width, params.height);
     for iy in 0..params.height {
-        let y = oy + (iy as f64 + 0.5) / params.scale;
         for ix in 0..params.width {
-            let x = ox + (ix as f64 + 0.5) / params.scale;
-            if perlin.get([x, y]) > threshold {
+            if field.above(ix, iy) {
                 terrain.set_blocked(ix, iy, true);
             }
         }
@@ -115,7 +108,78 @@ pub fn generate(seed: u64, params: &GenParams) -> Generated {
     clear_square(&mut terrain, start);
     clear_square(&mut terrain, goal);
     let feasible = is_connected(&terrain);
-    Generated { terrain, threshold, feasible }
+    Generated { terrain, threshold: field.threshold, feasible }
+}
+
+/// [`generate`] for the feasible candidates only (`None` for the others),
+/// the same terrain bit for bit. The Perlin field is evaluated lazily while
+/// the flood fill looks for a path, so an infeasible candidate (about half
+/// of a sweep's, most of them blocked around the start) costs only the
+/// cells its start's region reaches; a feasible one is then completed.
+pub fn generate_feasible(seed: u64, params: &GenParams) -> Option<Generated> {
+    let field = Field::new(seed, params);
+    let mut terrain = Terrain::new(params.width, params.height);
+    let (w, h) = (params.width, params.height);
+    let squares = [terrain.start(), terrain.goal()]
+        .map(|c| (overlapping(c.x, CLEAR_HALF_SIDE, w), overlapping(c.y, CLEAR_HALF_SIDE, h)));
+    let cleared = |ix: usize, iy: usize| {
+        squares.iter().any(|&(xs, ys)| match (xs, ys) {
+            (Some((x0, x1)), Some((y0, y1))) => (x0..=x1).contains(&ix) && (y0..=y1).contains(&iy),
+            _ => false,
+        })
+    };
+    // Per cell: 0 not evaluated yet, 1 free, 2 impassable.
+    let mut state = vec![0u8; w * h];
+    let mut blocked = |ix: usize, iy: usize| {
+        if ix >= w || iy >= h {
+            return true;
+        }
+        let cell = &mut state[iy * w + ix];
+        if *cell == 0 {
+            *cell = if !cleared(ix, iy) && field.above(ix, iy) { 2 } else { 1 };
+        }
+        *cell == 2
+    };
+    let (s, g) = (terrain.cell_of(terrain.start())?, terrain.cell_of(terrain.goal())?);
+    if !connected(w, h, s, g, &mut blocked) {
+        return None;
+    }
+    for iy in 0..h {
+        for ix in 0..w {
+            if blocked(ix, iy) {
+                terrain.set_blocked(ix, iy, true);
+            }
+        }
+    }
+    Some(Generated { terrain, threshold: field.threshold, feasible: true })
+}
+
+/// The Perlin field of one candidate and its threshold, drawn from its seed.
+struct Field {
+    perlin: Perlin,
+    threshold: f64,
+    ox: f64,
+    oy: f64,
+    scale: f64,
+}
+
+impl Field {
+    fn new(seed: u64, params: &GenParams) -> Self {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+        let perlin = Perlin::new(rng.gen::<u32>());
+        let threshold: f64 = rng.gen_range(-1.0..1.0);
+        let ox: f64 = rng.gen_range(0.0..256.0);
+        let oy: f64 = rng.gen_range(0.0..256.0);
+        Self { perlin, threshold, ox, oy, scale: params.scale }
+    }
+
+    /// f > a at the centre of cell (ix, iy): impassable unless cleared.
+    #[inline]
+    fn above(&self, ix: usize, iy: usize) -> bool {
+        let y = self.oy + (iy as f64 + 0.5) / self.scale;
+        let x = self.ox + (ix as f64 + 0.5) / self.scale;
+        self.perlin.get([x, y]) > self.threshold
+    }
 }
 
 /// Cells `lo..=hi` overlapping the open interval (c − half, c + half), clamped
@@ -151,11 +215,23 @@ pub fn is_connected(t: &Terrain) -> bool {
     let (Some(s), Some(g)) = (t.cell_of(t.start()), t.cell_of(t.goal())) else {
         return false;
     };
-    if t.cell_blocked(s.0, s.1) || t.cell_blocked(g.0, g.1) {
+    connected(t.width(), t.height(), s, g, |x, y| t.cell_blocked(x, y))
+}
+
+/// Whether a 4-connected path of cells that are not `blocked` joins cells
+/// `s` and `g` of a `w` × `h` grid (`blocked` answers for cells just
+/// outside it too, as impassable).
+fn connected(
+    w: usize,
+    h: usize,
+    s: (usize, usize),
+    g: (usize, usize),
+    mut blocked: impl FnMut(usize, usize) -> bool,
+) -> bool {
+    if blocked(s.0, s.1) || blocked(g.0, g.1) {
         return false;
     }
-    let w = t.width();
-    let mut seen = vec![false; w * t.height()];
+    let mut seen = vec![false; w * h];
     let mut todo = vec![s];
     seen[s.1 * w + s.0] = true;
     while let Some((x, y)) = todo.pop() {
@@ -165,7 +241,7 @@ pub fn is_connected(t: &Terrain) -> bool {
         let left = x.checked_sub(1).map(|x| (x, y));
         let down = y.checked_sub(1).map(|y| (x, y));
         for (nx, ny) in [Some((x + 1, y)), Some((x, y + 1)), left, down].into_iter().flatten() {
-            if !t.cell_blocked(nx, ny) && !seen[ny * w + nx] {
+            if !blocked(nx, ny) && !seen[ny * w + nx] {
                 seen[ny * w + nx] = true;
                 todo.push((nx, ny));
             }

@@ -19,7 +19,7 @@ pub mod width;
 mod tests;
 
 pub use format::{parse, to_text, ParseError, ParseErrorKind, MAX_SIDE};
-pub use generate::{generate, is_connected, GenParams, Generated};
+pub use generate::{generate, generate_feasible, is_connected, GenParams, Generated};
 pub use grid::Terrain;
 pub use read::{read_terrain, read_terrain_file, read_text, read_text_file, ReadError, MAX_FILE_BYTES};
 pub use width::{min_path_width, min_path_width_of, WidthModel};

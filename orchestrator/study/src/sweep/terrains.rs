@@ -9,7 +9,9 @@
 
 use super::mix;
 use anyhow::{bail, Context, Result};
-use bycoms_sim::terrain::{generate, min_path_width, read_terrain_file, GenParams, Generated, Terrain};
+use bycoms_sim::terrain::{
+    generate_feasible, min_path_width, read_terrain_file, GenParams, Generated, Terrain,
+};
 use rayon::prelude::*;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -42,7 +44,7 @@ pub fn bin_of(width: f64, bins: &[f64]) -> Option<usize> {
 /// The first feasible candidate of a stream within `budget` candidates.
 pub fn first_feasible(seed: u64, budget: u64) -> Option<(u64, Generated)> {
     let params = GenParams::default();
-    (0..budget).map(|i| (i, generate(candidate_seed(seed, i), &params))).find(|(_, g)| g.feasible)
+    (0..budget).find_map(|i| generate_feasible(candidate_seed(seed, i), &params).map(|g| (i, g)))
 }
 
 /// Fills every bin with `per_bin` generated terrains; `on_progress(filled, needed)`
@@ -97,11 +99,9 @@ pub fn search_bins(
         let found: Vec<(u64, Generated, f64)> = (next..end)
             .into_par_iter()
             .filter_map(|i| {
-                let g = generate(candidate_seed(seed, i), &params);
-                g.feasible.then(|| {
-                    let w = min_path_width(&g.terrain);
-                    (i, g, w)
-                })
+                let g = generate_feasible(candidate_seed(seed, i), &params)?;
+                let w = min_path_width(&g.terrain);
+                Some((i, g, w))
             })
             .collect();
         for (i, g, width) in found {

@@ -1,5 +1,5 @@
 use super::block;
-use crate::terrain::{generate, is_connected, GenParams, Terrain};
+use crate::terrain::{generate, generate_feasible, is_connected, GenParams, Terrain};
 use crate::Vec2;
 
 #[test]
@@ -93,4 +93,24 @@ fn other_sizes_and_scales() {
     let g = generate(3, &p);
     assert_eq!((g.terrain.width(), g.terrain.height()), (30, 20));
     assert_eq!(g.terrain.start(), Vec2::new(7.5, 5.5));
+}
+
+#[test]
+fn lazy_generation_gives_the_feasible_terrains_bit_for_bit() {
+    let p = GenParams::default();
+    let mut feasible = 0;
+    for seed in 0..600 {
+        let full = generate(seed, &p);
+        let lazy = generate_feasible(seed, &p);
+        match lazy {
+            Some(g) => {
+                assert!(full.feasible, "seed {seed}: lazily feasible, not fully");
+                assert_eq!(g.threshold.to_bits(), full.threshold.to_bits(), "seed {seed}");
+                assert_eq!(g, full, "seed {seed}");
+                feasible += 1;
+            }
+            None => assert!(!full.feasible, "seed {seed}: feasible, but not found lazily"),
+        }
+    }
+    assert!(feasible > 200 && feasible < 400, "{feasible} of 600 feasible");
 }
