@@ -276,68 +276,84 @@ pub fn fan_in_tags_every_message_with_its_topic<B: Bus>(bus: &B) {
     }
 }
 
+/// Runs `wait` on a fan-in over `topics` in a thread of its own (with its
+/// own bus from `make`), and `publish` here (with another) once that
+/// fan-in exists; returns what `wait` returned. The bus and the publisher
+/// `publish` returns are kept until the waiter is done: a publisher's
+/// messages may go with it (iceoryx2).
+fn beside_a_waiting_fan_in<B: Bus, F: Fn() -> B + Sync, T: Send>(
+    make: &F,
+    topics: &[TopicName],
+    wait: impl FnOnce(&B::FanIn) -> T + Send,
+    publish: impl FnOnce(&B) -> B::Publisher,
+) -> T {
+    let (ready_tx, ready_rx) = mpsc::channel();
+    std::thread::scope(|s| {
+        let waiter = s.spawn(|| {
+            let bus = make();
+            let fan_in = bus.fan_in(topics).expect("fan-in");
+            ready_tx.send(()).expect("signal ready");
+            wait(&fan_in)
+        });
+        ready_rx.recv_timeout(WAIT).expect("waiter ready");
+        let bus = make();
+        let _publisher = publish(&bus);
+        waiter.join().expect("waiter thread")
+    })
+}
+
 /// A fan-in waiting in one thread wakes for a message on any of its
 /// topics published from another (the last topic, so a reader that only
 /// waited on its first topic's wake-ups would time out).
 pub fn fan_in_wakes_for_any_topic<B: Bus, F: Fn() -> B + Sync>(make: &F) {
     let swarm = unique_swarm("fanin-wake");
     let topics: Vec<TopicName> = (1..=4).map(|k| *swarm.from_agent(RobotId(k)).name()).collect();
-    let (ready_tx, ready_rx) = mpsc::channel();
-    std::thread::scope(|s| {
-        let waiter = s.spawn(|| {
-            let bus = make();
-            let fan_in = bus.fan_in(&topics).expect("fan-in");
-            ready_tx.send(()).expect("signal ready");
-            let start = Instant::now();
-            let got = fan_in.recv_timeout(WAIT).expect("receive");
-            (got, start.elapsed())
-        });
-        ready_rx.recv_timeout(WAIT).expect("waiter ready");
-        let bus = make();
+    let wait = |fan_in: &B::FanIn| {
+        let start = Instant::now();
+        let got = fan_in.recv_timeout(WAIT).expect("receive");
+        (got, start.elapsed())
+    };
+    let publish = |bus: &B| {
         let publ = bus.publisher(&topics[3]).expect("publisher");
         // Only makes the wake-up path likely; not needed for correctness.
         std::thread::sleep(Duration::from_millis(5));
         publ.publish(&[42]).expect("publish");
-        let (got, waited) = waiter.join().expect("waiter thread");
-        let got = got.expect("a message");
-        assert_eq!(bycoms_protocol::bus::untag(&got), Some((3, &[42u8][..])));
-        assert!(waited < WAIT / 2, "woken late: {waited:?}");
-    });
+        publ
+    };
+    let (got, waited) = beside_a_waiting_fan_in(make, &topics, wait, publish);
+    let got = got.expect("a message");
+    assert_eq!(bycoms_protocol::bus::untag(&got), Some((3, &[42u8][..])));
+    assert!(waited < WAIT / 2, "woken late: {waited:?}");
 }
 
 /// Messages published quietly, then one published as usual, wake a fan-in
-/// waiting in another thread once, and it finds them all, in order: the
-/// quiet ones are not lost or held back behind the wake-up.
+/// waiting in another thread, and it finds them all, in order: the quiet
+/// ones are not lost or held back behind the wake-up.
 pub fn quiet_publishes_arrive_with_the_next_one<B: Bus, F: Fn() -> B + Sync>(make: &F) {
     let swarm = unique_swarm("quiet");
     let topics: Vec<TopicName> = (1..=3).map(|k| *swarm.pose(RobotId(k)).name()).collect();
-    let (ready_tx, ready_rx) = mpsc::channel();
-    std::thread::scope(|s| {
-        let waiter = s.spawn(|| {
-            let bus = make();
-            let fan_in = bus.fan_in(&topics).expect("fan-in");
-            ready_tx.send(()).expect("signal ready");
-            let mut got = Vec::new();
-            while got.len() < 4 {
-                match fan_in.recv_timeout(WAIT).expect("receive") {
-                    Some(m) => got.push(m),
-                    None => break,
-                }
+    let wait = |fan_in: &B::FanIn| {
+        let mut got = Vec::new();
+        while got.len() < 4 {
+            match fan_in.recv_timeout(WAIT).expect("receive") {
+                Some(m) => got.push(m),
+                None => break,
             }
-            got
-        });
-        ready_rx.recv_timeout(WAIT).expect("waiter ready");
-        let bus = make();
+        }
+        got
+    };
+    let publish = |bus: &B| {
         let publ = bus.publisher(&topics[2]).expect("publisher");
         for k in 1..=3u8 {
             publ.publish_quietly(&[k]).expect("publish quietly");
         }
         publ.publish(&[4]).expect("publish");
-        let got = waiter.join().expect("waiter thread");
-        let got: Vec<_> = got.iter().map(|m| bycoms_protocol::bus::untag(m).expect("tagged")).collect();
-        let want: Vec<(usize, &[u8])> = vec![(2, &[1]), (2, &[2]), (2, &[3]), (2, &[4])];
-        assert_eq!(got, want);
-    });
+        publ
+    };
+    let got = beside_a_waiting_fan_in(make, &topics, wait, publish);
+    let got: Vec<_> = got.iter().map(|m| bycoms_protocol::bus::untag(m).expect("tagged")).collect();
+    let want: Vec<(usize, &[u8])> = vec![(2, &[1]), (2, &[2]), (2, &[3]), (2, &[4])];
+    assert_eq!(got, want);
 }
 
 /// Instantiates the whole suite for one backend: `$make` is an expression
