@@ -247,7 +247,11 @@ impl Driver {
                     Err(e) => self.core.handle(now, Input::Failed(bycoms_runtime::exit::message(&e))),
                 }
             }
-            Output::Send(id, msg) => self.ports.send(id, &msg)?,
+            Output::Send(id, msg) => {
+                // A tick's beacons, bearing and `Tick` to one agent ring once.
+                let more = matches!(self.core.peek_output(), Some(Output::Send(next, _)) if *next == id);
+                self.ports.send(id, &msg, more)?;
+            }
             Output::Relay(pose) => {
                 self.ports.relay(&pose)?;
                 self.ports.recording.seen(Seen::Pose(pose));
@@ -473,7 +477,7 @@ impl Driver {
         let live = running.len();
         for id in running {
             // A failure to send only means it is ended after the grace period.
-            let _ = self.ports.send(id, &ToAgent::Shutdown);
+            let _ = self.ports.send(id, &ToAgent::Shutdown, false);
         }
         let grace = self.cfg.supervision.shutdown_grace_for(live);
         let winding = Instant::now();

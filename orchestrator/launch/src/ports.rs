@@ -103,19 +103,21 @@ impl Ports {
         &self.swarm
     }
 
-    /// Sends a command to robot `robot` (whose ports are open).
-    pub fn send(&mut self, robot: u32, msg: &ToAgent) -> Result<(), BusError> {
+    /// Sends a command to robot `robot` (whose ports are open); `more`:
+    /// another command to it follows at once, and only that one wakes it.
+    pub fn send(&mut self, robot: u32, msg: &ToAgent, more: bool) -> Result<(), BusError> {
         let Some((name, publisher)) = self.to_agent.get(&robot) else {
             return Err(BusError::InvalidConfig("command to a robot whose ports are not open"));
         };
-        send_recorded(&mut self.recording, name, publisher, schema::TO_AGENT, msg)
+        // The last of a batch wakes the agent, which then reads them all.
+        send_recorded(&mut self.recording, name, publisher, schema::TO_AGENT, msg, more)
     }
 
     /// Publishes a gate event.
     pub fn publish_gate(&mut self, event: &GateEvent) -> Result<(), BusError> {
         let (name, publisher) = &self.gate;
         // The recording adds the decoded event (`gate/json`, the log, the scene).
-        send_recorded(&mut self.recording, name, publisher, schema::GATE, event)?;
+        send_recorded(&mut self.recording, name, publisher, schema::GATE, event, false)?;
         self.observers.iter_mut().for_each(|o| o.gate(event));
         Ok(())
     }
@@ -128,7 +130,7 @@ impl Ports {
         }
         match &self.operator {
             Some((name, publisher)) => {
-                send_recorded(&mut self.recording, name, publisher, schema::OPERATOR, request)
+                send_recorded(&mut self.recording, name, publisher, schema::OPERATOR, request, false)
             }
             None => Ok(()),
         }
@@ -143,7 +145,9 @@ impl Ports {
             self.relays.insert(robot, self.bus.publisher(&name)?);
         }
         match self.relays.get(&robot) {
-            Some(publisher) => send_recorded(&mut self.recording, &name, publisher, schema::POSE, pose),
+            Some(publisher) => {
+                send_recorded(&mut self.recording, &name, publisher, schema::POSE, pose, false)
+            }
             None => Ok(()),
         }
     }
@@ -243,17 +247,23 @@ impl Ports {
     }
 }
 
+/// Publishes `msg` and records it; `more`: another message on this topic
+/// follows at once and wakes its readers ([`Publish::publish_quietly`]).
 fn send_recorded<M: Message>(
     recording: &mut Recording,
     topic: &TopicName,
     publisher: &Pub,
     schema: &str,
     msg: &M,
+    more: bool,
 ) -> Result<(), BusError> {
     let mut buf = [0u8; MAX_MESSAGE_LEN];
     let bytes = encode(msg, &mut buf)?;
     recording.bytes(topic.as_str(), schema, bytes);
-    publisher.publish(bytes)
+    match more {
+        true => publisher.publish_quietly(bytes),
+        false => publisher.publish(bytes),
+    }
 }
 
 fn receive_recorded(

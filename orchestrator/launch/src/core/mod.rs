@@ -624,6 +624,11 @@ impl LaunchCore {
         self.outputs.pop_front()
     }
 
+    /// The next output [`Self::poll_output`] would hand out, left in place.
+    pub fn peek_output(&self) -> Option<&Output> {
+        self.outputs.front()
+    }
+
     /// When `advance` must run again if no input comes, µs of launch time.
     pub fn deadline(&self) -> Option<u64> {
         if self.ending.is_some() {
