@@ -114,14 +114,25 @@ fn exp_long_runs_with_the_gateways_and_the_lab_on_a_bridge_host() {
     let out = orch.wait(Duration::from_secs(180));
     signal(lab.pid(), Signal::SIGTERM);
     let lab = lab.wait(Duration::from_secs(20));
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "no robot arrived:\n{}\n--- lab:\n{}\n{}",
-        out.stderr,
-        lab.stdout,
-        lab.stderr
-    );
+    if out.status.code() != Some(0) {
+        // What each gateway said too: one that never registered says why.
+        let said: Vec<String> = gateways
+            .into_iter()
+            .enumerate()
+            .map(|(i, gateway)| {
+                signal(gateway.pid(), Signal::SIGTERM);
+                format!("--- gateway {}:\n{}", i + 1, gateway.wait(Duration::from_secs(20)).stderr)
+            })
+            .collect();
+        panic!(
+            "no robot arrived ({:?}):\n{}\n--- lab:\n{}\n{}\n{}",
+            out.status.code(),
+            out.stderr,
+            lab.stdout,
+            lab.stderr,
+            said.join("\n")
+        );
+    }
     let j = out.json();
     let ends: Vec<&str> =
         j["robots"].as_array().expect("robots").iter().map(|r| r["end"].as_str().unwrap_or("?")).collect();
