@@ -15,6 +15,16 @@ use bycoms_sim::Vec2;
 use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
+/// A field of a count drawn from `count` beacons, each somewhere between
+/// the start (15.5, 15.5) and the goal (44.5, 44.5).
+fn random_beacons(rng: &mut Xoshiro256PlusPlus, count: std::ops::Range<usize>) -> Beacons {
+    let mut beacons = Beacons::new(1.0);
+    for _ in 0..rng.gen_range(count) {
+        beacons.push(Vec2::new(rng.gen_range(16.0..44.0), rng.gen_range(16.0..44.0)));
+    }
+    beacons
+}
+
 #[test]
 fn deployment_follows_sim_robot_step_bit_for_bit() {
     let kin = Kinematics::paper();
@@ -23,10 +33,7 @@ fn deployment_follows_sim_robot_step_bit_for_bit() {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
     let (mut cheap_periods, mut turns, mut bypass) = (0usize, 0usize, 0usize);
     for case in 0..60u64 {
-        let mut beacons = Beacons::new(1.0);
-        for _ in 0..rng.gen_range(0..40) {
-            beacons.push(Vec2::new(rng.gen_range(16.0..44.0), rng.gen_range(16.0..44.0)));
-        }
+        let beacons = random_beacons(&mut rng, 0..40);
         let config = ControllerConfig::paper(rng.gen_range(1.0..5.0));
         let cones = MotionCones::new(&table, config.straight_tolerance);
         let noise = (case % 2 == 1).then(|| SensingNoise::new(NoiseModel::paper(), case));
@@ -87,10 +94,7 @@ fn skipped_turns_follow_sim_robot_step_bit_for_bit() {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(35);
     let (mut skipped, mut runs) = (0u64, 0u64);
     for case in 0..80u64 {
-        let mut beacons = Beacons::new(1.0);
-        for _ in 0..rng.gen_range(1..30) {
-            beacons.push(Vec2::new(rng.gen_range(16.0..44.0), rng.gen_range(16.0..44.0)));
-        }
+        let beacons = random_beacons(&mut rng, 1..30);
         let config = ControllerConfig::paper(rng.gen_range(1.0..5.0));
         let cones = MotionCones::new(&table, config.straight_tolerance);
         let mut plain = SimRobot::new(start, config, None, kin.dt);
