@@ -501,12 +501,12 @@ impl LaunchCore {
             let Some(t) = self.tick.as_ref().filter(owes).map(|t| t.step) else {
                 continue;
             };
+            if let Some(bearing) = self.last_bearing.filter(|b| b.robot.0 == id && b.step == t) {
+                self.outputs.push_back(Output::Send(id, ToAgent::GoalBearing(bearing)));
+            }
             if !relayed {
                 self.relay_dead(t, t * self.setup.params.period_us);
                 relayed = true;
-            }
-            if let Some(bearing) = self.last_bearing.filter(|b| b.robot.0 == id && b.step == t) {
-                self.outputs.push_back(Output::Send(id, ToAgent::GoalBearing(bearing)));
             }
             self.resend_beacons(id, t);
             self.outputs.push_back(Output::Send(id, self.tick_command(id, t)));
