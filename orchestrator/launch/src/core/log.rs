@@ -97,13 +97,14 @@ pub fn resolve<'a>(
 }
 
 /// The setup's bytes in a recording: the setup, then its supervision
-/// settings, then its clock limits (each appended, so a setup recorded
-/// before it existed decodes).
+/// settings, its clock limits, its command properties and its starts ahead
+/// (each appended, so a setup recorded before it existed decodes).
 pub fn encode_setup(setup: &Setup) -> Vec<u8> {
     let mut bytes = postcard::to_allocvec(setup).unwrap_or_default();
     bytes.extend(postcard::to_allocvec(&setup.supervision).unwrap_or_default());
     bytes.extend(postcard::to_allocvec(&setup.clocks).unwrap_or_default());
     bytes.extend(postcard::to_allocvec(&setup.commands).unwrap_or_default());
+    bytes.extend(postcard::to_allocvec(&setup.starts).unwrap_or_default());
     bytes
 }
 
@@ -119,7 +120,11 @@ pub fn decode_setup(bytes: &[u8]) -> Result<Setup, postcard::Error> {
             let (clocks, rest) = postcard::take_from_bytes(rest)?;
             setup.clocks = clocks;
             if !rest.is_empty() {
-                setup.commands = postcard::from_bytes(rest)?;
+                let (commands, rest) = postcard::take_from_bytes(rest)?;
+                setup.commands = commands;
+                if !rest.is_empty() {
+                    setup.starts = postcard::from_bytes(rest)?;
+                }
             }
         }
     }
@@ -264,6 +269,7 @@ mod tests {
             supervision: Supervision::default(),
             clocks: Default::default(),
             commands: Default::default(),
+            starts: Default::default(),
             ..setup.clone()
         };
         assert_eq!(decoded, off);
@@ -283,7 +289,12 @@ mod tests {
         assert!(!decoded.clocks.on());
         assert_eq!(
             decoded,
-            Setup { clocks: Default::default(), commands: Default::default(), ..setup.clone() }
+            Setup {
+                clocks: Default::default(),
+                commands: Default::default(),
+                starts: Default::default(),
+                ..setup.clone()
+            }
         );
         assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
     }
@@ -305,7 +316,28 @@ mod tests {
         old.extend(postcard::to_allocvec(&setup.clocks).expect("encodes"));
         let decoded = decode_setup(&old).expect("an older setup decodes");
         assert!(setup.commands.kept, "the harness's spawned agents keep every command");
-        assert_eq!(decoded, Setup { commands: Default::default(), ..setup.clone() });
+        assert_eq!(
+            decoded,
+            Setup { commands: Default::default(), starts: Default::default(), ..setup.clone() }
+        );
+        assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
+    }
+
+    /// A setup recorded before agents were started more than one ahead (up
+    /// to its command properties) decodes with one ahead, as it ran; one
+    /// with it keeps it.
+    #[test]
+    fn a_setup_recorded_before_the_starts_ahead_decodes_as_it_ran() {
+        let case = Case::small(5);
+        let setup = harness::setup(&case, &Schedule::clean(5, case.robots));
+        assert_eq!(setup.starts.ahead, crate::setup::STARTS_AHEAD, "a lockstep launch starts agents ahead");
+        let mut old = postcard::to_allocvec(&setup).expect("encodes");
+        old.extend(postcard::to_allocvec(&setup.supervision).expect("encodes"));
+        old.extend(postcard::to_allocvec(&setup.clocks).expect("encodes"));
+        old.extend(postcard::to_allocvec(&setup.commands).expect("encodes"));
+        let decoded = decode_setup(&old).expect("an older setup decodes");
+        assert_eq!(decoded.starts.ahead, 0, "none recorded: one ahead, as the core reads it");
+        assert_eq!(decoded, Setup { starts: Default::default(), ..setup.clone() });
         assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
     }
 

@@ -189,6 +189,24 @@ pub struct Setup {
     /// `log::encode_setup`, for the same reason.
     #[serde(skip)]
     pub commands: Commands,
+    /// How far ahead agents are started. Appended after the commands by
+    /// `log::encode_setup`, for the same reason.
+    #[serde(skip)]
+    pub starts: Starts,
+}
+
+/// How far ahead of the robots' turns their agents are started (with
+/// [`Setup::prespawn`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Starts {
+    /// Agents kept started ahead of the robot that moves: robots `n + 1`
+    /// to `n + ahead` once robot `n` moves (0, in a setup recorded before
+    /// it existed, means 1, as then). Why more than one: in lockstep a
+    /// robot may be judged within a few milliseconds of wall time, less
+    /// than an agent process takes to start here (3 to 6 ms: exec, its
+    /// iceoryx2 node and ports), and the launch then waited for the next
+    /// agent to register, more than half of a 300-robot crowd's wall time.
+    pub ahead: u32,
 }
 
 /// How the agent seam's agents take commands (its properties, as

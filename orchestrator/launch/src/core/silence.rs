@@ -150,6 +150,7 @@ mod tests {
             supervision: Supervision::default(),
             clocks: ClockLimits::default(),
             commands: Default::default(),
+            starts: Default::default(),
         }
     }
 

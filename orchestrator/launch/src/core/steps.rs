@@ -189,11 +189,8 @@ impl LaunchCore {
             Some(SlotState::Moving) => {
                 self.pending_deploy = None;
                 self.next = self.next.max(id + 1);
-                let next = self.next;
-                let prespawn = self.setup.prespawn
-                    && self.slot_ref(next).is_some_and(|s| s.state == SlotState::Waiting && s.restarts == 0);
-                if prespawn {
-                    self.start_agent(next);
+                if self.setup.prespawn {
+                    self.start_ahead();
                 }
                 self.phase = Phase::Watching;
                 true
@@ -260,6 +257,19 @@ impl LaunchCore {
         }
         self.phase = Phase::AwaitingRegistration(id);
         true
+    }
+
+    /// The robot before `next` moves: the agents of the next robots
+    /// ([`Starts::ahead`](super::Starts::ahead) of them) are started while
+    /// it does, each once (one that died before its turn is started again
+    /// at its turn).
+    fn start_ahead(&mut self) {
+        let ahead = self.setup.starts.ahead.max(1);
+        for next in self.next..self.next.saturating_add(ahead) {
+            if self.slot_ref(next).is_some_and(|s| s.state == SlotState::Waiting && s.restarts == 0) {
+                self.start_agent(next);
+            }
+        }
     }
 
     /// Asks the shell to start robot `id`'s agent; from now on it is

@@ -173,6 +173,8 @@ pub struct Report {
     pub gate_times_us: Vec<u64>,
     /// When each robot's first registration reached the core, µs.
     pub registered_us: Vec<Option<u64>>,
+    /// When each robot's agent was first started, µs.
+    pub started_us: Vec<Option<u64>>,
     /// What the summary states ([`super::summary::of`] at the end, with
     /// the schedule's recording failure).
     pub decided: Option<Decided>,
@@ -272,9 +274,14 @@ impl Launch {
     }
 
     /// The core's setup, with the seams of `schedule`'s agents, from the
-    /// launch's own [`super::setup::setup_of`].
+    /// launch's own [`super::setup::setup_of`] (and the schedule's starts
+    /// ahead, if it sets them).
     pub fn setup(&self, schedule: &Schedule) -> Setup {
-        super::setup::setup_of(&self.cfg, &self.world, &self.settings, &schedule.seams(), 0)
+        let mut setup = super::setup::setup_of(&self.cfg, &self.world, &self.settings, &schedule.seams(), 0);
+        if let Some(ahead) = schedule.starts_ahead {
+            setup.starts.ahead = ahead;
+        }
+        setup
     }
 
     /// Robot `id`'s simulated agent as the process would be (process

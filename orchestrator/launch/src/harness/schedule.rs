@@ -124,6 +124,9 @@ pub struct Schedule {
     /// creeps once judged (as agents of another build are), not runs of
     /// them (`ToAgent::Ticks`).
     pub one_tick_a_period: bool,
+    /// Agents started this many ahead of the robot that moves instead of
+    /// the launch's own number ([`Starts::ahead`](crate::core::Starts)).
+    pub starts_ahead: Option<u32>,
     /// Real time, remote: the agents have the gateways' properties (all at
     /// once, stuck robots stopped, the launch's poses forwarded to them,
     /// no beacons: real robots hear each other), the poses not on the bus.
@@ -264,6 +267,7 @@ impl Schedule {
             recording_fails: false,
             stop_when_stuck: false,
             one_tick_a_period: false,
+            starts_ahead: None,
             gateway_seams: false,
             stop_at_us: None,
             revoke_at_us: None,

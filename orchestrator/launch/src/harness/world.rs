@@ -107,6 +107,7 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             late: Vec::new(),
             gate_times_us: Vec::new(),
             registered_us: vec![None; n],
+            started_us: vec![None; n],
             decided: None,
             stop_log: Vec::new(),
             stopped: None,
@@ -289,6 +290,9 @@ impl World<'_> {
 
     pub(super) fn start(&mut self, id: u32) {
         let i = id as usize - 1;
+        if let Some(at) = self.report.started_us.get_mut(i) {
+            at.get_or_insert(self.now);
+        }
         if self.schedule.remote && self.alive(id) {
             // A remote agent exists on its own: expected again, not made.
             let now = self.now;

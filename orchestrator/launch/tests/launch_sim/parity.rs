@@ -193,3 +193,60 @@ fn creeping_robots_run_ahead_and_the_run_is_the_same() {
     // Runs end at multiples of 32: all but a robot's first are 32 long.
     assert!(periods > runs * 16, "{periods} periods in {runs} runs");
 }
+
+/// Lockstep starts agents `STARTS_AHEAD` robots ahead of the one that
+/// moves (issue 35: a crowd used to wait for each next agent to register),
+/// and that changes when they start, nothing else: the same gate events,
+/// robots, modes, beacons and ticks as with one ahead, on the walled crowd
+/// and small cases. The agents started two or more turns early show the
+/// setting is used (none are with one ahead).
+#[test]
+fn agents_started_further_ahead_change_only_when_they_start() {
+    let walled: Terrain = ".....\n..G..\n.###.\n.#S#.\n.###.\n".parse().expect("terrain");
+    let crowd = Case { terrain: walled, robots: 45, time_limit: 300.0, noise: None, ..Case::small(0) };
+    let mut cases = vec![crowd];
+    cases.extend((0..60).step_by(5).map(Case::small));
+    // Robots whose agent was started before the robot two turns before it
+    // was deployed.
+    let early = |r: &Report| -> usize {
+        let deployed: Vec<u64> = r
+            .gates
+            .iter()
+            .zip(&r.gate_times_us)
+            .filter(|(g, _)| g.kind == GateKind::Deployed)
+            .map(|(_, &t)| t)
+            .collect();
+        deployed.iter().zip(r.started_us.iter().skip(2)).filter(|(&d, s)| s.is_some_and(|s| s < d)).count()
+    };
+    let (mut early_ahead, mut early_one) = (0, 0);
+    for (k, case) in cases.into_iter().enumerate() {
+        // Turning ignored: robots turning in place are judged, and the
+        // next ones deployed, within a few ticks (as in a crowd).
+        let case = Case { stop_turn_rate: 0.0, ..case };
+        let ahead = Schedule::clean(k as u64, case.robots);
+        let one = Schedule { starts_ahead: Some(1), ..ahead.clone() };
+        let (a, b) = (harness::run(&case, &ahead), harness::run(&case, &one));
+        harness::check(&a, &ahead).unwrap_or_else(|e| panic!("case {k}: {e}"));
+        assert_eq!((&a.ending, &a.gates), (&b.ending, &b.gates), "case {k}: ending, gate events");
+        // A robot never deployed ends as its agent was left: started
+        // (registered) or not.
+        let ends = |r: &Report| -> Vec<_> {
+            let waiting = |s: SlotState| if s == SlotState::Registered { SlotState::Waiting } else { s };
+            r.robots
+                .iter()
+                .map(|(s, n, p)| (waiting(*s), *n, p.map(|p| (p.x.to_bits(), p.y.to_bits()))))
+                .collect()
+        };
+        assert_eq!(ends(&a), ends(&b), "case {k}: robots");
+        let summary = |r: &Report| {
+            let d = r.decided.as_ref().expect("a summary");
+            let modes: Vec<u8> = d.robots.iter().map(|s| s.mode).collect();
+            let beacons: Vec<(u64, u64)> = d.beacons.iter().map(|v| (v.x.to_bits(), v.y.to_bits())).collect();
+            (modes, beacons, d.steps, d.ticks)
+        };
+        assert_eq!(summary(&b), summary(&a), "case {k}: modes, beacons, steps, ticks");
+        (early_ahead, early_one) = (early_ahead + early(&a), early_one + early(&b));
+    }
+    assert!(early_ahead > 30, "only {early_ahead} agents started two turns early");
+    assert_eq!(early_one, 0, "one ahead: no agent starts two turns early");
+}
