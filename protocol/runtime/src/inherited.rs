@@ -9,6 +9,11 @@
 //! the swarm for no use. An agent needs only standard input (the terrain
 //! may come there), output and error (the orchestrator reads its last
 //! error line there); it closes everything else first thing.
+//!
+//! A launch now starts its agents from a thread whose descriptor table
+//! holds none of its files (`orchestrator/launch/src/agents/spawner.rs`),
+//! so they find nothing to close; this stays for agents started by other
+//! parents.
 
 /// Closes every open file descriptor above standard error; returns how
 /// many. Call it before anything opens a file of its own.

@@ -36,14 +36,16 @@
 //!   then [`AgentSource::end_rest`] ends the rest and names them; after it
 //!   nothing is running. Dropping a source ends whatever is still running.
 //!
-//! The trait is object-safe and not `Send` (the launch runs on one thread:
-//! spawned children must be spawned from the main thread, see `spawned`).
+//! The trait is object-safe and not `Send` (the launch runs on one thread;
+//! spawned children are started from one thread of their own that lives as
+//! long as their source, see `spawner`).
 
 pub mod choice;
 pub mod executable;
 pub mod gateways;
 pub mod remote;
 pub mod spawned;
+pub mod spawner;
 pub mod stderr_tap;
 pub mod threads;
 

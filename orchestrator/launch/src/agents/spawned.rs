@@ -6,22 +6,22 @@
 //! its silence: that is the launch core's heartbeat timer
 //! (`orchestrator/launch/src/core/timers.rs`), which ends it with [`AgentSource::kill`].
 //!
-//! Agents are spawned from the thread that runs the launch (the main
-//! thread), in their own process group (a Ctrl-C in the terminal reaches the
-//! orchestrator only, which then shuts them down in order), with
-//! `--parent-pid` so they exit if the orchestrator dies. Their standard
+//! Agents are spawned from a thread of their own ([`Spawner`]: their
+//! children inherit none of the launch's files), in their own process group
+//! (a Ctrl-C in the terminal reaches the orchestrator only, which then shuts
+//! them down in order), with `--parent-pid` so they exit if the
+//! orchestrator dies. Their standard
 //! error passes through ours ([`StderrTap`]), and the last error line of an
 //! agent that is gone is the launch's reason for it. Dropping the
 //! [`Spawned`] source kills and reaps every child still running: whatever
 //! way the launch ends, it leaves no process behind.
 
+use super::spawner::{Request, Spawn, Spawner};
 use super::stderr_tap::StderrTap;
 use super::{AgentError, AgentPlan, AgentSource, Gone, Started, TICKS_AT_ONCE};
 use std::collections::{BTreeMap, BTreeSet};
-use std::io::Write;
-use std::os::unix::process::CommandExt;
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::Child;
 use std::time::Duration;
 
 /// How an agent executable is invoked.
@@ -48,6 +48,9 @@ pub struct Spawned {
     said: BTreeMap<u32, String>,
     /// Agents heard from (registered): the others may have missed `Shutdown`.
     heard: BTreeSet<u32>,
+    /// Where they are started from (once the first one is): a thread whose
+    /// children inherit none of the launch's files.
+    spawner: Option<Spawner>,
 }
 
 /// The name it had before the agents seam (`bench scale` still uses it).
@@ -65,37 +68,29 @@ impl Spawned {
             taps: BTreeMap::new(),
             said: BTreeMap::new(),
             heard: BTreeSet::new(),
+            spawner: None,
         }
     }
 
     /// Starts robot `robot`'s agent with `flags`, writing `stdin_text` (the
     /// terrain) to its standard input. Returns its pid.
     pub fn spawn(&mut self, robot: u32, flags: &[String], stdin_text: &str) -> Result<u32, AgentError> {
-        let mut child = Command::new(&self.command.program)
-            .args(&self.command.prefix)
-            .args(flags)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .process_group(0)
-            .spawn()
-            .map_err(|source| AgentError::Spawn {
-                program: self.command.program.display().to_string(),
-                source,
-            })?;
-        let pid = child.id();
-        if let Some(stderr) = child.stderr.take() {
-            // Without the tap the child's lines still reach nobody else;
-            // a thread that cannot start is an error like a failed spawn.
-            let tap = StderrTap::start(stderr, format!("agent-{robot}-stderr")).map_err(|source| {
-                AgentError::Spawn { program: self.command.program.display().to_string(), source }
-            })?;
-            self.taps.insert(robot, tap);
-        }
-        let written = match child.stdin.take() {
-            Some(mut stdin) => stdin.write_all(stdin_text.as_bytes()),
-            None => Ok(()),
+        let program = self.command.program.clone();
+        let failed = |source| AgentError::Spawn { program: program.display().to_string(), source };
+        let spawner = match &mut self.spawner {
+            Some(spawner) => spawner,
+            empty => empty.insert(Spawner::start().map_err(failed)?),
         };
+        let args = self.command.prefix.iter().chain(flags).cloned().collect();
+        let request = Request {
+            program: self.command.program.clone(),
+            args,
+            stdin_text: stdin_text.to_owned(),
+            tap_name: format!("agent-{robot}-stderr"),
+        };
+        let Spawn { child, tap, written } = spawner.spawn(request).map_err(failed)?;
+        let pid = child.id();
+        self.taps.insert(robot, tap);
         self.children.insert(robot, child);
         self.heard.remove(&robot);
         // A child that died at once closes the pipe; that shows up as its
