@@ -199,7 +199,8 @@ pub struct Args {
     /// ...if it also turns slower than this (rad/s; 0 ignores turning).
     #[arg(long)]
     pub stop_turn_rate: Option<f64> => set gate.stop_turn_rate,
-    /// Do not start the next agent while the current robot moves.
+    /// Do not start the next agents (one; four in lockstep) while the
+    /// current robot moves.
     #[arg(long)]
     pub no_prespawn: bool,
     /// Publish the run into a ROS 2 graph over rmw_zenoh: each robot's pose,

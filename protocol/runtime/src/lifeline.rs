@@ -6,8 +6,9 @@
 //!
 //! 1. `prctl(PR_SET_PDEATHSIG, SIGTERM)`: the kernel signals the agent the
 //!    moment its parent dies, even by `kill -9`. (Linux ties this to the
-//!    parent *thread*, so the orchestrator spawns agents from its main
-//!    thread, which lives as long as the run.)
+//!    parent *thread*, so the orchestrator spawns agents from one spawner
+//!    thread that lives until its agents have ended:
+//!    `orchestrator/launch/src/agents/spawner.rs`.)
 //! 2. SIGTERM, SIGINT and SIGHUP set a flag that the agent's loop checks at
 //!    least every 50 ms (a parked robot's agent: at each of its slower
 //!    heartbeats, at most 1 s apart from a launch), so it exits through its
