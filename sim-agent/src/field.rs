@@ -209,7 +209,8 @@ impl Beacons {
     /// below the threshold, and usually it is by far: this answers that
     /// without the exact, deployment-order sum. Single precision from the
     /// positions rounded to f32 (kept at [`Self::push`]: no conversion in
-    /// the pass), eight lanes (two packed `divps` each, any order), and a
+    /// the pass), eight lanes (two packed `divps` per eight beacons, any
+    /// order), and a
     /// rigorous margin for every rounding involved, E being the largest
     /// |coordinate| of the beacons and `p`:
     ///
@@ -264,31 +265,37 @@ impl Beacons {
             return None;
         }
         let (px, py) = (p.x as f32, p.y as f32);
-        let mut acc = [0f32; 8];
-        let mut near = [f32::INFINITY; 8];
+        // Two blocks of four lanes (two `divps` per eight beacons); the
+        // smaller of two by a compare (a NaN shows in the sum).
+        let mut acc = [[0f32; 4]; 2];
+        let mut near = [[f32::INFINITY; 4]; 2];
         let mut xs = self.xs32.chunks_exact(8);
         let mut ys = self.ys32.chunks_exact(8);
         for (x, y) in (&mut xs).zip(&mut ys) {
-            for j in 0..8 {
-                let (dx, dy) = (x[j] - px, y[j] - py);
-                let d2 = dx * dx + dy * dy;
-                acc[j] += 1.0 / d2;
-                near[j] = near[j].min(d2);
+            for h in 0..2 {
+                let d2: [f32; 4] = core::array::from_fn(|j| {
+                    let (dx, dy) = (x[4 * h + j] - px, y[4 * h + j] - py);
+                    dx * dx + dy * dy
+                });
+                for j in 0..4 {
+                    acc[h][j] += 1.0 / d2[j];
+                    near[h][j] = if d2[j] < near[h][j] { d2[j] } else { near[h][j] };
+                }
             }
         }
         for (&x, &y) in xs.remainder().iter().zip(ys.remainder()) {
             let (dx, dy) = (x - px, y - py);
             let d2 = dx * dx + dy * dy;
-            acc[0] += 1.0 / d2;
-            near[0] = near[0].min(d2);
+            acc[0][0] += 1.0 / d2;
+            near[0][0] = if d2 < near[0][0] { d2 } else { near[0][0] };
         }
-        let sum = ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+        let sum = acc.iter().flatten().fold(0.0, |a, &b| a + b);
         // Not below 1e30, or NaN.
         let finite_enough = sum < 1e30;
         if !finite_enough {
             return none;
         }
-        let near = near.iter().fold(f32::INFINITY, |a, &b| a.min(b));
+        let near = near.iter().flatten().fold(f32::INFINITY, |a, &b| if b < a { b } else { a });
         // D², rounded down (d² ≥ fl32(d²)·(1 − 2⁻²²)), and δ², up.
         let d2 = f64::from(near) * (1.0 - f64::powi(2.0, -21));
         // (1e-40 covers f32's subnormal roundings, absolute.)
