@@ -210,9 +210,8 @@ impl Beacons {
     /// without the exact, deployment-order sum. Single precision from the
     /// positions rounded to f32 (kept at [`Self::push`]: no conversion in
     /// the pass), eight lanes (two packed `divps` per eight beacons, any
-    /// order), and a
-    /// rigorous margin for every rounding involved, E being the largest
-    /// |coordinate| of the beacons and `p`:
+    /// order), and a rigorous margin for every rounding involved, E being
+    /// the largest |coordinate| of the beacons and `p`:
     ///
     /// * each f32 difference is within 2⁻²²·E·(1 + 2⁻²⁵) of the true one
     ///   (roundings of 2⁻²⁴ of x and of p, at most E each, and of their
