@@ -94,7 +94,8 @@ pub struct Beacons {
     xs: Vec<f64>,
     ys: Vec<f64>,
     c: f64,
-    /// The positions rounded to f32, for [`Self::disk_bound`]'s pass ...
+    /// The positions rounded to f32, for [`Self::disk_bound`]'s pass, in
+    /// whole blocks of eight ...
     xs32: Vec<f32>,
     ys32: Vec<f32>,
     /// ... and the largest |coordinate| of them all (in f64), which bounds
@@ -112,8 +113,14 @@ impl Beacons {
     pub fn push(&mut self, p: Vec2) {
         self.xs.push(p.x);
         self.ys.push(p.y);
-        self.xs32.push(p.x as f32);
-        self.ys32.push(p.y as f32);
+        // Padded to whole blocks of eight with beacons infinitely far
+        // away (each adds 1/∞ = 0 and is no nearer than any other).
+        let n = self.xs.len();
+        for (v32, v) in [(&mut self.xs32, p.x), (&mut self.ys32, p.y)] {
+            v32.truncate(n - 1);
+            v32.push(v as f32);
+            v32.resize(n.div_ceil(8) * 8, f32::INFINITY);
+        }
         // (A NaN is left out here; the pass's sum is NaN then: no bound.)
         self.extent = self.extent.max(libm::fabs(p.x)).max(libm::fabs(p.y));
     }
@@ -268,9 +275,8 @@ impl Beacons {
         // smaller of two by a compare (a NaN shows in the sum).
         let mut acc = [[0f32; 4]; 2];
         let mut near = [[f32::INFINITY; 4]; 2];
-        let mut xs = self.xs32.chunks_exact(8);
-        let mut ys = self.ys32.chunks_exact(8);
-        for (x, y) in (&mut xs).zip(&mut ys) {
+        // (Whole blocks: `push` pads them.)
+        for (x, y) in self.xs32.chunks_exact(8).zip(self.ys32.chunks_exact(8)) {
             for h in 0..2 {
                 let d2: [f32; 4] = core::array::from_fn(|j| {
                     let (dx, dy) = (x[4 * h + j] - px, y[4 * h + j] - py);
@@ -281,12 +287,6 @@ impl Beacons {
                     near[h][j] = if d2[j] < near[h][j] { d2[j] } else { near[h][j] };
                 }
             }
-        }
-        for (&x, &y) in xs.remainder().iter().zip(ys.remainder()) {
-            let (dx, dy) = (x - px, y - py);
-            let d2 = dx * dx + dy * dy;
-            acc[0][0] += 1.0 / d2;
-            near[0][0] = if d2 < near[0][0] { d2 } else { near[0][0] };
         }
         let sum = acc.iter().flatten().fold(0.0, |a, &b| a + b);
         // Not below 1e30, or NaN.
