@@ -526,6 +526,43 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_xoshiro::Xoshiro256PlusPlus;
 
+    /// Among 100 beacons without noise the guessed samples ahead are taken
+    /// and used, and the deployment still follows `SimRobot::step` bit for
+    /// bit (state and mode after every period).
+    #[test]
+    fn guessed_samples_ahead_are_used_bit_for_bit() {
+        let kin = Kinematics::paper();
+        let (start, goal) = (Vec2::new(15.5, 15.5), Vec2::new(44.5, 44.5));
+        let table = HeadingTable::new(&kin, start.bearing_to(goal)).unwrap();
+        let config = ControllerConfig::paper(1.0);
+        let cones = MotionCones::new(&table, config.straight_tolerance);
+        let (mut used, mut periods) = (0usize, 0usize);
+        for case in 0..12u64 {
+            let mut rng = Xoshiro256PlusPlus::seed_from_u64(200 + case);
+            let mut beacons = Beacons::new(1.0);
+            for _ in 0..[64, 100, 150][case as usize % 3] {
+                beacons.push(Vec2::new(rng.gen_range(0.0..60.0), rng.gen_range(0.0..60.0)));
+            }
+            let mut plain = SimRobot::new(start, config, None, kin.dt);
+            let mut d =
+                Deployment::new(SimRobot::new(start, config, None, kin.dt), &table, &cones, &beacons, goal);
+            for period in 0..5000 {
+                let guessed = match (d.guess.0, d.ahead) {
+                    (Some((_, g)), Some((q, _))) if q == g => Some(g),
+                    _ => None,
+                };
+                let out = plain.step(&table, &beacons, plain.body.pos.bearing_to(goal));
+                let motion = d.step();
+                assert_eq!(motion, out.motion, "case {case} period {period}");
+                assert_eq!(d.robot.body.state(), plain.body.state(), "case {case} period {period}");
+                assert_eq!(d.robot.mode(), plain.mode(), "case {case} period {period}");
+                used += usize::from(motion == Motion::Straight && guessed == Some(d.robot.body.pos));
+                periods += 1;
+            }
+        }
+        assert!(used > 150, "{used} guessed samples used in {periods} periods");
+    }
+
     /// The guessed heading is the one the controller, in mode 2 without
     /// noise at the (extrapolated) direction, turns to before it goes
     /// straight — away from the ties where either may round the other way.
