@@ -94,18 +94,35 @@ pub struct Beacons {
     xs: Vec<f64>,
     ys: Vec<f64>,
     c: f64,
+    /// The positions rounded to f32, for [`Self::disk_bound`]'s pass, in
+    /// whole blocks of eight ...
+    xs32: Vec<f32>,
+    ys32: Vec<f32>,
+    /// ... and the largest |coordinate| of them all (in f64), which bounds
+    /// those roundings.
+    extent: f64,
 }
 
 impl Beacons {
     /// An empty set with field constant `c` (the paper uses 1).
     pub fn new(c: f64) -> Self {
-        Self { xs: Vec::new(), ys: Vec::new(), c }
+        Self { c, ..Self::default() }
     }
 
     /// Adds a stopped robot at `p`.
     pub fn push(&mut self, p: Vec2) {
         self.xs.push(p.x);
         self.ys.push(p.y);
+        // Padded to whole blocks of eight with beacons infinitely far
+        // away (each adds 1/∞ = 0 and is no nearer than any other).
+        let n = self.xs.len();
+        for (v32, v) in [(&mut self.xs32, p.x), (&mut self.ys32, p.y)] {
+            v32.truncate(n - 1);
+            v32.push(v as f32);
+            v32.resize(n.div_ceil(8) * 8, f32::INFINITY);
+        }
+        // (A NaN is left out here; the pass's sum is NaN then: no bound.)
+        self.extent = self.extent.max(libm::fabs(p.x)).max(libm::fabs(p.y));
     }
 
     pub fn len(&self) -> usize {
@@ -197,26 +214,113 @@ impl Beacons {
     ///
     /// A robot in mode 1 only needs to know that its sensed intensity is
     /// below the threshold, and usually it is by far: this answers that
-    /// without the exact, deployment-order sum. Four lanes of single
-    /// precision (packed `divps`, any order) and a rigorous margin for
-    /// every rounding involved:
+    /// without the exact, deployment-order sum. Single precision from the
+    /// positions rounded to f32 (kept at [`Self::push`]: no conversion in
+    /// the pass), eight lanes (two packed `divps` per eight beacons, any
+    /// order), and a rigorous margin for every rounding involved, E being
+    /// the largest |coordinate| of the beacons and `p`:
     ///
-    /// * 1/d² ≤ q·(1 + 2⁻²²) for q = fl32(1 / fl32(d²)) (two f32 roundings);
+    /// * each f32 difference is within 2⁻²²·E·(1 + 2⁻²⁵) of the true one
+    ///   (roundings of 2⁻²⁴ of x and of p, at most E each, and of their
+    ///   difference, at most 2E), so the difference vector is within
+    ///   δ = 2⁻²⁰·E of the true one (1e-40 more for f32's subnormals), and
+    ///   the true distance is at least d − δ for d = |computed
+    ///   differences|: 1/(d − δ)² ≤ (D/(D − δ))²/d² for D ≤ d. D is taken
+    ///   from the smallest d² of the pass, and without a square root:
+    ///   δ/D ≤ x for the first x of 2⁻¹⁶, 2⁻¹⁴, 2⁻¹² that D² ≥ δ²/x² shows,
+    ///   and the sum is scaled by 1/(1 − x)² ≥ (D/(D − δ))²; a beacon
+    ///   nearer than 4096·δ (far above any threshold in the paper's
+    ///   fields: 0.23 m at E = 60) takes the f64 differences instead, as
+    ///   before ([`Self::disk_bound`]);
+    /// * 1/d² ≤ q·(1 + 2⁻²¹) for q = fl32(1 / fl32(d²)) (three f32
+    ///   roundings in d², one in the division);
     /// * the f32 sum of N positive terms is ≥ their sum·(1 − (N + 2)·2⁻²⁴);
     /// * the exact path's sum is ≤ Σ 1/d²·(1 + (N + 1)·2⁻⁵²);
     ///
     /// together at most a factor 1 + (N + 8)·2⁻²² for N < 2²⁰; the bound uses
-    /// (N + 16)·2⁻²² to cover its own rounding. A d² beyond f32's range adds
-    /// at most 1e-38 per beacon (added); a sum above 1e30 (a beacon closer
-    /// than 1e-15, or NaN) gives infinity: no bound, the caller sums exactly.
+    /// (N + 16)·2⁻²² to cover its own rounding, and the factors in f64 are
+    /// rounded the safe way by 1e-9. A coordinate beyond 1e9 takes the f64
+    /// differences too (d² might leave f32's range); a sum above 1e30 (a
+    /// beacon closer than about 1e-15, or NaN) gives infinity: no bound,
+    /// the caller sums exactly. `f32_positions_bound_the_exact_sum` checks
+    /// it where δ matters, and that without δ it would fail there.
     pub fn upper_bound(&self, p: Vec2) -> f64 {
         self.disk_bound(p).upper_bound()
     }
 
     /// [`Self::upper_bound`] at `p`, with what it takes to bound the sum
     /// anywhere near `p` too ([`DiskBound::at`]): the same pass also keeps
-    /// the smallest d² (in f32, a `minps` per four beacons).
+    /// the smallest d² (a `minps` per four beacons).
     pub fn disk_bound(&self, p: Vec2) -> DiskBound {
+        match self.disk_bound_f32(p, 1.0) {
+            Some(disk) => disk,
+            None => self.disk_bound_f64(p),
+        }
+    }
+
+    /// [`Self::disk_bound`] from the f32 positions; `None` if a beacon is
+    /// nearer than 4096·δ (or a coordinate beyond 1e9). δ is multiplied by
+    /// `delta_scale` (1; the tests show that 0 would not do).
+    fn disk_bound_f32(&self, p: Vec2, delta_scale: f64) -> Option<DiskBound> {
+        let n = self.len();
+        let none = Some(DiskBound { at: p, sum: f64::INFINITY, near2: 0.0 });
+        let extent = self.extent.max(libm::fabs(p.x)).max(libm::fabs(p.y));
+        // Not above 1e9 (a NaN shows in the sum).
+        let in_range = extent <= 1e9 && n < 1 << 20;
+        if !in_range {
+            return None;
+        }
+        let (px, py) = (p.x as f32, p.y as f32);
+        // Two blocks of four lanes (two `divps` per eight beacons); the
+        // smaller of two by a compare (a NaN shows in the sum).
+        let mut acc = [[0f32; 4]; 2];
+        let mut near = [[f32::INFINITY; 4]; 2];
+        // (Whole blocks: `push` pads them.)
+        for (x, y) in self.xs32.chunks_exact(8).zip(self.ys32.chunks_exact(8)) {
+            for h in 0..2 {
+                let d2: [f32; 4] = core::array::from_fn(|j| {
+                    let (dx, dy) = (x[4 * h + j] - px, y[4 * h + j] - py);
+                    dx * dx + dy * dy
+                });
+                for j in 0..4 {
+                    acc[h][j] += 1.0 / d2[j];
+                    near[h][j] = if d2[j] < near[h][j] { d2[j] } else { near[h][j] };
+                }
+            }
+        }
+        let sum = acc.iter().flatten().fold(0.0, |a, &b| a + b);
+        // Not below 1e30, or NaN.
+        let finite_enough = sum < 1e30;
+        if !finite_enough {
+            return none;
+        }
+        let near = near.iter().flatten().fold(f32::INFINITY, |a, &b| if b < a { b } else { a });
+        // D², rounded down (d² ≥ fl32(d²)·(1 − 2⁻²²)), and δ², up.
+        let d2 = f64::from(near) * (1.0 - f64::powi(2.0, -21));
+        // (1e-40 covers f32's subnormal roundings, absolute.)
+        let delta = (extent * f64::powi(2.0, -20) + 1e-40) * (1.0 + 1e-9) * delta_scale;
+        let delta2 = delta * delta * (1.0 + 1e-9);
+        // δ/D at most 2⁻ᵏ for the first k of 16, 14, 12 that D² ≥ 2²ᵏ·δ²
+        // shows (compares only: no square root, no division on the way).
+        let tier = [16, 14, 12].into_iter().find(|&k| d2 >= f64::powi(2.0, 2 * k) * delta2)?;
+        let x = f64::powi(2.0, -tier);
+        // (D/(D − δ))² ≤ 1/(1 − x)²; (D − δ)² ≥ D²·(1 − x)².
+        let scale = 1.0 / ((1.0 - x) * (1.0 - x)) * (1.0 + 1e-9);
+        let nearest = d2 * ((1.0 - x) * (1.0 - x)) * (1.0 - 1e-9);
+        let n = n as f64;
+        Some(DiskBound {
+            at: p,
+            sum: (f64::from(sum) * (1.0 + (n + 16.0) * f64::powi(2.0, -22)) + n * 1e-38) * scale,
+            // At most the true squared distance to the nearest beacon
+            // (infinite without beacons, as `at` allows).
+            near2: nearest,
+        })
+    }
+
+    /// [`Self::disk_bound`] from the f64 positions: f32 lanes of the f64
+    /// differences' d² (1/d² ≤ q·(1 + 2⁻²²) for q = fl32(1 / fl32(d²)), two
+    /// roundings), the same margins otherwise; no δ.
+    fn disk_bound_f64(&self, p: Vec2) -> DiskBound {
         let n = self.len();
         let none = DiskBound { at: p, sum: f64::INFINITY, near2: 0.0 };
         if n >= 1 << 20 {
@@ -424,6 +528,62 @@ mod tests {
         let mut b = Beacons::new(1.0);
         b.push(Vec2::new(1.0, 2.0));
         assert_eq!(b.disk_bound(Vec2::new(1.0, 2.0)).at(Vec2::new(1.0, 2.0)), f64::INFINITY);
+    }
+
+    /// Where δ (the f32 positions' rounding) matters: coordinates up to
+    /// 1e5 (δ about 0.1), beacons and points a few hundred to a few
+    /// thousand δ apart, so that every tier and the f64 fallback are taken.
+    #[test]
+    fn f32_positions_bound_the_exact_sum() {
+        let mut state = 0x1357_9bdf_2468_ace0u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut f32_pass, mut fallback, mut fails_without_delta) = (0usize, 0usize, 0usize);
+        for case in 0..400 {
+            let (offset, spread) = ([1e2, 1e4, 1e5][case % 3], [30.0, 3e3, 3e4][case / 3 % 3]);
+            let mut b = Beacons::new(1.0);
+            for _ in 0..[1usize, 7, 40][case % 3] {
+                b.push(Vec2::new(offset + spread * next(), offset - spread * next()));
+            }
+            let extent = b.extent.max(offset + spread);
+            let delta = extent * f64::powi(2.0, -20);
+            for _ in 0..30 {
+                // Next to a beacon, 100 to 1e6 δ away, or anywhere.
+                let q = b.positions().nth((next() * b.len() as f64) as usize).unwrap();
+                let (r, a) = (delta * libm::pow(10.0, 2.0 + 4.0 * next()), 7.0 * next());
+                let p = if next() < 0.8 {
+                    Vec2::new(q.x + r * libm::cos(a), q.y + r * libm::sin(a))
+                } else {
+                    Vec2::new(offset + spread * next(), offset - spread * next())
+                };
+                let exact = b.sample(p).intensity;
+                let disk = b.disk_bound(p);
+                assert!(
+                    exact <= disk.upper_bound(),
+                    "case {case} at {p:?}: {exact} > {}",
+                    disk.upper_bound()
+                );
+                for _ in 0..5 {
+                    let (r, a) = (r * next(), 7.0 * next());
+                    let p2 = Vec2::new(p.x + r * libm::cos(a), p.y + r * libm::sin(a));
+                    let exact = b.sample(p2).intensity;
+                    assert!(exact <= disk.at(p2), "case {case}, {p:?} to {p2:?}: {exact} > {}", disk.at(p2));
+                }
+                match b.disk_bound_f32(p, 1.0) {
+                    Some(_) => f32_pass += 1,
+                    None => fallback += 1,
+                }
+                if b.disk_bound_f32(p, 0.0).is_some_and(|d| d.upper_bound() < exact) {
+                    fails_without_delta += 1;
+                }
+            }
+        }
+        assert!(f32_pass > 2000 && fallback > 1000, "{f32_pass} f32 passes, {fallback} fallbacks");
+        assert!(fails_without_delta > 100, "without δ only {fails_without_delta} bounds below the sum");
     }
 
     #[test]
