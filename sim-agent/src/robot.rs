@@ -339,28 +339,12 @@ impl<'a> Deployment<'a> {
     /// alone (mode 2 with the field behind: θfg > π/2).
     #[inline(always)]
     fn decide(&mut self, factor: f64, offset: f64) -> (Motion, Option<f64>, bool) {
-        let r = &mut self.robot;
-        let p = r.body.pos;
-        let same = self.at.is_some_and(|a| a.x.to_bits() == p.x.to_bits() && a.y.to_bits() == p.y.to_bits());
-        if !same {
-            if let Some((straight, guessed)) = self.guess.0.take() {
-                let hit =
-                    |q: Vec2| i32::from(q.x.to_bits() == p.x.to_bits() && q.y.to_bits() == p.y.to_bits());
-                self.guess.1 = (self.guess.1 + hit(guessed) - hit(straight)).clamp(-8, 8);
-            }
-            self.at = Some(p);
-            self.sample = match self.ahead.take() {
-                Some((q, s)) if q.x.to_bits() == p.x.to_bits() && q.y.to_bits() == p.y.to_bits() => Some(s),
-                _ => None,
-            };
-            self.bounds.here = None;
-            self.bearing = None;
-            self.direction = None;
-        }
-        let config = *r.controller.config();
-        let heading = r.body.heading(self.table);
+        let p = self.robot.body.pos;
+        self.arrive(p);
+        let config = *self.robot.controller.config();
+        let heading = self.robot.body.heading(self.table);
         let beacons = self.beacons;
-        let mode1 = r.controller.mode() == Mode::Goal;
+        let mode1 = self.robot.controller.mode() == Mode::Goal;
         // Mode 1 surely below threshold, from the bound alone: the sensed
         // intensity fl(fl(c·g)·factor) is monotone in g for c, factor > 0.
         let c = beacons.field_constant();
@@ -372,33 +356,13 @@ impl<'a> Deployment<'a> {
         let (below, intensity) = if surely_below {
             (true, 0.0)
         } else {
-            let sample = match self.sample {
-                Some(s) => s,
-                None => {
-                    // Straight on in mode 1 and with noise; in mode 2
-                    // without noise, among many beacons, where it probably
-                    // turns to, while that guess does better than straight on.
-                    let mut q = self.table.advance(p, r.body.k);
-                    if !mode1 && r.noise.is_none() && beacons.len() >= GUESS_BEACONS {
-                        let k = Self::ahead_heading(self.table, &config, self.fields, r.body.k);
-                        if k != r.body.k {
-                            let guessed = self.table.advance(p, k);
-                            self.guess.0 = Some((q, guessed));
-                            if self.guess.1 >= 0 {
-                                q = guessed;
-                            }
-                        }
-                    }
-                    let (s, ahead) = beacons.sample_pair(p, q);
-                    self.ahead = Some((q, ahead));
-                    *self.sample.insert(s)
-                }
-            };
+            let sample = self.exact_sample(p, mode1, &config);
             let intensity = sample.intensity * factor;
             // Exactly the negation of the controller's `intensity >= g_th` (NaN included).
             let reaches = intensity >= config.g_th;
             (mode1 && !reaches, intensity)
         };
+        let r = &mut self.robot;
         if below {
             // Mode 1 stays mode 1 and the target is the goal bearing.
             let cheap = match self.bearing {
@@ -432,6 +396,55 @@ impl<'a> Deployment<'a> {
         let exit_possible =
             out.mode == Mode::Bypass && libm::fabs(wrap(input.field_direction - bearing)) > FRAC_PI_2;
         (out.motion, Some(out.target), exit_possible)
+    }
+
+    /// The robot is at `p`: if that is a new position, what was kept for
+    /// the last one goes (but the sample one step ahead, if it is `p`'s),
+    /// and the guess of where it would be is scored.
+    #[inline(always)]
+    fn arrive(&mut self, p: Vec2) {
+        let same = self.at.is_some_and(|a| a.x.to_bits() == p.x.to_bits() && a.y.to_bits() == p.y.to_bits());
+        if same {
+            return;
+        }
+        if let Some((straight, guessed)) = self.guess.0.take() {
+            let hit = |q: Vec2| i32::from(q.x.to_bits() == p.x.to_bits() && q.y.to_bits() == p.y.to_bits());
+            self.guess.1 = (self.guess.1 + hit(guessed) - hit(straight)).clamp(-8, 8);
+        }
+        self.at = Some(p);
+        self.sample = match self.ahead.take() {
+            Some((q, s)) if q.x.to_bits() == p.x.to_bits() && q.y.to_bits() == p.y.to_bits() => Some(s),
+            _ => None,
+        };
+        self.bounds.here = None;
+        self.bearing = None;
+        self.direction = None;
+    }
+
+    /// The exact sample at `p`, computed with the one a step ahead (kept
+    /// for the next position): straight on in mode 1 and with noise; in
+    /// mode 2 without noise, among many beacons, where the robot probably
+    /// turns to, while that guess does better than straight on.
+    #[inline(always)]
+    fn exact_sample(&mut self, p: Vec2, mode1: bool, config: &ControllerConfig) -> FieldSample {
+        if let Some(s) = self.sample {
+            return s;
+        }
+        let k = self.robot.body.k;
+        let mut q = self.table.advance(p, k);
+        if !mode1 && self.robot.noise.is_none() && self.beacons.len() >= GUESS_BEACONS {
+            let turned = Self::ahead_heading(self.table, config, self.fields, k);
+            if turned != k {
+                let guessed = self.table.advance(p, turned);
+                self.guess.0 = Some((q, guessed));
+                if self.guess.1 >= 0 {
+                    q = guessed;
+                }
+            }
+        }
+        let (s, ahead) = self.beacons.sample_pair(p, q);
+        self.ahead = Some((q, ahead));
+        *self.sample.insert(s)
     }
 
     /// The heading a mode-2 robot at a new position probably leaves it
