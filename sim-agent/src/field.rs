@@ -386,6 +386,17 @@ impl Beacons {
 mod tests {
     use super::*;
 
+    /// Seeded uniform numbers in [0, 1) (xorshift64).
+    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     #[test]
     fn single_source_inverse_square_and_points_at_it() {
         let mut b = Beacons::new(1.0);
@@ -485,13 +496,7 @@ mod tests {
 
     #[test]
     fn disk_bound_bounds_the_exact_sum_around_its_point() {
-        let mut state = 0x0bad_5eed_1234_5678u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = uniform(0x0bad_5eed_1234_5678u64);
         let (mut inside, mut outside) = (0usize, 0usize);
         for n in [0usize, 1, 2, 5, 9, 100, 1000] {
             let mut b = Beacons::new(1.0);
@@ -535,13 +540,7 @@ mod tests {
     /// thousand δ apart, so that every tier and the f64 fallback are taken.
     #[test]
     fn f32_positions_bound_the_exact_sum() {
-        let mut state = 0x1357_9bdf_2468_ace0u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = uniform(0x1357_9bdf_2468_ace0u64);
         let (mut f32_pass, mut fallback, mut fails_without_delta) = (0usize, 0usize, 0usize);
         for case in 0..400 {
             let (offset, spread) = ([1e2, 1e4, 1e5][case % 3], [30.0, 3e3, 3e4][case / 3 % 3]);

@@ -156,6 +156,26 @@ fn how_soon_agents_register_changes_nothing_with_many_beacons() {
     }
 }
 
+/// The walled crowd of 45 robots and every `every`-th small case below
+/// `below`, with turning ignored: robots turning in place are judged, and
+/// the next ones deployed, within a few ticks, as in a crowd.
+fn crowd_cases(below: u64, every: usize) -> Vec<Case> {
+    let walled: Terrain = ".....\n..G..\n.###.\n.#S#.\n.###.\n".parse().expect("terrain");
+    let crowd = Case { terrain: walled, robots: 45, time_limit: 300.0, noise: None, ..Case::small(0) };
+    let mut cases = vec![crowd];
+    cases.extend((0..below).step_by(every).map(Case::small));
+    cases.into_iter().map(|case| Case { stop_turn_rate: 0.0, ..case }).collect()
+}
+
+/// What a run's summary states of its robots: their last modes, the
+/// beacons' last positions, the steps and the ticks.
+fn summary_of(r: &Report) -> (Vec<u8>, Vec<(u64, u64)>, u64, u64) {
+    let d = r.decided.as_ref().expect("a summary");
+    let modes: Vec<u8> = d.robots.iter().map(|s| s.mode).collect();
+    let beacons: Vec<(u64, u64)> = d.beacons.iter().map(|v| (v.x.to_bits(), v.y.to_bits())).collect();
+    (modes, beacons, d.steps, d.ticks)
+}
+
 /// Issue 35: a robot judged stuck that still creeps is stepped many
 /// periods per message (`ToAgent::Ticks`), and what its agent sends for a
 /// later step is held until that step's tick: the run is the one with a
@@ -166,25 +186,14 @@ fn how_soon_agents_register_changes_nothing_with_many_beacons() {
 /// ahead too: the harness's spawned agents are the launch's own.)
 #[test]
 fn creeping_robots_run_ahead_and_the_run_is_the_same() {
-    let walled: Terrain = ".....\n..G..\n.###.\n.#S#.\n.###.\n".parse().expect("terrain");
-    let crowd = Case { terrain: walled, robots: 45, time_limit: 300.0, noise: None, ..Case::small(0) };
-    let mut cases = vec![crowd];
-    cases.extend((0..108).step_by(3).map(Case::small));
     let (mut runs, mut periods) = (0, 0);
-    for (k, case) in cases.into_iter().enumerate() {
-        let case = Case { stop_turn_rate: 0.0, ..case };
+    for (k, case) in crowd_cases(108, 3).into_iter().enumerate() {
         let ahead = Schedule::clean(k as u64, case.robots);
         let one = Schedule { one_tick_a_period: true, ..ahead.clone() };
         let (a, b) = (harness::run(&case, &ahead), harness::run(&case, &one));
         harness::check(&a, &ahead).unwrap_or_else(|e| panic!("case {k}: {e}"));
         same_run(&b, &a, &format!("case {k}, runs ahead"));
-        let summary = |r: &Report| {
-            let d = r.decided.as_ref().expect("a summary");
-            let modes: Vec<u8> = d.robots.iter().map(|s| s.mode).collect();
-            let beacons: Vec<(u64, u64)> = d.beacons.iter().map(|v| (v.x.to_bits(), v.y.to_bits())).collect();
-            (modes, beacons, d.steps, d.ticks)
-        };
-        assert_eq!(summary(&b), summary(&a), "case {k}: modes, beacons, steps, ticks");
+        assert_eq!(summary_of(&b), summary_of(&a), "case {k}: modes, beacons, steps, ticks");
         assert!(b.runs_sent.iter().all(|r| r.0 == 0), "case {k}: one tick a period");
         runs += a.runs_sent.iter().map(|r| r.0).sum::<u64>();
         periods += a.runs_sent.iter().map(|r| r.1).sum::<u64>();
@@ -202,10 +211,6 @@ fn creeping_robots_run_ahead_and_the_run_is_the_same() {
 /// setting is used (none are with one ahead).
 #[test]
 fn agents_started_further_ahead_change_only_when_they_start() {
-    let walled: Terrain = ".....\n..G..\n.###.\n.#S#.\n.###.\n".parse().expect("terrain");
-    let crowd = Case { terrain: walled, robots: 45, time_limit: 300.0, noise: None, ..Case::small(0) };
-    let mut cases = vec![crowd];
-    cases.extend((0..60).step_by(5).map(Case::small));
     // Robots whose agent was started before the robot two turns before it
     // was deployed.
     let early = |r: &Report| -> usize {
@@ -219,10 +224,7 @@ fn agents_started_further_ahead_change_only_when_they_start() {
         deployed.iter().zip(r.started_us.iter().skip(2)).filter(|(&d, s)| s.is_some_and(|s| s < d)).count()
     };
     let (mut early_ahead, mut early_one) = (0, 0);
-    for (k, case) in cases.into_iter().enumerate() {
-        // Turning ignored: robots turning in place are judged, and the
-        // next ones deployed, within a few ticks (as in a crowd).
-        let case = Case { stop_turn_rate: 0.0, ..case };
+    for (k, case) in crowd_cases(60, 5).into_iter().enumerate() {
         let ahead = Schedule::clean(k as u64, case.robots);
         let one = Schedule { starts_ahead: Some(1), ..ahead.clone() };
         let (a, b) = (harness::run(&case, &ahead), harness::run(&case, &one));
@@ -238,13 +240,7 @@ fn agents_started_further_ahead_change_only_when_they_start() {
                 .collect()
         };
         assert_eq!(ends(&a), ends(&b), "case {k}: robots");
-        let summary = |r: &Report| {
-            let d = r.decided.as_ref().expect("a summary");
-            let modes: Vec<u8> = d.robots.iter().map(|s| s.mode).collect();
-            let beacons: Vec<(u64, u64)> = d.beacons.iter().map(|v| (v.x.to_bits(), v.y.to_bits())).collect();
-            (modes, beacons, d.steps, d.ticks)
-        };
-        assert_eq!(summary(&b), summary(&a), "case {k}: modes, beacons, steps, ticks");
+        assert_eq!(summary_of(&b), summary_of(&a), "case {k}: modes, beacons, steps, ticks");
         (early_ahead, early_one) = (early_ahead + early(&a), early_one + early(&b));
     }
     assert!(early_ahead > 30, "only {early_ahead} agents started two turns early");
