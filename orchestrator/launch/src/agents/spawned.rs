@@ -10,9 +10,9 @@
 //! children inherit none of the launch's files), in their own process group
 //! (a Ctrl-C in the terminal reaches the orchestrator only, which then shuts
 //! them down in order), with `--parent-pid` so they exit if the
-//! orchestrator dies. Their standard
-//! error passes through ours ([`StderrTap`]), and the last error line of an
-//! agent that is gone is the launch's reason for it. Dropping the
+//! orchestrator dies. Their standard error passes through ours
+//! ([`StderrTap`]), and the last error line of an agent that is gone is the
+//! launch's reason for it. Dropping the
 //! [`Spawned`] source kills and reaps every child still running: whatever
 //! way the launch ends, it leaves no process behind.
 
@@ -76,14 +76,15 @@ impl Spawned {
     /// terrain) to its standard input. Returns its pid.
     pub fn spawn(&mut self, robot: u32, flags: &[String], stdin_text: &str) -> Result<u32, AgentError> {
         let program = self.command.program.clone();
-        let failed = |source| AgentError::Spawn { program: program.display().to_string(), source };
+        let failed =
+            |source| AgentError::Spawn { program: self.command.program.display().to_string(), source };
         let spawner = match &mut self.spawner {
             Some(spawner) => spawner,
             empty => empty.insert(Spawner::start().map_err(failed)?),
         };
         let args = self.command.prefix.iter().chain(flags).cloned().collect();
         let request = Request {
-            program: self.command.program.clone(),
+            program,
             args,
             stdin_text: stdin_text.to_owned(),
             tap_name: format!("agent-{robot}-stderr"),
