@@ -15,11 +15,14 @@
 //! slice.
 //!
 //! Why a small fan-in skips the doorbell when it looks: reading the
-//! doorbell without waiting is two `recvfrom` and a swap of each of its 64
-//! event counters (a few µs), a look at a topic's queue in shared memory
-//! tens of ns. A fan-in of at most [`SMALL`] topics (the 3-robot launch's
-//! reports and poses) therefore looks at every topic instead, and reads
-//! the doorbell only when it sleeps on it. That also spares the
+//! doorbell without waiting is a swap of each of its 64 event counters and,
+//! in iceoryx2 0.10, six system calls when nothing rang (its `try_wait`
+//! and then its `empty_buffer` each set the socket non-blocking with two
+//! `fcntl` and try a `recvfrom`): a few µs. A look at a topic's queue in
+//! shared memory is tens of ns. A fan-in of at most [`SMALL`] topics (a
+//! launch of up to 16 robots: its reports and its poses) therefore looks
+//! at every topic instead, and reads the doorbell only when it sleeps on
+//! it. That also spares the
 //! publishers: iceoryx2 sends a notification (a `sendto`) only to a
 //! listener that has taken the last one, so a doorbell left unread until
 //! its reader sleeps costs its ringers nothing meanwhile. `perf sched` of
@@ -44,8 +47,12 @@ use std::collections::{BTreeMap, VecDeque};
 use std::time::Instant;
 
 /// The most topics a fan-in looks at one by one rather than read its
-/// doorbell first (see the module docs).
-pub(super) const SMALL: usize = 8;
+/// doorbell first (see the module docs). Why 16: a lockstep launch of 10
+/// robots (`bench crowd`'s stuck crowd) had its ticks' median fall from
+/// 15–18 to 9–10 µs with 16 instead of 8; at 50 robots, looking at all 50
+/// topics (with 64) was no faster, and four ticks in four launches waited a whole
+/// [`EVENT_WAIT_SLICE`] (issue 35, docs/BENCHMARKS.md "Ninth pass").
+pub(super) const SMALL: usize = 16;
 
 /// A fan-in (see [`crate::bus::Bus::fan_in`]): one subscriber per topic,
 /// woken by the topics' shared doorbell.
