@@ -69,6 +69,8 @@ pub struct Options {
     pub timeout: Duration,
     /// Run each swarm size a second time, recorded (`--record`).
     pub record: bool,
+    /// Launches per swarm size (at least 1), each size's in turn.
+    pub repeat: u32,
 }
 
 /// How one launch ended, as the bench saw it.
@@ -159,7 +161,8 @@ pub fn run(opts: &Options) -> Result<Vec<Row>> {
         if stop.load(Ordering::SeqCst) {
             break;
         }
-        for record in [false, true].into_iter().filter(|r| !r || opts.record) {
+        let times = (0..opts.repeat.max(1)).flat_map(|_| [false, true]);
+        for record in times.filter(|r| !r || opts.record) {
             if stop.load(Ordering::SeqCst) {
                 break;
             }
@@ -531,6 +534,9 @@ pub fn table(rows: &[Row]) -> String {
     }
     out.push_str(&row_notes(rows));
     out.push_str(&recording_costs(rows));
+    for m in medians(rows) {
+        out.push_str(&m.line());
+    }
     let sample_ms = rows.iter().map(|r| r.sample_ms).fold(0.0, f64::max);
     out.push_str(&format!(
         "PSS: orchestrator and all agents together, peak of the samples; a sample took up to {sample_ms:.1} ms\n\
@@ -570,6 +576,85 @@ fn row_notes(rows: &[Row]) -> String {
         }
     }
     out
+}
+
+/// The medians of one swarm size's unrecorded launches that ran, when it
+/// ran more than once (`--repeat`).
+///
+/// Why: a small crowd's `µs/agent` is taken over few ticks (about a hundred
+/// at 10 robots, those away from agent starts), and one launch's figure
+/// swings by a third from the next one's; the median of several is the
+/// figure to quote.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Medians {
+    pub robots: u32,
+    /// Launches counted.
+    pub launches: usize,
+    /// Median, least and greatest `us_per_agent`.
+    pub us_per_agent: Option<Spread>,
+    /// Median, least and greatest `ms_per_tick`.
+    pub ms_per_tick: Option<Spread>,
+}
+
+/// A figure's median and range over launches.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Spread {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+impl Spread {
+    fn of(values: &[f64]) -> Option<Self> {
+        let median = bycoms_runtime::stats::median(values)?;
+        let min = values.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        Some(Self { median, min, max })
+    }
+}
+
+impl Medians {
+    /// One line under the table.
+    fn line(&self) -> String {
+        let spread = |s: Option<Spread>, prec: usize| {
+            s.map_or("–".to_owned(), |s| format!("{:.prec$} ({:.prec$}–{:.prec$})", s.median, s.min, s.max))
+        };
+        format!(
+            "{} robots, median of {} launches (least–greatest): µs/agent {}, ms/tick {}\n",
+            self.robots,
+            self.launches,
+            spread(self.us_per_agent, 1),
+            spread(self.ms_per_tick, 3)
+        )
+    }
+}
+
+/// [`Medians`] of each swarm size run more than once, in the order of the
+/// sizes' first launches.
+pub fn medians(rows: &[Row]) -> Vec<Medians> {
+    let mut sizes: Vec<u32> = Vec::new();
+    for r in rows {
+        if !sizes.contains(&r.robots) {
+            sizes.push(r.robots);
+        }
+    }
+    let counted = |robots: u32| {
+        rows.iter().filter(move |r| r.robots == robots && r.ended == Ended::Ran && r.recording_bytes.is_none())
+    };
+    sizes
+        .into_iter()
+        .filter(|&n| counted(n).count() > 1)
+        .map(|n| {
+            let us: Vec<f64> = counted(n).filter_map(|r| r.us_per_agent).collect();
+            let ms: Vec<f64> = counted(n).filter_map(|r| r.ms_per_tick).collect();
+            Medians {
+                robots: n,
+                launches: counted(n).count(),
+                us_per_agent: Spread::of(&us),
+                ms_per_tick: Spread::of(&ms),
+            }
+        })
+        .collect()
 }
 
 /// Under the table: what recording cost, for each size run both without

@@ -70,7 +70,7 @@ pub enum What {
     },
     /// Whole lockstep launches where every robot sticks: memory, open files, time per tick.
     Crowd {
-        /// Swarm sizes, one launch each.
+        /// Swarm sizes, one launch each (`--repeat` for more).
         #[arg(long, value_delimiter = ',', default_value = "10,100,300,1000")]
         robots: Vec<u32>,
         /// Longest one launch may take, s (then it is stopped).
@@ -80,6 +80,12 @@ pub enum What {
         /// without: the recording's size and its cost in wall time per tick.
         #[arg(long)]
         record: bool,
+        /// Launches per swarm size; with more than one, each size's median
+        /// µs/agent and ms/tick are printed too (a small crowd's µs/agent
+        /// comes from about a hundred ticks and swings by a third from one
+        /// launch to the next).
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        repeat: u32,
     },
     /// `stop --now` → every robot stopped (answered `Stop`): real-time launches timed from the asking side.
     Stop {
@@ -121,8 +127,8 @@ pub fn run(args: Args) -> Result<i32> {
     if let What::Schedules { count, rounds } = args.what {
         return schedules(count, rounds, args.json);
     }
-    if let What::Crowd { robots, timeout, record } = args.what {
-        return crowd(robots, timeout, record, args.agent_bin, args.json);
+    if let What::Crowd { robots, timeout, record, repeat } = args.what {
+        return crowd(robots, timeout, record, repeat, args.agent_bin, args.json);
     }
     if let What::Stop { robots, runs, transport, speed, timeout } = args.what {
         return stop(robots, runs, transport, speed, timeout, args.agent_bin, args.json);
@@ -220,11 +226,13 @@ fn launch_figures(
     Ok(())
 }
 
-/// `bench crowd`: one launch per swarm size, the figures of each.
+/// `bench crowd`: `repeat` launches per swarm size, the figures of each
+/// (and each size's medians when it ran more than once).
 fn crowd(
     robots: Vec<u32>,
     timeout: f64,
     record: bool,
+    repeat: u32,
     agent_bin: Option<PathBuf>,
     json: bool,
 ) -> Result<i32> {
@@ -233,10 +241,12 @@ fn crowd(
     }
     // In range: the value parser's one check of seconds.
     let timeout = std::time::Duration::from_secs_f64(timeout);
-    let opts = bycoms_bench::crowd::Options { robots, agent_bin, timeout, record };
+    let opts = bycoms_bench::crowd::Options { robots, agent_bin, timeout, record, repeat };
     let rows = bycoms_bench::crowd::run(&opts)?;
     if json {
-        let figures = serde_json::json!({ "terrain": bycoms_bench::crowd::ALL_STUCK, "launches": rows });
+        let medians = bycoms_bench::crowd::medians(&rows);
+        let figures =
+            serde_json::json!({ "terrain": bycoms_bench::crowd::ALL_STUCK, "launches": rows, "medians": medians });
         bycoms_runtime::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
     } else {
         bycoms_runtime::outln!("{}", bycoms_bench::crowd::table(&rows))?;

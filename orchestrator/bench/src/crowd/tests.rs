@@ -76,3 +76,31 @@ fn a_recorded_launch_is_set_beside_the_same_launch_unrecorded() {
     );
     assert!(text.lines().nth(3).is_some_and(|l| l.trim_start().starts_with("100      2.5 ")), "{text}");
 }
+
+#[test]
+fn each_size_run_more_than_once_gets_its_medians_of_the_unrecorded_launches_that_ran() {
+    let ran = |robots, us, ms| Row { us_per_agent: Some(us), ms_per_tick: Some(ms), ..row(robots, Ended::Ran) };
+    let recorded = Row { recording_bytes: Some(1_000), ..ran(10, 99.0, 9.9) };
+    let failed = Row { us_per_agent: Some(50.0), ..row(10, Ended::Failed) };
+    let rows = [
+        ran(10, 6.0, 0.30),
+        recorded,
+        ran(10, 4.0, 0.20),
+        failed,
+        ran(300, 3.0, 0.40),
+        ran(10, 5.0, 0.25),
+    ];
+    let medians = medians(&rows);
+    assert_eq!(medians.len(), 1, "300 robots ran once: no medians");
+    let m = &medians[0];
+    assert_eq!((m.robots, m.launches), (10, 3), "the recorded and the failed launch are not counted");
+    assert_eq!(m.us_per_agent, Some(Spread { median: 5.0, min: 4.0, max: 6.0 }));
+    assert_eq!(m.ms_per_tick, Some(Spread { median: 0.25, min: 0.20, max: 0.30 }));
+    assert_eq!(
+        m.line(),
+        "10 robots, median of 3 launches (least–greatest): µs/agent 5.0 (4.0–6.0), ms/tick 0.250 (0.200–0.300)\n"
+    );
+    let table = table(&rows);
+    assert!(table.contains(&m.line()), "the table ends with it");
+    assert!(!table.contains("300 robots, median"), "a size run once gets no line");
+}
