@@ -606,10 +606,8 @@ pub struct Spread {
 
 impl Spread {
     fn of(values: &[f64]) -> Option<Self> {
-        let median = bycoms_runtime::stats::median(values)?;
-        let min = values.iter().copied().fold(f64::INFINITY, f64::min);
-        let max = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        Some(Self { median, min, max })
+        use bycoms_runtime::stats::{median, quantile};
+        Some(Self { median: median(values)?, min: quantile(values, 0.0)?, max: quantile(values, 1.0)? })
     }
 }
 
