@@ -637,7 +637,8 @@ pub fn medians(rows: &[Row]) -> Vec<Medians> {
         }
     }
     let counted = |robots: u32| {
-        rows.iter().filter(move |r| r.robots == robots && r.ended == Ended::Ran && r.recording_bytes.is_none())
+        rows.iter()
+            .filter(move |r| r.robots == robots && r.ended == Ended::Ran && r.recording_bytes.is_none())
     };
     sizes
         .into_iter()

@@ -245,8 +245,7 @@ fn crowd(
     let rows = bycoms_bench::crowd::run(&opts)?;
     if json {
         let medians = bycoms_bench::crowd::medians(&rows);
-        let figures =
-            serde_json::json!({ "terrain": bycoms_bench::crowd::ALL_STUCK, "launches": rows, "medians": medians });
+        let figures = serde_json::json!({ "terrain": bycoms_bench::crowd::ALL_STUCK, "launches": rows, "medians": medians });
         bycoms_runtime::outln!("{}", serde_json::to_string_pretty(&figures)?)?;
     } else {
         bycoms_runtime::outln!("{}", bycoms_bench::crowd::table(&rows))?;

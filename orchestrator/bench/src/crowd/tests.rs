@@ -79,17 +79,12 @@ fn a_recorded_launch_is_set_beside_the_same_launch_unrecorded() {
 
 #[test]
 fn each_size_run_more_than_once_gets_its_medians_of_the_unrecorded_launches_that_ran() {
-    let ran = |robots, us, ms| Row { us_per_agent: Some(us), ms_per_tick: Some(ms), ..row(robots, Ended::Ran) };
+    let ran =
+        |robots, us, ms| Row { us_per_agent: Some(us), ms_per_tick: Some(ms), ..row(robots, Ended::Ran) };
     let recorded = Row { recording_bytes: Some(1_000), ..ran(10, 99.0, 9.9) };
     let failed = Row { us_per_agent: Some(50.0), ..row(10, Ended::Failed) };
-    let rows = [
-        ran(10, 6.0, 0.30),
-        recorded,
-        ran(10, 4.0, 0.20),
-        failed,
-        ran(300, 3.0, 0.40),
-        ran(10, 5.0, 0.25),
-    ];
+    let rows =
+        [ran(10, 6.0, 0.30), recorded, ran(10, 4.0, 0.20), failed, ran(300, 3.0, 0.40), ran(10, 5.0, 0.25)];
     let medians = medians(&rows);
     assert_eq!(medians.len(), 1, "300 robots ran once: no medians");
     let m = &medians[0];
