@@ -50,8 +50,8 @@ use std::time::Instant;
 /// doorbell first (see the module docs). Why 16: a lockstep launch of 10
 /// robots (`bench crowd`'s stuck crowd) had its ticks' median fall from
 /// 15–18 to 9–10 µs with 16 instead of 8; at 50 robots, looking at all 50
-/// topics (with 64) was no faster, and four ticks in four launches waited a whole
-/// [`EVENT_WAIT_SLICE`] (issue 35, docs/BENCHMARKS.md "Ninth pass").
+/// topics (with 64) was no faster, and four ticks in four launches took
+/// about 12 ms each (issue 35, docs/BENCHMARKS.md "Ninth pass").
 pub(super) const SMALL: usize = 16;
 
 /// A fan-in (see [`crate::bus::Bus::fan_in`]): one subscriber per topic,
