@@ -127,6 +127,8 @@ pub fn run(args: Args) -> Result<i32> {
     if let What::Schedules { count, rounds } = args.what {
         return schedules(count, rounds, args.json);
     }
+    // (Every bench below starts agents; say which executable runs them.)
+    warn_if_agents_are_this_executable(&launch::agent_command(args.agent_bin.as_deref(), None)?);
     if let What::Crowd { robots, timeout, record, repeat } = args.what {
         return crowd(robots, timeout, record, repeat, args.agent_bin, args.json);
     }
@@ -155,6 +157,28 @@ pub fn run(args: Args) -> Result<i32> {
         }
     }
     Ok(bycoms_runtime::exit::SUCCESS)
+}
+
+/// Logs a warning when the agents run as `orchestrator sim-agent` (no
+/// `sim-agent` beside this executable): they work the same, but each maps
+/// the orchestrator's larger image, so memory and start-up figures are not
+/// `sim-agent`'s.
+fn warn_if_agents_are_this_executable(agent: &launch::AgentCommand) {
+    if let Some(note) = agents_are_this_executable(agent) {
+        tracing::warn!("{note}");
+    }
+}
+
+/// [`warn_if_agents_are_this_executable`]'s sentence, `None` when the
+/// agents run from an executable of their own.
+fn agents_are_this_executable(agent: &launch::AgentCommand) -> Option<String> {
+    agent.prefix.first().is_some_and(|p| p == "sim-agent").then(|| {
+        format!(
+            "no sim-agent beside {}: the agents run as `orchestrator sim-agent`, whose memory and start-up \
+             figures are not sim-agent's (build it: cargo build --release -p bycoms-sim-agent)",
+            agent.program.display()
+        )
+    })
 }
 
 /// `bench launch`: `runs` default launches of 3 robots, and their figures
@@ -372,4 +396,23 @@ fn schedules(count: u64, rounds: u32, json: bool) -> Result<i32> {
         }
     }
     Ok(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_agents_run_as_the_orchestrator_itself_are_warned_about() {
+        let program = PathBuf::from("/opt/bycoms/orchestrator");
+        let itself =
+            launch::AgentCommand { program: program.clone(), prefix: vec!["sim-agent".into()], own: true };
+        let note = agents_are_this_executable(&itself).expect("a note");
+        assert!(note.contains("/opt/bycoms/orchestrator") && note.contains("-p bycoms-sim-agent"), "{note}");
+        let beside =
+            launch::AgentCommand { program: program.with_file_name("sim-agent"), prefix: vec![], own: true };
+        assert_eq!(agents_are_this_executable(&beside), None);
+        let chosen = launch::AgentCommand { program: "/usr/bin/my-agent".into(), prefix: vec![], own: false };
+        assert_eq!(agents_are_this_executable(&chosen), None);
+    }
 }
