@@ -37,7 +37,9 @@ pub struct Args {
     /// Print the figures as JSON.
     #[arg(long, global = true)]
     pub json: bool,
-    /// Agent executable [default: sim-agent next to orchestrator].
+    /// Agent executable [default: $BYCOMS_SIM_AGENT, else sim-agent next to orchestrator, else
+    /// orchestrator itself as `orchestrator sim-agent`, with a warning: its memory and start-up
+    /// figures are not sim-agent's].
     #[arg(long, global = true, value_name = "FILE")]
     pub agent_bin: Option<PathBuf>,
 }
