@@ -248,7 +248,13 @@ pub fn is_zombie(pid: u32) -> bool {
 }
 
 /// Polls `f` every 10 ms until it returns `Some`, for at most `timeout`.
-pub fn wait_for<T>(timeout: Duration, mut f: impl FnMut() -> Option<T>) -> Option<T> {
+pub fn wait_for<T>(timeout: Duration, f: impl FnMut() -> Option<T>) -> Option<T> {
+    wait_for_every(Duration::from_millis(10), timeout, f)
+}
+
+/// Polls `f` every `period` until it returns `Some`, for at most
+/// `timeout` (a longer period where each poll starts a program).
+pub fn wait_for_every<T>(period: Duration, timeout: Duration, mut f: impl FnMut() -> Option<T>) -> Option<T> {
     let deadline = Instant::now() + timeout;
     loop {
         if let Some(v) = f() {
@@ -257,7 +263,7 @@ pub fn wait_for<T>(timeout: Duration, mut f: impl FnMut() -> Option<T>) -> Optio
         if Instant::now() >= deadline {
             return None;
         }
-        std::thread::sleep(Duration::from_millis(10));
+        std::thread::sleep(period);
     }
 }
 

@@ -276,3 +276,112 @@ fn the_rviz_config_shows_only_topics_the_launch_publishes() {
     }
     assert_eq!(shown, 8, "the map, the beacons, 3 poses and 3 paths");
 }
+
+/// The oldest Kubernetes the sweep Job is written for (`backoffLimitPerIndex`).
+const KUBERNETES: &str = "1.29.0";
+
+/// `python3 -m kubernetes_validate --strict` (an unknown field is an error)
+/// of `files` against [`KUBERNETES`]'s API schema: Ok, or its findings.
+fn kubernetes_validate(files: &[PathBuf]) -> Result<(), String> {
+    let out = std::process::Command::new("python3")
+        .args(["-m", "kubernetes_validate", "--strict", "-k", KUBERNETES])
+        .args(files)
+        .output()
+        .expect("python3 runs");
+    let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(!text.contains("No module named"), "needs PyPI's kubernetes-validate: {text}");
+    if out.status.success() {
+        Ok(())
+    } else {
+        Err(text)
+    }
+}
+
+/// Every manifest in `deploy/k8s/` validates against the Kubernetes API's
+/// schema, and the validator refuses a misspelt field (the check can fail).
+#[test]
+#[ignore = "needs the Python package kubernetes-validate (PyPI; .ci/run installs it)"]
+fn the_kubernetes_manifests_validate_against_the_api_schema() {
+    let dir = deploy().join("k8s");
+    let mut manifests: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .expect("deploy/k8s")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "yaml"))
+        .collect();
+    manifests.sort();
+    assert_eq!(manifests.len(), 3, "sweep and merge Jobs and their volume: {manifests:?}");
+    if let Err(findings) = kubernetes_validate(&manifests) {
+        panic!("deploy/k8s does not validate against Kubernetes {KUBERNETES}: {findings}");
+    }
+    let bad = tempfile::tempdir().expect("temp dir");
+    let misspelt = bad.path().join("sweep-job.yaml");
+    std::fs::write(&misspelt, read("k8s/sweep-job.yaml").replace("completionMode:", "completionMod:"))
+        .expect("write");
+    let findings = kubernetes_validate(&[misspelt]).expect_err("a misspelt field is refused");
+    assert!(findings.contains("completionMod"), "{findings}");
+}
+
+/// The words of the Dockerfile's instruction lines that start with `what`.
+fn dockerfile_lines(text: &str, what: &str) -> Vec<Vec<String>> {
+    text.lines()
+        .filter(|l| l.starts_with(what))
+        .map(|l| l.split_whitespace().map(str::to_owned).collect())
+        .collect()
+}
+
+/// The workspace's binary targets (`cargo metadata`).
+fn workspace_binaries() -> Vec<String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = std::process::Command::new(cargo)
+        .args(["metadata", "--no-deps", "--format-version", "1", "--offline"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("cargo metadata runs");
+    assert!(out.status.success(), "cargo metadata: {}", String::from_utf8_lossy(&out.stderr));
+    let meta: serde_json::Value = serde_json::from_slice(&out.stdout).expect("cargo metadata's JSON");
+    let packages = meta["packages"].as_array().expect("packages").iter();
+    let targets = packages.flat_map(|p| p["targets"].as_array().expect("targets").iter());
+    targets
+        .filter(|t| t["kind"].as_array().is_some_and(|k| k.iter().any(|k| k == "bin")))
+        .map(|t| t["name"].as_str().expect("name").to_owned())
+        .collect()
+}
+
+/// The image of the Kubernetes Jobs: it builds, from the workspace's own
+/// binaries, every binary it copies; the Jobs' program is among them; its
+/// Rust is the workspace's `rust-version`.
+#[test]
+fn the_dockerfile_builds_the_binaries_it_copies_and_the_jobs_run() {
+    let text = read("k8s/Dockerfile");
+    let builds: Vec<String> = dockerfile_lines(&text, "RUN cargo build")
+        .concat()
+        .windows(2)
+        .filter(|w| w[0] == "--bin")
+        .map(|w| w[1].clone())
+        .collect();
+    let workspace = workspace_binaries();
+    for bin in &builds {
+        assert!(workspace.contains(bin), "the Dockerfile builds {bin}, which no crate has: {workspace:?}");
+    }
+    let copies = dockerfile_lines(&text, "COPY --from=build");
+    assert_eq!(copies.len(), 1, "one COPY of the binaries");
+    let (to, from) = copies[0][2..].split_last().expect("COPY sources and a destination");
+    assert_eq!(to, "/usr/local/bin/");
+    for source in from {
+        let bin = source.strip_prefix("/src/target/release/").expect("a release binary");
+        assert!(builds.iter().any(|b| b == bin), "the Dockerfile copies {bin} but builds only {builds:?}");
+    }
+    for job in ["k8s/sweep-job.yaml", "k8s/merge-job.yaml"] {
+        let manifest = yaml(job);
+        let program = str_of(&container(&manifest).0["command"][0], "command");
+        assert!(builds.iter().any(|b| b == program), "{job} runs {program}, not in the image");
+    }
+    let rust = dockerfile_lines(&text, "FROM rust:")[0][1].clone();
+    let manifest = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("../Cargo.toml"))
+        .expect("Cargo.toml");
+    let version = manifest.lines().find_map(|l| l.strip_prefix("rust-version = ")).expect("rust-version");
+    assert!(
+        rust.starts_with(&format!("rust:{}-", version.trim_matches('"'))),
+        "{rust} is not Rust {version}"
+    );
+}

@@ -33,6 +33,7 @@ mod replay;
 mod ros2_launch;
 mod same_swarm;
 mod secure_launch;
+mod slurm;
 mod soak;
 mod supervision;
 mod watch_decoder;
