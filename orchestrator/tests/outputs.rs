@@ -106,7 +106,7 @@ fn simulate_runs_twice_in_one_folder_replacing_its_own_default_picture_only() {
     let svg = dir.path().join("simulate.svg");
     for _ in 0..2 {
         let o = orchestrator_in(dir.path(), &["simulate"]);
-        assert_eq!(o.status.code(), Some(0), "the README's first command, again: {}", stderr(&o));
+        assert_eq!(o.status.code(), Some(0), "the README's `simulate`, again: {}", stderr(&o));
     }
     assert!(std::fs::read_to_string(&svg).expect("simulate.svg").contains("<svg"));
     // Spelled as the default, it is the default.

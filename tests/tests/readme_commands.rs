@@ -422,17 +422,25 @@ fn the_readme_marks_its_main_commands_runnable() {
 const FIRST_SCREEN: usize = 40;
 
 /// The README's first screen holds the command of its main job (its first
-/// runnable block) and the test command, and `.ci/run` runs exactly that
-/// test command: a newcomer never has to dig for either.
+/// runnable command: the product card's `launch`, one process per robot),
+/// `simulate` beside it, and the test command, and `.ci/run` runs exactly
+/// that test command: a newcomer never has to dig for any of them.
 #[test]
 fn the_readmes_first_screen_holds_the_main_job_and_the_test_command() {
     let readme = std::fs::read_to_string(root().join("README.md")).expect("README.md");
     let screen: String = readme.lines().take(FIRST_SCREEN).collect::<Vec<_>>().join("\n");
-    let main_job = runnable_blocks(&screen).into_iter().flat_map(|b| b.commands).next();
-    let main_job = main_job.map(|c| local(&c.text).expect("a command that runs here"));
+    let first: Vec<String> = runnable_blocks(&screen)
+        .into_iter()
+        .flat_map(|b| b.commands)
+        .map(|c| local(&c.text).expect("a command that runs here"))
+        .collect();
     assert!(
-        main_job.as_deref().is_some_and(|c| c.starts_with("orchestrator simulate")),
-        "no runnable `simulate` command within the README's first {FIRST_SCREEN} lines: {main_job:?}"
+        first.first().is_some_and(|c| c.starts_with("orchestrator launch")),
+        "the README's first runnable command is not `launch` (the main job): {first:?}"
+    );
+    assert!(
+        first.iter().any(|c| c.starts_with("orchestrator simulate")),
+        "no runnable `simulate` command within the README's first {FIRST_SCREEN} lines: {first:?}"
     );
     let test_command =
         screen.lines().map(str::trim).find(|l| l.starts_with("cargo test")).unwrap_or_else(|| {

@@ -67,7 +67,7 @@ pub struct Args {
 
 /// The snapshot's default name: a picture of its own kind there is
 /// replaced without `--force` (`bycoms_runtime::out::replaces`), so the README's
-/// first command runs twice in one folder.
+/// first commands run twice in one folder.
 pub const DEFAULT_SVG: &str = "simulate.svg";
 
 /// One robot in `--json`: how it ended and every position it took.
