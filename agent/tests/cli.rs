@@ -54,8 +54,9 @@ fn a_bad_swarm_name_is_a_usage_error() {
 /// Ctrl-C ends a gateway as it ends the orchestrator: exit 130 (interrupted).
 #[test]
 fn sigint_exits_130_like_the_orchestrator() {
+    use bycoms_runtime::child::{wait_or_kill, Kill};
     use std::io::{BufRead, BufReader};
-    use std::time::{Duration, Instant};
+    use std::time::Duration;
     let dir = tempfile::tempdir().expect("tempdir");
     let key = dir.path().join("robot-1.key");
     std::fs::write(&key, "ab".repeat(32)).expect("key file");
@@ -86,20 +87,11 @@ fn sigint_exits_130_like_the_orchestrator() {
     let pid = child.id().to_string();
     let sent = Command::new("kill").args(["-INT", &pid]).status().expect("run kill");
     assert!(sent.success());
-    let deadline = Instant::now() + Duration::from_secs(10);
-    let status = loop {
-        if let Some(status) = child.try_wait().expect("wait") {
-            break Some(status);
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            break None;
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
+    let waited = wait_or_kill(&mut child, Duration::from_secs(10), Kill::Process).expect("wait");
     let lines = reader.join().expect("reader");
     assert!(listening.is_ok(), "the gateway started: {lines:?}");
-    assert_eq!(status.and_then(|s| s.code()), Some(130), "{lines:?}");
+    assert!(waited.in_time, "the gateway ended within 10 s of SIGINT: {lines:?}");
+    assert_eq!(waited.status.code(), Some(130), "{lines:?}");
 }
 
 /// The logging flags go in any position (README, "Logs and shell
@@ -114,6 +106,15 @@ fn the_logging_flags_go_before_or_after_the_subcommand() {
     let (code, err) = agent(&["--swarm", "s", "bench"]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("cannot be used with '--swarm <SWARM>'"), "{err}");
+}
+
+/// `gateway bench --frames 0` measures nothing: a usage error naming the
+/// flag, before any socket or bus is opened (it printed NaN and exited 0).
+#[test]
+fn a_bench_of_no_frames_is_a_usage_error() {
+    let (code, err) = agent(&["bench", "--frames", "0"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("'--frames <FRAMES>'") && err.contains("0 is not in 1.."), "{err}");
 }
 
 /// `gateway doctor`: a bad endpoint is a usage error (2) before anything is

@@ -30,6 +30,7 @@ use bycoms_launch::config::Transport;
 use bycoms_launch::{self as launch, Clock, LaunchConfig};
 use bycoms_orchestrator::commands::launch::world;
 use bycoms_record::{read_counts, Recorder, CHUNK_SIZE};
+use bycoms_runtime::stats::median;
 use std::path::Path;
 use std::time::Instant;
 
@@ -176,10 +177,6 @@ fn cpu_seconds() -> f64 {
     (ticks(11) + ticks(12)) / 100.0
 }
 
-fn median(v: Vec<f64>) -> f64 {
-    bycoms_runtime::stats::median(&v).unwrap_or(f64::NAN)
-}
-
 fn launches(name: &str, cfg: LaunchConfig, dir: &Path) {
     let path = dir.join("launch.mcap");
     let (mut bare, mut recorded, mut file) = (Vec::new(), Vec::new(), None);
@@ -192,8 +189,12 @@ fn launches(name: &str, cfg: LaunchConfig, dir: &Path) {
         recorded.push((wall, cpu));
         file = f;
     }
-    let wall = |v: &[(f64, f64)]| median(v.iter().map(|x| x.0).collect());
-    let cpu = |v: &[(f64, f64)]| median(v.iter().map(|x| x.1).collect());
+    // The runtime's one median, of ROUNDS launches each.
+    let of = |v: &[(f64, f64)], f: fn(&(f64, f64)) -> f64| {
+        median(&v.iter().map(f).collect::<Vec<_>>()).expect("ROUNDS launches timed")
+    };
+    let wall = |v: &[(f64, f64)]| of(v, |x| x.0);
+    let cpu = |v: &[(f64, f64)]| of(v, |x| x.1);
     let (bare_wall, rec_wall, bare_cpu, rec_cpu) = (wall(&bare), wall(&recorded), cpu(&bare), cpu(&recorded));
     let (bytes, messages, poses) = file.expect("a recording");
     let robot_seconds = poses as f64 * 0.1;

@@ -1,6 +1,7 @@
 //! The `orchestrator` binary end to end: bad input, a reduced sweep that is
 //! byte-identical on a second run, resume, shards + merge.
 
+use bycoms_runtime::child::{wait_or_kill, Kill};
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -158,6 +159,9 @@ fn bad_input_exits_non_zero_with_a_clear_message() {
         (&["sweep", "--widths", "1,,2"], "--widths", 2),
         (&["sweep", "--shard", "5/4"], "need 0 ≤ i < n", 2),
         (&["terrain", "--width", "0", "--count", "1", "--out", "/tmp/x"], "--width must lie", 2),
+        // Issue 49: 1e300 said as given, not as a 301-digit number.
+        (&["terrain", "--width", "1e300", "--count", "1", "--out", "/tmp/x"], "cells (feasible terrains measure at least 1), got 1e300", 2),
+        (&["sweep", "--widths", "1e300", "--out", "/tmp/x"], "widths are measured up to 8), got 1e300", 2),
         (&["bench", "scale", "--speed", "0"], "bad --speed: the real-time speed-up must be a number in", 2),
         // Seconds past any run: the flag or key and its range, never a panic (issue 31).
         (&["launch", "--unreachable-grace", "1e300"], "supervision.unreachable_grace (--unreachable-grace) must be a number of seconds in [0, 100000000], got 1e300", 2),
@@ -169,6 +173,14 @@ fn bad_input_exits_non_zero_with_a_clear_message() {
         (&["sweep", "--time-limit", "inf", "--out", "/tmp/x"], "bad --time-limit", 2),
         (&["bench", "scale", "--seconds", "1e20"], "invalid value '1e20' for '--seconds <SECONDS>': must be a number of seconds in (0, 100000000]", 2),
         (&["bench", "crowd", "--timeout", "0"], "'--timeout <SECONDS>': must be a number of seconds in (0, ", 2),
+        // Issue 49: refused up front as `launch` refuses them, not after 6 s
+        // of iceoryx2 work, nor with NaN rows and exit 0.
+        (&["bridge", "--swarm", "s", "--robots", "100000"], "--robots 100000: a launch deploys 1 to 1000 robots", 2),
+        (&["bench", "crowd", "--robots", "100000"], "--robots 100000: a launch deploys 1 to 1000 robots", 2),
+        (&["bench", "crowd", "--robots", "10,0"], "--robots 0: a launch deploys 1 to 1000 robots", 2),
+        (&["bench", "stop", "--robots", "1001"], "--robots 1001: a launch deploys 1 to 1000 robots", 2),
+        (&["bench", "launch", "--runs", "0"], "invalid value '0' for '--runs <RUNS>': 0 is not in 1..", 2),
+        (&["bench", "stop", "--runs", "0"], "invalid value '0' for '--runs <RUNS>': 0 is not in 1..", 2),
         (&["launch", "--config", "/dev/zero"], "cannot read config /dev/zero: more than the limit of 1048576 bytes", 1),
         (
             &["simulate", "--svg", "/nonexistent/dir/out.svg"],
@@ -238,19 +250,14 @@ fn ctrl_c_keeps_rows_and_a_rerun_resumes_to_the_same_bytes() {
         if child.try_wait().unwrap().is_some() {
             break;
         }
+        // Polled: a file's rows have no event to block on.
         std::thread::sleep(std::time::Duration::from_millis(5));
     }
     let _ = Command::new("kill").args(["-INT", &child.id().to_string()]).status();
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if std::time::Instant::now() > deadline {
-            let _ = child.kill();
-            panic!("sweep did not stop after Ctrl-C");
-        }
-        std::thread::sleep(std::time::Duration::from_millis(10));
-    };
+    let left = deadline.saturating_duration_since(std::time::Instant::now());
+    let waited = wait_or_kill(&mut child, left, Kill::Process).expect("wait");
+    assert!(waited.in_time, "sweep did not stop after Ctrl-C");
+    let status = waited.status;
     let kept = std::fs::read(&csv).unwrap();
     let mut err = String::new();
     std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
@@ -645,4 +652,29 @@ fn revoke_exits_1_without_a_launch_2_on_usage_and_rewrites_the_acl() {
     let by_certs = run(&["certs", "--revoke", "1", "--out", certs]);
     assert_eq!(by_certs.status.code(), Some(0), "{}", stderr(&by_certs));
     assert!(stderr(&by_certs).contains("no launch of this lab runs on this host"), "{}", stderr(&by_certs));
+}
+
+/// `stop --why` and `revoke --why` are a sentence for the summary: longer
+/// than 200 characters is a usage error (exit 2) naming the flag and the
+/// length, before any launch is asked; 200 characters pass that check.
+#[test]
+fn a_why_longer_than_200_characters_is_a_usage_error() {
+    let tag = format!("why-cli-{}", std::process::id());
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+            .args(args)
+            .env("BYCOMS_IPC_ISOLATION", &tag)
+            .output()
+            .expect("spawn orchestrator")
+    };
+    let long = "x".repeat(120_000);
+    for command in [&["stop"][..], &["revoke", "--robot", "1"][..]] {
+        let out = run(&[command, &["--why", &long]].concat());
+        assert_eq!(out.status.code(), Some(2), "{command:?}: {}", stderr(&out));
+        assert!(stderr(&out).contains("--why takes at most 200 characters, got 120000"), "{}", stderr(&out));
+        let fits = "y".repeat(200);
+        let out = run(&[command, &["--why", &fits]].concat());
+        assert_eq!(out.status.code(), Some(1), "{command:?}: {}", stderr(&out));
+        assert!(stderr(&out).contains("no launch runs on this host"), "{}", stderr(&out));
+    }
 }

@@ -3,9 +3,11 @@
 //! the lines of the agents a launch starts and iceoryx2's own, while stdout
 //! keeps the result.
 
+use bycoms_runtime::child::{wait_or_kill, Kill};
 use serde_json::Value;
+use std::io::Read;
 use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Runs the orchestrator with `args`, `RUST_LOG=rust_log` (unset if None)
 /// and no inherited format; kills it after 60 s.
@@ -21,15 +23,23 @@ fn orchestrator(args: &[&str], rust_log: Option<&str>) -> Output {
 fn run(mut cmd: Command) -> Output {
     let mut child =
         cmd.stdin(Stdio::null()).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("spawn");
-    let deadline = Instant::now() + Duration::from_secs(60);
-    while child.try_wait().expect("try_wait").is_none() {
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            break;
+    let (stdout, stderr) = (drain(child.stdout.take()), drain(child.stderr.take()));
+    let waited = wait_or_kill(&mut child, Duration::from_secs(60), Kill::Process).expect("wait");
+    let stdout = stdout.join().expect("stdout reader");
+    let stderr = stderr.join().expect("stderr reader");
+    Output { status: waited.status, stdout, stderr }
+}
+
+/// Reads `pipe` to its end on a thread of its own (a full pipe would stall
+/// the process being waited for).
+fn drain(pipe: Option<impl Read + Send + 'static>) -> std::thread::JoinHandle<Vec<u8>> {
+    std::thread::spawn(move || {
+        let mut bytes = Vec::new();
+        if let Some(mut pipe) = pipe {
+            let _ = pipe.read_to_end(&mut bytes);
         }
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    child.wait_with_output().expect("output")
+        bytes
+    })
 }
 
 /// Every stderr line as JSON; panics on a line that is not a JSON object

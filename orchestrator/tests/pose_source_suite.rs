@@ -273,6 +273,8 @@ fn natnet_poses_record_the_model_definitions_and_every_frame() {
     while got.len() < 4 && std::time::Instant::now() < deadline {
         let mut sink = PoseSink::new(&mut recording, &mut traffic, &swarm, &mut got, true);
         source.drain(&mut sink).expect("drain");
+        // Polled: a pose source is drained without waiting; it has no event
+        // to block on.
         std::thread::sleep(Duration::from_millis(5));
     }
     assert_eq!(got.len(), 4, "{got:?}");

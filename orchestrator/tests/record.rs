@@ -172,6 +172,8 @@ fn crash_child() {
             writeln!(stdout, "flushed {reported}").and_then(|()| stdout.flush()).expect("child: stdout");
         }
         if i % 10 == 0 {
+            // Wall time must pass: the recorder's auto-flush is once a
+            // second of wall time; this pace keeps the file small meanwhile.
             std::thread::sleep(Duration::from_millis(1));
         }
     }
@@ -225,6 +227,8 @@ fn kill_9_loses_at_most_the_last_second() {
     wait_for(&|line| line.ends_with("started"));
     let started = Instant::now();
     let first = wait_for(&|line| line.starts_with("flushed "));
+    // Wall time must pass (the recorder flushes on wall time): the kill is
+    // to land half a second after the first auto-flush, not at an event.
     std::thread::sleep(Duration::from_millis(1_500).saturating_sub(started.elapsed()));
     child.0.kill().expect("kill -9 the child");
     let status = child.0.wait().expect("reap the child");

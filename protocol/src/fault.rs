@@ -60,13 +60,19 @@ impl FaultConfig {
         }
     }
 
-    /// Checks that every rate lies in `0..=1`.
-    pub fn validate(&self) -> Result<(), &'static str> {
-        let rates = [self.drop, self.duplicate, self.delay, self.reorder];
-        if rates.iter().any(|p| !(0.0..=1.0).contains(p)) {
-            return Err("fault rates must lie in 0..=1");
+    /// Checks that every rate lies in `0..=1`; else says which, and its
+    /// value: "drop = 1.5: a fault rate must lie in 0..=1".
+    pub fn validate(&self) -> Result<(), String> {
+        let rates = [
+            ("drop", self.drop),
+            ("duplicate", self.duplicate),
+            ("delay", self.delay),
+            ("reorder", self.reorder),
+        ];
+        match rates.into_iter().find(|(_, p)| !(0.0..=1.0).contains(p)) {
+            Some((key, p)) => Err(format!("{key} = {p:?}: a fault rate must lie in 0..=1")),
+            None => Ok(()),
         }
-        Ok(())
     }
 }
 
@@ -240,5 +246,7 @@ mod tests {
         for bad in [-0.1, 1.5, f64::NAN] {
             assert!(FaultConfig { drop: bad, ..FaultConfig::none(1) }.validate().is_err());
         }
+        let said = FaultConfig { reorder: 1.5, ..FaultConfig::none(1) }.validate().unwrap_err();
+        assert_eq!(said, "reorder = 1.5: a fault rate must lie in 0..=1", "the key and its value");
     }
 }

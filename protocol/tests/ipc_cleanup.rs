@@ -37,8 +37,9 @@ fn child_holds_a_node_until_killed() {
     let _publisher = bus.publisher(&topic).expect("publisher");
     let _subscriber = bus.subscriber(&topic).expect("subscriber");
     println!("{READY}");
-    // The parent kills us long before this ends.
-    std::thread::sleep(Duration::from_secs(30));
+    // Held until the parent kills us; should the parent die first, its end
+    // of our stdin closes and we end (no wall-time bound to guess).
+    let _ = std::io::stdin().read_line(&mut String::new());
 }
 
 #[derive(Debug, PartialEq)]
@@ -75,9 +76,12 @@ fn dead_nodes_are_cleaned_up() {
         .args(["--exact", "ipc_cleanup::child_holds_a_node_until_killed", "--nocapture"])
         .env(CHILD_ENV, &topic)
         .env(ISOLATION_ENV, &tag)
+        .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .spawn()
         .expect("spawn child");
+    // Kept open until the child is killed: the child waits on it.
+    let _stdin = child.stdin.take().expect("child stdin");
     let stdout = child.stdout.take().expect("child stdout");
     let (tx, rx) = mpsc::channel();
     std::thread::spawn(move || {

@@ -184,6 +184,8 @@ fn a_peer_reconnects_to_a_restarted_router() {
     let again = (0..50)
         .find_map(|_| {
             router_on(&endpoint).ok().or_else(|| {
+                // Retried: the closed router's port is free again at a moment
+                // the OS does not announce.
                 std::thread::sleep(Duration::from_millis(20));
                 None
             })

@@ -15,6 +15,7 @@ use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::BusExt;
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::{RobotId, Swarm};
+use bycoms_runtime::child::{wait_or_kill, Kill};
 use bycoms_runtime::ipc_config;
 use serde_json::Value;
 use std::io::Read;
@@ -189,20 +190,13 @@ impl Proc {
     /// Waits up to `timeout` for the process to end; panics (after killing
     /// it) if it does not.
     pub fn wait(mut self, timeout: Duration) -> Finished {
-        let deadline = Instant::now() + timeout;
         let mut child = self.child.take().expect("process not yet waited for");
-        let status = loop {
-            if let Some(status) = child.try_wait().expect("try_wait") {
-                break status;
-            }
-            if Instant::now() >= deadline {
-                let _ = child.kill();
-                let _ = child.wait();
-                let err = self.stderr.take().map(|h| h.join().unwrap_or_default()).unwrap_or_default();
-                panic!("process did not end within {timeout:?}; stderr:\n{err}");
-            }
-            std::thread::sleep(Duration::from_millis(5));
-        };
+        let waited = wait_or_kill(&mut child, timeout, Kill::Process).expect("wait for the process");
+        if !waited.in_time {
+            let err = self.stderr.take().map(|h| h.join().unwrap_or_default()).unwrap_or_default();
+            panic!("process did not end within {timeout:?}; stderr:\n{err}");
+        }
+        let status = waited.status;
         let stdout = self.stdout.take().map(|h| h.join().unwrap_or_default()).unwrap_or_default();
         let stderr = self.stderr.take().map(|h| h.join().unwrap_or_default()).unwrap_or_default();
         Finished { status, stdout, stderr }
@@ -263,6 +257,8 @@ pub fn wait_for_every<T>(period: Duration, timeout: Duration, mut f: impl FnMut(
         if Instant::now() >= deadline {
             return None;
         }
+        // Polled: what the callers wait for (a process in /proc, a file's
+        // rows, a job in Slurm's queue) has no event to block on.
         std::thread::sleep(period);
     }
 }

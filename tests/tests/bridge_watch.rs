@@ -11,6 +11,7 @@ use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::BusExt;
 use bycoms_protocol::msg::{GateEvent, GateKind};
 use bycoms_protocol::{RobotId, Swarm};
+use bycoms_runtime::child::{wait_or_kill, Kill};
 use bycoms_runtime::ipc_config;
 use bycoms_tests::{swarm_name, Proc};
 use std::net::TcpListener;
@@ -75,19 +76,9 @@ impl Watch {
     /// Waits up to `timeout` for the process to exit; returns its code
     /// and every line it printed.
     fn finish(mut self, timeout: Duration) -> (Option<i32>, Vec<String>) {
-        let deadline = Instant::now() + timeout;
-        let status = loop {
-            if let Some(s) = self.child.try_wait().expect("try_wait") {
-                break Some(s);
-            }
-            if Instant::now() >= deadline {
-                break None;
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        };
+        let waited = wait_or_kill(&mut self.child, timeout, Kill::Process).expect("wait");
+        let status = waited.in_time.then_some(waited.status);
         // The reader thread ends at EOF once the process is gone.
-        let _ = self.child.kill();
-        let _ = self.child.wait();
         while let Ok(line) = self.lines.recv_timeout(Duration::from_secs(2)) {
             self.seen.push(line);
         }

@@ -4,10 +4,11 @@
 //! finished, no iceoryx2 node of the swarm left behind.
 
 use bycoms_record::recover;
+use bycoms_runtime::child::{wait_or_kill, Kill};
 use bycoms_tests::{agents_of, bin, swarm_name};
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Runs the orchestrator with stdout and stderr on one pipe whose reader
 /// reads `lines` lines and then closes it; returns the exit code.
@@ -26,18 +27,9 @@ fn run_into_closed_pipe(args: &[&str], lines: usize) -> Option<i32> {
         let _ = reader.read_line(&mut line);
     }
     drop(reader);
-    let deadline = Instant::now() + Duration::from_secs(60);
-    loop {
-        if let Some(status) = child.try_wait().expect("try_wait") {
-            return status.code();
-        }
-        if Instant::now() >= deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("{args:?} did not end within 60 s with its output closed");
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    let waited = wait_or_kill(&mut child, Duration::from_secs(60), Kill::Process).expect("wait");
+    assert!(waited.in_time, "{args:?} did not end within 60 s with its output closed");
+    waited.status.code()
 }
 
 /// Whether an iceoryx2 node of `swarm` (alive or dead) still exists.

@@ -129,7 +129,7 @@ fn doctor_across_two_hosts_finds_each_fault() {
         ("zenoh", "is alive at"),
         ("clock", "ms off the orchestrator's"),
         ("certs", "robot-1's certificate signed by the lab's CA"),
-        ("udp-ports", "UDP ports are free"),
+        ("udp-ports", "UDP port"),
         ("open-files", "open files"),
     ] {
         assert!(has(&found, check, "ok", words), "gateway doctor, {check}: {found:#?}");

@@ -28,6 +28,7 @@
 //!   the test).
 
 use bycoms_protocol::bus::ipc::root::{Isolated, ISOLATION_ENV};
+use bycoms_runtime::child::{wait_or_kill, Kill};
 use nix::sys::signal::{killpg, Signal};
 use nix::unistd::Pid;
 use std::os::unix::process::CommandExt;
@@ -218,18 +219,8 @@ impl Running {
 
     /// Waits up to `timeout` for the command to end; kills its group after.
     fn wait(&mut self, timeout: Duration) -> Option<ExitStatus> {
-        let deadline = Instant::now() + timeout;
-        loop {
-            if let Some(status) = self.child.try_wait().expect("try_wait") {
-                return Some(status);
-            }
-            if Instant::now() >= deadline {
-                let _ = killpg(self.group(), Signal::SIGKILL);
-                let _ = self.child.wait();
-                return None;
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
+        let waited = wait_or_kill(&mut self.child, timeout, Kill::Group).expect("wait");
+        waited.in_time.then_some(waited.status)
     }
 
     /// What went wrong, for a failure message.

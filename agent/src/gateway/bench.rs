@@ -34,8 +34,8 @@ use std::time::{Duration, Instant};
 /// and the end-to-end time (robot send → bus subscriber woken), p50/p99.
 #[derive(Clone, Debug, PartialEq, Eq, clap::Args)]
 pub struct BenchArgs {
-    /// Telemetry frames to relay.
-    #[arg(long, default_value_t = 2000)]
+    /// Telemetry frames to relay (at least 1: no frame, no figure).
+    #[arg(long, default_value_t = 2000, value_parser = clap::value_parser!(u32).range(1..))]
     pub frames: u32,
     /// Pause between frames, ms.
     #[arg(long, default_value_t = 2)]

@@ -23,6 +23,7 @@ use bycoms_launch::ros2::{Ros2Bridge, Ros2Config};
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::RobotId;
 use bycoms_ros2::rmw_zenoh::Attachment;
+use bycoms_runtime::stats::quantile;
 use std::net::TcpListener;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
@@ -40,17 +41,14 @@ fn session(listen: Option<&str>, connect: Option<&str>) -> zenoh::Session {
     zenoh::open(c).wait().expect("zenoh session")
 }
 
-fn percentile(sorted: &[Duration], p: f64) -> Duration {
-    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
-}
-
-fn report(what: &str, mut d: Vec<Duration>) {
-    d.sort_unstable();
+fn report(what: &str, d: Vec<Duration>) {
+    // The runtime's one quantile (nearest rank); no poses, no figures.
+    let us = |q: f64| quantile(&d, q).map_or(f64::NAN, |t| t.as_secs_f64() * 1e6);
     println!(
         "{what:>14}: p50 {:>7.1} µs  p99 {:>7.1} µs  max {:>8.1} µs  ({} poses)",
-        percentile(&d, 0.5).as_secs_f64() * 1e6,
-        percentile(&d, 0.99).as_secs_f64() * 1e6,
-        d.last().copied().unwrap_or_default().as_secs_f64() * 1e6,
+        us(0.5),
+        us(0.99),
+        us(1.0),
         d.len()
     );
 }

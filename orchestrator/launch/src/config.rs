@@ -113,7 +113,7 @@ pub struct LaunchConfig {
 
 /// The bus of a launch (`[transport]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(deny_unknown_fields, default, expecting = "a [transport] table")]
 pub struct TransportConfig {
     /// `ipc` (iceoryx2, this host) or `zenoh` (tcp/quic/tls, any host).
     pub kind: Transport,
@@ -155,7 +155,7 @@ impl Default for TransportConfig {
 
 /// The deployment gate's motion test.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(deny_unknown_fields, default, expecting = "a [gate] table")]
 pub struct GateConfig {
     /// A robot slower than this (units/s) is still...
     pub stop_speed: f64,
@@ -175,7 +175,7 @@ pub struct GateConfig {
 
 /// Timeouts of agent supervision (wall-clock seconds).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(deny_unknown_fields, default, expecting = "a [supervision] table")]
 pub struct SupervisionConfig {
     /// An agent must register within this long after it was spawned.
     pub register_timeout: f64,
@@ -555,6 +555,17 @@ pub const MAX_CONFIG_BYTES: u64 = 1024 * 1024;
 /// Most robots one launch deploys (sizes the shared-memory services).
 pub const MAX_ROBOTS: u32 = 1000;
 
+/// A robot count given with `flag` to a command that sizes a swarm's bus as
+/// a launch does (`bridge`, `doctor`, `bench crowd` / `stop`): 1 to
+/// [`MAX_ROBOTS`], else a usage error up front. (`bridge --robots 100000`
+/// worked for 6 s before iceoryx2 refused its services, and left files.)
+pub fn check_robot_count(flag: &str, robots: u32) -> Result<()> {
+    if robots == 0 || robots > MAX_ROBOTS {
+        return Err(usage(format!("{flag} {robots}: a launch deploys 1 to {MAX_ROBOTS} robots")));
+    }
+    Ok(())
+}
+
 /// `serve` must be `host:port` (port 0 picks a free port).
 fn check_serve(addr: &str) -> Result<()> {
     let bad = || usage(format!("serve must be host:port (e.g. 127.0.0.1:8765, 0.0.0.0:0), got {addr:?}"));
@@ -567,7 +578,7 @@ fn check_serve(addr: &str) -> Result<()> {
 
 /// The `[faults]` section: probabilities per received message.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(deny_unknown_fields, default, expecting = "a [faults] table")]
 pub struct FaultsConfig {
     /// Probability that a message is lost.
     pub drop: f64,
@@ -607,9 +618,19 @@ impl FaultsConfig {
         }
     }
 
-    /// Checks every rate lies in 0..=1 (a usage error otherwise).
+    /// Checks every rate lies in 0..=1 (a usage error naming the key and
+    /// its value otherwise: "faults.drop = 1.5: …").
     pub fn validate(&self) -> Result<()> {
-        self.fault_config().validate().map_err(|why| usage(format!("faults: {why}")))
+        self.fault_config().validate().map_err(|why| usage(format!("faults.{why}")))
+    }
+
+    /// The faults in words, for the log: "drop 0.5, duplicate 0, delay 0.1
+    /// by 10 ms, reorder 0, seed 3".
+    pub fn words(&self) -> String {
+        format!(
+            "drop {}, duplicate {}, delay {} by {} ms, reorder {}, seed {}",
+            self.drop, self.duplicate, self.delay, self.delay_ms, self.reorder, self.seed
+        )
     }
 }
 
@@ -685,6 +706,16 @@ mod tests {
         assert_eq!((partial.eps, partial.gate.dwell, partial.robots), (2.0, 30.0, 3));
         let bad = LaunchConfig { eps: -1.0, ..LaunchConfig::default() };
         assert!(format!("{:#}", bad.validate().unwrap_err()).contains("eps"));
+    }
+
+    #[test]
+    fn a_table_given_as_a_value_is_named_as_the_table_not_as_a_rust_type() {
+        for key in ["transport", "gate", "supervision", "faults", "mocap", "agents", "placement", "ros2"] {
+            let err = format!("{:#}", LaunchConfig::parse(&format!("{key} = 5")).unwrap_err());
+            let article = if key == "agents" { "an" } else { "a" };
+            assert!(err.contains(&format!("expected {article} [{key}] table")), "{key}: {err}");
+            assert!(!err.contains("struct"), "{key}: {err}");
+        }
     }
 
     #[test]

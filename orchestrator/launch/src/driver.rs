@@ -12,7 +12,7 @@
 
 use super::agents::{AgentPlan, AgentSource, Gone, Joining, Started};
 use super::config::{Clock, LaunchConfig};
-use super::control::{Answer, Ask, Control, Reply, Request};
+use super::control::{shown, Answer, Ask, Control, Reply, Request};
 use super::core::log::{self, Logged};
 use super::core::{Ending, Input, Output, Revoke, Slot, SlotState, Stop};
 use super::events::EVENT_SCHEMA;
@@ -359,6 +359,7 @@ impl Driver {
         for Request { ask, reply } in requests {
             let answer = match ask {
                 Ask::Stop { now, who, why } => {
+                    let (who, why) = (shown(&who), shown(&why));
                     tracing::warn!(now, who, why, "a stop was asked");
                     self.feed(Input::Stop(Stop { now, who, why }));
                     let at = self.now();
@@ -369,7 +370,9 @@ impl Driver {
                     continue;
                 }
                 Ask::Status => Answer::Status(Box::new(self.status())),
-                Ask::Revoke { robot, who, why, lab } => self.revoke(Revoke { robot, who, why }, lab),
+                Ask::Revoke { robot, who, why, lab } => {
+                    self.revoke(Revoke { robot, who: shown(&who), why: shown(&why) }, lab)
+                }
             };
             reply(&answer);
         }

@@ -30,7 +30,10 @@ impl FaultsConfig {
         if !self.is_on() {
             return Ok(Rc::new(bus));
         }
-        tracing::warn!(faults = ?self, "fault injection on: received messages are dropped, delayed, duplicated or reordered");
+        tracing::warn!(
+            "fault injection on ({}): received messages are dropped, delayed, duplicated or reordered",
+            self.words()
+        );
         Ok(Rc::new(FaultBus::new(bus, self.fault_config())?))
     }
 }
@@ -67,6 +70,17 @@ mod tests {
         assert_eq!(count(FaultsConfig::default()), 50);
         let lossy = count(FaultsConfig { drop: 0.5, seed: 3, ..FaultsConfig::default() });
         assert!((10..40).contains(&lossy), "{lossy} of 50 got through");
-        assert!(FaultsConfig { reorder: 1.5, ..FaultsConfig::default() }.validate().is_err());
+        let err = FaultsConfig { reorder: 1.5, ..FaultsConfig::default() }.validate().unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "faults.reorder = 1.5: a fault rate must lie in 0..=1",
+            "the key and its value"
+        );
+    }
+
+    #[test]
+    fn the_faults_are_logged_in_words_not_as_a_struct() {
+        let faults = FaultsConfig { drop: 0.5, delay: 0.1, seed: 3, ..FaultsConfig::default() };
+        assert_eq!(faults.words(), "drop 0.5, duplicate 0, delay 0.1 by 10 ms, reorder 0, seed 3");
     }
 }

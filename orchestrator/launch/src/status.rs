@@ -7,8 +7,10 @@
 //! few facts only the driver knows ([`Facts`]); the driver answers
 //! `status` questions with it (`orchestrator/launch/src/control.rs`).
 
+use super::control::shown;
 use super::core::{LaunchCore, Phase, SlotState};
 use super::summary::{ClockSummary, RevokedSummary};
+use bycoms_runtime::words::signed;
 use serde::{Deserialize, Serialize};
 
 /// What only the driver knows about its launch.
@@ -141,8 +143,9 @@ pub fn text(s: &LaunchStatus) -> String {
     if let Some(w) = &s.waiting {
         out.push_str(&format!("  waiting for {w}\n"));
     }
+    // Who asked and why came from a client, maybe a foreign one: escaped.
     if let Some(stop) = &s.stopping {
-        out.push_str(&format!("  {stop}\n"));
+        out.push_str(&format!("  {}\n", shown(stop)));
     }
     out.push_str(&format!("  recording: {}\n", s.recording.as_deref().unwrap_or("none")));
     for r in s.robots.iter().filter(|r| r.state != SlotState::Waiting.words()) {
@@ -151,7 +154,7 @@ pub fn text(s: &LaunchStatus) -> String {
         let run = if r.running { "" } else { " (agent not running)" };
         let clock = r
             .clock
-            .map(|c| format!(", clock {:+.1} ms (round trip {:.1} ms)", c.offset_ms, c.round_trip_ms))
+            .map(|c| format!(", clock {} ms (round trip {:.1} ms)", signed(c.offset_ms, 1), c.round_trip_ms))
             .unwrap_or_default();
         out.push_str(&format!("  robot {}: {}{pose}{age}{clock}{run}\n", r.id, r.state));
     }
@@ -160,11 +163,12 @@ pub fn text(s: &LaunchStatus) -> String {
         out.push_str(&format!("  {} not started yet\n", bycoms_study::runs::count(idle as u64, "robot")));
     }
     for r in &s.revoked {
-        let why = if r.why.is_empty() { String::new() } else { format!(" ({})", r.why) };
+        let why = if r.why.is_empty() { String::new() } else { format!(" ({})", shown(&r.why)) };
         let dropped = bycoms_study::runs::count(r.dropped, "report");
         out.push_str(&format!(
             "  robot {} revoked by {}{why}: {dropped} of it dropped since\n",
-            r.robot, r.who
+            r.robot,
+            shown(&r.who)
         ));
     }
     out
@@ -242,5 +246,26 @@ mod tests {
         assert_eq!(s.phase, "finished");
         let answered = core.stopped().map(|s| s.answered.clone()).unwrap_or_default();
         assert_eq!(answered, [StopAnswer { robot: 1, after_us: 500, on_link: false }]);
+    }
+
+    /// A status from a launch that kept a foreign client's words raw (or
+    /// any launch): printed with their control characters escaped.
+    #[test]
+    fn who_and_why_are_printed_escaped() {
+        let case = Case::small(3);
+        let core = LaunchCore::new(harness::setup(&case, &Schedule::clean(3, case.robots)));
+        let mut s = of(&core, 0, &facts());
+        s.stopping = Some("stop asked by x\u{1b}[2J: y\u{7}\nz".into());
+        s.revoked.push(RevokedSummary {
+            robot: 2,
+            who: "a\rb".into(),
+            why: "c\u{1b}d".into(),
+            unix_ms: 0,
+            dropped: 0,
+        });
+        let shown = text(&s);
+        assert!(shown.contains("  stop asked by x\\u{1b}[2J: y\\u{7}\\nz\n"), "{shown}");
+        assert!(shown.contains("robot 2 revoked by a\\rb (c\\u{1b}d)"), "{shown}");
+        assert!(!shown.chars().any(|c| c.is_control() && c != '\n'), "{shown:?}");
     }
 }

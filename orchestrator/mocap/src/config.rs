@@ -34,7 +34,7 @@ pub enum MocapSource {
 
 /// `[mocap]`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(deny_unknown_fields, default, expecting = "a [mocap] table")]
 pub struct MocapConfig {
     /// `bus`, `natnet` or `ros2`.
     pub source: MocapSource,
@@ -90,7 +90,7 @@ pub struct NatNetSourceConfig {
 /// `[placement]` table, one for every pose source (world units: metres in
 /// a lab, as its scenario; lab seconds).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(deny_unknown_fields, default, expecting = "a [placement] table")]
 pub struct PlacementConfig {
     /// The robot counts as placed within this distance of the start, world units.
     pub radius: f64,

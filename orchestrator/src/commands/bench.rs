@@ -25,9 +25,10 @@
 
 use crate::commands::launch as launch_cmd;
 use anyhow::{bail, Result};
-use bycoms_launch::config::Transport;
+use bycoms_launch::config::{check_robot_count, Transport};
 use bycoms_launch::{self as launch, LaunchConfig, Outcome};
 use bycoms_runtime::seconds::seconds;
+use bycoms_runtime::stats::quantile;
 use std::path::PathBuf;
 
 #[derive(Debug, clap::Args)]
@@ -49,7 +50,7 @@ pub enum What {
     /// Gate reaction and lockstep speed of the default `launch --robots 3`.
     Launch {
         /// Launches to run.
-        #[arg(long, default_value_t = 5)]
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
         runs: u32,
         /// The bus the launches run over.
         #[arg(long, value_enum, default_value_t = Transport::Ipc)]
@@ -95,7 +96,7 @@ pub enum What {
         #[arg(long, default_value_t = 100)]
         robots: u32,
         /// Launches (one stop each) per transport.
-        #[arg(long, default_value_t = 3)]
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
         runs: u32,
         /// The buses to measure over.
         #[arg(long, value_enum, value_delimiter = ',', default_value = "ipc,zenoh")]
@@ -108,26 +109,22 @@ pub enum What {
         timeout: f64,
     },
     /// Seeded fault schedules of the launch core in virtual time, per second (a build with `--features testing` only).
-    #[cfg(feature = "testing")]
     Schedules {
         /// Schedules to play (seeds 0..N, as the test suite draws them).
-        #[arg(long, default_value_t = 10_000)]
+        #[arg(long, default_value_t = 10_000, value_parser = clap::value_parser!(u64).range(1..))]
         count: u64,
         /// Rounds to time (the median is reported).
-        #[arg(long, default_value_t = 5)]
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
         rounds: u32,
     },
 }
 
-/// The `p`-quantile of `values`, NaN (`null` in JSON) when there are none.
-fn percentile(values: &[f64], p: f64) -> f64 {
-    bycoms_runtime::stats::quantile(values, p).unwrap_or(f64::NAN)
-}
-
 pub fn run(args: Args) -> Result<i32> {
-    #[cfg(feature = "testing")]
     if let What::Schedules { count, rounds } = args.what {
+        #[cfg(feature = "testing")]
         return schedules(count, rounds, args.json);
+        #[cfg(not(feature = "testing"))]
+        return Err(without_harness(count, rounds));
     }
     // (Every bench below starts agents; say which executable runs them.)
     warn_if_agents_are_this_executable(&launch::agent_command(args.agent_bin.as_deref(), None)?);
@@ -139,9 +136,7 @@ pub fn run(args: Args) -> Result<i32> {
     }
     let agent = launch::agent_command(args.agent_bin.as_deref(), None)?;
     match args.what {
-        #[cfg(feature = "testing")]
-        What::Schedules { .. } => unreachable!("handled above"),
-        What::Crowd { .. } | What::Stop { .. } => unreachable!("handled above"),
+        What::Schedules { .. } | What::Crowd { .. } | What::Stop { .. } => unreachable!("handled above"),
         What::Launch { runs, no_prespawn, transport } => {
             launch_figures(runs, no_prespawn, transport, agent, args.json)?;
         }
@@ -159,6 +154,17 @@ pub fn run(args: Args) -> Result<i32> {
         }
     }
     Ok(bycoms_runtime::exit::SUCCESS)
+}
+
+/// `bench schedules` in a build without the launch harness (the release
+/// binary): a usage error that says which build has it.
+#[cfg_attr(feature = "testing", allow(dead_code))]
+fn without_harness(count: u64, rounds: u32) -> anyhow::Error {
+    bycoms_runtime::exit::usage(format!(
+        "bench schedules (--count {count}, --rounds {rounds}) needs a build with `--features testing`: the \
+         launch harness is kept out of the release binary (cargo run --release --features testing --bin \
+         orchestrator -- bench schedules)"
+    ))
 }
 
 /// Logs a warning when the agents run as `orchestrator sim-agent` (no
@@ -194,7 +200,7 @@ fn launch_figures(
 ) -> Result<()> {
     let (mut reactions, mut speeds, mut walls) = (Vec::new(), Vec::new(), Vec::new());
     let (mut first_moving, mut tick_us, mut per_tick) = (Vec::new(), Vec::new(), Vec::new());
-    for i in 0..runs.max(1) {
+    for i in 0..runs {
         let mut cfg =
             LaunchConfig { swarm: Some(format!("bench-{}-{i}", std::process::id())), ..Default::default() };
         cfg.gate.prespawn = !no_prespawn;
@@ -213,12 +219,8 @@ fn launch_figures(
             per_tick.push(s.ticked_agents as f64 / s.ticks as f64);
         }
     }
-    tick_us.sort_by(f64::total_cmp);
-    per_tick.sort_by(f64::total_cmp);
-    first_moving.sort_by(f64::total_cmp);
-    reactions.sort_by(f64::total_cmp);
-    speeds.sort_by(f64::total_cmp);
-    walls.sort_by(f64::total_cmp);
+    // The runtime's one quantile; NaN (`null` in JSON) for a figure no run gave.
+    let percentile = |values: &[f64], q: f64| quantile(values, q).unwrap_or(f64::NAN);
     let figures = serde_json::json!({
         "runs": runs, "prespawn": !no_prespawn, "transport": transport.as_str(),
         "first_moving_s": { "p50": percentile(&first_moving, 0.5), "max": percentile(&first_moving, 1.0) },
@@ -262,8 +264,11 @@ fn crowd(
     agent_bin: Option<PathBuf>,
     json: bool,
 ) -> Result<i32> {
-    if robots.is_empty() || robots.contains(&0) {
+    if robots.is_empty() {
         return Err(bycoms_runtime::exit::usage("--robots takes swarm sizes of at least 1"));
+    }
+    for &n in &robots {
+        check_robot_count("--robots", n)?;
     }
     // In range: the value parser's one check of seconds.
     let timeout = std::time::Duration::from_secs_f64(timeout);
@@ -290,9 +295,7 @@ fn stop(
     agent_bin: Option<PathBuf>,
     json: bool,
 ) -> Result<i32> {
-    if robots == 0 {
-        return Err(bycoms_runtime::exit::usage("--robots takes at least 1"));
-    }
+    check_robot_count("--robots", robots)?;
     let timeout = std::time::Duration::from_secs_f64(timeout);
     let mut all = Vec::new();
     for transport in transports {
@@ -324,7 +327,7 @@ fn schedules(count: u64, rounds: u32, json: bool) -> Result<i32> {
     let mut rates = Vec::new();
     let mut ticks = 0u64;
     let mut tick_rates = Vec::new();
-    for _ in 0..rounds.max(1) {
+    for _ in 0..rounds {
         let started = std::time::Instant::now();
         ticks = 0;
         for seed in 0..count {
@@ -346,8 +349,7 @@ fn schedules(count: u64, rounds: u32, json: bool) -> Result<i32> {
         rates.push(count as f64 / s);
         tick_rates.push(ticks as f64 / s);
     }
-    rates.sort_by(f64::total_cmp);
-    tick_rates.sort_by(f64::total_cmp);
+    let percentile = |values: &[f64], q: f64| quantile(values, q).unwrap_or(f64::NAN);
     let (p50, min, max) = (percentile(&rates, 0.5), percentile(&rates, 0.0), percentile(&rates, 1.0));
     let ticks_p50 = percentile(&tick_rates, 0.5);
     // A start with robots missing (issue 19), in virtual time: its figures
@@ -403,6 +405,18 @@ fn schedules(count: u64, rounds: u32, json: bool) -> Result<i32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn schedules_without_the_harness_is_a_usage_error_naming_the_feature() {
+        let e = without_harness(10_000, 5);
+        assert_eq!(bycoms_runtime::exit::code_of(&e), bycoms_runtime::exit::USAGE);
+        assert!(
+            e.to_string().starts_with(
+                "bench schedules (--count 10000, --rounds 5) needs a build with `--features testing`"
+            ),
+            "{e}"
+        );
+    }
 
     #[test]
     fn only_agents_run_as_the_orchestrator_itself_are_warned_about() {

@@ -28,7 +28,7 @@
 //! iceoryx2 subscriber — the launch itself never waits for the bridge.
 
 use anyhow::{Context, Result};
-use bycoms_launch::config::{check_endpoints, check_swarm};
+use bycoms_launch::config::{check_endpoints, check_robot_count, check_swarm};
 use bycoms_launch::interrupt_flag;
 use bycoms_protocol::bus::ipc::{IpcBus, IpcFanIn};
 use bycoms_protocol::bus::zenoh::{Congestion, Mode, ZenohBus, ZenohConfig, ZenohPublisher};
@@ -93,9 +93,7 @@ pub fn run(args: Args) -> Result<i32> {
     let swarm = check_swarm(&args.swarm)?;
     check_endpoints("--listen", &args.listen)?;
     check_endpoints("--connect", &args.connect)?;
-    if args.robots == 0 {
-        return Err(exit::usage("--robots must be at least 1"));
-    }
+    check_robot_count("--robots", args.robots)?;
     // In range: the value parser's one check of seconds.
     let duration = args.duration.map(Duration::from_secs_f64);
     bycoms_runtime::cli::quiet_iceoryx2();

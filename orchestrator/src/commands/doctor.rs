@@ -6,9 +6,10 @@ use anyhow::Result;
 use bycoms_lab::robots::RobotsFile;
 use bycoms_launch::agents::choice::AgentSourceKind;
 use bycoms_launch::agents::gateways::GatewaysAt;
-use bycoms_launch::config::{check_endpoints, check_swarm, LaunchConfig, MAX_ROBOTS};
+use bycoms_launch::config::{check_endpoints, check_robot_count, check_swarm, LaunchConfig};
 use bycoms_mocap::MocapSource;
 use bycoms_runtime::exit;
+use bycoms_runtime::words::count;
 use std::path::PathBuf;
 use std::time::{Duration, SystemTime};
 
@@ -57,9 +58,7 @@ pub fn findings(args: &Args, now: SystemTime) -> Result<Vec<Finding>> {
         None => LaunchConfig::default(),
     };
     let robots = args.robots.unwrap_or(config.robots);
-    if robots == 0 || robots > MAX_ROBOTS {
-        return Err(exit::usage(format!("--robots {robots}: a launch deploys 1 to {MAX_ROBOTS} robots")));
-    }
+    check_robot_count("--robots", robots)?;
     let mut found = vec![host::open_files_here(robots, config.transport.kind)];
     found.extend(host::available_mb().map(|mb| host::memory(robots, mb)));
     let zenoh_dir = config.transport.zenoh_config.as_deref().and_then(std::path::Path::parent);
@@ -108,11 +107,17 @@ fn clean() -> Result<()> {
     bycoms_runtime::cli::quiet_iceoryx2();
     let report = cleanup_stale_resources::<iceoryx2::service::ipc::Service>()?;
     let locks = bycoms_launch::swarm_lock::sweep(&bycoms_launch::swarm_lock::lock_dir());
-    bycoms_runtime::logging::status_line(&format!(
-        "doctor: removed the files of {} dead iceoryx2 nodes ({} could not be removed) and {locks} unheld swarm locks",
-        report.cleaned, report.failed
-    ));
+    bycoms_runtime::logging::status_line(&cleaned(report.cleaned, report.failed, locks as u64));
     Ok(())
+}
+
+/// What `--clean` removed, in words.
+fn cleaned(nodes: u64, failed: u64, locks: u64) -> String {
+    format!(
+        "doctor: removed the files of {} ({failed} could not be removed) and {}",
+        count(nodes, "dead iceoryx2 node"),
+        count(locks, "unheld swarm lock")
+    )
 }
 
 pub fn run(args: Args) -> Result<i32> {
@@ -134,6 +139,18 @@ pub fn run(args: Args) -> Result<i32> {
 mod tests {
     use super::*;
     use crate::doctor::Level;
+
+    #[test]
+    fn what_clean_removed_is_counted_in_the_singular_and_plural() {
+        assert_eq!(
+            cleaned(1, 0, 1),
+            "doctor: removed the files of 1 dead iceoryx2 node (0 could not be removed) and 1 unheld swarm lock"
+        );
+        assert_eq!(
+            cleaned(3, 1, 0),
+            "doctor: removed the files of 3 dead iceoryx2 nodes (1 could not be removed) and 0 unheld swarm locks"
+        );
+    }
 
     /// A lab config's robots file is read for the gateways' ports: one
     /// held by this test is an error naming its robot.

@@ -16,7 +16,7 @@
 //! (robot 0, a robot outside the certificates, several launches and no
 //! `--swarm`).
 
-use super::stop::{one_launch, who};
+use super::stop::{check_why, one_launch, who};
 use anyhow::Result;
 use bycoms_launch::control::{Answer, Ask};
 use bycoms_runtime::exit;
@@ -38,7 +38,7 @@ pub struct Args {
     /// start on.
     #[arg(long, value_name = "DIR")]
     pub certs: Option<PathBuf>,
-    /// Why, recorded in the launch's summary with who asked.
+    /// Why, recorded in the launch's summary with who asked (at most 200 characters).
     #[arg(long, value_name = "TEXT", default_value = "")]
     pub why: String,
 }
@@ -48,6 +48,7 @@ pub fn run(args: Args) -> Result<i32> {
     if robot == 0 {
         return Err(exit::usage("--robot 0: robots are numbered from 1"));
     }
+    check_why(&args.why)?;
     // The ACL first: a robot outside the lab's certificates is a usage
     // error before any launch is asked.
     if let Some(dir) = &args.certs {

@@ -25,9 +25,15 @@ pub struct Args {
     pub now: bool,
     #[command(flatten)]
     pub which: super::status::Which,
-    /// Why, recorded in the launch's summary with who asked.
+    /// Why, recorded in the launch's summary with who asked (at most 200 characters).
     #[arg(long, value_name = "TEXT", default_value = "")]
     pub why: String,
+}
+
+/// `--why` within the launch's bound: a usage error, before any launch is
+/// asked, naming the flag and the length given.
+pub fn check_why(why: &str) -> Result<()> {
+    bycoms_launch::control::check_why(why).map_err(exit::usage)
 }
 
 /// Who asks, in words: user id, host and pid.
@@ -60,6 +66,7 @@ pub fn one_launch(asker: &Asker, swarm: Option<&str>) -> Result<String> {
 }
 
 pub fn run(args: Args) -> Result<i32> {
+    check_why(&args.why)?;
     let asker = args.which.asker()?;
     let swarm = one_launch(&asker, args.which.swarm.as_deref())?;
     let ask = Ask::Stop { now: args.now, who: who("orchestrator stop"), why: args.why.clone() };

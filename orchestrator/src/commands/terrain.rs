@@ -54,7 +54,7 @@ pub fn run(args: Args) -> Result<i32> {
     let top = 2.0 * bycoms_sim::terrain::width::MAX_CLEARANCE - bycoms_study::sweep::terrains::BIN_SIZE;
     if !(args.width.is_finite() && (1.0..=top).contains(&args.width)) {
         return Err(exit::usage(format!(
-            "--width must lie in [1, {top}] cells (feasible terrains measure at least 1), got {}",
+            "--width must lie in [1, {top}] cells (feasible terrains measure at least 1), got {:?}",
             args.width
         )));
     }

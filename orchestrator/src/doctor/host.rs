@@ -13,6 +13,7 @@ use super::Finding;
 use bycoms_launch::config::Transport;
 use bycoms_launch::limits::{decide, files_needed, FilesCheck};
 use bycoms_mocap::{ClientConfig, NatNetClient};
+use bycoms_runtime::words::count;
 use std::time::Duration;
 
 /// Memory of a launch besides its robots, MB (the orchestrator of a
@@ -106,13 +107,21 @@ pub fn iceoryx2_leftovers() -> Finding {
             format!("cannot list iceoryx2 nodes: {e:?}"),
             "check /dev/shm and the temporary directory's permissions",
         ),
-        Ok(()) if dead == 0 => Finding::ok(CHECK, "no leftovers of dead swarms"),
-        Ok(()) => Finding::warn(
-            CHECK,
-            format!("{dead} dead iceoryx2 nodes (killed launches or agents) left files in /dev/shm"),
-            "orchestrator doctor --clean (the next launch also removes them when it opens the bus)",
-        ),
+        Ok(()) => leftovers(dead),
     }
+}
+
+/// The finding of `dead` dead iceoryx2 nodes on this host.
+pub fn leftovers(dead: u64) -> Finding {
+    const CHECK: &str = "iceoryx2";
+    if dead == 0 {
+        return Finding::ok(CHECK, "no leftovers of dead swarms");
+    }
+    Finding::warn(
+        CHECK,
+        format!("{} (killed launches or agents) left files in /dev/shm", count(dead, "dead iceoryx2 node")),
+        "orchestrator doctor --clean (the next launch also removes them when it opens the bus)",
+    )
 }
 
 /// Whether the NatNet server of `client` answers within `timeout` per attempt.

@@ -157,3 +157,12 @@ fn an_answering_natnet_server_is_ok() {
     assert_eq!(found.level, Level::Ok, "{found:?}");
     assert!(found.cause.contains("answers (lab)"), "{}", found.cause);
 }
+
+#[test]
+fn dead_iceoryx2_nodes_are_counted_in_the_singular_and_plural() {
+    assert_eq!(host::leftovers(0).level, Level::Ok);
+    let one = host::leftovers(1);
+    assert_eq!(one.level, Level::Warn);
+    assert_eq!(one.cause, "1 dead iceoryx2 node (killed launches or agents) left files in /dev/shm");
+    assert!(host::leftovers(2).cause.starts_with("2 dead iceoryx2 nodes "), "{}", host::leftovers(2).cause);
+}

@@ -147,6 +147,8 @@ fn ended_within(source: &mut dyn AgentSource, timeout: Duration) -> Vec<Ended> {
             return ended;
         }
         assert!(Instant::now() < deadline, "nothing reported within {timeout:?}");
+        // Polled: a source says its ends only when polled (the launch
+        // polls it too, `REAP_EVERY`); it has no event to block on.
         std::thread::sleep(Duration::from_millis(5));
     }
 }

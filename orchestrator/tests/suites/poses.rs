@@ -98,6 +98,8 @@ fn drain(source: &mut dyn PoseSource, swarm: &Swarm, until: Until<'_>) -> Draine
             None if Instant::now() >= deadline => return Drained { poses: got, recorded, traffic },
             None => {}
         }
+        // Polled: a pose source is drained without waiting (the gate drains
+        // it each tick); it has no event to block on.
         std::thread::sleep(Duration::from_millis(5));
     }
 }

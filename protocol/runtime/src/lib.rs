@@ -9,6 +9,8 @@
 //!   config key (always built);
 //! * [`capped`] — the one reader of a user's text file with a size cap
 //!   (always built);
+//! * [`words`] — counts ("1 robot"), signed figures and foreign text in
+//!   the words a terminal shows (always built);
 //! * [`logging`] (feature `logging`) — one logging setup: `tracing` on
 //!   stderr, `RUST_LOG`, `--log-format text|json`, status lines, the text
 //!   of an error;
@@ -18,6 +20,7 @@
 //!
 //! and behind `process` (the default) the pieces of a swarm process:
 //!
+//! * [`child`] — the one wait for a child process with a bound;
 //! * [`lifeline`] — why an agent never outlives the orchestrator;
 //! * [`interrupt`] — the one Ctrl-C / SIGTERM / SIGHUP handler of a process;
 //! * [`inherited`] — the files a parent left open, closed first thing;
@@ -43,6 +46,7 @@ pub mod capped;
 pub mod logging;
 pub mod seconds;
 pub mod stats;
+pub mod words;
 
 #[cfg(feature = "commands")]
 pub mod exit;
@@ -53,6 +57,8 @@ pub mod out;
 pub mod bus_args;
 #[cfg(feature = "process")]
 pub mod bus_config;
+#[cfg(feature = "process")]
+pub mod child;
 #[cfg(feature = "process")]
 pub mod cli;
 #[cfg(feature = "doctor")]

@@ -33,7 +33,9 @@ pub struct FaultBus<B> {
 impl<B: Bus> FaultBus<B> {
     /// Wraps `inner`; fails if a rate is outside `0..=1`.
     pub fn new(inner: B, config: FaultConfig) -> Result<Self, BusError> {
-        config.validate().map_err(BusError::InvalidConfig)?;
+        // (The rate and its value: `FaultConfig::validate`'s own words, which
+        // the launch's config check says first.)
+        config.validate().map_err(|_| BusError::InvalidConfig("a fault rate lies outside 0..=1"))?;
         Ok(Self { inner, config, next_subscriber: Arc::new(AtomicU64::new(0)) })
     }
 

@@ -106,7 +106,7 @@ impl Scenario {
         if !(side(s.width) && side(s.height)) {
             return invalid(&format!(
                 "width and height must be positive and at most {MAX_SIDE_M} m (a launch's terrain has a cell \
-                 per metre, at most {MAX_SIDE} across), got {} m × {} m",
+                 per metre, at most {MAX_SIDE} across), got {:?} m × {:?} m",
                 s.width, s.height
             ));
         }
@@ -161,5 +161,10 @@ mod tests {
             let err = Scenario::parse(&EXP_SHORT.replace(line, &format!("{key} = {bad}"))).unwrap_err();
             assert!(err.to_string().contains("at most 1000 m"), "{key} = {bad}: {err}");
         }
+        // A huge side is said as given, not as a 301-digit number.
+        let huge = EXP_SHORT.lines().find(|l| l.starts_with("width =")).expect("width");
+        let err = Scenario::parse(&EXP_SHORT.replace(huge, "width = 1e300")).unwrap_err().to_string();
+        assert!(err.contains("got 1e300 m × "), "{err}");
+        assert!(!err.contains("00000000000"), "{err}");
     }
 }

@@ -24,6 +24,9 @@ pub const MAX_SIDE: usize = 1000;
 pub enum ParseErrorKind {
     /// No cells at all.
     Empty,
+    /// The first line is blank and rows follow (a terrain's first line is
+    /// its highest row).
+    FirstLineBlank,
     /// Line `line` has `cells` cells where line 1 has `expected`.
     Ragged { line: usize, cells: usize, expected: usize },
     /// A character other than `#`, `.`, `S`, `G`.
@@ -51,6 +54,12 @@ impl fmt::Display for ParseErrorKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Empty => write!(f, "the terrain has no cells"),
+            Self::FirstLineBlank => {
+                write!(
+                    f,
+                    "the first line is blank (a terrain's rows start on line 1, with no blank line before)"
+                )
+            }
             Self::Ragged { line, cells, expected } => {
                 write!(f, "line {line} has {cells} cells, line 1 has {expected}")
             }
@@ -101,7 +110,8 @@ pub fn parse(text: &str) -> Result<Terrain, ParseError> {
     let lines: Vec<&str> = text.split('\n').map(|l| l.strip_suffix('\r').unwrap_or(l)).collect();
     let width = lines.first().map_or(0, |l| l.chars().take(MAX_SIDE + 1).count());
     if width == 0 {
-        return Err(err(1, 1, ParseErrorKind::Empty));
+        let kind = if lines.len() > 1 { ParseErrorKind::FirstLineBlank } else { ParseErrorKind::Empty };
+        return Err(err(1, 1, kind));
     }
     if width > MAX_SIDE {
         return Err(err(1, MAX_SIDE + 1, ParseErrorKind::TooWide));

@@ -24,9 +24,9 @@ pub enum ReadError {
     #[error("{0}")]
     Io(#[from] std::io::Error),
     #[error(
-        "{} bytes, more than the limit of {MAX_FILE_BYTES} bytes for a terrain \
+        "{}more than the limit of {MAX_FILE_BYTES} bytes for a terrain \
          (at most {MAX_SIDE} × {MAX_SIDE} cells); is this a terrain file?",
-        size.map_or_else(|| format!("more than {MAX_FILE_BYTES}"), |s| s.to_string())
+        size.map_or_else(String::new, |s| format!("{s} bytes, "))
     )]
     TooLarge {
         /// The size, when known without reading.

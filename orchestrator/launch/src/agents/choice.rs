@@ -47,7 +47,7 @@ pub enum AgentSourceKind {
 
 /// `[agents]`: where agents come from.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(deny_unknown_fields, default, expecting = "an [agents] table")]
 pub struct AgentsConfig {
     /// `spawned` (default), `remote` or `real`.
     pub source: AgentSourceKind,

@@ -26,6 +26,7 @@
 //! The first revocation of a robot counts; asking again changes nothing.
 
 use super::*;
+use crate::control::shown;
 
 impl LaunchCore {
     /// Takes robot `revoke.robot`'s voice away (see the module docs).
@@ -34,6 +35,8 @@ impl LaunchCore {
         if self.slot_ref(id).is_none() || self.is_revoked(id) {
             return;
         }
+        // Kept and printed escaped and bounded, whoever sent them.
+        let (who, why) = (shown(&who), shown(&why));
         let by =
             if why.is_empty() { format!("revoked by {who}") } else { format!("revoked by {who}: {why}") };
         let unix_ms = self.unix_ms(now);

@@ -26,6 +26,7 @@
 
 use super::stopping::{Stopping, STOP_RESEND_US};
 use super::*;
+use crate::control::shown;
 use crate::summary::StopAnswer;
 
 impl LaunchCore {
@@ -33,10 +34,11 @@ impl LaunchCore {
     pub(super) fn on_stop(&mut self, now: u64, stop: Stop) {
         if self.stop.is_none() {
             let Stop { now: at_once, who, why } = stop;
+            // Kept and printed escaped and bounded, whoever sent them.
             self.stop = Some(StopSummary {
                 now: at_once,
-                who,
-                why,
+                who: shown(&who),
+                why: shown(&why),
                 unix_ms: self.unix_ms(now),
                 told: Vec::new(),
                 answered: Vec::new(),
@@ -273,5 +275,37 @@ mod tests {
         core.advance(4_000);
         assert_eq!(core.ending().map(|e| e.outcome), Some(Outcome::Interrupted), "nobody else to await");
         assert_eq!(core.stopped().map(|s| s.unanswered.clone()), Some(vec![3]));
+    }
+
+    /// A foreign client's who and why (newlines, escapes, a bell, 120 kB)
+    /// are kept, noted and recorded escaped and bounded; a revocation's too.
+    #[test]
+    fn who_and_why_from_a_foreign_client_are_escaped_and_bounded() {
+        let mut core = running();
+        let why = format!("line\n\u{1b}[2J\u{7}{}", "x".repeat(120_000));
+        core.handle(2_000, Input::Stop(Stop { now: true, who: "evil\r\n".into(), why: why.clone() }));
+        core.handle(2_000, Input::Revoke(Revoke { robot: 3, who: "evil".into(), why }));
+        core.advance(2_000);
+        let notes: Vec<String> = std::iter::from_fn(|| core.poll_output())
+            .filter_map(|o| match o {
+                Output::Note(text) => Some(text),
+                Output::Event(e) => e.reason,
+                _ => None,
+            })
+            .collect();
+        assert!(
+            notes.iter().any(|n| n.starts_with("stopped by evil\\r\\n: line\\n\\u{1b}[2J\\u{7}xx")),
+            "{notes:?}"
+        );
+        for text in &notes {
+            assert!(!text.chars().any(char::is_control) && text.len() < 1_000, "{text:?}");
+        }
+        let stop = core.stopped().expect("recorded");
+        assert_eq!(
+            (stop.who.as_str(), stop.why.chars().count()),
+            ("evil\\r\\n", crate::control::MAX_WHY_CHARS)
+        );
+        assert!(stop.why.ends_with("… (cut from 120010 characters)"), "{}", stop.why);
+        assert!(!core.revoked()[0].why.chars().any(char::is_control));
     }
 }

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 /// The `[ros2]` table of a launch config.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(deny_unknown_fields, default, expecting = "a [ros2] table")]
 pub struct Ros2Config {
     /// `ROS_DOMAIN_ID` of the graph to join.
     pub domain_id: u32,

@@ -9,7 +9,9 @@ mod records;
 
 pub use records::{Death, Outage, Outcome, Point, RevokedSummary, StopAnswer, StopSummary};
 
+use super::control::shown;
 use super::core::{ClockReading, Ending, LaunchCore, Slot, SlotState};
+use bycoms_runtime::words::signed;
 use bycoms_runtime::Traffic;
 use bycoms_sim::Vec2;
 use bycoms_study::runs::{count, verdict as verdict_line};
@@ -256,9 +258,10 @@ impl Summary {
             Outcome::TimeLimit => bycoms_sim::RunOutcome::TimeLimit,
             Outcome::Interrupted => {
                 let deployed = count(u64::from(self.robots_used), "robot");
+                // (Who asked and why, escaped: a client's words, maybe a foreign one's.)
                 let how = match &self.stop {
-                    Some(s) if s.why.is_empty() => format!("stopped by {}", s.who),
-                    Some(s) => format!("stopped by {} ({})", s.who, s.why),
+                    Some(s) if s.why.is_empty() => format!("stopped by {}", shown(&s.who)),
+                    Some(s) => format!("stopped by {} ({})", shown(&s.who), shown(&s.why)),
                     None => "interrupted".into(),
                 };
                 return format!("{how} after {:.1} s ({deployed} deployed)", self.time_s);
@@ -277,8 +280,8 @@ impl Summary {
             clocks.clone().max_by(|a, b| a.1.offset_ms.abs().total_cmp(&b.1.offset_ms.abs()))?;
         let trip = clocks.map(|(_, c)| c.round_trip_ms).fold(0.0, f64::max);
         Some(format!(
-            "clock offsets to the orchestrator: at most {:+.1} ms (robot {id}), round trips at most {trip:.1} ms",
-            worst.offset_ms
+            "clock offsets to the orchestrator: at most {} ms (robot {id}), round trips at most {trip:.1} ms",
+            signed(worst.offset_ms, 1)
         ))
     }
 
@@ -344,7 +347,8 @@ impl Summary {
             let dropped = count(r.dropped, "report");
             out.push_str(&format!(
                 "\n  robot {} revoked by {}: {dropped} of it dropped since",
-                r.robot, r.who
+                r.robot,
+                shown(&r.who)
             ));
         }
         if let Some(line) = self.clock_line() {
@@ -633,5 +637,40 @@ mod tests {
         let line =
             "clock offsets to the orchestrator: at most -42.5 ms (robot 1), round trips at most 1.6 ms";
         assert!(text.contains(line), "{text}");
+    }
+
+    #[test]
+    fn an_offset_that_rounds_to_zero_is_not_said_negative() {
+        let mut robots = vec![robot(1, RobotEnd::Stuck, 3)];
+        robots[0].clock = Some(ClockSummary { offset_ms: -0.04, round_trip_ms: 0.2, measured_unix_ms: 1 });
+        let text = summary(robots, None).text();
+        assert!(text.contains("at most +0.0 ms (robot 1)"), "{text}");
+        assert!(!text.contains("-0.0"), "{text}");
+    }
+
+    #[test]
+    fn who_stopped_the_launch_and_why_are_printed_escaped() {
+        let mut s = summary(vec![robot(1, RobotEnd::NotDeployed, 0)], None);
+        s.outcome = Outcome::Interrupted;
+        s.stop = Some(StopSummary {
+            now: false,
+            who: "me\u{1b}[2J".into(),
+            why: "a\nb\u{7}".into(),
+            unix_ms: 0,
+            told: vec![],
+            answered: vec![],
+            unanswered: vec![],
+        });
+        s.revoked.push(RevokedSummary {
+            robot: 1,
+            who: "x\ry".into(),
+            why: String::new(),
+            unix_ms: 0,
+            dropped: 0,
+        });
+        let text = s.text();
+        assert!(text.contains("stopped by me\\u{1b}[2J (a\\nb\\u{7}) after"), "{text}");
+        assert!(text.contains("robot 1 revoked by x\\ry:"), "{text}");
+        assert!(!text.chars().any(|c| c.is_control() && c != '\n'), "{text:?}");
     }
 }

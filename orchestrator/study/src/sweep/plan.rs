@@ -40,7 +40,7 @@ impl Axes {
         // Feasible terrains measure at least 1, and widths are capped.
         let top = 2.0 * MAX_CLEARANCE - BIN_SIZE;
         if let Some(w) = self.widths.iter().find(|w| !(w.is_finite() && (1.0..=top).contains(*w))) {
-            bail!("width bins (--widths) must lie in [1, {top}] (a feasible terrain measures ≥ 1; widths are measured up to {}), got {w}", 2.0 * MAX_CLEARANCE);
+            bail!("width bins (--widths) must lie in [1, {top}] (a feasible terrain measures ≥ 1; widths are measured up to {}), got {w:?}", 2.0 * MAX_CLEARANCE);
         }
         for (i, a) in self.widths.iter().enumerate() {
             if let Some(b) = self.widths[i + 1..].iter().find(|b| (*b - a).abs() < BIN_SIZE) {

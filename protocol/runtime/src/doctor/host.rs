@@ -37,7 +37,11 @@ pub fn udp_ports(gateways: &[(u32, SocketAddr)]) -> Vec<Finding> {
         }
     }
     if found.is_empty() {
-        found.push(Finding::ok(CHECK, format!("the {} gateways' UDP ports are free", gateways.len())));
+        let free = match gateways {
+            [(robot, addr)] => format!("robot {robot}'s gateway UDP port {addr} is free"),
+            many => format!("the {} gateways' UDP ports are free", many.len()),
+        };
+        found.push(Finding::ok(CHECK, free));
     }
     found
 }

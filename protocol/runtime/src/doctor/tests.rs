@@ -128,7 +128,15 @@ fn a_taken_gateway_port_is_an_error_that_names_the_robot_and_a_free_one_is_ok() 
         found[0].cause
     );
     assert!(found[0].fix.contains(&format!("sport = :{}", taken_addr.port())), "{}", found[0].fix);
-    assert_eq!(host::udp_ports(&[(1, free_addr)])[0].level, Level::Ok);
+    let one = &host::udp_ports(&[(1, free_addr)])[0];
+    assert_eq!(one.level, Level::Ok);
+    assert_eq!(
+        one.cause,
+        format!("robot 1's gateway UDP port {free_addr} is free"),
+        "one gateway, in the singular"
+    );
+    let two = &host::udp_ports(&[(1, free_addr), (2, free_addr)])[0];
+    assert_eq!(two.cause, "the 2 gateways' UDP ports are free");
 }
 
 #[test]

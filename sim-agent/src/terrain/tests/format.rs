@@ -61,9 +61,21 @@ fn from_str_is_parse() {
 
 #[test]
 fn empty() {
-    for text in ["", "\n", "\r\n"] {
+    for text in ["", "\n", "\r\n", "\n\n\r\n"] {
         assert_eq!(kind(text), (1, 1, ParseErrorKind::Empty), "{text:?}");
     }
+}
+
+#[test]
+fn a_leading_blank_line_is_named_not_called_empty() {
+    for text in ["\nS.\n.G\n", "\r\nS.\r\n.G\r\n", "\n\nS.\n.G"] {
+        assert_eq!(kind(text), (1, 1, ParseErrorKind::FirstLineBlank), "{text:?}");
+    }
+    let e = parse("\nS.\n.G\n").unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "line 1, column 1: the first line is blank (a terrain's rows start on line 1, with no blank line before)"
+    );
 }
 
 #[test]
