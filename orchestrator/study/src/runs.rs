@@ -62,14 +62,7 @@ pub fn check_eps(eps: f64) -> Result<()> {
     check_run(&RunConfig::paper(eps), &FLAGS)
 }
 
-/// `n` and the noun, singular or plural: "1 robot", "3 robots".
-pub fn count(n: u64, noun: &str) -> String {
-    if n == 1 {
-        format!("1 {noun}")
-    } else {
-        format!("{n} {noun}s")
-    }
-}
+pub use bycoms_runtime::out::count;
 
 /// The one verdict sentence of a run, for `simulate`, `launch` and the
 /// pictures alike: "robot 4 arrived after 123.4 s (3 beacons)" and the

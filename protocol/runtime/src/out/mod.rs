@@ -12,3 +12,13 @@ pub use files::{
 };
 pub use kind::Kind;
 pub use stdout::line;
+
+/// `n` and the noun, singular or plural: "1 robot", "3 robots" — for every
+/// count a command says (the study's verdicts, the recording's damage).
+pub fn count(n: u64, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
