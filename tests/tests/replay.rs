@@ -163,3 +163,78 @@ fn zstd_and_lz4_copies_of_a_launch_replay_and_draw() {
         assert!(dir.path().join(format!("{name}.svg")).is_file(), "{name}");
     }
 }
+
+/// A copy of a recording in chunks of at most 64 KiB (many chunks).
+fn small_chunks(from: &Path, to: &Path) {
+    let bytes = std::fs::read(from).expect("read recording");
+    let out = std::fs::File::create(to).expect("create copy");
+    let options = mcap::WriteOptions::new().chunk_size(Some(64 * 1024));
+    let mut writer = options.create(std::io::BufWriter::new(out)).expect("writer");
+    for message in mcap::MessageStream::new(&bytes).expect("mcap") {
+        writer.write(&message.expect("message")).expect("write");
+    }
+    writer.finish().expect("finish");
+}
+
+/// Flips a bit of the stored CRC of chunk `which` (by its index; `None`:
+/// the last) of the finished recording at `path`; returns the chunk count.
+fn damage_chunk(path: &Path, which: Option<usize>) -> usize {
+    let mut bytes = std::fs::read(path).expect("read recording");
+    let summary = mcap::Summary::read(&bytes).expect("summary").expect("a finished recording");
+    let chunks = summary.chunk_indexes.len();
+    let chunk = &summary.chunk_indexes[which.unwrap_or(chunks - 1)];
+    // Opcode and length (9 bytes), the start and end times and the size (24): its CRC.
+    bytes[chunk.chunk_start_offset as usize + 9 + 24] ^= 0x80;
+    std::fs::write(path, &bytes).expect("write the damaged recording");
+    chunks
+}
+
+/// Issue 49: `record recover` of a recording whose last chunk is damaged
+/// writes a copy without it, and every reader of the copy says it is not
+/// the whole run: `replay`'s MATCH is "of part of the run only" (it said a
+/// plain MATCH, with one decision fewer), `replay` and `record export`
+/// warn. A damaged first chunk, which holds the run metadata, is named as
+/// such (it was "not a bycoms launch recording").
+#[test]
+fn a_recovered_copy_of_a_damaged_recording_says_it_is_part_of_the_run() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("launch.mcap");
+    record_launch(&path, &[]);
+    let chunked = dir.path().join("chunked.mcap");
+    small_chunks(&path, &chunked);
+    assert!(damage_chunk(&chunked, None) >= 3, "a recording of several chunks");
+    let fixed = dir.path().join("fixed.mcap");
+    let (c, f) = (chunked.to_str().expect("utf-8"), fixed.to_str().expect("utf-8"));
+    let recovered = Proc::orchestrator(&["record", "recover", c, "--out", f]).wait(Duration::from_secs(60));
+    assert_eq!(recovered.status.code(), Some(1), "damaged: {}", recovered.stderr);
+    let out = replay(&fixed);
+    assert_eq!(out.status.code(), Some(0), "{}\n{}", out.stdout, out.stderr);
+    let verdict = out.stdout.lines().find(|l| l.starts_with("MATCH:")).expect("the verdict");
+    assert!(
+        verdict.contains("of part of the run only") && verdict.contains("left out as damaged: 1 chunk"),
+        "{verdict}"
+    );
+    assert!(
+        out.stderr.contains("not the whole run, a copy by `orchestrator record recover`"),
+        "{}",
+        out.stderr
+    );
+    let bag = dir.path().join("bag.mcap");
+    let export = ["record", "export", "--ros2", f, "--out", bag.to_str().expect("utf-8")];
+    let out = Proc::orchestrator(&export).wait(Duration::from_secs(60));
+    assert_eq!(out.status.code(), Some(0), "{}", out.stderr);
+    assert!(out.stderr.contains("not the whole run"), "{}", out.stderr);
+
+    // The launch's own recording, its first chunk (the run metadata's) damaged.
+    damage_chunk(&path, Some(0));
+    let out =
+        Proc::orchestrator(&["record", "recover", path.to_str().expect("utf-8"), "--out", f, "--force"])
+            .wait(Duration::from_secs(60));
+    assert_eq!(out.status.code(), Some(1), "{}", out.stderr);
+    assert!(
+        out.stderr.contains("the chunk holding the run metadata (bycoms/<swarm>/run) is damaged"),
+        "{}",
+        out.stderr
+    );
+    assert!(!out.stderr.contains("not a bycoms launch recording"), "{}", out.stderr);
+}

@@ -616,7 +616,7 @@ impl Driver {
             self.cfg.eps,
             dt,
             &heading,
-            self.world.unit,
+            &bycoms_study::draw::snapshot::Options::in_room(self.world.unit, self.world.room.as_ref()),
         ))
     }
 }

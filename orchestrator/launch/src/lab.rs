@@ -10,8 +10,10 @@
 //! still knows no obstacle: of the scenario it keeps only the arena, the
 //! start and the goal (the frames are the lab's business). The launch's
 //! world is an obstacle-free terrain of whole metres (the arena rounded up)
-//! with the exact start and goal, which the recording, the picture and the
-//! live view draw as they draw any terrain.
+//! with the exact start and goal, which the recording and the live view
+//! draw as they draw any terrain; the picture (`--svg`, `draw`) draws the
+//! run in the scenario's room instead ([`World::room`]): its own size and
+//! its frames, which the robots stick at.
 //!
 //! Placement (the launch core's `Placing` phase): before robot k is enabled, the operator
 //! is asked — on the terminal, in the log and on the bus
@@ -59,6 +61,7 @@ pub fn world_of(s: &Scenario) -> Result<World> {
         goal,
         bycoms_study::draw::snapshot::Unit::Metre,
     )
+    .map(|world| World { room: Some(s.clone()), ..world })
     .with_context(|| {
         format!("lab scenario {}: start and goal must lie in different square metres of the arena", s.name)
     })

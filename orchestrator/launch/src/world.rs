@@ -27,6 +27,9 @@ pub struct World {
     /// What a unit of it is: a cell of a simulated terrain, or a metre of a
     /// lab (how its pictures are drawn).
     pub unit: bycoms_study::draw::snapshot::Unit,
+    /// A lab's room (its scenario), which the picture draws the run in:
+    /// its size and frames, which the terrain does not hold.
+    pub room: Option<bycoms_lab::scenario::Scenario>,
 }
 
 impl World {
@@ -42,7 +45,7 @@ impl World {
         let mut terrain = bycoms_sim::terrain::parse(&text).context("the launch's terrain")?;
         terrain.set_start(start);
         terrain.set_goal(goal);
-        Ok(Self { name, terrain_text: text, terrain, start, goal, unit })
+        Ok(Self { name, terrain_text: text, terrain, start, goal, unit, room: None })
     }
 
     /// A 3×3 world with one wall cell, start bottom left, goal top right

@@ -61,6 +61,18 @@ pub enum RecordError {
         /// Why ("it holds no run metadata …").
         reason: String,
     },
+    /// A launch's recording whose run metadata (its first message) is in a chunk left out as
+    /// damaged: nothing of the run can be read without it (`record recover`, `draw`, `replay`).
+    #[error(
+        "{}: the chunk holding the run metadata (bycoms/<swarm>/run) is damaged ({damage}); without it nothing of the run can be read",
+        path.display()
+    )]
+    RunMetaDamaged {
+        /// The file that was read.
+        path: PathBuf,
+        /// The first chunk left out.
+        damage: Damage,
+    },
     /// A damaged part of a recording (a chunk whose CRC fails, …): `draw` and `replay` read
     /// no corrupt byte; `record recover` copies what verifies.
     #[error(

@@ -91,6 +91,9 @@ pub struct End {
     pub runs: u64,
     /// The writer the header names (`bycoms-orchestrator/…` for the launch's recordings).
     pub library: Option<String>,
+    /// What this copy lacks, when `record recover` wrote it from a recording cut short or
+    /// damaged ([`schema::RECOVERED_METADATA`]): it is not the whole run.
+    pub partial: Option<String>,
 }
 
 impl End {
@@ -112,6 +115,11 @@ impl End {
             return Ok(());
         }
         let ours = self.library.as_deref().is_some_and(|l| l.starts_with(super::LIBRARY_NAME));
+        // The launch writes its run metadata first: a launch's file without it whose
+        // first chunk was left out lost it with that chunk.
+        if let Some(damage) = self.damage.iter().find(|d| d.part == Part::Chunk).filter(|_| ours) {
+            return Err(RecordError::RunMetaDamaged { path: path.to_path_buf(), damage: damage.clone() });
+        }
         let ours = ours && self.messages == 0;
         let reason = if ours {
             "it holds no message: the launch was cut before it wrote anything (no run metadata, bycoms/<swarm>/run)"
@@ -160,6 +168,12 @@ impl Reader {
         for damage in &end.damage {
             tracing::warn!(
                 "{}: {damage}; not used here (`orchestrator record recover` rebuilds it)",
+                path.display()
+            );
+        }
+        if let Some(partial) = &end.partial {
+            tracing::warn!(
+                "{}: not the whole run, a copy by `orchestrator record recover`: {partial}",
                 path.display()
             );
         }
@@ -273,7 +287,12 @@ impl Walk {
                 }
                 visit(Item::Message { channel: &channel, header, data: &data }).map_err(Err)?;
             }
-            Record::Metadata(metadata) => visit(Item::Metadata(metadata)).map_err(Err)?,
+            Record::Metadata(metadata) => {
+                if metadata.name == schema::RECOVERED_METADATA {
+                    self.end.partial = metadata.metadata.get(schema::RECOVERED_PARTIAL).cloned();
+                }
+                visit(Item::Metadata(metadata)).map_err(Err)?
+            }
             Record::Attachment { header, data, .. } => {
                 let attachment = Attachment {
                     log_time: header.log_time,
@@ -540,6 +559,54 @@ impl Recovered {
     /// Chunks left out as damaged.
     pub fn dropped_chunks(&self) -> usize {
         self.damage.iter().filter(|d| d.part == Part::Chunk).count()
+    }
+
+    /// The damaged parts left out, counted: "2 chunks, 40 messages whose channel a dropped
+    /// chunk defined".
+    pub fn left_out(&self) -> String {
+        let count = |part: Part| self.damage.iter().filter(|d| d.part == part).count() as u64;
+        let mut parts = vec![];
+        if count(Part::Chunk) > 0 {
+            parts.push(bycoms_runtime::words::count(count(Part::Chunk), "chunk"));
+        }
+        if self.orphans > 0 {
+            parts.push(format!(
+                "{} whose channel a dropped chunk defined",
+                bycoms_runtime::words::count(self.orphans, "message")
+            ));
+        }
+        for (part, name) in [(Part::Attachment, "attachment"), (Part::Record, "record")] {
+            if count(part) > 0 {
+                parts.push(bycoms_runtime::words::count(count(part), name));
+            }
+        }
+        if count(Part::DataSection) > 0 {
+            parts.push("a record outside the chunks (the data section's CRC fails)".into());
+        }
+        if count(Part::Summary) > 0 {
+            parts.push("the summary (rebuilt)".into());
+        }
+        parts.join(", ")
+    }
+
+    /// What a copy of this read lacks of the run, if anything: the input was cut short, or
+    /// data was left out as damaged (a rebuilt summary lacks nothing).
+    pub fn partial(&self) -> Option<String> {
+        let damaged = self.damage.iter().any(|d| d.part != Part::Summary);
+        let mut said = Vec::new();
+        if let Some(why) = &self.stopped_by {
+            said.push(format!("the recording ends early ({why})"));
+        }
+        if damaged {
+            said.push(format!("left out as damaged: {}", self.left_out()));
+        }
+        (!said.is_empty()).then(|| {
+            format!(
+                "{} of the run are in it; {}",
+                bycoms_runtime::words::count(self.messages, "message"),
+                said.join("; ")
+            )
+        })
     }
 }
 

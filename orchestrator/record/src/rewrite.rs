@@ -10,6 +10,10 @@
 //! opens it. Only what verifies is copied: a chunk whose CRC fails (or that
 //! does not decompress) is left out with its messages, never copied under
 //! fresh CRCs, and the result says what was left out ([`Recovered::damage`]).
+//! A copy that is not the whole run (the input was cut short, or data was
+//! left out) says so in its `bycoms.recovered` metadata, which every reader
+//! of the copy repeats ([`Reader::stream`](super::Reader::stream)): a replay
+//! or an export of it never passes for the whole run.
 //! It reads with the recording's one streaming reader ([`Reader::salvage`],
 //! the walk [`super::recover`] counts with, so the copy keeps exactly the
 //! messages `recover` finds) and writes with the `mcap` crate's writer:
@@ -45,6 +49,12 @@ pub fn rewrite(input: &Path, output: &Path) -> Result<Recovered, RecordError> {
         let mut writer = Writer::with_options(BufWriter::new(out), options).map_err(write_error)?;
         let (recovered, end) = copy(reader, &mut writer, output)?;
         end.launch_recording(input)?;
+        if let Some(partial) = recovered.partial() {
+            // Every reader of the copy says it is not the whole run (`Reader::stream`).
+            let metadata = [(super::schema::RECOVERED_PARTIAL.to_string(), partial)].into();
+            let record = mcap::records::Metadata { name: super::schema::RECOVERED_METADATA.into(), metadata };
+            writer.write_metadata(&record).map_err(write_error)?;
+        }
         writer.finish().map_err(write_error)?;
         let out = writer.into_inner().into_inner().map_err(|e| sync_error(e.into_error()))?;
         Ok((recovered, out))

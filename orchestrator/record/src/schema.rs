@@ -79,6 +79,15 @@ pub const LIVE_WORLD: &str = "bycoms.live.World";
 /// Name of the metadata record that says what the log times mean.
 pub const CLOCK_METADATA: &str = "bycoms.clock";
 
+/// Name of the metadata record `orchestrator record recover` writes into a
+/// copy that is not the whole run (the input was cut short, or parts of it
+/// were left out as damaged): its key [`RECOVERED_PARTIAL`] says what is
+/// missing, so every reader of the copy says it too.
+pub const RECOVERED_METADATA: &str = "bycoms.recovered";
+
+/// The key of [`RECOVERED_METADATA`] that says what the copy lacks.
+pub const RECOVERED_PARTIAL: &str = "partial";
+
 /// The recording's own topics of one swarm, all under `bycoms/<swarm>/`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Topics {

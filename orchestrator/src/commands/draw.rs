@@ -11,7 +11,7 @@ use bycoms_runtime::out::{usage_unless_io, writing, Kind, Outputs};
 use bycoms_sim::terrain::parse;
 use bycoms_sim::RunConfig;
 use bycoms_study::draw::run::read_run;
-use bycoms_study::draw::snapshot::Unit;
+use bycoms_study::draw::snapshot::{Options, Unit};
 use bycoms_study::draw::trace::picture_in;
 use std::path::PathBuf;
 
@@ -91,7 +91,9 @@ pub fn run(args: Args) -> Result<i32> {
     let dt = RunConfig::paper(eps).kinematics.dt;
     let swarm = meta.swarm.as_deref().unwrap_or("?");
     let heading = format!("{} — ε = {eps}, {} launch, swarm {swarm}", meta.terrain, meta.clock());
-    let svg = picture_in(&terrain, &run.trace, eps, dt, &heading, unit_of(&meta.config));
+    let unit = unit_of(&meta.config);
+    let room = if unit == Unit::Metre { lab_room(&meta.config) } else { None };
+    let svg = picture_in(&terrain, &run.trace, eps, dt, &heading, &Options::in_room(unit, room.as_ref()));
     write(&args, &svg)
 }
 

@@ -123,7 +123,7 @@ fn recover(args: RecoverArgs) -> Result<i32> {
         tracing::error!(
             "{} is damaged: {} left out of {} (it holds only what verifies)",
             args.file.display(),
-            left_out(&recovered),
+            recovered.left_out(),
             out.display()
         );
         return Ok(bycoms_runtime::exit::ERROR);
@@ -142,35 +142,7 @@ fn recovered_line(recovered: &Recovered, out: &Path) -> String {
         None => format!("recovered {copied}"),
     };
     if !recovered.damage.is_empty() {
-        line.push_str(&format!("; left out as damaged: {}", left_out(recovered)));
+        line.push_str(&format!("; left out as damaged: {}", recovered.left_out()));
     }
     line
-}
-
-/// The damaged parts left out, counted: "2 chunks (and 40 messages whose channel they defined)".
-fn left_out(recovered: &Recovered) -> String {
-    let count = |part: Part| recovered.damage.iter().filter(|d| d.part == part).count() as u64;
-    let mut parts = vec![];
-    let chunks = count(Part::Chunk);
-    if chunks > 0 {
-        parts.push(bycoms_study::runs::count(chunks, "chunk"));
-    }
-    if recovered.orphans > 0 {
-        parts.push(format!(
-            "{} whose channel a dropped chunk defined",
-            bycoms_study::runs::count(recovered.orphans, "message")
-        ));
-    }
-    for (part, name) in [(Part::Attachment, "attachment"), (Part::Record, "record")] {
-        if count(part) > 0 {
-            parts.push(bycoms_study::runs::count(count(part), name));
-        }
-    }
-    if count(Part::DataSection) > 0 {
-        parts.push("a record outside the chunks (the data section's CRC fails)".into());
-    }
-    if count(Part::Summary) > 0 {
-        parts.push("the summary (rebuilt)".into());
-    }
-    parts.join(", ")
 }

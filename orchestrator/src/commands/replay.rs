@@ -5,7 +5,7 @@
 //! the recording reader's error, `record::Reader`, the same as for `draw`
 //! and `record recover`).
 
-use crate::replay::{read_recording, rejudge, Comparison, Line};
+use crate::replay::{read_recording, rejudge, Comparison, Line, Recorded};
 use anyhow::Result;
 use bycoms_runtime::exit;
 use std::io::Write;
@@ -77,8 +77,23 @@ pub fn run(args: Args) -> Result<i32> {
             writeln!(out, "{line}")?;
         }
     }
+    verdict(&mut out, &comparison, &recorded)
+}
+
+/// The verdict line and the exit code: a match of a run the file holds
+/// only part of (cut short, or a copy by `record recover` that lacks some
+/// of it) says so, as the run may have gone on to decisions not in it.
+fn verdict(out: &mut impl Write, comparison: &Comparison, recorded: &Recorded) -> Result<i32> {
     if comparison.matches() {
-        writeln!(out, "MATCH: the gate reached every recorded decision at the same step and position")?;
+        let partial = match (&recorded.partial, &recorded.stopped_by) {
+            (Some(lacks), _) => format!(" — of part of the run only: {lacks}"),
+            (None, Some(why)) => format!(" — of part of the run only: the recording ends early ({why})"),
+            (None, None) => String::new(),
+        };
+        writeln!(
+            out,
+            "MATCH: the gate reached every recorded decision at the same step and position{partial}"
+        )?;
         Ok(exit::SUCCESS)
     } else {
         writeln!(

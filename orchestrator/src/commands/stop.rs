@@ -19,8 +19,10 @@ use bycoms_runtime::outln;
 /// Stop a running launch: gracefully (as Ctrl-C) or every robot at once.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Tell every robot `Stop` at once (robots become beacons where they
-    /// stand), then end the launch; without it the launch ends as after Ctrl-C.
+    /// Tell every running robot `Stop` at once, then end the launch: a moving
+    /// robot that answers stands where it stopped, a beacon (its summary
+    /// says `end: stopped`, its position is in `beacons`); without it the
+    /// launch ends as after Ctrl-C (a moving robot: `end: moving`).
     #[arg(long)]
     pub now: bool,
     #[command(flatten)]

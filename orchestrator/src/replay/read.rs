@@ -85,6 +85,9 @@ pub struct Recorded {
     pub poses_on: BTreeMap<u32, Vec<Option<Pose>>>,
     /// Why reading stopped before the footer (a cut file), if it did.
     pub stopped_by: Option<String>,
+    /// What the run lacks, when the file is a copy `record recover` wrote
+    /// of a recording cut short or damaged ([`bycoms_record::End::partial`]).
+    pub partial: Option<String>,
 }
 
 /// The launch core's log in a recording, its recorded poses put back.
@@ -206,7 +209,7 @@ pub fn read_recording(path: &Path) -> Result<Recorded, ReplayError> {
         path: path.to_path_buf(),
         reason: "its run metadata does not parse".into(),
     })?;
-    Ok(Recorded { run, entries, poses_on, stopped_by: end.stopped_by })
+    Ok(Recorded { run, entries, poses_on, stopped_by: end.stopped_by, partial: end.partial })
 }
 
 /// Robot k of a pose topic (`bycoms/<swarm>/robot/<k>/pose`).

@@ -59,7 +59,13 @@ fn two_robots() -> Recorded {
         e.push(pose(1, t, 1.0));
         e.push(pose(2, t, (t - 32) as f64));
     }
-    Recorded { run: run_meta(config), entries: e, poses_on: Default::default(), stopped_by: None }
+    Recorded {
+        run: run_meta(config),
+        entries: e,
+        poses_on: Default::default(),
+        stopped_by: None,
+        partial: None,
+    }
 }
 
 #[test]
@@ -91,6 +97,7 @@ fn the_time_budget_ends_a_robot_at_its_pose_at_the_limit() {
         entries: e,
         poses_on: Default::default(),
         stopped_by: None,
+        partial: None,
     });
     // 5 periods of budget: the 6th change (step 7) is one past it, so the
     // pose at the limit is the one before (step 6).

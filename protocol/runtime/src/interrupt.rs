@@ -10,10 +10,18 @@
 //! SIGQUIT (Ctrl-\) sets the same flag: by default it ends a process at
 //! once (and dumps its core), so a launch left its agents to their
 //! lifelines, its recording unfinished, its swarm's lock file behind and
-//! no summary. `ctrlc` knows only SIGINT, SIGTERM and SIGHUP; SIGQUIT goes
-//! through `signal-hook`'s flag, set from the signal handler itself.
+//! no summary.
+//!
+//! Why the flag is set in the signal handler itself (`signal-hook`'s flag),
+//! not by a thread the handler wakes (as `ctrlc` does): an agent sleeps on
+//! its commands for up to its parked heartbeat (1 s), and the signal cuts
+//! that sleep short (`EINTR`) so the agent looks at this flag at once. With
+//! `ctrlc` the flag was set later, by its own thread, and on two busy cores
+//! the agent often looked before it was set and slept again: agents of a
+//! `kill -9`ed orchestrator (their parent-death signal is SIGTERM,
+//! `lifeline`) took up to 1.95 s to exit instead of milliseconds.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, OnceLock};
 
 /// Why the handler could not be installed (the process keeps the default
@@ -28,12 +36,14 @@ pub struct HandlerError(String);
 pub fn flag() -> Result<Arc<AtomicBool>, HandlerError> {
     static FLAG: OnceLock<Result<Arc<AtomicBool>, HandlerError>> = OnceLock::new();
     FLAG.get_or_init(|| {
+        use signal_hook::consts::{SIGHUP, SIGINT, SIGQUIT, SIGTERM};
         let flag = Arc::new(AtomicBool::new(false));
-        let handler_flag = Arc::clone(&flag);
-        ctrlc::set_handler(move || handler_flag.store(true, Ordering::SeqCst))
-            .map_err(|e| HandlerError(e.to_string()))?;
-        signal_hook::flag::register(signal_hook::consts::SIGQUIT, Arc::clone(&flag))
-            .map_err(|e| HandlerError(format!("SIGQUIT: {e}")))?;
+        for (signal, name) in
+            [(SIGINT, "SIGINT"), (SIGTERM, "SIGTERM"), (SIGHUP, "SIGHUP"), (SIGQUIT, "SIGQUIT")]
+        {
+            signal_hook::flag::register(signal, Arc::clone(&flag))
+                .map_err(|e| HandlerError(format!("{name}: {e}")))?;
+        }
         Ok(flag)
     })
     .clone()
@@ -50,6 +60,9 @@ pub fn flag_or_default() -> Arc<AtomicBool> {
 
 #[cfg(test)]
 mod tests {
+    /// The tests that raise a signal set and clear the one flag: one at a time.
+    static RAISING: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
     #[test]
     fn every_caller_shares_one_flag() {
         let a = super::flag().expect("handler installs in a test process");
@@ -57,10 +70,24 @@ mod tests {
         assert!(std::sync::Arc::ptr_eq(&a, &b));
     }
 
+    /// SIGTERM (an agent's parent-death signal) sets the flag before
+    /// `raise` returns, as a signal that cuts a sleep short does before the
+    /// sleep returns: the sleeper finds it set. (With `ctrlc` a thread of
+    /// its own set it later, and an agent went back to sleep.)
+    #[test]
+    fn sigterm_sets_the_flag_in_the_handler_itself() {
+        let _one = RAISING.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let flag = super::flag().expect("handler installs in a test process");
+        nix::sys::signal::raise(nix::sys::signal::Signal::SIGTERM).expect("raise SIGTERM");
+        assert!(flag.load(std::sync::atomic::Ordering::SeqCst), "SIGTERM set the flag before raise returned");
+        flag.store(false, std::sync::atomic::Ordering::SeqCst);
+    }
+
     #[test]
     fn sigquit_sets_the_flag_as_ctrl_c_does() {
         // Without a handler SIGQUIT ends this test process at once (core
         // dumped): the launch ended with no cleanup and no summary.
+        let _one = RAISING.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         let flag = super::flag().expect("handler installs in a test process");
         nix::sys::signal::raise(nix::sys::signal::Signal::SIGQUIT).expect("raise SIGQUIT");
         // The handler runs before `raise` returns (a signal to oneself is

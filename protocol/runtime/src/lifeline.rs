@@ -9,10 +9,12 @@
 //!    parent *thread*, so the orchestrator spawns agents from one spawner
 //!    thread that lives until its agents have ended:
 //!    `orchestrator/launch/src/agents/spawner.rs`.)
-//! 2. SIGTERM, SIGINT and SIGHUP set a flag that the agent's loop checks at
-//!    least every 50 ms (a parked robot's agent: at each of its slower
-//!    heartbeats, at most 1 s apart from a launch), so it exits through its
-//!    normal path and releases its iceoryx2 node cleanly.
+//! 2. SIGTERM, SIGINT and SIGHUP set a flag, in the signal handler itself
+//!    (`crate::interrupt`), and cut the agent's wait on its commands short;
+//!    its loop then finds the flag set and exits through its normal path,
+//!    releasing its iceoryx2 node cleanly, within milliseconds even when
+//!    it slept until its next heartbeat (a parked robot's agent: up to 1 s).
+//!    Otherwise the loop checks the flag at least every 50 ms.
 //! 3. The parent pid is compared with `getppid()` every 100 ms: if the
 //!    parent died before step 1 took effect (a race at spawn) or the signal
 //!    was lost, the agent notices it has been re-parented.

@@ -35,6 +35,9 @@ pub enum RobotEnd {
     Moving,
     /// Skipped at its turn: its agent never registered (see `death`).
     Absent,
+    /// Moving when `orchestrator stop --now` told it `Stop`, which it
+    /// answered: it stands where it stopped, a beacon.
+    Stopped,
 }
 
 impl RobotEnd {
@@ -47,6 +50,7 @@ impl RobotEnd {
             Self::Died => "lost (agent died)",
             Self::Moving => "still moving",
             Self::Absent => "absent",
+            Self::Stopped => "stopped (told Stop)",
         }
     }
 }
@@ -212,7 +216,7 @@ pub struct Summary {
     pub sim_speed: f64,
     /// Real time only: periods stepped and missed, achieved speed-up.
     pub realtime: Option<RealtimeReport>,
-    /// Positions of the beacons (stuck and dead robots), in robot order.
+    /// Positions of the beacons (stuck, dead and stopped robots), in robot order.
     #[schemars(with = "Vec<Point>")]
     pub beacons: Vec<Vec2>,
     /// Every robot.
@@ -268,8 +272,37 @@ impl Summary {
             }
             Outcome::Error => return format!("error: {}", self.error.as_deref().unwrap_or("unknown")),
         };
+        if let Some(line) = self.exhausted_line().filter(|_| sim == bycoms_sim::RunOutcome::RobotsExhausted) {
+            return line;
+        }
         let arrived = self.robots.iter().find(|r| r.end == RobotEnd::Arrived).map(|r| r.id);
         verdict_line(sim, self.robots_used, arrived, self.time_s, self.beacons.len())
+    }
+
+    /// The headline of a launch whose robots all had their turn and none
+    /// arrived, when not every robot got stuck (then it is `simulate`'s
+    /// "all 3 robots got stuck"): what became of them, counted,
+    /// "no robot arrived after 7.0 s: 2 stuck, 1 absent".
+    fn exhausted_line(&self) -> Option<String> {
+        let revoked = |id: u32| self.revoked.iter().any(|r| r.robot == id);
+        let mut counts: Vec<(&str, u64)> = Vec::new();
+        for r in &self.robots {
+            let what = match r.end {
+                RobotEnd::Died | RobotEnd::NotDeployed if revoked(r.id) => "revoked",
+                RobotEnd::Died => "lost (agent died)",
+                RobotEnd::NotDeployed => "not deployed",
+                end => end.words(),
+            };
+            match counts.iter_mut().find(|(w, _)| *w == what) {
+                Some((_, n)) => *n += 1,
+                None => counts.push((what, 1)),
+            }
+        }
+        if let [("stuck", _)] = counts.as_slice() {
+            return None;
+        }
+        let what: Vec<String> = counts.iter().map(|(w, n)| format!("{n} {w}")).collect();
+        Some(format!("no robot arrived after {:.1} s: {}", self.time_s, what.join(", ")))
     }
 
     /// The agents' host clocks in one line: the largest offset (and whose)
@@ -421,7 +454,10 @@ pub fn of(core: &LaunchCore, ending: &Ending, recording: Result<(), &str>) -> De
     let robots: Vec<RobotSummary> = slots.iter().map(|s| robot_summary(core, s)).collect();
     let beacons = slots
         .iter()
-        .filter(|s| matches!(s.state(), SlotState::Stuck | SlotState::Died))
+        .filter(|s| {
+            matches!(s.state(), SlotState::Stuck | SlotState::Died)
+                || (s.state() == SlotState::Unfinished && stopped_now(core, s))
+        })
         .filter_map(|s| s.last_pose().map(|p| Vec2::new(p.x, p.y)))
         .collect();
     let frames = slots.iter().fold((0, 0), |(s, m), slot| (s + slot.frames().seen, m + slot.frames().missed));
@@ -445,6 +481,7 @@ fn robot_summary(core: &LaunchCore, s: &Slot) -> RobotSummary {
         SlotState::Stuck => RobotEnd::Stuck,
         SlotState::Arrived => RobotEnd::Arrived,
         SlotState::Died => RobotEnd::Died,
+        SlotState::Unfinished if stopped_now(core, s) => RobotEnd::Stopped,
         SlotState::Unfinished | SlotState::Moving => RobotEnd::Moving,
         SlotState::Absent => RobotEnd::Absent,
         _ => RobotEnd::NotDeployed,
@@ -468,6 +505,11 @@ fn robot_summary(core: &LaunchCore, s: &Slot) -> RobotSummary {
         outages: s.outages().to_vec(),
         clock: s.clock().map(|c| ClockSummary::of(core, c)),
     }
+}
+
+/// Whether robot `s` was told `Stop` by a stop `now` and answered it.
+fn stopped_now(core: &LaunchCore, s: &Slot) -> bool {
+    core.stopped().is_some_and(|stop| stop.now && stop.answered.iter().any(|a| a.robot == s.id()))
 }
 
 /// "4", "4–6", "4–6, 9": sorted ids as ranges; `None` when empty.
@@ -615,6 +657,39 @@ mod tests {
         assert!(text.contains("robot 4 arrived after 1.1 s (2 beacons)"), "{text}");
         assert!(text.contains("robot 4: arrived"), "{text}");
         assert!(!text.contains("robot 3 arrived"), "{text}");
+    }
+
+    /// Issue 49: the headline of a launch where no robot arrived names
+    /// what became of each robot; "all N robots got stuck" only when they
+    /// all did.
+    #[test]
+    fn the_headline_of_robots_exhausted_names_what_happened_to_each() {
+        let exhausted = |robots: Vec<RobotSummary>, revoked: &[u32]| {
+            let revoked = revoked
+                .iter()
+                .map(|&robot| RevokedSummary {
+                    robot,
+                    who: "me".into(),
+                    why: String::new(),
+                    unix_ms: 0,
+                    dropped: 0,
+                })
+                .collect();
+            Summary { outcome: Outcome::RobotsExhausted, success: false, revoked, ..summary(robots, None) }
+                .line()
+        };
+        let all_revoked =
+            exhausted(vec![robot(1, RobotEnd::Died, 5), robot(2, RobotEnd::NotDeployed, 0)], &[1, 2]);
+        assert_eq!(all_revoked, "no robot arrived after 1.1 s: 2 revoked");
+        let one_absent = exhausted(
+            vec![robot(1, RobotEnd::Stuck, 5), robot(2, RobotEnd::Absent, 0), robot(3, RobotEnd::Stuck, 6)],
+            &[],
+        );
+        assert_eq!(one_absent, "no robot arrived after 1.1 s: 2 stuck, 1 absent");
+        let died = exhausted(vec![robot(1, RobotEnd::Died, 5), robot(2, RobotEnd::Stuck, 5)], &[]);
+        assert_eq!(died, "no robot arrived after 1.1 s: 1 lost (agent died), 1 stuck");
+        let stuck = exhausted(vec![robot(1, RobotEnd::Stuck, 5), robot(2, RobotEnd::Stuck, 6)], &[]);
+        assert_eq!(stuck, "all 2 robots got stuck after 1.1 s");
     }
 
     #[test]

@@ -48,6 +48,37 @@ fn a_stop_at_a_seeded_moment_tells_every_running_robot_at_once_and_names_who() {
     assert!(answered * 4 > told * 3, "only {answered} of {told} robots told answered");
 }
 
+/// `orchestrator stop --now` while robot 1 moves (in virtual time): robot
+/// 1 answers that it stopped, and the summary says so, as `stop --help`
+/// promises: `end: stopped` where it stands, a beacon (it said "still
+/// moving", with no beacon).
+#[test]
+fn a_robot_stopped_now_while_it_moves_ends_stopped_as_a_beacon() {
+    let case = long_case();
+    let clean = harness::run(&case, &Schedule::clean(1, 3));
+    let time_of = |kind: fn(GateKind) -> bool| {
+        let at = clean.gates.iter().position(|g| g.robot.0 == 1 && kind(g.kind));
+        at.map(|i| clean.gate_times_us[i])
+    };
+    let deployed = time_of(|k| k == GateKind::Deployed).expect("robot 1 deployed");
+    let decided = time_of(|k| k != GateKind::Deployed).expect("robot 1 judged");
+    let mut s = Schedule::clean(1, 3);
+    s.stop_at_us = Some(((deployed + decided) / 2, true));
+    let report = harness::run(&case, &s);
+    harness::check(&report, &s).unwrap_or_else(|e| panic!("{e}"));
+    let stop = report.stopped.as_ref().expect("the stop was taken");
+    assert!(stop.answered.iter().any(|a| a.robot == 1), "robot 1 answered: {stop:?}");
+    let summary = report.decided.as_ref().expect("summary");
+    let robot = &summary.robots[0];
+    assert_eq!(robot.end, bycoms_launch::RobotEnd::Stopped, "{robot:?}");
+    let at = (robot.x.expect("x"), robot.y.expect("y"));
+    assert_eq!(
+        summary.beacons.iter().map(|b| (b.x, b.y)).collect::<Vec<_>>(),
+        [at],
+        "a beacon where it stands"
+    );
+}
+
 /// A robot revoked while it moves (`orchestrator revoke`, in virtual
 /// time) is told `Stop` once and becomes a beacon where it stopped, like a
 /// robot whose agent died; the launch goes on with the others, never

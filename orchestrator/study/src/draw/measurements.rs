@@ -164,10 +164,7 @@ fn draw_room(svg: &mut Svg, px: &impl Fn(Vec2) -> (f64, f64), r: &Scenario) {
     svg.open_group("room");
     let ((x0, y0), (x1, y1)) = (px(Vec2::new(0.0, r.height)), px(Vec2::new(r.width, 0.0)));
     svg.rect(x0, y0, x1 - x0, y1 - y0, r##"fill="none" stroke="#444" stroke-width="1.2""##);
-    for o in &r.obstacles {
-        let ((x0, y0), (x1, y1)) = (px(Vec2::new(o.x0, o.y1)), px(Vec2::new(o.x1, o.y0)));
-        svg.rect(x0, y0, x1 - x0, y1 - y0, r##"class="obstacle" fill="#4d5d6e""##);
-    }
+    super::snapshot::frames(svg, px, r);
     let (sx, sy) = px(Vec2::new(r.start.x, r.start.y));
     let d = 6.0;
     svg.line(sx - d, sy - d, sx + d, sy + d, r#"class="start" stroke="black" stroke-width="2""#);

@@ -6,6 +6,13 @@
 //! g = g_th = 1/ε² drawn bold: the "virtual wall" it turns along). Below the
 //! arena a scale bar and a legend.
 //!
+//! A lab's run (metres) is drawn in its room when the lab's scenario is
+//! known ([`Options::room`]): the room's own size, not the whole metres
+//! the launch's terrain rounds it up to, and its frames, which the launch's
+//! terrain does not hold (the orchestrator knows no obstacle), so robots
+//! stuck at a frame are drawn against it. A stuck robot is ringed (its ε
+//! circle in cells, a fixed ring in metres), as the legend shows.
+//!
 //! [`render_strip`] draws the same at several moments side by side, like
 //! the panels of `fig:sim_result`; the moments come from the recorded
 //! trajectories ([`super::timeline`]), not from re-running.
@@ -13,6 +20,7 @@
 use super::contour::Grid;
 use super::svg::{number, text_width, Svg};
 use super::timeline::{robots_at, RobotAt};
+use bycoms_lab::scenario::Scenario;
 use bycoms_sim::runner::RunResult;
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::Vec2;
@@ -49,31 +57,47 @@ pub enum Unit {
 
 /// What to draw besides the run itself.
 #[derive(Debug, Clone, Copy)]
-pub struct Options {
+pub struct Options<'a> {
     /// Draw the potential contours.
     pub contours: bool,
     /// The field constant c of g = c/d² (the paper's c = 1).
     pub field_constant: f64,
     /// Cells or metres.
     pub unit: Unit,
+    /// A lab's room (metres): its size and frames are drawn instead of the
+    /// terrain's whole cells.
+    pub room: Option<&'a Scenario>,
 }
 
-impl Default for Options {
+impl Default for Options<'_> {
     fn default() -> Self {
-        Self { contours: true, field_constant: 1.0, unit: Unit::Cell }
+        Self { contours: true, field_constant: 1.0, unit: Unit::Cell, room: None }
     }
 }
 
-impl Options {
+impl<'a> Options<'a> {
     /// The options of a run in `unit`.
     pub fn in_unit(unit: Unit) -> Self {
         Self { contours: unit == Unit::Cell, unit, ..Self::default() }
     }
+
+    /// The options of a lab's run in `room` (metres), or in `unit` without one.
+    pub fn in_room(unit: Unit, room: Option<&'a Scenario>) -> Self {
+        Self { room: room.filter(|_| unit == Unit::Metre), ..Self::in_unit(unit) }
+    }
+
+    /// The arena's width and height in units: the room's, else the terrain's.
+    fn arena(&self, terrain: &Terrain) -> (f64, f64) {
+        match self.room {
+            Some(r) => (r.width, r.height),
+            None => (terrain.width() as f64, terrain.height() as f64),
+        }
+    }
 }
 
-/// Pixels per unit for `terrain`: 10, or more for a small arena.
-fn scale_of(terrain: &Terrain) -> f64 {
-    let longer = terrain.width().max(terrain.height()).max(1) as f64;
+/// Pixels per unit for an arena of `(w, h)` units: 10, or more for a small arena.
+fn scale_of((w, h): (f64, f64)) -> f64 {
+    let longer = w.max(h).max(1.0);
     (ARENA_PX / longer).floor().max(SCALE)
 }
 
@@ -95,10 +119,11 @@ pub fn render_with(
     title: [&str; 2],
     opts: &Options,
 ) -> String {
-    let scale = scale_of(terrain);
-    let arena_w = terrain.width() as f64 * scale;
+    let (w, h) = opts.arena(terrain);
+    let scale = scale_of((w, h));
+    let arena_w = w * scale;
     let width = arena_w.max(legend_width(opts)).max(title_width(title)) + 2.0 * MARGIN;
-    let legend_top = TOP + terrain.height() as f64 * scale + GAP;
+    let legend_top = TOP + h * scale + GAP;
     let height = legend_top + legend_height(width - 2.0 * MARGIN, opts) + MARGIN;
     let mut svg = Svg::new(width, height);
     svg.text(MARGIN, 18.0, 13.0, "start", title[0]);
@@ -118,9 +143,9 @@ pub fn render_strip(
     moments: &[(u64, String)],
     opts: &Options,
 ) -> String {
-    let scale = scale_of(terrain);
-    let arena_w = terrain.width() as f64 * scale;
-    let arena_h = terrain.height() as f64 * scale;
+    let (w, h) = opts.arena(terrain);
+    let scale = scale_of((w, h));
+    let (arena_w, arena_h) = (w * scale, h * scale);
     let panels = moments.len().max(1) as f64;
     let strip_w = panels * arena_w + (panels - 1.0) * GAP;
     let width = strip_w.max(legend_width(opts)).max(title_width(title)) + 2.0 * MARGIN;
@@ -158,10 +183,13 @@ fn panel(
     step: u64,
     opts: &Options,
 ) {
-    let (w, h) = (terrain.width() as f64, terrain.height() as f64);
+    let (w, h) = opts.arena(terrain);
     let px = to_px(ox, oy, h, scale);
     svg.rect(ox, oy, w * scale, h * scale, r##"fill="none" stroke="#444" stroke-width="1""##);
-    blocked_cells(svg, terrain, &px, scale);
+    match opts.room {
+        Some(room) => frames(svg, &px, room),
+        None => blocked_cells(svg, terrain, &px, scale),
+    }
     let robots = robots_at(result, step);
     if opts.contours {
         contours(svg, terrain, &robots, eps, opts.field_constant, &px);
@@ -178,9 +206,12 @@ fn panel(
     for robot in &robots {
         let colour = PALETTE[(robot.id as usize - 1) % PALETTE.len()];
         let (x, y) = px(robot.position);
-        if robot.stuck && opts.unit == Unit::Cell {
-            let style = format!(r#"fill="none" stroke="{colour}" stroke-dasharray="4 3""#);
-            svg.circle(x, y, eps * scale, &style);
+        if robot.stuck {
+            // Its ε circle in cells; in metres (a lab's own field) a ring.
+            let radius = if opts.unit == Unit::Cell { eps * scale } else { RING };
+            let style =
+                format!(r#"fill="none" stroke="{colour}" stroke-dasharray="4 3" class="beacon-ring""#);
+            svg.circle(x, y, radius, &style);
         }
         svg.circle(x, y, 3.5, &format!(r##"fill="{colour}" stroke="#000" stroke-width="0.5""##));
         let label = robot.id.to_string();
@@ -195,6 +226,17 @@ fn panel(
 
 /// Font size of the robot numbers.
 const NUMBER_FONT: f64 = 9.0;
+/// Radius of the ring around a stuck robot of a lab (metres), px.
+const RING: f64 = 8.0;
+
+/// A lab room's frames (obstacles), `px` placing a point of the room: what
+/// the robots of a lab get stuck at (`measurements` draws them too).
+pub(super) fn frames(svg: &mut Svg, px: &impl Fn(Vec2) -> (f64, f64), room: &Scenario) {
+    for o in &room.obstacles {
+        let ((x0, y0), (x1, y1)) = (px(Vec2::new(o.x0, o.y1)), px(Vec2::new(o.x1, o.y0)));
+        svg.rect(x0, y0, x1 - x0, y1 - y0, &format!(r#"class="obstacle" fill="{BLOCKED}""#));
+    }
+}
 /// Outer radius of the goal star, px.
 const STAR: f64 = 9.0;
 
@@ -293,7 +335,17 @@ fn legend(opts: &Options) -> Vec<(usize, &'static str)> {
     match opts.unit {
         Unit::Cell => LEGEND.iter().copied().enumerate().filter(|&(i, _)| i != 6 || opts.contours).collect(),
         Unit::Metre => {
-            vec![(0, LEGEND[0]), (1, LEGEND[1]), (2, LEGEND[2]), (3, LEGEND[3]), (4, "stuck robot (beacon)")]
+            let mut items = vec![
+                (0, LEGEND[0]),
+                (1, LEGEND[1]),
+                (2, LEGEND[2]),
+                (3, LEGEND[3]),
+                (4, "stuck robot (beacon)"),
+            ];
+            if opts.room.is_some_and(|r| !r.obstacles.is_empty()) {
+                items.push((5, "frame (obstacle)"));
+            }
+            items
         }
     }
 }
@@ -328,7 +380,7 @@ fn scale_and_legend(
 ) {
     let length = [0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0]
         .into_iter()
-        .rfind(|&c| c <= terrain.width() as f64 / 3.0)
+        .rfind(|&c| c <= opts.arena(terrain).0 / 3.0)
         .unwrap_or(1.0);
     svg.open_group("scale-bar");
     let (bx, by) = (x, y + 6.0);
@@ -462,6 +514,61 @@ mod tests {
         assert!(w >= 400.0 && (w / h - 1.5).abs() < 1e-9, "arena {w} × {h} px");
     }
 
+    /// Issue 49: exp-long's run drawn in its room: the frame the robots
+    /// stuck at, the room's 3.5 m × 2.5 m (not the terrain's 4 × 3 whole
+    /// metres), each robot numbered, each stuck one ringed, as the legend says.
+    #[test]
+    fn a_lab_run_is_drawn_in_its_room_with_its_frames_numbers_and_rings() {
+        let room = bycoms_lab::process::load_scenario("exp-long").expect("built in");
+        // The launch's terrain: the room rounded up to whole metres, no frame.
+        let terrain = bycoms_sim::terrain::parse("....\n....\n....\n").unwrap();
+        let run = |id: u32, end, at: Vec2| bycoms_sim::runner::RobotRun {
+            id,
+            end,
+            position: at,
+            steps: 2,
+            trajectory: vec![Vec2::new(0.4, 1.0), Vec2::new(0.9, at.y), at],
+        };
+        use bycoms_sim::runner::RobotRunEnd::{Arrived, Stuck};
+        let robots = vec![
+            run(1, Stuck, Vec2::new(1.47, 1.0)),
+            run(2, Stuck, Vec2::new(1.47, 1.6)),
+            run(3, Arrived, Vec2::new(3.0, 1.0)),
+        ];
+        let result = RunResult {
+            success: true,
+            outcome: bycoms_sim::RunOutcome::Arrived,
+            steps: 6,
+            time: 0.6,
+            robots_used: 3,
+            beacons: vec![robots[0].position, robots[1].position],
+            robots,
+        };
+        let svg = render_with(
+            &terrain,
+            &result,
+            3.0,
+            ["exp-long", "v"],
+            &Options::in_room(Unit::Metre, Some(&room)),
+        );
+        let (x, y, w, h) = arena(&svg);
+        assert!((w / h - 3.5 / 2.5).abs() < 1e-9, "the room's 3.5 m × 2.5 m, not 4 × 3: {w} × {h}");
+        assert_eq!(
+            svg.matches(r#"class="obstacle""#).count(),
+            room.obstacles.len() + 1,
+            "the frame, and its legend swatch"
+        );
+        let frame = svg.split("<rect ").find(|r| r.contains(r#"class="obstacle""#)).expect("the frame");
+        let left: f64 = frame[frame.find("x=\"").unwrap() + 3..].split('"').next().unwrap().parse().unwrap();
+        assert!((left - (x + 1.6 / 3.5 * w)).abs() < 1e-6, "the frame at x = 1.6 m: {frame}");
+        assert!(y > 0.0);
+        assert_eq!(svg.matches(r#"class="beacon-ring""#).count(), 2, "robots 1 and 2 ringed: {svg}");
+        for n in 1..=3 {
+            assert!(svg.contains(&format!(r#"class="robot-number">{n}</text>"#)), "robot {n} numbered");
+        }
+        assert!(svg.contains(">frame (obstacle)<"), "the legend names the frame");
+    }
+
     #[test]
     fn a_lab_run_is_drawn_in_metres_without_the_simulators_field() {
         let terrain = bycoms_sim::terrain::parse("...\n...\n").unwrap();
@@ -486,7 +593,10 @@ mod tests {
         let bar = &svg[svg.find(r#"<g id="scale-bar">"#).unwrap()..];
         assert!(bar[..bar.find("</g>").unwrap()].contains(">1 m<"), "{svg}");
         assert!(!svg.contains("cell") && !svg.contains("ε"), "no cells, no ε: {svg}");
-        assert!(!svg.contains("stroke-dasharray=\"4 3\"") && !svg.contains("potential-contours"), "{svg}");
+        assert!(!svg.contains("potential-contours"), "{svg}");
+        let ring =
+            svg.lines().find(|l| l.contains(r#"class="beacon-ring""#)).expect("the stuck robot ringed");
+        assert!(ring.contains(&format!(r#"r="{RING:.2}""#)), "a ring, not the simulator's ε circle: {ring}");
         let width: f64 = svg[svg.find("width=\"").unwrap() + 7..].split('"').next().unwrap().parse().unwrap();
         assert!(width >= text_width(title[0], 13.0) + 2.0 * MARGIN, "the title fits in {width} px");
         let (_, _, w, _) = arena(&svg);

@@ -273,14 +273,21 @@ impl Trace {
 /// The snapshot picture of a traced run on `terrain` (start and goal set):
 /// `heading` on the first title line, the verdict on the second.
 pub fn picture(terrain: &Terrain, trace: &Trace, eps: f64, dt: f64, heading: &str) -> String {
-    picture_in(terrain, trace, eps, dt, heading, Unit::Cell)
+    picture_in(terrain, trace, eps, dt, heading, &Options::in_unit(Unit::Cell))
 }
 
-/// [`picture`] of a world in `unit` (a lab's run: metres).
-pub fn picture_in(terrain: &Terrain, trace: &Trace, eps: f64, dt: f64, heading: &str, unit: Unit) -> String {
+/// [`picture`] drawn with `opts` (a lab's run: metres, in its room).
+pub fn picture_in(
+    terrain: &Terrain,
+    trace: &Trace,
+    eps: f64,
+    dt: f64,
+    heading: &str,
+    opts: &Options,
+) -> String {
     let result = trace.result(dt);
     let verdict = summary_line(&result);
-    super::snapshot::render_with(terrain, &result, eps, [heading, &verdict], &Options::in_unit(unit))
+    super::snapshot::render_with(terrain, &result, eps, [heading, &verdict], opts)
 }
 
 #[cfg(test)]
