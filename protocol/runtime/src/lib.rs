@@ -7,8 +7,9 @@
 //!   built: no dependencies);
 //! * [`seconds`] — the one check of a number of seconds from a flag or a
 //!   config key (always built);
-//! * [`capped`] — the one reader of a user's text file with a size cap
-//!   (always built);
+//! * [`capped`] — the one reader of a user's file with a size cap
+//!   (always built; `bycoms_protocol::capped`, so that the protocol's own
+//!   readers of key files, zenoh configs and certificates use it too);
 //! * [`logging`] (feature `logging`) — one logging setup: `tracing` on
 //!   stderr, `RUST_LOG`, `--log-format text|json`, status lines, the text
 //!   of an error;
@@ -38,7 +39,7 @@
 //!   share (`orchestrator doctor`, `gateway doctor`, `sim-agent doctor`).
 #![forbid(unsafe_code)]
 
-pub mod capped;
+pub use bycoms_protocol::capped;
 #[cfg(feature = "logging")]
 pub mod logging;
 pub mod seconds;
