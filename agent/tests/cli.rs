@@ -24,7 +24,7 @@ fn a_missing_key_file_is_a_clear_error() {
         "--robot",
         "1",
         "--bind",
-        "127.0.0.1:0",
+        "127.0.0.1:47001",
         "--key-file",
         "/nonexistent/robot-1.key",
     ]);
@@ -35,7 +35,7 @@ fn a_missing_key_file_is_a_clear_error() {
 #[test]
 fn robot_zero_and_a_bad_address_are_usage_errors() {
     let (code, err) =
-        agent(&["--swarm", "gwcli", "--robot", "0", "--bind", "127.0.0.1:0", "--key-file", "k"]);
+        agent(&["--swarm", "gwcli", "--robot", "0", "--bind", "127.0.0.1:47001", "--key-file", "k"]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("--robot"), "{err}");
     let (code, err) = agent(&["--swarm", "gwcli", "--robot", "1", "--bind", "nowhere", "--key-file", "k"]);
@@ -43,10 +43,77 @@ fn robot_zero_and_a_bad_address_are_usage_errors() {
     assert!(err.contains("--bind"), "{err}");
 }
 
+/// A robot's gateway address is fixed (flashed into the robot): port 0 is
+/// refused, naming the flag and the value, as is no parent (pid 0) or
+/// init (pid 1) for `--parent-pid` (issue 49).
+#[test]
+fn port_0_and_a_parent_pid_of_0_or_1_are_usage_errors() {
+    let base = ["--swarm", "gwcli", "--robot", "1", "--key-file", "/nonexistent/k"];
+    let (code, err) = agent(&[&base[..], &["--bind", "127.0.0.1:0"]].concat());
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--bind") && err.contains("127.0.0.1:0 has port 0"), "{err}");
+    let (code, err) = agent(&[
+        "doctor",
+        "--connect",
+        "tcp/127.0.0.1:7447",
+        "--swarm",
+        "s",
+        "--robot",
+        "1",
+        "--bind",
+        "127.0.0.1:0",
+    ]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--bind") && err.contains("has port 0"), "{err}");
+    for pid in ["0", "1"] {
+        let (code, err) = agent(&[&base[..], &["--bind", "127.0.0.1:47001", "--parent-pid", pid]].concat());
+        assert_eq!(code, Some(2), "{pid}: {err}");
+        assert!(err.contains("--parent-pid") && err.contains(&format!("got \"{pid}\"")), "{err}");
+    }
+}
+
+/// Every span in milliseconds takes the one range of seconds (issue 49):
+/// a heartbeat of u64::MAX ms (none at all) and of 0 are usage errors,
+/// and so is the doctor's timeout of either.
+#[test]
+fn millisecond_flags_take_the_one_range() {
+    let base =
+        ["--swarm", "gwcli", "--robot", "1", "--bind", "127.0.0.1:47001", "--key-file", "/nonexistent/k"];
+    for ms in ["18446744073709551615", "0"] {
+        let (code, err) = agent(&[&base[..], &["--heartbeat-ms", ms]].concat());
+        assert_eq!(code, Some(2), "{ms}: {err}");
+        assert!(err.contains("--heartbeat-ms") && err.contains("(0, 100000000000]"), "{err}");
+        let doctor =
+            ["doctor", "--connect", "tcp/127.0.0.1:7447", "--swarm", "s", "--robot", "1", "--timeout-ms", ms];
+        let (code, err) = agent(&doctor);
+        assert_eq!(code, Some(2), "{ms}: {err}");
+        assert!(err.contains("--timeout-ms") && err.contains("milliseconds in (0, 100000000000]"), "{err}");
+    }
+}
+
+/// A key file that is a device without end is refused at the cap of a key
+/// file, naming the file, instead of being read until memory runs out
+/// (issue 49: `--key-file /dev/zero` grew to 24 GB).
+#[test]
+fn a_key_file_without_end_is_refused_at_its_cap() {
+    let (code, err) =
+        agent(&["--swarm", "gwcli", "--robot", "1", "--bind", "127.0.0.1:47001", "--key-file", "/dev/zero"]);
+    assert_ne!(code, Some(0), "{err}");
+    assert!(err.contains("bad key file /dev/zero: more than the limit of 1024 bytes"), "{err}");
+}
+
 #[test]
 fn a_bad_swarm_name_is_a_usage_error() {
-    let (code, err) =
-        agent(&["--swarm", "a/b", "--robot", "1", "--bind", "127.0.0.1:0", "--key-file", "/nonexistent/k"]);
+    let (code, err) = agent(&[
+        "--swarm",
+        "a/b",
+        "--robot",
+        "1",
+        "--bind",
+        "127.0.0.1:47001",
+        "--key-file",
+        "/nonexistent/k",
+    ]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("bad swarm name"), "{err}");
 }
@@ -61,8 +128,11 @@ fn sigint_exits_130_like_the_orchestrator() {
     let key = dir.path().join("robot-1.key");
     std::fs::write(&key, "ab".repeat(32)).expect("key file");
     let swarm = format!("gwsigint{}", std::process::id());
+    // The gateway's fixed port (0 is refused): one free a moment ago.
+    let bind = std::net::UdpSocket::bind("127.0.0.1:0").and_then(|s| s.local_addr()).expect("free port");
+    let bind = bind.to_string();
     let mut child = Command::new(env!("CARGO_BIN_EXE_gateway"))
-        .args(["--swarm", &swarm, "--robot", "1", "--bind", "127.0.0.1:0", "--key-file"])
+        .args(["--swarm", &swarm, "--robot", "1", "--bind", &bind, "--key-file"])
         .arg(&key)
         .env("RUST_LOG", "info")
         .env_remove("BYCOMS_LOG_FORMAT")

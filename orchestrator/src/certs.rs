@@ -61,6 +61,17 @@ use std::path::{Path, PathBuf};
 /// Common name of the orchestrator's certificate.
 pub const ORCHESTRATOR_CN: &str = "orchestrator";
 
+/// Largest file of the set read back (a config, a certificate, a key),
+/// bytes: through the one capped reader, so a file linked to `/dev/zero`
+/// is refused one byte past it.
+const MAX_READ_BYTES: u64 = bycoms_protocol::bus::zenoh::certs::MAX_CERTIFICATE_FILE_LEN;
+
+/// The text of `path`, capped ([`MAX_READ_BYTES`]); the error names the file.
+fn read_text(path: &Path) -> Result<String> {
+    bycoms_runtime::capped::read_capped_file(path, MAX_READ_BYTES)
+        .with_context(|| format!("cannot read {}", path.display()))
+}
+
 /// Common name of robot `k`'s certificate (the one every agent checks its
 /// own against before it connects, `bus::zenoh::certs`).
 pub fn robot_cn(k: u32) -> String {
@@ -267,7 +278,7 @@ fn write_config(path: &Path, header: &str, config: &Value, force: bool) -> Resul
 /// A zenoh config this module wrote, read back: its comment lines dropped,
 /// the rest is JSON.
 pub fn read_config(path: &Path) -> Result<Value> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text = read_text(path)?;
     let json: String =
         text.lines().filter(|l| !l.trim_start().starts_with("//")).collect::<Vec<_>>().join("\n");
     serde_json::from_str(&json)
@@ -459,11 +470,10 @@ pub fn add_robots(plan: &Plan) -> Result<Generated> {
         .and_then(|c| c["connect"]["endpoints"][0].as_str().map(str::to_string))
         .unwrap_or_else(|| plan.connect.clone());
 
-    let key_pem =
-        std::fs::read_to_string(&ca_key).with_context(|| format!("cannot read {}", ca_key.display()))?;
+    let key_pem = read_text(&ca_key)?;
     let key =
         KeyPair::from_pem(&key_pem).with_context(|| format!("{} is not a private key", ca_key.display()))?;
-    let ca_pem = std::fs::read_to_string(&ca).with_context(|| format!("cannot read {}", ca.display()))?;
+    let ca_pem = read_text(&ca)?;
     let issuer = Issuer::from_ca_cert_pem(&ca_pem, key)
         .with_context(|| format!("{} is not a CA certificate", ca.display()))?;
     let robot_configs = new

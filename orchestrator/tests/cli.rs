@@ -607,6 +607,30 @@ fn doctor_exits_0_1_2_and_prints_its_findings_as_json() {
     assert!(stderr(&usage).contains("--robots 0"), "{}", stderr(&usage));
 }
 
+/// `doctor --timeout-ms` takes the one range of every span, in
+/// milliseconds (u64::MAX never returned, 0 was accepted), and `status
+/// --interval` has one range, said the same for any value outside it
+/// (issue 49).
+#[test]
+fn durations_in_any_unit_have_one_range() {
+    for ms in ["18446744073709551615", "0"] {
+        let o = orchestrator(&["doctor", "--timeout-ms", ms]);
+        assert_eq!(o.status.code(), Some(2), "{ms}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("--timeout-ms") && stderr(&o).contains("milliseconds in (0, 100000000000]"),
+            "{}",
+            stderr(&o)
+        );
+    }
+    for s in ["0", "0.01", "100", "1e300"] {
+        let o = orchestrator(&["status", "--watch", "--interval", s]);
+        assert_eq!(o.status.code(), Some(2), "{s}: {}", stderr(&o));
+        let err = stderr(&o);
+        assert!(err.contains("--interval") && err.contains("seconds in [0.1, 60]"), "{err}");
+        assert!(!err.contains("100000000"), "one range only: {err}");
+    }
+}
+
 /// `orchestrator revoke`: its help, usage errors (exit 2) naming the flag,
 /// exit 1 when no launch runs (the ACL, with `--certs`, rewritten all the
 /// same), and `certs --revoke` saying that no launch of the lab took it.

@@ -44,6 +44,38 @@ fn a_huge_terrain_file_is_refused_before_it_is_read() {
     assert!(stderr(&o).contains("more than the limit"), "{}", stderr(&o));
 }
 
+/// Files without end (`/dev/zero`) given as a zenoh config or as the CA of
+/// a certificate set are refused at their cap, naming the file, instead of
+/// read until memory runs out (issue 49); a zenoh config that is no config
+/// is the file's problem in `doctor --connect`, not the network's.
+#[test]
+fn a_zenoh_config_or_certificate_without_end_is_refused_at_its_cap() {
+    let o = orchestrator(&["status", "--connect", "tcp/127.0.0.1:9", "--zenoh-config", "/dev/zero"]);
+    assert_ne!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stderr(&o).contains("/dev/zero: more than the limit of 4194304 bytes"), "{}", stderr(&o));
+    let dir = tempfile::tempdir().unwrap();
+    std::os::unix::fs::symlink("/dev/zero", dir.path().join("ca.pem")).unwrap();
+    let o = orchestrator(&["doctor", "--robots", "1", "--certs", dir.path().to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stdout(&o).contains("more than the limit of 1048576 bytes"), "{}", stdout(&o));
+    for (config, says) in [("/dev/zero", "more than the limit"), ("/etc/passwd", "not a zenoh JSON5 config")]
+    {
+        let o = orchestrator(&[
+            "doctor",
+            "--robots",
+            "1",
+            "--connect",
+            "tcp/127.0.0.1:9",
+            "--zenoh-config",
+            config,
+        ]);
+        assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+        let out = stdout(&o);
+        assert!(out.contains(config) && out.contains(says), "{out}");
+        assert!(!out.contains("firewall") && !out.contains("not reached"), "the file's problem: {out}");
+    }
+}
+
 #[test]
 fn a_byte_order_mark_and_trailing_blank_lines_are_accepted() {
     let dir = tempfile::tempdir().unwrap();

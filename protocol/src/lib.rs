@@ -24,6 +24,8 @@
 #![deny(missing_docs)]
 #![warn(clippy::std_instead_of_core, clippy::alloc_instead_of_core)]
 
+#[cfg(feature = "std")]
+pub mod capped;
 pub mod codec;
 pub mod ids;
 pub mod link;

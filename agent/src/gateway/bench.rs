@@ -38,7 +38,7 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 2000, value_parser = clap::value_parser!(u32).range(1..))]
     pub frames: u32,
     /// Pause between frames, ms.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 2, value_parser = bycoms_runtime::seconds::millis_or_zero)]
     pub interval_ms: u64,
 }
 

@@ -56,7 +56,7 @@ pub struct GatewayArgs {
     pub robot: u32,
     /// The UDP address to listen on: where the robot sends (its flashed
     /// gateway address).
-    #[arg(long, value_name = "ADDR")]
+    #[arg(long, value_name = "ADDR", value_parser = bycoms_runtime::cli::fixed_port)]
     pub bind: SocketAddr,
     /// The robot's key file: 64 hexadecimal digits.
     #[arg(long, value_name = "FILE")]
@@ -74,11 +74,11 @@ pub struct GatewayArgs {
     #[arg(long, default_value_t = 300)]
     pub link_timeout_ms: u64,
     /// Bus heartbeat period, ms of wall time.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 100, value_parser = bycoms_runtime::seconds::millis)]
     pub heartbeat_ms: u64,
     /// The orchestrator's pid; the gateway exits when its parent is no
     /// longer this process (default: its parent at start).
-    #[arg(long)]
+    #[arg(long, value_parser = bycoms_runtime::lifeline::parent_pid)]
     pub parent_pid: Option<i32>,
     /// The bus: iceoryx2 on the orchestrator's host, or zenoh to the
     /// orchestrator from a bridge host (with the robot's certificate in
@@ -118,9 +118,6 @@ impl GatewayArgs {
                 "--link-timeout-ms must be in 1..={MAX_LINK_TIMEOUT_MS}, got {}",
                 self.link_timeout_ms
             ));
-        }
-        if self.heartbeat_ms == 0 {
-            return Err("--heartbeat-ms must be at least 1".into());
         }
         bycoms_runtime::cli::check_swarm_size(self.robot, self.swarm_size)?;
         self.failsafe.grace()?;
@@ -178,7 +175,7 @@ impl GatewayArgs {
 pub struct DoctorArgs {
     /// The UDP address the gateway will listen on (its robot's flashed
     /// gateway address, the robots file's `gateway`): checked bindable.
-    #[arg(long, value_name = "ADDR")]
+    #[arg(long, value_name = "ADDR", value_parser = bycoms_runtime::cli::fixed_port)]
     pub bind: Option<SocketAddr>,
     #[command(flatten)]
     pub host: HostArgs,
@@ -423,7 +420,7 @@ mod command_tests {
                 "--robot",
                 robot,
                 "--bind",
-                "127.0.0.1:0",
+                "127.0.0.1:47001",
                 "--key-file",
                 "k",
                 "--swarm-size",
@@ -465,9 +462,9 @@ mod command_tests {
 
     #[test]
     fn the_defaults_round_trip() {
-        let least = ["--swarm", "s", "--robot", "1", "--bind", "127.0.0.1:0", "--key-file", "k"];
+        let least = ["--swarm", "s", "--robot", "1", "--bind", "127.0.0.1:47001", "--key-file", "k"];
         let args = gateway_of(&least.map(String::from));
-        assert_eq!(args, GatewayArgs::new("s", 1, "127.0.0.1:0".parse().unwrap(), "k"));
+        assert_eq!(args, GatewayArgs::new("s", 1, "127.0.0.1:47001".parse().unwrap(), "k"));
         assert_eq!((args.speed, args.link_timeout_ms, args.heartbeat_ms), (1.0, 300, 100));
         assert_eq!((args.swarm_size, args.parent_pid), (None, None));
         assert_eq!((&args.bus, args.failsafe), (&BusArgs::default(), FailsafeArgs::default()));

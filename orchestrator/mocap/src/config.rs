@@ -15,7 +15,7 @@
 
 use super::{ArenaTransform, ClientConfig, TrackerConfig};
 use bycoms_protocol::RobotId;
-use bycoms_runtime::seconds::{check_seconds, Zero, MAX_SECONDS};
+use bycoms_runtime::seconds::{check_millis, check_seconds, Zero};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -230,13 +230,7 @@ impl NatNetSourceConfig {
         // Added to an `Instant` for every command: near u64::MAX it
         // overflowed (a panic); 0 is no socket timeout at all.
         let reply_ms = self.client.reply_timeout_ms;
-        let max_ms = (MAX_SECONDS * 1000.0) as u64;
-        if !(1..=max_ms).contains(&reply_ms) {
-            return Err(format!(
-                "mocap.natnet.client.reply_timeout_ms must be a number of milliseconds in [1, {max_ms}], got {reply_ms}"
-            ));
-        }
-        Ok(())
+        check_millis("mocap.natnet.client.reply_timeout_ms", reply_ms, Zero::Refused).map(drop)
     }
 }
 
@@ -304,7 +298,7 @@ mod tests {
         };
         for ms in [u64::MAX, 100_000_000_001, 0] {
             let err = with(ms).unwrap_err();
-            let says = format!("mocap.natnet.client.reply_timeout_ms must be a number of milliseconds in [1, 100000000000], got {ms}");
+            let says = format!("mocap.natnet.client.reply_timeout_ms must be a number of milliseconds in (0, 100000000000], got {ms}");
             assert_eq!(err, says);
         }
         assert_eq!(with(100_000_000_000), Ok(()));

@@ -47,7 +47,7 @@ pub struct Args {
     pub swarm: Option<String>,
     /// How long the NatNet server (and with --connect, the zenoh session and
     /// the orchestrator's liveliness) may take to answer each of 3 attempts, ms.
-    #[arg(long, value_name = "MS", default_value_t = 500)]
+    #[arg(long, value_name = "MS", default_value_t = 500, value_parser = bycoms_runtime::seconds::millis)]
     pub timeout_ms: u64,
 }
 
@@ -158,9 +158,12 @@ mod tests {
     fn the_configs_robots_file_gives_the_gateway_ports_checked() {
         let taken = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
         let port = taken.local_addr().expect("addr").port();
+        // Robot 1's gateway port: free a moment ago (a robots file's ports are fixed, never 0).
+        let free =
+            std::net::UdpSocket::bind("127.0.0.1:0").and_then(|s| s.local_addr()).expect("free").port();
         let dir = tempfile::tempdir().expect("temp dir");
         let robots = format!(
-            "[[robot]]\nid = 1\naddress = \"127.0.0.1:47101\"\ngateway = \"127.0.0.1:0\"\nkey_file = \"k1\"\n\n\
+            "[[robot]]\nid = 1\naddress = \"127.0.0.1:47101\"\ngateway = \"127.0.0.1:{free}\"\nkey_file = \"k1\"\n\n\
              [[robot]]\nid = 2\naddress = \"127.0.0.1:47102\"\ngateway = \"127.0.0.1:{port}\"\nkey_file = \"k2\"\n"
         );
         std::fs::write(dir.path().join("robots.toml"), robots).expect("robots file");

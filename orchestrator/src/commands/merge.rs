@@ -112,9 +112,10 @@ pub fn run(args: Args) -> Result<i32> {
 
 fn read_meta(dir: &Path) -> Result<Meta> {
     let path = dir.join(META_FILE);
-    let text = std::fs::read_to_string(&path).with_context(|| {
-        format!("cannot read {} (is {} a sweep output directory?)", path.display(), dir.display())
-    })?;
+    let text = bycoms_runtime::capped::read_capped_file(&path, bycoms_study::sweep::MAX_READ_BYTES)
+        .with_context(|| {
+            format!("cannot read {} (is {} a sweep output directory?)", path.display(), dir.display())
+        })?;
     serde_json::from_str(&text).with_context(|| format!("{} is not a sweep description", path.display()))
 }
 

@@ -23,8 +23,14 @@ use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-/// Shortest and longest redraw interval of `--watch`, s.
+/// Shortest and longest redraw interval of `--watch`, s: the one range
+/// of `--interval` (its clap parser, [`interval`]).
 const INTERVAL_RANGE: (f64, f64) = (0.1, 60.0);
+
+/// `--interval`'s value parser: seconds in [`INTERVAL_RANGE`].
+fn interval(text: &str) -> Result<f64, String> {
+    bycoms_runtime::seconds::seconds_between(text, INTERVAL_RANGE.0, INTERVAL_RANGE.1)
+}
 
 /// Show the running launches: phase, robots, poses, recording, uptime.
 #[derive(Debug, clap::Args)]
@@ -38,7 +44,7 @@ pub struct Args {
     #[arg(long)]
     pub watch: bool,
     /// Seconds between redraws of `--watch` (0.1 to 60).
-    #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = bycoms_runtime::seconds::seconds)]
+    #[arg(long, value_name = "SECONDS", default_value_t = 1.0, value_parser = interval)]
     pub interval: f64,
 }
 
@@ -72,10 +78,6 @@ impl Which {
 }
 
 pub fn run(args: Args) -> Result<i32> {
-    let (lo, hi) = INTERVAL_RANGE;
-    if !(lo..=hi).contains(&args.interval) {
-        return Err(exit::usage(format!("--interval must be from {lo} to {hi} s, not {}", args.interval)));
-    }
     let asker = args.which.asker()?;
     let stop = bycoms_launch::interrupt_flag();
     let mut seen = BTreeSet::new();

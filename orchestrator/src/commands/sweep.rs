@@ -301,7 +301,7 @@ fn check_meta(out: &Path, meta: &Meta) -> Result<()> {
     if !path.exists() {
         return Ok(());
     }
-    let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text = bycoms_study::sweep::read_text(&path)?;
     let same = serde_json::from_str::<Meta>(&text).is_ok_and(|old| old == *meta);
     // A directory whose sweep never wrote a row may be reused freely.
     let has_rows = std::fs::read_dir(out)

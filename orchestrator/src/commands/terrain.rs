@@ -133,12 +133,17 @@ fn generate(args: &Args, stop: &AtomicBool, on_progress: impl FnMut(usize, usize
     Ok(exit::SUCCESS)
 }
 
+/// Largest `terrains.csv` read back, bytes (a row is under 100 bytes).
+const MAX_INDEX_BYTES: u64 = 64 << 20;
+
 /// The index of the directory: the rows of an existing `terrains.csv` whose
 /// file was not written again, then this run's rows (`new`, with its header).
 fn merged_index(path: &std::path::Path, new: &[u8], written: &[String]) -> Result<Vec<u8>, String> {
-    let old = match std::fs::read(path) {
+    use bycoms_runtime::capped::{read_capped_file_bytes, CappedError};
+    let old = match read_capped_file_bytes(path, MAX_INDEX_BYTES) {
         Ok(bytes) if !bytes.is_empty() => bytes,
-        _ => return Ok(new.to_vec()),
+        Ok(_) | Err(CappedError::Io(_)) => return Ok(new.to_vec()),
+        Err(e) => return Err(format!("{}: {e}", path.display())),
     };
     let not_ours = |e: &dyn std::fmt::Display| format!("{} is not a terrains index: {e}", path.display());
     let mut new_reader = csv::Reader::from_reader(new);

@@ -48,6 +48,19 @@ pub fn check_swarm_size(robot: u32, swarm_size: Option<u32>) -> Result<(), Strin
     }
 }
 
+/// The clap value parser of a robot link's fixed UDP address (`gateway
+/// --bind`, `gateway doctor --bind`): host:port with a port other than 0.
+/// A robot sends to the gateway address flashed into it; port 0 (any free
+/// port) is an address no robot sends to.
+pub fn fixed_port(text: &str) -> Result<std::net::SocketAddr, String> {
+    let addr: std::net::SocketAddr =
+        text.trim().parse().map_err(|_| format!("not an IP address and port: {text:?}"))?;
+    if addr.port() == 0 {
+        return Err(format!("{addr} has port 0: give the robot link's fixed port"));
+    }
+    Ok(addr)
+}
+
 /// The command line of a swarm binary `name` (`sim-agent`, `gateway`) whose
 /// own flags `M` and the logging flags sit at the top level, next to the
 /// subcommands of `S` (a `clap::Subcommand` enum: `lab` and `doctor`,
@@ -188,6 +201,16 @@ pub fn quiet_iceoryx2() {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_robot_links_address_has_a_fixed_port() {
+        assert_eq!(fixed_port("127.0.0.1:47101"), Ok("127.0.0.1:47101".parse().unwrap()));
+        assert_eq!(
+            fixed_port("127.0.0.1:0").unwrap_err(),
+            "127.0.0.1:0 has port 0: give the robot link's fixed port"
+        );
+        assert!(fixed_port("nowhere").unwrap_err().contains("\"nowhere\""));
+    }
 
     /// A top level's flags.
     #[derive(Debug, PartialEq, clap::Args)]

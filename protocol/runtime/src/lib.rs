@@ -7,8 +7,9 @@
 //!   built: no dependencies);
 //! * [`seconds`] — the one check of a number of seconds from a flag or a
 //!   config key (always built);
-//! * [`capped`] — the one reader of a user's text file with a size cap
-//!   (always built);
+//! * [`capped`] — the one reader of a user's file with a size cap
+//!   (always built; `bycoms_protocol::capped`, so that the protocol's own
+//!   readers of key files, zenoh configs and certificates use it too);
 //! * [`words`] — counts ("1 robot"), signed figures and foreign text in
 //!   the words a terminal shows (always built);
 //! * [`logging`] (feature `logging`) — one logging setup: `tracing` on
@@ -41,7 +42,7 @@
 //!   share (`orchestrator doctor`, `gateway doctor`, `sim-agent doctor`).
 #![forbid(unsafe_code)]
 
-pub mod capped;
+pub use bycoms_protocol::capped;
 #[cfg(feature = "logging")]
 pub mod logging;
 pub mod seconds;

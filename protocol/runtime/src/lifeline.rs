@@ -25,6 +25,19 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+/// The clap value parser of `--parent-pid` (every agent binary's): a pid
+/// of 2 or more. No agent is the child of pid 0 (no process) or of init
+/// (pid 1, what an orphan is re-parented to): either made the agent exit
+/// at once, "parent gone".
+pub fn parent_pid(text: &str) -> Result<i32, String> {
+    match text.trim().parse::<i32>() {
+        Ok(pid) if pid >= 2 => Ok(pid),
+        _ => Err(format!(
+            "must be the pid of the process the agent stays the child of (2 or more), got {text:?}"
+        )),
+    }
+}
+
 /// How often the parent pid is compared.
 const PARENT_CHECK: Duration = Duration::from_millis(100);
 
@@ -125,5 +138,17 @@ impl Lifeline {
             return Some(if getppid() != self.parent { ExitCause::ParentGone } else { ExitCause::Signal });
         }
         None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn no_agent_is_the_child_of_pid_0_or_1() {
+        assert_eq!(super::parent_pid("4242"), Ok(4242));
+        for bad in ["0", "1", "-5", "x", ""] {
+            let e = super::parent_pid(bad).unwrap_err();
+            assert!(e.contains("(2 or more)") && e.contains(&format!("{bad:?}")), "{e}");
+        }
     }
 }

@@ -8,10 +8,13 @@
 //! the same everywhere.
 
 use super::LinkKey;
+use crate::capped::{read_capped_file, CappedError};
 use std::path::{Path, PathBuf};
 
-/// Largest key file read, bytes (a key is 64 digits and a newline).
-pub const MAX_KEY_FILE_LEN: u64 = 64 * 1024;
+/// Largest key file read, bytes (a key is 64 digits and a newline; room
+/// for surrounding whitespace). Read through the one capped reader: a key
+/// file that is `/dev/zero` is refused one byte past it.
+pub const MAX_KEY_FILE_LEN: u64 = 1024;
 
 /// Why a key file could not be used.
 #[derive(Debug)]
@@ -23,10 +26,12 @@ pub enum KeyFileError {
         /// What the OS said.
         source: std::io::Error,
     },
-    /// The file is larger than any key file.
-    TooLarge {
+    /// The file is larger than any key file, or not text.
+    Unusable {
         /// The file.
         path: PathBuf,
+        /// Its size past the cap, or bytes that are not text.
+        source: CappedError,
     },
     /// The file does not hold 64 hex digits.
     NotAKey {
@@ -39,9 +44,7 @@ impl core::fmt::Display for KeyFileError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             Self::Read { path, source } => write!(f, "cannot read {}: {source}", path.display()),
-            Self::TooLarge { path } => {
-                write!(f, "{} is larger than {MAX_KEY_FILE_LEN} bytes", path.display())
-            }
+            Self::Unusable { path, source } => write!(f, "bad key file {}: {source}", path.display()),
             Self::NotAKey { path } => {
                 write!(f, "bad key file {}: expected 64 hexadecimal digits (a 32-byte key)", path.display())
             }
@@ -53,7 +56,8 @@ impl core::error::Error for KeyFileError {
     fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
         match self {
             Self::Read { source, .. } => Some(source),
-            _ => None,
+            Self::Unusable { source, .. } => Some(source),
+            Self::NotAKey { .. } => None,
         }
     }
 }
@@ -61,12 +65,10 @@ impl core::error::Error for KeyFileError {
 impl LinkKey {
     /// Reads a key file: 64 hex digits, surrounding whitespace allowed.
     pub fn read_file(path: &Path) -> Result<Self, KeyFileError> {
-        let read = |source| KeyFileError::Read { path: path.to_path_buf(), source };
-        let len = std::fs::metadata(path).map_err(read)?.len();
-        if len > MAX_KEY_FILE_LEN {
-            return Err(KeyFileError::TooLarge { path: path.to_path_buf() });
-        }
-        let text = std::fs::read_to_string(path).map_err(read)?;
+        let text = read_capped_file(path, MAX_KEY_FILE_LEN).map_err(|e| match e {
+            CappedError::Io(source) => KeyFileError::Read { path: path.to_path_buf(), source },
+            source => KeyFileError::Unusable { path: path.to_path_buf(), source },
+        })?;
         Self::from_hex(&text).ok_or_else(|| KeyFileError::NotAKey { path: path.to_path_buf() })
     }
 }
@@ -88,6 +90,8 @@ mod tests {
         assert!(e.contains("64 hexadecimal digits") && e.contains("bad.key"), "{e}");
         let e = LinkKey::read_file(&dir.join("missing.key")).unwrap_err().to_string();
         assert!(e.starts_with("cannot read") && e.contains("missing.key"), "{e}");
+        let e = LinkKey::read_file(Path::new("/dev/zero")).unwrap_err().to_string();
+        assert_eq!(e, "bad key file /dev/zero: more than the limit of 1024 bytes");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

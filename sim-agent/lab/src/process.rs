@@ -63,11 +63,11 @@ pub struct LabArgs {
     #[arg(long)]
     pub duration: Option<f64>,
     /// Motion capture period, lab milliseconds.
-    #[arg(long, default_value_t = 50)]
+    #[arg(long, default_value_t = 50, value_parser = bycoms_runtime::seconds::millis)]
     pub mocap_ms: u64,
     /// Exit when this process is no longer the parent (default: the parent
     /// at start).
-    #[arg(long)]
+    #[arg(long, value_parser = bycoms_runtime::lifeline::parent_pid)]
     pub parent_pid: Option<i32>,
     /// Serve the bodies by NatNet (OptiTrack) with the command channel on
     /// this address (Motive's port is 1510) instead of publishing true
@@ -95,15 +95,12 @@ impl LabArgs {
     pub const SUBCOMMAND: &'static str = "lab";
 
     /// Checks what clap cannot: the speed-up, `--duration` (the one check
-    /// of seconds, `bycoms_runtime::seconds`), the mocap period, the NatNet
-    /// rate.
+    /// of seconds, `bycoms_runtime::seconds`), the NatNet rate (the mocap
+    /// period is clap's, through the same check in milliseconds).
     pub fn validate(&self) -> Result<(), LabError> {
         check_speed(self.speed).map_err(LabError::Args)?;
         if let Some(d) = self.duration {
             check_seconds("--duration", d, Zero::Allowed).map_err(LabError::Args)?;
-        }
-        if self.mocap_ms == 0 {
-            return Err(LabError::Args("--mocap-ms must be at least 1".into()));
         }
         // At least one frame a second: a frame period is a span of seconds
         // too (`--natnet-rate 1e-300` made one of 1e300 s).

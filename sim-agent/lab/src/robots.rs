@@ -77,6 +77,19 @@ pub enum RobotsError {
         /// The ids found, sorted.
         found: Vec<u32>,
     },
+    /// A robot's address or its gateway's has port 0: both are fixed
+    /// (flashed into the robot), never "any free port".
+    #[error("bad robots file {}: robot {robot}'s {key} = \"{addr}\" has port 0; give its fixed port", path.display())]
+    PortZero {
+        /// The file.
+        path: PathBuf,
+        /// The robot.
+        robot: u32,
+        /// `address` or `gateway`.
+        key: &'static str,
+        /// The address given.
+        addr: SocketAddr,
+    },
     /// A key file is unreadable or does not hold 64 hex digits (the
     /// link's reader, `LinkKey::read_file`, as the gateway's).
     #[error(transparent)]
@@ -103,8 +116,25 @@ impl RobotsFile {
         if found.is_empty() || found.iter().enumerate().any(|(i, &id)| id as usize != i + 1) {
             return Err(RobotsError::Ids { path: path.to_path_buf(), found });
         }
+        file.check_ports(path)?;
         file.dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Ok(file)
+    }
+
+    /// Refuses an `address` or `gateway` of port 0 (the first, in id order).
+    fn check_ports(&self, path: &Path) -> Result<(), RobotsError> {
+        let zero = self.robots.iter().find_map(|r| {
+            [("address", r.address), ("gateway", r.gateway)]
+                .into_iter()
+                .find(|(_, addr)| addr.port() == 0)
+                .map(|(key, addr)| (r.id, key, addr))
+        });
+        match zero {
+            Some((robot, key, addr)) => {
+                Err(RobotsError::PortZero { path: path.to_path_buf(), robot, key, addr })
+            }
+            None => Ok(()),
+        }
     }
 
     /// A robot's key file path (relative paths are the file's directory's).
@@ -152,6 +182,14 @@ mod tests {
             (format!("[[robot]]\nid = 1\n{ROBOT}[[robot]]\nid = 1\n{ROBOT}"), "robot ids must be 1, 2"),
             (format!("[[robot]]\nid = 1\ncolour = 3\n{ROBOT}"), "unknown field"),
             ("[[robot]]\nid = 1\naddress = \"nowhere\"\n".to_string(), "bad robots file"),
+            (
+                format!("[[robot]]\nid = 1\n{}", ROBOT.replace("127.0.0.1:47101", "127.0.0.1:0")),
+                "robot 1's address = \"127.0.0.1:0\" has port 0; give its fixed port",
+            ),
+            (
+                format!("[[robot]]\nid = 1\n{}", ROBOT.replace("127.0.0.1:47001", "[::1]:0")),
+                "robot 1's gateway = \"[::1]:0\" has port 0",
+            ),
         ];
         for (text, why) in cases {
             let p = write(dir.path(), "r.toml", &text);

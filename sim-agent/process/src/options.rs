@@ -127,12 +127,13 @@ pub struct AgentArgs {
     pub swarm_size: Option<u32>,
     /// The orchestrator's pid; the agent exits when its parent is no longer
     /// this process (default: its parent at start).
-    #[arg(long)]
+    #[arg(long, value_parser = bycoms_runtime::lifeline::parent_pid)]
     pub parent_pid: Option<i32>,
     /// Heartbeat period, milliseconds of wall time.
     #[arg(
         long,
         default_value_t = 100,
+        value_parser = bycoms_runtime::seconds::millis,
         requires = "terrain",
         help_heading = "Run settings (default: the orchestrator's)"
     )]
@@ -142,7 +143,12 @@ pub struct AgentArgs {
     /// heartbeat period]. A launch gives its agents a quarter of its
     /// heartbeat timeout, at most 1 s: a thousand parked agents beating
     /// ten times a second took a quarter of a two-core machine.
-    #[arg(long, requires = "terrain", help_heading = "Run settings (default: the orchestrator's)")]
+    #[arg(
+        long,
+        value_parser = bycoms_runtime::seconds::millis,
+        requires = "terrain",
+        help_heading = "Run settings (default: the orchestrator's)"
+    )]
     pub parked_heartbeat_ms: Option<u64>,
     /// zenoh, without settings flags: how long to wait for the orchestrator,
     /// seconds: to be reachable (it may start after the agent), then to
@@ -208,12 +214,6 @@ impl AgentArgs {
         if self.has_settings() {
             self.run_config().validate().map_err(|e| format!("bad run parameters: {e}"))?;
             check_speed(self.speed)?;
-            if self.heartbeat_ms == 0 {
-                return Err("--heartbeat-ms must be at least 1".into());
-            }
-            if self.parked_heartbeat_ms == Some(0) {
-                return Err("--parked-heartbeat-ms must be at least 1".into());
-            }
         } else if self.bus.transport != Transport::Zenoh {
             return Err("the run's settings come from the orchestrator over zenoh only: \
                         give --transport zenoh --connect ENDPOINT, or the settings \

@@ -33,6 +33,7 @@ use super::options::{AgentArgs, Clock};
 use bycoms_protocol::bus::zenoh::settings::SettingsAnswer;
 use bycoms_protocol::bus::zenoh::ZenohBus;
 use bycoms_protocol::{RobotId, Swarm};
+use bycoms_runtime::seconds::Zero;
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::RunConfig;
 use serde::{Deserialize, Serialize};
@@ -141,9 +142,7 @@ impl RunSettings {
     pub fn validate(&self) -> Result<(), String> {
         self.run_config().validate().map_err(|e| format!("bad run parameters: {e}"))?;
         bycoms_runtime::cli::check_speed(self.speed)?;
-        if self.heartbeat_ms == 0 {
-            return Err("the heartbeat period must be at least 1 ms".into());
-        }
+        bycoms_runtime::seconds::check_millis("the heartbeat period", self.heartbeat_ms, Zero::Refused)?;
         if self.swarm_size == 0 {
             return Err("the swarm size must be at least 1".into());
         }

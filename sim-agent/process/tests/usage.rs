@@ -107,6 +107,44 @@ fn huge_or_undefined_seconds_are_usage_errors_naming_the_flag_and_its_range() {
     }
 }
 
+/// Milliseconds take the one range of seconds in their unit (issue 49):
+/// a heartbeat of u64::MAX ms was no heartbeat at all; and no agent is the
+/// child of pid 0 or 1 (it exited at once, "parent gone").
+#[test]
+fn milliseconds_and_the_parent_pid_are_checked_naming_the_flag() {
+    let lab = ["lab", "--scenario", "exp-short", "--robots", "/nonexistent/r.toml", "--swarm", "x"];
+    for ms in ["18446744073709551615", "0"] {
+        for flag in ["--heartbeat-ms", "--parked-heartbeat-ms"] {
+            let o = sim_agent(&agent_args("ok", &[flag, ms]));
+            assert_eq!(o.status.code(), Some(2), "{flag} {ms}: {}", stderr(&o));
+            assert!(stderr(&o).contains(flag) && stderr(&o).contains("(0, 100000000000]"), "{}", stderr(&o));
+        }
+        let o = sim_agent(&[&lab[..], &["--mocap-ms", ms]].concat());
+        assert_eq!(o.status.code(), Some(2), "lab --mocap-ms {ms}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("--mocap-ms") && stderr(&o).contains("(0, 100000000000]"),
+            "{}",
+            stderr(&o)
+        );
+        let doctor =
+            ["doctor", "--connect", "tcp/127.0.0.1:7447", "--swarm", "s", "--robot", "1", "--timeout-ms", ms];
+        let o = sim_agent(&doctor);
+        assert_eq!(o.status.code(), Some(2), "doctor --timeout-ms {ms}: {}", stderr(&o));
+        assert!(stderr(&o).contains("--timeout-ms"), "{}", stderr(&o));
+    }
+    for pid in ["0", "1"] {
+        for args in [agent_args("ok", &["--parent-pid", pid]), [&lab[..], &["--parent-pid", pid]].concat()] {
+            let o = sim_agent(&args);
+            assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+            assert!(
+                stderr(&o).contains("--parent-pid") && stderr(&o).contains("(2 or more)"),
+                "{}",
+                stderr(&o)
+            );
+        }
+    }
+}
+
 /// A lab scenario's arena is bounded as terrain files are: `width = 1e300`
 /// asked the launch for a grid past any memory (issue 31).
 #[test]

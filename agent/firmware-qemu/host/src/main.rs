@@ -61,8 +61,13 @@ fn main() -> ExitCode {
 
 type Result<T> = std::result::Result<T, (u8, String)>;
 
+/// Largest input, output or ELF file read, bytes (a run's inputs are a few
+/// megabytes): through the one capped reader, so `/dev/zero` is refused.
+const MAX_READ_BYTES: u64 = 1 << 30;
+
 fn read(path: &str) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|e| (2, format!("cannot read {path}: {e}")))
+    bycoms_protocol::capped::read_capped_file_bytes(std::path::Path::new(path), MAX_READ_BYTES)
+        .map_err(|e| (2, format!("cannot read {path}: {e}")))
 }
 
 fn write(path: &str, bytes: &[u8]) -> Result<()> {

@@ -23,6 +23,20 @@ pub mod table;
 pub mod terrains;
 pub mod verify;
 
+/// Largest file of a sweep directory read back (its runs CSVs, terrain
+/// list and description), bytes: every one goes through the one capped
+/// reader ([`bycoms_runtime::capped`]), so a file linked to `/dev/zero`
+/// is refused one byte past it. A million runs' rows are under 100 MB.
+pub const MAX_READ_BYTES: u64 = 1 << 30;
+
+/// The text of the sweep file `path`, capped at [`MAX_READ_BYTES`]; the
+/// error names the file.
+pub fn read_text(path: &std::path::Path) -> anyhow::Result<String> {
+    use anyhow::Context as _;
+    bycoms_runtime::capped::read_capped_file(path, MAX_READ_BYTES)
+        .with_context(|| format!("cannot read {}", path.display()))
+}
+
 /// Seeds of terrains and runs are derived from the sweep seed with the
 /// one mixing function of bycoms, so every run is reproducible on its own.
 pub use bycoms_sim::seed::mix;

@@ -9,7 +9,7 @@
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 use std::fs::{File, OpenOptions};
-use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
+use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::Path;
 
 /// One run's result.
@@ -37,10 +37,7 @@ pub const HEADER: &str =
 
 /// Reads all complete rows of a runs CSV.
 pub fn read_rows(path: &Path) -> Result<Vec<Row>> {
-    let mut text = String::new();
-    File::open(path)
-        .and_then(|mut f| f.read_to_string(&mut text))
-        .with_context(|| format!("cannot read {}", path.display()))?;
+    let text = super::read_text(path)?;
     parse_rows(&text[..complete_len(&text)], path)
 }
 
@@ -82,8 +79,8 @@ impl RowWriter {
             .truncate(false)
             .open(path)
             .with_context(|| format!("cannot open {} for writing", path.display()))?;
-        let mut text = String::new();
-        file.read_to_string(&mut text).with_context(|| format!("cannot read {}", path.display()))?;
+        let text = bycoms_runtime::capped::read_capped(&mut file, super::MAX_READ_BYTES)
+            .with_context(|| format!("cannot read {}", path.display()))?;
         if !(text.starts_with(HEADER) || HEADER.starts_with(text.as_str())) {
             bail!("{} is not a bycoms runs CSV (unexpected header); not touching it", path.display());
         }

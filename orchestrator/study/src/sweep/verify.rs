@@ -42,8 +42,8 @@ pub fn read_terrain_list(dir: &Path, axes: &Axes) -> Result<Option<Vec<Vec<Liste
     if !path.exists() {
         return Ok(None);
     }
-    let mut reader =
-        csv::Reader::from_path(&path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text = super::read_text(&path)?;
+    let mut reader = csv::Reader::from_reader(text.as_bytes());
     let mut bins: Vec<Vec<ListedTerrain>> = vec![Vec::new(); axes.widths.len()];
     for (i, entry) in reader.deserialize::<ListedTerrain>().enumerate() {
         let entry = entry.with_context(|| format!("{}: bad row {}", path.display(), i + 2))?;

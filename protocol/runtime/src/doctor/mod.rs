@@ -66,7 +66,7 @@ pub struct HostArgs {
     pub robot: u32,
     /// How long the zenoh session, the orchestrator's liveliness and each
     /// clock exchange may take, ms.
-    #[arg(long, value_name = "MS", default_value_t = 500)]
+    #[arg(long, value_name = "MS", default_value_t = 500, value_parser = crate::seconds::millis)]
     pub timeout_ms: u64,
     /// Print the findings as JSON: {"findings": [{check, level, cause, fix}], "errors", "warnings"}.
     #[arg(long)]

@@ -248,6 +248,34 @@ fn an_endpoint_that_never_answers_is_an_error_within_the_bounded_wait() {
     assert!(started.elapsed() < Duration::from_secs(5), "bounded: {:?}", started.elapsed());
 }
 
+/// A `--zenoh-config` that is missing, not a zenoh config or without end
+/// is the file's problem (named, with a fix about the file), not the
+/// network's: no firewall advice, and said before any connection.
+#[test]
+fn a_zenoh_config_that_is_no_config_is_the_files_problem() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let passwd = dir.path().join("passwd");
+    std::fs::write(&passwd, "root:x:0:0:root:/root:/bin/bash\n").expect("write");
+    let missing = dir.path().join("none.json5");
+    let zero = PathBuf::from("/dev/zero");
+    for (path, says) in [
+        (&missing, "No such file"),
+        (&passwd, "not a zenoh JSON5 config"),
+        (&zero, "more than the limit of 4194304 bytes"),
+    ] {
+        // Nothing listens there: a network check would say "not reached".
+        let reach =
+            zenoh::Reach { zenoh_config: Some(path.clone()), ..reach("tcp/127.0.0.1:9", "doctor-file", 300) };
+        let found = zenoh::check(&reach);
+        assert_eq!(found.len(), 1, "{found:#?}");
+        assert_eq!(found[0].level, Level::Error);
+        let cause = &found[0].cause;
+        assert!(cause.contains(&path.display().to_string()) && cause.contains(says), "{cause}");
+        assert!(!cause.contains("not reached") && !found[0].fix.contains("firewall"), "{found:#?}");
+        assert!(found[0].fix.contains("--zenoh-config"), "{}", found[0].fix);
+    }
+}
+
 /// A clock offset is judged by the launch's limits either way, and the fix
 /// names chrony.
 #[test]

@@ -18,7 +18,7 @@ use bycoms_protocol::bus::zenoh::clock::{ClockLimits, ClockSample, ClockVerdict,
 use bycoms_protocol::bus::zenoh::{Mode, Presence, ZenohBus, ZenohConfig};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::Swarm;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::Duration;
 
@@ -49,6 +49,11 @@ pub fn check(reach: &Reach) -> Vec<Finding> {
         base_config: reach.zenoh_config.clone(),
         ..ZenohConfig::default()
     };
+    // A config file that cannot be read or is not a zenoh config is the
+    // file's problem, not the network's: said before any connection.
+    if let Err(e) = config.to_zenoh() {
+        return vec![bad_config(reach.zenoh_config.as_deref(), &e.to_string())];
+    }
     let (tx, rx) = mpsc::channel();
     // Detached on a timeout: the process ends with the doctor.
     std::thread::spawn(move || tx.send(ZenohBus::open(config)));
@@ -107,6 +112,16 @@ pub fn clock_finding(measured: Result<Option<ClockSample>, String>, limits: Cloc
             FIX,
         ),
     }
+}
+
+/// The finding of a `--zenoh-config` that is not a usable zenoh config.
+fn bad_config(path: Option<&Path>, cause: &str) -> Finding {
+    let file = path.map_or_else(|| "the zenoh config".to_owned(), |p| p.display().to_string());
+    Finding::error(
+        CHECK,
+        cause,
+        format!("give --zenoh-config a zenoh JSON5 config instead of {file} (a robot's certs/robot-K.json5 from `orchestrator certs`)"),
+    )
 }
 
 fn unreachable(endpoint: &str, cause: &str) -> Finding {

@@ -52,6 +52,10 @@ const OWN: [&str; 2] = ["transport/link/tls/connect_certificate", "transport/lin
 /// The config's key of the lab's CA.
 const CA: &str = "transport/link/tls/root_ca_certificate";
 
+/// The config's keys of this process's private keys (zenoh reads them
+/// itself, without a cap: [`check`] reads them capped first).
+const KEYS: [&str; 2] = ["transport/link/tls/connect_private_key", "transport/link/tls/listen_private_key"];
+
 /// A path the config gives for `key`, if any.
 fn path_of(config: &::zenoh::Config, key: &str) -> Option<PathBuf> {
     let json = config.get_json(key).ok()?;
@@ -77,6 +81,10 @@ pub fn check(
     own.dedup();
     if own.is_empty() && ca_path.is_none() {
         return Ok(());
+    }
+    for key in KEYS.iter().filter_map(|k| path_of(config, k)) {
+        crate::capped::read_capped_file_bytes(&key, MAX_CERTIFICATE_FILE_LEN)
+            .map_err(|e| CertificateError(format!("cannot read the private key {}: {e}", key.display())))?;
     }
     let ca_der = ca_path.as_deref().map(read_der).transpose()?;
     let ca = match (&ca_der, &ca_path) {
@@ -131,10 +139,15 @@ pub fn not_after(path: &Path) -> Result<(i64, String), CertificateError> {
     Ok((t.timestamp(), t.to_datetime().date().to_string()))
 }
 
+/// Largest certificate file read, bytes (a PEM certificate is a few
+/// kilobytes; a chain a few of them): read through the one capped reader,
+/// so a `ca.pem` linked to `/dev/zero` is refused one byte past it.
+pub const MAX_CERTIFICATE_FILE_LEN: u64 = 1 << 20;
+
 /// The first certificate of the PEM file `path`, as DER (also the
 /// orchestrator's doctor's reader of the whole set).
 pub fn read_der(path: &Path) -> Result<Vec<u8>, CertificateError> {
-    let bytes = std::fs::read(path)
+    let bytes = crate::capped::read_capped_file_bytes(path, MAX_CERTIFICATE_FILE_LEN)
         .map_err(|e| CertificateError(format!("cannot read the certificate {}: {e}", path.display())))?;
     let not_pem = || CertificateError(format!("{}: not a PEM certificate", path.display()));
     let pem =

@@ -7,7 +7,12 @@
 
 use super::{certs, text};
 use crate::bus::{BusError, Limits};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+/// Largest zenoh config file read, bytes: an ACL naming a thousand robots
+/// is far smaller. Read through the one capped reader, so a config that is
+/// `/dev/zero` is refused one byte past it.
+const MAX_CONFIG_FILE_LEN: u64 = 4 << 20;
 
 /// The role of the session in the zenoh network.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -136,8 +141,7 @@ impl ZenohConfig {
     /// The zenoh configuration this describes.
     pub fn to_zenoh(&self) -> Result<::zenoh::Config, BusError> {
         let mut config = match &self.base_config {
-            Some(path) => ::zenoh::Config::from_file(path)
-                .map_err(|e| text::backend("read zenoh config", None, Some(&path.display()), &e))?,
+            Some(path) => read_config(path)?,
             None => ::zenoh::Config::default(),
         };
         let mut set = |key: &'static str, value: String| {
@@ -173,6 +177,19 @@ impl ZenohConfig {
         }
         Ok(config)
     }
+}
+
+/// The zenoh config file `path` (JSON5), read capped: zenoh's own
+/// `Config::from_file` reads without a cap. Its errors name the file and
+/// say what is wrong with it, never a network cause.
+fn read_config(path: &Path) -> Result<::zenoh::Config, BusError> {
+    let bad = |detail: String| BusError::Backend {
+        op: "read zenoh config",
+        topic: None,
+        detail: format!("{}: {detail}", path.display()),
+    };
+    let text = crate::capped::read_capped_file(path, MAX_CONFIG_FILE_LEN).map_err(|e| bad(e.to_string()))?;
+    ::zenoh::Config::from_json5(&text).map_err(|e| bad(format!("not a zenoh JSON5 config ({e})")))
 }
 
 /// A JSON list of strings (endpoints never contain quotes or backslashes

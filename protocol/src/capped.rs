@@ -1,12 +1,15 @@
-//! The one reader of a user's text file with a size cap: terrains, robots
-//! files, lab scenarios and launch configs all read through it.
+//! The one reader of a user's file with a size cap: terrains, robots
+//! files, lab scenarios, launch configs, key files, zenoh configs,
+//! certificates and sweep outputs all read through it.
 //!
 //! Why: a wrong path (a recording, a log, `/dev/zero`, a FIFO) must not make
 //! a tool read without end or build its memory from it. A regular file
 //! larger than the cap is refused from its length before anything is read;
 //! anything else (a device, a pipe, a file the file system does not size)
-//! is read up to one byte past the cap and refused there. Always built, with
-//! no dependencies.
+//! is read up to one byte past the cap and refused there. In the protocol
+//! crate (feature `std`, no dependencies) so that its own readers (a
+//! robot's key file, a zenoh config, a certificate) use it; the other
+//! crates reach it as `bycoms_runtime::capped` too.
 
 use std::io::Read;
 use std::path::Path;
@@ -27,8 +30,8 @@ pub enum CappedError {
     NotText,
 }
 
-impl std::fmt::Display for CappedError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+impl core::fmt::Display for CappedError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             CappedError::Io(e) => write!(f, "{e}"),
             CappedError::TooLarge { size: Some(size), limit } => {
@@ -42,8 +45,8 @@ impl std::fmt::Display for CappedError {
     }
 }
 
-impl std::error::Error for CappedError {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+impl core::error::Error for CappedError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
         match self {
             CappedError::Io(e) => Some(e),
             _ => None,
@@ -60,24 +63,40 @@ impl From<std::io::Error> for CappedError {
 /// The text of a stream, refusing more than `limit` bytes (reads at most
 /// one byte past it).
 pub fn read_capped(reader: impl Read, limit: u64) -> Result<String, CappedError> {
+    text(read_capped_bytes(reader, limit)?)
+}
+
+/// The bytes of a stream, refusing more than `limit` (reads at most one
+/// byte past it).
+pub fn read_capped_bytes(reader: impl Read, limit: u64) -> Result<Vec<u8>, CappedError> {
     let mut bytes = Vec::new();
     reader.take(limit.saturating_add(1)).read_to_end(&mut bytes)?;
     if bytes.len() as u64 > limit {
         return Err(CappedError::TooLarge { size: None, limit });
     }
-    String::from_utf8(bytes).map_err(|_| CappedError::NotText)
+    Ok(bytes)
 }
 
 /// The text of the file at `path`, refusing more than `limit` bytes: a
 /// regular file from its length before anything is read, anything else
 /// (`/dev/zero`, a pipe) one byte past the cap.
 pub fn read_capped_file(path: &Path, limit: u64) -> Result<String, CappedError> {
+    text(read_capped_file_bytes(path, limit)?)
+}
+
+/// The bytes of the file at `path` (a certificate), capped as
+/// [`read_capped_file`] caps its text.
+pub fn read_capped_file_bytes(path: &Path, limit: u64) -> Result<Vec<u8>, CappedError> {
     let file = std::fs::File::open(path)?;
     let meta = file.metadata()?;
     if meta.is_file() && meta.len() > limit {
         return Err(CappedError::TooLarge { size: Some(meta.len()), limit });
     }
-    read_capped(file, limit)
+    read_capped_bytes(file, limit)
+}
+
+fn text(bytes: Vec<u8>) -> Result<String, CappedError> {
+    String::from_utf8(bytes).map_err(|_| CappedError::NotText)
 }
 
 #[cfg(test)]
