@@ -230,14 +230,15 @@ fn robots_in(out: &Path) -> u32 {
 /// they can still open a session, in which nothing they send or ask for is
 /// let through. It reaches a launch when the launch starts: a running one
 /// keeps the ACL it started with (a running launch drops the robot when
-/// asked: `orchestrator revoke`, `orchestrator/launch/src/core/revoke.rs`). `flag` is the
-/// command's flag naming the robots, for usage errors. Returns the
-/// config's path.
-pub fn revoke(out: &Path, ids: &[u32], flag: &str) -> Result<PathBuf> {
+/// asked: `orchestrator revoke`, `orchestrator/launch/src/core/revoke.rs`). `dir_flag` is the
+/// command's flag naming `out` and `flag` the one naming the robots, for
+/// usage errors. Returns the config's path.
+pub fn revoke(out: &Path, ids: &[u32], dir_flag: &str, flag: &str) -> Result<PathBuf> {
     let config_path = out.join("orchestrator.json5");
     if !config_path.is_file() {
         return Err(exit::usage(format!(
-            "{flag}: {} is missing; revoke in the directory `orchestrator certs` wrote",
+            "{dir_flag} {}: {} is missing; give the directory `orchestrator certs` wrote",
+            out.display(),
             config_path.display()
         )));
     }

@@ -660,6 +660,7 @@ fn revoke_exits_1_without_a_launch_2_on_usage_and_rewrites_the_acl() {
         (&["revoke", "--robot", "0"][..], "--robot 0"),
         (&["revoke", "--robot", "3", "--certs", certs][..], "--robot 3"),
         (&["revoke", "--robot", "1", "--swarm", "no/such"][..], "bad swarm name"),
+        (&["revoke", "--robot", "1", "--certs", "/nonexistent"][..], "--certs /nonexistent: "),
     ] {
         let out = run(args);
         assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
@@ -671,6 +672,13 @@ fn revoke_exits_1_without_a_launch_2_on_usage_and_rewrites_the_acl() {
     let alone = run(&["revoke", "--robot", "2", "--certs", certs]);
     assert_eq!(alone.status.code(), Some(1), "{}", stderr(&alone));
     assert!(stderr(&alone).contains("no launch runs on this host"), "{}", stderr(&alone));
+    // Its error says what was done all the same.
+    let done = format!("the ACL of {} now denies robot 2 everything", config.display());
+    assert!(
+        stderr(&alone).lines().any(|l| l.starts_with("ERROR") && l.contains(&done)),
+        "{}",
+        stderr(&alone)
+    );
     let acl = bycoms_orchestrator::certs::read_config(&config).unwrap();
     assert_eq!(bycoms_orchestrator::certs::revoked_in(&acl).into_iter().collect::<Vec<_>>(), [2]);
     let by_certs = run(&["certs", "--revoke", "1", "--out", certs]);
@@ -701,4 +709,97 @@ fn a_why_longer_than_200_characters_is_a_usage_error() {
         assert_eq!(out.status.code(), Some(1), "{command:?}: {}", stderr(&out));
         assert!(stderr(&out).contains("no launch runs on this host"), "{}", stderr(&out));
     }
+}
+
+/// `orchestrator status` (and `stop`) with no launch running: `--swarm`
+/// named in the error, and `--json` prints `[]`.
+#[test]
+fn status_without_a_launch_names_the_swarm_and_prints_an_empty_json_list() {
+    let tag = format!("status-cli-{}", std::process::id());
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+            .args(args)
+            .env("BYCOMS_IPC_ISOLATION", &tag)
+            .output()
+            .expect("spawn orchestrator")
+    };
+    let wrong = run(&["status", "--swarm", "wrong"]);
+    assert_eq!(wrong.status.code(), Some(1), "{}", stderr(&wrong));
+    let said = format!(
+        "no launch of swarm \"wrong\" runs on this host (isolation tag {tag}) (it ended, or never started); \
+         no other runs either"
+    );
+    assert!(stderr(&wrong).contains(&said), "{}", stderr(&wrong));
+    let json = run(&["status", "--json"]);
+    assert_eq!(json.status.code(), Some(1), "{}", stderr(&json));
+    assert_eq!(String::from_utf8_lossy(&json.stdout), "[]\n");
+    let stop = run(&["stop", "--swarm", "wrong"]);
+    assert_eq!(stop.status.code(), Some(1), "{}", stderr(&stop));
+    assert!(stderr(&stop).contains(&said), "{}", stderr(&stop));
+}
+
+/// `status`, `stop` and `revoke --connect quic/…` without `--zenoh-config`:
+/// a usage error saying the endpoint needs the lab's certificates and
+/// which file, at once (not a blame of "another lab's CA" after a failed
+/// handshake).
+#[test]
+fn a_secured_connect_without_a_zenoh_config_names_the_certificates_it_needs() {
+    let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let endpoint = format!("quic/127.0.0.1:{port}");
+    for command in [&["status"][..], &["stop"], &["revoke", "--robot", "1"]] {
+        let args = [command, &["--connect", &endpoint]].concat();
+        let begun = std::time::Instant::now();
+        let o = orchestrator(&args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        let said = format!(
+            "--connect {endpoint}: a secured endpoint needs the lab's certificates: give \
+                            --zenoh-config the lab's orchestrator.json5"
+        );
+        assert!(err.contains(&said), "{args:?}: {err}");
+        assert!(!err.contains("another lab"), "{args:?}: {err}");
+        assert!(begun.elapsed() < std::time::Duration::from_secs(5), "{args:?}: took {:?}", begun.elapsed());
+    }
+}
+
+/// A port nothing listens on: a TCP listener of the OS's, let go.
+fn unused_tcp_endpoint() -> String {
+    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    format!("tcp/127.0.0.1:{port}")
+}
+
+/// `launch --connect` to an endpoint nothing answers at (issue 49): with
+/// `--ros2` an error naming it, before any agent starts, exit 1 within the
+/// start-up window; without, a warning, and the launch runs on.
+#[test]
+fn an_unreachable_connect_is_an_error_with_ros2_and_a_warning_without() {
+    let endpoint = unused_tcp_endpoint();
+    let swarm = format!("connect-ros2-{}", std::process::id());
+    let zenoh = ["--transport", "zenoh", "--listen", "tcp/127.0.0.1:0", "--connect", &endpoint];
+    let launch = |extra: &[&str]| {
+        let args = [&["launch", "--robots", "1", "--swarm", &swarm][..], &zenoh, extra].concat();
+        Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+            .args(args)
+            .env("BYCOMS_IPC_ISOLATION", &swarm)
+            .output()
+            .expect("spawn orchestrator")
+    };
+    let begun = std::time::Instant::now();
+    let o = launch(&["--ros2"]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    let said = format!("zenoh: nothing answered at \"{endpoint}\" (transport.connect, --connect) within 2 s");
+    assert!(
+        err.contains(&said) && err.contains("--ros2 (the ROS 2 graph is reached through it) needs it"),
+        "{err}"
+    );
+    assert!(!err.contains("agent started"), "no agent was started: {err}");
+    assert!(begun.elapsed() < std::time::Duration::from_secs(8), "took {:?}", begun.elapsed());
+    let o = launch(&["--time-limit", "1"]);
+    let err = stderr(&o);
+    assert!(matches!(o.status.code(), Some(0) | Some(3)), "{err}");
+    assert!(
+        err.lines().any(|l| l.contains("WARN") && l.contains(&said) && l.contains("runs on without it")),
+        "{err}"
+    );
 }

@@ -320,7 +320,7 @@ fn a_revoked_robot_and_a_wrong_common_name_are_denied_while_the_others_run() {
     let endpoint = endpoint("quic");
     let made = lab(dir.path(), &endpoint);
     // Robot 1 is lost: revoked. Adding robot 3 afterwards keeps it revoked.
-    let config = revoke(dir.path(), &[1], "--revoke").expect("revoke robot 1");
+    let config = revoke(dir.path(), &[1], "--out", "--revoke").expect("revoke robot 1");
     let plan = Plan {
         robots: 3,
         hosts: vec!["127.0.0.1".into()],
@@ -334,7 +334,7 @@ fn a_revoked_robot_and_a_wrong_common_name_are_denied_while_the_others_run() {
     let json: String = text.lines().filter(|l| !l.trim_start().starts_with("//")).collect();
     let value: serde_json::Value = serde_json::from_str(&json).expect("json");
     assert_eq!(revoked_in(&value).into_iter().collect::<Vec<_>>(), [1]);
-    assert!(revoke(dir.path(), &[4], "--revoke").is_err(), "robot 4 has no certificate");
+    assert!(revoke(dir.path(), &[4], "--out", "--revoke").is_err(), "robot 4 has no certificate");
 
     let orch = orchestrator(&made);
     let swarm = Swarm::new("secure").expect("swarm");
@@ -413,4 +413,25 @@ fn a_bad_certificate_is_said_in_our_words_before_zenoh_sees_it() {
 
 fn theirs_str(path: &Path) -> String {
     path.to_string_lossy().into_owned()
+}
+
+/// `orchestrator status --connect` with a robot's config: the lab's ACL
+/// lets it ask no launch, and the command says so (nothing answered, the
+/// orchestrator's config is needed), not that no launch runs.
+#[test]
+fn status_with_a_robots_config_says_the_orchestrators_is_needed() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let at = endpoint("quic");
+    let made = lab(dir.path(), &at);
+    let _orch = orchestrator(&made);
+    let robot = made.robot_configs[0].to_str().expect("utf-8");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .args(["status", "--connect", &at, "--zenoh-config", robot])
+        .output()
+        .expect("spawn orchestrator");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    let said = format!("nothing answered: {robot} (--zenoh-config) holds \"robot-1\"'s certificate");
+    assert!(err.contains(&said) && err.contains("orchestrator.json5"), "{err}");
+    assert!(!err.contains("no launch runs"), "{err}");
 }

@@ -128,6 +128,12 @@ fn status_and_stop_now_from_another_terminal() {
     assert_eq!(s["pid"].as_u64(), Some(u64::from(launch.pid())));
     assert!(s["robots"][0]["pose_age_s"].as_f64().is_some_and(|a| a < 2.0), "{s}");
     assert!(!agents_of(&swarm).is_empty());
+    // Another swarm asked for: the one that runs is named.
+    let other = orchestrator(&["status", "--swarm", "no_such_swarm"]);
+    assert_eq!(other.status.code(), Some(1), "{}", other.stdout);
+    assert!(other.stderr.contains("no launch of swarm \"no_such_swarm\" runs"), "{}", other.stderr);
+    let running = other.stderr.split("running: ").nth(1).and_then(|r| r.lines().next()).unwrap_or_default();
+    assert!(running.split(", ").any(|s| s == swarm), "{}", other.stderr);
     // A watcher redraws the launch, then says it is gone once it ends.
     let watcher = Watcher::start(&swarm);
     watcher.line_where("status of the swarm", |v| v["status"]["swarm"] == swarm.as_str());
@@ -138,7 +144,11 @@ fn status_and_stop_now_from_another_terminal() {
     // Gone: no launch of that swarm answers any more.
     let after = orchestrator(&["status", "--swarm", &swarm]);
     assert_eq!(after.status.code(), Some(1), "{}", after.stdout);
-    assert!(after.stderr.contains("no launch runs on this host"), "{}", after.stderr);
+    assert!(
+        after.stderr.contains(&format!("no launch of swarm \"{swarm}\" runs on this host")),
+        "{}",
+        after.stderr
+    );
     let again = orchestrator(&["stop", "--swarm", &swarm]);
     assert_eq!(again.status.code(), Some(1));
     assert!(again.stderr.contains(&format!("no launch of swarm \"{swarm}\" runs")), "{}", again.stderr);

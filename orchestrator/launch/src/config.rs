@@ -522,6 +522,13 @@ impl LaunchConfig {
         ros2.validate().map_err(usage)?;
         if let Some(router) = &ros2.router {
             check_endpoints("ros2.router", std::slice::from_ref(router))?;
+            if bycoms_protocol::bus::zenoh::is_secured(router) {
+                return Err(usage(format!(
+                    "ros2.router {router} (--ros2-router): a secured endpoint needs the lab's \
+                     certificates, and the launch's ROS 2 session is given none: give the tcp/HOST:PORT \
+                     the lab's rmw_zenohd listens on"
+                )));
+            }
         } else if self.transport.kind != Transport::Zenoh {
             return Err(usage(
                 "ros2 (--ros2, mocap.source = \"ros2\") needs a zenoh session: set ros2.router \

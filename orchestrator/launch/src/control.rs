@@ -467,6 +467,12 @@ impl Asker {
     /// `config`, for certificates), or looks on this host without one.
     pub fn open(connect: Option<&str>, config: Option<PathBuf>) -> Result<Self> {
         let Some(endpoint) = connect else { return Ok(Self::Local) };
+        if config.is_none() && bycoms_protocol::bus::zenoh::is_secured(endpoint) {
+            return Err(bycoms_runtime::exit::usage(format!(
+                "--connect {endpoint}: a secured endpoint needs the lab's certificates: give \
+                 --zenoh-config the lab's orchestrator.json5 (in the directory `orchestrator certs` wrote)"
+            )));
+        }
         let cfg = bycoms_runtime::zenoh_config(
             bycoms_protocol::bus::zenoh::Mode::Client,
             Vec::new(),
@@ -504,6 +510,26 @@ impl Asker {
         };
         reached.sort_by(|a, b| a.swarm.cmp(&b.swarm));
         Ok(reached)
+    }
+
+    /// Why nothing may have answered although launches run, when it can
+    /// tell: over zenoh with a config whose own certificate is not the
+    /// orchestrator's (a robot's), the lab's ACL lets it ask no launch.
+    pub fn silenced(&self) -> Option<String> {
+        use bycoms_protocol::bus::zenoh::certs;
+        let Self::Zenoh(z) = self else { return None };
+        let file = z.config().base_config.as_ref()?;
+        let zenoh = z.config().to_zenoh().ok()?;
+        let own = certs::named(&zenoh).into_iter().next()?;
+        let der = certs::read_der(&own).ok()?;
+        let name = certs::name_of(&certs::parse(&der, &own).ok()?);
+        (name != certs::common_name(bycoms_protocol::naming::Member::Orchestrator)).then(|| {
+            format!(
+                "nothing answered: {} (--zenoh-config) holds {name:?}'s certificate, and the lab's ACL lets \
+                 only the orchestrator's ask a launch: give --zenoh-config the lab's orchestrator.json5",
+                file.display()
+            )
+        })
     }
 
     /// Where it looks, in words (for "no launch runs …").

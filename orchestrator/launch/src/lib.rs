@@ -126,6 +126,9 @@ pub fn run_serving(
     // `_presence`: the orchestrator's zenoh liveliness token, held to the end.
     let transport::Opened { bus, endpoints, links, presence: _presence, zenoh } =
         transport::open(&cfg.transport, &cfg.faults, cfg.robots, &swarm_name)?;
+    if let Some(z) = &zenoh {
+        transport::check_connected(z, &cfg.transport.connect, connect_needed_by(&cfg))?;
+    }
     let bus: SharedBus = bus;
     let (ros2_settings, ros2_session) = ros2_graph::for_launch(&cfg, zenoh.as_ref())?;
     let graph = ros2_session.as_ref().map(|s| (&ros2_settings, s));
@@ -167,6 +170,19 @@ pub fn run_serving(
         live.end(&summary);
     }
     Ok(summary)
+}
+
+/// What of the launch needs its `--connect` endpoints reached, in words:
+/// `--ros2` over the launch's own session (the ROS 2 graph is there), or
+/// agents started elsewhere (they may reach the launch only through them).
+fn connect_needed_by(cfg: &LaunchConfig) -> Option<&'static str> {
+    if cfg.ros2.as_ref().is_some_and(|r| r.router.is_none()) {
+        Some("--ros2 (the ROS 2 graph is reached through it)")
+    } else if !cfg.agents.started_here() {
+        Some("agents started elsewhere (they may reach this launch only through it)")
+    } else {
+        None
+    }
 }
 
 /// The launch's observers, each told the run's world before any agent

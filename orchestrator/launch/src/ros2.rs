@@ -260,10 +260,34 @@ mod tests {
             assert!(err.contains("ros2.namespace"), "{bad}: {err}");
         }
         assert_eq!(Ros2Config::default().pose_topic(3), "/robot_3/pose");
+        // Its topics within ROS 2's 255 characters: 233 (with 22 for
+        // `/robot_4294967295/pose`) is the longest namespace.
+        let long =
+            |n: usize| Ros2Config { namespace: format!("/{}", "a".repeat(n - 1)), ..Ros2Config::default() };
+        assert_eq!(long(233).validate(), Ok(()));
+        let err = long(234).validate().unwrap_err();
+        assert!(
+            err.starts_with("ros2.namespace is 234 characters long") && err.contains("at most 233"),
+            "{err}"
+        );
+        let err = long(100_000).validate().unwrap_err();
+        assert!(err.contains("limit of 255 characters"), "{err}");
+        assert!(err.len() < 300, "the namespace is not quoted whole: {err}");
         assert_eq!(
             Ros2Config { namespace: "/lab".into(), ..Ros2Config::default() }.pose_topic(1),
             "/lab/robot_1/pose"
         );
+    }
+
+    /// `domain_id` is one of ROS 2's: 0 to 232.
+    #[test]
+    fn domain_ids_are_ros_2_s() {
+        let domain = |domain_id| Ros2Config { domain_id, ..Ros2Config::default() }.validate();
+        assert_eq!(domain(0), Ok(()));
+        assert_eq!(domain(232), Ok(()));
+        for bad in [233, u32::MAX] {
+            assert_eq!(domain(bad), Err(format!("ros2.domain_id {bad} is not a ROS 2 domain id: 0 to 232")));
+        }
     }
 
     #[test]

@@ -239,6 +239,53 @@ pub fn open(
     }
 }
 
+/// How long a launch waits, once its zenoh session is open, for one of its
+/// `--connect` endpoints (`transport.connect`) to answer: zenoh connects to
+/// them in the background, so without this wait an endpoint nothing
+/// answers at would go unsaid. On loopback or a lab's network a zenoh
+/// router answers within milliseconds.
+pub const CONNECT_WINDOW: std::time::Duration = std::time::Duration::from_secs(2);
+
+/// Checks that the session `zenoh` reached a router or peer at one of its
+/// `connect` endpoints within [`CONNECT_WINDOW`]. When none did, an error
+/// naming them if the launch `needs` them (the why, in words: `--ros2`'s
+/// graph, remote agents), else a warning.
+pub fn check_connected(zenoh: &ZenohBus, connect: &[String], needs: Option<&str>) -> anyhow::Result<()> {
+    if connect.is_empty() || reached_any(zenoh, CONNECT_WINDOW) {
+        return Ok(());
+    }
+    let shown: Vec<String> = connect.iter().map(|e| bycoms_protocol::bus::zenoh::shown(e)).collect();
+    let said = format!(
+        "zenoh: nothing answered at {} (transport.connect, --connect) within {} s: no zenoh router or \
+         peer there (is it running, is the endpoint right?)",
+        shown.join(", "),
+        CONNECT_WINDOW.as_secs_f64()
+    );
+    match needs {
+        Some(why) => anyhow::bail!("{said}; {why} needs it"),
+        None => {
+            tracing::warn!("{said}; the launch runs on without it");
+            Ok(())
+        }
+    }
+}
+
+/// Whether `zenoh` is connected to a router or a peer, waiting up to `window`.
+fn reached_any(zenoh: &ZenohBus, window: std::time::Duration) -> bool {
+    use zenoh::Wait as _;
+    let deadline = std::time::Instant::now() + window;
+    loop {
+        let info = zenoh.session().info();
+        if info.routers_zid().wait().next().is_some() || info.peers_zid().wait().next().is_some() {
+            return true;
+        }
+        if std::time::Instant::now() >= deadline {
+            return false;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
 /// The address part and the rest of an endpoint: `tcp/1.2.3.4:0?x` →
 /// (`tcp/`, `1.2.3.4:0`, `?x`).
 fn split(endpoint: &str) -> Option<(&str, &str, &str)> {

@@ -100,7 +100,7 @@ fn check_robots(robots: u32) -> Result<()> {
 
 pub fn run(args: Args) -> Result<i32> {
     if !args.revoke.is_empty() {
-        let config = revoke(&args.out, &args.revoke, "--revoke")?;
+        let config = revoke(&args.out, &args.revoke, "--out", "--revoke")?;
         let ids: Vec<String> = args.revoke.iter().map(u32::to_string).collect();
         let live = revoke_live(&config, &args.revoke);
         let applied = match live.as_slice() {

@@ -243,6 +243,8 @@ pub struct Args {
     #[arg(long, value_name = "ENDPOINT")]
     pub listen: Vec<String> => list transport.listen,
     /// zenoh: endpoint to connect to as well, e.g. a zenohd router (repeatable).
+    /// Nothing answering at any of them within 2 s of the start is an error
+    /// with --ros2 or agents started elsewhere, a warning otherwise.
     #[arg(long, value_name = "ENDPOINT")]
     pub connect: Vec<String> => list transport.connect,
     /// zenoh: a zenoh JSON5 config file read first (TLS, access control).
@@ -481,6 +483,12 @@ mod tests {
         assert_eq!(cfg.ros2.and_then(|r| r.router).as_deref(), Some("tcp/127.0.0.1:7447"));
         let err = format!("{:#}", config(&["--ros2-router", "127.0.0.1:7447"]).unwrap_err());
         assert!(err.contains("ros2.router"), "{err}");
+        // QUIC needs certificates the ROS 2 session cannot be given: said
+        // at once, not after zenoh's 10 s handshake timeout.
+        let err = config(&["--ros2-router", "quic/127.0.0.1:7447"]).unwrap_err();
+        assert_eq!(bycoms_runtime::exit::code_of(&err), bycoms_runtime::exit::USAGE);
+        let err = format!("{err:#}");
+        assert!(err.contains("ros2.router quic/127.0.0.1:7447 (--ros2-router): a secured endpoint"), "{err}");
         let dir = tempfile::tempdir().expect("temp dir");
         let file = dir.path().join("launch.toml");
         let mocap = "robots = 1\n[mocap]\nsource = \"ros2\"\n[mocap.ros2.topics]\n\"/robot_1/pose\" = 1\n\

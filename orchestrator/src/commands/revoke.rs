@@ -51,13 +51,37 @@ pub fn run(args: Args) -> Result<i32> {
     check_why(&args.why)?;
     // The ACL first: a robot outside the lab's certificates is a usage
     // error before any launch is asked.
-    if let Some(dir) = &args.certs {
-        let config = crate::certs::revoke(dir, &[robot], "--robot")?;
-        bycoms_runtime::logging::status_line(&format!(
-            "revoke: robot {robot} has no rights in {} from the next start",
-            config.display()
-        ));
-    }
+    let acl = match &args.certs {
+        Some(dir) => {
+            let config = crate::certs::revoke(dir, &[robot], "--certs", "--robot")?;
+            let said = format!(
+                "the ACL of {} now denies robot {robot} everything from the next start",
+                config.display()
+            );
+            bycoms_runtime::logging::status_line(&format!("revoke: {said}"));
+            Some(said)
+        }
+        None => None,
+    };
+    // An error from here on still says what was done to the ACL (and
+    // exits as it would without it).
+    let with_acl = |e: anyhow::Error| match &acl {
+        Some(said) => {
+            let text = format!("{}; {said}", exit::message(&e));
+            if exit::code_of(&e) == exit::USAGE {
+                exit::usage(text)
+            } else {
+                anyhow::anyhow!(text)
+            }
+        }
+        None => e,
+    };
+    ask_launch(&args, robot).map_err(with_acl)
+}
+
+/// Asks the launch (the one `--swarm` names, or the only one running) to
+/// revoke `robot`, and says its answer.
+fn ask_launch(args: &Args, robot: u32) -> Result<i32> {
     let asker = args.which.asker()?;
     let swarm = one_launch(&asker, args.which.swarm.as_deref())?;
     let ask = Ask::Revoke { robot, who: who("orchestrator revoke"), why: args.why.clone(), lab: None };
@@ -65,7 +89,7 @@ pub fn run(args: Args) -> Result<i32> {
     let reached = asker.ask(Some(&swarm), &ask)?;
     let took_ms = asked.elapsed().as_secs_f64() * 1e3;
     let Some(r) = reached.into_iter().next() else {
-        anyhow::bail!("no launch of swarm {swarm:?} runs {}", asker.place());
+        anyhow::bail!("{}", super::status::none_answered(&asker, Some(&swarm))?);
     };
     match r.answer {
         Ok(Answer::Revoked { swarm, robot, told, already, pid }) => {

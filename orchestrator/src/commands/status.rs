@@ -37,7 +37,8 @@ fn interval(text: &str) -> Result<f64, String> {
 pub struct Args {
     #[command(flatten)]
     pub which: Which,
-    /// One JSON object per launch and line (`{"swarm", "status"}` or `{"swarm", "gone"}`).
+    /// One JSON object per launch and line (`{"swarm", "status"}` or
+    /// `{"swarm", "gone"}`); `[]` when no launch answers.
     #[arg(long)]
     pub json: bool,
     /// Redraw until Ctrl-C.
@@ -81,18 +82,22 @@ pub fn run(args: Args) -> Result<i32> {
     let asker = args.which.asker()?;
     let stop = bycoms_launch::interrupt_flag();
     let mut seen = BTreeSet::new();
+    let swarm = args.which.swarm.as_deref();
     loop {
-        let reached = asker.ask(args.which.swarm.as_deref(), &Ask::Status)?;
+        let reached = asker.ask(swarm, &Ask::Status)?;
         let answered = show(&reached, &seen, args.json)?;
+        if answered == 0 && args.json {
+            outln!("[]")?;
+        }
         if !args.watch {
             if answered == 0 {
-                anyhow::bail!("no launch runs {}", asker.place());
+                anyhow::bail!("{}", none_answered(&asker, swarm)?);
             }
             return Ok(exit::SUCCESS);
         }
         seen = reached.iter().filter(|r| r.answer.is_ok()).map(|r| r.swarm.clone()).collect();
-        if answered == 0 {
-            outln!("no launch runs {}", asker.place())?;
+        if answered == 0 && !args.json {
+            outln!("{}", none_answered(&asker, swarm)?)?;
         }
         let until = Instant::now() + Duration::from_secs_f64(args.interval);
         while Instant::now() < until {
@@ -136,4 +141,25 @@ fn show(reached: &[Reached], before: &BTreeSet<String>, json: bool) -> Result<us
         }
     }
     Ok(answered)
+}
+
+/// The swarms whose launches answer `asker` now, in swarm order.
+pub fn running(asker: &Asker) -> Result<Vec<String>> {
+    Ok(asker.ask(None, &Ask::Status)?.into_iter().filter(|r| r.answer.is_ok()).map(|r| r.swarm).collect())
+}
+
+/// Why no launch answered, in words: "no launch runs …", or, when
+/// `swarm` was asked for, that none of that swarm runs (gone, or never
+/// started) and which do.
+pub fn none_answered(asker: &Asker, swarm: Option<&str>) -> Result<String> {
+    let place = asker.place();
+    if let Some(why) = asker.silenced() {
+        return Ok(format!("{why} ({place})"));
+    }
+    let Some(swarm) = swarm else { return Ok(format!("no launch runs {place}")) };
+    let none = format!("no launch of swarm {swarm:?} runs {place} (it ended, or never started)");
+    Ok(match running(asker)?.as_slice() {
+        [] => format!("{none}; no other runs either"),
+        others => format!("{none}; running: {}", others.join(", ")),
+    })
 }

@@ -53,10 +53,8 @@ pub fn one_launch(asker: &Asker, swarm: Option<&str>) -> Result<String> {
     if let Some(s) = swarm {
         return Ok(s.to_owned());
     }
-    let running: Vec<String> =
-        asker.ask(None, &Ask::Status)?.into_iter().filter(|r| r.answer.is_ok()).map(|r| r.swarm).collect();
-    match running.as_slice() {
-        [] => anyhow::bail!("no launch runs {}", asker.place()),
+    match super::status::running(asker)?.as_slice() {
+        [] => anyhow::bail!("{}", super::status::none_answered(asker, None)?),
         [one] => Ok(one.clone()),
         many => Err(exit::usage(format!(
             "{} launches run {} ({}): pick one with --swarm",
@@ -74,7 +72,7 @@ pub fn run(args: Args) -> Result<i32> {
     let ask = Ask::Stop { now: args.now, who: who("orchestrator stop"), why: args.why.clone() };
     let reached = asker.ask(Some(&swarm), &ask)?;
     let Some(r) = reached.into_iter().next() else {
-        anyhow::bail!("no launch of swarm {swarm:?} runs {}", asker.place());
+        anyhow::bail!("{}", super::status::none_answered(&asker, Some(&swarm))?);
     };
     match r.answer {
         Ok(Answer::Stopping { swarm, now, told, answered, slowest_us, recording, pid }) => {

@@ -52,7 +52,7 @@ mod text;
 pub use config::{Congestion, Liveness, Mode, ZenohConfig};
 pub use liveliness::{AliveToken, AliveWatch, Presence, PresenceEvent};
 pub use ports::{SwarmMessage, SwarmSubscriber, ZenohPublisher, ZenohSubscriber};
-pub use text::{check_endpoint, is_secured, zenoh_error, zenoh_words, EndpointError, LINKS};
+pub use text::{check_endpoint, is_secured, shown, zenoh_error, zenoh_words, EndpointError, LINKS};
 
 use super::{Bus, BusError, Limits};
 use crate::naming::{Swarm, TopicName};

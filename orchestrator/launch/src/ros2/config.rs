@@ -27,11 +27,36 @@ impl Default for Ros2Config {
     }
 }
 
+/// The highest `ROS_DOMAIN_ID` ROS 2 documents (0 to 232).
+pub const MAX_DOMAIN_ID: u32 = 232;
+
+/// The longest topic name ROS 2 takes, in characters.
+pub const MAX_TOPIC_LEN: usize = 255;
+
 impl Ros2Config {
-    /// A usage error unless the namespace is a ROS 2 namespace: `/`, or `/`
-    /// then names of letters, digits and `_` separated by single `/`.
+    /// A usage error unless the namespace is a ROS 2 namespace (`/`, or `/`
+    /// then names of letters, digits and `_` separated by single `/`)
+    /// short enough that every pose topic under it fits ROS 2's
+    /// [`MAX_TOPIC_LEN`], and the domain is one of ROS 2's (0 to
+    /// [`MAX_DOMAIN_ID`]).
     pub fn validate(&self) -> Result<(), String> {
         let ns = &self.namespace;
+        if self.domain_id > MAX_DOMAIN_ID {
+            return Err(format!(
+                "ros2.domain_id {} is not a ROS 2 domain id: 0 to {MAX_DOMAIN_ID}",
+                self.domain_id
+            ));
+        }
+        // The longest topic under it: the pose topic of the highest robot id.
+        let longest = self.pose_topic(u32::MAX).chars().count();
+        if longest > MAX_TOPIC_LEN {
+            let most = ns.chars().count() - (longest - MAX_TOPIC_LEN);
+            return Err(format!(
+                "ros2.namespace is {} characters long: its topics (`<namespace>/robot_<k>/pose`) would pass \
+                 ROS 2's limit of {MAX_TOPIC_LEN} characters; give one of at most {most}",
+                ns.chars().count()
+            ));
+        }
         if bycoms_ros2::rmw_zenoh::is_fully_qualified(ns, true) {
             Ok(())
         } else {

@@ -23,9 +23,31 @@ pub struct EndpointError {
 
 impl fmt::Display for EndpointError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "endpoint {:?}: expected tcp/HOST:PORT, quic/HOST:PORT or tls/HOST:PORT", self.endpoint)
+        let endpoint = shown(&self.endpoint);
+        write!(f, "endpoint {endpoint}: expected tcp/HOST:PORT, quic/HOST:PORT or tls/HOST:PORT")?;
+        if self.endpoint.len() > MAX_HOST_LEN {
+            write!(f, " (a HOST of at most {MAX_HOST_LEN} characters)")?;
+        }
+        Ok(())
     }
 }
+
+/// The longest endpoint said whole in a message, in characters.
+const SHOWN_WHOLE: usize = 100;
+
+/// `endpoint` for a message: quoted, and past [`SHOWN_WHOLE`] characters
+/// its start and its length (a 200 000-character host is not echoed whole).
+pub fn shown(endpoint: &str) -> String {
+    let n = endpoint.chars().count();
+    if n <= SHOWN_WHOLE {
+        return format!("{endpoint:?}");
+    }
+    let start: String = endpoint.chars().take(SHOWN_WHOLE / 2).collect();
+    format!("{start:?}… ({n} characters)")
+}
+
+/// The longest host name DNS takes (RFC 1035: 253 characters written out).
+const MAX_HOST_LEN: usize = 253;
 
 impl core::error::Error for EndpointError {}
 
@@ -44,7 +66,10 @@ pub fn check_endpoint(endpoint: &str) -> Result<(), EndpointError> {
     let (link, rest) = endpoint.split_once('/').ok_or_else(bad)?;
     let address = &rest[..rest.find(['?', '#']).unwrap_or(rest.len())];
     let (host, port) = address.rsplit_once(':').ok_or_else(bad)?;
-    let host_ok = !host.is_empty() && !host.contains(char::is_whitespace) && host != "[]";
+    let host_ok = !host.is_empty()
+        && host.len() <= MAX_HOST_LEN + 2
+        && !host.contains(char::is_whitespace)
+        && host != "[]";
     if !LINKS.contains(&link) || !host_ok || port.parse::<u16>().is_err() {
         return Err(bad());
     }
@@ -86,8 +111,11 @@ pub fn zenoh_words(message: &str) -> Option<String> {
         format!("host not found: cannot connect to{at} (is the host name right?)")
     } else if text.contains("Connection refused") {
         format!(
-            "connection refused at{at}: nothing listens there (is the orchestrator running, on that port?)"
+            "connection refused at{at}: nothing listens there (is the orchestrator, or the zenoh router \
+             meant to be there, running on that port?)"
         )
+    } else if let Some(said) = no_zenoh_words(&text, &at, endpoint.as_deref()) {
+        said
     } else if let Some(why) = certificate_words(&text) {
         match (endpoint, text.contains("acceptor")) {
             (Some(e), _) => format!("cannot connect to {e}: the orchestrator's certificate {why}"),
@@ -100,6 +128,36 @@ pub fn zenoh_words(message: &str) -> Option<String> {
         return Some(text.replace(" Hint: increase the system open file limit.", ""));
     };
     Some(said)
+}
+
+/// What zenoh says when what answered at an endpoint is no zenoh router
+/// (or answered nothing in time), in words: what answered, and what is
+/// missing. `at`: ` ENDPOINT`.
+fn no_zenoh_words(text: &str, at: &str, endpoint: Option<&str>) -> Option<String> {
+    let quic = endpoint.is_some_and(|e| e.starts_with("quic/"));
+    Some(if text.contains("Decode error on link") {
+        format!(
+            "something answered at{at} that does not speak zenoh (what it sent is no zenoh message): \
+             is that the port of a zenoh router (rmw_zenohd, zenohd, the orchestrator)?"
+        )
+    } else if text.contains("Connection reset by peer") {
+        format!(
+            "something at{at} took the connection and closed it without zenoh's handshake: no zenoh \
+             router listens there (is that the router's port?)"
+        )
+    } else if text.contains("deadline has elapsed") && quic {
+        format!(
+            "no QUIC handshake with{at} completed within zenoh's 10 s: nothing answers QUIC there, or \
+             it needs the lab's certificates (a zenoh config of `orchestrator certs`, --zenoh-config)"
+        )
+    } else if text.contains("deadline has elapsed") {
+        format!(
+            "something at{at} took the connection but did not answer zenoh's handshake within zenoh's \
+             10 s: it does not speak zenoh (is that the port of a zenoh router?)"
+        )
+    } else {
+        return None;
+    })
 }
 
 /// What rustls said about a peer's certificate (`invalid peer
@@ -215,7 +273,25 @@ mod tests {
             ),
             (
                 format!("Unable to connect to tcp/127.0.0.1:17998! Can not create a new TCP link bound to tcp/127.0.0.1:17998: [127.0.0.1:17998: Connection refused (os error 111){registry}]{registry}"),
-                "connection refused at tcp/127.0.0.1:17998: nothing listens there (is the orchestrator running, on that port?)",
+                "connection refused at tcp/127.0.0.1:17998: nothing listens there (is the orchestrator, or the zenoh router meant to be there, running on that port?)",
+            ),
+            // What answered is not zenoh (issue 49, item 14): said without
+            // zenoh's Debug structs.
+            (
+                "Unable to connect to tcp/127.0.0.1:47395! Decode error on link: tcp/127.0.0.1:47680 => tcp/127.0.0.1:47395:TransportLinkUnicastConfig { direction: Outbound, batch: BatchConfig { mtu: 65480, is_streamed: true }, priorities: None, reliability: None }".to_owned(),
+                "something answered at tcp/127.0.0.1:47395 that does not speak zenoh (what it sent is no zenoh message): is that the port of a zenoh router (rmw_zenohd, zenohd, the orchestrator)?",
+            ),
+            (
+                "Unable to connect to tcp/127.0.0.1:47393! Read error on TCP link 127.0.0.1:49450 => 127.0.0.1:47393: Connection reset by peer (os error 104)".to_owned(),
+                "something at tcp/127.0.0.1:47393 took the connection and closed it without zenoh's handshake: no zenoh router listens there (is that the router's port?)",
+            ),
+            (
+                "Unable to connect to tcp/127.0.0.1:47394! deadline has elapsed".to_owned(),
+                "something at tcp/127.0.0.1:47394 took the connection but did not answer zenoh's handshake within zenoh's 10 s: it does not speak zenoh (is that the port of a zenoh router?)",
+            ),
+            (
+                "Unable to connect to quic/127.0.0.1:47392! deadline has elapsed".to_owned(),
+                "no QUIC handshake with quic/127.0.0.1:47392 completed within zenoh's 10 s: nothing answers QUIC there, or it needs the lab's certificates (a zenoh config of `orchestrator certs`, --zenoh-config)",
             ),
         ];
         for (zenoh, ours) in cases {
@@ -257,6 +333,12 @@ mod tests {
         ] {
             assert!(check_endpoint(bad).is_err(), "{bad}");
         }
+        // A host past DNS's 253 characters, said without echoing it whole.
+        let long = format!("tcp/{}:7447", "h".repeat(200_000));
+        let said = check_endpoint(&long).unwrap_err().to_string();
+        assert!(said.contains("… (200009 characters)") && said.contains("at most 253 characters"), "{said}");
+        assert!(said.len() < 300, "{said}");
+        assert_eq!(check_endpoint(&format!("tcp/{}:7447", "h".repeat(253))), Ok(()));
         let e = check_endpoint("foo/bar").unwrap_err();
         assert_eq!(
             e.to_string(),
