@@ -142,6 +142,11 @@ fn bad_input_exits_non_zero_with_a_clear_message() {
         (&["simulate", "--eps", "1e-300", "--no-svg"], "bad --eps", 2),
         (&["launch", "--eps", "1e-300"], "bad eps (--eps)", 2),
         (&["launch", "--eps", "0"], "bad eps (--eps)", 2),
+        // Issue 49: no robot was ever still, and a lockstep launch never ended.
+        (&["launch", "--stop-speed", "0"], "gate.stop_speed (--stop-speed) must be a positive number (a robot slower than it is still), got 0", 2),
+        // Issue 49: --seed is the noise seed, as in launch; with the old
+        // --noise-seed it was a terrain's seed, and is refused naming the new flag.
+        (&["simulate", "--seed", "1", "--noise-seed", "2", "--no-svg"], "generate a terrain with --terrain-seed 1 --seed 2", 2),
         (
             &["launch", "--clock", "realtime", "--speed", "1e9"],
             "bad speed (--speed): the real-time speed-up must be a number in [0.001, 1000]",
@@ -205,6 +210,38 @@ fn bad_input_exits_non_zero_with_a_clear_message() {
     let o = orchestrator(&["simulate", "--terrain", bad.to_str().unwrap(), "--no-svg"]);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("line 3, column 3"), "{}", stderr(&o));
+}
+
+/// Issue 49: `--seed` generated a terrain in `simulate` and seeded the
+/// noise in `launch`; a launch's flags copied to `simulate` were refused
+/// (`--terrain` with `--seed`) or ran another world. `--seed` is the noise
+/// seed in both; `--terrain-seed` generates a terrain; `--noise-seed` is
+/// still read as `--seed`.
+#[test]
+fn simulate_takes_a_launchs_seed_as_the_noise_seed() {
+    let dir = tempfile::tempdir().unwrap();
+    let terrain = dir.path().join("t.txt");
+    std::fs::write(&terrain, "S.........\n..........\n..........\n.........G\n").unwrap();
+    let run = |extra: &[&str]| {
+        let mut args = vec!["simulate", "--json", "--no-svg", "--noise", "--time-limit", "300"];
+        args.extend(extra);
+        let o = orchestrator(&args);
+        assert!(matches!(o.status.code(), Some(0) | Some(3)), "{args:?}: {}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON on stdout");
+        (v, stderr(&o))
+    };
+    let t = terrain.to_str().unwrap();
+    let (seeded, _) = run(&["--terrain", t, "--seed", "4"]);
+    let (old_name, _) = run(&["--terrain", t, "--noise-seed", "4"]);
+    let (other, _) = run(&["--terrain", t, "--seed", "5"]);
+    assert_eq!(seeded, old_name, "--noise-seed is --seed");
+    assert_ne!(seeded["robots"], other["robots"], "the seed seeds the noise");
+    let (scenario, said) = run(&["--seed", "4"]);
+    assert_eq!(scenario["terrain"], "long-wall", "{scenario}");
+    assert!(said.contains("--seed 4 is the noise seed (as in launch)"), "{said}");
+    assert!(said.contains("is --terrain-seed 4"), "{said}");
+    let (generated, _) = run(&["--terrain-seed", "4"]);
+    assert_ne!(generated["terrain"], "long-wall", "{generated}");
 }
 
 #[test]

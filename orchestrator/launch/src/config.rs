@@ -9,6 +9,7 @@
 //! its config beside its terrain), those on the command line to the working
 //! directory.
 
+mod finite;
 mod moved;
 
 pub use super::agents::choice::{AgentSourceKind, AgentsConfig};
@@ -400,20 +401,7 @@ impl LaunchConfig {
         check_run(&self.run_config(), &CONFIG_KEYS)?;
         self.faults.validate()?;
         check_speed(self.speed).map_err(|e| usage(format!("bad speed (--speed): {e}")))?;
-        let positive = |v: f64| v.is_finite() && v > 0.0;
-        if !positive(self.gate.max_speed) {
-            return Err(usage(format!(
-                "gate.max_speed must be a positive number, got {}",
-                self.gate.max_speed
-            )));
-        }
-        for (key, value) in
-            [("gate.stop_speed", self.gate.stop_speed), ("gate.stop_turn_rate", self.gate.stop_turn_rate)]
-        {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(usage(format!("{key} must be a non-negative number, got {value}")));
-            }
-        }
+        self.check_gate()?;
         self.check_seconds()?;
         if self.transport.kind == Transport::Zenoh
             && self.transport.listen.is_empty()
@@ -458,6 +446,42 @@ impl LaunchConfig {
             return Err(usage(
                 "supervision.heartbeat_timeout must be longer than supervision.heartbeat_interval",
             ));
+        }
+        self.check_finite()
+    }
+
+    /// Every float of the config, whatever its key, is a finite number
+    /// ([`finite`]); the keys checked above say more about their own.
+    fn check_finite(&self) -> Result<()> {
+        let value = toml::Value::try_from(self).context("the config does not serialise")?;
+        match finite::first_non_finite(&value) {
+            Some((key, v)) => Err(usage(format!("{key} must be a finite number, got {v}"))),
+            None => Ok(()),
+        }
+    }
+
+    /// The gate's speeds, by key and flag.
+    fn check_gate(&self) -> Result<()> {
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if !positive(self.gate.max_speed) {
+            return Err(usage(format!(
+                "gate.max_speed must be a positive number, got {}",
+                self.gate.max_speed
+            )));
+        }
+        // Nothing is slower than 0: with `stop_speed` 0 no robot would ever
+        // be still, and only the time limit would end it.
+        if !positive(self.gate.stop_speed) {
+            return Err(usage(format!(
+                "gate.stop_speed (--stop-speed) must be a positive number (a robot slower than it is still), got {}",
+                self.gate.stop_speed
+            )));
+        }
+        let turn = self.gate.stop_turn_rate;
+        if !(turn.is_finite() && turn >= 0.0) {
+            return Err(usage(format!(
+                "gate.stop_turn_rate (--stop-turn-rate) must be a non-negative number (0 ignores turning), got {turn}"
+            )));
         }
         Ok(())
     }
@@ -750,6 +774,50 @@ mod tests {
             assert!(format!("{e:#}").contains(says), "{text}: {e:#}");
             assert!(format!("{e:#}").contains("100000000"), "the range is said: {e:#}");
         }
+    }
+
+    /// Issue 49: a NaN or infinite arena origin passed, and the operator
+    /// was asked for 600 s to place a robot that could never be placed.
+    /// Every float of the config goes through one check naming its key.
+    #[test]
+    fn a_non_finite_float_anywhere_in_a_config_is_a_usage_error_naming_its_key() {
+        let lab = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../deploy/lab");
+        let ros2 = LaunchConfig::load(&lab.join("launch-ros2.toml")).expect("the ROS 2 lab config");
+        let natnet = LaunchConfig::load(&lab.join("launch-natnet.toml")).expect("the NatNet lab config");
+        ros2.validate().expect("valid as shipped");
+        natnet.validate().expect("valid as shipped");
+        let mut cases = Vec::new();
+        let mut cfg = ros2.clone();
+        cfg.mocap.ros2.as_mut().expect("[mocap.ros2]").arena.origin = [f64::NAN, 1e308, f64::NEG_INFINITY];
+        cases.push((cfg, "mocap.ros2.arena.origin[0] must be a finite number, got NaN"));
+        let mut cfg = natnet.clone();
+        cfg.mocap.natnet.as_mut().expect("[mocap.natnet]").arena.origin = [0.0, 1e308, f64::NEG_INFINITY];
+        cases.push((cfg, "mocap.natnet.arena.origin[2] must be a finite number, got -inf"));
+        for (cfg, says) in cases {
+            let e = cfg.validate().expect_err(says);
+            assert_eq!(bycoms_runtime::exit::code_of(&e), bycoms_runtime::exit::USAGE, "{e:#}");
+            assert_eq!(format!("{e:#}"), says);
+        }
+    }
+
+    /// Issue 49: `--stop-speed 0` made no robot ever still, and a lockstep
+    /// launch ran without end.
+    #[test]
+    fn a_stop_speed_of_zero_is_refused_naming_the_key_and_flag() {
+        for v in [0.0, -0.1, f64::NAN] {
+            let cfg = LaunchConfig {
+                gate: GateConfig { stop_speed: v, ..GateConfig::default() },
+                ..LaunchConfig::default()
+            };
+            let e = format!("{:#}", cfg.validate().expect_err("refused"));
+            assert!(e.starts_with("gate.stop_speed (--stop-speed) must be a positive number"), "{e}");
+            assert!(e.ends_with(&format!("got {v}")), "{e}");
+        }
+        let cfg = LaunchConfig {
+            gate: GateConfig { stop_turn_rate: 0.0, ..GateConfig::default() },
+            ..LaunchConfig::default()
+        };
+        cfg.validate().expect("a stop_turn_rate of 0 ignores turning");
     }
 
     #[test]

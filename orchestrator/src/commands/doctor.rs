@@ -60,6 +60,9 @@ pub fn findings(args: &Args, now: SystemTime) -> Result<Vec<Finding>> {
     let robots = args.robots.unwrap_or(config.robots);
     check_robot_count("--robots", robots)?;
     let mut found = vec![host::open_files_here(robots, config.transport.kind)];
+    if let Some(path) = &args.config {
+        found.extend(config_refused(path, &config, robots));
+    }
     found.extend(host::available_mb().map(|mb| host::memory(robots, mb)));
     let zenoh_dir = config.transport.zenoh_config.as_deref().and_then(std::path::Path::parent);
     if let Some(dir) = args.certs.as_deref().or(zenoh_dir) {
@@ -99,6 +102,20 @@ pub fn findings(args: &Args, now: SystemTime) -> Result<Vec<Finding>> {
         found.extend(doctor::zenoh::check(&reach));
     }
     Ok(found)
+}
+
+/// What `launch` says of the config at `path` for a plan of `robots`
+/// robots: the one validation a launch makes (issue 49: a NaN arena
+/// origin passed the doctor, and the launch then waited 600 s for a
+/// placement that could never happen).
+fn config_refused(path: &std::path::Path, config: &LaunchConfig, robots: u32) -> Option<Finding> {
+    let planned = LaunchConfig { robots, ..config.clone() };
+    let e = planned.validate().err()?;
+    Some(Finding::error(
+        "config",
+        format!("launch refuses {}: {e:#}", path.display()),
+        "fix the key it names (deploy/launch.toml documents every key)",
+    ))
 }
 
 /// Removes what dead swarms left on this host's bus (`--clean`).
@@ -196,6 +213,38 @@ mod tests {
         assert!(short[0].cause.ends_with("names 2 robots, the plan 3"), "{:?}", short[0]);
         let usage = findings(&Args { robots: Some(1001), ..args }, SystemTime::now()).expect_err("too many");
         assert_eq!(exit::code_of(&usage), exit::USAGE);
+    }
+
+    /// Issue 49: a config the launch refuses (a NaN arena origin) passed
+    /// the doctor. The doctor reports what the launch says, naming the key.
+    #[test]
+    fn a_config_the_launch_refuses_is_an_error_naming_the_key() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let lab = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../deploy/lab/launch-natnet.toml");
+        let text = std::fs::read_to_string(lab).expect("the NatNet lab config");
+        let origin = "origin = [0.0, 0.0, 0.0]\n";
+        assert!(text.contains(origin), "the lab config sets the arena's origin");
+        let config = dir.path().join("launch.toml");
+        std::fs::write(&config, text.replace(origin, "origin = [nan, 1e308, -inf]\n")).expect("config");
+        let args = Args {
+            config: Some(config.clone()),
+            robots: None,
+            certs: None,
+            json: false,
+            clean: false,
+            connect: None,
+            zenoh_config: None,
+            swarm: None,
+            timeout_ms: 100,
+        };
+        let found = findings(&args, SystemTime::now()).expect("findings");
+        let said: Vec<_> = found.iter().filter(|f| f.check == "config").collect();
+        assert_eq!(said.len(), 1, "{found:#?}");
+        assert_eq!(said[0].level, Level::Error);
+        let launch =
+            format!("{:#}", LaunchConfig::load(&config).and_then(|c| c.validate()).expect_err("refused"));
+        assert_eq!(launch, "mocap.natnet.arena.origin[0] must be a finite number, got NaN");
+        assert!(said[0].cause.ends_with(&launch), "the launch's words: {:?}", said[0]);
     }
 
     /// Without --certs, the certificates are those beside the config's

@@ -25,16 +25,20 @@ use std::path::PathBuf;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Terrain file in the text format ('#' impassable, '.' free, 'S' start, 'G' goal).
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["seed", "scenario"])]
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["terrain_seed", "scenario"])]
     pub terrain: Option<PathBuf>,
     /// Generate a Perlin terrain from this seed (the first feasible one of its stream).
-    #[arg(long, conflicts_with = "scenario")]
-    pub seed: Option<u64>,
-    /// Built-in scenario (used when neither --terrain nor --seed is given).
-    #[arg(long, default_value = scenario::DEFAULT, value_parser = scenario::names())]
-    pub scenario: String,
-    /// Seed of the sensing noise (default: --seed, or 0).
+    #[arg(long, value_name = "SEED", conflicts_with = "scenario")]
+    pub terrain_seed: Option<u64>,
+    /// Built-in scenario (used when neither --terrain nor --terrain-seed is given)
+    /// [default: long-wall].
+    #[arg(long, value_parser = scenario::names())]
+    pub scenario: Option<String>,
+    /// Run seed of the robots' noise streams, as launch's --seed [default: 0].
     #[arg(long)]
+    pub seed: Option<u64>,
+    /// The old name of --seed (kept: it is the same number).
+    #[arg(long, hide = true, value_name = "SEED")]
     pub noise_seed: Option<u64>,
     #[command(flatten)]
     pub run: RunArgs,
@@ -102,15 +106,41 @@ pub struct Report<'a> {
     pub robots: Vec<RobotReport<'a>>,
 }
 
-pub fn run(args: Args) -> Result<i32> {
-    let source = match (&args.terrain, args.seed) {
-        (Some(path), _) => TerrainSource::File(path.clone()),
-        (None, Some(seed)) => TerrainSource::Generated(seed),
-        (None, None) => TerrainSource::Scenario(args.scenario.clone()),
+/// The terrain and the noise seed of `args`. Issue 49: `--seed` was the
+/// terrain generator here and the noise seed in `launch`, so a launch's
+/// flags copied to `simulate` ran another world. It is the noise seed in
+/// both; the terrain generator is `--terrain-seed`. `--noise-seed`, the old
+/// name, still works; with `--seed` as well it was a terrain and a noise
+/// seed, and is refused naming the new flag rather than read otherwise.
+fn terrain_and_seed(args: &Args) -> Result<(TerrainSource, u64)> {
+    if let (Some(seed), Some(noise)) = (args.seed, args.noise_seed) {
+        return Err(exit::usage(format!(
+            "--seed {seed} with --noise-seed {noise}: --seed is the noise seed now (as in launch); \
+             generate a terrain with --terrain-seed {seed} --seed {noise}"
+        )));
+    }
+    let source = match (&args.terrain, args.terrain_seed, &args.scenario) {
+        (Some(path), ..) => TerrainSource::File(path.clone()),
+        (None, Some(seed), _) => TerrainSource::Generated(seed),
+        (None, None, Some(name)) => TerrainSource::Scenario(name.clone()),
+        (None, None, None) => {
+            if let Some(seed) = args.seed {
+                tracing::warn!(
+                    "--seed {seed} is the noise seed (as in launch) on the scenario {}; a terrain generated \
+                     from seed {seed} (what --seed was before) is --terrain-seed {seed}",
+                    scenario::DEFAULT
+                );
+            }
+            TerrainSource::Scenario(scenario::DEFAULT.to_string())
+        }
     };
+    Ok((source, args.seed.or(args.noise_seed).unwrap_or(0)))
+}
+
+pub fn run(args: Args) -> Result<i32> {
+    let (source, seed) = terrain_and_seed(&args)?;
     check_picture_args(&args)?;
     let world = scenario::load(&source)?;
-    let seed = args.noise_seed.or(args.seed).unwrap_or(0);
     let mut cfg = args.run.to_config(seed)?;
     cfg.record_trajectories = !args.no_svg || args.animate.is_some() || args.json;
     let result = run_world(&world.terrain, &cfg);

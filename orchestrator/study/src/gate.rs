@@ -150,10 +150,13 @@ impl Watch {
     /// time limit nothing a robot does counts any more; a still robot has
     /// stopped within the limit, as the runner counts it. Without this a
     /// dwell longer than the run (`--dwell 1e9`) watched a robot that had
-    /// stopped for ever, whatever the time limit. `None` for a robot that
-    /// moves (the budget ends it) or was judged already.
+    /// stopped for ever, whatever the time limit. Whatever the gate's
+    /// thresholds say, too: a pose that did not change is a robot that
+    /// stands still (with `stop_speed` 0 nothing was ever "still", and a
+    /// lockstep launch ran without end). `None` for a robot whose latest
+    /// pose changed (it moves: the budget ends it) or was judged already.
     pub fn still_at_the_limit(&mut self) -> Option<Verdict> {
-        if self.verdict.is_some() || self.still_since_us.is_none() {
+        if self.verdict.is_some() || !same_pose(&self.last, &self.previous) {
             return None;
         }
         self.verdict = Some(Verdict::Stuck(self.last));

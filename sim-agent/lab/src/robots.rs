@@ -90,6 +90,14 @@ pub enum RobotsError {
         /// The address given.
         addr: SocketAddr,
     },
+    /// An address is used twice.
+    #[error("bad robots file {}: {why}", path.display())]
+    Address {
+        /// The file.
+        path: PathBuf,
+        /// Which robot, which address, what is wrong.
+        why: String,
+    },
     /// A key file is unreadable or does not hold 64 hex digits (the
     /// link's reader, `LinkKey::read_file`, as the gateway's).
     #[error(transparent)]
@@ -117,6 +125,9 @@ impl RobotsFile {
             return Err(RobotsError::Ids { path: path.to_path_buf(), found });
         }
         file.check_ports(path)?;
+        if let Some(why) = file.address_refused() {
+            return Err(RobotsError::Address { path: path.to_path_buf(), why });
+        }
         file.dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Ok(file)
     }
@@ -135,6 +146,20 @@ impl RobotsFile {
             }
             None => Ok(()),
         }
+    }
+
+    /// An address used twice, naming both robots and the address (issue
+    /// 49): each robot's address and each gateway's is its own socket.
+    fn address_refused(&self) -> Option<String> {
+        let mut seen = std::collections::BTreeMap::new();
+        for r in &self.robots {
+            for (what, addr) in [("address", r.address), ("gateway", r.gateway)] {
+                if let Some((id, other)) = seen.insert(addr, (r.id, what)) {
+                    return Some(format!("robot {}'s {what} {addr} is also robot {id}'s {other}", r.id));
+                }
+            }
+        }
+        None
     }
 
     /// A robot's key file path (relative paths are the file's directory's).
@@ -189,6 +214,18 @@ mod tests {
             (
                 format!("[[robot]]\nid = 1\n{}", ROBOT.replace("127.0.0.1:47001", "[::1]:0")),
                 "robot 1's gateway = \"[::1]:0\" has port 0",
+            ),
+            // Issue 49: the robot and the address are named.
+            (
+                format!(
+                    "[[robot]]\nid = 1\n{ROBOT}[[robot]]\nid = 2\n{}",
+                    ROBOT.replace("k1", "k2").replace("47001", "47002")
+                ),
+                "robot 2's address 127.0.0.1:47101 is also robot 1's address",
+            ),
+            (
+                format!("[[robot]]\nid = 1\n{ROBOT}[[robot]]\nid = 2\n{}", ROBOT.replace("47101", "47102")),
+                "robot 2's gateway 127.0.0.1:47001 is also robot 1's gateway",
             ),
         ];
         for (text, why) in cases {

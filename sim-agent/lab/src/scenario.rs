@@ -113,8 +113,8 @@ impl Scenario {
         if !inside(s.start.x, s.start.y) || !inside(s.goal.x, s.goal.y) {
             return invalid("start and goal must lie in the arena");
         }
-        if s.tones.is_empty() || s.tones.iter().any(|t| !(t.is_finite() && *t > 0.0)) {
-            return invalid("tones must be one positive frequency per robot");
+        if let Some(why) = s.goal_refused().or_else(|| s.tones_refused()) {
+            return invalid(&why);
         }
         if s.obstacles.iter().any(|o| !(o.x0 < o.x1 && o.y0 < o.y1)) {
             return invalid("an obstacle needs x0 < x1 and y0 < y1");
@@ -123,6 +123,41 @@ impl Scenario {
             return invalid("the start overlaps an obstacle");
         }
         Ok(s)
+    }
+
+    /// Why the goal cannot be run to (issue 49: a goal radius of 0 is never
+    /// reached, and a start within the goal radius arrives at once).
+    fn goal_refused(&self) -> Option<String> {
+        let r = self.goal_radius;
+        if !(r.is_finite() && r > 0.0) {
+            return Some(format!("goal_radius must be a positive number of metres, got {r}"));
+        }
+        let (dx, dy) = (self.start.x - self.goal.x, self.start.y - self.goal.y);
+        let apart = dx.hypot(dy);
+        (apart <= r).then(|| {
+            format!(
+                "the start ({}, {}) lies within goal_radius {r} m of the goal ({}, {}): every robot would arrive \
+                 at once",
+                self.start.x, self.start.y, self.goal.x, self.goal.y
+            )
+        })
+    }
+
+    /// Why the tones cannot tell the robots apart (issue 49: two robots on
+    /// one tone are one robot to every listener).
+    fn tones_refused(&self) -> Option<String> {
+        if self.tones.is_empty() || self.tones.iter().any(|t| !(t.is_finite() && *t > 0.0)) {
+            return Some("tones must be one positive frequency per robot".into());
+        }
+        let tones = &self.tones;
+        let same = (0..tones.len()).find_map(|j| (0..j).find(|&i| tones[i] == tones[j]).map(|i| (i, j)))?;
+        let (i, j) = same;
+        Some(format!(
+            "tones: robots {} and {} both have the tone {} Hz (one tone per robot)",
+            i + 1,
+            j + 1,
+            tones[i]
+        ))
     }
 
     /// A built-in scenario by name.
@@ -155,6 +190,29 @@ mod tests {
         let outside = EXP_SHORT.replace("goal = { x = 2.6", "goal = { x = 9.6");
         let err = Scenario::parse(&outside).unwrap_err().to_string();
         assert!(err.contains("start and goal"), "{err}");
+        // Issue 49: a goal never reached, a run won before it starts, two
+        // robots no listener can tell apart.
+        for (from, to, says) in [
+            (
+                "goal_radius = 0.15",
+                "goal_radius = 0.0",
+                "goal_radius must be a positive number of metres, got 0",
+            ),
+            (
+                "goal = { x = 2.6, y = 1.0 }",
+                "goal = { x = 0.4, y = 1.0 }",
+                "the start (0.4, 1) lies within goal_radius 0.15 m of the goal (0.4, 1)",
+            ),
+            (
+                "tones = [224.0, 320.0]",
+                "tones = [224.0, 224.0]",
+                "tones: robots 1 and 2 both have the tone 224 Hz",
+            ),
+        ] {
+            assert!(EXP_SHORT.contains(from), "{from}");
+            let err = Scenario::parse(&EXP_SHORT.replace(from, to)).unwrap_err().to_string();
+            assert!(err.contains(says), "{to}: {err}");
+        }
         // An arena no launch could draw: bounded as terrain files are.
         for (key, bad) in [("width", "1e300"), ("width", "1e5"), ("height", "nan"), ("height", "-2.0")] {
             let line = EXP_SHORT.lines().find(|l| l.starts_with(&format!("{key} ="))).expect("key");

@@ -214,6 +214,7 @@ impl LaunchCore {
     }
 
     pub(super) fn on_pose(&mut self, now: u64, topic: u32, pose: Pose) {
+        self.pose_heard = true;
         if pose.robot.0 != topic {
             let got = pose.robot;
             self.outputs.push_back(Output::Bad(

@@ -109,6 +109,11 @@ use std::collections::{BTreeSet, VecDeque};
 /// How often an operator is reminded to place a robot, µs.
 const REMIND_EVERY_US: u64 = 2_000_000;
 
+/// While a robot is placed and no pose of any robot has come this long, µs
+/// (a reminder's multiple: it is said with one), the launch says that no
+/// motion capture reaches it.
+const NO_POSE_AFTER_US: u64 = 2 * REMIND_EVERY_US;
+
 /// What the agent seam reports about its kind, as properties (the core
 /// knows no kind by name).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -391,6 +396,8 @@ pub struct Placing {
     since: u64,
     reminded: u64,
     seen_us: Option<u64>,
+    /// Whether "no pose of any robot has arrived" was said.
+    said_no_pose: bool,
 }
 
 /// The lockstep tick in flight.
@@ -444,6 +451,8 @@ pub struct LaunchCore {
     anchors: Anchors,
     phase: Phase,
     placement: Option<PlacementWatch>,
+    /// Whether a pose of any robot has come (a lab's motion capture runs).
+    pose_heard: bool,
     tick: Option<TickWait>,
     ticks: u64,
     ticks_started: u64,
@@ -503,6 +512,7 @@ impl LaunchCore {
             slots,
             phase: Phase::Begin,
             placement: None,
+            pose_heard: false,
             tick: None,
             ticks: 0,
             ticks_started: 0,

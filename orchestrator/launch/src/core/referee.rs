@@ -191,6 +191,31 @@ mod tests {
         assert_eq!(r.close(1).map(|c| c.steps), Some(20), "its active steps");
     }
 
+    /// Issue 49: with `--stop-speed 0` no robot was ever still, and a
+    /// robot that had stopped was watched for ever (1.25 M lockstep ticks
+    /// with a time limit of 2000 periods). The time limit ends it in run
+    /// time whatever the gate's thresholds: one period past the budget.
+    #[test]
+    fn the_time_limit_ends_a_still_robot_whatever_the_gate_thresholds() {
+        for lockstep in [true, false] {
+            let params = GateParams { stop_speed: 0.0, ..params() };
+            let mut r = Referee::new(params, 50, lockstep);
+            r.open(1, pose(0, 0.0), 0);
+            let mut judged = None;
+            for s in 1..=10_000 {
+                if let Some(v) = r.observe(1, pose(s, 0.1 * s.min(20) as f64)) {
+                    judged = Some((s, v));
+                    break;
+                }
+                assert_eq!(r.budget_spent(), Ok(false), "step {s}");
+            }
+            let (at, verdict) = judged.expect("judged within the run's time");
+            assert_eq!(at, 51, "one period past the budget (lockstep {lockstep})");
+            assert!(matches!(verdict, Verdict::Stuck(p) if p.x == 2.0), "{verdict:?}");
+            assert_eq!(r.close(1).map(|c| c.steps), Some(20), "its active steps");
+        }
+    }
+
     #[test]
     fn the_budget_ends_a_robot_at_the_limit() {
         let mut r = Referee::new(params(), 5, false);

@@ -328,7 +328,8 @@ impl LaunchCore {
         );
         self.outputs.push_back(Output::AskOperator(self.deploy_of(id)));
         self.placement = Some(PlacementWatch::new(RobotId(id), start, config));
-        self.phase = Phase::Placing(id, Placing { since: now, reminded: now, seen_us: None });
+        self.phase =
+            Phase::Placing(id, Placing { since: now, reminded: now, seen_us: None, said_no_pose: false });
     }
 
     pub(super) fn placement_timeout_us(&self) -> u64 {
@@ -368,9 +369,27 @@ impl LaunchCore {
             placing.reminded = now;
             self.outputs.push_back(Output::AskOperator(self.deploy_of(id)));
             tracing::info!(robot = id, "still waiting for the robot at the start");
+            self.say_no_pose(&mut placing, now);
         }
         self.phase = Phase::Placing(id, placing);
         false
+    }
+
+    /// Issue 49: a lab launch with no motion capture running asked for
+    /// placement every second for 600 s. Once, a few seconds in, it says
+    /// that no pose of any robot came (placing never ends without one).
+    fn say_no_pose(&mut self, placing: &mut Placing, now: u64) {
+        if self.pose_heard || placing.said_no_pose || now < placing.since.saturating_add(NO_POSE_AFTER_US) {
+            return;
+        }
+        placing.said_no_pose = true;
+        let waited = now.saturating_sub(placing.since) as f64 * 1e-6;
+        let text = format!(
+            "no motion-capture pose of any robot has arrived in {waited:.0} s: is the motion capture \
+             running and streaming to this host ([mocap] in the config)?"
+        );
+        tracing::info!(waited_s = waited, "no motion-capture pose of any robot has arrived");
+        self.note(text);
     }
 
     pub(super) fn deploy_of(&self, id: u32) -> Deploy {
@@ -480,7 +499,7 @@ impl LaunchCore {
                 slot.last_pose = Some(pose);
                 slot.decided_tick = Some(pose.step);
             }
-            self.announce(id, kind, &pose);
+            self.announce(id, kind, &pose, closed.steps);
             if matches!(state, SlotState::Stuck | SlotState::Died) {
                 self.beacon_at(id, &pose);
             }
@@ -510,14 +529,17 @@ impl LaunchCore {
                     slot.steps = closed.steps;
                     slot.last_pose = Some(closed.pose);
                 }
-                self.announce(id, GateKind::Timeout, &closed.pose);
+                self.announce(id, GateKind::Timeout, &closed.pose, closed.steps);
                 true
             }
         }
     }
 
-    /// Publishes a gate event and notes it.
-    pub(super) fn announce(&mut self, id: u32, kind: GateKind, pose: &Pose) {
+    /// Publishes a gate event and notes it, with the robot's own `steps`
+    /// (its active steps, the summary's). Why not the pose's step: it is
+    /// the lockstep tick of the whole run in lockstep and the robot's own
+    /// count in real time, and the line went down from robot 2 to robot 3.
+    pub(super) fn announce(&mut self, id: u32, kind: GateKind, pose: &Pose, steps: u64) {
         let event = GateEvent { robot: pose.robot, kind, x: pose.x, y: pose.y, step: pose.step };
         self.outputs.push_back(Output::Gate(event));
         let what = match kind {
@@ -527,7 +549,10 @@ impl LaunchCore {
             GateKind::Timeout => "still moving at the time limit",
             GateKind::Deployed => "deployed",
         };
-        self.note(format!("robot {id}: {what} at ({:.2}, {:.2}), step {}", pose.x, pose.y, pose.step));
+        self.note(format!(
+            "robot {id}: {what} at ({:.2}, {:.2}), {steps} steps after its deployment",
+            pose.x, pose.y
+        ));
     }
 
     /// When every robot was tried and no agent ever registered, the launch

@@ -194,6 +194,8 @@ pub struct Report {
     /// When the core noticed a robot's agent lost or unreachable (its
     /// `AgentLost` and `LinkLost` events), (robot, µs).
     pub noticed: Vec<(u32, u64)>,
+    /// The lines the core noted for the terminal, in order.
+    pub notes: Vec<String>,
     /// Gateway agents: safety promises the real robots broke, and robots
     /// deployed though motion capture did not see them at the start.
     pub violations: Vec<String>,

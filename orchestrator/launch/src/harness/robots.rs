@@ -65,7 +65,7 @@ impl World<'_> {
                 self.net.send(now, r.id(), Packet::Report(report));
             }
         }
-        if self.schedule.gateways && now >= self.next_mocap {
+        if self.schedule.gateways && !self.schedule.mocap_silent && now >= self.next_mocap {
             self.next_mocap = now + MOCAP_US;
             self.mocap_frames += 1;
             let poses: Vec<Pose> = self

@@ -145,6 +145,9 @@ pub struct Schedule {
     /// Gateway agents: per robot, what the operator does when asked to
     /// place it.
     pub placing: Vec<Placing>,
+    /// Gateway agents: the lab's motion capture is not running (no pose
+    /// of any robot ever comes).
+    pub mocap_silent: bool,
 }
 
 impl Schedule {
@@ -274,6 +277,7 @@ impl Schedule {
             gateways: false,
             robot_cuts: Vec::new(),
             placing: Vec::new(),
+            mocap_silent: false,
         }
     }
 

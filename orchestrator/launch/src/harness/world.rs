@@ -116,6 +116,7 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             running_at_end: Vec::new(),
             faults: Vec::new(),
             noticed: Vec::new(),
+            notes: Vec::new(),
             violations: Vec::new(),
             asked_us: vec![None; n],
             drove: Vec::new(),
@@ -279,11 +280,8 @@ impl World<'_> {
                     self.net.send(now, pose.robot.0, Packet::Forwarded(pose));
                 }
                 Output::AskOperator(deploy) => self.ask_operator(deploy.robot.0),
-                Output::Event(_)
-                | Output::Heard(_)
-                | Output::Note(_)
-                | Output::SimTime(_)
-                | Output::Carried(..) => {}
+                Output::Note(text) => self.report.notes.push(text),
+                Output::Event(_) | Output::Heard(_) | Output::SimTime(_) | Output::Carried(..) => {}
             }
         }
     }

@@ -45,6 +45,31 @@ fn a_robot_never_placed_or_moved_off_its_start_is_never_deployed_and_named() {
     assert_eq!(late.deploys_sent[0], 1);
 }
 
+/// Issue 49: a lab launch with no motion capture running asked for
+/// placement for 600 s and never said why nothing happened. A few seconds
+/// in it says, once, that no pose of any robot has arrived.
+#[test]
+fn a_lab_launch_without_any_motion_capture_pose_says_so_once() {
+    use harness::Placing;
+    let said = |report: &Report| {
+        report
+            .notes
+            .iter()
+            .filter(|n| n.starts_with("no motion-capture pose of any robot has arrived"))
+            .count()
+    };
+    let case = Case::small(3);
+    let mut schedule = Schedule::clean(3, case.robots).with_real_robots();
+    schedule.placing = vec![Placing::Never; case.robots as usize];
+    schedule.mocap_silent = true;
+    let report = harness::run(&case, &schedule);
+    assert_eq!(said(&report), 1, "{:?}", report.notes);
+    let line = report.notes.iter().find(|n| n.starts_with("no motion-capture")).expect("said");
+    assert!(line.starts_with("no motion-capture pose of any robot has arrived in 4 s"), "{line}");
+    let (_, placed) = real_robots(3, |_| {});
+    assert_eq!(said(&placed), 0, "motion capture ran: {:?}", placed.notes);
+}
+
 #[test]
 fn a_cut_robot_link_loses_the_robot_within_500_ms_and_its_firmware_stops_it() {
     let (_, report) = real_robots(0, |s| {

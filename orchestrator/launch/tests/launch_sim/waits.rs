@@ -143,3 +143,32 @@ fn registered(mut report: Report) -> Report {
     }
     report
 }
+
+/// Issue 49: the progress line's "step" was the lockstep tick of the whole
+/// run in lockstep and the robot's own count in real time (it went down
+/// from robot 2 to robot 3). Each gate line says the robot's own steps
+/// after its deployment, the summary's, on either clock.
+#[test]
+fn a_gate_line_says_the_robots_own_steps_on_either_clock() {
+    for (seed, realtime) in [(0, None), (1, None), (0, Some(100.0)), (1, Some(100.0))] {
+        let case = Case::small(seed);
+        let schedule = Schedule { realtime, ..Schedule::clean(seed, case.robots) };
+        let report = harness::run(&case, &schedule);
+        harness::check(&report, &schedule).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+        let mut judged = 0;
+        for (i, (state, steps, _)) in report.robots.iter().enumerate() {
+            if !matches!(state, SlotState::Arrived | SlotState::Stuck | SlotState::Unfinished) {
+                continue;
+            }
+            let head = format!("robot {}: ", i + 1);
+            let line = report
+                .notes
+                .iter()
+                .find(|n| n.starts_with(&head) && n.contains(" steps after its deployment"))
+                .unwrap_or_else(|| panic!("seed {seed}, {realtime:?}: no gate line of robot {}", i + 1));
+            assert!(line.ends_with(&format!(", {steps} steps after its deployment")), "{line}");
+            judged += 1;
+        }
+        assert!(judged >= 2, "seed {seed}, {realtime:?}: {:?}", report.notes);
+    }
+}

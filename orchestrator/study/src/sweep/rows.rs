@@ -22,7 +22,7 @@ pub struct Row {
     pub width_bin: f64,
     pub terrain: String,
     pub width: f64,
-    /// Seed of the robots' noise streams (replay with `simulate --noise-seed`).
+    /// Seed of the robots' noise streams (replay with `simulate --seed`).
     pub seed: u64,
     pub success: bool,
     pub outcome: String,
