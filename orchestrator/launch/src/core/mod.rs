@@ -110,9 +110,9 @@ use std::collections::{BTreeSet, VecDeque};
 const REMIND_EVERY_US: u64 = 2_000_000;
 
 /// While a robot is placed and no pose of any robot has come this long, µs
-/// (a reminder's multiple: it is said with one), the launch says that no
+/// (said with the first reminder), the launch says that no
 /// motion capture reaches it.
-const NO_POSE_AFTER_US: u64 = 2 * REMIND_EVERY_US;
+const NO_POSE_AFTER_US: u64 = REMIND_EVERY_US;
 
 /// What the agent seam reports about its kind, as properties (the core
 /// knows no kind by name).

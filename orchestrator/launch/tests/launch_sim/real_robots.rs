@@ -63,9 +63,17 @@ fn a_lab_launch_without_any_motion_capture_pose_says_so_once() {
     schedule.placing = vec![Placing::Never; case.robots as usize];
     schedule.mocap_silent = true;
     let report = harness::run(&case, &schedule);
-    assert_eq!(said(&report), 1, "{:?}", report.notes);
+    assert_eq!(
+        said(&report),
+        1,
+        "{:?} {:?} {:?} {}",
+        report.notes,
+        report.ending,
+        report.failure,
+        report.end_us
+    );
     let line = report.notes.iter().find(|n| n.starts_with("no motion-capture")).expect("said");
-    assert!(line.starts_with("no motion-capture pose of any robot has arrived in 4 s"), "{line}");
+    assert!(line.starts_with("no motion-capture pose of any robot has arrived in 2 s"), "{line}");
     let (_, placed) = real_robots(3, |_| {});
     assert_eq!(said(&placed), 0, "motion capture ran: {:?}", placed.notes);
 }
