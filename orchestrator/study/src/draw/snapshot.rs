@@ -555,8 +555,8 @@ mod tests {
         assert!((w / h - 3.5 / 2.5).abs() < 1e-9, "the room's 3.5 m × 2.5 m, not 4 × 3: {w} × {h}");
         assert_eq!(
             svg.matches(r#"class="obstacle""#).count(),
-            room.obstacles.len() + 1,
-            "the frame, and its legend swatch"
+            room.obstacles.len(),
+            "the frame the robots stuck at"
         );
         let frame = svg.split("<rect ").find(|r| r.contains(r#"class="obstacle""#)).expect("the frame");
         let left: f64 = frame[frame.find("x=\"").unwrap() + 3..].split('"').next().unwrap().parse().unwrap();
