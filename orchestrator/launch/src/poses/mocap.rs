@@ -148,6 +148,8 @@ mod tests {
             if done {
                 break;
             }
+            // Polled: a pose source is drained without waiting; it has no
+            // event to block on.
             std::thread::sleep(Duration::from_millis(5));
         }
         got
