@@ -43,10 +43,8 @@ const MAX_LINE: u64 = 1 << 20;
 /// How long a server waits for an asker's question.
 const ASK_TIMEOUT: Duration = Duration::from_secs(2);
 
-/// The longest `--why` a stop or a revocation takes, in characters: a
-/// sentence for the summary, not a document (120 kB of it went raw into
-/// the operators' terminals).
-pub const MAX_WHY_CHARS: usize = 200;
+/// The longest `--why` (the core's rule, [`crate::core::MAX_WHY_CHARS`]).
+pub use crate::core::{shown, MAX_WHY_CHARS};
 
 /// `--why` within [`MAX_WHY_CHARS`], or the usage error's words naming the
 /// flag and the length given.
@@ -56,14 +54,6 @@ pub fn check_why(why: &str) -> Result<(), String> {
         return Err(format!("--why takes at most {MAX_WHY_CHARS} characters, got {chars}"));
     }
     Ok(())
-}
-
-/// Who asked and why, as a launch keeps and prints them: a foreign client
-/// may send anything, so control characters are escaped and the text is
-/// cut at [`MAX_WHY_CHARS`] (the runtime's one rule,
-/// [`bycoms_runtime::words::printable`]); printable text stays as it is.
-pub fn shown(text: &str) -> String {
-    bycoms_runtime::words::printable(text, MAX_WHY_CHARS)
 }
 
 /// What an asker asks a launch.

@@ -7,7 +7,7 @@
 //! few facts only the driver knows ([`Facts`]); the driver answers
 //! `status` questions with it (`orchestrator/launch/src/control.rs`).
 
-use super::control::shown;
+use super::core::shown;
 use super::core::{LaunchCore, Phase, SlotState};
 use super::summary::{ClockSummary, RevokedSummary};
 use bycoms_runtime::words::signed;

@@ -220,10 +220,13 @@ mod tests {
     #[test]
     fn a_config_the_launch_refuses_is_an_error_naming_the_key() {
         let dir = tempfile::tempdir().expect("temp dir");
-        let lab = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../deploy/lab/launch-natnet.toml");
-        let text = std::fs::read_to_string(lab).expect("the NatNet lab config");
+        let lab = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../deploy/lab");
+        let text = std::fs::read_to_string(lab.join("launch-natnet.toml")).expect("the NatNet lab config");
         let origin = "origin = [0.0, 0.0, 0.0]\n";
         assert!(text.contains(origin), "the lab config sets the arena's origin");
+        // The robots file stays where the lab's config names it, beside it.
+        let robots = format!("robots_file = {:?}", lab.join("robots.toml").display().to_string());
+        let text = text.replace("robots_file = \"robots.toml\"", &robots);
         let config = dir.path().join("launch.toml");
         std::fs::write(&config, text.replace(origin, "origin = [nan, 1e308, -inf]\n")).expect("config");
         let args = Args {

@@ -85,6 +85,7 @@ pub use ending::{DiedWhen, Fault};
 pub use plausible::Implausible;
 pub use referee::{Closed, Referee};
 pub use slot::{FrameCount, Slot, SlotState};
+pub use stop::{shown, MAX_WHY_CHARS};
 pub use stopping::STOP_WAIT_US;
 pub use wait::{AnswerTime, AnswerWait, MIN_RESEND_US, RESEND_US};
 pub use watch::Supervision;

@@ -25,8 +25,8 @@
 //!
 //! The first revocation of a robot counts; asking again changes nothing.
 
+use super::stop::shown;
 use super::*;
-use crate::control::shown;
 
 impl LaunchCore {
     /// Takes robot `revoke.robot`'s voice away (see the module docs).

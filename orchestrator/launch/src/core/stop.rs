@@ -26,8 +26,20 @@
 
 use super::stopping::{Stopping, STOP_RESEND_US};
 use super::*;
-use crate::control::shown;
 use crate::summary::StopAnswer;
+
+/// The longest `who` or `why` a launch keeps, in characters: a sentence
+/// for the summary, not a document (120 kB of it went raw into the
+/// operators' terminals); `stop --why` and `revoke --why` refuse more.
+pub const MAX_WHY_CHARS: usize = 200;
+
+/// Who asked and why, as a launch keeps and prints them: a foreign client
+/// may send anything, so control characters are escaped and the text is
+/// cut at [`MAX_WHY_CHARS`] (the runtime's one rule,
+/// [`bycoms_runtime::words::printable`]); printable text stays as it is.
+pub fn shown(text: &str) -> String {
+    bycoms_runtime::words::printable(text, MAX_WHY_CHARS)
+}
 
 impl LaunchCore {
     /// Books a stop (the first one asked).
@@ -301,10 +313,7 @@ mod tests {
             assert!(!text.chars().any(char::is_control) && text.len() < 1_000, "{text:?}");
         }
         let stop = core.stopped().expect("recorded");
-        assert_eq!(
-            (stop.who.as_str(), stop.why.chars().count()),
-            ("evil\\r\\n", crate::control::MAX_WHY_CHARS)
-        );
+        assert_eq!((stop.who.as_str(), stop.why.chars().count()), ("evil\\r\\n", MAX_WHY_CHARS));
         assert!(stop.why.ends_with("… (cut from 120010 characters)"), "{}", stop.why);
         assert!(!core.revoked()[0].why.chars().any(char::is_control));
     }

@@ -9,7 +9,7 @@ mod records;
 
 pub use records::{Death, Outage, Outcome, Point, RevokedSummary, StopAnswer, StopSummary};
 
-use super::control::shown;
+use super::core::shown;
 use super::core::{ClockReading, Ending, LaunchCore, Slot, SlotState};
 use bycoms_runtime::words::signed;
 use bycoms_runtime::Traffic;
