@@ -291,7 +291,7 @@ impl Walk {
                 if metadata.name == schema::RECOVERED_METADATA {
                     self.end.partial = metadata.metadata.get(schema::RECOVERED_PARTIAL).cloned();
                 }
-                visit(Item::Metadata(metadata)).map_err(Err)?
+                visit(Item::Metadata(metadata)).map_err(Err)?;
             }
             Record::Attachment { header, data, .. } => {
                 let attachment = Attachment {
