@@ -9,6 +9,16 @@ fn orchestrator(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_orchestrator")).args(args).output().expect("spawn orchestrator")
 }
 
+/// The orchestrator under its own iceoryx2 isolation `tag` (a launch
+/// running in a parallel test is not this test's).
+fn orchestrator_tagged(tag: &str, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_orchestrator"))
+        .args(args)
+        .env("BYCOMS_IPC_ISOLATION", tag)
+        .output()
+        .expect("spawn orchestrator")
+}
+
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
@@ -620,11 +630,10 @@ fn doctor_exits_0_1_2_and_prints_its_findings_as_json() {
     assert!(made.status.success(), "{}", stderr(&made));
     let tag = format!("doctor-cli-{}", std::process::id());
     let doctor = |robots: &str| {
-        Command::new(env!("CARGO_BIN_EXE_orchestrator"))
-            .args(["doctor", "--json", "--robots", robots, "--certs", certs.to_str().unwrap()])
-            .env("BYCOMS_IPC_ISOLATION", &tag)
-            .output()
-            .expect("spawn orchestrator")
+        orchestrator_tagged(
+            &tag,
+            &["doctor", "--json", "--robots", robots, "--certs", certs.to_str().unwrap()],
+        )
     };
     let good = doctor("2");
     assert_eq!(good.status.code(), Some(0), "{}", stderr(&good));
@@ -680,13 +689,7 @@ fn revoke_exits_1_without_a_launch_2_on_usage_and_rewrites_the_acl() {
     let made = orchestrator(&["certs", "--robots", "2", "--out", certs]);
     assert!(made.status.success(), "{}", stderr(&made));
     let tag = format!("revoke-cli-{}", std::process::id());
-    let run = |args: &[&str]| {
-        Command::new(env!("CARGO_BIN_EXE_orchestrator"))
-            .args(args)
-            .env("BYCOMS_IPC_ISOLATION", &tag)
-            .output()
-            .expect("spawn orchestrator")
-    };
+    let run = |args: &[&str]| orchestrator_tagged(&tag, args);
     let help = run(&["revoke", "--help"]);
     assert_eq!(help.status.code(), Some(0));
     let text = String::from_utf8_lossy(&help.stdout);
@@ -730,13 +733,7 @@ fn revoke_exits_1_without_a_launch_2_on_usage_and_rewrites_the_acl() {
 #[test]
 fn a_why_longer_than_200_characters_is_a_usage_error() {
     let tag = format!("why-cli-{}", std::process::id());
-    let run = |args: &[&str]| {
-        Command::new(env!("CARGO_BIN_EXE_orchestrator"))
-            .args(args)
-            .env("BYCOMS_IPC_ISOLATION", &tag)
-            .output()
-            .expect("spawn orchestrator")
-    };
+    let run = |args: &[&str]| orchestrator_tagged(&tag, args);
     let long = "x".repeat(120_000);
     for command in [&["stop"][..], &["revoke", "--robot", "1"][..]] {
         let out = run(&[command, &["--why", &long]].concat());
@@ -754,13 +751,7 @@ fn a_why_longer_than_200_characters_is_a_usage_error() {
 #[test]
 fn status_without_a_launch_names_the_swarm_and_prints_an_empty_json_list() {
     let tag = format!("status-cli-{}", std::process::id());
-    let run = |args: &[&str]| {
-        Command::new(env!("CARGO_BIN_EXE_orchestrator"))
-            .args(args)
-            .env("BYCOMS_IPC_ISOLATION", &tag)
-            .output()
-            .expect("spawn orchestrator")
-    };
+    let run = |args: &[&str]| orchestrator_tagged(&tag, args);
     let wrong = run(&["status", "--swarm", "wrong"]);
     assert_eq!(wrong.status.code(), Some(1), "{}", stderr(&wrong));
     let said = format!(
@@ -816,11 +807,7 @@ fn an_unreachable_connect_is_an_error_with_ros2_and_a_warning_without() {
     let zenoh = ["--transport", "zenoh", "--listen", "tcp/127.0.0.1:0", "--connect", &endpoint];
     let launch = |extra: &[&str]| {
         let args = [&["launch", "--robots", "1", "--swarm", &swarm][..], &zenoh, extra].concat();
-        Command::new(env!("CARGO_BIN_EXE_orchestrator"))
-            .args(args)
-            .env("BYCOMS_IPC_ISOLATION", &swarm)
-            .output()
-            .expect("spawn orchestrator")
+        orchestrator_tagged(&swarm, &args)
     };
     let begun = std::time::Instant::now();
     let o = launch(&["--ros2"]);

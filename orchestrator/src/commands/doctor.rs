@@ -157,6 +157,21 @@ mod tests {
     use super::*;
     use crate::doctor::Level;
 
+    /// The doctor's arguments for `config` alone, with a short timeout.
+    fn args_of(config: std::path::PathBuf) -> Args {
+        Args {
+            config: Some(config),
+            robots: None,
+            certs: None,
+            json: false,
+            clean: false,
+            connect: None,
+            zenoh_config: None,
+            swarm: None,
+            timeout_ms: 100,
+        }
+    }
+
     #[test]
     fn what_clean_removed_is_counted_in_the_singular_and_plural() {
         assert_eq!(
@@ -187,17 +202,7 @@ mod tests {
         let config = dir.path().join("launch.toml");
         std::fs::write(&config, "robots = 2\n[agents]\nsource = \"real\"\nrobots_file = \"robots.toml\"\n")
             .expect("config");
-        let args = Args {
-            config: Some(config),
-            robots: None,
-            certs: None,
-            json: false,
-            clean: false,
-            connect: None,
-            zenoh_config: None,
-            swarm: None,
-            timeout_ms: 100,
-        };
+        let args = args_of(config);
         let found = findings(&args, SystemTime::now()).expect("findings");
         let ports: Vec<_> = found.iter().filter(|f| f.check == "udp-ports").collect();
         assert_eq!(ports.len(), 1, "{found:#?}");
@@ -229,17 +234,7 @@ mod tests {
         let text = text.replace("robots_file = \"robots.toml\"", &robots);
         let config = dir.path().join("launch.toml");
         std::fs::write(&config, text.replace(origin, "origin = [nan, 1e308, -inf]\n")).expect("config");
-        let args = Args {
-            config: Some(config.clone()),
-            robots: None,
-            certs: None,
-            json: false,
-            clean: false,
-            connect: None,
-            zenoh_config: None,
-            swarm: None,
-            timeout_ms: 100,
-        };
+        let args = args_of(config.clone());
         let found = findings(&args, SystemTime::now()).expect("findings");
         let said: Vec<_> = found.iter().filter(|f| f.check == "config").collect();
         assert_eq!(said.len(), 1, "{found:#?}");
