@@ -158,7 +158,7 @@ mod tests {
     use crate::doctor::Level;
 
     /// The doctor's arguments for `config` alone, with a short timeout.
-    fn args_of(config: std::path::PathBuf) -> Args {
+    fn args_of(config: PathBuf) -> Args {
         Args {
             config: Some(config),
             robots: None,
