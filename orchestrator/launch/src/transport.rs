@@ -282,6 +282,8 @@ fn reached_any(zenoh: &ZenohBus, window: std::time::Duration) -> bool {
         if std::time::Instant::now() >= deadline {
             return false;
         }
+        // Polled: zenoh 1.x's stable API tells who is connected, not when
+        // that changes; at most CONNECT_WINDOW of a launch's start-up.
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
 }

@@ -100,8 +100,21 @@ fn err(line: usize, column: usize, kind: ParseErrorKind) -> ParseError {
 
 /// Reads a terrain from the text format.
 pub fn parse(text: &str) -> Result<Terrain, ParseError> {
+    let lines = rows_of(text)?;
+    let (width, height) = (lines[0].chars().count(), lines.len());
+    let mut t = Terrain::new(width, height);
+    let mut marks = Marks::default();
+    for (row, line) in lines.iter().enumerate() {
+        read_row(&mut t, &mut marks, row, line)?;
+    }
+    check_ends(&t, &marks)?;
+    Ok(t)
+}
+
+/// The rows of `text` (a byte-order mark, the final newline and blank
+/// lines at the end are no rows), within the size limits.
+fn rows_of(text: &str) -> Result<Vec<&str>, ParseError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    // Blank lines at the end (and the final newline) are no rows.
     let text = text.trim_end_matches(['\n', '\r']);
     if text.contains('\r') && !text.contains('\n') {
         let column = text.find('\r').map_or(1, |at| text[..at].chars().count() + 1);
@@ -116,70 +129,84 @@ pub fn parse(text: &str) -> Result<Terrain, ParseError> {
     if width > MAX_SIDE {
         return Err(err(1, MAX_SIDE + 1, ParseErrorKind::TooWide));
     }
-    let height = lines.len();
-    if height > MAX_SIDE {
-        return Err(err(MAX_SIDE + 1, 1, ParseErrorKind::TooTall { rows: height }));
+    if lines.len() > MAX_SIDE {
+        return Err(err(MAX_SIDE + 1, 1, ParseErrorKind::TooTall { rows: lines.len() }));
     }
-    let mut t = Terrain::new(width, height);
-    let mut start: Option<(usize, usize)> = None;
-    let mut goal: Option<(usize, usize)> = None;
-    for (row, line) in lines.iter().enumerate() {
-        let line_no = row + 1;
-        let iy = height - 1 - row;
-        let mut cells = 0;
-        for (ix, c) in line.chars().enumerate() {
-            let column = ix + 1;
-            if ix >= width {
-                let cells = line.chars().count();
-                return Err(err(
-                    line_no,
-                    column,
-                    ParseErrorKind::Ragged { line: line_no, cells, expected: width },
-                ));
-            }
-            match c {
-                '#' => t.set_blocked(ix, iy, true),
-                '.' => {}
-                'S' => {
-                    if let Some(first) = start {
-                        return Err(err(line_no, column, ParseErrorKind::SecondStart { first }));
-                    }
-                    start = Some((line_no, column));
-                    t.set_start(cell_centre(ix, iy));
-                }
-                'G' => {
-                    if let Some(first) = goal {
-                        return Err(err(line_no, column, ParseErrorKind::SecondGoal { first }));
-                    }
-                    goal = Some((line_no, column));
-                    t.set_goal(cell_centre(ix, iy));
-                }
-                other => return Err(err(line_no, column, ParseErrorKind::UnknownChar(other))),
-            }
-            cells += 1;
+    Ok(lines)
+}
+
+/// Where the `S` and the `G` were read, (line, column), if they were.
+#[derive(Default)]
+struct Marks {
+    start: Option<(usize, usize)>,
+    goal: Option<(usize, usize)>,
+}
+
+/// Reads row `row` (0 = the first line, the highest y) into `t`.
+fn read_row(t: &mut Terrain, marks: &mut Marks, row: usize, line: &str) -> Result<(), ParseError> {
+    let (width, height) = (t.width(), t.height());
+    let line_no = row + 1;
+    let iy = height - 1 - row;
+    let mut cells = 0;
+    for (ix, c) in line.chars().enumerate() {
+        let column = ix + 1;
+        if ix >= width {
+            let cells = line.chars().count();
+            return Err(err(
+                line_no,
+                column,
+                ParseErrorKind::Ragged { line: line_no, cells, expected: width },
+            ));
         }
-        if cells < width {
-            let kind = ParseErrorKind::Ragged { line: line_no, cells, expected: width };
-            return Err(err(line_no, cells + 1, kind));
+        match c {
+            '#' => t.set_blocked(ix, iy, true),
+            '.' => {}
+            'S' => {
+                if let Some(first) = marks.start {
+                    return Err(err(line_no, column, ParseErrorKind::SecondStart { first }));
+                }
+                marks.start = Some((line_no, column));
+                t.set_start(cell_centre(ix, iy));
+            }
+            'G' => {
+                if let Some(first) = marks.goal {
+                    return Err(err(line_no, column, ParseErrorKind::SecondGoal { first }));
+                }
+                marks.goal = Some((line_no, column));
+                t.set_goal(cell_centre(ix, iy));
+            }
+            other => return Err(err(line_no, column, ParseErrorKind::UnknownChar(other))),
         }
+        cells += 1;
     }
+    if cells < width {
+        let kind = ParseErrorKind::Ragged { line: line_no, cells, expected: width };
+        return Err(err(line_no, cells + 1, kind));
+    }
+    Ok(())
+}
+
+/// A default start or goal (no `S`, no `G`) on a free cell, and the start
+/// and the goal in different cells.
+fn check_ends(t: &Terrain, marks: &Marks) -> Result<(), ParseError> {
+    let (width, height) = (t.width(), t.height());
     // (line, column) of cell (ix, iy).
     let pos = |(ix, iy): (usize, usize)| (height - iy, ix + 1);
     let start_cell = default_start_cell(width, height);
     let goal_cell = default_goal_cell(width, height);
-    if start.is_none() && t.cell_blocked(start_cell.0, start_cell.1) {
+    if marks.start.is_none() && t.cell_blocked(start_cell.0, start_cell.1) {
         let (l, c) = pos(start_cell);
         return Err(err(l, c, ParseErrorKind::StartBlocked));
     }
-    if goal.is_none() && t.cell_blocked(goal_cell.0, goal_cell.1) {
+    if marks.goal.is_none() && t.cell_blocked(goal_cell.0, goal_cell.1) {
         let (l, c) = pos(goal_cell);
         return Err(err(l, c, ParseErrorKind::GoalBlocked));
     }
     if t.cell_of(t.start()) == t.cell_of(t.goal()) {
-        let (l, c) = goal.unwrap_or_else(|| pos(goal_cell));
+        let (l, c) = marks.goal.unwrap_or_else(|| pos(goal_cell));
         return Err(err(l, c, ParseErrorKind::StartIsGoal));
     }
-    Ok(t)
+    Ok(())
 }
 
 /// Writes a terrain in the text format, with `S` and `G` always present.
