@@ -87,6 +87,7 @@
 pub mod decode;
 mod error;
 pub mod read;
+mod recovered;
 mod rewrite;
 pub mod scene;
 pub mod schema;
