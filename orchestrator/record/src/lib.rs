@@ -101,7 +101,8 @@ use mcap::records::MessageHeader;
 use mcap::{WriteOptions, Writer};
 
 pub use error::{Damage, Part, RecordError};
-pub use read::{open_recording, read_counts, recover, End, Item, Reader, Recovered};
+pub use read::{open_recording, End, Item, Reader};
+pub use recovered::{read_counts, recover, Recovered};
 pub use rewrite::rewrite;
 pub use schema::{JSON, POSTCARD};
 

@@ -2,7 +2,7 @@
 //! streaming reader of a recording.
 //!
 //! Why one reader: `draw FILE.mcap` (`bycoms_study::draw::run`), `replay` (`bycoms_orchestrator::replay::read`) and
-//! `record recover` ([`recover`], [`super::rewrite`]) all read the same files, and each used to
+//! `record recover` ([`super::recover`], [`super::rewrite`]) all read the same files, and each used to
 //! walk them itself, with its own rule for where a cut file stops and when a file is "not a
 //! recording". [`Reader::stream`] is that walk, once:
 //!
@@ -32,7 +32,6 @@
 //!
 //! What a message *means* is [`super::decode`]'s, once as well.
 
-use std::collections::BTreeMap;
 use std::fmt;
 use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
@@ -44,7 +43,6 @@ use mcap::records::{self, op, MessageHeader, Metadata, Record, SchemaHeader};
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use mcap::{Attachment, Channel, McapError};
 
-pub use super::recovered::Recovered;
 use super::{schema, Damage, Part, RecordError};
 
 /// The most bytes one chunk may hold once decompressed: what reading a chunk may take in
@@ -517,26 +515,6 @@ fn stopped<E>(mut walk: Walk, error: McapError, offset: u64, len: u64) -> Result
     }
 }
 
-/// Counts the messages per topic of a recording, finished or truncated by a crash.
-pub fn read_counts(path: &Path) -> Result<BTreeMap<String, u64>, RecordError> {
-    recover(path).map(|recovered| recovered.counts)
-}
-
-/// Reads every complete message of a recording, finished or truncated, and says whether (and
-/// why) it stopped early and what it left out as damaged ([`Reader::salvage`]). Fails only
-/// when the file cannot be opened or is not MCAP at all.
-pub fn recover(path: &Path) -> Result<Recovered, RecordError> {
-    let mut recovered = Recovered::default();
-    let end = Reader::open(path)?.salvage(|item| {
-        if let Item::Message { channel, .. } = item {
-            recovered.count(&channel.topic);
-        }
-        Ok::<_, RecordError>(())
-    })?;
-    recovered.ended(end);
-    Ok(recovered)
-}
-
 /// Opens a recording to read and returns it with its length, after checking that it is one: it starts with the MCAP magic bytes. An
 /// empty file, a text, random bytes or garbage is [`RecordError::NotMcap`], the one "not an
 /// MCAP file" error of every command that reads recordings (a recording cut by a crash still
@@ -576,33 +554,33 @@ fn not_mcap(path: &Path, error: &McapError) -> RecordError {
     RecordError::NotMcap { path: path.to_path_buf(), reason: error.to_string() }
 }
 
-/// [`recover`] of any source: `len` bounds the record lengths believed.
-#[cfg(test)]
-fn recover_from<R: Read>(source: R, len: u64) -> Result<Recovered, McapError> {
-    let mut recovered = Recovered::default();
-    let end = stream_from(source, len, Mode::Skip, None, |item| {
-        if let Item::Message { channel, .. } = item {
-            recovered.count(&channel.topic);
-        }
-        Ok::<_, std::convert::Infallible>(())
-    });
-    match end {
-        Ok(end) => {
-            recovered.ended(end);
-            Ok(recovered)
-        }
-        Err(Stop::NotMcap(error)) => Err(error),
-        Err(Stop::Damaged(damage)) => unreachable!("skipped, not refused: {damage}"),
-        Err(Stop::Visit(never)) => match never {},
-    }
-}
-
 #[cfg(test)]
 mod tests {
+    use std::collections::BTreeMap;
     use std::io::Cursor;
 
     use super::*;
-    use crate::Recorder;
+    use crate::{recover, Recorder, Recovered};
+
+    /// [`crate::recover`] of any source: `len` bounds the record lengths believed.
+    fn recover_from<R: Read>(source: R, len: u64) -> Result<Recovered, McapError> {
+        let mut recovered = Recovered::default();
+        let end = stream_from(source, len, Mode::Skip, None, |item| {
+            if let Item::Message { channel, .. } = item {
+                recovered.count(&channel.topic);
+            }
+            Ok::<_, std::convert::Infallible>(())
+        });
+        match end {
+            Ok(end) => {
+                recovered.ended(end);
+                Ok(recovered)
+            }
+            Err(Stop::NotMcap(error)) => Err(error),
+            Err(Stop::Damaged(damage)) => unreachable!("skipped, not refused: {damage}"),
+            Err(Stop::Visit(never)) => match never {},
+        }
+    }
 
     /// A small finished recording of several chunks, and its per-topic counts.
     fn sample() -> (Vec<u8>, BTreeMap<String, u64>) {

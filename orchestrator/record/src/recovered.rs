@@ -3,12 +3,14 @@
 //! topic, the damage left out, and whether the copy is the whole run.
 //!
 //! Why its own file: the reader (`read.rs`) walks the bytes; this is the
-//! account of a walk, which `recover`, `replay` and `record export` word.
+//! account of a walk ([`recover`] walks and counts), which `record recover`,
+//! `replay` and `record export` word. The reader knows nothing of it.
 
 use std::collections::BTreeMap;
+use std::path::Path;
 
-use super::read::End;
-use super::{Damage, Part};
+use super::read::{End, Item, Reader};
+use super::{Damage, Part, RecordError};
 
 /// What could be read from a recording.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -102,4 +104,24 @@ impl Recovered {
             )
         })
     }
+}
+
+/// Counts the messages per topic of a recording, finished or truncated by a crash.
+pub fn read_counts(path: &Path) -> Result<BTreeMap<String, u64>, RecordError> {
+    recover(path).map(|recovered| recovered.counts)
+}
+
+/// Reads every complete message of a recording, finished or truncated, and says whether (and
+/// why) it stopped early and what it left out as damaged ([`Reader::salvage`]). Fails only
+/// when the file cannot be opened or is not MCAP at all.
+pub fn recover(path: &Path) -> Result<Recovered, RecordError> {
+    let mut recovered = Recovered::default();
+    let end = Reader::open(path)?.salvage(|item| {
+        if let Item::Message { channel, .. } = item {
+            recovered.count(&channel.topic);
+        }
+        Ok::<_, RecordError>(())
+    })?;
+    recovered.ended(end);
+    Ok(recovered)
 }
