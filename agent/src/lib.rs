@@ -19,6 +19,9 @@
 //!   differential-drive controller.
 //! * [`firmware`] — the real robot's firmware core: link frames and
 //!   microphone frames in, motor commands, its tone and link frames out.
+//! * [`wheeled`] — the same drive law on a wheeled robot that takes velocity
+//!   commands (a ROS 2 robot's `cmd_vel`) and senses the field virtually
+//!   from motion capture: a field sample in, (v, ω) out.
 //! * [`angle`] — the angle arithmetic both share.
 //! * `gateway` (feature `gateway`, std) — the `gateway` binary: one real
 //!   robot's gateway between its authenticated UDP link and the bus.
@@ -34,5 +37,6 @@ pub mod firmware;
 #[allow(clippy::std_instead_of_core, clippy::alloc_instead_of_core)]
 pub mod gateway;
 pub mod point;
+pub mod wheeled;
 
 pub use point::{Controller, ControllerConfig, FieldGoal, Input, Mode, Motion, Output};
