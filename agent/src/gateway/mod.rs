@@ -38,5 +38,5 @@ pub mod run;
 pub mod session;
 
 pub use cli::{main_with, GatewayArgs, GatewayError};
-pub use core::{GatewayCore, Output, Timers};
-pub use session::Session;
+pub use core::{GatewayCore, Output, Refused, Timers};
+pub use session::{RobotSide, Session};

@@ -1,5 +1,7 @@
 //! The gateway's bus-side rules as a sans-IO state machine, around
-//! [`GatewayCore`] (the robot-side rules).
+//! [`GatewayCore`] (the robot-side rules) or any other [`RobotSide`]: a
+//! ROS 2 robot's agent (`bycoms-ros2-robot`) registers, beats and fails
+//! safe by the very same rules.
 //!
 //! Why apart from the loop: these rules used to live in the IO loop
 //! (`run.rs`) on wall clocks, so the simulation harness could not run them.
@@ -25,15 +27,70 @@
 use super::core::{GatewayCore, Output, Refused};
 use bycoms_protocol::link::DropReason;
 use bycoms_protocol::msg::{FromAgent, Heartbeat, Pose, Register, RobotKind, ToAgent};
-use bycoms_protocol::PROTOCOL_VERSION;
+use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
 use bycoms_runtime::failsafe::{Failsafe, Verdict};
 use bycoms_runtime::ExitCause;
 use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
-/// One gateway's session with the orchestrator, around its [`GatewayCore`].
-pub struct Session {
-    core: GatewayCore,
+/// The robot-side rules a [`Session`] wraps: what a real robot's agent does
+/// with the orchestrator's commands and its own pose, and the reports and
+/// robot commands it queues.
+pub trait RobotSide {
+    /// What it wants done (datagrams, velocity commands, reports).
+    type Output;
+    /// The robot served.
+    fn robot(&self) -> RobotId;
+    /// Queues a report for the robot's `from_agent`, in order with its own.
+    fn report(&mut self, msg: FromAgent);
+    /// One command from the orchestrator; `Ok(true)`: shut down now (after
+    /// sending what is queued).
+    fn on_command(&mut self, cmd: &ToAgent, now: Instant) -> Result<bool, Refused>;
+    /// The robot's own pose from motion capture.
+    fn on_pose(&mut self, pose: &Pose);
+    /// Runs the timers.
+    fn poll(&mut self, now: Instant);
+    /// The next thing to do, if any.
+    fn poll_output(&mut self) -> Option<Self::Output>;
+    /// When [`RobotSide::poll`] next has something to do.
+    fn deadline(&self) -> Option<Instant>;
+    /// Stops the robot for good on the agent's own account (its failsafe,
+    /// a refusal, its end): nobody to answer.
+    fn stop_robot(&mut self, now: Instant);
+}
+
+impl RobotSide for GatewayCore {
+    type Output = Output;
+    fn robot(&self) -> RobotId {
+        GatewayCore::robot(self)
+    }
+    fn report(&mut self, msg: FromAgent) {
+        GatewayCore::report(self, msg);
+    }
+    fn on_command(&mut self, cmd: &ToAgent, now: Instant) -> Result<bool, Refused> {
+        GatewayCore::on_command(self, cmd, now)
+    }
+    fn on_pose(&mut self, pose: &Pose) {
+        GatewayCore::on_pose(self, pose);
+    }
+    fn poll(&mut self, now: Instant) {
+        GatewayCore::poll(self, now);
+    }
+    fn poll_output(&mut self) -> Option<Output> {
+        GatewayCore::poll_output(self)
+    }
+    fn deadline(&self) -> Option<Instant> {
+        GatewayCore::deadline(self)
+    }
+    fn stop_robot(&mut self, now: Instant) {
+        GatewayCore::stop_robot(self, now);
+    }
+}
+
+/// One real robot's session with the orchestrator, around its robot side
+/// (a gateway's [`GatewayCore`] unless said otherwise).
+pub struct Session<C: RobotSide = GatewayCore> {
+    core: C,
     register: Register,
     heartbeat_every: Duration,
     seq: u64,
@@ -43,12 +100,19 @@ pub struct Session {
     failsafe: Option<Failsafe>,
 }
 
-impl Session {
+impl Session<GatewayCore> {
+    /// One datagram from the robot's side; a refused one is counted.
+    pub fn on_datagram(&mut self, bytes: &[u8], from: SocketAddr, now: Instant) -> Result<(), DropReason> {
+        self.core.on_datagram(bytes, from, now)
+    }
+}
+
+impl<C: RobotSide> Session<C> {
     /// A session of process `instance` around `core`, beating every
     /// `heartbeat_every`, with the orchestrator-liveliness `failsafe`
     /// (zenoh; none over iceoryx2, where the lifeline ties the processes).
     pub fn new(
-        core: GatewayCore,
+        core: C,
         heartbeat_every: Duration,
         instance: u64,
         failsafe: Option<Failsafe>,
@@ -73,7 +137,7 @@ impl Session {
     }
 
     /// The robot-side core (drop counters, link state).
-    pub fn core(&self) -> &GatewayCore {
+    pub fn core(&self) -> &C {
         &self.core
     }
 
@@ -86,11 +150,6 @@ impl Session {
     pub fn start(&mut self, now: Instant) {
         self.core.report(FromAgent::Register(self.register));
         self.next_heartbeat = Some(now);
-    }
-
-    /// One datagram from the robot's side; a refused one is counted.
-    pub fn on_datagram(&mut self, bytes: &[u8], from: SocketAddr, now: Instant) -> Result<(), DropReason> {
-        self.core.on_datagram(bytes, from, now)
     }
 
     /// The robot's own pose from motion capture.
@@ -155,7 +214,7 @@ impl Session {
     }
 
     /// The next thing to send or publish, if any.
-    pub fn poll_output(&mut self) -> Option<Output> {
+    pub fn poll_output(&mut self) -> Option<C::Output> {
         self.core.poll_output()
     }
 

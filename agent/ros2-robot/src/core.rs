@@ -1,0 +1,256 @@
+//! One ROS 2 robot's agent as a sans-IO state machine: the orchestrator's
+//! commands, the beacons, the robot's own pose and `now` in; velocity
+//! commands and reports out.
+//!
+//! Why sans-IO: every safety rule (when to send zero, for how long, when a
+//! stop counts as done) is decided here and unit-tested on a hand-driven
+//! clock; the loop in `run.rs` only moves bytes. It is a
+//! [`RobotSide`], so the gateway's [`Session`](bycoms_agent::gateway::Session)
+//! wraps it: registration, heartbeats and the orchestrator-liveliness
+//! failsafe are the gateway's very rules.
+//!
+//! Rules:
+//! * `Deploy` enables the robot; every control period while enabled it
+//!   senses the field virtually (the paper's §IV g = Σ c/d² of the beacons
+//!   it was sent, at its own pose from motion capture) and runs the §VI-C
+//!   drive law ([`Wheeled`]) towards its last goal bearing: one velocity
+//!   command and one `Status` (mode, step) per period;
+//! * no goal yet, or no pose for [`Settings::pose_timeout`]: zero velocity
+//!   each period (a robot blind to motion capture does not drive);
+//! * `Stop`, `Shutdown`, the failsafe and the agent's own end send zero at
+//!   once and again every period for [`Settings::stop_repeat`] (a lost
+//!   sample must not leave a robot driving); `Stop` is answered with
+//!   `StopDone` queued after that first zero, so it is published after it;
+//! * a beacon of the robot itself, or not finite, is refused (bad traffic),
+//!   a later one of the same robot moves it (a creeping beacon).
+
+use bycoms_agent::gateway::{Refused, RobotSide};
+use bycoms_agent::wheeled::{FieldReading, Limits, Velocity, Wheeled};
+use bycoms_protocol::msg::{Beacon, FromAgent, Pose, Status, StopDone, ToAgent};
+use bycoms_protocol::RobotId;
+use bycoms_sim::field::Beacons;
+use bycoms_sim::Vec2;
+use std::collections::{BTreeMap, VecDeque};
+use std::time::{Duration, Instant};
+
+/// Field constant c of the paper's simulation (g = c/d²).
+const FIELD_CONSTANT: f64 = bycoms_agent::point::FIELD_CONSTANT;
+
+/// How one ROS 2 robot is driven.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// The robot.
+    pub robot: RobotId,
+    /// ε, metres: the contour mode 2 holds around a lone beacon.
+    pub eps: f64,
+    /// The robot's velocity limits and wheel base.
+    pub limits: Limits,
+    /// One velocity command per this period.
+    pub period: Duration,
+    /// No pose from motion capture for this long: zero velocity.
+    pub pose_timeout: Duration,
+    /// After a stop, zero is sent again every period for this long.
+    pub stop_repeat: Duration,
+}
+
+impl Settings {
+    /// The paper's control period (0.1 s), a pose timeout of 300 ms (the
+    /// gateways' link timeout) and a second of zeros after a stop.
+    pub fn new(robot: RobotId, eps: f64, limits: Limits) -> Self {
+        Self {
+            robot,
+            eps,
+            limits,
+            period: Duration::from_millis(100),
+            pose_timeout: Duration::from_millis(300),
+            stop_repeat: Duration::from_secs(1),
+        }
+    }
+}
+
+/// What the core wants done.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Output {
+    /// Publish this velocity command on the robot's `cmd_vel`.
+    Velocity(Velocity),
+    /// Publish this on the robot's `from_agent`.
+    Report(FromAgent),
+}
+
+/// One ROS 2 robot's agent.
+pub struct Ros2RobotCore {
+    settings: Settings,
+    controller: Wheeled,
+    /// The beacons by robot, and their field in robot-id order (the
+    /// simulation's summation order), rebuilt when one changed.
+    peers: BTreeMap<u32, Vec2>,
+    field: Beacons,
+    enabled: bool,
+    goal: Option<f64>,
+    pose: Option<Pose>,
+    /// When the latest pose was handed in (the first `poll` after it).
+    pose_seen: Option<Instant>,
+    fresh_pose: bool,
+    next_period: Option<Instant>,
+    zero_until: Option<Instant>,
+    steps: u64,
+    out: VecDeque<Output>,
+}
+
+impl Ros2RobotCore {
+    /// An agent for `settings.robot`, not yet deployed.
+    pub fn new(settings: Settings) -> Self {
+        Self {
+            controller: Wheeled::new(settings.eps, settings.limits),
+            settings,
+            peers: BTreeMap::new(),
+            field: Beacons::new(FIELD_CONSTANT),
+            enabled: false,
+            goal: None,
+            pose: None,
+            pose_seen: None,
+            fresh_pose: false,
+            next_period: None,
+            zero_until: None,
+            steps: 0,
+            out: VecDeque::new(),
+        }
+    }
+
+    /// Whether the robot is enabled (deployed, not stopped since).
+    pub fn enabled(&self) -> bool {
+        self.enabled
+    }
+
+    /// The field the robot senses at `p` (the beacons it was sent).
+    pub fn field_at(&self, p: Vec2) -> FieldReading {
+        let sample = self.field.sample(p);
+        let gradient = (!self.field.is_empty()).then(|| sample.direction());
+        FieldReading { intensity: sample.intensity, gradient }
+    }
+
+    fn beacon(&mut self, b: &Beacon) -> Result<(), Refused> {
+        if b.robot == self.settings.robot {
+            return Err(Refused::WrongRobot { got: b.robot.0, mine: self.settings.robot.0 });
+        }
+        if !(b.x.is_finite() && b.y.is_finite()) {
+            return Err(Refused::NotFinite);
+        }
+        let p = Vec2::new(b.x, b.y);
+        if self.peers.insert(b.robot.0, p) != Some(p) {
+            self.field = Beacons::new(FIELD_CONSTANT);
+            for p in self.peers.values() {
+                self.field.push(*p);
+            }
+        }
+        Ok(())
+    }
+
+    /// Zero now and every period for the stop's repeat time.
+    fn stop(&mut self, now: Instant) {
+        self.enabled = false;
+        self.zero_until = Some(now + self.settings.stop_repeat);
+        self.next_period = Some(now + self.settings.period);
+        self.out.push_back(Output::Velocity(Velocity::ZERO));
+    }
+
+    /// One control period while enabled.
+    fn drive(&mut self, now: Instant) {
+        let timeout = self.settings.pose_timeout;
+        let seen = self.pose_seen.is_some_and(|t| now.duration_since(t) < timeout);
+        let (Some(goal), Some(pose), true) = (self.goal, self.pose, seen) else {
+            self.out.push_back(Output::Velocity(Velocity::ZERO));
+            return;
+        };
+        let field = self.field_at(Vec2::new(pose.x, pose.y));
+        let (out, velocity) = self.controller.step(goal, pose.heading, field);
+        self.steps += 1;
+        self.out.push_back(Output::Velocity(velocity));
+        let status = Status { robot: self.settings.robot, mode: out.mode as u8, step: self.steps };
+        self.out.push_back(Output::Report(FromAgent::Status(status)));
+    }
+}
+
+impl RobotSide for Ros2RobotCore {
+    type Output = Output;
+
+    fn robot(&self) -> RobotId {
+        self.settings.robot
+    }
+
+    fn report(&mut self, msg: FromAgent) {
+        self.out.push_back(Output::Report(msg));
+    }
+
+    fn on_command(&mut self, cmd: &ToAgent, now: Instant) -> Result<bool, Refused> {
+        let mine = self.settings.robot;
+        let wrong = |got: RobotId| Refused::WrongRobot { got: got.0, mine: mine.0 };
+        match cmd {
+            ToAgent::Deploy(d) if d.robot != mine => return Err(wrong(d.robot)),
+            ToAgent::Deploy(_) => {
+                self.enabled = true;
+                self.zero_until = None;
+                self.next_period = Some(now);
+            }
+            ToAgent::GoalBearing(b) if b.robot != mine => return Err(wrong(b.robot)),
+            ToAgent::GoalBearing(b) if !b.bearing.is_finite() => return Err(Refused::NotFinite),
+            ToAgent::GoalBearing(b) => self.goal = Some(b.bearing),
+            ToAgent::Beacon(b) => self.beacon(b)?,
+            ToAgent::Tick(_) | ToAgent::Ticks(_) => return Err(Refused::Tick),
+            // Answered every time (the orchestrator re-sends `Stop` until it
+            // hears this), after the zero it answers for.
+            ToAgent::Stop => {
+                self.stop(now);
+                self.report(FromAgent::StopDone(StopDone { robot: mine, on_link: true }));
+            }
+            ToAgent::Shutdown => {
+                self.stop(now);
+                return Ok(true);
+            }
+            // The session handles refusals: it knows its instance.
+            ToAgent::Refused(_) => {}
+        }
+        Ok(false)
+    }
+
+    fn on_pose(&mut self, pose: &Pose) {
+        let finite = pose.x.is_finite() && pose.y.is_finite() && pose.heading.is_finite();
+        if pose.robot == self.settings.robot && finite {
+            self.pose = Some(*pose);
+            self.fresh_pose = true;
+        }
+    }
+
+    fn poll(&mut self, now: Instant) {
+        if std::mem::take(&mut self.fresh_pose) {
+            self.pose_seen = Some(now);
+        }
+        let Some(due) = self.next_period.filter(|t| now >= *t) else { return };
+        // A late loop skips the periods it missed rather than bursting.
+        let next = due + self.settings.period;
+        self.next_period = Some(if next > now { next } else { now + self.settings.period });
+        if self.enabled {
+            self.drive(now);
+        } else if self.zero_until.is_some_and(|t| now < t) {
+            self.out.push_back(Output::Velocity(Velocity::ZERO));
+        } else {
+            self.zero_until = None;
+            self.next_period = None;
+        }
+    }
+
+    fn poll_output(&mut self) -> Option<Output> {
+        self.out.pop_front()
+    }
+
+    fn deadline(&self) -> Option<Instant> {
+        self.next_period
+    }
+
+    fn stop_robot(&mut self, now: Instant) {
+        self.stop(now);
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,19 @@
+//! One ROS 2 ground robot (a TurtleBot, an e-puck2, any differential drive
+//! that takes `cmd_vel`) as a BYCOMS robot.
+//!
+//! Why its own crate: the robot's agent needs the simulation's field
+//! (`bycoms-sim`, which depends on `bycoms-agent`, so it cannot live there),
+//! the gateway's session rules and the drive law (`bycoms-agent`), and a ROS 2
+//! publisher on zenoh. It is one process per robot, as the card says, and
+//! appears on the bus like a gateway (kind `Real`): the launch tells it
+//! `Deploy`, the goal bearing and the beacons, and forwards its trusted pose
+//! from motion capture.
+//!
+//! * [`core`] — the agent as a sans-IO state machine: commands, beacons,
+//!   its own pose and `now` in; velocity commands and reports out; a
+//!   [`RobotSide`](bycoms_agent::gateway::RobotSide) of the gateway's
+//!   session.
+
+pub mod core;
+
+pub use core::{Output, Ros2RobotCore, Settings};
