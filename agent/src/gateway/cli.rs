@@ -366,7 +366,7 @@ impl OnBus for RunGateway<'_> {
             relayed = s.relayed,
             relay_p50_us = quantile(&s.relay_ns, 0.5).map(|n| n / 1000),
             relay_p99_us = quantile(&s.relay_ns, 0.99).map(|n| n / 1000),
-            bad_messages = s.traffic.total(),
+            bad_messages = gateway.traffic().total(),
             refused_frames = %drops.join(" "),
             "gateway exits"
         );

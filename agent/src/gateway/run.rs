@@ -14,7 +14,7 @@
 //! command therefore waits at most one slice before it goes to the robot.
 
 use super::core::{GatewayCore, Output};
-use super::session::Session;
+use super::session::{RobotSide, Session};
 use bycoms_protocol::bus::zenoh::clock::{self, ClockProbe};
 use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
@@ -30,7 +30,7 @@ use std::time::{Duration, Instant};
 /// Longest wait on the socket before the bus and the timers are served.
 pub const SLICE: Duration = Duration::from_millis(2);
 
-/// The gateway's ports on the bus.
+/// A real robot agent's ports on the bus (a gateway's, a ROS 2 robot's).
 pub struct GatewayPorts<B: Bus> {
     commands: TypedSubscriber<B::Subscriber, ToAgent>,
     own_pose: TypedSubscriber<B::Subscriber, Pose>,
@@ -62,8 +62,6 @@ pub enum RunError {
 /// What a gateway counted.
 #[derive(Clone, Debug, Default)]
 pub struct GatewayStats {
-    /// Bad bus messages.
-    pub traffic: Traffic,
     /// Telemetry frames relayed.
     pub relayed: u64,
     /// Per relayed telemetry frame: socket receive returned → its bus
@@ -71,18 +69,125 @@ pub struct GatewayStats {
     pub relay_ns: Vec<u64>,
 }
 
-/// One gateway process's loop.
-pub struct Gateway<B: Bus> {
-    session: Session,
+/// The bus side of a real robot's agent, whatever its robot side (a
+/// gateway's UDP link, a ROS 2 robot's `cmd_vel`): its ports, the
+/// orchestrator's liveliness and clock over zenoh, and the bad traffic
+/// counted. Written once, for every [`Session`].
+pub struct BusSide<B: Bus> {
     ports: GatewayPorts<B>,
-    socket: UdpSocket,
     who: String,
-    stats: GatewayStats,
+    traffic: Traffic,
     /// zenoh: the liveliness watch that feeds the session's failsafe.
     watch: Option<AliveWatch>,
     /// zenoh: the measurement of this host's clock offset to the
     /// orchestrator's, reported as it comes (`FromAgent::Clock`).
     clock: Option<ClockProbe>,
+}
+
+impl<B: Bus> BusSide<B> {
+    /// The bus side of `robot`'s agent on `ports`; over zenoh `watch` feeds
+    /// the session's failsafe.
+    pub fn new(ports: GatewayPorts<B>, robot: RobotId, watch: Option<AliveWatch>) -> Self {
+        let who = format!("agent[robot {}]", robot.0);
+        Self { ports, who, traffic: Traffic::default(), watch, clock: None }
+    }
+
+    /// Bad bus messages counted so far.
+    pub fn traffic(&self) -> &Traffic {
+        &self.traffic
+    }
+
+    /// Reports this host's clock offset to the orchestrator's as `probe`
+    /// measures it (see [`BusSide::clock_reports`]).
+    pub fn report_clock(&mut self, probe: ClockProbe) {
+        self.clock = Some(probe);
+    }
+
+    /// Publishes the clock offsets of `robot` measured since the last call
+    /// (waiting up to `wait` for one when given: the first measurement goes
+    /// before the first `Register`, so the launch judges the registration
+    /// by it).
+    pub fn clock_reports(&mut self, robot: RobotId, wait: Option<Duration>) -> Result<(), BusError> {
+        let Some(probe) = &self.clock else { return Ok(()) };
+        let samples = match wait {
+            Some(wait) => probe.wait(wait).into_iter().collect(),
+            None => probe.take(),
+        };
+        for sample in samples {
+            self.ports.report.publish(&clock::report(robot, sample))?;
+        }
+        Ok(())
+    }
+
+    /// Feeds `session` what zenoh saw of the orchestrator.
+    pub fn watch_orchestrator<C: RobotSide>(&mut self, session: &mut Session<C>) {
+        let Some(watch) = self.watch.as_mut() else { return };
+        while let Some(event) = watch.try_recv() {
+            if event.member == Member::Orchestrator {
+                session.orchestrator(event.presence == Presence::Alive, event.at);
+            }
+        }
+    }
+
+    /// Hands every waiting pose and command to `session`, the first
+    /// command waited for up to `wait` when given: why to exit, if
+    /// `Shutdown` or this agent's refusal came.
+    pub fn drain<C: RobotSide>(
+        &mut self,
+        session: &mut Session<C>,
+        wait: Option<Duration>,
+    ) -> Result<Option<ExitCause>, BusError> {
+        loop {
+            match self.ports.own_pose.try_recv() {
+                Ok(Some(pose)) => session.on_pose(&pose),
+                Ok(None) => break,
+                Err(e) => self.absorb("pose", e)?,
+            }
+        }
+        let mut wait = wait;
+        loop {
+            let next = match wait.take() {
+                Some(timeout) => self.ports.commands.recv_timeout(timeout),
+                None => self.ports.commands.try_recv(),
+            };
+            match next {
+                Ok(Some(cmd)) => match session.on_command(&cmd, Instant::now()) {
+                    Ok(None) => {}
+                    Ok(Some(cause)) => return Ok(Some(cause)),
+                    Err(r) => self.traffic.count(&self.who, BadKind::Refused, &r),
+                },
+                Ok(None) => return Ok(None),
+                Err(e) => self.absorb("to_agent", e)?,
+            }
+        }
+    }
+
+    /// Publishes a report; a failsafe report best effort (the link may be
+    /// cut: a reminder follows its return).
+    pub fn publish(&self, msg: &FromAgent) -> Result<(), BusError> {
+        match msg {
+            FromAgent::Failsafe(_) => {
+                let _ = self.ports.report.publish(msg);
+                Ok(())
+            }
+            _ => self.ports.report.publish(msg),
+        }
+    }
+
+    fn absorb(&mut self, topic: &str, e: BusError) -> Result<(), BusError> {
+        match self.traffic.absorb(&self.who, topic, e) {
+            None => Ok(()),
+            Some(fatal) => Err(fatal),
+        }
+    }
+}
+
+/// One gateway process's loop.
+pub struct Gateway<B: Bus> {
+    session: Session,
+    bus: BusSide<B>,
+    socket: UdpSocket,
+    stats: GatewayStats,
 }
 
 impl<B: Bus> Gateway<B> {
@@ -100,42 +205,17 @@ impl<B: Bus> Gateway<B> {
         failsafe: Option<(Failsafe, AliveWatch)>,
     ) -> io::Result<Self> {
         socket.set_read_timeout(Some(SLICE))?;
-        let who = format!("agent[robot {}]", core.robot().0);
         let (failsafe, watch) = failsafe.unzip();
+        let bus = BusSide::new(ports, core.robot(), watch);
         let session = Session::new(core, heartbeat_every, instance(), failsafe);
-        Ok(Self { session, ports, socket, who, stats: GatewayStats::default(), watch, clock: None })
-    }
-
-    /// Feeds the session what zenoh saw of the orchestrator.
-    fn watch_orchestrator(&mut self) {
-        let Some(watch) = self.watch.as_mut() else { return };
-        while let Some(event) = watch.try_recv() {
-            if event.member == Member::Orchestrator {
-                self.session.orchestrator(event.presence == Presence::Alive, event.at);
-            }
-        }
+        Ok(Self { session, bus, socket, stats: GatewayStats::default() })
     }
 
     /// Reports this host's clock offset to the orchestrator's as `probe`
     /// measures it: the first measurement before the first `Register`
-    /// (waiting up to [`clock::FIRST_WAIT`]), so the launch judges the
-    /// registration by it, then each new one as it comes.
+    /// (waiting up to [`clock::FIRST_WAIT`]), then each new one as it comes.
     pub fn report_clock(&mut self, probe: ClockProbe) {
-        self.clock = Some(probe);
-    }
-
-    /// Publishes the clock offsets measured since the last call (waiting
-    /// up to `wait` for one when given).
-    fn clock_reports(&mut self, wait: Option<Duration>) -> Result<(), BusError> {
-        let Some(probe) = &self.clock else { return Ok(()) };
-        let samples = match wait {
-            Some(wait) => probe.wait(wait).into_iter().collect(),
-            None => probe.take(),
-        };
-        for sample in samples {
-            self.ports.report.publish(&clock::report(self.session.core().robot(), sample))?;
-        }
-        Ok(())
+        self.bus.report_clock(probe);
     }
 
     /// The core (drop counters, link state).
@@ -148,19 +228,25 @@ impl<B: Bus> Gateway<B> {
         &self.stats
     }
 
+    /// Bad bus messages counted so far.
+    pub fn traffic(&self) -> &Traffic {
+        self.bus.traffic()
+    }
+
     /// Registers, then runs until `Shutdown`, a signal or the parent's death.
     pub fn run(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, RunError> {
-        self.clock_reports(Some(clock::FIRST_WAIT))?;
+        let robot = self.core().robot();
+        self.bus.clock_reports(robot, Some(clock::FIRST_WAIT))?;
         self.session.start(Instant::now());
         let mut buf = [0u8; 2048];
         loop {
-            self.clock_reports(None)?;
+            self.bus.clock_reports(robot, None)?;
             if let Some(cause) = lifeline.check() {
                 self.session.end(Instant::now());
                 self.flush(None)?;
                 return Ok(cause);
             }
-            self.watch_orchestrator();
+            self.bus.watch_orchestrator(&mut self.session);
             let exit = self.session.poll(Instant::now());
             self.flush(None)?;
             if let Some(cause) = exit {
@@ -180,41 +266,11 @@ impl<B: Bus> Gateway<B> {
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
                 Err(e) => return Err(e.into()),
             }
-            let exit = self.drain_bus()?;
+            let exit = self.bus.drain(&mut self.session, None)?;
             self.flush(None)?;
             if let Some(cause) = exit {
                 return Ok(cause);
             }
-        }
-    }
-
-    /// Hands every waiting pose and command to the session: why to exit,
-    /// if `Shutdown` or this gateway's refusal came.
-    fn drain_bus(&mut self) -> Result<Option<ExitCause>, BusError> {
-        loop {
-            match self.ports.own_pose.try_recv() {
-                Ok(Some(pose)) => self.session.on_pose(&pose),
-                Ok(None) => break,
-                Err(e) => self.absorb("pose", e)?,
-            }
-        }
-        loop {
-            match self.ports.commands.try_recv() {
-                Ok(Some(cmd)) => match self.session.on_command(&cmd, Instant::now()) {
-                    Ok(None) => {}
-                    Ok(Some(cause)) => return Ok(Some(cause)),
-                    Err(r) => self.stats.traffic.count(&self.who, BadKind::Refused, &r),
-                },
-                Ok(None) => return Ok(None),
-                Err(e) => self.absorb("to_agent", e)?,
-            }
-        }
-    }
-
-    fn absorb(&mut self, topic: &str, e: BusError) -> Result<(), BusError> {
-        match self.stats.traffic.absorb(&self.who, topic, e) {
-            None => Ok(()),
-            Some(fatal) => Err(fatal),
         }
     }
 
@@ -234,13 +290,9 @@ impl<B: Bus> Gateway<B> {
                         ) => {}
                     Err(e) => return Err(e.into()),
                 },
-                // Best effort: the link may be cut (a reminder follows its return).
-                Output::Report(msg @ FromAgent::Failsafe(_)) => {
-                    let _ = self.ports.report.publish(&msg);
-                }
                 Output::Report(msg) => {
                     relayed |= matches!(msg, FromAgent::Telemetry(_));
-                    self.ports.report.publish(&msg)?;
+                    self.bus.publish(&msg)?;
                 }
             }
         }

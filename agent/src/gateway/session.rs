@@ -111,12 +111,7 @@ impl<C: RobotSide> Session<C> {
     /// A session of process `instance` around `core`, beating every
     /// `heartbeat_every`, with the orchestrator-liveliness `failsafe`
     /// (zenoh; none over iceoryx2, where the lifeline ties the processes).
-    pub fn new(
-        core: C,
-        heartbeat_every: Duration,
-        instance: u64,
-        failsafe: Option<Failsafe>,
-    ) -> Self {
+    pub fn new(core: C, heartbeat_every: Duration, instance: u64, failsafe: Option<Failsafe>) -> Self {
         let register = Register {
             robot: core.robot(),
             kind: RobotKind::Real,
