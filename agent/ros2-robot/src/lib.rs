@@ -13,7 +13,10 @@
 //!   its own pose and `now` in; velocity commands and reports out; a
 //!   [`RobotSide`](bycoms_agent::gateway::RobotSide) of the gateway's
 //!   session.
+//! * [`run`] — the loop: the bus side (the gateway's), the session, and
+//!   the robot's `cmd_vel` behind the [`run::CmdVel`] seam.
 
 pub mod core;
+pub mod run;
 
 pub use core::{Output, Ros2RobotCore, Settings};
