@@ -109,6 +109,11 @@ def transform(child, x, y):
     )
 
 
+def twist(lx, ly, lz, ax, ay, az):
+    vector = T["geometry_msgs/msg/Vector3"]
+    return T["geometry_msgs/msg/Twist"](linear=vector(x=lx, y=ly, z=lz), angular=vector(x=ax, y=ay, z=az))
+
+
 MESSAGES = {
     "builtin_interfaces/msg/Time": STAMP,
     "std_msgs/msg/String": T["std_msgs/msg/String"](data="hello"),
@@ -128,6 +133,10 @@ MESSAGES = {
     ),
     "rosgraph_msgs/msg/Clock": T["rosgraph_msgs/msg/Clock"](
         clock=T["builtin_interfaces/msg/Time"](sec=12, nanosec=500_000_000)
+    ),
+    "geometry_msgs/msg/Twist": twist(0.5, -0.125, 2.0, -1.0, 0.75, 3.25),
+    "geometry_msgs/msg/TwistStamped": T["geometry_msgs/msg/TwistStamped"](
+        header=header("base_link"), twist=twist(-0.25, 0.0, 0.0, 0.0, 0.0, 1.5)
     ),
 }
 

@@ -7,8 +7,9 @@
 //! * [`types`]: type descriptions and their REP-2016 hashes (`RIHS01_…`);
 //! * [`bycoms_msgs`]: our own gate events and robot states (`deploy/ros2/bycoms_msgs/`);
 //! * [`display`]: the terrain map, beacon markers and diagnostics;
-//! * [`msgs`]: the messages bycoms publishes (poses, `/tf`, paths, `/clock`)
-//!   and the `PoseStamped` a ROS 2 motion-capture driver sends;
+//! * [`msgs`]: the messages bycoms publishes (poses, `/tf`, paths, `/clock`,
+//!   the `Twist` / `TwistStamped` velocity commands of a ground robot) and
+//!   the `PoseStamped` a ROS 2 motion-capture driver sends;
 //! * [`rmw_zenoh`]: key expressions, liveliness tokens, GIDs, attachments,
 //!   with the rmw_zenoh sources (file and commit) each follows.
 //!

@@ -1,6 +1,12 @@
 //! The ROS 2 messages bycoms publishes, each with its type description (for
 //! its hash) and its CDR encoding; [`PoseStamped`] also decodes, for a pose
-//! source fed by a ROS 2 motion-capture driver.
+//! source fed by a ROS 2 motion-capture driver, and so do [`Twist`] and
+//! [`TwistStamped`], a ground robot's velocity commands, so what was
+//! commanded can be read back.
+//!
+//! `Twist` and `TwistStamped` are what a ROS 2 mobile base takes on
+//! `cmd_vel`: `Twist` for most (TurtleBot's), `TwistStamped` for ROS 2
+//! Jazzy's `diff_drive_controller` by default.
 //!
 //! The field lists are those of ROS 2 Jazzy and Kilted (unchanged since
 //! Humble for these types); `tests/python/ros2_golden.py` checks hashes and
@@ -65,6 +71,16 @@ description!(
     POSE_STAMPED,
     "geometry_msgs/msg/PoseStamped",
     [Field::nested("header", &HEADER), Field::nested("pose", &POSE)]
+);
+description!(
+    TWIST,
+    "geometry_msgs/msg/Twist",
+    [Field::nested("linear", &VECTOR3), Field::nested("angular", &VECTOR3)]
+);
+description!(
+    TWIST_STAMPED,
+    "geometry_msgs/msg/TwistStamped",
+    [Field::nested("header", &HEADER), Field::nested("twist", &TWIST)]
 );
 description!(
     TRANSFORM,
@@ -308,10 +324,7 @@ impl PoseStamped {
     /// Decodes one CDR message (encapsulation header included), as a ROS 2
     /// motion-capture driver publishes it; nothing may follow it.
     pub fn from_cdr(message: &[u8]) -> Result<Self, CdrError> {
-        let mut r = CdrReader::new(message)?;
-        let out = Self::read(&mut r)?;
-        r.finish()?;
-        Ok(out)
+        whole(message, Self::read)
     }
 
     fn read(r: &mut CdrReader<'_>) -> Result<Self, CdrError> {
@@ -327,6 +340,86 @@ impl RosMessage for PoseStamped {
         self.header.write(w);
         self.pose.write(w);
     }
+}
+
+/// `geometry_msgs/msg/Twist`: a velocity in free space, linear (m/s) and
+/// angular (rad/s), in the frame of whoever takes it (a mobile base: its
+/// own, x forward, y left, z up as ROS REP-103 has it).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Twist {
+    /// Linear velocity, m/s.
+    pub linear: Vector3,
+    /// Angular velocity, rad/s (right-handed: +z turns counter-clockwise
+    /// seen from above).
+    pub angular: Vector3,
+}
+
+impl Twist {
+    /// A ground robot's command: `v` m/s forward (`linear.x`) and `omega`
+    /// rad/s about z (`angular.z`, counter-clockwise positive, REP-103);
+    /// every other component zero.
+    pub fn planar(v: f64, omega: f64) -> Self {
+        Self {
+            linear: Vector3(Point { x: v, ..Point::default() }),
+            angular: Vector3(Point { z: omega, ..Point::default() }),
+        }
+    }
+
+    /// Decodes one CDR message (encapsulation header included); nothing
+    /// may follow it.
+    pub fn from_cdr(message: &[u8]) -> Result<Self, CdrError> {
+        whole(message, Self::read)
+    }
+
+    fn read(r: &mut CdrReader<'_>) -> Result<Self, CdrError> {
+        Ok(Self { linear: Vector3(Point::read(r)?), angular: Vector3(Point::read(r)?) })
+    }
+}
+
+impl RosMessage for Twist {
+    const DESCRIPTION: &'static TypeDescription = &TWIST;
+    fn write(&self, w: &mut CdrWriter) {
+        self.linear.write(w);
+        self.angular.write(w);
+    }
+}
+
+/// `geometry_msgs/msg/TwistStamped`: a [`Twist`] with when and in which
+/// frame (what ROS 2 Jazzy's `diff_drive_controller` takes by default).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TwistStamped {
+    /// When and in which frame.
+    pub header: Header,
+    /// The velocity.
+    pub twist: Twist,
+}
+
+impl TwistStamped {
+    /// Decodes one CDR message (encapsulation header included); nothing
+    /// may follow it.
+    pub fn from_cdr(message: &[u8]) -> Result<Self, CdrError> {
+        whole(message, |r| Ok(Self { header: Header::read(r)?, twist: Twist::read(r)? }))
+    }
+}
+
+impl RosMessage for TwistStamped {
+    const DESCRIPTION: &'static TypeDescription = &TWIST_STAMPED;
+    fn write(&self, w: &mut CdrWriter) {
+        self.header.write(w);
+        self.twist.write(w);
+    }
+}
+
+/// One whole CDR message read by `read`: the encapsulation header first,
+/// nothing after.
+fn whole<T>(
+    message: &[u8],
+    read: impl FnOnce(&mut CdrReader<'_>) -> Result<T, CdrError>,
+) -> Result<T, CdrError> {
+    let mut r = CdrReader::new(message)?;
+    let out = read(&mut r)?;
+    r.finish()?;
+    Ok(out)
 }
 
 /// `geometry_msgs/msg/Transform`.
@@ -474,5 +567,33 @@ mod tests {
         let mut longer = bytes.clone();
         longer.push(0);
         assert_eq!(PoseStamped::from_cdr(&longer), Err(CdrError::Trailing(1)));
+    }
+
+    #[test]
+    fn a_planar_twist_is_forward_speed_and_counter_clockwise_turn() {
+        let t = Twist::planar(0.25, -0.5);
+        assert_eq!((t.linear.0.x, t.linear.0.y, t.linear.0.z), (0.25, 0.0, 0.0));
+        assert_eq!((t.angular.0.x, t.angular.0.y, t.angular.0.z), (0.0, 0.0, -0.5));
+    }
+
+    #[test]
+    fn twists_decode_to_what_was_encoded_and_refuse_a_cut() {
+        let twist = Twist::planar(0.2, 1.5);
+        let stamped = TwistStamped {
+            header: Header { stamp: Time { sec: 5, nanosec: 6 }, frame_id: "base_link".into() },
+            twist: Twist { linear: Vector3(Point { x: 0.1, y: -0.2, z: 0.3 }), ..twist },
+        };
+        let (plain, with_header) = (twist.to_cdr(), stamped.to_cdr());
+        assert_eq!(plain.len(), 4 + 6 * 8, "the header, then six float64");
+        assert_eq!(Twist::from_cdr(&plain), Ok(twist));
+        assert_eq!(TwistStamped::from_cdr(&with_header), Ok(stamped));
+        for cut in 0..plain.len() {
+            assert!(Twist::from_cdr(&plain[..cut]).is_err(), "cut at {cut}");
+        }
+        for cut in 0..with_header.len() {
+            assert!(TwistStamped::from_cdr(&with_header[..cut]).is_err(), "cut at {cut}");
+        }
+        assert_eq!(Twist::from_cdr(&[plain.as_slice(), &[0]].concat()), Err(CdrError::Trailing(1)));
+        assert!(TwistStamped::from_cdr(&plain).is_err(), "a Twist is not a TwistStamped");
     }
 }

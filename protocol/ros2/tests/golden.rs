@@ -82,6 +82,8 @@ fn fixed() -> Vec<(&'static TypeDescription, Vec<u8>)> {
             poses: vec![pose_stamped(0.0, 0.0), pose_stamped(1.5, -2.25)],
         }),
         entry(&Clock { clock: Time { sec: 12, nanosec: 500_000_000 } }),
+        entry(&twist()),
+        entry(&TwistStamped { header: header("base_link"), twist: Twist::planar(-0.25, 1.5) }),
         entry(&TriggerRequest),
         entry(&TriggerResponse { success: true, message: "stopped".into() }),
         entry(&ColorRgba { r: 1.0, g: 0.5, b: 0.25, a: 0.75 }),
@@ -120,6 +122,14 @@ fn fixed() -> Vec<(&'static TypeDescription, Vec<u8>)> {
             status: vec![diagnostic_status(), DiagnosticStatus { level: level::STALE, ..Default::default() }],
         }),
     ]
+}
+
+/// Every component set and distinct, so a swapped field shows.
+fn twist() -> Twist {
+    Twist {
+        linear: Vector3(Point { x: 0.5, y: -0.125, z: 2.0 }),
+        angular: Vector3(Point { x: -1.0, y: 0.75, z: 3.25 }),
+    }
 }
 
 fn marker() -> Marker {
@@ -218,6 +228,16 @@ const PINNED: &[(&str, &str, &str)] = &[
         "geometry_msgs/msg/Vector3",
         "RIHS01_cc12fe83e4c02719f1ce8070bfd14aecd40f75a96696a67a2a1f37f7dbb0765d",
         "00010000000000000000f0bf00000000000000400000000000000c40",
+    ),
+    (
+        "geometry_msgs/msg/Twist",
+        "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a",
+        "00010000000000000000e03f000000000000c0bf0000000000000040000000000000f0bf000000000000e83f0000000000000a40",
+    ),
+    (
+        "geometry_msgs/msg/TwistStamped",
+        "RIHS01_5f0fcd4f81d5d06ad9b4c4c63e3ea51b82d6ae4d0558f1d475229b1121db6f64",
+        "0001000000f1536515cd5b070a000000626173655f6c696e6b000000000000000000d0bf0000000000000000000000000000000000000000000000000000000000000000000000000000f83f",
     ),
     (
         "nav_msgs/msg/Path",
