@@ -32,3 +32,4 @@ pub mod display;
 pub mod msgs;
 pub mod rmw_zenoh;
 pub mod types;
+pub mod velocity;

@@ -1,5 +1,7 @@
 //! The lab's robots file: which robot answers on which UDP address, where
-//! its gateway listens, and its key (`deploy/lab/robots.toml`).
+//! its gateway listens, and its key (`deploy/lab/robots.toml`); or, for a
+//! ROS 2 ground robot (`kind = "ros2"`), its `cmd_vel` topic, message
+//! type, limits and wheel base (`deploy/lab/ros2-robots.toml`).
 //!
 //! Why one file for both ends: the emulated lab (`sim-agent lab`) binds each
 //! robot's address and sends to its gateway, and `orchestrator launch
@@ -8,17 +10,19 @@
 //! robots' flashed settings; reading it in one place keeps the two ends from
 //! drifting apart.
 
+use bycoms_agent::wheeled::Limits;
 use bycoms_protocol::link::{KeyFileError, LinkKey};
+use bycoms_ros2::velocity::VelocityMessage;
 use serde::Deserialize;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 /// Largest robots file read, bytes (a lab has a handful of robots).
 const MAX_FILE_LEN: u64 = 64 * 1024;
 
-/// One robot's entry.
-#[derive(Clone, Debug, PartialEq, Eq, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// One acoustic robot's entry (`kind = "acoustic"`, the default).
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RobotEntry {
     /// Robot id: 1, 2, … in deployment order, each once, no gaps.
     pub id: u32,
@@ -30,16 +34,151 @@ pub struct RobotEntry {
     pub key_file: PathBuf,
 }
 
+/// One ROS 2 ground robot's entry (`kind = "ros2"`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ros2Entry {
+    /// Robot id, as an acoustic robot's.
+    pub id: u32,
+    /// Its velocity topic (`None`: `<namespace>/robot_<id>/cmd_vel`).
+    pub cmd_vel: Option<String>,
+    /// The message its driver takes (`message`, default `twist`).
+    pub message: VelocityMessage,
+    /// The frame of a `TwistStamped`'s header (`frame_id`, default `base_link`).
+    pub frame_id: String,
+    /// `max_linear` (m/s), `max_angular` (rad/s), `wheel_base` (m); each
+    /// defaults to a TurtleBot 3 Burger's.
+    pub limits: Limits,
+    /// Its driver stops the robot after this long without a command
+    /// (`cmd_vel_timeout`, seconds, default 0.5): what the emulated lab's
+    /// body does, and what the docs ask a lab to set on its driver.
+    pub cmd_vel_timeout: Duration,
+}
+
 /// The robots file.
-#[derive(Clone, Debug, PartialEq, Eq, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct RobotsFile {
-    /// The robots, in id order after [`RobotsFile::read`].
-    #[serde(rename = "robot")]
+    /// The acoustic robots, in id order after [`RobotsFile::read`].
     pub robots: Vec<RobotEntry>,
+    /// The ROS 2 robots, in id order.
+    pub ros2: Vec<Ros2Entry>,
     /// The directory key files are relative to.
-    #[serde(skip)]
     pub dir: PathBuf,
+}
+
+/// The file as written: `[[robot]]` tables of either kind.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFile {
+    robot: Vec<RawEntry>,
+}
+
+/// The kinds of robot a robots file declares.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Kind {
+    /// The paper's crawler with our firmware, behind its gateway.
+    #[default]
+    Acoustic,
+    /// A ROS 2 ground robot driven by `cmd_vel`.
+    Ros2,
+}
+
+/// One `[[robot]]` table as written: every key of either kind, checked
+/// against its kind by [`RawEntry::typed`].
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawEntry {
+    id: u32,
+    #[serde(default)]
+    kind: Kind,
+    address: Option<SocketAddr>,
+    gateway: Option<SocketAddr>,
+    key_file: Option<PathBuf>,
+    cmd_vel: Option<String>,
+    message: Option<String>,
+    frame_id: Option<String>,
+    max_linear: Option<f64>,
+    max_angular: Option<f64>,
+    wheel_base: Option<f64>,
+    cmd_vel_timeout: Option<f64>,
+}
+
+/// A typed entry of either kind.
+enum Typed {
+    Acoustic(RobotEntry),
+    Ros2(Ros2Entry),
+}
+
+impl RawEntry {
+    /// The entry of its kind, or why not (a key of the other kind, a
+    /// missing or unusable one), naming the robot.
+    fn typed(self) -> Result<Typed, String> {
+        let id = self.id;
+        match self.kind {
+            Kind::Acoustic => {
+                let other = [("cmd_vel", self.cmd_vel.is_some()), ("message", self.message.is_some())]
+                    .into_iter()
+                    .chain([("frame_id", self.frame_id.is_some()), ("max_linear", self.max_linear.is_some())])
+                    .chain([
+                        ("max_angular", self.max_angular.is_some()),
+                        ("wheel_base", self.wheel_base.is_some()),
+                    ])
+                    .chain([("cmd_vel_timeout", self.cmd_vel_timeout.is_some())]);
+                refuse_keys(id, "acoustic", other)?;
+                let need = |what: &str| format!("robot {id} (an acoustic robot) needs `{what}`");
+                Ok(Typed::Acoustic(RobotEntry {
+                    id,
+                    address: self.address.ok_or_else(|| need("address"))?,
+                    gateway: self.gateway.ok_or_else(|| need("gateway"))?,
+                    key_file: self.key_file.ok_or_else(|| need("key_file"))?,
+                }))
+            }
+            Kind::Ros2 => self.ros2().map(Typed::Ros2),
+        }
+    }
+
+    fn ros2(self) -> Result<Ros2Entry, String> {
+        let id = self.id;
+        let other = [("address", self.address.is_some()), ("gateway", self.gateway.is_some())];
+        refuse_keys(id, "ros2", other.into_iter().chain([("key_file", self.key_file.is_some())]))?;
+        let message = match self.message {
+            Some(word) => word.parse().map_err(|e| format!("robot {id}'s message: {e}"))?,
+            None => VelocityMessage::Twist,
+        };
+        let burger = Limits::TURTLEBOT3_BURGER;
+        let limits = Limits {
+            linear: self.max_linear.unwrap_or(burger.linear),
+            angular: self.max_angular.unwrap_or(burger.angular),
+            wheel_base: self.wheel_base.unwrap_or(burger.wheel_base),
+        };
+        limits.check().map_err(|e| format!("robot {id}: {e} (max_linear, max_angular, wheel_base)"))?;
+        let timeout = self.cmd_vel_timeout.unwrap_or(0.5);
+        let cmd_vel_timeout =
+            Duration::try_from_secs_f64(timeout).ok().filter(|t| !t.is_zero()).ok_or_else(|| {
+                format!("robot {id}'s cmd_vel_timeout must be a positive number of seconds, got {timeout}")
+            })?;
+        if let Some(topic) = &self.cmd_vel {
+            if !bycoms_ros2::rmw_zenoh::is_fully_qualified(topic, false) {
+                return Err(format!(
+                    "robot {id}'s cmd_vel {topic:?} is not a ROS 2 topic (`/a/b`: letters, digits, `_`)"
+                ));
+            }
+        }
+        let frame_id = self.frame_id.unwrap_or_else(|| "base_link".into());
+        Ok(Ros2Entry { id, cmd_vel: self.cmd_vel, message, frame_id, limits, cmd_vel_timeout })
+    }
+}
+
+/// A key of another kind's, refused naming the robot and the key.
+fn refuse_keys<'a>(
+    id: u32,
+    kind: &str,
+    keys: impl IntoIterator<Item = (&'a str, bool)>,
+) -> Result<(), String> {
+    match keys.into_iter().find(|(_, given)| *given) {
+        Some((key, _)) => Err(format!("robot {id} is of kind {kind:?}, which takes no `{key}`")),
+        None => Ok(()),
+    }
 }
 
 /// Why a robots file or a key file could not be used.
@@ -90,6 +229,14 @@ pub enum RobotsError {
         /// The address given.
         addr: SocketAddr,
     },
+    /// A robot's keys do not fit its kind.
+    #[error("bad robots file {}: {why}", path.display())]
+    Entry {
+        /// The file.
+        path: PathBuf,
+        /// Which robot, which key, what is wrong.
+        why: String,
+    },
     /// An address is used twice.
     #[error("bad robots file {}: {why}", path.display())]
     Address {
@@ -117,13 +264,22 @@ impl RobotsFile {
     /// Reads and checks a robots file; robots come back sorted by id.
     pub fn read(path: &Path) -> Result<Self, RobotsError> {
         let text = read_limited(path)?;
-        let mut file: RobotsFile =
+        let raw: RawFile =
             toml::from_str(&text).map_err(|source| RobotsError::Toml { path: path.to_path_buf(), source })?;
-        file.robots.sort_by_key(|r| r.id);
-        let found: Vec<u32> = file.robots.iter().map(|r| r.id).collect();
+        let mut found: Vec<u32> = raw.robot.iter().map(|r| r.id).collect();
+        found.sort_unstable();
         if found.is_empty() || found.iter().enumerate().any(|(i, &id)| id as usize != i + 1) {
             return Err(RobotsError::Ids { path: path.to_path_buf(), found });
         }
+        let mut file = RobotsFile { robots: Vec::new(), ros2: Vec::new(), dir: PathBuf::new() };
+        for entry in raw.robot {
+            match entry.typed().map_err(|why| RobotsError::Entry { path: path.to_path_buf(), why })? {
+                Typed::Acoustic(r) => file.robots.push(r),
+                Typed::Ros2(r) => file.ros2.push(r),
+            }
+        }
+        file.robots.sort_by_key(|r| r.id);
+        file.ros2.sort_by_key(|r| r.id);
         file.check_ports(path)?;
         if let Some(why) = file.address_refused() {
             return Err(RobotsError::Address { path: path.to_path_buf(), why });
@@ -167,7 +323,17 @@ impl RobotsFile {
         self.dir.join(&robot.key_file)
     }
 
-    /// Every robot's key, in id order.
+    /// The one kind of robot the file declares, or `None` when it mixes
+    /// them (a mixed swarm is not launched yet).
+    pub fn kind(&self) -> Option<Kind> {
+        match (self.robots.is_empty(), self.ros2.is_empty()) {
+            (false, true) => Some(Kind::Acoustic),
+            (true, false) => Some(Kind::Ros2),
+            _ => None,
+        }
+    }
+
+    /// Every acoustic robot's key, in id order.
     pub fn keys(&self) -> Result<Vec<LinkKey>, RobotsError> {
         self.robots.iter().map(|r| Ok(LinkKey::read_file(&self.key_path(r))?)).collect()
     }
@@ -199,6 +365,35 @@ mod tests {
     }
 
     #[test]
+    fn ros2_robots_take_their_defaults_and_the_file_says_its_kind() {
+        let dir = tempfile::tempdir().unwrap();
+        let text =
+            "[[robot]]\nid = 2\nkind = \"ros2\"\nmessage = \"twist-stamped\"\ncmd_vel = \"/tb3/cmd_vel\"\n\
+                    max_linear = 0.1\ncmd_vel_timeout = 0.25\n[[robot]]\nid = 1\nkind = \"ros2\"\n";
+        let f = RobotsFile::read(&write(dir.path(), "r.toml", text)).unwrap();
+        assert_eq!(f.kind(), Some(Kind::Ros2));
+        assert!(f.robots.is_empty());
+        let burger = Limits::TURTLEBOT3_BURGER;
+        let first = Ros2Entry {
+            id: 1,
+            cmd_vel: None,
+            message: VelocityMessage::Twist,
+            frame_id: "base_link".into(),
+            limits: burger,
+            cmd_vel_timeout: Duration::from_millis(500),
+        };
+        assert_eq!(f.ros2[0], first);
+        assert_eq!(f.ros2[1].message, VelocityMessage::TwistStamped);
+        assert_eq!(f.ros2[1].cmd_vel.as_deref(), Some("/tb3/cmd_vel"));
+        assert_eq!(f.ros2[1].limits, Limits { linear: 0.1, ..burger });
+        assert_eq!(f.ros2[1].cmd_vel_timeout, Duration::from_millis(250));
+        // Ids run across both kinds; a mixed file has no one kind.
+        let mixed = format!("[[robot]]\nid = 1\n{ROBOT}[[robot]]\nid = 2\nkind = \"ros2\"\n");
+        let f = RobotsFile::read(&write(dir.path(), "m.toml", &mixed)).unwrap();
+        assert_eq!((f.robots.len(), f.ros2.len(), f.kind()), (1, 1, None));
+    }
+
+    #[test]
     fn bad_files_are_refused_with_a_reason() {
         let dir = tempfile::tempdir().unwrap();
         write(dir.path(), "k1", "not a key");
@@ -206,6 +401,29 @@ mod tests {
             (format!("[[robot]]\nid = 2\n{ROBOT}"), "robot ids must be 1, 2"),
             (format!("[[robot]]\nid = 1\n{ROBOT}[[robot]]\nid = 1\n{ROBOT}"), "robot ids must be 1, 2"),
             (format!("[[robot]]\nid = 1\ncolour = 3\n{ROBOT}"), "unknown field"),
+            (
+                format!("[[robot]]\nid = 1\nwheel_base = 0.2\n{ROBOT}"),
+                "robot 1 is of kind \"acoustic\", which takes no `wheel_base`",
+            ),
+            ("[[robot]]\nid = 1\nkind = \"ros2\"\ngateway = \"127.0.0.1:1\"\n".into(), "takes no `gateway`"),
+            (
+                "[[robot]]\nid = 1\nkind = \"ros2\"\nmessage = \"Twist\"\n".into(),
+                "robot 1's message: \"Twist\" is not a velocity message",
+            ),
+            (
+                "[[robot]]\nid = 1\nkind = \"ros2\"\nwheel_base = 0.0\n".into(),
+                "robot 1: the wheel base must be a positive",
+            ),
+            (
+                "[[robot]]\nid = 1\nkind = \"ros2\"\ncmd_vel_timeout = -1\n".into(),
+                "cmd_vel_timeout must be a positive",
+            ),
+            ("[[robot]]\nid = 1\nkind = \"ros2\"\ncmd_vel = \"cmd vel\"\n".into(), "is not a ROS 2 topic"),
+            ("[[robot]]\nid = 1\nkind = \"tank\"\n".into(), "unknown variant `tank`"),
+            (
+                "[[robot]]\nid = 1\naddress = \"127.0.0.1:47101\"\n".into(),
+                "robot 1 (an acoustic robot) needs `gateway`",
+            ),
             ("[[robot]]\nid = 1\naddress = \"nowhere\"\n".to_string(), "bad robots file"),
             (
                 format!("[[robot]]\nid = 1\n{}", ROBOT.replace("127.0.0.1:47101", "127.0.0.1:0")),
