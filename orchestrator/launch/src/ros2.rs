@@ -8,7 +8,9 @@
 //! [`publish::RunMessages`] (which lists the topics), and a [`publish::Sink`]
 //! puts them somewhere: [`ZenohSink`] on each topic's rmw_zenoh key with
 //! its attachment, one node token (`<namespace>/bycoms`) and one publisher
-//! token per topic so `ros2 node list` / `ros2 topic list` find them; or
+//! token per topic so `ros2 node list` / `ros2 topic list` find them
+//! (declared through [`bycoms_runtime::ros2`], which a robot's agent uses
+//! too; the wait for routes is the launch's own); or
 //! [`bag::BagSink`], a rosbag2 MCAP file (`orchestrator record export
 //! --ros2`). The bytes are `bycoms-ros2`'s, pinned against independent
 //! implementations there.
@@ -32,9 +34,8 @@ use super::observe::Observer;
 use super::World;
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use bycoms_record::scene::SharedScene;
-use bycoms_ros2::rmw_zenoh::{
-    graph_key_expr, liveliness_token, Endpoint, EntityKind, Node, Publisher, TokenView, ADMIN_SPACE,
-};
+use bycoms_ros2::rmw_zenoh::{graph_key_expr, EntityKind, TokenView, ADMIN_SPACE};
+use bycoms_runtime::ros2::{Ros2Node, Ros2Publisher};
 use publish::{RunMessages, Sink, Topic};
 use std::collections::BTreeSet;
 use std::time::{Duration, Instant};
@@ -59,13 +60,12 @@ const GRAPH_QUERY_TIMEOUT: Duration = Duration::from_secs(1);
 /// launch's start became faster). Two tree computations' delay.
 const ROUTES_SETTLE: Duration = Duration::from_millis(200);
 
-/// The rmw_zenoh sink: each topic's publisher (key expression, GID,
-/// sequence numbers) declared on the launch's zenoh session, with the
-/// node's and the publishers' liveliness tokens declared for as long as it
-/// lives.
+/// The rmw_zenoh sink: the node and each topic's publisher (key
+/// expression, GID, sequence numbers) declared on the launch's zenoh
+/// session through [`bycoms_runtime::ros2`], whose tokens live as long as
+/// the sink.
 pub struct ZenohSink {
-    _tokens: Vec<zenoh::liveliness::LivelinessToken>,
-    publishers: Vec<(Publisher, zenoh::pubsub::Publisher<'static>)>,
+    publishers: Vec<Ros2Publisher>,
     failed: bool,
 }
 
@@ -73,39 +73,12 @@ impl ZenohSink {
     /// Declares the node and one publisher per topic on `session`, then
     /// waits for the routes to the subscribers already in the graph.
     pub fn open(cfg: &Ros2Config, session: &zenoh::Session, topics: &[Topic]) -> anyhow::Result<Self> {
-        let node = Node {
-            domain_id: cfg.domain_id,
-            zid: session.zid().to_string(),
-            id: 0,
-            enclave: "/".into(),
-            namespace: cfg.namespace.clone(),
-            name: NODE_NAME.into(),
-        };
-        let mut tokens = vec![liveliness_token(&node, None)?];
-        let mut publishers = Vec::new();
-        for (i, t) in topics.iter().enumerate() {
-            let endpoint = Endpoint {
-                id: i as u64 + 1,
-                kind: EntityKind::Publisher,
-                topic: t.name.clone(),
-                ros_type: t.description.name.to_string(),
-                type_hash: t.description.rihs01(),
-                qos: t.qos,
-            };
-            let wire = Publisher::new(&node, &endpoint)?;
-            tokens.push(wire.token.clone());
-            let declared = session
-                .declare_publisher(wire.key_expr.clone())
-                .wait()
-                .map_err(|e| anyhow::anyhow!("ros2: cannot declare the publisher of {}: {e}", t.name))?;
-            publishers.push((wire, declared));
-        }
-        let declared = tokens
+        let mut node = Ros2Node::declare(session, cfg.domain_id, &cfg.namespace, NODE_NAME)?;
+        let publishers = topics
             .iter()
-            .map(|t| session.liveliness().declare_token(t.clone()).wait())
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| anyhow::anyhow!("ros2: cannot declare a liveliness token: {e}"))?;
-        let sink = Self { _tokens: declared, publishers, failed: false };
+            .map(|t| node.publisher(session, &t.name, t.description, t.qos))
+            .collect::<Result<Vec<_>, _>>()?;
+        let sink = Self { publishers, failed: false };
         let waiting = subscribed_topics(session, cfg.domain_id);
         sink.wait_for_routes(topics, &waiting);
         Ok(sink)
@@ -121,17 +94,16 @@ impl ZenohSink {
     /// Once they match, the routes are given [`ROUTES_SETTLE`] more.
     fn wait_for_routes(&self, topics: &[Topic], waiting: &BTreeSet<String>) {
         let deadline = Instant::now() + ROUTE_TIMEOUT;
-        for ((_, publisher), topic) in self.publishers.iter().zip(topics) {
+        for (publisher, topic) in self.publishers.iter().zip(topics) {
             if !waiting.contains(&topic.name) {
                 continue;
             }
-            let matches = || publisher.matching_status().wait().is_ok_and(|m| m.matching());
             // zenoh tells the route's arrival to a listener thread; polling
             // its status every 2 ms costs nothing for a few seconds at most.
-            let mut matched = matches();
+            let mut matched = publisher.matching();
             while !matched && Instant::now() < deadline {
                 std::thread::sleep(Duration::from_millis(2));
-                matched = matches();
+                matched = publisher.matching();
             }
             if !matched {
                 tracing::warn!(
@@ -189,13 +161,11 @@ fn subscribed_topics(session: &zenoh::Session, domain: u32) -> BTreeSet<String> 
 
 impl Sink for ZenohSink {
     fn send(&mut self, topic: usize, _time_ns: u64, cdr: &[u8]) {
-        let (wire, publisher) = &mut self.publishers[topic];
-        let attachment = wire.next_attachment(wall_clock_ns()).encode();
-        let sent = publisher.put(cdr.to_vec()).attachment(attachment.to_vec()).wait();
-        if let Err(e) = sent {
+        let publisher = &mut self.publishers[topic];
+        if let Err(e) = publisher.put(cdr) {
             // Said once: a dead session fails every put after.
             if !std::mem::replace(&mut self.failed, true) {
-                tracing::warn!(key = %wire.key_expr, error = %e, "ros2: a sample was not sent");
+                tracing::warn!(key = %publisher.wire().key_expr, error = %e, "ros2: a sample was not sent");
             }
         }
     }
@@ -221,12 +191,6 @@ impl Ros2Bridge {
         );
         Ok(Self { run, sink })
     }
-}
-
-/// Nanoseconds since the UNIX epoch (rmw_zenoh's `get_system_time_in_ns`).
-fn wall_clock_ns() -> i64 {
-    let since = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
-    i64::try_from(since.as_nanos()).unwrap_or(i64::MAX)
 }
 
 impl Observer for Ros2Bridge {

@@ -36,6 +36,12 @@
 //!   the speed-up check, a command line with subcommands, the iceoryx2
 //!   and zenoh set-up;
 //!
+//! and behind `ros2`:
+//!
+//! * [`ros2`] — a ROS 2 node and its publishers on a zenoh session, as
+//!   rmw_zenoh puts them (the launch's `--ros2` output, a ground robot's
+//!   agent's velocity commands);
+//!
 //! and behind `doctor` (with `process`):
 //!
 //! * [`doctor`] — the findings of every host's doctor and the checks they
@@ -74,6 +80,8 @@ pub mod instance;
 pub mod interrupt;
 #[cfg(feature = "process")]
 pub mod lifeline;
+#[cfg(feature = "ros2")]
+pub mod ros2;
 #[cfg(feature = "process")]
 pub mod traffic;
 
