@@ -14,6 +14,7 @@ use crate::suites;
 use bycoms_lab::robots::RobotsFile;
 use bycoms_launch::agents::gateways::{Gateways, LINK_GRACE};
 use bycoms_launch::agents::remote::Remote;
+use bycoms_launch::agents::ros2_robots::{Graph, Ros2Robots};
 use bycoms_launch::agents::spawned::{AgentCommand, Spawned};
 use bycoms_launch::agents::threads::Threads;
 use bycoms_launch::agents::{AgentError, AgentPlan, AgentSource, Joining};
@@ -68,6 +69,7 @@ impl AgentFixture for SpawnedFixture {
             needs_placement: false,
             stop_when_stuck: false,
             wants_poses: false,
+            senses_beacons: true,
             start_hint: None,
             ended_by: "killed",
             starts: Starts::Process,
@@ -112,6 +114,7 @@ impl AgentFixture for RemoteFixture {
             needs_placement: false,
             stop_when_stuck: false,
             wants_poses: false,
+            senses_beacons: true,
             start_hint: Some("sim-agent --transport zenoh --connect"),
             ended_by: "dropped from the launch",
             starts: Starts::Awaited,
@@ -272,6 +275,7 @@ impl AgentFixture for GatewaysFixture {
             needs_placement: true,
             stop_when_stuck: true,
             wants_poses: true,
+            senses_beacons: false,
             start_hint: None,
             ended_by: "killed",
             starts: Starts::Process,
@@ -301,6 +305,69 @@ impl AgentFixture for GatewaysFixture {
 fn gateways_pass_the_suite() {
     let report = run_all(&GatewaysFixture::new());
     assert_eq!(report.not_applicable(), Vec::<&str>::new(), "{report:?}");
+}
+
+/// ROS 2 robots' agents: the same stand-in as the gateways' for the
+/// `ros2-robot` executable; the robots file names four ROS 2 robots.
+struct Ros2RobotsFixture {
+    robots: RobotsFile,
+    _dir: tempfile::TempDir,
+}
+
+impl Ros2RobotsFixture {
+    fn new() -> Self {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let text: String = (1..=4u32).map(|id| format!("[[robot]]\nid = {id}\nkind = \"ros2\"\n")).collect();
+        let path = dir.path().join("robots.toml");
+        std::fs::write(&path, text).expect("robots file");
+        let robots = RobotsFile::read(&path).expect("robots file reads");
+        Self { robots, _dir: dir }
+    }
+}
+
+impl AgentFixture for Ros2RobotsFixture {
+    fn expected(&self) -> Expected {
+        Expected {
+            kind: "ros2_robot",
+            senses_beacons: true,
+            robot_link_grace: None,
+            ..GatewaysFixture::new().expected()
+        }
+    }
+
+    fn source(&self) -> Box<dyn AgentSource> {
+        let script = format!(r#"case " $* " in *" --heartbeat-ms {ENDS} "*) exit 3;; esac; exec sleep 30"#);
+        let command =
+            AgentCommand { program: "sh".into(), prefix: vec!["-c".into(), script, "sh".into()], own: false };
+        let graph = Graph { router: "tcp/127.0.0.1:7447".into(), domain_id: 0, namespace: "/".into() };
+        Box::new(Ros2Robots::new(command, &self.robots, graph))
+    }
+
+    fn plan(&self, id: u32, ends_by_itself: bool) -> (Joining, RunSettings) {
+        GatewaysFixture::new().plan(id, ends_by_itself)
+    }
+}
+
+#[test]
+fn ros2_robots_pass_the_suite() {
+    let report = run_all(&Ros2RobotsFixture::new());
+    assert_eq!(report.not_applicable(), Vec::<&str>::new(), "{report:?}");
+}
+
+#[test]
+fn ros2_robots_are_started_with_their_robots_file_entry_and_the_graph() {
+    let fixture = Ros2RobotsFixture::new();
+    let graph = Graph { router: "tcp/127.0.0.1:7447".into(), domain_id: 7, namespace: "/lab".into() };
+    let command = AgentCommand { program: "true".into(), prefix: Vec::new(), own: false };
+    let source = Ros2Robots::new(command, &fixture.robots, graph);
+    let (joining, settings) = fixture.plan(2, false);
+    let args = source.args(2, &AgentPlan { joining: &joining, settings: &settings }).expect("robot 2");
+    assert_eq!((args.robot, args.domain_id, args.namespace.as_str()), (2, 7, "/lab"));
+    assert_eq!(args.cmd_vel_topic(), "/lab/robot_2/cmd_vel");
+    assert_eq!(args.eps, settings.eps, "ε of the run");
+    assert_eq!(args.validate(), Ok(()));
+    let refused = source.args(9, &AgentPlan { joining: &joining, settings: &settings });
+    assert!(matches!(refused, Err(AgentError::NoSuchRobot { robot: 9, .. })), "{refused:?}");
 }
 
 #[test]
@@ -372,6 +439,7 @@ impl AgentFixture for ThreadsFixture {
             needs_placement: false,
             stop_when_stuck: false,
             wants_poses: false,
+            senses_beacons: true,
             start_hint: None,
             ended_by: "threads told to stop",
             starts: Starts::Thread,

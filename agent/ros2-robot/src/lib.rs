@@ -15,7 +15,13 @@
 //!   session.
 //! * [`run`] — the loop: the bus side (the gateway's), the session, and
 //!   the robot's `cmd_vel` behind the [`run::CmdVel`] seam.
+//! * [`cmd_vel`] — that seam on the ROS 2 graph: a `Twist` or
+//!   `TwistStamped` publisher over rmw_zenoh.
+//! * [`cli`] — the command line (`Ros2RobotArgs`, whose `to_flags` a
+//!   launcher starts it with) and `main`.
 
+pub mod cli;
+pub mod cmd_vel;
 pub mod core;
 pub mod run;
 

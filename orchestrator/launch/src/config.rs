@@ -439,8 +439,10 @@ impl LaunchConfig {
         }
         self.mocap.validate(self.robots).map_err(usage)?;
         self.placement.validate().map_err(usage)?;
+        let graph =
+            self.ros2.as_ref().is_some_and(|r| r.router.is_some()) || self.transport.kind == Transport::Zenoh;
         self.agents
-            .validate(self.robots, self.transport.kind, self.clock == Clock::Lockstep)
+            .validate(self.robots, self.transport.kind, self.clock == Clock::Lockstep, graph)
             .map_err(usage)?;
         if self.supervision.heartbeat_timeout <= self.supervision.heartbeat_interval {
             return Err(usage(

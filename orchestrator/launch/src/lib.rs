@@ -140,7 +140,7 @@ pub fn run_serving(
     let joining = setup::joining(&cfg, swarm_name, endpoints.clone());
     let run = setup::run_settings(&cfg, &world);
     let (settings_served, _clock_served) = serve_over_zenoh(zenoh.as_ref(), &swarm, &run, cfg.robots)?;
-    let agents = cfg.agents.open(agent, links)?;
+    let agents = cfg.agents.open(agent, links, ros2_graph::for_agents(&ros2_settings, &endpoints))?;
     let control =
         control::Control::serve(swarm.as_str(), zenoh.as_ref()).context("cannot serve status and stop")?;
     // `--ros2`: the stop service, held to the end; its calls are stop questions.

@@ -23,6 +23,7 @@
 //!   type hash (samples on another key are never seen): [`GraphWatch`]
 //!   warns once, after `mocap.ros2.graph_timeout`, per topic.
 
+use super::agents::ros2_robots::Graph;
 use super::ros2::Ros2Config;
 use bycoms_protocol::bus::zenoh::{Mode, ZenohBus};
 use bycoms_ros2::rmw_zenoh::{graph_key_expr, EntityKind, TokenView};
@@ -44,6 +45,14 @@ pub fn for_launch(
     let wanted = cfg.ros2.is_some() || cfg.mocap.source == bycoms_mocap::MocapSource::Ros2;
     let session = if wanted { session(&settings, launch)? } else { None };
     Ok((settings, session))
+}
+
+/// Where ROS 2 robots' agents join the graph: the lab's router
+/// (`ros2.router`), else the launch's own zenoh endpoint (`endpoints`, its
+/// listen endpoints as reachable); `None` without either.
+pub fn for_agents(cfg: &Ros2Config, endpoints: &[String]) -> Option<Graph> {
+    let router = cfg.router.clone().or_else(|| endpoints.first().cloned())?;
+    Some(Graph { router, domain_id: cfg.domain_id, namespace: cfg.namespace.clone() })
 }
 
 /// The zenoh session ROS 2 traffic goes over: a client session to

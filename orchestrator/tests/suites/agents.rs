@@ -4,7 +4,7 @@
 //!
 //! Why every method is checked against what the fixture states
 //! ([`Expected`]): the engine decides from the property methods
-//! (`all_at_once`, `needs_placement`, `stop_when_stuck`, `wants_poses`,
+//! (`all_at_once`, `needs_placement`, `stop_when_stuck`, `wants_poses`, `senses_beacons`,
 //! `held_when_unreachable`, `robot_link_grace`, the words of `start_hint`
 //! and `ended_by`), so a property that changes must fail a test, not only a
 //! behaviour.
@@ -85,6 +85,8 @@ pub struct Expected {
     pub stop_when_stuck: bool,
     /// [`AgentSource::wants_poses`].
     pub wants_poses: bool,
+    /// [`AgentSource::senses_beacons`].
+    pub senses_beacons: bool,
     /// Words [`AgentSource::start_hint`] contains; `None`: it is empty.
     pub start_hint: Option<&'static str>,
     /// Words [`AgentSource::ended_by`] contains.
@@ -179,6 +181,7 @@ fn properties_are_as_stated(fixture: &dyn AgentFixture) {
     assert_eq!(source.needs_placement(), want.needs_placement, "{kind}: needs_placement");
     assert_eq!(source.stop_when_stuck(), want.stop_when_stuck, "{kind}: stop_when_stuck");
     assert_eq!(source.wants_poses(), want.wants_poses, "{kind}: wants_poses");
+    assert_eq!(source.senses_beacons(), want.senses_beacons, "{kind}: senses_beacons");
     assert_eq!(source.held_when_unreachable(), want.held_when_unreachable, "{kind}: held_when_unreachable");
     assert_eq!(source.robot_link_grace(), want.robot_link_grace, "{kind}: robot_link_grace");
     match want.start_hint {

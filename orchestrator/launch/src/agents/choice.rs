@@ -8,11 +8,12 @@
 
 use super::gateways::{Gateways, GatewaysAt};
 use super::remote::Remote;
+use super::ros2_robots::{Graph, Ros2Robots};
 use super::spawned::{AgentCommand, Spawned};
 use super::threads::Threads;
 use super::AgentSource;
 use anyhow::{Context, Result};
-use bycoms_lab::robots::RobotsFile;
+use bycoms_lab::robots::{Kind, RobotsFile};
 use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_runtime::Transport;
 use serde::{Deserialize, Serialize};
@@ -39,9 +40,10 @@ pub enum AgentSourceKind {
     /// Started by hand on other hosts (`sim-agent --transport zenoh
     /// --connect ...`); the launch waits for every robot to register.
     Remote,
-    /// Real robots: one `gateway` per robot, started here for each
-    /// robot of `agents.robots_file` or elsewhere (`agents.gateways`); each
-    /// robot is enabled when it is deployed.
+    /// Real robots: one `gateway` per acoustic robot, started here for
+    /// each robot of `agents.robots_file` or elsewhere (`agents.gateways`),
+    /// or one `ros2-robot` per ROS 2 robot (`kind = "ros2"` in the robots
+    /// file); each robot is enabled when it is deployed.
     Real,
 }
 
@@ -57,6 +59,9 @@ pub struct AgentsConfig {
     /// `real`: the gateway executable; default `gateway` next to the
     /// orchestrator.
     pub gateway_bin: Option<PathBuf>,
+    /// `real` with ROS 2 robots: the `ros2-robot` executable; default
+    /// `ros2-robot` next to the orchestrator.
+    pub ros2_robot_bin: Option<PathBuf>,
     /// `real`: where the gateways run: `here` (started by this launch, one
     /// per robot of the robots file) or `elsewhere` (started by hand on a
     /// bridge host over zenoh, awaited as remote agents are).
@@ -73,6 +78,7 @@ impl Default for AgentsConfig {
             source: AgentSourceKind::default(),
             robots_file: None,
             gateway_bin: None,
+            ros2_robot_bin: None,
             gateways: GatewaysAt::Here,
             scenario: None,
         }
@@ -90,8 +96,16 @@ impl AgentsConfig {
         }
     }
 
-    /// Checks the choice against the rest of the launch's configuration.
-    pub fn validate(&self, robots: u32, transport: Transport, lockstep: bool) -> Result<(), String> {
+    /// Checks the choice against the rest of the launch's configuration;
+    /// `graph`: whether a ROS 2 graph is reachable (`ros2.router`, or the
+    /// launch's own zenoh session), which ROS 2 robots need.
+    pub fn validate(
+        &self,
+        robots: u32,
+        transport: Transport,
+        lockstep: bool,
+        graph: bool,
+    ) -> Result<(), String> {
         let zenoh = transport == Transport::Zenoh;
         if transport == Transport::Memory && self.source != AgentSourceKind::Spawned {
             return Err("transport.kind = \"memory\" runs the agents as threads here: it needs agents.source = \"spawned\"".into());
@@ -130,27 +144,22 @@ impl AgentsConfig {
             AgentSourceKind::Real if self.gateways == GatewaysAt::Elsewhere => Ok(()),
             AgentSourceKind::Real => match &self.robots_file {
                 None => Err("agents.source = \"real\" needs agents.robots_file (--robots-file)".into()),
-                Some(path) => {
-                    let file = RobotsFile::read(path).map_err(|e| e.to_string())?;
-                    let have = file.robots.len() as u32;
-                    if have < robots {
-                        return Err(format!(
-                            "the robots file {} names {have} robots, the launch needs {robots}",
-                            path.display()
-                        ));
-                    }
-                    file.keys().map_err(|e| e.to_string())?;
-                    Ok(())
-                }
+                Some(path) => check_robots_file(path, robots, graph),
             },
         }
     }
 
     /// Builds the source: `sim_agent` runs spawned agents (threads on the
     /// memory bus, when `links` has it); `links.alive` is the swarm's
-    /// liveliness watch over zenoh (remote agents and gateways elsewhere).
+    /// liveliness watch over zenoh (remote agents and gateways elsewhere);
+    /// `graph` is where ROS 2 robots' agents join the ROS 2 graph.
     /// The supervision timeouts are the core's (`orchestrator/launch/src/setup.rs`).
-    pub fn open(&self, sim_agent: AgentCommand, links: AgentLinks) -> Result<Box<dyn AgentSource>> {
+    pub fn open(
+        &self,
+        sim_agent: AgentCommand,
+        links: AgentLinks,
+        graph: Option<Graph>,
+    ) -> Result<Box<dyn AgentSource>> {
         let AgentLinks { alive, memory } = links;
         Ok(match self.source {
             // Over the in-memory bus the agents can only be threads here.
@@ -166,10 +175,46 @@ impl AgentsConfig {
             AgentSourceKind::Real => {
                 let path = self.robots_file.as_deref().context("agents.robots_file is not set")?;
                 let robots = RobotsFile::read(path)?;
+                if robots.kind() == Some(Kind::Ros2) {
+                    let graph = graph.context("ROS 2 robots need a ROS 2 graph (ros2.router)")?;
+                    let agent = super::executable::ros2_robot_command(self.ros2_robot_bin.as_deref())?;
+                    return Ok(Box::new(Ros2Robots::new(agent, &robots, graph)));
+                }
                 let gateway = super::executable::gateway_command(self.gateway_bin.as_deref())?;
                 Box::new(Gateways::new(gateway, robots))
             }
         })
+    }
+}
+
+/// A robots file a launch of `robots` robots can use: enough robots of
+/// one kind; acoustic ones with their keys, ROS 2 ones with a `graph`.
+fn check_robots_file(path: &std::path::Path, robots: u32, graph: bool) -> Result<(), String> {
+    let file = RobotsFile::read(path).map_err(|e| e.to_string())?;
+    let (have, kind) = match file.kind() {
+        Some(Kind::Acoustic) => (file.robots.len(), "acoustic"),
+        Some(Kind::Ros2) => (file.ros2.len(), "ROS 2"),
+        None => {
+            return Err(format!(
+                "the robots file {} has acoustic and ROS 2 robots: a launch drives robots of one kind",
+                path.display()
+            ))
+        }
+    };
+    if (have as u32) < robots {
+        return Err(format!(
+            "the robots file {} names {have} {kind} robots, the launch needs {robots}",
+            path.display()
+        ));
+    }
+    match file.kind() {
+        Some(Kind::Ros2) if !graph => Err(format!(
+            "the ROS 2 robots of {} need the ROS 2 graph their drivers are on: set ros2.router \
+             (--ros2-router tcp/HOST:7447, the lab's rmw_zenohd) or use transport.kind = \"zenoh\"",
+            path.display()
+        )),
+        Some(Kind::Ros2) => Ok(()),
+        _ => file.keys().map(|_| ()).map_err(|e| e.to_string()),
     }
 }
 
@@ -190,20 +235,21 @@ mod tests {
     fn gateways_run_here_over_either_bus_or_elsewhere_over_zenoh() {
         // Here: the robots file names each robot's gateway, over ipc or zenoh.
         for transport in [Transport::Ipc, Transport::Zenoh] {
-            let err = real(GatewaysAt::Here).validate(2, transport, false).unwrap_err();
+            let err = real(GatewaysAt::Here).validate(2, transport, false, false).unwrap_err();
             assert!(err.contains("agents.robots_file"), "{transport:?}: {err}");
         }
         // Elsewhere: no robots file here (it is the gateways'), but zenoh.
-        assert_eq!(real(GatewaysAt::Elsewhere).validate(2, Transport::Zenoh, false), Ok(()));
-        let err = real(GatewaysAt::Elsewhere).validate(2, Transport::Ipc, false).unwrap_err();
+        assert_eq!(real(GatewaysAt::Elsewhere).validate(2, Transport::Zenoh, false, false), Ok(()));
+        let err = real(GatewaysAt::Elsewhere).validate(2, Transport::Ipc, false, false).unwrap_err();
         assert!(err.contains("--transport zenoh"), "{err}");
         // Only real robots have gateways.
         let spawned = AgentsConfig { source: AgentSourceKind::Spawned, ..real(GatewaysAt::Elsewhere) };
-        let err =
-            AgentsConfig { scenario: None, ..spawned }.validate(2, Transport::Zenoh, false).unwrap_err();
+        let err = AgentsConfig { scenario: None, ..spawned }
+            .validate(2, Transport::Zenoh, false, false)
+            .unwrap_err();
         assert!(err.contains("agents.gateways"), "{err}");
         // Real robots are never stepped, wherever their gateways run.
-        let err = real(GatewaysAt::Elsewhere).validate(2, Transport::Zenoh, true).unwrap_err();
+        let err = real(GatewaysAt::Elsewhere).validate(2, Transport::Zenoh, true, false).unwrap_err();
         assert!(err.contains("realtime"), "{err}");
     }
 

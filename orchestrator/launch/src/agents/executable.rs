@@ -1,6 +1,6 @@
 //! Which executable runs the agents, and where the workspace's sibling
 //! binaries sit: the one lookup of the agent and gateway executables
-//! (`agent_command`, `gateway_command`).
+//! (`agent_command`, `gateway_command`, `ros2_robot_command`).
 //!
 //! Why a file of its own: the launch command, the benches and the choice of
 //! agents (`choice.rs`) all look executables up, and none of them may use
@@ -44,14 +44,31 @@ fn beside_this_executable(name: &str) -> Result<(PathBuf, PathBuf)> {
 
 /// The gateway executable: `explicit`, else `gateway` next to this executable.
 pub fn gateway_command(explicit: Option<&Path>) -> Result<AgentCommand> {
+    robot_agent_command(explicit, "gateway", "bycoms-agent", "agents.gateway_bin")
+}
+
+/// The ROS 2 robot agent's executable: `explicit`, else `ros2-robot` next
+/// to this executable.
+pub fn ros2_robot_command(explicit: Option<&Path>) -> Result<AgentCommand> {
+    robot_agent_command(explicit, "ros2-robot", "bycoms-ros2-robot", "agents.ros2_robot_bin")
+}
+
+/// A real robot's agent executable `name` (of crate `package`, set by
+/// config key `key`): `explicit`, else next to this executable.
+fn robot_agent_command(
+    explicit: Option<&Path>,
+    name: &str,
+    package: &str,
+    key: &str,
+) -> Result<AgentCommand> {
     if let Some(program) = explicit {
         return Ok(AgentCommand { program: program.to_path_buf(), prefix: Vec::new(), own: false });
     }
-    let (me, beside) = beside_this_executable("gateway")?;
+    let (me, beside) = beside_this_executable(name)?;
     anyhow::ensure!(
         beside.is_file(),
-        "no gateway executable: `gateway` is not next to {} (build it with `cargo build -p bycoms-agent`, \
-         or set agents.gateway_bin)",
+        "no {name} executable: `{name}` is not next to {} (build it with `cargo build -p {package}`, \
+         or set {key})",
         me.display()
     );
     Ok(AgentCommand { program: beside, prefix: Vec::new(), own: false })

@@ -11,7 +11,9 @@
 //! (`orchestrator/launch/src/ports.rs`); a source only starts agents, watches their
 //! liveness and ends them. The kinds: [`spawned::Spawned`] (default),
 //! [`remote::Remote`] (`--agents remote`), [`gateways::Gateways`]
-//! (`--agents real`); [`choice`] picks one from the config.
+//! (`--agents real`, acoustic robots), [`ros2_robots::Ros2Robots`]
+//! (`--agents real`, a robots file of ROS 2 robots); [`choice`] picks one
+//! from the config.
 //!
 //! Contract (checked for every implementation by the one conformance suite,
 //! `orchestrator/tests/agent_source_suite.rs`): a source reports facts,
@@ -44,6 +46,7 @@ pub mod choice;
 pub mod executable;
 pub mod gateways;
 pub mod remote;
+pub mod ros2_robots;
 pub mod spawned;
 pub mod spawner;
 pub mod stderr_tap;

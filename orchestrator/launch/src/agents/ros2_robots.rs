@@ -1,0 +1,145 @@
+//! ROS 2 ground robots (`kind = "ros2"` in the robots file): one
+//! `ros2-robot` agent process per robot, started here.
+//!
+//! Why its own source, a thin wrapper around [`Spawned`] as the gateways'
+//! is: its agents are child processes like `sim-agent`'s (process group,
+//! `--parent-pid` lifeline, polling, heartbeat watchdog); what differs is
+//! what the core is told of them, as properties, never as a kind name:
+//! an operator places each robot and motion capture confirms it, a stuck
+//! robot is told `Stop`, the trusted poses are forwarded (each agent senses
+//! the field at its own pose), and — unlike an acoustic robot's gateway —
+//! the agents sense the beacons they are sent (the paper's §IV field, in
+//! metres). A ROS 2 robot has no robot link the launch watches: its driver
+//! is the graph's business, and an agent that cannot publish ends.
+
+use super::spawned::{AgentCommand, Spawned};
+use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
+use bycoms_lab::robots::{RobotsFile, Ros2Entry};
+use bycoms_ros2_robot::cli::Ros2RobotArgs;
+
+/// Where the robots' agents join the ROS 2 graph.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Graph {
+    /// The graph's zenoh router (`ros2.router`, or the launch's own endpoint).
+    pub router: String,
+    /// `ROS_DOMAIN_ID`.
+    pub domain_id: u32,
+    /// The namespace of the agents' nodes and default topics.
+    pub namespace: String,
+}
+
+/// The agents of a launch's ROS 2 robots.
+pub struct Ros2Robots {
+    robots: Vec<Ros2Entry>,
+    graph: Graph,
+    inner: Spawned,
+}
+
+impl Ros2Robots {
+    /// The agents of `robots`' ROS 2 robots, run by `agent` (the
+    /// `ros2-robot` executable), joining `graph`.
+    pub fn new(agent: AgentCommand, robots: &RobotsFile, graph: Graph) -> Self {
+        Self { robots: robots.ros2.clone(), graph, inner: Spawned::new(agent) }
+    }
+
+    /// Robot `id`'s agent command line: its robot's topic, message and
+    /// limits from the robots file, ε from the run's settings (metres in a
+    /// lab), the graph, and the bus of the launch's agents. Started with
+    /// its `to_flags`: the flags `ros2-robot` parses into the same
+    /// [`Ros2RobotArgs`].
+    pub fn args(&self, id: u32, plan: &AgentPlan<'_>) -> Result<Ros2RobotArgs, AgentError> {
+        let entry = self.robots.iter().find(|r| r.id == id).ok_or_else(|| AgentError::NoSuchRobot {
+            robot: id,
+            why: format!("the robots file names ROS 2 robots 1..={}", self.robots.len()),
+        })?;
+        let (joining, settings) = (plan.joining, plan.settings);
+        Ok(Ros2RobotArgs {
+            domain_id: self.graph.domain_id,
+            namespace: self.graph.namespace.clone(),
+            cmd_vel: entry.cmd_vel.clone(),
+            message: entry.message,
+            frame_id: entry.frame_id.clone(),
+            max_linear: entry.limits.linear,
+            max_angular: entry.limits.angular,
+            wheel_base: entry.limits.wheel_base,
+            swarm_size: Some(settings.swarm_size),
+            heartbeat_ms: settings.heartbeat_ms,
+            parent_pid: joining.parent_pid,
+            bus: joining.bus.clone(),
+            failsafe: joining.failsafe,
+            ..Ros2RobotArgs::new(joining.swarm.clone(), id, self.graph.router.clone(), settings.eps)
+        })
+    }
+}
+
+impl AgentSource for Ros2Robots {
+    fn kind(&self) -> &'static str {
+        "ros2_robot"
+    }
+
+    fn all_at_once(&self) -> bool {
+        true
+    }
+
+    fn needs_placement(&self) -> bool {
+        true
+    }
+
+    fn stop_when_stuck(&self) -> bool {
+        true
+    }
+
+    fn wants_poses(&self) -> bool {
+        true
+    }
+
+    fn senses_beacons(&self) -> bool {
+        true
+    }
+
+    fn ended_by(&self) -> &'static str {
+        self.inner.ended_by()
+    }
+
+    fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {
+        let flags = self.args(id, plan)?.to_flags();
+        let pid = self.inner.spawn(id, &flags, "")?;
+        Ok(Started::Process { pid })
+    }
+
+    fn heard(&mut self, id: u32) {
+        self.inner.heard(id);
+    }
+
+    fn is_running(&self, id: u32) -> bool {
+        self.inner.is_running(id)
+    }
+
+    fn pid(&self, id: u32) -> Option<u32> {
+        self.inner.pid(id)
+    }
+
+    fn poll(&mut self) -> Vec<(u32, Gone)> {
+        self.inner.poll()
+    }
+
+    fn last_error(&mut self, id: u32) -> Option<String> {
+        self.inner.last_error(id)
+    }
+
+    fn kill(&mut self, id: u32) -> bool {
+        self.inner.kill(id)
+    }
+
+    fn ask_to_end(&mut self) {
+        self.inner.ask_to_end();
+    }
+
+    fn reap(&mut self) -> bool {
+        self.inner.reap()
+    }
+
+    fn end_rest(&mut self) -> Vec<u32> {
+        self.inner.end_rest()
+    }
+}
