@@ -16,6 +16,10 @@ recorder), it declares a node token and one subscription token per topic
 it expects of a launch of ROBOTS robots, so the launch waits for the
 route to it before its run, and no sample is lost at the start.
 
+A ROS 2 ground robot's agent (`ros2-robot`) is checked by the same means:
+its `cmd_vel` (Twist or TwistStamped) is one more publisher of the graph,
+found by its token, its node named in the report (tests/tests/ros2_robot.rs).
+
 usage: ros2_listen.py LISTEN_ENDPOINT DOMAIN_ID ROBOTS
 """
 
@@ -86,8 +90,9 @@ def check(samples, tokens, domain):
         parsed = parse_token(token)
         if parsed:
             publishers[parsed[0]] = (token, parsed[1], parsed[2])
-    by_key = {}
+    by_key, by_node = {}, {}
     for topic, (token, dds, type_hash) in publishers.items():
+        by_node[topic] = token.split("/")[8]
         ros_type = next(t for t in TS.types if t.count("/") == 2 and dds_name(t) == dds)
         assert TS.hash_rihs01(ros_type) == type_hash, f"{topic}: token hash {type_hash}"
         key = f"{domain}/{topic.strip('/')}/{dds}/{TS.hash_rihs01(ros_type)}"
@@ -100,7 +105,8 @@ def check(samples, tokens, domain):
             report["unexpected"].append(key)
             continue
         topic, ros_type, gid = by_key[key]
-        entry = report["topics"].setdefault(topic, {"type": ros_type, "seqs": [], "last": None})
+        node = by_node[topic]
+        entry = report["topics"].setdefault(topic, {"type": ros_type, "node": node, "seqs": [], "last": None})
         try:
             msg = TS.deserialize_cdr(payload, ros_type)
         except Exception:  # noqa: BLE001 - any failure to decode counts
@@ -123,6 +129,12 @@ def check(samples, tokens, domain):
             entry["last"] = (entry["last"] or 0) + 1
         elif ros_type == "nav_msgs/msg/OccupancyGrid":
             entry["last"] = [msg.info.width, msg.info.height, int((msg.data == 100).sum())]
+        elif ros_type == "geometry_msgs/msg/Twist":
+            entry["last"] = [msg.linear.x, msg.angular.z]
+            entry["moving"] = entry.get("moving", 0) + (msg.linear.x != 0 or msg.angular.z != 0)
+        elif ros_type == "geometry_msgs/msg/TwistStamped":
+            entry["last"] = [msg.twist.linear.x, msg.twist.angular.z, msg.header.frame_id]
+            entry["moving"] = entry.get("moving", 0) + (msg.twist.linear.x != 0 or msg.twist.angular.z != 0)
         elif ros_type == "rosgraph_msgs/msg/Clock":
             entry["last"] = msg.clock.sec * 1_000_000_000 + msg.clock.nanosec
     for entry in report["topics"].values():

@@ -342,3 +342,59 @@ pub fn simulate_differences(expected: &bycoms_sim::RunResult, j: &Value) -> Vec<
     }
     found
 }
+
+/// A Python test client of `tests/python/` (a client that is not ours:
+/// eclipse-zenoh, rosbags, xxhash), killed and reaped on drop. It prints
+/// lines (`ready`, then a JSON report) and reads one line on its stdin
+/// when the test is done.
+pub struct PythonClient {
+    child: Child,
+    stdin: Option<std::process::ChildStdin>,
+    lines: std::sync::mpsc::Receiver<String>,
+}
+
+impl PythonClient {
+    /// Starts `tests/python/<script>` with `args`.
+    pub fn start(script: &str, args: &[&str]) -> PythonClient {
+        let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python").join(script);
+        let mut child = Command::new("python3")
+            .arg(&path)
+            .args(args)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("python3 starts");
+        let lines = stdout_lines(&mut child);
+        let stdin = child.stdin.take();
+        PythonClient { child, stdin, lines }
+    }
+
+    /// Its next line (at most 60 s away).
+    pub fn line(&self, what: &str) -> String {
+        self.lines
+            .recv_timeout(Duration::from_secs(60))
+            .unwrap_or_else(|_| panic!("the Python client printed no {what} within 60 s"))
+    }
+
+    /// Tells it the test is done; its JSON report.
+    pub fn report(&mut self) -> Value {
+        self.report_after("done")
+    }
+
+    /// Writes `line` on its stdin (its cue) and closes it; its JSON report.
+    pub fn report_after(&mut self, line: &str) -> Value {
+        use std::io::Write;
+        let mut stdin = self.stdin.take().expect("stdin");
+        writeln!(stdin, "{line}").expect("write to the Python client");
+        drop(stdin);
+        serde_json::from_str(&self.line("report")).expect("the report is JSON")
+    }
+}
+
+impl Drop for PythonClient {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}

@@ -31,6 +31,7 @@ mod recording;
 mod remote_agents;
 mod replay;
 mod ros2_launch;
+mod ros2_robot;
 mod same_swarm;
 mod secure_launch;
 mod slurm;

@@ -14,58 +14,11 @@
 //! Needs python3 with the PyPI packages: `#[ignore = "needs …"]`, run by
 //! `.ci/run` (which installs them) with `--include-ignored`.
 
-use bycoms_tests::{swarm_name, Proc};
-use std::io::Write;
+use bycoms_tests::{swarm_name, Proc, PythonClient};
 use std::net::TcpListener;
 use std::path::PathBuf;
-use std::process::{Child, ChildStdin, Command, Stdio};
-use std::sync::mpsc;
+use std::process::Command;
 use std::time::Duration;
-
-/// The Python listener, killed and reaped on drop.
-struct Listener {
-    child: Child,
-    stdin: Option<ChildStdin>,
-    lines: mpsc::Receiver<String>,
-}
-
-impl Listener {
-    fn start(endpoint: &str) -> Listener {
-        let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/ros2_listen.py");
-        let mut child = Command::new("python3")
-            .arg(&script)
-            .args([endpoint, "0", "3"])
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("python3 starts");
-        let lines = bycoms_tests::stdout_lines(&mut child);
-        let stdin = child.stdin.take();
-        Listener { child, stdin, lines }
-    }
-
-    fn line(&self, what: &str) -> String {
-        self.lines
-            .recv_timeout(Duration::from_secs(60))
-            .unwrap_or_else(|_| panic!("the listener printed no {what} within 60 s"))
-    }
-
-    /// Tells it the launch has ended; its report.
-    fn report(&mut self) -> serde_json::Value {
-        let mut stdin = self.stdin.take().expect("stdin");
-        stdin.write_all(b"done\n").expect("write to the listener");
-        drop(stdin);
-        serde_json::from_str(&self.line("report")).expect("the report is JSON")
-    }
-}
-
-impl Drop for Listener {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
 
 #[test]
 #[ignore = "needs python3 with eclipse-zenoh==1.10.2, rosbags==0.11.9 and xxhash==4.1.0"]
@@ -73,7 +26,7 @@ fn a_ros2_client_finds_every_topic_and_decodes_every_sample_of_a_launch() {
     // The lab router's port: free when asked (the listener binds it at once).
     let port = TcpListener::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port();
     let router = format!("tcp/127.0.0.1:{port}");
-    let mut listener = Listener::start(&router);
+    let mut listener = PythonClient::start("ros2_listen.py", &[&router, "0", "3"]);
     assert_eq!(listener.line("ready line"), "ready");
     let swarm = swarm_name("ros2");
     let orch = Proc::orchestrator(&[
@@ -223,17 +176,7 @@ fn an_exported_bag_is_read_by_rosbags_and_mcap_ros2_with_every_pose_of_the_recor
 fn calling_the_ros2_stop_service_stops_every_robot() {
     let port = TcpListener::bind("127.0.0.1:0").expect("bind").local_addr().expect("addr").port();
     let router = format!("tcp/127.0.0.1:{port}");
-    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("python/ros2_stop_call.py");
-    let mut child = Command::new("python3")
-        .arg(&script)
-        .args([router.as_str(), "0"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .expect("python3 starts");
-    let lines = bycoms_tests::stdout_lines(&mut child);
-    let mut caller = Listener { stdin: child.stdin.take(), child, lines };
+    let mut caller = PythonClient::start("ros2_stop_call.py", &[&router, "0"]);
     assert_eq!(caller.line("ready line"), "ready");
     let swarm = swarm_name("ros2stop");
     let orch = Proc::orchestrator(&[
@@ -261,10 +204,7 @@ fn calling_the_ros2_stop_service_stops_every_robot() {
         (line["status"]["robots"][0]["state"] == "moving").then_some(())
     })
     .expect("robot 1 moves within 30 s");
-    let mut stdin = caller.stdin.take().expect("stdin");
-    stdin.write_all(b"call\n").expect("write to the caller");
-    drop(stdin);
-    let report: serde_json::Value = serde_json::from_str(&caller.line("report")).expect("JSON");
+    let report = caller.report_after("call");
     assert_eq!(report["replies"], 1, "{report}");
     assert_eq!(report["success"], true, "{report}");
     assert!(report["message"].as_str().is_some_and(|m| m.contains(&swarm)), "{report}");
