@@ -4,7 +4,9 @@ Reads the bag with PyPI `rosbags`' rosbag2 reader (every message
 deserialized with the types its own `ros2msg` schemas define, and each
 type's hash recomputed by rosbags from that schema and compared with the
 channel's `topic_type_hash`), and again with PyPI `mcap-ros2-support`'s
-decoder; counts the launch recording's poses with PyPI `mcap`. Prints one
+decoder; counts the poses the launch core applied (`core/moved`, schema
+`bycoms.Moved`: what the bag holds, not every pose motion capture
+delivered) in the launch recording with PyPI `mcap`. Prints one
 JSON report. Used by tests/tests/ros2_launch.rs.
 
 usage: ros2_bag.py RECORDING.mcap BAG.mcap
@@ -23,7 +25,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 def recording_poses(path):
     with open(path, "rb") as f:
-        return sum(1 for schema, _, _ in make_reader(f).iter_messages() if schema and schema.name == "bycoms.Pose")
+        return sum(1 for schema, _, _ in make_reader(f).iter_messages() if schema and schema.name == "bycoms.Moved")
 
 
 def with_rosbags(path):

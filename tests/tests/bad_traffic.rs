@@ -107,13 +107,20 @@ fn garbage_wrong_versions_unknown_robots_and_duplicates_are_counted_not_fatal() 
 /// pose topic while it moves, are refused and counted; one at the goal
 /// either jumps too fast (refused) or is older than what robot 1 has
 /// published meanwhile (ignored): either way robot 1 does not win by it.
+/// Issue 53: none of them is shown. The recording holds them as they came
+/// on the bus, but not among the poses the core applied (`core/moved`),
+/// which are what the scene, the live view, ROS 2 and the bag show.
 #[test]
 fn forged_poses_are_refused_counted_and_change_nothing() {
     use bycoms_protocol::msg::Pose;
     let name = swarm_name("forged");
     let swarm = Swarm::new(&name).expect("swarm name");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let recording = dir.path().join("forged.mcap");
+    let rec = recording.to_str().expect("utf-8 path");
     let launch = Proc::orchestrator(&[
         "launch", "--clock", "realtime", "--speed", "10", "--dwell", "3", "--swarm", &name, "--json",
+        "--record", rec,
     ]);
     let moving = wait_for_pose(&name, 3, 1, Duration::from_secs(30), |p| p.x > 16.0).expect("robot 1 moves");
     let bus = IpcBus::new(ipc_config(3)).expect("bus");
@@ -140,6 +147,46 @@ fn forged_poses_are_refused_counted_and_change_nothing() {
     assert!((2..=3).contains(&refused), "{}", j["bad_traffic"]);
     assert_eq!(j["robots"][0]["end"], "stuck", "robot 1 did not win by a forged pose");
     assert_eq!(j["robots"][2]["end"], "arrived");
+    let (on_the_bus, shown) = recorded_poses(&recording);
+    let forged = |p: &Pose| p.robot == RobotId(1) && (p.step == u64::MAX || p.x.is_nan() || p.x == goal.x);
+    assert!(on_the_bus.iter().filter(|p| forged(p)).count() >= 3, "recorded as they came on the bus");
+    assert!(shown.iter().any(|p| p.robot == RobotId(1)), "robot 1 is shown moving");
+    assert!(!shown.iter().any(forged), "a forged pose is shown: {:?}", shown.iter().find(|p| forged(p)));
+    let bag = std::io::Cursor::new(Vec::new());
+    let (exported, _) = bycoms_launch::ros2::bag::export(&recording, bag, "bag.mcap").expect("exported");
+    assert_eq!(exported.poses, shown.len() as u64, "the bag holds the poses shown, no other");
+}
+
+/// Every pose a recording holds on the bus's pose topics, and those the
+/// launch core applied (`core/moved`), in order.
+fn recorded_poses(
+    path: &std::path::Path,
+) -> (Vec<bycoms_protocol::msg::Pose>, Vec<bycoms_protocol::msg::Pose>) {
+    use bycoms_record::decode::{decode_message, Content};
+    use bycoms_record::read::{Item, Reader};
+    let (mut on_the_bus, mut shown) = (Vec::new(), Vec::new());
+    let mut applied = false;
+    Reader::open(path)
+        .expect("a recording")
+        .stream(|item| {
+            let Item::Message { channel, data, .. } = item else {
+                return Ok::<_, bycoms_record::RecordError>(());
+            };
+            match decode_message(channel, data) {
+                Content::Run(json) => {
+                    let meta: bycoms_study::draw::run::RunMeta =
+                        serde_json::from_slice(json).expect("run meta");
+                    applied = meta.applied_poses;
+                }
+                Content::Pose(pose) => on_the_bus.push(pose),
+                Content::Moved(pose) => shown.push(pose),
+                _ => {}
+            }
+            Ok(())
+        })
+        .expect("read to its end");
+    assert!(applied, "the run metadata says the applied poses are recorded");
+    (on_the_bus, shown)
 }
 
 fn register_of(msg: &FromAgent) -> Register {

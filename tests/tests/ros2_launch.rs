@@ -125,10 +125,11 @@ fn robots_as_the_launch_ended(
 /// read by rosbags' rosbag2 reader (every message deserialized with the
 /// bag's own schemas, each type's hash recomputed from them) and by
 /// `mcap-ros2-support`'s decoder (`tests/python/ros2_bag.py`); the poses in
-/// the bag are the recording's, one for one.
+/// the bag are those the launch core applied (the recording's `core/moved`),
+/// one for one.
 #[test]
 #[ignore = "needs python3 with rosbags==0.11.9, mcap==1.6.0 and mcap-ros2-support==0.6.0"]
-fn an_exported_bag_is_read_by_rosbags_and_mcap_ros2_with_every_pose_of_the_recording() {
+fn an_exported_bag_is_read_by_rosbags_and_mcap_ros2_with_every_applied_pose_of_the_recording() {
     let dir = tempfile::tempdir().expect("temp dir");
     let (recording, bag) = (dir.path().join("run.mcap"), dir.path().join("bag.mcap"));
     let swarm = swarm_name("ros2bag");

@@ -252,10 +252,10 @@ impl Driver {
                 let more = matches!(self.core.peek_output(), Some(Output::Send(next, _)) if *next == id);
                 self.ports.send(id, &msg, more)?;
             }
-            Output::Relay(pose) => {
-                self.ports.relay(&pose)?;
-                self.ports.recording.seen(Seen::Pose(pose));
-            }
+            // A dead robot's last pose again, for the agents' field: the
+            // views showed it when the core applied it.
+            Output::Relay(pose) => self.ports.relay(&pose)?,
+            Output::Moved { robot, pose } => self.ports.show_moved(robot, &pose),
             Output::Forward(pose) => self.ports.forward_pose(&pose)?,
             Output::Gate(event) => {
                 self.ports.publish_gate(&event)?;
@@ -308,11 +308,10 @@ impl Driver {
         self.pose_source.drain(&mut sink)?;
         let numbers = sink.numbers().to_vec();
         for ((topic, pose), recorded) in poses.drain(..).zip(numbers) {
-            self.ports.observe_pose(topic, &pose);
             let now = self.now();
             // Logged by its number in the recording: each pose stored once.
+            // Shown only if the core applies it (`Output::Moved`).
             self.core.handle_pose(now, topic, pose, recorded);
-            self.ports.recording.seen(Seen::Pose(pose));
             self.carry_out();
         }
         self.poses = poses;

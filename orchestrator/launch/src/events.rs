@@ -83,4 +83,8 @@ pub struct RunMeta<'a> {
     /// The launch configuration, as `deploy/launch.toml` documents it.
     #[schemars(with = "serde_json::Map<String, serde_json::Value>")]
     pub config: &'a super::LaunchConfig,
+    /// The poses the launch core applied are on `core/moved`: readers
+    /// draw and export those, not the bus's pose topics (which hold every
+    /// pose delivered, refused ones too). Absent in older recordings.
+    pub applied_poses: bool,
 }

@@ -16,7 +16,7 @@
 //! (`poses`), which may not be the bus at all.
 
 use super::observe::Observer;
-use super::recording::Recording;
+use super::recording::{Recording, Seen};
 use super::transport::{AnyPublisher, AnySubscriber, SharedBus};
 use bycoms_protocol::bus::{untag, BusError, FAN_IN_TAG};
 use bycoms_protocol::msg::{Deploy, FromAgent, GateEvent, Pose, ToAgent};
@@ -217,13 +217,28 @@ impl Ports {
         Ok(Some(report))
     }
 
-    /// Shows the observers a pose the pose source delivered for `robot`
-    /// (one reported on another robot's topic is left out: it is counted
-    /// as bad traffic, not shown).
-    pub fn observe_pose(&mut self, robot: u32, pose: &Pose) {
-        if pose.robot.0 == robot {
-            self.observers.iter_mut().for_each(|o| o.pose(pose));
+    /// Shows a pose the launch core applied (`Output::Moved`) to everything
+    /// that shows the run: recorded on `core/moved` (what `draw` and
+    /// `record export --ros2` read), handed to the recording's scene and
+    /// trace and to the observers (the live view, ROS 2). The one way a pose
+    /// reaches a view: one the core refused, ignored or held back never
+    /// does (the bus's pose topics still record every pose as it came).
+    pub fn show_moved(&mut self, robot: u32, pose: &Pose) {
+        if pose.robot.0 != robot {
+            return;
         }
+        if self.recording.is_on() {
+            let mut buf = [0u8; MAX_MESSAGE_LEN];
+            match encode(pose, &mut buf) {
+                Ok(bytes) => {
+                    let topic = schema::Topics::new(self.swarm.as_str()).moved();
+                    self.recording.bytes(&topic, schema::MOVED, bytes);
+                }
+                Err(e) => tracing::warn!(robot, "an applied pose not recorded: {e}"),
+            }
+        }
+        self.recording.seen(Seen::Pose(*pose));
+        self.observers.iter_mut().for_each(|o| o.pose(pose));
     }
 
     /// Hands the observers what the run's scene produced since the last

@@ -178,6 +178,17 @@ fn same_run(a: &Report, b: &Report, what: &str) {
     assert_eq!(ends(a), ends(b), "{what}: robots");
 }
 
+/// [`same_run`], and the views showed the same poses (those the core
+/// applied, `Output::Moved`), whenever they came: what forged and foreign
+/// traffic must not change either.
+fn same_run_and_views(a: &Report, b: &Report, what: &str) {
+    same_run(a, b, what);
+    let shown = |r: &Report| {
+        r.moved.iter().map(|(_, id, p)| (*id, p.step, p.x.to_bits(), p.y.to_bits())).collect::<Vec<_>>()
+    };
+    assert_eq!(shown(a), shown(b), "{what}: the poses shown");
+}
+
 /// The case where robot 1 moves for a while first (a wall far away).
 fn long_case() -> Case {
     let mut case = Case::small(0);

@@ -33,6 +33,8 @@ pub enum Content<'a> {
     Report(FromAgent),
     /// A pose (from motion capture, or the launch's relay of a dead robot's last pose).
     Pose(Pose),
+    /// A pose the launch core applied (`core/moved`): one the views show.
+    Moved(Pose),
     /// A gate event the launch published.
     Gate(GateEvent),
     /// A placement request to the lab's operator.
@@ -69,6 +71,9 @@ pub fn decode<'a>(topic: &str, schema_name: &str, encoding: &str, data: &'a [u8]
         }
         schema::POSE if postcard_bytes => {
             bus(data).map_or(Content::Undecodable { schema: schema::POSE }, Content::Pose)
+        }
+        schema::MOVED if postcard_bytes => {
+            bus(data).map_or(Content::Undecodable { schema: schema::MOVED }, Content::Moved)
         }
         schema::GATE if postcard_bytes => {
             bus(data).map_or(Content::Undecodable { schema: schema::GATE }, Content::Gate)

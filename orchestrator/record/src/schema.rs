@@ -39,6 +39,11 @@ pub const OPERATOR: &str = "bycoms.Deploy";
 pub const CORE_SETUP: &str = "bycoms.CoreSetup";
 /// Calls the launch made on its core (`core/calls`).
 pub const CORE_CALLS: &str = "bycoms.CoreCalls";
+/// A pose the launch core applied (`core/moved`), postcard like the bus's
+/// [`POSE`]: what the views show. The bus's pose topics hold every pose
+/// motion capture delivered, refused ones too; a recording whose run
+/// metadata says `applied_poses` is drawn and exported from these.
+pub const MOVED: &str = "bycoms.Moved";
 
 // Motion capture as received (the NatNet datagram's bytes).
 
@@ -118,6 +123,10 @@ impl Topics {
     /// `foxglove.Log`.
     pub fn log(&self) -> String {
         self.leaf("log")
+    }
+    /// The poses the launch core applied ([`MOVED`]).
+    pub fn moved(&self) -> String {
+        self.leaf("core/moved")
     }
     /// Gate decisions as JSON ([`GATE_DECISION`]).
     pub fn gate_json(&self) -> String {

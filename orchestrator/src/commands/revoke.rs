@@ -95,7 +95,7 @@ fn ask_launch(args: &Args, robot: u32) -> Result<i32> {
         Ok(Answer::Revoked { swarm, robot, told, already, pid }) => {
             let what = match (already, told) {
                 (true, _) => "it was revoked already",
-                (false, true) => "told to stop; its reports are dropped from now on",
+                (false, true) => "told to stop and its agent to end; its reports are dropped from now on",
                 (false, false) => "its agent was not running; its reports are dropped from now on",
             };
             outln!(

@@ -261,6 +261,7 @@ impl LaunchCore {
         if !lockstep && state != SlotState::Deploying {
             slot.frames.observe(pose.step);
         }
+        self.moved(topic, pose);
         if state == SlotState::Deploying && self.referee.watched().is_none() {
             self.deployed(now, topic, pose);
         } else if self.referee.watched() == Some(topic) {
@@ -306,9 +307,10 @@ impl LaunchCore {
         self.note(format!("robot {topic}: deployed at ({:.2}, {:.2})", pose.x, pose.y));
     }
 
-    /// A pose of robot `id` before its deployment: it anchors nothing and
-    /// starts nothing. While an operator places the robot, the placement
-    /// check reads it (if it is plausible on its own); otherwise a robot on
+    /// A pose of robot `id` before its deployment: it anchors nothing,
+    /// starts nothing and is not shown (`moved.rs`). While an operator
+    /// places the robot, the placement check reads it (if it is plausible
+    /// on its own); otherwise a robot on
     /// motion capture is seen standing by (nothing to do), and a simulated
     /// robot has no pose before it is deployed: someone else's.
     fn on_pose_before_deployment(&mut self, id: u32, pose: Pose, clock: plausible::PoseClock) {

@@ -68,6 +68,7 @@ mod ending;
 mod held;
 mod inputs;
 pub mod log;
+mod moved;
 mod plausible;
 pub mod referee;
 mod revoke;
@@ -339,6 +340,18 @@ pub enum Output {
     AskOperator(Deploy),
     /// Robot `.0` is being carried by hand (`true`) or was placed (`false`).
     Carried(u32, bool),
+    /// Robot `robot`'s pose, applied: the core made it the robot's latest
+    /// (it is the robot's own, plausible, newer than the last, of a robot
+    /// alive and not revoked, due at the tick in flight). What shows the
+    /// run (the live view, ROS 2, the recording's scene and `core/moved`,
+    /// the `--svg` trace) shows these poses and no other: a pose refused,
+    /// repeated, held back or of a dead or revoked robot is never moved.
+    Moved {
+        /// The robot.
+        robot: u32,
+        /// Its pose.
+        pose: Pose,
+    },
 }
 
 /// What the launch waits for, in words (see [`LaunchCore::waiting`]).

@@ -9,7 +9,11 @@
 //! the voice away itself, by one rule tested in virtual time:
 //!
 //! * the robot is told `Stop` once, if its agent runs (a simulated agent
-//!   stays put, a gateway sends its robot the link's stop frame);
+//!   stays put, a gateway sends its robot the link's stop frame), and
+//!   right after it `Shutdown`: its agent ends (a gateway stops its robot
+//!   again and exits), so `orchestrator status`'s "agent not running" is
+//!   true and nothing of it runs on; one that ignores it is ended with
+//!   the others when the launch winds down;
 //! * from then on nothing from it changes the launch: each of its reports
 //!   is dropped and counted (the summary's and the status's `revoked`,
 //!   `dropped`), a `Register` for it (any agent instance) is refused with
@@ -64,9 +68,13 @@ impl LaunchCore {
             _ => slot.state = SlotState::Lost,
         }
         if running {
+            // Stopped first (a gateway sends its robot the stop frame),
+            // then told to end, as every agent is at the launch's end: the
+            // agent source reaps it, and what it says meanwhile is dropped.
             self.outputs.push_back(Output::Send(id, ToAgent::Stop));
+            self.outputs.push_back(Output::Send(id, ToAgent::Shutdown));
         }
-        let told = if running { "told to stop" } else { "its agent was not running" };
+        let told = if running { "told to stop and to end" } else { "its agent was not running" };
         self.note(format!("robot {id}: {by}; {told}; its reports are dropped from now on"));
         self.event(id, EventKind::Revoked, None, Some(by));
     }
@@ -154,8 +162,12 @@ mod tests {
         core.handle(3_000, revoke(1));
         assert_eq!(core.slots()[0].state(), SlotState::Lost);
         let out = outputs(&mut core);
-        let stops = out.iter().filter(|o| **o == Output::Send(1, ToAgent::Stop)).count();
-        assert_eq!(stops, 1, "robot 1's agent ran: told Stop once: {out:?}");
+        let told: Vec<&Output> = out.iter().filter(|o| matches!(o, Output::Send(1, _))).collect();
+        assert_eq!(
+            told,
+            [&Output::Send(1, ToAgent::Stop), &Output::Send(1, ToAgent::Shutdown)],
+            "robot 1's agent ran: told Stop once, then to end"
+        );
         core.handle(4_000, revoke(1));
         assert!(outputs(&mut core).is_empty(), "a second revocation changes nothing");
 

@@ -168,6 +168,7 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
     check_summary(report, schedule, ending)?;
     check_stops(report, schedule)?;
     check_revoke(report, schedule)?;
+    check_views(report)?;
     let seams = schedule.seams();
     if !seams.senses_beacons && report.beacons_sent > 0 {
         return Err(format!("{} beacons sent to agents that hear each other", report.beacons_sent));
@@ -291,7 +292,9 @@ fn is_stop(out: &Output) -> bool {
 }
 
 /// A robot revoked (`orchestrator/launch/src/core/revoke.rs`): taken in when asked before
-/// the end, told `Stop` at most once, and nothing from it changes the
+/// the end, told `Stop` at most once and, right after it, `Shutdown` (its
+/// agent is told to end; one not running is told neither), nothing of it
+/// shown (no `Output::Moved`), and nothing from it changes the
 /// launch afterwards: the core starts, deploys, ticks, steers or hears it
 /// no more, and judges it at most once more (a beacon where it stopped).
 fn check_revoke(report: &Report, schedule: &Schedule) -> Result<(), String> {
@@ -308,19 +311,65 @@ fn check_revoke(report: &Report, schedule: &Schedule) -> Result<(), String> {
     if report.running_at_end.contains(&id) {
         return Err(format!("revoked robot {id}'s agent still counts as running"));
     }
-    let mut stops = 0;
-    let mut judged = 0;
+    let (mut stops, mut ends, mut judged) = (0, 0, 0);
     for (_, out) in report.after_revoke.iter().filter(|(r, _)| *r == id) {
         match out {
             Output::Send(_, ToAgent::Stop) => stops += 1,
+            Output::Send(_, ToAgent::Shutdown) if ends < stops => ends += 1,
             Output::Send(_, ToAgent::Refused(r)) if r.why == Refusal::Revoked => {}
             Output::Gate(g) if g.kind == GateKind::Died => judged += 1,
             Output::Event(_) | Output::Relay(_) => {}
             other => return Err(format!("revoked robot {id}: {other:?} after its revocation")),
         }
     }
-    if stops > 1 || judged > 1 {
-        return Err(format!("revoked robot {id} told Stop {stops}× and judged {judged}× after it"));
+    if stops > 1 || judged > 1 || ends != stops {
+        return Err(format!(
+            "revoked robot {id} told Stop {stops}×, Shutdown {ends}× and judged {judged}× after it"
+        ));
+    }
+    Ok(())
+}
+
+/// What the views show is what the core applied (its `Output::Moved`,
+/// which the driver alone hands to the live view, ROS 2, the recording's
+/// scene and `core/moved`, and the trace): no forged pose the core did not
+/// take (one plausible by all its rules it applies, and shows); each robot's
+/// poses in step order, none shown twice; none of a robot after its
+/// revocation (`check_revoke`: nothing about it but its `Stop`, its
+/// `Shutdown`, its judgement); and each deployed robot's end (the
+/// summary's pose) one of the poses shown of it. (A robot is shown from its
+/// start pose on: the poses an operator's placement reads are not.)
+fn check_views(report: &Report) -> Result<(), String> {
+    let same = |a: &Pose, b: &Pose| {
+        (a.robot, a.step, a.x.to_bits(), a.y.to_bits()) == (b.robot, b.step, b.x.to_bits(), b.y.to_bits())
+    };
+    let mut last_step: Vec<Option<u64>> = vec![None; report.robots.len()];
+    for (at, robot, pose) in &report.moved {
+        if pose.robot.0 != *robot {
+            return Err(format!("robot {}'s pose shown as robot {robot}'s at {at} µs", pose.robot.0));
+        }
+        let forged = report.forged.iter().filter(|(f, _)| same(f, pose));
+        if forged.clone().next().is_some() && !forged.clone().any(|(_, taken)| *taken) {
+            return Err(format!("a forged pose the core did not take shown at {at} µs: {pose:?}"));
+        }
+        let Some(last) = last_step.get_mut(*robot as usize - 1) else {
+            return Err(format!("a pose of robot {robot}, not in the launch, shown at {at} µs"));
+        };
+        if last.is_some_and(|step| pose.step <= step) {
+            return Err(format!(
+                "robot {robot}'s pose of step {} shown at {at} µs after {last:?}",
+                pose.step
+            ));
+        }
+        *last = Some(pose.step);
+    }
+    for (i, (_, _, end)) in report.robots.iter().enumerate() {
+        let id = i as u32 + 1;
+        let deployed = report.gates.iter().any(|g| g.robot.0 == id && g.kind == GateKind::Deployed);
+        let shown = |end: &Pose| report.moved.iter().any(|(_, r, p)| *r == id && same(p, end));
+        if let Some(end) = end.filter(|end| deployed && !shown(end)) {
+            return Err(format!("robot {id} ended at {end:?}, a pose never shown"));
+        }
     }
     Ok(())
 }

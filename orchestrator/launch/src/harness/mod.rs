@@ -206,6 +206,16 @@ pub struct Report {
     pub drove: Vec<u32>,
     /// Gateway agents: robots whose gateway's failsafe stopped them.
     pub tripped: Vec<u32>,
+    /// Every pose the core applied (`Output::Moved`), what the views show:
+    /// when (µs), of which robot, the pose.
+    pub moved: Vec<(u64, u32, Pose)>,
+    /// Every forged pose handed to the core (`forged.rs`), and whether the
+    /// core took it (made it its robot's latest) when it was handed: a
+    /// forgery plausible by every rule the core has.
+    pub forged: Vec<(Pose, bool)>,
+    /// Robots whose agent (simulated, or a gateway) still ran at the end,
+    /// whatever the core held of it.
+    pub agents_at_end: Vec<u32>,
 }
 
 /// Longest simulated time of a launch of real robots, s.

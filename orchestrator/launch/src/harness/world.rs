@@ -121,6 +121,9 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             asked_us: vec![None; n],
             drove: Vec::new(),
             tripped: Vec::new(),
+            moved: Vec::new(),
+            forged: Vec::new(),
+            agents_at_end: Vec::new(),
         },
         early_deaths_left: schedule.early_deaths.clone(),
         racers: Vec::new(),
@@ -260,7 +263,7 @@ impl World<'_> {
                         // The forger saw the `Deploy` and answers first.
                         self.racers.swap_remove(i);
                         let pose = forged::at_the_goal(id, self.case.terrain.goal(), self.core.ticks());
-                        self.core.handle(now, Input::Pose { topic: id, pose });
+                        self.forge(id, pose);
                     }
                 }
                 Output::Relay(pose) => {
@@ -281,6 +284,7 @@ impl World<'_> {
                 }
                 Output::AskOperator(deploy) => self.ask_operator(deploy.robot.0),
                 Output::Note(text) => self.report.notes.push(text),
+                Output::Moved { robot, pose } => self.report.moved.push((now, robot, pose)),
                 Output::Event(_) | Output::Heard(_) | Output::SimTime(_) | Output::Carried(..) => {}
             }
         }
@@ -415,6 +419,7 @@ impl World<'_> {
                     self.at(now + 100_000, Event::Forge(next));
                 }
                 match f.input(self) {
+                    Some(Input::Pose { topic, pose }) => self.forge(topic, pose),
                     Some(input) => self.core.handle(now, input),
                     // A series goes on without the pose that made no sense.
                     None if matches!(f, Foreign::GoalSeries { .. }) => {}
@@ -498,6 +503,7 @@ impl World<'_> {
         self.report.stopped = core.stopped().cloned();
         self.report.revoked = core.revoked().to_vec();
         self.report.running_at_end = core.slots().iter().filter(|s| s.alive()).map(|s| s.id()).collect();
+        self.report.agents_at_end = (1..=self.case.robots).filter(|&id| self.alive(id)).collect();
         self.report.spent = core.spent();
         self.report.ticks = core.ticks();
         self.report.resends = core.resends();
@@ -505,6 +511,17 @@ impl World<'_> {
         self.report.lost = self.net.lost;
         self.collect_violations();
         self.report
+    }
+
+    /// Hands the core a forged pose on robot `topic`'s topic, noting
+    /// whether the core took it (made it the robot's latest: plausible by
+    /// every rule it has) or not (`Report::forged`).
+    pub(super) fn forge(&mut self, topic: u32, pose: Pose) {
+        let now = self.now;
+        self.core.handle(now, Input::Pose { topic, pose });
+        let latest = self.true_pose(pose.robot.0);
+        let taken = latest.is_some_and(|p| p == pose && pose.robot.0 == topic);
+        self.report.forged.push((pose, taken));
     }
 
     /// Robot `id`'s agent crashed or its link was cut now: the launch must
@@ -550,6 +567,7 @@ fn about(out: &Output) -> Option<u32> {
         | Output::Heard(id)
         | Output::Carried(id, _) => Some(*id),
         Output::Relay(pose) | Output::Forward(pose) => Some(pose.robot.0),
+        Output::Moved { robot, .. } => Some(*robot),
         Output::Gate(e) => Some(e.robot.0),
         Output::Event(e) => Some(e.robot),
         Output::AskOperator(d) => Some(d.robot.0),

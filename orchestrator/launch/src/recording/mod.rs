@@ -221,6 +221,7 @@ impl Recording {
             start: world.start,
             goal: world.goal,
             config: cfg,
+            applied_poses: true,
         };
         self.json(&Topics::new(swarm).run(), schema::RUN, &meta);
     }

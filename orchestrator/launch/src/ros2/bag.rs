@@ -176,7 +176,8 @@ pub fn qos_yaml(q: &Qos, indent: &str) -> String {
 pub struct Exported {
     /// Messages per topic name.
     pub counts: BTreeMap<String, u64>,
-    /// Poses read from the recording.
+    /// Poses exported: those the launch core applied (an older recording:
+    /// every pose on the bus).
     pub poses: u64,
 }
 
@@ -212,22 +213,27 @@ fn run_of(meta: &RunMeta) -> Result<(RunMessages, bycoms_sim::terrain::Terrain, 
 /// a bag on `out` (named `file_name` in its metadata).
 pub fn export<W: Write + Seek>(input: &Path, out: W, file_name: &str) -> Result<(Exported, W), ExportError> {
     let mut state: Option<(RunMessages, BagSink<W>)> = None;
+    let mut meta: Option<RunMeta> = None;
     let mut out = Some(out);
     let mut poses = 0;
     let meta_error = |why: String| ExportError::Meta(input.to_path_buf(), why);
     let end = Reader::open(input)?.stream(|item| {
         let Item::Message { channel, data, .. } = item else { return Ok::<_, ExportError>(()) };
-        match (decode_message(channel, data), &mut state) {
+        let content = decode_message(channel, data);
+        // The poses the core applied, as the live graph got them (older
+        // recordings: every pose on the bus).
+        if let (Some(pose), Some((run, sink))) = (RunMeta::shown_pose(meta.as_ref(), &content), &mut state) {
+            poses += 1;
+            run.pose(&pose, sink);
+        }
+        match (content, &mut state) {
             (Content::Run(json), None) => {
-                let meta: RunMeta = serde_json::from_slice(json).map_err(|e| meta_error(e.to_string()))?;
-                let (mut run, terrain, eps) = run_of(&meta).map_err(meta_error)?;
+                let read: RunMeta = serde_json::from_slice(json).map_err(|e| meta_error(e.to_string()))?;
+                let (mut run, terrain, eps) = run_of(&read).map_err(meta_error)?;
                 let mut sink = BagSink::new(out.take().expect("one sink"), run.topics())?;
                 run.world(&terrain, eps, &mut sink);
                 state = Some((run, sink));
-            }
-            (Content::Pose(pose), Some((run, sink))) => {
-                poses += 1;
-                run.pose(&pose, sink);
+                meta = Some(read);
             }
             (Content::Gate(event), Some((run, sink))) => run.gate(&event, sink),
             (Content::Report(report), Some((run, sink))) => run.report(&report, sink),

@@ -106,6 +106,10 @@ fn a_robot_revoked_while_it_moves_is_a_beacon_and_the_others_go_on() {
     assert_ne!(ending.outcome, Outcome::Error, "{:?}", ending.error);
     assert_eq!(report.robots[0].0, SlotState::Died, "a beacon where it stopped");
     assert_eq!(report.stop_log.iter().filter(|s| s.1 == 1).count(), 1, "told Stop once");
+    assert!(!report.agents_at_end.contains(&1), "its agent was told to end, and did");
+    assert!(report.agents_at_end.contains(&2), "robot 2's agent runs to the end: {:?}", report.agents_at_end);
+    let shown_after = report.moved.iter().filter(|(t, r, _)| *r == 1 && *t > at).count();
+    assert_eq!(shown_after, 0, "nothing of robot 1 shown after its revocation");
     assert!(report.stop_log.iter().any(|&(t, id)| id == 1 && t == at), "told at the revocation");
     let died = report.gates.iter().position(|g| g.robot.0 == 1 && g.kind == GateKind::Died);
     assert!(died.is_some_and(|i| report.gate_times_us[i] == at), "judged at once: {:?}", report.gates);

@@ -15,7 +15,7 @@ fn forged_and_foreign_traffic_changes_nothing_and_is_counted() {
         let forged = Schedule { realtime, ..Schedule::forgeries(seed, case.robots, clean.end_us) };
         let report = harness::run(&case, &forged);
         harness::check(&report, &forged).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
-        same_run(&clean, &report, &format!("seed {seed}, {:?}", forged.foreign));
+        same_run_and_views(&clean, &report, &format!("seed {seed}, {:?}", forged.foreign));
         counted += report.bad;
     }
     assert!(counted > 300, "forgeries were delivered and counted: {counted}");
@@ -48,7 +48,7 @@ fn a_pose_with_step_u64_max_neither_stalls_nor_changes_the_run() {
         s.foreign = vec![(clean.end_us / 10, forgery)];
         let report = harness::run(&case, &s);
         harness::check(&report, &s).unwrap();
-        same_run(&clean, &report, &format!("{forgery:?}"));
+        same_run_and_views(&clean, &report, &format!("{forgery:?}"));
         assert_eq!(report.bad, 1, "refused and counted");
     }
 }
@@ -60,7 +60,7 @@ fn a_forged_pose_at_the_goal_does_not_win() {
     let mut s = Schedule::clean(1, 3);
     s.foreign = vec![(clean.end_us / 10, Foreign::AtTheGoal(1))];
     let report = harness::run(&case, &s);
-    same_run(&clean, &report, "forged pose at the goal");
+    same_run_and_views(&clean, &report, "forged pose at the goal");
     assert_eq!(report.bad, 1);
 }
 
@@ -90,7 +90,7 @@ fn poses_at_the_goal_before_a_robot_is_deployed_neither_start_it_nor_refuse_its_
             s.foreign = vec![(deployed_us / 2, forgery)];
             let report = harness::run(&case, &s);
             harness::check(&report, &s).unwrap_or_else(|e| panic!("{what}: {e}"));
-            same_run(&clean, &report, &what);
+            same_run_and_views(&clean, &report, &what);
             assert!(report.bad >= 1, "{what}: refused and counted");
         }
     }
@@ -104,6 +104,6 @@ fn a_stray_register_of_another_protocol_is_counted_and_never_fatal() {
     s.foreign =
         vec![(clean.end_us / 10, Foreign::WrongVersion(1)), (clean.end_us / 5, Foreign::WrongVersion(3))];
     let report = harness::run(&case, &s);
-    same_run(&clean, &report, "stray registers");
+    same_run_and_views(&clean, &report, "stray registers");
     assert_eq!(report.bad, 2);
 }

@@ -39,9 +39,27 @@ pub struct RunMeta {
     pub swarm: Option<String>,
     /// The launch configuration (ε, clock, …) as recorded.
     pub config: serde_json::Value,
+    /// The poses the launch core applied are recorded on their own
+    /// (`core/moved`): the run is drawn from those, not from every pose
+    /// motion capture delivered (refused and forged ones are on the bus's
+    /// pose topics too). False in recordings older than it.
+    #[serde(default)]
+    pub applied_poses: bool,
 }
 
 impl RunMeta {
+    /// Whether a recorded message is a pose the run shows: the core's
+    /// applied poses when the recording has them, else (an older
+    /// recording) every pose on the bus.
+    pub fn shown_pose(meta: Option<&Self>, content: &Content<'_>) -> Option<bycoms_protocol::msg::Pose> {
+        let applied = meta.is_some_and(|m| m.applied_poses);
+        match content {
+            Content::Moved(pose) if applied => Some(*pose),
+            Content::Pose(pose) if !applied => Some(*pose),
+            _ => None,
+        }
+    }
+
     /// ε of the run.
     pub fn eps(&self) -> Option<f64> {
         self.config["eps"].as_f64()
@@ -80,13 +98,14 @@ pub fn read_run(path: &Path) -> Result<RecordedRun, RecordError> {
     };
     let end = Reader::open(path)?.stream(|item| {
         let Item::Message { channel, data, .. } = item else { return Ok::<_, RecordError>(()) };
-        match decode_message(channel, data) {
+        let content = decode_message(channel, data);
+        if let Some(pose) = RunMeta::shown_pose(run.meta.as_ref(), &content) {
+            run.trace.pose(&pose);
+            run.measurements.pose(&pose);
+        }
+        match content {
             // The first run record is the run's.
             Content::Run(json) if run.meta.is_none() => run.meta = serde_json::from_slice(json).ok(),
-            Content::Pose(pose) => {
-                run.trace.pose(&pose);
-                run.measurements.pose(&pose);
-            }
             Content::Report(report) => run.measurements.report(&report),
             Content::Gate(event) => run.trace.gate(&event),
             Content::Undecodable { schema: schema::POSE | schema::GATE } => run.undecodable += 1,
