@@ -8,6 +8,9 @@
 //!   lone speaker;
 //! * [`body`] — crawler bodies: differential drive with saturation and lag,
 //!   stuck on contact with a frame or another body;
+//! * [`ros2_body`] — a ROS 2 ground robot's body: `cmd_vel` (v, ω) with
+//!   latency, wheel limits, seeded slip and its driver's timeout, colliding
+//!   as the crawler does;
 //! * [`scenario`] — lab scenario files (`deploy/lab/`, `exp-short` and
 //!   `exp-long` built in);
 //! * [`esp32`] — one emulated ESP32: the firmware core behind its own UDP
@@ -43,6 +46,7 @@ pub mod natnet_out;
 #[cfg(feature = "process")]
 pub mod process;
 pub mod robots;
+pub mod ros2_body;
 pub mod scenario;
 pub mod sensing_plot;
 pub mod sound;
