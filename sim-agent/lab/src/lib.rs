@@ -25,6 +25,8 @@
 //! * [`process`] (feature `process`) — `sim-agent lab`: the lab as a
 //!   process, paced at `--speed`, publishing true poses on the bus as
 //!   simulated motion capture;
+//! * [`cmd_vel`] (feature `process`) — `sim-agent lab --ros2-router`:
+//!   the ROS 2 robots' `cmd_vel` over rmw_zenoh, handed to their bodies;
 //! * [`natnet_out`] (feature `process`) — `sim-agent lab --natnet ADDR`:
 //!   the bodies served by NatNet (OptiTrack's format) instead.
 //!
@@ -40,6 +42,8 @@
 
 pub mod body;
 pub mod characterise;
+#[cfg(feature = "process")]
+pub mod cmd_vel;
 pub mod esp32;
 #[cfg(feature = "process")]
 pub mod natnet_out;

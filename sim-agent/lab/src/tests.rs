@@ -47,4 +47,6 @@ fn a_tone_s_snr_falls_by_the_noise_added() {
 }
 
 mod ros2;
+#[cfg(feature = "process")]
+mod ros2_process;
 mod udp;

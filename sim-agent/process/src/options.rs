@@ -507,6 +507,9 @@ mod tests {
             natnet: Some("127.0.0.1:1510".parse().unwrap()),
             natnet_rate: 240.0,
             natnet_faults: Some("faults.toml".into()),
+            ros2_router: Some("tcp/127.0.0.1:7447".into()),
+            ros2_domain_id: 42,
+            ros2_namespace: "/lab".into(),
             bus: BusArgs {
                 transport: Transport::Zenoh,
                 connect: vec!["quic/lab-host:7447".into()],
