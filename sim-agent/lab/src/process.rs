@@ -48,7 +48,8 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 /// The emulated lab: one emulated ESP32 per robot behind its own UDP socket,
-/// crawler bodies, sound, and simulated motion capture on the bus.
+/// crawler bodies, sound, and simulated motion capture on the bus (ROS 2
+/// robots: bodies driven by their cmd_vel).
 #[derive(Clone, Debug, PartialEq, clap::Args)]
 pub struct LabArgs {
     /// Scenario: a built-in name (`exp-short`, `exp-long`) or a scenario file.

@@ -302,7 +302,8 @@ impl DoctorArgs {
 /// `sim-agent`'s subcommands (their help is their flags' doc comment).
 #[derive(Clone, Debug, PartialEq, clap::Subcommand)]
 pub enum SimAgentCommand {
-    Lab(LabArgs),
+    // Boxed: the lab's flags are most of the enum's size.
+    Lab(Box<LabArgs>),
     Doctor(DoctorArgs),
 }
 
@@ -342,7 +343,7 @@ where
     let (log, chosen) = parse_with_subcommands(command, argv)?;
     let run = match chosen {
         Err(robot) => SimAgentRun::Robot(robot),
-        Ok(SimAgentCommand::Lab(lab)) => SimAgentRun::Lab(lab),
+        Ok(SimAgentCommand::Lab(lab)) => SimAgentRun::Lab(*lab),
         Ok(SimAgentCommand::Doctor(doctor)) => SimAgentRun::Doctor(doctor),
     };
     Ok((log, run))
