@@ -13,7 +13,7 @@
 //! and passes its [`Ros2RobotArgs::to_flags`]; the binary parses them back
 //! ([`parse_from`]), and the round-trip test holds the two together.
 
-use crate::cmd_vel::ZenohCmdVel;
+use crate::cmd_vel::{Target, ZenohCmdVel};
 use crate::core::{Ros2RobotCore, Settings};
 use crate::run::{Ros2Robot, RunError};
 use bycoms_agent::gateway::run::GatewayPorts;
@@ -137,6 +137,19 @@ impl Ros2RobotArgs {
         match &self.cmd_vel {
             Some(topic) => topic.clone(),
             None => format!("{}/robot_{}/cmd_vel", self.namespace.trim_end_matches('/'), self.robot),
+        }
+    }
+
+    /// Where its velocity commands go.
+    pub fn target(&self) -> Target {
+        Target {
+            router: self.ros2_router.clone(),
+            domain_id: self.domain_id,
+            namespace: self.namespace.clone(),
+            robot: self.robot,
+            topic: self.cmd_vel_topic(),
+            message: self.message,
+            frame_id: self.frame_id.clone(),
         }
     }
 
@@ -276,7 +289,7 @@ fn run(args: &Ros2RobotArgs) -> Result<ExitCause, Ros2RobotError> {
     args.validate().map_err(Ros2RobotError::Args)?;
     let swarm = Swarm::new(&args.swarm)?;
     let id = RobotId(args.robot);
-    let cmd_vel = ZenohCmdVel::open(args).map_err(Ros2RobotError::Graph)?;
+    let cmd_vel = ZenohCmdVel::open(&args.target()).map_err(Ros2RobotError::Graph)?;
     let size = args.swarm_size.unwrap_or(args.robot).max(args.robot);
     let node = format!("bycoms-{}-ros2-robot-{}", swarm.as_str(), id.0);
     let then = RunAgent { args, swarm: &swarm, cmd_vel, lifeline: &mut lifeline, clock: None };

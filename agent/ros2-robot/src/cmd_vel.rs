@@ -8,7 +8,6 @@
 //! graph's subscribers (the robot's driver) as its client, as the launch
 //! does (`orchestrator/launch/src/ros2_graph.rs`).
 
-use crate::cli::Ros2RobotArgs;
 use crate::run::CmdVel;
 use bycoms_agent::wheeled::Velocity;
 use bycoms_protocol::bus::zenoh::{Mode, ZenohBus};
@@ -23,6 +22,25 @@ pub fn node_name(robot: u32) -> String {
     format!("bycoms_robot_{robot}")
 }
 
+/// Where and how a robot's velocity commands are published.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Target {
+    /// The graph's zenoh router.
+    pub router: String,
+    /// `ROS_DOMAIN_ID`.
+    pub domain_id: u32,
+    /// The node's namespace.
+    pub namespace: String,
+    /// The robot (its node is `bycoms_robot_<k>`).
+    pub robot: u32,
+    /// The fully qualified velocity topic.
+    pub topic: String,
+    /// Its message type.
+    pub message: VelocityMessage,
+    /// A `TwistStamped`'s frame.
+    pub frame_id: String,
+}
+
 /// A robot's `cmd_vel` publisher on its own zenoh session.
 pub struct ZenohCmdVel {
     publisher: Ros2Publisher,
@@ -34,10 +52,10 @@ pub struct ZenohCmdVel {
 }
 
 impl ZenohCmdVel {
-    /// Joins the graph at `args.ros2_router` and declares the node and its
+    /// Joins the graph at `target.router` and declares the node and its
     /// publisher; the error says what to check.
-    pub fn open(args: &Ros2RobotArgs) -> Result<Self, String> {
-        let router = &args.ros2_router;
+    pub fn open(target: &Target) -> Result<Self, String> {
+        let router = &target.router;
         let config = bycoms_runtime::zenoh_config(Mode::Client, Vec::new(), vec![router.clone()], None);
         let bus = ZenohBus::open(config).map_err(|e| {
             format!(
@@ -46,14 +64,21 @@ impl ZenohCmdVel {
             )
         })?;
         let session = bus.session();
-        let mut node = Ros2Node::declare(session, args.domain_id, &args.namespace, &node_name(args.robot))
-            .map_err(|e| e.to_string())?;
-        let description = args.message.description();
-        let topic = args.cmd_vel_topic();
+        let mut node =
+            Ros2Node::declare(session, target.domain_id, &target.namespace, &node_name(target.robot))
+                .map_err(|e| e.to_string())?;
+        let description = target.message.description();
+        let topic = &target.topic;
         let publisher =
-            node.publisher(session, &topic, description, Qos::reliable(10)).map_err(|e| e.to_string())?;
+            node.publisher(session, topic, description, Qos::reliable(10)).map_err(|e| e.to_string())?;
         tracing::info!(%topic, router = %router, "ros2: cmd_vel publisher declared");
-        Ok(Self { publisher, message: args.message, frame_id: args.frame_id.clone(), _node: node, _bus: bus })
+        Ok(Self {
+            publisher,
+            message: target.message,
+            frame_id: target.frame_id.clone(),
+            _node: node,
+            _bus: bus,
+        })
     }
 }
 

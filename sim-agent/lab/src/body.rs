@@ -10,7 +10,8 @@
 //! The footprint is the microphone plate's disc (radius 0.128 m, the paper's
 //! 256 mm plate); touching an obstacle rectangle, the arena's wall
 //! ([`arena_walls`]) or another body's disc sticks the body where it is,
-//! for good.
+//! for good ([`Disc::moved`], the rule the ROS 2 bodies of `ros2_body`
+//! share).
 
 use serde::{Deserialize, Serialize};
 
@@ -115,18 +116,48 @@ impl Crawler {
         self.v_right += k * (target(command.1) - self.v_right);
         let v = (self.v_left + self.v_right) / 2.0;
         let w = (self.v_right - self.v_left) / config.track_width;
-        let (nx, ny) = (self.x + v * self.heading.cos() * dt, self.y + v * self.heading.sin() * dt);
-        let hits_obstacle = obstacles.iter().any(|o| o.distance(nx, ny) < config.radius);
-        let hits_body = others.iter().any(|&(ox, oy)| (nx - ox).hypot(ny - oy) < 2.0 * config.radius);
-        if hits_obstacle || hits_body {
+        let disc = Disc { x: self.x, y: self.y, heading: self.heading, radius: config.radius };
+        let Some((nx, ny)) = disc.moved(v, dt, obstacles, others) else {
             self.stuck = true;
             self.v_left = 0.0;
             self.v_right = 0.0;
             return;
-        }
+        };
         self.x = nx;
         self.y = ny;
         self.heading = bycoms_agent::angle::wrap(self.heading + w * dt);
+    }
+}
+
+/// A body's footprint where it stands: the one collision rule of every
+/// body of the lab (crawlers and ROS 2 robots alike).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Disc {
+    /// Centre, m.
+    pub x: f64,
+    /// Centre, m.
+    pub y: f64,
+    /// Heading, rad (counter-clockwise from +x).
+    pub heading: f64,
+    /// Footprint radius, m.
+    pub radius: f64,
+}
+
+impl Disc {
+    /// The centre after moving `v` m/s along the heading for `dt` s, or
+    /// `None` when it would touch an obstacle or another body (`others`:
+    /// their centres, discs of the same radius), where a body sticks.
+    pub fn moved(
+        &self,
+        v: f64,
+        dt: f64,
+        obstacles: &[Obstacle],
+        others: &[(f64, f64)],
+    ) -> Option<(f64, f64)> {
+        let (nx, ny) = (self.x + v * self.heading.cos() * dt, self.y + v * self.heading.sin() * dt);
+        let hits_obstacle = obstacles.iter().any(|o| o.distance(nx, ny) < self.radius);
+        let hits_body = others.iter().any(|&(ox, oy)| (nx - ox).hypot(ny - oy) < 2.0 * self.radius);
+        (!hits_obstacle && !hits_body).then_some((nx, ny))
     }
 }
 

@@ -8,6 +8,9 @@
 //!   lone speaker;
 //! * [`body`] — crawler bodies: differential drive with saturation and lag,
 //!   stuck on contact with a frame or another body;
+//! * [`ros2_body`] — a ROS 2 ground robot's body: `cmd_vel` (v, ω) with
+//!   latency, wheel limits, seeded slip and its driver's timeout, colliding
+//!   as the crawler does;
 //! * [`scenario`] — lab scenario files (`deploy/lab/`, `exp-short` and
 //!   `exp-long` built in);
 //! * [`esp32`] — one emulated ESP32: the firmware core behind its own UDP
@@ -22,6 +25,8 @@
 //! * [`process`] (feature `process`) — `sim-agent lab`: the lab as a
 //!   process, paced at `--speed`, publishing true poses on the bus as
 //!   simulated motion capture;
+//! * [`cmd_vel`] (feature `process`) — `sim-agent lab --ros2-router`:
+//!   the ROS 2 robots' `cmd_vel` over rmw_zenoh, handed to their bodies;
 //! * [`natnet_out`] (feature `process`) — `sim-agent lab --natnet ADDR`:
 //!   the bodies served by NatNet (OptiTrack's format) instead.
 //!
@@ -37,12 +42,15 @@
 
 pub mod body;
 pub mod characterise;
+#[cfg(feature = "process")]
+pub mod cmd_vel;
 pub mod esp32;
 #[cfg(feature = "process")]
 pub mod natnet_out;
 #[cfg(feature = "process")]
 pub mod process;
 pub mod robots;
+pub mod ros2_body;
 pub mod scenario;
 pub mod sensing_plot;
 pub mod sound;

@@ -54,9 +54,9 @@ impl NatNetOut {
 
     /// Shows the cameras every body as it is now.
     pub fn update(&self, lab: &Lab) {
-        for (i, r) in lab.robots().iter().enumerate() {
-            let id = i as i32 + 1;
-            match r.body {
+        for (robot, pose) in lab.poses() {
+            let id = robot.0 as i32;
+            match pose {
                 Some(b) => {
                     let pose = BodyPose::yawed([b.x as f32, 0.0, -b.y as f32], b.heading as f32);
                     self.server.set_pose(id, pose);

@@ -11,6 +11,11 @@
 //! the bodies are served by NatNet instead (`super::natnet_out`) and nothing
 //! is published on the bus.
 //!
+//! With a robots file of ROS 2 robots (`kind = "ros2"`) the room holds
+//! their bodies instead (`super::ros2_body`, no ESP32, no sound), driven by
+//! their `cmd_vel` topics on the lab's zenoh router (`--ros2-router`,
+//! `super::cmd_vel`); their poses go out as the crawlers' do.
+//!
 //! The emulated operator ([`Operator`]) reads the orchestrator's placement
 //! requests (`bycoms/<swarm>/operator`, the prompt a person reads on the
 //! terminal) and puts the robot on the start mark; a robot enabled without
@@ -23,8 +28,10 @@
 //! and the control-period jitter (wall time between the firmware's control
 //! periods against the nominal 125 ms / speed).
 
+use super::cmd_vel::{CmdVelIn, Ros2Link};
 use super::natnet_out::NatNetOut;
-use super::robots::{RobotsError, RobotsFile};
+use super::robots::{Kind, RobotsError, RobotsFile, Ros2Entry};
+use super::ros2_body::DiffDriveConfig;
 use super::scenario::{Scenario, ScenarioError};
 use super::world::{Lab, Wiring, CONTROL_PERIOD, PHYSICS_DT};
 use bycoms_natnet_server::Faults;
@@ -41,7 +48,8 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 /// The emulated lab: one emulated ESP32 per robot behind its own UDP socket,
-/// crawler bodies, sound, and simulated motion capture on the bus.
+/// crawler bodies, sound, and simulated motion capture on the bus (ROS 2
+/// robots: bodies driven by their cmd_vel).
 #[derive(Clone, Debug, PartialEq, clap::Args)]
 pub struct LabArgs {
     /// Scenario: a built-in name (`exp-short`, `exp-long`) or a scenario file.
@@ -83,6 +91,19 @@ pub struct LabArgs {
     /// are robot ids; see deploy/natnet-serve.toml).
     #[arg(long, value_name = "FILE", requires = "natnet")]
     pub natnet_faults: Option<PathBuf>,
+    /// With a robots file of ROS 2 robots (`kind = "ros2"`): the lab's
+    /// zenoh router (rmw_zenohd, e.g. tcp/127.0.0.1:7447), joined as a
+    /// client to read each robot's `cmd_vel` as its driver would.
+    #[arg(long, value_name = "ENDPOINT")]
+    pub ros2_router: Option<String>,
+    /// With --ros2-router: `ROS_DOMAIN_ID` of the robots' topics (0 to 232).
+    #[arg(long, default_value_t = 0, value_name = "ID", requires = "ros2_router",
+          value_parser = clap::value_parser!(u32).range(0..=232))]
+    pub ros2_domain_id: u32,
+    /// With --ros2-router: the namespace of the default topics
+    /// `<namespace>/robot_<id>/cmd_vel`.
+    #[arg(long, default_value = "/", value_name = "NAMESPACE", requires = "ros2_router")]
+    pub ros2_namespace: String,
     /// The bus of the operator's requests and the bus mocap: iceoryx2 on
     /// the orchestrator's host, or zenoh to the orchestrator (a lab on
     /// another host, as the gateways on a bridge host).
@@ -104,6 +125,12 @@ impl LabArgs {
         }
         // At least one frame a second: a frame period is a span of seconds
         // too (`--natnet-rate 1e-300` made one of 1e300 s).
+        if !bycoms_ros2::rmw_zenoh::is_fully_qualified(&self.ros2_namespace, true) {
+            return Err(LabError::Args(format!(
+                "--ros2-namespace {:?} is not a ROS 2 namespace (`/`, or `/a/b`: letters, digits, `_`)",
+                self.ros2_namespace
+            )));
+        }
         let rates = bycoms_natnet_server::config::RATE_HZ;
         if !rates.contains(&self.natnet_rate) {
             return Err(LabError::Args(format!(
@@ -132,6 +159,9 @@ impl LabArgs {
             natnet: None,
             natnet_rate: 120.0,
             natnet_faults: None,
+            ros2_router: None,
+            ros2_domain_id: 0,
+            ros2_namespace: "/".into(),
             bus: BusArgs::default(),
         }
     }
@@ -166,6 +196,14 @@ impl LabArgs {
         }
         if let Some(file) = &self.natnet_faults {
             v.extend(["--natnet-faults".into(), file.display().to_string()]);
+        }
+        if let Some(router) = &self.ros2_router {
+            v.extend(["--ros2-router".into(), router.clone(), "--ros2-domain-id".into()]);
+            v.extend([
+                self.ros2_domain_id.to_string(),
+                "--ros2-namespace".into(),
+                self.ros2_namespace.clone(),
+            ]);
         }
         v.extend(self.bus.to_flags());
         v
@@ -219,6 +257,9 @@ pub enum LabError {
     /// The NatNet server could not start.
     #[error(transparent)]
     NatNet(#[from] bycoms_natnet_server::ServerError),
+    /// The ROS 2 robots' router could not be joined or subscribed on.
+    #[error("{0}")]
+    Ros2(String),
 }
 
 /// Loads a scenario: an existing file, else a built-in name.
@@ -252,9 +293,10 @@ impl<B: Bus> MocapOut<B> {
     /// Publishes every placed body's pose at lab time `now`.
     pub fn publish(&mut self, lab: &Lab, now: Duration) -> Result<(), BusError> {
         self.frame += 1;
-        for (i, (r, out)) in lab.robots().iter().zip(&self.poses).enumerate() {
-            let Some(b) = r.body else { continue };
-            let robot = RobotId(i as u32 + 1);
+        for (robot, b) in lab.poses() {
+            let (Some(b), Some(out)) = (b, self.poses.get((robot.0 as usize).wrapping_sub(1))) else {
+                continue;
+            };
             let time_us = u64::try_from(now.as_micros()).unwrap_or(u64::MAX);
             out.publish(&Pose { robot, x: b.x, y: b.y, heading: b.heading, step: self.frame, time_us })?;
         }
@@ -371,37 +413,103 @@ fn read_faults(path: &std::path::Path) -> Result<Faults, LabError> {
 }
 
 fn run(args: &LabArgs) -> Result<Option<ExitCause>, LabError> {
-    let mut lifeline = Lifeline::install(args.parent_pid)?;
+    let lifeline = Lifeline::install(args.parent_pid)?;
+    run_with(args, lifeline)
+}
+
+/// Runs the lab with `args` until `lifeline` fires (in a process: its
+/// signals and its parent; in-process, a test's `Lifeline::with_flag`) or
+/// `--duration` passes; prints the summary.
+pub fn run_with(args: &LabArgs, mut lifeline: Lifeline) -> Result<Option<ExitCause>, LabError> {
     args.validate()?;
-    let scenario = load_scenario(&args.scenario)?;
-    let mut robots = RobotsFile::read(&args.robots)?;
-    // The scenario's robots are the file's first ones (one file serves
-    // every scenario of a lab).
-    if robots.robots.len() < scenario.tones.len() {
-        return Err(LabError::Args(format!(
-            "scenario {} has {} robots, the robots file only {}",
-            scenario.name,
-            scenario.tones.len(),
-            robots.robots.len()
-        )));
+    if let Some(router) = &args.ros2_router {
+        bycoms_protocol::bus::zenoh::check_endpoint(router)
+            .map_err(|e| LabError::Args(format!("bad --ros2-router {e}")))?;
     }
-    robots.robots.truncate(scenario.tones.len());
-    let keys = robots.keys()?;
-    let wiring: Vec<Wiring> = robots
-        .robots
-        .iter()
-        .zip(keys)
-        .map(|(r, key)| Wiring { key, bind: r.address, gateway: r.gateway })
-        .collect();
+    let scenario = load_scenario(&args.scenario)?;
+    let fleet = Fleet::read(args, &scenario)?;
     let swarm = Swarm::new(&args.swarm)?;
-    let n = wiring.len() as u32;
+    let n = fleet.len() as u32;
     args.bus.validate().map_err(LabError::Args)?;
     let node = format!("bycoms-{}-lab", swarm.as_str());
-    let then = RunLab { args, swarm: &swarm, scenario, wiring: &wiring, lifeline: &mut lifeline };
+    let then = RunLab { args, swarm: &swarm, scenario, fleet: &fleet, lifeline: &mut lifeline };
     args.bus.open(&swarm, None, None, n, node, then).map_err(|e| match e {
         BusOpenError::Args(a) => LabError::Args(a),
         BusOpenError::Bus(b) => LabError::Bus(b),
     })?
+}
+
+/// The lab's robots, of the one kind the robots file declares.
+enum Fleet {
+    /// Emulated ESP32s, each wired to its gateway.
+    Acoustic(Vec<Wiring>),
+    /// ROS 2 robots, driven by their `cmd_vel` on the lab's router.
+    Ros2(Vec<Ros2Entry>, Ros2Link),
+}
+
+impl Fleet {
+    /// The scenario's robots: the robots file's first ones (one file
+    /// serves every scenario of a lab).
+    fn read(args: &LabArgs, scenario: &Scenario) -> Result<Self, LabError> {
+        let mut robots = RobotsFile::read(&args.robots)?;
+        let file = args.robots.display();
+        let kind = robots.kind().ok_or_else(|| {
+            LabError::Args(format!("robots file {file} mixes acoustic and ros2 robots: one kind at a time"))
+        })?;
+        let (want, have) = (scenario.tones.len(), robots.robots.len() + robots.ros2.len());
+        if have < want {
+            return Err(LabError::Args(format!(
+                "scenario {} has {want} robots, the robots file only {have}",
+                scenario.name
+            )));
+        }
+        if kind == Kind::Acoustic {
+            if args.ros2_router.is_some() {
+                let why = format!("--ros2-router is for ROS 2 robots; robots file {file} has acoustic ones");
+                return Err(LabError::Args(why));
+            }
+            robots.robots.truncate(want);
+            let keys = robots.keys()?;
+            let wiring = robots.robots.iter().zip(keys);
+            return Ok(Self::Acoustic(
+                wiring.map(|(r, key)| Wiring { key, bind: r.address, gateway: r.gateway }).collect(),
+            ));
+        }
+        let router = args.ros2_router.clone().ok_or_else(|| {
+            LabError::Args(format!(
+                "robots file {file} has ROS 2 robots (kind = \"ros2\"): give the lab's zenoh router, \
+                 --ros2-router tcp/HOST:7447"
+            ))
+        })?;
+        robots.ros2.truncate(want);
+        let link =
+            Ros2Link { router, domain_id: args.ros2_domain_id, namespace: args.ros2_namespace.clone() };
+        Ok(Self::Ros2(robots.ros2, link))
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            Self::Acoustic(wiring) => wiring.len(),
+            Self::Ros2(entries, _) => entries.len(),
+        }
+    }
+
+    /// The lab of these robots in `scenario` and, for ROS 2 robots, their
+    /// commands' subscriptions.
+    fn lab(&self, scenario: Scenario, seed: u64) -> Result<(Lab, Option<CmdVelIn>), LabError> {
+        match self {
+            Self::Acoustic(wiring) => Ok((Lab::wired(scenario, wiring, seed)?, None)),
+            Self::Ros2(entries, link) => {
+                let radius = scenario.body.radius;
+                let bodies: Vec<_> = entries
+                    .iter()
+                    .map(|e| (RobotId(e.id), DiffDriveConfig::new(e.limits, radius, e.cmd_vel_timeout)))
+                    .collect();
+                let commands = CmdVelIn::open(link, entries).map_err(LabError::Ros2)?;
+                Ok((Lab::ros2(scenario, &bodies, seed), Some(commands)))
+            }
+        }
+    }
 }
 
 /// The lab's loop once the bus is open.
@@ -409,15 +517,48 @@ struct RunLab<'a> {
     args: &'a LabArgs,
     swarm: &'a Swarm,
     scenario: Scenario,
-    wiring: &'a [Wiring],
+    fleet: &'a Fleet,
     lifeline: &'a mut Lifeline,
 }
 
 impl OnBus for RunLab<'_> {
     type Output = Result<Option<ExitCause>, LabError>;
     fn run<B: Bus>(self, bus: &B, _failsafe: Option<(Failsafe, AliveWatch)>) -> Self::Output {
-        let RunLab { args, swarm, scenario, wiring, lifeline } = self;
-        run_on(bus, args, swarm, scenario, wiring, lifeline)
+        let RunLab { args, swarm, scenario, fleet, lifeline } = self;
+        run_on(bus, args, swarm, scenario, fleet, lifeline)
+    }
+}
+
+/// One motion capture: NatNet (as a real lab's Motive) or the bus.
+fn mocap_out<B: Bus>(
+    bus: &B,
+    args: &LabArgs,
+    swarm: &Swarm,
+    n: u32,
+) -> Result<(Option<MocapOut<B>>, Option<NatNetOut>), LabError> {
+    match args.natnet {
+        Some(addr) => {
+            let faults = match &args.natnet_faults {
+                Some(path) => read_faults(path)?,
+                None => Faults::default(),
+            };
+            let out = NatNetOut::start(addr, n, args.natnet_rate, args.speed, faults)?;
+            tracing::info!(command = %out.command_addr(), rate_hz = args.natnet_rate, "lab: motion capture by NatNet");
+            Ok((None, Some(out)))
+        }
+        None => Ok((Some(MocapOut::open(bus, swarm, n)?), None)),
+    }
+}
+
+/// Logs every firmware state change since `states`.
+fn log_states(lab: &Lab, states: &mut [RobotState], now: Duration) {
+    for (i, (r, last)) in lab.robots().iter().zip(states.iter_mut()).enumerate() {
+        let state = r.esp.firmware().state();
+        if state != *last {
+            let lab_s = now.as_secs_f64();
+            tracing::info!(robot = i + 1, from = ?*last, to = ?state, lab_s, "firmware state");
+            *last = state;
+        }
     }
 }
 
@@ -426,25 +567,13 @@ fn run_on<B: Bus>(
     args: &LabArgs,
     swarm: &Swarm,
     scenario: Scenario,
-    wiring: &[Wiring],
+    fleet: &Fleet,
     lifeline: &mut Lifeline,
 ) -> Result<Option<ExitCause>, LabError> {
-    let (bus, swarm, n) = (bus, *swarm, wiring.len() as u32);
-    // One motion capture: NatNet (as a real lab's Motive) or the bus.
-    let (mut mocap, natnet) = match args.natnet {
-        Some(addr) => {
-            let faults = match &args.natnet_faults {
-                Some(path) => read_faults(path)?,
-                None => Faults::default(),
-            };
-            let out = NatNetOut::start(addr, n, args.natnet_rate, args.speed, faults)?;
-            tracing::info!(command = %out.command_addr(), rate_hz = args.natnet_rate, "lab: motion capture by NatNet");
-            (None, Some(out))
-        }
-        None => (Some(MocapOut::open(bus, &swarm, n)?), None),
-    };
+    let (bus, swarm, n) = (bus, *swarm, fleet.len() as u32);
+    let (mut mocap, natnet) = mocap_out(bus, args, &swarm, n)?;
     let mut operator = Operator::open(bus, &swarm)?;
-    let mut lab = Lab::wired(scenario, wiring, args.seed)?;
+    let (mut lab, mut commands) = fleet.lab(scenario, args.seed)?;
     tracing::info!(scenario = lab.scenario().name, robots = n, speed = args.speed, "lab running");
     // Checked by `LabArgs::validate`: a valid span.
     let end = args.duration.map(Duration::from_secs_f64);
@@ -464,18 +593,14 @@ fn run_on<B: Bus>(
         }
         let control = !now.is_zero() && now.as_micros() % CONTROL_PERIOD.as_micros() == 0;
         operator.answer(&mut lab);
+        if let Some(commands) = commands.as_mut() {
+            commands.drain(&mut lab, t0, args.speed);
+        }
         lab.step()?;
         if control {
             jitter.control(nominal);
         }
-        for (i, (r, last)) in lab.robots().iter().zip(states.iter_mut()).enumerate() {
-            let state = r.esp.firmware().state();
-            if state != *last {
-                let lab_s = now.as_secs_f64();
-                tracing::info!(robot = i + 1, from = ?*last, to = ?state, lab_s, "firmware state");
-                *last = state;
-            }
-        }
+        log_states(&lab, &mut states, now);
         if let Some(natnet) = &natnet {
             natnet.update(&lab);
         }
@@ -491,12 +616,12 @@ fn run_on<B: Bus>(
             late = late.max(wall - due);
         }
     };
-    print_summary(&lab, &jitter, t0.elapsed(), late);
+    print_summary(&lab, commands.as_ref(), &jitter, t0.elapsed(), late);
     Ok(cause)
 }
 
-fn print_summary(lab: &Lab, jitter: &Jitter, wall: Duration, late: Duration) {
-    let robots: Vec<serde_json::Value> = lab
+fn print_summary(lab: &Lab, commands: Option<&CmdVelIn>, jitter: &Jitter, wall: Duration, late: Duration) {
+    let mut robots: Vec<serde_json::Value> = lab
         .robots()
         .iter()
         .enumerate()
@@ -517,6 +642,20 @@ fn print_summary(lab: &Lab, jitter: &Jitter, wall: Duration, late: Duration) {
             })
         })
         .collect();
+    robots.extend(lab.ros2_robots().iter().map(|r| {
+        let counts = commands.map(|c| c.counts(r.id)).unwrap_or_default();
+        let body = r.body.as_ref();
+        serde_json::json!({
+            "robot": r.id.0,
+            "kind": "ros2",
+            "placed": body.is_some(),
+            "x": body.map(|b| b.x),
+            "y": body.map(|b| b.y),
+            "heading": body.map(|b| b.heading),
+            "stuck": body.is_some_and(|b| b.stuck),
+            "cmd_vel": { "commands": counts.commands, "undecodable": counts.undecodable, "unplaced": counts.unplaced },
+        })
+    }));
     let summary = serde_json::json!({
         "lab_s": lab.now().as_secs_f64(),
         "wall_s": wall.as_secs_f64(),

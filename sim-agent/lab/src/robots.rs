@@ -54,6 +54,16 @@ pub struct Ros2Entry {
     pub cmd_vel_timeout: Duration,
 }
 
+impl Ros2Entry {
+    /// Its `cmd_vel` topic: the one given, else
+    /// `<namespace>/robot_<id>/cmd_vel` (`/robot_<id>/cmd_vel` in the root
+    /// namespace `/`).
+    pub fn topic(&self, namespace: &str) -> String {
+        let default = || format!("{}/robot_{}/cmd_vel", namespace.trim_end_matches('/'), self.id);
+        self.cmd_vel.clone().unwrap_or_else(default)
+    }
+}
+
 /// The robots file.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RobotsFile {
@@ -387,6 +397,11 @@ mod tests {
         assert_eq!(f.ros2[1].cmd_vel.as_deref(), Some("/tb3/cmd_vel"));
         assert_eq!(f.ros2[1].limits, Limits { linear: 0.1, ..burger });
         assert_eq!(f.ros2[1].cmd_vel_timeout, Duration::from_millis(250));
+        assert_eq!(
+            (f.ros2[0].topic("/"), f.ros2[0].topic("/lab/")),
+            ("/robot_1/cmd_vel".into(), "/lab/robot_1/cmd_vel".into())
+        );
+        assert_eq!(f.ros2[1].topic("/lab"), "/tb3/cmd_vel");
         // Ids run across both kinds; a mixed file has no one kind.
         let mixed = format!("[[robot]]\nid = 1\n{ROBOT}[[robot]]\nid = 2\nkind = \"ros2\"\n");
         let f = RobotsFile::read(&write(dir.path(), "m.toml", &mixed)).unwrap();

@@ -46,4 +46,7 @@ fn a_tone_s_snr_falls_by_the_noise_added() {
     assert!((clean - noisy - 20.0).abs() < 4.0, "clean {clean} dB, noisy {noisy} dB");
 }
 
+mod ros2;
+#[cfg(feature = "process")]
+mod ros2_process;
 mod udp;

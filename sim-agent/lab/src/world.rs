@@ -9,12 +9,19 @@
 //! (until then it waits off the arena, silent and out of the way), control periods feed each placed robot's microphones
 //! with the sound of every placed robot's speaker, and bodies move. A
 //! caller that wants real time sleeps between steps; tests don't.
+//!
+//! A lab of ROS 2 robots ([`Lab::ros2`]) has no ESP32 and no sound: its
+//! robots are [`DiffDrive`] bodies that their agents drive by `cmd_vel`
+//! ([`Lab::command`]), placed by the same operator and moved by the same
+//! physics steps, colliding with the acoustic bodies as with each other.
 
 use super::body::{arena_walls, Crawler, Obstacle};
 use super::esp32::{EmulatedEsp32, LISTENED};
-use super::scenario::Scenario;
+use super::ros2_body::{DiffDrive, DiffDriveConfig};
+use super::scenario::{Pose, Scenario};
 use super::sound::{mic_positions, sample_frames, Room, Speaker};
 use bycoms_agent::firmware::FirmwareConfig;
+use bycoms_agent::wheeled::Velocity;
 use bycoms_protocol::link::LinkKey;
 use bycoms_protocol::RobotId;
 use core::time::Duration;
@@ -38,6 +45,18 @@ pub struct LabRobot {
     phase: f64,
 }
 
+/// One ROS 2 robot of the lab: a body its agent drives by `cmd_vel`.
+#[derive(Debug)]
+pub struct Ros2Robot {
+    /// Its robot id.
+    pub id: RobotId,
+    /// Its body, once the operator has placed it.
+    pub body: Option<DiffDrive>,
+    config: DiffDriveConfig,
+    /// Its body's slip seed.
+    seed: u64,
+}
+
 /// How one emulated robot is wired: its key, the UDP address it binds
 /// (port 0: any free port) and the gateway it talks to.
 #[derive(Clone, Debug)]
@@ -57,6 +76,7 @@ pub struct Lab {
     /// The scenario's frames and the arena's wall.
     obstacles: Vec<Obstacle>,
     robots: Vec<LabRobot>,
+    ros2: Vec<Ros2Robot>,
     now: Duration,
     next_control: Duration,
     rng: Xoshiro256PlusPlus,
@@ -106,7 +126,22 @@ impl Lab {
         }
         let mut obstacles = scenario.obstacles.clone();
         obstacles.extend(arena_walls(scenario.width, scenario.height));
-        Ok(Self { scenario, obstacles, robots, now: Duration::ZERO, next_control: CONTROL_PERIOD, rng })
+        let (ros2, next_control) = (Vec::new(), CONTROL_PERIOD);
+        Ok(Self { scenario, obstacles, robots, ros2, now: Duration::ZERO, next_control, rng })
+    }
+
+    /// A lab of ROS 2 robots only: one [`DiffDrive`] body per `(id,
+    /// config)`, off the arena until placed; no ESP32, no sound.
+    pub fn ros2(scenario: Scenario, robots: &[(RobotId, DiffDriveConfig)], seed: u64) -> Self {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+        let ros2 = robots
+            .iter()
+            .map(|&(id, config)| Ros2Robot { id, body: None, config, seed: rng.gen() })
+            .collect();
+        let mut obstacles = scenario.obstacles.clone();
+        obstacles.extend(arena_walls(scenario.width, scenario.height));
+        let (robots, next_control) = (Vec::new(), CONTROL_PERIOD);
+        Self { scenario, obstacles, robots, ros2, now: Duration::ZERO, next_control, rng }
     }
 
     /// The scenario.
@@ -124,9 +159,41 @@ impl Lab {
         &self.robots
     }
 
+    /// The ROS 2 robots, in id order.
+    pub fn ros2_robots(&self) -> &[Ros2Robot] {
+        &self.ros2
+    }
+
+    /// Every robot's id and its body's pose (`None`: not placed yet):
+    /// the acoustic robots (ids 1, 2, … in order), then the ROS 2 ones.
+    pub fn poses(&self) -> Vec<(RobotId, Option<Pose>)> {
+        let acoustic = self.robots.iter().enumerate().map(|(i, r)| {
+            (RobotId(i as u32 + 1), r.body.map(|b| Pose { x: b.x, y: b.y, heading: b.heading }))
+        });
+        let ros2 = self
+            .ros2
+            .iter()
+            .map(|r| (r.id, r.body.as_ref().map(|b| Pose { x: b.x, y: b.y, heading: b.heading })));
+        acoustic.chain(ros2).collect()
+    }
+
+    /// Hands ROS 2 robot `id` a velocity command that arrived at lab time
+    /// `at`. False when there is no such robot or it is not placed yet
+    /// (its driver is off the arena: the command is lost).
+    pub fn command(&mut self, id: RobotId, at: Duration, command: Velocity) -> bool {
+        match self.ros2.iter_mut().find(|r| r.id == id).and_then(|r| r.body.as_mut()) {
+            Some(body) => {
+                body.command(at, command);
+                true
+            }
+            None => false,
+        }
+    }
+
     /// The emulated operator puts robot `index` (0-based) on the start mark,
     /// as the orchestrator's placement request asks (`bycoms/<swarm>/operator`):
-    /// a still, silent body until its firmware is enabled. False when there
+    /// a still, silent body until its firmware is enabled; a ROS 2 robot
+    /// (id `index + 1`), a still body until commanded. False when there
     /// is no such robot or it is already in the arena (a body is placed once).
     pub fn place(&mut self, index: usize) -> bool {
         let s = self.scenario.start;
@@ -135,7 +202,17 @@ impl Lab {
                 r.body = Some(Crawler::new(s.x, s.y, s.heading));
                 true
             }
-            _ => false,
+            Some(_) => false,
+            None => {
+                let id = RobotId(index as u32 + 1);
+                match self.ros2.iter_mut().find(|r| r.id == id) {
+                    Some(r) if r.body.is_none() => {
+                        r.body = Some(DiffDrive::new(r.config, s.x, s.y, s.heading, r.seed));
+                        true
+                    }
+                    _ => false,
+                }
+            }
         }
     }
 
@@ -154,14 +231,25 @@ impl Lab {
             self.next_control += CONTROL_PERIOD;
         }
         let dt = PHYSICS_DT.as_secs_f64();
-        let centres: Vec<Option<(f64, f64)>> =
-            self.robots.iter().map(|r| r.body.map(|b| (b.x, b.y))).collect();
+        let centres: Vec<Option<(f64, f64)>> = self
+            .robots
+            .iter()
+            .map(|r| r.body.map(|b| (b.x, b.y)))
+            .chain(self.ros2.iter().map(|r| r.body.as_ref().map(|b| (b.x, b.y))))
+            .collect();
+        let others = |i: usize| -> Vec<(f64, f64)> {
+            centres.iter().enumerate().filter(|&(j, _)| j != i).filter_map(|(_, c)| *c).collect()
+        };
         for (i, r) in self.robots.iter_mut().enumerate() {
-            let others: Vec<(f64, f64)> =
-                centres.iter().enumerate().filter(|&(j, _)| j != i).filter_map(|(_, c)| *c).collect();
             let m = r.esp.motors();
             if let Some(b) = r.body.as_mut() {
-                b.step(&self.scenario.body, (m.left, m.right), dt, &self.obstacles, &others);
+                b.step(&self.scenario.body, (m.left, m.right), dt, &self.obstacles, &others(i));
+            }
+        }
+        let first = self.robots.len();
+        for (k, r) in self.ros2.iter_mut().enumerate() {
+            if let Some(b) = r.body.as_mut() {
+                b.step(now, PHYSICS_DT, &self.obstacles, &others(first + k));
             }
         }
         self.now += PHYSICS_DT;

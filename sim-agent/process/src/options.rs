@@ -302,7 +302,8 @@ impl DoctorArgs {
 /// `sim-agent`'s subcommands (their help is their flags' doc comment).
 #[derive(Clone, Debug, PartialEq, clap::Subcommand)]
 pub enum SimAgentCommand {
-    Lab(LabArgs),
+    // Boxed: the lab's flags are most of the enum's size.
+    Lab(Box<LabArgs>),
     Doctor(DoctorArgs),
 }
 
@@ -342,7 +343,7 @@ where
     let (log, chosen) = parse_with_subcommands(command, argv)?;
     let run = match chosen {
         Err(robot) => SimAgentRun::Robot(robot),
-        Ok(SimAgentCommand::Lab(lab)) => SimAgentRun::Lab(lab),
+        Ok(SimAgentCommand::Lab(lab)) => SimAgentRun::Lab(*lab),
         Ok(SimAgentCommand::Doctor(doctor)) => SimAgentRun::Doctor(doctor),
     };
     Ok((log, run))
@@ -507,6 +508,9 @@ mod tests {
             natnet: Some("127.0.0.1:1510".parse().unwrap()),
             natnet_rate: 240.0,
             natnet_faults: Some("faults.toml".into()),
+            ros2_router: Some("tcp/127.0.0.1:7447".into()),
+            ros2_domain_id: 42,
+            ros2_namespace: "/lab".into(),
             bus: BusArgs {
                 transport: Transport::Zenoh,
                 connect: vec!["quic/lab-host:7447".into()],
