@@ -85,6 +85,11 @@ pub struct Ros2RobotArgs {
     /// every process of the swarm (default: this robot's id).
     #[arg(long)]
     pub swarm_size: Option<u32>,
+    /// Speed-up of the robot's clock (an emulated lab running faster than
+    /// real time): the control period, the pose timeout and the stop's
+    /// repeat are divided by it; velocities stay in the robot's m/s.
+    #[arg(long, default_value_t = 1.0)]
+    pub speed: f64,
     /// Bus heartbeat period, ms.
     #[arg(long, default_value_t = 100, value_parser = bycoms_runtime::seconds::millis)]
     pub heartbeat_ms: u64,
@@ -120,6 +125,7 @@ impl Ros2RobotArgs {
             period_ms: 100,
             pose_timeout_ms: 300,
             swarm_size: None,
+            speed: 1.0,
             heartbeat_ms: 100,
             parent_pid: None,
             bus: BusArgs::default(),
@@ -153,12 +159,15 @@ impl Ros2RobotArgs {
         }
     }
 
-    /// The core's settings.
+    /// The core's settings (their times in wall time: divided by `speed`).
     pub fn settings(&self) -> Settings {
+        let wall = |d: Duration| d.div_f64(self.speed);
+        let paper = Settings::new(RobotId(self.robot), self.eps, self.limits());
         Settings {
-            period: Duration::from_millis(self.period_ms),
-            pose_timeout: Duration::from_millis(self.pose_timeout_ms),
-            ..Settings::new(RobotId(self.robot), self.eps, self.limits())
+            period: wall(Duration::from_millis(self.period_ms)),
+            pose_timeout: wall(Duration::from_millis(self.pose_timeout_ms)),
+            stop_repeat: wall(paper.stop_repeat),
+            ..paper
         }
     }
 
@@ -168,6 +177,7 @@ impl Ros2RobotArgs {
             return Err(format!("--eps must be a positive number of metres, got {}", self.eps));
         }
         self.limits().check().map_err(|e| format!("{e} (--max-linear, --max-angular, --wheel-base)"))?;
+        bycoms_runtime::check_speed(self.speed).map_err(|e| format!("--speed: {e}"))?;
         if self.period_ms == 0 {
             return Err("--period-ms must be at least 1".into());
         }
@@ -197,6 +207,7 @@ impl Ros2RobotArgs {
             ("--max-angular", format!("{:?}", self.max_angular)),
             ("--wheel-base", format!("{:?}", self.wheel_base)),
             ("--period-ms", self.period_ms.to_string()),
+            ("--speed", format!("{:?}", self.speed)),
             ("--pose-timeout-ms", self.pose_timeout_ms.to_string()),
             ("--heartbeat-ms", self.heartbeat_ms.to_string()),
         ]
@@ -358,6 +369,7 @@ mod tests {
         args.message = VelocityMessage::TwistStamped;
         args.swarm_size = Some(5);
         args.max_linear = 0.1;
+        args.speed = 3.0;
         let back =
             parse_from(std::iter::once("ros2-robot".to_string()).chain(args.to_flags())).expect("parses");
         assert_eq!(back.robot, args);
@@ -374,11 +386,12 @@ mod tests {
     #[test]
     fn unusable_values_are_refused_naming_the_flag() {
         let base = Ros2RobotArgs::new("lab", 3, "tcp/127.0.0.1:7447", 0.3);
-        let cases: [(Ros2RobotArgs, &str); 4] = [
+        let cases: [(Ros2RobotArgs, &str); 5] = [
             (Ros2RobotArgs { eps: 0.0, ..base.clone() }, "--eps"),
             (Ros2RobotArgs { max_angular: -1.0, ..base.clone() }, "--max-angular"),
             (Ros2RobotArgs { wheel_base: f64::NAN, ..base.clone() }, "--wheel-base"),
             (Ros2RobotArgs { pose_timeout_ms: 50, ..base.clone() }, "--pose-timeout-ms"),
+            (Ros2RobotArgs { speed: 0.0, ..base.clone() }, "speed"),
         ];
         for (args, flag) in cases {
             let why = args.validate().expect_err(flag);

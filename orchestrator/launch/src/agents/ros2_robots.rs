@@ -63,6 +63,7 @@ impl Ros2Robots {
             max_angular: entry.limits.angular,
             wheel_base: entry.limits.wheel_base,
             swarm_size: Some(settings.swarm_size),
+            speed: settings.speed,
             heartbeat_ms: settings.heartbeat_ms,
             parent_pid: joining.parent_pid,
             bus: joining.bus.clone(),
