@@ -14,7 +14,10 @@
 //!   senses the field virtually (the paper's §IV g = Σ c/d² of the beacons
 //!   it was sent, at its own pose from motion capture) and runs the §VI-C
 //!   drive law ([`Wheeled`]) towards its last goal bearing: one velocity
-//!   command and one `Status` (mode, step) per period;
+//!   command and one `Status` (mode, step) per period, from a pose not used
+//!   before — when the period is due and no new pose has come, the command
+//!   waits for the next pose and goes out as it arrives (so a command is
+//!   never older than the loop's pass after its pose);
 //! * no goal yet, or no pose for [`Settings::pose_timeout`]: zero velocity
 //!   each period (a robot blind to motion capture does not drive);
 //! * `Stop`, `Shutdown`, the failsafe and the agent's own end send zero at
@@ -91,6 +94,10 @@ pub struct Ros2RobotCore {
     /// When the latest pose was handed in (the first `poll` after it).
     pose_seen: Option<Instant>,
     fresh_pose: bool,
+    /// A pose came since the last command.
+    unused_pose: bool,
+    /// A period is due and waits for a pose not used yet.
+    awaiting_pose: bool,
     next_period: Option<Instant>,
     zero_until: Option<Instant>,
     steps: u64,
@@ -110,6 +117,8 @@ impl Ros2RobotCore {
             pose: None,
             pose_seen: None,
             fresh_pose: false,
+            unused_pose: false,
+            awaiting_pose: false,
             next_period: None,
             zero_until: None,
             steps: 0,
@@ -154,14 +163,34 @@ impl Ros2RobotCore {
         self.out.push_back(Output::Velocity(Velocity::ZERO));
     }
 
-    /// One control period while enabled.
-    fn drive(&mut self, now: Instant) {
-        let timeout = self.settings.pose_timeout;
-        let seen = self.pose_seen.is_some_and(|t| now.duration_since(t) < timeout);
-        let (Some(goal), Some(pose), true) = (self.goal, self.pose, seen) else {
-            self.out.push_back(Output::Velocity(Velocity::ZERO));
-            return;
-        };
+    /// A control period that is due while enabled: a command from a pose
+    /// not used yet, at once; without one, wait for it (until the pose
+    /// timeout, when the period's deadline moves there); no goal, or no
+    /// pose for the pose timeout: zero, and the next period.
+    fn period_due(&mut self, now: Instant) {
+        let period = self.settings.period;
+        let stale = self.pose_seen.is_none_or(|t| now.duration_since(t) >= self.settings.pose_timeout);
+        self.awaiting_pose = false;
+        match (self.goal, self.unused_pose) {
+            (Some(goal), true) => {
+                self.unused_pose = false;
+                self.drive(goal);
+                self.next_period = Some(now + period);
+            }
+            (Some(_), false) if !stale => {
+                self.awaiting_pose = true;
+                self.next_period = self.pose_seen.map(|t| t + self.settings.pose_timeout);
+            }
+            _ => {
+                self.out.push_back(Output::Velocity(Velocity::ZERO));
+                self.next_period = Some(now + period);
+            }
+        }
+    }
+
+    /// One command from the latest pose towards `goal`.
+    fn drive(&mut self, goal: f64) {
+        let Some(pose) = self.pose else { return };
         let field = self.field_at(Vec2::new(pose.x, pose.y));
         let (out, velocity) = self.controller.step(goal, pose.heading, field);
         self.steps += 1;
@@ -224,14 +253,19 @@ impl RobotSide for Ros2RobotCore {
     fn poll(&mut self, now: Instant) {
         if std::mem::take(&mut self.fresh_pose) {
             self.pose_seen = Some(now);
+            self.unused_pose = true;
+        }
+        if self.enabled && self.awaiting_pose && self.unused_pose {
+            return self.period_due(now);
         }
         let Some(due) = self.next_period.filter(|t| now >= *t) else { return };
+        if self.enabled {
+            return self.period_due(now);
+        }
         // A late loop skips the periods it missed rather than bursting.
         let next = due + self.settings.period;
         self.next_period = Some(if next > now { next } else { now + self.settings.period });
-        if self.enabled {
-            self.drive(now);
-        } else if self.zero_until.is_some_and(|t| now < t) {
+        if self.zero_until.is_some_and(|t| now < t) {
             self.out.push_back(Output::Velocity(Velocity::ZERO));
         } else {
             self.zero_until = None;

@@ -217,3 +217,19 @@ fn the_sessions_failsafe_stops_the_robot_with_zero() {
 fn drain_session(s: &mut Session<Ros2RobotCore>) -> Vec<Output> {
     std::iter::from_fn(|| s.poll_output()).collect()
 }
+
+#[test]
+fn a_period_without_a_new_pose_waits_for_it_and_commands_as_it_comes() {
+    let t0 = Instant::now();
+    let mut c = driving(t0);
+    assert_eq!(velocities(&drain(&mut c)).len(), 1);
+    // Due at 100 ms, no new pose: nothing yet, the deadline at the pose timeout.
+    c.poll(t0 + ms(100));
+    assert!(drain(&mut c).is_empty(), "no command from a pose already used");
+    assert_eq!(c.deadline(), Some(t0 + ms(300)));
+    // The pose comes at 130 ms: the command goes out with it.
+    c.on_pose(&pose(0.02, 0.0, 0.0));
+    c.poll(t0 + ms(130));
+    assert_eq!(velocities(&drain(&mut c)), [Velocity { linear: 0.22, angular: 0.0 }]);
+    assert_eq!(c.deadline(), Some(t0 + ms(230)), "the next period from this command");
+}
