@@ -284,6 +284,10 @@ impl RobotSide for Ros2RobotCore {
     fn stop_robot(&mut self, now: Instant) {
         self.stop(now);
     }
+
+    fn awaits_pose(&self) -> bool {
+        self.enabled && self.awaiting_pose
+    }
 }
 
 #[cfg(test)]

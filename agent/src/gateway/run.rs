@@ -129,22 +129,31 @@ impl<B: Bus> BusSide<B> {
         }
     }
 
-    /// Hands every waiting pose and command to `session`, the first
-    /// command waited for up to `wait` when given: why to exit, if
-    /// `Shutdown` or this agent's refusal came.
+    /// Hands every waiting pose and command to `session`, waiting up to
+    /// `wait` when given — for the robot's own pose while the robot side
+    /// awaits one ([`RobotSide::awaits_pose`]: a ROS 2 robot's command waits
+    /// for it), else for the first command: why to exit, if `Shutdown` or
+    /// this agent's refusal came.
     pub fn drain<C: RobotSide>(
         &mut self,
         session: &mut Session<C>,
         wait: Option<Duration>,
     ) -> Result<Option<ExitCause>, BusError> {
+        let (mut pose_wait, mut wait) = match session.core().awaits_pose() {
+            true => (wait, None),
+            false => (None, wait),
+        };
         loop {
-            match self.ports.own_pose.try_recv() {
+            let next = match pose_wait.take() {
+                Some(timeout) => self.ports.own_pose.recv_timeout(timeout),
+                None => self.ports.own_pose.try_recv(),
+            };
+            match next {
                 Ok(Some(pose)) => session.on_pose(&pose),
                 Ok(None) => break,
                 Err(e) => self.absorb("pose", e)?,
             }
         }
-        let mut wait = wait;
         loop {
             let next = match wait.take() {
                 Some(timeout) => self.ports.commands.recv_timeout(timeout),

@@ -57,6 +57,11 @@ pub trait RobotSide {
     /// Stops the robot for good on the agent's own account (its failsafe,
     /// a refusal, its end): nobody to answer.
     fn stop_robot(&mut self, now: Instant);
+    /// Whether it waits for the robot's next pose to act (the loop then
+    /// waits on the pose topic, not the commands). Default: no.
+    fn awaits_pose(&self) -> bool {
+        false
+    }
 }
 
 impl RobotSide for GatewayCore {
