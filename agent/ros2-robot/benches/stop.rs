@@ -15,7 +15,7 @@ use bycoms_protocol::bus::zenoh::{Mode, ZenohBus, ZenohConfig};
 use bycoms_protocol::bus::{Bus, BusExt};
 use bycoms_protocol::msg::{Deploy, FromAgent, GoalBearing, Pose, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
-use bycoms_ros2::msgs::{RosMessage, Twist};
+use bycoms_ros2::msgs::Twist;
 use bycoms_ros2::rmw_zenoh::topic_key_expr;
 use bycoms_ros2::velocity::VelocityMessage;
 use bycoms_ros2_robot::cmd_vel::{Target, ZenohCmdVel};
@@ -42,10 +42,8 @@ fn main() {
     .expect("a zenoh router");
     let commands = subscribe_cmd_vel(&router);
     println!("ros2-robot: Stop → zero on cmd_vel, pose → command (ms), {rounds} rounds each");
-    let ipc_endpoint = endpoint.clone();
-    let ipc = measure("ipc", rounds, &commands, &endpoint, move |swarm| {
+    let ipc = measure("ipc", rounds, &commands, &endpoint, |swarm| {
         let config = IpcConfig { node_name: Some(format!("bycoms-bench-{swarm}")), ..ipc_config(1) };
-        let _ = &ipc_endpoint;
         IpcBus::new(config).expect("iceoryx2")
     });
     let zenoh_endpoint = endpoint.clone();
@@ -147,7 +145,7 @@ fn spawn_agent<B: Bus + 'static>(
     stop: Arc<AtomicBool>,
     open: impl Fn(&str) -> B + Send + 'static,
 ) -> std::thread::JoinHandle<()> {
-    let (swarm, endpoint) = (swarm.clone(), endpoint.to_string());
+    let (swarm, endpoint) = (*swarm, endpoint.to_string());
     std::thread::spawn(move || {
         let bus = open(&format!("{}-agent", swarm.as_str()));
         let ports = GatewayPorts::open(&bus, &swarm, ROBOT).expect("ports");
