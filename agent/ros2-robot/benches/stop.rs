@@ -4,7 +4,7 @@
 //! publisher on a zenoh router of this process; a stand-in orchestrator
 //! deploys it, gives it a goal and poses, then stops it, again and again.
 //!
-//! `cargo bench -p bycoms-ros2-robot --bench stop` (`STOPS=N` for more or
+//! `cargo bench -p bycoms-ros2-robot --bench stop` (`BYCOMS_BENCH_SAMPLES=N` for more or
 //! fewer rounds; default 300 per transport). Prints p50, p99 and the worst
 //! of each figure. Wall-clock figures belong here, never in a test.
 
@@ -33,7 +33,7 @@ const ROBOT: RobotId = RobotId(1);
 const WAIT: Duration = Duration::from_secs(5);
 
 fn main() {
-    let rounds: usize = std::env::var("STOPS").ok().and_then(|s| s.parse().ok()).unwrap_or(300);
+    let rounds: usize = std::env::var("BYCOMS_BENCH_SAMPLES").ok().and_then(|s| s.parse().ok()).unwrap_or(300);
     let (router, endpoint) = ZenohBus::loopback_router(|e| ZenohConfig {
         mode: Mode::Router,
         listen: vec![e.to_string()],
