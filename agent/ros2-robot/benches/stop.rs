@@ -33,7 +33,8 @@ const ROBOT: RobotId = RobotId(1);
 const WAIT: Duration = Duration::from_secs(5);
 
 fn main() {
-    let rounds: usize = std::env::var("BYCOMS_BENCH_SAMPLES").ok().and_then(|s| s.parse().ok()).unwrap_or(300);
+    let rounds: usize =
+        std::env::var("BYCOMS_BENCH_SAMPLES").ok().and_then(|s| s.parse().ok()).unwrap_or(300);
     let (router, endpoint) = ZenohBus::loopback_router(|e| ZenohConfig {
         mode: Mode::Router,
         listen: vec![e.to_string()],
