@@ -98,13 +98,7 @@ impl ZenohSink {
             if !waiting.contains(&topic.name) {
                 continue;
             }
-            // zenoh tells the route's arrival to a listener thread; polling
-            // its status every 2 ms costs nothing for a few seconds at most.
-            let mut matched = publisher.matching();
-            while !matched && Instant::now() < deadline {
-                std::thread::sleep(Duration::from_millis(2));
-                matched = publisher.matching();
-            }
+            let matched = publisher.wait_matching(deadline.saturating_duration_since(Instant::now()));
             if !matched {
                 tracing::warn!(
                     topic = %topic.name,

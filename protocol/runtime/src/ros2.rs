@@ -206,6 +206,26 @@ impl Ros2Publisher {
         self.publisher.matching_status().wait().is_ok_and(|m| m.matching())
     }
 
+    /// Waits up to `timeout` for a subscriber to match it (zenoh tells a
+    /// matching listener when the route arrives: no polling); whether one
+    /// does.
+    pub fn wait_matching(&self, timeout: std::time::Duration) -> bool {
+        // The listener first, then the status: a route that arrives in
+        // between is told to the listener.
+        let Ok(listener) = self.publisher.matching_listener().wait() else { return self.matching() };
+        let deadline = std::time::Instant::now() + timeout;
+        let mut matched = self.matching();
+        while !matched {
+            let left = deadline.saturating_duration_since(std::time::Instant::now());
+            match listener.recv_timeout(left) {
+                Ok(Some(status)) => matched = status.matching(),
+                // Timed out, or the publisher is gone.
+                _ => return self.matching(),
+            }
+        }
+        true
+    }
+
     /// The fully qualified topic.
     pub fn topic(&self) -> &str {
         &self.topic

@@ -59,11 +59,7 @@ fn a_published_twist_arrives_decodable_with_its_attachment_and_tokens() {
         .expect("the publisher");
     let data = router.session().declare_subscriber(cmd_vel.wire().key_expr.clone()).wait().expect("sub");
 
-    let deadline = Instant::now() + WAIT;
-    while !cmd_vel.matching() && Instant::now() < deadline {
-        std::thread::sleep(Duration::from_millis(2));
-    }
-    assert!(cmd_vel.matching(), "the route to the subscriber within {WAIT:?}");
+    assert!(cmd_vel.wait_matching(WAIT), "the route to the subscriber within {WAIT:?}");
     let sent = [Twist::planar(0.2, 0.0), Twist::planar(0.0, -1.0), Twist::planar(-0.1, 0.5)];
     for twist in &sent {
         cmd_vel.publish(twist).expect("sent");

@@ -59,7 +59,13 @@ fn the_lab_process_drives_a_ros2_robot_by_its_cmd_vel_and_its_driver_stops_it() 
     args.bus = BusArgs { transport: Transport::Zenoh, connect: vec![endpoint.clone()], zenoh_config: None };
     let stop = Arc::new(AtomicBool::new(false));
     let lifeline = Lifeline::with_flag(Arc::clone(&stop));
-    let lab = std::thread::spawn(move || run_with(&args, lifeline).map_err(|e| e.to_string()));
+    // The lab's thread says when it ended, so the test waits on that, bounded.
+    let (ended_tx, ended) = std::sync::mpsc::channel();
+    let lab = std::thread::spawn(move || {
+        let result = run_with(&args, lifeline).map_err(|e| e.to_string());
+        let _ = ended_tx.send(());
+        result
+    });
 
     let bus = ZenohBus::open(zenoh_config(Mode::Client, vec![], vec![endpoint], None)).expect("test's bus");
     let swarm = Swarm::new(&swarm_name).expect("swarm");
@@ -91,11 +97,7 @@ fn the_lab_process_drives_a_ros2_robot_by_its_cmd_vel_and_its_driver_stops_it() 
     let settled = latest(&next, Duration::from_millis(500)).expect("poses while settling");
     let still = latest(&next, Duration::from_millis(700)).expect("poses while still");
     stop.store(true, Ordering::SeqCst);
-    let ended = Instant::now() + Duration::from_secs(10);
-    while !lab.is_finished() {
-        assert!(Instant::now() < ended, "the lab did not stop when told");
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    assert!(ended.recv_timeout(Duration::from_secs(10)).is_ok(), "the lab did not stop when told");
     assert!(lab.join().expect("the lab's thread").is_ok(), "the lab ran and stopped cleanly");
 
     let chord = (settled.x - placed.x).hypot(settled.y - placed.y);
