@@ -152,10 +152,6 @@ impl AgentSource for Gateways {
         false
     }
 
-    fn held_when_unreachable(&self) -> bool {
-        self.inner().held_when_unreachable()
-    }
-
     fn robot_link_grace(&self) -> Option<Duration> {
         Some(LINK_GRACE)
     }
@@ -178,10 +174,6 @@ impl AgentSource for Gateways {
         }
     }
 
-    fn ended_by(&self) -> &'static str {
-        self.inner().ended_by()
-    }
-
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {
         if let At::Elsewhere(remote) = &mut self.at {
             return remote.start(id, plan);
@@ -192,43 +184,5 @@ impl AgentSource for Gateways {
         Ok(Started::Process { pid })
     }
 
-    fn heard(&mut self, id: u32) {
-        self.inner_mut().heard(id);
-    }
-
-    fn is_running(&self, id: u32) -> bool {
-        self.inner().is_running(id)
-    }
-
-    fn pid(&self, id: u32) -> Option<u32> {
-        self.inner().pid(id)
-    }
-
-    fn poll(&mut self) -> Vec<(u32, Gone)> {
-        self.inner_mut().poll()
-    }
-
-    fn tokens(&mut self) -> Vec<(u32, bool)> {
-        self.inner_mut().tokens()
-    }
-
-    fn last_error(&mut self, id: u32) -> Option<String> {
-        self.inner_mut().last_error(id)
-    }
-
-    fn kill(&mut self, id: u32) -> bool {
-        self.inner_mut().kill(id)
-    }
-
-    fn ask_to_end(&mut self) {
-        self.inner_mut().ask_to_end();
-    }
-
-    fn reap(&mut self) -> bool {
-        self.inner_mut().reap()
-    }
-
-    fn end_rest(&mut self) -> Vec<u32> {
-        self.inner_mut().end_rest()
-    }
+    forward_to_inner!();
 }

@@ -42,6 +42,52 @@
 //! spawned children are started from one thread of their own that lives as
 //! long as their source, see `spawner`).
 
+/// The methods of an [`AgentSource`] that wraps another (reached by its
+/// `inner()` and `inner_mut()`): whether agents run, end, are heard and
+/// ended is the inner source's business; a wrapper (the gateways', the ROS 2
+/// robots') says only what its agents are and how they start. Written once
+/// here, used inside each wrapper's `impl AgentSource`.
+macro_rules! forward_to_inner {
+    () => {
+        fn held_when_unreachable(&self) -> bool {
+            self.inner().held_when_unreachable()
+        }
+        fn ended_by(&self) -> &'static str {
+            self.inner().ended_by()
+        }
+        fn heard(&mut self, id: u32) {
+            self.inner_mut().heard(id);
+        }
+        fn is_running(&self, id: u32) -> bool {
+            self.inner().is_running(id)
+        }
+        fn pid(&self, id: u32) -> Option<u32> {
+            self.inner().pid(id)
+        }
+        fn poll(&mut self) -> Vec<(u32, Gone)> {
+            self.inner_mut().poll()
+        }
+        fn tokens(&mut self) -> Vec<(u32, bool)> {
+            self.inner_mut().tokens()
+        }
+        fn last_error(&mut self, id: u32) -> Option<String> {
+            self.inner_mut().last_error(id)
+        }
+        fn kill(&mut self, id: u32) -> bool {
+            self.inner_mut().kill(id)
+        }
+        fn ask_to_end(&mut self) {
+            self.inner_mut().ask_to_end();
+        }
+        fn reap(&mut self) -> bool {
+            self.inner_mut().reap()
+        }
+        fn end_rest(&mut self) -> Vec<u32> {
+            self.inner_mut().end_rest()
+        }
+    };
+}
+
 pub mod choice;
 pub mod executable;
 pub mod gateways;

@@ -73,6 +73,16 @@ impl Ros2Robots {
     }
 }
 
+impl Ros2Robots {
+    fn inner(&self) -> &dyn AgentSource {
+        &self.inner
+    }
+
+    fn inner_mut(&mut self) -> &mut dyn AgentSource {
+        &mut self.inner
+    }
+}
+
 impl AgentSource for Ros2Robots {
     fn kind(&self) -> &'static str {
         "ros2_robot"
@@ -98,49 +108,11 @@ impl AgentSource for Ros2Robots {
         true
     }
 
-    fn ended_by(&self) -> &'static str {
-        self.inner.ended_by()
-    }
-
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {
         let flags = self.args(id, plan)?.to_flags();
         let pid = self.inner.spawn(id, &flags, "")?;
         Ok(Started::Process { pid })
     }
 
-    fn heard(&mut self, id: u32) {
-        self.inner.heard(id);
-    }
-
-    fn is_running(&self, id: u32) -> bool {
-        self.inner.is_running(id)
-    }
-
-    fn pid(&self, id: u32) -> Option<u32> {
-        self.inner.pid(id)
-    }
-
-    fn poll(&mut self) -> Vec<(u32, Gone)> {
-        self.inner.poll()
-    }
-
-    fn last_error(&mut self, id: u32) -> Option<String> {
-        self.inner.last_error(id)
-    }
-
-    fn kill(&mut self, id: u32) -> bool {
-        self.inner.kill(id)
-    }
-
-    fn ask_to_end(&mut self) {
-        self.inner.ask_to_end();
-    }
-
-    fn reap(&mut self) -> bool {
-        self.inner.reap()
-    }
-
-    fn end_rest(&mut self) -> Vec<u32> {
-        self.inner.end_rest()
-    }
+    forward_to_inner!();
 }
