@@ -339,8 +339,11 @@ impl<B: Bus> Operator<B> {
                 );
             }
             if lab.place(index) {
+                let at = lab.scenario().placement(index);
                 tracing::info!(
                     robot = request.robot.0,
+                    x = at.x,
+                    y = at.y,
                     lab_s = lab.now().as_secs_f64(),
                     "operator placed the robot at the start"
                 );

@@ -196,7 +196,7 @@ impl Lab {
     /// (id `index + 1`), a still body until commanded. False when there
     /// is no such robot or it is already in the arena (a body is placed once).
     pub fn place(&mut self, index: usize) -> bool {
-        let s = self.scenario.start;
+        let s = self.scenario.placement(index);
         match self.robots.get_mut(index) {
             Some(r) if r.body.is_none() => {
                 r.body = Some(Crawler::new(s.x, s.y, s.heading));
@@ -219,10 +219,10 @@ impl Lab {
     /// Advances the lab by one physics step.
     pub fn step(&mut self) -> io::Result<()> {
         let now = self.now;
-        for r in &mut self.robots {
+        for (index, r) in self.robots.iter_mut().enumerate() {
             r.esp.pump(now)?;
             if r.body.is_none() && r.esp.tone().is_some() {
-                let s = self.scenario.start;
+                let s = self.scenario.placement(index);
                 r.body = Some(Crawler::new(s.x, s.y, s.heading));
             }
         }
