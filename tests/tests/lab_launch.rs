@@ -569,28 +569,50 @@ fn ros2_router() -> (bycoms_protocol::bus::zenoh::ZenohBus, String) {
 /// counted every robot's commands.
 fn ros2_robots_run(scenario: &str, robots: u32, ends_expected: &[&str], extra: &[&str]) -> (Value, Value) {
     let _turn = Turn::take();
-    let dir = tempfile::tempdir().expect("temp dir");
-    let swarm = swarm_name("labros2bots");
-    let (_router, endpoint) = ros2_router();
-    let file = shipped("ros2-robots.toml");
-    let lab = lab_with(&swarm, scenario, &file, &["--ros2-router", &endpoint]);
-    let text = std::fs::read_to_string(shipped("launch-ros2-robots.toml")).expect("launch-ros2-robots.toml");
-    assert!(text.contains("router = \"tcp/127.0.0.1:7447\""), "the shipped file names rmw_zenohd's port");
-    let config = dir.path().join("launch.toml");
-    std::fs::write(&config, text.replace("tcp/127.0.0.1:7447", &endpoint)).expect("config");
-    let record = dir.path().join("run.mcap");
+    let lab = Ros2Lab::start(scenario);
+    let record = lab.dir.path().join("run.mcap");
     let record = record.to_str().expect("utf-8");
-    let out =
-        launch_with(&config, &swarm, scenario, robots, &file, &[&["--record", record][..], extra].concat())
-            .wait(Duration::from_secs(240));
-    let lab = assert_arrived(&out, lab);
+    let out = lab.launch(robots, &[&["--record", record][..], extra].concat()).wait(Duration::from_secs(240));
+    let done = assert_arrived(&out, lab.lab);
     let j = out.json();
     assert_eq!(ends(&j), ends_expected, "{j}");
     let replay = Proc::orchestrator(&["replay", record]).wait(Duration::from_secs(60));
     assert_eq!(replay.status.code(), Some(0), "{}\n{}", replay.stdout, replay.stderr);
     assert!(replay.stdout.contains("MATCH:"), "{}", replay.stdout);
-    assert_no_gateway_left(&swarm);
-    (j, lab_summary(lab))
+    assert_no_gateway_left(&lab.swarm);
+    (j, lab_summary(done))
+}
+
+/// The emulated lab of ROS 2 bodies on a router of the test's, and the
+/// shipped launch configuration pointed at that router.
+struct Ros2Lab {
+    dir: tempfile::TempDir,
+    swarm: String,
+    scenario: String,
+    config: PathBuf,
+    file: PathBuf,
+    lab: Proc,
+    _router: bycoms_protocol::bus::zenoh::ZenohBus,
+}
+
+impl Ros2Lab {
+    fn start(scenario: &str) -> Self {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let swarm = swarm_name("labros2bots");
+        let (router, endpoint) = ros2_router();
+        let file = shipped("ros2-robots.toml");
+        let lab = lab_with(&swarm, scenario, &file, &["--ros2-router", &endpoint]);
+        let text =
+            std::fs::read_to_string(shipped("launch-ros2-robots.toml")).expect("launch-ros2-robots.toml");
+        assert!(text.contains("router = \"tcp/127.0.0.1:7447\""), "the shipped file names rmw_zenohd's port");
+        let config = dir.path().join("launch.toml");
+        std::fs::write(&config, text.replace("tcp/127.0.0.1:7447", &endpoint)).expect("config");
+        Self { dir, swarm, scenario: scenario.to_owned(), config, file, lab, _router: router }
+    }
+
+    fn launch(&self, robots: u32, extra: &[&str]) -> Proc {
+        launch_with(&self.config, &self.swarm, &self.scenario, robots, &self.file, extra)
+    }
 }
 
 #[test]
@@ -631,4 +653,42 @@ fn exp_long_with_ros2_robots_sensing_the_field_virtually_robots_1_and_2_stick_an
     assert!((x3 - 3.0).hypot(y3 - 1.0) <= 0.15, "robot 3 within the goal radius: ({x3}, {y3})");
     let stuck: Vec<&Value> = (0..3).map(|k| &lab["robots"][k]["stuck"]).collect();
     assert_eq!(stuck, [&Value::Bool(true), &Value::Bool(true), &Value::Bool(false)], "{lab}");
+}
+
+/// A ROS 2 robot revoked mid-run (issue 50 item 3): the launch tells its
+/// agent to stop, the agent sends zero, and the body stands where the
+/// launch judged it stopped; the next robot goes. The body's own `cmd_vel`
+/// timeout would stop it too, so what tells the revocation's zero from the
+/// timeout is the last command the body received: zero.
+#[test]
+fn a_ros2_robot_revoked_mid_run_is_sent_zero_and_the_next_robot_goes() {
+    let _turn = Turn::take();
+    let lab = Ros2Lab::start("exp-short");
+    // Robot 2 is set down inside robot 1's ε (0.65 m): it may walk around
+    // it for good, so the run's time bounds the launch.
+    let launch = lab.launch(2, &["--time-limit", "30"]);
+    // Motion capture sees robot 1 driving, a third of the way to the frame.
+    wait_for_pose(&lab.swarm, 2, 1, Duration::from_secs(60), |p| p.x > 0.7)
+        .expect("robot 1 drives within 60 s");
+    let args = ["revoke", "--robot", "1", "--swarm", &lab.swarm, "--why", "e2e: lost its marker"];
+    let revoke = Proc::orchestrator(&args).wait(Duration::from_secs(20));
+    assert_eq!(revoke.status.code(), Some(0), "{}", revoke.stderr);
+    assert!(revoke.stdout.contains("told to stop"), "{}", revoke.stdout);
+    let out = launch.wait(Duration::from_secs(240));
+    let j = out.json();
+    let robot1 = &j["robots"][0];
+    assert_eq!(robot1["end"], "died", "{j}");
+    assert!(j["robots"][1]["deployed_tick"].is_u64(), "robot 2 went on: {j}");
+    let lab_robots = lab_summary(lab.lab);
+    let body1 = &lab_robots["robots"][0];
+    assert_eq!(body1["cmd_vel"]["last"], serde_json::json!([0.0, 0.0]), "the last command was zero: {body1}");
+    assert_eq!(body1["stuck"], false, "stopped by its agent, not by the frame: {body1}");
+    let (x, y) = (body1["x"].as_f64().expect("x"), body1["y"].as_f64().expect("y"));
+    assert!(x > 0.7 && x < 1.3, "it had driven off the start and stopped short of the frame: {body1}");
+    let (jx, jy) = (robot1["x"].as_f64().expect("x"), robot1["y"].as_f64().expect("y"));
+    assert!(
+        (x - jx).hypot(y - jy) < 0.05,
+        "it stands where the launch judged it stopped: {body1} / {robot1}"
+    );
+    assert_no_gateway_left(&lab.swarm);
 }

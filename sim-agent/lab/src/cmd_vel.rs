@@ -46,7 +46,7 @@ pub struct Ros2Link {
 type Inbox = Arc<Mutex<Vec<(usize, Instant, Vec<u8>)>>>;
 
 /// What became of one robot's samples.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Counts {
     /// Decoded and handed to the body.
     pub commands: u64,
@@ -54,6 +54,9 @@ pub struct Counts {
     pub undecodable: u64,
     /// Decoded while the robot waited off the arena (lost).
     pub unplaced: u64,
+    /// The last command handed to the body (what it drives by until its
+    /// driver's timeout).
+    pub last: Option<Velocity>,
 }
 
 /// The ROS 2 robots' `cmd_vel` subscriptions.
@@ -158,6 +161,7 @@ impl CmdVelIn {
             let at = lab_time(wall, t0, speed, lab.now());
             if lab.command(*robot, at, velocity) {
                 counts.commands += 1;
+                counts.last = Some(velocity);
             } else {
                 counts.unplaced += 1;
                 tracing::debug!(robot = robot.0, "lab: a command for a robot off the arena, lost");

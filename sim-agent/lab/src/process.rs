@@ -656,7 +656,12 @@ fn print_summary(lab: &Lab, commands: Option<&CmdVelIn>, jitter: &Jitter, wall: 
             "y": body.map(|b| b.y),
             "heading": body.map(|b| b.heading),
             "stuck": body.is_some_and(|b| b.stuck),
-            "cmd_vel": { "commands": counts.commands, "undecodable": counts.undecodable, "unplaced": counts.unplaced },
+            "cmd_vel": {
+                "commands": counts.commands,
+                "undecodable": counts.undecodable,
+                "unplaced": counts.unplaced,
+                "last": counts.last.map(|v| [v.linear, v.angular]),
+            },
         })
     }));
     let summary = serde_json::json!({
