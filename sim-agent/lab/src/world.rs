@@ -116,7 +116,12 @@ impl Lab {
             config.tones.sample_rate = scenario.sound.sample_rate;
             config.tones.gain = scenario.sound.gain;
             let entropy: [u8; 32] = rng.gen();
-            let esp = EmulatedEsp32::bind(config, w.key.clone(), entropy, w.bind, w.gateway)?;
+            let esp =
+                EmulatedEsp32::bind(config, w.key.clone(), entropy, w.bind, w.gateway).map_err(|e| {
+                    // Which robot and which address (issue 49): an address of
+                    // another host cannot be bound here, nor one in use.
+                    io::Error::new(e.kind(), format!("robot {}'s address {}: {e}", i + 1, w.bind))
+                })?;
             robots.push(LabRobot { esp, body: None, phase: rng.gen_range(0.0..core::f64::consts::TAU) });
         }
         if robots.len() != tones.len() {

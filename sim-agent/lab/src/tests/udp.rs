@@ -201,3 +201,25 @@ fn exp_long_robots_1_and_2_stick_and_robot_3_reaches_the_goal() {
     let (r1, r2) = (poses[0].unwrap(), poses[1].unwrap());
     assert!(r1.stuck && r2.stuck && r2.y > r1.y + 0.3, "robot 2 bypassed robot 1, then stuck: {r2:?}");
 }
+
+/// Issue 49: an address the lab cannot bind (another host's, or one in
+/// use) names the robot and the address.
+#[test]
+fn an_address_the_lab_cannot_bind_names_the_robot_and_the_address() {
+    use crate::world::{Lab, Wiring};
+    let gateway = std::net::SocketAddr::from(([127, 0, 0, 1], 9));
+    let taken = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
+    let taken = taken.local_addr().expect("addr");
+    // 192.0.2.0/24 is TEST-NET-1: no interface of this host has it.
+    let foreign: std::net::SocketAddr = "192.0.2.7:47101".parse().expect("addr");
+    let scenario = crate::scenario::Scenario::builtin("exp-short").expect("built in");
+    for (wired, says) in [
+        ([foreign, "127.0.0.1:0".parse().expect("addr")], "robot 1's address 192.0.2.7:47101: "),
+        (["127.0.0.1:0".parse().expect("addr"), taken], &*format!("robot 2's address {taken}: ")),
+    ] {
+        let wiring: Vec<Wiring> =
+            (0..2).map(|k| Wiring { key: key(k as u32 + 1), bind: wired[k], gateway }).collect();
+        let err = Lab::wired(scenario.clone(), &wiring, 1).err().expect("refused");
+        assert!(err.to_string().starts_with(says), "{err}");
+    }
+}
