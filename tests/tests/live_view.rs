@@ -74,6 +74,7 @@ impl Running {
                 break status;
             }
             assert!(Instant::now() < deadline, "did not end within {timeout:?}: {}", self.seen.join("\n"));
+            // Polled: std's `Child` has no wait with a timeout.
             std::thread::sleep(Duration::from_millis(20));
         };
         let mut out = String::new();

@@ -53,6 +53,7 @@ fn the_sdk_python_client_sees_our_bodies_names_and_positions() {
             let _ = child.wait();
             panic!("the SDK client did not finish within 30 s");
         }
+        // Polled: std's `Child` has no wait with a timeout.
         std::thread::sleep(Duration::from_millis(50));
     };
     let mut out = String::new();
