@@ -87,3 +87,48 @@ fn a_dependency_with_its_own_version_is_noticed() {
         .collect();
     assert_eq!(own, ["a", "d"]);
 }
+
+/// Test-only features (`test-clock-skew`: a clock skewed from the
+/// environment; `testing`: the launch harness) are turned on only by
+/// dev-dependencies, so no release build has them (issue 53: the skew was
+/// read by every agent's clock in production). Also in the root's
+/// `[workspace.dependencies]`, which every crate inherits.
+#[test]
+fn test_only_features_are_turned_on_by_dev_dependencies_only() {
+    let root = root();
+    let workspace = manifest(&root.join("Cargo.toml"));
+    let turns_on = |spec: &toml::Value, feature: &str| {
+        spec.get("features")
+            .and_then(toml::Value::as_array)
+            .is_some_and(|f| f.iter().any(|v| v.as_str() == Some(feature)))
+    };
+    let mut found = Vec::new();
+    let shared = workspace["workspace"]["dependencies"].as_table().expect("[workspace.dependencies]");
+    for feature in ["test-clock-skew", "testing"] {
+        found.extend(
+            shared.iter().filter(|(_, s)| turns_on(s, feature)).map(|(n, _)| format!("Cargo.toml {n}")),
+        );
+    }
+    let members = workspace["workspace"]["members"].as_array().expect("members");
+    let mut seen_in_dev = 0;
+    for member in members {
+        let member = member.as_str().expect("a member is a path");
+        let crate_manifest = manifest(&root.join(member).join("Cargo.toml"));
+        for (table, deps) in dependency_tables(&crate_manifest) {
+            for (name, spec) in deps {
+                for feature in ["test-clock-skew", "testing"] {
+                    if !turns_on(spec, feature) {
+                        continue;
+                    }
+                    if table.ends_with("dev-dependencies") {
+                        seen_in_dev += 1;
+                    } else {
+                        found.push(format!("{member}/Cargo.toml [{table}] {name}: {feature}"));
+                    }
+                }
+            }
+        }
+    }
+    assert!(seen_in_dev >= 2, "the tests turn both on through dev-dependencies");
+    assert!(found.is_empty(), "a test-only feature in a product build:\n{}", found.join("\n"));
+}

@@ -32,8 +32,8 @@ use core::time::Duration;
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
 use std::time::{SystemTime, UNIX_EPOCH};
 
-/// Tests only: milliseconds added to this host's clock as agents and the
-/// doctor read it (negative: behind).
+/// Tests only (the `test-clock-skew` feature): milliseconds added to this
+/// host's clock as agents and the doctor read it (negative: behind).
 pub const SKEW_ENV: &str = "BYCOMS_TEST_CLOCK_SKEW_MS";
 
 /// How many exchanges one measurement makes (the shortest round trip wins).
@@ -124,7 +124,13 @@ pub struct HostClock {
 impl HostClock {
     /// The system clock, skewed by [`SKEW_ENV`] when it is set to a whole
     /// number of milliseconds (anything else is ignored, with a warning).
+    /// Only a build with the `test-clock-skew` feature (what `cargo test
+    /// --workspace` builds) reads it: a product binary's clock is the
+    /// system's, whatever its environment says.
     pub fn from_env() -> Self {
+        if !cfg!(feature = "test-clock-skew") {
+            return Self::default();
+        }
         let Ok(text) = std::env::var(SKEW_ENV) else { return Self::default() };
         match text.trim().parse::<i64>() {
             Ok(ms) => {
