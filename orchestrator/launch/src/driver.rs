@@ -497,7 +497,7 @@ impl Driver {
         if !killed.is_empty() {
             let ids: Vec<String> = killed.iter().map(u32::to_string).collect();
             let whose = if ids.len() == 1 { "robot" } else { "robots" };
-            let fate = self.agents.ended_by();
+            let fate = self.agents.properties().ended_by;
             self.progress.event(&format!(
                 "the agents of {whose} {} did not exit after Shutdown: {fate}",
                 ids.join(", ")

@@ -6,7 +6,7 @@
 //! period) happens once, here.
 
 use super::agents::remote::QUIET_HEARTBEATS;
-use super::agents::{AgentSource, Joining};
+use super::agents::{AgentProperties, AgentSource, Joining};
 use super::config::{Clock, LaunchConfig};
 use super::core::{AgentTraits, ClockLimits, Commands, Setup, Starts, Supervision};
 use super::poses::PoseSource;
@@ -20,54 +20,22 @@ use std::time::Duration;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 /// What the seams say of themselves that the core's setup needs: the
-/// agent source's and the pose source's properties, as plain values (so
-/// the launch harness declares the seams it simulates and gets the very
-/// setup a launch with them gets).
+/// agent source's properties and whether the pose source is on the bus, as
+/// plain values (so the launch harness declares the seams it simulates,
+/// with the sources' own `properties` functions, and gets the very setup a
+/// launch with them gets).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Seams {
-    /// The agent source's kind ([`AgentSource::kind`]).
-    pub kind: &'static str,
-    /// [`AgentSource::all_at_once`].
-    pub all_at_once: bool,
-    /// [`AgentSource::needs_placement`].
-    pub needs_placement: bool,
-    /// [`AgentSource::stop_when_stuck`].
-    pub stop_when_stuck: bool,
-    /// [`AgentSource::start_hint`].
-    pub start_hint: &'static str,
-    /// [`AgentSource::wants_poses`].
-    pub wants_poses: bool,
-    /// [`AgentSource::senses_beacons`].
-    pub senses_beacons: bool,
+    /// [`AgentSource::properties`].
+    pub agents: AgentProperties,
     /// [`PoseSource::on_the_bus`].
     pub poses_on_the_bus: bool,
-    /// [`AgentSource::held_when_unreachable`].
-    pub held_when_unreachable: bool,
-    /// [`AgentSource::robot_link_grace`].
-    pub robot_link_grace: Option<Duration>,
-    /// [`AgentSource::ticks_at_once`].
-    pub ticks_at_once: u32,
-    /// [`AgentSource::keeps_commands`].
-    pub keeps_commands: bool,
 }
 
 impl Seams {
     /// What `agents` and `poses` say of themselves.
     pub fn of(agents: &dyn AgentSource, poses: &dyn PoseSource) -> Self {
-        Self {
-            kind: agents.kind(),
-            all_at_once: agents.all_at_once(),
-            needs_placement: agents.needs_placement(),
-            stop_when_stuck: agents.stop_when_stuck(),
-            start_hint: agents.start_hint(),
-            wants_poses: agents.wants_poses(),
-            senses_beacons: agents.senses_beacons(),
-            poses_on_the_bus: poses.on_the_bus(),
-            held_when_unreachable: agents.held_when_unreachable(),
-            robot_link_grace: agents.robot_link_grace(),
-            ticks_at_once: agents.ticks_at_once(),
-            keeps_commands: agents.keeps_commands(),
-        }
+        Self { agents: agents.properties(), poses_on_the_bus: poses.on_the_bus() }
     }
 }
 
@@ -94,7 +62,8 @@ pub fn setup_of(
 ) -> Setup {
     let mut run = settings.run_config();
     run.time_limit = cfg.time_limit;
-    let placement = seams.needs_placement.then_some(cfg.placement);
+    let agents = &seams.agents;
+    let placement = agents.needs_placement.then_some(cfg.placement);
     Setup {
         robots: cfg.robots,
         lockstep: cfg.clock == Clock::Lockstep,
@@ -112,22 +81,22 @@ pub fn setup_of(
         unreachable_grace_s: cfg.supervision.unreachable_grace,
         register_timeout_s: cfg.supervision.register_timeout,
         agents: AgentTraits {
-            kind: seams.kind.to_string(),
-            all_at_once: seams.all_at_once,
-            stop_when_stuck: seams.stop_when_stuck,
-            start_hint: seams.start_hint.to_string(),
+            kind: agents.kind.to_string(),
+            all_at_once: agents.all_at_once,
+            stop_when_stuck: agents.stop_when_stuck,
+            start_hint: agents.start_hint.to_string(),
             placement,
-            forward_poses: !seams.poses_on_the_bus && seams.wants_poses,
-            beacons: seams.senses_beacons,
+            forward_poses: !seams.poses_on_the_bus && agents.wants_poses,
+            beacons: agents.senses_beacons,
         },
         unix_base_ms,
         settings: run_settings(cfg, world).fingerprint(),
-        supervision: supervision(cfg, seams.held_when_unreachable, seams.robot_link_grace),
+        supervision: supervision(cfg, agents.held_when_unreachable, agents.robot_link_grace),
         clocks: clock_limits(cfg),
         // Injected faults lose and repeat answers: then ticks are re-sent.
         commands: Commands {
-            ticks_at_once: seams.ticks_at_once,
-            kept: seams.keeps_commands && !cfg.faults.is_on(),
+            ticks_at_once: agents.ticks_at_once,
+            kept: agents.keeps_commands && !cfg.faults.is_on(),
         },
         starts: Starts { ahead: if cfg.clock == Clock::Lockstep { STARTS_AHEAD } else { 1 } },
     }

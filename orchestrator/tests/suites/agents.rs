@@ -171,26 +171,24 @@ pub fn run_all(fixture: &dyn AgentFixture) -> Report {
     report
 }
 
-/// The property methods say what the fixture states.
+/// The source's properties say what the fixture states.
 fn properties_are_as_stated(fixture: &dyn AgentFixture) {
     let want = fixture.expected();
-    let source = fixture.source();
-    assert_eq!(source.kind(), want.kind, "kind");
+    let got = fixture.source().properties();
+    assert_eq!(got.kind, want.kind, "kind");
     let kind = want.kind;
-    assert_eq!(source.all_at_once(), want.all_at_once, "{kind}: all_at_once");
-    assert_eq!(source.needs_placement(), want.needs_placement, "{kind}: needs_placement");
-    assert_eq!(source.stop_when_stuck(), want.stop_when_stuck, "{kind}: stop_when_stuck");
-    assert_eq!(source.wants_poses(), want.wants_poses, "{kind}: wants_poses");
-    assert_eq!(source.senses_beacons(), want.senses_beacons, "{kind}: senses_beacons");
-    assert_eq!(source.held_when_unreachable(), want.held_when_unreachable, "{kind}: held_when_unreachable");
-    assert_eq!(source.robot_link_grace(), want.robot_link_grace, "{kind}: robot_link_grace");
+    assert_eq!(got.all_at_once, want.all_at_once, "{kind}: all_at_once");
+    assert_eq!(got.needs_placement, want.needs_placement, "{kind}: needs_placement");
+    assert_eq!(got.stop_when_stuck, want.stop_when_stuck, "{kind}: stop_when_stuck");
+    assert_eq!(got.wants_poses, want.wants_poses, "{kind}: wants_poses");
+    assert_eq!(got.senses_beacons, want.senses_beacons, "{kind}: senses_beacons");
+    assert_eq!(got.held_when_unreachable, want.held_when_unreachable, "{kind}: held_when_unreachable");
+    assert_eq!(got.robot_link_grace, want.robot_link_grace, "{kind}: robot_link_grace");
     match want.start_hint {
-        None => assert_eq!(source.start_hint(), "", "{kind}: no start hint"),
-        Some(words) => {
-            assert!(source.start_hint().contains(words), "{kind}: start_hint {:?}", source.start_hint());
-        }
+        None => assert_eq!(got.start_hint, "", "{kind}: no start hint"),
+        Some(words) => assert!(got.start_hint.contains(words), "{kind}: start_hint {:?}", got.start_hint),
     }
-    assert!(source.ended_by().contains(want.ended_by), "{kind}: ended_by {:?}", source.ended_by());
+    assert!(got.ended_by.contains(want.ended_by), "{kind}: ended_by {:?}", got.ended_by);
 }
 
 /// A started agent runs; one that never registers and stays silent is not

@@ -31,7 +31,7 @@
 
 use super::remote::Remote;
 use super::spawned::{AgentCommand, Spawned};
-use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
+use super::{AgentError, AgentPlan, AgentProperties, AgentSource, Gone, Started};
 use bycoms_agent::gateway::GatewayArgs;
 use bycoms_lab::robots::RobotsFile;
 use serde::{Deserialize, Serialize};
@@ -135,43 +135,34 @@ impl Gateways {
     }
 }
 
+/// What gateway agents are: real robots, one gateway each, all expected
+/// at once, placed by an operator, told to stop when stuck, fed the poses
+/// motion capture gives (not the beacons: the robots hear each other),
+/// their robot links watched; started and ended as `inner` (the spawned
+/// gateways of this host, or remote ones on `elsewhere` bridge hosts) does.
+pub fn properties(inner: AgentProperties, elsewhere: bool) -> AgentProperties {
+    AgentProperties {
+        all_at_once: true,
+        needs_placement: true,
+        stop_when_stuck: true,
+        wants_poses: true,
+        senses_beacons: false,
+        ticks_at_once: 1,
+        keeps_commands: false,
+        robot_link_grace: Some(LINK_GRACE),
+        start_hint: if elsewhere {
+            " (start each robot's gateway on its bridge host with `gateway --transport zenoh \
+             --connect ENDPOINT --swarm SWARM --robot K --bind ADDR --key-file FILE`)"
+        } else {
+            ""
+        },
+        ..AgentProperties { kind: "gateway", ..inner }
+    }
+}
+
 impl AgentSource for Gateways {
-    fn needs_placement(&self) -> bool {
-        true
-    }
-
-    fn stop_when_stuck(&self) -> bool {
-        true
-    }
-
-    fn wants_poses(&self) -> bool {
-        true
-    }
-
-    fn senses_beacons(&self) -> bool {
-        false
-    }
-
-    fn robot_link_grace(&self) -> Option<Duration> {
-        Some(LINK_GRACE)
-    }
-
-    fn kind(&self) -> &'static str {
-        "gateway"
-    }
-
-    fn all_at_once(&self) -> bool {
-        true
-    }
-
-    fn start_hint(&self) -> &'static str {
-        match self.at {
-            At::Here { .. } => "",
-            At::Elsewhere(_) => {
-                " (start each robot's gateway on its bridge host with `gateway --transport zenoh \
-                 --connect ENDPOINT --swarm SWARM --robot K --bind ADDR --key-file FILE`)"
-            }
-        }
+    fn properties(&self) -> AgentProperties {
+        properties(self.inner().properties(), matches!(self.at, At::Elsewhere(_)))
     }
 
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {

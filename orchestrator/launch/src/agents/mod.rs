@@ -49,12 +49,6 @@
 /// here, used inside each wrapper's `impl AgentSource`.
 macro_rules! forward_to_inner {
     () => {
-        fn held_when_unreachable(&self) -> bool {
-            self.inner().held_when_unreachable()
-        }
-        fn ended_by(&self) -> &'static str {
-            self.inner().ended_by()
-        }
         fn heard(&mut self, id: u32) {
             self.inner_mut().heard(id);
         }
@@ -305,75 +299,93 @@ pub enum AgentError {
     Other(Box<dyn std::error::Error + Send + Sync>),
 }
 
-/// Where agents come from; see the module docs for the contract.
-pub trait AgentSource {
+/// What an agent source says of its agents: how the core starts, holds,
+/// feeds and judges them. Each source writes its own once (its module's
+/// `properties` function, e.g. [`spawned::properties`]); the launch's setup
+/// reads them through [`AgentSource::properties`] and the launch harness
+/// calls the same functions for the sources it plays, so a property
+/// changed in a source changes what the 10 000 schedules test.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AgentProperties {
     /// The kind of source (`spawned`, `remote`, `gateway`), for logs.
-    fn kind(&self) -> &'static str;
-
+    pub kind: &'static str,
     /// Whether the agents exist independently of the launch (remote agents,
     /// robots): then the core starts (or expects) every robot's agent at
     /// the beginning, instead of each when (or just before) its robot is
     /// needed. Each robot is still needed only at its turn.
-    fn all_at_once(&self) -> bool {
-        false
-    }
-
+    pub all_at_once: bool,
     /// Whether an operator puts each robot at the start (confirmed by
-    /// motion capture) before it is enabled: real robots. Default: no
-    /// (simulated agents are put there by `Deploy` itself).
-    fn needs_placement(&self) -> bool {
-        false
-    }
-
+    /// motion capture) before it is enabled: real robots (simulated agents
+    /// are put there by `Deploy` itself).
+    pub needs_placement: bool,
     /// Whether a robot judged stuck is told to `Stop`: a real robot would
-    /// keep pushing against what holds it. Default: no.
-    fn stop_when_stuck(&self) -> bool {
-        false
-    }
-
+    /// keep pushing against what holds it.
+    pub stop_when_stuck: bool,
     /// Whether the agents want the poses the launch sees when those do not
     /// come over the bus (a gateway turns bearings into its robot's frame
-    /// with them). Default: no.
-    fn wants_poses(&self) -> bool {
-        false
-    }
-
+    /// with them).
+    pub wants_poses: bool,
     /// Whether the agents sense the beacons the launch sends them
-    /// (`ToAgent::Beacon`): simulated robots. Default: yes (real robots
-    /// hear each other instead).
-    fn senses_beacons(&self) -> bool {
-        true
-    }
-
+    /// (`ToAgent::Beacon`): simulated robots and ROS 2 robots (a virtual
+    /// field); the acoustic robots hear each other instead.
+    pub senses_beacons: bool,
     /// Lockstep: how many periods a creeping robot judged stuck may be
     /// stepped with one message (`ToAgent::Ticks`; the core holds what its
     /// agent sends until each step's tick). Only agents of the launch's own
-    /// build take it. Default: 1 (one `Tick` a period).
-    fn ticks_at_once(&self) -> u32 {
-        1
-    }
-
+    /// build take more than 1 (one `Tick` a period).
+    pub ticks_at_once: u32,
     /// Whether what is sent to or from a live agent always arrives, in
     /// order, once: a bus on this host (iceoryx2, memory), where nothing is
     /// lost but what overflows a topic's buffer. Unless the launch injects
     /// `[faults]`, such an agent's ticks are never re-sent (an answer that
-    /// has not come is late, not lost). Default: no (a link that can be
-    /// cut).
-    fn keeps_commands(&self) -> bool {
-        false
-    }
-
+    /// has not come is late, not lost). No for a link that can be cut.
+    pub keeps_commands: bool,
     /// How to start an agent that never came, for the error that names the
     /// robots whose agents never registered (empty: nothing to say).
-    fn start_hint(&self) -> &'static str {
-        ""
-    }
-
+    pub start_hint: &'static str,
     /// What [`AgentSource::end_rest`] does to agents that do not exit, in
-    /// words for the terminal. Default: they are killed.
-    fn ended_by(&self) -> &'static str {
-        "killed"
+    /// words for the terminal.
+    pub ended_by: &'static str,
+    /// Whether an agent of this source that cannot be reached may come
+    /// back (remote agents, gateways elsewhere): then the core holds it for
+    /// the launch's link grace, and takes one silent for the quiet as
+    /// unreachable (a lost agent is gone otherwise).
+    pub held_when_unreachable: bool,
+    /// How long a robot's own link reported down (`FromAgent::Link { up:
+    /// false }`) must stay down before the core takes the robot as gone
+    /// (sources of real robots); none: robot links are not watched.
+    pub robot_link_grace: Option<Duration>,
+}
+
+impl AgentProperties {
+    /// A source of `kind` whose agents are started one at a time, killed
+    /// when they do not end, gone when lost, sense the beacons and take one
+    /// tick a message over a link that can lose them: what each source's
+    /// `properties` starts from.
+    pub const fn of_kind(kind: &'static str) -> Self {
+        Self {
+            kind,
+            all_at_once: false,
+            needs_placement: false,
+            stop_when_stuck: false,
+            wants_poses: false,
+            senses_beacons: true,
+            ticks_at_once: 1,
+            keeps_commands: false,
+            start_hint: "",
+            ended_by: "killed",
+            held_when_unreachable: false,
+            robot_link_grace: None,
+        }
     }
+}
+
+/// Where agents come from; see the module docs for the contract.
+pub trait AgentSource {
+    /// What this source's agents are ([`AgentProperties`]): written once
+    /// per source, by its module's `properties` function, which the launch
+    /// harness calls too.
+    fn properties(&self) -> AgentProperties;
 
     /// Starts robot `id`'s agent, or starts expecting it. The engine opens
     /// the robot's ports first, so nothing the agent sends is missed.
@@ -383,22 +395,6 @@ pub trait AgentSource {
     /// fact, no clock: the core keeps the heartbeat timer). Default:
     /// nothing to note.
     fn heard(&mut self, _id: u32) {}
-
-    /// Whether an agent of this source that cannot be reached may come
-    /// back (remote agents, gateways elsewhere): then the core holds it for
-    /// the launch's link grace, and takes one silent for the quiet as
-    /// unreachable. Default: no (a lost agent is gone).
-    fn held_when_unreachable(&self) -> bool {
-        false
-    }
-
-    /// How long a robot's own link reported down (`FromAgent::Link { up:
-    /// false }`) must stay down before the core takes the robot as gone
-    /// (sources of real robots); none: robot links are not watched
-    /// (default).
-    fn robot_link_grace(&self) -> Option<Duration> {
-        None
-    }
 
     /// Whether robot `id`'s agent is started and not yet gone.
     fn is_running(&self, id: u32) -> bool;

@@ -45,7 +45,7 @@
 //! and winding down waits for the tokens of the agents it sent `Shutdown`
 //! to go ([`AgentSource::reap`]), naming only those that stay.
 
-use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
+use super::{AgentError, AgentPlan, AgentProperties, AgentSource, Gone, Started};
 use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::naming::Member;
 use std::collections::BTreeSet;
@@ -95,25 +95,22 @@ impl Remote {
     }
 }
 
+/// What remote agents are: started elsewhere, all expected at once,
+/// held while unreachable, dropped (not killed) when they do not end.
+pub fn properties() -> AgentProperties {
+    AgentProperties {
+        all_at_once: true,
+        held_when_unreachable: true,
+        start_hint:
+            " (start each with `sim-agent --transport zenoh --connect ENDPOINT --swarm SWARM --robot K`)",
+        ended_by: "still alive on their hosts, dropped from the launch",
+        ..AgentProperties::of_kind("remote")
+    }
+}
+
 impl AgentSource for Remote {
-    fn start_hint(&self) -> &'static str {
-        " (start each with `sim-agent --transport zenoh --connect ENDPOINT --swarm SWARM --robot K`)"
-    }
-
-    fn ended_by(&self) -> &'static str {
-        "still alive on their hosts, dropped from the launch"
-    }
-
-    fn kind(&self) -> &'static str {
-        "remote"
-    }
-
-    fn all_at_once(&self) -> bool {
-        true
-    }
-
-    fn held_when_unreachable(&self) -> bool {
-        true
+    fn properties(&self) -> AgentProperties {
+        properties()
     }
 
     fn start(&mut self, id: u32, _plan: &AgentPlan<'_>) -> Result<Started, AgentError> {

@@ -13,7 +13,7 @@
 //! is the graph's business, and an agent that cannot publish ends.
 
 use super::spawned::{AgentCommand, Spawned};
-use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
+use super::{AgentError, AgentPlan, AgentProperties, AgentSource, Gone, Started};
 use bycoms_lab::robots::{RobotsFile, Ros2Entry};
 use bycoms_ros2_robot::cli::Ros2RobotArgs;
 
@@ -83,29 +83,28 @@ impl Ros2Robots {
     }
 }
 
+/// What ROS 2 robots' agents are: real robots, all expected at once,
+/// placed by an operator, told to stop when stuck, fed the poses motion
+/// capture gives and the beacons (their field is virtual); started and
+/// ended as `inner` (the spawned `ros2-robot` processes) does.
+pub fn properties(inner: AgentProperties) -> AgentProperties {
+    AgentProperties {
+        all_at_once: true,
+        needs_placement: true,
+        stop_when_stuck: true,
+        wants_poses: true,
+        senses_beacons: true,
+        ticks_at_once: 1,
+        keeps_commands: false,
+        start_hint: "",
+        robot_link_grace: None,
+        ..AgentProperties { kind: "ros2_robot", ..inner }
+    }
+}
+
 impl AgentSource for Ros2Robots {
-    fn kind(&self) -> &'static str {
-        "ros2_robot"
-    }
-
-    fn all_at_once(&self) -> bool {
-        true
-    }
-
-    fn needs_placement(&self) -> bool {
-        true
-    }
-
-    fn stop_when_stuck(&self) -> bool {
-        true
-    }
-
-    fn wants_poses(&self) -> bool {
-        true
-    }
-
-    fn senses_beacons(&self) -> bool {
-        true
+    fn properties(&self) -> AgentProperties {
+        properties(self.inner().properties())
     }
 
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {

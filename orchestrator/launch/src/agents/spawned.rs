@@ -18,7 +18,7 @@
 
 use super::spawner::{Request, Spawn, Spawner};
 use super::stderr_tap::StderrTap;
-use super::{AgentError, AgentPlan, AgentSource, Gone, Started, TICKS_AT_ONCE};
+use super::{AgentError, AgentPlan, AgentProperties, AgentSource, Gone, Started, TICKS_AT_ONCE};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
 use std::process::Child;
@@ -145,21 +145,20 @@ impl Spawned {
     }
 }
 
+/// What spawned agents are: started one at a time on this host, over a
+/// bus that keeps every command; agents of the launch's own build
+/// (`own_build`) take a creeping robot's ticks many at once.
+pub fn properties(own_build: bool) -> AgentProperties {
+    AgentProperties {
+        keeps_commands: true,
+        ticks_at_once: if own_build { TICKS_AT_ONCE } else { 1 },
+        ..AgentProperties::of_kind("spawned")
+    }
+}
+
 impl AgentSource for Spawned {
-    fn kind(&self) -> &'static str {
-        "spawned"
-    }
-
-    fn keeps_commands(&self) -> bool {
-        true
-    }
-
-    fn ticks_at_once(&self) -> u32 {
-        if self.command.own {
-            TICKS_AT_ONCE
-        } else {
-            1
-        }
+    fn properties(&self) -> AgentProperties {
+        properties(self.command.own)
     }
 
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {

@@ -14,7 +14,7 @@
 //! heartbeat timers (`orchestrator/launch/src/core/timers.rs`), a thread's end reported once
 //! by [`AgentSource::poll`].
 
-use super::{AgentError, AgentPlan, AgentSource, Gone, Started};
+use super::{AgentError, AgentPlan, AgentProperties, AgentSource, Gone, Started};
 use bycoms_protocol::bus::memory::MemoryBus;
 use bycoms_protocol::Swarm;
 use bycoms_runtime::{Lifeline, Transport};
@@ -56,21 +56,20 @@ impl Threads {
     }
 }
 
+/// What agent threads are: started one at a time in the launch's own
+/// process, over a memory bus that keeps every command, of its own build.
+pub fn properties() -> AgentProperties {
+    AgentProperties {
+        keeps_commands: true,
+        ticks_at_once: super::TICKS_AT_ONCE,
+        ended_by: "ended (their threads told to stop)",
+        ..AgentProperties::of_kind("threads")
+    }
+}
+
 impl AgentSource for Threads {
-    fn keeps_commands(&self) -> bool {
-        true
-    }
-
-    fn ticks_at_once(&self) -> u32 {
-        super::TICKS_AT_ONCE
-    }
-
-    fn kind(&self) -> &'static str {
-        "threads"
-    }
-
-    fn ended_by(&self) -> &'static str {
-        "ended (their threads told to stop)"
+    fn properties(&self) -> AgentProperties {
+        properties()
     }
 
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {

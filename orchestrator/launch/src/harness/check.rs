@@ -76,7 +76,7 @@ fn check_stops(report: &Report, schedule: &Schedule) -> Result<(), String> {
         let stuck = verdict.is_some_and(|g| g.kind == GateKind::Stopped { arrived: false });
         let arrived = verdict.is_some_and(|g| g.kind == GateKind::Stopped { arrived: true });
         let alive = report.deaths.get(i).is_some_and(Option::is_none);
-        let stop_when_stuck = schedule.seams().stop_when_stuck;
+        let stop_when_stuck = schedule.seams().agents.stop_when_stuck;
         let expected = arrived || (stuck && stop_when_stuck);
         if stops > 0 && !expected {
             return Err(format!("robot {id} told to stop ({stops}×) after {:?}", verdict.map(|g| g.kind)));
@@ -170,7 +170,7 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
     check_revoke(report, schedule)?;
     check_views(report)?;
     let seams = schedule.seams();
-    if !seams.senses_beacons && report.beacons_sent > 0 {
+    if !seams.agents.senses_beacons && report.beacons_sent > 0 {
         return Err(format!("{} beacons sent to agents that hear each other", report.beacons_sent));
     }
     if seams.poses_on_the_bus && report.forwarded > 0 {

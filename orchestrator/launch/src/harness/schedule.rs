@@ -6,6 +6,7 @@
 //! with its seed.
 
 use super::net::{NetFaults, Partition};
+use crate::agents::AgentProperties;
 use crate::setup::Seams;
 use bycoms_mocap::PlacementConfig;
 use rand::{Rng, SeedableRng};
@@ -151,63 +152,32 @@ pub struct Schedule {
 }
 
 impl Schedule {
-    /// What the seams of this schedule's launch say of themselves: spawned
-    /// agents, or remote ones (the properties `orchestrator/launch/src/agents/spawned.rs`
-    /// and `remote.rs` give), with poses on the bus, stuck robots told to
-    /// stop when the schedule says so; or the gateways' properties
-    /// (`gateways.rs`, but placement) with poses from motion capture.
+    /// What the seams of this schedule's launch say of themselves: what
+    /// the sources it plays say (their own `properties` functions, in
+    /// `orchestrator/launch/src/agents/`), and what the schedule changes.
+    /// Spawned agents or remote ones, with poses on the bus, stuck robots
+    /// told to stop when the schedule says so; gateway agents standing in
+    /// for agents on the bus (`gateway_seams`: placed by nobody, poses
+    /// still forwarded); or real gateways with poses from motion capture
+    /// (`gateways`: their placement confirmed by [`PLACEMENT`]).
     pub fn seams(&self) -> Seams {
+        use crate::agents::{gateways, remote, spawned};
+        // The launch's own agents run creeping robots ahead; remote ones
+        // may be of another build.
+        let own = spawned::properties(!self.one_tick_a_period);
+        let inner = if self.remote { remote::properties() } else { own };
         if self.gateways {
-            return self.gateway_agents_seams();
+            return Seams { agents: gateways::properties(inner, self.remote), poses_on_the_bus: false };
         }
-        let gateway = self.gateway_seams;
-        Seams {
-            kind: match (gateway, self.remote) {
-                (true, _) => "gateway",
-                (false, true) => "remote",
-                (false, false) => "spawned",
-            },
-            all_at_once: self.remote || gateway,
-            needs_placement: false,
-            stop_when_stuck: self.stop_when_stuck || gateway,
-            start_hint: "",
-            wants_poses: gateway,
-            senses_beacons: !gateway,
-            poses_on_the_bus: !gateway,
-            held_when_unreachable: self.remote,
-            robot_link_grace: gateway.then_some(crate::agents::gateways::LINK_GRACE),
-            // The launch's own agents run creeping robots ahead; remote ones
-            // may be of another build.
-            ticks_at_once: if gateway || self.remote || self.one_tick_a_period {
-                1
-            } else {
-                crate::agents::TICKS_AT_ONCE
-            },
-            // As the launch's setup does: not with faults injected.
-            keeps_commands: !(gateway || self.remote)
-                && self.net_faults.drop == 0.0
-                && self.net_faults.duplicate == 0.0,
-        }
-    }
-
-    /// The seams of real gateway agents: what `orchestrator/launch/src/agents/gateways.rs`
-    /// says of itself (here or, when remote, elsewhere): they need
-    /// placement (the harness's launches confirm it with [`PLACEMENT`]).
-    fn gateway_agents_seams(&self) -> Seams {
-        Seams {
-            kind: "gateway",
-            all_at_once: true,
-            needs_placement: true,
-            stop_when_stuck: true,
-            start_hint: "",
-            wants_poses: true,
-            senses_beacons: false,
-            poses_on_the_bus: false,
-            held_when_unreachable: self.remote,
-            robot_link_grace: Some(crate::agents::gateways::LINK_GRACE),
-            ticks_at_once: 1,
-            keeps_commands: false,
-        }
+        let mut agents = match self.gateway_seams {
+            true => AgentProperties { needs_placement: false, ..gateways::properties(inner, false) },
+            false => inner,
+        };
+        agents.stop_when_stuck |= self.stop_when_stuck;
+        // As the launch's setup does with `[faults]` on: a lossy bus keeps
+        // no command.
+        agents.keeps_commands &= self.net_faults.drop == 0.0 && self.net_faults.duplicate == 0.0;
+        Seams { agents, poses_on_the_bus: !self.gateway_seams }
     }
 
     /// Makes this schedule one of real robots behind gateways (real time,

@@ -206,20 +206,20 @@ fn exp_long_robots_1_and_2_stick_and_robot_3_reaches_the_goal() {
 /// use) names the robot and the address.
 #[test]
 fn an_address_the_lab_cannot_bind_names_the_robot_and_the_address() {
-    use crate::world::{Lab, Wiring};
-    let gateway = std::net::SocketAddr::from(([127, 0, 0, 1], 9));
-    let taken = std::net::UdpSocket::bind("127.0.0.1:0").expect("bind");
+    use crate::world::Wiring;
+    let gateway = SocketAddr::from(([127, 0, 0, 1], 9));
+    let taken = UdpSocket::bind("127.0.0.1:0").expect("bind");
     let taken = taken.local_addr().expect("addr");
     // 192.0.2.0/24 is TEST-NET-1: no interface of this host has it.
-    let foreign: std::net::SocketAddr = "192.0.2.7:47101".parse().expect("addr");
-    let scenario = crate::scenario::Scenario::builtin("exp-short").expect("built in");
+    let foreign: SocketAddr = "192.0.2.7:47101".parse().expect("addr");
+    let scenario = Scenario::builtin("exp-short").expect("built in");
     for (wired, says) in [
         ([foreign, "127.0.0.1:0".parse().expect("addr")], "robot 1's address 192.0.2.7:47101: "),
         (["127.0.0.1:0".parse().expect("addr"), taken], &*format!("robot 2's address {taken}: ")),
     ] {
         let wiring: Vec<Wiring> =
             (0..2).map(|k| Wiring { key: key(k as u32 + 1), bind: wired[k], gateway }).collect();
-        let err = Lab::wired(scenario.clone(), &wiring, 1).err().expect("refused");
+        let Err(err) = Lab::wired(scenario.clone(), &wiring, 1) else { panic!("{says}: not refused") };
         assert!(err.to_string().starts_with(says), "{err}");
     }
 }
