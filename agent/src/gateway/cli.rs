@@ -44,6 +44,11 @@ use std::time::{Duration, Instant};
 /// Longest link timeout: the gateway must report a lost link within 500 ms.
 pub const MAX_LINK_TIMEOUT_MS: u64 = 500;
 
+/// The link timeout a gateway runs with unless told otherwise, ms of robot
+/// time: the one number the launch's gateways are started with and its
+/// core's link grace is reckoned from (`launch::agents::gateways`).
+pub const LINK_TIMEOUT_MS: u64 = 300;
+
 /// The gateway of one real robot: owns the robot's UDP link and appears on
 /// the bus as an agent of kind `Real`.
 #[derive(Clone, Debug, PartialEq, clap::Args)]
@@ -71,7 +76,7 @@ pub struct GatewayArgs {
     pub speed: f64,
     /// Report the link lost after this long without an authentic robot
     /// frame, ms at speed 1 (at most 500).
-    #[arg(long, default_value_t = 300)]
+    #[arg(long, default_value_t = LINK_TIMEOUT_MS)]
     pub link_timeout_ms: u64,
     /// Bus heartbeat period, ms of wall time.
     #[arg(long, default_value_t = 100, value_parser = bycoms_runtime::seconds::millis)]
@@ -102,7 +107,7 @@ impl GatewayArgs {
             key_file: key_file.into(),
             swarm_size: None,
             speed: 1.0,
-            link_timeout_ms: 300,
+            link_timeout_ms: LINK_TIMEOUT_MS,
             heartbeat_ms: 100,
             parent_pid: None,
             bus: BusArgs::default(),

@@ -66,8 +66,8 @@ enum At {
 
 /// How long a gateway hears nothing from its robot before it reports the
 /// robot's link lost (`Link { up: false }`), in robot time (the gateway
-/// divides it by the run's speed).
-pub const LINK_TIMEOUT: Duration = Duration::from_millis(300);
+/// divides it by the run's speed): the gateway's own default.
+pub const LINK_TIMEOUT: Duration = Duration::from_millis(bycoms_agent::gateway::cli::LINK_TIMEOUT_MS);
 
 /// How long a robot link reported lost must stay lost before the robot is
 /// gone (launch time): with the gateway's 300 ms timeout, 450 ms after the
