@@ -91,7 +91,7 @@ pub struct Ros2RobotArgs {
     #[arg(long, default_value_t = 1.0)]
     pub speed: f64,
     /// Bus heartbeat period, ms.
-    #[arg(long, default_value_t = 100, value_parser = bycoms_runtime::seconds::millis)]
+    #[arg(long, default_value_t = bycoms_protocol::msg::HEARTBEAT_MS, value_parser = bycoms_runtime::seconds::millis)]
     pub heartbeat_ms: u64,
     /// The orchestrator's pid; the agent exits when its parent is no
     /// longer this process (default: its parent at start).
@@ -126,7 +126,7 @@ impl Ros2RobotArgs {
             pose_timeout_ms: 300,
             swarm_size: None,
             speed: 1.0,
-            heartbeat_ms: 100,
+            heartbeat_ms: bycoms_protocol::msg::HEARTBEAT_MS,
             parent_pid: None,
             bus: BusArgs::default(),
             failsafe: FailsafeArgs::default(),

@@ -79,7 +79,7 @@ pub struct GatewayArgs {
     #[arg(long, default_value_t = LINK_TIMEOUT_MS)]
     pub link_timeout_ms: u64,
     /// Bus heartbeat period, ms of wall time.
-    #[arg(long, default_value_t = 100, value_parser = bycoms_runtime::seconds::millis)]
+    #[arg(long, default_value_t = bycoms_protocol::msg::HEARTBEAT_MS, value_parser = bycoms_runtime::seconds::millis)]
     pub heartbeat_ms: u64,
     /// The orchestrator's pid; the gateway exits when its parent is no
     /// longer this process (default: its parent at start).
@@ -108,7 +108,7 @@ impl GatewayArgs {
             swarm_size: None,
             speed: 1.0,
             link_timeout_ms: LINK_TIMEOUT_MS,
-            heartbeat_ms: 100,
+            heartbeat_ms: bycoms_protocol::msg::HEARTBEAT_MS,
             parent_pid: None,
             bus: BusArgs::default(),
             failsafe: FailsafeArgs::default(),

@@ -280,7 +280,7 @@ impl Default for SupervisionConfig {
     fn default() -> Self {
         Self {
             register_timeout: 10.0,
-            heartbeat_interval: 0.1,
+            heartbeat_interval: bycoms_protocol::msg::HEARTBEAT_MS as f64 / 1000.0,
             heartbeat_timeout: 2.0,
             tick_timeout: 5.0,
             shutdown_grace: 1.0,

@@ -54,6 +54,11 @@ pub struct Register {
     pub failsafe_grace_ms: u32,
 }
 
+/// How often an agent sends its [`Heartbeat`] unless told otherwise, ms of
+/// wall time: the one default of every agent (`sim-agent`, `gateway`,
+/// `ros2-robot`) and of the launch's `supervision.heartbeat_interval`.
+pub const HEARTBEAT_MS: u64 = 100;
+
 /// Periodic liveness signal; `seq` increases by one per heartbeat.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Heartbeat {

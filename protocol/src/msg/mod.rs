@@ -26,7 +26,7 @@ pub mod to_agent;
 
 pub use from_agent::{
     ClockOffset, DriveState, FailsafeFired, FromAgent, Heartbeat, LinkStatus, Parked, Register, RobotKind,
-    Status, StopDone, Telemetry, TickDone,
+    Status, StopDone, Telemetry, TickDone, HEARTBEAT_MS,
 };
 pub use gate::{GateEvent, GateKind};
 pub use mocap::Pose;

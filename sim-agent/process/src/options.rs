@@ -132,7 +132,7 @@ pub struct AgentArgs {
     /// Heartbeat period, milliseconds of wall time.
     #[arg(
         long,
-        default_value_t = 100,
+        default_value_t = bycoms_protocol::msg::HEARTBEAT_MS,
         value_parser = bycoms_runtime::seconds::millis,
         requires = "terrain",
         help_heading = "Run settings (default: the orchestrator's)"
@@ -179,7 +179,7 @@ impl AgentArgs {
             speed: 1.0,
             swarm_size: None,
             parent_pid: None,
-            heartbeat_ms: 100,
+            heartbeat_ms: bycoms_protocol::msg::HEARTBEAT_MS,
             parked_heartbeat_ms: None,
             settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
             bus: BusArgs::default(),
