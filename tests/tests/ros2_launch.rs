@@ -70,6 +70,7 @@ fn a_ros2_client_finds_every_topic_and_decodes_every_sample_of_a_launch() {
         "/robot_3/pose",
         "/robot_3/state",
         "/tf",
+        "/tf_static",
     ];
     assert_eq!(names, expected, "every topic with samples (no /diagnostics: no real robot): {report}");
     for (topic, t) in topics {
@@ -81,6 +82,7 @@ fn a_ros2_client_finds_every_topic_and_decodes_every_sample_of_a_launch() {
         assert!(count * 1000 >= last * 999, "{topic}: {count} of {last} sent: {t}");
     }
     assert_eq!(topics["/map"]["count"], 1, "the map, once: {report}");
+    assert_eq!(topics["/tf_static"]["count"], 1, "the static frames, once: {report}");
     assert_eq!(topics["/gate"]["count"], 6, "deployed and stopped, each of 3 robots: {report}");
     let map = &topics["/map"]["last"];
     assert!(map[0].as_u64().is_some_and(|w| w > 0) && map[2].as_u64().is_some_and(|b| b > 0), "{map}");
@@ -221,4 +223,140 @@ fn calling_the_ros2_stop_service_stops_every_robot() {
     );
     assert!(stop["told"].as_array().is_some_and(|t| t.first() == Some(&1.into())), "{stop}");
     assert_eq!(stop["told"].as_array().map(Vec::len), stop["answered"].as_array().map(Vec::len), "{stop}");
+}
+
+/// How a transient-local subscription of rmw_zenoh subscribes
+/// (`rmw_subscription_data.cpp`, commit 04df82fd985f, `SubscriptionData::init`):
+/// zenoh-ext's advanced subscriber with subscriber detection, a query
+/// timeout of `u64::MAX` ms, history with late-publisher detection and
+/// `max_samples` = the depth, and, the topic being reliable, recovery by
+/// heartbeat.
+fn rmw_zenoh_transient_local_subscriber(
+    session: &zenoh::Session,
+    key: String,
+    depth: usize,
+) -> zenoh_ext::AdvancedSubscriber<zenoh::handlers::FifoChannelHandler<zenoh::sample::Sample>> {
+    use zenoh::Wait;
+    use zenoh_ext::{AdvancedSubscriberBuilderExt, HistoryConfig, RecoveryConfig};
+    session
+        .declare_subscriber(key)
+        .advanced()
+        .subscriber_detection()
+        .query_timeout(Duration::from_millis(u64::MAX))
+        .history(HistoryConfig::default().detect_late_publishers().max_samples(depth))
+        .recovery(RecoveryConfig::default().heartbeat())
+        .wait()
+        .expect("an advanced subscriber")
+}
+
+/// One received sample: its attachment's sequence number and its CDR.
+fn sequenced(sample: &zenoh::sample::Sample) -> (i64, Vec<u8>) {
+    let attachment = sample.attachment().expect("rmw_zenoh's attachment").to_bytes();
+    let attachment = bycoms_ros2::rmw_zenoh::Attachment::decode(&attachment).expect("a 33-byte attachment");
+    (attachment.sequence_number, sample.payload().to_bytes().to_vec())
+}
+
+/// A ROS 2 node that joins late (RViz opened during the run) gets the
+/// latched topics: zenoh-ext's own `AdvancedSubscriber` (the `unstable`
+/// dev-dependency; the product has none), configured as rmw_zenoh
+/// configures a transient-local subscription, joins a `launch --ros2`
+/// after its first beacon was published (the map and `/tf_static` went out
+/// before the run), and receives the map, `/tf_static` and the beacons'
+/// markers from the launch's caches, each once (sequence numbers never
+/// repeated), decoded; the map and the static frames are the ones sent
+/// before the run (sequence number 1).
+#[test]
+fn a_late_rmw_zenoh_subscriber_gets_the_map_static_frames_and_beacons_once() {
+    use bycoms_protocol::bus::zenoh::{Mode, ZenohBus, ZenohConfig};
+    use bycoms_ros2::display::{MarkerArray, OccupancyGrid};
+    use bycoms_ros2::msgs::{RosMessage, TfMessage};
+    use bycoms_ros2::rmw_zenoh::topic_key_expr;
+    use zenoh::Wait;
+    const WAIT: Duration = Duration::from_secs(60);
+    fn key(topic: &str, d: &'static bycoms_ros2::types::TypeDescription) -> String {
+        topic_key_expr(0, topic, d.name, &d.rihs01())
+    }
+    let (map_key, tf_key) =
+        (key("/map", OccupancyGrid::DESCRIPTION), key("/tf_static", TfMessage::DESCRIPTION));
+    let beacons_key = key("/beacons", MarkerArray::DESCRIPTION);
+
+    let config =
+        |ep: &str| ZenohConfig { mode: Mode::Router, listen: vec![ep.to_owned()], ..ZenohConfig::default() };
+    let (router, endpoint) = ZenohBus::loopback_router(config).expect("the lab's router");
+    // What the lab sees of the run before the late joiner comes: the beacons as they are sent.
+    let watcher = router.session().declare_subscriber(beacons_key.clone()).wait().expect("a watcher");
+    let swarm = swarm_name("ros2late");
+    let orch = Proc::orchestrator(&[
+        "launch",
+        "--robots",
+        "3",
+        "--swarm",
+        &swarm,
+        "--json",
+        "--clock",
+        "realtime",
+        "--speed",
+        "5",
+        "--ros2",
+        "--ros2-router",
+        &endpoint,
+    ]);
+    let first = watcher.recv_timeout(WAIT).ok().flatten().expect("the first beacon within 60 s");
+    let seen_before = sequenced(&first).0;
+
+    let late = ZenohBus::open(bycoms_runtime::zenoh_config(Mode::Client, vec![], vec![endpoint], None))
+        .expect("the late joiner's session");
+    let subscribers = [&map_key, &tf_key, &beacons_key]
+        .map(|k| rmw_zenoh_transient_local_subscriber(late.session(), k.clone(), 1));
+    // Every latched topic's cached sample arrives while the launch runs.
+    let mut got: [Vec<(i64, Vec<u8>)>; 3] = Default::default();
+    let deadline = std::time::Instant::now() + WAIT;
+    while got.iter().any(Vec::is_empty) && std::time::Instant::now() < deadline {
+        for (sub, got) in subscribers.iter().zip(&mut got) {
+            if let Ok(Some(s)) = sub.recv_timeout(Duration::from_millis(50)) {
+                got.push(sequenced(&s));
+            }
+        }
+    }
+    assert!(got.iter().all(|g| !g.is_empty()), "each latched topic within 60 s: {:?}", got.map(|g| g.len()));
+    let done = orch.wait(Duration::from_secs(180));
+    assert!(done.status.success(), "the launch failed:\n{}", done.stderr);
+    for (sub, got) in subscribers.iter().zip(&mut got) {
+        while let Ok(Some(s)) = sub.try_recv() {
+            got.push(sequenced(&s));
+        }
+    }
+    let [map, tf_static, beacons] = got;
+
+    assert_eq!(map.len(), 1, "the map once");
+    assert_eq!(map[0].0, 1, "the one sent before the run");
+    let grid = OccupancyGrid::from_cdr(&map[0].1).expect("an OccupancyGrid");
+    assert!(
+        grid.width > 0 && grid.data.len() == (grid.width * grid.height) as usize,
+        "{}×{}",
+        grid.width,
+        grid.height
+    );
+    assert!(grid.data.contains(&100) && grid.header.frame_id == "world", "blocked cells in world");
+    assert_eq!(tf_static.len(), 1, "the static frames once");
+    let tf = TfMessage::from_cdr(&tf_static[0].1).expect("a TFMessage");
+    let frames: Vec<_> =
+        tf.transforms.iter().map(|t| (t.header.frame_id.as_str(), t.child_frame_id.as_str())).collect();
+    assert_eq!((tf_static[0].0, frames), (1, vec![("world", "arena")]));
+    // The beacons: from the cache (the newest when it joined, at least the
+    // one seen before), then live; none twice.
+    let seqs: Vec<i64> = beacons.iter().map(|b| b.0).collect();
+    assert!(
+        seqs[0] >= seen_before && seqs.windows(2).all(|w| w[0] < w[1]),
+        "{seqs:?} (seen before: {seen_before})"
+    );
+    let summary = done.json();
+    let stuck = summary["robots"].as_array().expect("robots").iter().filter(|r| r["end"] == "stuck").count();
+    let last = beacons.last().expect("a beacons sample");
+    let mut r = bycoms_ros2::cdr::CdrReader::new(&last.1).expect("CDR");
+    assert_eq!(
+        r.u32().expect("the markers' count") as usize,
+        2 * stuck,
+        "a sphere and a circle per beacon: {summary}"
+    );
 }

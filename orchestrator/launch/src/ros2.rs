@@ -27,7 +27,7 @@ mod messages;
 pub mod publish;
 
 pub use config::Ros2Config;
-pub use messages::{ros_messages, run_time, WORLD_FRAME};
+pub use messages::{ros_messages, run_time, static_frames, ARENA_FRAME, MOCAP_FRAME, WORLD_FRAME};
 
 use super::config::LaunchConfig;
 use super::observe::Observer;
@@ -165,6 +165,16 @@ impl Sink for ZenohSink {
     }
 }
 
+/// The arena transform of the launch's motion capture, if its poses come
+/// from one.
+fn mocap_arena(mocap: &bycoms_mocap::MocapConfig) -> Option<&bycoms_mocap::ArenaTransform> {
+    match mocap.source {
+        bycoms_mocap::MocapSource::Natnet => mocap.natnet.as_ref().map(|n| &n.arena),
+        bycoms_mocap::MocapSource::Ros2 => mocap.ros2.as_ref().map(|r| &r.arena),
+        bycoms_mocap::MocapSource::Bus => None,
+    }
+}
+
 /// Publishes the run into the ROS 2 graph (an [`Observer`] of the launch):
 /// the run's messages ([`RunMessages`]) into the rmw_zenoh sink.
 pub struct Ros2Bridge {
@@ -189,6 +199,7 @@ impl Ros2Bridge {
 
 impl Observer for Ros2Bridge {
     fn world(&mut self, _swarm: &str, world: &World, cfg: &LaunchConfig, _scene: Option<&SharedScene>) {
+        self.run.set_static_frames(static_frames(mocap_arena(&cfg.mocap)));
         self.run.world(&world.terrain, cfg.eps, &mut self.sink);
     }
     fn pose(&mut self, pose: &Pose) {
