@@ -10,7 +10,9 @@
 //! its attachment, one node token (`<namespace>/bycoms`) and one publisher
 //! token per topic so `ros2 node list` / `ros2 topic list` find them
 //! (declared through [`bycoms_runtime::ros2`], which a robot's agent uses
-//! too; the wait for routes is the launch's own); or
+//! too; the wait for routes is the launch's own, and its transient-local
+//! publishers — the map, `/tf_static`, the beacons — answer late joiners
+//! from their caches there); or
 //! [`bag::BagSink`], a rosbag2 MCAP file (`orchestrator record export
 //! --ros2`). The bytes are `bycoms-ros2`'s, pinned against independent
 //! implementations there.
@@ -191,7 +193,7 @@ impl Ros2Bridge {
             domain_id = cfg.domain_id,
             node = %format_args!("{}/{NODE_NAME}", cfg.namespace.trim_end_matches('/')),
             topics = run.topics().len(),
-            "ros2: publishing poses, paths, /tf, /clock, the map, beacons and diagnostics over rmw_zenoh"
+            "ros2: publishing poses, paths, /tf, /clock, diagnostics and, latched for late joiners, the map, /tf_static and beacons over rmw_zenoh"
         );
         Ok(Self { run, sink })
     }
