@@ -256,6 +256,47 @@ fn sequenced(sample: &zenoh::sample::Sample) -> (i64, Vec<u8>) {
     (attachment.sequence_number, sample.payload().to_bytes().to_vec())
 }
 
+/// A late joiner's subscribers of the map, `/tf_static` and the beacons.
+type Latched = [zenoh_ext::AdvancedSubscriber<zenoh::handlers::FifoChannelHandler<zenoh::sample::Sample>>; 3];
+
+/// What `subscribers` receive until each got a sample, for at most `wait`
+/// (each sample as [`sequenced`]).
+fn first_of_each(subscribers: &Latched, wait: Duration) -> [Vec<(i64, Vec<u8>)>; 3] {
+    let mut got: [Vec<(i64, Vec<u8>)>; 3] = Default::default();
+    let deadline = std::time::Instant::now() + wait;
+    while got.iter().any(Vec::is_empty) && std::time::Instant::now() < deadline {
+        for (sub, got) in subscribers.iter().zip(&mut got) {
+            if let Ok(Some(s)) = sub.recv_timeout(Duration::from_millis(50)) {
+                got.push(sequenced(&s));
+            }
+        }
+    }
+    assert!(
+        got.iter().all(|g| !g.is_empty()),
+        "each latched topic within {wait:?}: {:?}",
+        got.each_ref().map(Vec::len)
+    );
+    got
+}
+
+/// The map and the static frames a late joiner got: each once, the one
+/// sent before the run (sequence number 1), decoded.
+fn map_and_static_frames_once(map: &[(i64, Vec<u8>)], tf_static: &[(i64, Vec<u8>)]) {
+    use bycoms_ros2::display::OccupancyGrid;
+    use bycoms_ros2::msgs::TfMessage;
+    assert_eq!(map.len(), 1, "the map once");
+    assert_eq!(map[0].0, 1, "the one sent before the run");
+    let grid = OccupancyGrid::from_cdr(&map[0].1).expect("an OccupancyGrid");
+    let (w, h) = (grid.width, grid.height);
+    assert!(w > 0 && grid.data.len() == (w * h) as usize, "{w}×{h}");
+    assert!(grid.data.contains(&100) && grid.header.frame_id == "world", "blocked cells in world");
+    assert_eq!(tf_static.len(), 1, "the static frames once");
+    let tf = TfMessage::from_cdr(&tf_static[0].1).expect("a TFMessage");
+    let frames: Vec<_> =
+        tf.transforms.iter().map(|t| (t.header.frame_id.as_str(), t.child_frame_id.as_str())).collect();
+    assert_eq!((tf_static[0].0, frames), (1, vec![("world", "arena")]));
+}
+
 /// A ROS 2 node that joins late (RViz opened during the run) gets the
 /// latched topics: zenoh-ext's own `AdvancedSubscriber` (the `unstable`
 /// dev-dependency; the product has none), configured as rmw_zenoh
@@ -309,16 +350,7 @@ fn a_late_rmw_zenoh_subscriber_gets_the_map_static_frames_and_beacons_once() {
     let subscribers = [&map_key, &tf_key, &beacons_key]
         .map(|k| rmw_zenoh_transient_local_subscriber(late.session(), k.clone(), 1));
     // Every latched topic's cached sample arrives while the launch runs.
-    let mut got: [Vec<(i64, Vec<u8>)>; 3] = Default::default();
-    let deadline = std::time::Instant::now() + WAIT;
-    while got.iter().any(Vec::is_empty) && std::time::Instant::now() < deadline {
-        for (sub, got) in subscribers.iter().zip(&mut got) {
-            if let Ok(Some(s)) = sub.recv_timeout(Duration::from_millis(50)) {
-                got.push(sequenced(&s));
-            }
-        }
-    }
-    assert!(got.iter().all(|g| !g.is_empty()), "each latched topic within 60 s: {:?}", got.map(|g| g.len()));
+    let mut got = first_of_each(&subscribers, WAIT);
     let done = orch.wait(Duration::from_secs(180));
     assert!(done.status.success(), "the launch failed:\n{}", done.stderr);
     for (sub, got) in subscribers.iter().zip(&mut got) {
@@ -328,21 +360,7 @@ fn a_late_rmw_zenoh_subscriber_gets_the_map_static_frames_and_beacons_once() {
     }
     let [map, tf_static, beacons] = got;
 
-    assert_eq!(map.len(), 1, "the map once");
-    assert_eq!(map[0].0, 1, "the one sent before the run");
-    let grid = OccupancyGrid::from_cdr(&map[0].1).expect("an OccupancyGrid");
-    assert!(
-        grid.width > 0 && grid.data.len() == (grid.width * grid.height) as usize,
-        "{}×{}",
-        grid.width,
-        grid.height
-    );
-    assert!(grid.data.contains(&100) && grid.header.frame_id == "world", "blocked cells in world");
-    assert_eq!(tf_static.len(), 1, "the static frames once");
-    let tf = TfMessage::from_cdr(&tf_static[0].1).expect("a TFMessage");
-    let frames: Vec<_> =
-        tf.transforms.iter().map(|t| (t.header.frame_id.as_str(), t.child_frame_id.as_str())).collect();
-    assert_eq!((tf_static[0].0, frames), (1, vec![("world", "arena")]));
+    map_and_static_frames_once(&map, &tf_static);
     // The beacons: from the cache (the newest when it joined, at least the
     // one seen before), then live; none twice.
     let seqs: Vec<i64> = beacons.iter().map(|b| b.0).collect();
