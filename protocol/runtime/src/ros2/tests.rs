@@ -150,6 +150,13 @@ fn a_latched_publisher_answers_a_late_joiner_with_its_last_samples() {
     let sent: Vec<Attachment> = (0..3u8).map(|i| map.put(&[0, 1, 0, 0, i]).expect("put")).collect();
     let key = map.wire().key_expr.clone();
     let late = router.session();
+    // The cache's token, declared after its queryable on the same session:
+    // once the router has it, it has the queryable too (what a late
+    // joiner's publisher detection relies on).
+    let tokens = late.liveliness().declare_subscriber(format!("{key}/@adv/pub/**")).history(true);
+    let tokens = tokens.wait().expect("a token subscriber");
+    let token = tokens.recv_timeout(WAIT).ok().flatten().expect("the cache's token");
+    assert_eq!(token.key_expr().as_str(), format!("{key}/@adv/pub/{}/uhlc/_", session.zid()));
     let ask = |params: &str| -> Vec<zenoh::sample::Sample> {
         // Every reply, as the advanced subscriber asks (no consolidation: all have the topic's key).
         let get = late.get(format!("{key}/@adv/**?_anyke{params}")).consolidation(ConsolidationMode::None);
@@ -173,9 +180,6 @@ fn a_latched_publisher_answers_a_late_joiner_with_its_last_samples() {
     assert!(history[0].timestamp() < history[1].timestamp(), "timestamps increase");
     assert_eq!(ask(";_max=1").len(), 1);
     assert_eq!(ask(";_sn=5..").len(), 0, "our samples have no sequence number");
-    let tokens = late.liveliness().get(format!("{key}/@adv/pub/**")).timeout(WAIT).wait().expect("tokens");
-    let token = tokens.recv().expect("the cache's token").into_result().expect("a token");
-    assert_eq!(token.key_expr().as_str(), format!("{key}/@adv/pub/{}/uhlc/_", session.zid()));
     let none = late.get(format!("{}/@adv/**?_anyke", volatile.wire().key_expr)).timeout(WAIT).wait();
     assert!(none.expect("get").recv().is_err(), "a volatile publisher keeps nothing");
 }
