@@ -378,3 +378,100 @@ fn a_late_rmw_zenoh_subscriber_gets_the_map_static_frames_and_beacons_once() {
         "a sphere and a circle per beacon: {summary}"
     );
 }
+
+/// `geometry_msgs/msg/PoseStamped` as ros2-client's serde CDR reads it
+/// (positional: the fields in the message's order), written here from the
+/// message definitions, not from our encoder.
+#[derive(serde::Deserialize, Debug)]
+struct OraclePoseStamped {
+    header: (i32, u32, String),
+    position: (f64, f64, f64),
+    orientation: (f64, f64, f64, f64),
+}
+
+/// The topics of a 3-robot `launch --ros2` with the default namespace.
+fn launch_topics() -> Vec<String> {
+    let mut topics: Vec<String> =
+        ["/clock", "/tf", "/tf_static", "/map", "/beacons", "/diagnostics", "/gate"].map(String::from).into();
+    for k in 1..=3 {
+        topics.extend(["pose", "path", "state"].map(|t| format!("/robot_{k}/{t}")));
+    }
+    topics
+}
+
+/// ros2-client 0.12.1's zenoh backend (an independent Rust implementation
+/// of rmw_zenoh; its interop report passes against rmw_zenoh_cpp) as a
+/// second oracle: subscribed before the launch, on a client session of the
+/// lab's router, it finds the launch's node and one publisher of each of
+/// its topics in its graph cache (from our liveliness tokens), and decodes
+/// robot 1's poses with its own CDR (serde), the last one the launch's.
+/// Not checked with it: the `/emergency` service (its client puts requests
+/// on a placeholder type hash, `RIHS01_000…`, for types outside its table,
+/// std_srvs/Trigger among them, so no rmw_zenoh server, ours included,
+/// matches: deploy/ros2/README.md).
+#[test]
+fn ros2_client_finds_the_launchs_node_and_topics_and_decodes_its_poses() {
+    use bycoms_protocol::bus::zenoh::{Mode, ZenohBus, ZenohConfig};
+    use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, QosProfile};
+    let config =
+        |ep: &str| ZenohConfig { mode: Mode::Router, listen: vec![ep.to_owned()], ..ZenohConfig::default() };
+    let (_router, endpoint) = ZenohBus::loopback_router(config).expect("the lab's router");
+    let mut zenoh_config = zenoh::Config::default();
+    for (key, value) in [
+        ("mode", "\"client\"".to_owned()),
+        ("connect/endpoints", format!("[\"{endpoint}\"]")),
+        ("scouting/multicast/enabled", "false".to_owned()),
+    ] {
+        zenoh_config.insert_json5(key, &value).unwrap_or_else(|e| panic!("{key}: {e}"));
+    }
+    let options = ros2_client::zenoh::ContextOptions::new().domain_id(0).zenoh_config(zenoh_config);
+    let context = ros2_client::zenoh::Context::with_options(options).expect("ros2-client's context");
+    let name = NodeName::new("/", "oracle").expect("a node name");
+    let node = context.new_node(name, NodeOptions::new().enable_rosout(false)).expect("a node");
+    let pose_name = Name::new("/robot_1", "pose").expect("a topic name");
+    let topic = node.create_topic(
+        &pose_name,
+        MessageTypeName::new("geometry_msgs", "PoseStamped"),
+        &QosProfile::subscription_default(),
+    );
+    let poses = node.create_subscription::<OraclePoseStamped>(&topic, None).expect("a subscription");
+
+    let swarm = swarm_name("ros2oracle");
+    let args = ["launch", "--robots", "3", "--swarm", &swarm, "--json", "--ros2", "--ros2-router", &endpoint];
+    let launch = std::thread::spawn({
+        let args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
+        move || {
+            Proc::orchestrator(&args.iter().map(String::as_str).collect::<Vec<_>>())
+                .wait(Duration::from_secs(180))
+        }
+    });
+    // Its graph: the node, then a publisher of every topic (their tokens come with the launch's start).
+    let listed = bycoms_tests::wait_for_every(Duration::from_millis(20), Duration::from_secs(60), || {
+        let published = launch_topics().iter().all(|t| context.publisher_count(t) == 1);
+        (context.node_names().contains(&"/bycoms".to_owned()) && published).then_some(())
+    });
+    let mut got = Vec::new();
+    let drained = bycoms_tests::wait_for_every(Duration::from_millis(20), Duration::from_secs(180), || {
+        while let Ok(Some((pose, _info))) = poses.try_take() {
+            got.push(pose);
+        }
+        launch.is_finished().then_some(())
+    });
+    let done = launch.join().expect("the launch's thread");
+    while let Ok(Some((pose, _info))) = poses.try_take() {
+        got.push(pose);
+    }
+    assert!(listed.is_some(), "the node and every topic: nodes {:?}", context.node_names());
+    assert!(drained.is_some() && done.status.success(), "the launch:\n{}", done.stderr);
+    let summary = done.json();
+    let robot = &summary["robots"][0];
+    let last = got.last().expect("robot 1's poses");
+    assert_eq!(last.header.2, "world", "{last:?}");
+    let (x, y, z, w) = last.orientation;
+    assert!((x * x + y * y + z * z + w * w - 1.0).abs() < 1e-9 && x == 0.0 && y == 0.0, "a yaw: {last:?}");
+    assert_eq!(
+        (robot["x"].as_f64(), robot["y"].as_f64()),
+        (Some(last.position.0), Some(last.position.1)),
+        "{last:?}"
+    );
+}
