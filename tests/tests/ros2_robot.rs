@@ -9,7 +9,9 @@
 //! liveliness token (its node `bycoms_robot_2`), decodes every sample with
 //! rosbags and checks its attachment. Then the stand-in's liveliness goes:
 //! past `--orchestrator-grace` the agent sends zero and exits with 4, and
-//! the last command the client saw is zero.
+//! the last command the client saw is zero. ros2-client's zenoh backend, an
+//! independent Rust rmw_zenoh, subscribes to the same `cmd_vel` and decodes
+//! the same commands with its own CDR.
 //!
 //! Needs python3 with the PyPI packages: `#[ignore = "needs …"]`, run by
 //! `.ci/run` (which installs them) with `--include-ignored`.
@@ -59,6 +61,8 @@ fn a_ros2_client_decodes_every_cmd_vel_and_the_failsafe_ends_with_zero() {
     .iter()
     .map(|s| s.to_string())
     .collect();
+    // ros2-client's zenoh backend, a second (Rust) client, subscribed as well.
+    let (_oracle, oracle_cmd_vel) = ros2_client_cmd_vel(&router);
     let agent = Proc::start(&bin("ros2-robot"), &args);
     wait_report(&reports, "Register", |m| matches!(m, FromAgent::Register(r) if r.robot == ROBOT));
     commands
@@ -101,8 +105,52 @@ fn a_ros2_client_decodes_every_cmd_vel_and_the_failsafe_ends_with_zero() {
     assert!(cmd_vel["moving"].as_u64().expect("moving") >= 20, "{report}");
     // Turning left towards a goal 0.5 rad to the left, at the robot's limits.
     assert_eq!(cmd_vel["last"], serde_json::json!([0.0, 0.0]), "the last command is zero: {report}");
+    let mut oracle = Vec::new();
+    while let Ok(Some((twist, _info))) = oracle_cmd_vel.try_take() {
+        oracle.push(twist);
+    }
+    let moving = oracle.iter().filter(|t| t.linear.0 != 0.0 || t.angular.2 != 0.0).count();
+    assert!(moving >= 20, "ros2-client decoded {moving} moving commands: {oracle:?}");
+    let last = oracle.last().expect("ros2-client got commands");
+    assert_eq!((last.linear.0, last.angular.2), (0.0, 0.0), "ros2-client's last command is zero too");
     let sent = sent_commands(&done.stderr);
     assert_eq!(cmd_vel["last_seq"].as_u64(), Some(sent), "the client saw the agent's last command: {report}");
+}
+
+/// `geometry_msgs/msg/Twist` as ros2-client's serde CDR reads it (its two
+/// vectors, positional), written from the message's definition.
+#[derive(serde::Deserialize, Debug)]
+struct OracleTwist {
+    linear: (f64, f64, f64),
+    angular: (f64, f64, f64),
+}
+
+/// ros2-client's zenoh backend (an independent Rust rmw_zenoh) on a client
+/// session of `router`: its context (kept alive by the caller) and a
+/// subscription of robot 2's `cmd_vel` (it listens on any type hash).
+fn ros2_client_cmd_vel(
+    router: &str,
+) -> (ros2_client::zenoh::Context, ros2_client::zenoh::Subscription<OracleTwist>) {
+    use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, QosProfile};
+    let mut config = zenoh::Config::default();
+    for (key, value) in [
+        ("mode", "\"client\"".to_owned()),
+        ("connect/endpoints", format!("[\"{router}\"]")),
+        ("scouting/multicast/enabled", "false".to_owned()),
+    ] {
+        config.insert_json5(key, &value).unwrap_or_else(|e| panic!("{key}: {e}"));
+    }
+    let options = ros2_client::zenoh::ContextOptions::new().domain_id(0).zenoh_config(config);
+    let context = ros2_client::zenoh::Context::with_options(options).expect("ros2-client's context");
+    let name = NodeName::new("/", "oracle").expect("a node name");
+    let node = context.new_node(name, NodeOptions::new().enable_rosout(false)).expect("a node");
+    let topic = node.create_topic(
+        &Name::new("/robot_2", "cmd_vel").expect("a topic name"),
+        MessageTypeName::new("geometry_msgs", "Twist"),
+        &QosProfile::subscription_default(),
+    );
+    let subscription = node.create_subscription::<OracleTwist>(&topic, None).expect("a subscription");
+    (context, subscription)
 }
 
 /// Waits (at most 30 s) for a report `wanted` accepts.
