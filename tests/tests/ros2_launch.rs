@@ -389,21 +389,54 @@ struct OraclePoseStamped {
     orientation: (f64, f64, f64, f64),
 }
 
-/// The topics of a 3-robot `launch --ros2` with the default namespace.
-fn launch_topics() -> Vec<String> {
-    let mut topics: Vec<String> =
-        ["/clock", "/tf", "/tf_static", "/map", "/beacons", "/diagnostics", "/gate"].map(String::from).into();
+/// What a 3-robot `launch --ros2` with the default namespace offers, with
+/// the DDS type names rmw_zenoh writes in its tokens (written out here from
+/// the message packages, not from our encoder): its topics, and its
+/// `/emergency` service.
+fn launch_graph() -> std::collections::BTreeMap<String, &'static str> {
+    let mut graph: std::collections::BTreeMap<String, &'static str> = [
+        ("/clock", "rosgraph_msgs::msg::dds_::Clock_"),
+        ("/tf", "tf2_msgs::msg::dds_::TFMessage_"),
+        ("/tf_static", "tf2_msgs::msg::dds_::TFMessage_"),
+        ("/map", "nav_msgs::msg::dds_::OccupancyGrid_"),
+        ("/beacons", "visualization_msgs::msg::dds_::MarkerArray_"),
+        ("/diagnostics", "diagnostic_msgs::msg::dds_::DiagnosticArray_"),
+        ("/gate", "bycoms_msgs::msg::dds_::GateEvent_"),
+        ("/emergency", "std_srvs::srv::dds_::Trigger_"),
+    ]
+    .map(|(t, ty)| (t.to_owned(), ty))
+    .into();
     for k in 1..=3 {
-        topics.extend(["pose", "path", "state"].map(|t| format!("/robot_{k}/{t}")));
+        graph.insert(format!("/robot_{k}/pose"), "geometry_msgs::msg::dds_::PoseStamped_");
+        graph.insert(format!("/robot_{k}/path"), "nav_msgs::msg::dds_::Path_");
+        graph.insert(format!("/robot_{k}/state"), "bycoms_msgs::msg::dds_::RobotState_");
     }
-    topics
+    graph
+}
+
+/// The publishers and service servers of node `/bycoms` that `next` (a
+/// ros2-client graph event stream's next event, if any) declared so far:
+/// name → DDS type.
+fn bycoms_entities(
+    mut next: impl FnMut() -> Option<ros2_client::GraphEvent>,
+    seen: &mut std::collections::BTreeMap<String, String>,
+) {
+    use ros2_client::{EntityKind, GraphEvent};
+    while let Some(event) = next() {
+        let GraphEvent::EntityDeclared(e) = event else { continue };
+        let served = matches!(e.kind, EntityKind::Publisher | EntityKind::ServiceServer);
+        if let (true, "/bycoms", Some(name), Some(ty)) = (served, e.node_name.as_str(), e.name, e.type_name) {
+            seen.insert(name, ty);
+        }
+    }
 }
 
 /// ros2-client 0.12.1's zenoh backend (an independent Rust implementation
 /// of rmw_zenoh; its interop report passes against rmw_zenoh_cpp) as a
 /// second oracle: subscribed before the launch, on a client session of the
 /// lab's router, it finds the launch's node and one publisher of each of
-/// its topics in its graph cache (from our liveliness tokens), and decodes
+/// its topics, each with its type, and the `/emergency` service with its
+/// type, in its graph (from our liveliness tokens), and decodes
 /// robot 1's poses with its own CDR (serde), the last one the launch's.
 /// Not checked with it: the `/emergency` service (its client puts requests
 /// on a placeholder type hash, `RIHS01_000…`, for types outside its table,
@@ -436,6 +469,7 @@ fn ros2_client_finds_the_launchs_node_and_topics_and_decodes_its_poses() {
     );
     let poses = node.create_subscription::<OraclePoseStamped>(&topic, None).expect("a subscription");
 
+    let events = context.graph_event_stream();
     let swarm = swarm_name("ros2oracle");
     let args = ["launch", "--robots", "3", "--swarm", &swarm, "--json", "--ros2", "--ros2-router", &endpoint];
     let launch = std::thread::spawn({
@@ -445,10 +479,15 @@ fn ros2_client_finds_the_launchs_node_and_topics_and_decodes_its_poses() {
                 .wait(Duration::from_secs(180))
         }
     });
-    // Its graph: the node, then a publisher of every topic (their tokens come with the launch's start).
+    // Its graph: the node, then every topic and the service with their
+    // types (their tokens come with the launch's start).
+    let (expected, mut seen) = (launch_graph(), std::collections::BTreeMap::new());
     let listed = bycoms_tests::wait_for_every(Duration::from_millis(20), Duration::from_secs(60), || {
-        let published = launch_topics().iter().all(|t| context.publisher_count(t) == 1);
-        (context.node_names().contains(&"/bycoms".to_owned()) && published).then_some(())
+        bycoms_entities(|| events.try_recv().ok(), &mut seen);
+        let all = expected.iter().all(|(t, ty)| seen.get(t).is_some_and(|s| s == ty));
+        let published =
+            expected.keys().filter(|t| *t != "/emergency").all(|t| context.publisher_count(t) == 1);
+        (context.node_names().contains(&"/bycoms".to_owned()) && all && published).then_some(())
     });
     let mut got = Vec::new();
     let drained = bycoms_tests::wait_for_every(Duration::from_millis(20), Duration::from_secs(180), || {
@@ -461,7 +500,7 @@ fn ros2_client_finds_the_launchs_node_and_topics_and_decodes_its_poses() {
     while let Ok(Some((pose, _info))) = poses.try_take() {
         got.push(pose);
     }
-    assert!(listed.is_some(), "the node and every topic: nodes {:?}", context.node_names());
+    assert!(listed.is_some(), "the node and every topic: nodes {:?}, seen {seen:?}", context.node_names());
     assert!(drained.is_some() && done.status.success(), "the launch:\n{}", done.stderr);
     let summary = done.json();
     let robot = &summary["robots"][0];
