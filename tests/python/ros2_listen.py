@@ -56,6 +56,7 @@ def parse_token(token):
 SHARED_TOPICS = {
     "/clock": "rosgraph_msgs/msg/Clock",
     "/tf": "tf2_msgs/msg/TFMessage",
+    "/tf_static": "tf2_msgs/msg/TFMessage",
     "/map": "nav_msgs/msg/OccupancyGrid",
     "/beacons": "visualization_msgs/msg/MarkerArray",
     "/gate": "bycoms_msgs/msg/GateEvent",

@@ -10,7 +10,9 @@
 //! rosbags and checks its attachment. Then the agent is ended — the
 //! stand-in's liveliness goes (past `--orchestrator-grace` the agent sends
 //! zero and exits with 4), or Ctrl-C (zero, then 130) — and the last
-//! command the client saw is zero, the last the agent sent.
+//! command the client saw is zero, the last the agent sent. ros2-client's
+//! zenoh backend, an independent Rust rmw_zenoh, subscribes to the same
+//! `cmd_vel` and decodes the same commands with its own CDR.
 //!
 //! Needs python3 with the PyPI packages: `#[ignore = "needs …"]`, run by
 //! `.ci/run` (which installs them) with `--include-ignored`.
@@ -34,6 +36,9 @@ struct Driven {
     /// The stand-in orchestrator's liveliness token (`None`: gone).
     alive: Option<bycoms_protocol::bus::zenoh::AliveToken>,
     agent: Proc,
+    /// ros2-client's context (kept alive) and its subscription of the
+    /// agent's `cmd_vel`.
+    oracle: (ros2_client::zenoh::Context, ros2_client::zenoh::Subscription<OracleTwist>),
 }
 
 impl Driven {
@@ -69,6 +74,8 @@ impl Driven {
         .iter()
         .map(|s| s.to_string())
         .collect();
+        // ros2-client's zenoh backend, a second (Rust) client, subscribed as well.
+        let oracle = ros2_client_cmd_vel(&router);
         let agent = Proc::start(&bin("ros2-robot"), &args);
         wait_report(&reports, "Register", |m| matches!(m, FromAgent::Register(r) if r.robot == ROBOT));
         commands
@@ -89,7 +96,7 @@ impl Driven {
                 driving += u32::from(s.mode == 1);
             }
         }
-        Self { client, alive: Some(alive), agent }
+        Self { client, alive: Some(alive), agent, oracle }
     }
 
     /// The agent's end (`code`), and what the client saw: the agent's
@@ -123,6 +130,14 @@ impl Driven {
             Some(sent),
             "the client saw the agent's last command: {report}"
         );
+        let mut oracle = Vec::new();
+        while let Ok(Some((twist, _info))) = self.oracle.1.try_take() {
+            oracle.push(twist);
+        }
+        let moving = oracle.iter().filter(|t| t.linear.0 != 0.0 || t.angular.2 != 0.0).count();
+        assert!(moving >= 20, "ros2-client decoded {moving} moving commands: {oracle:?}");
+        let last = oracle.last().expect("ros2-client got commands");
+        assert_eq!((last.linear.0, last.angular.2), (0.0, 0.0), "ros2-client's last command is zero too");
         report
     }
 }
@@ -146,6 +161,42 @@ fn ctrl_c_sends_zero_before_the_agent_exits() {
     bycoms_tests::signal(driven.agent.pid(), nix::sys::signal::Signal::SIGINT);
     driven.ended(130);
 }
+/// `geometry_msgs/msg/Twist` as ros2-client's serde CDR reads it (its two
+/// vectors, positional), written from the message's definition.
+#[derive(serde::Deserialize, Debug)]
+struct OracleTwist {
+    linear: (f64, f64, f64),
+    angular: (f64, f64, f64),
+}
+
+/// ros2-client's zenoh backend (an independent Rust rmw_zenoh) on a client
+/// session of `router`: its context (kept alive by the caller) and a
+/// subscription of robot 2's `cmd_vel` (it listens on any type hash).
+fn ros2_client_cmd_vel(
+    router: &str,
+) -> (ros2_client::zenoh::Context, ros2_client::zenoh::Subscription<OracleTwist>) {
+    use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions, QosProfile};
+    let mut config = zenoh::Config::default();
+    for (key, value) in [
+        ("mode", "\"client\"".to_owned()),
+        ("connect/endpoints", format!("[\"{router}\"]")),
+        ("scouting/multicast/enabled", "false".to_owned()),
+    ] {
+        config.insert_json5(key, &value).unwrap_or_else(|e| panic!("{key}: {e}"));
+    }
+    let options = ros2_client::zenoh::ContextOptions::new().domain_id(0).zenoh_config(config);
+    let context = ros2_client::zenoh::Context::with_options(options).expect("ros2-client's context");
+    let name = NodeName::new("/", "oracle").expect("a node name");
+    let node = context.new_node(name, NodeOptions::new().enable_rosout(false)).expect("a node");
+    let topic = node.create_topic(
+        &Name::new("/robot_2", "cmd_vel").expect("a topic name"),
+        MessageTypeName::new("geometry_msgs", "Twist"),
+        &QosProfile::subscription_default(),
+    );
+    let subscription = node.create_subscription::<OracleTwist>(&topic, None).expect("a subscription");
+    (context, subscription)
+}
+
 /// Waits (at most 30 s) for a report `wanted` accepts.
 fn wait_report(
     reports: &bycoms_protocol::bus::TypedSubscriber<

@@ -10,7 +10,9 @@
 //! its attachment, one node token (`<namespace>/bycoms`) and one publisher
 //! token per topic so `ros2 node list` / `ros2 topic list` find them
 //! (declared through [`bycoms_runtime::ros2`], which a robot's agent uses
-//! too; the wait for routes is the launch's own); or
+//! too; the wait for routes is the launch's own, and its transient-local
+//! publishers — the map, `/tf_static`, the beacons — answer late joiners
+//! from their caches there); or
 //! [`bag::BagSink`], a rosbag2 MCAP file (`orchestrator record export
 //! --ros2`). The bytes are `bycoms-ros2`'s, pinned against independent
 //! implementations there.
@@ -27,7 +29,7 @@ mod messages;
 pub mod publish;
 
 pub use config::Ros2Config;
-pub use messages::{ros_messages, run_time, WORLD_FRAME};
+pub use messages::{ros_messages, run_time, static_frames, ARENA_FRAME, MOCAP_FRAME, WORLD_FRAME};
 
 use super::config::LaunchConfig;
 use super::observe::Observer;
@@ -165,6 +167,16 @@ impl Sink for ZenohSink {
     }
 }
 
+/// The arena transform of the launch's motion capture, if its poses come
+/// from one.
+fn mocap_arena(mocap: &bycoms_mocap::MocapConfig) -> Option<&bycoms_mocap::ArenaTransform> {
+    match mocap.source {
+        bycoms_mocap::MocapSource::Natnet => mocap.natnet.as_ref().map(|n| &n.arena),
+        bycoms_mocap::MocapSource::Ros2 => mocap.ros2.as_ref().map(|r| &r.arena),
+        bycoms_mocap::MocapSource::Bus => None,
+    }
+}
+
 /// Publishes the run into the ROS 2 graph (an [`Observer`] of the launch):
 /// the run's messages ([`RunMessages`]) into the rmw_zenoh sink.
 pub struct Ros2Bridge {
@@ -181,7 +193,7 @@ impl Ros2Bridge {
             domain_id = cfg.domain_id,
             node = %format_args!("{}/{NODE_NAME}", cfg.namespace.trim_end_matches('/')),
             topics = run.topics().len(),
-            "ros2: publishing poses, paths, /tf, /clock, the map, beacons and diagnostics over rmw_zenoh"
+            "ros2: publishing poses, paths, /tf, /clock, diagnostics and, latched for late joiners, the map, /tf_static and beacons over rmw_zenoh"
         );
         Ok(Self { run, sink })
     }
@@ -189,6 +201,7 @@ impl Ros2Bridge {
 
 impl Observer for Ros2Bridge {
     fn world(&mut self, _swarm: &str, world: &World, cfg: &LaunchConfig, _scene: Option<&SharedScene>) {
+        self.run.set_static_frames(static_frames(mocap_arena(&cfg.mocap)));
         self.run.world(&world.terrain, cfg.eps, &mut self.sink);
     }
     fn pose(&mut self, pose: &Pose) {

@@ -22,6 +22,20 @@
 //! * a mocap topic nobody publishes, or published with another type or
 //!   type hash (samples on another key are never seen): [`GraphWatch`]
 //!   warns once, after `mocap.ros2.graph_timeout`, per topic.
+//!
+//! What is not said, and why (issue 51): rmw_zenoh's router config sets
+//! `routing.router.peers_failover_brokering: false`, so the router does
+//! not carry data between two *peers* (rmw_zenoh #929: a zenoh tool in peer
+//! mode sees no ROS 2 topic). It cannot hide ours: the launch is a
+//! *client* of the lab's router (`ros2.router`), which a router always
+//! routes for, or a *router* itself. And the launch cannot learn the
+//! setting anyway: zenoh 1.10's admin space (`@/<zid>/router`, answered
+//! only by a router with `adminspace.enabled`, off by default) tells the
+//! router's id, version, metadata, locators and sessions but not its
+//! configuration (`@/<zid>/router/config/**` takes only puts, with write
+//! permission), and zenoh 1.9 and later ignore the setting (deprecated, "no
+//! effect"). The test `a_routers_admin_space_does_not_tell_its_failover_brokering`
+//! pins both facts against a router with the setting off.
 
 use super::agents::ros2_robots::Graph;
 use super::ros2::Ros2Config;
@@ -293,6 +307,52 @@ mod tests {
         assert_eq!(said.len(), 2, "{said:?}");
         assert!(said[0].contains("/r2 is published as") && said[0].contains(&wrong), "{said:?}");
         assert!(said[1].contains("nobody publishes /r3") && said[1].contains("\"/other\""), "{said:?}");
+    }
+
+    /// Issue 51, item 4: a lab router with `peers_failover_brokering` off
+    /// and its admin space on (rmw_zenoh's router config, with `adminspace`
+    /// enabled) tells a client of it, on `@/<zid>/router`, its version and
+    /// sessions (the launch's among them, a client) but not that setting,
+    /// and nothing at all under `@/<zid>/router/config/**`: the launch
+    /// cannot learn it (module docs). Should a zenoh release expose it, this
+    /// fails and the warning can be built.
+    #[test]
+    fn a_routers_admin_space_does_not_tell_its_failover_brokering() {
+        let endpoint = crate::transport::with_free_port("tcp/127.0.0.1:0").expect("a free port");
+        let mut config = zenoh::Config::default();
+        for (key, value) in [
+            ("mode", "\"router\"".to_owned()),
+            ("listen/endpoints", format!("[\"{endpoint}\"]")),
+            ("scouting/multicast/enabled", "false".to_owned()),
+            ("adminspace/enabled", "true".to_owned()),
+            ("routing/router/peers_failover_brokering", "false".to_owned()),
+        ] {
+            config.insert_json5(key, &value).unwrap_or_else(|e| panic!("{key}: {e}"));
+        }
+        let router = zenoh::open(config).wait().expect("the lab's router");
+        let cfg = Ros2Config { router: Some(endpoint), ..Ros2Config::default() };
+        let client = session(&cfg, None).expect("a router answers").expect("a session");
+        let ask = |key: String| -> Vec<String> {
+            let replies = client.get(key).timeout(Duration::from_secs(5)).wait().expect("a query");
+            let mut got = vec![];
+            while let Ok(reply) = replies.recv() {
+                let sample = reply.into_result().expect("a sample");
+                got.push(sample.payload().try_to_string().expect("JSON text").into_owned());
+            }
+            got
+        };
+        let state = ask(format!("@/{}/router", router.zid()));
+        assert_eq!(state.len(), 1, "the router's state: {state:?}");
+        let json: serde_json::Value = serde_json::from_str(&state[0]).expect("JSON");
+        assert!(json["version"].as_str().is_some_and(|v| v.starts_with("v1.10")), "{json}");
+        let client_zid = client.zid().to_string();
+        let sessions = json["sessions"].as_array().expect("sessions");
+        assert!(
+            sessions.iter().any(|s| s["peer"] == client_zid.as_str() && s["whatami"] == "client"),
+            "{json}"
+        );
+        assert!(!state[0].contains("brokering") && !state[0].contains("routing"), "no configuration: {json}");
+        assert_eq!(ask(format!("@/{}/router/config/**", router.zid())), Vec::<String>::new());
     }
 
     /// Over loopback: no router at the endpoint is an error naming it and

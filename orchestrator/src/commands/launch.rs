@@ -204,7 +204,8 @@ pub struct Args {
     #[arg(long)]
     pub no_prespawn: bool,
     /// Publish the run into a ROS 2 graph over rmw_zenoh: each robot's pose,
-    /// path and state, /tf, /clock, the map, beacons, gate events and real
+    /// path and state, /tf, /clock, the map, /tf_static, beacons (these three
+    /// latched for late joiners), gate events and real
     /// robots' diagnostics, with node and publisher tokens (`[ros2]` in the config:
     /// domain id, namespace; default domain 0, namespace /). Needs --transport zenoh.
     #[arg(long)]

@@ -177,6 +177,23 @@ impl<'a> CdrReader<'a> {
         Ok(u32::from_le_bytes(self.take()?))
     }
 
+    /// A `float32`.
+    pub fn f32(&mut self) -> Result<f32, CdrError> {
+        Ok(f32::from_le_bytes(self.take()?))
+    }
+
+    /// A sequence of bytes (`uint8[]`, `int8[]`): its count, then the bytes.
+    pub fn bytes(&mut self) -> Result<Vec<u8>, CdrError> {
+        let len = self.u32()? as usize;
+        let at = self.at;
+        let bytes = at
+            .checked_add(len)
+            .and_then(|end| self.body.get(at..end))
+            .ok_or(CdrError::Truncated { at, len: self.body.len() })?;
+        self.at = at + len;
+        Ok(bytes.to_vec())
+    }
+
     /// A `float64`.
     pub fn f64(&mut self) -> Result<f64, CdrError> {
         Ok(f64::from_le_bytes(self.take()?))

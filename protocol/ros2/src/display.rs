@@ -10,7 +10,7 @@
 //! pins hashes and bytes against PyPI `rosbags`.
 
 use crate::cdr::CdrWriter;
-use crate::msgs::{Header, Point, Pose, RosMessage, Vector3, HEADER, POINT, POSE, TIME, VECTOR3};
+use crate::msgs::{Header, Point, Pose, RosMessage, Time, Vector3, HEADER, POINT, POSE, TIME, VECTOR3};
 use crate::types::{Field, Primitive as P, TypeDescription};
 
 description!(
@@ -238,7 +238,7 @@ pub struct OccupancyGrid {
     /// When and in which frame.
     pub header: Header,
     /// `info.map_load_time`.
-    pub map_load_time: crate::msgs::Time,
+    pub map_load_time: Time,
     /// `info.resolution`: metres (frame units) per cell.
     pub resolution: f32,
     /// Cells per row.
@@ -249,6 +249,23 @@ pub struct OccupancyGrid {
     pub origin: Pose,
     /// The cells, `width × height`, row by row from the origin.
     pub data: Vec<i8>,
+}
+
+impl OccupancyGrid {
+    /// Decodes one CDR message (encapsulation header included); nothing may
+    /// follow it (what a late joiner gets from the map is read back with it).
+    pub fn from_cdr(message: &[u8]) -> Result<Self, crate::cdr::CdrError> {
+        let mut r = crate::cdr::CdrReader::new(message)?;
+        let header = Header::read(&mut r)?;
+        let map_load_time = Time { sec: r.i32()?, nanosec: r.u32()? };
+        let (resolution, width, height) = (r.f32()?, r.u32()?, r.u32()?);
+        let position = Point { x: r.f64()?, y: r.f64()?, z: r.f64()? };
+        let orientation = crate::msgs::Quaternion { x: r.f64()?, y: r.f64()?, z: r.f64()?, w: r.f64()? };
+        let data = r.bytes()?.into_iter().map(|b| i8::from_le_bytes([b])).collect();
+        r.finish()?;
+        let origin = Pose { position, orientation };
+        Ok(Self { header, map_load_time, resolution, width, height, origin, data })
+    }
 }
 
 impl RosMessage for OccupancyGrid {

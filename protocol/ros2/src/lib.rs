@@ -11,7 +11,9 @@
 //!   the `Twist` / `TwistStamped` velocity commands of a ground robot) and
 //!   the `PoseStamped` a ROS 2 motion-capture driver sends;
 //! * [`rmw_zenoh`]: key expressions, liveliness tokens, GIDs, attachments,
-//!   with the rmw_zenoh sources (file and commit) each follows.
+//!   with the rmw_zenoh sources (file and commit) each follows;
+//! * [`latched`]: a transient-local publisher's cache for late joiners
+//!   (zenoh-ext's advanced publisher, as zenoh's stable API can make it).
 //!
 //! Why its own crate: it is std but needs none of the bus, and the no_std
 //! protocol core stays as it is. Checked against independent
@@ -29,6 +31,7 @@ macro_rules! description {
 pub mod bycoms_msgs;
 pub mod cdr;
 pub mod display;
+pub mod latched;
 pub mod msgs;
 pub mod rmw_zenoh;
 pub mod types;

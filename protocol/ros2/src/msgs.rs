@@ -200,7 +200,7 @@ pub struct Header {
 }
 
 impl Header {
-    fn read(r: &mut CdrReader<'_>) -> Result<Self, CdrError> {
+    pub(crate) fn read(r: &mut CdrReader<'_>) -> Result<Self, CdrError> {
         Ok(Self { stamp: Time::read(r)?, frame_id: r.string()? })
     }
 }
@@ -466,6 +466,26 @@ pub struct TfMessage {
     pub transforms: Vec<TransformStamped>,
 }
 
+impl TfMessage {
+    /// Decodes one CDR message (encapsulation header included); nothing may
+    /// follow it (what a late joiner gets from `/tf_static` is read back
+    /// with it).
+    pub fn from_cdr(message: &[u8]) -> Result<Self, CdrError> {
+        whole(message, |r| {
+            let n = r.u32()?;
+            let mut transforms = Vec::new();
+            for _ in 0..n {
+                let header = Header::read(r)?;
+                let child_frame_id = r.string()?;
+                let translation = Vector3(Point::read(r)?);
+                let transform = Transform { translation, rotation: Quaternion::read(r)? };
+                transforms.push(TransformStamped { header, child_frame_id, transform });
+            }
+            Ok(Self { transforms })
+        })
+    }
+}
+
 impl RosMessage for TfMessage {
     const DESCRIPTION: &'static TypeDescription = &TF_MESSAGE;
     fn write(&self, w: &mut CdrWriter) {
@@ -542,6 +562,41 @@ impl RosMessage for TriggerResponse {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// What a late joiner gets from `/tf_static` and the map reads back as it was written.
+    #[test]
+    fn a_tf_message_and_an_occupancy_grid_decode_back() {
+        let header = Header { stamp: Time { sec: 3, nanosec: 7 }, frame_id: "world".into() };
+        let rotation = Quaternion { x: 0.5, y: -0.5, z: 0.5, w: 0.5 };
+        let translation = Vector3(Point { x: 1.0, y: -2.0, z: 3.5 });
+        let tf = TfMessage {
+            transforms: vec![
+                TransformStamped {
+                    header: header.clone(),
+                    child_frame_id: "arena".into(),
+                    ..Default::default()
+                },
+                TransformStamped {
+                    header: header.clone(),
+                    child_frame_id: "mocap".into(),
+                    transform: Transform { translation, rotation },
+                },
+            ],
+        };
+        assert_eq!(TfMessage::from_cdr(&tf.to_cdr()), Ok(tf.clone()));
+        let grid = crate::display::OccupancyGrid {
+            header,
+            resolution: 0.5,
+            width: 3,
+            height: 2,
+            data: vec![0, 100, -1, 0, 0, 100],
+            ..Default::default()
+        };
+        assert_eq!(crate::display::OccupancyGrid::from_cdr(&grid.to_cdr()), Ok(grid.clone()));
+        let mut longer = tf.to_cdr();
+        longer.push(0);
+        assert!(TfMessage::from_cdr(&longer).is_err(), "nothing may follow");
+    }
 
     #[test]
     fn time_from_nanos_floors_and_keeps_nanoseconds_in_range() {

@@ -12,21 +12,39 @@
 //! else a caller needs before it publishes, stays with the caller: this
 //! module never waits.
 //!
+//! A transient-local publisher (`Qos::transient_local(depth)`: the map,
+//! `/tf_static`, the beacons) is *latched*: it keeps its last `depth`
+//! samples and answers a late joiner's history query with them, as
+//! rmw_zenoh's publishers do through zenoh-ext's `AdvancedPublisher`. That
+//! one is behind zenoh's `unstable` API, so the cache is made here from
+//! stable pieces (a [`zenoh::query::Queryable`] on the cache's key, a
+//! liveliness token on the same key, a timestamp on every sample, the
+//! rmw_zenoh attachment kept with it); the keys, the query's parameters and
+//! which zenoh-ext and rmw_zenoh files were followed are in
+//! [`bycoms_ros2::latched`]. It is here, in the one publisher builder,
+//! because the launch and a robot's agent share it: any transient-local
+//! publisher of ours answers late joiners.
+//!
 //! The ids follow rmw_zenoh's: the node is entity 0 of its session's
 //! context, its publishers 1, 2, … in the order they are declared. The
 //! node's token lives as long as the [`Ros2Node`] or any of its
 //! [`Ros2Publisher`]s; neither keeps the session open (zenoh's publishers
 //! and tokens hold it weakly, and so do these).
 
-use std::sync::Arc;
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex, PoisonError};
 
+use bycoms_ros2::latched::{cache_key_expr, HistoryQuery};
 use bycoms_ros2::msgs::RosMessage;
+use bycoms_ros2::rmw_zenoh::policy;
 use bycoms_ros2::rmw_zenoh::{
     is_fully_qualified, liveliness_token, Attachment, Endpoint, EntityKind, Node, Publisher, Qos, TokenError,
 };
 use bycoms_ros2::types::TypeDescription;
 use thiserror::Error;
 use zenoh::liveliness::LivelinessToken;
+use zenoh::query::{Query, Queryable};
+use zenoh::time::{Timestamp, TimestampId, NTP64};
 use zenoh::Wait;
 
 /// Why a node or a publisher could not be declared, or a message not sent.
@@ -150,6 +168,10 @@ impl Ros2Node {
             .declare_publisher(wire.key_expr.clone())
             .wait()
             .map_err(|source| Ros2Error::Declare { what: format!("the publisher of {topic}"), source })?;
+        let latch = match qos.durability == policy::TRANSIENT_LOCAL {
+            true => Some(Latch::declare(session, &wire.key_expr, qos.depth, topic)?),
+            false => None,
+        };
         let token = declare_token(session, wire.token.clone())?;
         self.next_id += 1;
         Ok(Ros2Publisher {
@@ -159,6 +181,7 @@ impl Ros2Node {
             description,
             wire,
             publisher,
+            latch,
         })
     }
 }
@@ -174,6 +197,96 @@ pub struct Ros2Publisher {
     description: &'static TypeDescription,
     wire: Publisher,
     publisher: zenoh::pubsub::Publisher<'static>,
+    latch: Option<Latch>,
+}
+
+/// One sample as a latched publisher keeps it: what a late joiner gets is
+/// the very sample (payload, attachment, timestamp), so a subscriber that
+/// got it live and again from the cache delivers it once.
+#[derive(Debug, Clone)]
+struct Cached {
+    payload: Vec<u8>,
+    attachment: Vec<u8>,
+    timestamp: Timestamp,
+}
+
+/// A transient-local publisher's cache of its last `depth` samples, its
+/// queryable and its liveliness token (see the module docs).
+struct Latch {
+    cache: Arc<Mutex<VecDeque<Cached>>>,
+    depth: usize,
+    id: TimestampId,
+    last: NTP64,
+    _queryable: Queryable<()>,
+    _token: LivelinessToken,
+}
+
+impl std::fmt::Debug for Latch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Latch").field("depth", &self.depth).finish_non_exhaustive()
+    }
+}
+
+impl Latch {
+    /// The cache of the publisher on `key_expr` (of `topic`), keeping
+    /// `depth` samples (at least one): its queryable first, then its token
+    /// (zenoh-ext's order), so a subscriber that sees the token finds the
+    /// queryable.
+    fn declare(session: &zenoh::Session, key_expr: &str, depth: u64, topic: &str) -> Result<Self, Ros2Error> {
+        let depth = usize::try_from(depth.max(1)).unwrap_or(usize::MAX);
+        let cache_key = cache_key_expr(key_expr, &session.zid().to_string());
+        let cache = Arc::new(Mutex::new(VecDeque::<Cached>::new()));
+        let answers = Arc::clone(&cache);
+        let data_key = key_expr.to_owned();
+        let queryable = session
+            .declare_queryable(cache_key.clone())
+            .callback(move |query| answer(&query, &data_key, &answers))
+            .wait()
+            .map_err(|source| Ros2Error::Declare { what: format!("the cache of {topic}"), source })?;
+        let token = declare_token(session, cache_key)?;
+        let id = TimestampId::from(session.zid());
+        Ok(Self { cache, depth, id, last: NTP64(0), _queryable: queryable, _token: token })
+    }
+
+    /// The next sample's timestamp: the wall clock with the session's id,
+    /// always later than the last (a subscriber delivers a timestamped
+    /// sample only if it is newer than the last of its source).
+    fn next_timestamp(&mut self) -> Timestamp {
+        let since = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+        let now = NTP64::from(since);
+        self.last = if now > self.last { now } else { NTP64(self.last.0 + 1) };
+        Timestamp::new(self.last, self.id)
+    }
+
+    /// Keeps `sample`, dropping the oldest past `depth`.
+    fn keep(&self, sample: Cached) {
+        let mut cache = self.cache.lock().unwrap_or_else(PoisonError::into_inner);
+        if cache.len() >= self.depth {
+            cache.pop_front();
+        }
+        cache.push_back(sample);
+    }
+}
+
+/// Answers a history query from `cache`: the samples its `_max` and `_sn`
+/// choose ([`HistoryQuery`]), oldest first, each on the topic's key
+/// `data_key` with its attachment and timestamp. (zenoh-ext asks for
+/// congestion control `Block` on its replies; zenoh 1.10 ignores a reply's
+/// own and uses the query's.)
+fn answer(query: &Query, data_key: &str, cache: &Mutex<VecDeque<Cached>>) {
+    let params = query.parameters();
+    let chosen = HistoryQuery::new(params.get("_max"), params.get("_sn"));
+    let samples: Vec<Cached> = {
+        let cache = cache.lock().unwrap_or_else(PoisonError::into_inner);
+        cache.range(chosen.answer(cache.len())).cloned().collect()
+    };
+    for sample in samples {
+        let reply =
+            query.reply(data_key, sample.payload).attachment(sample.attachment).timestamp(sample.timestamp);
+        if let Err(e) = reply.wait() {
+            tracing::warn!(key = data_key, error = %e, "ros2: a late joiner's history query was not answered");
+        }
+    }
 }
 
 impl Ros2Publisher {
@@ -192,11 +305,24 @@ impl Ros2Publisher {
     /// Puts one message's CDR (encapsulation header included) with the
     /// next attachment, stamped with the system clock as rmw_zenoh stamps
     /// it; returns that attachment.
+    /// A latched publisher also keeps it, with a timestamp, for late joiners.
     pub fn put(&mut self, cdr: &[u8]) -> Result<Attachment, Ros2Error> {
         let attachment = self.wire.next_attachment(wall_clock_ns());
-        let put = self.publisher.put(cdr.to_vec()).attachment(attachment.encode().to_vec());
+        let bytes = attachment.encode().to_vec();
+        let mut put = self.publisher.put(cdr.to_vec()).attachment(bytes.clone());
+        if let Some(latch) = &mut self.latch {
+            let timestamp = latch.next_timestamp();
+            // Kept before it is put, as zenoh-ext's cache does.
+            latch.keep(Cached { payload: cdr.to_vec(), attachment: bytes, timestamp });
+            put = put.timestamp(timestamp);
+        }
         put.wait().map_err(|source| Ros2Error::Put { key: self.wire.key_expr.clone(), source })?;
         Ok(attachment)
+    }
+
+    /// Whether it keeps its last samples for late joiners (transient local).
+    pub fn latched(&self) -> bool {
+        self.latch.is_some()
     }
 
     /// Whether a subscriber matches it now (zenoh drops a put at its

@@ -291,8 +291,8 @@ mod tests {
         let stats = summary.stats.expect("statistics");
         assert_eq!(
             stats.message_count,
-            (1 + 2) + 20 * 3 + 2,
-            "map, 2 states, 20 × (clock, pose, tf), 2 paths"
+            (1 + 1 + 2) + 20 * 3 + 2,
+            "map, static frames, 2 states, 20 × (clock, pose, tf), 2 paths"
         );
         let mut stream = mcap::read::LinearReader::new(&bytes).expect("reader");
         let header = stream.find_map(|r| match r {
@@ -315,7 +315,7 @@ mod tests {
             yaml.starts_with("rosbag2_bagfile_information:\n  version: 9\n  storage_identifier: mcap\n"),
             "{yaml}"
         );
-        assert!(yaml.contains("message_count: 65\n"), "{yaml}");
+        assert!(yaml.contains("message_count: 66\n"), "{yaml}");
     }
 
     #[test]

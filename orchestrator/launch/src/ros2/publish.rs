@@ -6,8 +6,11 @@
 //! the live graph cannot differ.
 //!
 //! Topics (`<ns>` is the configured namespace): `/clock`, `/tf`,
-//! `<ns>/map` (the terrain, latched: transient local, depth 1),
-//! `<ns>/beacons` (each beacon and its ε circle), `/diagnostics` (real
+//! `<ns>/map` (the terrain), `/tf_static` (the static frames:
+//! [`super::static_frames`]) and `<ns>/beacons` (each beacon and its ε
+//! circle), these three latched (transient local, depth 1: each message is
+//! the whole state, so the last one is what a late joiner needs; their
+//! publishers answer late joiners, `bycoms_runtime::ros2`), `/diagnostics` (real
 //! robots: battery, link, failsafe, from the gateway's reports), `<ns>/gate`
 //! (`bycoms_msgs/msg/GateEvent`, each gate decision), and per robot
 //! `<ns>/robot_<k>/pose`, `<ns>/robot_<k>/path` and `<ns>/robot_<k>/state`
@@ -30,13 +33,13 @@ use bycoms_ros2::display::{
 };
 use bycoms_ros2::msgs::{
     Clock, Header, Path, Point, Pose as RosPose, PoseStamped, Quaternion, RosMessage, TfMessage, Time,
-    Vector3,
+    TransformStamped, Vector3,
 };
 use bycoms_ros2::rmw_zenoh::Qos;
 use bycoms_ros2::types::TypeDescription;
 use bycoms_sim::terrain::Terrain;
 
-use super::{ros_messages, run_time, Ros2Config, WORLD_FRAME};
+use super::{ros_messages, run_time, static_frames, Ros2Config, WORLD_FRAME};
 
 /// One topic of the run in the ROS 2 graph.
 #[derive(Debug, Clone)]
@@ -69,8 +72,9 @@ const MAP: usize = 2;
 const BEACONS: usize = 3;
 const DIAGNOSTICS: usize = 4;
 const GATE: usize = 5;
+const TF_STATIC: usize = 6;
 /// Topics before the robots' own, [`PER_ROBOT`] each (pose, path, state).
-const SHARED: usize = 6;
+const SHARED: usize = 7;
 const PER_ROBOT: usize = 3;
 
 /// A robot's trail and when its path was last sent.
@@ -90,6 +94,7 @@ pub struct RunMessages {
     eps: f64,
     now_us: u64,
     clock_us: Option<u64>,
+    statics: Vec<TransformStamped>,
 }
 
 impl RunMessages {
@@ -101,9 +106,11 @@ impl RunMessages {
             topic("/clock".into(), Clock::DESCRIPTION, Qos::reliable(10)),
             topic("/tf".into(), TfMessage::DESCRIPTION, Qos::reliable(10)),
             topic(format!("{ns}/map"), OccupancyGrid::DESCRIPTION, Qos::transient_local(1)),
-            topic(format!("{ns}/beacons"), MarkerArray::DESCRIPTION, Qos::reliable(10)),
+            topic(format!("{ns}/beacons"), MarkerArray::DESCRIPTION, Qos::transient_local(1)),
             topic("/diagnostics".into(), DiagnosticArray::DESCRIPTION, Qos::reliable(10)),
             topic(format!("{ns}/gate"), RosGateEvent::DESCRIPTION, Qos::reliable(10)),
+            // tf2's StaticTransformBroadcaster's QoS.
+            topic("/tf_static".into(), TfMessage::DESCRIPTION, Qos::transient_local(1)),
         ];
         for k in 1..=robots {
             topics.push(topic(cfg.pose_topic(k), PoseStamped::DESCRIPTION, Qos::reliable(10)));
@@ -111,7 +118,14 @@ impl RunMessages {
             topics.push(topic(format!("{ns}/robot_{k}/state"), RobotState::DESCRIPTION, Qos::reliable(10)));
         }
         let trails = (0..robots).map(|_| Trail::default()).collect();
-        Self { topics, trails, beacons: BTreeMap::new(), eps: 0.0, now_us: 0, clock_us: None }
+        let statics = static_frames(None);
+        Self { topics, trails, beacons: BTreeMap::new(), eps: 0.0, now_us: 0, clock_us: None, statics }
+    }
+
+    /// The static frames `/tf_static` will carry (default:
+    /// [`static_frames`] of no motion capture).
+    pub fn set_static_frames(&mut self, frames: Vec<TransformStamped>) {
+        self.statics = frames;
     }
 
     /// Every topic, in the order [`Sink::send`] numbers them.
@@ -123,11 +137,12 @@ impl RunMessages {
         sink.send(topic, time_us.saturating_mul(1_000), &msg.to_cdr());
     }
 
-    /// The run's world: the terrain as the (latched) map at time 0, and ε,
-    /// the beacons' circles' radius.
+    /// The run's world: the terrain as the (latched) map and the static
+    /// frames on `/tf_static` at time 0, and ε, the beacons' circles' radius.
     pub fn world(&mut self, terrain: &Terrain, eps: f64, sink: &mut dyn Sink) {
         self.eps = eps;
         self.send(sink, MAP, 0, &occupancy_grid(terrain));
+        self.send(sink, TF_STATIC, 0, &TfMessage { transforms: self.statics.clone() });
         for index in 0..self.trails.len() {
             self.send_state(index, robot_state::WAITING, sink);
         }
@@ -401,6 +416,7 @@ mod tests {
                 "/lab/beacons",
                 "/diagnostics",
                 "/lab/gate",
+                "/tf_static",
                 "/lab/robot_1/pose",
                 "/lab/robot_1/path",
                 "/lab/robot_1/state",
@@ -409,7 +425,14 @@ mod tests {
                 "/lab/robot_2/state"
             ]
         );
-        assert_eq!(run.topics()[MAP].qos, Qos::transient_local(1), "the map is latched");
+        for latched in [MAP, TF_STATIC, BEACONS] {
+            assert_eq!(
+                run.topics()[latched].qos,
+                Qos::transient_local(1),
+                "{} is latched",
+                run.topics()[latched].name
+            );
+        }
     }
 
     #[test]
@@ -424,6 +447,7 @@ mod tests {
             }
         }
         assert_eq!(sent.on(&run, "/map"), [0]);
+        assert_eq!(sent.on(&run, "/tf_static"), [0], "the static frames once, before the run");
         assert_eq!(sent.on(&run, "/clock").len(), 30, "one /clock per run time, not per robot");
         assert_eq!(sent.on(&run, "/tf").len(), 60);
         assert_eq!(sent.on(&run, "/robot_1/pose").len(), 30);

@@ -4,6 +4,7 @@ use bycoms_ros2::msgs::{PoseStamped, Twist};
 use bycoms_ros2::rmw_zenoh::{graph_key_expr, TokenView};
 use std::collections::BTreeSet;
 use std::time::{Duration, Instant};
+use zenoh::query::ConsolidationMode;
 use zenoh::sample::SampleKind;
 
 /// Every wait of these tests is bounded by this.
@@ -129,4 +130,56 @@ fn bad_names_another_session_and_another_type_are_refused() {
     assert_eq!(first.sequence_number, 1);
     let second = node.publisher(session, "/cmd_vel_2", Twist::DESCRIPTION, Qos::reliable(10)).expect("ok");
     assert!(second.wire().token.contains("/0/2/MP/"), "the second entity: {}", second.wire().token);
+}
+
+/// A transient-local publisher keeps its last `depth` samples and answers
+/// a late joiner's history query (as zenoh-ext's advanced subscriber asks
+/// it: `<key>/@adv/**`, `_max`, replies on the topic's key accepted) with
+/// the very samples: payload, attachment, timestamp; its cache's token is
+/// in the graph. A volatile one has neither.
+#[test]
+fn a_latched_publisher_answers_a_late_joiner_with_its_last_samples() {
+    let (router, client) = router_and_client();
+    let session = client.session();
+    let mut node = Ros2Node::declare(session, DOMAIN, "/", "bycoms").expect("the node");
+    let mut map =
+        node.publisher(session, "/map", PoseStamped::DESCRIPTION, Qos::transient_local(2)).expect("map");
+    let volatile =
+        node.publisher(session, "/pose", PoseStamped::DESCRIPTION, Qos::reliable(10)).expect("pose");
+    assert!(map.latched() && !volatile.latched());
+    let sent: Vec<Attachment> = (0..3u8).map(|i| map.put(&[0, 1, 0, 0, i]).expect("put")).collect();
+    let key = map.wire().key_expr.clone();
+    let late = router.session();
+    // The cache's token, declared after its queryable on the same session:
+    // once the router has it, it has the queryable too (what a late
+    // joiner's publisher detection relies on).
+    let tokens = late.liveliness().declare_subscriber(format!("{key}/@adv/pub/**")).history(true);
+    let tokens = tokens.wait().expect("a token subscriber");
+    let token = tokens.recv_timeout(WAIT).ok().flatten().expect("the cache's token");
+    assert_eq!(token.key_expr().as_str(), format!("{key}/@adv/pub/{}/uhlc/_", session.zid()));
+    let ask = |params: &str| -> Vec<zenoh::sample::Sample> {
+        // Every reply, as the advanced subscriber asks (no consolidation: all have the topic's key).
+        let get = late.get(format!("{key}/@adv/**?_anyke{params}")).consolidation(ConsolidationMode::None);
+        let replies = get.timeout(WAIT).wait().expect("get");
+        let mut samples = vec![];
+        while let Ok(reply) = replies.recv() {
+            samples.push(reply.into_result().expect("a sample, not an error"));
+        }
+        samples
+    };
+    let history = ask(";_max=2");
+    let payloads: Vec<Vec<u8>> = history.iter().map(|s| s.payload().to_bytes().to_vec()).collect();
+    assert_eq!(payloads, [vec![0, 1, 0, 0, 1], vec![0, 1, 0, 0, 2]], "the newest two, oldest first");
+    for (sample, attachment) in history.iter().zip(&sent[1..]) {
+        assert_eq!(sample.key_expr().as_str(), key, "on the topic's key");
+        let got = sample.attachment().map(|a| a.to_bytes().to_vec());
+        assert_eq!(got, Some(attachment.encode().to_vec()), "its rmw_zenoh attachment");
+        let stamp = sample.timestamp().expect("a timestamp");
+        assert_eq!(stamp.get_id(), &TimestampId::from(session.zid()), "the session's id");
+    }
+    assert!(history[0].timestamp() < history[1].timestamp(), "timestamps increase");
+    assert_eq!(ask(";_max=1").len(), 1);
+    assert_eq!(ask(";_sn=5..").len(), 0, "our samples have no sequence number");
+    let none = late.get(format!("{}/@adv/**?_anyke", volatile.wire().key_expr)).timeout(WAIT).wait();
+    assert!(none.expect("get").recv().is_err(), "a volatile publisher keeps nothing");
 }
