@@ -222,6 +222,7 @@ impl Recording {
             goal: world.goal,
             config: cfg,
             applied_poses: true,
+            ros2_robots: &crate::agents::ros2_robots::recorded_topics(cfg),
         };
         self.json(&Topics::new(swarm).run(), schema::RUN, &meta);
     }
