@@ -73,25 +73,20 @@ impl Ros2Robots {
     }
 }
 
-/// Each ROS 2 robot's velocity topic and message type, for the run
-/// metadata (`ros2_robots`), when the launch drives ROS 2 robots
-/// (`agents.source = "real"` with a robots file of `kind = "ros2"`): the
-/// topics its agents publish on (the robots file's, else under `[ros2]
-/// namespace`), for `record export --ros2`. Empty otherwise, and when the
-/// robots file does not read (the launch says why when it opens it).
-pub fn recorded_topics(cfg: &crate::LaunchConfig) -> Vec<bycoms_record::schema::Ros2RobotTopic> {
-    let path = match (&cfg.agents.source, &cfg.agents.robots_file) {
-        (super::choice::AgentSourceKind::Real, Some(path)) => path,
-        _ => return Vec::new(),
-    };
-    let Ok(file) = RobotsFile::read(path) else { return Vec::new() };
-    let namespace = cfg.ros2.clone().unwrap_or_default().namespace;
+/// Each ROS 2 robot of `file` among robots `1..=robots`: its velocity
+/// topic (the file's, else under `namespace`), message and frame, for the
+/// run metadata (`ros2_robots`) that `record export --ros2` reads.
+pub fn recorded_topics(
+    file: &RobotsFile,
+    namespace: &str,
+    robots: u32,
+) -> Vec<bycoms_record::schema::Ros2RobotTopic> {
     file.ros2
         .iter()
-        .filter(|r| (1..=cfg.robots).contains(&r.id))
+        .filter(|r| (1..=robots).contains(&r.id))
         .map(|r| bycoms_record::schema::Ros2RobotTopic {
             robot: r.id,
-            cmd_vel: r.topic(&namespace),
+            cmd_vel: r.topic(namespace),
             message: r.message.as_str().into(),
             r#type: r.message.description().name.into(),
             frame_id: r.frame_id.clone(),
