@@ -55,7 +55,7 @@ use writer::{Batch, Item, Writer, BATCH_ITEMS, QUEUE_BATCHES};
 /// them (`agents.source = "real"` with a robots file of `kind = "ros2"`);
 /// empty otherwise, and when the robots file does not read (the launch says
 /// why when it opens it).
-fn ros2_robots(cfg: &LaunchConfig) -> Vec<bycoms_record::schema::Ros2RobotTopic> {
+fn ros2_robots(cfg: &LaunchConfig) -> Vec<schema::Ros2RobotTopic> {
     let path = match (&cfg.agents.source, &cfg.agents.robots_file) {
         (super::config::AgentSourceKind::Real, Some(path)) => path,
         _ => return Vec::new(),
