@@ -13,9 +13,11 @@
 //!   the run's [`SWARM_TIME_LIMIT_S`], with ε and dwell [`SWARM_GATE`]), at real speed: per robot, the
 //!   commands seen, its spells of commanding (a deployed robot commands once
 //!   per control period until a second after its stop; a spell ends at a
-//!   silence of a second or more, as between a stop's last zero and the
-//!   zero its agent sends as it ends), the periods missed within them (a
-//!   gap of g periods, g ≥ 1.5, misses round(g) − 1) and the longest gap,
+//!   silence of a second or more), the periods missed within them (a gap
+//!   of g periods, g ≥ 1.5, misses round(g) − 1) and the longest gap (the
+//!   robot's last command, the zero every agent sends as it ends, is left
+//!   out of the spells: it follows its stop's zeros after however long the
+//!   run went on),
 //!   and the CPU its `ros2-robot` process used (utime + stime from
 //!   `/proc/<pid>/stat`, sampled every [`CPU_EVERY`] while it lives) over
 //!   its observed life. BYCOMS deploys one robot at a time, so at most one
@@ -290,8 +292,10 @@ fn print_swarm(done: &Finished, agents: &BTreeMap<u32, Watched>, commands: &[See
     let (mut total_missed, mut total_cpu, mut driven) = (0, 0.0, 0);
     for robot in 1..=ROBOTS {
         let times: Vec<Instant> = commands.iter().filter(|c| c.robot == robot).map(|c| c.at).collect();
-        let driving = commands.iter().any(|c| c.robot == robot && c.linear != 0.0);
-        let (n, spells, missed, longest) = spells(&times);
+        let driving = commands.iter().any(|c| c.robot == robot && (c.linear != 0.0 || c.angular != 0.0));
+        // The last: the zero its agent sent as it ended.
+        let (_, spells, missed, longest) = spells(times.split_last().map_or(&[][..], |(_, before)| before));
+        let n = times.len();
         let w = agents.values().find(|w| w.robot == robot);
         let cpu = w.map_or(f64::NAN, |w| w.ticks as f64 / hz);
         let life = w.map_or(f64::NAN, |w| (w.last - w.first).as_secs_f64());
@@ -299,13 +303,13 @@ fn print_swarm(done: &Finished, agents: &BTreeMap<u32, Watched>, commands: &[See
             "  {robot:5}  {n:8}  {spells:6}  {missed:6}  {:14.1}  {cpu:5.2}  {:5.2}{}",
             longest.as_secs_f64() * 1e3,
             100.0 * cpu / life,
-            if driving { "  (drove)" } else { "" }
+            if driving { "  (moved)" } else { "" }
         );
         (total_missed, total_cpu, driven) =
             (total_missed + missed, total_cpu + cpu, driven + usize::from(driving));
     }
     println!(
-        "  {driven} robots drove; missed periods in all: {total_missed}; agents' CPU in all {total_cpu:.2} s \
+        "  {driven} robots were sent a non-zero command; missed periods in all: {total_missed}; agents' CPU in all {total_cpu:.2} s \
          ({:.3} s per robot); lab {:.2} s",
         total_cpu / f64::from(ROBOTS),
         lab_cpu.map_or(f64::NAN, |t| t as f64 / hz)
