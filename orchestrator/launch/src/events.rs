@@ -90,6 +90,6 @@ pub struct RunMeta<'a> {
     /// Each ROS 2 robot's velocity topic and message type (robots of
     /// `kind = "ros2"`): where `record export --ros2` puts the commands
     /// their agents reported. Absent without ROS 2 robots.
-    #[serde(skip_serializing_if = "<[_]>::is_empty")]
+    #[serde(default, skip_serializing_if = "<[_]>::is_empty")]
     pub ros2_robots: &'a [bycoms_record::schema::Ros2RobotTopic],
 }
