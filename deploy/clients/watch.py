@@ -113,6 +113,11 @@ def decode_pose(payload):
     return pose
 
 
+def zigzag(n):
+    """A zigzag varint's signed value (postcard's i64)."""
+    return (n >> 1) ^ -(n & 1)
+
+
 def decode_from_agent(payload):
     """FromAgent: only Status (index 2) matters to a watcher; the others are
     decoded so that malformed ones are still reported."""
@@ -140,6 +145,16 @@ def decode_from_agent(payload):
         msg = {"kind": "failsafe", "robot": robot, "silent_ms": r.varint(5)}
     elif variant == 7:  # Parked (lockstep: the robot will never move again)
         msg = {"kind": "parked", "robot": robot, "step": r.varint()}
+    elif variant == 8:  # Clock (the agent's host clock against the orchestrator's)
+        msg = {"kind": "clock", "robot": robot, "offset_us": zigzag(r.varint()), "round_trip_us": r.varint(5)}
+    elif variant == 9:  # StopDone (the answer to Stop)
+        msg = {"kind": "stop_done", "robot": robot, "on_link": r.boolean()}
+    elif variant == 10:  # Commanded (a ROS 2 robot's velocity command, as published)
+        msg = {"kind": "commanded", "robot": robot, "step": r.varint(), "linear": r.f64(), "angular": r.f64()}
+        msg["sensed"] = None
+        if r.boolean():
+            intensity = r.f64()
+            msg["sensed"] = {"intensity": intensity, "gradient": r.f64() if r.boolean() else None}
     else:
         raise DecodeError(f"unknown FromAgent variant {variant}")
     r.finish()

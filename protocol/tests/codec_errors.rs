@@ -46,7 +46,7 @@ fn unsupported_version() {
 #[test]
 fn unknown_variant() {
     assert_eq!(decode::<ToAgent>(&[V, 9]), Err(CodecError::UnknownVariant));
-    assert_eq!(decode::<FromAgent>(&[V, 10, 1, 1]), Err(CodecError::UnknownVariant));
+    assert_eq!(decode::<FromAgent>(&[V, 11, 1, 1]), Err(CodecError::UnknownVariant));
     // Telemetry with DriveState 4.
     let mut telemetry = vec![V, 4, 1, 1, 4, 1];
     telemetry.extend_from_slice(&[0; 40]);

@@ -108,6 +108,20 @@ fn from_agent() {
     check(FromAgent::StopDone(StopDone { robot: RobotId(4), on_link: true }), &[V, 9, 4, 1]);
 }
 
+#[test]
+fn commanded() {
+    let sensed = Sensed { intensity: 1.0, gradient: Some(PI) };
+    let driven =
+        Commanded { robot: RobotId(2), step: 300, linear: 0.25, angular: -FRAC_PI_2, sensed: Some(sensed) };
+    let head: &[u8] = &[V, 10, 2, 0xAC, 0x02];
+    check(FromAgent::Commanded(driven), &cat(&[head, &F0_25, &F_NEG_PI_2, &[1], &F1, &[1], &F_PI]));
+    let no_beacon = Sensed { intensity: 0.0, gradient: None };
+    let alone = Commanded { sensed: Some(no_beacon), ..driven };
+    check(FromAgent::Commanded(alone), &cat(&[head, &F0_25, &F_NEG_PI_2, &[1], &F0, &[0]]));
+    let zero = Commanded { robot: RobotId(2), step: 0, linear: 0.0, angular: 0.0, sensed: None };
+    check(FromAgent::Commanded(zero), &cat(&[&[V, 10, 2, 0], &F0, &F0, &[0]]));
+}
+
 /// f32 little-endian: 0.5, 1.0, 0.25, -0.5.
 const G0_5: [u8; 4] = [0, 0, 0, 0x3F];
 const G1: [u8; 4] = [0, 0, 0x80, 0x3F];

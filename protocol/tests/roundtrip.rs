@@ -124,7 +124,17 @@ fn from_agent() -> impl Strategy<Value = FromAgent> {
         }),
         (robot(), any::<bool>())
             .prop_map(|(robot, on_link)| FromAgent::StopDone(StopDone { robot, on_link })),
+        commanded().prop_map(FromAgent::Commanded),
     ]
+}
+
+fn commanded() -> impl Strategy<Value = Commanded> {
+    let sensed = proptest::option::of(
+        (float(), proptest::option::of(float()))
+            .prop_map(|(intensity, gradient)| Sensed { intensity, gradient }),
+    );
+    (robot(), any::<u64>(), float(), float(), sensed)
+        .prop_map(|(robot, step, linear, angular, sensed)| Commanded { robot, step, linear, angular, sensed })
 }
 
 fn sensor() -> impl Strategy<Value = Sensor> {
@@ -193,7 +203,10 @@ fn largest_encodings_fit_max_message_len() {
     let s = u64::MAX;
     let f = f64::MAX;
     let pose = Pose { robot: r, x: f, y: f, heading: f, step: s, time_us: s };
-    let largest: [(&str, usize); 11] = [
+    let sensed = Some(Sensed { intensity: f, gradient: Some(f) });
+    let commanded = Commanded { robot: r, step: s, linear: f, angular: f, sensed };
+    let largest: [(&str, usize); 12] = [
+        ("commanded", len(&FromAgent::Commanded(commanded))),
         (
             "to_agent",
             len(&ToAgent::GoalBearing(GoalBearing { robot: r, bearing: f, step: s }))

@@ -6,8 +6,9 @@ type's hash recomputed by rosbags from that schema and compared with the
 channel's `topic_type_hash`), and again with PyPI `mcap-ros2-support`'s
 decoder; counts the poses the launch core applied (`core/moved`, schema
 `bycoms.Moved`: what the bag holds, not every pose motion capture
-delivered) in the launch recording with PyPI `mcap`. Prints one
-JSON report. Used by tests/tests/ros2_launch.rs.
+delivered) in the launch recording with PyPI `mcap`, and each robot's
+`FromAgent::Commanded` reports there (a ROS 2 robot's commands: variant
+index 10, the byte after the version). Prints one JSON report. Used by tests/tests/ros2_launch.rs.
 
 usage: ros2_bag.py RECORDING.mcap BAG.mcap
 """
@@ -28,9 +29,19 @@ def recording_poses(path):
         return sum(1 for schema, _, _ in make_reader(f).iter_messages() if schema and schema.name == "bycoms.Moved")
 
 
+def recording_commanded(path):
+    """Per robot, its agent's Commanded reports (`…/robot/<k>/from_agent`)."""
+    counts = Counter()
+    with open(path, "rb") as f:
+        for schema, channel, message in make_reader(f).iter_messages():
+            if schema and schema.name == "bycoms.FromAgent" and message.data[1:2] == b"\x0a":
+                counts[channel.topic.split("/robot/")[1].split("/")[0]] += 1
+    return counts
+
+
 def with_rosbags(path):
     store = get_typestore(Stores.EMPTY)
-    out = {"counts": Counter(), "undecoded": 0, "hash_mismatch": [], "path_poses": {}}
+    out = {"counts": Counter(), "undecoded": 0, "hash_mismatch": [], "path_poses": {}, "types": {}}
     with Reader(Path(path)) as reader:
         for c in reader.connections:
             store.register(get_types_from_msg(c.msgdef.data, c.msgtype))
@@ -41,6 +52,7 @@ def with_rosbags(path):
                 out["undecoded"] += 1
                 continue
             out["counts"][c.topic] += 1
+            out["types"][c.topic] = c.msgtype
             if c.msgtype == "nav_msgs/msg/Path":
                 out["path_poses"][c.topic] = len(msg.poses)
     return out, store
@@ -67,7 +79,9 @@ def main():
     recording, bag = sys.argv[1], sys.argv[2]
     rosbags, store = with_rosbags(bag)
     mcap = with_mcap(bag, store)
-    print(json.dumps({"recording_poses": recording_poses(recording), "rosbags": rosbags, "mcap_ros2": mcap}))
+    report = {"recording_poses": recording_poses(recording), "rosbags": rosbags, "mcap_ros2": mcap}
+    report["recording_commanded"] = recording_commanded(recording)
+    print(json.dumps(report))
 
 
 if __name__ == "__main__":

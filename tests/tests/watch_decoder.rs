@@ -4,8 +4,8 @@
 //! `python3` (the decoder imports zenoh only in `main`).
 
 use bycoms_protocol::msg::{
-    DriveState, FailsafeFired, FromAgent, GateEvent, GateKind, LinkStatus, Parked, Pose, Register, RobotKind,
-    Status, Telemetry,
+    ClockOffset, Commanded, DriveState, FailsafeFired, FromAgent, GateEvent, GateKind, LinkStatus, Parked,
+    Pose, Register, RobotKind, Sensed, Status, StopDone, Telemetry,
 };
 use bycoms_protocol::{encode_vec, RobotId, PROTOCOL_VERSION};
 use std::path::PathBuf;
@@ -92,6 +92,34 @@ fn watch_py_decodes_our_messages() {
         hex(&encode_vec(&parked).expect("encode"))
     ));
     assert_eq!(got, "parked 6 300");
+    let clock = FromAgent::Clock(ClockOffset { robot: RobotId(2), offset_us: -1500, round_trip_us: 800 });
+    let got = python(&format!(
+        "m = watch.decode_from_agent(bytes.fromhex({:?})); print(m['kind'], m['robot'], m['offset_us'], m['round_trip_us'])",
+        hex(&encode_vec(&clock).expect("encode"))
+    ));
+    assert_eq!(got, "clock 2 -1500 800");
+    let done = FromAgent::StopDone(StopDone { robot: RobotId(4), on_link: true });
+    let got = python(&format!(
+        "m = watch.decode_from_agent(bytes.fromhex({:?})); print(m['kind'], m['robot'], m['on_link'])",
+        hex(&encode_vec(&done).expect("encode"))
+    ));
+    assert_eq!(got, "stop_done 4 True");
+    let sensed = Some(Sensed { intensity: 2.5, gradient: Some(-0.5) });
+    let commanded = Commanded { robot: RobotId(3), step: 300, linear: 0.22, angular: -1.25, sensed };
+    for (msg, printed) in [
+        (commanded, "commanded 3 300 0.22 -1.25 {'intensity': 2.5, 'gradient': -0.5}"),
+        (
+            Commanded { sensed: Some(Sensed { intensity: 0.0, gradient: None }), ..commanded },
+            "commanded 3 300 0.22 -1.25 {'intensity': 0.0, 'gradient': None}",
+        ),
+        (Commanded { sensed: None, ..commanded }, "commanded 3 300 0.22 -1.25 None"),
+    ] {
+        let got = python(&format!(
+            "m = watch.decode_from_agent(bytes.fromhex({:?})); print(m['kind'], m['robot'], m['step'], m['linear'], m['angular'], m['sensed'])",
+            hex(&encode_vec(&FromAgent::Commanded(msg)).expect("encode"))
+        ));
+        assert_eq!(got, printed);
+    }
 
     for (kind, printed) in [
         (GateKind::Deployed, "deployed None"),

@@ -25,11 +25,17 @@
 //!   sample must not leave a robot driving); `Stop` is answered with
 //!   `StopDone` queued after that first zero, so it is published after it;
 //! * a beacon of the robot itself, or not finite, is refused (bad traffic),
-//!   a later one of the same robot moves it (a creeping beacon).
+//!   a later one of the same robot moves it (a creeping beacon);
+//! * every velocity command, zeros included, is followed by a
+//!   [`Commanded`] report of exactly what went out, its step and the field
+//!   it came from, so the launch's recording holds every command sent
+//!   (issue 50). One per command rather than one per period: a period
+//!   without a command (waiting for a pose) has nothing to report, and a
+//!   stop's zeros are the commands a recording must not miss.
 
 use bycoms_agent::gateway::{Refused, RobotSide};
 use bycoms_agent::wheeled::{FieldReading, Limits, Velocity, Wheeled};
-use bycoms_protocol::msg::{Beacon, FromAgent, Pose, Status, StopDone, ToAgent};
+use bycoms_protocol::msg::{Beacon, Commanded, FromAgent, Pose, Sensed, Status, StopDone, ToAgent};
 use bycoms_protocol::RobotId;
 use bycoms_sim::field::Beacons;
 use bycoms_sim::Vec2;
@@ -160,7 +166,21 @@ impl Ros2RobotCore {
         self.enabled = false;
         self.zero_until = Some(now + self.settings.stop_repeat);
         self.next_period = Some(now + self.settings.period);
-        self.out.push_back(Output::Velocity(Velocity::ZERO));
+        self.command(Velocity::ZERO, None);
+    }
+
+    /// Publish `velocity`, then report it ([`Commanded`]) with the field it
+    /// was computed from (`None`: a zero no field decided).
+    fn command(&mut self, velocity: Velocity, field: Option<FieldReading>) {
+        self.out.push_back(Output::Velocity(velocity));
+        let commanded = Commanded {
+            robot: self.settings.robot,
+            step: self.steps,
+            linear: velocity.linear,
+            angular: velocity.angular,
+            sensed: field.map(|f| Sensed { intensity: f.intensity, gradient: f.gradient }),
+        };
+        self.out.push_back(Output::Report(FromAgent::Commanded(commanded)));
     }
 
     /// A control period that is due while enabled: a command from a pose
@@ -182,7 +202,7 @@ impl Ros2RobotCore {
                 self.next_period = self.pose_seen.map(|t| t + self.settings.pose_timeout);
             }
             _ => {
-                self.out.push_back(Output::Velocity(Velocity::ZERO));
+                self.command(Velocity::ZERO, None);
                 self.next_period = Some(now + period);
             }
         }
@@ -194,7 +214,7 @@ impl Ros2RobotCore {
         let field = self.field_at(Vec2::new(pose.x, pose.y));
         let (out, velocity) = self.controller.step(goal, pose.heading, field);
         self.steps += 1;
-        self.out.push_back(Output::Velocity(velocity));
+        self.command(velocity, Some(field));
         let status = Status { robot: self.settings.robot, mode: out.mode as u8, step: self.steps };
         self.out.push_back(Output::Report(FromAgent::Status(status)));
     }
@@ -266,7 +286,7 @@ impl RobotSide for Ros2RobotCore {
         let next = due + self.settings.period;
         self.next_period = Some(if next > now { next } else { now + self.settings.period });
         if self.zero_until.is_some_and(|t| now < t) {
-            self.out.push_back(Output::Velocity(Velocity::ZERO));
+            self.command(Velocity::ZERO, None);
         } else {
             self.zero_until = None;
             self.next_period = None;

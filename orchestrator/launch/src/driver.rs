@@ -464,6 +464,7 @@ impl Driver {
     /// an end for the ones that did not exit, the recording finished.
     fn finish(mut self, ending: Ending) -> Summary {
         let killed = self.wind_down_agents();
+        self.record_last_reports();
         self.redraw();
         self.progress.finish();
         let mut summary = self.summary(&ending, killed);
@@ -504,6 +505,21 @@ impl Driver {
             ));
         }
         killed
+    }
+
+    /// Records the reports the agents sent while they wound down, the core
+    /// not fed them (the run has ended; replay re-runs the core's log, which
+    /// does not hold them): a ROS 2 robot's agent answers `Shutdown` with a
+    /// zero velocity and its `Commanded`, and the recording holds every
+    /// command sent. At most [`LAST_REPORTS_PER_ROBOT`] per robot, so a
+    /// flood cannot hold the end up.
+    fn record_last_reports(&mut self) {
+        let most = LAST_REPORTS_PER_ROBOT * self.cfg.robots as usize;
+        let mut taken = 0;
+        while taken < most && matches!(self.ports.recv_report(Duration::ZERO), Ok(Some(_))) {
+            taken += 1;
+        }
+        tracing::debug!(reports = taken, "reports recorded after the agents wound down");
     }
 
     /// The summary of the launch as the core decided it (`summary::of`),
@@ -619,6 +635,10 @@ impl Driver {
         ))
     }
 }
+
+/// The most reports per robot recorded after the agents wound down
+/// ([`Driver::record_last_reports`]).
+const LAST_REPORTS_PER_ROBOT: usize = 64;
 
 /// How often winding down looks whether the agents ended.
 const REAP_EVERY: Duration = Duration::from_millis(2);

@@ -87,4 +87,9 @@ pub struct RunMeta<'a> {
     /// draw and export those, not the bus's pose topics (which hold every
     /// pose delivered, refused ones too). Absent in older recordings.
     pub applied_poses: bool,
+    /// Each ROS 2 robot's velocity topic and message type (robots of
+    /// `kind = "ros2"`): where `record export --ros2` puts the commands
+    /// their agents reported. Absent without ROS 2 robots.
+    #[serde(default, skip_serializing_if = "<[_]>::is_empty")]
+    pub ros2_robots: &'a [bycoms_record::schema::Ros2RobotTopic],
 }

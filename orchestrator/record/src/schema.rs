@@ -153,6 +153,25 @@ pub const NATNET_FRAME_LEAF: &str = "mocap/natnet";
 /// Leaf of the recorded NatNet model definitions ([`NATNET_MODELDEF`]).
 pub const NATNET_MODELDEF_LEAF: &str = "mocap/natnet_modeldef";
 
+/// One ROS 2 robot's velocity topic, as the run metadata ([`RUN`]) lists it
+/// (`ros2_robots`): where its agent published the commands its
+/// `Commanded` reports record, so `record export --ros2` puts them back on
+/// that topic, with that type, from the recording alone.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
+pub struct Ros2RobotTopic {
+    /// The robot.
+    pub robot: u32,
+    /// Its fully qualified `cmd_vel` topic.
+    pub cmd_vel: String,
+    /// The message its driver takes, as the robots file spells it:
+    /// `twist` or `twist-stamped`.
+    pub message: String,
+    /// That message's ROS 2 type (`geometry_msgs/msg/Twist`, `…/TwistStamped`).
+    pub r#type: String,
+    /// A `TwistStamped`'s `header.frame_id`.
+    pub frame_id: String,
+}
+
 /// Whether `topic` is a swarm's run metadata topic (`bycoms/<swarm>/run`), whatever the swarm.
 pub fn is_run_topic(topic: &str) -> bool {
     topic.strip_suffix(RUN_LEAF).is_some_and(|rest| rest.ends_with('/'))

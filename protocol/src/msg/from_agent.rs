@@ -243,6 +243,44 @@ pub struct StopDone {
     pub on_link: bool,
 }
 
+/// The virtual field a ROS 2 robot's agent sensed at its trusted pose (the
+/// paper's §IV g = Σ c/d² over the stopped robots it was sent).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Sensed {
+    /// g, m⁻² (0 with no beacon).
+    pub intensity: f64,
+    /// The gradient's direction in the world frame, rad; `None` with no
+    /// beacon (no field, no direction).
+    pub gradient: Option<f64>,
+}
+
+/// One velocity command an agent published on its robot's `cmd_vel` (a
+/// ROS 2 robot's agent, issue 50): sent after each command went out, zeros
+/// included, so a recording holds every command a robot was sent and
+/// `record export --ros2` can put them back on their topic.
+///
+/// Why in the protocol and not only on the ROS 2 graph: the launch records
+/// its bus, not the graph; what the agent decided, from which field, at
+/// which step, belongs with the poses and the gate's decisions it came from.
+/// `linear` and `angular` are the very f64 published (`geometry_msgs`
+/// `linear.x`, `angular.z`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Commanded {
+    /// The robot.
+    pub robot: RobotId,
+    /// The control step the command belongs to: the `Status` step of a
+    /// command the drive law computed; for a zero, the last step driven (0
+    /// before the first).
+    pub step: u64,
+    /// Linear velocity, m/s (`linear.x`).
+    pub linear: f64,
+    /// Angular velocity, rad/s (`angular.z`).
+    pub angular: f64,
+    /// The field the command was computed from; `None` for a zero that no
+    /// field decided (a stop, no goal yet, no fresh pose).
+    pub sensed: Option<Sensed>,
+}
+
 /// Everything an agent tells the orchestrator. (Not `Eq`: telemetry
 /// carries floats.)
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -267,6 +305,10 @@ pub enum FromAgent {
     Clock(ClockOffset),
     /// The robot is stopped: the answer to `Stop`.
     StopDone(StopDone),
+    /// A velocity command the agent published on its robot's `cmd_vel`
+    /// (ROS 2 robots only). Appended last: the earlier variants keep their
+    /// indices.
+    Commanded(Commanded),
 }
 
 impl FromAgent {
@@ -283,6 +325,7 @@ impl FromAgent {
             Self::Parked(m) => m.robot,
             Self::Clock(m) => m.robot,
             Self::StopDone(m) => m.robot,
+            Self::Commanded(m) => m.robot,
         }
     }
 }

@@ -25,8 +25,8 @@ pub mod sensor;
 pub mod to_agent;
 
 pub use from_agent::{
-    ClockOffset, DriveState, FailsafeFired, FromAgent, Heartbeat, LinkStatus, Parked, Register, RobotKind,
-    Status, StopDone, Telemetry, TickDone, HEARTBEAT_MS,
+    ClockOffset, Commanded, DriveState, FailsafeFired, FromAgent, Heartbeat, LinkStatus, Parked, Register,
+    RobotKind, Sensed, Status, StopDone, Telemetry, TickDone, HEARTBEAT_MS,
 };
 pub use gate::{GateEvent, GateKind};
 pub use mocap::Pose;

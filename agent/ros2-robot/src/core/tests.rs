@@ -46,6 +46,16 @@ fn velocities(outs: &[Output]) -> Vec<Velocity> {
         .collect()
 }
 
+/// The `Status` reports among `outs`.
+fn statuses(outs: &[Output]) -> Vec<Status> {
+    outs.iter()
+        .filter_map(|o| match o {
+            Output::Report(FromAgent::Status(s)) => Some(*s),
+            _ => None,
+        })
+        .collect()
+}
+
 /// A deployed robot at the origin facing +x with the goal ahead, polled once.
 fn driving(t0: Instant) -> Ros2RobotCore {
     let mut c = core();
@@ -62,7 +72,7 @@ fn a_deployed_robot_with_goal_and_pose_drives_once_per_period() {
     let mut c = driving(t0);
     let outs = drain(&mut c);
     assert_eq!(velocities(&outs), [Velocity { linear: 0.22, angular: 0.0 }]);
-    assert!(matches!(outs[1], Output::Report(FromAgent::Status(Status { mode: 1, step: 1, .. }))));
+    assert!(matches!(statuses(&outs)[..], [Status { mode: 1, step: 1, .. }]), "{outs:?}");
     assert_eq!(c.deadline(), Some(t0 + ms(100)));
     c.poll(t0 + ms(50));
     assert!(drain(&mut c).is_empty(), "nothing between periods");
@@ -109,7 +119,8 @@ fn stop_sends_zero_at_once_then_every_period_for_a_second_and_answers_after_it()
     assert_eq!(c.on_command(&ToAgent::Stop, t), Ok(false));
     let outs = drain(&mut c);
     assert_eq!(outs[0], Output::Velocity(Velocity::ZERO), "zero first");
-    assert_eq!(outs[1], Output::Report(FromAgent::StopDone(StopDone { robot: ME, on_link: true })));
+    assert!(matches!(outs[1], Output::Report(FromAgent::Commanded(_))), "{outs:?}");
+    assert_eq!(outs[2], Output::Report(FromAgent::StopDone(StopDone { robot: ME, on_link: true })));
     let mut zeros = 0;
     let mut now = t;
     while let Some(due) = c.deadline() {
@@ -186,7 +197,7 @@ fn near_a_beacon_ahead_it_turns_along_the_field() {
     c.on_pose(&pose(0.0, 0.0, 0.0));
     c.poll(t0);
     let outs = drain(&mut c);
-    assert!(matches!(outs[1], Output::Report(FromAgent::Status(Status { mode: 2, .. }))), "{outs:?}");
+    assert!(matches!(statuses(&outs)[..], [Status { mode: 2, .. }]), "{outs:?}");
     let turn = velocities(&outs)[0].angular;
     assert!(turn.abs() > 1.0, "it turns hard towards a tangent: {turn}");
     // Facing the tangent, it drives on.
@@ -232,4 +243,61 @@ fn a_period_without_a_new_pose_waits_for_it_and_commands_as_it_comes() {
     c.poll(t0 + ms(130));
     assert_eq!(velocities(&drain(&mut c)), [Velocity { linear: 0.22, angular: 0.0 }]);
     assert_eq!(c.deadline(), Some(t0 + ms(230)), "the next period from this command");
+}
+
+/// Each velocity output and the report right after it.
+fn commanded_pairs(outs: &[Output]) -> Vec<(Velocity, Commanded)> {
+    outs.iter()
+        .enumerate()
+        .filter_map(|(i, o)| match (o, outs.get(i + 1)) {
+            (Output::Velocity(v), Some(Output::Report(FromAgent::Commanded(c)))) => Some((*v, *c)),
+            (Output::Velocity(v), next) => panic!("{v:?} not followed by its Commanded but {next:?}"),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn every_command_is_reported_right_after_it_with_the_very_f64s_and_the_field() {
+    let t0 = Instant::now();
+    let mut c = core();
+    let mut outs = Vec::new();
+    c.on_command(&beacon(1, 0.25, 0.1, 1), t0).expect("beacon");
+    c.on_command(&deploy(), t0).expect("deploy");
+    c.poll(t0);
+    outs.extend(drain(&mut c)); // no goal yet: a zero no field decided
+    c.on_command(&goal(0.3), t0).expect("goal");
+    let mut now = t0;
+    for k in 1..=5u32 {
+        now = t0 + ms(100 * u64::from(k));
+        c.on_pose(&pose(0.01 * f64::from(k), 0.0, 0.1 * f64::from(k)));
+        c.poll(now);
+        outs.extend(drain(&mut c));
+    }
+    c.on_command(&ToAgent::Stop, now + ms(10)).expect("stop");
+    outs.extend(drain(&mut c));
+    while let Some(due) = c.deadline() {
+        c.poll(due);
+        outs.extend(drain(&mut c));
+    }
+    let pairs = commanded_pairs(&outs);
+    assert_eq!(pairs.len(), velocities(&outs).len(), "one report per command");
+    assert_eq!(pairs.len(), 1 + 5 + 10, "a zero, five driven, a stop's ten zeros");
+    for (v, cmd) in &pairs {
+        assert_eq!(cmd.robot, ME);
+        assert_eq!((cmd.linear.to_bits(), cmd.angular.to_bits()), (v.linear.to_bits(), v.angular.to_bits()));
+    }
+    let driven = &pairs[1..6];
+    for (k, ((_, cmd), status)) in driven.iter().zip(statuses(&outs)).enumerate() {
+        assert_eq!(cmd.step, status.step, "the command's step is its Status's");
+        let at = 0.01 * (k + 1) as f64;
+        let field = c.field_at(Vec2::new(at, 0.0));
+        let sensed = Sensed { intensity: field.intensity, gradient: field.gradient };
+        assert_eq!(cmd.sensed, Some(sensed), "the field at the pose it came from");
+    }
+    assert!(driven.iter().any(|(v, _)| *v != Velocity::ZERO), "it drove");
+    assert_eq!((pairs[0].1.step, pairs[0].1.sensed), (0, None));
+    for (v, cmd) in &pairs[6..] {
+        assert_eq!((*v, cmd.step, cmd.sensed), (Velocity::ZERO, 5, None), "a stop's zeros");
+    }
 }

@@ -73,6 +73,27 @@ impl Ros2Robots {
     }
 }
 
+/// Each ROS 2 robot of `file` among robots `1..=robots`: its velocity
+/// topic (the file's, else under `namespace`), message and frame, for the
+/// run metadata (`ros2_robots`) that `record export --ros2` reads.
+pub fn recorded_topics(
+    file: &RobotsFile,
+    namespace: &str,
+    robots: u32,
+) -> Vec<bycoms_record::schema::Ros2RobotTopic> {
+    file.ros2
+        .iter()
+        .filter(|r| (1..=robots).contains(&r.id))
+        .map(|r| bycoms_record::schema::Ros2RobotTopic {
+            robot: r.id,
+            cmd_vel: r.topic(namespace),
+            message: r.message.as_str().into(),
+            r#type: r.message.description().name.into(),
+            frame_id: r.frame_id.clone(),
+        })
+        .collect()
+}
+
 impl Ros2Robots {
     fn inner(&self) -> &dyn AgentSource {
         &self.inner
@@ -114,4 +135,48 @@ impl AgentSource for Ros2Robots {
     }
 
     forward_to_inner!();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bycoms_ros2::velocity::VelocityMessage;
+
+    fn entry(id: u32, cmd_vel: Option<&str>, message: VelocityMessage) -> Ros2Entry {
+        Ros2Entry {
+            id,
+            cmd_vel: cmd_vel.map(String::from),
+            message,
+            frame_id: "base_link".into(),
+            limits: bycoms_agent::wheeled::Limits::TURTLEBOT3_BURGER,
+            cmd_vel_timeout: std::time::Duration::from_millis(500),
+        }
+    }
+
+    #[test]
+    fn the_recorded_topics_are_the_agents_own_for_the_launchs_robots() {
+        let file = RobotsFile {
+            robots: Vec::new(),
+            ros2: vec![
+                entry(1, Some("/tb3_1/cmd_vel"), VelocityMessage::Twist),
+                entry(2, None, VelocityMessage::TwistStamped),
+                entry(3, None, VelocityMessage::Twist),
+            ],
+            dir: ".".into(),
+        };
+        let topics = recorded_topics(&file, "/lab", 2);
+        let got: Vec<_> = topics
+            .iter()
+            .map(|t| (t.robot, t.cmd_vel.as_str(), t.message.as_str(), t.r#type.as_str()))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                (1, "/tb3_1/cmd_vel", "twist", "geometry_msgs/msg/Twist"),
+                (2, "/lab/robot_2/cmd_vel", "twist-stamped", "geometry_msgs/msg/TwistStamped"),
+            ],
+            "robot 3 is not one of the launch's two"
+        );
+        assert_eq!(topics[1].frame_id, "base_link");
+    }
 }

@@ -62,9 +62,10 @@ impl LaunchCore {
                     tick.awaiting.remove(&id);
                 }
             }
-            // A real robot's telemetry is for recorders and monitors; a
-            // clock offset was kept when the report was admitted.
-            FromAgent::Telemetry(_) | FromAgent::Clock(_) => {}
+            // A real robot's telemetry and a ROS 2 robot's commands are for
+            // recorders and monitors; a clock offset was kept when the
+            // report was admitted.
+            FromAgent::Telemetry(_) | FromAgent::Commanded(_) | FromAgent::Clock(_) => {}
             FromAgent::Link(l) => {
                 if !l.up {
                     tracing::warn!(robot = id, silent_ms = l.silent_ms, "robot {id}'s link is lost");

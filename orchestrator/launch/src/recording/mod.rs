@@ -51,6 +51,20 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use writer::{Batch, Item, Writer, BATCH_ITEMS, QUEUE_BATCHES};
 
+/// The run's ROS 2 ground robots' `cmd_vel` topics, when the launch drives
+/// them (`agents.source = "real"` with a robots file of `kind = "ros2"`);
+/// empty otherwise, and when the robots file does not read (the launch says
+/// why when it opens it).
+fn ros2_robots(cfg: &LaunchConfig) -> Vec<schema::Ros2RobotTopic> {
+    let path = match (&cfg.agents.source, &cfg.agents.robots_file) {
+        (super::config::AgentSourceKind::Real, Some(path)) => path,
+        _ => return Vec::new(),
+    };
+    let Ok(file) = bycoms_lab::robots::RobotsFile::read(path) else { return Vec::new() };
+    let namespace = cfg.ros2.clone().unwrap_or_default().namespace;
+    super::agents::ros2_robots::recorded_topics(&file, &namespace, cfg.robots)
+}
+
 /// Nanoseconds since the Unix epoch, now.
 pub fn now_ns() -> u64 {
     SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_nanos() as u64).unwrap_or(0)
@@ -222,6 +236,7 @@ impl Recording {
             goal: world.goal,
             config: cfg,
             applied_poses: true,
+            ros2_robots: &ros2_robots(cfg),
         };
         self.json(&Topics::new(swarm).run(), schema::RUN, &meta);
     }

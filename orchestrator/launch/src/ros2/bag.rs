@@ -196,7 +196,8 @@ pub enum ExportError {
 }
 
 /// The run of `meta` as a publisher: its ROS 2 settings (the recorded
-/// `[ros2]`, else the defaults), robots and terrain.
+/// `[ros2]`, else the defaults), robots, terrain and its ROS 2 robots'
+/// `cmd_vel` topics (the recorded `ros2_robots`).
 fn run_of(meta: &RunMeta) -> Result<(RunMessages, bycoms_sim::terrain::Terrain, f64), String> {
     let cfg: Ros2Config = serde_json::from_value(meta.config["ros2"].clone()).unwrap_or_default();
     let robots =
@@ -206,7 +207,8 @@ fn run_of(meta: &RunMeta) -> Result<(RunMessages, bycoms_sim::terrain::Terrain, 
         bycoms_sim::terrain::parse(text).map_err(|e| format!("has a terrain that does not parse: {e}"))?;
     terrain.set_start(meta.start);
     terrain.set_goal(meta.goal);
-    Ok((RunMessages::new(&cfg, robots), terrain, meta.eps().unwrap_or(0.0)))
+    let run = RunMessages::new(&cfg, robots).with_cmd_vel(&meta.ros2_robots);
+    Ok((run, terrain, meta.eps().unwrap_or(0.0)))
 }
 
 /// Streams the recording at `input` through the run's ROS 2 messages into

@@ -15,7 +15,9 @@
 //! (`bycoms_msgs/msg/GateEvent`, each gate decision), and per robot
 //! `<ns>/robot_<k>/pose`, `<ns>/robot_<k>/path` and `<ns>/robot_<k>/state`
 //! (`bycoms_msgs/msg/RobotState`: waiting at the start, then at each gate
-//! decision about it).
+//! decision about it). A bag (never the live graph: the robots' own
+//! agents publish there) has one more topic per ROS 2 robot: its `cmd_vel`,
+//! with the commands its agent reported ([`RunMessages::with_cmd_vel`]).
 //!
 //! Paths cost: a `nav_msgs/msg/Path` holds the whole trail, so it is sent
 //! at a bounded rate, at most once per [`PATH_PERIOD_US`] of run time per
@@ -25,7 +27,8 @@
 
 use std::collections::BTreeMap;
 
-use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Pose};
+use bycoms_protocol::msg::{Commanded, FromAgent, GateEvent, GateKind, Pose};
+use bycoms_record::schema::Ros2RobotTopic;
 use bycoms_ros2::bycoms_msgs::{gate_kind, robot_state, GateEvent as RosGateEvent, RobotState};
 use bycoms_ros2::display::{
     level, marker_action, marker_type, ColorRgba, DiagnosticArray, DiagnosticStatus, Marker, MarkerArray,
@@ -33,10 +36,11 @@ use bycoms_ros2::display::{
 };
 use bycoms_ros2::msgs::{
     Clock, Header, Path, Point, Pose as RosPose, PoseStamped, Quaternion, RosMessage, TfMessage, Time,
-    TransformStamped, Vector3,
+    TransformStamped, Twist, TwistStamped, Vector3,
 };
 use bycoms_ros2::rmw_zenoh::Qos;
 use bycoms_ros2::types::TypeDescription;
+use bycoms_ros2::velocity::VelocityMessage;
 use bycoms_sim::terrain::Terrain;
 
 use super::{ros_messages, run_time, static_frames, Ros2Config, WORLD_FRAME};
@@ -86,9 +90,18 @@ struct Trail {
     diagnostics_us: Option<u64>,
 }
 
+/// A ROS 2 robot's `cmd_vel` in a bag.
+struct CmdVel {
+    topic: usize,
+    message: VelocityMessage,
+    frame_id: String,
+}
+
 /// The run as ROS 2 messages (see the module docs).
 pub struct RunMessages {
     topics: Vec<Topic>,
+    /// By robot: where its reported commands go (a bag's only).
+    cmd_vel: BTreeMap<u32, CmdVel>,
     trails: Vec<Trail>,
     beacons: BTreeMap<u32, Point>,
     eps: f64,
@@ -119,13 +132,63 @@ impl RunMessages {
         }
         let trails = (0..robots).map(|_| Trail::default()).collect();
         let statics = static_frames(None);
-        Self { topics, trails, beacons: BTreeMap::new(), eps: 0.0, now_us: 0, clock_us: None, statics }
+        Self {
+            topics,
+            cmd_vel: BTreeMap::new(),
+            trails,
+            beacons: BTreeMap::new(),
+            eps: 0.0,
+            now_us: 0,
+            clock_us: None,
+            statics,
+        }
     }
 
     /// The static frames `/tf_static` will carry (default:
     /// [`static_frames`] of no motion capture).
     pub fn set_static_frames(&mut self, frames: Vec<TransformStamped>) {
         self.statics = frames;
+    }
+
+    /// With one more topic per ROS 2 robot of `robots` (the run metadata's
+    /// `ros2_robots`): its `cmd_vel`, of its message type, offered as its
+    /// agent offers it (reliable, keep last 10), carrying each command its
+    /// agent reported ([`Commanded`]). For a bag only: on the live graph
+    /// the agents publish these themselves. A robot whose message is not
+    /// `twist` or `twist-stamped` is left out, with a warning.
+    pub fn with_cmd_vel(mut self, robots: &[Ros2RobotTopic]) -> Self {
+        for r in robots {
+            let message = match r.message.parse::<VelocityMessage>() {
+                Ok(message) => message,
+                Err(e) => {
+                    tracing::warn!(robot = r.robot, "robot {}'s cmd_vel is left out: {e}", r.robot);
+                    continue;
+                }
+            };
+            let topic = self.topics.len();
+            self.topics.push(Topic {
+                name: r.cmd_vel.clone(),
+                description: message.description(),
+                qos: Qos::reliable(10),
+            });
+            self.cmd_vel.insert(r.robot, CmdVel { topic, message, frame_id: r.frame_id.clone() });
+        }
+        self
+    }
+
+    /// A reported command on its robot's `cmd_vel` (a bag with
+    /// [`RunMessages::with_cmd_vel`]), at the run's time of the latest pose
+    /// (the one it was computed from); a `TwistStamped` is stamped with it.
+    fn commanded(&self, c: &Commanded, sink: &mut dyn Sink) {
+        let Some(to) = self.cmd_vel.get(&c.robot.0) else { return };
+        let (t, twist) = (self.now_us, Twist::planar(c.linear, c.angular));
+        match to.message {
+            VelocityMessage::Twist => self.send(sink, to.topic, t, &twist),
+            VelocityMessage::TwistStamped => {
+                let header = Header { stamp: run_time(t), frame_id: to.frame_id.clone() };
+                self.send(sink, to.topic, t, &TwistStamped { header, twist });
+            }
+        }
     }
 
     /// Every topic, in the order [`Sink::send`] numbers them.
@@ -256,8 +319,12 @@ impl RunMessages {
 
     /// An agent's report: a real robot's telemetry (at most once per
     /// [`DIAGNOSTICS_PERIOD_US`]), link and failsafe reports become
-    /// `/diagnostics`; other reports carry no health.
+    /// `/diagnostics`; a ROS 2 robot's command goes on its `cmd_vel` (a
+    /// bag's); other reports carry no health.
     pub fn report(&mut self, report: &FromAgent, sink: &mut dyn Sink) {
+        if let FromAgent::Commanded(c) = report {
+            return self.commanded(c, sink);
+        }
         let robot = report.robot().0;
         let Some(index) = (robot as usize).checked_sub(1).filter(|i| *i < self.trails.len()) else {
             return;
@@ -493,6 +560,59 @@ mod tests {
         run.pose(&pose(1, 1.5, 600_000), &mut sent);
         assert_eq!(sent.on(&run, "/beacons").len(), 3);
         assert_eq!(run.beacons[&1].x, 1.5);
+    }
+
+    #[test]
+    fn a_bags_ros2_robots_get_their_reported_commands_on_their_cmd_vel_with_their_type() {
+        use bycoms_protocol::msg::{Commanded, Sensed};
+        let topic = |robot, cmd_vel: &str, message: &str| Ros2RobotTopic {
+            robot,
+            cmd_vel: cmd_vel.into(),
+            message: message.into(),
+            r#type: String::new(),
+            frame_id: "base_link".into(),
+        };
+        let robots = [
+            topic(1, "/tb3_1/cmd_vel", "twist"),
+            topic(2, "/robot_2/cmd_vel", "twist-stamped"),
+            topic(3, "/robot_3/cmd_vel", "wrench"),
+        ];
+        let mut run = RunMessages::new(&Ros2Config::default(), 3).with_cmd_vel(&robots);
+        let names: Vec<_> =
+            run.topics().iter().skip(SHARED + 3 * PER_ROBOT).map(|t| t.name.as_str()).collect();
+        assert_eq!(
+            names,
+            ["/tb3_1/cmd_vel", "/robot_2/cmd_vel"],
+            "after every other topic; robot 3's message is unknown"
+        );
+        assert_eq!(run.topics()[SHARED + 3 * PER_ROBOT + 1].description.name, TwistStamped::DESCRIPTION.name);
+        let mut sent = Sent::default();
+        run.pose(&pose(1, 0.0, 300_000), &mut sent);
+        let sensed = Some(Sensed { intensity: 2.0, gradient: Some(0.5) });
+        let cmd = |robot, linear| Commanded { robot: RobotId(robot), step: 3, linear, angular: -0.7, sensed };
+        for c in [cmd(1, 0.22), cmd(2, 0.1), cmd(3, 0.1), cmd(1, 0.0)] {
+            run.report(&FromAgent::Commanded(c), &mut sent);
+        }
+        assert_eq!(sent.on(&run, "/tb3_1/cmd_vel"), [300_000_000, 300_000_000], "at the latest pose's time");
+        let on = |name: &str| -> Vec<Vec<u8>> {
+            sent.0
+                .iter()
+                .filter(|(t, ..)| run.topics()[*t].name == name)
+                .map(|(.., cdr)| cdr.clone())
+                .collect()
+        };
+        assert_eq!(
+            on("/tb3_1/cmd_vel"),
+            [Twist::planar(0.22, -0.7).to_cdr(), Twist::planar(0.0, -0.7).to_cdr()]
+        );
+        let header = Header { stamp: run_time(300_000), frame_id: "base_link".into() };
+        let stamped = TwistStamped { header, twist: Twist::planar(0.1, -0.7) };
+        assert_eq!(on("/robot_2/cmd_vel"), [stamped.to_cdr()]);
+        // The live graph's publisher has no cmd_vel topics: reports go nowhere.
+        let mut live = RunMessages::new(&Ros2Config::default(), 3);
+        let mut none = Sent::default();
+        live.report(&FromAgent::Commanded(cmd(1, 0.22)), &mut none);
+        assert!(none.0.is_empty());
     }
 
     #[test]

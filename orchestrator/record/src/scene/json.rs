@@ -95,6 +95,8 @@ pub enum TelemetryKind {
     Clock,
     /// The robot is stopped: the answer to `Stop`.
     StopDone,
+    /// A velocity command a ROS 2 robot's agent published on its `cmd_vel`.
+    Commanded,
 }
 
 /// One agent report (the decoded `from_agents` traffic of one robot).
@@ -171,6 +173,10 @@ impl From<&FromAgent> for Telemetry {
                 t.clock_offset_us = Some(c.offset_us);
             }
             FromAgent::StopDone(_) => t.kind = TelemetryKind::StopDone,
+            FromAgent::Commanded(c) => {
+                t.kind = TelemetryKind::Commanded;
+                t.step = Some(c.step);
+            }
         }
         t
     }

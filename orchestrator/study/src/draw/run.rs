@@ -45,6 +45,10 @@ pub struct RunMeta {
     /// pose topics too). False in recordings older than it.
     #[serde(default)]
     pub applied_poses: bool,
+    /// Each ROS 2 robot's velocity topic and message type; empty without
+    /// ROS 2 robots (and in recordings older than it).
+    #[serde(default)]
+    pub ros2_robots: Vec<schema::Ros2RobotTopic>,
 }
 
 impl RunMeta {
