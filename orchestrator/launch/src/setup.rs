@@ -122,8 +122,8 @@ pub fn clock_limits(cfg: &LaunchConfig) -> ClockLimits {
 
 /// The supervision timers' settings: the config's timeouts, with the link
 /// grace and the quiet rule for agents that can come back (`held`,
-/// [`AgentSource::held_when_unreachable`]) and the robot-link grace for
-/// sources of real robots ([`AgentSource::robot_link_grace`]).
+/// [`AgentProperties::held_when_unreachable`]) and the robot-link grace for
+/// sources of real robots ([`AgentProperties::robot_link_grace`]).
 pub fn supervision(cfg: &LaunchConfig, held: bool, robot_link_grace: Option<Duration>) -> Supervision {
     let us = |s: f64| (s * 1e6).round() as u64;
     let sup = &cfg.supervision;

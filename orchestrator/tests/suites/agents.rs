@@ -75,29 +75,29 @@ pub enum EndsByItself {
 /// checked by the suite).
 #[derive(Clone, Copy, Debug)]
 pub struct Expected {
-    /// [`AgentSource::kind`].
+    /// `AgentProperties::kind`.
     pub kind: &'static str,
-    /// [`AgentSource::all_at_once`].
+    /// `AgentProperties::all_at_once`.
     pub all_at_once: bool,
-    /// [`AgentSource::needs_placement`].
+    /// `AgentProperties::needs_placement`.
     pub needs_placement: bool,
-    /// [`AgentSource::stop_when_stuck`].
+    /// `AgentProperties::stop_when_stuck`.
     pub stop_when_stuck: bool,
-    /// [`AgentSource::wants_poses`].
+    /// `AgentProperties::wants_poses`.
     pub wants_poses: bool,
-    /// [`AgentSource::senses_beacons`].
+    /// `AgentProperties::senses_beacons`.
     pub senses_beacons: bool,
-    /// Words [`AgentSource::start_hint`] contains; `None`: it is empty.
+    /// Words `AgentProperties::start_hint` contains; `None`: it is empty.
     pub start_hint: Option<&'static str>,
-    /// Words [`AgentSource::ended_by`] contains.
+    /// Words `AgentProperties::ended_by` contains.
     pub ended_by: &'static str,
     /// What [`AgentSource::start`] starts.
     pub starts: Starts,
     /// Whether (and how) an agent can be seen ending by itself.
     pub ends_by_itself: EndsByItself,
-    /// [`AgentSource::held_when_unreachable`].
+    /// `AgentProperties::held_when_unreachable`.
     pub held_when_unreachable: bool,
-    /// [`AgentSource::robot_link_grace`].
+    /// `AgentProperties::robot_link_grace`.
     pub robot_link_grace: Option<Duration>,
 }
 

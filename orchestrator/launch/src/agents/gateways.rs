@@ -9,7 +9,7 @@
 //! is bound to the robot's gateway address with the robot's key, and needs
 //! no terrain (the robot lives in the real world). Robots exist
 //! independently of the launch, so every gateway is started at the
-//! beginning ([`AgentSource::all_at_once`]): each robot connects while it
+//! beginning ([`AgentProperties::all_at_once`]): each robot connects while it
 //! waits, and the engine enables them one at a time with `Deploy`.
 //!
 //! Gateways elsewhere: the same rules, with [`Remote`] instead of
@@ -20,7 +20,7 @@
 //! A robot whose link is lost (its gateway reports `Link { up: false }`
 //! after 300 ms of silence) and stays lost for [`LINK_GRACE`] more is gone
 //! for the launch: the core's robot-link timer (`orchestrator/launch/src/core/timers.rs`,
-//! the grace from [`AgentSource::robot_link_grace`]) judges it
+//! the grace from [`AgentProperties::robot_link_grace`]) judges it
 //! ([`Gone::RobotLinkLost`]) and ends its gateway, and the gate applies its
 //! lost-robot policy (`gate.on_agent_death`: a beacon where it was last
 //! seen, as a physically stranded robot is) — within 500 ms of the cut.

@@ -7,7 +7,7 @@
 //! run's settings (terrain, ε, noise, seed, clock, swarm size) from the
 //! launch, which serves them on `bycoms/<swarm>/settings` (`launch::run`).
 //! The launch starts
-//! expecting every robot at once ([`AgentSource::all_at_once`]) and deploys
+//! expecting every robot at once ([`AgentProperties::all_at_once`]) and deploys
 //! each when its turn comes: a robot whose agent has not registered by
 //! then is awaited up to its registration timeout (counted from the start),
 //! then skipped as absent; one that registers later takes a later turn
@@ -29,7 +29,7 @@
 //! once.
 //!
 //! Partitions: a lab's link drops for a moment (WiFi, a switch). Remote
-//! agents are held when unreachable ([`AgentSource::held_when_unreachable`]):
+//! agents are held when unreachable ([`AgentProperties::held_when_unreachable`]):
 //! with a link grace (`supervision.unreachable_grace`) a withdrawn token or a
 //! silent agent is first only *unreachable*; the engine holds the robot
 //! and, when the agent is heard again, re-sends what it may have missed.
