@@ -169,12 +169,8 @@ fn launch_once(
 /// on a busy shared machine wall time depends on the neighbours, CPU time
 /// much less.
 fn cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    // Fields after the command name (which may hold spaces) in parentheses.
-    let fields: Vec<&str> = stat.rsplit_once(')').map_or("", |(_, rest)| rest).split_whitespace().collect();
-    let ticks = |i: usize| fields.get(i).and_then(|f| f.parse::<f64>().ok()).unwrap_or(f64::NAN);
-    // utime and stime are fields 14 and 15 of stat(5), 12 and 13 after the name; 100 ticks/s.
-    (ticks(11) + ticks(12)) / 100.0
+    // 100 ticks a second.
+    bycoms_bench::procfs::cpu_ticks("self").map_or(f64::NAN, |t| t as f64 / 100.0)
 }
 
 fn launches(name: &str, cfg: LaunchConfig, dir: &Path) {

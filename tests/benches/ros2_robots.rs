@@ -206,15 +206,6 @@ fn path(p: &Path) -> &str {
     p.to_str().expect("utf-8")
 }
 
-/// CPU time (utime + stime) of `pid`, clock ticks.
-fn cpu_ticks(pid: u32) -> Option<u64> {
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
-    let (_, rest) = stat.rsplit_once(')')?;
-    let fields: Vec<&str> = rest.split_whitespace().collect();
-    // After the name: state is field 3, utime 14 and stime 15 (1-based).
-    Some(fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?)
-}
-
 /// One agent process as watched: its CPU ticks and when it was seen.
 struct Watched {
     robot: u32,
@@ -230,7 +221,7 @@ fn watch_agents(swarm: &str, launch: &Proc) -> BTreeMap<u32, Watched> {
     while !is_zombie(launch.pid()) && started.elapsed() < WAIT * 5 {
         let now = Instant::now();
         for (pid, robot) in agents_of(swarm) {
-            let Some(ticks) = cpu_ticks(pid) else { continue };
+            let Some(ticks) = bycoms_bench::procfs::cpu_ticks(&pid.to_string()) else { continue };
             let w = agents.entry(pid).or_insert(Watched { robot, ticks, first: now, last: now });
             (w.ticks, w.last) = (ticks, now);
         }
@@ -246,7 +237,7 @@ fn swarm_figure(lab: &Lab, seen: &Receiver<Seen>) {
     let launch = lab.launch(&swarm, SWARM_TIME_LIMIT_S, &SWARM_GATE);
     let agents = watch_agents(&swarm, &launch);
     let done = launch.wait(WAIT);
-    let lab_cpu = cpu_ticks(lab_proc.pid());
+    let lab_cpu = bycoms_bench::procfs::cpu_ticks(&lab_proc.pid().to_string());
     end_lab(lab_proc);
     let commands: Vec<Seen> = seen.try_iter().collect();
     print_swarm(&done, &agents, &commands, lab_cpu);

@@ -1,5 +1,5 @@
 //! The one reader of `/proc` the benches share: a process's memory, its
-//! open files, its descendants.
+//! CPU time, its open files, its descendants.
 //!
 //! Why one module: `bench scale` reads each agent's memory and `bench
 //! crowd` the memory and open files of a whole launch (the orchestrator and
@@ -73,6 +73,23 @@ pub fn open_files(pid: u32) -> Option<usize> {
 pub fn parent_in_stat(stat: &str) -> Option<u32> {
     let (_, rest) = stat.rsplit_once(')')?;
     rest.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// The CPU time (user + system) in a `/proc/<pid>/stat` line, clock ticks
+/// (100 a second on Linux): fields 14 and 15 of stat(5), counted after the
+/// command name's last `)` as [`parent_in_stat`] does.
+pub fn cpu_in_stat(stat: &str) -> Option<u64> {
+    let (_, rest) = stat.rsplit_once(')')?;
+    let mut fields = rest.split_whitespace().skip(11);
+    let user: u64 = fields.next()?.parse().ok()?;
+    let system: u64 = fields.next()?.parse().ok()?;
+    Some(user + system)
+}
+
+/// The CPU time process `pid` has used so far, clock ticks; `None` when
+/// it is gone. `"self"` is this process.
+pub fn cpu_ticks(pid: &str) -> Option<u64> {
+    cpu_in_stat(&std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?)
 }
 
 /// `root` and every process below it (children, their children, ...),
@@ -152,6 +169,15 @@ Shared_Clean:       1548 kB
         assert_eq!(parent_in_stat("16346 (cat) R 16343 16343 10621 0 -1"), Some(16343));
         assert_eq!(parent_in_stat("7 (a) b (c) S 1 7 7 0"), Some(1));
         assert_eq!(parent_in_stat("7 (odd"), None);
+    }
+
+    #[test]
+    fn cpu_time_is_user_plus_system_after_any_command_name() {
+        // A real stat line of `(sleep) 1)`: utime 7, stime 5, cutime 3.
+        let stat = "42 (sleep) 1) S 1 42 42 0 -1 4194304 90 0 0 0 7 5 3 0 20 0 1 0 100 0 0";
+        assert_eq!(cpu_in_stat(stat), Some(12));
+        assert_eq!(cpu_in_stat("42 (short) S 1"), None);
+        assert!(cpu_ticks("self").is_some(), "this process has a CPU time");
     }
 
     #[test]
