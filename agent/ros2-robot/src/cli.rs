@@ -276,23 +276,14 @@ pub enum Ros2RobotError {
 
 /// Runs one agent; returns the process exit code.
 pub fn main_with(args: &Ros2RobotArgs) -> i32 {
-    bycoms_runtime::inherited::close_inherited_files();
-    bycoms_runtime::cli::quiet_iceoryx2();
     let _span = tracing::info_span!("ros2-robot", robot = args.robot).entered();
-    match run(args) {
-        Ok(cause) => {
-            tracing::debug!(?cause, "ros2-robot exits");
-            cause.exit_code()
-        }
-        Err(e) => {
-            tracing::error!("{e}");
-            if matches!(e, Ros2RobotError::Args(_) | Ros2RobotError::Swarm(_)) {
-                2
-            } else {
-                1
-            }
-        }
-    }
+    bycoms_runtime::cli::agent_main(
+        || run(args),
+        |e| match e {
+            Ros2RobotError::Args(_) | Ros2RobotError::Swarm(_) => 2,
+            _ => 1,
+        },
+    )
 }
 
 fn run(args: &Ros2RobotArgs) -> Result<ExitCause, Ros2RobotError> {

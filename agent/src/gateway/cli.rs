@@ -28,7 +28,6 @@ use bycoms_protocol::bus::{Bus, BusError};
 use bycoms_protocol::link::{KeyFileError, LinkKey};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{NameError, RobotId, Swarm};
-use bycoms_runtime::cli::quiet_iceoryx2;
 use bycoms_runtime::cli::{command_with_subcommands, parse_with_subcommands};
 use bycoms_runtime::doctor::{HostArgs, HostNeeds};
 use bycoms_runtime::failsafe::{Failsafe, FailsafeArgs};
@@ -286,23 +285,14 @@ pub enum GatewayError {
 
 /// Runs one gateway; returns the process exit code.
 pub fn main_with(args: &GatewayArgs) -> i32 {
-    bycoms_runtime::inherited::close_inherited_files();
-    quiet_iceoryx2();
     let _span = tracing::info_span!("gateway", robot = args.robot).entered();
-    match run(args) {
-        Ok(cause) => {
-            tracing::debug!(?cause, "gateway exits");
-            exit_code(cause)
-        }
-        Err(e) => {
-            tracing::error!("{e}");
-            if matches!(e, GatewayError::Args(_) | GatewayError::Key(_) | GatewayError::Swarm(_)) {
-                2
-            } else {
-                1
-            }
-        }
-    }
+    bycoms_runtime::cli::agent_main(
+        || run(args),
+        |e| match e {
+            GatewayError::Args(_) | GatewayError::Key(_) | GatewayError::Swarm(_) => 2,
+            _ => 1,
+        },
+    )
 }
 
 /// The exit code of a gateway that ended for `cause` (see the module doc;

@@ -198,6 +198,31 @@ pub fn quiet_iceoryx2() {
     set_log_level_from_env_or(LogLevel::Error);
 }
 
+/// The body of every agent process's `main_with` (`sim-agent`, `gateway`,
+/// `ros2-robot`), run inside the caller's span (`sim-agent{robot=3}: …`):
+/// inherited files closed and iceoryx2 quietened first, then `run`; an end
+/// is its cause's exit code (the runtime's one mapping,
+/// [`ExitCause::exit_code`](crate::lifeline::ExitCause::exit_code)), an
+/// error is logged once and its code is what `code_of` says (2 for a usage
+/// error, 3 for a refusal, 1 for the rest, as each agent decides).
+pub fn agent_main<E: std::fmt::Display>(
+    run: impl FnOnce() -> Result<crate::lifeline::ExitCause, E>,
+    code_of: impl FnOnce(&E) -> i32,
+) -> i32 {
+    crate::inherited::close_inherited_files();
+    quiet_iceoryx2();
+    match run() {
+        Ok(cause) => {
+            tracing::debug!(?cause, "exits");
+            cause.exit_code()
+        }
+        Err(e) => {
+            tracing::error!("{e}");
+            code_of(&e)
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -28,7 +28,6 @@ use bycoms_protocol::bus::zenoh::{AliveWatch, ZenohBus};
 use bycoms_protocol::bus::{Bus, BusError};
 use bycoms_protocol::naming::Member;
 use bycoms_protocol::{NameError, RobotId, Swarm};
-use bycoms_runtime::cli::quiet_iceoryx2;
 use bycoms_runtime::failsafe::Failsafe;
 use bycoms_runtime::lifeline::{ExitCause, Lifeline, LifelineError};
 use bycoms_runtime::{BusOpenError, OnBus};
@@ -73,26 +72,18 @@ pub enum AgentError {
 
 /// Runs one agent with `args`; returns the process exit code.
 pub fn main_with(args: &AgentArgs) -> i32 {
-    bycoms_runtime::inherited::close_inherited_files();
-    quiet_iceoryx2();
     // Every event of this agent carries its robot id (text: `sim-agent{robot=3}: …`).
     let _span = tracing::info_span!("sim-agent", robot = args.robot).entered();
-    match run(args) {
-        Ok(cause) => {
-            tracing::debug!(?cause, "agent exits");
-            cause.exit_code()
-        }
-        Err(e) => {
-            tracing::error!("{e}");
-            match e {
-                // Bad values are usage errors, like clap's own (exit code 2).
-                AgentError::Args(_) | AgentError::Swarm(_) => 2,
-                // The launch would refuse it: as a refusal.
-                AgentError::SettingsDiffer(_) | AgentError::Settings(FetchError::Refused { .. }) => 3,
-                _ => 1,
-            }
-        }
-    }
+    bycoms_runtime::cli::agent_main(
+        || run(args),
+        |e| match e {
+            // Bad values are usage errors, like clap's own (exit code 2).
+            AgentError::Args(_) | AgentError::Swarm(_) => 2,
+            // The launch would refuse it: as a refusal.
+            AgentError::SettingsDiffer(_) | AgentError::Settings(FetchError::Refused { .. }) => 3,
+            _ => 1,
+        },
+    )
 }
 
 /// The terrain's text from `path` (`-`: stdin), checked to parse.
