@@ -52,6 +52,8 @@ fn settings(terrain: &str) -> RunSettings {
         speed: 1.0,
         swarm_size: 4,
         heartbeat_ms: 100,
+        cell: 1.0,
+        robot_speed: 1.0,
     }
 }
 

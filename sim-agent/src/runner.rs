@@ -51,6 +51,13 @@ pub struct RunConfig {
     pub field_constant: f64,
     /// Keep every robot's trajectory (for pictures).
     pub record_trajectories: bool,
+    /// The world's units per terrain cell: 1 in the paper's world (a unit
+    /// is a cell); a lab's arena in metres has cells of a few centimetres
+    /// (its frames as blocked cells), and then positions, speeds, ε and the
+    /// field are in metres while only the terrain test is in cells
+    /// ([`RunConfig::in_cells`]). Dividing by 1 is exact, so the paper's
+    /// runs keep their bits.
+    pub cell: f64,
 }
 
 impl RunConfig {
@@ -66,7 +73,27 @@ impl RunConfig {
             kinematics: Kinematics::paper(),
             field_constant: 1.0,
             record_trajectories: false,
+            cell: 1.0,
         }
+    }
+
+    /// Position `p` of the world in the terrain's cells (what
+    /// [`Terrain::is_blocked_at`] takes): `p` when a cell is a unit.
+    #[inline]
+    pub fn in_cells(&self, p: Vec2) -> Vec2 {
+        Vec2::new(p.x / self.cell, p.y / self.cell)
+    }
+
+    /// Whether a robot at world position `p` is in an impassable cell of
+    /// `terrain` or outside it (stuck there).
+    #[inline]
+    pub fn blocked(&self, terrain: &Terrain, p: Vec2) -> bool {
+        terrain.is_blocked_at(self.in_cells(p))
+    }
+
+    /// Point `p` of the terrain's cells (its start, its goal) in the world.
+    pub fn in_world(&self, p: Vec2) -> Vec2 {
+        Vec2::new(p.x * self.cell, p.y * self.cell)
     }
 
     /// The controller parameters this run gives each robot.
@@ -103,6 +130,9 @@ impl RunConfig {
         if self.step_limit() == 0 {
             return Err(ConfigError::TimeLimit(self.time_limit));
         }
+        if !positive(self.cell) {
+            return Err(ConfigError::Cell(self.cell));
+        }
         Ok(())
     }
 
@@ -128,6 +158,8 @@ pub enum ConfigError {
     FieldConstant(f64),
     #[error("at least one robot is needed")]
     NoRobots,
+    #[error("the cell size must be a positive number of the world's units, got {0:?}")]
+    Cell(f64),
     #[error(
         "kinematics need a positive speed and a turn step (turn rate × dt) that divides the full circle"
     )]
@@ -229,7 +261,7 @@ impl Course<'_> {
                 }
                 continue;
             }
-            if self.terrain.is_blocked_at(p) {
+            if cfg.blocked(self.terrain, p) {
                 return (RobotRunEnd::Stuck, None);
             }
             let (dx, dy) = (p.x - self.goal.x, p.y - self.goal.y);
@@ -245,8 +277,8 @@ impl Course<'_> {
 /// Panics if `cfg` fails [`RunConfig::validate`]; callers taking the
 /// configuration from users validate it first.
 pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
-    let goal = terrain.goal();
-    let start = terrain.start();
+    let goal = cfg.in_world(terrain.goal());
+    let start = cfg.in_world(terrain.start());
     let theta0 = start.bearing_to(goal);
     let table = HeadingTable::new(&cfg.kinematics, theta0)
         .expect("RunConfig::validate: the turn step must divide the full circle");

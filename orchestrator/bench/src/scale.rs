@@ -147,21 +147,16 @@ fn deploy_spread(commands: &[Pub<ToAgent>], terrain: &Terrain, speed: f64) -> Re
 /// stdin, real time at 10 Hz × `speed`, the bus of this host.
 fn agent_args(name: &str, id: u32, agents: u32, speed: f64) -> AgentArgs {
     AgentArgs {
-        swarm: name.to_owned(),
-        robot: id,
         terrain: Some(PathBuf::from("-")),
         eps: Some(2.0),
-        noise: false,
-        seed: 0,
         clock: Clock::Realtime,
         speed,
         swarm_size: Some(agents),
         parent_pid: Some(std::process::id() as i32),
         heartbeat_ms: 100,
-        parked_heartbeat_ms: None,
         settings_timeout: DEFAULT_SETTINGS_TIMEOUT_S,
         bus: BusArgs { transport: Transport::Ipc, connect: Vec::new(), zenoh_config: None },
-        failsafe: Default::default(),
+        ..AgentArgs::new(name, id)
     }
 }
 

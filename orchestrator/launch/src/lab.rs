@@ -23,7 +23,10 @@
 //! (`mocap::PlacementWatch`). A robot enabled elsewhere would be judged
 //! from the wrong start.
 
+use super::SimArena;
 use super::World;
+use bycoms_lab::arena;
+use bycoms_lab::robots::RobotsFile;
 use anyhow::{Context, Result};
 use bycoms_lab::process::load_scenario;
 use bycoms_lab::scenario::Scenario;
@@ -33,9 +36,16 @@ use bycoms_sim::Vec2;
 
 /// The launch's world from lab scenario `name` (a built-in name or a
 /// file), for a launch of `robots` robots: as many as the scenario has (one
-/// tone each; every process of a swarm sizes the bus for the same number).
-pub fn lab_world(name: &str, robots: u32) -> Result<World> {
+/// tone each; every process of a swarm sizes the bus for the same number),
+/// or, for a mixed swarm (`file` has simulated members), as many as the
+/// robots file has, the simulated ones running in the arena
+/// ([`mixed_arena`]).
+pub fn lab_world(name: &str, robots: u32, file: Option<&RobotsFile>) -> Result<World> {
     let scenario = load_scenario(name).map_err(|e| usage(e.to_string()))?;
+    if let Some(file) = file.filter(|f| !f.sim.is_empty()) {
+        let simulated = Some(mixed_arena(&scenario, file).map_err(|e| usage(format!("{e:#}")))?);
+        return world_of(&scenario).map(|w| World { simulated, ..w });
+    }
     let have = scenario.tones.len();
     if have != robots as usize {
         return Err(usage(format!(
@@ -44,6 +54,21 @@ pub fn lab_world(name: &str, robots: u32) -> Result<World> {
         )));
     }
     world_of(&scenario)
+}
+
+/// The arena a mixed swarm's simulated members run in: the scenario's room
+/// in cells of [`arena::DEFAULT_CELL`], blocked where a body of the
+/// scenario's radius would touch a frame or a wall, and their speed: the
+/// slowest of the file's ROS 2 robots' `max_linear` (a TurtleBot 3 Burger's
+/// when all are simulated), so that a simulated robot drives as the real
+/// ones do.
+pub fn mixed_arena(scenario: &Scenario, file: &RobotsFile) -> Result<SimArena> {
+    let cell = arena::DEFAULT_CELL;
+    let terrain = arena::terrain(scenario, cell)?;
+    let burger = bycoms_agent::wheeled::Limits::TURTLEBOT3_BURGER.linear;
+    let robot_speed = file.ros2.iter().map(|r| r.limits.linear).fold(f64::INFINITY, f64::min);
+    let robot_speed = if robot_speed.is_finite() { robot_speed } else { burger };
+    Ok(SimArena { terrain_text: to_text(&terrain), cell, robot_speed })
 }
 
 /// The world of a parsed scenario: arena, start and goal, no obstacle.
@@ -73,14 +98,14 @@ mod tests {
 
     #[test]
     fn a_lab_world_keeps_the_arena_start_and_goal_in_metres_and_no_obstacle() {
-        let w = lab_world("exp-long", 3).expect("built in");
+        let w = lab_world("exp-long", 3, None).expect("built in");
         assert_eq!((w.start, w.goal), (Vec2::new(0.4, 1.0), Vec2::new(3.0, 1.0)));
         let t = bycoms_sim::terrain::parse(&w.terrain_text).expect("parses");
         assert_eq!((t.width(), t.height()), (4, 3), "3.5 m × 2.5 m rounded up to whole metres");
         assert!(!w.terrain_text.contains('#'), "the orchestrator knows no obstacle: {}", w.terrain_text);
-        let err = lab_world("exp-nowhere", 3).unwrap_err().to_string();
+        let err = lab_world("exp-nowhere", 3, None).unwrap_err().to_string();
         assert!(err.contains("exp-nowhere"), "{err}");
-        let err = lab_world("exp-short", 3).unwrap_err().to_string();
+        let err = lab_world("exp-short", 3, None).unwrap_err().to_string();
         assert!(err.contains("--robots 2"), "{err}");
     }
 
@@ -91,7 +116,7 @@ mod tests {
             let text = bycoms_lab::scenario::EXP_SHORT.replace("width = 3.0", &format!("width = {width}"));
             let file = dir.path().join("huge.toml");
             std::fs::write(&file, text).expect("scenario");
-            let err = lab_world(file.to_str().expect("utf-8"), 2).expect_err("too large");
+            let err = lab_world(file.to_str().expect("utf-8"), 2, None).expect_err("too large");
             assert_eq!(bycoms_runtime::exit::code_of(&err), bycoms_runtime::exit::USAGE, "{err:#}");
             assert!(format!("{err:#}").contains("at most 1000 m"), "{err:#}");
         }
@@ -105,7 +130,7 @@ mod tests {
         cfg.validate().expect("valid with the lab's robots file and exp-short");
         assert_eq!(cfg.agents.source, crate::config::AgentSourceKind::Real);
         let scenario = cfg.agents.scenario.as_deref().expect("a lab scenario");
-        let world = lab_world(scenario, cfg.robots).expect("exp-short");
+        let world = lab_world(scenario, cfg.robots, None).expect("exp-short");
         assert_eq!(cfg.goal_radius, 0.15, "the scenarios' goal radius, m");
         assert!(cfg.gate.stop_speed < 0.3 / 10.0, "well below a crawler's 0.3 m/s");
         assert_eq!(world.goal, Vec2::new(2.6, 1.0));

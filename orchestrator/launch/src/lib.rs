@@ -68,7 +68,7 @@ pub use agents::executable::{agent_command, AGENT_BIN_ENV};
 pub use agents::spawned::AgentCommand;
 pub use config::{Clock, LaunchConfig, Missing, OnDeath};
 pub use summary::{Outcome, RobotEnd, Summary};
-pub use world::World;
+pub use world::{SimArena, World};
 
 use anyhow::{Context, Result};
 use bycoms_protocol::bus::zenoh::clock::ClockServer;

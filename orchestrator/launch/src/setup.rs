@@ -8,7 +8,7 @@
 use super::agents::remote::QUIET_HEARTBEATS;
 use super::agents::{AgentProperties, AgentSource, Joining};
 use super::config::{Clock, LaunchConfig};
-use super::core::{AgentTraits, ClockLimits, Commands, Setup, Starts, Supervision};
+use super::core::{AgentTraits, ClockLimits, Commands, Members, Setup, Starts, Supervision};
 use super::poses::PoseSource;
 use super::World;
 use bycoms_runtime::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};
@@ -99,6 +99,7 @@ pub fn setup_of(
             kept: agents.keeps_commands && !cfg.faults.is_on(),
         },
         starts: Starts { ahead: if cfg.clock == Clock::Lockstep { STARTS_AHEAD } else { 1 } },
+        members: Members { simulated: agents.simulated.clone() },
     }
 }
 
@@ -145,8 +146,14 @@ pub fn supervision(cfg: &LaunchConfig, held: bool, robot_link_grace: Option<Dura
 /// value back; agents started elsewhere (over zenoh) are served their
 /// encoding. One value, so one fingerprint.
 pub fn run_settings(cfg: &LaunchConfig, world: &World) -> RunSettings {
+    let (terrain, cell, robot_speed) = match &world.simulated {
+        Some(arena) => (arena.terrain_text.clone(), arena.cell, arena.robot_speed),
+        None => (world.terrain_text.clone(), 1.0, 1.0),
+    };
     RunSettings {
-        terrain: world.terrain_text.clone(),
+        terrain,
+        cell,
+        robot_speed,
         eps: cfg.eps,
         noise: cfg.noise,
         seed: cfg.seed,

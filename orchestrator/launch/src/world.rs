@@ -30,6 +30,24 @@ pub struct World {
     /// A lab's room (its scenario), which the picture draws the run in:
     /// its size and frames, which the terrain does not hold.
     pub room: Option<bycoms_lab::scenario::Scenario>,
+    /// A mixed swarm's arena for its simulated members (none: no robot is
+    /// simulated in a lab, or the terrain above is the simulated world).
+    pub simulated: Option<SimArena>,
+}
+
+/// What a mixed swarm's simulated members run in: the lab's room as a
+/// terrain of small cells (`bycoms_lab::arena`), in metres, driving as fast
+/// as its real robots. Their run settings hold it in place of the world's
+/// terrain; the orchestrator's own world (the gate, the pictures) stays the
+/// room's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimArena {
+    /// The arena in the terrain text format.
+    pub terrain_text: String,
+    /// Metres per cell.
+    pub cell: f64,
+    /// A simulated member's straight-line speed, m/s.
+    pub robot_speed: f64,
 }
 
 impl World {
@@ -45,7 +63,7 @@ impl World {
         let mut terrain = bycoms_sim::terrain::parse(&text).context("the launch's terrain")?;
         terrain.set_start(start);
         terrain.set_goal(goal);
-        Ok(Self { name, terrain_text: text, terrain, start, goal, unit, room: None })
+        Ok(Self { name, terrain_text: text, terrain, start, goal, unit, room: None, simulated: None })
     }
 
     /// A 3×3 world with one wall cell, start bottom left, goal top right

@@ -8,6 +8,7 @@
 use anyhow::Result;
 use bycoms_launch::config::{AgentSourceKind, GatewaysAt, Transport};
 use bycoms_launch::{self as launch, Clock, LaunchConfig, Missing, OnDeath, Outcome, World};
+use bycoms_lab::robots::RobotsFile;
 use bycoms_runtime::exit;
 use bycoms_runtime::out::{Kind, Outputs};
 use bycoms_sim::terrain::to_text;
@@ -309,7 +310,8 @@ impl Args {
 /// The world of a launch config.
 pub fn world(cfg: &LaunchConfig) -> Result<World> {
     if let Some(lab) = &cfg.agents.scenario {
-        return launch::lab::lab_world(lab, cfg.robots);
+        let file = cfg.agents.robots_file.as_deref().map(RobotsFile::read).transpose()?;
+        return launch::lab::lab_world(lab, cfg.robots, file.as_ref());
     }
     let source = match &cfg.terrain {
         Some(path) => TerrainSource::File(path.clone()),

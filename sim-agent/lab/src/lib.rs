@@ -40,6 +40,7 @@
 //! the `gateway` and the orchestrator (`tests/udp.rs`); `tests/` at
 //! the workspace root runs them through the real processes.
 
+pub mod arena;
 pub mod body;
 pub mod characterise;
 #[cfg(feature = "process")]

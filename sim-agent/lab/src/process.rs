@@ -278,15 +278,16 @@ pub fn load_scenario(name: &str) -> Result<Scenario, LabError> {
 /// The simulated motion capture: true poses on the bus. A real mocap
 /// source (NatNet) publishes the same topics instead.
 pub struct MocapOut<B: Bus> {
-    poses: Vec<TypedPublisher<B::Publisher, Pose>>,
+    /// Each of the lab's robots' pose publisher, by id.
+    poses: std::collections::BTreeMap<RobotId, TypedPublisher<B::Publisher, Pose>>,
     frame: u64,
 }
 
 impl<B: Bus> MocapOut<B> {
-    /// One pose publisher per robot 1..=n.
-    pub fn open(bus: &B, swarm: &Swarm, n: u32) -> Result<Self, BusError> {
-        let poses =
-            (1..=n).map(|id| bus.typed_publisher(&swarm.pose(RobotId(id)))).collect::<Result<_, _>>()?;
+    /// One pose publisher per robot of `ids` (the lab's own: a simulated
+    /// member of a mixed swarm publishes its pose itself).
+    pub fn open(bus: &B, swarm: &Swarm, ids: &[RobotId]) -> Result<Self, BusError> {
+        let poses = ids.iter().map(|&id| Ok((id, bus.typed_publisher(&swarm.pose(id))?))).collect::<Result<_, BusError>>()?;
         Ok(Self { poses, frame: 0 })
     }
 
@@ -294,7 +295,7 @@ impl<B: Bus> MocapOut<B> {
     pub fn publish(&mut self, lab: &Lab, now: Duration) -> Result<(), BusError> {
         self.frame += 1;
         for (robot, b) in lab.poses() {
-            let (Some(b), Some(out)) = (b, self.poses.get((robot.0 as usize).wrapping_sub(1))) else {
+            let (Some(b), Some(out)) = (b, self.poses.get(&robot)) else {
                 continue;
             };
             let time_us = u64::try_from(now.as_micros()).unwrap_or(u64::MAX);
@@ -432,7 +433,7 @@ pub fn run_with(args: &LabArgs, mut lifeline: Lifeline) -> Result<Option<ExitCau
     let scenario = load_scenario(&args.scenario)?;
     let fleet = Fleet::read(args, &scenario)?;
     let swarm = Swarm::new(&args.swarm)?;
-    let n = fleet.len() as u32;
+    let n = fleet.swarm;
     args.bus.validate().map_err(LabError::Args)?;
     let node = format!("bycoms-{}-lab", swarm.as_str());
     let then = RunLab { args, swarm: &swarm, scenario, fleet: &fleet, lifeline: &mut lifeline };
@@ -442,8 +443,19 @@ pub fn run_with(args: &LabArgs, mut lifeline: Lifeline) -> Result<Option<ExitCau
     })?
 }
 
-/// The lab's robots, of the one kind the robots file declares.
-enum Fleet {
+/// The lab's robots, of the one kind the robots file declares, and the
+/// swarm they are members of.
+struct Fleet {
+    robots: Robots,
+    /// Robots in the swarm: every process of a swarm sizes the bus for it.
+    /// The lab's own robots, or with simulated members (`kind = "sim"`,
+    /// which the lab does not emulate: they are `sim-agent`s of the
+    /// launch) every robot of the file.
+    swarm: u32,
+}
+
+/// The robots the lab emulates.
+enum Robots {
     /// Emulated ESP32s, each wired to its gateway.
     Acoustic(Vec<Wiring>),
     /// ROS 2 robots, driven by their `cmd_vel` on the lab's router.
@@ -452,20 +464,37 @@ enum Fleet {
 
 impl Fleet {
     /// The scenario's robots: the robots file's first ones (one file
-    /// serves every scenario of a lab).
+    /// serves every scenario of a lab); with simulated members, the whole
+    /// file (a mixed swarm is as large as its robots file).
     fn read(args: &LabArgs, scenario: &Scenario) -> Result<Self, LabError> {
         let mut robots = RobotsFile::read(&args.robots)?;
         let file = args.robots.display();
         let kind = robots.kind().ok_or_else(|| {
             LabError::Args(format!("robots file {file} mixes acoustic and ros2 robots: one kind at a time"))
         })?;
-        let (want, have) = (scenario.tones.len(), robots.robots.len() + robots.ros2.len());
-        if have < want {
+        let mixed = !robots.sim.is_empty();
+        match kind {
+            Kind::Sim => {
+                let why = format!("robots file {file} has only simulated robots: the lab has none to emulate");
+                return Err(LabError::Args(why));
+            }
+            Kind::Acoustic if mixed => {
+                let why = format!(
+                    "robots file {file} mixes acoustic and simulated robots: an acoustic robot hears tones, \
+                     and a simulated one makes none (mixed swarms take ROS 2 robots)"
+                );
+                return Err(LabError::Args(why));
+            }
+            _ => {}
+        }
+        let (want, have) = (scenario.tones.len(), robots.len());
+        if have < want && !mixed {
             return Err(LabError::Args(format!(
                 "scenario {} has {want} robots, the robots file only {have}",
                 scenario.name
             )));
         }
+        let swarm = if mixed { have } else { want } as u32;
         if kind == Kind::Acoustic {
             if args.ros2_router.is_some() {
                 let why = format!("--ros2-router is for ROS 2 robots; robots file {file} has acoustic ones");
@@ -474,9 +503,8 @@ impl Fleet {
             robots.robots.truncate(want);
             let keys = robots.keys()?;
             let wiring = robots.robots.iter().zip(keys);
-            return Ok(Self::Acoustic(
-                wiring.map(|(r, key)| Wiring { key, bind: r.address, gateway: r.gateway }).collect(),
-            ));
+            let wiring = wiring.map(|(r, key)| Wiring { key, bind: r.address, gateway: r.gateway }).collect();
+            return Ok(Self { robots: Robots::Acoustic(wiring), swarm });
         }
         let router = args.ros2_router.clone().ok_or_else(|| {
             LabError::Args(format!(
@@ -484,25 +512,26 @@ impl Fleet {
                  --ros2-router tcp/HOST:7447"
             ))
         })?;
-        robots.ros2.truncate(want);
+        robots.ros2.retain(|r| r.id <= swarm);
         let link =
             Ros2Link { router, domain_id: args.ros2_domain_id, namespace: args.ros2_namespace.clone() };
-        Ok(Self::Ros2(robots.ros2, link))
+        Ok(Self { robots: Robots::Ros2(robots.ros2, link), swarm })
     }
 
-    fn len(&self) -> usize {
-        match self {
-            Self::Acoustic(wiring) => wiring.len(),
-            Self::Ros2(entries, _) => entries.len(),
+    /// The ids of the robots the lab emulates.
+    fn ids(&self) -> Vec<RobotId> {
+        match &self.robots {
+            Robots::Acoustic(wiring) => (1..=wiring.len() as u32).map(RobotId).collect(),
+            Robots::Ros2(entries, _) => entries.iter().map(|e| RobotId(e.id)).collect(),
         }
     }
 
     /// The lab of these robots in `scenario` and, for ROS 2 robots, their
     /// commands' subscriptions.
     fn lab(&self, scenario: Scenario, seed: u64) -> Result<(Lab, Option<CmdVelIn>), LabError> {
-        match self {
-            Self::Acoustic(wiring) => Ok((Lab::wired(scenario, wiring, seed)?, None)),
-            Self::Ros2(entries, link) => {
+        match &self.robots {
+            Robots::Acoustic(wiring) => Ok((Lab::wired(scenario, wiring, seed)?, None)),
+            Robots::Ros2(entries, link) => {
                 let radius = scenario.body.radius;
                 let bodies: Vec<_> = entries
                     .iter()
@@ -537,7 +566,7 @@ fn mocap_out<B: Bus>(
     bus: &B,
     args: &LabArgs,
     swarm: &Swarm,
-    n: u32,
+    fleet: &Fleet,
 ) -> Result<(Option<MocapOut<B>>, Option<NatNetOut>), LabError> {
     match args.natnet {
         Some(addr) => {
@@ -545,11 +574,11 @@ fn mocap_out<B: Bus>(
                 Some(path) => read_faults(path)?,
                 None => Faults::default(),
             };
-            let out = NatNetOut::start(addr, n, args.natnet_rate, args.speed, faults)?;
+            let out = NatNetOut::start(addr, fleet.swarm, args.natnet_rate, args.speed, faults)?;
             tracing::info!(command = %out.command_addr(), rate_hz = args.natnet_rate, "lab: motion capture by NatNet");
             Ok((None, Some(out)))
         }
-        None => Ok((Some(MocapOut::open(bus, swarm, n)?), None)),
+        None => Ok((Some(MocapOut::open(bus, swarm, &fleet.ids())?), None)),
     }
 }
 
@@ -573,8 +602,8 @@ fn run_on<B: Bus>(
     fleet: &Fleet,
     lifeline: &mut Lifeline,
 ) -> Result<Option<ExitCause>, LabError> {
-    let (bus, swarm, n) = (bus, *swarm, fleet.len() as u32);
-    let (mut mocap, natnet) = mocap_out(bus, args, &swarm, n)?;
+    let (bus, swarm, n) = (bus, *swarm, fleet.swarm);
+    let (mut mocap, natnet) = mocap_out(bus, args, &swarm, fleet)?;
     let mut operator = Operator::open(bus, &swarm)?;
     let (mut lab, mut commands) = fleet.lab(scenario, args.seed)?;
     tracing::info!(scenario = lab.scenario().name, robots = n, speed = args.speed, "lab running");

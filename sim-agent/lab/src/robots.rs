@@ -71,6 +71,9 @@ pub struct RobotsFile {
     pub robots: Vec<RobotEntry>,
     /// The ROS 2 robots, in id order.
     pub ros2: Vec<Ros2Entry>,
+    /// The simulated members of a mixed swarm (`kind = "sim"`), in id
+    /// order: robots the lab does not have, simulated in its arena.
+    pub sim: Vec<u32>,
     /// The directory key files are relative to.
     pub dir: PathBuf,
 }
@@ -91,6 +94,9 @@ pub enum Kind {
     Acoustic,
     /// A ROS 2 ground robot driven by `cmd_vel`.
     Ros2,
+    /// A simulated member of a mixed swarm: a `sim-agent` in the lab's
+    /// arena, sensing the same virtual field as the ROS 2 robots.
+    Sim,
 }
 
 /// One `[[robot]]` table as written: every key of either kind, checked
@@ -117,6 +123,7 @@ struct RawEntry {
 enum Typed {
     Acoustic(RobotEntry),
     Ros2(Ros2Entry),
+    Sim(u32),
 }
 
 impl RawEntry {
@@ -144,7 +151,21 @@ impl RawEntry {
                 }))
             }
             Kind::Ros2 => self.ros2().map(Typed::Ros2),
+            Kind::Sim => self.sim().map(Typed::Sim),
         }
+    }
+
+    /// A simulated member: its id and nothing else.
+    fn sim(self) -> Result<u32, String> {
+        let keys = [("address", self.address.is_some()), ("gateway", self.gateway.is_some())]
+            .into_iter()
+            .chain([("key_file", self.key_file.is_some()), ("cmd_vel", self.cmd_vel.is_some())])
+            .chain([("message", self.message.is_some()), ("frame_id", self.frame_id.is_some())])
+            .chain([("max_linear", self.max_linear.is_some()), ("max_angular", self.max_angular.is_some())])
+            .chain([("wheel_base", self.wheel_base.is_some())])
+            .chain([("cmd_vel_timeout", self.cmd_vel_timeout.is_some())]);
+        refuse_keys(self.id, "sim", keys)?;
+        Ok(self.id)
     }
 
     fn ros2(self) -> Result<Ros2Entry, String> {
@@ -281,15 +302,17 @@ impl RobotsFile {
         if found.is_empty() || found.iter().enumerate().any(|(i, &id)| id as usize != i + 1) {
             return Err(RobotsError::Ids { path: path.to_path_buf(), found });
         }
-        let mut file = RobotsFile { robots: Vec::new(), ros2: Vec::new(), dir: PathBuf::new() };
+        let mut file = RobotsFile { robots: Vec::new(), ros2: Vec::new(), sim: Vec::new(), dir: PathBuf::new() };
         for entry in raw.robot {
             match entry.typed().map_err(|why| RobotsError::Entry { path: path.to_path_buf(), why })? {
                 Typed::Acoustic(r) => file.robots.push(r),
                 Typed::Ros2(r) => file.ros2.push(r),
+                Typed::Sim(id) => file.sim.push(id),
             }
         }
         file.robots.sort_by_key(|r| r.id);
         file.ros2.sort_by_key(|r| r.id);
+        file.sim.sort_unstable();
         file.check_ports(path)?;
         if let Some(why) = file.address_refused() {
             return Err(RobotsError::Address { path: path.to_path_buf(), why });
@@ -333,14 +356,31 @@ impl RobotsFile {
         self.dir.join(&robot.key_file)
     }
 
-    /// The one kind of robot the file declares, or `None` when it mixes
-    /// them (a mixed swarm is not launched yet).
+    /// The one kind of real robot the file declares (beside any simulated
+    /// members), `Sim` when all are simulated, or `None` when it mixes
+    /// acoustic and ROS 2 robots.
     pub fn kind(&self) -> Option<Kind> {
         match (self.robots.is_empty(), self.ros2.is_empty()) {
             (false, true) => Some(Kind::Acoustic),
             (true, false) => Some(Kind::Ros2),
-            _ => None,
+            (true, true) => Some(Kind::Sim),
+            (false, false) => None,
         }
+    }
+
+    /// Whether robot `id` is a simulated member (`kind = "sim"`).
+    pub fn is_simulated(&self, id: u32) -> bool {
+        self.sim.binary_search(&id).is_ok()
+    }
+
+    /// Robots in the file, of every kind.
+    pub fn len(&self) -> usize {
+        self.robots.len() + self.ros2.len() + self.sim.len()
+    }
+
+    /// Whether the file names no robot (never, once read).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
     }
 
     /// Every acoustic robot's key, in id order.
@@ -406,6 +446,22 @@ mod tests {
         let mixed = format!("[[robot]]\nid = 1\n{ROBOT}[[robot]]\nid = 2\nkind = \"ros2\"\n");
         let f = RobotsFile::read(&write(dir.path(), "m.toml", &mixed)).unwrap();
         assert_eq!((f.robots.len(), f.ros2.len(), f.kind()), (1, 1, None));
+    }
+
+    #[test]
+    fn simulated_members_stand_beside_ros2_robots_and_take_no_keys() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = "[[robot]]\nid = 1\nkind = \"sim\"\n[[robot]]\nid = 2\nkind = \"ros2\"\n\
+                    [[robot]]\nid = 3\nkind = \"sim\"\n";
+        let f = RobotsFile::read(&write(dir.path(), "mixed.toml", text)).unwrap();
+        assert_eq!((f.sim.clone(), f.ros2.len(), f.len()), (vec![1, 3], 1, 3));
+        assert_eq!(f.kind(), Some(Kind::Ros2), "the kind of its real robots");
+        assert!(f.is_simulated(1) && !f.is_simulated(2) && f.is_simulated(3));
+        let all = RobotsFile::read(&write(dir.path(), "all.toml", "[[robot]]\nid = 1\nkind = \"sim\"\n")).unwrap();
+        assert_eq!(all.kind(), Some(Kind::Sim));
+        let keyed = "[[robot]]\nid = 1\nkind = \"sim\"\nmax_linear = 0.2\n";
+        let err = RobotsFile::read(&write(dir.path(), "keyed.toml", keyed)).unwrap_err().to_string();
+        assert!(err.contains("robot 1 is of kind \"sim\", which takes no `max_linear`"), "{err}");
     }
 
     #[test]

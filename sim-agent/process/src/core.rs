@@ -257,7 +257,7 @@ impl RobotCore {
         };
         d.robot.step(&d.table, &self.beacons, bearing.bearing);
         self.steps += 1;
-        if self.terrain.is_blocked_at(d.robot.body.pos) {
+        if self.cfg.blocked(&self.terrain, d.robot.body.pos) {
             self.phase = RobotPhase::Frozen;
         }
         true

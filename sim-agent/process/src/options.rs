@@ -121,6 +121,25 @@ pub struct AgentArgs {
         help_heading = "Run settings (default: the orchestrator's)"
     )]
     pub speed: f64,
+    /// The world's units per terrain cell: 1 in the paper's world; a lab's
+    /// arena in metres is a terrain of small cells (its frames blocked),
+    /// and then poses, beacons, speeds and ε are in metres.
+    #[arg(
+        long,
+        default_value_t = 1.0,
+        requires = "terrain",
+        help_heading = "Run settings (default: the orchestrator's)"
+    )]
+    pub cell_size: f64,
+    /// Straight-line speed, units per simulated second (the paper's 1; a
+    /// simulated member of a lab's swarm drives as fast as its real ones).
+    #[arg(
+        long,
+        default_value_t = 1.0,
+        requires = "terrain",
+        help_heading = "Run settings (default: the orchestrator's)"
+    )]
+    pub robot_speed: f64,
     /// Robots in the swarm: sizes the shared-memory services, and must be the
     /// same for every process of the swarm (default: this robot's id).
     #[arg(long, requires = "terrain", help_heading = "Run settings (default: the orchestrator's)")]
@@ -177,6 +196,8 @@ impl AgentArgs {
             seed: 0,
             clock: Clock::Lockstep,
             speed: 1.0,
+            cell_size: 1.0,
+            robot_speed: 1.0,
             swarm_size: None,
             parent_pid: None,
             heartbeat_ms: bycoms_protocol::msg::HEARTBEAT_MS,
@@ -196,6 +217,8 @@ impl AgentArgs {
         let mut cfg = RunConfig::paper(self.eps.unwrap_or(f64::NAN));
         cfg.noise = self.noise.then(NoiseModel::paper);
         cfg.seed = self.seed;
+        cfg.cell = self.cell_size;
+        cfg.kinematics.speed = self.robot_speed;
         cfg
     }
 
@@ -251,6 +274,10 @@ impl AgentArgs {
                 "--heartbeat-ms".into(),
                 self.heartbeat_ms.to_string(),
             ]);
+            if self.cell_size != 1.0 || self.robot_speed != 1.0 {
+                v.extend(["--cell-size".into(), format!("{:?}", self.cell_size)]);
+                v.extend(["--robot-speed".into(), format!("{:?}", self.robot_speed)]);
+            }
             if self.noise {
                 v.push("--noise".into());
             }
@@ -384,6 +411,8 @@ mod tests {
             seed: u64::MAX,
             clock: Clock::Realtime,
             speed: 2.5,
+            cell_size: 0.02,
+            robot_speed: 0.1 + 0.12,
             swarm_size: Some(9),
             parent_pid: Some(77),
             heartbeat_ms: 50,

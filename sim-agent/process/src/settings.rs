@@ -41,7 +41,7 @@ use sha2::{Digest, Sha256};
 use std::time::{Duration, Instant};
 
 /// The encoding's format byte (its first byte).
-pub const FORMAT: u8 = 1;
+pub const FORMAT: u8 = 2;
 
 /// Everything an agent needs to run the launch's study (see the module docs).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -62,6 +62,12 @@ pub struct RunSettings {
     pub swarm_size: u32,
     /// Heartbeat period, milliseconds of wall time.
     pub heartbeat_ms: u64,
+    /// The world's units per terrain cell (`--cell-size`; 1 in the paper's
+    /// world, a few centimetres in a lab's arena in metres).
+    pub cell: f64,
+    /// Straight-line speed, units per simulated second (`--robot-speed`;
+    /// the paper's 1, a lab's real robots' in a mixed swarm).
+    pub robot_speed: f64,
 }
 
 /// Why bytes are no settings.
@@ -96,6 +102,8 @@ impl RunSettings {
             speed: Self::speed_of(args.clock, args.speed),
             swarm_size: args.swarm_size(),
             heartbeat_ms: args.heartbeat_ms,
+            cell: args.cell_size,
+            robot_speed: args.robot_speed,
         })
     }
 
@@ -125,6 +133,8 @@ impl RunSettings {
             speed: self.speed,
             swarm_size: Some(self.swarm_size),
             heartbeat_ms: self.heartbeat_ms,
+            cell_size: self.cell,
+            robot_speed: self.robot_speed,
             ..args
         }
     }
@@ -135,6 +145,8 @@ impl RunSettings {
         let mut cfg = RunConfig::paper(self.eps);
         cfg.noise = self.noise.then(NoiseModel::paper);
         cfg.seed = self.seed;
+        cfg.cell = self.cell;
+        cfg.kinematics.speed = self.robot_speed;
         cfg
     }
 
@@ -199,6 +211,8 @@ impl RunSettings {
             })
             .or_else(|| differ("swarm size (--swarm-size)", self.swarm_size, launch.swarm_size))
             .or_else(|| differ("heartbeat period (--heartbeat-ms)", self.heartbeat_ms, launch.heartbeat_ms))
+            .or_else(|| differ("cell size (--cell-size)", self.cell, launch.cell))
+            .or_else(|| differ("robot speed (--robot-speed)", self.robot_speed, launch.robot_speed))
     }
 }
 
@@ -364,6 +378,8 @@ mod tests {
             speed: 1.0,
             swarm_size: 3,
             heartbeat_ms: 100,
+            cell: 1.0,
+            robot_speed: 1.0,
         }
     }
 
@@ -384,13 +400,16 @@ mod tests {
     fn the_fingerprint_is_pinned() {
         // The wire's value: an agent of another build must compute the same.
         let s = paper();
-        // Golden bytes (PROTOCOL.md): format 1, the terrain's length and
+        // Golden bytes (PROTOCOL.md): format 2, the terrain's length and
         // text, ε = 3.0 (LE f64), noise off, seed 0, lockstep, speed 1.0,
-        // 3 robots, 100 ms heartbeats. Recomputed apart with Python's
-        // hashlib: sha256(bytes)[:8] read little-endian.
+        // 3 robots, 100 ms heartbeats, cell 1.0, robot speed 1.0.
+        // Recomputed apart with Python's hashlib: sha256(bytes)[:8] read
+        // little-endian.
         let hex: String = s.encode().iter().map(|b| format!("{b:02x}")).collect();
-        assert_eq!(hex, "010c2e2e470a2e232e0a532e2e0a0000000000000840000000000000000000f03f0364");
-        assert_eq!(format!("{:016x}", s.fingerprint()), "152afbbcb840f9ec");
+        let want = "020c2e2e470a2e232e0a532e2e0a0000000000000840000000000000000000f03f0364\
+                    000000000000f03f000000000000f03f";
+        assert_eq!(hex, want);
+        assert_eq!(format!("{:016x}", s.fingerprint()), "f30c0f6d8f04586c");
         assert_eq!(s.fingerprint(), paper().fingerprint(), "deterministic");
         assert_ne!(s.fingerprint(), 0);
     }
@@ -407,6 +426,8 @@ mod tests {
             RunSettings { speed: 2.0, ..paper() },
             RunSettings { swarm_size: 4, ..paper() },
             RunSettings { heartbeat_ms: 50, ..paper() },
+            RunSettings { cell: 0.02, ..paper() },
+            RunSettings { robot_speed: 0.22, ..paper() },
         ];
         for s in changed {
             assert_ne!(s.fingerprint(), base, "{s:?}");
@@ -427,6 +448,8 @@ mod tests {
             seed: 0,
             clock,
             speed,
+            cell_size: 1.0,
+            robot_speed: 1.0,
             swarm_size: Some(3),
             parent_pid: None,
             heartbeat_ms: 100,
@@ -457,6 +480,8 @@ mod tests {
             clock: Clock::Realtime,
             swarm_size: 9,
             heartbeat_ms: 37,
+            cell: 0.02,
+            robot_speed: 0.1 + 0.12,
             ..paper()
         };
         for s in [paper(), realtime] {

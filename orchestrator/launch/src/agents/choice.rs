@@ -7,6 +7,7 @@
 //! launch starts.
 
 use super::gateways::{Gateways, GatewaysAt};
+use super::mixed::Mixed;
 use super::remote::Remote;
 use super::ros2_robots::{Graph, Ros2Robots};
 use super::spawned::{AgentCommand, Spawned};
@@ -175,25 +176,52 @@ impl AgentsConfig {
             AgentSourceKind::Real => {
                 let path = self.robots_file.as_deref().context("agents.robots_file is not set")?;
                 let robots = RobotsFile::read(path)?;
-                if robots.kind() == Some(Kind::Ros2) {
-                    let graph = graph.context("ROS 2 robots need a ROS 2 graph (ros2.router)")?;
-                    let agent = super::executable::ros2_robot_command(self.ros2_robot_bin.as_deref())?;
-                    return Ok(Box::new(Ros2Robots::new(agent, &robots, graph)));
+                let real = self.real_robots(&robots, graph)?;
+                if robots.sim.is_empty() {
+                    return real.context("the robots file names no robot");
                 }
+                Box::new(Mixed::new(sim_agent, robots.sim.clone(), real))
+            }
+        })
+    }
+
+    /// The agents of the robots file's real robots: a `ros2-robot` per ROS
+    /// 2 robot on `graph`, or a `gateway` per acoustic robot; none when
+    /// every robot is simulated.
+    fn real_robots(&self, robots: &RobotsFile, graph: Option<Graph>) -> Result<Option<Box<dyn AgentSource>>> {
+        Ok(match robots.kind() {
+            Some(Kind::Sim) => None,
+            Some(Kind::Ros2) => {
+                let graph = graph.context("ROS 2 robots need a ROS 2 graph (ros2.router)")?;
+                let agent = super::executable::ros2_robot_command(self.ros2_robot_bin.as_deref())?;
+                Some(Box::new(Ros2Robots::new(agent, robots, graph)))
+            }
+            _ => {
                 let gateway = super::executable::gateway_command(self.gateway_bin.as_deref())?;
-                Box::new(Gateways::new(gateway, robots))
+                Some(Box::new(Gateways::new(gateway, robots.clone())))
             }
         })
     }
 }
 
 /// A robots file a launch of `robots` robots can use: enough robots of
-/// one kind; acoustic ones with their keys, ROS 2 ones with a `graph`.
+/// one real kind, or ROS 2 robots beside simulated members (a mixed
+/// swarm); acoustic ones with their keys, ROS 2 ones with a `graph`.
 fn check_robots_file(path: &std::path::Path, robots: u32, graph: bool) -> Result<(), String> {
     let file = RobotsFile::read(path).map_err(|e| e.to_string())?;
-    let (have, kind) = match file.kind() {
-        Some(Kind::Acoustic) => (file.robots.len(), "acoustic"),
-        Some(Kind::Ros2) => (file.ros2.len(), "ROS 2"),
+    let mixed = !file.sim.is_empty();
+    let kind = match file.kind() {
+        Some(Kind::Acoustic) if mixed => {
+            return Err(format!(
+                "the robots file {} has acoustic and simulated robots: an acoustic robot hears its companions' \
+                 tones and a simulated one makes none; a mixed swarm takes ROS 2 robots (kind = \"ros2\")",
+                path.display()
+            ))
+        }
+        Some(Kind::Acoustic) => "acoustic",
+        Some(Kind::Ros2) if mixed => "ROS 2 and simulated",
+        Some(Kind::Ros2) => "ROS 2",
+        Some(Kind::Sim) => "simulated",
         None => {
             return Err(format!(
                 "the robots file {} has acoustic and ROS 2 robots: a launch drives robots of one kind",
@@ -201,10 +229,12 @@ fn check_robots_file(path: &std::path::Path, robots: u32, graph: bool) -> Result
             ))
         }
     };
-    if (have as u32) < robots {
+    let have = file.len() as u32;
+    if have < robots || (mixed && have != robots) {
         return Err(format!(
-            "the robots file {} names {have} {kind} robots, the launch needs {robots}",
-            path.display()
+            "the robots file {} names {have} {kind} robots, the launch needs {robots}{}",
+            path.display(),
+            if mixed { " (a mixed swarm is its robots file: launch it with --robots as many)" } else { "" }
         ));
     }
     match file.kind() {
@@ -213,7 +243,7 @@ fn check_robots_file(path: &std::path::Path, robots: u32, graph: bool) -> Result
              (--ros2-router tcp/HOST:7447, the lab's rmw_zenohd) or use transport.kind = \"zenoh\"",
             path.display()
         )),
-        Some(Kind::Ros2) => Ok(()),
+        Some(Kind::Ros2 | Kind::Sim) => Ok(()),
         _ => file.keys().map(|_| ()).map_err(|e| e.to_string()),
     }
 }

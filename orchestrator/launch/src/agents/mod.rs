@@ -12,7 +12,8 @@
 //! liveness and ends them. The kinds: [`spawned::Spawned`] (default),
 //! [`remote::Remote`] (`--agents remote`), [`gateways::Gateways`]
 //! (`--agents real`, acoustic robots), [`ros2_robots::Ros2Robots`]
-//! (`--agents real`, a robots file of ROS 2 robots); [`choice`] picks one
+//! (`--agents real`, a robots file of ROS 2 robots), [`mixed::Mixed`]
+//! (a robots file with simulated members beside them); [`choice`] picks one
 //! from the config.
 //!
 //! Contract (checked for every implementation by the one conformance suite,
@@ -85,6 +86,7 @@ macro_rules! forward_to_inner {
 pub mod choice;
 pub mod executable;
 pub mod gateways;
+pub mod mixed;
 pub mod remote;
 pub mod ros2_robots;
 pub mod spawned;
@@ -355,6 +357,11 @@ pub struct AgentProperties {
     /// false }`) must stay down before the core takes the robot as gone
     /// (sources of real robots); none: robot links are not watched.
     pub robot_link_grace: Option<Duration>,
+    /// The robots whose agents simulate their bodies among a source of
+    /// real robots (a mixed swarm's `kind = "sim"` members, in order):
+    /// no operator places them and no pose is forwarded to them (the
+    /// core's [`Members`](crate::core::Members)).
+    pub simulated: Vec<u32>,
 }
 
 impl AgentProperties {
@@ -376,6 +383,7 @@ impl AgentProperties {
             ended_by: "killed",
             held_when_unreachable: false,
             robot_link_grace: None,
+            simulated: Vec::new(),
         }
     }
 }

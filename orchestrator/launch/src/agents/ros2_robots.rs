@@ -162,6 +162,7 @@ mod tests {
                 entry(2, None, VelocityMessage::TwistStamped),
                 entry(3, None, VelocityMessage::Twist),
             ],
+            sim: Vec::new(),
             dir: ".".into(),
         };
         let topics = recorded_topics(&file, "/lab", 2);

@@ -250,7 +250,7 @@ impl LaunchCore {
             Ok(false) => return,
             Err(why) => return self.refuse_pose(topic, &pose, why),
         }
-        if self.setup.agents.forward_poses {
+        if self.forwards_poses_to(topic) {
             self.outputs.push_back(Output::Forward(pose));
         }
         if self.is_beacon(topic) {
@@ -327,12 +327,19 @@ impl LaunchCore {
         if let Err(why) = self.anchors.check_alone(&pose, clock) {
             return self.refuse_pose(id, &pose, why);
         }
-        if self.setup.agents.forward_poses {
+        if self.forwards_poses_to(id) {
             self.outputs.push_back(Output::Forward(pose));
         }
         if let Some(slot) = self.slot(id) {
             slot.last_pose = Some(pose);
         }
+    }
+
+    /// Whether robot `id`'s agent is handed the poses the launch sees: a
+    /// real robot's, when they do not come over the bus (a simulated
+    /// member of a mixed swarm is its own motion capture).
+    fn forwards_poses_to(&self, id: u32) -> bool {
+        self.setup.agents.forward_poses && !self.setup.members.is_simulated(id)
     }
 
     fn refuse_pose(&mut self, id: u32, pose: &Pose, why: Implausible) {

@@ -105,6 +105,7 @@ pub fn encode_setup(setup: &Setup) -> Vec<u8> {
     bytes.extend(postcard::to_allocvec(&setup.clocks).unwrap_or_default());
     bytes.extend(postcard::to_allocvec(&setup.commands).unwrap_or_default());
     bytes.extend(postcard::to_allocvec(&setup.starts).unwrap_or_default());
+    bytes.extend(postcard::to_allocvec(&setup.members).unwrap_or_default());
     bytes
 }
 
@@ -123,7 +124,11 @@ pub fn decode_setup(bytes: &[u8]) -> Result<Setup, postcard::Error> {
                 let (commands, rest) = postcard::take_from_bytes(rest)?;
                 setup.commands = commands;
                 if !rest.is_empty() {
-                    setup.starts = postcard::from_bytes(rest)?;
+                    let (starts, rest) = postcard::take_from_bytes(rest)?;
+                    setup.starts = starts;
+                    if !rest.is_empty() {
+                        setup.members = postcard::from_bytes(rest)?;
+                    }
                 }
             }
         }

@@ -200,6 +200,30 @@ pub struct Setup {
     /// `log::encode_setup`, for the same reason.
     #[serde(skip)]
     pub starts: Starts,
+    /// The simulated members of a swarm of real robots (a mixed swarm).
+    /// Appended after the starts by `log::encode_setup`, for the same
+    /// reason.
+    #[serde(skip)]
+    pub members: Members,
+}
+
+/// Which robots of a launch of real robots are simulated ([`Setup::members`]):
+/// a mixed swarm's `sim-agent`s, which `Deploy` puts at the start (no
+/// operator places them) and which see their own poses (none is forwarded
+/// to them). Every other rule (the gate, the field, the order) is the same
+/// for both kinds.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Members {
+    /// The simulated robots' ids, in order (none: every robot is of the
+    /// source's kind).
+    pub simulated: Vec<u32>,
+}
+
+impl Members {
+    /// Whether robot `id` is simulated.
+    pub fn is_simulated(&self, id: u32) -> bool {
+        self.simulated.binary_search(&id).is_ok()
+    }
 }
 
 /// How far ahead of the robots' turns their agents are started (with

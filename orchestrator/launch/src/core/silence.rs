@@ -151,6 +151,7 @@ mod tests {
             clocks: ClockLimits::default(),
             commands: Default::default(),
             starts: Default::default(),
+            members: Default::default(),
         }
     }
 

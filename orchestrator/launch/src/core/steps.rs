@@ -311,7 +311,7 @@ impl LaunchCore {
             self.phase = Phase::Choosing;
             return;
         }
-        let Some(config) = self.setup.agents.placement else {
+        let Some(config) = self.placement_of(id) else {
             return self.open_gate(id, now);
         };
         let start = self.setup.start;
@@ -330,6 +330,12 @@ impl LaunchCore {
         self.placement = Some(PlacementWatch::new(RobotId(id), start, config));
         self.phase =
             Phase::Placing(id, Placing { since: now, reminded: now, seen_us: None, said_no_pose: false });
+    }
+
+    /// How robot `id` is placed by an operator: none for a simulated
+    /// member of a mixed swarm (its `Deploy` puts it at the start).
+    pub(super) fn placement_of(&self, id: u32) -> Option<PlacementConfig> {
+        self.setup.agents.placement.filter(|_| !self.setup.members.is_simulated(id))
     }
 
     pub(super) fn placement_timeout_us(&self) -> u64 {
