@@ -159,7 +159,7 @@ fn forged_poses_are_refused_counted_and_change_nothing() {
 
 /// Every pose a recording holds on the bus's pose topics, and those the
 /// launch core applied (`core/moved`), in order.
-fn recorded_poses(
+pub(crate) fn recorded_poses(
     path: &std::path::Path,
 ) -> (Vec<bycoms_protocol::msg::Pose>, Vec<bycoms_protocol::msg::Pose>) {
     use bycoms_record::decode::{decode_message, Content};

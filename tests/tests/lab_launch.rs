@@ -20,6 +20,8 @@
 //! runs there and once more with its poses from a ROS 2 driver (every
 //! other run reads poses from the bus).
 
+mod mixed;
+
 use bycoms_protocol::fault::FaultConfig;
 use bycoms_protocol::link::proxy::LinkProxy;
 use bycoms_tests::{agents_of, bin, is_zombie, signal, swarm_name, wait_for, wait_for_pose, Finished, Proc};

@@ -25,10 +25,10 @@
 
 use super::SimArena;
 use super::World;
-use bycoms_lab::arena;
-use bycoms_lab::robots::RobotsFile;
 use anyhow::{Context, Result};
+use bycoms_lab::arena;
 use bycoms_lab::process::load_scenario;
+use bycoms_lab::robots::RobotsFile;
 use bycoms_lab::scenario::Scenario;
 use bycoms_runtime::exit::usage;
 use bycoms_sim::terrain::{to_text, Terrain};

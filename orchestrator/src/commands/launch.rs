@@ -6,9 +6,9 @@
 //! an exit code.
 
 use anyhow::Result;
+use bycoms_lab::robots::RobotsFile;
 use bycoms_launch::config::{AgentSourceKind, GatewaysAt, Transport};
 use bycoms_launch::{self as launch, Clock, LaunchConfig, Missing, OnDeath, Outcome, World};
-use bycoms_lab::robots::RobotsFile;
 use bycoms_runtime::exit;
 use bycoms_runtime::out::{Kind, Outputs};
 use bycoms_sim::terrain::to_text;

@@ -50,7 +50,9 @@ pub fn check_run(cfg: &RunConfig, names: &RunNames) -> Result<()> {
             ConfigError::TimeLimit(_) => names.time_limit,
             ConfigError::SuccessRadius(_) => names.success_radius,
             ConfigError::NoRobots => names.max_robots,
-            ConfigError::FieldConstant(_) | ConfigError::Kinematics | ConfigError::Cell(_) => "run parameters",
+            ConfigError::FieldConstant(_) | ConfigError::Kinematics | ConfigError::Cell(_) => {
+                "run parameters"
+            }
         };
         usage(format!("bad {option}: {e}"))
     })

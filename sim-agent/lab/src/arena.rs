@@ -14,9 +14,9 @@
 //! robots drive in: its origin is the arena's corner (0, 0) and it covers
 //! the arena's width and height.
 
+use super::body::arena_walls;
 use super::body::Obstacle;
 use super::scenario::Scenario;
-use super::body::arena_walls;
 use bycoms_sim::terrain::{Terrain, MAX_SIDE};
 use bycoms_sim::Vec2;
 

@@ -287,7 +287,10 @@ impl<B: Bus> MocapOut<B> {
     /// One pose publisher per robot of `ids` (the lab's own: a simulated
     /// member of a mixed swarm publishes its pose itself).
     pub fn open(bus: &B, swarm: &Swarm, ids: &[RobotId]) -> Result<Self, BusError> {
-        let poses = ids.iter().map(|&id| Ok((id, bus.typed_publisher(&swarm.pose(id))?))).collect::<Result<_, BusError>>()?;
+        let poses = ids
+            .iter()
+            .map(|&id| Ok((id, bus.typed_publisher(&swarm.pose(id))?)))
+            .collect::<Result<_, BusError>>()?;
         Ok(Self { poses, frame: 0 })
     }
 
@@ -475,7 +478,8 @@ impl Fleet {
         let mixed = !robots.sim.is_empty();
         match kind {
             Kind::Sim => {
-                let why = format!("robots file {file} has only simulated robots: the lab has none to emulate");
+                let why =
+                    format!("robots file {file} has only simulated robots: the lab has none to emulate");
                 return Err(LabError::Args(why));
             }
             Kind::Acoustic if mixed => {

@@ -302,7 +302,8 @@ impl RobotsFile {
         if found.is_empty() || found.iter().enumerate().any(|(i, &id)| id as usize != i + 1) {
             return Err(RobotsError::Ids { path: path.to_path_buf(), found });
         }
-        let mut file = RobotsFile { robots: Vec::new(), ros2: Vec::new(), sim: Vec::new(), dir: PathBuf::new() };
+        let mut file =
+            RobotsFile { robots: Vec::new(), ros2: Vec::new(), sim: Vec::new(), dir: PathBuf::new() };
         for entry in raw.robot {
             match entry.typed().map_err(|why| RobotsError::Entry { path: path.to_path_buf(), why })? {
                 Typed::Acoustic(r) => file.robots.push(r),
@@ -457,7 +458,8 @@ mod tests {
         assert_eq!((f.sim.clone(), f.ros2.len(), f.len()), (vec![1, 3], 1, 3));
         assert_eq!(f.kind(), Some(Kind::Ros2), "the kind of its real robots");
         assert!(f.is_simulated(1) && !f.is_simulated(2) && f.is_simulated(3));
-        let all = RobotsFile::read(&write(dir.path(), "all.toml", "[[robot]]\nid = 1\nkind = \"sim\"\n")).unwrap();
+        let all =
+            RobotsFile::read(&write(dir.path(), "all.toml", "[[robot]]\nid = 1\nkind = \"sim\"\n")).unwrap();
         assert_eq!(all.kind(), Some(Kind::Sim));
         let keyed = "[[robot]]\nid = 1\nkind = \"sim\"\nmax_linear = 0.2\n";
         let err = RobotsFile::read(&write(dir.path(), "keyed.toml", keyed)).unwrap_err().to_string();

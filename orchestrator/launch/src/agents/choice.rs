@@ -211,13 +211,11 @@ fn check_robots_file(path: &std::path::Path, robots: u32, graph: bool) -> Result
     let file = RobotsFile::read(path).map_err(|e| e.to_string())?;
     let mixed = !file.sim.is_empty();
     let kind = match file.kind() {
-        Some(Kind::Acoustic) if mixed => {
-            return Err(format!(
-                "the robots file {} has acoustic and simulated robots: an acoustic robot hears its companions' \
+        Some(Kind::Acoustic) if mixed => return Err(format!(
+            "the robots file {} has acoustic and simulated robots: an acoustic robot hears its companions' \
                  tones and a simulated one makes none; a mixed swarm takes ROS 2 robots (kind = \"ros2\")",
-                path.display()
-            ))
-        }
+            path.display()
+        )),
         Some(Kind::Acoustic) => "acoustic",
         Some(Kind::Ros2) if mixed => "ROS 2 and simulated",
         Some(Kind::Ros2) => "ROS 2",

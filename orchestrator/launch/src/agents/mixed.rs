@@ -81,7 +81,9 @@ impl AgentSource for Mixed {
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {
         match self.of_mut(id) {
             Some(source) => source.start(id, plan),
-            None => Err(AgentError::NoSuchRobot { robot: id, why: "the robots file names it no agent".into() }),
+            None => {
+                Err(AgentError::NoSuchRobot { robot: id, why: "the robots file names it no agent".into() })
+            }
         }
     }
 
