@@ -13,6 +13,7 @@ use crate::suites;
 
 use bycoms_lab::robots::RobotsFile;
 use bycoms_launch::agents::gateways::{Gateways, LINK_GRACE};
+use bycoms_launch::agents::mixed::Mixed;
 use bycoms_launch::agents::remote::Remote;
 use bycoms_launch::agents::ros2_robots::{Graph, Ros2Robots};
 use bycoms_launch::agents::spawned::{AgentCommand, Spawned};
@@ -354,6 +355,65 @@ impl AgentFixture for Ros2RobotsFixture {
 fn ros2_robots_pass_the_suite() {
     let report = run_all(&Ros2RobotsFixture::new());
     assert_eq!(report.not_applicable(), Vec::<&str>::new(), "{report:?}");
+}
+
+/// A mixed swarm's agents: robots 2 and 4 simulated (`sim-agent`s), 1 and
+/// 3 ROS 2 robots, one stand-in for both executables (the gateways'); what
+/// the source says of its agents is the real robots', with the simulated
+/// ones named.
+struct MixedFixture {
+    robots: RobotsFile,
+    _dir: tempfile::TempDir,
+}
+
+impl MixedFixture {
+    fn new() -> Self {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let kind = |id: u32| if id % 2 == 0 { "sim" } else { "ros2" };
+        let text: String =
+            (1..=4u32).map(|id| format!("[[robot]]\nid = {id}\nkind = \"{}\"\n", kind(id))).collect();
+        let path = dir.path().join("robots.toml");
+        std::fs::write(&path, text).expect("robots file");
+        let robots = RobotsFile::read(&path).expect("robots file reads");
+        Self { robots, _dir: dir }
+    }
+}
+
+impl AgentFixture for MixedFixture {
+    fn expected(&self) -> Expected {
+        Expected { kind: "mixed", ..Ros2RobotsFixture::new().expected() }
+    }
+
+    fn source(&self) -> Box<dyn AgentSource> {
+        let script = format!(r#"case " $* " in *" --heartbeat-ms {ENDS} "*) exit 3;; esac; exec sleep 30"#);
+        let command =
+            AgentCommand { program: "sh".into(), prefix: vec!["-c".into(), script, "sh".into()], own: false };
+        let graph = Graph { router: "tcp/127.0.0.1:7447".into(), domain_id: 0, namespace: "/".into() };
+        let real = Ros2Robots::new(command.clone(), &self.robots, graph);
+        Box::new(Mixed::new(command, self.robots.sim.clone(), Some(Box::new(real))))
+    }
+
+    fn plan(&self, id: u32, ends_by_itself: bool) -> (Joining, RunSettings) {
+        GatewaysFixture::new().plan(id, ends_by_itself)
+    }
+}
+
+#[test]
+fn mixed_agents_pass_the_suite() {
+    let report = run_all(&MixedFixture::new());
+    assert_eq!(report.not_applicable(), Vec::<&str>::new(), "{report:?}");
+}
+
+/// The simulated members are named in the properties (the core places
+/// and forwards poses to the others only), and an all-simulated swarm is
+/// still a swarm of a lab: its agents all at once, none placed.
+#[test]
+fn mixed_agents_name_their_simulated_members() {
+    let fixture = MixedFixture::new();
+    assert_eq!(fixture.source().properties().simulated, [2, 4]);
+    let command = AgentCommand { program: "true".into(), prefix: Vec::new(), own: false };
+    let all = Mixed::new(command, vec![3, 1, 2], None).properties();
+    assert_eq!((all.kind, all.simulated.as_slice(), all.all_at_once), ("mixed", &[1, 2, 3][..], true));
 }
 
 #[test]

@@ -211,11 +211,13 @@ fn check_robots_file(path: &std::path::Path, robots: u32, graph: bool) -> Result
     let file = RobotsFile::read(path).map_err(|e| e.to_string())?;
     let mixed = !file.sim.is_empty();
     let kind = match file.kind() {
-        Some(Kind::Acoustic) if mixed => return Err(format!(
+        Some(Kind::Acoustic) if mixed => {
+            return Err(format!(
             "the robots file {} has acoustic and simulated robots: an acoustic robot hears its companions' \
                  tones and a simulated one makes none; a mixed swarm takes ROS 2 robots (kind = \"ros2\")",
             path.display()
-        )),
+        ))
+        }
         Some(Kind::Acoustic) => "acoustic",
         Some(Kind::Ros2) if mixed => "ROS 2 and simulated",
         Some(Kind::Ros2) => "ROS 2",
@@ -279,6 +281,44 @@ mod tests {
         // Real robots are never stepped, wherever their gateways run.
         let err = real(GatewaysAt::Elsewhere).validate(2, Transport::Zenoh, true, false).unwrap_err();
         assert!(err.contains("realtime"), "{err}");
+    }
+
+    #[test]
+    fn a_mixed_robots_file_takes_ros2_robots_beside_simulated_ones_and_as_many_robots_as_it_names() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let write = |name: &str, kinds: &[&str]| {
+            let text: String = kinds
+                .iter()
+                .enumerate()
+                .map(|(i, k)| format!("[[robot]]\nid = {}\nkind = \"{k}\"\n{}", i + 1, acoustic_keys(k, i)))
+                .collect();
+            let path = dir.path().join(name);
+            std::fs::write(&path, text).expect("robots file");
+            path
+        };
+        let mixed = write("mixed.toml", &["sim", "ros2", "sim"]);
+        assert_eq!(check_robots_file(&mixed, 3, true), Ok(()));
+        let err = check_robots_file(&mixed, 2, true).unwrap_err();
+        assert!(err.contains("names 3 ROS 2 and simulated robots, the launch needs 2"), "{err}");
+        let err = check_robots_file(&mixed, 3, false).unwrap_err();
+        assert!(err.contains("need the ROS 2 graph"), "{err}");
+        let all = write("all.toml", &["sim", "sim"]);
+        assert_eq!(check_robots_file(&all, 2, false), Ok(()), "no real robot, no graph needed");
+        let acoustic = write("acoustic.toml", &["acoustic", "sim"]);
+        let err = check_robots_file(&acoustic, 2, true).unwrap_err();
+        assert!(err.contains("acoustic and simulated robots"), "{err}");
+    }
+
+    /// An acoustic robot's keys for robot `i + 1` of kind `kind` (none for other kinds).
+    fn acoustic_keys(kind: &str, i: usize) -> String {
+        match kind {
+            "acoustic" => format!(
+                "address = \"127.0.0.1:{}\"\ngateway = \"127.0.0.1:{}\"\nkey_file = \"k\"\n",
+                47100 + i,
+                47000 + i
+            ),
+            _ => String::new(),
+        }
     }
 
     #[test]

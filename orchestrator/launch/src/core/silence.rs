@@ -163,11 +163,20 @@ mod tests {
         frame: u64,
         deployed: bool,
         x: f64,
+        /// The robots the operator was asked to place.
+        asked: Vec<u32>,
     }
 
     impl Lab {
         fn new(setup: Setup) -> Self {
-            Self { core: LaunchCore::new(setup), now: 0, frame: 0, deployed: false, x: 0.0 }
+            Self {
+                core: LaunchCore::new(setup),
+                now: 0,
+                frame: 0,
+                deployed: false,
+                x: 0.0,
+                asked: Vec::new(),
+            }
         }
 
         fn step(&mut self, input: Option<Input>) {
@@ -191,6 +200,7 @@ mod tests {
                         self.core.handle(self.now, Input::Report(FromAgent::Register(r)));
                     }
                     Output::Send(1, ToAgent::Deploy(_)) => self.deployed = true,
+                    Output::AskOperator(d) => self.asked.push(d.robot.0),
                     _ => {}
                 }
             }
@@ -291,6 +301,22 @@ mod tests {
     }
 
     /// Lockstep and simulated agents: silence is the agents waiting.
+    /// A mixed swarm (this lab's harness serves, its motion capture
+    /// streaming robot 1 at the start): a simulated robot 1 is deployed
+    /// without asking the operator; a real one is placed first.
+    #[test]
+    fn a_simulated_member_is_deployed_without_an_operator_and_a_real_one_is_placed() {
+        let mut simulated = real_robots();
+        simulated.members.simulated = vec![1];
+        let mut lab = Lab::new(simulated);
+        lab.run(1_000_000, true);
+        assert!(lab.deployed && lab.asked.is_empty(), "deployed {}, asked {:?}", lab.deployed, lab.asked);
+        let mut lab = Lab::new(real_robots());
+        lab.run(1_000_000, true);
+        assert_eq!(lab.asked, [1], "the real robot 1 is placed");
+        assert!(lab.deployed, "then deployed, motion capture seeing it at the start");
+    }
+
     #[test]
     fn without_real_robots_silence_is_not_watched() {
         let mut setup = real_robots();
