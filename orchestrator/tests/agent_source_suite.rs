@@ -390,7 +390,7 @@ impl AgentFixture for MixedFixture {
             AgentCommand { program: "sh".into(), prefix: vec!["-c".into(), script, "sh".into()], own: false };
         let graph = Graph { router: "tcp/127.0.0.1:7447".into(), domain_id: 0, namespace: "/".into() };
         let real = Ros2Robots::new(command.clone(), &self.robots, graph);
-        Box::new(Mixed::new(command, self.robots.sim.clone(), Some(Box::new(real))))
+        Box::new(Mixed::new(command, self.robots.sim.clone(), Box::new(real)))
     }
 
     fn plan(&self, id: u32, ends_by_itself: bool) -> (Joining, RunSettings) {
@@ -405,15 +405,11 @@ fn mixed_agents_pass_the_suite() {
 }
 
 /// The simulated members are named in the properties (the core places
-/// and forwards poses to the others only), and an all-simulated swarm is
-/// still a swarm of a lab: its agents all at once, none placed.
+/// and forwards poses to the others only).
 #[test]
 fn mixed_agents_name_their_simulated_members() {
     let fixture = MixedFixture::new();
     assert_eq!(fixture.source().properties().simulated, [2, 4]);
-    let command = AgentCommand { program: "true".into(), prefix: Vec::new(), own: false };
-    let all = Mixed::new(command, vec![3, 1, 2], None).properties();
-    assert_eq!((all.kind, all.simulated.as_slice(), all.all_at_once), ("mixed", &[1, 2, 3][..], true));
 }
 
 #[test]

@@ -184,3 +184,40 @@ fn over_zenoh_too() {
     let c = case("gap3 ε2 over zenoh (robots exhausted)", scenario("gap3"), 2.0, None, 3, 10_000.0);
     assert_eq!(check_over(&c, &zenoh), RunOutcome::RobotsExhausted);
 }
+
+/// A swarm simulated in a lab's arena (issue 52): a robots file of
+/// simulated robots only (`kind = "sim"`), launched in lockstep with the lab
+/// scenario exp-long, runs the paper's simulation in the arena in metres
+/// (`bycoms_lab::arena`: 2 cm cells, the frame grown by a body's radius; a
+/// TurtleBot 3's 0.22 m/s), and gives the in-process runner's run on that
+/// arena bit for bit: what a mixed swarm's simulated members run, with
+/// nothing real beside them.
+#[test]
+fn a_swarm_simulated_in_a_labs_arena_is_the_runners_run_bit_for_bit() {
+    use bycoms_lab::arena::{terrain as arena, DEFAULT_CELL};
+    let scenario = bycoms_lab::scenario::Scenario::builtin("exp-long").expect("built in");
+    let (eps, robots, goal_radius, time_limit) = (0.3, 6u32, 0.15, 300.0);
+    let mut cfg = RunConfig::paper(eps);
+    cfg.cell = DEFAULT_CELL;
+    cfg.kinematics.speed = bycoms_agent::wheeled::Limits::TURTLEBOT3_BURGER.linear;
+    cfg.success_radius = goal_radius;
+    cfg.max_robots = Some(robots);
+    cfg.time_limit = time_limit;
+    let expected = run(&arena(&scenario, DEFAULT_CELL).expect("an arena"), &cfg);
+    let ends: Vec<RobotRunEnd> = expected.robots.iter().map(|r| r.end).collect();
+    assert_eq!(ends, [RobotRunEnd::Stuck, RobotRunEnd::Stuck, RobotRunEnd::Stuck, RobotRunEnd::Arrived]);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let file = dir.path().join("robots.toml");
+    let text: String = (1..=robots).map(|id| format!("[[robot]]\nid = {id}\nkind = \"sim\"\n")).collect();
+    std::fs::write(&file, text).expect("robots file");
+    let swarm = swarm_name("labparity");
+    let (eps, n, radius, limit) = (eps.to_string(), robots.to_string(), goal_radius.to_string(), "300");
+    let mut args = vec!["launch", "--clock", "lockstep", "--json", "--swarm", &swarm, "--agents", "real"];
+    args.extend(["--robots-file", file.to_str().expect("utf-8"), "--lab-scenario", "exp-long"]);
+    args.extend(["--eps", &eps, "--robots", &n, "--goal-radius", &radius, "--time-limit", limit]);
+    let out = Proc::orchestrator(&args).wait(Duration::from_secs(180));
+    let j = out.json();
+    assert_eq!(out.status.code(), Some(0), "{}", out.stderr);
+    let differences = simulate_differences(&expected, &j);
+    assert!(differences.is_empty(), "{differences:#?}\nstderr:\n{}", out.stderr);
+}

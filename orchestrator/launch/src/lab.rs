@@ -43,8 +43,8 @@ use bycoms_sim::Vec2;
 pub fn lab_world(name: &str, robots: u32, file: Option<&RobotsFile>) -> Result<World> {
     let scenario = load_scenario(name).map_err(|e| usage(e.to_string()))?;
     if let Some(file) = file.filter(|f| !f.sim.is_empty()) {
-        let simulated = Some(mixed_arena(&scenario, file).map_err(|e| usage(format!("{e:#}")))?);
-        return world_of(&scenario).map(|w| World { simulated, ..w });
+        let (arena, start, goal) = mixed_arena(&scenario, file).map_err(|e| usage(format!("{e:#}")))?;
+        return world_of(&scenario).map(|w| World { simulated: Some(arena), start, goal, ..w });
     }
     let have = scenario.tones.len();
     if have != robots as usize {
@@ -61,14 +61,20 @@ pub fn lab_world(name: &str, robots: u32, file: Option<&RobotsFile>) -> Result<W
 /// scenario's radius would touch a frame or a wall, and their speed: the
 /// slowest of the file's ROS 2 robots' `max_linear` (a TurtleBot 3 Burger's
 /// when all are simulated), so that a simulated robot drives as the real
-/// ones do.
-pub fn mixed_arena(scenario: &Scenario, file: &RobotsFile) -> Result<SimArena> {
+/// ones do; with the start and the goal in metres as the simulated world
+/// has them (its cells × the cell: within a rounding of the scenario's),
+/// which the launch deploys to and judges by, so that an all-simulated
+/// swarm in lockstep is the in-process runner's run on this arena, bit for
+/// bit.
+pub fn mixed_arena(scenario: &Scenario, file: &RobotsFile) -> Result<(SimArena, Vec2, Vec2)> {
     let cell = arena::DEFAULT_CELL;
     let terrain = arena::terrain(scenario, cell)?;
     let burger = bycoms_agent::wheeled::Limits::TURTLEBOT3_BURGER.linear;
     let robot_speed = file.ros2.iter().map(|r| r.limits.linear).fold(f64::INFINITY, f64::min);
     let robot_speed = if robot_speed.is_finite() { robot_speed } else { burger };
-    Ok(SimArena { terrain_text: to_text(&terrain), cell, robot_speed })
+    let arena = SimArena { terrain_text: to_text(&terrain), cell, robot_speed };
+    let in_world = |p: Vec2| Vec2::new(p.x * cell, p.y * cell);
+    Ok((arena, in_world(terrain.start()), in_world(terrain.goal())))
 }
 
 /// The world of a parsed scenario: arena, start and goal, no obstacle.

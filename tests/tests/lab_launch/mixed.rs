@@ -21,33 +21,29 @@ const REAL: [u32; 3] = [2, 3, 5];
 const EPS: &str = "0.3";
 
 /// The shipped mixed robots file (`deploy/lab/mixed-robots.toml`: robots
-/// 2, 3 and 5 ROS 2 robots, the others simulated), or with `real` empty the
-/// same swarm all simulated.
-fn robots_file(dir: &Path, real: &[u32]) -> std::path::PathBuf {
+/// 2, 3 and 5 ROS 2 robots, the others simulated).
+fn robots_file(dir: &Path) -> std::path::PathBuf {
     let shipped = std::fs::read_to_string(shipped("mixed-robots.toml")).expect("mixed-robots.toml");
     for id in REAL {
         assert!(shipped.contains(&format!("id = {id}\nkind = \"ros2\"\n")), "robot {id} is real: {shipped}");
     }
     assert_eq!(shipped.matches("[[robot]]").count(), ROBOTS as usize);
-    let text = if real.is_empty() { shipped.replace("kind = \"ros2\"", "kind = \"sim\"") } else { shipped };
     let file = dir.join("robots.toml");
-    std::fs::write(&file, text).expect("robots file");
+    std::fs::write(&file, shipped).expect("robots file");
     file
 }
 
-/// One exp-long run of the swarm with `real` robots real: the launch's JSON
-/// summary and the poses the launch applied (its recording), robot by
-/// robot. With real robots the emulated lab holds their bodies; without,
-/// no lab runs (it would have nothing to emulate).
-fn run(real: &[u32]) -> (Value, Vec<bycoms_protocol::msg::Pose>) {
+/// The mixed swarm's exp-long run: the launch's JSON summary and the poses
+/// the launch applied (its recording), robot by robot.
+fn run_mixed() -> (Value, Vec<bycoms_protocol::msg::Pose>) {
     let dir = tempfile::tempdir().expect("temp dir");
     let swarm = swarm_name("mixed");
     let (_router, endpoint) = ros2_router();
-    let file = robots_file(dir.path(), real);
+    let file = robots_file(dir.path());
     let text = std::fs::read_to_string(shipped("launch-ros2-robots.toml")).expect("launch-ros2-robots.toml");
     let config = dir.path().join("launch.toml");
     std::fs::write(&config, text.replace("tcp/127.0.0.1:7447", &endpoint)).expect("config");
-    let lab = (!real.is_empty()).then(|| lab_with(&swarm, "exp-long", &file, &["--ros2-router", &endpoint]));
+    let lab = lab_with(&swarm, "exp-long", &file, &["--ros2-router", &endpoint]);
     let record = dir.path().join("run.mcap");
     let extra = ["--eps", EPS, "--time-limit", "300", "--record", record.to_str().expect("utf-8")];
     let out = launch_with(&config, &swarm, "exp-long", ROBOTS, &file, &extra).wait(Duration::from_secs(200));
@@ -55,6 +51,22 @@ fn run(real: &[u32]) -> (Value, Vec<bycoms_protocol::msg::Pose>) {
     assert_eq!(out.status.code(), Some(0), "a robot arrives:\n{}", out.stderr);
     let (_, applied) = crate::bad_traffic::recorded_poses(&record);
     (out.json(), applied)
+}
+
+/// The same swarm all simulated: the in-process runner on exp-long's arena
+/// in metres (what a launch of simulated robots only runs, bit for bit:
+/// `parity::a_swarm_simulated_in_a_labs_arena_is_the_runners_run_bit_for_bit`),
+/// at the ROS 2 robots' speed, with the launch's goal radius (0.15 m).
+fn run_simulated() -> bycoms_sim::RunResult {
+    use bycoms_lab::arena::{terrain, DEFAULT_CELL};
+    let scenario = bycoms_lab::scenario::Scenario::builtin("exp-long").expect("built in");
+    let mut cfg = bycoms_sim::RunConfig::paper(EPS.parse().expect("ε"));
+    cfg.cell = DEFAULT_CELL;
+    cfg.kinematics.speed = bycoms_agent::wheeled::Limits::TURTLEBOT3_BURGER.linear;
+    cfg.success_radius = 0.15;
+    cfg.max_robots = Some(ROBOTS);
+    cfg.time_limit = 300.0;
+    bycoms_sim::run(&terrain(&scenario, DEFAULT_CELL).expect("an arena"), &cfg)
 }
 
 /// Where robot `k` (1-based) ended, from a launch's summary.
@@ -65,19 +77,31 @@ fn end_of(j: &Value, k: usize) -> (f64, f64) {
 
 /// A 10-robot swarm on exp-long's arena, robots 2, 3 and 5 the lab's ROS 2
 /// bodies and the seven others simulated, decides as the same swarm all
-/// simulated: the same robots stick, the same one arrives; and every real
-/// body, once a simulated robot stuck ahead of it, keeps out of that
-/// beacon's ε circle (less what a body at 0.22 m/s covers in the control
-/// periods it takes to turn onto the tangent).
+/// simulated: the same robots stick, the same one arrives, and each stuck
+/// robot within 5 cm of where its simulated twin stuck (two control periods
+/// at 0.22 m/s: a simulated robot sticks on entering a 2 cm cell, a body on
+/// touching the frame, with slip). And every real body keeps out of the ε
+/// circle of each simulated robot stuck before it (less what a body covers
+/// in the periods it takes to turn onto the tangent).
 #[test]
 fn a_mixed_swarm_on_exp_long_decides_as_the_same_swarm_all_simulated() {
     let _turn = Turn::take();
-    let (mixed, poses) = run(&REAL);
-    let (simulated, _) = run(&[]);
-    assert_eq!(ends(&mixed), ends(&simulated), "mixed {mixed}\nall simulated {simulated}");
+    let (mixed, poses) = run_mixed();
+    let simulated = run_simulated();
+    let want: Vec<&str> = (0..ROBOTS as usize)
+        .map(|i| simulated.robots.get(i).map_or("not_deployed", |r| end_word(r.end)))
+        .collect();
+    assert_eq!(ends(&mixed), want, "mixed {mixed}\nall simulated {simulated:?}");
     let stuck: Vec<usize> =
         (1..=ROBOTS as usize).filter(|&k| mixed["robots"][k - 1]["end"] == "stuck").collect();
     assert!(stuck.len() >= 3, "the frame takes beacons: {mixed}");
+    for &k in &stuck {
+        let ((x, y), twin) = (end_of(&mixed, k), simulated.robots[k - 1].position);
+        assert!(
+            (x - twin.x).hypot(y - twin.y) < 0.05,
+            "robot {k} stuck at ({x}, {y}), simulated at {twin:?}"
+        );
+    }
     let eps: f64 = EPS.parse().expect("ε");
     let mut checked = 0;
     for &real in REAL.iter().filter(|&&k| k as usize <= stuck.len() + 1) {
@@ -98,4 +122,13 @@ fn a_mixed_swarm_on_exp_long_decides_as_the_same_swarm_all_simulated() {
         }
     }
     assert!(checked > 0, "a real body passed a simulated beacon: {mixed}");
+}
+
+/// A robot's end as the launch's summary spells it.
+fn end_word(end: bycoms_sim::runner::RobotRunEnd) -> &'static str {
+    match end {
+        bycoms_sim::runner::RobotRunEnd::Stuck => "stuck",
+        bycoms_sim::runner::RobotRunEnd::Arrived => "arrived",
+        bycoms_sim::runner::RobotRunEnd::Moving => "moving",
+    }
 }

@@ -132,7 +132,7 @@ impl AgentsConfig {
                 Err("agents.source = \"remote\" needs transport.kind = \"zenoh\" (--transport zenoh)".into())
             }
             AgentSourceKind::Remote => Ok(()),
-            AgentSourceKind::Real if lockstep => {
+            AgentSourceKind::Real if lockstep && !self.all_simulated() => {
                 Err("agents.source = \"real\" needs clock = \"realtime\" (a real robot cannot be stepped)"
                     .into())
             }
@@ -148,6 +148,13 @@ impl AgentsConfig {
                 Some(path) => check_robots_file(path, robots, graph),
             },
         }
+    }
+
+    /// Whether the robots file names simulated robots only (`kind =
+    /// "sim"`): a swarm simulated in a lab's arena, which may be stepped.
+    fn all_simulated(&self) -> bool {
+        let file = self.robots_file.as_deref().and_then(|p| RobotsFile::read(p).ok());
+        file.is_some_and(|f| f.kind() == Some(Kind::Sim))
     }
 
     /// Builds the source: `sim_agent` runs spawned agents (threads on the
@@ -176,11 +183,13 @@ impl AgentsConfig {
             AgentSourceKind::Real => {
                 let path = self.robots_file.as_deref().context("agents.robots_file is not set")?;
                 let robots = RobotsFile::read(path)?;
-                let real = self.real_robots(&robots, graph)?;
-                if robots.sim.is_empty() {
-                    return real.context("the robots file names no robot");
+                match (robots.sim.is_empty(), self.real_robots(&robots, graph)?) {
+                    (true, Some(real)) => real,
+                    (false, Some(real)) => Box::new(Mixed::new(sim_agent, robots.sim.clone(), real)),
+                    // All simulated: the launch's own agents in the lab's
+                    // arena, as any simulated swarm (the parity path).
+                    (_, None) => Box::new(Spawned::new(sim_agent)),
                 }
-                Box::new(Mixed::new(sim_agent, robots.sim.clone(), real))
             }
         })
     }

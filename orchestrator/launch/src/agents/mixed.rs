@@ -22,13 +22,13 @@ pub struct Mixed {
     simulated: Spawned,
     /// Their ids, in order.
     ids: Vec<u32>,
-    /// The real robots' agents (none: every member is simulated).
-    real: Option<Box<dyn AgentSource>>,
+    /// The real robots' agents.
+    real: Box<dyn AgentSource>,
 }
 
 impl Mixed {
     /// Robots `ids` simulated by `sim_agent`, the others real, from `real`.
-    pub fn new(sim_agent: AgentCommand, mut ids: Vec<u32>, real: Option<Box<dyn AgentSource>>) -> Self {
+    pub fn new(sim_agent: AgentCommand, mut ids: Vec<u32>, real: Box<dyn AgentSource>) -> Self {
         ids.sort_unstable();
         Self { simulated: Spawned::new(sim_agent), ids, real }
     }
@@ -42,7 +42,7 @@ impl Mixed {
         if self.is_simulated(id) {
             Some(&self.simulated)
         } else {
-            self.real.as_deref()
+            Some(self.real.as_ref())
         }
     }
 
@@ -50,14 +50,14 @@ impl Mixed {
         if self.is_simulated(id) {
             Some(&mut self.simulated)
         } else {
-            self.real.as_deref_mut()
+            Some(self.real.as_mut())
         }
     }
 
     /// Both sources, the simulated one first.
     fn each(&mut self) -> impl Iterator<Item = &mut (dyn AgentSource + 'static)> + '_ {
         let simulated: &mut (dyn AgentSource + 'static) = &mut self.simulated;
-        std::iter::once(simulated).chain(self.real.as_deref_mut())
+        std::iter::once(simulated).chain(std::iter::once(self.real.as_mut()))
     }
 }
 
@@ -69,13 +69,7 @@ pub fn properties(real: AgentProperties, simulated: Vec<u32>) -> AgentProperties
 
 impl AgentSource for Mixed {
     fn properties(&self) -> AgentProperties {
-        let real = match &self.real {
-            Some(real) => real.properties(),
-            // All simulated: still a lab's swarm, in real time, as one
-            // with real robots would run.
-            None => super::ros2_robots::properties(self.simulated.properties()),
-        };
-        properties(real, self.ids.clone())
+        properties(self.real.properties(), self.ids.clone())
     }
 
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {
