@@ -369,7 +369,7 @@ struct MixedFixture {
 impl MixedFixture {
     fn new() -> Self {
         let dir = tempfile::tempdir().expect("temp dir");
-        let kind = |id: u32| if id % 2 == 0 { "sim" } else { "ros2" };
+        let kind = |id: u32| if id.is_multiple_of(2) { "sim" } else { "ros2" };
         let text: String =
             (1..=4u32).map(|id| format!("[[robot]]\nid = {id}\nkind = \"{}\"\n", kind(id))).collect();
         let path = dir.path().join("robots.toml");
