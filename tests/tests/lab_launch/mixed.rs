@@ -6,7 +6,7 @@
 //! one; the lab emulates the real ones' bodies only.
 
 use super::{ends, lab_with, launch_with, ros2_router, shipped, Turn};
-use bycoms_tests::swarm_name;
+use bycoms_tests::{swarm_name, Proc};
 use serde_json::Value;
 use std::path::Path;
 use std::time::Duration;
@@ -34,7 +34,8 @@ fn robots_file(dir: &Path) -> std::path::PathBuf {
 }
 
 /// The mixed swarm's exp-long run: the launch's JSON summary and the poses
-/// the launch applied (its recording), robot by robot.
+/// the launch applied (its recording), robot by robot; its recording
+/// replayed reaches the same decisions.
 fn run_mixed() -> (Value, Vec<bycoms_protocol::msg::Pose>) {
     let dir = tempfile::tempdir().expect("temp dir");
     let swarm = swarm_name("mixed");
@@ -49,6 +50,8 @@ fn run_mixed() -> (Value, Vec<bycoms_protocol::msg::Pose>) {
     let out = launch_with(&config, &swarm, "exp-long", ROBOTS, &file, &extra).wait(Duration::from_secs(200));
     drop(lab);
     assert_eq!(out.status.code(), Some(0), "a robot arrives:\n{}", out.stderr);
+    let replay = Proc::orchestrator(&["replay", record.to_str().expect("utf-8")]).wait(Duration::from_secs(60));
+    assert!(replay.stdout.contains("MATCH:"), "the replay reaches the same decisions: {}", replay.stdout);
     let (_, applied) = crate::bad_traffic::recorded_poses(&record);
     (out.json(), applied)
 }
