@@ -166,6 +166,7 @@ pub fn run_serving(
         control: Some(control),
     });
     let summary = driver.run();
+    bycoms_runtime::cli::result_decided();
     if let Some(live) = live {
         live.end(&summary);
     }

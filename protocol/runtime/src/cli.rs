@@ -8,6 +8,7 @@ use crate::logging::LogArgs;
 use clap::error::ErrorKind;
 use clap::parser::ValueSource;
 use clap::{Args, Command, FromArgMatches, Subcommand};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Fastest real-time speed-up: a control period of 0.1 s / 1000 = 100 µs
 /// of wall time, about what an agent and the orchestrator turn around in
@@ -151,6 +152,9 @@ pub fn tune_zenoh_runtime() {
         let thread = std::thread::current();
         let at = info.location().map(|l| l.file()).unwrap_or_default();
         match zenoh_failure(thread.name().unwrap_or_default(), at, &message) {
+            Some(words) if DECIDED.load(Ordering::SeqCst) => {
+                tracing::warn!("{words} (while closing, after the result was decided: the result stands)");
+            }
             Some(words) => {
                 tracing::error!("{words}");
                 std::process::exit(1);
@@ -158,6 +162,21 @@ pub fn tune_zenoh_runtime() {
             None => default(info),
         }
     }));
+}
+
+/// Whether the process's result is decided ([`result_decided`]).
+static DECIDED: AtomicBool = AtomicBool::new(false);
+
+/// Says that the process's result is decided (a launch's run has ended):
+/// a zenoh panic after it, while zenoh closes its sessions, is said as a
+/// warning and the result's exit code stands. Why: a launch stopped by
+/// `/emergency` once printed its summary and then exited 1 instead of 130,
+/// a zenoh runtime thread (`net-0`) having panicked on an `Option::unwrap`
+/// while the sessions closed (zenoh's own kind of shutdown panic, e.g.
+/// zenoh #1960). A runtime task's panic is caught by the runtime once the
+/// hook returns, so the closing goes on.
+pub fn result_decided() {
+    DECIDED.store(true, Ordering::SeqCst);
 }
 
 /// zenoh's runtime threads are named `<runtime>-<n>` (`zenoh-runtime`).

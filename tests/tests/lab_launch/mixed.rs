@@ -50,7 +50,8 @@ fn run_mixed() -> (Value, Vec<bycoms_protocol::msg::Pose>) {
     let out = launch_with(&config, &swarm, "exp-long", ROBOTS, &file, &extra).wait(Duration::from_secs(200));
     drop(lab);
     assert_eq!(out.status.code(), Some(0), "a robot arrives:\n{}", out.stderr);
-    let replay = Proc::orchestrator(&["replay", record.to_str().expect("utf-8")]).wait(Duration::from_secs(60));
+    let replay =
+        Proc::orchestrator(&["replay", record.to_str().expect("utf-8")]).wait(Duration::from_secs(60));
     assert!(replay.stdout.contains("MATCH:"), "the replay reaches the same decisions: {}", replay.stdout);
     let (_, applied) = crate::bad_traffic::recorded_poses(&record);
     (out.json(), applied)
