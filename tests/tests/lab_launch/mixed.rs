@@ -96,6 +96,10 @@ fn a_mixed_swarm_on_exp_long_decides_as_the_same_swarm_all_simulated() {
         .map(|i| simulated.robots.get(i).map_or("not_deployed", |r| end_word(r.end)))
         .collect();
     assert_eq!(ends(&mixed), want, "mixed {mixed}\nall simulated {simulated:?}");
+    for k in 1..=ROBOTS {
+        let marked = mixed["robots"][k as usize - 1]["simulated"] == true;
+        assert_eq!(marked, !REAL.contains(&k), "the summary marks the simulated robots: robot {k}");
+    }
     let stuck: Vec<usize> =
         (1..=ROBOTS as usize).filter(|&k| mixed["robots"][k - 1]["end"] == "stuck").collect();
     assert!(stuck.len() >= 3, "the frame takes beacons: {mixed}");

@@ -585,6 +585,11 @@ impl LaunchCore {
 
     // ---- what the shells read -------------------------------------------
 
+    /// Whether robot `id` is a simulated member of a mixed swarm.
+    pub fn is_simulated(&self, id: u32) -> bool {
+        self.setup.members.is_simulated(id)
+    }
+
     /// Every robot's bookkeeping, in id order.
     pub fn slots(&self) -> &[Slot] {
         &self.slots

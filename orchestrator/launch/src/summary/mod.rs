@@ -126,6 +126,10 @@ pub struct RobotSummary {
     /// Its host's clock against the orchestrator's, as its agent last
     /// measured it (agents over zenoh; none: not measured).
     pub clock: Option<ClockSummary>,
+    /// A simulated member of a swarm of real robots (a mixed swarm's
+    /// `kind = "sim"` robot); absent for every other robot.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub simulated: bool,
 }
 
 /// A host's clock offset to the orchestrator's (`orchestrator/launch/src/core/clocks.rs`).
@@ -504,6 +508,7 @@ fn robot_summary(core: &LaunchCore, s: &Slot) -> RobotSummary {
         death: s.death().cloned(),
         outages: s.outages().to_vec(),
         clock: s.clock().map(|c| ClockSummary::of(core, c)),
+        simulated: core.is_simulated(s.id()),
     }
 }
 
@@ -571,6 +576,7 @@ mod tests {
             death: None,
             outages: Vec::new(),
             clock: None,
+            simulated: false,
         }
     }
 
