@@ -6,6 +6,7 @@
 use crate::suites;
 
 use bycoms_launch::poses::bus::BusPoses;
+use bycoms_launch::poses::merged::MergedPoses;
 use bycoms_launch::poses::{PoseSink, PoseSource};
 use bycoms_launch::recording::Recording;
 use bycoms_launch::transport::{AnyPublisher, SharedBus};
@@ -417,4 +418,91 @@ impl PoseFixture for Ros2Fixture {
 fn ros2_poses_pass_the_suite() {
     let report = run_all(&mut Ros2Fixture::new());
     assert_eq!(report.not_applicable(), Vec::<&str>::new(), "{report:?}");
+}
+
+/// A mixed swarm's poses (`MergedPoses`): robots 1 and 2 real, seen by
+/// motion capture (a replay's channel stands for it), robot 3 simulated,
+/// its poses on the (in-memory) bus. The suite's robots 1 and 2 come from
+/// the motion capture; robot 3, never opened by the suite, is not handed.
+struct MergedFixture {
+    replay: ReplayFixture,
+    bus: BusFixture,
+}
+
+impl MergedFixture {
+    fn new() -> Self {
+        Self { replay: ReplayFixture { feed: None }, bus: BusFixture::new() }
+    }
+
+    fn merged(&mut self) -> MergedPoses {
+        let (mocap, _) = self.replay.source();
+        let bus = BusPoses::new(Rc::clone(&self.bus.bus), self.bus.swarm, 3).expect("pose fan-in");
+        MergedPoses::new(mocap, bus, vec![3])
+    }
+}
+
+impl PoseFixture for MergedFixture {
+    fn expected(&self) -> Expected {
+        Expected { kind: "mixed", ..self.replay.expected() }
+    }
+
+    fn emit_garbage(&mut self, _robot: u32) {
+        unreachable!("only decoded poses reach the real robots' motion capture here")
+    }
+
+    fn source(&mut self) -> (Box<dyn PoseSource>, Swarm) {
+        (Box::new(self.merged()), self.bus.swarm)
+    }
+
+    fn emit(&mut self, robot: u32, pose: &Pose) {
+        match robot {
+            3 => self.bus.emit(robot, pose),
+            _ => self.replay.emit(robot, pose),
+        }
+    }
+
+    fn tolerance(&self) -> f64 {
+        0.0
+    }
+}
+
+#[test]
+fn merged_poses_pass_the_suite() {
+    let report = run_all(&mut MergedFixture::new());
+    assert_eq!(report.not_applicable(), ["what_a_source_cannot_use_is_never_fatal"], "{report:?}");
+}
+
+/// Both halves at once: the simulated robot's poses come from the bus and
+/// are recorded byte for byte, once; the real ones' from motion capture,
+/// recorded decoded, once; all handed robots in id order.
+#[test]
+fn merged_poses_hand_both_kinds_in_robot_order_each_recorded_once() {
+    let mut fixture = MergedFixture::new();
+    let mut source = fixture.merged();
+    assert!(!source.on_the_bus(), "the motion capture's poses are recorded by the sink");
+    for id in 1..=3 {
+        source.open_robot(id).expect("open");
+    }
+    let at = |robot: u32, step: u64| Pose {
+        robot: RobotId(robot),
+        x: f64::from(robot),
+        y: step as f64,
+        heading: 0.0,
+        step,
+        time_us: step * 100_000,
+    };
+    fixture.emit(3, &at(3, 1));
+    fixture.emit(2, &at(2, 1));
+    fixture.emit(1, &at(1, 1));
+    fixture.emit(3, &at(3, 2));
+    let (mut recording, mut traffic, mut got) = (Recording::off(), Traffic::default(), vec![(9, at(9, 9))]);
+    let mut sink = PoseSink::new(&mut recording, &mut traffic, &fixture.bus.swarm, &mut got, true);
+    source.drain(&mut sink).expect("drained");
+    let recorded = sink.recorded();
+    let numbered = sink.numbers().len();
+    assert_eq!((recorded, numbered), (4, 4), "each pose recorded once, raw or decoded");
+    let order: Vec<(u32, u64)> = got.iter().skip(1).map(|(r, p)| (*r, p.step)).collect();
+    assert_eq!(order, [(1, 1), (2, 1), (3, 1), (3, 2)], "robots in id order, each in its order");
+    assert_eq!(got[0].0, 9, "what the engine held before the drain stays first");
+    assert_eq!(traffic.total(), 0);
 }

@@ -444,36 +444,12 @@ impl LaunchConfig {
         self.agents
             .validate(self.robots, self.transport.kind, self.clock == Clock::Lockstep, graph)
             .map_err(usage)?;
-        self.check_mixed()?;
         if self.supervision.heartbeat_timeout <= self.supervision.heartbeat_interval {
             return Err(usage(
                 "supervision.heartbeat_timeout must be longer than supervision.heartbeat_interval",
             ));
         }
         self.check_finite()
-    }
-
-    /// A mixed swarm (simulated robots in the robots file) reads every
-    /// robot's poses on the bus: the simulated ones publish their own there,
-    /// as the emulated lab does the real ones'. A motion-capture source
-    /// (NatNet, a ROS 2 driver) would see the real robots only.
-    fn check_mixed(&self) -> Result<()> {
-        let Some(path) = self.agents.robots_file.as_deref() else { return Ok(()) };
-        if self.agents.source != AgentSourceKind::Real || self.mocap.source == bycoms_mocap::MocapSource::Bus
-        {
-            return Ok(());
-        }
-        let file = bycoms_lab::robots::RobotsFile::read(path).map_err(|e| usage(e.to_string()))?;
-        if file.sim.is_empty() {
-            return Ok(());
-        }
-        Err(usage(format!(
-            "the robots file {} has simulated robots (a mixed swarm), whose poses are on the bus: \
-             mocap.source = \"{}\" would see only the real ones (a mixed swarm takes mocap.source = \"bus\" \
-             for now)",
-            path.display(),
-            if self.mocap.source == bycoms_mocap::MocapSource::Natnet { "natnet" } else { "ros2" }
-        )))
     }
 
     /// Every float of the config, whatever its key, is a finite number

@@ -132,7 +132,8 @@ pub fn run_serving(
     let bus: SharedBus = bus;
     let (ros2_settings, ros2_session) = ros2_graph::for_launch(&cfg, zenoh.as_ref())?;
     let graph = ros2_session.as_ref().map(|s| (&ros2_settings, s));
-    let pose_source = poses::open(&cfg.mocap, cfg.robots, &bus, swarm, graph)?;
+    let simulated = world.simulated.as_ref().map(|a| a.members.as_slice()).unwrap_or_default();
+    let pose_source = poses::open(&cfg.mocap, cfg.robots, &bus, swarm, graph, simulated)?;
     let mut ports =
         Ports::open(bus, swarm, cfg.robots, recording).context("cannot open the orchestrator's ports")?;
     let live =

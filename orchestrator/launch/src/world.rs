@@ -48,6 +48,8 @@ pub struct SimArena {
     pub cell: f64,
     /// A simulated member's straight-line speed, m/s.
     pub robot_speed: f64,
+    /// The simulated members' ids, in order.
+    pub members: Vec<u32>,
 }
 
 impl World {

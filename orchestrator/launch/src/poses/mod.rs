@@ -30,6 +30,7 @@
 //!   fatal failure is returned as an error and ends the launch.
 
 pub mod bus;
+pub mod merged;
 pub mod mocap;
 pub mod ros2;
 mod seam;
@@ -43,30 +44,47 @@ pub type Ros2Graph<'a> = (&'a super::ros2::Ros2Config, &'a zenoh::Session);
 
 /// The pose source `mocap` asks for, for a launch of `robots` robots of
 /// `swarm` on `bus`: the swarm's own bus, NatNet, or a ROS 2 driver's
-/// topics in `ros2`'s graph. The seam's one factory: a new kind of source
-/// enters here and nowhere else.
+/// topics in `ros2`'s graph; for a mixed swarm (`simulated` robots beside
+/// real ones) seen by motion capture, that motion capture for the real
+/// robots and the bus for the simulated ones ([`merged::MergedPoses`]). The
+/// seam's one factory: a new kind of source enters here and nowhere else.
 pub fn open(
     mocap: &bycoms_mocap::MocapConfig,
     robots: u32,
     bus: &super::transport::SharedBus,
     swarm: Swarm,
     ros2: Option<Ros2Graph<'_>>,
+    simulated: &[u32],
 ) -> anyhow::Result<Box<dyn PoseSource>> {
+    use anyhow::Context;
+    let on_the_bus = || {
+        bus::BusPoses::new(std::rc::Rc::clone(bus), swarm, robots).context("cannot read the poses on the bus")
+    };
+    Ok(match open_mocap(mocap, robots, ros2)? {
+        None => Box::new(on_the_bus()?),
+        Some(mocap) if simulated.is_empty() => mocap,
+        Some(mocap) => Box::new(merged::MergedPoses::new(mocap, on_the_bus()?, simulated.to_vec())),
+    })
+}
+
+/// The motion capture `mocap` asks for (none: the poses are on the bus).
+fn open_mocap(
+    mocap: &bycoms_mocap::MocapConfig,
+    robots: u32,
+    ros2: Option<Ros2Graph<'_>>,
+) -> anyhow::Result<Option<Box<dyn PoseSource>>> {
     use anyhow::Context;
     if let (bycoms_mocap::MocapSource::Ros2, Some(config)) = (&mocap.source, &mocap.ros2) {
         let (settings, session) =
             ros2.context("mocap.source = \"ros2\" needs a ROS 2 session (ros2.router)")?;
         let source = ros2::Ros2Poses::open(&config.for_robots(robots), settings, session)?;
-        return Ok(Box::new(source));
+        return Ok(Some(Box::new(source)));
     }
     Ok(match (&mocap.source, &mocap.natnet) {
-        (bycoms_mocap::MocapSource::Natnet, Some(natnet)) => Box::new(mocap::NatNetPoses::new(
+        (bycoms_mocap::MocapSource::Natnet, Some(natnet)) => Some(Box::new(mocap::NatNetPoses::new(
             bycoms_mocap::NatNetPoseSource::connect(&natnet.for_robots(robots))
                 .context("cannot use the NatNet mocap")?,
-        )),
-        _ => Box::new(
-            bus::BusPoses::new(std::rc::Rc::clone(bus), swarm, robots)
-                .context("cannot read the poses on the bus")?,
-        ),
+        ))),
+        _ => None,
     })
 }

@@ -147,4 +147,33 @@ impl<'a> PoseSink<'a> {
     pub fn recorded(&self) -> u64 {
         self.recorded
     }
+
+    /// Poses handed to this sink so far.
+    pub fn handed(&self) -> usize {
+        self.numbers.len()
+    }
+
+    /// Runs `drain` of a source on the bus through this sink, whatever the
+    /// sink's own mode: its messages are recorded raw
+    /// ([`PoseSink::raw`]), not decoded again (a source of motion capture
+    /// and of the bus at once, `merged.rs`).
+    pub fn on_the_bus<R>(&mut self, drain: impl FnOnce(&mut Self) -> R) -> R {
+        let decoded = std::mem::replace(&mut self.record_decoded, false);
+        let result = drain(self);
+        self.record_decoded = decoded;
+        result
+    }
+
+    /// Puts the poses handed since the `first`-th in robot id order, each
+    /// robot's in the order handed (a stable sort; each pose keeps its
+    /// number in the recording).
+    pub fn in_robot_order_from(&mut self, first: usize) {
+        let start = self.poses.len() - (self.numbers.len() - first);
+        let mut tail: Vec<_> = self.poses.drain(start..).zip(self.numbers.drain(first..)).collect();
+        tail.sort_by_key(|((robot, _), _)| *robot);
+        for (pose, number) in tail {
+            self.poses.push(pose);
+            self.numbers.push(number);
+        }
+    }
 }
