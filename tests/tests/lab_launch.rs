@@ -40,7 +40,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 const SPEED: f64 = 3.0;
 /// NatNet frames per second of lab time (Motive's default is 120; 60 keeps
 /// the debug-built orchestrator's decoding light at 3× real time).
-const NATNET_HZ: &str = "60";
+pub(crate) const NATNET_HZ: &str = "60";
 
 /// Lab runs at once, at most.
 const AT_ONCE: u32 = 2;

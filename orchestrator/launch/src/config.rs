@@ -437,7 +437,7 @@ impl LaunchConfig {
         if self.robots > MAX_ROBOTS {
             return Err(usage(format!("robots must be at most {MAX_ROBOTS}, got {}", self.robots)));
         }
-        self.mocap.validate(self.robots).map_err(usage)?;
+        self.mocap.validate(self.robots, &self.simulated_robots()).map_err(usage)?;
         self.placement.validate().map_err(usage)?;
         let graph =
             self.ros2.as_ref().is_some_and(|r| r.router.is_some()) || self.transport.kind == Transport::Zenoh;
@@ -450,6 +450,15 @@ impl LaunchConfig {
             ));
         }
         self.check_finite()
+    }
+
+    /// The simulated members of a mixed swarm (`kind = "sim"` in the robots
+    /// file of real robots), which motion capture does not see; none for
+    /// any other launch, or when the file cannot be read (the agents' check
+    /// says why).
+    fn simulated_robots(&self) -> Vec<u32> {
+        let file = self.agents.robots_file.as_deref().filter(|_| self.agents.source == AgentSourceKind::Real);
+        file.and_then(|p| bycoms_lab::robots::RobotsFile::read(p).ok()).map(|f| f.sim).unwrap_or_default()
     }
 
     /// Every float of the config, whatever its key, is a finite number

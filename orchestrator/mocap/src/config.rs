@@ -121,9 +121,10 @@ impl PlacementConfig {
 }
 
 impl MocapConfig {
-    /// Checks the section against a launch of `robots` robots; the message
-    /// names the key.
-    pub fn validate(&self, robots: u32) -> Result<(), String> {
+    /// Checks the section against a launch of `robots` robots, of which
+    /// `simulated` (a mixed swarm's simulated members) are not seen by
+    /// motion capture; the message names the key.
+    pub fn validate(&self, robots: u32, simulated: &[u32]) -> Result<(), String> {
         let source = match self.source {
             MocapSource::Bus => "bus",
             MocapSource::Natnet => "natnet",
@@ -140,16 +141,23 @@ impl MocapConfig {
             return Err(format!("mocap.source = \"{table}\" needs a [mocap.{table}] section"));
         }
         match (&self.natnet, &self.ros2) {
-            (Some(natnet), _) => natnet.validate(robots),
-            (_, Some(ros2)) => ros2.validate(robots),
+            (Some(natnet), _) => natnet.validate(robots, simulated),
+            (_, Some(ros2)) => ros2.validate(robots, simulated),
             _ => Ok(()),
         }
     }
 }
 
 /// Every mapped name (a body, a topic) is one robot, ids from 1, and every
-/// robot of the launch has one; `key` names the table in messages.
-fn check_mapping(key: &str, what: &str, map: &BTreeMap<String, RobotId>, robots: u32) -> Result<(), String> {
+/// robot of the launch but the `simulated` ones has one; `key` names the
+/// table in messages.
+fn check_mapping(
+    key: &str,
+    what: &str,
+    map: &BTreeMap<String, RobotId>,
+    robots: u32,
+    simulated: &[u32],
+) -> Result<(), String> {
     let mut seen = BTreeMap::new();
     for (name, robot) in map {
         if robot.0 == 0 {
@@ -159,7 +167,7 @@ fn check_mapping(key: &str, what: &str, map: &BTreeMap<String, RobotId>, robots:
             return Err(format!("{key}: {other} and {name} are both robot {}", robot.0));
         }
     }
-    match (1..=robots).find(|k| !seen.contains_key(&RobotId(*k))) {
+    match (1..=robots).find(|k| !seen.contains_key(&RobotId(*k)) && !simulated.contains(k)) {
         Some(missing) => Err(format!("{key}: no {what} is robot {missing}")),
         None => Ok(()),
     }
@@ -192,7 +200,7 @@ impl Ros2MocapConfig {
     }
 
     /// Checks the ROS 2 settings against a launch of `robots` robots.
-    pub fn validate(&self, robots: u32) -> Result<(), String> {
+    pub fn validate(&self, robots: u32, simulated: &[u32]) -> Result<(), String> {
         for topic in self.topics.keys() {
             if !is_topic_name(topic) {
                 return Err(format!(
@@ -201,7 +209,7 @@ impl Ros2MocapConfig {
                 ));
             }
         }
-        check_mapping("mocap.ros2.topics", "topic", &self.topics, robots)?;
+        check_mapping("mocap.ros2.topics", "topic", &self.topics, robots, simulated)?;
         check_tracking("mocap.ros2", &self.tracker, &self.arena)?;
         check_seconds("mocap.ros2.graph_timeout", self.graph_timeout, Zero::Allowed)?;
         Ok(())
@@ -224,8 +232,8 @@ impl NatNetSourceConfig {
 
     /// Checks the NatNet settings against a launch of `robots` robots
     /// (bodies of later robots are allowed: see [`Self::for_robots`]).
-    pub fn validate(&self, robots: u32) -> Result<(), String> {
-        check_mapping("mocap.natnet.bodies", "rigid body", &self.bodies, robots)?;
+    pub fn validate(&self, robots: u32, simulated: &[u32]) -> Result<(), String> {
+        check_mapping("mocap.natnet.bodies", "rigid body", &self.bodies, robots, simulated)?;
         check_tracking("mocap.natnet", &self.tracker, &self.arena)?;
         // Added to an `Instant` for every command: near u64::MAX it
         // overflowed (a panic); 0 is no socket timeout at all.
@@ -260,7 +268,7 @@ mod tests {
         assert_eq!(cfg.source, MocapSource::Natnet);
         let natnet = cfg.natnet.as_ref().unwrap();
         assert_eq!(natnet.bodies["robot2"], RobotId(2));
-        cfg.validate(2).unwrap();
+        cfg.validate(2, &[]).unwrap();
         let again: MocapConfig = toml::from_str(&toml::to_string(&cfg).unwrap()).unwrap();
         assert_eq!(again, cfg);
     }
@@ -268,23 +276,25 @@ mod tests {
     #[test]
     fn every_mistake_is_named() {
         let cfg: MocapConfig = toml::from_str(LAB).unwrap();
-        let err = cfg.validate(3).unwrap_err();
+        let err = cfg.validate(3, &[]).unwrap_err();
         assert!(err.contains("robot 3"), "{err}");
+        // A mixed swarm's simulated robot 3 has no body: motion capture does not see it.
+        cfg.validate(3, &[3]).expect("robot 3 simulated");
         // A lab file names every robot; a launch of fewer uses the first.
-        cfg.validate(1).expect("robot 2's body is left out of a 1-robot launch");
+        cfg.validate(1, &[]).expect("robot 2's body is left out of a 1-robot launch");
         let one = cfg.natnet.as_ref().expect("natnet").for_robots(1);
         assert_eq!(one.bodies.keys().collect::<Vec<_>>(), ["robot1"]);
         let zero = LAB.replace("robot2 = 2", "robot2 = 0");
-        let err = toml::from_str::<MocapConfig>(&zero).unwrap().validate(2).unwrap_err();
+        let err = toml::from_str::<MocapConfig>(&zero).unwrap().validate(2, &[]).unwrap_err();
         assert!(err.contains("bodies.robot2"), "{err}");
         let natnet_off = MocapConfig { source: MocapSource::Natnet, natnet: None, ros2: None };
-        assert!(natnet_off.validate(1).unwrap_err().contains("[mocap.natnet]"));
+        assert!(natnet_off.validate(1, &[]).unwrap_err().contains("[mocap.natnet]"));
         let err = toml::from_str::<MocapConfig>(&LAB.replace("jump_slack", "jump_slak")).unwrap_err();
         assert!(err.to_string().contains("jump_slak"), "{err}");
         let twice = LAB.replace("robot2 = 2", "robot2 = 1");
-        let err = toml::from_str::<MocapConfig>(&twice).unwrap().validate(2).unwrap_err();
+        let err = toml::from_str::<MocapConfig>(&twice).unwrap().validate(2, &[]).unwrap_err();
         assert!(err.contains("both robot 1"), "{err}");
-        assert_eq!(MocapConfig::default().validate(5), Ok(()));
+        assert_eq!(MocapConfig::default().validate(5, &[]), Ok(()));
     }
 
     #[test]
@@ -294,7 +304,7 @@ mod tests {
                 "server = \"127.0.0.1:1510\"",
                 &format!("server = \"127.0.0.1:1510\"\nreply_timeout_ms = {ms}"),
             );
-            toml::from_str::<MocapConfig>(&text).expect("parses").validate(2)
+            toml::from_str::<MocapConfig>(&text).expect("parses").validate(2, &[])
         };
         for ms in [u64::MAX, 100_000_000_001, 0] {
             let err = with(ms).unwrap_err();
@@ -326,12 +336,12 @@ mod tests {
             (cfg.source, ros2.arena.up, ros2.graph_timeout),
             (MocapSource::Ros2, super::super::UpAxis::Z, 5.0)
         );
-        cfg.validate(2).unwrap();
+        cfg.validate(2, &[]).unwrap();
         assert_eq!(ros2.for_robots(1).topics.len(), 1);
         let again: MocapConfig = toml::from_str(&toml::to_string(&cfg).unwrap()).unwrap();
         assert_eq!(again, cfg);
-        let err = |text: String| toml::from_str::<MocapConfig>(&text).unwrap().validate(2).unwrap_err();
-        assert!(cfg.validate(3).unwrap_err().contains("mocap.ros2.topics: no topic is robot 3"));
+        let err = |text: String| toml::from_str::<MocapConfig>(&text).unwrap().validate(2, &[]).unwrap_err();
+        assert!(cfg.validate(3, &[]).unwrap_err().contains("mocap.ros2.topics: no topic is robot 3"));
         let e = err(ROS2.replace("\"/vrpn_mocap/robot2/pose\"", "\"vrpn/robot2\""));
         assert!(e.contains("\"vrpn/robot2\" is not a fully qualified ROS 2 topic name"), "{e}");
         let e = err(ROS2.replace("= 2", "= 1"));
@@ -341,6 +351,9 @@ mod tests {
         let e = err(ROS2.replace("source = \"ros2\"", "source = \"natnet\""));
         assert_eq!(e, "[mocap.ros2] is set but mocap.source is \"natnet\"");
         let bare = MocapConfig { source: MocapSource::Ros2, ..MocapConfig::default() };
-        assert_eq!(bare.validate(1).unwrap_err(), "mocap.source = \"ros2\" needs a [mocap.ros2] section");
+        assert_eq!(
+            bare.validate(1, &[]).unwrap_err(),
+            "mocap.source = \"ros2\" needs a [mocap.ros2] section"
+        );
     }
 }

@@ -6,7 +6,7 @@
 //! one; the lab emulates the real ones' bodies only.
 
 use super::{ends, lab_with, launch_with, ros2_router, shipped, Turn};
-use bycoms_tests::{swarm_name, Proc};
+use bycoms_tests::{free_udp_port, swarm_name, Proc};
 use serde_json::Value;
 use std::path::Path;
 use std::time::Duration;
@@ -33,18 +33,35 @@ fn robots_file(dir: &Path) -> std::path::PathBuf {
     file
 }
 
+/// How the launch sees the robots.
+#[derive(Clone, Copy, PartialEq)]
+enum Mocap {
+    /// The lab's true poses on the bus (the simulated robots' too).
+    Bus,
+    /// The lab's bodies by NatNet (as a lab's Motive), the simulated
+    /// robots' poses on the bus: one source of each for one swarm.
+    NatNet,
+}
+
 /// The mixed swarm's exp-long run: the launch's JSON summary and the poses
 /// the launch applied (its recording), robot by robot; its recording
 /// replayed reaches the same decisions.
-fn run_mixed() -> (Value, Vec<bycoms_protocol::msg::Pose>) {
+fn run_mixed(mocap: Mocap) -> (Value, Vec<bycoms_protocol::msg::Pose>) {
     let dir = tempfile::tempdir().expect("temp dir");
     let swarm = swarm_name("mixed");
     let (_router, endpoint) = ros2_router();
     let file = robots_file(dir.path());
     let text = std::fs::read_to_string(shipped("launch-ros2-robots.toml")).expect("launch-ros2-robots.toml");
+    let mut text = text.replace("tcp/127.0.0.1:7447", &endpoint);
+    let natnet = free_udp_port().to_string();
+    let mut lab_flags = vec!["--ros2-router", &endpoint];
+    if mocap == Mocap::NatNet {
+        text.push_str(&natnet_section(&natnet));
+        lab_flags.extend(["--natnet", &natnet, "--natnet-rate", super::NATNET_HZ]);
+    }
     let config = dir.path().join("launch.toml");
-    std::fs::write(&config, text.replace("tcp/127.0.0.1:7447", &endpoint)).expect("config");
-    let lab = lab_with(&swarm, "exp-long", &file, &["--ros2-router", &endpoint]);
+    std::fs::write(&config, text).expect("config");
+    let lab = lab_with(&swarm, "exp-long", &file, &lab_flags);
     let record = dir.path().join("run.mcap");
     let extra = ["--eps", EPS, "--time-limit", "300", "--record", record.to_str().expect("utf-8")];
     let out = launch_with(&config, &swarm, "exp-long", ROBOTS, &file, &extra).wait(Duration::from_secs(200));
@@ -55,6 +72,18 @@ fn run_mixed() -> (Value, Vec<bycoms_protocol::msg::Pose>) {
     assert!(replay.stdout.contains("MATCH:"), "the replay reaches the same decisions: {}", replay.stdout);
     let (_, applied) = crate::bad_traffic::recorded_poses(&record);
     (out.json(), applied)
+}
+
+/// The `[mocap]` of `deploy/lab/launch-natnet.toml` (its server at
+/// `natnet`), with a rigid body for each real robot only.
+fn natnet_section(natnet: &str) -> String {
+    let shipped = std::fs::read_to_string(shipped("launch-natnet.toml")).expect("launch-natnet.toml");
+    let mocap = &shipped[shipped.find("[mocap]").expect("a [mocap] section")..];
+    let bodies = mocap.find("[mocap.natnet.bodies]").expect("its bodies");
+    let after = mocap[bodies + 1..].find("\n[").map_or(mocap.len(), |i| bodies + 1 + i + 1);
+    let real: String = REAL.iter().map(|id| format!("robot{id} = {id}\n")).collect();
+    let section = format!("{}[mocap.natnet.bodies]\n{real}\n{}", &mocap[..bodies], &mocap[after..]);
+    format!("\n{}", section.replace("127.0.0.1:1510", natnet))
 }
 
 /// The same swarm all simulated: the in-process runner on exp-long's arena
@@ -81,35 +110,14 @@ fn end_of(j: &Value, k: usize) -> (f64, f64) {
 
 /// A 10-robot swarm on exp-long's arena, robots 2, 3 and 5 the lab's ROS 2
 /// bodies and the seven others simulated, decides as the same swarm all
-/// simulated: the same robots stick, the same one arrives, and each stuck
-/// robot within 5 cm of where its simulated twin stuck (two control periods
-/// at 0.22 m/s: a simulated robot sticks on entering a 2 cm cell, a body on
-/// touching the frame, with slip). And every real body keeps out of the ε
+/// simulated ([`assert_decides_as_simulated`]). And every real body keeps out of the ε
 /// circle of each simulated robot stuck before it (less what a body covers
 /// in the periods it takes to turn onto the tangent).
 #[test]
 fn a_mixed_swarm_on_exp_long_decides_as_the_same_swarm_all_simulated() {
     let _turn = Turn::take();
-    let (mixed, poses) = run_mixed();
-    let simulated = run_simulated();
-    let want: Vec<&str> = (0..ROBOTS as usize)
-        .map(|i| simulated.robots.get(i).map_or("not_deployed", |r| end_word(r.end)))
-        .collect();
-    assert_eq!(ends(&mixed), want, "mixed {mixed}\nall simulated {simulated:?}");
-    for k in 1..=ROBOTS {
-        let marked = mixed["robots"][k as usize - 1]["simulated"] == true;
-        assert_eq!(marked, !REAL.contains(&k), "the summary marks the simulated robots: robot {k}");
-    }
-    let stuck: Vec<usize> =
-        (1..=ROBOTS as usize).filter(|&k| mixed["robots"][k - 1]["end"] == "stuck").collect();
-    assert!(stuck.len() >= 3, "the frame takes beacons: {mixed}");
-    for &k in &stuck {
-        let ((x, y), twin) = (end_of(&mixed, k), simulated.robots[k - 1].position);
-        assert!(
-            (x - twin.x).hypot(y - twin.y) < 0.05,
-            "robot {k} stuck at ({x}, {y}), simulated at {twin:?}"
-        );
-    }
+    let (mixed, poses) = run_mixed(Mocap::Bus);
+    let stuck = assert_decides_as_simulated(&mixed);
     let eps: f64 = EPS.parse().expect("ε");
     let mut checked = 0;
     for &real in REAL.iter().filter(|&&k| k as usize <= stuck.len() + 1) {
@@ -130,6 +138,45 @@ fn a_mixed_swarm_on_exp_long_decides_as_the_same_swarm_all_simulated() {
         }
     }
     assert!(checked > 0, "a real body passed a simulated beacon: {mixed}");
+}
+
+/// The same exp-long swarm with its real robots seen by NatNet (the lab's
+/// Motive) and its simulated ones on the bus (`poses/merged.rs`) decides
+/// as the same swarm all simulated.
+#[test]
+fn a_mixed_swarm_seen_by_natnet_decides_as_the_same_swarm_all_simulated() {
+    let _turn = Turn::take();
+    let (mixed, _) = run_mixed(Mocap::NatNet);
+    assert_decides_as_simulated(&mixed);
+}
+
+/// Asserts that the mixed run `mixed` (a launch's summary) decides as the
+/// swarm all simulated: the same robots stick, the same one arrives, each
+/// stuck robot within 5 cm of where its simulated twin stuck (two control
+/// periods at 0.22 m/s: a simulated robot sticks on entering a 2 cm cell, a
+/// body on touching the frame, with slip); the summary marks the simulated
+/// robots. Returns the stuck robots.
+fn assert_decides_as_simulated(mixed: &Value) -> Vec<usize> {
+    let simulated = run_simulated();
+    let want: Vec<&str> = (0..ROBOTS as usize)
+        .map(|i| simulated.robots.get(i).map_or("not_deployed", |r| end_word(r.end)))
+        .collect();
+    assert_eq!(ends(mixed), want, "mixed {mixed}\nall simulated {simulated:?}");
+    for k in 1..=ROBOTS {
+        let marked = mixed["robots"][k as usize - 1]["simulated"] == true;
+        assert_eq!(marked, !REAL.contains(&k), "the summary marks the simulated robots: robot {k}");
+    }
+    let stuck: Vec<usize> =
+        (1..=ROBOTS as usize).filter(|&k| mixed["robots"][k - 1]["end"] == "stuck").collect();
+    assert!(stuck.len() >= 3, "the frame takes beacons: {mixed}");
+    for &k in &stuck {
+        let ((x, y), twin) = (end_of(mixed, k), simulated.robots[k - 1].position);
+        assert!(
+            (x - twin.x).hypot(y - twin.y) < 0.05,
+            "robot {k} stuck at ({x}, {y}), simulated at {twin:?}"
+        );
+    }
+    stuck
 }
 
 /// A robot's end as the launch's summary spells it.
