@@ -128,7 +128,7 @@ pub struct RobotSummary {
     pub clock: Option<ClockSummary>,
     /// A simulated member of a swarm of real robots (a mixed swarm's
     /// `kind = "sim"` robot); absent for every other robot.
-    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub simulated: bool,
 }
 
