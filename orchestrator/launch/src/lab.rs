@@ -73,8 +73,8 @@ pub fn mixed_arena(scenario: &Scenario, file: &RobotsFile) -> Result<(SimArena, 
     let robot_speed = file.ros2.iter().map(|r| r.limits.linear).fold(f64::INFINITY, f64::min);
     let robot_speed = if robot_speed.is_finite() { robot_speed } else { burger };
     let arena = SimArena { terrain_text: to_text(&terrain), cell, robot_speed, members: file.sim.clone() };
-    let in_world = |p: Vec2| Vec2::new(p.x * cell, p.y * cell);
-    Ok((arena, in_world(terrain.start()), in_world(terrain.goal())))
+    let world = bycoms_sim::RunConfig { cell, ..bycoms_sim::RunConfig::paper(1.0) };
+    Ok((arena, world.in_world(terrain.start()), world.in_world(terrain.goal())))
 }
 
 /// The world of a parsed scenario: arena, start and goal, no obstacle.

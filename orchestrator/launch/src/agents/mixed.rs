@@ -38,19 +38,19 @@ impl Mixed {
     }
 
     /// The source robot `id`'s agent comes from.
-    fn of(&self, id: u32) -> Option<&(dyn AgentSource + 'static)> {
+    fn of(&self, id: u32) -> &(dyn AgentSource + 'static) {
         if self.is_simulated(id) {
-            Some(&self.simulated)
+            &self.simulated
         } else {
-            Some(self.real.as_ref())
+            self.real.as_ref()
         }
     }
 
-    fn of_mut(&mut self, id: u32) -> Option<&mut (dyn AgentSource + 'static)> {
+    fn of_mut(&mut self, id: u32) -> &mut (dyn AgentSource + 'static) {
         if self.is_simulated(id) {
-            Some(&mut self.simulated)
+            &mut self.simulated
         } else {
-            Some(self.real.as_mut())
+            self.real.as_mut()
         }
     }
 
@@ -73,26 +73,19 @@ impl AgentSource for Mixed {
     }
 
     fn start(&mut self, id: u32, plan: &AgentPlan<'_>) -> Result<Started, AgentError> {
-        match self.of_mut(id) {
-            Some(source) => source.start(id, plan),
-            None => {
-                Err(AgentError::NoSuchRobot { robot: id, why: "the robots file names it no agent".into() })
-            }
-        }
+        self.of_mut(id).start(id, plan)
     }
 
     fn heard(&mut self, id: u32) {
-        if let Some(source) = self.of_mut(id) {
-            source.heard(id);
-        }
+        self.of_mut(id).heard(id);
     }
 
     fn is_running(&self, id: u32) -> bool {
-        self.of(id).is_some_and(|s| s.is_running(id))
+        self.of(id).is_running(id)
     }
 
     fn pid(&self, id: u32) -> Option<u32> {
-        self.of(id).and_then(|s| s.pid(id))
+        self.of(id).pid(id)
     }
 
     fn poll(&mut self) -> Vec<(u32, Gone)> {
@@ -104,11 +97,11 @@ impl AgentSource for Mixed {
     }
 
     fn kill(&mut self, id: u32) -> bool {
-        self.of_mut(id).is_some_and(|s| s.kill(id))
+        self.of_mut(id).kill(id)
     }
 
     fn last_error(&mut self, id: u32) -> Option<String> {
-        self.of_mut(id).and_then(|s| s.last_error(id))
+        self.of_mut(id).last_error(id)
     }
 
     fn ask_to_end(&mut self) {
