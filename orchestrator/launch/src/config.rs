@@ -79,6 +79,11 @@ pub struct LaunchConfig {
     pub clock: Clock,
     /// Real-time speed-up (real-time clock only).
     pub speed: f64,
+    /// A mixed swarm's simulated members run this many times faster than
+    /// `speed` (`--sim-speed`): only one robot moves at a time, so while a
+    /// simulated one moves every real robot stands (waiting, or stopped as a
+    /// beacon), and the run between real robots takes less of the lab's day.
+    pub sim_speed: f64,
     /// Simulated time budget, s (periods during which a robot moved).
     pub time_limit: f64,
     /// A robot within this distance of the goal has arrived.
@@ -220,6 +225,7 @@ impl Default for LaunchConfig {
             seed: 0,
             clock: Clock::Lockstep,
             speed: 10.0,
+            sim_speed: 1.0,
             time_limit: 10_000.0,
             goal_radius: 0.5,
             swarm: None,
@@ -401,6 +407,7 @@ impl LaunchConfig {
         check_run(&self.run_config(), &CONFIG_KEYS)?;
         self.faults.validate()?;
         check_speed(self.speed).map_err(|e| usage(format!("bad speed (--speed): {e}")))?;
+        self.check_sim_speed()?;
         self.check_gate()?;
         self.check_seconds()?;
         if self.transport.kind == Transport::Zenoh
@@ -478,6 +485,29 @@ impl LaunchConfig {
     }
 
     /// The gate's speeds, by key and flag.
+    /// `sim_speed`: a positive speed-up whose product with `speed` is one
+    /// an agent can keep ([`check_speed`]), on the real-time clock (a
+    /// stepped swarm runs as fast as it can anyway). Whether the swarm has
+    /// simulated members beside real ones is the world's to say
+    /// ([`crate::lab::check_sim_speed`]).
+    fn check_sim_speed(&self) -> Result<()> {
+        if self.sim_speed == 1.0 {
+            return Ok(());
+        }
+        let bad = |why: String| usage(format!("bad sim_speed (--sim-speed): {why}"));
+        if !(self.sim_speed.is_finite() && self.sim_speed > 0.0) {
+            return Err(bad(format!("must be a positive number, got {}", self.sim_speed)));
+        }
+        if self.clock != Clock::Realtime {
+            return Err(bad(
+                "speeds up a real-time launch (clock = \"realtime\"); a lockstep one is not timed".into(),
+            ));
+        }
+        check_speed(self.speed * self.sim_speed).map_err(|e| {
+            bad(format!("the simulated members would run at {} × {}: {e}", self.speed, self.sim_speed))
+        })
+    }
+
     fn check_gate(&self) -> Result<()> {
         let positive = |v: f64| v.is_finite() && v > 0.0;
         if !positive(self.gate.max_speed) {

@@ -77,6 +77,20 @@ pub fn mixed_arena(scenario: &Scenario, file: &RobotsFile) -> Result<(SimArena, 
     Ok((arena, world.in_world(terrain.start()), world.in_world(terrain.goal())))
 }
 
+/// `--sim-speed` other than 1 needs a mixed swarm: simulated members
+/// beside real robots (a swarm of simulated robots only runs at `--speed`).
+pub fn check_sim_speed(sim_speed: f64, world: &World, robots: u32) -> Result<()> {
+    let members = world.simulated.as_ref().map_or(0, |a| a.members.len());
+    if sim_speed == 1.0 || (members > 0 && members < robots as usize) {
+        return Ok(());
+    }
+    Err(usage(format!(
+        "sim_speed (--sim-speed) {sim_speed} speeds up a mixed swarm's simulated robots; this launch has {}: \
+         give a robots file with kind = \"sim\" robots beside real ones, or set --speed",
+        if members == 0 { "no simulated robot".to_string() } else { "simulated robots only".to_string() }
+    )))
+}
+
 /// The world of a parsed scenario: arena, start and goal, no obstacle.
 pub fn world_of(s: &Scenario) -> Result<World> {
     let cells = |m: f64| (m.ceil() as usize).max(1);

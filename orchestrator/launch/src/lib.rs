@@ -106,6 +106,7 @@ pub fn run_serving(
 ) -> Result<Summary> {
     let begun = std::time::Instant::now();
     cfg.validate()?;
+    lab::check_sim_speed(cfg.sim_speed, &world, cfg.robots)?;
     if cfg.serve.is_some() && serve.is_none() {
         anyhow::bail!(
             "this launch has no live view to serve (`serve`): `orchestrator launch --serve` has one"

@@ -99,7 +99,7 @@ pub fn setup_of(
             kept: agents.keeps_commands && !cfg.faults.is_on(),
         },
         starts: Starts { ahead: if cfg.clock == Clock::Lockstep { STARTS_AHEAD } else { 1 } },
-        members: Members { simulated: agents.simulated.clone() },
+        members: Members { simulated: agents.simulated.clone(), sim_speed: cfg.sim_speed },
     }
 }
 
@@ -158,7 +158,7 @@ pub fn run_settings(cfg: &LaunchConfig, world: &World) -> RunSettings {
         noise: cfg.noise,
         seed: cfg.seed,
         clock: cfg.clock,
-        speed: RunSettings::speed_of(cfg.clock, cfg.speed),
+        speed: RunSettings::speed_of(cfg.clock, cfg.speed * cfg.sim_speed),
         swarm_size: cfg.robots,
         heartbeat_ms: heartbeat_ms(cfg),
     }

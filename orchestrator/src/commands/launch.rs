@@ -155,6 +155,11 @@ pub struct Args {
     /// Real-time speed-up: 10 Hz × speed, at most 1000 (a period of 100 µs).
     #[arg(long, allow_negative_numbers = true)]
     pub speed: Option<f64> => set speed,
+    /// A mixed swarm's simulated robots run this many times faster than
+    /// --speed (real-time clock); only one robot moves at a time, so every
+    /// real robot stands while a simulated one moves.
+    #[arg(long, value_name = "FACTOR", allow_negative_numbers = true)]
+    pub sim_speed: Option<f64> => set sim_speed,
     /// Simulated time budget, seconds of robot motion.
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub time_limit: Option<f64> => set time_limit,

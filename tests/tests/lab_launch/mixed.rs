@@ -46,10 +46,19 @@ enum Mocap {
     NatNet,
 }
 
-/// The mixed swarm's exp-long run: the launch's JSON summary and the poses
-/// the launch applied (its recording), robot by robot; its recording
-/// replayed reaches the same decisions.
-fn run_mixed(mocap: Mocap) -> (Value, Vec<bycoms_protocol::msg::Pose>) {
+/// A mixed run: its summary, the poses the launch applied and its recording.
+struct Mixed {
+    summary: Value,
+    applied: Vec<bycoms_protocol::msg::Pose>,
+    _dir: tempfile::TempDir,
+    record: std::path::PathBuf,
+}
+
+/// The mixed swarm's exp-long run, its simulated robots `sim_speed` times
+/// faster than the lab's speed: the launch's JSON summary and the poses the
+/// launch applied (its recording), robot by robot; its recording replayed
+/// reaches the same decisions.
+fn run_mixed(mocap: Mocap, sim_speed: &str) -> Mixed {
     let dir = tempfile::tempdir().expect("temp dir");
     let swarm = swarm_name("mixed");
     let (_router, endpoint) = ros2_router();
@@ -66,7 +75,8 @@ fn run_mixed(mocap: Mocap) -> (Value, Vec<bycoms_protocol::msg::Pose>) {
     std::fs::write(&config, text).expect("config");
     let lab = lab_with(&swarm, "exp-long", &file, &lab_flags);
     let record = dir.path().join("run.mcap");
-    let extra = ["--eps", EPS, "--time-limit", "300", "--record", record.to_str().expect("utf-8")];
+    let record_arg = record.to_str().expect("utf-8");
+    let extra = ["--eps", EPS, "--time-limit", "300", "--record", record_arg, "--sim-speed", sim_speed];
     let out = launch_with(&config, &swarm, "exp-long", ROBOTS, &file, &extra).wait(Duration::from_secs(200));
     drop(lab);
     assert_eq!(out.status.code(), Some(0), "a robot arrives:\n{}", out.stderr);
@@ -74,7 +84,7 @@ fn run_mixed(mocap: Mocap) -> (Value, Vec<bycoms_protocol::msg::Pose>) {
         Proc::orchestrator(&["replay", record.to_str().expect("utf-8")]).wait(Duration::from_secs(60));
     assert!(replay.stdout.contains("MATCH:"), "the replay reaches the same decisions: {}", replay.stdout);
     let (_, applied) = crate::bad_traffic::recorded_poses(&record);
-    (out.json(), applied)
+    Mixed { summary: out.json(), applied, _dir: dir, record }
 }
 
 /// The `[mocap]` of `deploy/lab/launch-natnet.toml` (its server at
@@ -119,7 +129,7 @@ fn end_of(j: &Value, k: usize) -> (f64, f64) {
 #[test]
 fn a_mixed_swarm_on_exp_long_decides_as_the_same_swarm_all_simulated() {
     let _turn = Turn::take();
-    let (mixed, poses) = run_mixed(Mocap::Bus);
+    let Mixed { summary: mixed, applied: poses, .. } = run_mixed(Mocap::Bus, "1");
     let stuck = assert_decides_as_simulated(&mixed);
     let eps: f64 = EPS.parse().expect("ε");
     let mut checked = 0;
@@ -144,13 +154,51 @@ fn a_mixed_swarm_on_exp_long_decides_as_the_same_swarm_all_simulated() {
 }
 
 /// The same exp-long swarm with its real robots seen by NatNet (the lab's
-/// Motive) and its simulated ones on the bus (`poses/merged.rs`) decides
-/// as the same swarm all simulated.
+/// Motive) and its simulated ones on the bus (`poses/merged.rs`), the
+/// simulated ones at `--sim-speed 4`, decides as the same swarm all
+/// simulated; the simulated robots' pose time ran about 4 times as fast
+/// against the wall as the real ones', and the recording says so.
 #[test]
-fn a_mixed_swarm_seen_by_natnet_decides_as_the_same_swarm_all_simulated() {
+fn a_mixed_swarm_seen_by_natnet_with_its_simulated_robots_at_4x_decides_as_the_same_swarm_all_simulated() {
     let _turn = Turn::take();
-    let (mixed, _) = run_mixed(Mocap::NatNet);
-    assert_decides_as_simulated(&mixed);
+    let mixed = run_mixed(Mocap::NatNet, "4");
+    assert_decides_as_simulated(&mixed.summary);
+    let run = bycoms_study::draw::run::read_run(&mixed.record).expect("the recording reads");
+    let config = run.meta.expect("run metadata").config;
+    assert_eq!(config["sim_speed"], 4.0, "the recording says the simulated robots' speed-up");
+    let rates = pose_time_per_wall_time(&mixed.record);
+    let speed = super::SPEED;
+    let (sim, real) = (rates[&1], rates[&2]);
+    assert!(
+        sim > 2.5 * speed && real < 1.5 * speed,
+        "pose time per wall time: simulated robot 1 {sim:.2}, real robot 2 {real:.2} (speed {speed})"
+    );
+}
+
+/// Each moving robot's pose time over the wall time it took (the recording's
+/// log times, wall clock in real time), from its first to its last applied
+/// pose.
+fn pose_time_per_wall_time(record: &Path) -> std::collections::BTreeMap<u32, f64> {
+    use bycoms_record::decode::{decode_message, Content};
+    use bycoms_record::read::{Item, Reader};
+    let mut spans = std::collections::BTreeMap::<u32, ((u64, u64), (u64, u64))>::new();
+    Reader::open(record)
+        .expect("a recording")
+        .stream(|item| {
+            if let Item::Message { channel, header, data } = item {
+                if let Content::Moved(pose) = decode_message(channel, data) {
+                    let now = (header.log_time, pose.time_us);
+                    spans.entry(pose.robot.0).and_modify(|s| s.1 = now).or_insert((now, now));
+                }
+            }
+            Ok::<_, bycoms_record::RecordError>(())
+        })
+        .expect("read to its end");
+    spans
+        .into_iter()
+        .filter(|(_, (a, b))| b.0 > a.0)
+        .map(|(k, (a, b))| (k, (b.1 - a.1) as f64 * 1e3 / (b.0 - a.0) as f64))
+        .collect()
 }
 
 /// Asserts that the mixed run `mixed` (a launch's summary) decides as the

@@ -234,7 +234,7 @@ impl LaunchCore {
         if self.held_back(topic, pose.step, Held::Pose(pose)) {
             return;
         }
-        let clock = self.pose_clock(now);
+        let clock = self.pose_clock(now, topic);
         let judged = match state {
             SlotState::Registered | SlotState::Absent => {
                 return self.on_pose_before_deployment(topic, pose, clock)
@@ -281,14 +281,17 @@ impl LaunchCore {
         }
     }
 
-    /// The clock a pose is judged against: the tick in flight in lockstep,
-    /// the launch's time (and speed-up) in real time.
-    fn pose_clock(&self, now: u64) -> plausible::PoseClock {
+    /// The clock robot `topic`'s pose is judged against: the tick in
+    /// flight in lockstep, the launch's time at the robot's speed-up in
+    /// real time (a mixed swarm's simulated members run faster,
+    /// [`Members::speed_up`]).
+    fn pose_clock(&self, now: u64, topic: u32) -> plausible::PoseClock {
         if self.setup.lockstep {
             let newest_step = self.tick.as_ref().map_or(self.ticks, |t| t.step);
             plausible::PoseClock::Lockstep { newest_step }
         } else {
-            plausible::PoseClock::Realtime { now_us: now, speed: self.setup.speed }
+            let speed = self.setup.speed * self.setup.members.speed_up(topic);
+            plausible::PoseClock::Realtime { now_us: now, speed }
         }
     }
 

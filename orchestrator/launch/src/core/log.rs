@@ -97,8 +97,9 @@ pub fn resolve<'a>(
 }
 
 /// The setup's bytes in a recording: the setup, then its supervision
-/// settings, its clock limits, its command properties and its starts ahead
-/// (each appended, so a setup recorded before it existed decodes).
+/// settings, its clock limits, its command properties, its starts ahead
+/// and its members (the simulated ones, then their speed-up; each
+/// appended, so a setup recorded before it existed decodes).
 pub fn encode_setup(setup: &Setup) -> Vec<u8> {
     let mut bytes = postcard::to_allocvec(setup).unwrap_or_default();
     bytes.extend(postcard::to_allocvec(&setup.supervision).unwrap_or_default());
@@ -112,28 +113,33 @@ pub fn encode_setup(setup: &Setup) -> Vec<u8> {
 /// A recorded setup. One recorded before the core kept the supervision
 /// timers has none after it: it decodes with them off, and its log's
 /// recorded verdicts (`Input::Gone`, `Input::Reach`) replay as they ran.
+/// Each later addition is likewise absent from a setup recorded before it,
+/// and decodes as its default.
 pub fn decode_setup(bytes: &[u8]) -> Result<Setup, postcard::Error> {
     let (mut setup, rest): (Setup, &[u8]) = postcard::take_from_bytes(bytes)?;
-    if !rest.is_empty() {
-        let (supervision, rest) = postcard::take_from_bytes(rest)?;
-        setup.supervision = supervision;
-        if !rest.is_empty() {
-            let (clocks, rest) = postcard::take_from_bytes(rest)?;
-            setup.clocks = clocks;
-            if !rest.is_empty() {
-                let (commands, rest) = postcard::take_from_bytes(rest)?;
-                setup.commands = commands;
-                if !rest.is_empty() {
-                    let (starts, rest) = postcard::take_from_bytes(rest)?;
-                    setup.starts = starts;
-                    if !rest.is_empty() {
-                        setup.members = postcard::from_bytes(rest)?;
-                    }
-                }
-            }
-        }
-    }
+    let rest = appended(rest, &mut setup.supervision)?;
+    let rest = appended(rest, &mut setup.clocks)?;
+    let rest = appended(rest, &mut setup.commands)?;
+    let rest = appended(rest, &mut setup.starts)?;
+    // The members' fields one by one: `sim_speed` came after `simulated`.
+    let rest = appended(rest, &mut setup.members.simulated)?;
+    appended(rest, &mut setup.members.sim_speed)?;
     Ok(setup)
+}
+
+/// The value appended next in `rest` into `into`, unless `rest` is empty
+/// (a setup recorded before the value existed keeps the default); what
+/// follows it.
+fn appended<'a, T: serde::de::DeserializeOwned>(
+    rest: &'a [u8],
+    into: &mut T,
+) -> Result<&'a [u8], postcard::Error> {
+    if rest.is_empty() {
+        return Ok(rest);
+    }
+    let (value, rest) = postcard::take_from_bytes(rest)?;
+    *into = value;
+    Ok(rest)
 }
 
 /// A batch of calls' bytes in a recording.
@@ -344,6 +350,33 @@ mod tests {
         assert_eq!(decoded.starts.ahead, 0, "none recorded: one ahead, as the core reads it");
         assert_eq!(decoded, Setup { starts: Default::default(), ..setup.clone() });
         assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
+    }
+
+    /// A mixed swarm's setup recorded before `--sim-speed` (its members
+    /// the last thing on it) decodes at speed-up 1, as it ran; one with a
+    /// speed-up keeps it.
+    #[test]
+    fn a_mixed_setup_recorded_before_the_sim_speed_decodes_at_speed_up_1() {
+        let case = Case::small(6);
+        let mut setup = harness::setup(&case, &Schedule::clean(6, case.robots));
+        setup.members = crate::core::Members { simulated: vec![1, 3], sim_speed: 4.0 };
+        let mut old = postcard::to_allocvec(&setup).expect("encodes");
+        for part in [
+            postcard::to_allocvec(&setup.supervision),
+            postcard::to_allocvec(&setup.clocks),
+            postcard::to_allocvec(&setup.commands),
+            postcard::to_allocvec(&setup.starts),
+            postcard::to_allocvec(&setup.members.simulated),
+        ] {
+            old.extend(part.expect("encodes"));
+        }
+        let decoded = decode_setup(&old).expect("an older setup decodes");
+        assert_eq!(
+            (decoded.members.simulated.as_slice(), decoded.members.sim_speed),
+            ([1, 3].as_slice(), 1.0)
+        );
+        assert_eq!(decode_setup(&encode_setup(&setup)).expect("decodes"), setup);
+        assert_eq!((setup.members.speed_up(3), setup.members.speed_up(2)), (4.0, 1.0));
     }
 
     /// A log that names its poses by their number on their robot's pose

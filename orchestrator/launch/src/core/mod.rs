@@ -212,17 +212,41 @@ pub struct Setup {
 /// operator places them) and which see their own poses (none is forwarded
 /// to them). Every other rule (the gate, the field, the order) is the same
 /// for both kinds.
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+///
+/// Their speed-up (`--sim-speed`) is the one rule that differs: their
+/// agents step that many times faster than the launch's speed, so their
+/// poses' time runs ahead of the launch's clock by as much, and the core
+/// judges each pose against its own robot's clock.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Members {
     /// The simulated robots' ids, in order (none: every robot is of the
     /// source's kind).
     pub simulated: Vec<u32>,
+    /// How many times faster than [`Setup::speed`] they run (1 in a setup
+    /// recorded before it: `log::decode_setup`).
+    pub sim_speed: f64,
+}
+
+impl Default for Members {
+    fn default() -> Self {
+        Self { simulated: Vec::new(), sim_speed: 1.0 }
+    }
 }
 
 impl Members {
     /// Whether robot `id` is simulated.
     pub fn is_simulated(&self, id: u32) -> bool {
         self.simulated.binary_search(&id).is_ok()
+    }
+
+    /// Robot `id`'s speed-up over the launch's: `sim_speed` for a
+    /// simulated member, 1 for every other robot.
+    pub fn speed_up(&self, id: u32) -> f64 {
+        if self.is_simulated(id) {
+            self.sim_speed
+        } else {
+            1.0
+        }
     }
 }
 
