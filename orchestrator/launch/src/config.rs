@@ -852,6 +852,30 @@ mod tests {
         big.validate().expect("any u64 is a seed");
     }
 
+    /// `--sim-speed`: a positive speed-up, on the real-time clock, whose
+    /// product with `--speed` an agent can keep; 1 is always valid.
+    #[test]
+    fn a_sim_speed_is_a_positive_speed_up_of_a_real_time_launch() {
+        let realtime = |sim_speed| LaunchConfig {
+            clock: Clock::Realtime,
+            speed: 3.0,
+            sim_speed,
+            ..LaunchConfig::default()
+        };
+        realtime(4.0).validate().expect("4 × 3 is a speed an agent keeps");
+        LaunchConfig::default().validate().expect("1 under lockstep");
+        for (cfg, why) in [
+            (realtime(0.0), "must be a positive number, got 0"),
+            (realtime(f64::NAN), "must be a positive number, got NaN"),
+            (realtime(400.0), "the simulated members would run at 3 × 400"),
+            (LaunchConfig { sim_speed: 2.0, ..LaunchConfig::default() }, "a lockstep one is not timed"),
+        ] {
+            let e = format!("{:#}", cfg.validate().expect_err("refused"));
+            assert!(e.starts_with("bad sim_speed (--sim-speed): "), "{e}");
+            assert!(e.contains(why), "{e}");
+        }
+    }
+
     /// Issue 49: `--stop-speed 0` made no robot ever still, and a lockstep
     /// launch ran without end.
     #[test]

@@ -129,6 +129,28 @@ mod tests {
         assert!(err.contains("--robots 2"), "{err}");
     }
 
+    /// `--sim-speed` speeds up a mixed swarm's simulated members: a swarm
+    /// with no simulated robot, or with simulated robots only, is refused.
+    #[test]
+    fn a_sim_speed_needs_simulated_robots_beside_real_ones() {
+        let world = lab_world("exp-long", 3, None).expect("built in");
+        let arena = |members: Vec<u32>| SimArena {
+            terrain_text: String::new(),
+            cell: 0.02,
+            robot_speed: 0.22,
+            members,
+        };
+        let mixed = World { simulated: Some(arena(vec![1, 3])), ..world.clone() };
+        check_sim_speed(4.0, &mixed, 3).expect("robots 1 and 3 simulated, 2 real");
+        check_sim_speed(1.0, &world, 3).expect("1 is no speed-up");
+        let all = World { simulated: Some(arena(vec![1, 2, 3])), ..world.clone() };
+        for (w, has) in [(&world, "has no simulated robot"), (&all, "has simulated robots only")] {
+            let e = check_sim_speed(4.0, w, 3).expect_err("refused");
+            assert_eq!(bycoms_runtime::exit::code_of(&e), bycoms_runtime::exit::USAGE, "{e:#}");
+            assert!(e.to_string().contains(has), "{e}");
+        }
+    }
+
     #[test]
     fn a_lab_larger_than_any_terrain_is_a_usage_error_not_a_grid_past_memory() {
         let dir = tempfile::tempdir().expect("temp dir");
