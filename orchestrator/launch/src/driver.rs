@@ -625,13 +625,15 @@ impl Driver {
             summary.terrain, summary.eps, summary.clock, summary.swarm
         );
         let dt = self.run.run_config().kinematics.dt;
+        let real = crate::lab::real_robots(&self.cfg, &self.world);
+        let opts = bycoms_study::draw::snapshot::Options::in_room(self.world.unit, self.world.room.as_ref());
         Some(bycoms_study::draw::trace::picture_in(
             &self.world.terrain,
             trace,
             self.cfg.eps,
             dt,
             &heading,
-            &bycoms_study::draw::snapshot::Options::in_room(self.world.unit, self.world.room.as_ref()),
+            &bycoms_study::draw::snapshot::Options { real: &real, ..opts },
         ))
     }
 }

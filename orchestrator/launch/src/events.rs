@@ -92,4 +92,9 @@ pub struct RunMeta<'a> {
     /// their agents reported. Absent without ROS 2 robots.
     #[serde(default, skip_serializing_if = "<[_]>::is_empty")]
     pub ros2_robots: &'a [bycoms_record::schema::Ros2RobotTopic],
+    /// The robots with a real body (`lab::real_robots`): every robot of a
+    /// launch of real robots but a mixed swarm's simulated members. Absent
+    /// when every robot is simulated (and in older recordings).
+    #[serde(default, skip_serializing_if = "<[_]>::is_empty")]
+    pub real: &'a [u32],
 }

@@ -77,6 +77,19 @@ pub fn mixed_arena(scenario: &Scenario, file: &RobotsFile) -> Result<(SimArena, 
     Ok((arena, world.in_world(terrain.start()), world.in_world(terrain.goal())))
 }
 
+/// The robots of a launch that have a real body: every robot of a launch
+/// of real robots (`agents.source = "real"`) but a mixed swarm's simulated
+/// members; none when the agents simulate their robots. What the pictures,
+/// the live view, Foxglove and the ROS 2 output mark, and the recording
+/// keeps (its run metadata).
+pub fn real_robots(cfg: &crate::LaunchConfig, world: &World) -> Vec<u32> {
+    if cfg.agents.source != crate::config::AgentSourceKind::Real {
+        return Vec::new();
+    }
+    let simulated = world.simulated.as_ref().map(|a| a.members.as_slice()).unwrap_or_default();
+    (1..=cfg.robots).filter(|k| !simulated.contains(k)).collect()
+}
+
 /// `--sim-speed` other than 1 needs a mixed swarm: simulated members
 /// beside real robots (a swarm of simulated robots only runs at `--speed`).
 pub fn check_sim_speed(sim_speed: f64, world: &World, robots: u32) -> Result<()> {

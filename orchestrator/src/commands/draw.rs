@@ -93,7 +93,8 @@ pub fn run(args: Args) -> Result<i32> {
     let heading = format!("{} — ε = {eps}, {} launch, swarm {swarm}", meta.terrain, meta.clock());
     let unit = unit_of(&meta.config);
     let room = if unit == Unit::Metre { lab_room(&meta.config) } else { None };
-    let svg = picture_in(&terrain, &run.trace, eps, dt, &heading, &Options::in_room(unit, room.as_ref()));
+    let opts = Options { real: &meta.real, ..Options::in_room(unit, room.as_ref()) };
+    let svg = picture_in(&terrain, &run.trace, eps, dt, &heading, &opts);
     write(&args, &svg)
 }
 

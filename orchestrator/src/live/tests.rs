@@ -53,7 +53,8 @@ struct Fed {
 impl Fed {
     fn new(tap: Box<dyn Observer>, world: &World, cfg: &LaunchConfig) -> Self {
         let terrain = world.terrain.clone();
-        let scene = SharedScene::new(Scene::new("t", SceneWorld { terrain, eps: cfg.eps, goal_radius: 0.5 }));
+        let scene =
+            SharedScene::new(Scene::new("t", SceneWorld { terrain, eps: cfg.eps, goal_radius: 0.5, real: Vec::new() }));
         let mut fed = Self { tap, scene };
         fed.tap.world("t", world, cfg, Some(&fed.scene));
         let outs = fed.scene.lock().world(1);

@@ -158,9 +158,10 @@ impl Recording {
     pub fn scene_for(swarm: &str, world: &World, cfg: &LaunchConfig) -> Option<SharedScene> {
         (cfg.record.is_some() || cfg.serve.is_some()).then(|| {
             let terrain = world.terrain.clone();
+            let real = crate::lab::real_robots(cfg, world);
             SharedScene::new(Scene::new(
                 swarm,
-                SceneWorld { terrain, eps: cfg.eps, goal_radius: cfg.goal_radius },
+                SceneWorld { terrain, eps: cfg.eps, goal_radius: cfg.goal_radius, real },
             ))
         })
     }
@@ -237,6 +238,7 @@ impl Recording {
             config: cfg,
             applied_poses: true,
             ros2_robots: &ros2_robots(cfg),
+            real: &crate::lab::real_robots(cfg, world),
         };
         self.json(&Topics::new(swarm).run(), schema::RUN, &meta);
     }

@@ -15,7 +15,7 @@
 //!
 //! | topic | schema | what |
 //! |---|---|---|
-//! | `scene` | `foxglove.SceneUpdate` | arena floor, impassable cells, start, goal; each robot (ball, heading arrow, number; colour = its state); trajectories; beacons with their ε circles |
+//! | `scene` | `foxglove.SceneUpdate` | arena floor, impassable cells, start, goal; each robot (ball, or a box for a robot with a real body; heading arrow, number; colour = its state); trajectories; beacons with their ε circles |
 //! | `tf` | `foxglove.FrameTransforms` | `arena` → `robot/<k>`: each robot's pose as a frame |
 //! | `log` | `foxglove.Log` | gate decisions in words |
 //! | `gate/json` | `bycoms.GateDecision` (JSON) | gate decisions as data |
@@ -111,6 +111,16 @@ pub struct SceneWorld {
     pub eps: f64,
     /// Arrival radius around the goal.
     pub goal_radius: f64,
+    /// The robots with a real body (a lab's; in a mixed swarm its real
+    /// members): drawn as boxes, the simulated ones as balls.
+    pub real: Vec<u32>,
+}
+
+impl SceneWorld {
+    /// Whether robot `k` has a real body.
+    pub fn is_real(&self, k: u32) -> bool {
+        self.real.contains(&k)
+    }
 }
 
 /// The topic names of one swarm's decoded channels (the recording's own
@@ -330,7 +340,7 @@ impl Scene {
         }
         let t = stamp(ns);
         let newest = track.path.len().saturating_sub(2) / PATH_PIECE;
-        let mut entities = vec![robot_entity(&t, k, track)];
+        let mut entities = vec![robot_entity(&t, k, track, self.world.is_real(k))];
         entities.extend(path_entity(&t, k, &track.path, newest));
         out.push(self.scene_out(entities));
         let frame = FrameTransform {
@@ -362,7 +372,7 @@ impl Scene {
         let at = Vec2::new(decision.x, decision.y);
         if let Some(track) = self.robots.get_mut(&k) {
             track.decision = Some(decision.decision);
-            entities.push(robot_entity(&t, k, track));
+            entities.push(robot_entity(&t, k, track, self.world.is_real(k)));
         }
         if decision.beacon {
             self.beacons.insert(k, at);
@@ -414,7 +424,7 @@ impl Scene {
         let mut out = self.world(ns);
         let mut entities = Vec::new();
         for (&k, track) in &self.robots {
-            entities.push(robot_entity(&t, k, track));
+            entities.push(robot_entity(&t, k, track, self.world.is_real(k)));
             for piece in 0..=track.path.len().saturating_sub(2) / PATH_PIECE {
                 entities.extend(path_entity(&t, k, &track.path, piece));
             }
@@ -444,7 +454,8 @@ fn palette(k: u32) -> Color {
     rgba(PALETTE[(k as usize).saturating_sub(1) % PALETTE.len()], 1.0)
 }
 
-fn robot_entity(t: &Timestamp, k: u32, track: &Track) -> SceneEntity {
+/// Robot `k`'s marker: a ball, or a box when it has a `real` body.
+fn robot_entity(t: &Timestamp, k: u32, track: &Track, real: bool) -> SceneEntity {
     let colour = match track.decision {
         Some(Decision::Stuck) => rgba(STUCK, 1.0),
         Some(Decision::Arrived) => rgba(ARRIVED, 1.0),
@@ -453,7 +464,12 @@ fn robot_entity(t: &Timestamp, k: u32, track: &Track) -> SceneEntity {
     };
     let at = Vec2::new(track.last.x, track.last.y);
     let mut e = entity(t, &format!("robot/{k}"));
-    e.spheres.push(ball(at, ROBOT_SIZE, ROBOT_SIZE / 2.0, colour));
+    if real {
+        let half = ROBOT_SIZE / 2.0;
+        e.cubes.push(cuboid(at.x - half, at.y - half, at.x + half, at.y + half, 0.0, ROBOT_SIZE, colour));
+    } else {
+        e.spheres.push(ball(at, ROBOT_SIZE, ROBOT_SIZE / 2.0, colour));
+    }
     e.arrows.push(arrow(at, track.last.heading, 1.0, ROBOT_SIZE / 2.0, colour));
     e.texts.push(label(at, ROBOT_SIZE + 0.6, 0.9, k.to_string(), rgba(INK, 1.0)));
     e

@@ -11,7 +11,7 @@ fn world() -> SceneWorld {
     for (ix, iy) in [(3, 4), (4, 4), (5, 4), (9, 2), (12, 7), (13, 7)] {
         terrain.set_blocked(ix, iy, true);
     }
-    SceneWorld { terrain, eps: 2.5, goal_radius: 0.5 }
+    SceneWorld { terrain, eps: 2.5, goal_radius: 0.5, real: Vec::new() }
 }
 
 fn pose(k: u32, x: f64, y: f64, step: u64) -> Pose {
@@ -68,6 +68,25 @@ fn a_pose_draws_the_robot_its_path_and_its_frame_and_a_still_pose_sends_nothing(
         "turning is a change"
     );
     assert_eq!(ids(scene_of(&turned)[0]), ["robot/1", "robot/1/path/0"]);
+}
+
+/// A mixed swarm's scene: a robot with a real body is a box, a simulated
+/// one a ball, in every update that draws it (pose, gate decision, snapshot).
+#[test]
+fn a_real_robot_is_drawn_as_a_box_and_a_simulated_one_as_a_ball() {
+    let mut scene = Scene::new("s", SceneWorld { real: vec![2], ..world() });
+    let marker = |out: &[Out], k: u32| {
+        let id = format!("robot/{k}");
+        let update = scene_of(out).into_iter().find(|u| ids(u).contains(&id.as_str())).expect("drawn");
+        let e = update.entities.iter().find(|e| e.id == id).expect("its entity");
+        (e.cubes.len(), e.spheres.len())
+    };
+    assert_eq!(marker(&scene.pose(&pose(1, 5.0, 5.0, 0), 1), 1), (0, 1), "simulated: a ball");
+    assert_eq!(marker(&scene.pose(&pose(2, 6.0, 5.0, 0), 2), 2), (1, 0), "real: a box");
+    let stuck = GateEvent { robot: RobotId(2), kind: GateKind::Stopped { arrived: false }, x: 6.0, y: 5.0, step: 9 };
+    assert_eq!(marker(&scene.gate(&stuck, 3), 2), (1, 0), "still a box as a beacon");
+    let snapshot = scene.snapshot(4);
+    assert_eq!((marker(&snapshot, 1), marker(&snapshot, 2)), ((0, 1), (1, 0)));
 }
 
 #[test]

@@ -49,6 +49,11 @@ pub struct RunMeta {
     /// ROS 2 robots (and in recordings older than it).
     #[serde(default)]
     pub ros2_robots: Vec<schema::Ros2RobotTopic>,
+    /// The robots with a real body (a lab's; in a mixed swarm its real
+    /// members); empty when every robot was simulated (and in recordings
+    /// older than it).
+    #[serde(default)]
+    pub real: Vec<u32>,
 }
 
 impl RunMeta {

@@ -11,7 +11,10 @@
 //! the launch's terrain rounds it up to, and its frames, which the launch's
 //! terrain does not hold (the orchestrator knows no obstacle), so robots
 //! stuck at a frame are drawn against it. A stuck robot is ringed (its ε
-//! circle in cells, a fixed ring in metres), as the legend shows.
+//! circle in cells, a fixed ring in metres), as the legend shows. A robot
+//! with a real body ([`Options::real`]: a lab's, or a mixed swarm's real
+//! members) is a square, a simulated one a dot, so a mixed swarm's picture
+//! shows which were which.
 //!
 //! [`render_strip`] draws the same at several moments side by side, like
 //! the panels of `fig:sim_result`; the moments come from the recorded
@@ -67,11 +70,14 @@ pub struct Options<'a> {
     /// A lab's room (metres): its size and frames are drawn instead of the
     /// terrain's whole cells.
     pub room: Option<&'a Scenario>,
+    /// The robots with a real body (a lab's; in a mixed swarm its real
+    /// members): drawn as squares, the simulated ones as dots.
+    pub real: &'a [u32],
 }
 
 impl Default for Options<'_> {
     fn default() -> Self {
-        Self { contours: true, field_constant: 1.0, unit: Unit::Cell, room: None }
+        Self { contours: true, field_constant: 1.0, unit: Unit::Cell, room: None, real: &[] }
     }
 }
 
@@ -213,7 +219,7 @@ fn panel(
                 format!(r#"fill="none" stroke="{colour}" stroke-dasharray="4 3" class="beacon-ring""#);
             svg.circle(x, y, radius, &style);
         }
-        svg.circle(x, y, 3.5, &format!(r##"fill="{colour}" stroke="#000" stroke-width="0.5""##));
+        robot_mark(svg, (x, y), colour, opts.real.contains(&robot.id));
         let label = robot.id.to_string();
         let (lx, ly) = number_spot((x, y), &label, px(terrain.goal()));
         svg.raw(&format!(
@@ -222,6 +228,16 @@ fn panel(
     }
     start_mark(svg, px(terrain.start()));
     goal_mark(svg, px(terrain.goal()));
+}
+
+/// A robot at `(x, y)`: a dot, or a square when it has a `real` body.
+fn robot_mark(svg: &mut Svg, (x, y): (f64, f64), colour: &str, real: bool) {
+    let style = format!(r##"fill="{colour}" stroke="#000" stroke-width="0.5""##);
+    if real {
+        svg.rect(x - 4.0, y - 4.0, 8.0, 8.0, &format!(r#"{style} class="real-robot""#));
+    } else {
+        svg.circle(x, y, 3.5, &style);
+    }
 }
 
 /// Font size of the robot numbers.
@@ -319,7 +335,7 @@ fn goal_mark(svg: &mut Svg, (gx, gy): (f64, f64)) {
     svg.polygon(star(gx, gy, STAR, 4.0), r##"fill="#ffd700" stroke="black" stroke-width="1""##);
 }
 
-const LEGEND: [&str; 7] = [
+const LEGEND: [&str; 8] = [
     "start",
     "goal",
     "robot (number: deployment order)",
@@ -327,13 +343,31 @@ const LEGEND: [&str; 7] = [
     "stuck robot (beacon), ε circle",
     "impassable cell",
     "potential contours (bold: g = 1/ε²)",
+    "robot with a real body",
 ];
 
+/// The legend's entry of a real robot (index into [`LEGEND`]).
+const REAL_ITEM: usize = 7;
+
 /// The legend's entries (index into [`LEGEND`] for the swatch, label): a
-/// lab's run has no ε circles, cells or contours of the simulator.
+/// lab's run has no ε circles, cells or contours of the simulator; a run
+/// with real robots says which mark is theirs.
 fn legend(opts: &Options) -> Vec<(usize, &'static str)> {
+    let mut items = legend_of_unit(opts);
+    if !opts.real.is_empty() {
+        items.push((REAL_ITEM, LEGEND[REAL_ITEM]));
+    }
+    items
+}
+
+fn legend_of_unit(opts: &Options) -> Vec<(usize, &'static str)> {
     match opts.unit {
-        Unit::Cell => LEGEND.iter().copied().enumerate().filter(|&(i, _)| i != 6 || opts.contours).collect(),
+        Unit::Cell => LEGEND[..REAL_ITEM]
+            .iter()
+            .copied()
+            .enumerate()
+            .filter(|&(i, _)| i != 6 || opts.contours)
+            .collect(),
         Unit::Metre => {
             let mut items = vec![
                 (0, LEGEND[0]),
@@ -438,6 +472,7 @@ fn scale_and_legend(
                 );
             }
             5 => svg.rect(cx - 5.0, cy - 5.0, 10.0, 10.0, &format!(r#"fill="{BLOCKED}""#)),
+            REAL_ITEM => robot_mark(svg, (cx, cy), PALETTE[0], true),
             _ => svg.line(cx - 9.0, cy, cx + 9.0, cy, &format!(r#"stroke="{CONTOUR}" stroke-width="1.4""#)),
         }
         svg.text(ix + 24.0, iy + 4.0, LEGEND_FONT, "start", label);
@@ -567,6 +602,14 @@ mod tests {
             assert!(svg.contains(&format!(r#"class="robot-number">{n}</text>"#)), "robot {n} numbered");
         }
         assert!(svg.contains(">frame (obstacle)<"), "the legend names the frame");
+        assert!(!svg.contains("real-robot") && !svg.contains("real body"), "no robot is marked real");
+        // A mixed swarm: robots 2 and 3 real, robot 1 simulated.
+        let opts = Options { real: &[2, 3], ..Options::in_room(Unit::Metre, Some(&room)) };
+        let mixed = render_with(&terrain, &result, 3.0, ["exp-long", "v"], &opts);
+        // Two robots and the legend's swatch.
+        assert_eq!(mixed.matches(r#"class="real-robot""#).count(), 3, "robots 2 and 3 are squares: {mixed}");
+        assert!(mixed.contains(">robot with a real body<"), "the legend says what a square is");
+        assert_eq!(mixed.matches("<circle").count(), svg.matches("<circle").count() - 2, "two dots fewer");
     }
 
     #[test]
