@@ -47,6 +47,9 @@ pub struct WorldView {
     pub robots: u32,
     /// `lockstep` or `realtime`.
     pub clock: String,
+    /// The robots with a real body (a lab's; in a mixed swarm its real
+    /// members): the page draws them as squares and says so in its list.
+    pub real: Vec<u32>,
 }
 
 impl WorldView {
@@ -67,6 +70,7 @@ impl WorldView {
                 .ok()
                 .and_then(|v| v.as_str().map(str::to_owned))
                 .unwrap_or_default(),
+            real: bycoms_launch::lab::real_robots(cfg, world),
         }
     }
 }

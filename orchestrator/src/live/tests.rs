@@ -53,8 +53,10 @@ struct Fed {
 impl Fed {
     fn new(tap: Box<dyn Observer>, world: &World, cfg: &LaunchConfig) -> Self {
         let terrain = world.terrain.clone();
-        let scene =
-            SharedScene::new(Scene::new("t", SceneWorld { terrain, eps: cfg.eps, goal_radius: 0.5, real: Vec::new() }));
+        let scene = SharedScene::new(Scene::new(
+            "t",
+            SceneWorld { terrain, eps: cfg.eps, goal_radius: 0.5, real: Vec::new() },
+        ));
         let mut fed = Self { tap, scene };
         fed.tap.world("t", world, cfg, Some(&fed.scene));
         let outs = fed.scene.lock().world(1);
@@ -302,4 +304,23 @@ fn a_client_of_the_old_subprotocol_name_gets_a_refusal_that_says_what_is_served(
     assert!(accepted.starts_with("HTTP/1.1 101"), "{accepted}");
     assert!(accepted.to_ascii_lowercase().contains("sec-websocket-protocol: foxglove.sdk.v1"), "{accepted}");
     live.shutdown();
+}
+
+/// The page's world names the robots with a real body: a mixed swarm's
+/// real members (robot 2 here), none for simulated agents.
+#[test]
+fn the_world_view_names_the_robots_with_a_real_body() {
+    use super::state::WorldView;
+    let arena = bycoms_launch::SimArena {
+        terrain_text: String::new(),
+        cell: 0.02,
+        robot_speed: 0.22,
+        members: vec![1, 3],
+    };
+    let mixed = World { simulated: Some(arena), ..world() };
+    let mut cfg = LaunchConfig { robots: 3, ..LaunchConfig::default() };
+    assert!(WorldView::new(&mixed, &cfg).real.is_empty(), "spawned agents simulate every robot");
+    cfg.agents.source = bycoms_launch::config::AgentSourceKind::Real;
+    assert_eq!(WorldView::new(&mixed, &cfg).real, [2]);
+    assert_eq!(WorldView::new(&world(), &cfg).real, [1, 2, 3], "a lab's robots are all real");
 }

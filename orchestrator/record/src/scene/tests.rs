@@ -83,7 +83,8 @@ fn a_real_robot_is_drawn_as_a_box_and_a_simulated_one_as_a_ball() {
     };
     assert_eq!(marker(&scene.pose(&pose(1, 5.0, 5.0, 0), 1), 1), (0, 1), "simulated: a ball");
     assert_eq!(marker(&scene.pose(&pose(2, 6.0, 5.0, 0), 2), 2), (1, 0), "real: a box");
-    let stuck = GateEvent { robot: RobotId(2), kind: GateKind::Stopped { arrived: false }, x: 6.0, y: 5.0, step: 9 };
+    let stuck =
+        GateEvent { robot: RobotId(2), kind: GateKind::Stopped { arrived: false }, x: 6.0, y: 5.0, step: 9 };
     assert_eq!(marker(&scene.gate(&stuck, 3), 2), (1, 0), "still a box as a beacon");
     let snapshot = scene.snapshot(4);
     assert_eq!((marker(&snapshot, 1), marker(&snapshot, 2)), ((0, 1), (1, 0)));
