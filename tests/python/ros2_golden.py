@@ -197,7 +197,7 @@ MESSAGES.update({
         robot=3, kind=1, arrived=True, x=44.5, y=-1.25, step=123,
     ),
     "bycoms_msgs/msg/RobotState": T["bycoms_msgs/msg/RobotState"](
-        header=header("world"), robot=2, state=2, x=30.0, y=31.5, heading=-0.5, step=7,
+        header=header("world"), robot=2, state=2, x=30.0, y=31.5, heading=-0.5, step=7, real=True,
     ),
 })
 

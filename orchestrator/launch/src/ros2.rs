@@ -202,6 +202,7 @@ impl Ros2Bridge {
 impl Observer for Ros2Bridge {
     fn world(&mut self, _swarm: &str, world: &World, cfg: &LaunchConfig, _scene: Option<&SharedScene>) {
         self.run.set_static_frames(static_frames(mocap_arena(&cfg.mocap)));
+        self.run.set_real(crate::lab::real_robots(cfg, world));
         self.run.world(&world.terrain, cfg.eps, &mut self.sink);
     }
     fn pose(&mut self, pose: &Pose) {

@@ -34,7 +34,8 @@ description!(
         Field::prim("x", P::Float64),
         Field::prim("y", P::Float64),
         Field::prim("heading", P::Float64),
-        Field::prim("step", P::Uint64)
+        Field::prim("step", P::Uint64),
+        Field::prim("real", P::Bool)
     ]
 );
 
@@ -115,6 +116,8 @@ pub struct RobotState {
     pub heading: f64,
     /// The step of that pose.
     pub step: u64,
+    /// Whether the robot has a real body (false: simulated).
+    pub real: bool,
 }
 
 impl RosMessage for RobotState {
@@ -127,5 +130,6 @@ impl RosMessage for RobotState {
         w.f64(self.y);
         w.f64(self.heading);
         w.u64(self.step);
+        w.bool(self.real);
     }
 }

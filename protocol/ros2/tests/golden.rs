@@ -116,6 +116,7 @@ fn fixed() -> Vec<(&'static TypeDescription, Vec<u8>)> {
             y: 31.5,
             heading: -0.5,
             step: 7,
+            real: true,
         }),
         entry(&DiagnosticArray {
             header: header(""),
@@ -311,8 +312,8 @@ const PINNED: &[(&str, &str, &str)] = &[
     ),
     (
         "bycoms_msgs/msg/RobotState",
-        "RIHS01_f8469234fa1c0f25686cb338b7ca5f137d32f9b2a0b0eeeeaac4c2c03cb6a7fc",
-        "0001000000f1536515cd5b0706000000776f726c640000000200000002000000000000000000000000003e400000000000803f40000000000000e0bf0700000000000000",
+        "RIHS01_dc507c82478175801fccaf58825aeff765cccb69ec966a08563e09243d3a8b3e",
+        "0001000000f1536515cd5b0706000000776f726c640000000200000002000000000000000000000000003e400000000000803f40000000000000e0bf070000000000000001",
     ),
 ];
 

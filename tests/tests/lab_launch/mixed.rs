@@ -52,6 +52,8 @@ struct Mixed {
     applied: Vec<bycoms_protocol::msg::Pose>,
     _dir: tempfile::TempDir,
     record: std::path::PathBuf,
+    /// Its `--svg` picture.
+    svg: String,
 }
 
 /// The mixed swarm's exp-long run, its simulated robots `sim_speed` times
@@ -75,8 +77,20 @@ fn run_mixed(mocap: Mocap, sim_speed: &str) -> Mixed {
     std::fs::write(&config, text).expect("config");
     let lab = lab_with(&swarm, "exp-long", &file, &lab_flags);
     let record = dir.path().join("run.mcap");
-    let record_arg = record.to_str().expect("utf-8");
-    let extra = ["--eps", EPS, "--time-limit", "300", "--record", record_arg, "--sim-speed", sim_speed];
+    let (record_arg, svg) = (record.to_str().expect("utf-8"), dir.path().join("run.svg"));
+    let svg_arg = svg.to_str().expect("utf-8");
+    let extra = [
+        "--eps",
+        EPS,
+        "--time-limit",
+        "300",
+        "--record",
+        record_arg,
+        "--svg",
+        svg_arg,
+        "--sim-speed",
+        sim_speed,
+    ];
     let out = launch_with(&config, &swarm, "exp-long", ROBOTS, &file, &extra).wait(Duration::from_secs(200));
     drop(lab);
     assert_eq!(out.status.code(), Some(0), "a robot arrives:\n{}", out.stderr);
@@ -84,7 +98,8 @@ fn run_mixed(mocap: Mocap, sim_speed: &str) -> Mixed {
         Proc::orchestrator(&["replay", record.to_str().expect("utf-8")]).wait(Duration::from_secs(60));
     assert!(replay.stdout.contains("MATCH:"), "the replay reaches the same decisions: {}", replay.stdout);
     let (_, applied) = crate::bad_traffic::recorded_poses(&record);
-    Mixed { summary: out.json(), applied, _dir: dir, record }
+    let svg = std::fs::read_to_string(svg).expect("the picture");
+    Mixed { summary: out.json(), applied, _dir: dir, record, svg }
 }
 
 /// The `[mocap]` of `deploy/lab/launch-natnet.toml` (its server at
@@ -129,15 +144,17 @@ fn end_of(j: &Value, k: usize) -> (f64, f64) {
 #[test]
 fn a_mixed_swarm_on_exp_long_decides_as_the_same_swarm_all_simulated() {
     let _turn = Turn::take();
-    let Mixed { summary: mixed, applied: poses, .. } = run_mixed(Mocap::Bus, "1");
-    let stuck = assert_decides_as_simulated(&mixed);
+    let run = run_mixed(Mocap::Bus, "1");
+    let (mixed, poses) = (&run.summary, &run.applied);
+    let stuck = assert_decides_as_simulated(mixed);
+    assert_marks_the_real_robots(&run);
     let eps: f64 = EPS.parse().expect("ε");
     let mut checked = 0;
     for &real in REAL.iter().filter(|&&k| k as usize <= stuck.len() + 1) {
         let beacons: Vec<(f64, f64)> = stuck
             .iter()
             .filter(|&&k| k < real as usize && !REAL.contains(&(k as u32)))
-            .map(|&k| end_of(&mixed, k))
+            .map(|&k| end_of(mixed, k))
             .collect();
         let track: Vec<&bycoms_protocol::msg::Pose> = poses.iter().filter(|p| p.robot.0 == real).collect();
         assert!(!track.is_empty(), "robot {real} moved");
@@ -151,6 +168,36 @@ fn a_mixed_swarm_on_exp_long_decides_as_the_same_swarm_all_simulated() {
         }
     }
     assert!(checked > 0, "a real body passed a simulated beacon: {mixed}");
+}
+
+/// The pictures and the ROS 2 output mark the robots with a real body: in
+/// the `--svg` picture each real robot deployed is a square (and the legend
+/// says so), and in the run exported as a ROS 2 bag every robot's
+/// `RobotState` says whether it is real (`real`, its last field: the
+/// message's layout is checked against rosbags by `protocol/ros2/tests/golden.rs`).
+fn assert_marks_the_real_robots(run: &Mixed) {
+    let deployed: Vec<u32> =
+        (1..=ROBOTS).filter(|&k| run.summary["robots"][k as usize - 1]["end"] != "not_deployed").collect();
+    let real_deployed = deployed.iter().filter(|k| REAL.contains(k)).count();
+    assert!(real_deployed > 0, "a real robot moved: {}", run.summary);
+    let squares = run.svg.matches(r#"class="real-robot""#).count();
+    assert_eq!(squares, real_deployed + 1, "a square per real robot drawn, and the legend's");
+    let bag = run.record.with_file_name("bag.mcap");
+    let (record, out) = (run.record.to_str().expect("utf-8"), bag.to_str().expect("utf-8"));
+    let export = Proc::orchestrator(&["record", "export", "--ros2", record, "--out", out])
+        .wait(Duration::from_secs(60));
+    assert!(export.status.success(), "the export failed:\n{}", export.stderr);
+    let bytes = std::fs::read(&bag).expect("the bag");
+    let mut real = std::collections::BTreeMap::new();
+    for m in mcap::MessageStream::new(&bytes).expect("a bag") {
+        let m = m.expect("a message");
+        let robot = m.channel.topic.strip_prefix("/robot_").and_then(|t| t.strip_suffix("/state"));
+        if let Some(k) = robot.map(|k| k.parse::<u32>().expect("a robot id")) {
+            real.insert(k, *m.data.last().expect("a RobotState") == 1);
+        }
+    }
+    let want: std::collections::BTreeMap<u32, bool> = (1..=ROBOTS).map(|k| (k, REAL.contains(&k))).collect();
+    assert_eq!(real, want, "each robot's RobotState.real in the bag");
 }
 
 /// The same exp-long swarm with its real robots seen by NatNet (the lab's

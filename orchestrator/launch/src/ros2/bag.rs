@@ -207,7 +207,8 @@ fn run_of(meta: &RunMeta) -> Result<(RunMessages, bycoms_sim::terrain::Terrain, 
         bycoms_sim::terrain::parse(text).map_err(|e| format!("has a terrain that does not parse: {e}"))?;
     terrain.set_start(meta.start);
     terrain.set_goal(meta.goal);
-    let run = RunMessages::new(&cfg, robots).with_cmd_vel(&meta.ros2_robots);
+    let mut run = RunMessages::new(&cfg, robots).with_cmd_vel(&meta.ros2_robots);
+    run.set_real(meta.real.clone());
     Ok((run, terrain, meta.eps().unwrap_or(0.0)))
 }
 

@@ -108,6 +108,8 @@ pub struct RunMessages {
     now_us: u64,
     clock_us: Option<u64>,
     statics: Vec<TransformStamped>,
+    /// The robots with a real body (`RobotState.real`).
+    real: Vec<u32>,
 }
 
 impl RunMessages {
@@ -141,7 +143,14 @@ impl RunMessages {
             now_us: 0,
             clock_us: None,
             statics,
+            real: Vec::new(),
         }
+    }
+
+    /// The robots with a real body (`lab::real_robots`, the run metadata's
+    /// `real`): their `RobotState` says `real` (default: none).
+    pub fn set_real(&mut self, real: Vec<u32>) {
+        self.real = real;
     }
 
     /// The static frames `/tf_static` will carry (default:
@@ -214,14 +223,16 @@ impl RunMessages {
     fn send_state(&self, index: usize, state: u8, sink: &mut dyn Sink) {
         let t = self.now_us;
         let last = self.trails[index].last;
+        let robot = index as u32 + 1;
         let msg = RobotState {
             header: Header { stamp: run_time(t), frame_id: WORLD_FRAME.into() },
-            robot: index as u32 + 1,
+            robot,
             state,
             x: last.map_or(0.0, |p| p.x),
             y: last.map_or(0.0, |p| p.y),
             heading: last.map_or(0.0, |p| p.heading),
             step: last.map_or(0, |p| p.step),
+            real: self.real.contains(&robot),
         };
         self.send(sink, SHARED + PER_ROBOT * index + 2, t, &msg);
     }
@@ -549,6 +560,7 @@ mod tests {
             y: 1.0,
             heading: 0.0,
             step: 5,
+            real: false,
         };
         assert_eq!(state.2, beacon.to_cdr());
         let markers = beacon_markers(&run.beacons, 2.0, run_time(500_000));
