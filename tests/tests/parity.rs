@@ -191,7 +191,8 @@ fn over_zenoh_too() {
 /// (`bycoms_lab::arena`: 2 cm cells, the frame grown by a body's radius; a
 /// TurtleBot 3's 0.22 m/s), and gives the in-process runner's run on that
 /// arena bit for bit: what a mixed swarm's simulated members run, with
-/// nothing real beside them.
+/// nothing real beside them; and so does `orchestrator simulate
+/// --lab-scenario exp-long`, which runs that runner on that arena.
 #[test]
 fn a_swarm_simulated_in_a_labs_arena_is_the_runners_run_bit_for_bit() {
     use bycoms_lab::arena::{terrain as arena, DEFAULT_CELL};
@@ -206,15 +207,45 @@ fn a_swarm_simulated_in_a_labs_arena_is_the_runners_run_bit_for_bit() {
     let expected = run(&arena(&scenario, DEFAULT_CELL).expect("an arena"), &cfg);
     let ends: Vec<RobotRunEnd> = expected.robots.iter().map(|r| r.end).collect();
     assert_eq!(ends, [RobotRunEnd::Stuck, RobotRunEnd::Stuck, RobotRunEnd::Stuck, RobotRunEnd::Arrived]);
+    // `simulate --lab-scenario` runs the runner on the same arena.
+    let (eps_arg, n_arg, radius_arg) = (eps.to_string(), robots.to_string(), goal_radius.to_string());
+    let simulate = Proc::orchestrator(&[
+        "simulate",
+        "--lab-scenario",
+        "exp-long",
+        "--eps",
+        &eps_arg,
+        "--success-radius",
+        &radius_arg,
+        "--max-robots",
+        &n_arg,
+        "--time-limit",
+        "300",
+        "--json",
+        "--no-svg",
+    ])
+    .wait(Duration::from_secs(60));
+    let simulated = simulate.json();
+    let got: Vec<(u64, u64, u64)> = simulated["robots"]
+        .as_array()
+        .expect("robots")
+        .iter()
+        .map(|r| {
+            let bits = |v: &serde_json::Value| v.as_f64().expect("a number").to_bits();
+            (bits(&r["position"]["x"]), bits(&r["position"]["y"]), r["steps"].as_u64().expect("steps"))
+        })
+        .collect();
+    let want: Vec<(u64, u64, u64)> =
+        expected.robots.iter().map(|r| (r.position.x.to_bits(), r.position.y.to_bits(), r.steps)).collect();
+    assert_eq!(got, want, "simulate --lab-scenario is the runner on the arena: {simulated}");
     let dir = tempfile::tempdir().expect("temp dir");
     let file = dir.path().join("robots.toml");
     let text: String = (1..=robots).map(|id| format!("[[robot]]\nid = {id}\nkind = \"sim\"\n")).collect();
     std::fs::write(&file, text).expect("robots file");
     let swarm = swarm_name("labparity");
-    let (eps, n, radius, limit) = (eps.to_string(), robots.to_string(), goal_radius.to_string(), "300");
     let mut args = vec!["launch", "--clock", "lockstep", "--json", "--swarm", &swarm, "--agents", "real"];
     args.extend(["--robots-file", file.to_str().expect("utf-8"), "--lab-scenario", "exp-long"]);
-    args.extend(["--eps", &eps, "--robots", &n, "--goal-radius", &radius, "--time-limit", limit]);
+    args.extend(["--eps", &eps_arg, "--robots", &n_arg, "--goal-radius", &radius_arg, "--time-limit", "300"]);
     let out = Proc::orchestrator(&args).wait(Duration::from_secs(180));
     let j = out.json();
     assert_eq!(out.status.code(), Some(0), "{}", out.stderr);

@@ -69,9 +69,7 @@ pub fn lab_world(name: &str, robots: u32, file: Option<&RobotsFile>) -> Result<W
 pub fn mixed_arena(scenario: &Scenario, file: &RobotsFile) -> Result<(SimArena, Vec2, Vec2)> {
     let cell = arena::DEFAULT_CELL;
     let terrain = arena::terrain(scenario, cell)?;
-    let burger = bycoms_agent::wheeled::Limits::TURTLEBOT3_BURGER.linear;
-    let robot_speed = file.ros2.iter().map(|r| r.limits.linear).fold(f64::INFINITY, f64::min);
-    let robot_speed = if robot_speed.is_finite() { robot_speed } else { burger };
+    let robot_speed = simulated_robot_speed(file);
     let arena = SimArena { terrain_text: to_text(&terrain), cell, robot_speed, members: file.sim.clone() };
     let world = bycoms_sim::RunConfig { cell, ..bycoms_sim::RunConfig::paper(1.0) };
     Ok((arena, world.in_world(terrain.start()), world.in_world(terrain.goal())))
@@ -103,6 +101,23 @@ pub fn check_sim_speed(sim_speed: f64, world: &World, robots: u32) -> Result<()>
         if members == 0 { "no simulated robot".to_string() } else { "simulated robots only".to_string() }
     )))
 }
+
+/// How fast a simulated robot drives in a lab's arena, m/s: as the slowest
+/// of the file's ROS 2 robots (their `max_linear`), or, without any, as a
+/// TurtleBot 3 Burger ([`DEFAULT_SIMULATED_SPEED`]).
+pub fn simulated_robot_speed(file: &RobotsFile) -> f64 {
+    let slowest = file.ros2.iter().map(|r| r.limits.linear).fold(f64::INFINITY, f64::min);
+    if slowest.is_finite() {
+        slowest
+    } else {
+        DEFAULT_SIMULATED_SPEED
+    }
+}
+
+/// A simulated robot's speed in a lab's arena without real robots to match,
+/// m/s: a TurtleBot 3 Burger's (`orchestrator simulate --lab-scenario`'s
+/// default, and a robots file's of simulated robots only).
+pub const DEFAULT_SIMULATED_SPEED: f64 = bycoms_agent::wheeled::Limits::TURTLEBOT3_BURGER.linear;
 
 /// The world of a parsed scenario: arena, start and goal, no obstacle.
 pub fn world_of(s: &Scenario) -> Result<World> {

@@ -34,6 +34,20 @@ pub struct Args {
     /// [default: long-wall].
     #[arg(long, value_parser = scenario::names())]
     pub scenario: Option<String>,
+    /// A lab's arena instead of a terrain (exp-short, exp-long or a lab
+    /// scenario file): its room in 2 cm cells, frames and walls grown by a
+    /// body's radius, as a mixed swarm's simulated robots run it; --eps and
+    /// --success-radius are then in metres, and the picture is the room's.
+    #[arg(
+        long,
+        value_name = "NAME|FILE",
+        conflicts_with_all = ["terrain", "terrain_seed", "scenario", "animate"]
+    )]
+    pub lab_scenario: Option<String>,
+    /// With --lab-scenario: the robots' straight-line speed, m/s [default:
+    /// 0.22, a TurtleBot 3 Burger's].
+    #[arg(long, value_name = "M/S", requires = "lab_scenario", allow_negative_numbers = true)]
+    pub robot_speed: Option<f64>,
     /// Run seed of the robots' noise streams, as launch's --seed [default: 0].
     #[arg(long)]
     pub seed: Option<u64>,
@@ -137,14 +151,50 @@ fn terrain_and_seed(args: &Args) -> Result<(TerrainSource, u64)> {
     Ok((source, args.seed.or(args.noise_seed).unwrap_or(0)))
 }
 
+/// A lab's arena (`--lab-scenario`): the room the picture draws the run in
+/// (its size and frames, on the launch's terrain of whole metres, as a
+/// launch in the lab draws it).
+struct LabRoom {
+    scenario: bycoms_lab::scenario::Scenario,
+    drawn_on: Terrain,
+}
+
+/// The world of `--lab-scenario NAME` as a mixed swarm's simulated robots
+/// run it (`bycoms_launch::lab::mixed_arena`'s cells), the room it is drawn
+/// in, and `cfg` set to its cells and the robots' speed.
+fn lab_arena(
+    name: &str,
+    robot_speed: Option<f64>,
+    cfg: &mut RunConfig,
+) -> Result<(scenario::NamedTerrain, LabRoom)> {
+    let scenario = bycoms_lab::process::load_scenario(name).map_err(|e| exit::usage(e.to_string()))?;
+    let speed = robot_speed.unwrap_or(bycoms_launch::lab::DEFAULT_SIMULATED_SPEED);
+    if !(speed.is_finite() && speed > 0.0) {
+        return Err(exit::usage(format!("--robot-speed must be a positive number of m/s, got {speed}")));
+    }
+    let cell = bycoms_lab::arena::DEFAULT_CELL;
+    let terrain = bycoms_lab::arena::terrain(&scenario, cell).map_err(|e| exit::usage(format!("{e:#}")))?;
+    (cfg.cell, cfg.kinematics.speed) = (cell, speed);
+    let drawn_on = bycoms_launch::lab::world_of(&scenario)?.terrain;
+    let named = scenario::NamedTerrain {
+        name: format!("lab scenario {} in {} m cells", scenario.name, cell),
+        terrain,
+    };
+    Ok((named, LabRoom { scenario, drawn_on }))
+}
+
 pub fn run(args: Args) -> Result<i32> {
     let (source, seed) = terrain_and_seed(&args)?;
     check_picture_args(&args)?;
-    let world = scenario::load(&source)?;
     let mut cfg = args.run.to_config(seed)?;
+    let (world, room) = match &args.lab_scenario {
+        Some(name) => lab_arena(name, args.robot_speed, &mut cfg).map(|(w, r)| (w, Some(r)))?,
+        None => (scenario::load(&source)?, None),
+    };
     cfg.record_trajectories = !args.no_svg || args.animate.is_some() || args.json;
     let result = run_world(&world.terrain, &cfg);
-    let width = min_path_width(&world.terrain);
+    // In the world's units (cells, or metres in a lab's arena).
+    let width = min_path_width(&world.terrain) * cfg.cell;
 
     let report = Report {
         terrain: &world.name,
@@ -185,7 +235,7 @@ pub fn run(args: Args) -> Result<i32> {
         bycoms_runtime::outln!("{summary}")?;
     }
     // Pictures last: the result above is never lost to a picture's error.
-    for written in draw_pictures(&args, &world, &cfg, &result)? {
+    for written in draw_pictures(&args, &world, room.as_ref(), &cfg, &result)? {
         if args.json {
             bycoms_runtime::logging::status_line(&written);
         } else {
@@ -218,10 +268,12 @@ fn check_picture_args(args: &Args) -> Result<()> {
     rule.check().map_err(usage_unless_io)
 }
 
-/// Writes the snapshot (or strip) and the movie; returns "snapshot: FILE" lines.
+/// Writes the snapshot (or strip) and the movie; returns "snapshot: FILE"
+/// lines. A lab's arena is drawn in its `room`, in metres.
 fn draw_pictures(
     args: &Args,
     world: &scenario::NamedTerrain,
+    room: Option<&LabRoom>,
     cfg: &RunConfig,
     result: &RunResult,
 ) -> Result<Vec<String>> {
@@ -232,8 +284,13 @@ fn draw_pictures(
         summary_line(result)
     );
     let title = [world.name.as_str(), line2.as_str()];
-    let terrain: &Terrain = &world.terrain;
-    let opts = snapshot::Options { field_constant: cfg.field_constant, ..snapshot::Options::default() };
+    let (terrain, opts) = match room {
+        Some(room) => {
+            (&room.drawn_on, snapshot::Options::in_room(snapshot::Unit::Metre, Some(&room.scenario)))
+        }
+        None => (&world.terrain, snapshot::Options::default()),
+    };
+    let opts = snapshot::Options { field_constant: cfg.field_constant, ..opts };
     let mut written = Vec::new();
     if !args.no_svg {
         let svg = match &args.snapshots {
