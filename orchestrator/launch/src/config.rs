@@ -20,6 +20,7 @@ use bycoms_runtime::check_speed;
 use bycoms_runtime::exit::usage;
 use bycoms_runtime::seconds::{check_seconds, Zero};
 use bycoms_sim::sensing::NoiseModel;
+use bycoms_sim::runner::DEFAULT_SUCCESS_RADIUS;
 use bycoms_sim::RunConfig;
 use bycoms_study::runs::{check_run, RunNames};
 use serde::{Deserialize, Serialize};
@@ -81,7 +82,9 @@ pub struct LaunchConfig {
     pub speed: f64,
     /// Simulated time budget, s (periods during which a robot moved).
     pub time_limit: f64,
-    /// A robot within this distance of the goal has arrived.
+    /// A robot within this distance of the goal has arrived (world units;
+    /// the runner's `success_radius`, decided by
+    /// [`bycoms_sim::runner::arrived`] for the gate and the runner alike).
     pub goal_radius: f64,
     /// Swarm name (topic namespace); default `launch-<pid>`.
     pub swarm: Option<String>,
@@ -221,7 +224,7 @@ impl Default for LaunchConfig {
             clock: Clock::Lockstep,
             speed: 10.0,
             time_limit: 10_000.0,
-            goal_radius: 0.5,
+            goal_radius: DEFAULT_SUCCESS_RADIUS,
             swarm: None,
             record: None,
             svg: None,
