@@ -170,7 +170,7 @@ pub struct Setup {
     /// The goal.
     pub goal: Vec2,
     /// A pose that moved faster than this from the last one is refused
-    /// (units per simulated second).
+    /// (`gate.max_speed`: world units per simulated second; `plausible.rs`).
     pub max_speed: f64,
     /// The unreachable grace as set (`supervision.unreachable_grace`), s:
     /// the messages, and the least failsafe grace an agent may register
