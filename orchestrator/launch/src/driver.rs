@@ -305,7 +305,8 @@ impl Driver {
         let record_decoded = !self.pose_source.on_the_bus();
         let bytes = std::mem::take(&mut self.ports.pose_bytes);
         let (recording, traffic, swarm) = self.ports.intake();
-        let mut sink = PoseSink::new(recording, traffic, swarm, &mut poses, record_decoded).encoding_with(bytes);
+        let mut sink =
+            PoseSink::new(recording, traffic, swarm, &mut poses, record_decoded).encoding_with(bytes);
         let drained = self.pose_source.drain(&mut sink);
         let numbers = sink.numbers().to_vec();
         // The encodings it made are what is forwarded and shown of them.

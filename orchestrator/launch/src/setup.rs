@@ -8,7 +8,9 @@
 use super::agents::remote::QUIET_HEARTBEATS;
 use super::agents::{AgentProperties, AgentSource, Joining};
 use super::config::{Clock, LaunchConfig};
-use super::core::{least_failsafe_grace_ms, AgentTraits, ClockLimits, Commands, Members, Setup, Starts, Supervision};
+use super::core::{
+    least_failsafe_grace_ms, AgentTraits, ClockLimits, Commands, Members, Setup, Starts, Supervision,
+};
 use super::poses::PoseSource;
 use super::World;
 use bycoms_runtime::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};

@@ -4,8 +4,8 @@
 //! study, which use them too.
 
 use anyhow::Result;
-use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::runner::DEFAULT_SUCCESS_RADIUS;
+use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::RunConfig;
 use bycoms_study::runs::{check_run, FLAGS};
 use clap::Args as ClapArgs;

@@ -84,7 +84,9 @@ impl Watch {
     /// (`quiet`: the robot's quiet rule, none for a parked robot).
     fn timers(&self, s: &Supervision, quiet: u64) -> impl Iterator<Item = (u64, Expired)> {
         let link = match (self.link_down, s.robot_link_grace_us) {
-            (Some(down), Some(grace)) => Some((down.saturating_add(grace), Expired::Gone(Gone::RobotLinkLost))),
+            (Some(down), Some(grace)) => {
+                Some((down.saturating_add(grace), Expired::Gone(Gone::RobotLinkLost)))
+            }
             _ => None,
         };
         let agent = self.started.map(|started| match (self.unreachable, self.heard) {
@@ -97,7 +99,9 @@ impl Watch {
             }
             (None, Some(h)) if s.holds() => (h.saturating_add(s.heartbeat_timeout_us), Expired::Unreachable),
             (None, Some(h)) => (h.saturating_add(s.heartbeat_timeout_us), Expired::Gone(Gone::Silent)),
-            (None, None) => (started.saturating_add(s.register_timeout_us), Expired::Gone(Gone::NeverRegistered)),
+            (None, None) => {
+                (started.saturating_add(s.register_timeout_us), Expired::Gone(Gone::NeverRegistered))
+            }
         });
         self.started.and(link).into_iter().chain(agent)
     }

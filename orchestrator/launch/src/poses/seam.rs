@@ -8,9 +8,9 @@ use crate::recording::Recording;
 use bycoms_protocol::bus::BusError;
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::{encode, CodecError, RobotId, Swarm, MAX_MESSAGE_LEN};
-use std::collections::BTreeMap;
 use bycoms_record::schema;
 use bycoms_runtime::Traffic;
+use std::collections::BTreeMap;
 
 /// Why a pose source failed (fatally: the launch ends).
 #[derive(Debug, thiserror::Error)]
