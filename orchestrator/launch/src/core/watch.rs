@@ -1,9 +1,11 @@
 //! The supervision settings and each robot's timers, as the core keeps
-//! them, and the one reading of them: [`Watch::timers`] says which timer
-//! expires when and what it means, and both the deadline the core reports
-//! and the verdict it takes at that deadline read it, so they cannot
-//! disagree (`timers.rs` holds the rules that set the timers and acts on
-//! the verdicts).
+//! them, and their one reading (`timers.rs` holds the rules that set the
+//! timers and acts on what expired).
+//!
+//! Why one reading: [`Watch::timers`] says which timer expires when and
+//! what it means then; both the deadline the core reports and the verdict
+//! it takes at that deadline read it, so they cannot disagree (they were
+//! two copies of the same case analysis).
 
 use crate::agents::Gone;
 use serde::{Deserialize, Serialize};
