@@ -31,6 +31,22 @@ use crate::Vec2;
 use bycoms_agent::{ControllerConfig, Motion};
 use serde::{Deserialize, Serialize};
 
+/// The success radius of the paper's runs, world units: a robot's radius.
+/// The one default of it: the runner's ([`RunConfig::paper`]), the launch's
+/// `goal_radius` and `world`'s `--success-radius`.
+pub const DEFAULT_SUCCESS_RADIUS: f64 = 0.5;
+
+/// Whether a robot at `p` has arrived at `goal` for a success radius
+/// `radius`: within it, its edge included. The one test of arrival: the
+/// runner's, the launch gate's (`bycoms_study::gate`, judging the agents'
+/// poses) and the tests' that stand in for them call it, so a run judged
+/// by the launch decides as the runner's.
+#[inline]
+pub fn arrived(p: Vec2, goal: Vec2, radius: f64) -> bool {
+    let (dx, dy) = (p.x - goal.x, p.y - goal.y);
+    dx * dx + dy * dy <= radius * radius
+}
+
 /// Everything that parameterises a run besides the terrain.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RunConfig {
@@ -44,7 +60,8 @@ pub struct RunConfig {
     pub max_robots: Option<u32>,
     /// Simulated time limit of the whole run, s.
     pub time_limit: f64,
-    /// A robot within this distance of the goal has arrived.
+    /// A robot within this distance of the goal has arrived ([`arrived`];
+    /// default [`DEFAULT_SUCCESS_RADIUS`]).
     pub success_radius: f64,
     pub kinematics: Kinematics,
     /// Field constant c of g = c / d².
@@ -69,7 +86,7 @@ impl RunConfig {
             seed: 0,
             max_robots: None,
             time_limit: 10_000.0,
-            success_radius: 0.5,
+            success_radius: DEFAULT_SUCCESS_RADIUS,
             kinematics: Kinematics::paper(),
             field_constant: 1.0,
             record_trajectories: false,
@@ -219,13 +236,12 @@ pub struct RunResult {
     pub robots: Vec<RobotRun>,
 }
 
-/// What one robot's walk is checked against: the terrain, the goal's
-/// radius (squared) and the step limit.
+/// What one robot's walk is checked against: the terrain, the goal and
+/// the step limit.
 struct Course<'a> {
     terrain: &'a Terrain,
     cfg: &'a RunConfig,
     goal: Vec2,
-    r2: f64,
     limit: u64,
 }
 
@@ -264,8 +280,7 @@ impl Course<'_> {
             if cfg.blocked(self.terrain, p) {
                 return (RobotRunEnd::Stuck, None);
             }
-            let (dx, dy) = (p.x - self.goal.x, p.y - self.goal.y);
-            if dx * dx + dy * dy <= self.r2 {
+            if arrived(p, self.goal, cfg.success_radius) {
                 return (RobotRunEnd::Arrived, Some(RunOutcome::Arrived));
             }
         }
@@ -285,7 +300,6 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
     let controller = cfg.controller();
     let cones = MotionCones::new(&table, controller.straight_tolerance);
     let limit = cfg.step_limit();
-    let r2 = cfg.success_radius * cfg.success_radius;
 
     let mut beacons = Beacons::new(cfg.field_constant);
     let mut robots = Vec::new();
@@ -310,7 +324,7 @@ pub fn run(terrain: &Terrain, cfg: &RunConfig) -> RunResult {
         }
         let first_step = steps;
         let mut deployment = Deployment::new(robot, &table, &cones, &beacons, goal);
-        let course = Course { terrain, cfg, goal, r2, limit };
+        let course = Course { terrain, cfg, goal, limit };
         let (end, ended) = course.walk(&mut deployment, &mut steps, &mut trajectory);
         outcome = ended;
         let robot = deployment.robot;

@@ -19,6 +19,7 @@ use bycoms_protocol::bus::fault::FaultConfig;
 use bycoms_runtime::check_speed;
 use bycoms_runtime::exit::usage;
 use bycoms_runtime::seconds::{check_seconds, Zero};
+use bycoms_sim::runner::DEFAULT_SUCCESS_RADIUS;
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::RunConfig;
 use bycoms_study::runs::{check_run, RunNames};
@@ -86,7 +87,9 @@ pub struct LaunchConfig {
     pub sim_speed: f64,
     /// Simulated time budget, s (periods during which a robot moved).
     pub time_limit: f64,
-    /// A robot within this distance of the goal has arrived.
+    /// A robot within this distance of the goal has arrived (world units;
+    /// the runner's `success_radius`, decided by
+    /// [`bycoms_sim::runner::arrived`] for the gate and the runner alike).
     pub goal_radius: f64,
     /// Swarm name (topic namespace); default `launch-<pid>`.
     pub swarm: Option<String>,
@@ -173,9 +176,11 @@ pub struct GateConfig {
     pub prespawn: bool,
     /// What a dead agent means.
     pub on_agent_death: OnDeath,
-    /// A pose that moved faster than this (units/s of simulated time) from
-    /// the robot's last one is refused as implausible (a forged or swapped
-    /// pose; see `orchestrator/launch/src/core/plausible.rs`).
+    /// A pose that moved faster than this (world units — cells, or metres
+    /// in a lab — per second of simulated time) from the robot's last one
+    /// is refused as implausible (a forged or swapped pose; see
+    /// `orchestrator/launch/src/core/plausible.rs`, which says why motion
+    /// capture's `tracker.max_speed` is another rule).
     pub max_speed: f64,
 }
 
@@ -227,7 +232,7 @@ impl Default for LaunchConfig {
             speed: 10.0,
             sim_speed: 1.0,
             time_limit: 10_000.0,
-            goal_radius: 0.5,
+            goal_radius: DEFAULT_SUCCESS_RADIUS,
             swarm: None,
             record: None,
             svg: None,

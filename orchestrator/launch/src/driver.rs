@@ -303,10 +303,16 @@ impl Driver {
         }
         let mut poses = std::mem::take(&mut self.poses);
         let record_decoded = !self.pose_source.on_the_bus();
+        let bytes = std::mem::take(&mut self.ports.pose_bytes);
         let (recording, traffic, swarm) = self.ports.intake();
-        let mut sink = PoseSink::new(recording, traffic, swarm, &mut poses, record_decoded);
-        self.pose_source.drain(&mut sink)?;
+        let mut sink =
+            PoseSink::new(recording, traffic, swarm, &mut poses, record_decoded).encoding_with(bytes);
+        let drained = self.pose_source.drain(&mut sink);
         let numbers = sink.numbers().to_vec();
+        // The encodings it made are what is forwarded and shown of them.
+        let bytes = sink.take_bytes();
+        self.ports.pose_bytes = bytes;
+        drained?;
         for ((topic, pose), recorded) in poses.drain(..).zip(numbers) {
             let now = self.now();
             // Logged by its number in the recording: each pose stored once.

@@ -25,10 +25,15 @@ pub enum EventKind {
     /// Its agent was lost (see `reason`).
     AgentLost,
     /// Its agent could not be reached any more (link cut or silent); the
-    /// launch holds it for the link grace.
-    LinkLost,
-    /// Its agent was heard from again within the link grace.
-    LinkBack,
+    /// launch holds it for the unreachable grace
+    /// (`supervision.unreachable_grace`). Named `link_lost` in the
+    /// recording's events channel (documented, docs/LAUNCH.md).
+    #[serde(rename = "link_lost")]
+    Unreachable,
+    /// Its agent was heard from again within the unreachable grace. Named
+    /// `link_back` in the recording's events channel.
+    #[serde(rename = "link_back")]
+    Reachable,
     /// Skipped at its turn: its agent never registered (see `reason`).
     Absent,
     /// Its agent registered after its turn was skipped; it takes a later turn.

@@ -16,6 +16,7 @@
 //! (`poses`), which may not be the bus at all.
 
 use super::observe::Observer;
+use super::poses::PoseBytes;
 use super::recording::{Recording, Seen};
 use super::transport::{AnyPublisher, AnySubscriber, SharedBus};
 use bycoms_protocol::bus::{untag, BusError, FAN_IN_TAG};
@@ -51,6 +52,9 @@ pub struct Ports {
     pub observers: Vec<Box<dyn Observer>>,
     /// Bad messages seen.
     pub traffic: Traffic,
+    /// The last pose of each robot as encoded (an off-bus pose once per
+    /// frame, by its pose sink: [`PoseBytes`]).
+    pub pose_bytes: PoseBytes,
     buf: Vec<u8>,
 }
 
@@ -75,6 +79,7 @@ impl Ports {
             recording,
             observers: Vec::new(),
             traffic: Traffic::default(),
+            pose_bytes: PoseBytes::default(),
             buf,
         })
     }
@@ -154,15 +159,15 @@ impl Ports {
 
     /// Publishes a pose from a pose source off the bus (NatNet) on its
     /// robot's pose topic, for the robot's gateway; not recorded again
-    /// (the pose sink recorded it).
+    /// (the pose sink recorded it), nor encoded again (its sink's bytes,
+    /// [`PoseBytes`]).
     pub fn forward_pose(&mut self, pose: &Pose) -> Result<(), BusError> {
         let robot = pose.robot.0;
         if !self.relays.contains_key(&robot) {
             let name = *self.swarm.pose(pose.robot).name();
             self.relays.insert(robot, self.bus.publisher(&name)?);
         }
-        let mut buf = [0u8; MAX_MESSAGE_LEN];
-        let bytes = encode(pose, &mut buf)?;
+        let bytes = self.pose_bytes.of(pose)?;
         match self.relays.get(&robot) {
             Some(publisher) => publisher.publish(bytes),
             None => Ok(()),
@@ -228,8 +233,7 @@ impl Ports {
             return;
         }
         if self.recording.is_on() {
-            let mut buf = [0u8; MAX_MESSAGE_LEN];
-            match encode(pose, &mut buf) {
+            match self.pose_bytes.of(pose) {
                 Ok(bytes) => {
                     let topic = schema::Topics::new(self.swarm.as_str()).moved();
                     self.recording.bytes(&topic, schema::MOVED, bytes);

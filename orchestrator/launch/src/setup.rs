@@ -8,7 +8,9 @@
 use super::agents::remote::QUIET_HEARTBEATS;
 use super::agents::{AgentProperties, AgentSource, Joining};
 use super::config::{Clock, LaunchConfig};
-use super::core::{AgentTraits, ClockLimits, Commands, Members, Setup, Starts, Supervision};
+use super::core::{
+    least_failsafe_grace_ms, AgentTraits, ClockLimits, Commands, Members, Setup, Starts, Supervision,
+};
 use super::poses::PoseSource;
 use super::World;
 use bycoms_runtime::failsafe::{FailsafeArgs, DEFAULT_GRACE_S};
@@ -178,21 +180,30 @@ pub fn gate_params(cfg: &LaunchConfig, goal: Vec2) -> GateParams {
 
 /// How every agent of this launch joins it: the bus and where the
 /// orchestrator listens, and a failsafe grace no shorter than the launch's
-/// link grace. An agent that lost the orchestrator for longer than its
-/// grace stops its robot and exits; with a shorter grace than the
+/// unreachable grace. An agent that lost the orchestrator for longer than
+/// its grace stops its robot and exits; with a shorter grace than the
 /// launch's, a cut the launch would ride out (holding the robot, then
-/// resuming) would cost the robot.
+/// resuming) would cost the robot, and the core refuses such an agent.
 pub fn joining(cfg: &LaunchConfig, swarm: String, endpoints: Vec<String>) -> Joining {
     Joining {
         swarm,
         parent_pid: Some(std::process::id() as i32),
         bus: BusArgs { transport: cfg.transport.kind, connect: endpoints, zenoh_config: None },
         failsafe: FailsafeArgs {
-            grace_s: cfg.supervision.unreachable_grace.max(DEFAULT_GRACE_S),
+            grace_s: failsafe_grace_s(cfg.supervision.unreachable_grace),
             ..FailsafeArgs::default()
         },
         parked_heartbeat_ms: parked_heartbeat_ms(cfg),
     }
+}
+
+/// The failsafe grace the launch gives its agents, s, for an unreachable
+/// grace of `grace_s`: the core's least ([`least_failsafe_grace_ms`], the
+/// one decider), in whole ms so that the agent reads back no less
+/// (`Failsafe::grace_ms` truncates: 2.0005 s would come back 2000 ms, under
+/// the 2001 the core asks), and never under the agents' own default.
+fn failsafe_grace_s(grace_s: f64) -> f64 {
+    (f64::from(least_failsafe_grace_ms(grace_s)) / 1000.0).max(DEFAULT_GRACE_S)
 }
 
 /// The agents' heartbeat period, ms.
@@ -239,6 +250,14 @@ mod tests {
         assert_eq!(grace(&cfg), 5.0);
         cfg.supervision.unreachable_grace = 0.0;
         assert_eq!(grace(&cfg), DEFAULT_GRACE_S);
+        // Sub-millisecond: the agent's failsafe, read back as it does,
+        // is what the core asks of it (it truncates to ms, the core rounds up).
+        for g in [2.0005, 3.0001, 7.123_456] {
+            cfg.supervision.unreachable_grace = g;
+            let read_back = FailsafeArgs { grace_s: grace(&cfg), ..FailsafeArgs::default() };
+            let ms = read_back.failsafe().expect("a usable grace").grace_ms();
+            assert!(ms >= least_failsafe_grace_ms(g), "{g} s: the agent says {ms} ms");
+        }
         let flags = joining(&cfg, "s".into(), Vec::new())
             .sim_agent(1, &run_settings(&cfg, &World::tiny()))
             .to_flags();

@@ -15,6 +15,18 @@
 //!   recorded as [`TrackEvent::JumpRejected`] and warned about; it never
 //!   reaches the gate or a bearing.
 //!
+//! Why a jump rule of its own beside the launch core's (`gate.max_speed`,
+//! `orchestrator/launch/src/core/plausible.rs`): that one judges every
+//! source's poses (a forged bus pose) against the last pose the core
+//! accepted for a deployed robot, over pose time, with no slack, and its
+//! default is a generous ceiling (5 units/s); this one exists with motion
+//! capture only, judges every frame against the last trusted sample (a
+//! body carried by hand too), in frame time, with a noise slack, and must
+//! be the crawlers' real top speed to catch a swap before any agent steers
+//! by it. One setting cannot be both; a pose passed here still meets the
+//! core's rule. Units: arena units (after `arena.scale`: metres at scale 1)
+//! per second of the capture's frame time.
+//!
 //! Limits, by design: two robots closer than `jump_slack` can swap
 //! undetected (their poses are then nearly the same anyway); a robot truly
 //! carried away stays rejected and is reported lost — a person must look.
@@ -32,7 +44,9 @@ use std::collections::BTreeMap;
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct TrackerConfig {
-    /// Fastest a robot can drive, arena units per second.
+    /// Fastest a robot can drive, arena units per second of frame time
+    /// (`tracker.max_speed`; not the core's `gate.max_speed`: see the
+    /// module docs).
     pub max_speed: f64,
     /// Extra distance always allowed (mocap noise), arena units.
     pub jump_slack: f64,

@@ -4,6 +4,7 @@
 //! study, which use them too.
 
 use anyhow::Result;
+use bycoms_sim::runner::DEFAULT_SUCCESS_RADIUS;
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::RunConfig;
 use bycoms_study::runs::{check_run, FLAGS};
@@ -25,7 +26,7 @@ pub struct RunArgs {
     #[arg(long, default_value_t = 10_000.0, value_name = "SECONDS", allow_negative_numbers = true)]
     pub time_limit: f64,
     /// A robot this close to the goal has arrived (robot radius).
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = DEFAULT_SUCCESS_RADIUS)]
     pub success_radius: f64,
 }
 

@@ -42,6 +42,7 @@
 
 use bycoms_agent::angle::wrap;
 use bycoms_protocol::msg::Pose;
+use bycoms_sim::runner::arrived;
 use bycoms_sim::Vec2;
 
 /// A robot's active steps: control periods of pose time from its start
@@ -77,7 +78,7 @@ pub enum Verdict {
 pub struct GateParams {
     /// The goal.
     pub goal: Vec2,
-    /// Arrival radius.
+    /// Arrival radius, world units ([`bycoms_sim::runner::arrived`]).
     pub goal_radius: f64,
     /// Still below this speed, units per simulated second.
     pub stop_speed: f64,
@@ -175,10 +176,8 @@ impl Watch {
         if !same_pose(&pose, &prev) {
             self.last_change_us = pose.time_us;
         }
-        let (dx, dy) = (pose.x - self.params.goal.x, pose.y - self.params.goal.y);
-        let r = self.params.goal_radius;
-        // The runner's test, term for term.
-        if dx * dx + dy * dy <= r * r {
+        // The runner's test (one function), so the gate decides as it does.
+        if arrived(Vec2::new(pose.x, pose.y), self.params.goal, self.params.goal_radius) {
             self.verdict = Some(Verdict::Arrived(pose));
             return self.verdict;
         }

@@ -188,7 +188,7 @@ impl LaunchCore {
         if r.settings != 0 && self.setup.settings != 0 && r.settings != self.setup.settings {
             return Some(Refusal::Settings { launch: self.setup.settings });
         }
-        let launch_ms = (self.setup.unreachable_grace_s * 1000.0).ceil().min(f64::from(u32::MAX)) as u32;
+        let launch_ms = least_failsafe_grace_ms(self.setup.unreachable_grace_s);
         (r.failsafe_grace_ms != 0 && r.failsafe_grace_ms < launch_ms).then_some(Refusal::Grace { launch_ms })
     }
 
@@ -470,7 +470,7 @@ impl LaunchCore {
                 slot.outages.push(Outage { lost_unix_ms: at, back_unix_ms: None });
                 tracing::warn!(robot = id, grace_s = grace, "robot {id}'s agent is unreachable");
                 (
-                    EventKind::LinkLost,
+                    EventKind::Unreachable,
                     format!("robot {id}: link lost — waiting up to {grace} s for it to return"),
                 )
             }
@@ -481,7 +481,7 @@ impl LaunchCore {
                 outage.back_unix_ms = Some(at);
                 let after = at.saturating_sub(outage.lost_unix_ms);
                 tracing::info!(robot = id, after_ms = after, "robot {id}'s agent is back");
-                (EventKind::LinkBack, format!("robot {id}: link back after {after} ms"))
+                (EventKind::Reachable, format!("robot {id}: link back after {after} ms"))
             }
         };
         self.note(text);

@@ -34,11 +34,11 @@
 //! implausible, a start pose accepted (the robot deployed), the gate's
 //! judgement of a pose queued; a reported death's dead-robot policy
 //! (`on_death`: absent, lost, died, started once more, or the launch's
-//! fault queued); a withdrawn token without a link grace (gone at once);
+//! fault queued); a withdrawn token without an unreachable grace (gone at once);
 //! reachability lost or back (noted, what was missed re-sent). `advance`
 //! takes every decision that depends on time or on everything that arrived
 //! together: the supervision timers (`timers.rs`: registration, heartbeat,
-//! quiet, link grace, robot-link grace), motion capture gone, the ending
+//! quiet, unreachable grace, robot-link grace), motion capture gone, the ending
 //! (a fault, Ctrl-C, the budget, robots exhausted), the real-time relays
 //! and beacons, the lockstep tick (re-sends, answers overdue, the next
 //! tick), the queued verdicts in deployment order, and the phase machine
@@ -89,7 +89,7 @@ pub use slot::{FrameCount, Slot, SlotState};
 pub use stop::{shown, MAX_WHY_CHARS};
 pub use stopping::STOP_WAIT_US;
 pub use wait::{AnswerTime, AnswerWait, MIN_RESEND_US, RESEND_US};
-pub use watch::Supervision;
+pub use watch::{least_failsafe_grace_ms, Supervision};
 
 use super::agents::{Gone, Reach};
 use super::config::{Missing, OnDeath};
@@ -170,9 +170,15 @@ pub struct Setup {
     /// The goal.
     pub goal: Vec2,
     /// A pose that moved faster than this from the last one is refused
-    /// (units per simulated second).
+    /// (`gate.max_speed`: world units per simulated second; `plausible.rs`).
     pub max_speed: f64,
-    /// The link grace, s (for messages).
+    /// The unreachable grace as set (`supervision.unreachable_grace`), s:
+    /// the messages, and the least failsafe grace an agent may register
+    /// with ([`least_failsafe_grace_ms`]). The timers hold with
+    /// [`Supervision::unreachable_grace_us`]: this in µs when the agents
+    /// can be held, else 0, made from it in one place
+    /// (`setup::supervision`). Both are kept because the recording's setup
+    /// is postcard of this type, positionally (`log.rs`).
     pub unreachable_grace_s: f64,
     /// The registration timeout, s (for messages).
     pub register_timeout_s: f64,

@@ -23,8 +23,29 @@
 //!   its step advances at most once per millisecond of pose time (no clock
 //!   we know of runs faster than 1 kHz), so a huge step cannot pass with a
 //!   small time;
-//! * it moved no faster than `max_speed` from the anchor (over at least one
-//!   period).
+//! * it moved no faster than `gate.max_speed` from the anchor: world units
+//!   (cells in simulation, arena units — metres — in a lab) per second of
+//!   pose time (simulated seconds), over at least one period.
+//!
+//! Why this jump rule is not the motion-capture tracker's
+//! (`tracker.max_speed`, `orchestrator/mocap/src/tracker.rs`), though both
+//! say "a robot cannot move faster than it drives": they guard different
+//! things at different places, and one setting could not serve both. This
+//! one judges every pose of every source (the bus's too: a forged pose
+//! anyone can publish) against the last pose the core *accepted* for a
+//! *deployed* robot, over the pose's own clock, with no slack, and a
+//! refusal is bad traffic; its default (5 units/s) is a ceiling well above
+//! any robot (a simulated one drives 1 cell/s). The tracker exists only
+//! with motion capture, judges every frame of a body (deployed or not,
+//! carried by hand or not: `PoseSource::carried`)
+//! against its last *trusted* sample, in the capture's frame time, with a
+//! noise slack (`jump_slack`), and what it rejects (an identity swap)
+//! reaches neither the core nor an agent's bearing; its settings are the
+//! crawlers' real top speed (0.6 m/s in the lab's configs). Feeding the
+//! tracker's tight bound to this rule (no slack, any source) would refuse
+//! real poses over mocap noise; feeding this one's ceiling to the tracker
+//! would let swaps through. A pose the tracker passes still meets this
+//! rule, which is the last word.
 //!
 //! Where anchors come from: only from a deployed robot. A robot's first
 //! anchor is its start pose ([`Anchors::accept_start`]), which must lie
@@ -48,7 +69,8 @@ pub enum Implausible {
     NotFinite,
     /// A step or time ahead of what the clock allows.
     FromTheFuture,
-    /// A jump faster than a robot drives (units per simulated second).
+    /// A jump faster than `gate.max_speed` (world units per simulated
+    /// second, as measured).
     TooFast(f64),
     /// A start pose this far (units) from where the robot was deployed.
     NotWhereDeployed(f64),

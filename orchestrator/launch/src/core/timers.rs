@@ -5,7 +5,7 @@
 //! only shows by what does *not* arrive, so each rule is a deadline —
 //! registration (started + `register_timeout`), heartbeat (last heard +
 //! `heartbeat_timeout`), the quiet rule (last heard + `quiet`: unreachable,
-//! with a link grace only), the link grace (unreachable since + grace:
+//! with an unreachable grace only), the unreachable grace (unreachable since + grace:
 //! gone) and the robot-link grace (a gateway said its robot's link is down
 //! since + grace: gone). quinn-proto keeps every connection timer in its
 //! core the same way: [`LaunchCore::deadline`] covers them, [`LaunchCore::advance`]
@@ -20,16 +20,8 @@
 //! these timers decodes with them off ([`Supervision::on`] false): its
 //! recorded log carries the seams' verdicts as inputs, and replays as it ran.
 
-use super::watch::Watch;
+use super::watch::{Expired, Watch};
 use super::*;
-
-/// What an expired timer means.
-enum Expired {
-    /// Unreachable from now on (held within the link grace).
-    Unreachable,
-    /// Gone for the launch.
-    Gone(Gone),
-}
 
 impl LaunchCore {
     /// The timers' settings.
@@ -63,7 +55,7 @@ impl LaunchCore {
     }
 
     /// Robot `id`'s liveliness token went (`present` false) or came back:
-    /// without a link grace its agent is gone at once, with one it is
+    /// without an unreachable grace its agent is gone at once, with one it is
     /// unreachable (it is back when it is heard again, not when its token
     /// is: a token may come back before messages do).
     pub(super) fn watch_token(&mut self, now: u64, id: u32, present: bool) {
@@ -71,7 +63,7 @@ impl LaunchCore {
         if present || !supervised || !self.sup().on {
             return;
         }
-        if self.sup().unreachable_grace_us == 0 {
+        if !self.sup().holds() {
             self.timer_gone(now, id, Gone::Disconnected);
         } else {
             self.lose(now, id);
@@ -140,33 +132,10 @@ impl LaunchCore {
         }
     }
 
-    /// Which of robot `id`'s timers expired at `now`.
+    /// Which of robot `id`'s timers expired at `now` ([`Watch::expired`]).
     fn expired(&self, now: u64, id: u32) -> Option<Expired> {
-        let s = *self.sup();
-        let w = *self.watches.get(id.checked_sub(1)? as usize)?;
-        let quiet_us = self.quiet_of(self.slot_ref(id)?);
-        let started = w.started?;
-        if let (Some(down), Some(grace)) = (w.link_down, s.robot_link_grace_us) {
-            if now >= down.saturating_add(grace) {
-                return Some(Expired::Gone(Gone::RobotLinkLost));
-            }
-        }
-        let hold = s.unreachable_grace_us > 0;
-        match (w.unreachable, w.heard) {
-            (Some(since), _) => (now >= since.saturating_add(s.unreachable_grace_us))
-                .then_some(Expired::Gone(Gone::Unreachable { grace_ms: s.unreachable_grace_us / 1000 })),
-            (None, Some(h)) => {
-                let silent = now.saturating_sub(h);
-                let quiet = hold && quiet_us > 0 && silent >= quiet_us;
-                if quiet || (hold && silent >= s.heartbeat_timeout_us) {
-                    Some(Expired::Unreachable)
-                } else {
-                    (silent >= s.heartbeat_timeout_us).then_some(Expired::Gone(Gone::Silent))
-                }
-            }
-            (None, None) => (now >= started.saturating_add(s.register_timeout_us))
-                .then_some(Expired::Gone(Gone::NeverRegistered)),
-        }
+        let w = self.watches.get(id.checked_sub(1)? as usize)?;
+        w.expired(self.sup(), self.quiet_of(self.slot_ref(id)?), now)
     }
 
     /// Robot `id`'s agent is gone by a timer: ended (killed, or dropped
@@ -240,7 +209,7 @@ mod tests {
                         self.core.handle(t, Input::Started { robot: id, pid: None, how: "awaited".into() });
                     }
                     Output::Kill(id) => self.killed.push((id, t)),
-                    Output::Event(e) if matches!(e.event, EventKind::LinkLost | EventKind::LinkBack) => {
+                    Output::Event(e) if matches!(e.event, EventKind::Unreachable | EventKind::Reachable) => {
                         self.reach.push((e.robot, e.event, t));
                     }
                     _ => {}
@@ -343,11 +312,11 @@ mod tests {
             lab.beat(t, 2);
         }
         let noticed = lab.reach.iter().find(|r| r.0 == 1).map(|r| r.2).expect("noticed");
-        assert_eq!(lab.reach[0].1, EventKind::LinkLost);
+        assert_eq!(lab.reach[0].1, EventKind::Unreachable);
         assert!(noticed - cut <= 500 * MS, "noticed {} ms after the cut", (noticed - cut) / MS);
         assert_eq!(lab.gone(1), None, "held within the grace");
         lab.beat(t, 1);
-        assert_eq!(lab.reach.last().map(|r| (r.0, r.1)), Some((1, EventKind::LinkBack)));
+        assert_eq!(lab.reach.last().map(|r| (r.0, r.1)), Some((1, EventKind::Reachable)));
         // Cut again, for longer than the grace: gone at unreachable + grace.
         let cut = t;
         while t < 6_000 * MS {
@@ -367,7 +336,7 @@ mod tests {
         lab.register(0, 1);
         lab.register(0, 2);
         lab.at(100 * MS, Some(Input::Token(1, false)));
-        assert_eq!(lab.reach, [(1, EventKind::LinkLost, 100 * MS)], "at once");
+        assert_eq!(lab.reach, [(1, EventKind::Unreachable, 100 * MS)], "at once");
         assert_eq!(lab.gone(1), None);
 
         let mut lab = Lab::new(true, false, |c| c.supervision.unreachable_grace = 0.0);

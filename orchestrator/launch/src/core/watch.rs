@@ -1,6 +1,13 @@
 //! The supervision settings and each robot's timers, as the core keeps
-//! them (`timers.rs` holds the rules that set and decide them).
+//! them, and their one reading (`timers.rs` holds the rules that set the
+//! timers and acts on what expired).
+//!
+//! Why one reading: [`Watch::timers`] says which timer expires when and
+//! what it means then; both the deadline the core reports and the verdict
+//! it takes at that deadline read it, so they cannot disagree (they were
+//! two copies of the same case analysis).
 
+use crate::agents::Gone;
 use serde::{Deserialize, Serialize};
 
 /// The supervision settings of a launch, µs.
@@ -11,20 +18,22 @@ pub struct Supervision {
     pub on: bool,
     /// A started agent must register within this long.
     pub register_timeout_us: u64,
-    /// A registered agent silent this long is gone ([`Gone::Silent`](crate::agents::Gone::Silent)), or
-    /// unreachable with a link grace.
+    /// A registered agent silent this long is gone ([`Gone::Silent`]), or
+    /// unreachable when the launch holds its agents.
     pub heartbeat_timeout_us: u64,
     /// How long an unreachable agent is held before it is gone
-    /// ([`Gone::Unreachable`](crate::agents::Gone::Unreachable)); zero: no holding (a withdrawn token is
-    /// [`Gone::Disconnected`](crate::agents::Gone::Disconnected) at once). Agents that can come back only
-    /// (remote agents, gateways elsewhere).
+    /// ([`Gone::Unreachable`]): the unreachable grace
+    /// ([`Setup::unreachable_grace_s`](super::Setup::unreachable_grace_s)) in µs for agents that can come
+    /// back (remote agents, gateways elsewhere), else zero: no holding (a
+    /// withdrawn token is [`Gone::Disconnected`] at once). [`Self::holds`]
+    /// tells.
     pub unreachable_grace_us: u64,
-    /// With a link grace: the silence after which a heard agent is
+    /// When the launch holds its agents: the silence after which a heard agent is
     /// unreachable (zero: only the heartbeat timeout). Not for a parked
     /// robot's agent: it beats slower (four times per heartbeat timeout).
     pub quiet_us: u64,
     /// How long a robot's own link reported down must stay down before the
-    /// robot is gone ([`Gone::RobotLinkLost`](crate::agents::Gone::RobotLinkLost)); none: robot links are not
+    /// robot is gone ([`Gone::RobotLinkLost`]); none: robot links are not
     /// watched (simulated agents have none).
     pub robot_link_grace_us: Option<u64>,
 }
@@ -36,27 +45,119 @@ pub struct Watch {
     pub(super) started: Option<u64>,
     /// When it was last heard from, once registered.
     pub(super) heard: Option<u64>,
-    /// Unreachable since (link grace running).
+    /// Unreachable since (unreachable grace running).
     pub(super) unreachable: Option<u64>,
     /// Its robot's link down since (robot-link grace running).
     pub(super) link_down: Option<u64>,
 }
 
+/// What an expired timer means.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Expired {
+    /// Unreachable from now on (held within the unreachable grace).
+    Unreachable,
+    /// Gone for the launch.
+    Gone(Gone),
+}
+
+impl Supervision {
+    /// Whether an agent the launch cannot reach is held (for
+    /// [`Self::unreachable_grace_us`]) rather than gone at once: the one
+    /// test of it (the timers, a withdrawn token).
+    pub fn holds(&self) -> bool {
+        self.unreachable_grace_us > 0
+    }
+}
+
+/// The least failsafe grace an agent of a launch whose unreachable grace
+/// is `grace_s` (seconds, `supervision.unreachable_grace`) may register
+/// with, ms: shorter, a cut the launch rides out would stop its robot for
+/// good. The one decider of it: the core refuses a shorter one
+/// ([`Refusal::Grace`](bycoms_protocol::msg::Refusal::Grace)) and the launch
+/// gives its own agents at least this (`setup::joining`).
+pub fn least_failsafe_grace_ms(grace_s: f64) -> u32 {
+    (grace_s * 1000.0).ceil().min(f64::from(u32::MAX)) as u32
+}
+
 impl Watch {
-    /// The next time one of this robot's timers expires (`quiet`: its
-    /// quiet rule, none for a parked robot).
-    pub(super) fn due(&self, s: &Supervision, quiet: u64) -> Option<u64> {
-        let started = self.started?;
-        let hold = s.unreachable_grace_us > 0;
-        let mut due = match (self.unreachable, self.heard) {
-            (Some(since), _) => since.saturating_add(s.unreachable_grace_us),
-            (None, Some(h)) if hold && quiet > 0 => h.saturating_add(quiet.min(s.heartbeat_timeout_us)),
-            (None, Some(h)) => h.saturating_add(s.heartbeat_timeout_us),
-            (None, None) => started.saturating_add(s.register_timeout_us),
+    /// This robot's running timers, each with when it expires and what it
+    /// means then, the robot's link first (it wins when both are due): the
+    /// one case analysis that [`Self::due`] and [`Self::expired`] read
+    /// (`quiet`: the robot's quiet rule, none for a parked robot).
+    fn timers(&self, s: &Supervision, quiet: u64) -> impl Iterator<Item = (u64, Expired)> {
+        let link = match (self.link_down, s.robot_link_grace_us) {
+            (Some(down), Some(grace)) => {
+                Some((down.saturating_add(grace), Expired::Gone(Gone::RobotLinkLost)))
+            }
+            _ => None,
         };
-        if let (Some(down), Some(grace)) = (self.link_down, s.robot_link_grace_us) {
-            due = due.min(down.saturating_add(grace));
+        let agent = self.started.map(|started| match (self.unreachable, self.heard) {
+            (Some(since), _) => (
+                since.saturating_add(s.unreachable_grace_us),
+                Expired::Gone(Gone::Unreachable { grace_ms: s.unreachable_grace_us / 1000 }),
+            ),
+            (None, Some(h)) if s.holds() && quiet > 0 => {
+                (h.saturating_add(quiet.min(s.heartbeat_timeout_us)), Expired::Unreachable)
+            }
+            (None, Some(h)) if s.holds() => (h.saturating_add(s.heartbeat_timeout_us), Expired::Unreachable),
+            (None, Some(h)) => (h.saturating_add(s.heartbeat_timeout_us), Expired::Gone(Gone::Silent)),
+            (None, None) => {
+                (started.saturating_add(s.register_timeout_us), Expired::Gone(Gone::NeverRegistered))
+            }
+        });
+        self.started.and(link).into_iter().chain(agent)
+    }
+
+    /// The next time one of this robot's timers expires.
+    pub(super) fn due(&self, s: &Supervision, quiet: u64) -> Option<u64> {
+        self.timers(s, quiet).map(|(at, _)| at).min()
+    }
+
+    /// Which of this robot's timers expired at `now`, if one did.
+    pub(super) fn expired(&self, s: &Supervision, quiet: u64, now: u64) -> Option<Expired> {
+        self.timers(s, quiet).find(|&(at, _)| now >= at).map(|(_, what)| what)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The deadline and the verdict are one reading: at every robot's
+    //! deadline a timer has expired, and none before it.
+
+    use super::*;
+
+    #[test]
+    fn a_robot_s_timers_expire_at_its_deadline_and_not_before() {
+        let mut seed = 0x5eed_u64;
+        let mut draw = |n: u64| {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 33) % n
+        };
+        for _ in 0..10_000 {
+            let pick = |d: u64, at: u64| (d > 0).then_some(at);
+            let s = Supervision {
+                on: true,
+                register_timeout_us: 1 + draw(5_000),
+                heartbeat_timeout_us: 1 + draw(5_000),
+                unreachable_grace_us: draw(2) * draw(5_000),
+                quiet_us: draw(2) * draw(5_000),
+                robot_link_grace_us: pick(draw(2), draw(5_000)),
+            };
+            let w = Watch {
+                started: pick(draw(4), draw(1_000)),
+                heard: pick(draw(2), draw(1_000)),
+                unreachable: pick(draw(3) / 2, draw(1_000)),
+                link_down: pick(draw(2), draw(1_000)),
+            };
+            let quiet = draw(2) * s.quiet_us;
+            let Some(due) = w.due(&s, quiet) else {
+                assert_eq!(w.started, None, "a supervised robot has a deadline");
+                continue;
+            };
+            assert!(w.expired(&s, quiet, due).is_some(), "{s:?} {w:?}: nothing at {due}");
+            if let Some(before) = due.checked_sub(1) {
+                assert_eq!(w.expired(&s, quiet, before), None, "{s:?} {w:?}: expired before {due}");
+            }
         }
-        Some(due)
     }
 }

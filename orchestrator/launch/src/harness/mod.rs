@@ -192,7 +192,7 @@ pub struct Report {
     /// while the core held it reachable.
     pub faults: Vec<(u32, u64)>,
     /// When the core noticed a robot's agent lost or unreachable (its
-    /// `AgentLost` and `LinkLost` events), (robot, µs).
+    /// `AgentLost` and `Unreachable` events), (robot, µs).
     pub noticed: Vec<(u32, u64)>,
     /// The lines the core noted for the terminal, in order.
     pub notes: Vec<String>,

@@ -274,7 +274,7 @@ impl World<'_> {
                     self.report.gate_times_us.push(now);
                 }
                 Output::Kill(id) => self.kill(id),
-                Output::Event(e) if matches!(e.event, EventKind::AgentLost | EventKind::LinkLost) => {
+                Output::Event(e) if matches!(e.event, EventKind::AgentLost | EventKind::Unreachable) => {
                     self.report.noticed.push((e.robot, now));
                 }
                 Output::Bad(..) => self.report.bad += 1,

@@ -35,7 +35,7 @@ pub mod mocap;
 pub mod ros2;
 mod seam;
 
-pub use seam::{PoseError, PoseSink, PoseSource};
+pub use seam::{PoseBytes, PoseError, PoseSink, PoseSource};
 
 use bycoms_protocol::Swarm;
 

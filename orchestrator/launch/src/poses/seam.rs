@@ -7,9 +7,10 @@
 use crate::recording::Recording;
 use bycoms_protocol::bus::BusError;
 use bycoms_protocol::msg::Pose;
-use bycoms_protocol::{encode, RobotId, Swarm, MAX_MESSAGE_LEN};
+use bycoms_protocol::{encode, CodecError, RobotId, Swarm, MAX_MESSAGE_LEN};
 use bycoms_record::schema;
 use bycoms_runtime::Traffic;
+use std::collections::BTreeMap;
 
 /// Why a pose source failed (fatally: the launch ends).
 #[derive(Debug, thiserror::Error)]
@@ -43,6 +44,44 @@ pub trait PoseSource {
     fn carried(&mut self, _id: u32, _by_hand: bool) {}
 }
 
+/// The encoding of each robot's last pose, made once: an off-bus pose
+/// (motion capture) is encoded by the sink that records it, and the launch
+/// then forwards it on the robot's pose topic (`Ports::forward_pose`) and
+/// records it as applied (`Ports::show_moved`) with those same bytes
+/// rather than encoding it again for each. Kept per robot (the sink hands
+/// a frame's poses robot by robot, the core's outputs follow each one);
+/// a pose is the one encoded only if it is bit for bit (0.0 and -0.0
+/// encode apart).
+#[derive(Debug, Default)]
+pub struct PoseBytes {
+    last: BTreeMap<u32, (Pose, Vec<u8>)>,
+    /// Encodings made (the tests count them).
+    made: u64,
+}
+
+impl PoseBytes {
+    /// `pose`'s bytes as a message: the ones kept for its robot when it is
+    /// the pose they encode, else encoded now and kept.
+    pub fn of(&mut self, pose: &Pose) -> Result<&[u8], CodecError> {
+        let (kept, bytes) = self.last.entry(pose.robot.0).or_insert_with(|| (*pose, Vec::new()));
+        if bytes.is_empty() || !same_bits(kept, pose) {
+            let mut buf = [0u8; MAX_MESSAGE_LEN];
+            let encoded = encode(pose, &mut buf)?;
+            *kept = *pose;
+            self.made += 1;
+            bytes.clear();
+            bytes.extend_from_slice(encoded);
+        }
+        Ok(bytes)
+    }
+}
+
+/// Whether two poses are the same bits (what their encodings compare).
+fn same_bits(a: &Pose, b: &Pose) -> bool {
+    let bits = |p: &Pose| (p.robot, p.step, p.time_us, p.x.to_bits(), p.y.to_bits(), p.heading.to_bits());
+    bits(a) == bits(b)
+}
+
 /// Where a source hands its poses: the engine's intake, with the recording
 /// and the bad-traffic counters of the launch.
 pub struct PoseSink<'a> {
@@ -57,6 +96,9 @@ pub struct PoseSink<'a> {
     numbers: Vec<Option<u32>>,
     /// The number of the last raw message, for the pose decoded from it.
     last_raw: Option<u32>,
+    /// The decoded poses' encodings (the launch's, lent by
+    /// [`Self::encoding_with`]).
+    bytes: PoseBytes,
 }
 
 const WHO: &str = "launch";
@@ -80,7 +122,21 @@ impl<'a> PoseSink<'a> {
             recorded: 0,
             numbers: Vec::new(),
             last_raw: None,
+            bytes: PoseBytes::default(),
         }
+    }
+
+    /// This sink, encoding the poses it records with `bytes` (the launch's,
+    /// handed back by [`Self::take_bytes`]), so what is forwarded or shown
+    /// of them afterwards is not encoded again.
+    pub fn encoding_with(mut self, bytes: PoseBytes) -> Self {
+        self.bytes = bytes;
+        self
+    }
+
+    /// The encodings made, for the launch to reuse ([`PoseBytes`]).
+    pub fn take_bytes(&mut self) -> PoseBytes {
+        std::mem::take(&mut self.bytes)
     }
 
     /// One pose of robot `robot` as the source saw it.
@@ -95,8 +151,7 @@ impl<'a> PoseSink<'a> {
 
     /// Records a decoded pose on robot `robot`'s pose topic; its number there.
     fn record(&mut self, robot: u32, pose: Pose) -> Option<u32> {
-        let mut buf = [0u8; MAX_MESSAGE_LEN];
-        match encode(&pose, &mut buf) {
+        match self.bytes.of(&pose) {
             Ok(bytes) => {
                 let topic = self.swarm.pose(RobotId(robot));
                 self.recorded += 1;
@@ -175,5 +230,37 @@ impl<'a> PoseSink<'a> {
             self.poses.push(pose);
             self.numbers.push(number);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pose(robot: u32, x: f64) -> Pose {
+        Pose { robot: RobotId(robot), x, y: 1.0, heading: 0.5, step: 3, time_us: 30_000 }
+    }
+
+    #[test]
+    fn a_pose_is_encoded_once_and_its_bytes_are_the_message_s() {
+        let mut bytes = PoseBytes::default();
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        let a = pose(1, 2.0);
+        let expected = encode(&a, &mut buf).expect("encodes").to_vec();
+        for _ in 0..3 {
+            assert_eq!(bytes.of(&a).expect("encodes"), expected.as_slice());
+        }
+        assert_eq!(bytes.made, 1, "recorded, forwarded and shown: one encoding");
+        // Another robot's pose keeps robot 1's.
+        bytes.of(&pose(2, 2.0)).expect("encodes");
+        assert_eq!(bytes.of(&a).expect("encodes"), expected.as_slice());
+        assert_eq!(bytes.made, 2);
+        // The robot's next pose, and one equal by `==` but not in bits.
+        let b = pose(1, 2.5);
+        assert_eq!(bytes.of(&b).expect("encodes"), encode(&b, &mut buf).expect("encodes"));
+        let (zero, minus_zero) = (pose(1, 0.0), pose(1, -0.0));
+        bytes.of(&zero).expect("encodes");
+        assert_eq!(bytes.of(&minus_zero).expect("encodes"), encode(&minus_zero, &mut buf).expect("encodes"));
+        assert_eq!(bytes.made, 5);
     }
 }

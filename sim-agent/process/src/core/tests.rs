@@ -2,7 +2,7 @@
 //! orchestrator drives it, reproduces `runner::run` bit for bit.
 
 use super::*;
-use bycoms_sim::runner::{run, RobotRunEnd};
+use bycoms_sim::runner::{arrived, run, RobotRunEnd};
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::terrain::Terrain;
 
@@ -11,7 +11,6 @@ use bycoms_sim::terrain::Terrain;
 /// bearing from its latest pose.
 fn drive(terrain: &Terrain, cfg: &RunConfig) -> Vec<(RobotRunEnd, Vec2, u64)> {
     let (start, goal) = (terrain.start(), terrain.goal());
-    let r2 = cfg.success_radius * cfg.success_radius;
     let mut stuck: Vec<Pose> = Vec::new();
     let mut out = Vec::new();
     let mut total = 0;
@@ -35,8 +34,7 @@ fn drive(terrain: &Terrain, cfg: &RunConfig) -> Vec<(RobotRunEnd, Vec2, u64)> {
             if core.phase() == RobotPhase::Frozen {
                 break RobotRunEnd::Stuck;
             }
-            let (dx, dy) = (pose.x - goal.x, pose.y - goal.y);
-            if dx * dx + dy * dy <= r2 {
+            if arrived(Vec2::new(pose.x, pose.y), goal, cfg.success_radius) {
                 break RobotRunEnd::Arrived;
             }
         };
