@@ -154,9 +154,9 @@ impl DevTools {
 /// first dash, which starts at angle 0).
 /// Before the page has loaded (no body or no arena yet) it reads as empty,
 /// and the test keeps polling.
-const READ_PAGE: &str = r#"(!document.body || !document.getElementById('arena')) ? JSON.stringify({ body: {} }) : JSON.stringify({
+pub(crate) const READ_PAGE: &str = r#"(!document.body || !document.getElementById('arena')) ? JSON.stringify({ body: {} }) : JSON.stringify({
   body: Object.assign({}, document.body.dataset),
-  robots: [...document.querySelectorAll('#robots li')].map(li => ({ id: +li.dataset.robot, state: li.dataset.state })),
+  robots: [...document.querySelectorAll('#robots li')].map(li => ({ id: +li.dataset.robot, state: li.dataset.state, real: li.dataset.real === "1" })),
   beacons: [...document.querySelectorAll('#beacons li')].map(li => {
     const px = +li.dataset.px, py = +li.dataset.py, pr = +li.dataset.pr, a = 2 / Math.max(pr, 1);
     const c = document.getElementById('arena').getContext('2d')
@@ -165,21 +165,58 @@ const READ_PAGE: &str = r#"(!document.body || !document.getElementById('arena'))
   }),
 })"#;
 
+/// Headless Chromium with one page on a launch's live view, read through
+/// the DevTools protocol; killed (with its profile) on drop. Started before
+/// the launch, so the page connects within a moment of the launch's banner.
+pub(crate) struct Browser {
+    page: DevTools,
+    _running: Running,
+    _profile: tempfile::TempDir,
+}
+
+impl Browser {
+    /// Starts Chromium (the test fails, saying so, without it).
+    pub(crate) fn start() -> Browser {
+        let chromium = chromium()
+            .expect("the live view's browser test needs Debian's `chromium` (apt-get install chromium)");
+        let profile = tempfile::tempdir().expect("temp dir");
+        let mut running = Running::start(
+            Command::new(chromium)
+                .args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"])
+                .args(["--no-first-run", "--remote-debugging-port=0", "about:blank"])
+                .arg(format!("--user-data-dir={}", profile.path().display())),
+        );
+        let line = running.line_with("DevTools listening on ", Duration::from_secs(30));
+        let devtools_url = line.rsplit(' ').next().expect("DevTools URL").to_owned();
+        Browser { page: DevTools::connect(&devtools_url), _running: running, _profile: profile }
+    }
+
+    /// Opens the live view whose banner (`live view: http://…`) is `banner`.
+    pub(crate) fn open(&mut self, banner: &str) {
+        let url = banner.split_whitespace().find(|w| w.starts_with("http://")).expect("page URL");
+        self.page.open(url);
+    }
+
+    /// Polls what the page shows ([`READ_PAGE`]), handing each reading to
+    /// `each`, until the page shows the run's end (within `timeout`); the last reading.
+    pub(crate) fn until_ended(&mut self, timeout: Duration, mut each: impl FnMut(&Value)) -> Value {
+        let deadline = Instant::now() + timeout;
+        let mut last = Value::Null;
+        while last["body"]["ended"].as_str().is_none_or(str::is_empty) {
+            assert!(Instant::now() < deadline, "the page never showed the end; last: {last}");
+            // Polled: the page is read, not waited on.
+            std::thread::sleep(Duration::from_millis(100));
+            last = self.page.eval(READ_PAGE);
+            each(&last);
+        }
+        last
+    }
+}
+
 #[test]
 #[ignore = "needs Debian's chromium (apt-get install chromium)"]
 fn the_page_shows_robots_moving_then_a_beacon_with_its_eps_circle() {
-    let chromium = chromium()
-        .expect("the live view's browser test needs Debian's `chromium` (apt-get install chromium)");
-    let profile = tempfile::tempdir().expect("temp dir");
-    let mut browser = Running::start(
-        Command::new(chromium)
-            .args(["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"])
-            .args(["--no-first-run", "--remote-debugging-port=0", "about:blank"])
-            .arg(format!("--user-data-dir={}", profile.path().display())),
-    );
-    let line = browser.line_with("DevTools listening on ", Duration::from_secs(30));
-    let devtools_url = line.rsplit(' ').next().expect("DevTools URL").to_owned();
-    let mut page = DevTools::connect(&devtools_url);
+    let mut browser = Browser::start();
 
     // Real time at 5×: robot 1 needs several seconds to reach the obstacle;
     // two robots, both stuck, keep the run short.
@@ -202,23 +239,17 @@ fn the_page_shows_robots_moving_then_a_beacon_with_its_eps_circle() {
         &swarm,
         "--json",
     ]));
-    let banner = launch.line_with("live view: http://", Duration::from_secs(30));
-    let url = banner.split_whitespace().find(|w| w.starts_with("http://")).expect("page URL").to_owned();
-    page.open(&url);
+    browser.open(&launch.line_with("live view: http://", Duration::from_secs(30)));
 
     // Poll what the page shows until the run has ended on the page.
-    let deadline = Instant::now() + Duration::from_secs(90);
-    let (mut saw_moving_first, mut last) = (false, Value::Null);
-    while last["body"]["ended"].as_str().is_none_or(str::is_empty) {
-        assert!(Instant::now() < deadline, "the page never showed the end; last: {last}");
-        std::thread::sleep(Duration::from_millis(100));
-        last = page.eval(READ_PAGE);
-        let beacons = last["beacons"].as_array().map_or(0, Vec::len);
-        let moving = last["robots"].as_array().is_some_and(|r| r.iter().any(|r| r["state"] == "moving"));
-        if beacons == 0 && moving && last["body"]["connected"] == "true" {
+    let mut saw_moving_first = false;
+    let last = browser.until_ended(Duration::from_secs(90), |page| {
+        let beacons = page["beacons"].as_array().map_or(0, Vec::len);
+        let moving = page["robots"].as_array().is_some_and(|r| r.iter().any(|r| r["state"] == "moving"));
+        if beacons == 0 && moving && page["body"]["connected"] == "true" {
             saw_moving_first = true;
         }
-    }
+    });
     assert!(saw_moving_first, "the page showed a moving robot before any beacon; end: {last}");
 
     let (code, stdout) = launch.finish(Duration::from_secs(60));
