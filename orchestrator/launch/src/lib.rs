@@ -39,7 +39,9 @@
 pub mod agents;
 pub mod config;
 pub mod control;
-pub mod core;
+/// The launch core, a crate of its own (`orchestrator/launch-core/`): every
+/// `crate::core::…` and `bycoms_launch::core::…` path is the crate's.
+pub use bycoms_launch_core as core;
 pub mod driver;
 pub mod events;
 pub mod faults;

@@ -5,9 +5,10 @@
 //! launch with `simulate`) can check "bit for bit" without trusting a
 //! decimal round trip.
 
-mod records;
-
-pub use records::{Death, Outage, Outcome, Point, RevokedSummary, StopAnswer, StopSummary};
+/// What the launch core records for the summary (`records.rs` of the core crate, owned there).
+pub use bycoms_launch_core::records::{
+    Death, Outage, Outcome, Point, RevokedSummary, StopAnswer, StopSummary,
+};
 
 use super::core::shown;
 use super::core::{ClockReading, Ending, LaunchCore, Slot, SlotState};
