@@ -1,5 +1,14 @@
 //! The launch core: one deterministic state machine, no IO.
 //!
+//! Why a crate of its own (`bycoms-launch-core`, beside `bycoms-launch`, as
+//! quinn-proto beside quinn): Cargo then proves it sans-IO. Its
+//! dependencies are the protocol's messages, the simulated world's plain
+//! types, serde and postcard, with no bus backend, process, socket or async
+//! runtime among them (`orchestrator/tests/layers.rs` holds them to an
+//! allow-list), and the types it owns live here with it (`Gone`, the
+//! policies, its events and records, the gate, placement), re-exported at
+//! their old paths. `bycoms-launch` re-exports this crate as its `core`.
+//!
 //! Why sans-IO: `orchestrator launch` is the heart of the product, and its
 //! rules (registration, duplicate refusal, settling, placement, the gate,
 //! the time budget, partitions and re-sends, the dead-robot policy, the

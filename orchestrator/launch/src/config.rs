@@ -154,7 +154,7 @@ pub struct GateConfig {
     /// A pose that moved faster than this (world units — cells, or metres
     /// in a lab — per second of simulated time) from the robot's last one
     /// is refused as implausible (a forged or swapped pose; see
-    /// `orchestrator/launch/src/core/plausible.rs`, which says why motion
+    /// `orchestrator/launch-core/src/plausible.rs`, which says why motion
     /// capture's `tracker.max_speed` is another rule).
     pub max_speed: f64,
 }

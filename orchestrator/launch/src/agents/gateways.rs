@@ -19,7 +19,7 @@
 //!
 //! A robot whose link is lost (its gateway reports `Link { up: false }`
 //! after 300 ms of silence) and stays lost for [`LINK_GRACE`] more is gone
-//! for the launch: the core's robot-link timer (`orchestrator/launch/src/core/timers.rs`,
+//! for the launch: the core's robot-link timer (`orchestrator/launch-core/src/timers.rs`,
 //! the grace from [`AgentProperties::robot_link_grace`]) judges it
 //! ([`Gone::RobotLinkLost`]) and ends its gateway, and the gate applies its
 //! lost-robot policy (`gate.on_agent_death`: a beacon where it was last

@@ -21,7 +21,7 @@
 //! never a deadline, and reads no clock. Every supervision rule
 //! (registration and heartbeat timeouts, the link grace, the quiet rule,
 //! the robot-link grace) is a timer of the launch core
-//! (`orchestrator/launch/src/core/timers.rs`), which ends an agent it judged gone with
+//! (`orchestrator/launch-core/src/timers.rs`), which ends an agent it judged gone with
 //! [`AgentSource::kill`].
 //!
 //! * [`AgentSource::start`] makes robot `id`'s agent exist or expected;

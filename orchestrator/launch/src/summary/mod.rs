@@ -133,7 +133,7 @@ pub struct RobotSummary {
     pub simulated: bool,
 }
 
-/// A host's clock offset to the orchestrator's (`orchestrator/launch/src/core/clocks.rs`).
+/// A host's clock offset to the orchestrator's (`orchestrator/launch-core/src/clocks.rs`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct ClockSummary {
     /// The host's clock minus the orchestrator's, ms (positive: ahead).
