@@ -9,6 +9,11 @@
 //! source); while the robot is carried the pose source accepts hand-speed
 //! moves and then tracks it from where it was placed
 //! (`launch::poses::PoseSource::carried`).
+//!
+//! Why in the launch core's crate: the core decides placement with these
+//! plain types and its setup carries the `[placement]` table, so it owns
+//! them; motion capture (`bycoms_mocap`, with its NatNet client) re-exports
+//! them at their old paths.
 
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::RobotId;
