@@ -47,7 +47,7 @@
 //! the ACL it started with: until the orchestrator restarts, the revoked
 //! robot still connects, and the launch itself drops its traffic
 //! (`orchestrator revoke`, or `certs --revoke` asking a running launch of
-//! this lab: `orchestrator/launch/src/core/revoke.rs`).
+//! this lab: `orchestrator/launch-core/src/revoke.rs`).
 
 use anyhow::{Context, Result};
 use bycoms_runtime::exit;
@@ -230,7 +230,7 @@ fn robots_in(out: &Path) -> u32 {
 /// they can still open a session, in which nothing they send or ask for is
 /// let through. It reaches a launch when the launch starts: a running one
 /// keeps the ACL it started with (a running launch drops the robot when
-/// asked: `orchestrator revoke`, `orchestrator/launch/src/core/revoke.rs`). `dir_flag` is the
+/// asked: `orchestrator revoke`, `orchestrator/launch-core/src/revoke.rs`). `dir_flag` is the
 /// command's flag naming `out` and `flag` the one naming the robots, for
 /// usage errors. Returns the config's path.
 pub fn revoke(out: &Path, ids: &[u32], dir_flag: &str, flag: &str) -> Result<PathBuf> {

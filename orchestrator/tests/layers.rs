@@ -480,6 +480,59 @@ fn the_orchestrators_crates_depend_down_their_table() {
     assert!(wrong.is_empty(), "dependencies that do not run down {CRATES:?}:\n{}", wrong.join("\n"));
 }
 
+/// The launch core's own crate (`orchestrator/launch-core/`) depends on no
+/// IO crate: every dependency is on this list, written out, so Cargo
+/// itself proves the core sans-IO (no tokio, zenoh, iceoryx2, foxglove,
+/// mcap, nix, libc, tracing-subscriber, …), and the workspace crates it
+/// uses come without the features that bring IO (the protocol's bus
+/// backends, the runtime's process pieces, the agent's gateway).
+#[test]
+fn the_launch_core_depends_on_no_io_crate() {
+    /// Each allowed dependency, with the features it may turn on.
+    const ALLOWED: &[(&str, &[&str])] = &[
+        ("bycoms-protocol", &[]),
+        ("bycoms-sim", &[]),
+        ("bycoms-agent", &[]),
+        ("bycoms-runtime", &[]),
+        ("serde", &["std"]),
+        ("postcard", &["alloc"]),
+        ("schemars", &[]),
+        // The log facade only (no subscriber: the shell sets one up).
+        ("tracing", &[]),
+        // Optional (`clap` feature): `OnDeath` and `Missing` as command-line values.
+        ("clap", &[]),
+    ];
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("launch-core/Cargo.toml");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let manifest: toml::Table = text.parse().unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert_eq!(manifest["package"]["name"].as_str(), Some("bycoms-launch-core"));
+    let deps = manifest.get("dependencies").and_then(|d| d.as_table()).expect("[dependencies]");
+    assert!(deps.len() >= 4, "the core's dependencies are read: {deps:?}");
+    let mut wrong = Vec::new();
+    for (name, spec) in deps {
+        let Some((_, features)) = ALLOWED.iter().find(|(a, _)| a == name) else {
+            wrong.push(format!("`{name}` is not on the launch core's allow-list"));
+            continue;
+        };
+        let asked = spec.get("features").and_then(|f| f.as_array()).cloned().unwrap_or_default();
+        for feature in asked.iter().filter_map(|f| f.as_str()) {
+            if !features.contains(&feature) {
+                wrong.push(format!("`{name}` with feature `{feature}`, not on the allow-list"));
+            }
+        }
+        if spec.get("default-features").and_then(|d| d.as_bool()) == Some(true) {
+            wrong.push(format!("`{name}` with its default features"));
+        }
+    }
+    // Build and target-specific dependencies would escape the list.
+    for table in ["build-dependencies", "target"] {
+        if manifest.contains_key(table) {
+            wrong.push(format!("a [{table}] table"));
+        }
+    }
+    assert!(wrong.is_empty(), "{}:\n{}", path.display(), wrong.join("\n"));
+}
+
 #[test]
 fn the_reader_sees_groups_climbs_and_macros_but_not_comments_or_strings() {
     let code = "//! crate::a\nuse crate::{b, c::{d, e}, self};\nlet s = \"crate::f\";\n\

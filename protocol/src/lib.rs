@@ -26,6 +26,7 @@
 
 #[cfg(feature = "std")]
 pub mod capped;
+pub mod clock_limits;
 pub mod codec;
 pub mod ids;
 pub mod link;

@@ -32,33 +32,8 @@ pub use bycoms_runtime::Transport;
 /// How simulated time advances: the one clock enum, shared with the agents.
 pub use bycoms_sim_agent::Clock;
 
-/// What the gate does when an agent process dies.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "snake_case")]
-pub enum OnDeath {
-    /// The robot is physically where it was last seen: a beacon; go on.
-    Beacon,
-    /// End the launch with an error.
-    Abort,
-}
-
-/// What a robot whose agent never registers means (`supervision.missing`,
-/// `--missing`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "snake_case")]
-pub enum Missing {
-    /// The robot is skipped at its turn (recorded as absent, with why) and
-    /// the next one goes; a remote agent that registers later takes a
-    /// later turn, a process started here that dies before registering is
-    /// started once more first.
-    #[default]
-    Skip,
-    /// The run needs every robot: agents that exist on their own are all
-    /// awaited before the first deployment, and any robot whose agent never
-    /// registers ends the launch with an error naming it (a run compared
-    /// robot for robot with another, e.g. the paper's).
-    Fail,
-}
+/// The dead-robot and missing-robot policies (the launch core's, owned there).
+pub use bycoms_launch_core::{Missing, OnDeath};
 
 /// Everything `orchestrator launch` can be configured with.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -179,7 +154,7 @@ pub struct GateConfig {
     /// A pose that moved faster than this (world units — cells, or metres
     /// in a lab — per second of simulated time) from the robot's last one
     /// is refused as implausible (a forged or swapped pose; see
-    /// `orchestrator/launch/src/core/plausible.rs`, which says why motion
+    /// `orchestrator/launch-core/src/plausible.rs`, which says why motion
     /// capture's `tracker.max_speed` is another rule).
     pub max_speed: f64,
 }

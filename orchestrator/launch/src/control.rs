@@ -74,7 +74,7 @@ pub enum Ask {
     Status,
     /// Take robot `robot`'s voice away (`orchestrator revoke`, `certs
     /// --revoke`): told `Stop`, its agent refused and its reports dropped
-    /// from then on (`orchestrator/launch/src/core/revoke.rs`).
+    /// from then on (`orchestrator/launch-core/src/revoke.rs`).
     Revoke {
         /// The robot.
         robot: u32,

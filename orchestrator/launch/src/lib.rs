@@ -39,7 +39,9 @@
 pub mod agents;
 pub mod config;
 pub mod control;
-pub mod core;
+/// The launch core, a crate of its own (`orchestrator/launch-core/`): every
+/// `crate::core::…` and `bycoms_launch::core::…` path is the crate's.
+pub use bycoms_launch_core as core;
 pub mod driver;
 pub mod events;
 pub mod faults;
@@ -219,7 +221,7 @@ fn observe_run(
 /// Over zenoh, what the launch serves to the end: the run's settings, for
 /// agents started elsewhere with only where to connect, their swarm and
 /// robot id; and the orchestrator's clock, which agents and `doctor
-/// --connect` measure their offset against (`orchestrator/launch/src/core/clocks.rs`).
+/// --connect` measure their offset against (`orchestrator/launch-core/src/clocks.rs`).
 fn serve_over_zenoh(
     zenoh: Option<&ZenohBus>,
     swarm: &Swarm,

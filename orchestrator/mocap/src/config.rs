@@ -86,39 +86,8 @@ pub struct NatNetSourceConfig {
     pub tracker: TrackerConfig,
 }
 
-/// How a robot's placement at the start is confirmed: the launch's
-/// `[placement]` table, one for every pose source (world units: metres in
-/// a lab, as its scenario; lab seconds).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default, expecting = "a [placement] table")]
-pub struct PlacementConfig {
-    /// The robot counts as placed within this distance of the start, world units.
-    pub radius: f64,
-    /// ...seen there, tracked, for this long (s): not just carried past it.
-    pub hold: f64,
-    /// The operator gets this long (s) before the launch ends with an error.
-    pub timeout: f64,
-}
-
-/// A real crawler robot (metres): within 10 cm of the start for 0.5 s of
-/// motion capture; the operator has 10 minutes.
-impl Default for PlacementConfig {
-    fn default() -> Self {
-        Self { radius: 0.1, hold: 0.5, timeout: 600.0 }
-    }
-}
-
-impl PlacementConfig {
-    /// Checks the numbers; the message names the key (`placement.radius`).
-    pub fn validate(&self) -> Result<(), String> {
-        if !(self.radius.is_finite() && self.radius > 0.0) {
-            return Err(format!("placement.radius must be a positive number, got {}", self.radius));
-        }
-        check_seconds("placement.timeout", self.timeout, Zero::Refused)?;
-        check_seconds("placement.hold", self.hold, Zero::Allowed)?;
-        Ok(())
-    }
-}
+/// The `[placement]` table (the launch core's, owned there).
+pub use bycoms_launch_core::placement::PlacementConfig;
 
 impl MocapConfig {
     /// Checks the section against a launch of `robots` robots, of which

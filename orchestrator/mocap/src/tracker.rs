@@ -16,7 +16,7 @@
 //!   reaches the gate or a bearing.
 //!
 //! Why a jump rule of its own beside the launch core's (`gate.max_speed`,
-//! `orchestrator/launch/src/core/plausible.rs`): that one judges every
+//! `orchestrator/launch-core/src/plausible.rs`): that one judges every
 //! source's poses (a forged bus pose) against the last pose the core
 //! accepted for a deployed robot, over pose time, with no slack, and its
 //! default is a generous ceiling (5 units/s); this one exists with motion

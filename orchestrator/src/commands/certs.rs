@@ -61,7 +61,7 @@ pub struct Args {
 
 /// Asks every launch of this host that runs with the lab's `config` (a
 /// launch of another lab answers that it is not) to revoke `ids` now
-/// (`orchestrator/launch/src/core/revoke.rs`): the swarms that took it. Launches gone (a
+/// (`orchestrator/launch-core/src/revoke.rs`): the swarms that took it. Launches gone (a
 /// lock file left by a killed one) are passed over.
 fn revoke_live(config: &Path, ids: &[u32]) -> Vec<String> {
     let lab = std::fs::canonicalize(config).unwrap_or_else(|_| config.to_path_buf());

@@ -6,7 +6,7 @@
 //! zenoh router keeps the access-control list it started with, so a robot
 //! whose certificate was withdrawn (`certs --revoke`) still connects over
 //! QUIC until the orchestrator restarts. The launch itself therefore drops
-//! the robot (`orchestrator/launch/src/core/revoke.rs`): asked over the same control channel
+//! the robot (`orchestrator/launch-core/src/revoke.rs`): asked over the same control channel
 //! as `status` and `stop` (`orchestrator/launch/src/control.rs`), it tells the robot `Stop`,
 //! refuses its agent and drops (and counts) its reports from then on; the
 //! others go on. The answer says how long the launch took, from here.

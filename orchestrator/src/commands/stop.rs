@@ -4,7 +4,7 @@
 //! Why a command and not a signal: a signal reaches only a process of this
 //! host whose pid one knows, and says neither who nor why. The stop is
 //! asked of the launch itself (`orchestrator/launch/src/control.rs`), which takes it as one
-//! input of its core (`orchestrator/launch/src/core/stop.rs`): graceful, it ends as after
+//! input of its core (`orchestrator/launch-core/src/stop.rs`): graceful, it ends as after
 //! Ctrl-C; `--now`, every running robot is told `Stop` at once first. The
 //! launch records who asked and why in its summary and events.
 //!

@@ -14,7 +14,7 @@
 //! source reads no clock and decides no deadline. The supervision rules
 //! (registration and heartbeat timeouts, link grace, quiet, robot-link
 //! grace) are the launch core's timers, tested in virtual time
-//! (`orchestrator/launch/src/core/timers.rs` and the harness's schedules); here it is only
+//! (`orchestrator/launch-core/src/timers.rs` and the harness's schedules); here it is only
 //! checked that a source reports no silent agent by itself.
 //!
 //! A check that cannot apply to an implementation (an agent that ends by

@@ -48,6 +48,8 @@
 //!   share (`orchestrator doctor`, `gateway doctor`, `sim-agent doctor`).
 #![forbid(unsafe_code)]
 
+pub mod bad;
+pub use bad::BadKind;
 pub use bycoms_protocol::capped;
 #[cfg(feature = "logging")]
 pub mod logging;
@@ -96,4 +98,4 @@ pub use instance::instance;
 #[cfg(feature = "process")]
 pub use lifeline::{ExitCause, Lifeline};
 #[cfg(feature = "process")]
-pub use traffic::{BadKind, Traffic};
+pub use traffic::Traffic;

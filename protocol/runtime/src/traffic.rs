@@ -15,21 +15,7 @@ use serde::Serialize;
 /// How many messages of each kind are logged before thinning out.
 const LOG_FIRST: u64 = 5;
 
-/// What was wrong with a message.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BadKind {
-    /// Bytes that do not decode (malformed, truncated, trailing bytes,
-    /// unknown variant, non-canonical, too long for the buffer).
-    Garbage,
-    /// A well-framed message of another protocol version.
-    WrongVersion,
-    /// A message about a robot this process does not know.
-    UnknownRobot,
-    /// A second registration of the same robot.
-    Duplicate,
-    /// Decoded but refused (out of place, non-finite values, ...).
-    Refused,
-}
+pub use crate::bad::BadKind;
 
 /// Counts of bad messages by kind.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]

@@ -19,7 +19,7 @@
 //!
 //! A robot whose link is lost (its gateway reports `Link { up: false }`
 //! after 300 ms of silence) and stays lost for [`LINK_GRACE`] more is gone
-//! for the launch: the core's robot-link timer (`orchestrator/launch/src/core/timers.rs`,
+//! for the launch: the core's robot-link timer (`orchestrator/launch-core/src/timers.rs`,
 //! the grace from [`AgentProperties::robot_link_grace`]) judges it
 //! ([`Gone::RobotLinkLost`]) and ends its gateway, and the gate applies its
 //! lost-robot policy (`gate.on_agent_death`: a beacon where it was last
@@ -66,8 +66,11 @@ enum At {
 
 /// How long a gateway hears nothing from its robot before it reports the
 /// robot's link lost (`Link { up: false }`), in robot time (the gateway
-/// divides it by the run's speed): the gateway's own default.
-pub const LINK_TIMEOUT: Duration = Duration::from_millis(bycoms_agent::gateway::cli::LINK_TIMEOUT_MS);
+/// divides it by the run's speed): the launch core's (it times motion
+/// capture's silence by it, `orchestrator/launch-core/src/silence.rs`), owned
+/// there; the gateway's own default is the same (checked when this compiles).
+pub use bycoms_launch_core::LINK_TIMEOUT;
+const _: () = assert!(LINK_TIMEOUT.as_millis() == bycoms_agent::gateway::cli::LINK_TIMEOUT_MS as u128);
 
 /// How long a robot link reported lost must stay lost before the robot is
 /// gone (launch time): with the gateway's 300 ms timeout, 450 ms after the

@@ -14,7 +14,7 @@
 //! (`supervision.missing = "fail"` awaits all and names the missing).
 //!
 //! Liveness has two signals, both judged by the launch core's timers
-//! (`orchestrator/launch/src/core/timers.rs`). The registration and heartbeat timeouts catch
+//! (`orchestrator/launch-core/src/timers.rs`). The registration and heartbeat timeouts catch
 //! an agent that never came or hangs. zenoh liveliness ([`AliveWatch`]:
 //! every agent declares `alive/robot/<id>`) catches an agent whose process
 //! ended or whose link was cut, within one lease (`Liveness::FAST`:
@@ -63,7 +63,7 @@ pub struct Remote {
 }
 
 /// Heartbeat periods of silence after which a remote agent is unreachable
-/// (the core's quiet rule, `orchestrator/launch/src/core/timers.rs`): at 100 ms heartbeats a
+/// (the core's quiet rule, `orchestrator/launch-core/src/timers.rs`): at 100 ms heartbeats a
 /// cut shows 300–405 ms after it happened, and a process must miss three
 /// heartbeats in a row to look unreachable when it is not.
 pub const QUIET_HEARTBEATS: u32 = 4;

@@ -4,7 +4,7 @@
 //! -9`) is seen by `try_wait` the next time the driver's loop polls (every
 //! pass, at most 10 ms apart). A child that is alive but hung only shows by
 //! its silence: that is the launch core's heartbeat timer
-//! (`orchestrator/launch/src/core/timers.rs`), which ends it with [`AgentSource::kill`].
+//! (`orchestrator/launch-core/src/timers.rs`), which ends it with [`AgentSource::kill`].
 //!
 //! Agents are spawned from a thread of their own ([`Spawner`]: their
 //! children inherit none of the launch's files), in their own process group

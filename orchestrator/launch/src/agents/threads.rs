@@ -11,7 +11,7 @@
 //! (`Lifeline::with_flag`: the loop checks it every pass and exits).
 //!
 //! Supervision is the spawned agents': the core's registration and
-//! heartbeat timers (`orchestrator/launch/src/core/timers.rs`), a thread's end reported once
+//! heartbeat timers (`orchestrator/launch-core/src/timers.rs`), a thread's end reported once
 //! by [`AgentSource::poll`].
 
 use super::{AgentError, AgentPlan, AgentProperties, AgentSource, Gone, Started};

@@ -291,7 +291,7 @@ fn is_stop(out: &Output) -> bool {
     matches!(out, Output::Send(_, ToAgent::Stop))
 }
 
-/// A robot revoked (`orchestrator/launch/src/core/revoke.rs`): taken in when asked before
+/// A robot revoked (`orchestrator/launch-core/src/revoke.rs`): taken in when asked before
 /// the end, told `Stop` at most once and, right after it, `Shutdown` (its
 /// agent is told to end; one not running is told neither), nothing of it
 /// shown (no `Output::Moved`), and nothing from it changes the

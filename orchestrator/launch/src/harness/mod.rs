@@ -33,6 +33,8 @@ mod net;
 mod real;
 mod robots;
 mod schedule;
+#[cfg(test)]
+mod tests;
 mod world;
 
 pub use agent::Agent;

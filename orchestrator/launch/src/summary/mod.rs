@@ -5,9 +5,10 @@
 //! launch with `simulate`) can check "bit for bit" without trusting a
 //! decimal round trip.
 
-mod records;
-
-pub use records::{Death, Outage, Outcome, Point, RevokedSummary, StopAnswer, StopSummary};
+/// What the launch core records for the summary (`records.rs` of the core crate, owned there).
+pub use bycoms_launch_core::records::{
+    Death, Outage, Outcome, Point, RevokedSummary, StopAnswer, StopSummary,
+};
 
 use super::core::shown;
 use super::core::{ClockReading, Ending, LaunchCore, Slot, SlotState};
@@ -132,7 +133,7 @@ pub struct RobotSummary {
     pub simulated: bool,
 }
 
-/// A host's clock offset to the orchestrator's (`orchestrator/launch/src/core/clocks.rs`).
+/// A host's clock offset to the orchestrator's (`orchestrator/launch-core/src/clocks.rs`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct ClockSummary {
     /// The host's clock minus the orchestrator's, ms (positive: ahead).

@@ -1,5 +1,14 @@
 //! The launch core: one deterministic state machine, no IO.
 //!
+//! Why a crate of its own (`bycoms-launch-core`, beside `bycoms-launch`, as
+//! quinn-proto beside quinn): Cargo then proves it sans-IO. Its
+//! dependencies are the protocol's messages, the simulated world's plain
+//! types, serde and postcard, with no bus backend, process, socket or async
+//! runtime among them (`orchestrator/tests/layers.rs` holds them to an
+//! allow-list), and the types it owns live here with it (`Gone`, the
+//! policies, its events and records, the gate, placement), re-exported at
+//! their old paths. `bycoms-launch` re-exports this crate as its `core`.
+//!
 //! Why sans-IO: `orchestrator launch` is the heart of the product, and its
 //! rules (registration, duplicate refusal, settling, placement, the gate,
 //! the time budget, partitions and re-sends, the dead-robot policy, the
@@ -65,11 +74,17 @@ mod beacons;
 mod clock_reading;
 mod clocks;
 mod ending;
+pub mod events;
+pub mod gate;
+mod gone;
 mod held;
 mod inputs;
 pub mod log;
 mod moved;
+pub mod placement;
 mod plausible;
+mod policy;
+pub mod records;
 pub mod referee;
 mod revoke;
 mod silence;
@@ -83,19 +98,17 @@ mod watch;
 
 pub use clock_reading::{ClockLimits, ClockReading, ClockVerdict};
 pub use ending::{DiedWhen, Fault};
+pub use gone::{Gone, Reach};
 pub use plausible::Implausible;
+pub use policy::{Missing, OnDeath};
 pub use referee::{Closed, Referee};
+pub use silence::LINK_TIMEOUT;
 pub use slot::{FrameCount, Slot, SlotState};
 pub use stop::{shown, MAX_WHY_CHARS};
 pub use stopping::STOP_WAIT_US;
 pub use wait::{AnswerTime, AnswerWait, MIN_RESEND_US, RESEND_US};
 pub use watch::{least_failsafe_grace_ms, Supervision};
 
-use super::agents::{Gone, Reach};
-use super::config::{Missing, OnDeath};
-use super::events::{EventKind, LaunchEvent};
-use super::summary::{Death, Outage, Outcome, RevokedSummary, StopSummary};
-use bycoms_mocap::{PlacementConfig, PlacementWatch};
 use bycoms_protocol::msg::{
     ClockOffset, Deploy, FromAgent, GateEvent, GateKind, GoalBearing, Pose, Refusal, Refused, Register, Tick,
     Ticks, ToAgent,
@@ -103,8 +116,11 @@ use bycoms_protocol::msg::{
 use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
 use bycoms_runtime::BadKind;
 use bycoms_sim::Vec2;
-use bycoms_study::gate::{GateParams, Verdict};
+use events::{EventKind, LaunchEvent};
+use gate::{GateParams, Verdict};
+use placement::{PlacementConfig, PlacementWatch};
 use plausible::Anchors;
+use records::{Death, Outage, Outcome, RevokedSummary, StopSummary};
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeSet, VecDeque};
 
@@ -623,6 +639,12 @@ impl LaunchCore {
     /// Every robot's bookkeeping, in id order.
     pub fn slots(&self) -> &[Slot] {
         &self.slots
+    }
+    /// Tests only (`testing`): robot `id`'s state set by hand (a rule test
+    /// that needs a deployed robot without playing its deployment).
+    #[cfg(feature = "testing")]
+    pub fn set_state_by_hand(&mut self, id: u32, state: SlotState) {
+        self.slots[id as usize - 1].state = state;
     }
     /// Where the launch is.
     pub fn phase(&self) -> Phase {

@@ -6,8 +6,8 @@
 //! through [`super::LaunchCore::slots`].
 
 use super::ClockReading;
-use crate::agents::Gone;
-use crate::summary::{Death, Outage};
+use crate::records::{Death, Outage};
+use crate::Gone;
 use bycoms_protocol::msg::Pose;
 
 /// Where a robot is in the launch.
@@ -154,6 +154,11 @@ impl Slot {
     /// The robot's number.
     pub fn id(&self) -> u32 {
         self.id
+    }
+    /// Tests only (`testing`): the tick before which it registered, if it did.
+    #[cfg(feature = "testing")]
+    pub fn registered_before_tick(&self) -> Option<u64> {
+        self.registered_before_tick
     }
     /// Where it is in the launch.
     pub fn state(&self) -> SlotState {

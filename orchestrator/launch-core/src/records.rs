@@ -56,7 +56,7 @@ pub struct Outage {
 }
 
 /// A robot revoked while the launch ran, as the summary and the status
-/// record it (`orchestrator/launch/src/core/revoke.rs`).
+/// record it (`orchestrator/launch-core/src/revoke.rs`).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, serde::Deserialize, JsonSchema)]
 pub struct RevokedSummary {
     /// The robot.

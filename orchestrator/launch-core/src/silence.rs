@@ -24,7 +24,7 @@
 //!
 //! * **with a lost link**: a robot reported gone for its lost link
 //!   (`Gone::RobotLinkLost`, 300 ms after its last frame and 150 ms of
-//!   [`LINK_GRACE`] later: 450 ms after the cut) while motion capture has
+//!   `LINK_GRACE` (`bycoms_launch::agents::gateways`) later: 450 ms after the cut) while motion capture has
 //!   been silent at least the gateways' own link timeout, [`SILENCE`]
 //!   (300 ms), was lost with the room: the launch ends there, naming
 //!   motion capture, and no robot is judged dead for its link. The last
@@ -41,11 +41,16 @@
 //!
 //! Not applied in lockstep, nor with simulated agents: there the agents'
 //! own poses are the motion capture, and silence means the agents wait.
-//!
-//! [`LINK_GRACE`]: crate::agents::gateways::LINK_GRACE
 
 use super::*;
-use crate::agents::gateways::LINK_TIMEOUT;
+
+/// How long a gateway hears nothing from its robot before it reports the
+/// robot's link lost (`Link { up: false }`), in robot time (the gateway
+/// divides it by the run's speed): the gateway's own default (its
+/// `--link-timeout-ms`), which the launch starts its gateways with
+/// (`bycoms_launch::agents::gateways`, which re-exports this and checks that
+/// it is the gateway's default when it compiles).
+pub const LINK_TIMEOUT: std::time::Duration = std::time::Duration::from_millis(300);
 
 /// How long motion capture may be silent, at speed 1, when a robot's link
 /// is lost (see the module docs).
@@ -99,8 +104,11 @@ impl LaunchCore {
 
 #[cfg(test)]
 mod tests {
+    //! The launch config's defaults (above this crate) written out where a
+    //! setup needs them: `gate.on_agent_death`, `supervision.missing`,
+    //! `unreachable_grace`, `register_timeout`.
+
     use super::*;
-    use crate::config::LaunchConfig;
     use bycoms_protocol::msg::{LinkStatus, RobotKind};
 
     const PERIOD_US: u64 = 125_000;
@@ -109,7 +117,6 @@ mod tests {
     /// A launch of two real robots (gateways, placed by an operator) at
     /// speed 1.
     fn real_robots() -> Setup {
-        let cfg = LaunchConfig::default();
         let (start, goal) = (Vec2::new(0.0, 0.0), Vec2::new(4.0, 0.0));
         Setup {
             robots: 2,
@@ -126,14 +133,14 @@ mod tests {
             wall_period_us: PERIOD_US,
             speed: 1.0,
             tick_timeout_us: 5_000_000,
-            on_death: cfg.gate.on_agent_death,
-            missing: cfg.supervision.missing,
+            on_death: OnDeath::Beacon,
+            missing: Missing::Skip,
             prespawn: false,
             start,
             goal,
             max_speed: 1.0,
-            unreachable_grace_s: cfg.supervision.unreachable_grace,
-            register_timeout_s: cfg.supervision.register_timeout,
+            unreachable_grace_s: 2.0,
+            register_timeout_s: 10.0,
             agents: AgentTraits {
                 kind: "gateway".into(),
                 all_at_once: true,

@@ -4,7 +4,7 @@
 //! robot and the agent's [`Gone`] reason, never a message with its numbers
 //! stripped, and a change of wording changes no test of a rule.
 
-use crate::agents::Gone;
+use crate::Gone;
 
 /// What ended a launch in error ([`super::Outcome::Error`]).
 #[derive(Clone, Debug, PartialEq)]

@@ -7,7 +7,7 @@
 //! it takes at that deadline read it, so they cannot disagree (they were
 //! two copies of the same case analysis).
 
-use crate::agents::Gone;
+use crate::Gone;
 use serde::{Deserialize, Serialize};
 
 /// The supervision settings of a launch, µs.

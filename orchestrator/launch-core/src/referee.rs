@@ -10,8 +10,8 @@
 //! active steps, and the budget rule ends a robot that runs past the time
 //! limit. The referee decides; whoever holds it says what happens next.
 
+use crate::gate::{GateParams, Verdict, Watch};
 use bycoms_protocol::msg::Pose;
-use bycoms_study::gate::{GateParams, Verdict, Watch};
 
 /// How a robot's deployment ended, as the referee saw it.
 #[derive(Clone, Copy, Debug, PartialEq)]

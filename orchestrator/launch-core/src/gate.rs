@@ -34,10 +34,11 @@
 //!
 //! Sans-IO: poses in, verdicts out; the launch loop owns the bus.
 //!
-//! Why at the crate's top and not in `orchestrator/launch/src/`: the launch core judges with
-//! it, and so do the replay (`replay::judge`) and the picture of a recorded
-//! run (`draw::trace`), which sit on either side of the launch; a rule all
-//! three share lives below them (ARCHITECTURE.md, "Crates of the
+//! Why in the launch core's crate: the launch core judges with it, and so
+//! do the replay (`replay::judge`) and the picture of a recorded run
+//! (`draw::trace`), which sit on either side of the launch; a rule all
+//! three share lives below them, with the core that owns it, and
+//! `bycoms_study::gate` re-exports it (ARCHITECTURE.md, "Crates of the
 //! orchestrator").
 
 use bycoms_agent::angle::wrap;

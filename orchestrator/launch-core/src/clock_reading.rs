@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-pub use bycoms_protocol::bus::zenoh::clock::{ClockLimits, ClockVerdict};
+pub use bycoms_protocol::clock_limits::{ClockLimits, ClockVerdict};
 
 /// One robot's last measured clock offset.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
