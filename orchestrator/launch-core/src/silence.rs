@@ -172,6 +172,11 @@ mod tests {
         x: f64,
         /// The robots the operator was asked to place.
         asked: Vec<u32>,
+        /// Robot 1's pose time per wall time: its agent's speed-up over the
+        /// launch's (a simulated member at `--sim-speed`).
+        clock: u64,
+        /// Poses the core refused.
+        refused: usize,
     }
 
     impl Lab {
@@ -183,6 +188,8 @@ mod tests {
                 deployed: false,
                 x: 0.0,
                 asked: Vec::new(),
+                clock: 1,
+                refused: 0,
             }
         }
 
@@ -208,6 +215,7 @@ mod tests {
                     }
                     Output::Send(1, ToAgent::Deploy(_)) => self.deployed = true,
                     Output::AskOperator(d) => self.asked.push(d.robot.0),
+                    Output::Bad(BadKind::Refused, _) => self.refused += 1,
                     _ => {}
                 }
             }
@@ -229,7 +237,7 @@ mod tests {
                         y: 0.0,
                         heading: 0.0,
                         step: self.frame,
-                        time_us: self.now,
+                        time_us: self.now * self.clock,
                     };
                     self.step(Some(Input::Pose { topic: 1, pose }));
                 }
@@ -322,6 +330,32 @@ mod tests {
         lab.run(1_000_000, true);
         assert_eq!(lab.asked, [1], "the real robot 1 is placed");
         assert!(lab.deployed, "then deployed, motion capture seeing it at the start");
+    }
+
+    /// `--sim-speed`: a simulated member's agent runs 4 times faster than
+    /// the launch, so its pose time runs 4 times as fast as the wall. Each
+    /// pose is judged against its robot's own clock: after 1.5 s of wall
+    /// time without a frame (a loaded host), the next pose is 6 s of pose
+    /// time on, within the rule at the member's speed-up (2 × 1.5 × 4 s +
+    /// slack) and beyond it at the launch's (2 × 1.5 s + 0.5 s).
+    #[test]
+    fn a_simulated_members_poses_are_judged_at_its_own_speed_up() {
+        for (sim_speed, refused) in [(4.0, false), (1.0, true)] {
+            let mut setup = real_robots();
+            setup.members = Members { simulated: vec![1], sim_speed };
+            let mut lab = Lab::new(setup);
+            lab.clock = 4;
+            lab.run(1_000_000, true);
+            assert!(
+                lab.deployed && lab.refused == 0,
+                "poses 4× the wall, one frame at a time: {}",
+                lab.refused
+            );
+            let gap = lab.now;
+            lab.run(gap + 1_500_000, false);
+            lab.run(gap + 1_500_000 + FRAME_US, true);
+            assert_eq!(lab.refused > 0, refused, "sim_speed {sim_speed}: refused {}", lab.refused);
+        }
     }
 
     #[test]
