@@ -3,7 +3,7 @@
 //! and final positions bit for bit (`x_bits`/`y_bits` against
 //! `f64::to_bits`) and the same step counts.
 //!
-//! Step mapping (documented in `orchestrator/launch-core/src/gate.rs`): a
+//! Step mapping (documented in `orchestrator/gate/src/gate.rs`): a
 //! robot's `steps` in the launch summary are its *active* periods — from its
 //! start pose to its last change of pose — which is the runner's
 //! `RobotRun::steps`; the gate's dwell and settle ticks move no robot and

@@ -87,7 +87,7 @@ pub struct NatNetSourceConfig {
 }
 
 /// The `[placement]` table (the launch core's, owned there).
-pub use bycoms_launch_core::placement::PlacementConfig;
+pub use bycoms_gate::placement::PlacementConfig;
 
 impl MocapConfig {
     /// Checks the section against a launch of `robots` robots, of which

@@ -25,8 +25,8 @@ pub mod config;
 pub mod names;
 pub mod natnet_source;
 pub mod pipeline;
-/// Placement, owned by the launch core's crate (`orchestrator/launch-core/src/placement.rs`).
-pub use bycoms_launch_core::placement;
+/// Placement, in the gate's crate (`orchestrator/gate/src/placement.rs`).
+pub use bycoms_gate::placement;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;
 pub mod topics;

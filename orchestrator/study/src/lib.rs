@@ -14,8 +14,8 @@
 //! launch, which sits above (ARCHITECTURE.md, "Crates of the orchestrator").
 
 pub mod draw;
-/// The gate's judgement, owned by the launch core's crate (`orchestrator/launch-core/src/gate.rs`).
-pub use bycoms_launch_core::gate;
+/// The gate's judgement, in its own crate (`orchestrator/gate/src/gate.rs`).
+pub use bycoms_gate::gate;
 pub mod runs;
 pub mod scenario;
 pub mod sweep;

@@ -414,7 +414,7 @@ fn readers_documents() -> Vec<PathBuf> {
 }
 
 /// Every path the README and `docs/` name in backticks or link to, from
-/// one of the repository's top-level folders (`orchestrator/launch-core/src/gate.rs`,
+/// one of the repository's top-level folders (`orchestrator/gate/src/gate.rs`,
 /// `deploy/lab/`), exists: moved text must not point at what is gone.
 /// Names of outputs (`study/`, `run.mcap`) start elsewhere and are left out.
 #[test]

@@ -34,12 +34,13 @@
 //!
 //! Sans-IO: poses in, verdicts out; the launch loop owns the bus.
 //!
-//! Why in the launch core's crate: the launch core judges with it, and so
-//! do the replay (`replay::judge`) and the picture of a recorded run
-//! (`draw::trace`), which sit on either side of the launch; a rule all
-//! three share lives below them, with the core that owns it, and
-//! `bycoms_study::gate` re-exports it (ARCHITECTURE.md, "Crates of the
-//! orchestrator").
+//! Why in a crate of its own (`bycoms-gate`): the launch core judges with
+//! it, and so do the replay (`replay::judge`) and the picture of a recorded
+//! run (`draw::trace`), which sit on either side of the launch; a rule all
+//! three share lives below them all, in a small crate, so that a change in
+//! the launch core rebuilds neither the study nor motion capture.
+//! `bycoms_launch_core::gate` and `bycoms_study::gate` re-export it
+//! (ARCHITECTURE.md, "Crates of the orchestrator").
 
 use bycoms_agent::angle::wrap;
 use bycoms_protocol::msg::Pose;

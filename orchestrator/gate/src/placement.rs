@@ -10,10 +10,12 @@
 //! moves and then tracks it from where it was placed
 //! (`launch::poses::PoseSource::carried`).
 //!
-//! Why in the launch core's crate: the core decides placement with these
-//! plain types and its setup carries the `[placement]` table, so it owns
-//! them; motion capture (`bycoms_mocap`, with its NatNet client) re-exports
-//! them at their old paths.
+//! Why in the gate's crate (`bycoms-gate`): the launch core decides
+//! placement with these plain types and its setup carries the
+//! `[placement]` table; motion capture (`bycoms_mocap`, with its NatNet
+//! client) takes them too. A small crate below both, so that a change in the
+//! launch core does not rebuild motion capture; both re-export them at
+//! their old paths.
 
 use bycoms_protocol::msg::Pose;
 use bycoms_protocol::RobotId;
