@@ -534,6 +534,75 @@ fn the_launch_core_depends_on_no_io_crate() {
     assert!(wrong.is_empty(), "{}:\n{}", path.display(), wrong.join("\n"));
 }
 
+/// The crates that do IO (or start threads, or watch signals): none may be
+/// among the launch core's dependencies, direct or transitive. A name
+/// ending in `*` is a family (`zenoh-transport`, `tokio-util`…).
+const IO_CRATES: &[&str] = &[
+    "tokio*",
+    "mio",
+    "socket2",
+    "async-*",
+    "zenoh*",
+    "iceoryx2*",
+    "nix",
+    "libc",
+    "signal-hook*",
+    "tracing-subscriber",
+    "foxglove",
+    "mcap",
+    "tempfile",
+    "tungstenite",
+    "rustls*",
+    "quinn*",
+    "hyper*",
+    "httparse",
+    "rcgen",
+    "rayon*",
+    "indicatif",
+    "crossbeam*",
+];
+
+/// The packages `cargo tree` lists under `package` built with `args`
+/// (normal dependencies only: what the product links), the package itself
+/// included.
+fn dependency_closure(package: &str, args: &[&str]) -> BTreeSet<String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = std::process::Command::new(cargo)
+        .args(["tree", "-p", package, "-e", "normal", "--prefix", "none", "--format", "{p}", "--offline"])
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("cargo tree runs");
+    assert!(out.status.success(), "cargo tree: {}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8(out.stdout).expect("cargo tree's output is UTF-8");
+    text.lines().filter_map(|l| l.split_whitespace().next()).map(str::to_owned).collect()
+}
+
+/// Whether `name` is one of [`IO_CRATES`].
+fn does_io(name: &str) -> bool {
+    IO_CRATES.iter().any(|io| match io.strip_suffix('*') {
+        Some(family) => name.starts_with(family),
+        None => name == *io,
+    })
+}
+
+/// The allow-list above reads the core's own manifest; a dependency on it
+/// could still pull an IO crate in (a default feature of a crate below,
+/// a feature another turns on). Cargo's resolution of the core alone,
+/// with every feature of its own on, holds none.
+#[test]
+fn no_io_crate_is_among_the_launch_cores_transitive_dependencies() {
+    for args in [&[][..], &["--all-features"][..]] {
+        let closure = dependency_closure("bycoms-launch-core", args);
+        assert!(closure.contains("bycoms-protocol") && closure.contains("serde"), "read: {closure:?}");
+        let io: Vec<&String> = closure.iter().filter(|name| does_io(name)).collect();
+        assert!(io.is_empty(), "the launch core ({args:?}) depends on IO crates: {io:?}");
+    }
+    // The rule sees what it must: the launch above the core does IO.
+    let launch = dependency_closure("bycoms-launch", &[]);
+    assert!(launch.iter().any(|name| does_io(name)), "the launch's IO crates are seen: {launch:?}");
+}
+
 #[test]
 fn the_reader_sees_groups_climbs_and_macros_but_not_comments_or_strings() {
     let code = "//! crate::a\nuse crate::{b, c::{d, e}, self};\nlet s = \"crate::f\";\n\
