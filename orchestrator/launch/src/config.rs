@@ -11,6 +11,7 @@
 
 mod finite;
 mod moved;
+mod ros2;
 
 pub use super::agents::choice::{AgentSourceKind, AgentsConfig};
 pub use super::agents::gateways::GatewaysAt;
@@ -23,6 +24,7 @@ use bycoms_sim::runner::DEFAULT_SUCCESS_RADIUS;
 use bycoms_sim::sensing::NoiseModel;
 use bycoms_sim::RunConfig;
 use bycoms_study::runs::{check_run, RunNames};
+pub use ros2::Ros2Config;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -83,7 +85,7 @@ pub struct LaunchConfig {
     /// Fault injection into the orchestrator's bus (off by default).
     pub faults: FaultsConfig,
     /// `launch --ros2`: publish the run into a ROS 2 graph over rmw_zenoh (zenoh transport only).
-    pub ros2: Option<super::ros2::Ros2Config>,
+    pub ros2: Option<Ros2Config>,
     /// The bus: iceoryx2 on this host, or zenoh across hosts.
     pub transport: TransportConfig,
     /// Where the gate's poses come from (`bycoms_mocap::MocapConfig`).

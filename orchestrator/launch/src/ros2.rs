@@ -24,11 +24,10 @@
 //! terrain cells (1 cell = 1 unit of the `world` frame).
 
 pub mod bag;
-mod config;
 mod messages;
 pub mod publish;
 
-pub use config::Ros2Config;
+pub use super::config::Ros2Config;
 pub use messages::{ros_messages, run_time, static_frames, ARENA_FRAME, MOCAP_FRAME, WORLD_FRAME};
 
 use super::config::LaunchConfig;

@@ -19,8 +19,8 @@
 //! `orchestrator/tests/transport_suite.rs` for each kind of transport.
 
 use super::agents::choice::AgentLinks;
+use super::config::FaultsConfig;
 use super::config::{Transport, TransportConfig};
-use super::faults::FaultsConfig;
 use bycoms_protocol::bus::ipc::IpcBus;
 use bycoms_protocol::bus::memory::MemoryBus;
 use bycoms_protocol::bus::zenoh::{AliveToken, Mode, ZenohBus};

@@ -1,4 +1,4 @@
-//! No file cycles, in any crate of the workspace.
+//! No file cycles and no module cycles, in any crate of the workspace.
 //!
 //! The same reader (`code_only`, `tokens`) builds the graph of files of each
 //! crate that has a `src/`: file F has an edge to file G when F's code names
@@ -360,7 +360,12 @@ impl Crate {
 /// Every cycle of files (one per strongly connected set), each as the
 /// files in order with the line of each use: `a.rs:3 → b.rs:9 → a.rs`.
 fn cycles(tree: &Tree) -> Vec<(String, Vec<PathBuf>)> {
-    let edges = Crate::of(tree).edges();
+    cycles_of(&Crate::of(tree).edges())
+}
+
+/// Every cycle of a graph of `edges` ((from, to) → the line of `from` that
+/// uses `to`), one per strongly connected set.
+fn cycles_of(edges: &BTreeMap<(PathBuf, PathBuf), usize>) -> Vec<(String, Vec<PathBuf>)> {
     let mut next: BTreeMap<&PathBuf, Vec<&PathBuf>> = BTreeMap::new();
     for (from, to) in edges.keys() {
         next.entry(from).or_default().push(to);
@@ -510,4 +515,67 @@ fn a_cycle_of_files_is_seen_and_a_facade_is_not_one() {
         ("a.rs", "pub fn f(_: &dyn super::Own) {}"),
     ]);
     assert_eq!(text(cycles(&external)), Vec::<String>::new());
+}
+
+/// The top-level module of a file under `src/` (`ros2.rs` and `ros2/bag.rs`
+/// are `ros2`); the crate root's own file is none.
+fn top_module(file: &Path) -> Option<PathBuf> {
+    module_path_rel(file).into_iter().next().map(PathBuf::from)
+}
+
+/// Every cycle of top-level modules: the file graph with each file read as
+/// its top-level module (`config` → `ros2` when a file of `config` uses one
+/// of `ros2`), each use shown at the line of the first file that makes it.
+/// The crate root's file is left out: it declares every module.
+fn module_cycles(tree: &Tree) -> Vec<(String, Vec<PathBuf>)> {
+    let mut folded = BTreeMap::new();
+    for ((from, to), line) in Crate::of(tree).edges() {
+        if let (Some(a), Some(b)) = (top_module(&from), top_module(&to)) {
+            if a != b {
+                folded.entry((a, b)).or_insert(line);
+            }
+        }
+    }
+    cycles_of(&folded)
+}
+
+/// No module cycles either: in every crate, no two top-level modules use
+/// each other, directly or round a loop, through any of their files (the
+/// issue's `config` ↔ `ros2` of the launch was one, with no file cycle:
+/// `config.rs` used `ros2/config.rs` and `ros2.rs` used `config.rs`).
+#[test]
+fn no_module_cycles_in_any_crate() {
+    let mut found = Vec::new();
+    for dir in members() {
+        let name = dir.file_name().expect("a folder").to_string_lossy().into_owned();
+        for (text, _) in module_cycles(&tree_of(&dir)) {
+            found.push(format!("{name}: {text}"));
+        }
+    }
+    assert!(found.is_empty(), "cycles of top-level modules (each uses the next):\n{}", found.join("\n"));
+}
+
+#[test]
+fn a_module_cycle_is_seen_through_files_that_make_no_file_cycle() {
+    let tree = |files: &[(&str, &str)]| -> Tree {
+        files.iter().map(|(p, t)| (PathBuf::from(p), t.to_string())).collect()
+    };
+    let files = [
+        ("lib.rs", "mod config; mod ros2;"),
+        ("config.rs", "pub struct Launch { pub ros2: crate::ros2::Ros2Config }"),
+        ("ros2.rs", "mod config; pub use config::Ros2Config;\nfn world(_: &crate::config::Launch) {}"),
+        ("ros2/config.rs", "pub struct Ros2Config;"),
+    ];
+    let cyclic = tree(&files);
+    assert_eq!(cycles(&cyclic), Vec::new(), "no two files use each other");
+    let text: Vec<String> = module_cycles(&cyclic).into_iter().map(|c| c.0).collect();
+    assert_eq!(text, ["config:1 → ros2:2 → config"]);
+    // Ros2Config moved into `config`: the output uses the config, not back.
+    let moved = tree(&[
+        ("lib.rs", "mod config; mod ros2;"),
+        ("config.rs", "mod ros2; pub use ros2::Ros2Config;\npub struct Launch { pub ros2: Ros2Config }"),
+        ("config/ros2.rs", "pub struct Ros2Config;"),
+        ("ros2.rs", "pub use crate::config::Ros2Config;\nfn world(_: &crate::config::Launch) {}"),
+    ]);
+    assert_eq!(module_cycles(&moved), Vec::new());
 }

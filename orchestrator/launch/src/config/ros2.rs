@@ -1,9 +1,11 @@
 //! The `[ros2]` table of a launch config: the graph's domain, the
 //! namespace, the lab's router.
 //!
-//! Why a file of its own: the launch's config (`orchestrator/launch/src/config.rs`) holds
-//! it, and the ROS 2 output (`ros2.rs`) reads the launch's config (no file
-//! cycles).
+//! Why here, in the config's module and not the ROS 2 output's: the
+//! launch's config (`orchestrator/launch/src/config.rs`) holds it, and the
+//! ROS 2 output (`ros2.rs`) reads the launch's config, so the output uses
+//! the config and never the other way (no module cycles). `ros2.rs`
+//! re-exports it beside what it configures.
 
 use serde::{Deserialize, Serialize};
 
