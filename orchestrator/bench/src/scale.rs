@@ -116,10 +116,9 @@ pub fn run(agent: AgentCommand, agents: u32, seconds: f64, speed: f64) -> Result
     }
     // What was published while the loop read /proc is still queued.
     drain(&mut last, &mut missed, &mut periods);
-    for c in &commands {
-        let _ = c.publish(&ToAgent::Shutdown);
-    }
-    bycoms_launch::driver::wind_down(&mut sup, Duration::from_secs(5));
+    let ids: Vec<u32> = (1..=agents).collect();
+    let mut shutdown = |id: u32| drop(commands[id as usize - 1].publish(&ToAgent::Shutdown));
+    bycoms_launch::driver::wind_down(&mut sup, &ids, Duration::from_secs(5), &mut shutdown);
     Ok(report(agents, seconds, periods, &missed, &memories, start_s))
 }
 

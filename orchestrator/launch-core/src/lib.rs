@@ -95,6 +95,7 @@ mod stopping;
 mod timers;
 mod wait;
 mod watch;
+mod wind_down;
 
 pub use clock_reading::{ClockLimits, ClockReading, ClockVerdict};
 pub use ending::{DiedWhen, Fault};
@@ -108,6 +109,7 @@ pub use stop::{shown, MAX_WHY_CHARS};
 pub use stopping::STOP_WAIT_US;
 pub use wait::{AnswerTime, AnswerWait, MIN_RESEND_US, RESEND_US};
 pub use watch::{least_failsafe_grace_ms, Supervision};
+pub use wind_down::{WindDown, WindStep};
 
 use bycoms_protocol::msg::{
     ClockOffset, Deploy, FromAgent, GateEvent, GateKind, GoalBearing, Pose, Refusal, Refused, Register, Tick,

@@ -14,7 +14,7 @@ use super::agents::{AgentPlan, AgentSource, Gone, Joining, Started};
 use super::config::{Clock, LaunchConfig};
 use super::control::{shown, Answer, Ask, Control, Reply, Request};
 use super::core::log::{self, Logged};
-use super::core::{Ending, Input, Output, Revoke, Slot, SlotState, Stop};
+use super::core::{Ending, Input, Output, Revoke, Slot, SlotState, Stop, WindDown, WindStep};
 use super::events::EVENT_SCHEMA;
 use super::ports::Ports;
 use super::poses::{PoseSink, PoseSource};
@@ -484,13 +484,12 @@ impl Driver {
         let running: Vec<u32> =
             self.core.slots().iter().filter(|s| self.agents.is_running(s.id())).map(Slot::id).collect();
         let live = running.len();
-        for id in running {
-            // A failure to send only means it is ended after the grace period.
-            let _ = self.ports.send(id, &ToAgent::Shutdown, false);
-        }
         let grace = self.cfg.supervision.shutdown_grace_for(live);
         let winding = Instant::now();
-        let killed = wind_down(self.agents.as_mut(), grace);
+        let ports = &mut self.ports;
+        // A failure to send only means it is ended after the grace period.
+        let mut shutdown = |id| drop(ports.send(id, &ToAgent::Shutdown, false));
+        let killed = wind_down(self.agents.as_mut(), &running, grace, &mut shutdown);
         tracing::debug!(
             agents = live,
             killed = killed.len(),
@@ -651,16 +650,48 @@ const LAST_REPORTS_PER_ROBOT: usize = 64;
 /// How often winding down looks whether the agents ended.
 const REAP_EVERY: Duration = Duration::from_millis(2);
 
-/// Winds `agents` down after `Shutdown` was sent: asks the ones that may
-/// have missed it to end, gives them up to `grace` (this shell's clock: the
-/// sources read none), then ends the rest; returns those it had to end.
-pub fn wind_down(agents: &mut dyn AgentSource, grace: Duration) -> Vec<u32> {
-    agents.ask_to_end();
-    let deadline = Instant::now() + grace;
-    while agents.reap() && Instant::now() < deadline {
-        std::thread::sleep(REAP_EVERY);
+/// Winds down the agents of `running` as the core's [`WindDown`] decides,
+/// on this shell's clock (the sources read none): `shutdown(id)` sends
+/// robot `id`'s agent `Shutdown`, the source asks those that may have
+/// missed it to end, they get up to `grace` to exit, and the source ends
+/// the rest; returns those it had to end.
+pub fn wind_down(
+    agents: &mut dyn AgentSource,
+    running: &[u32],
+    grace: Duration,
+    shutdown: &mut dyn FnMut(u32),
+) -> Vec<u32> {
+    let start = Instant::now();
+    let now = || u64::try_from(start.elapsed().as_micros()).unwrap_or(u64::MAX);
+    let grace_us = u64::try_from(grace.as_micros()).unwrap_or(u64::MAX);
+    let mut winding = WindDown::new(now(), grace_us, running.iter().copied());
+    loop {
+        match winding.poll(now()) {
+            Some(WindStep::Shutdown(ids)) => ids.into_iter().for_each(&mut *shutdown),
+            Some(WindStep::AskToEnd) => agents.ask_to_end(),
+            // The source ends what it still runs, and says what that was.
+            Some(WindStep::EndRest(_)) => return agents.end_rest(),
+            None if winding.is_done() => return agents.end_rest(),
+            None => {
+                reap(agents, &mut winding);
+                if winding.running().next().is_some() {
+                    std::thread::sleep(REAP_EVERY);
+                }
+            }
+        }
     }
-    agents.end_rest()
+}
+
+/// Takes in the agents that ended: every one when the source sees none
+/// running (or cannot see them leave).
+fn reap(agents: &mut dyn AgentSource, winding: &mut WindDown) {
+    if !agents.reap() {
+        return winding.all_ended();
+    }
+    let ended: Vec<u32> = winding.running().filter(|&id| !agents.is_running(id)).collect();
+    for id in ended {
+        winding.ended(id);
+    }
 }
 
 #[cfg(test)]
@@ -681,7 +712,7 @@ mod tests {
         };
         let mut source = Spawned::new(command);
         source.spawn(1, &[], "").expect("spawn");
-        let killed = wind_down(&mut source, Duration::from_secs(20));
+        let killed = wind_down(&mut source, &[1], Duration::from_secs(20), &mut |_| {});
         assert_eq!(killed, Vec::<u32>::new(), "it ended when asked, so nobody had to kill it");
         assert!(!source.is_running(1));
     }

@@ -56,7 +56,7 @@ fn one(seed: u64) -> (Case, Schedule, Report) {
 
 /// One schedule's tally: outcome, kind of error, bad traffic, re-sends,
 /// and which kinds of launch it was (see `covered`).
-type Played = (String, Option<String>, u64, u64, [bool; 5]);
+type Played = (String, Option<String>, u64, u64, [bool; 7]);
 
 #[test]
 fn schedules_keep_the_properties() {
@@ -86,6 +86,10 @@ fn schedules_keep_the_properties() {
                 schedule.gateway_seams && report.forwarded > 0,
                 schedule.stop_when_stuck && report.stops_sent.iter().sum::<u64>() > 0,
                 schedule.recording_fails,
+                // The wind-down ended an agent that had not left (late or hung),
+                // and let every running agent leave by itself within the grace.
+                report.wound.as_ref().is_some_and(|w| !w.ended.is_empty()),
+                report.wound.as_ref().is_some_and(|w| w.ended.is_empty() && !w.told.is_empty()),
                 schedule.gateways && report.deploys_sent.iter().sum::<u64>() > 0,
                 schedule.gateways && matches!(ending.error, Some(Fault::NotPlaced { .. })),
             ];
@@ -95,7 +99,7 @@ fn schedules_keep_the_properties() {
     let mut outcomes = std::collections::BTreeMap::new();
     let mut errors = std::collections::BTreeMap::new();
     let (mut bad, mut resends) = (0u64, 0u64);
-    let mut covered = [0u64; 5];
+    let mut covered = [0u64; 7];
     for (outcome, error, b, r, c) in played {
         for (n, c) in covered.iter_mut().zip(c) {
             *n += u64::from(c);
@@ -111,13 +115,14 @@ fn schedules_keep_the_properties() {
     eprintln!("errors: {errors:#?}");
     eprintln!(
         "gateway seams with poses forwarded, stuck robots stopped, recordings failed, \
+         wind-downs that ended an agent, wind-downs that every agent left in time, \
          gateway agents deployed, robots never placed: {covered:?}"
     );
     // The schedules reach every kind of ending, or they test too little.
     if count >= 1000 {
         // Real robots are one schedule in 200 (they cost the most): their
         // kinds are required from 5 000 schedules on.
-        let kinds = if count >= 5000 { covered.len() } else { 3 };
+        let kinds = if count >= 5000 { covered.len() } else { 5 };
         assert!(covered[..kinds].iter().all(|&n| n > 0), "a kind of launch never drawn: {covered:?}");
         for o in ["Arrived", "RobotsExhausted", "TimeLimit", "Interrupted"] {
             assert!(outcomes.contains_key(o), "no schedule ended {o}: {outcomes:?}");

@@ -258,7 +258,7 @@ fn wind_down_ends_everything_and_names_the_rest(fixture: &dyn AgentFixture, repo
     for id in 1..=3 {
         source.heard(id);
     }
-    let mut ended = wind_down(&mut *source, Duration::from_millis(500));
+    let mut ended = wind_down(&mut *source, &[1, 2, 3], Duration::from_millis(500), &mut |_| {});
     ended.sort_unstable();
     assert_eq!(ended, [1, 2], "the agents that did not end by themselves, and only those");
     for id in 1..=3 {
@@ -266,7 +266,11 @@ fn wind_down_ends_everything_and_names_the_rest(fixture: &dyn AgentFixture, repo
         assert!(source.pid(id).is_none(), "robot {id} has a pid after wind_down");
     }
     assert_eq!(reported(&mut *source), [], "nothing left to report");
-    assert_eq!(wind_down(&mut *source, Duration::from_millis(10)), Vec::<u32>::new(), "nothing left to end");
+    assert_eq!(
+        wind_down(&mut *source, &[1, 2, 3], Duration::from_millis(10), &mut |_| {}),
+        Vec::<u32>::new(),
+        "nothing left to end"
+    );
 }
 
 /// Dropping a source ends whatever is still running (seen for processes:
@@ -302,5 +306,5 @@ fn unknown_robots_are_ignored(fixture: &dyn AgentFixture) {
     source.heard(99);
     assert!(!source.is_running(99) && source.pid(99).is_none() && !source.kill(99));
     assert_eq!(reported(&mut *source), [], "nothing was started");
-    assert_eq!(wind_down(&mut *source, Duration::from_millis(10)), Vec::<u32>::new());
+    assert_eq!(wind_down(&mut *source, &[99], Duration::from_millis(10), &mut |_| {}), Vec::<u32>::new());
 }

@@ -167,6 +167,7 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
     }
     check_summary(report, schedule, ending)?;
     check_stops(report, schedule)?;
+    check_wind_down(report)?;
     check_revoke(report, schedule)?;
     check_views(report)?;
     let seams = schedule.seams();
@@ -410,6 +411,36 @@ fn check_real_robots(report: &Report, schedule: &Schedule, ending: &Ending) -> R
     let timeout_us = (PLACEMENT.timeout * 1e6) as u64;
     if asked.is_none_or(|t| report.end_us < t + timeout_us) {
         return Err(format!("robot {robot} NotPlaced at {} µs, asked at {asked:?}", report.end_us));
+    }
+    Ok(())
+}
+
+/// The wind-down after the ending: every agent still running is told
+/// `Shutdown` once and asked to end; those that have not left when the
+/// grace is over, and only those, are ended; it is done as soon as the
+/// last has left, never after the grace; and a simulated agent leaves on
+/// `Shutdown` by its own rule.
+fn check_wind_down(report: &Report) -> Result<(), String> {
+    let Some(w) = &report.wound else { return Err("an ending without a wind-down".into()) };
+    let running: Vec<u32> = w.leaves.iter().map(|l| l.0).collect();
+    if running != report.agents_at_end || w.told != running || !w.asked {
+        return Err(format!(
+            "wind-down: agents at the end {:?}, running {running:?}, told {:?}, asked {}",
+            report.agents_at_end, w.told, w.asked
+        ));
+    }
+    let deadline = w.started_us.saturating_add(w.grace_us);
+    let late: Vec<u32> = w.leaves.iter().filter(|l| l.1.is_none_or(|t| t > deadline)).map(|l| l.0).collect();
+    if w.ended != late {
+        return Err(format!("wind-down ended {:?}, but {late:?} had not left by {deadline} µs", w.ended));
+    }
+    let last = w.leaves.iter().filter_map(|l| l.1).max().unwrap_or(w.started_us).max(w.started_us);
+    let done = if late.is_empty() { last } else { deadline };
+    if w.done_us != done {
+        return Err(format!("wind-down done at {} µs, expected {done} µs", w.done_us));
+    }
+    if !w.stayed.is_empty() {
+        return Err(format!("simulated agents {:?} did not leave on Shutdown", w.stayed));
     }
     Ok(())
 }

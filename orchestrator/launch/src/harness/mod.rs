@@ -35,6 +35,7 @@ mod robots;
 mod schedule;
 #[cfg(test)]
 mod tests;
+mod wind;
 mod world;
 
 pub use agent::Agent;
@@ -43,6 +44,7 @@ pub use figures::{missing_robots, MissingFigures};
 pub use net::{Net, NetFaults, Packet, Partition};
 pub use real::{Body, RealRobot, ORPHAN_BOUND_US, STOP_BOUND_US};
 pub use schedule::{Crash, Foreign, Placing, Schedule, PLACEMENT};
+pub use wind::WoundDown;
 pub use world::{run, run_logged};
 
 use super::agents::Gone;
@@ -218,6 +220,8 @@ pub struct Report {
     /// Robots whose agent (simulated, or a gateway) still ran at the end,
     /// whatever the core held of it.
     pub agents_at_end: Vec<u32>,
+    /// The wind-down after the ending (none: the launch did not end).
+    pub wound: Option<WoundDown>,
 }
 
 /// Longest simulated time of a launch of real robots, s.

@@ -124,6 +124,7 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             moved: Vec::new(),
             forged: Vec::new(),
             agents_at_end: Vec::new(),
+            wound: None,
         },
         early_deaths_left: schedule.early_deaths.clone(),
         racers: Vec::new(),
@@ -510,6 +511,9 @@ impl World<'_> {
         self.report.end_us = self.now;
         self.report.lost = self.net.lost;
         self.collect_violations();
+        if self.report.ending.is_some() {
+            self.wind_down();
+        }
         self.report
     }
 
