@@ -35,6 +35,16 @@ pub enum Content<'a> {
     Pose(Pose),
     /// A pose the launch core applied (`core/moved`): one the views show.
     Moved(Pose),
+    /// A change of the launch core's beacon table (`core/beacon`): robot
+    /// `robot`'s beacon stands at (`x`, `y`).
+    Beacon {
+        /// The robot.
+        robot: u32,
+        /// Where, x.
+        x: f64,
+        /// Where, y.
+        y: f64,
+    },
     /// A gate event the launch published.
     Gate(GateEvent),
     /// A placement request to the lab's operator.
@@ -75,6 +85,10 @@ pub fn decode<'a>(topic: &str, schema_name: &str, encoding: &str, data: &'a [u8]
         schema::MOVED if postcard_bytes => {
             bus(data).map_or(Content::Undecodable { schema: schema::MOVED }, Content::Moved)
         }
+        schema::BEACON if postcard_bytes => match bus::<ToAgent>(data) {
+            Some(ToAgent::Beacon(b)) => Content::Beacon { robot: b.robot.0, x: b.x, y: b.y },
+            _ => Content::Undecodable { schema: schema::BEACON },
+        },
         schema::GATE if postcard_bytes => {
             bus(data).map_or(Content::Undecodable { schema: schema::GATE }, Content::Gate)
         }
