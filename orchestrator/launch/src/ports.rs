@@ -21,9 +21,9 @@ use super::recording::{Recording, Seen};
 use super::transport::{AnyPublisher, AnySubscriber, SharedBus};
 use bycoms_protocol::bus::{untag, BusError, FAN_IN_TAG};
 use bycoms_protocol::msg::{Beacon, Deploy, FromAgent, GateEvent, Pose, ToAgent};
-use bycoms_sim::Vec2;
 use bycoms_protocol::{decode, encode, Message, RobotId, Swarm, TopicName, MAX_MESSAGE_LEN};
 use bycoms_runtime::{BadKind, Traffic};
+use bycoms_sim::Vec2;
 use std::collections::BTreeMap;
 use std::time::Duration;
 

@@ -316,17 +316,27 @@ impl World<'_> {
             b.sort_by_key(|(id, _)| *id);
             b
         };
-        let bits = |b: &[(u32, Vec2)]| b.iter().map(|(id, at)| (*id, at.x.to_bits(), at.y.to_bits())).collect();
+        let bits =
+            |b: &[(u32, Vec2)]| b.iter().map(|(id, at)| (*id, at.x.to_bits(), at.y.to_bits())).collect();
         let (table, folded): (Vec<_>, Vec<_>) = (bits(&self.core.beacons()), bits(&shown));
         if table != folded {
-            let why = format!("at {} µs the views' beacons {shown:?}, the core's {:?}", self.now, self.core.beacons());
+            let why = format!(
+                "at {} µs the views' beacons {shown:?}, the core's {:?}",
+                self.now,
+                self.core.beacons()
+            );
             self.report.view_differs = Some(why);
             return;
         }
         for s in self.core.slots() {
             let state = self.view.robot_view(s.id()).and_then(|r| r.state).unwrap_or(SlotState::Waiting);
             if state != s.state() {
-                let why = format!("at {} µs robot {} is {state:?} in the views, {:?} in the core", self.now, s.id(), s.state());
+                let why = format!(
+                    "at {} µs robot {} is {state:?} in the views, {:?} in the core",
+                    self.now,
+                    s.id(),
+                    s.state()
+                );
                 self.report.view_differs = Some(why);
                 return;
             }
@@ -539,7 +549,8 @@ impl World<'_> {
         let core = &self.core;
         self.report.ending = core.ending().cloned();
         let recording = if self.schedule.recording_fails { Err("disk full (harness)") } else { Ok(()) };
-        self.report.decided = core.ending().map(|e| super::super::summary::of(core, &self.view, e, recording));
+        self.report.decided =
+            core.ending().map(|e| super::super::summary::of(core, &self.view, e, recording));
         self.report.robots = core.slots().iter().map(|s| (s.state(), s.steps(), s.last_pose())).collect();
         self.report.deaths = core.slots().iter().map(|s| s.death().map(|d| d.reason.clone())).collect();
         self.report.late = core.slots().iter().filter(|s| s.joined_late()).map(|s| s.id()).collect();

@@ -243,7 +243,7 @@ pub fn export<W: Write + Seek>(input: &Path, out: W, file_name: &str) -> Result<
             }
             (Content::Gate(event), Some((run, sink))) => run.gate(&event, sink),
             (Content::Beacon { robot, x, y }, Some((run, sink))) => {
-                run.beacon(robot, bycoms_sim::Vec2::new(x, y), sink)
+                run.beacon(robot, bycoms_sim::Vec2::new(x, y), sink);
             }
             (Content::Report(report), Some((run, sink))) => run.report(&report, sink),
             _ => {}

@@ -35,6 +35,7 @@
 
 use std::collections::BTreeMap;
 
+use bycoms_launch_core::view::{RunView, Shown};
 use bycoms_protocol::msg::{Commanded, FromAgent, GateEvent, GateKind, Pose};
 use bycoms_record::schema::Ros2RobotTopic;
 use bycoms_ros2::bycoms_msgs::{gate_kind, robot_state, GateEvent as RosGateEvent, RobotState};
@@ -49,7 +50,6 @@ use bycoms_ros2::msgs::{
 use bycoms_ros2::rmw_zenoh::Qos;
 use bycoms_ros2::types::TypeDescription;
 use bycoms_ros2::velocity::VelocityMessage;
-use bycoms_launch_core::view::{RunView, Shown};
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::Vec2;
 

@@ -75,6 +75,7 @@
 pub mod json;
 mod shapes;
 
+use bycoms_gate::view::{RunView, Shown};
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::Vec2;
@@ -82,7 +83,6 @@ use foxglove::messages::{
     log, Color, FrameTransform, FrameTransforms, Log, SceneEntity, SceneUpdate, Timestamp, Vector3,
 };
 use foxglove::Encode;
-use bycoms_gate::view::{RunView, Shown};
 use json::{BeaconAt, Decision, GateDecision, RobotMode, RobotPose, Telemetry};
 use shapes::{arrow, ball, circle, cuboid, disc, label, polyline, rgba, yaw};
 use std::collections::BTreeMap;
