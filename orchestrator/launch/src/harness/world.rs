@@ -548,6 +548,13 @@ impl World<'_> {
     pub(super) fn finish(mut self) -> Report {
         let core = &self.core;
         self.report.ending = core.ending().cloned();
+        // The view's arrival (the trace's success) is the core's outcome.
+        let arrived = core.ending().is_some_and(|e| e.outcome == Outcome::Arrived);
+        if self.view.arrived().is_some() != arrived && self.report.view_differs.is_none() {
+            let why =
+                format!("the views' arrival {:?} for the outcome {:?}", self.view.arrived(), core.ending());
+            self.report.view_differs = Some(why);
+        }
         let recording = if self.schedule.recording_fails { Err("disk full (harness)") } else { Ok(()) };
         self.report.decided =
             core.ending().map(|e| super::super::summary::of(core, &self.view, e, recording));
