@@ -412,11 +412,13 @@ impl Summary {
 pub struct Decided {
     /// How it ended (and the summary's `success`, `error`).
     pub verdict: Verdict,
-    /// Robots deployed: the robots with a deployment tick.
+    /// Robots deployed: the robots the gate deployed, as the run's view
+    /// ([`RunView::robots_used`]) counts them for every renderer.
     pub robots_used: u32,
     /// Every robot.
     pub robots: Vec<RobotSummary>,
-    /// Positions of the beacons (stuck and dead robots), in robot order.
+    /// Positions of the beacons (stuck and dead robots, where the core's
+    /// table has them: the view's), in robot order.
     pub beacons: Vec<Vec2>,
     /// Active control periods charged.
     pub steps: u64,
