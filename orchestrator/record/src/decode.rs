@@ -130,6 +130,20 @@ mod tests {
         assert_eq!(garbage, Content::Undecodable { schema: schema::POSE });
     }
 
+    /// `core/beacon`: the core's beacon table changes, bit for bit; any
+    /// other command on it does not decode.
+    #[test]
+    fn a_beacon_change_decodes_from_its_channel() {
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        let at = bycoms_protocol::msg::Beacon { robot: RobotId(3), x: 0.1 + 0.2, y: -1.5, seq: 0 };
+        let bytes = encode(&ToAgent::Beacon(at), &mut buf).expect("encodes");
+        let got = decode("bycoms/s/core/beacon", schema::BEACON, schema::POSTCARD, bytes);
+        assert_eq!(got, Content::Beacon { robot: 3, x: 0.1 + 0.2, y: -1.5 });
+        let tick = encode(&ToAgent::Tick(Tick { step: 1 }), &mut buf).expect("encodes").to_vec();
+        let other = decode("bycoms/s/core/beacon", schema::BEACON, schema::POSTCARD, &tick);
+        assert_eq!(other, Content::Undecodable { schema: schema::BEACON });
+    }
+
     #[test]
     fn a_command_belongs_to_the_robot_of_its_topic() {
         let mut buf = [0u8; MAX_MESSAGE_LEN];

@@ -49,7 +49,7 @@ pub const MOVED: &str = "bycoms.Moved";
 /// beacon now stands, bit for bit. Every beacon the views show, creeping as
 /// the core's; a recording whose run metadata says `beacons_told` is drawn
 /// and exported with these.
-pub const BEACON: &str = "bycoms.BeaconAt";
+pub const BEACON: &str = "bycoms.Beacon";
 
 // Motion capture as received (the NatNet datagram's bytes).
 
