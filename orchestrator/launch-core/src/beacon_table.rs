@@ -1,7 +1,8 @@
 //! The table of beacons the launch tells its simulated agents
 //! (`beacons.rs` says why and how it is sent): every beacon at its latest
 //! pose, bit for bit, versioned so each agent is sent only what changed
-//! since it was last told.
+//! since it was last told. Kept in every launch: its changes are what the
+//! views show of beacons (`Output::Beacon`, `moved.rs`).
 
 use std::collections::BTreeMap;
 
@@ -60,6 +61,11 @@ impl BeaconTable {
         self.at.insert(robot, entry);
         self.by_version.insert(version, robot);
         true
+    }
+
+    /// Every beacon and where it stands, in robot order.
+    pub fn all(&self) -> Vec<(u32, bycoms_sim::Vec2)> {
+        self.at.iter().map(|(&robot, e)| (robot, bycoms_sim::Vec2::new(e.x, e.y))).collect()
     }
 
     /// Whether robot `robot` is a beacon.

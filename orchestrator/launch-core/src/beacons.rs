@@ -28,10 +28,12 @@ use bycoms_protocol::RobotId;
 
 impl LaunchCore {
     /// Robot `id` stands at `pose` as a beacon: judged stuck, lost (where
-    /// it was last seen), or a beacon that moved on.
+    /// it was last seen), or a beacon that moved on. The table is kept in
+    /// every launch, as the views show it ([`Output::Beacon`] on each
+    /// change); only agents that sense beacons are sent it.
     pub(super) fn beacon_at(&mut self, id: u32, pose: &Pose) {
-        if self.setup.agents.beacons {
-            self.beacons.set(id, pose.x, pose.y);
+        if self.beacons.set(id, pose.x, pose.y) {
+            self.shown_beacon(id, pose);
         }
     }
 

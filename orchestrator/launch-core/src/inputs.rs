@@ -23,11 +23,12 @@ impl LaunchCore {
             slot.pid = pid;
             slot.alive = true;
             // A late joiner is expected again after it registered.
-            slot.state = if slot.registered_before_tick.is_some() {
+            let state = if slot.registered_before_tick.is_some() {
                 SlotState::Registered
             } else {
                 SlotState::Spawned
             };
+            self.set_state(id, state);
         }
         self.watch_started(now, id);
         self.note(format!("robot {id}: {how}"));
@@ -149,11 +150,12 @@ impl LaunchCore {
         slot.parked = false;
         slot.registered_before_tick = Some(ticks_started);
         slot.registered_at = Some(now);
-        if slot.state == SlotState::Spawned {
-            slot.state = SlotState::Registered;
+        let was = slot.state;
+        if matches!(was, SlotState::Spawned | SlotState::Absent) {
+            self.set_state(id, SlotState::Registered);
         }
-        if slot.state == SlotState::Absent {
-            slot.state = SlotState::Registered;
+        if was == SlotState::Absent {
+            let Some(slot) = self.slot(id) else { return };
             slot.late = true;
             slot.death = None;
             self.late.push_back(id);
@@ -300,8 +302,8 @@ impl LaunchCore {
     fn deployed(&mut self, now: u64, topic: u32, pose: Pose) {
         let start = self.referee.open(topic, pose, self.ticks);
         let reaction = self.decided_at.map(|d| now.saturating_sub(d));
+        self.set_state(topic, SlotState::Moving);
         let Some(slot) = self.slot(topic) else { return };
-        slot.state = SlotState::Moving;
         slot.deployed_tick = Some(start.step + 1);
         slot.reaction_us = reaction;
         self.first_moving_us.get_or_insert(now);
@@ -406,9 +408,7 @@ impl LaunchCore {
         let fatal = match state {
             SlotState::Spawned => self.never_registered(id, gone, reason),
             SlotState::Registered | SlotState::Deploying => {
-                if let Some(s) = self.slot(id) {
-                    s.state = SlotState::Lost;
-                }
+                self.set_state(id, SlotState::Lost);
                 let when = DiedWhen::BeforeDeployment;
                 abort.then_some(Fault::Died { robot: id, when, why: gone, reason })
             }
@@ -438,13 +438,13 @@ impl LaunchCore {
         // for a whole registration timeout is not started again.
         if slot.pid.is_some() && slot.restarts == 0 && matches!(gone, Gone::Exited(_)) {
             slot.restarts += 1;
-            slot.state = SlotState::Waiting;
             slot.death = None;
             slot.gone = None;
+            self.set_state(id, SlotState::Waiting);
             self.note(format!("robot {id}: its agent is gone before it registered; starting it once more"));
             return None;
         }
-        slot.state = SlotState::Absent;
+        self.set_state(id, SlotState::Absent);
         self.note(format!("robot {id}: absent — its agent never registered: {reason}"));
         self.event(id, EventKind::Absent, None, Some(reason));
         None

@@ -62,7 +62,8 @@
 //! (real robots);
 //! `stop.rs` a stop asked from outside; `revoke.rs` a robot's voice taken
 //! away while the launch runs;
-//! `slot.rs` one robot's record; `clocks.rs` the agents' clock offsets; `log.rs` the record of
+//! `moved.rs` what the views show (applied poses, beacon and state
+//! changes, as outputs); `slot.rs` one robot's record; `clocks.rs` the agents' clock offsets; `log.rs` the record of
 //! every call, which `orchestrator replay` plays back; `beacons.rs` the
 //! beacons the simulated agents are told; `ahead.rs` creeping robots
 //! stepped several periods per message, what they sent held (`held.rs`)
@@ -82,6 +83,7 @@ mod inputs;
 pub mod log;
 mod moved;
 pub use bycoms_gate::placement;
+pub use bycoms_gate::view;
 mod plausible;
 mod policy;
 pub mod records;
@@ -424,6 +426,38 @@ pub enum Output {
         /// Its pose.
         pose: Pose,
     },
+    /// Robot `robot`'s beacon stands at `at`: the beacon table changed (it
+    /// became a beacon, judged stuck or lost; or its beacon crept on with
+    /// its applied pose). The table never removes a beacon. Kept and said
+    /// in every launch, whether or not its agents are sent beacons.
+    Beacon {
+        /// The robot.
+        robot: u32,
+        /// Where its beacon stands.
+        at: Vec2,
+    },
+    /// Robot `robot`'s state changed to `state` (said on every change of
+    /// its slot's state, in the order the core makes them).
+    State {
+        /// The robot.
+        robot: u32,
+        /// Its new state.
+        state: SlotState,
+    },
+}
+
+impl Output {
+    /// What this output shows of the run, if anything: the facts every
+    /// view folds ([`view::RunView`]).
+    pub fn shown(&self) -> Option<view::Shown> {
+        Some(match *self {
+            Output::Moved { pose, .. } => view::Shown::Moved(pose),
+            Output::Beacon { robot, at } => view::Shown::Beacon { robot, at },
+            Output::State { robot, state } => view::Shown::State { robot, state },
+            Output::Gate(event) => view::Shown::Gate(event),
+            _ => return None,
+        })
+    }
 }
 
 /// What the launch waits for, in words (see [`LaunchCore::waiting`]).
@@ -701,6 +735,11 @@ impl LaunchCore {
     /// When motion capture last handed over robot `id`'s pose, µs.
     pub fn pose_heard(&self, id: u32) -> Option<u64> {
         id.checked_sub(1).and_then(|i| self.mocap_heard.get(i as usize).copied().flatten())
+    }
+    /// Every beacon of the core's table and where it stands, in robot
+    /// order (what the views' [`view::RunView`] must agree with).
+    pub fn beacons(&self) -> Vec<(u32, Vec2)> {
+        self.beacons.all()
     }
     /// Whether robot `id`'s agent is started and not gone.
     pub fn is_running(&self, id: u32) -> bool {

@@ -65,7 +65,7 @@ impl LaunchCore {
         match slot.state {
             SlotState::Moving => self.queue.push_back(Pending::Died(id)),
             SlotState::Stuck | SlotState::Arrived | SlotState::Died | SlotState::Unfinished => {}
-            _ => slot.state = SlotState::Lost,
+            _ => self.set_state(id, SlotState::Lost),
         }
         if running {
             // Stopped first (a gateway sends its robot the stop frame),

@@ -10,51 +10,9 @@ use crate::records::{Death, Outage};
 use crate::Gone;
 use bycoms_protocol::msg::Pose;
 
-/// Where a robot is in the launch.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SlotState {
-    /// Its agent has not been started.
-    Waiting,
-    /// Started, not registered.
-    Spawned,
-    /// Registered, idle.
-    Registered,
-    /// Told to deploy, first pose not seen yet.
-    Deploying,
-    /// Moving under the gate's watch.
-    Moving,
-    /// Stopped away from the goal: a beacon.
-    Stuck,
-    /// At the goal.
-    Arrived,
-    /// Died while moving: a beacon where last seen.
-    Died,
-    /// Still moving when the run ended.
-    Unfinished,
-    /// Its agent was lost before it was deployed.
-    Lost,
-    /// Skipped at its turn: its agent never registered (see `death`).
-    Absent,
-}
-
-impl SlotState {
-    /// The state in words, for the live lines.
-    pub fn words(self) -> &'static str {
-        match self {
-            Self::Waiting => "waiting",
-            Self::Spawned => "starting",
-            Self::Registered => "ready",
-            Self::Deploying => "deploying",
-            Self::Moving => "moving",
-            Self::Stuck => "stuck",
-            Self::Arrived => "arrived",
-            Self::Died => "lost while moving",
-            Self::Unfinished => "still moving",
-            Self::Lost => "lost",
-            Self::Absent => "absent",
-        }
-    }
-}
+/// Where a robot is in the launch: the run's view's (`bycoms_gate::view`),
+/// which every renderer reads, re-exported.
+pub use bycoms_gate::view::SlotState;
 
 /// One robot's bookkeeping (read-only outside the core).
 #[derive(Clone, Debug)]

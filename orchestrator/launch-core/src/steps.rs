@@ -282,8 +282,8 @@ impl LaunchCore {
             return;
         }
         self.outputs.push_back(Output::Start(id));
-        if let Some(slot) = self.slot(id).filter(|s| s.state == SlotState::Waiting) {
-            slot.state = SlotState::Spawned;
+        if self.slot_ref(id).is_some_and(|s| s.state == SlotState::Waiting) {
+            self.set_state(id, SlotState::Spawned);
         }
     }
 
@@ -412,9 +412,7 @@ impl LaunchCore {
         }
         let deploy = self.deploy_of(id);
         self.outputs.push_back(Output::Send(id, ToAgent::Deploy(deploy)));
-        if let Some(slot) = self.slot(id) {
-            slot.state = SlotState::Deploying;
-        }
+        self.set_state(id, SlotState::Deploying);
         // Deploying puts the robot at the start: its start pose is judged by
         // where it was put, not by any pose of it from before.
         self.anchors.forget(id);
@@ -499,8 +497,8 @@ impl LaunchCore {
             let pose = pose.unwrap_or(closed.pose);
             self.decided_at = Some(now);
             let running = self.is_running(id);
+            self.set_state(id, state);
             if let Some(slot) = self.slot(id) {
-                slot.state = state;
                 slot.steps = closed.steps;
                 slot.last_pose = Some(pose);
                 slot.decided_tick = Some(pose.step);
@@ -530,8 +528,8 @@ impl LaunchCore {
             Ok(spent) => spent,
             Err(closed) => {
                 let id = closed.robot;
+                self.set_state(id, SlotState::Unfinished);
                 if let Some(slot) = self.slot(id) {
-                    slot.state = SlotState::Unfinished;
                     slot.steps = closed.steps;
                     slot.last_pose = Some(closed.pose);
                 }
@@ -598,8 +596,8 @@ impl LaunchCore {
     /// The launch is over: a robot still under watch is unfinished.
     pub(super) fn end(&mut self, outcome: Outcome, error: Option<Fault>) {
         if let Some(closed) = self.referee.watched().and_then(|id| self.referee.close(id)) {
+            self.set_state(closed.robot, SlotState::Unfinished);
             if let Some(slot) = self.slot(closed.robot) {
-                slot.state = SlotState::Unfinished;
                 slot.steps = closed.steps;
                 slot.last_pose = Some(closed.pose);
             }

@@ -14,6 +14,7 @@ use super::agents::{AgentPlan, AgentSource, Gone, Joining, Started};
 use super::config::{Clock, LaunchConfig};
 use super::control::{shown, Answer, Ask, Control, Reply, Request};
 use super::core::log::{self, Logged};
+use super::core::view::RunView;
 use super::core::{Ending, Input, Output, Revoke, Slot, SlotState, Stop, WindDown, WindStep};
 use super::events::EVENT_SCHEMA;
 use super::ports::Ports;
@@ -67,6 +68,9 @@ pub struct Driver {
     /// When the agent source was last polled (at most every
     /// [`POLL_EVERY`]: a poll is a `wait4` per spawned agent).
     polled_at: Option<Instant>,
+    /// The run as the views show it, folded from the core's outputs: the
+    /// summary's robots used and beacons (`summary::of`).
+    view: RunView,
 }
 
 /// Least time between two polls of the agent source: an agent's end is
@@ -147,6 +151,7 @@ impl Driver {
             control,
             stop_replies: Vec::new(),
             polled_at: None,
+            view: RunView::new(),
         }
     }
 
@@ -232,6 +237,9 @@ impl Driver {
     }
 
     fn carry(&mut self, out: Output) -> anyhow::Result<()> {
+        if let Some(shown) = out.shown() {
+            self.view.take(&shown);
+        }
         match out {
             Output::Start(id) => {
                 let started = self.start(id);
@@ -256,6 +264,10 @@ impl Driver {
             // views showed it when the core applied it.
             Output::Relay(pose) => self.ports.relay(&pose)?,
             Output::Moved { robot, pose } => self.ports.show_moved(robot, &pose),
+            Output::Beacon { robot, at } => self.ports.show_beacon(robot, at),
+            // Folded into the view (above); no renderer draws states apart
+            // from the gate's decisions yet.
+            Output::State { .. } => {}
             Output::Forward(pose) => self.ports.forward_pose(&pose)?,
             Output::Gate(event) => {
                 self.ports.publish_gate(&event)?;
@@ -530,7 +542,7 @@ impl Driver {
     /// The summary of the launch as the core decided it (`summary::of`),
     /// with the driver's own figures: wall time, speed, real-time report.
     fn summary(&mut self, ending: &Ending, killed: Vec<u32>) -> Summary {
-        let decided = super::summary::of(&self.core, ending, Ok(()));
+        let decided = super::summary::of(&self.core, &self.view, ending, Ok(()));
         let dt = self.run.run_config().kinematics.dt;
         let wall_s = self.epoch.elapsed().as_secs_f64();
         let realtime = (self.cfg.clock == Clock::Realtime)

@@ -41,6 +41,10 @@ pub struct RunMeta<'a> {
     /// draw and export those, not the bus's pose topics (which hold every
     /// pose delivered, refused ones too). Absent in older recordings.
     pub applied_poses: bool,
+    /// Every change of the launch core's beacon table is on
+    /// `core/beacon`: readers show beacons from those (creeping as the
+    /// core's), not from the gate's decisions. Absent in older recordings.
+    pub beacons_told: bool,
     /// Each ROS 2 robot's velocity topic and message type (robots of
     /// `kind = "ros2"`): where `record export --ros2` puts the commands
     /// their agents reported. Absent without ROS 2 robots.

@@ -28,6 +28,7 @@ use super::config::LaunchConfig;
 use super::{Summary, World};
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use bycoms_record::scene::{Out, SharedScene};
+use bycoms_sim::Vec2;
 
 /// Something that watches a launch; every method has an empty default.
 pub trait Observer: Send {
@@ -42,6 +43,9 @@ pub trait Observer: Send {
     fn pose(&mut self, _pose: &Pose) {}
     /// A gate decision, as published.
     fn gate(&mut self, _event: &GateEvent) {}
+    /// Robot `robot`'s beacon stands at `at` (the launch core's beacon
+    /// table changed: a new beacon, or one that crept on).
+    fn beacon(&mut self, _robot: u32, _at: Vec2) {}
 }
 
 /// A live view of the run (`launch --serve ADDR`): started once the

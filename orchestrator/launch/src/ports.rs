@@ -20,9 +20,10 @@ use super::poses::PoseBytes;
 use super::recording::{Recording, Seen};
 use super::transport::{AnyPublisher, AnySubscriber, SharedBus};
 use bycoms_protocol::bus::{untag, BusError, FAN_IN_TAG};
-use bycoms_protocol::msg::{Deploy, FromAgent, GateEvent, Pose, ToAgent};
+use bycoms_protocol::msg::{Beacon, Deploy, FromAgent, GateEvent, Pose, ToAgent};
 use bycoms_protocol::{decode, encode, Message, RobotId, Swarm, TopicName, MAX_MESSAGE_LEN};
 use bycoms_runtime::{BadKind, Traffic};
+use bycoms_sim::Vec2;
 use std::collections::BTreeMap;
 use std::time::Duration;
 
@@ -243,6 +244,27 @@ impl Ports {
         }
         self.recording.seen(Seen::Pose(*pose));
         self.observers.iter_mut().for_each(|o| o.pose(pose));
+    }
+
+    /// Shows that robot `robot`'s beacon stands at `at` (the launch
+    /// core's beacon table changed, `Output::Beacon`) to everything that
+    /// shows the run, as [`Ports::show_moved`] shows poses: recorded on
+    /// `core/beacon` (what `draw` and `record export --ros2` read), handed
+    /// to the recording's scene and trace and to the observers.
+    pub fn show_beacon(&mut self, robot: u32, at: Vec2) {
+        if self.recording.is_on() {
+            let beacon = ToAgent::Beacon(Beacon { robot: RobotId(robot), x: at.x, y: at.y, seq: 0 });
+            let mut buf = [0u8; MAX_MESSAGE_LEN];
+            match encode(&beacon, &mut buf) {
+                Ok(bytes) => {
+                    let topic = schema::Topics::new(self.swarm.as_str()).beacon();
+                    self.recording.bytes(&topic, schema::BEACON, bytes);
+                }
+                Err(e) => tracing::warn!(robot, "a beacon not recorded: {e}"),
+            }
+        }
+        self.recording.seen(Seen::Beacon { robot, at });
+        self.observers.iter_mut().for_each(|o| o.beacon(robot, at));
     }
 
     /// Hands the observers what the run's scene produced since the last

@@ -210,6 +210,9 @@ impl Observer for Ros2Bridge {
     fn gate(&mut self, event: &GateEvent) {
         self.run.gate(event, &mut self.sink);
     }
+    fn beacon(&mut self, robot: u32, at: bycoms_sim::Vec2) {
+        self.run.beacon(robot, at, &mut self.sink);
+    }
     fn report(&mut self, report: &FromAgent) {
         self.run.report(report, &mut self.sink);
     }

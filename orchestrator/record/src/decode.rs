@@ -35,6 +35,16 @@ pub enum Content<'a> {
     Pose(Pose),
     /// A pose the launch core applied (`core/moved`): one the views show.
     Moved(Pose),
+    /// A change of the launch core's beacon table (`core/beacon`): robot
+    /// `robot`'s beacon stands at (`x`, `y`).
+    Beacon {
+        /// The robot.
+        robot: u32,
+        /// Where, x.
+        x: f64,
+        /// Where, y.
+        y: f64,
+    },
     /// A gate event the launch published.
     Gate(GateEvent),
     /// A placement request to the lab's operator.
@@ -75,6 +85,10 @@ pub fn decode<'a>(topic: &str, schema_name: &str, encoding: &str, data: &'a [u8]
         schema::MOVED if postcard_bytes => {
             bus(data).map_or(Content::Undecodable { schema: schema::MOVED }, Content::Moved)
         }
+        schema::BEACON if postcard_bytes => match bus::<ToAgent>(data) {
+            Some(ToAgent::Beacon(b)) => Content::Beacon { robot: b.robot.0, x: b.x, y: b.y },
+            _ => Content::Undecodable { schema: schema::BEACON },
+        },
         schema::GATE if postcard_bytes => {
             bus(data).map_or(Content::Undecodable { schema: schema::GATE }, Content::Gate)
         }
@@ -114,6 +128,20 @@ mod tests {
         assert_eq!(decode("bycoms/s/gate", schema::GATE, schema::JSON, bytes), Content::Other);
         let garbage = decode("bycoms/s/robot/1/pose", schema::POSE, schema::POSTCARD, &[0xff; 3]);
         assert_eq!(garbage, Content::Undecodable { schema: schema::POSE });
+    }
+
+    /// `core/beacon`: the core's beacon table changes, bit for bit; any
+    /// other command on it does not decode.
+    #[test]
+    fn a_beacon_change_decodes_from_its_channel() {
+        let mut buf = [0u8; MAX_MESSAGE_LEN];
+        let at = bycoms_protocol::msg::Beacon { robot: RobotId(3), x: 0.1 + 0.2, y: -1.5, seq: 0 };
+        let bytes = encode(&ToAgent::Beacon(at), &mut buf).expect("encodes");
+        let got = decode("bycoms/s/core/beacon", schema::BEACON, schema::POSTCARD, bytes);
+        assert_eq!(got, Content::Beacon { robot: 3, x: 0.1 + 0.2, y: -1.5 });
+        let tick = encode(&ToAgent::Tick(Tick { step: 1 }), &mut buf).expect("encodes").to_vec();
+        let other = decode("bycoms/s/core/beacon", schema::BEACON, schema::POSTCARD, &tick);
+        assert_eq!(other, Content::Undecodable { schema: schema::BEACON });
     }
 
     #[test]

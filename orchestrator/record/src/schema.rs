@@ -44,6 +44,12 @@ pub const CORE_CALLS: &str = "bycoms.CoreCalls";
 /// motion capture delivered, refused ones too; a recording whose run
 /// metadata says `applied_poses` is drawn and exported from these.
 pub const MOVED: &str = "bycoms.Moved";
+/// A change of the launch core's beacon table (`core/beacon`): postcard of
+/// the bus's `ToAgent::Beacon` (its `seq` 0), the robot and where its
+/// beacon now stands, bit for bit. Every beacon the views show, creeping as
+/// the core's; a recording whose run metadata says `beacons_told` is drawn
+/// and exported with these.
+pub const BEACON: &str = "bycoms.Beacon";
 
 // Motion capture as received (the NatNet datagram's bytes).
 
@@ -72,6 +78,9 @@ pub const ROBOT_MODE: &str = "bycoms.RobotMode";
 pub const TELEMETRY: &str = "bycoms.Telemetry";
 /// A gate decision as JSON (`gate/json`).
 pub const GATE_DECISION: &str = "bycoms.GateDecision";
+/// A beacon where it stands, as JSON (`beacon/json`): each change of the
+/// launch core's beacon table.
+pub const BEACON_AT: &str = "bycoms.BeaconAt";
 
 // The live view's own JSON channels (`bycoms_orchestrator::live`): not recorded, named here with the rest
 // so that one file lists every schema name the orchestrator writes.
@@ -128,9 +137,17 @@ impl Topics {
     pub fn moved(&self) -> String {
         self.leaf("core/moved")
     }
+    /// The changes of the launch core's beacon table ([`BEACON`]).
+    pub fn beacon(&self) -> String {
+        self.leaf("core/beacon")
+    }
     /// Gate decisions as JSON ([`GATE_DECISION`]).
     pub fn gate_json(&self) -> String {
         self.leaf("gate/json")
+    }
+    /// Beacons where they stand as JSON ([`BEACON_AT`]).
+    pub fn beacon_json(&self) -> String {
+        self.leaf("beacon/json")
     }
     /// Robot `k`'s poses as JSON ([`ROBOT_POSE`]).
     pub fn pose_json(&self, k: u32) -> String {

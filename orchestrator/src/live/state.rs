@@ -9,10 +9,13 @@
 //! and hands it to each viewer that subscribes, then again after every gate
 //! decision. It is a projection of that stream, as the Foxglove channels
 //! are: the page and Foxglove see the same messages, at the same moment.
+//! Its beacons are the scene's `beacon/json` messages, each where the
+//! launch core's beacon table has it (the run's one view, `RunView`),
+//! creeping with it: not placed from the gate's decisions (issue 53).
 //! Pure data, no I/O: the unit tests drive it.
 
 use bycoms_launch::{LaunchConfig, World};
-use bycoms_record::scene::json::{Decision, GateDecision, RobotPose};
+use bycoms_record::scene::json::{BeaconAt, Decision, GateDecision, RobotPose};
 use bycoms_record::scene::{Message, Out};
 use schemars::JsonSchema;
 use serde::Serialize;
@@ -164,8 +167,9 @@ impl LiveState {
         &mut self.robots[at]
     }
 
-    /// Takes in what the run's scene produced; whether a gate decision was
-    /// among it (viewers get the state at once then).
+    /// Takes in what the run's scene produced; whether a gate decision or
+    /// a new beacon was among it (viewers get the state at once then; a
+    /// beacon that crept on is sent with the next state).
     pub fn take(&mut self, outs: &[Out]) -> bool {
         let mut decided = false;
         for out in outs {
@@ -175,6 +179,7 @@ impl LiveState {
                     self.gate(decision);
                     decided = true;
                 }
+                Message::Beacon(beacon) => decided |= self.beacon(beacon),
                 _ => {}
             }
         }
@@ -216,8 +221,20 @@ impl LiveState {
             _ if self.moving == Some(id) => None,
             _ => self.moving,
         };
-        if matches!(state, RobotState::Stuck | RobotState::Lost) {
-            self.beacons.push(Beacon { robot: id, x: event.x, y: event.y });
+    }
+
+    /// Takes in where a beacon stands (new: after the others; crept on: in
+    /// its place); whether it is new.
+    pub fn beacon(&mut self, at: &BeaconAt) -> bool {
+        match self.beacons.iter_mut().find(|b| b.robot == at.robot) {
+            Some(b) => {
+                (b.x, b.y) = (at.x, at.y);
+                false
+            }
+            None => {
+                self.beacons.push(Beacon { robot: at.robot, x: at.x, y: at.y });
+                true
+            }
         }
     }
 

@@ -9,7 +9,7 @@ use bycoms_launch::observe::Observer;
 use bycoms_launch::{LaunchConfig, World};
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use bycoms_protocol::RobotId;
-use bycoms_record::scene::json::{GateDecision, RobotPose};
+use bycoms_record::scene::json::{BeaconAt, GateDecision, RobotPose};
 use bycoms_record::scene::{Scene, SceneWorld, SharedScene};
 use foxglove::messages::SceneUpdate;
 use foxglove::Decode;
@@ -73,6 +73,11 @@ impl Fed {
         let outs = self.scene.lock().gate(e, 3);
         self.tap.scene(&outs);
     }
+
+    fn beacon(&mut self, robot: u32, x: f64, y: f64) {
+        let outs = self.scene.lock().beacon(robot, bycoms_sim::Vec2::new(x, y), 3);
+        self.tap.scene(&outs);
+    }
 }
 
 #[test]
@@ -90,9 +95,14 @@ fn the_state_follows_poses_and_the_gate() {
     assert_eq!((s.robots[0].state, s.moving), (RobotState::Moving, Some(1)));
     s.gate(&decided(1, GateKind::Stopped { arrived: false }, 3.0, 4.0));
     assert_eq!((s.robots[0].state, s.moving), (RobotState::Stuck, None));
+    assert!(s.beacons.is_empty(), "the core tells its beacons");
+    assert!(s.beacon(&BeaconAt { robot: 1, x: 3.0, y: 4.0 }), "a new beacon");
     assert_eq!((s.beacons.len(), s.beacons[0].x, s.beacons[0].y), (1, 3.0, 4.0));
+    assert!(!s.beacon(&BeaconAt { robot: 1, x: 3.25, y: 4.0 }), "crept on");
+    assert_eq!((s.beacons.len(), s.beacons[0].x), (1, 3.25), "in its place, where it crept to");
     s.gate(&decided(2, GateKind::Deployed, 1.0, 1.0));
     s.gate(&decided(2, GateKind::Died, 1.5, 1.5));
+    s.beacon(&BeaconAt { robot: 2, x: 1.5, y: 1.5 });
     s.gate(&decided(3, GateKind::Deployed, 0.5, 0.5));
     s.gate(&decided(3, GateKind::Stopped { arrived: true }, 2.5, 2.5));
     let states: Vec<_> = s.robots.iter().map(|r| r.state).collect();
@@ -242,7 +252,9 @@ fn one_port_serves_the_page_and_the_foxglove_stream() {
     let p = next(&mut ws, |m| payload(m).filter(|(s, _)| *s == 3).map(|(_, b)| json_of(&b)));
     assert_eq!((p["robot"].as_u64(), p["x"].as_f64()), (Some(1), Some(1.5)));
     tap.gate(&event(1, GateKind::Stopped { arrived: false }, 1.5, 0.5));
-    let state = next(&mut ws, |m| payload(m).filter(|(s, _)| *s == 2).map(|(_, b)| json_of(&b)));
+    tap.beacon(1, 1.5, 0.5);
+    let with_beacon = |(_, b): (u32, Vec<u8>)| Some(json_of(&b)).filter(|s| s["beacons"] != json!([]));
+    let state = next(&mut ws, |m| payload(m).filter(|(s, _)| *s == 2).and_then(with_beacon));
     assert_eq!(state["beacons"], json!([{ "robot": 1, "x": 1.5, "y": 0.5 }]));
     assert_eq!(state["robots"][0]["state"], "stuck");
     drop(tap);

@@ -170,6 +170,9 @@ pub fn check(report: &Report, schedule: &Schedule) -> Result<(), String> {
     check_wind_down(report)?;
     check_revoke(report, schedule)?;
     check_views(report)?;
+    if let Some(why) = &report.view_differs {
+        return Err(why.clone());
+    }
     let seams = schedule.seams();
     if !seams.agents.senses_beacons && report.beacons_sent > 0 {
         return Err(format!("{} beacons sent to agents that hear each other", report.beacons_sent));
@@ -312,18 +315,22 @@ fn check_revoke(report: &Report, schedule: &Schedule) -> Result<(), String> {
     if report.running_at_end.contains(&id) {
         return Err(format!("revoked robot {id}'s agent still counts as running"));
     }
-    let (mut stops, mut ends, mut judged) = (0, 0, 0);
+    let (mut stops, mut ends, mut judged, mut beacons) = (0, 0, 0, 0);
     for (_, out) in report.after_revoke.iter().filter(|(r, _)| *r == id) {
         match out {
             Output::Send(_, ToAgent::Stop) => stops += 1,
             Output::Send(_, ToAgent::Shutdown) if ends < stops => ends += 1,
             Output::Send(_, ToAgent::Refused(r)) if r.why == Refusal::Revoked => {}
             Output::Gate(g) if g.kind == GateKind::Died => judged += 1,
+            // Lost (not deployed yet), or judged lost while it moved: a
+            // beacon where it stopped.
+            Output::State { state: SlotState::Lost | SlotState::Died, .. } => {}
+            Output::Beacon { .. } => beacons += 1,
             Output::Event(_) | Output::Relay(_) => {}
             other => return Err(format!("revoked robot {id}: {other:?} after its revocation")),
         }
     }
-    if stops > 1 || judged > 1 || ends != stops {
+    if stops > 1 || judged > 1 || ends != stops || beacons > judged {
         return Err(format!(
             "revoked robot {id} told Stop {stops}×, Shutdown {ends}× and judged {judged}× after it"
         ));

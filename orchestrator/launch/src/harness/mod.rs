@@ -50,6 +50,7 @@ pub use world::{run, run_logged};
 use super::agents::Gone;
 use super::config::{Clock, LaunchConfig, Missing, OnDeath};
 use super::core::log::{Call, Logged};
+use super::core::view::RunView;
 use super::core::{Ending, Fault, Input, Output, Revoke, Setup, SlotState, Stop, STOP_WAIT_US};
 use super::events::EventKind;
 use super::summary::{Decided, Outcome, RevokedSummary, RobotEnd, StopSummary};
@@ -222,6 +223,9 @@ pub struct Report {
     pub agents_at_end: Vec<u32>,
     /// The wind-down after the ending (none: the launch did not end).
     pub wound: Option<WoundDown>,
+    /// The first time the views' fold (`RunView`) disagreed with the core
+    /// (its beacon table, its robots' states), in words.
+    pub view_differs: Option<String>,
 }
 
 /// Longest simulated time of a launch of real robots, s.

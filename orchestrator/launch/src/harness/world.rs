@@ -52,6 +52,9 @@ pub(super) struct World<'a> {
     pub(super) early_deaths_left: Vec<u32>,
     /// Robots a forger races at their next `Deploy` ([`Foreign::RacesTheDeploy`]).
     pub(super) racers: Vec<u32>,
+    /// The run as the views show it, folded from the core's outputs
+    /// (checked against the core after every output: `check_view`).
+    pub(super) view: RunView,
 }
 
 /// Plays one launch of `case` under `schedule` to its end.
@@ -125,9 +128,11 @@ pub(super) fn play(case: &Case, schedule: &Schedule, logged: bool) -> (Report, V
             forged: Vec::new(),
             agents_at_end: Vec::new(),
             wound: None,
+            view_differs: None,
         },
         early_deaths_left: schedule.early_deaths.clone(),
         racers: Vec::new(),
+        view: RunView::new(),
     };
     world.plan();
     world.play();
@@ -235,6 +240,10 @@ impl World<'_> {
             if let Some(id) = about(&out).filter(|&id| self.core.revoked().iter().any(|r| r.robot == id)) {
                 self.report.after_revoke.push((id, out.clone()));
             }
+            if let Some(shown) = out.shown() {
+                self.view.take(&shown);
+                self.check_view();
+            }
             match out {
                 Output::Start(id) => self.start(id),
                 Output::Send(id, msg) => {
@@ -286,7 +295,51 @@ impl World<'_> {
                 Output::AskOperator(deploy) => self.ask_operator(deploy.robot.0),
                 Output::Note(text) => self.report.notes.push(text),
                 Output::Moved { robot, pose } => self.report.moved.push((now, robot, pose)),
-                Output::Event(_) | Output::Heard(_) | Output::SimTime(_) | Output::Carried(..) => {}
+                Output::Event(_)
+                | Output::Heard(_)
+                | Output::SimTime(_)
+                | Output::Carried(..)
+                | Output::Beacon { .. }
+                | Output::State { .. } => {}
+            }
+        }
+    }
+
+    /// The views' fold agrees with the core once the outputs so far are
+    /// folded: every beacon where the core's table has it (bit for bit),
+    /// every robot in the core's state. The first disagreement is reported.
+    fn check_view(&mut self) {
+        if self.report.view_differs.is_some() || self.core.peek_output().is_some() {
+            return;
+        }
+        let shown: Vec<(u32, Vec2)> = {
+            let mut b: Vec<_> = self.view.beacons().collect();
+            b.sort_by_key(|(id, _)| *id);
+            b
+        };
+        let bits =
+            |b: &[(u32, Vec2)]| b.iter().map(|(id, at)| (*id, at.x.to_bits(), at.y.to_bits())).collect();
+        let (table, folded): (Vec<_>, Vec<_>) = (bits(&self.core.beacons()), bits(&shown));
+        if table != folded {
+            let why = format!(
+                "at {} µs the views' beacons {shown:?}, the core's {:?}",
+                self.now,
+                self.core.beacons()
+            );
+            self.report.view_differs = Some(why);
+            return;
+        }
+        for s in self.core.slots() {
+            let state = self.view.robot_view(s.id()).and_then(|r| r.state).unwrap_or(SlotState::Waiting);
+            if state != s.state() {
+                let why = format!(
+                    "at {} µs robot {} is {state:?} in the views, {:?} in the core",
+                    self.now,
+                    s.id(),
+                    s.state()
+                );
+                self.report.view_differs = Some(why);
+                return;
             }
         }
     }
@@ -496,8 +549,16 @@ impl World<'_> {
     pub(super) fn finish(mut self) -> Report {
         let core = &self.core;
         self.report.ending = core.ending().cloned();
+        // The view's arrival (the trace's success) is the core's outcome.
+        let arrived = core.ending().is_some_and(|e| e.outcome == Outcome::Arrived);
+        if self.view.arrived().is_some() != arrived && self.report.view_differs.is_none() {
+            let why =
+                format!("the views' arrival {:?} for the outcome {:?}", self.view.arrived(), core.ending());
+            self.report.view_differs = Some(why);
+        }
         let recording = if self.schedule.recording_fails { Err("disk full (harness)") } else { Ok(()) };
-        self.report.decided = core.ending().map(|e| super::super::summary::of(core, e, recording));
+        self.report.decided =
+            core.ending().map(|e| super::super::summary::of(core, &self.view, e, recording));
         self.report.robots = core.slots().iter().map(|s| (s.state(), s.steps(), s.last_pose())).collect();
         self.report.deaths = core.slots().iter().map(|s| s.death().map(|d| d.reason.clone())).collect();
         self.report.late = core.slots().iter().filter(|s| s.joined_late()).map(|s| s.id()).collect();
@@ -571,7 +632,9 @@ fn about(out: &Output) -> Option<u32> {
         | Output::Heard(id)
         | Output::Carried(id, _) => Some(*id),
         Output::Relay(pose) | Output::Forward(pose) => Some(pose.robot.0),
-        Output::Moved { robot, .. } => Some(*robot),
+        Output::Moved { robot, .. } | Output::Beacon { robot, .. } | Output::State { robot, .. } => {
+            Some(*robot)
+        }
         Output::Gate(e) => Some(e.robot.0),
         Output::Event(e) => Some(e.robot),
         Output::AskOperator(d) => Some(d.robot.0),

@@ -177,7 +177,7 @@ impl Recording {
         scene: Option<SharedScene>,
     ) -> anyhow::Result<Self> {
         let mut rec = Self::off();
-        rec.trace = cfg.svg.is_some().then(Trace::new);
+        rec.trace = cfg.svg.is_some().then(Trace::with_beacons_told);
         rec.simulated_ns = (cfg.clock == Clock::Lockstep).then_some(0);
         let recorder = cfg.record.as_deref().map(Recorder::create).transpose()?;
         rec.file = recorder.is_some();
@@ -237,6 +237,7 @@ impl Recording {
             goal: world.goal,
             config: cfg,
             applied_poses: true,
+            beacons_told: true,
             ros2_robots: &ros2_robots(cfg),
             real: &crate::lab::real_robots(cfg, world),
         };
@@ -315,6 +316,7 @@ impl Recording {
             match &seen {
                 Seen::Pose(pose) => trace.pose(pose),
                 Seen::Gate(event) => trace.gate(event),
+                Seen::Beacon { robot, at } => trace.beacon(*robot, *at),
                 Seen::Report(_) => {}
             }
         }

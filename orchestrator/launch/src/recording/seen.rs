@@ -13,6 +13,7 @@
 //! shows nowhere.
 
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
+use bycoms_sim::Vec2;
 
 /// A core input or output the recording's projections take in.
 #[derive(Clone, Debug, PartialEq)]
@@ -23,4 +24,12 @@ pub enum Seen {
     Gate(GateEvent),
     /// An agent's report the core was handed.
     Report(FromAgent),
+    /// Robot `robot`'s beacon stands at `at`: the core's beacon table
+    /// changed (`Output::Beacon`).
+    Beacon {
+        /// The robot.
+        robot: u32,
+        /// Where its beacon stands.
+        at: Vec2,
+    },
 }

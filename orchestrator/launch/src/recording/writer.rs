@@ -223,6 +223,7 @@ impl Writer {
             Seen::Pose(pose) => scene.lock().pose(pose, now),
             Seen::Gate(event) => scene.lock().gate(event, now),
             Seen::Report(report) => scene.lock().report(report, now),
+            Seen::Beacon { robot, at } => scene.lock().beacon(*robot, *at, now),
         };
         self.write_outs(&outs, now);
         shown.extend(outs);

@@ -208,6 +208,9 @@ fn run_of(meta: &RunMeta) -> Result<(RunMessages, bycoms_sim::terrain::Terrain, 
     terrain.set_start(meta.start);
     terrain.set_goal(meta.goal);
     let mut run = RunMessages::new(&cfg, robots).with_cmd_vel(&meta.ros2_robots);
+    if !meta.beacons_told {
+        run = run.without_beacons_told();
+    }
     run.set_real(meta.real.clone());
     Ok((run, terrain, meta.eps().unwrap_or(0.0)))
 }
@@ -239,6 +242,9 @@ pub fn export<W: Write + Seek>(input: &Path, out: W, file_name: &str) -> Result<
                 meta = Some(read);
             }
             (Content::Gate(event), Some((run, sink))) => run.gate(&event, sink),
+            (Content::Beacon { robot, x, y }, Some((run, sink))) => {
+                run.beacon(robot, bycoms_sim::Vec2::new(x, y), sink);
+            }
             (Content::Report(report), Some((run, sink))) => run.report(&report, sink),
             _ => {}
         }

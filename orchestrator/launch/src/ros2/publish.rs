@@ -19,6 +19,14 @@
 //! agents publish there) has one more topic per ROS 2 robot: its `cmd_vel`,
 //! with the commands its agent reported ([`RunMessages::with_cmd_vel`]).
 //!
+//! Beacons are the run's view's ([`RunView`], the one fold of the launch
+//! core's outputs every renderer reads): where the core's beacon table
+//! has each (`Output::Beacon`, [`RunMessages::beacon`]), creeping with it;
+//! a bag made from a recording older than `core/beacon` places them where
+//! the gate judged them ([`RunMessages::without_beacons_told`]). The
+//! latched `<ns>/beacons` is sent again when a beacon appears, or once one
+//! crept [`PATH_SPACING`] or more from where it was last sent.
+//!
 //! Paths cost: a `nav_msgs/msg/Path` holds the whole trail, so it is sent
 //! at a bounded rate, at most once per [`PATH_PERIOD_US`] of run time per
 //! robot (and once more when the robot stops), and the trail keeps a pose
@@ -27,6 +35,7 @@
 
 use std::collections::BTreeMap;
 
+use bycoms_launch_core::view::{RunView, Shown};
 use bycoms_protocol::msg::{Commanded, FromAgent, GateEvent, GateKind, Pose};
 use bycoms_record::schema::Ros2RobotTopic;
 use bycoms_ros2::bycoms_msgs::{gate_kind, robot_state, GateEvent as RosGateEvent, RobotState};
@@ -42,6 +51,7 @@ use bycoms_ros2::rmw_zenoh::Qos;
 use bycoms_ros2::types::TypeDescription;
 use bycoms_ros2::velocity::VelocityMessage;
 use bycoms_sim::terrain::Terrain;
+use bycoms_sim::Vec2;
 
 use super::{ros_messages, run_time, static_frames, Ros2Config, WORLD_FRAME};
 
@@ -103,7 +113,10 @@ pub struct RunMessages {
     /// By robot: where its reported commands go (a bag's only).
     cmd_vel: BTreeMap<u32, CmdVel>,
     trails: Vec<Trail>,
-    beacons: BTreeMap<u32, Point>,
+    /// The run as the views show it: where each beacon stands.
+    view: RunView,
+    /// Where each beacon stood when `<ns>/beacons` was last sent.
+    beacons_sent: BTreeMap<u32, Vec2>,
     eps: f64,
     now_us: u64,
     clock_us: Option<u64>,
@@ -138,13 +151,22 @@ impl RunMessages {
             topics,
             cmd_vel: BTreeMap::new(),
             trails,
-            beacons: BTreeMap::new(),
+            view: RunView::new(),
+            beacons_sent: BTreeMap::new(),
             eps: 0.0,
             now_us: 0,
             clock_us: None,
             statics,
             real: Vec::new(),
         }
+    }
+
+    /// Of a recording older than `core/beacon`, which tells no beacon: a
+    /// robot the gate judged stuck or lost is a beacon where it was judged
+    /// ([`RunView::without_beacons`]).
+    pub fn without_beacons_told(mut self) -> Self {
+        self.view = RunView::without_beacons();
+        self
     }
 
     /// The robots with a real body (`lab::real_robots`, the run metadata's
@@ -264,21 +286,31 @@ impl RunMessages {
         if trail.sent_us.is_none_or(|s| t >= s + PATH_PERIOD_US) {
             self.send_path(index, t, sink);
         }
-        self.creep(pose, sink);
+        self.view.take(&Shown::Moved(*pose));
     }
 
-    /// A beacon that creeps on is a beacon at its latest pose (as the
-    /// launch core's beacon table keeps it); sent again once it moved
-    /// [`PATH_SPACING`] or more.
-    fn creep(&mut self, pose: &Pose, sink: &mut dyn Sink) {
-        let Some(at) = self.beacons.get_mut(&pose.robot.0) else {
-            return;
-        };
-        if (at.x - pose.x).hypot(at.y - pose.y) >= PATH_SPACING {
-            (at.x, at.y) = (pose.x, pose.y);
-            let t = self.now_us;
-            self.send(sink, BEACONS, t, &beacon_markers(&self.beacons, self.eps, run_time(t)));
+    /// Robot `robot`'s beacon stands at `at` (the launch core's beacon
+    /// table changed): the beacons are sent again if it is new or crept
+    /// [`PATH_SPACING`] or more from where it was last sent.
+    pub fn beacon(&mut self, robot: u32, at: Vec2, sink: &mut dyn Sink) {
+        if self.view.take(&Shown::Beacon { robot, at }) {
+            self.send_beacons(sink);
         }
+    }
+
+    /// The view's beacons on the latched topic, unless none is new and
+    /// none moved [`PATH_SPACING`] since they were last sent.
+    fn send_beacons(&mut self, sink: &mut dyn Sink) {
+        let now: BTreeMap<u32, Vec2> = self.view.beacons().collect();
+        let moved = |(id, at): (&u32, &Vec2)| {
+            self.beacons_sent.get(id).is_none_or(|was| was.distance(*at) >= PATH_SPACING)
+        };
+        if !now.iter().any(moved) {
+            return;
+        }
+        let t = self.now_us;
+        self.send(sink, BEACONS, t, &beacon_markers(&now, self.eps, run_time(t)));
+        self.beacons_sent = now;
     }
 
     fn send_path(&mut self, index: usize, t: u64, sink: &mut dyn Sink) {
@@ -290,9 +322,9 @@ impl RunMessages {
         self.trails[index].path = path;
     }
 
-    /// A gate decision: a robot stopped short of the goal (or died) is a
-    /// beacon, and the beacons are sent again; a stopped robot's path is
-    /// sent once more, whole.
+    /// A gate decision: the robot's state, and a stopped robot's path once
+    /// more, whole. (Its beacon comes as the core tells it,
+    /// [`RunMessages::beacon`]; of an older recording, from here.)
     pub fn gate(&mut self, event: &GateEvent, sink: &mut dyn Sink) {
         let t = self.now_us;
         let (kind, state) = match event.kind {
@@ -322,9 +354,8 @@ impl RunMessages {
                 self.send_path(i, t, sink);
             }
         }
-        if matches!(event.kind, GateKind::Stopped { arrived: false } | GateKind::Died) {
-            self.beacons.insert(event.robot.0, Point { x: event.x, y: event.y, z: 0.0 });
-            self.send(sink, BEACONS, t, &beacon_markers(&self.beacons, self.eps, run_time(t)));
+        if self.view.take(&Shown::Gate(*event)) {
+            self.send_beacons(sink);
         }
     }
 
@@ -377,10 +408,11 @@ const CIRCLE_POINTS: usize = 48;
 
 /// Each beacon as a sphere (namespace `beacons`) and its ε circle as a line
 /// strip (namespace `eps`), both with the robot's number as id.
-pub fn beacon_markers(beacons: &BTreeMap<u32, Point>, eps: f64, stamp: Time) -> MarkerArray {
+pub fn beacon_markers(beacons: &BTreeMap<u32, Vec2>, eps: f64, stamp: Time) -> MarkerArray {
     let header = Header { stamp, frame_id: WORLD_FRAME.into() };
     let mut markers = Vec::with_capacity(beacons.len() * 2);
     for (&robot, &at) in beacons {
+        let at = Point { x: at.x, y: at.y, z: 0.0 };
         let id = i32::try_from(robot).unwrap_or(i32::MAX);
         let marker = |ns: &str, kind, scale: f64, color| Marker {
             header: header.clone(),
@@ -544,7 +576,9 @@ mod tests {
         run.pose(&pose(1, 1.0, 500_000), &mut sent);
         let stop = |robot, kind| GateEvent { robot: RobotId(robot), kind, x: 1.0, y: 1.0, step: 5 };
         run.gate(&stop(1, GateKind::Stopped { arrived: false }), &mut sent);
+        run.beacon(1, Vec2::new(1.0, 1.0), &mut sent);
         run.gate(&stop(2, GateKind::Died), &mut sent);
+        run.beacon(2, Vec2::new(1.0, 1.0), &mut sent);
         run.gate(&stop(3, GateKind::Stopped { arrived: true }), &mut sent);
         assert_eq!(sent.on(&run, "/beacons"), [500_000_000, 500_000_000]);
         assert_eq!(sent.on(&run, "/robot_1/path").len(), 2, "its first, and its whole path when it stopped");
@@ -563,15 +597,35 @@ mod tests {
             real: false,
         };
         assert_eq!(state.2, beacon.to_cdr());
-        let markers = beacon_markers(&run.beacons, 2.0, run_time(500_000));
+        let markers = beacon_markers(&run.beacons_sent, 2.0, run_time(500_000));
         assert_eq!(markers.markers.len(), 4, "robots 1 and 2: a sphere and an ε circle each");
         let circle = &markers.markers[1];
         assert_eq!((circle.ns.as_str(), circle.points.len()), ("eps", CIRCLE_POINTS + 1));
         assert!(circle.points.iter().all(|p| (p.x.hypot(p.y) - 2.0).abs() < 1e-9), "radius ε");
-        // A beacon that creeps on is sent again at its new place.
-        run.pose(&pose(1, 1.5, 600_000), &mut sent);
+        // A beacon that creeps on, as the core tells it, is sent again at
+        // its new place once it crept PATH_SPACING or more.
+        run.pose(&pose(1, 1.05, 600_000), &mut sent);
+        run.beacon(1, Vec2::new(1.05, 1.0), &mut sent);
+        assert_eq!(sent.on(&run, "/beacons").len(), 2, "a creep shorter than PATH_SPACING");
+        run.pose(&pose(1, 1.5, 700_000), &mut sent);
+        assert_eq!(sent.on(&run, "/beacons").len(), 2, "a pose alone moves no beacon");
+        run.beacon(1, Vec2::new(1.5, 1.0), &mut sent);
         assert_eq!(sent.on(&run, "/beacons").len(), 3);
-        assert_eq!(run.beacons[&1].x, 1.5);
+        assert_eq!(run.beacons_sent[&1].x, 1.5);
+    }
+
+    /// A bag of a recording older than `core/beacon`: the gate's decisions
+    /// place the beacons, where it judged them.
+    #[test]
+    fn without_told_beacons_the_gate_places_them() {
+        let mut run = RunMessages::new(&Ros2Config::default(), 2).without_beacons_told();
+        let mut sent = Sent::default();
+        run.world(&Terrain::new(4, 3), 2.0, &mut sent);
+        let stop = |robot, kind| GateEvent { robot: RobotId(robot), kind, x: 2.0, y: 1.0, step: 5 };
+        run.gate(&stop(1, GateKind::Stopped { arrived: false }), &mut sent);
+        run.gate(&stop(2, GateKind::Stopped { arrived: true }), &mut sent);
+        assert_eq!(sent.on(&run, "/beacons").len(), 1);
+        assert_eq!(run.beacons_sent.get(&1), Some(&Vec2::new(2.0, 1.0)));
     }
 
     #[test]

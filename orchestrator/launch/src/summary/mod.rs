@@ -11,6 +11,7 @@ pub use bycoms_launch_core::records::{
 };
 
 use super::core::shown;
+use super::core::view::RunView;
 use super::core::{ClockReading, Ending, LaunchCore, Slot, SlotState};
 use bycoms_runtime::words::signed;
 use bycoms_runtime::Traffic;
@@ -411,11 +412,13 @@ impl Summary {
 pub struct Decided {
     /// How it ended (and the summary's `success`, `error`).
     pub verdict: Verdict,
-    /// Robots deployed: the robots with a deployment tick.
+    /// Robots deployed: the robots the gate deployed, as the run's view
+    /// ([`RunView::robots_used`]) counts them for every renderer.
     pub robots_used: u32,
     /// Every robot.
     pub robots: Vec<RobotSummary>,
-    /// Positions of the beacons (stuck and dead robots), in robot order.
+    /// Positions of the beacons (stuck and dead robots, where the core's
+    /// table has them: the view's), in robot order.
     pub beacons: Vec<Vec2>,
     /// Active control periods charged.
     pub steps: u64,
@@ -453,29 +456,36 @@ pub fn verdict(ending: &Ending, recording: Result<(), &str>) -> Verdict {
 }
 
 /// The summary's figures of `core`, which ended with `ending`, its
-/// recording having failed (`Err(why)`) or not.
-pub fn of(core: &LaunchCore, ending: &Ending, recording: Result<(), &str>) -> Decided {
+/// recording having failed (`Err(why)`) or not; `view` is the run as the
+/// views showed it (the core's outputs folded, [`RunView`]), the one owner
+/// of the robots used and of where the beacons stand (the `--svg` trace
+/// reads the same fold).
+pub fn of(core: &LaunchCore, view: &RunView, ending: &Ending, recording: Result<(), &str>) -> Decided {
     let slots = core.slots();
     let robots: Vec<RobotSummary> = slots.iter().map(|s| robot_summary(core, s)).collect();
-    let beacons = slots
-        .iter()
-        .filter(|s| {
-            matches!(s.state(), SlotState::Stuck | SlotState::Died)
-                || (s.state() == SlotState::Unfinished && stopped_now(core, s))
-        })
-        .filter_map(|s| s.last_pose().map(|p| Vec2::new(p.x, p.y)))
-        .collect();
     let frames = slots.iter().fold((0, 0), |(s, m), slot| (s + slot.frames().seen, m + slot.frames().missed));
     Decided {
         verdict: verdict(ending, recording),
-        robots_used: robots.iter().filter(|r| r.deployed_tick.is_some()).count() as u32,
+        robots_used: view.robots_used(),
+        beacons: beacons(core, view),
         robots,
-        beacons,
         steps: core.spent(),
         ticks: core.ticks(),
         resends: core.resends(),
         frames,
     }
+}
+
+/// Where the beacons stand, in robot order: the view's (stuck and dead
+/// robots, where the core's table has them), and a robot a stop `now`
+/// stopped while it moved, where it stopped (it stands there for the run's
+/// end, though the core never made it a beacon for the agents).
+fn beacons(core: &LaunchCore, view: &RunView) -> Vec<Vec2> {
+    let mut at: Vec<(u32, Vec2)> = view.beacons().collect();
+    let stopped = core.slots().iter().filter(|s| s.state() == SlotState::Unfinished && stopped_now(core, s));
+    at.extend(stopped.filter_map(|s| s.last_pose().map(|p| (s.id(), Vec2::new(p.x, p.y)))));
+    at.sort_by_key(|(id, _)| *id);
+    at.into_iter().map(|(_, at)| at).collect()
 }
 
 /// One robot's line of the summary: a robot is deployed once its slot is

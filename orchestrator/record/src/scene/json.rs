@@ -241,6 +241,18 @@ impl From<&GateEvent> for GateDecision {
     }
 }
 
+/// A beacon where it stands: the launch core's beacon table changed (a
+/// robot became a beacon, or its beacon crept on with it).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, JsonSchema)]
+pub struct BeaconAt {
+    /// The robot.
+    pub robot: u32,
+    /// Where, x, grid cells.
+    pub x: f64,
+    /// Where, y, grid cells.
+    pub y: f64,
+}
+
 /// The JSON schema of `T` as Foxglove reads it: draft-07, definitions inlined.
 pub fn json_schema<T: JsonSchema>() -> Vec<u8> {
     let settings = SchemaSettings::draft07().with(|s| s.inline_subschemas = true);
@@ -274,6 +286,7 @@ json_message! {
     RobotMode => schema::ROBOT_MODE,
     Telemetry => schema::TELEMETRY,
     GateDecision => schema::GATE_DECISION,
+    BeaconAt => schema::BEACON_AT,
 }
 
 #[cfg(test)]

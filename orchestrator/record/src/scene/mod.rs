@@ -19,6 +19,7 @@
 //! | `tf` | `foxglove.FrameTransforms` | `arena` → `robot/<k>`: each robot's pose as a frame |
 //! | `log` | `foxglove.Log` | gate decisions in words |
 //! | `gate/json` | `bycoms.GateDecision` (JSON) | gate decisions as data |
+//! | `beacon/json` | `bycoms.BeaconAt` (JSON) | each beacon where it stands, when it appears or creeps on |
 //! | `robot/<k>/pose/json` | `bycoms.RobotPose` (JSON) | every pose of robot k that moved or turned it |
 //! | `robot/<k>/mode` | `bycoms.RobotMode` (JSON) | its controller mode (1 goal, 2 bypass), when it changes |
 //! | `robot/<k>/telemetry` | `bycoms.Telemetry` (JSON) | its agent's reports (register, heartbeat, status, link; not lockstep's tick acknowledgements) |
@@ -44,8 +45,14 @@
 //!   trajectory, its frame (`tf`) and its pose JSON; a pose that changes
 //!   nothing (a beacon republishes its frozen pose every period) sends
 //!   nothing at all;
-//! * a gate decision: the robot's new colour, a new beacon's ε circle, and a
-//!   deletion of the circle of a robot that is a beacon no more;
+//! * a gate decision: the robot's new colour;
+//! * a change of the launch core's beacon table ([`Scene::beacon`]): the
+//!   beacon's ε circle where it now stands (new, or crept on) and its JSON.
+//!   The beacons are the run's view's ([`RunView`], one fold of the core's
+//!   outputs that every renderer reads): the scene used to place a beacon
+//!   where the gate judged it and never moved it, while the core's beacon
+//!   crept on with a creeping robot (issue 53). The core's table never
+//!   removes a beacon, so neither does the scene;
 //! * an agent report: its telemetry JSON, and its mode only when the mode
 //!   changed; lockstep's tick acknowledgements (one per live robot per tick,
 //!   whose one field, the step, is in the poses) send nothing.
@@ -68,15 +75,15 @@
 pub mod json;
 mod shapes;
 
+use bycoms_gate::view::{RunView, Shown};
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::Vec2;
 use foxglove::messages::{
-    log, scene_entity_deletion, Color, FrameTransform, FrameTransforms, Log, SceneEntity,
-    SceneEntityDeletion, SceneUpdate, Timestamp, Vector3,
+    log, Color, FrameTransform, FrameTransforms, Log, SceneEntity, SceneUpdate, Timestamp, Vector3,
 };
 use foxglove::Encode;
-use json::{Decision, GateDecision, RobotMode, RobotPose, Telemetry};
+use json::{BeaconAt, Decision, GateDecision, RobotMode, RobotPose, Telemetry};
 use shapes::{arrow, ball, circle, cuboid, disc, label, polyline, rgba, yaw};
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -144,6 +151,8 @@ pub enum Message {
     Telemetry(Telemetry),
     /// A gate decision.
     Gate(GateDecision),
+    /// A beacon where it stands.
+    Beacon(BeaconAt),
 }
 
 /// A message and the topic it goes on.
@@ -176,6 +185,7 @@ macro_rules! each_message {
             Message::Mode($m) => $body,
             Message::Telemetry($m) => $body,
             Message::Gate($m) => $body,
+            Message::Beacon($m) => $body,
         }
     };
 }
@@ -230,8 +240,8 @@ pub struct Scene {
     robots: BTreeMap<u32, Track>,
     /// Each robot's last controller mode (the `mode` channel sends changes).
     modes: BTreeMap<u32, u8>,
-    /// Where the gate made each beacon.
-    beacons: BTreeMap<u32, Vec2>,
+    /// The run as the views show it: where each beacon stands.
+    view: RunView,
 }
 
 /// The one scene of a run, shared by whoever shows it.
@@ -272,7 +282,7 @@ impl Scene {
             topics: Topics::new(swarm),
             robots: BTreeMap::new(),
             modes: BTreeMap::new(),
-            beacons: BTreeMap::new(),
+            view: RunView::new(),
         }
     }
 
@@ -357,9 +367,11 @@ impl Scene {
         out
     }
 
-    /// A gate decision at time `ns`: the decision as JSON, a log line, the
-    /// robot's new colour and, for a beacon, its ε circle.
+    /// A gate decision at time `ns`: the decision as JSON, a log line and
+    /// the robot's new colour (its beacon, if it becomes one, comes as the
+    /// core says it: [`Scene::beacon`]).
     pub fn gate(&mut self, event: &GateEvent, ns: u64) -> Vec<Out> {
+        self.view.take(&Shown::Gate(*event));
         let decision = GateDecision::from(event);
         let k = decision.robot;
         let t = stamp(ns);
@@ -367,31 +379,27 @@ impl Scene {
             Out { topic: self.topics.gate_json(), message: Message::Gate(decision) },
             Out { topic: self.topics.log(), message: Message::Log(log_line(&t, &decision)) },
         ];
-        let mut entities = Vec::new();
-        let mut deletions = Vec::new();
-        let at = Vec2::new(decision.x, decision.y);
         if let Some(track) = self.robots.get_mut(&k) {
             track.decision = Some(decision.decision);
-            entities.push(robot_entity(&t, k, track, self.world.is_real(k)));
-        }
-        if decision.beacon {
-            self.beacons.insert(k, at);
-            entities.push(beacon_entity(&t, k, at, self.world.eps));
-        } else if self.beacons.remove(&k).is_some() {
-            // A beacon no more (a robot judged again): its circle goes.
-            deletions.push(SceneEntityDeletion {
-                timestamp: Some(t),
-                r#type: scene_entity_deletion::Type::MatchingId as i32,
-                id: beacon_id(k),
-            });
-        }
-        if !entities.is_empty() || !deletions.is_empty() {
-            out.push(Out {
-                topic: self.topics.scene(),
-                message: Message::Scene(SceneUpdate { deletions, entities }),
-            });
+            let entity = robot_entity(&t, k, track, self.world.is_real(k));
+            out.push(self.scene_out(vec![entity]));
         }
         out
+    }
+
+    /// Robot `robot`'s beacon stands at `at` from time `ns` (the launch
+    /// core's beacon table changed): its ε circle there, and its JSON;
+    /// nothing if it already stood there.
+    pub fn beacon(&mut self, robot: u32, at: Vec2, ns: u64) -> Vec<Out> {
+        if !self.view.take(&Shown::Beacon { robot, at }) {
+            return Vec::new();
+        }
+        let t = stamp(ns);
+        let json = BeaconAt { robot, x: at.x, y: at.y };
+        vec![
+            Out { topic: self.topics.beacon_json(), message: Message::Beacon(json) },
+            self.scene_out(vec![beacon_entity(&t, robot, at, self.world.eps)]),
+        ]
     }
 
     /// An agent report at time `ns`: its telemetry, and its mode when it
@@ -429,7 +437,7 @@ impl Scene {
                 entities.extend(path_entity(&t, k, &track.path, piece));
             }
         }
-        for (&k, &at) in &self.beacons {
+        for (k, at) in self.view.beacons() {
             entities.push(beacon_entity(&t, k, at, self.world.eps));
         }
         if !entities.is_empty() {

@@ -4,6 +4,7 @@
 use super::*;
 use bycoms_protocol::msg::{GateKind, Status};
 use bycoms_protocol::RobotId;
+use foxglove::messages::scene_entity_deletion;
 use foxglove::Decode;
 
 fn world() -> SceneWorld {
@@ -112,6 +113,14 @@ fn a_long_path_is_sent_in_pieces_that_join_up() {
     }
 }
 
+/// The ε circle of robot `k`'s beacon in `update`, and whether every point
+/// of it lies ε = 2.5 from (`x`, `y`).
+fn ring_around(update: &SceneUpdate, k: u32, x: f64, y: f64) -> bool {
+    let id = format!("robot/{k}/beacon");
+    let Some(e) = update.entities.iter().find(|e| e.id == id) else { return false };
+    e.lines[0].points.iter().all(|p| (((p.x - x).powi(2) + (p.y - y).powi(2)).sqrt() - 2.5).abs() < 1e-9)
+}
+
 #[test]
 fn a_stuck_robot_becomes_a_beacon_with_its_eps_circle_and_an_arrival_does_not() {
     let mut scene = Scene::new("s", world());
@@ -122,14 +131,14 @@ fn a_stuck_robot_becomes_a_beacon_with_its_eps_circle_and_an_arrival_does_not() 
     let Message::Log(line) = &out[1].message else { panic!("a log line") };
     assert_eq!(line.level, log::Level::Info as i32);
     assert!(line.message.contains("robot 1 stuck"), "{}", line.message);
+    assert_eq!(ids(scene_of(&out)[0]), ["robot/1"], "the core says where its beacon stands");
+    let out = scene.beacon(1, Vec2::new(8.0, 3.0), 9);
+    let Message::Beacon(json) = &out[0].message else { panic!("the beacon's JSON") };
+    assert_eq!((out[0].topic.as_str(), json.robot, json.x), ("bycoms/s/beacon/json", 1, 8.0));
     let update = scene_of(&out)[0];
-    assert_eq!(ids(update), ["robot/1", "robot/1/beacon"]);
-    let ring = &update.entities[1].lines[0];
-    for p in &ring.points {
-        let r = ((p.x - 8.0).powi(2) + (p.y - 3.0).powi(2)).sqrt();
-        assert!((r - 2.5).abs() < 1e-9, "ε circle radius {r}");
-    }
-    assert!(ids(scene_of(&scene.snapshot(10))[1]).contains(&"robot/1/beacon"));
+    assert_eq!(ids(update), ["robot/1/beacon"]);
+    assert!(ring_around(update, 1, 8.0, 3.0), "its ε circle");
+    assert!(ring_around(scene_of(&scene.snapshot(10))[1], 1, 8.0, 3.0));
 
     scene.pose(&pose(2, 17.0, 8.0, 20), 20);
     let won =
@@ -139,6 +148,31 @@ fn a_stuck_robot_becomes_a_beacon_with_its_eps_circle_and_an_arrival_does_not() 
     let died = GateEvent { kind: GateKind::Died, ..stuck };
     let Message::Log(line) = &scene.gate(&died, 30)[1].message else { panic!("a log line") };
     assert_eq!(line.level, log::Level::Warning as i32);
+}
+
+/// The bug issue 53 names: the scene placed a beacon where the gate judged
+/// it and kept it there, while the core's beacon crept on with a robot
+/// judged stuck that still crept. Now its circle stands where the core
+/// says, bit for bit, in the updates and in a late viewer's snapshot; the
+/// same place again sends nothing.
+#[test]
+fn a_beacon_creeps_as_the_core_says() {
+    let mut scene = Scene::new("s", world());
+    scene.pose(&pose(1, 8.0, 3.0, 5), 5);
+    let stuck =
+        GateEvent { robot: RobotId(1), kind: GateKind::Stopped { arrived: false }, x: 8.0, y: 3.0, step: 9 };
+    scene.gate(&stuck, 9);
+    scene.beacon(1, Vec2::new(8.0, 3.0), 9);
+    let crept = Vec2::new(8.0 + 0.1 / 3.0, 3.05);
+    scene.pose(&pose(1, crept.x, crept.y, 10), 10);
+    let out = scene.beacon(1, crept, 10);
+    assert!(ring_around(scene_of(&out)[0], 1, crept.x, crept.y), "the circle moved on");
+    let Message::Beacon(json) = &out[0].message else { panic!("the beacon's JSON") };
+    assert_eq!((json.x.to_bits(), json.y.to_bits()), (crept.x.to_bits(), crept.y.to_bits()));
+    assert!(scene.beacon(1, crept, 11).is_empty(), "standing still sends nothing");
+    let snapshot = scene.snapshot(12);
+    assert!(ring_around(scene_of(&snapshot)[1], 1, crept.x, crept.y));
+    assert!(!ring_around(scene_of(&snapshot)[1], 1, 8.0, 3.0), "not where the gate judged it");
 }
 
 #[test]
@@ -171,6 +205,7 @@ fn every_message_encodes_with_its_schema_and_decodes_back() {
     let event =
         GateEvent { robot: RobotId(1), kind: GateKind::Stopped { arrived: false }, x: 5.5, y: 5.0, step: 1 };
     out.extend(scene.gate(&event, 4));
+    out.extend(scene.beacon(1, Vec2::new(5.5, 5.0), 4));
     out.extend(scene.report(&FromAgent::Status(Status { robot: RobotId(1), mode: 1, step: 1 }), 5));
     let mut schemas = std::collections::BTreeSet::new();
     for o in &out {
@@ -194,6 +229,7 @@ fn every_message_encodes_with_its_schema_and_decodes_back() {
         }
     }
     let want = [
+        "bycoms.BeaconAt",
         "bycoms.GateDecision",
         "bycoms.RobotMode",
         "bycoms.RobotPose",
@@ -259,6 +295,9 @@ fn inputs(seed: u64, n: usize) -> Vec<Input> {
         (state >> 33) as u32
     };
     let mut robots: Vec<Pose> = Vec::new();
+    // Robots the core made beacons: it tells where each stands, and again
+    // whenever one creeps on.
+    let mut beacons: Vec<u32> = Vec::new();
     let mut out = Vec::with_capacity(n);
     for step in 0..n as u64 {
         if robots.is_empty() || next() % 97 == 0 {
@@ -276,6 +315,9 @@ fn inputs(seed: u64, n: usize) -> Vec<Input> {
                 p.x += f64::from(next() % 100) / 200.0;
                 p.y += f64::from(next() % 100) / 300.0;
                 out.push(Input::Pose(*p));
+                if beacons.contains(&p.robot.0) {
+                    out.push(Input::Beacon(p.robot.0, Vec2::new(p.x, p.y)));
+                }
             }
             5 => {
                 p.heading += 0.25;
@@ -295,6 +337,12 @@ fn inputs(seed: u64, n: usize) -> Vec<Input> {
                     _ => GateKind::Died,
                 };
                 out.push(Input::Gate(GateEvent { robot: p.robot, kind, x: p.x, y: p.y, step }));
+                if matches!(kind, GateKind::Stopped { arrived: false } | GateKind::Died) {
+                    if !beacons.contains(&p.robot.0) {
+                        beacons.push(p.robot.0);
+                    }
+                    out.push(Input::Beacon(p.robot.0, Vec2::new(p.x, p.y)));
+                }
             }
         }
     }
@@ -306,6 +354,7 @@ enum Input {
     Pose(Pose),
     Gate(GateEvent),
     Report(FromAgent),
+    Beacon(u32, Vec2),
 }
 
 /// Same picture: a viewer that applied every update in order (the
@@ -332,6 +381,7 @@ fn the_updates_applied_in_order_give_the_full_scene_after_every_input() {
                 }
                 Input::Gate(e) => scene.gate(&e, ns),
                 Input::Report(r) => scene.report(&r, ns),
+                Input::Beacon(k, at) => scene.beacon(k, at, ns),
             };
             updates += scene_of(&outs).len();
             viewer.apply(&outs);

@@ -45,6 +45,12 @@ pub struct RunMeta {
     /// pose topics too). False in recordings older than it.
     #[serde(default)]
     pub applied_poses: bool,
+    /// The changes of the launch core's beacon table are recorded
+    /// (`core/beacon`): the run's beacons are shown from those, creeping as
+    /// the core's ([`RunView::new`]). False in recordings older than it:
+    /// the gate's decisions place them ([`RunView::without_beacons`]).
+    #[serde(default)]
+    pub beacons_told: bool,
     /// Each ROS 2 robot's velocity topic and message type; empty without
     /// ROS 2 robots (and in recordings older than it).
     #[serde(default)]
@@ -114,7 +120,13 @@ pub fn read_run(path: &Path) -> Result<RecordedRun, RecordError> {
         }
         match content {
             // The first run record is the run's.
-            Content::Run(json) if run.meta.is_none() => run.meta = serde_json::from_slice(json).ok(),
+            Content::Run(json) if run.meta.is_none() => {
+                run.meta = serde_json::from_slice(json).ok();
+                if run.meta.as_ref().is_some_and(|m| m.beacons_told) {
+                    run.trace = Trace::with_beacons_told();
+                }
+            }
+            Content::Beacon { robot, x, y } => run.trace.beacon(robot, bycoms_sim::Vec2::new(x, y)),
             Content::Report(report) => run.measurements.report(&report),
             Content::Gate(event) => run.trace.gate(&event),
             Content::Undecodable { schema: schema::POSE | schema::GATE } => run.undecodable += 1,

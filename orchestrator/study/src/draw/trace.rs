@@ -29,6 +29,7 @@
 use super::snapshot::{Options, Unit};
 use crate::gate::{active_periods, same_pose};
 use crate::runs::summary_line;
+use bycoms_gate::view::{RunView, Shown};
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use bycoms_sim::body::Kinematics;
 use bycoms_sim::runner::{RobotRun, RobotRunEnd, RunOutcome, RunResult};
@@ -161,19 +162,44 @@ impl Active {
 }
 
 /// Poses and gate decisions of one run, in the order they crossed the bus.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct Trace {
     robots: BTreeMap<u32, Track>,
+    /// The run as the views show it: which robot arrived, the robots used,
+    /// where the beacons stand (the summary reads the same fold).
+    view: RunView,
+}
+
+impl Default for Trace {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl Trace {
-    /// An empty trace.
+    /// An empty trace of a run whose beacons are not told (a recording
+    /// older than `core/beacon`): the gate's decisions place them
+    /// ([`RunView::without_beacons`]).
     pub fn new() -> Self {
-        Self::default()
+        Self { robots: BTreeMap::new(), view: RunView::without_beacons() }
+    }
+
+    /// An empty trace of a run whose beacons the launch core tells
+    /// ([`Trace::beacon`]: a live launch's `--svg`, a recording with
+    /// `core/beacon`), creeping as its table's.
+    pub fn with_beacons_told() -> Self {
+        Self { robots: BTreeMap::new(), view: RunView::new() }
+    }
+
+    /// Robot `robot`'s beacon stands at `at` (the core's beacon table
+    /// changed).
+    pub fn beacon(&mut self, robot: u32, at: Vec2) {
+        self.view.take(&Shown::Beacon { robot, at });
     }
 
     /// A pose: extends its robot's trajectory until the gate has decided on it.
     pub fn pose(&mut self, pose: &Pose) {
+        self.view.take(&Shown::Moved(*pose));
         let track = self.robots.entry(pose.robot.0).or_default();
         if track.end.is_some() {
             return;
@@ -195,6 +221,7 @@ impl Trace {
     /// A gate decision: ends its robot's trajectory (a deployment starts
     /// its active time).
     pub fn gate(&mut self, event: &GateEvent) {
+        self.view.take(&Shown::Gate(*event));
         let track = self.robots.entry(event.robot.0).or_default();
         if track.end.is_some() {
             return;
@@ -228,11 +255,14 @@ impl Trace {
 
     /// The run as [`RunResult`], for `draw::snapshot`: robots in id
     /// (deployment) order; a robot that died counts as stuck (a beacon
-    /// where last seen); `dt` converts steps to time.
+    /// where last seen); `dt` converts steps to time. Success (a robot
+    /// arrived), the robots used and the beacons are the view's
+    /// ([`RunView`]), as the summary's are.
     pub fn result(&self, dt: f64) -> RunResult {
         let period_us = (dt * 1e6).round() as u64;
         let mut robots = Vec::new();
-        let mut beacons = Vec::new();
+        let mut beacons: Vec<(u32, Vec2)> = self.view.beacons().collect();
+        beacons.sort_by_key(|(id, _)| *id);
         for (&id, track) in self.robots.iter().filter(|(_, t)| t.active.is_some() || t.at.is_some()) {
             let end = match track.end {
                 Some(GateKind::Stopped { arrived: true }) => RobotRunEnd::Arrived,
@@ -244,13 +274,10 @@ impl Trace {
                 (None, at) => at.into_iter().collect(),
             };
             let position = track.at.or(trajectory.last().copied()).unwrap_or(Vec2::new(0.0, 0.0));
-            if end == RobotRunEnd::Stuck {
-                beacons.push(position);
-            }
             let steps = track.active.as_ref().map_or(0, |a| a.periods(period_us));
             robots.push(RobotRun { id, end, position, steps, trajectory });
         }
-        let success = robots.iter().any(|r| r.end == RobotRunEnd::Arrived);
+        let success = self.view.arrived().is_some();
         let timed_out = self.robots.values().any(|t| t.end == Some(GateKind::Timeout));
         let outcome = match (success, timed_out) {
             (true, _) => RunOutcome::Arrived,
@@ -263,8 +290,8 @@ impl Trace {
             outcome,
             steps,
             time: Kinematics { dt, ..Kinematics::paper() }.time_of(steps),
-            robots_used: robots.len() as u32,
-            beacons,
+            robots_used: self.view.robots_used(),
+            beacons: beacons.into_iter().map(|(_, at)| at).collect(),
             robots,
         }
     }
@@ -334,6 +361,25 @@ mod tests {
         assert_eq!(r.time, 0.4);
         assert_eq!(r.beacons, [Vec2::new(2.0, 1.0), Vec2::new(0.5, 1.0)]);
         assert_eq!(r.robots[2].end, RobotRunEnd::Arrived);
+    }
+
+    /// A launch's own trace (or a recording with `core/beacon`): its
+    /// beacons stand where the core's table has them, creeping on, and its
+    /// robots used are those the gate deployed.
+    #[test]
+    fn told_beacons_creep_and_the_robots_used_are_the_deployed() {
+        let mut trace = Trace::with_beacons_told();
+        trace.pose(&at(1, 0, 0.0, 0));
+        trace.gate(&event(1, GateKind::Deployed, 0.0));
+        trace.pose(&at(1, 1, 1.0, 100_000));
+        trace.gate(&event(1, GateKind::Stopped { arrived: false }, 1.0));
+        assert!(trace.result(0.1).beacons.is_empty(), "the gate alone makes no beacon here");
+        trace.beacon(1, Vec2::new(1.0, 1.0));
+        trace.beacon(1, Vec2::new(1.25, 1.0));
+        trace.pose(&at(2, 3, 0.0, 300_000)); // seen, never deployed
+        let r = trace.result(0.1);
+        assert_eq!(r.beacons, [Vec2::new(1.25, 1.0)], "where it crept to");
+        assert_eq!((r.robots_used, r.success), (1, false));
     }
 
     /// Motion capture's frames of a batch are recorded before the gate's

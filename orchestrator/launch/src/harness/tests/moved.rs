@@ -1,5 +1,11 @@
+use crate::core::log::Call;
+use crate::core::{LaunchCore, Output};
 use crate::harness::{self, Case, Foreign, NetFaults, Report, Schedule};
 use bycoms_protocol::msg::{GateKind, Pose};
+use bycoms_record::scene::{Message, Scene, SceneWorld};
+use bycoms_sim::terrain::Terrain;
+use bycoms_sim::Vec2;
+use std::collections::BTreeMap;
 
 /// Three robots, robot 1 moving for a while first (a wall far away).
 fn case() -> Case {
@@ -62,4 +68,66 @@ fn a_revoked_robot_is_not_shown_after_its_revocation() {
     let times: Vec<u64> = report.moved.iter().filter(|(_, r, _)| *r == 1).map(|(t, _, _)| *t).collect();
     assert!(!times.is_empty(), "robot 1 was shown moving before");
     assert!(times.iter().all(|&t| t <= at), "robot 1 shown at {times:?}, revoked at {at} µs");
+}
+
+/// The bug issue 53 names ("the scene's has no creep"): the core's own
+/// outputs, replayed from a logged harness launch in which beacons creep,
+/// fed to the recording's scene as the driver feeds it (applied poses, gate
+/// events, beacon changes). After every call the scene's beacons (its
+/// `beacon/json`) stand exactly where the core's table has them, bit for
+/// bit, and at the end a late viewer's snapshot draws each ε circle there.
+#[test]
+fn the_scenes_beacons_creep_as_the_cores_table() {
+    let walled: Terrain = ".....\n..G..\n.###.\n.#S#.\n.###.\n".parse().expect("terrain");
+    let case =
+        Case { terrain: walled, robots: 12, time_limit: 120.0, noise: None, stop_turn_rate: 0.0, ..case() };
+    let (report, setup, calls) = harness::run_logged(&case, &Schedule::clean(0, case.robots));
+    harness::check(&report, &Schedule::clean(0, case.robots)).unwrap_or_else(|e| panic!("{e}"));
+    let mut core = LaunchCore::new(setup);
+    let world =
+        SceneWorld { terrain: case.terrain.clone(), eps: case.eps, goal_radius: 0.5, real: Vec::new() };
+    let mut scene = Scene::new("s", world);
+    let bits = |at: Vec2| (at.x.to_bits(), at.y.to_bits());
+    let (mut told, mut crept) = (BTreeMap::new(), 0);
+    for call in &calls {
+        match call {
+            Call::Handle(now, input) => core.handle(*now, input.clone()),
+            Call::Advance(now) => core.advance(*now),
+            Call::HandleRecordedPose { .. } => continue,
+        }
+        while let Some(out) = core.poll_output() {
+            let outs = match out {
+                Output::Moved { pose, .. } => scene.pose(&pose, 0),
+                Output::Gate(event) => scene.gate(&event, 0),
+                Output::Beacon { robot, at } => scene.beacon(robot, at, 0),
+                _ => continue,
+            };
+            for beacon in outs.iter().filter_map(|o| match &o.message {
+                Message::Beacon(b) => Some(*b),
+                _ => None,
+            }) {
+                let was = told.insert(beacon.robot, bits(Vec2::new(beacon.x, beacon.y)));
+                crept += usize::from(was.is_some());
+            }
+        }
+        let table: BTreeMap<u32, (u64, u64)> =
+            core.beacons().into_iter().map(|(id, at)| (id, bits(at))).collect();
+        assert_eq!(told, table, "the scene's beacons are the core's");
+    }
+    assert!(told.len() > 1 && crept > 10, "{} beacons crept {crept} times: a run worth the name", told.len());
+    let snapshot = scene.snapshot(1);
+    let circles: BTreeMap<u32, (u64, u64)> = snapshot
+        .iter()
+        .filter_map(|o| match &o.message {
+            Message::Scene(update) => Some(update.entities.iter()),
+            _ => None,
+        })
+        .flatten()
+        .filter_map(|e| {
+            let id = e.id.strip_prefix("robot/")?.strip_suffix("/beacon")?.parse().ok()?;
+            let at = e.cylinders.first()?.pose.as_ref()?.position.as_ref()?;
+            Some((id, bits(Vec2::new(at.x, at.y))))
+        })
+        .collect();
+    assert_eq!(circles, told, "a late viewer sees every circle where the core's beacon stands");
 }
