@@ -211,6 +211,9 @@ fn run_of(meta: &RunMeta) -> Result<(RunMessages, bycoms_sim::terrain::Terrain, 
     if !meta.beacons_told {
         run = run.without_beacons_told();
     }
+    if !meta.states_told {
+        run = run.without_states_told();
+    }
     run.set_real(meta.real.clone());
     Ok((run, terrain, meta.eps().unwrap_or(0.0)))
 }
@@ -245,6 +248,7 @@ pub fn export<W: Write + Seek>(input: &Path, out: W, file_name: &str) -> Result<
             (Content::Beacon { robot, x, y }, Some((run, sink))) => {
                 run.beacon(robot, bycoms_sim::Vec2::new(x, y), sink);
             }
+            (Content::State { robot, state }, Some((run, sink))) => run.state(robot, state, sink),
             (Content::Report(report), Some((run, sink))) => run.report(&report, sink),
             _ => {}
         }
