@@ -168,7 +168,8 @@ mod tests {
         let written = serde_json::to_vec(&RobotSlot { robot: 2, state: SlotState::Unfinished }).unwrap();
         let back = decode("bycoms/s/core/state", schema::CORE_STATE, schema::JSON, &written);
         assert_eq!(back, Content::State { robot: 2, state: SlotState::Unfinished });
-        let bad = decode("bycoms/s/core/state", schema::CORE_STATE, schema::JSON, br#"{"robot":4,"state":"x"}"#);
+        let bad =
+            decode("bycoms/s/core/state", schema::CORE_STATE, schema::JSON, br#"{"robot":4,"state":"x"}"#);
         assert_eq!(bad, Content::Undecodable { schema: schema::CORE_STATE });
         assert_eq!(decode("bycoms/s/robot/4/state", schema::ROBOT_SLOT, schema::JSON, bytes), Content::Other);
     }

@@ -17,8 +17,8 @@
 //! decisions (issue 53).
 //! Pure data, no I/O: the unit tests drive it.
 
-use bycoms_launch::{LaunchConfig, World};
 use bycoms_launch::core::SlotState;
+use bycoms_launch::{LaunchConfig, World};
 use bycoms_record::scene::json::{BeaconAt, Decision, GateDecision, RobotPose, RobotSlot};
 use bycoms_record::scene::{Message, Out};
 use schemars::JsonSchema;

@@ -81,6 +81,7 @@
 pub mod json;
 mod shapes;
 
+use bycoms_gate::view::SlotState;
 use bycoms_gate::view::{RunView, Shown};
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use bycoms_sim::terrain::Terrain;
@@ -89,7 +90,6 @@ use foxglove::messages::{
     log, Color, FrameTransform, FrameTransforms, Log, SceneEntity, SceneUpdate, Timestamp, Vector3,
 };
 use foxglove::Encode;
-use bycoms_gate::view::SlotState;
 use json::{BeaconAt, Decision, GateDecision, RobotMode, RobotPose, RobotSlot, Telemetry};
 use shapes::{arrow, ball, circle, cuboid, disc, label, polyline, rgba, yaw};
 use std::collections::BTreeMap;
@@ -346,8 +346,7 @@ impl Scene {
     pub fn pose(&mut self, pose: &Pose, ns: u64) -> Vec<Out> {
         let k = pose.robot.0;
         let at = Vec2::new(pose.x, pose.y);
-        let track =
-            self.robots.entry(k).or_insert_with(|| Track { last: *pose, path: Vec::new() });
+        let track = self.robots.entry(k).or_insert_with(|| Track { last: *pose, path: Vec::new() });
         let moved = track.path.last().is_none_or(|p| p.x != at.x || p.y != at.y);
         let turned = track.last.heading != pose.heading;
         if !moved && !turned && !track.path.is_empty() {

@@ -3,10 +3,10 @@
 
 use super::*;
 use bycoms_protocol::msg::{GateKind, Status};
-use json::RobotSlot;
 use bycoms_protocol::RobotId;
 use foxglove::messages::scene_entity_deletion;
 use foxglove::Decode;
+use json::RobotSlot;
 
 fn world() -> SceneWorld {
     let mut terrain = Terrain::new(20, 10);
