@@ -126,7 +126,8 @@ pub struct RobotView {
     pub beacon: Option<Vec2>,
     /// The gate deployed it.
     pub deployed: bool,
-    /// The gate's decision that ended its run (stopped, died, timeout).
+    /// The gate's decision that ended its run (stopped, died, timeout):
+    /// the first; the core decides once.
     pub end: Option<GateEvent>,
 }
 
@@ -225,7 +226,7 @@ impl RunView {
             }
             _ => {}
         }
-        self.robot(id).end = Some(*event);
+        self.robot(id).end.get_or_insert(*event);
         let beacon = matches!(event.kind, GateKind::Stopped { arrived: false } | GateKind::Died);
         if beacon && !self.told_beacons {
             return self.beacon(id, Vec2::new(event.x, event.y));

@@ -337,7 +337,7 @@ mod tests {
     /// fields added), then `messages` (topic leaf, schema, encoding, bytes).
     fn recording(path: &Path, extra: serde_json::Value, messages: &[(&str, &str, &str, Vec<u8>)]) {
         let file = std::io::BufWriter::new(std::fs::File::create(path).expect("create"));
-        let mut w = mcap::Writer::new(file).expect("writer");
+        let mut w = Writer::new(file).expect("writer");
         let mut meta = serde_json::json!({
             "terrain": "t", "terrain_text": "S...G\n", "start": {"x": 0.5, "y": 0.5},
             "goal": {"x": 4.5, "y": 0.5}, "config": {"robots": 2, "eps": 1.0},
@@ -349,12 +349,8 @@ mod tests {
             let channel = w
                 .add_channel(schema, &format!("bycoms/s/{leaf}"), encoding, &BTreeMap::new())
                 .expect("channel");
-            let header = mcap::records::MessageHeader {
-                channel_id: channel,
-                sequence: 0,
-                log_time: i as u64,
-                publish_time: 0,
-            };
+            let header =
+                MessageHeader { channel_id: channel, sequence: 0, log_time: i as u64, publish_time: 0 };
             w.write_to_known_channel(&header, bytes).expect("message");
         }
         w.finish().expect("finish");
