@@ -103,7 +103,7 @@ fn a_robot_is_coloured_by_the_state_the_core_said() {
         let id = format!("robot/{k}");
         let update = scene_of(out).into_iter().find(|u| ids(u).contains(&id.as_str())).expect("drawn");
         let e = update.entities.iter().find(|e| e.id == id).expect("its entity");
-        e.spheres[0].color.clone()
+        e.spheres[0].color
     };
     let first = scene.pose(&pose(1, 5.0, 5.0, 0), 1);
     assert_eq!(colour(&first, 1), Some(palette(1)));
