@@ -22,14 +22,19 @@
 //! A recording older than the core's beacon channel (`core/beacon`) has
 //! no beacon facts: its reader folds it [`RunView::without_beacons`], where
 //! a robot the gate judged stuck or lost is a beacon where it was judged,
-//! as those recordings were always drawn (without creep).
+//! as those recordings were always drawn (without creep). One older than
+//! its state channel (`core/state`) has no state facts: its reader folds it
+//! [`RunView::without_states`], where each gate decision sets the state it
+//! implies ([`SlotState::of_gate`]), as those recordings were always shown
+//! (a robot lost before its deployment was never shown lost).
 
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use bycoms_sim::Vec2;
 use std::collections::BTreeMap;
 
 /// Where a robot is in the launch (the launch core's slot state).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum SlotState {
     /// Its agent has not been started.
     Waiting,
@@ -72,6 +77,18 @@ impl SlotState {
             Self::Absent => "absent",
         }
     }
+
+    /// The state a gate decision puts its robot in (the core sets it just
+    /// before it publishes the decision).
+    pub fn of_gate(kind: GateKind) -> Self {
+        match kind {
+            GateKind::Deployed => Self::Moving,
+            GateKind::Stopped { arrived: true } => Self::Arrived,
+            GateKind::Stopped { arrived: false } => Self::Stuck,
+            GateKind::Died => Self::Died,
+            GateKind::Timeout => Self::Unfinished,
+        }
+    }
 }
 
 /// One fact of the run a view shows, as the launch core put it out.
@@ -109,7 +126,8 @@ pub struct RobotView {
     pub beacon: Option<Vec2>,
     /// The gate deployed it.
     pub deployed: bool,
-    /// The gate's decision that ended its run (stopped, died, timeout).
+    /// The gate's decision that ended its run (stopped, died, timeout):
+    /// the first; the core decides once.
     pub end: Option<GateEvent>,
 }
 
@@ -123,6 +141,8 @@ pub struct RunView {
     arrived: Option<u32>,
     /// Beacons come as [`Shown::Beacon`] (else from the gate's decisions).
     told_beacons: bool,
+    /// States come as [`Shown::State`] (else from the gate's decisions).
+    told_states: bool,
 }
 
 impl Default for RunView {
@@ -135,13 +155,26 @@ impl RunView {
     /// An empty view, its beacons told by [`Shown::Beacon`] (a live core's
     /// outputs, or a recording with `core/beacon`).
     pub fn new() -> Self {
-        Self { robots: BTreeMap::new(), beacon_order: Vec::new(), arrived: None, told_beacons: true }
+        Self {
+            robots: BTreeMap::new(),
+            beacon_order: Vec::new(),
+            arrived: None,
+            told_beacons: true,
+            told_states: true,
+        }
     }
 
     /// An empty view of a recording older than the core's beacon channel:
     /// a robot judged stuck or lost is a beacon where it was judged.
     pub fn without_beacons() -> Self {
         Self { told_beacons: false, ..Self::new() }
+    }
+
+    /// This view of a recording older than the core's state channel
+    /// (`core/state`): each gate decision sets the state it implies
+    /// ([`SlotState::of_gate`]).
+    pub fn without_states(self) -> Self {
+        Self { told_states: false, ..self }
     }
 
     /// Takes in one fact; whether the beacons changed (one appeared or
@@ -178,7 +211,11 @@ impl RunView {
 
     fn gate(&mut self, event: &GateEvent) -> bool {
         let id = event.robot.0;
+        let told_states = self.told_states;
         let view = self.robot(id);
+        if !told_states {
+            view.state = Some(SlotState::of_gate(event.kind));
+        }
         match event.kind {
             GateKind::Deployed => {
                 view.deployed = true;
@@ -189,7 +226,7 @@ impl RunView {
             }
             _ => {}
         }
-        self.robot(id).end = Some(*event);
+        self.robot(id).end.get_or_insert(*event);
         let beacon = matches!(event.kind, GateKind::Stopped { arrived: false } | GateKind::Died);
         if beacon && !self.told_beacons {
             return self.beacon(id, Vec2::new(event.x, event.y));
@@ -220,6 +257,11 @@ impl RunView {
     /// Robots used: the robots the gate deployed.
     pub fn robots_used(&self) -> u32 {
         self.robots.values().filter(|r| r.deployed).count() as u32
+    }
+
+    /// Robot `id`'s state as shown (none: never said).
+    pub fn state(&self, id: u32) -> Option<SlotState> {
+        self.robots.get(&id).and_then(|r| r.state)
     }
 
     /// Whether the gate deployed robot `id`.
@@ -284,5 +326,25 @@ mod tests {
         assert!(!v.take(&moved(1, 2.5, 9)), "no creep without the core's word");
         let beacons: Vec<_> = v.beacons().collect();
         assert_eq!(beacons, [(1, Vec2::new(2.0, 0.0)), (2, Vec2::new(3.0, 0.0))]);
+    }
+
+    /// A robot revoked before its deployment: the core says it is lost,
+    /// with no gate decision; the told view shows it, a gate decision
+    /// changes no told state, and a view of an older recording takes the
+    /// states its gate decisions imply.
+    #[test]
+    fn states_are_the_cores_and_without_them_the_gates() {
+        let mut v = RunView::new();
+        v.take(&Shown::State { robot: 1, state: SlotState::Registered });
+        v.take(&Shown::State { robot: 1, state: SlotState::Lost });
+        v.take(&gate(2, GateKind::Deployed, 0.0));
+        v.take(&gate(2, GateKind::Timeout, 1.0));
+        assert_eq!((v.state(1), v.state(2)), (Some(SlotState::Lost), None), "told: only the core's word");
+        let mut old = RunView::without_beacons().without_states();
+        old.take(&gate(2, GateKind::Deployed, 0.0));
+        assert_eq!(old.state(2), Some(SlotState::Moving));
+        old.take(&gate(2, GateKind::Timeout, 1.0));
+        old.take(&gate(3, GateKind::Died, 1.0));
+        assert_eq!((old.state(2), old.state(3)), (Some(SlotState::Unfinished), Some(SlotState::Died)));
     }
 }

@@ -265,9 +265,7 @@ impl Driver {
             Output::Relay(pose) => self.ports.relay(&pose)?,
             Output::Moved { robot, pose } => self.ports.show_moved(robot, &pose),
             Output::Beacon { robot, at } => self.ports.show_beacon(robot, at),
-            // Folded into the view (above); no renderer draws states apart
-            // from the gate's decisions yet.
-            Output::State { .. } => {}
+            Output::State { robot, state } => self.ports.show_state(robot, state),
             Output::Forward(pose) => self.ports.forward_pose(&pose)?,
             Output::Gate(event) => {
                 self.ports.publish_gate(&event)?;

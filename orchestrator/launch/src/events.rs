@@ -45,6 +45,10 @@ pub struct RunMeta<'a> {
     /// `core/beacon`: readers show beacons from those (creeping as the
     /// core's), not from the gate's decisions. Absent in older recordings.
     pub beacons_told: bool,
+    /// Every change of a robot's state in the launch core is on
+    /// `core/state`: readers show states from those, not from the gate's
+    /// decisions. Absent in older recordings.
+    pub states_told: bool,
     /// Each ROS 2 robot's velocity topic and message type (robots of
     /// `kind = "ros2"`): where `record export --ros2` puts the commands
     /// their agents reported. Absent without ROS 2 robots.

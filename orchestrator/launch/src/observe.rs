@@ -26,6 +26,7 @@
 
 use super::config::LaunchConfig;
 use super::{Summary, World};
+use crate::core::SlotState;
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use bycoms_record::scene::{Out, SharedScene};
 use bycoms_sim::Vec2;
@@ -46,6 +47,8 @@ pub trait Observer: Send {
     /// Robot `robot`'s beacon stands at `at` (the launch core's beacon
     /// table changed: a new beacon, or one that crept on).
     fn beacon(&mut self, _robot: u32, _at: Vec2) {}
+    /// Robot `robot`'s state changed to `state` (the launch core's slot).
+    fn state(&mut self, _robot: u32, _state: SlotState) {}
 }
 
 /// A live view of the run (`launch --serve ADDR`): started once the

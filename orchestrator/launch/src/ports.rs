@@ -19,6 +19,7 @@ use super::observe::Observer;
 use super::poses::PoseBytes;
 use super::recording::{Recording, Seen};
 use super::transport::{AnyPublisher, AnySubscriber, SharedBus};
+use crate::core::SlotState;
 use bycoms_protocol::bus::{untag, BusError, FAN_IN_TAG};
 use bycoms_protocol::msg::{Beacon, Deploy, FromAgent, GateEvent, Pose, ToAgent};
 use bycoms_protocol::{decode, encode, Message, RobotId, Swarm, TopicName, MAX_MESSAGE_LEN};
@@ -265,6 +266,19 @@ impl Ports {
         }
         self.recording.seen(Seen::Beacon { robot, at });
         self.observers.iter_mut().for_each(|o| o.beacon(robot, at));
+    }
+
+    /// Shows that robot `robot`'s state changed to `state` (the launch
+    /// core's slot, `Output::State`) to everything that shows the run, as
+    /// [`Ports::show_beacon`] shows beacons: recorded on `core/state` (what
+    /// `record export --ros2` reads), handed to the recording's scene and
+    /// to the observers.
+    pub fn show_state(&mut self, robot: u32, state: SlotState) {
+        let topic = schema::Topics::new(self.swarm.as_str()).state();
+        let slot = bycoms_record::scene::json::RobotSlot { robot, state };
+        self.recording.json(&topic, schema::CORE_STATE, &slot);
+        self.recording.seen(Seen::State { robot, state });
+        self.observers.iter_mut().for_each(|o| o.state(robot, state));
     }
 
     /// Hands the observers what the run's scene produced since the last

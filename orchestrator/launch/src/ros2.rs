@@ -213,6 +213,9 @@ impl Observer for Ros2Bridge {
     fn beacon(&mut self, robot: u32, at: bycoms_sim::Vec2) {
         self.run.beacon(robot, at, &mut self.sink);
     }
+    fn state(&mut self, robot: u32, state: crate::core::SlotState) {
+        self.run.state(robot, state, &mut self.sink);
+    }
     fn report(&mut self, report: &FromAgent) {
         self.run.report(report, &mut self.sink);
     }

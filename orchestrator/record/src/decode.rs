@@ -15,7 +15,9 @@
 use bycoms_protocol::msg::{Deploy, FromAgent, GateEvent, Pose, ToAgent};
 use bycoms_protocol::{decode as postcard, RobotId};
 
+use super::scene::json::RobotSlot;
 use super::schema;
+use bycoms_gate::view::SlotState;
 
 /// A recorded message, decoded as far as the recording layer knows how.
 #[derive(Debug, Clone, PartialEq)]
@@ -44,6 +46,13 @@ pub enum Content<'a> {
         x: f64,
         /// Where, y.
         y: f64,
+    },
+    /// A change of a robot's state in the launch core (`core/state`).
+    State {
+        /// The robot.
+        robot: u32,
+        /// Its new state.
+        state: SlotState,
     },
     /// A gate event the launch published.
     Gate(GateEvent),
@@ -88,6 +97,10 @@ pub fn decode<'a>(topic: &str, schema_name: &str, encoding: &str, data: &'a [u8]
         schema::BEACON if postcard_bytes => match bus::<ToAgent>(data) {
             Some(ToAgent::Beacon(b)) => Content::Beacon { robot: b.robot.0, x: b.x, y: b.y },
             _ => Content::Undecodable { schema: schema::BEACON },
+        },
+        schema::CORE_STATE if encoding == schema::JSON => match serde_json::from_slice::<RobotSlot>(data) {
+            Ok(RobotSlot { robot, state }) => Content::State { robot, state },
+            Err(_) => Content::Undecodable { schema: schema::CORE_STATE },
         },
         schema::GATE if postcard_bytes => {
             bus(data).map_or(Content::Undecodable { schema: schema::GATE }, Content::Gate)
@@ -142,6 +155,23 @@ mod tests {
         let tick = encode(&ToAgent::Tick(Tick { step: 1 }), &mut buf).expect("encodes").to_vec();
         let other = decode("bycoms/s/core/beacon", schema::BEACON, schema::POSTCARD, &tick);
         assert_eq!(other, Content::Undecodable { schema: schema::BEACON });
+    }
+
+    /// `core/state`: a robot's state as the core said it (here a robot
+    /// lost before its deployment); bytes that are not one do not decode,
+    /// and the scene's JSON of it is not the core's channel.
+    #[test]
+    fn a_state_change_decodes_from_its_channel() {
+        let bytes = br#"{"robot":4,"state":"lost"}"#;
+        let got = decode("bycoms/s/core/state", schema::CORE_STATE, schema::JSON, bytes);
+        assert_eq!(got, Content::State { robot: 4, state: SlotState::Lost });
+        let written = serde_json::to_vec(&RobotSlot { robot: 2, state: SlotState::Unfinished }).unwrap();
+        let back = decode("bycoms/s/core/state", schema::CORE_STATE, schema::JSON, &written);
+        assert_eq!(back, Content::State { robot: 2, state: SlotState::Unfinished });
+        let bad =
+            decode("bycoms/s/core/state", schema::CORE_STATE, schema::JSON, br#"{"robot":4,"state":"x"}"#);
+        assert_eq!(bad, Content::Undecodable { schema: schema::CORE_STATE });
+        assert_eq!(decode("bycoms/s/robot/4/state", schema::ROBOT_SLOT, schema::JSON, bytes), Content::Other);
     }
 
     #[test]

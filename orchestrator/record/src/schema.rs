@@ -50,6 +50,12 @@ pub const MOVED: &str = "bycoms.Moved";
 /// the core's; a recording whose run metadata says `beacons_told` is drawn
 /// and exported with these.
 pub const BEACON: &str = "bycoms.Beacon";
+/// A change of a robot's state in the launch core (`core/state`): JSON
+/// `{"robot": k, "state": "moving"}` (`scene::json::RobotSlot`). Every
+/// state the views show; a recording whose run metadata says
+/// `states_told` is exported with these, an older one with the states its
+/// gate decisions imply.
+pub const CORE_STATE: &str = "bycoms.SlotState";
 
 // Motion capture as received (the NatNet datagram's bytes).
 
@@ -81,6 +87,9 @@ pub const GATE_DECISION: &str = "bycoms.GateDecision";
 /// A beacon where it stands, as JSON (`beacon/json`): each change of the
 /// launch core's beacon table.
 pub const BEACON_AT: &str = "bycoms.BeaconAt";
+/// A robot's state as JSON (`robot/<k>/state`): each change the launch
+/// core said.
+pub const ROBOT_SLOT: &str = "bycoms.RobotSlot";
 
 // The live view's own JSON channels (`bycoms_orchestrator::live`): not recorded, named here with the rest
 // so that one file lists every schema name the orchestrator writes.
@@ -141,6 +150,10 @@ impl Topics {
     pub fn beacon(&self) -> String {
         self.leaf("core/beacon")
     }
+    /// The changes of the launch core's robots' states ([`CORE_STATE`]).
+    pub fn state(&self) -> String {
+        self.leaf("core/state")
+    }
     /// Gate decisions as JSON ([`GATE_DECISION`]).
     pub fn gate_json(&self) -> String {
         self.leaf("gate/json")
@@ -156,6 +169,10 @@ impl Topics {
     /// Robot `k`'s mode ([`ROBOT_MODE`]).
     pub fn mode(&self, k: u32) -> String {
         format!("{}/robot/{k}/mode", self.prefix)
+    }
+    /// Robot `k`'s states ([`ROBOT_SLOT`]).
+    pub fn slot(&self, k: u32) -> String {
+        format!("{}/robot/{k}/state", self.prefix)
     }
     /// Robot `k`'s agent reports ([`TELEMETRY`]).
     pub fn telemetry(&self, k: u32) -> String {

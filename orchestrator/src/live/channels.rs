@@ -5,7 +5,8 @@
 //!
 //! * **The scene** — exactly what the recording's decoded channels carry
 //!   ([`bycoms_record::scene`]: `scene` SceneUpdate, `tf`, `log`, `gate/json`,
-//!   `robot/<k>/pose/json`, `robot/<k>/mode`, `robot/<k>/telemetry`), one
+//!   `beacon/json`, `robot/<k>/state`, `robot/<k>/pose/json`,
+//!   `robot/<k>/mode`, `robot/<k>/telemetry`), one
 //!   SDK channel per topic, created when its first message comes. Foxglove's
 //!   3D, Log, Plot and Raw Messages panels show them as they are.
 //! * **The page's two** — `live/world` (terrain rows, start, goal, ε) and
@@ -13,6 +14,8 @@
 //!   verdict), JSON with JSON schemas, because a self-contained page cannot
 //!   ship a protobuf decoder for the SceneUpdate. The page also reads the
 //!   scene's `gate/json` and `robot/<k>/pose/json`: one live stream for both.
+//!   `live/state`'s robot states are the scene's `robot/<k>/state`, as the
+//!   launch core said them.
 //!
 //! Why "latched" by hand: the protocol has no history, so on every
 //! subscription to `live/world`, `live/state` or `scene` the current value

@@ -11,11 +11,15 @@
 //! are: the page and Foxglove see the same messages, at the same moment.
 //! Its beacons are the scene's `beacon/json` messages, each where the
 //! launch core's beacon table has it (the run's one view, `RunView`),
-//! creeping with it: not placed from the gate's decisions (issue 53).
+//! creeping with it, and its robots' states the scene's `robot/<k>/state`
+//! messages, each as the core said it (so a robot revoked or lost before
+//! its deployment is shown lost): neither is derived from the gate's
+//! decisions (issue 53).
 //! Pure data, no I/O: the unit tests drive it.
 
+use bycoms_launch::core::SlotState;
 use bycoms_launch::{LaunchConfig, World};
-use bycoms_record::scene::json::{BeaconAt, Decision, GateDecision, RobotPose};
+use bycoms_record::scene::json::{BeaconAt, Decision, GateDecision, RobotPose, RobotSlot};
 use bycoms_record::scene::{Message, Out};
 use schemars::JsonSchema;
 use serde::Serialize;
@@ -78,7 +82,7 @@ impl WorldView {
     }
 }
 
-/// Where a robot is in the run, as the gate sees it.
+/// Where a robot is in the run, as the launch core said it ([`RobotState::of`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum RobotState {
@@ -94,6 +98,26 @@ pub enum RobotState {
     Lost,
     /// The time limit ran out while it moved.
     Timeout,
+}
+
+impl RobotState {
+    /// The page's word for the core's state: any state before it moves is
+    /// `deploying` (the page lists a robot once it is seen), a robot lost
+    /// before its deployment or while moving is `lost`.
+    pub fn of(state: SlotState) -> Self {
+        match state {
+            SlotState::Waiting
+            | SlotState::Spawned
+            | SlotState::Registered
+            | SlotState::Deploying
+            | SlotState::Absent => Self::Deploying,
+            SlotState::Moving => Self::Moving,
+            SlotState::Stuck => Self::Stuck,
+            SlotState::Arrived => Self::Arrived,
+            SlotState::Died | SlotState::Lost => Self::Lost,
+            SlotState::Unfinished => Self::Timeout,
+        }
+    }
 }
 
 /// One robot.
@@ -149,6 +173,10 @@ pub struct LiveState {
     #[serde(skip)]
     #[schemars(skip)]
     index: BTreeMap<u32, usize>,
+    /// Each robot's state as the core said it, seen or not yet.
+    #[serde(skip)]
+    #[schemars(skip)]
+    states: BTreeMap<u32, RobotState>,
 }
 
 impl LiveState {
@@ -156,8 +184,8 @@ impl LiveState {
         let at = match self.index.get(&id) {
             Some(&i) => i,
             None => {
-                let fresh =
-                    RobotView { id, state: RobotState::Deploying, x, y, heading: 0.0, trail: Vec::new() };
+                let state = self.states.get(&id).copied().unwrap_or(RobotState::Deploying);
+                let fresh = RobotView { id, state, x, y, heading: 0.0, trail: Vec::new() };
                 let at = self.robots.partition_point(|r| r.id < id);
                 self.robots.insert(at, fresh);
                 self.index = self.robots.iter().enumerate().map(|(i, r)| (r.id, i)).collect();
@@ -167,9 +195,10 @@ impl LiveState {
         &mut self.robots[at]
     }
 
-    /// Takes in what the run's scene produced; whether a gate decision or
-    /// a new beacon was among it (viewers get the state at once then; a
-    /// beacon that crept on is sent with the next state).
+    /// Takes in what the run's scene produced; whether a gate decision, a
+    /// seen robot's new state or a new beacon was among it (viewers get the
+    /// state at once then; a beacon that crept on is sent with the next
+    /// state).
     pub fn take(&mut self, outs: &[Out]) -> bool {
         let mut decided = false;
         for out in outs {
@@ -180,6 +209,7 @@ impl LiveState {
                     decided = true;
                 }
                 Message::Beacon(beacon) => decided |= self.beacon(beacon),
+                Message::State(slot) => decided |= self.state(slot),
                 _ => {}
             }
         }
@@ -198,29 +228,32 @@ impl LiveState {
         }
     }
 
-    /// Takes in one gate decision.
+    /// Takes in one gate decision (the robot's state comes as the core
+    /// said it: [`LiveState::state`]).
     pub fn gate(&mut self, event: &GateDecision) {
         self.gate_events += 1;
-        let id = event.robot;
-        let state = match event.decision {
-            Decision::Deployed => RobotState::Moving,
-            Decision::Arrived => RobotState::Arrived,
-            Decision::Stuck => RobotState::Stuck,
-            Decision::Died => RobotState::Lost,
-            Decision::Timeout => RobotState::Timeout,
-        };
-        let robot = self.robot(id, event.x, event.y);
-        robot.state = state;
-        if state != RobotState::Moving {
+        let robot = self.robot(event.robot, event.x, event.y);
+        if event.decision != Decision::Deployed {
             // The gate's position is where it stopped (or was last seen).
             robot.x = event.x;
             robot.y = event.y;
         }
+    }
+
+    /// Takes in a robot's new state, as the core said it; whether a robot
+    /// the page lists changed. The robot under the gate's watch is the one
+    /// moving.
+    pub fn state(&mut self, slot: &RobotSlot) -> bool {
+        let (id, state) = (slot.robot, RobotState::of(slot.state));
+        self.states.insert(id, state);
         self.moving = match state {
             RobotState::Moving => Some(id),
             _ if self.moving == Some(id) => None,
             _ => self.moving,
         };
+        let Some(&i) = self.index.get(&id) else { return false };
+        let robot = &mut self.robots[i];
+        std::mem::replace(&mut robot.state, state) != state
     }
 
     /// Takes in where a beacon stands (new: after the others; crept on: in

@@ -5,11 +5,12 @@
 use super::front::{classify, Request};
 use super::state::{LiveState, RobotState, TRAIL_STEP};
 use super::{state_topic, world_topic, LiveView};
+use bycoms_launch::core::SlotState;
 use bycoms_launch::observe::Observer;
 use bycoms_launch::{LaunchConfig, World};
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use bycoms_protocol::RobotId;
-use bycoms_record::scene::json::{BeaconAt, GateDecision, RobotPose};
+use bycoms_record::scene::json::{BeaconAt, GateDecision, RobotPose, RobotSlot};
 use bycoms_record::scene::{Scene, SceneWorld, SharedScene};
 use foxglove::messages::SceneUpdate;
 use foxglove::Decode;
@@ -78,6 +79,16 @@ impl Fed {
         let outs = self.scene.lock().beacon(robot, bycoms_sim::Vec2::new(x, y), 3);
         self.tap.scene(&outs);
     }
+
+    fn state(&mut self, robot: u32, state: SlotState) {
+        let outs = self.scene.lock().state(robot, state, 3);
+        self.tap.scene(&outs);
+    }
+}
+
+/// A state change as the scene hands it on.
+fn slot(robot: u32, state: SlotState) -> RobotSlot {
+    RobotSlot { robot, state }
 }
 
 #[test]
@@ -91,19 +102,26 @@ fn the_state_follows_poses_and_the_gate() {
     s.pose(&seen(1, 0.5 + TRAIL_STEP, 0.5, 2));
     assert_eq!(s.robots[0].trail, [[0.5, 0.5], [0.5 + TRAIL_STEP, 0.5]]);
     assert_eq!(s.robots[0].x, 0.5 + TRAIL_STEP);
+    assert!(s.state(&slot(1, SlotState::Moving)), "a seen robot's state changed");
     s.gate(&decided(1, GateKind::Deployed, 0.5, 0.5));
     assert_eq!((s.robots[0].state, s.moving), (RobotState::Moving, Some(1)));
+    s.state(&slot(1, SlotState::Stuck));
     s.gate(&decided(1, GateKind::Stopped { arrived: false }, 3.0, 4.0));
     assert_eq!((s.robots[0].state, s.moving), (RobotState::Stuck, None));
+    assert_eq!((s.robots[0].x, s.robots[0].y), (3.0, 4.0), "where the gate stopped it");
     assert!(s.beacons.is_empty(), "the core tells its beacons");
     assert!(s.beacon(&BeaconAt { robot: 1, x: 3.0, y: 4.0 }), "a new beacon");
     assert_eq!((s.beacons.len(), s.beacons[0].x, s.beacons[0].y), (1, 3.0, 4.0));
     assert!(!s.beacon(&BeaconAt { robot: 1, x: 3.25, y: 4.0 }), "crept on");
     assert_eq!((s.beacons.len(), s.beacons[0].x), (1, 3.25), "in its place, where it crept to");
+    s.state(&slot(2, SlotState::Moving));
     s.gate(&decided(2, GateKind::Deployed, 1.0, 1.0));
+    s.state(&slot(2, SlotState::Died));
     s.gate(&decided(2, GateKind::Died, 1.5, 1.5));
     s.beacon(&BeaconAt { robot: 2, x: 1.5, y: 1.5 });
+    s.state(&slot(3, SlotState::Moving));
     s.gate(&decided(3, GateKind::Deployed, 0.5, 0.5));
+    s.state(&slot(3, SlotState::Arrived));
     s.gate(&decided(3, GateKind::Stopped { arrived: true }, 2.5, 2.5));
     let states: Vec<_> = s.robots.iter().map(|r| r.state).collect();
     assert_eq!(states, [RobotState::Stuck, RobotState::Lost, RobotState::Arrived]);
@@ -112,6 +130,30 @@ fn the_state_follows_poses_and_the_gate() {
     let j = serde_json::to_value(&s).unwrap();
     assert_eq!(j["ended"], json!({ "success": true, "verdict": "arrived" }));
     assert_eq!(j["robots"][1]["state"], "lost");
+}
+
+/// A robot's state is the core's word, not the gate's: a robot revoked
+/// before its deployment (no gate decision about it) is lost on the page,
+/// and one said lost before it was seen is listed lost when it is; a gate
+/// decision alone changes no state.
+#[test]
+fn the_state_of_a_robot_is_the_cores() {
+    let mut s = LiveState::default();
+    s.pose(&seen(1, 0.5, 0.5, 0));
+    assert!(!s.state(&slot(1, SlotState::Registered)), "deploying already");
+    assert!(s.state(&slot(1, SlotState::Lost)), "revoked before its deployment");
+    assert_eq!((s.robots[0].state, s.moving, s.gate_events), (RobotState::Lost, None, 0));
+    assert!(!s.state(&slot(2, SlotState::Lost)), "not listed yet");
+    s.pose(&seen(2, 1.0, 1.0, 0));
+    assert_eq!(s.robots[1].state, RobotState::Lost);
+    s.pose(&seen(3, 1.0, 1.0, 0));
+    s.gate(&decided(3, GateKind::Deployed, 1.0, 1.0));
+    assert_eq!((s.robots[2].state, s.moving), (RobotState::Deploying, None), "no state said");
+    s.take(&[bycoms_record::scene::Out {
+        topic: "bycoms/t/robot/3/state".into(),
+        message: bycoms_record::scene::Message::State(slot(3, SlotState::Unfinished)),
+    }]);
+    assert_eq!(serde_json::to_value(&s).unwrap()["robots"][2]["state"], "timeout");
 }
 
 #[test]
@@ -188,6 +230,7 @@ fn one_port_serves_the_page_and_the_foxglove_stream() {
     let cfg = LaunchConfig { eps: 2.0, ..LaunchConfig::default() };
     let mut tap = Fed::new(Box::new(live.clone()), &world(), &cfg);
     tap.pose(&pose(1, 0.5, 0.5, 0));
+    tap.state(1, SlotState::Moving);
     tap.gate(&event(1, GateKind::Deployed, 0.5, 0.5));
 
     let page = http(addr, "GET / HTTP/1.1\r\nHost: t\r\n\r\n");
@@ -251,6 +294,7 @@ fn one_port_serves_the_page_and_the_foxglove_stream() {
     tap.pose(&pose(1, 1.5, 0.5, 1));
     let p = next(&mut ws, |m| payload(m).filter(|(s, _)| *s == 3).map(|(_, b)| json_of(&b)));
     assert_eq!((p["robot"].as_u64(), p["x"].as_f64()), (Some(1), Some(1.5)));
+    tap.state(1, SlotState::Stuck);
     tap.gate(&event(1, GateKind::Stopped { arrived: false }, 1.5, 0.5));
     tap.beacon(1, 1.5, 0.5);
     let with_beacon = |(_, b): (u32, Vec<u8>)| Some(json_of(&b)).filter(|s| s["beacons"] != json!([]));

@@ -196,12 +196,13 @@ pub fn read_recording(path: &Path) -> Result<Recorded, ReplayError> {
             Content::MocapFrame(bytes) => Entry::MocapFrame(bytes.to_vec()),
             Content::MocapModelDef(bytes) => Entry::MocapModelDef(bytes.to_vec()),
             // Bytes that do not decode are skipped, as the launch skipped
-            // them; reports, the poses the core applied and its beacons
-            // (its outputs, made again by the replay), decoded channels and
-            // the rest are not replayed.
+            // them; reports, the poses the core applied, its beacons and
+            // states (its outputs, made again by the replay), decoded
+            // channels and the rest are not replayed.
             Content::Report(_)
             | Content::Moved(_)
             | Content::Beacon { .. }
+            | Content::State { .. }
             | Content::Operator(_)
             | Content::Undecodable { .. }
             | Content::Other => return Ok(()),

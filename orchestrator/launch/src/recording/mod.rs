@@ -238,6 +238,7 @@ impl Recording {
             config: cfg,
             applied_poses: true,
             beacons_told: true,
+            states_told: true,
             ros2_robots: &ros2_robots(cfg),
             real: &crate::lab::real_robots(cfg, world),
         };
@@ -317,7 +318,7 @@ impl Recording {
                 Seen::Pose(pose) => trace.pose(pose),
                 Seen::Gate(event) => trace.gate(event),
                 Seen::Beacon { robot, at } => trace.beacon(*robot, *at),
-                Seen::Report(_) => {}
+                Seen::Report(_) | Seen::State { .. } => {}
             }
         }
         let now = self.now();

@@ -12,6 +12,7 @@
 //! and a report the core never took (another robot's, on the wrong topic)
 //! shows nowhere.
 
+use crate::core::SlotState;
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use bycoms_sim::Vec2;
 
@@ -31,5 +32,12 @@ pub enum Seen {
         robot: u32,
         /// Where its beacon stands.
         at: Vec2,
+    },
+    /// Robot `robot`'s state changed to `state` (`Output::State`).
+    State {
+        /// The robot.
+        robot: u32,
+        /// Its new state.
+        state: SlotState,
     },
 }

@@ -224,6 +224,7 @@ impl Writer {
             Seen::Gate(event) => scene.lock().gate(event, now),
             Seen::Report(report) => scene.lock().report(report, now),
             Seen::Beacon { robot, at } => scene.lock().beacon(*robot, *at, now),
+            Seen::State { robot, state } => scene.lock().state(*robot, *state, now),
         };
         self.write_outs(&outs, now);
         shown.extend(outs);

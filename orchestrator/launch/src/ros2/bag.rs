@@ -211,6 +211,9 @@ fn run_of(meta: &RunMeta) -> Result<(RunMessages, bycoms_sim::terrain::Terrain, 
     if !meta.beacons_told {
         run = run.without_beacons_told();
     }
+    if !meta.states_told {
+        run = run.without_states_told();
+    }
     run.set_real(meta.real.clone());
     Ok((run, terrain, meta.eps().unwrap_or(0.0)))
 }
@@ -245,6 +248,7 @@ pub fn export<W: Write + Seek>(input: &Path, out: W, file_name: &str) -> Result<
             (Content::Beacon { robot, x, y }, Some((run, sink))) => {
                 run.beacon(robot, bycoms_sim::Vec2::new(x, y), sink);
             }
+            (Content::State { robot, state }, Some((run, sink))) => run.state(robot, state, sink),
             (Content::Report(report), Some((run, sink))) => run.report(&report, sink),
             _ => {}
         }
@@ -262,6 +266,8 @@ mod tests {
     use super::*;
     use bycoms_protocol::msg::Pose;
     use bycoms_protocol::RobotId;
+    use bycoms_record::schema;
+    use bycoms_ros2::bycoms_msgs::robot_state;
 
     /// A bag of a few poses, read back with the `mcap` crate: what rosbag2's
     /// reader looks for is there (the Python readers check it in
@@ -325,6 +331,90 @@ mod tests {
             "{yaml}"
         );
         assert!(yaml.contains("message_count: 66\n"), "{yaml}");
+    }
+
+    /// A small launch recording at `path`: its run metadata (`extra`
+    /// fields added), then `messages` (topic leaf, schema, encoding, bytes).
+    fn recording(path: &Path, extra: serde_json::Value, messages: &[(&str, &str, &str, Vec<u8>)]) {
+        let file = std::io::BufWriter::new(std::fs::File::create(path).expect("create"));
+        let mut w = Writer::new(file).expect("writer");
+        let mut meta = serde_json::json!({
+            "terrain": "t", "terrain_text": "S...G\n", "start": {"x": 0.5, "y": 0.5},
+            "goal": {"x": 4.5, "y": 0.5}, "config": {"robots": 2, "eps": 1.0},
+        });
+        meta.as_object_mut().expect("an object").extend(extra.as_object().cloned().unwrap_or_default());
+        let run = ("run", schema::RUN, schema::JSON, serde_json::to_vec(&meta).expect("JSON"));
+        for (i, (leaf, name, encoding, bytes)) in std::iter::once(&run).chain(messages).enumerate() {
+            let schema = w.add_schema(name, "", &[]).expect("schema");
+            let channel = w
+                .add_channel(schema, &format!("bycoms/s/{leaf}"), encoding, &BTreeMap::new())
+                .expect("channel");
+            let header =
+                MessageHeader { channel_id: channel, sequence: 0, log_time: i as u64, publish_time: 0 };
+            w.write_to_known_channel(&header, bytes).expect("message");
+        }
+        w.finish().expect("finish");
+    }
+
+    /// Robot `robot`'s `RobotState.state`s in a bag, in order.
+    fn states_in(bag: &[u8], robot: u32) -> Vec<u8> {
+        let topic = format!("/robot_{robot}/state");
+        mcap::MessageStream::new(bag)
+            .expect("a bag")
+            .map(|m| m.expect("a message"))
+            .filter(|m| m.channel.topic == topic)
+            // The state byte: after the CDR header (4), the header's stamp
+            // and frame "world" (20, padded) and the robot (4).
+            .map(|m| m.data[4 + 24])
+            .collect()
+    }
+
+    /// `record export --ros2` shows the core's states from `core/state`
+    /// (robot 2 revoked before its deployment: lost, without a gate
+    /// decision), and a recording older than it as it always did: the
+    /// states its gate decisions imply (robot 2 stays waiting).
+    #[test]
+    fn a_bag_has_the_cores_states_and_an_older_recordings_states_from_the_gate() {
+        use bycoms_launch_core::view::SlotState;
+        use bycoms_protocol::msg::{GateEvent, GateKind};
+        let mut buf = [0u8; bycoms_protocol::MAX_MESSAGE_LEN];
+        let mut gate = |kind| {
+            let event = GateEvent { robot: RobotId(1), kind, x: 1.0, y: 0.5, step: 3 };
+            (
+                "gate",
+                schema::GATE,
+                schema::POSTCARD,
+                bycoms_protocol::encode(&event, &mut buf).expect("encodes").to_vec(),
+            )
+        };
+        let gates = [gate(GateKind::Deployed), gate(GateKind::Stopped { arrived: false })];
+        let state = |robot, state| {
+            let json =
+                serde_json::to_vec(&bycoms_record::scene::json::RobotSlot { robot, state }).expect("JSON");
+            ("core/state", schema::CORE_STATE, schema::JSON, json)
+        };
+        let told = [
+            state(1, SlotState::Moving),
+            gates[0].clone(),
+            state(2, SlotState::Lost),
+            state(1, SlotState::Stuck),
+            gates[1].clone(),
+        ];
+        let dir = std::env::temp_dir().join(format!("bycoms-bag-states-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let export_of = |name: &str, extra, messages: &[_]| {
+            let path = dir.join(name);
+            recording(&path, extra, messages);
+            let (_, out) = export(&path, std::io::Cursor::new(Vec::new()), "bag.mcap").expect("exports");
+            out.into_inner()
+        };
+        let bag = export_of("told.mcap", serde_json::json!({ "states_told": true }), &told);
+        assert_eq!(states_in(&bag, 1), [robot_state::WAITING, robot_state::MOVING, robot_state::BEACON]);
+        assert_eq!(states_in(&bag, 2), [robot_state::WAITING, robot_state::LOST]);
+        let old = export_of("old.mcap", serde_json::json!({}), &gates);
+        assert_eq!(states_in(&old, 1), [robot_state::WAITING, robot_state::MOVING, robot_state::BEACON]);
+        assert_eq!(states_in(&old, 2), [robot_state::WAITING]);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

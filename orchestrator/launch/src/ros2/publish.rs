@@ -14,13 +14,22 @@
 //! robots: battery, link, failsafe, from the gateway's reports), `<ns>/gate`
 //! (`bycoms_msgs/msg/GateEvent`, each gate decision), and per robot
 //! `<ns>/robot_<k>/pose`, `<ns>/robot_<k>/path` and `<ns>/robot_<k>/state`
-//! (`bycoms_msgs/msg/RobotState`: waiting at the start, then at each gate
-//! decision about it). A bag (never the live graph: the robots' own
+//! (`bycoms_msgs/msg/RobotState`: waiting at the start, then each time its
+//! state changes, [`ros_state`]). A bag (never the live graph: the robots' own
 //! agents publish there) has one more topic per ROS 2 robot: its `cmd_vel`,
 //! with the commands its agent reported ([`RunMessages::with_cmd_vel`]).
 //!
-//! Beacons are the run's view's ([`RunView`], the one fold of the launch
-//! core's outputs every renderer reads): where the core's beacon table
+//! States are the run's view's ([`RunView`], the one fold of the launch
+//! core's outputs every renderer reads): each robot's state as the core
+//! said it (`Output::State`, [`RunMessages::state`]), so a robot revoked or
+//! lost before its deployment is `LOST` as on the recording's scene and the
+//! live view; a bag made from a recording older than `core/state` takes
+//! the states its gate decisions imply
+//! ([`RunMessages::without_states_told`]). A `RobotState` goes out when
+//! its `state` field changes (the core's states before a deployment are
+//! all `WAITING`).
+//!
+//! Beacons are the run view's too: where the core's beacon table
 //! has each (`Output::Beacon`, [`RunMessages::beacon`]), creeping with it;
 //! a bag made from a recording older than `core/beacon` places them where
 //! the gate judged them ([`RunMessages::without_beacons_told`]). The
@@ -35,7 +44,7 @@
 
 use std::collections::BTreeMap;
 
-use bycoms_launch_core::view::{RunView, Shown};
+use bycoms_launch_core::view::{RunView, Shown, SlotState};
 use bycoms_protocol::msg::{Commanded, FromAgent, GateEvent, GateKind, Pose};
 use bycoms_record::schema::Ros2RobotTopic;
 use bycoms_ros2::bycoms_msgs::{gate_kind, robot_state, GateEvent as RosGateEvent, RobotState};
@@ -98,6 +107,8 @@ struct Trail {
     path: Path,
     sent_us: Option<u64>,
     diagnostics_us: Option<u64>,
+    /// The `RobotState.state` last sent.
+    state_sent: Option<u8>,
 }
 
 /// A ROS 2 robot's `cmd_vel` in a bag.
@@ -113,7 +124,8 @@ pub struct RunMessages {
     /// By robot: where its reported commands go (a bag's only).
     cmd_vel: BTreeMap<u32, CmdVel>,
     trails: Vec<Trail>,
-    /// The run as the views show it: where each beacon stands.
+    /// The run as the views show it: each robot's state, where each
+    /// beacon stands.
     view: RunView,
     /// Where each beacon stood when `<ns>/beacons` was last sent.
     beacons_sent: BTreeMap<u32, Vec2>,
@@ -166,6 +178,13 @@ impl RunMessages {
     /// ([`RunView::without_beacons`]).
     pub fn without_beacons_told(mut self) -> Self {
         self.view = RunView::without_beacons();
+        self
+    }
+
+    /// Of a recording older than `core/state`, which tells no state: each
+    /// gate decision sets the state it implies ([`RunView::without_states`]).
+    pub fn without_states_told(mut self) -> Self {
+        self.view = std::mem::take(&mut self.view).without_states();
         self
     }
 
@@ -242,8 +261,28 @@ impl RunMessages {
         }
     }
 
-    fn send_state(&self, index: usize, state: u8, sink: &mut dyn Sink) {
+    /// Robot `robot`'s state changed to `state` (the launch core said so):
+    /// its `RobotState`, if that changes what it says.
+    pub fn state(&mut self, robot: u32, state: SlotState, sink: &mut dyn Sink) {
+        self.view.take(&Shown::State { robot, state });
+        self.send_state_of(robot, sink);
+    }
+
+    /// Robot `robot`'s `RobotState` with the view's state, unless it says
+    /// what was last sent.
+    fn send_state_of(&mut self, robot: u32, sink: &mut dyn Sink) {
+        let Some(index) = (robot as usize).checked_sub(1).filter(|i| *i < self.trails.len()) else {
+            return;
+        };
+        let state = ros_state(self.view.state(robot));
+        if self.trails[index].state_sent != Some(state) {
+            self.send_state(index, state, sink);
+        }
+    }
+
+    fn send_state(&mut self, index: usize, state: u8, sink: &mut dyn Sink) {
         let t = self.now_us;
+        self.trails[index].state_sent = Some(state);
         let last = self.trails[index].last;
         let robot = index as u32 + 1;
         let msg = RobotState {
@@ -322,17 +361,16 @@ impl RunMessages {
         self.trails[index].path = path;
     }
 
-    /// A gate decision: the robot's state, and a stopped robot's path once
-    /// more, whole. (Its beacon comes as the core tells it,
-    /// [`RunMessages::beacon`]; of an older recording, from here.)
+    /// A gate decision, and a stopped robot's path once more, whole. (Its
+    /// state and beacon come as the core tells them, [`RunMessages::state`]
+    /// and [`RunMessages::beacon`]; of an older recording, from here.)
     pub fn gate(&mut self, event: &GateEvent, sink: &mut dyn Sink) {
         let t = self.now_us;
-        let (kind, state) = match event.kind {
-            GateKind::Deployed => (gate_kind::DEPLOYED, robot_state::MOVING),
-            GateKind::Stopped { arrived: true } => (gate_kind::STOPPED, robot_state::ARRIVED),
-            GateKind::Stopped { arrived: false } => (gate_kind::STOPPED, robot_state::BEACON),
-            GateKind::Died => (gate_kind::DIED, robot_state::LOST),
-            GateKind::Timeout => (gate_kind::TIMEOUT, robot_state::TIMED_OUT),
+        let kind = match event.kind {
+            GateKind::Deployed => gate_kind::DEPLOYED,
+            GateKind::Stopped { .. } => gate_kind::STOPPED,
+            GateKind::Died => gate_kind::DIED,
+            GateKind::Timeout => gate_kind::TIMEOUT,
         };
         let ros = RosGateEvent {
             stamp: run_time(t),
@@ -344,17 +382,16 @@ impl RunMessages {
             step: event.step,
         };
         self.send(sink, GATE, t, &ros);
+        let beacons_changed = self.view.take(&Shown::Gate(*event));
+        self.send_state_of(event.robot.0, sink);
         let index = (event.robot.0 as usize).checked_sub(1).filter(|i| *i < self.trails.len());
-        if let Some(i) = index {
-            self.send_state(i, state, sink);
-        }
         if let (Some(i), GateKind::Stopped { .. } | GateKind::Died | GateKind::Timeout) = (index, event.kind)
         {
             if !self.trails[i].path.poses.is_empty() {
                 self.send_path(i, t, sink);
             }
         }
-        if self.view.take(&Shown::Gate(*event)) {
+        if beacons_changed {
             self.send_beacons(sink);
         }
     }
@@ -384,6 +421,22 @@ impl RunMessages {
         };
         let header = Header { stamp: run_time(t), frame_id: String::new() };
         self.send(sink, DIAGNOSTICS, t, &DiagnosticArray { header, status: vec![status] });
+    }
+}
+
+/// A robot's state as `RobotState.state` says it: not deployed yet
+/// (never said, or any state before `Moving`, or skipped as absent) is
+/// `WAITING`; lost before its deployment or while moving is `LOST`.
+pub fn ros_state(state: Option<SlotState>) -> u8 {
+    match state {
+        None
+        | Some(SlotState::Waiting | SlotState::Spawned | SlotState::Registered | SlotState::Deploying)
+        | Some(SlotState::Absent) => robot_state::WAITING,
+        Some(SlotState::Moving) => robot_state::MOVING,
+        Some(SlotState::Stuck) => robot_state::BEACON,
+        Some(SlotState::Arrived) => robot_state::ARRIVED,
+        Some(SlotState::Died | SlotState::Lost) => robot_state::LOST,
+        Some(SlotState::Unfinished) => robot_state::TIMED_OUT,
     }
 }
 
@@ -575,11 +628,16 @@ mod tests {
         run.world(&Terrain::new(4, 3), 2.0, &mut sent);
         run.pose(&pose(1, 1.0, 500_000), &mut sent);
         let stop = |robot, kind| GateEvent { robot: RobotId(robot), kind, x: 1.0, y: 1.0, step: 5 };
-        run.gate(&stop(1, GateKind::Stopped { arrived: false }), &mut sent);
+        // As the core puts them out: the state, the decision, the beacon.
+        let decide = |run: &mut RunMessages, robot, kind, sent: &mut Sent| {
+            run.state(robot, SlotState::of_gate(kind), sent);
+            run.gate(&stop(robot, kind), sent);
+        };
+        decide(&mut run, 1, GateKind::Stopped { arrived: false }, &mut sent);
         run.beacon(1, Vec2::new(1.0, 1.0), &mut sent);
-        run.gate(&stop(2, GateKind::Died), &mut sent);
+        decide(&mut run, 2, GateKind::Died, &mut sent);
         run.beacon(2, Vec2::new(1.0, 1.0), &mut sent);
-        run.gate(&stop(3, GateKind::Stopped { arrived: true }), &mut sent);
+        decide(&mut run, 3, GateKind::Stopped { arrived: true }, &mut sent);
         assert_eq!(sent.on(&run, "/beacons"), [500_000_000, 500_000_000]);
         assert_eq!(sent.on(&run, "/robot_1/path").len(), 2, "its first, and its whole path when it stopped");
         assert_eq!(sent.on(&run, "/gate").len(), 3, "every gate decision");
@@ -612,6 +670,43 @@ mod tests {
         run.beacon(1, Vec2::new(1.5, 1.0), &mut sent);
         assert_eq!(sent.on(&run, "/beacons").len(), 3);
         assert_eq!(run.beacons_sent[&1].x, 1.5);
+    }
+
+    /// The last `RobotState.state` sent on `name`, and how many were.
+    fn states(sent: &Sent, run: &RunMessages, name: &str) -> (Option<u8>, usize) {
+        let on: Vec<_> = sent.0.iter().filter(|(t, ..)| run.topics()[*t].name == name).collect();
+        // The state byte follows the header (stamp 8, frame "world" 4+6,
+        // padded to 20) and the robot (4): CDR offset 4 + 24.
+        (on.last().map(|(.., cdr)| cdr[4 + 24]), on.len())
+    }
+
+    /// A robot's state is the core's word: one revoked before its
+    /// deployment is `LOST` with no gate decision, the core's states
+    /// before a deployment send nothing new (all `WAITING`), and a gate
+    /// decision alone changes no told state; of a recording older than
+    /// `core/state`, the gate's decisions imply the states.
+    #[test]
+    fn states_are_the_cores_as_it_said_them() {
+        let mut run = RunMessages::new(&Ros2Config::default(), 2);
+        let mut sent = Sent::default();
+        run.world(&Terrain::new(4, 3), 2.0, &mut sent);
+        for state in [SlotState::Spawned, SlotState::Registered, SlotState::Deploying] {
+            run.state(1, state, &mut sent);
+        }
+        assert_eq!(states(&sent, &run, "/robot_1/state"), (Some(robot_state::WAITING), 1));
+        run.state(2, SlotState::Lost, &mut sent);
+        assert_eq!(states(&sent, &run, "/robot_2/state"), (Some(robot_state::LOST), 2));
+        let timeout = GateEvent { robot: RobotId(1), kind: GateKind::Timeout, x: 1.0, y: 1.0, step: 5 };
+        run.gate(&timeout, &mut sent);
+        assert_eq!(states(&sent, &run, "/robot_1/state"), (Some(robot_state::WAITING), 1), "not the gate's");
+        run.state(1, SlotState::Unfinished, &mut sent);
+        assert_eq!(states(&sent, &run, "/robot_1/state"), (Some(robot_state::TIMED_OUT), 2));
+        let mut old = RunMessages::new(&Ros2Config::default(), 1).without_states_told();
+        let mut sent = Sent::default();
+        old.world(&Terrain::new(4, 3), 2.0, &mut sent);
+        old.gate(&GateEvent { kind: GateKind::Deployed, ..timeout }, &mut sent);
+        old.gate(&timeout, &mut sent);
+        assert_eq!(states(&sent, &old, "/robot_1/state"), (Some(robot_state::TIMED_OUT), 3));
     }
 
     /// A bag of a recording older than `core/beacon`: the gate's decisions

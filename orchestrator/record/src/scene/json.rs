@@ -10,6 +10,7 @@
 //! `json`), so the live view can log it on a typed SDK channel.
 
 use crate::schema;
+use bycoms_gate::view::SlotState;
 use bycoms_protocol::msg::{FromAgent, GateEvent, GateKind, Pose, RobotKind};
 use foxglove::bytes::BufMut;
 use schemars::generate::SchemaSettings;
@@ -253,6 +254,20 @@ pub struct BeaconAt {
     pub y: f64,
 }
 
+/// A robot's state changed, as the launch core said it (its slot state,
+/// `snake_case`: `waiting`, `starting`… see [`SlotState`]). Recorded as the
+/// core's fact on `core/state` ([`schema::CORE_STATE`]) and as the scene's
+/// `robot/<k>/state` ([`schema::ROBOT_SLOT`], for Foxglove's State
+/// Transitions panel and the live view).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize, JsonSchema)]
+pub struct RobotSlot {
+    /// The robot.
+    pub robot: u32,
+    /// Its new state.
+    #[schemars(with = "String")]
+    pub state: SlotState,
+}
+
 /// The JSON schema of `T` as Foxglove reads it: draft-07, definitions inlined.
 pub fn json_schema<T: JsonSchema>() -> Vec<u8> {
     let settings = SchemaSettings::draft07().with(|s| s.inline_subschemas = true);
@@ -287,6 +302,7 @@ json_message! {
     Telemetry => schema::TELEMETRY,
     GateDecision => schema::GATE_DECISION,
     BeaconAt => schema::BEACON_AT,
+    RobotSlot => schema::ROBOT_SLOT,
 }
 
 #[cfg(test)]

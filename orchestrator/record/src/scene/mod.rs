@@ -15,11 +15,12 @@
 //!
 //! | topic | schema | what |
 //! |---|---|---|
-//! | `scene` | `foxglove.SceneUpdate` | arena floor, impassable cells, start, goal; each robot (ball, or a box for a robot with a real body; heading arrow, number; colour = its state); trajectories; beacons with their ε circles |
+//! | `scene` | `foxglove.SceneUpdate` | arena floor, impassable cells, start, goal; each robot (ball, or a box for a robot with a real body; heading arrow, number; colour = its state, as the launch core said it); trajectories; beacons with their ε circles |
 //! | `tf` | `foxglove.FrameTransforms` | `arena` → `robot/<k>`: each robot's pose as a frame |
 //! | `log` | `foxglove.Log` | gate decisions in words |
 //! | `gate/json` | `bycoms.GateDecision` (JSON) | gate decisions as data |
 //! | `beacon/json` | `bycoms.BeaconAt` (JSON) | each beacon where it stands, when it appears or creeps on |
+//! | `robot/<k>/state` | `bycoms.RobotSlot` (JSON) | its state (the launch core's slot state), each change the core said |
 //! | `robot/<k>/pose/json` | `bycoms.RobotPose` (JSON) | every pose of robot k that moved or turned it |
 //! | `robot/<k>/mode` | `bycoms.RobotMode` (JSON) | its controller mode (1 goal, 2 bypass), when it changes |
 //! | `robot/<k>/telemetry` | `bycoms.Telemetry` (JSON) | its agent's reports (register, heartbeat, status, link; not lockstep's tick acknowledgements) |
@@ -45,7 +46,12 @@
 //!   trajectory, its frame (`tf`) and its pose JSON; a pose that changes
 //!   nothing (a beacon republishes its frozen pose every period) sends
 //!   nothing at all;
-//! * a gate decision: the robot's new colour;
+//! * a change of a robot's state, as the launch core said it
+//!   ([`Scene::state`]): its JSON and the robot's new colour. The colour is
+//!   the run's view's state ([`RunView`]), not one derived from the gate's
+//!   decisions (issue 53), so a robot revoked or lost before its deployment
+//!   is shown lost like one lost while moving;
+//! * a gate decision: its JSON and log line, and the robot's marker;
 //! * a change of the launch core's beacon table ([`Scene::beacon`]): the
 //!   beacon's ε circle where it now stands (new, or crept on) and its JSON.
 //!   The beacons are the run's view's ([`RunView`], one fold of the core's
@@ -75,6 +81,7 @@
 pub mod json;
 mod shapes;
 
+use bycoms_gate::view::SlotState;
 use bycoms_gate::view::{RunView, Shown};
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use bycoms_sim::terrain::Terrain;
@@ -83,7 +90,7 @@ use foxglove::messages::{
     log, Color, FrameTransform, FrameTransforms, Log, SceneEntity, SceneUpdate, Timestamp, Vector3,
 };
 use foxglove::Encode;
-use json::{BeaconAt, Decision, GateDecision, RobotMode, RobotPose, Telemetry};
+use json::{BeaconAt, Decision, GateDecision, RobotMode, RobotPose, RobotSlot, Telemetry};
 use shapes::{arrow, ball, circle, cuboid, disc, label, polyline, rgba, yaw};
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -153,6 +160,8 @@ pub enum Message {
     Gate(GateDecision),
     /// A beacon where it stands.
     Beacon(BeaconAt),
+    /// A robot's state changed.
+    State(RobotSlot),
 }
 
 /// A message and the topic it goes on.
@@ -186,6 +195,7 @@ macro_rules! each_message {
             Message::Telemetry($m) => $body,
             Message::Gate($m) => $body,
             Message::Beacon($m) => $body,
+            Message::State($m) => $body,
         }
     };
 }
@@ -229,7 +239,6 @@ impl Message {
 struct Track {
     last: Pose,
     path: Vec<Vec2>,
-    decision: Option<Decision>,
 }
 
 /// The scene of one run: feed it messages, write what it returns.
@@ -240,7 +249,8 @@ pub struct Scene {
     robots: BTreeMap<u32, Track>,
     /// Each robot's last controller mode (the `mode` channel sends changes).
     modes: BTreeMap<u32, u8>,
-    /// The run as the views show it: where each beacon stands.
+    /// The run as the views show it: where each beacon stands, each
+    /// robot's state.
     view: RunView,
 }
 
@@ -336,8 +346,7 @@ impl Scene {
     pub fn pose(&mut self, pose: &Pose, ns: u64) -> Vec<Out> {
         let k = pose.robot.0;
         let at = Vec2::new(pose.x, pose.y);
-        let track =
-            self.robots.entry(k).or_insert_with(|| Track { last: *pose, path: Vec::new(), decision: None });
+        let track = self.robots.entry(k).or_insert_with(|| Track { last: *pose, path: Vec::new() });
         let moved = track.path.last().is_none_or(|p| p.x != at.x || p.y != at.y);
         let turned = track.last.heading != pose.heading;
         if !moved && !turned && !track.path.is_empty() {
@@ -350,7 +359,7 @@ impl Scene {
         }
         let t = stamp(ns);
         let newest = track.path.len().saturating_sub(2) / PATH_PIECE;
-        let mut entities = vec![robot_entity(&t, k, track, self.world.is_real(k))];
+        let mut entities = vec![robot_entity(&t, k, track, self.world.is_real(k), self.view.state(k))];
         entities.extend(path_entity(&t, k, &track.path, newest));
         out.push(self.scene_out(entities));
         let frame = FrameTransform {
@@ -379,12 +388,26 @@ impl Scene {
             Out { topic: self.topics.gate_json(), message: Message::Gate(decision) },
             Out { topic: self.topics.log(), message: Message::Log(log_line(&t, &decision)) },
         ];
-        if let Some(track) = self.robots.get_mut(&k) {
-            track.decision = Some(decision.decision);
-            let entity = robot_entity(&t, k, track, self.world.is_real(k));
-            out.push(self.scene_out(vec![entity]));
-        }
+        out.extend(self.robot_out(&t, k));
         out
+    }
+
+    /// Robot `robot`'s state became `state` at time `ns` (the launch core
+    /// said so): its JSON, and its marker in its new colour.
+    pub fn state(&mut self, robot: u32, state: SlotState, ns: u64) -> Vec<Out> {
+        self.view.take(&Shown::State { robot, state });
+        let t = stamp(ns);
+        let json = RobotSlot { robot, state };
+        let mut out = vec![Out { topic: self.topics.slot(robot), message: Message::State(json) }];
+        out.extend(self.robot_out(&t, robot));
+        out
+    }
+
+    /// Robot `k`'s marker as it is now, if it was seen.
+    fn robot_out(&self, t: &Timestamp, k: u32) -> Option<Out> {
+        let track = self.robots.get(&k)?;
+        let entity = robot_entity(t, k, track, self.world.is_real(k), self.view.state(k));
+        Some(self.scene_out(vec![entity]))
     }
 
     /// Robot `robot`'s beacon stands at `at` from time `ns` (the launch
@@ -432,7 +455,7 @@ impl Scene {
         let mut out = self.world(ns);
         let mut entities = Vec::new();
         for (&k, track) in &self.robots {
-            entities.push(robot_entity(&t, k, track, self.world.is_real(k)));
+            entities.push(robot_entity(&t, k, track, self.world.is_real(k), self.view.state(k)));
             for piece in 0..=track.path.len().saturating_sub(2) / PATH_PIECE {
                 entities.extend(path_entity(&t, k, &track.path, piece));
             }
@@ -462,12 +485,13 @@ fn palette(k: u32) -> Color {
     rgba(PALETTE[(k as usize).saturating_sub(1) % PALETTE.len()], 1.0)
 }
 
-/// Robot `k`'s marker: a ball, or a box when it has a `real` body.
-fn robot_entity(t: &Timestamp, k: u32, track: &Track, real: bool) -> SceneEntity {
-    let colour = match track.decision {
-        Some(Decision::Stuck) => rgba(STUCK, 1.0),
-        Some(Decision::Arrived) => rgba(ARRIVED, 1.0),
-        Some(Decision::Died) => rgba(DIED, 1.0),
+/// Robot `k`'s marker: a ball, or a box when it has a `real` body; its
+/// colour says its `state` (stuck, arrived, lost), else its own.
+fn robot_entity(t: &Timestamp, k: u32, track: &Track, real: bool, state: Option<SlotState>) -> SceneEntity {
+    let colour = match state {
+        Some(SlotState::Stuck) => rgba(STUCK, 1.0),
+        Some(SlotState::Arrived) => rgba(ARRIVED, 1.0),
+        Some(SlotState::Died | SlotState::Lost) => rgba(DIED, 1.0),
         _ => palette(k),
     };
     let at = Vec2::new(track.last.x, track.last.y);

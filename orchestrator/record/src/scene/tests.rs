@@ -6,6 +6,7 @@ use bycoms_protocol::msg::{GateKind, Status};
 use bycoms_protocol::RobotId;
 use foxglove::messages::scene_entity_deletion;
 use foxglove::Decode;
+use json::RobotSlot;
 
 fn world() -> SceneWorld {
     let mut terrain = Terrain::new(20, 10);
@@ -89,6 +90,39 @@ fn a_real_robot_is_drawn_as_a_box_and_a_simulated_one_as_a_ball() {
     assert_eq!(marker(&scene.gate(&stuck, 3), 2), (1, 0), "still a box as a beacon");
     let snapshot = scene.snapshot(4);
     assert_eq!((marker(&snapshot, 1), marker(&snapshot, 2)), ((0, 1), (1, 0)));
+}
+
+/// A robot's colour is its state as the launch core said it, not the
+/// gate's: one revoked or lost before its deployment (no gate decision) is
+/// drawn lost, its state goes out as JSON, and a gate decision alone
+/// recolours nothing.
+#[test]
+fn a_robot_is_coloured_by_the_state_the_core_said() {
+    let mut scene = Scene::new("s", world());
+    let colour = |out: &[Out], k: u32| {
+        let id = format!("robot/{k}");
+        let update = scene_of(out).into_iter().find(|u| ids(u).contains(&id.as_str())).expect("drawn");
+        let e = update.entities.iter().find(|e| e.id == id).expect("its entity");
+        e.spheres[0].color
+    };
+    let first = scene.pose(&pose(1, 5.0, 5.0, 0), 1);
+    assert_eq!(colour(&first, 1), Some(palette(1)));
+    let lost = scene.state(1, SlotState::Lost, 2);
+    assert_eq!(lost[0].topic, "bycoms/s/robot/1/state");
+    assert_eq!(lost[0].message, Message::State(RobotSlot { robot: 1, state: SlotState::Lost }));
+    assert_eq!(lost[0].message.encode().ok(), Some(br#"{"robot":1,"state":"lost"}"#.to_vec()));
+    assert_eq!(colour(&lost, 1), Some(rgba(DIED, 1.0)), "lost before its deployment");
+    assert_eq!(colour(&scene.snapshot(3), 1), Some(rgba(DIED, 1.0)));
+    let unseen = scene.state(2, SlotState::Stuck, 4);
+    assert_eq!(unseen.len(), 1, "its JSON only: robot 2 is not drawn before its first pose");
+    let stuck =
+        GateEvent { robot: RobotId(2), kind: GateKind::Stopped { arrived: false }, x: 6.0, y: 5.0, step: 9 };
+    scene.pose(&pose(2, 6.0, 5.0, 0), 5);
+    scene.pose(&pose(3, 7.0, 5.0, 0), 5);
+    assert_eq!(colour(&scene.gate(&stuck, 6), 2), Some(rgba(STUCK, 1.0)), "its state, said before");
+    let arrived = GateEvent { robot: RobotId(3), kind: GateKind::Stopped { arrived: true }, ..stuck };
+    assert_eq!(colour(&scene.gate(&arrived, 7), 3), Some(palette(3)), "the gate's word alone");
+    assert_eq!(colour(&scene.state(3, SlotState::Arrived, 8), 3), Some(rgba(ARRIVED, 1.0)));
 }
 
 #[test]
@@ -336,6 +370,8 @@ fn inputs(seed: u64, n: usize) -> Vec<Input> {
                     2 => GateKind::Stopped { arrived: true },
                     _ => GateKind::Died,
                 };
+                // As the core puts them out: the state, then the decision.
+                out.push(Input::State(p.robot.0, SlotState::of_gate(kind)));
                 out.push(Input::Gate(GateEvent { robot: p.robot, kind, x: p.x, y: p.y, step }));
                 if matches!(kind, GateKind::Stopped { arrived: false } | GateKind::Died) {
                     if !beacons.contains(&p.robot.0) {
@@ -355,6 +391,7 @@ enum Input {
     Gate(GateEvent),
     Report(FromAgent),
     Beacon(u32, Vec2),
+    State(u32, SlotState),
 }
 
 /// Same picture: a viewer that applied every update in order (the
@@ -382,6 +419,7 @@ fn the_updates_applied_in_order_give_the_full_scene_after_every_input() {
                 Input::Gate(e) => scene.gate(&e, ns),
                 Input::Report(r) => scene.report(&r, ns),
                 Input::Beacon(k, at) => scene.beacon(k, at, ns),
+                Input::State(k, state) => scene.state(k, state, ns),
             };
             updates += scene_of(&outs).len();
             viewer.apply(&outs);

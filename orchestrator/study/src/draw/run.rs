@@ -51,6 +51,12 @@ pub struct RunMeta {
     /// the gate's decisions place them ([`RunView::without_beacons`]).
     #[serde(default)]
     pub beacons_told: bool,
+    /// Every change of a robot's state in the launch core is on
+    /// `core/state` (`record export --ros2` shows states from those). False
+    /// in recordings older than it: the gate's decisions imply them
+    /// ([`RunView::without_states`]).
+    #[serde(default)]
+    pub states_told: bool,
     /// Each ROS 2 robot's velocity topic and message type; empty without
     /// ROS 2 robots (and in recordings older than it).
     #[serde(default)]

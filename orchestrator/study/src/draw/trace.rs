@@ -5,8 +5,11 @@
 //! FILE.mcap` has only the recording, and `launch --svg` must draw what a
 //! lab's mocap saw. Both feed the same [`Trace`], so the two pictures of a
 //! run are the same picture. A robot's trajectory runs from its first pose
-//! (its start pose) to the pose at its gate decision; the frozen poses a
-//! beacon keeps publishing afterwards add nothing.
+//! (its start pose) to the pose at the gate decision that ended its run;
+//! the frozen poses a beacon keeps publishing afterwards add nothing. That
+//! decision (its end: arrived, a beacon, lost, timed out, and where) is the
+//! run view's ([`RunView`]), the fold every renderer reads, as the
+//! robot's success, the robots used and the beacons are.
 //!
 //! The run's time in the title is the summary's: each robot's active
 //! periods from its start pose to its last change of pose, counted in pose
@@ -42,12 +45,9 @@ use std::collections::{BTreeMap, VecDeque};
 /// NatNet drained every few milliseconds hands a few).
 const BEFORE_DEPLOYED: usize = 256;
 
-/// One robot's track so far.
+/// One robot's track so far (where it ended is the view's).
 #[derive(Debug, Clone, Default)]
 struct Track {
-    end: Option<GateKind>,
-    /// Where the gate decided (a beacon's position).
-    at: Option<Vec2>,
     /// Its latest poses before its `Deployed` decision (at most
     /// [`BEFORE_DEPLOYED`]): the start pose is among them.
     before: VecDeque<Pose>,
@@ -197,11 +197,17 @@ impl Trace {
         self.view.take(&Shown::Beacon { robot, at });
     }
 
+    /// The gate's decision that ended robot `id`'s run, as the view holds it.
+    fn end(&self, id: u32) -> Option<GateEvent> {
+        self.view.robot_view(id).and_then(|r| r.end)
+    }
+
     /// A pose: extends its robot's trajectory until the gate has decided on it.
     pub fn pose(&mut self, pose: &Pose) {
         self.view.take(&Shown::Moved(*pose));
+        let ended = self.end(pose.robot.0).is_some();
         let track = self.robots.entry(pose.robot.0).or_default();
-        if track.end.is_some() {
+        if ended {
             return;
         }
         if !track.deployed {
@@ -221,9 +227,10 @@ impl Trace {
     /// A gate decision: ends its robot's trajectory (a deployment starts
     /// its active time).
     pub fn gate(&mut self, event: &GateEvent) {
+        let ended = self.end(event.robot.0).is_some();
         self.view.take(&Shown::Gate(*event));
         let track = self.robots.entry(event.robot.0).or_default();
-        if track.end.is_some() {
+        if ended {
             return;
         }
         if event.kind == GateKind::Deployed {
@@ -244,8 +251,6 @@ impl Trace {
         if let Some(active) = &mut track.active {
             active.end_at(event.step);
         }
-        track.end = Some(event.kind);
-        track.at = Some(Vec2::new(event.x, event.y));
     }
 
     /// Whether any robot was seen.
@@ -255,30 +260,35 @@ impl Trace {
 
     /// The run as [`RunResult`], for `draw::snapshot`: robots in id
     /// (deployment) order; a robot that died counts as stuck (a beacon
-    /// where last seen); `dt` converts steps to time. Success (a robot
-    /// arrived), the robots used and the beacons are the view's
-    /// ([`RunView`]), as the summary's are.
+    /// where last seen); `dt` converts steps to time. Each robot's end,
+    /// success (a robot arrived), the robots used and the beacons are the
+    /// view's ([`RunView`]), as the summary's are.
     pub fn result(&self, dt: f64) -> RunResult {
         let period_us = (dt * 1e6).round() as u64;
         let mut robots = Vec::new();
         let mut beacons: Vec<(u32, Vec2)> = self.view.beacons().collect();
         beacons.sort_by_key(|(id, _)| *id);
-        for (&id, track) in self.robots.iter().filter(|(_, t)| t.active.is_some() || t.at.is_some()) {
-            let end = match track.end {
+        for (&id, track) in &self.robots {
+            let decided = self.end(id);
+            let at = decided.map(|e| Vec2::new(e.x, e.y));
+            if track.active.is_none() && at.is_none() {
+                continue;
+            }
+            let end = match decided.map(|e| e.kind) {
                 Some(GateKind::Stopped { arrived: true }) => RobotRunEnd::Arrived,
                 Some(GateKind::Stopped { arrived: false } | GateKind::Died) => RobotRunEnd::Stuck,
                 _ => RobotRunEnd::Moving,
             };
-            let trajectory = match (&track.active, track.at) {
+            let trajectory = match (&track.active, at) {
                 (Some(active), _) => active.trajectory(period_us),
                 (None, at) => at.into_iter().collect(),
             };
-            let position = track.at.or(trajectory.last().copied()).unwrap_or(Vec2::new(0.0, 0.0));
+            let position = at.or(trajectory.last().copied()).unwrap_or(Vec2::new(0.0, 0.0));
             let steps = track.active.as_ref().map_or(0, |a| a.periods(period_us));
             robots.push(RobotRun { id, end, position, steps, trajectory });
         }
         let success = self.view.arrived().is_some();
-        let timed_out = self.robots.values().any(|t| t.end == Some(GateKind::Timeout));
+        let timed_out = self.view.robots().any(|(_, r)| r.end.is_some_and(|e| e.kind == GateKind::Timeout));
         let outcome = match (success, timed_out) {
             (true, _) => RunOutcome::Arrived,
             (false, true) => RunOutcome::TimeLimit,
@@ -361,6 +371,27 @@ mod tests {
         assert_eq!(r.time, 0.4);
         assert_eq!(r.beacons, [Vec2::new(2.0, 1.0), Vec2::new(0.5, 1.0)]);
         assert_eq!(r.robots[2].end, RobotRunEnd::Arrived);
+    }
+
+    /// Each robot's end is the view's: the first decision that ended its
+    /// run, where it was made. A later decision about the same robot (a
+    /// stray one in a recording) changes neither its end, nor where it
+    /// stands, nor its trajectory, nor the outcome.
+    #[test]
+    fn a_robots_end_is_the_views_first_decision_about_it() {
+        let mut trace = Trace::with_beacons_told();
+        trace.pose(&at(1, 0, 0.0, 0));
+        trace.gate(&event(1, GateKind::Deployed, 0.0));
+        trace.pose(&at(1, 1, 1.0, 100_000));
+        trace.gate(&GateEvent { step: 1, ..event(1, GateKind::Stopped { arrived: false }, 1.0) });
+        trace.gate(&GateEvent { step: 2, ..event(1, GateKind::Timeout, 4.0) });
+        trace.pose(&at(1, 2, 4.0, 200_000));
+        let ended = trace.view.robot_view(1).and_then(|r| r.end).map(|e| (e.kind, e.x));
+        assert_eq!(ended, Some((GateKind::Stopped { arrived: false }, 1.0)));
+        let r = trace.result(0.1);
+        assert_eq!((r.robots[0].end, r.robots[0].position), (RobotRunEnd::Stuck, Vec2::new(1.0, 1.0)));
+        assert_eq!(r.robots[0].trajectory, [Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0)]);
+        assert_eq!(r.outcome, RunOutcome::RobotsExhausted, "not a time limit");
     }
 
     /// A launch's own trace (or a recording with `core/beacon`): its
