@@ -363,9 +363,7 @@ mod tests {
             .expect("a bag")
             .map(|m| m.expect("a message"))
             .filter(|m| m.channel.topic == topic)
-            // The state byte: after the CDR header (4), the header's stamp
-            // and frame "world" (20, padded) and the robot (4).
-            .map(|m| m.data[4 + 24])
+            .map(|m| super::super::messages::robot_state_in(&m.data))
             .collect()
     }
 

@@ -71,6 +71,15 @@ pub fn ros_messages(pose: &Pose) -> (PoseStamped, TransformStamped) {
     (stamped, transform)
 }
 
+/// The `state` of a `RobotState` in [`WORLD_FRAME`], read from its CDR
+/// bytes as the launch writes them: after the CDR header (4), the
+/// header's stamp and frame (8 + 4 + 6, padded to 20) and the robot (4).
+/// `RobotState` has no decoder; the tests of what is sent read it here.
+#[cfg(test)]
+pub(crate) fn robot_state_in(cdr: &[u8]) -> u8 {
+    cdr[4 + 24]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -675,9 +675,7 @@ mod tests {
     /// The last `RobotState.state` sent on `name`, and how many were.
     fn states(sent: &Sent, run: &RunMessages, name: &str) -> (Option<u8>, usize) {
         let on: Vec<_> = sent.0.iter().filter(|(t, ..)| run.topics()[*t].name == name).collect();
-        // The state byte follows the header (stamp 8, frame "world" 4+6,
-        // padded to 20) and the robot (4): CDR offset 4 + 24.
-        (on.last().map(|(.., cdr)| cdr[4 + 24]), on.len())
+        (on.last().map(|(.., cdr)| super::super::messages::robot_state_in(cdr)), on.len())
     }
 
     /// A robot's state is the core's word: one revoked before its

@@ -1,5 +1,5 @@
 use crate::core::log::Call;
-use crate::core::{LaunchCore, Output};
+use crate::core::{LaunchCore, Output, SlotState};
 use crate::harness::{self, Case, Foreign, NetFaults, Report, Schedule};
 use bycoms_protocol::msg::{GateKind, Pose};
 use bycoms_record::scene::{Message, Scene, SceneWorld};
@@ -73,11 +73,12 @@ fn a_revoked_robot_is_not_shown_after_its_revocation() {
 /// The bug issue 53 names ("the scene's has no creep"): the core's own
 /// outputs, replayed from a logged harness launch in which beacons creep,
 /// fed to the recording's scene as the driver feeds it (applied poses, gate
-/// events, beacon changes). After every call the scene's beacons (its
-/// `beacon/json`) stand exactly where the core's table has them, bit for
-/// bit, and at the end a late viewer's snapshot draws each ε circle there.
+/// events, beacon and state changes). After every call the scene's beacons
+/// (its `beacon/json`) stand exactly where the core's table has them, bit
+/// for bit, and its robots' states (`robot/<k>/state`) are the core's
+/// slots'; at the end a late viewer's snapshot draws each ε circle there.
 #[test]
-fn the_scenes_beacons_creep_as_the_cores_table() {
+fn the_scenes_beacons_creep_as_the_cores_table_and_its_states_are_the_cores() {
     let walled: Terrain = ".....\n..G..\n.###.\n.#S#.\n.###.\n".parse().expect("terrain");
     let case =
         Case { terrain: walled, robots: 12, time_limit: 120.0, noise: None, stop_turn_rate: 0.0, ..case() };
@@ -89,6 +90,8 @@ fn the_scenes_beacons_creep_as_the_cores_table() {
     let mut scene = Scene::new("s", world);
     let bits = |at: Vec2| (at.x.to_bits(), at.y.to_bits());
     let (mut told, mut crept) = (BTreeMap::new(), 0);
+    // Each robot's state as the scene said it (`Waiting` until it says one).
+    let mut states: BTreeMap<u32, SlotState> = (1..=case.robots).map(|k| (k, SlotState::Waiting)).collect();
     for call in &calls {
         match call {
             Call::Handle(now, input) => core.handle(*now, input.clone()),
@@ -100,8 +103,15 @@ fn the_scenes_beacons_creep_as_the_cores_table() {
                 Output::Moved { pose, .. } => scene.pose(&pose, 0),
                 Output::Gate(event) => scene.gate(&event, 0),
                 Output::Beacon { robot, at } => scene.beacon(robot, at, 0),
+                Output::State { robot, state } => scene.state(robot, state, 0),
                 _ => continue,
             };
+            for slot in outs.iter().filter_map(|o| match &o.message {
+                Message::State(slot) => Some(*slot),
+                _ => None,
+            }) {
+                states.insert(slot.robot, slot.state);
+            }
             for beacon in outs.iter().filter_map(|o| match &o.message {
                 Message::Beacon(b) => Some(*b),
                 _ => None,
@@ -113,7 +123,11 @@ fn the_scenes_beacons_creep_as_the_cores_table() {
         let table: BTreeMap<u32, (u64, u64)> =
             core.beacons().into_iter().map(|(id, at)| (id, bits(at))).collect();
         assert_eq!(told, table, "the scene's beacons are the core's");
+        let slots: BTreeMap<u32, SlotState> = core.slots().iter().map(|s| (s.id(), s.state())).collect();
+        assert_eq!(states, slots, "the scene's states are the core's");
     }
+    let ended = states.values().filter(|s| matches!(s, SlotState::Stuck | SlotState::Arrived)).count();
+    assert!(ended > 1, "robots ended stuck or arrived, as the scene said: {states:?}");
     assert!(told.len() > 1 && crept > 10, "{} beacons crept {crept} times: a run worth the name", told.len());
     let snapshot = scene.snapshot(1);
     let circles: BTreeMap<u32, (u64, u64)> = snapshot
