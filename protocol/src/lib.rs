@@ -32,6 +32,7 @@ pub mod ids;
 pub mod link;
 pub mod msg;
 pub mod naming;
+pub mod sans_io;
 
 #[cfg(feature = "std")]
 pub mod bus;
@@ -45,3 +46,4 @@ pub use codec::encode_vec;
 pub use codec::{decode, encode, CodecError, Message, MAX_MESSAGE_LEN, PROTOCOL_VERSION};
 pub use ids::RobotId;
 pub use naming::{NameError, Swarm, Topic, TopicName};
+pub use sans_io::{Micros, SansIo};
