@@ -498,6 +498,7 @@ fn the_launch_core_depends_on_no_io_crate() {
         ("serde", &["std"]),
         ("postcard", &["alloc"]),
         ("schemars", &[]),
+        ("thiserror", &[]),
         // The log facade only (no subscriber: the shell sets one up).
         ("tracing", &[]),
         // Optional (`clap` feature): `OnDeath` and `Missing` as command-line values.

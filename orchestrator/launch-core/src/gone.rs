@@ -1,10 +1,11 @@
 //! What the agent seam tells the core of an agent: gone, and why
-//! ([`Gone`]), or reachable no more or again ([`Reach`]).
+//! ([`Gone`]); and the core's own word for an agent reachable no more or
+//! again ([`Reach`]), which its timers decide.
 //!
-//! Why here and not in the seam: these are the core's inputs
-//! (`Input::Gone`, `Input::Reach`) and its log records them (`log.rs`), so
-//! the core owns them; the agent sources (`bycoms_launch::agents`) report
-//! them and re-export them at their old path.
+//! Why here and not in the seam: `Gone` is the core's input
+//! (`Input::Gone`) and its log records it (`log.rs`), so the core owns it;
+//! the agent sources (`bycoms_launch::agents`) report it and re-export it
+//! at its old path.
 
 use std::process::ExitStatus;
 
@@ -88,8 +89,9 @@ mod raw_status {
     }
 }
 
-/// A change in whether an agent can be reached, as the agent seam reports
-/// it (`Input::Reach`).
+/// A change in whether an agent can be reached, as the core's timers
+/// decide it (`timers.rs`): what it notes, counts as an outage and re-sends
+/// on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Reach {
     /// No contact any more (liveliness token gone, or silent past the

@@ -190,7 +190,7 @@ impl LaunchCore {
         if r.settings != 0 && self.setup.settings != 0 && r.settings != self.setup.settings {
             return Some(Refusal::Settings { launch: self.setup.settings });
         }
-        let launch_ms = least_failsafe_grace_ms(self.setup.unreachable_grace_s);
+        let launch_ms = least_failsafe_grace_ms(self.setup.supervision.unreachable_grace_us);
         (r.failsafe_grace_ms != 0 && r.failsafe_grace_ms < launch_ms).then_some(Refusal::Grace { launch_ms })
     }
 
@@ -462,7 +462,7 @@ impl LaunchCore {
     }
 
     pub(super) fn on_reach(&mut self, now: u64, id: u32, change: Reach) {
-        let grace = self.setup.unreachable_grace_s;
+        let grace = self.setup.supervision.unreachable_grace_us as f64 / 1e6;
         let at = self.unix_ms(now);
         let Some(slot) = self.slot(id) else { return };
         let (kind, text) = match change {

@@ -30,7 +30,7 @@
 //! bearing and republishes dead robots' poses once a period.
 //!
 //! Driving it: [`LaunchCore::handle`] takes in one input, [`LaunchCore::advance`]
-//! then takes every decision due at `now`, [`LaunchCore::poll_output`] hands out
+//! then takes every decision due at `now`, [`LaunchCore::poll`] hands out
 //! what to do, [`LaunchCore::deadline`] says when to call `advance` again if
 //! nothing comes in. Deciding in `advance` lets a shell hand in everything
 //! that arrived together (a tick's answers and its poses) before the core
@@ -102,7 +102,8 @@ mod wind_down;
 
 pub use clock_reading::{ClockLimits, ClockReading, ClockVerdict};
 pub use ending::{DiedWhen, Fault};
-pub use gone::{Gone, Reach};
+pub use gone::Gone;
+use gone::Reach;
 pub use outputs::Output;
 pub use plausible::Implausible;
 pub use policy::{Missing, OnDeath};
@@ -194,14 +195,6 @@ pub struct Setup {
     /// A pose that moved faster than this from the last one is refused
     /// (`gate.max_speed`: world units per simulated second; `plausible.rs`).
     pub max_speed: f64,
-    /// The unreachable grace as set (`supervision.unreachable_grace`), s:
-    /// the messages, and the least failsafe grace an agent may register
-    /// with ([`least_failsafe_grace_ms`]). The timers hold with
-    /// [`Supervision::unreachable_grace_us`]: this in µs when the agents
-    /// can be held, else 0, made from it in one place
-    /// (`setup::supervision`). Both are kept because the recording's setup
-    /// is postcard of this type, positionally (`log.rs`).
-    pub unreachable_grace_s: f64,
     /// The registration timeout, s (for messages).
     pub register_timeout_s: f64,
     /// The agent seam's properties.
@@ -211,27 +204,16 @@ pub struct Setup {
     /// The fingerprint of the run's settings: an agent that registers with
     /// another (non-zero) one is refused.
     pub settings: u64,
-    /// The supervision timers' settings (`timers.rs`). Not in the setup's
-    /// own encoding: `log::encode_setup` appends it, so a setup recorded
-    /// before it existed still decodes (with the timers off).
-    #[serde(skip)]
+    /// The supervision timers' settings (`timers.rs`), the unreachable
+    /// grace among them.
     pub supervision: Supervision,
-    /// The limits of the agents' clock offsets (`clocks.rs`). Appended
-    /// after the supervision by `log::encode_setup`, for the same reason.
-    #[serde(skip)]
+    /// The limits of the agents' clock offsets (`clocks.rs`).
     pub clocks: ClockLimits,
-    /// How the agents take commands. Appended after the clock limits by
-    /// `log::encode_setup`, for the same reason.
-    #[serde(skip)]
+    /// How the agents take commands.
     pub commands: Commands,
-    /// How far ahead agents are started. Appended after the commands by
-    /// `log::encode_setup`, for the same reason.
-    #[serde(skip)]
+    /// How far ahead agents are started.
     pub starts: Starts,
     /// The simulated members of a swarm of real robots (a mixed swarm).
-    /// Appended after the starts by `log::encode_setup`, for the same
-    /// reason.
-    #[serde(skip)]
     pub members: Members,
 }
 
@@ -250,8 +232,7 @@ pub struct Members {
     /// The simulated robots' ids, in order (none: every robot is of the
     /// source's kind).
     pub simulated: Vec<u32>,
-    /// How many times faster than [`Setup::speed`] they run (1 in a setup
-    /// recorded before it: `log::decode_setup`).
+    /// How many times faster than [`Setup::speed`] they run.
     pub sim_speed: f64,
 }
 
@@ -283,8 +264,7 @@ impl Members {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Starts {
     /// Agents kept started ahead of the robot that moves: robots `n + 1`
-    /// to `n + ahead` once robot `n` moves (0, in a setup recorded before
-    /// it existed, means 1, as then). Why more than one: in lockstep a
+    /// to `n + ahead` once robot `n` moves (0 means 1). Why more than one: in lockstep a
     /// robot may be judged within a few milliseconds of wall time, less
     /// than an agent process takes to start here (3 to 6 ms: exec, its
     /// iceoryx2 node and ports), and the launch then waited for the next
@@ -293,7 +273,7 @@ pub struct Starts {
 }
 
 /// How the agent seam's agents take commands (its properties, as
-/// [`AgentTraits`]; kept apart so that older recordings still decode).
+/// [`AgentTraits`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Commands {
     /// Lockstep: a robot judged stuck that still creeps is stepped this
@@ -340,8 +320,6 @@ pub enum Input {
     },
     /// Robot `.0`'s agent is gone.
     Gone(u32, Gone),
-    /// Robot `.0`'s agent became unreachable or came back.
-    Reach(u32, Reach),
     /// Ctrl-C.
     Interrupt,
     /// Robot `.0`'s agent's last error before it was reported gone (its
@@ -354,12 +332,12 @@ pub enum Input {
     Stop(Stop),
     /// Robot `.0`'s agent's liveliness token came back (`true`) or went
     /// (`false`): a fact; the core's timers decide what it means
-    /// (`timers.rs`). Last, so older recorded logs still decode.
+    /// (`timers.rs`).
     Token(u32, bool),
     /// Robot `.robot`'s voice taken away (`orchestrator revoke`, `certs
     /// --revoke` picked up by a running launch): it is told `Stop`, its
     /// agent is refused and its reports dropped from then on
-    /// (`revoke.rs`). Appended, so older recorded logs still decode.
+    /// (`revoke.rs`).
     Revoke(Revoke),
 }
 
@@ -709,11 +687,11 @@ impl LaunchCore {
     }
 
     /// The next thing to do.
-    pub fn poll_output(&mut self) -> Option<Output> {
+    pub fn poll(&mut self) -> Option<Output> {
         self.outputs.pop_front()
     }
 
-    /// The next output [`Self::poll_output`] would hand out, left in place.
+    /// The next output [`Self::poll`] would hand out, left in place.
     pub fn peek_output(&self) -> Option<&Output> {
         self.outputs.front()
     }
@@ -776,7 +754,6 @@ impl LaunchCore {
                 self.on_pose(now, topic, pose);
             }
             Input::Gone(id, gone) => self.gone(now, id, gone),
-            Input::Reach(id, change) => self.on_reach(now, id, change),
             Input::Interrupt => self.interrupted = true,
             Input::Said(id, words) => {
                 if let Some(slot) = self.slot(id) {
@@ -822,5 +799,29 @@ impl LaunchCore {
     /// Launch time `now` (µs) in ms since the Unix epoch.
     pub fn unix_ms(&self, now: u64) -> u64 {
         self.setup.unix_base_ms + now / 1000
+    }
+}
+
+/// The launch core in the shape of every sans-IO core
+/// ([`bycoms_protocol::sans_io`]): its own methods of the same names.
+impl bycoms_protocol::SansIo for LaunchCore {
+    type Input<'a> = Input;
+    type Handled = ();
+    type Output<'a> = Output;
+
+    fn handle(&mut self, now: u64, input: Input) {
+        LaunchCore::handle(self, now, input);
+    }
+
+    fn advance(&mut self, now: u64) {
+        LaunchCore::advance(self, now);
+    }
+
+    fn poll(&mut self) -> Option<Output> {
+        LaunchCore::poll(self)
+    }
+
+    fn deadline(&self) -> Option<u64> {
+        LaunchCore::deadline(self)
     }
 }

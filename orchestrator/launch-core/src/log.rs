@@ -17,38 +17,29 @@
 //! The log is postcard (the bus's own encoding), one recording message per
 //! pass of the driver's loop, on `bycoms/<swarm>/core/calls`; the setup is
 //! one message on `bycoms/<swarm>/core/setup`.
+//!
+//! Why a versioned schema ([`Version`]): a recording outlives the core that
+//! made it, and postcard is positional, so a type that changes no longer
+//! reads the bytes of its older self. Before versions, every addition was
+//! appended and every retired rule kept in the core for old logs (timers
+//! that could be off, an input no shell made). Now the current version is
+//! the core's own types, pinned byte for byte by a golden test
+//! (`harness/tests/log.rs`), so a change of them that would change the
+//! bytes fails there; it then becomes a new version: the old one's types
+//! frozen in a file of their own (as `log/v1.rs`), with an explicit upgrade
+//! to the new, and the core keeps no mode for it.
+
+mod call;
+pub mod v1;
+
+pub use call::Call;
 
 use super::{Ending, Input, LaunchCore, Output, Setup};
 use bycoms_protocol::msg::{GateEvent, Pose};
-use serde::{Deserialize, Serialize};
 
 // Their schema names in a recording are `record::schema::{CORE_SETUP,
 // CORE_CALLS}` (postcard of [`Setup`], of `Vec<Call>`), the one list of a
 // recording's schema names.
-
-/// One call a shell made on the core. New kinds go at the end: a
-/// recording's log is postcard, which numbers them.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub enum Call {
-    /// [`LaunchCore::handle`] at this launch time (µs).
-    Handle(u64, Input),
-    /// [`LaunchCore::advance`] at this launch time (µs).
-    Advance(u64),
-    /// [`LaunchCore::handle`] of a pose that the recording holds already.
-    /// A pose is stored once: the log names it, [`resolve`] reads it back.
-    HandleRecordedPose {
-        /// The launch time (µs).
-        at: u64,
-        /// The robot the pose source saw it for ([`Input::Pose`]'s `topic`).
-        topic: u32,
-        /// Its number (from 0) among the messages recorded on that robot's
-        /// pose topic.
-        number: u32,
-        /// [`fingerprint`] of the pose: a pose on the record that is not
-        /// the one the core was handed (changed, or another) is caught.
-        fingerprint: u32,
-    },
-}
 
 /// A 32-bit fingerprint of a pose's every bit (FNV-1a over its fields):
 /// enough to tell the pose the core was handed from any other on the
@@ -96,60 +87,79 @@ pub fn resolve<'a>(
     (out, None)
 }
 
-/// The setup's bytes in a recording: the setup, then its supervision
-/// settings, its clock limits, its command properties, its starts ahead
-/// and its members (the simulated ones, then their speed-up; each
-/// appended, so a setup recorded before it existed decodes).
-pub fn encode_setup(setup: &Setup) -> Vec<u8> {
-    let mut bytes = postcard::to_allocvec(setup).unwrap_or_default();
-    bytes.extend(postcard::to_allocvec(&setup.supervision).unwrap_or_default());
-    bytes.extend(postcard::to_allocvec(&setup.clocks).unwrap_or_default());
-    bytes.extend(postcard::to_allocvec(&setup.commands).unwrap_or_default());
-    bytes.extend(postcard::to_allocvec(&setup.starts).unwrap_or_default());
-    bytes.extend(postcard::to_allocvec(&setup.members).unwrap_or_default());
-    bytes
+/// The version of the log's schema a recording holds. Each is named in
+/// the recording by its channels' schema names
+/// (`record::schema::{CORE_SETUP, CORE_CALLS}` and the older ones beside
+/// them), so a reader knows which it reads before it decodes a byte.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Version {
+    /// Recordings made before the schema had versions: the core's types,
+    /// postcard, positionally, each later addition appended (`log/v1.rs`).
+    V1,
+    /// The current schema: [`Setup`] and [`Call`], postcard.
+    V2,
 }
 
-/// A recorded setup. One recorded before the core kept the supervision
-/// timers has none after it: it decodes with them off, and its log's
-/// recorded verdicts (`Input::Gone`, `Input::Reach`) replay as they ran.
-/// Each later addition is likewise absent from a setup recorded before it,
-/// and decodes as its default.
-pub fn decode_setup(bytes: &[u8]) -> Result<Setup, postcard::Error> {
-    let (mut setup, rest): (Setup, &[u8]) = postcard::take_from_bytes(bytes)?;
-    let rest = appended(rest, &mut setup.supervision)?;
-    let rest = appended(rest, &mut setup.clocks)?;
-    let rest = appended(rest, &mut setup.commands)?;
-    let rest = appended(rest, &mut setup.starts)?;
-    // The members' fields one by one: `sim_speed` came after `simulated`.
-    let rest = appended(rest, &mut setup.members.simulated)?;
-    appended(rest, &mut setup.members.sim_speed)?;
-    Ok(setup)
-}
+impl Version {
+    /// The version a launch records.
+    pub const CURRENT: Version = Version::V2;
 
-/// The value appended next in `rest` into `into`, unless `rest` is empty
-/// (a setup recorded before the value existed keeps the default); what
-/// follows it.
-fn appended<'a, T: serde::de::DeserializeOwned>(
-    rest: &'a [u8],
-    into: &mut T,
-) -> Result<&'a [u8], postcard::Error> {
-    if rest.is_empty() {
-        return Ok(rest);
+    /// The version numbered `n` (none: one this build does not know, as a
+    /// recording made by a newer build).
+    pub fn of(n: u32) -> Option<Version> {
+        match n {
+            1 => Some(Version::V1),
+            2 => Some(Version::V2),
+            _ => None,
+        }
     }
-    let (value, rest) = postcard::take_from_bytes(rest)?;
-    *into = value;
-    Ok(rest)
+
+    /// Its number.
+    pub fn number(self) -> u32 {
+        match self {
+            Version::V1 => 1,
+            Version::V2 => 2,
+        }
+    }
 }
 
-/// A batch of calls' bytes in a recording.
+/// Why a recorded log does not decode.
+#[derive(Debug, thiserror::Error)]
+#[error("the launch core's log (schema version {version:?}) does not decode: {source}")]
+pub struct LogError {
+    /// The version it was read as.
+    pub version: Version,
+    /// What postcard said.
+    #[source]
+    pub source: postcard::Error,
+}
+
+/// The setup's bytes in a recording, of the current version.
+pub fn encode_setup(setup: &Setup) -> Vec<u8> {
+    postcard::to_allocvec(setup).unwrap_or_default()
+}
+
+/// A recorded setup of `version`, upgraded to the current one.
+pub fn decode_setup(version: Version, bytes: &[u8]) -> Result<Setup, LogError> {
+    let setup = match version {
+        Version::V1 => v1::decode_setup(bytes).map(v1::upgrade_setup),
+        Version::V2 => postcard::from_bytes(bytes),
+    };
+    setup.map_err(|source| LogError { version, source })
+}
+
+/// A batch of calls' bytes in a recording, of the current version.
 pub fn encode_calls(calls: &[Call]) -> Vec<u8> {
     postcard::to_allocvec(calls).unwrap_or_default()
 }
 
-/// A recorded batch of calls.
-pub fn decode_calls(bytes: &[u8]) -> Result<Vec<Call>, postcard::Error> {
-    postcard::from_bytes(bytes)
+/// A recorded batch of calls of `version`, upgraded to the current one.
+pub fn decode_calls(version: Version, bytes: &[u8]) -> Result<Vec<Call>, LogError> {
+    let calls = match version {
+        Version::V1 => postcard::from_bytes::<Vec<v1::Call>>(bytes).map(v1::upgrade_calls),
+        Version::V2 => postcard::from_bytes(bytes),
+    };
+    calls.map_err(|source| LogError { version, source })
 }
 
 /// A core whose calls are logged: the driver's core.
@@ -195,9 +205,9 @@ impl Logged {
         self.core.advance(now);
     }
 
-    /// [`LaunchCore::poll_output`].
-    pub fn poll_output(&mut self) -> Option<Output> {
-        self.core.poll_output()
+    /// [`LaunchCore::poll`].
+    pub fn poll(&mut self) -> Option<Output> {
+        self.core.poll()
     }
 
     /// The calls made since the last time they were taken.
@@ -223,7 +233,7 @@ pub fn replay<'a>(
     let mut core = LaunchCore::new(setup);
     let mut gates = Vec::new();
     let mut drain = |core: &mut LaunchCore| {
-        while let Some(out) = core.poll_output() {
+        while let Some(out) = core.poll() {
             if let Output::Gate(event) = out {
                 gates.push(event);
             }

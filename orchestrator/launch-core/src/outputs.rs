@@ -11,7 +11,7 @@ use bycoms_protocol::msg::{Deploy, GateEvent, Pose, ToAgent};
 use bycoms_runtime::BadKind;
 use bycoms_sim::Vec2;
 
-/// Something to do, from [`LaunchCore::poll_output`].
+/// Something to do, from [`LaunchCore::poll`].
 #[derive(Clone, Debug, PartialEq)]
 pub enum Output {
     /// Open robot `.0`'s ports and poses, start its agent, and answer with

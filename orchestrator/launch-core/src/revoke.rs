@@ -99,7 +99,7 @@ impl LaunchCore {
         let id = match input {
             Input::Report(msg) => msg.robot().0,
             Input::Started { robot, .. } => *robot,
-            Input::Gone(id, _) | Input::Reach(id, _) | Input::Said(id, _) | Input::Token(id, _) => *id,
+            Input::Gone(id, _) | Input::Said(id, _) | Input::Token(id, _) => *id,
             _ => return false,
         };
         let Some(record) = self.revoked.iter_mut().find(|r| r.robot == id) else { return false };

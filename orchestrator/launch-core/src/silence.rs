@@ -139,7 +139,6 @@ mod tests {
             start,
             goal,
             max_speed: 1.0,
-            unreachable_grace_s: 2.0,
             register_timeout_s: 10.0,
             agents: AgentTraits {
                 kind: "gateway".into(),
@@ -154,7 +153,7 @@ mod tests {
             settings: 0,
             // The robots' links are lost by hand here (`Input::Gone`): the
             // timers that judge them are `timers.rs`'s tests.
-            supervision: Supervision::default(),
+            supervision: Supervision::never(2_000_000),
             clocks: ClockLimits::default(),
             commands: Default::default(),
             starts: Default::default(),
@@ -198,7 +197,7 @@ mod tests {
                 self.core.handle(self.now, input);
             }
             self.core.advance(self.now);
-            while let Some(out) = self.core.poll_output() {
+            while let Some(out) = self.core.poll() {
                 match out {
                     Output::Start(id) => {
                         let how = "gateway started".to_string();

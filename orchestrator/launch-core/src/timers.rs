@@ -16,9 +16,9 @@
 //!
 //! The settings ([`Supervision`]) come from the launch's config into the
 //! setup (`orchestrator/launch/src/setup.rs`), so `--heartbeat-timeout` and the others drive
-//! each rule here and nowhere else. A setup recorded before the core kept
-//! these timers decodes with them off ([`Supervision::on`] false): its
-//! recorded log carries the seams' verdicts as inputs, and replays as it ran.
+//! each rule here and nowhere else. A log recorded before the core kept
+//! these timers is upgraded to timers that never expire, its seams'
+//! verdicts its inputs (`log/v1.rs`).
 
 use super::watch::{Expired, Watch};
 use super::*;
@@ -60,7 +60,7 @@ impl LaunchCore {
     /// is: a token may come back before messages do).
     pub(super) fn watch_token(&mut self, now: u64, id: u32, present: bool) {
         let supervised = self.watch(id).is_some_and(|w| w.started.is_some());
-        if present || !supervised || !self.sup().on {
+        if present || !supervised {
             return;
         }
         if !self.sup().holds() {
@@ -102,17 +102,11 @@ impl LaunchCore {
     /// When the next supervision timer expires.
     pub(super) fn supervision_due(&self) -> Option<u64> {
         let s = self.sup();
-        if !s.on {
-            return None;
-        }
         self.watches.iter().zip(&self.slots).filter_map(|(w, slot)| w.due(s, self.quiet_of(slot))).min()
     }
 
     /// Decides every supervision timer expired at `now`, in robot order.
     pub(super) fn supervise(&mut self, now: u64) {
-        if !self.sup().on {
-            return;
-        }
         for id in 1..=self.setup.robots {
             match self.expired(now, id) {
                 Some(Expired::Unreachable) => self.lose(now, id),

@@ -13,21 +13,22 @@ use serde::{Deserialize, Serialize};
 /// The supervision settings of a launch, µs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Supervision {
-    /// Whether the core keeps the timers (false: a setup recorded before
-    /// it did; the verdicts are inputs then).
-    pub on: bool,
     /// A started agent must register within this long.
     pub register_timeout_us: u64,
     /// A registered agent silent this long is gone ([`Gone::Silent`]), or
     /// unreachable when the launch holds its agents.
     pub heartbeat_timeout_us: u64,
-    /// How long an unreachable agent is held before it is gone
-    /// ([`Gone::Unreachable`]): the unreachable grace
-    /// ([`Setup::unreachable_grace_s`](super::Setup::unreachable_grace_s)) in µs for agents that can come
-    /// back (remote agents, gateways elsewhere), else zero: no holding (a
-    /// withdrawn token is [`Gone::Disconnected`] at once). [`Self::holds`]
-    /// tells.
+    /// The unreachable grace (`supervision.unreachable_grace`), the one
+    /// value of it: how long an unreachable agent is held before it is
+    /// gone ([`Gone::Unreachable`]) when [`Self::held`], what the messages
+    /// say, and what the least failsafe grace an agent may register with
+    /// is made from ([`least_failsafe_grace_ms`]).
     pub unreachable_grace_us: u64,
+    /// Whether the launch's agents can come back (remote agents, gateways
+    /// elsewhere), so that an unreachable one is held for the grace
+    /// ([`Self::holds`]); else a withdrawn token is [`Gone::Disconnected`]
+    /// at once.
+    pub held: bool,
     /// When the launch holds its agents: the silence after which a heard agent is
     /// unreachable (zero: only the heartbeat timeout). Not for a parked
     /// robot's agent: it beats slower (four times per heartbeat timeout).
@@ -61,22 +62,38 @@ pub(super) enum Expired {
 }
 
 impl Supervision {
+    /// Timers that never expire, with an unreachable grace of `grace_us`
+    /// (what the messages and the least failsafe grace read), agents not
+    /// held: every verdict then comes as an input ([`Input::Gone`](crate::Input::Gone)), as in
+    /// tests that lose robots by hand.
+    pub fn never(grace_us: u64) -> Self {
+        Self {
+            register_timeout_us: u64::MAX,
+            heartbeat_timeout_us: u64::MAX,
+            unreachable_grace_us: grace_us,
+            held: false,
+            quiet_us: 0,
+            robot_link_grace_us: None,
+        }
+    }
+
     /// Whether an agent the launch cannot reach is held (for
     /// [`Self::unreachable_grace_us`]) rather than gone at once: the one
-    /// test of it (the timers, a withdrawn token).
+    /// test of it (the timers, a withdrawn token). A grace of 0 holds no
+    /// agent.
     pub fn holds(&self) -> bool {
-        self.unreachable_grace_us > 0
+        self.held && self.unreachable_grace_us > 0
     }
 }
 
 /// The least failsafe grace an agent of a launch whose unreachable grace
-/// is `grace_s` (seconds, `supervision.unreachable_grace`) may register
-/// with, ms: shorter, a cut the launch rides out would stop its robot for
-/// good. The one decider of it: the core refuses a shorter one
+/// is `grace_us` (`supervision.unreachable_grace`, µs) may register with,
+/// ms (rounded up): shorter, a cut the launch rides out would stop its
+/// robot for good. The one decider of it: the core refuses a shorter one
 /// ([`Refusal::Grace`](bycoms_protocol::msg::Refusal::Grace)) and the launch
 /// gives its own agents at least this (`setup::joining`).
-pub fn least_failsafe_grace_ms(grace_s: f64) -> u32 {
-    (grace_s * 1000.0).ceil().min(f64::from(u32::MAX)) as u32
+pub fn least_failsafe_grace_ms(grace_us: u64) -> u32 {
+    grace_us.div_ceil(1000).min(u64::from(u32::MAX)) as u32
 }
 
 impl Watch {
@@ -105,7 +122,8 @@ impl Watch {
                 (started.saturating_add(s.register_timeout_us), Expired::Gone(Gone::NeverRegistered))
             }
         });
-        self.started.and(link).into_iter().chain(agent)
+        // A saturated time is a timer that never expires (`Supervision::never`).
+        self.started.and(link).into_iter().chain(agent).filter(|&(at, _)| at != u64::MAX)
     }
 
     /// The next time one of this robot's timers expires.
@@ -136,10 +154,10 @@ mod tests {
         for _ in 0..10_000 {
             let pick = |d: u64, at: u64| (d > 0).then_some(at);
             let s = Supervision {
-                on: true,
                 register_timeout_us: 1 + draw(5_000),
                 heartbeat_timeout_us: 1 + draw(5_000),
                 unreachable_grace_us: draw(2) * draw(5_000),
+                held: draw(4) > 0,
                 quiet_us: draw(2) * draw(5_000),
                 robot_link_grace_us: pick(draw(2), draw(5_000)),
             };

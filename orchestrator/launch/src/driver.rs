@@ -226,7 +226,7 @@ impl Driver {
     /// Carries out every output of the core; whether there was any.
     fn carry_out(&mut self) -> bool {
         let mut acted = false;
-        while let Some(out) = self.core.poll_output() {
+        while let Some(out) = self.core.poll() {
             acted = true;
             if let Err(e) = self.carry(out) {
                 let now = self.now();

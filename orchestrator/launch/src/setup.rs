@@ -80,7 +80,6 @@ pub fn setup_of(
         start: world.start,
         goal: world.goal,
         max_speed: cfg.gate.max_speed,
-        unreachable_grace_s: cfg.supervision.unreachable_grace,
         register_timeout_s: cfg.supervision.register_timeout,
         agents: AgentTraits {
             kind: agents.kind.to_string(),
@@ -119,8 +118,14 @@ pub const STARTS_AHEAD: u32 = 4;
 
 /// The limits of the agents' clock offsets: the config's, in µs.
 pub fn clock_limits(cfg: &LaunchConfig) -> ClockLimits {
-    let us = |s: f64| (s * 1e6).round() as u64;
-    ClockLimits { warn_us: us(cfg.supervision.clock_warn), limit_us: us(cfg.supervision.clock_limit) }
+    let sup = &cfg.supervision;
+    ClockLimits { warn_us: micros(sup.clock_warn), limit_us: micros(sup.clock_limit) }
+}
+
+/// A span of the config, s, in whole µs (rounded): the one conversion of
+/// the core's settings.
+fn micros(s: f64) -> u64 {
+    (s * 1e6).round() as u64
 }
 
 /// The supervision timers' settings: the config's timeouts, with the link
@@ -128,14 +133,13 @@ pub fn clock_limits(cfg: &LaunchConfig) -> ClockLimits {
 /// [`AgentProperties::held_when_unreachable`]) and the robot-link grace for
 /// sources of real robots ([`AgentProperties::robot_link_grace`]).
 pub fn supervision(cfg: &LaunchConfig, held: bool, robot_link_grace: Option<Duration>) -> Supervision {
-    let us = |s: f64| (s * 1e6).round() as u64;
     let sup = &cfg.supervision;
     Supervision {
-        on: true,
-        register_timeout_us: us(sup.register_timeout),
-        heartbeat_timeout_us: us(sup.heartbeat_timeout),
-        unreachable_grace_us: if held { us(sup.unreachable_grace) } else { 0 },
-        quiet_us: if held { us(sup.heartbeat_interval * f64::from(QUIET_HEARTBEATS)) } else { 0 },
+        register_timeout_us: micros(sup.register_timeout),
+        heartbeat_timeout_us: micros(sup.heartbeat_timeout),
+        unreachable_grace_us: micros(sup.unreachable_grace),
+        held,
+        quiet_us: if held { micros(sup.heartbeat_interval * f64::from(QUIET_HEARTBEATS)) } else { 0 },
         robot_link_grace_us: robot_link_grace.map(|g| g.as_micros() as u64),
     }
 }
@@ -203,7 +207,7 @@ pub fn joining(cfg: &LaunchConfig, swarm: String, endpoints: Vec<String>) -> Joi
 /// (`Failsafe::grace_ms` truncates: 2.0005 s would come back 2000 ms, under
 /// the 2001 the core asks), and never under the agents' own default.
 fn failsafe_grace_s(grace_s: f64) -> f64 {
-    (f64::from(least_failsafe_grace_ms(grace_s)) / 1000.0).max(DEFAULT_GRACE_S)
+    (f64::from(least_failsafe_grace_ms(micros(grace_s))) / 1000.0).max(DEFAULT_GRACE_S)
 }
 
 /// The agents' heartbeat period, ms.
@@ -256,7 +260,7 @@ mod tests {
             cfg.supervision.unreachable_grace = g;
             let read_back = FailsafeArgs { grace_s: grace(&cfg), ..FailsafeArgs::default() };
             let ms = read_back.failsafe().expect("a usable grace").grace_ms();
-            assert!(ms >= least_failsafe_grace_ms(g), "{g} s: the agent says {ms} ms");
+            assert!(ms >= least_failsafe_grace_ms(micros(g)), "{g} s: the agent says {ms} ms");
         }
         let flags = joining(&cfg, "s".into(), Vec::new())
             .sim_agent(1, &run_settings(&cfg, &World::tiny()))

@@ -203,7 +203,7 @@ mod tests {
         let case = Case::small(3);
         let mut core = LaunchCore::new(harness::setup(&case, &Schedule::clean(3, case.robots)));
         core.advance(0);
-        while let Some(out) = core.poll_output() {
+        while let Some(out) = core.poll() {
             if let Output::Start(robot) = out {
                 core.handle(0, Input::Started { robot, pid: Some(7), how: "started".into() });
             }

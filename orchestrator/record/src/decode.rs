@@ -58,10 +58,12 @@ pub enum Content<'a> {
     Gate(GateEvent),
     /// A placement request to the lab's operator.
     Operator(Deploy),
-    /// The launch core's setup, encoded by `launch::core::log`.
-    CoreSetup(&'a [u8]),
-    /// Calls the launch made on its core, encoded by `launch::core::log`.
-    CoreCalls(&'a [u8]),
+    /// The launch core's setup, encoded by `launch::core::log` in the
+    /// version of its schema that `.0` names.
+    CoreSetup(u32, &'a [u8]),
+    /// Calls the launch made on its core, encoded by `launch::core::log`
+    /// in the version of its schema that `.0` names.
+    CoreCalls(u32, &'a [u8]),
     /// A NatNet frame's datagram, as received.
     MocapFrame(&'a [u8]),
     /// The NatNet model definitions packet, as received.
@@ -108,8 +110,10 @@ pub fn decode<'a>(topic: &str, schema_name: &str, encoding: &str, data: &'a [u8]
         schema::OPERATOR if postcard_bytes => {
             bus(data).map_or(Content::Undecodable { schema: schema::OPERATOR }, Content::Operator)
         }
-        schema::CORE_SETUP => Content::CoreSetup(data),
-        schema::CORE_CALLS => Content::CoreCalls(data),
+        schema::CORE_SETUP => Content::CoreSetup(schema::CORE_LOG_VERSION, data),
+        schema::CORE_CALLS => Content::CoreCalls(schema::CORE_LOG_VERSION, data),
+        schema::CORE_SETUP_V1 => Content::CoreSetup(1, data),
+        schema::CORE_CALLS_V1 => Content::CoreCalls(1, data),
         schema::NATNET_FRAME => Content::MocapFrame(data),
         schema::NATNET_MODELDEF => Content::MocapModelDef(data),
         _ => Content::Other,

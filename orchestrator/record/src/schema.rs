@@ -34,11 +34,20 @@ pub const GATE: &str = "bycoms.GateEvent";
 pub const OPERATOR: &str = "bycoms.Deploy";
 
 // The launch core's log (postcard of `launch::core::log`'s types): what the replay re-runs.
+// Its schema's version is in the name: a launch writes the current one; a
+// reader reads every one and upgrades it (`launch::core::log::Version`).
 
-/// The launch core's setup (`core/setup`).
-pub const CORE_SETUP: &str = "bycoms.CoreSetup";
-/// Calls the launch made on its core (`core/calls`).
-pub const CORE_CALLS: &str = "bycoms.CoreCalls";
+/// The version of the launch core's log a launch records (its `log::Version::CURRENT`).
+pub const CORE_LOG_VERSION: u32 = 2;
+/// The launch core's setup (`core/setup`), of version [`CORE_LOG_VERSION`].
+pub const CORE_SETUP: &str = "bycoms.CoreSetup.v2";
+/// Calls the launch made on its core (`core/calls`), of version [`CORE_LOG_VERSION`].
+pub const CORE_CALLS: &str = "bycoms.CoreCalls.v2";
+/// The launch core's setup of version 1 (before the log's schema had versions): read, no
+/// longer written.
+pub const CORE_SETUP_V1: &str = "bycoms.CoreSetup";
+/// Calls the launch made on its core, of version 1: read, no longer written.
+pub const CORE_CALLS_V1: &str = "bycoms.CoreCalls";
 /// A pose the launch core applied (`core/moved`), postcard like the bus's
 /// [`POSE`]: what the views show. The bus's pose topics hold every pose
 /// motion capture delivered, refused ones too; a recording whose run

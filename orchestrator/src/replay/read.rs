@@ -185,14 +185,18 @@ pub fn read_recording(path: &Path) -> Result<Recorded, ReplayError> {
             Content::Gate(event) => Entry::Gate(event),
             // A log that does not decode is left out: the replay then
             // re-judges from the poses, and says so.
-            Content::CoreSetup(bytes) => match log::decode_setup(bytes) {
-                Ok(setup) => Entry::CoreSetup(Box::new(setup)),
-                Err(_) => return Ok(()),
-            },
-            Content::CoreCalls(bytes) => match log::decode_calls(bytes) {
-                Ok(calls) => Entry::CoreCalls(calls),
-                Err(_) => return Ok(()),
-            },
+            Content::CoreSetup(version, bytes) => {
+                match log::Version::of(version).map(|v| log::decode_setup(v, bytes)) {
+                    Some(Ok(setup)) => Entry::CoreSetup(Box::new(setup)),
+                    _ => return Ok(()),
+                }
+            }
+            Content::CoreCalls(version, bytes) => {
+                match log::Version::of(version).map(|v| log::decode_calls(v, bytes)) {
+                    Some(Ok(calls)) => Entry::CoreCalls(calls),
+                    _ => return Ok(()),
+                }
+            }
             Content::MocapFrame(bytes) => Entry::MocapFrame(bytes.to_vec()),
             Content::MocapModelDef(bytes) => Entry::MocapModelDef(bytes.to_vec()),
             // Bytes that do not decode are skipped, as the launch skipped

@@ -177,7 +177,7 @@ impl std::fmt::Display for Started {
 }
 
 /// What the seam reports of an agent (the launch core's inputs, owned there).
-pub use bycoms_launch_core::{Gone, Reach};
+pub use bycoms_launch_core::Gone;
 
 /// Why an agent could not be started.
 #[derive(Debug, thiserror::Error)]

@@ -235,7 +235,7 @@ impl World<'_> {
     }
 
     pub(super) fn carry_out(&mut self) {
-        while let Some(out) = self.core.poll_output() {
+        while let Some(out) = self.core.poll() {
             let now = self.now;
             if let Some(id) = about(&out).filter(|&id| self.core.revoked().iter().any(|r| r.robot == id)) {
                 self.report.after_revoke.push((id, out.clone()));

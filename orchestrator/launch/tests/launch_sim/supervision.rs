@@ -220,7 +220,7 @@ fn a_failsafe_report_is_recorded_once() {
             core.handle(t, input);
         }
         core.advance(t);
-        while let Some(o) = core.poll_output() {
+        while let Some(o) = core.poll() {
             outputs.push(o);
         }
     };

@@ -68,10 +68,10 @@ fn the_launch_says_what_it_waits_for() {
     // Nothing comes: sent again after a tenth of a second (nothing timed yet).
     core.advance(101_000);
     assert_eq!(waiting(&core), Some(("robot 1's answer to tick 1".into(), 1)));
-    while core.poll_output().is_some() {}
+    while core.poll().is_some() {}
     core.handle(102_000, Input::Report(FromAgent::TickDone(TickDone { robot: RobotId(1), step: 1 })));
     core.advance(102_000);
-    let deploy = std::iter::from_fn(|| core.poll_output())
+    let deploy = std::iter::from_fn(|| core.poll())
         .any(|o| matches!(o, bycoms_launch::core::Output::Send(1, ToAgent::Deploy(_))));
     assert!(deploy, "robot 1 is told to deploy");
     assert_eq!(waiting(&core), Some(("robot 1's start pose".into(), 0)));
@@ -81,10 +81,10 @@ fn the_launch_says_what_it_waits_for() {
     core.handle(0, Input::Started { robot: 1, pid: Some(7), how: "started".into() });
     core.handle(1_000, Input::Report(FromAgent::Register(simulated_register(1))));
     core.advance(1_000);
-    while core.poll_output().is_some() {}
+    while core.poll().is_some() {}
     core.advance(101_000);
     assert_eq!(waiting(&core), Some(("robot 1's answer to tick 1".into(), 0)));
-    assert!(core.poll_output().is_none(), "nothing sent again");
+    assert!(core.poll().is_none(), "nothing sent again");
 }
 
 /// Issue 31: at `--speed 100000` every robot's agent was started twice: a
@@ -102,7 +102,7 @@ fn a_robot_deployed_and_judged_at_once_starts_its_successor_once() {
     let mut starts = vec![0; case.robots as usize];
     let mut deployed = false;
     let mut drain = |core: &mut LaunchCore, starts: &mut Vec<u32>| {
-        while let Some(out) = core.poll_output() {
+        while let Some(out) = core.poll() {
             match out {
                 Output::Start(id) => starts[id as usize - 1] += 1,
                 Output::Send(1, ToAgent::Deploy(_)) => deployed = true,

@@ -13,13 +13,13 @@ fn core() -> LaunchCore {
     setup.clocks = LIMITS;
     let mut core = LaunchCore::new(setup);
     core.advance(0);
-    while let Some(out) = core.poll_output() {
+    while let Some(out) = core.poll() {
         if let Output::Start(robot) = out {
             core.handle(0, Input::Started { robot, pid: None, how: "started".into() });
         }
     }
     core.advance(0);
-    while core.poll_output().is_some() {}
+    while core.poll().is_some() {}
     core
 }
 
@@ -38,7 +38,7 @@ fn register(core: &mut LaunchCore, now: u64, offset_us: Option<i64>) -> Vec<Outp
         failsafe_grace_ms: 0,
     };
     core.handle(now, Input::Report(FromAgent::Register(r)));
-    std::iter::from_fn(|| core.poll_output()).collect()
+    std::iter::from_fn(|| core.poll()).collect()
 }
 
 fn refused(out: &[Output]) -> Option<Refusal> {
@@ -101,7 +101,7 @@ fn a_later_offset_past_the_limit_is_noted_once() {
     let mut notes = 0;
     for t in 1..=3 {
         core.handle(t * 10_000_000, Input::Report(FromAgent::Clock(late)));
-        let out: Vec<Output> = std::iter::from_fn(|| core.poll_output()).collect();
+        let out: Vec<Output> = std::iter::from_fn(|| core.poll()).collect();
         assert_eq!(refused(&out), None);
         notes += out.iter().filter(|o| matches!(o, Output::Note(n) if n.contains("+900.0 ms off"))).count();
     }

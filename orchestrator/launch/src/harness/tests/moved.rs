@@ -98,7 +98,7 @@ fn the_scenes_beacons_creep_as_the_cores_table_and_its_states_are_the_cores() {
             Call::Advance(now) => core.advance(*now),
             Call::HandleRecordedPose { .. } => continue,
         }
-        while let Some(out) = core.poll_output() {
+        while let Some(out) = core.poll() {
             let outs = match out {
                 Output::Moved { pose, .. } => scene.pose(&pose, 0),
                 Output::Gate(event) => scene.gate(&event, 0),

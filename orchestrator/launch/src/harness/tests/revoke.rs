@@ -22,7 +22,7 @@ fn revoke(robot: u32) -> Input {
 
 /// Everything the core put out since the last call.
 fn outputs(core: &mut LaunchCore) -> Vec<Output> {
-    std::iter::from_fn(|| core.poll_output()).collect()
+    std::iter::from_fn(|| core.poll()).collect()
 }
 
 /// In virtual time: a running robot revoked is told `Stop` once, a
@@ -62,7 +62,7 @@ fn a_revoked_robot_is_stopped_once_refused_silenced_and_skipped() {
     assert!(outputs(&mut core).contains(&Output::Send(2, ToAgent::Refused(refused))));
     core.handle(6_000, Input::Report(FromAgent::Heartbeat(Heartbeat { robot: RobotId(1), seq: 9 })));
     core.handle(6_000, Input::Gone(1, Gone::Disconnected));
-    core.handle(6_000, Input::Reach(1, Reach::Lost));
+    core.handle(6_000, Input::Token(1, false));
     core.handle(6_000, Input::Started { robot: 2, pid: None, how: "late".into() });
     let dropped: Vec<(u32, u64)> = core.revoked().iter().map(|r| (r.robot, r.dropped)).collect();
     assert_eq!(dropped, [(2, 1), (1, 1)], "in the order revoked, each report counted");

@@ -22,7 +22,7 @@ fn done(robot: u32) -> Input {
 
 /// The `Stop`s the core put out since the last call, by robot.
 fn stops(core: &mut LaunchCore) -> Vec<u32> {
-    std::iter::from_fn(|| core.poll_output())
+    std::iter::from_fn(|| core.poll())
         .filter_map(|o| match o {
             Output::Send(id, ToAgent::Stop) => Some(id),
             _ => None,
@@ -131,7 +131,7 @@ fn who_and_why_from_a_foreign_client_are_escaped_and_bounded() {
     core.handle(2_000, Input::Stop(Stop { now: true, who: "evil\r\n".into(), why: why.clone() }));
     core.handle(2_000, Input::Revoke(Revoke { robot: 3, who: "evil".into(), why }));
     core.advance(2_000);
-    let notes: Vec<String> = std::iter::from_fn(|| core.poll_output())
+    let notes: Vec<String> = std::iter::from_fn(|| core.poll())
         .filter_map(|o| match o {
             Output::Note(text) => Some(text),
             Output::Event(e) => e.reason,

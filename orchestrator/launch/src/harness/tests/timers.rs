@@ -54,7 +54,7 @@ impl Lab {
     fn decide(&mut self, t: u64) {
         self.now = t;
         self.core.advance(t);
-        while let Some(out) = self.core.poll_output() {
+        while let Some(out) = self.core.poll() {
             match out {
                 Output::Start(id) => {
                     self.core.handle(t, Input::Started { robot: id, pid: None, how: "awaited".into() });
