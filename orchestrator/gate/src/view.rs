@@ -91,26 +91,36 @@ impl SlotState {
     }
 }
 
+/// Robot `robot`'s beacon stands at `at`: new, or crept on (the launch
+/// core's table never removes a beacon). One type for the fact wherever it
+/// goes: the core's output, the fold's input, the recording's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BeaconAt {
+    /// The robot.
+    pub robot: u32,
+    /// Where its beacon stands.
+    pub at: Vec2,
+}
+
+/// Robot `robot`'s state changed to `state`, as the launch core changed
+/// its slot. One type for the fact wherever it goes, as [`BeaconAt`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StateChange {
+    /// The robot.
+    pub robot: u32,
+    /// Its new state.
+    pub state: SlotState,
+}
+
 /// One fact of the run a view shows, as the launch core put it out.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Shown {
     /// A pose the core applied (made its robot's latest).
     Moved(Pose),
-    /// Robot `robot`'s beacon stands at `at` (new, or crept on). The
-    /// core's table never removes a beacon.
-    Beacon {
-        /// The robot.
-        robot: u32,
-        /// Where its beacon stands.
-        at: Vec2,
-    },
-    /// Robot `robot`'s state changed to `state`.
-    State {
-        /// The robot.
-        robot: u32,
-        /// Its new state.
-        state: SlotState,
-    },
+    /// A beacon stands somewhere new.
+    Beacon(BeaconAt),
+    /// A robot's state changed.
+    State(StateChange),
     /// A gate decision the core published.
     Gate(GateEvent),
 }
@@ -185,8 +195,8 @@ impl RunView {
                 self.robot(pose.robot.0).pose = Some(pose);
                 false
             }
-            Shown::Beacon { robot, at } => self.beacon(robot, at),
-            Shown::State { robot, state } => {
+            Shown::Beacon(BeaconAt { robot, at }) => self.beacon(robot, at),
+            Shown::State(StateChange { robot, state }) => {
                 self.robot(robot).state = Some(state);
                 false
             }
@@ -289,10 +299,10 @@ mod tests {
         assert!(!v.take(&moved(2, 1.0, 1)));
         assert!(!v.take(&gate(2, GateKind::Stopped { arrived: false }, 1.0)), "told, not judged");
         assert_eq!(v.beacons().count(), 0);
-        assert!(v.take(&Shown::Beacon { robot: 2, at: Vec2::new(1.0, 0.0) }));
-        assert!(v.take(&Shown::Beacon { robot: 1, at: Vec2::new(5.0, 0.0) }));
-        assert!(!v.take(&Shown::Beacon { robot: 2, at: Vec2::new(1.0, 0.0) }), "the same place");
-        assert!(v.take(&Shown::Beacon { robot: 2, at: Vec2::new(1.5, 0.0) }), "crept on");
+        assert!(v.take(&Shown::Beacon(BeaconAt { robot: 2, at: Vec2::new(1.0, 0.0) })));
+        assert!(v.take(&Shown::Beacon(BeaconAt { robot: 1, at: Vec2::new(5.0, 0.0) })));
+        assert!(!v.take(&Shown::Beacon(BeaconAt { robot: 2, at: Vec2::new(1.0, 0.0) })), "the same place");
+        assert!(v.take(&Shown::Beacon(BeaconAt { robot: 2, at: Vec2::new(1.5, 0.0) })), "crept on");
         let beacons: Vec<_> = v.beacons().collect();
         assert_eq!(beacons, [(2, Vec2::new(1.5, 0.0)), (1, Vec2::new(5.0, 0.0))]);
     }
@@ -301,13 +311,13 @@ mod tests {
     fn arrival_robots_used_states_and_poses_have_one_owner() {
         let mut v = RunView::new();
         for k in 1..=3 {
-            v.take(&Shown::State { robot: k, state: SlotState::Registered });
+            v.take(&Shown::State(StateChange { robot: k, state: SlotState::Registered }));
         }
         v.take(&gate(1, GateKind::Deployed, 0.0));
         v.take(&moved(1, 0.5, 2));
         v.take(&gate(1, GateKind::Died, 0.5));
         v.take(&gate(2, GateKind::Deployed, 0.0));
-        v.take(&Shown::State { robot: 2, state: SlotState::Arrived });
+        v.take(&Shown::State(StateChange { robot: 2, state: SlotState::Arrived }));
         v.take(&gate(2, GateKind::Stopped { arrived: true }, 9.0));
         assert_eq!((v.arrived(), v.robots_used()), (Some(2), 2));
         assert!(v.deployed(1) && !v.deployed(3));
@@ -335,8 +345,8 @@ mod tests {
     #[test]
     fn states_are_the_cores_and_without_them_the_gates() {
         let mut v = RunView::new();
-        v.take(&Shown::State { robot: 1, state: SlotState::Registered });
-        v.take(&Shown::State { robot: 1, state: SlotState::Lost });
+        v.take(&Shown::State(StateChange { robot: 1, state: SlotState::Registered }));
+        v.take(&Shown::State(StateChange { robot: 1, state: SlotState::Lost }));
         v.take(&gate(2, GateKind::Deployed, 0.0));
         v.take(&gate(2, GateKind::Timeout, 1.0));
         assert_eq!((v.state(1), v.state(2)), (Some(SlotState::Lost), None), "told: only the core's word");

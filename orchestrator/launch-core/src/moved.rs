@@ -29,6 +29,7 @@
 //! each change as it makes it, in the order it makes them.
 
 use super::*;
+use bycoms_gate::view::{BeaconAt, StateChange};
 
 impl LaunchCore {
     /// Robot `id`'s `pose` was applied: the views show it.
@@ -38,7 +39,7 @@ impl LaunchCore {
 
     /// Robot `id`'s beacon now stands at `pose` (the table changed).
     pub(super) fn shown_beacon(&mut self, id: u32, pose: &Pose) {
-        self.outputs.push_back(Output::Beacon { robot: id, at: Vec2::new(pose.x, pose.y) });
+        self.outputs.push_back(Output::Beacon(BeaconAt { robot: id, at: Vec2::new(pose.x, pose.y) }));
     }
 
     /// Robot `id`'s state becomes `state`; said when it changes.
@@ -46,7 +47,7 @@ impl LaunchCore {
         let Some(slot) = self.slot(id) else { return };
         if slot.state != state {
             slot.state = state;
-            self.outputs.push_back(Output::State { robot: id, state });
+            self.outputs.push_back(Output::State(StateChange { robot: id, state }));
         }
     }
 }

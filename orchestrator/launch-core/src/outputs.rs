@@ -6,10 +6,9 @@
 //! rules that make them live beside the state they change.
 
 use crate::events::LaunchEvent;
-use bycoms_gate::view::{self, SlotState};
+use bycoms_gate::view::{self, BeaconAt, StateChange};
 use bycoms_protocol::msg::{Deploy, GateEvent, Pose, ToAgent};
 use bycoms_runtime::BadKind;
-use bycoms_sim::Vec2;
 
 /// Something to do, from [`LaunchCore::poll`].
 #[derive(Clone, Debug, PartialEq)]
@@ -58,20 +57,10 @@ pub enum Output {
     /// became a beacon, judged stuck or lost; or its beacon crept on with
     /// its applied pose). The table never removes a beacon. Kept and said
     /// in every launch, whether or not its agents are sent beacons.
-    Beacon {
-        /// The robot.
-        robot: u32,
-        /// Where its beacon stands.
-        at: Vec2,
-    },
+    Beacon(BeaconAt),
     /// Robot `robot`'s state changed to `state` (said on every change of
     /// its slot's state, in the order the core makes them).
-    State {
-        /// The robot.
-        robot: u32,
-        /// Its new state.
-        state: SlotState,
-    },
+    State(StateChange),
 }
 
 impl Output {
@@ -80,8 +69,8 @@ impl Output {
     pub fn shown(&self) -> Option<view::Shown> {
         Some(match *self {
             Output::Moved { pose, .. } => view::Shown::Moved(pose),
-            Output::Beacon { robot, at } => view::Shown::Beacon { robot, at },
-            Output::State { robot, state } => view::Shown::State { robot, state },
+            Output::Beacon(beacon) => view::Shown::Beacon(beacon),
+            Output::State(change) => view::Shown::State(change),
             Output::Gate(event) => view::Shown::Gate(event),
             _ => return None,
         })

@@ -264,8 +264,8 @@ impl Driver {
             // views showed it when the core applied it.
             Output::Relay(pose) => self.ports.relay(&pose)?,
             Output::Moved { robot, pose } => self.ports.show_moved(robot, &pose),
-            Output::Beacon { robot, at } => self.ports.show_beacon(robot, at),
-            Output::State { robot, state } => self.ports.show_state(robot, state),
+            Output::Beacon(beacon) => self.ports.show_beacon(beacon),
+            Output::State(change) => self.ports.show_state(change),
             Output::Forward(pose) => self.ports.forward_pose(&pose)?,
             Output::Gate(event) => {
                 self.ports.publish_gate(&event)?;

@@ -19,12 +19,11 @@ use super::observe::Observer;
 use super::poses::PoseBytes;
 use super::recording::{Recording, Seen};
 use super::transport::{AnyPublisher, AnySubscriber, SharedBus};
-use crate::core::SlotState;
+use crate::core::view::{BeaconAt, StateChange};
 use bycoms_protocol::bus::{untag, BusError, FAN_IN_TAG};
 use bycoms_protocol::msg::{Beacon, Deploy, FromAgent, GateEvent, Pose, ToAgent};
 use bycoms_protocol::{decode, encode, Message, RobotId, Swarm, TopicName, MAX_MESSAGE_LEN};
 use bycoms_runtime::{BadKind, Traffic};
-use bycoms_sim::Vec2;
 use std::collections::BTreeMap;
 use std::time::Duration;
 
@@ -252,7 +251,8 @@ impl Ports {
     /// shows the run, as [`Ports::show_moved`] shows poses: recorded on
     /// `core/beacon` (what `draw` and `record export --ros2` read), handed
     /// to the recording's scene and trace and to the observers.
-    pub fn show_beacon(&mut self, robot: u32, at: Vec2) {
+    pub fn show_beacon(&mut self, beacon: BeaconAt) {
+        let BeaconAt { robot, at } = beacon;
         if self.recording.is_on() {
             let beacon = ToAgent::Beacon(Beacon { robot: RobotId(robot), x: at.x, y: at.y, seq: 0 });
             let mut buf = [0u8; MAX_MESSAGE_LEN];
@@ -264,7 +264,7 @@ impl Ports {
                 Err(e) => tracing::warn!(robot, "a beacon not recorded: {e}"),
             }
         }
-        self.recording.seen(Seen::Beacon { robot, at });
+        self.recording.seen(Seen::Beacon(beacon));
         self.observers.iter_mut().for_each(|o| o.beacon(robot, at));
     }
 
@@ -273,11 +273,12 @@ impl Ports {
     /// [`Ports::show_beacon`] shows beacons: recorded on `core/state` (what
     /// `record export --ros2` reads), handed to the recording's scene and
     /// to the observers.
-    pub fn show_state(&mut self, robot: u32, state: SlotState) {
+    pub fn show_state(&mut self, change: StateChange) {
+        let StateChange { robot, state } = change;
         let topic = schema::Topics::new(self.swarm.as_str()).state();
         let slot = bycoms_record::scene::json::RobotSlot { robot, state };
         self.recording.json(&topic, schema::CORE_STATE, &slot);
-        self.recording.seen(Seen::State { robot, state });
+        self.recording.seen(Seen::State(change));
         self.observers.iter_mut().for_each(|o| o.state(robot, state));
     }
 

@@ -5,6 +5,7 @@
 //! bounded.
 
 use super::*;
+use crate::core::view::StateChange;
 
 /// Re-sends a lost message may cost, at most: from the shortest first
 /// re-send to once a second is ten doublings.
@@ -324,8 +325,8 @@ fn check_revoke(report: &Report, schedule: &Schedule) -> Result<(), String> {
             Output::Gate(g) if g.kind == GateKind::Died => judged += 1,
             // Lost (not deployed yet), or judged lost while it moved: a
             // beacon where it stopped.
-            Output::State { state: SlotState::Lost | SlotState::Died, .. } => {}
-            Output::Beacon { .. } => beacons += 1,
+            Output::State(StateChange { state: SlotState::Lost | SlotState::Died, .. }) => {}
+            Output::Beacon(_) => beacons += 1,
             Output::Event(_) | Output::Relay(_) => {}
             other => return Err(format!("revoked robot {id}: {other:?} after its revocation")),
         }

@@ -4,6 +4,7 @@
 //! carries out its outputs and delivers what the agents and the network do.
 
 use super::*;
+use crate::core::view::{BeaconAt, StateChange};
 
 #[derive(Clone, Debug, PartialEq)]
 pub(super) enum Event {
@@ -299,8 +300,8 @@ impl World<'_> {
                 | Output::Heard(_)
                 | Output::SimTime(_)
                 | Output::Carried(..)
-                | Output::Beacon { .. }
-                | Output::State { .. } => {}
+                | Output::Beacon(_)
+                | Output::State(_) => {}
             }
         }
     }
@@ -632,9 +633,9 @@ fn about(out: &Output) -> Option<u32> {
         | Output::Heard(id)
         | Output::Carried(id, _) => Some(*id),
         Output::Relay(pose) | Output::Forward(pose) => Some(pose.robot.0),
-        Output::Moved { robot, .. } | Output::Beacon { robot, .. } | Output::State { robot, .. } => {
-            Some(*robot)
-        }
+        Output::Moved { robot, .. }
+        | Output::Beacon(BeaconAt { robot, .. })
+        | Output::State(StateChange { robot, .. }) => Some(*robot),
         Output::Gate(e) => Some(e.robot.0),
         Output::Event(e) => Some(e.robot),
         Output::AskOperator(d) => Some(d.robot.0),

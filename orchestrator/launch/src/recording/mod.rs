@@ -36,6 +36,7 @@ pub use seen::Seen;
 use super::config::{Clock, LaunchConfig};
 use super::events::RunMeta;
 use super::World;
+use crate::core::view::BeaconAt;
 use bycoms_record::scene::json::json_schema;
 use bycoms_record::scene::{Out, Scene, SceneWorld, SharedScene};
 use bycoms_record::schema::{self, Topics, CLOCK_METADATA};
@@ -317,8 +318,8 @@ impl Recording {
             match &seen {
                 Seen::Pose(pose) => trace.pose(pose),
                 Seen::Gate(event) => trace.gate(event),
-                Seen::Beacon { robot, at } => trace.beacon(*robot, *at),
-                Seen::Report(_) | Seen::State { .. } => {}
+                Seen::Beacon(BeaconAt { robot, at }) => trace.beacon(*robot, *at),
+                Seen::Report(_) | Seen::State(_) => {}
             }
         }
         let now = self.now();

@@ -12,9 +12,8 @@
 //! and a report the core never took (another robot's, on the wrong topic)
 //! shows nowhere.
 
-use crate::core::SlotState;
+use crate::core::view::{BeaconAt, StateChange};
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
-use bycoms_sim::Vec2;
 
 /// A core input or output the recording's projections take in.
 #[derive(Clone, Debug, PartialEq)]
@@ -25,19 +24,8 @@ pub enum Seen {
     Gate(GateEvent),
     /// An agent's report the core was handed.
     Report(FromAgent),
-    /// Robot `robot`'s beacon stands at `at`: the core's beacon table
-    /// changed (`Output::Beacon`).
-    Beacon {
-        /// The robot.
-        robot: u32,
-        /// Where its beacon stands.
-        at: Vec2,
-    },
-    /// Robot `robot`'s state changed to `state` (`Output::State`).
-    State {
-        /// The robot.
-        robot: u32,
-        /// Its new state.
-        state: SlotState,
-    },
+    /// The core's beacon table changed (`Output::Beacon`).
+    Beacon(BeaconAt),
+    /// A robot's state changed in the core (`Output::State`).
+    State(StateChange),
 }

@@ -23,6 +23,7 @@
 //! recorded every 50 ms (`HAND_OVER_EVERY`).
 
 use super::seen::Seen;
+use crate::core::view::{BeaconAt, StateChange};
 use bycoms_record::scene::{Out, SharedScene};
 use bycoms_record::schema;
 use bycoms_record::{RecordError, Recorder, Summary};
@@ -223,8 +224,8 @@ impl Writer {
             Seen::Pose(pose) => scene.lock().pose(pose, now),
             Seen::Gate(event) => scene.lock().gate(event, now),
             Seen::Report(report) => scene.lock().report(report, now),
-            Seen::Beacon { robot, at } => scene.lock().beacon(*robot, *at, now),
-            Seen::State { robot, state } => scene.lock().state(*robot, *state, now),
+            Seen::Beacon(BeaconAt { robot, at }) => scene.lock().beacon(*robot, *at, now),
+            Seen::State(StateChange { robot, state }) => scene.lock().state(*robot, *state, now),
         };
         self.write_outs(&outs, now);
         shown.extend(outs);

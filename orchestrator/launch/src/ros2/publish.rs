@@ -44,7 +44,7 @@
 
 use std::collections::BTreeMap;
 
-use bycoms_launch_core::view::{RunView, Shown, SlotState};
+use bycoms_launch_core::view::{BeaconAt, RunView, Shown, SlotState, StateChange};
 use bycoms_protocol::msg::{Commanded, FromAgent, GateEvent, GateKind, Pose};
 use bycoms_record::schema::Ros2RobotTopic;
 use bycoms_ros2::bycoms_msgs::{gate_kind, robot_state, GateEvent as RosGateEvent, RobotState};
@@ -264,7 +264,7 @@ impl RunMessages {
     /// Robot `robot`'s state changed to `state` (the launch core said so):
     /// its `RobotState`, if that changes what it says.
     pub fn state(&mut self, robot: u32, state: SlotState, sink: &mut dyn Sink) {
-        self.view.take(&Shown::State { robot, state });
+        self.view.take(&Shown::State(StateChange { robot, state }));
         self.send_state_of(robot, sink);
     }
 
@@ -332,7 +332,7 @@ impl RunMessages {
     /// table changed): the beacons are sent again if it is new or crept
     /// [`PATH_SPACING`] or more from where it was last sent.
     pub fn beacon(&mut self, robot: u32, at: Vec2, sink: &mut dyn Sink) {
-        if self.view.take(&Shown::Beacon { robot, at }) {
+        if self.view.take(&Shown::Beacon(BeaconAt { robot, at })) {
             self.send_beacons(sink);
         }
     }

@@ -82,7 +82,7 @@ pub mod json;
 mod shapes;
 
 use bycoms_gate::view::SlotState;
-use bycoms_gate::view::{RunView, Shown};
+use bycoms_gate::view::{self, RunView, Shown, StateChange};
 use bycoms_protocol::msg::{FromAgent, GateEvent, Pose};
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::Vec2;
@@ -395,7 +395,7 @@ impl Scene {
     /// Robot `robot`'s state became `state` at time `ns` (the launch core
     /// said so): its JSON, and its marker in its new colour.
     pub fn state(&mut self, robot: u32, state: SlotState, ns: u64) -> Vec<Out> {
-        self.view.take(&Shown::State { robot, state });
+        self.view.take(&Shown::State(StateChange { robot, state }));
         let t = stamp(ns);
         let json = RobotSlot { robot, state };
         let mut out = vec![Out { topic: self.topics.slot(robot), message: Message::State(json) }];
@@ -414,7 +414,7 @@ impl Scene {
     /// core's beacon table changed): its ε circle there, and its JSON;
     /// nothing if it already stood there.
     pub fn beacon(&mut self, robot: u32, at: Vec2, ns: u64) -> Vec<Out> {
-        if !self.view.take(&Shown::Beacon { robot, at }) {
+        if !self.view.take(&Shown::Beacon(view::BeaconAt { robot, at })) {
             return Vec::new();
         }
         let t = stamp(ns);

@@ -32,7 +32,7 @@
 use super::snapshot::{Options, Unit};
 use crate::gate::{active_periods, same_pose};
 use crate::runs::summary_line;
-use bycoms_gate::view::{RunView, Shown};
+use bycoms_gate::view::{BeaconAt, RunView, Shown};
 use bycoms_protocol::msg::{GateEvent, GateKind, Pose};
 use bycoms_sim::body::Kinematics;
 use bycoms_sim::runner::{RobotRun, RobotRunEnd, RunOutcome, RunResult};
@@ -194,7 +194,7 @@ impl Trace {
     /// Robot `robot`'s beacon stands at `at` (the core's beacon table
     /// changed).
     pub fn beacon(&mut self, robot: u32, at: Vec2) {
-        self.view.take(&Shown::Beacon { robot, at });
+        self.view.take(&Shown::Beacon(BeaconAt { robot, at }));
     }
 
     /// The gate's decision that ended robot `id`'s run, as the view holds it.

@@ -1,4 +1,5 @@
 use crate::core::log::Call;
+use crate::core::view::{BeaconAt, StateChange};
 use crate::core::{LaunchCore, Output, SlotState};
 use crate::harness::{self, Case, Foreign, NetFaults, Report, Schedule};
 use bycoms_protocol::msg::{GateKind, Pose};
@@ -102,8 +103,8 @@ fn the_scenes_beacons_creep_as_the_cores_table_and_its_states_are_the_cores() {
             let outs = match out {
                 Output::Moved { pose, .. } => scene.pose(&pose, 0),
                 Output::Gate(event) => scene.gate(&event, 0),
-                Output::Beacon { robot, at } => scene.beacon(robot, at, 0),
-                Output::State { robot, state } => scene.state(robot, state, 0),
+                Output::Beacon(BeaconAt { robot, at }) => scene.beacon(robot, at, 0),
+                Output::State(StateChange { robot, state }) => scene.state(robot, state, 0),
                 _ => continue,
             };
             for slot in outs.iter().filter_map(|o| match &o.message {
