@@ -7,7 +7,10 @@
 //! clock; the loop in `run.rs` only moves bytes. It is a
 //! [`RobotSide`], so the gateway's [`Session`](bycoms_agent::gateway::Session)
 //! wraps it: registration, heartbeats and the orchestrator-liveliness
-//! failsafe are the gateway's very rules.
+//! failsafe are the gateway's very rules, and the session is the
+//! [`SansIo`](bycoms_protocol::SansIo) core the loop drives. Time is
+//! [`Micros`] since the loop's epoch; the periods in [`Settings`] stay
+//! `Duration`s (counted in whole µs, rounded up).
 //!
 //! Rules:
 //! * `Deploy` enables the robot; every control period while enabled it
@@ -35,12 +38,15 @@
 
 use bycoms_agent::gateway::{Refused, RobotSide};
 use bycoms_agent::wheeled::{FieldReading, Limits, Velocity, Wheeled};
+use bycoms_protocol::link::DropReason;
 use bycoms_protocol::msg::{Beacon, Commanded, FromAgent, Pose, Sensed, Status, StopDone, ToAgent};
-use bycoms_protocol::RobotId;
+use bycoms_protocol::{Micros, RobotId};
+use bycoms_runtime::epoch::micros_ceil;
 use bycoms_sim::field::Beacons;
 use bycoms_sim::Vec2;
 use std::collections::{BTreeMap, VecDeque};
-use std::time::{Duration, Instant};
+use std::convert::Infallible;
+use std::time::Duration;
 
 /// Field constant c of the paper's simulation (g = c/d²).
 const FIELD_CONSTANT: f64 = bycoms_agent::point::FIELD_CONSTANT;
@@ -86,9 +92,18 @@ pub enum Output {
     Report(FromAgent),
 }
 
+/// [`Settings`]' periods in µs (rounded up).
+#[derive(Clone, Copy, Debug)]
+struct PeriodsUs {
+    period: Micros,
+    pose_timeout: Micros,
+    stop_repeat: Micros,
+}
+
 /// One ROS 2 robot's agent.
 pub struct Ros2RobotCore {
     settings: Settings,
+    us: PeriodsUs,
     controller: Wheeled,
     /// The beacons by robot, and their field in robot-id order (the
     /// simulation's summation order), rebuilt when one changed.
@@ -97,15 +112,15 @@ pub struct Ros2RobotCore {
     enabled: bool,
     goal: Option<f64>,
     pose: Option<Pose>,
-    /// When the latest pose was handed in (the first `poll` after it).
-    pose_seen: Option<Instant>,
+    /// When the latest pose was handed in (the first `advance` after it).
+    pose_seen: Option<Micros>,
     fresh_pose: bool,
     /// A pose came since the last command.
     unused_pose: bool,
     /// A period is due and waits for a pose not used yet.
     awaiting_pose: bool,
-    next_period: Option<Instant>,
-    zero_until: Option<Instant>,
+    next_period: Option<Micros>,
+    zero_until: Option<Micros>,
     steps: u64,
     out: VecDeque<Output>,
 }
@@ -115,6 +130,11 @@ impl Ros2RobotCore {
     pub fn new(settings: Settings) -> Self {
         Self {
             controller: Wheeled::new(settings.eps, settings.limits),
+            us: PeriodsUs {
+                period: micros_ceil(settings.period),
+                pose_timeout: micros_ceil(settings.pose_timeout),
+                stop_repeat: micros_ceil(settings.stop_repeat),
+            },
             settings,
             peers: BTreeMap::new(),
             field: Beacons::new(FIELD_CONSTANT),
@@ -162,10 +182,10 @@ impl Ros2RobotCore {
     }
 
     /// Zero now and every period for the stop's repeat time.
-    fn stop(&mut self, now: Instant) {
+    fn stop(&mut self, now: Micros) {
         self.enabled = false;
-        self.zero_until = Some(now + self.settings.stop_repeat);
-        self.next_period = Some(now + self.settings.period);
+        self.zero_until = Some(now.saturating_add(self.us.stop_repeat));
+        self.next_period = Some(now.saturating_add(self.us.period));
         self.command(Velocity::ZERO, None);
     }
 
@@ -187,23 +207,23 @@ impl Ros2RobotCore {
     /// not used yet, at once; without one, wait for it (until the pose
     /// timeout, when the period's deadline moves there); no goal, or no
     /// pose for the pose timeout: zero, and the next period.
-    fn period_due(&mut self, now: Instant) {
-        let period = self.settings.period;
-        let stale = self.pose_seen.is_none_or(|t| now.duration_since(t) >= self.settings.pose_timeout);
+    fn period_due(&mut self, now: Micros) {
+        let period = self.us.period;
+        let stale = self.pose_seen.is_none_or(|t| now.saturating_sub(t) >= self.us.pose_timeout);
         self.awaiting_pose = false;
         match (self.goal, self.unused_pose) {
             (Some(goal), true) => {
                 self.unused_pose = false;
                 self.drive(goal);
-                self.next_period = Some(now + period);
+                self.next_period = Some(now.saturating_add(period));
             }
             (Some(_), false) if !stale => {
                 self.awaiting_pose = true;
-                self.next_period = self.pose_seen.map(|t| t + self.settings.pose_timeout);
+                self.next_period = self.pose_seen.map(|t| t.saturating_add(self.us.pose_timeout));
             }
             _ => {
                 self.command(Velocity::ZERO, None);
-                self.next_period = Some(now + period);
+                self.next_period = Some(now.saturating_add(period));
             }
         }
     }
@@ -222,6 +242,9 @@ impl Ros2RobotCore {
 
 impl RobotSide for Ros2RobotCore {
     type Output = Output;
+    /// A ROS 2 robot has no link of its own: its commands go out on
+    /// `cmd_vel`, its pose comes from motion capture.
+    type Link<'a> = Infallible;
 
     fn robot(&self) -> RobotId {
         self.settings.robot
@@ -231,7 +254,7 @@ impl RobotSide for Ros2RobotCore {
         self.out.push_back(Output::Report(msg));
     }
 
-    fn on_command(&mut self, cmd: &ToAgent, now: Instant) -> Result<bool, Refused> {
+    fn on_command(&mut self, now: Micros, cmd: &ToAgent) -> Result<bool, Refused> {
         let mine = self.settings.robot;
         let wrong = |got: RobotId| Refused::WrongRobot { got: got.0, mine: mine.0 };
         match cmd {
@@ -270,7 +293,11 @@ impl RobotSide for Ros2RobotCore {
         }
     }
 
-    fn poll(&mut self, now: Instant) {
+    fn on_link(&mut self, _: Micros, input: Infallible) -> Result<(), DropReason> {
+        match input {}
+    }
+
+    fn advance(&mut self, now: Micros) {
         if std::mem::take(&mut self.fresh_pose) {
             self.pose_seen = Some(now);
             self.unused_pose = true;
@@ -283,8 +310,8 @@ impl RobotSide for Ros2RobotCore {
             return self.period_due(now);
         }
         // A late loop skips the periods it missed rather than bursting.
-        let next = due + self.settings.period;
-        self.next_period = Some(if next > now { next } else { now + self.settings.period });
+        let next = due.saturating_add(self.us.period);
+        self.next_period = Some(if next > now { next } else { now.saturating_add(self.us.period) });
         if self.zero_until.is_some_and(|t| now < t) {
             self.command(Velocity::ZERO, None);
         } else {
@@ -293,15 +320,15 @@ impl RobotSide for Ros2RobotCore {
         }
     }
 
-    fn poll_output(&mut self) -> Option<Output> {
+    fn poll(&mut self) -> Option<Output> {
         self.out.pop_front()
     }
 
-    fn deadline(&self) -> Option<Instant> {
+    fn deadline(&self) -> Option<Micros> {
         self.next_period
     }
 
-    fn stop_robot(&mut self, now: Instant) {
+    fn stop_robot(&mut self, now: Micros) {
         self.stop(now);
     }
 

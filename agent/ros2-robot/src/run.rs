@@ -7,18 +7,20 @@
 //! most [`SLICE`] (or until the session's next deadline, if sooner), then
 //! takes every pose that came, runs the session's timers and publishes
 //! what they say, in order: a `StopDone` goes out after the zero velocity
-//! it answers for.
+//! it answers for. The session's time is µs since the loop's start (its
+//! [`Epoch`], kept by the [`BusSide`]).
 
 use crate::core::{Output, Ros2RobotCore};
 use bycoms_agent::gateway::run::{BusSide, GatewayPorts};
-use bycoms_agent::gateway::Session;
+use bycoms_agent::gateway::{Input, RobotSide, Session};
 use bycoms_agent::wheeled::Velocity;
 use bycoms_protocol::bus::zenoh::clock::{self, ClockProbe};
 use bycoms_protocol::bus::zenoh::AliveWatch;
 use bycoms_protocol::bus::{Bus, BusError};
+use bycoms_protocol::SansIo;
 use bycoms_runtime::failsafe::Failsafe;
-use bycoms_runtime::{instance, ExitCause, Lifeline, Traffic};
-use std::time::{Duration, Instant};
+use bycoms_runtime::{instance, Epoch, ExitCause, Lifeline, Traffic};
+use std::time::Duration;
 
 /// Longest wait on the bus before the lifeline and the timers are served.
 pub const SLICE: Duration = Duration::from_millis(2);
@@ -71,7 +73,7 @@ impl<B: Bus, S: CmdVel> Ros2Robot<B, S> {
         failsafe: Option<(Failsafe, AliveWatch)>,
     ) -> Self {
         let (failsafe, watch) = failsafe.unzip();
-        let bus = BusSide::new(ports, bycoms_agent::gateway::RobotSide::robot(&core), watch);
+        let bus = BusSide::new(ports, RobotSide::robot(&core), watch, Epoch::now());
         let session = Session::new(core, heartbeat_every, instance(), failsafe);
         Self { session, bus, cmd_vel, sent: Sent::default() }
     }
@@ -95,35 +97,35 @@ impl<B: Bus, S: CmdVel> Ros2Robot<B, S> {
     /// Registers, then runs until `Shutdown`, a refusal, the failsafe, a
     /// signal or the parent's death; the robot is sent zero on every way out.
     pub fn run(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, RunError> {
-        let robot = bycoms_agent::gateway::RobotSide::robot(self.session.core());
+        let robot = RobotSide::robot(self.session.core());
         self.bus.clock_reports(robot, Some(clock::FIRST_WAIT))?;
-        self.session.start(Instant::now());
+        let _ = self.session.handle(self.bus.now(), Input::Start);
         let result = self.serve(lifeline);
         if result.is_err() {
             // Whatever failed, the robot is told to stand still.
-            self.session.end(Instant::now());
+            let _ = self.session.handle(self.bus.now(), Input::End);
             let _ = self.flush();
         }
         result
     }
 
     fn serve(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, RunError> {
-        let robot = bycoms_agent::gateway::RobotSide::robot(self.session.core());
+        let robot = RobotSide::robot(self.session.core());
         loop {
             self.bus.clock_reports(robot, None)?;
             if let Some(cause) = lifeline.check() {
-                self.session.end(Instant::now());
+                let _ = self.session.handle(self.bus.now(), Input::End);
                 self.flush()?;
                 return Ok(cause);
             }
             self.bus.watch_orchestrator(&mut self.session);
-            let exit = self.session.poll(Instant::now());
+            self.session.advance(self.bus.now());
             self.flush()?;
-            if let Some(cause) = exit {
+            if let Some(cause) = self.session.exit() {
                 return Ok(cause);
             }
             let wait = match self.session.deadline() {
-                Some(due) => due.saturating_duration_since(Instant::now()).min(SLICE),
+                Some(due) => self.bus.epoch().until(due).min(SLICE),
                 None => SLICE,
             };
             let exit = self.bus.drain(&mut self.session, Some(wait))?;
@@ -136,7 +138,7 @@ impl<B: Bus, S: CmdVel> Ros2Robot<B, S> {
 
     /// Sends and publishes everything the session queued, in order.
     fn flush(&mut self) -> Result<(), RunError> {
-        while let Some(out) = self.session.poll_output() {
+        while let Some(out) = self.session.poll() {
             match out {
                 Output::Velocity(v) => {
                     self.cmd_vel.send(v).map_err(RunError::CmdVel)?;

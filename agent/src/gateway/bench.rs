@@ -22,7 +22,7 @@ use bycoms_protocol::link::{
 use bycoms_protocol::msg::{FromAgent, ToAgent};
 use bycoms_protocol::{RobotId, Swarm};
 use bycoms_runtime::stats::quantile;
-use bycoms_runtime::{ipc_config, Lifeline};
+use bycoms_runtime::{ipc_config, Epoch, Lifeline};
 use std::net::UdpSocket;
 use std::time::{Duration, Instant};
 
@@ -69,8 +69,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         let config = IpcConfig { node_name: Some("bycoms-gwbench-gateway".into()), ..ipc_config(1) };
         let bus = IpcBus::new(config)?;
         let ports = GatewayPorts::open(&bus, &gw_swarm, RobotId(1))?;
-        let core = GatewayCore::new(RobotId(1), gw_key, Timers::paper(1.0), 1, Instant::now());
-        let mut gw = Gateway::new(core, ports, gw_socket, Duration::from_millis(100), None)?;
+        let epoch = Epoch::now();
+        let core = GatewayCore::new(RobotId(1), gw_key, Timers::paper(1.0), 1, epoch.elapsed());
+        let mut gw = Gateway::new(core, ports, gw_socket, Duration::from_millis(100), None, epoch)?;
         gw.run(&mut Lifeline::detached())?;
         Ok(gw.stats().relay_ns.clone())
     });

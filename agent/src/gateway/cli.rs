@@ -34,11 +34,11 @@ use bycoms_runtime::failsafe::{Failsafe, FailsafeArgs};
 use bycoms_runtime::lifeline::LifelineError;
 use bycoms_runtime::logging::LogArgs;
 use bycoms_runtime::stats::quantile;
-use bycoms_runtime::{check_speed, BusArgs, BusOpenError, ExitCause, Lifeline, OnBus};
+use bycoms_runtime::{check_speed, BusArgs, BusOpenError, Epoch, ExitCause, Lifeline, OnBus};
 use clap::Command;
 use std::net::{SocketAddr, UdpSocket};
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Longest link timeout: the gateway must report a lost link within 500 ms.
 pub const MAX_LINK_TIMEOUT_MS: u64 = 500;
@@ -316,8 +316,10 @@ fn run(args: &GatewayArgs) -> Result<ExitCause, GatewayError> {
     getrandom::fill(&mut seed).map_err(GatewayError::Random)?;
     let size = args.swarm_size.unwrap_or(args.robot).max(args.robot);
     let node = format!("bycoms-{}-gateway-{}", swarm.as_str(), id.0);
-    let core = GatewayCore::new(id, key, args.timers(), u64::from_le_bytes(seed), Instant::now());
-    let then = RunGateway { args, swarm: &swarm, core, socket, lifeline: &mut lifeline, clock: None };
+    // The session's time: µs since the gateway started.
+    let epoch = Epoch::now();
+    let core = GatewayCore::new(id, key, args.timers(), u64::from_le_bytes(seed), epoch.elapsed());
+    let then = RunGateway { args, swarm: &swarm, core, epoch, socket, lifeline: &mut lifeline, clock: None };
     args.bus.open(&swarm, Some(Member::Agent(id)), Some(&args.failsafe), size, node, then).map_err(|e| {
         match e {
             BusOpenError::Args(a) => GatewayError::Args(a),
@@ -331,6 +333,8 @@ struct RunGateway<'a> {
     args: &'a GatewayArgs,
     swarm: &'a Swarm,
     core: GatewayCore,
+    /// What the core's time counts from.
+    epoch: Epoch,
     socket: UdpSocket,
     lifeline: &'a mut Lifeline,
     /// zenoh: this host's clock offset to the orchestrator's, measured.
@@ -346,8 +350,8 @@ impl OnBus for RunGateway<'_> {
         let args = self.args;
         let ports = GatewayPorts::open(bus, self.swarm, self.core.robot())?;
         let heartbeat = Duration::from_millis(args.heartbeat_ms);
-        let mut gateway =
-            Gateway::new(self.core, ports, self.socket, heartbeat, failsafe).map_err(RunError::from)?;
+        let mut gateway = Gateway::new(self.core, ports, self.socket, heartbeat, failsafe, self.epoch)
+            .map_err(RunError::from)?;
         if let Some(probe) = self.clock {
             gateway.report_clock(probe);
         }

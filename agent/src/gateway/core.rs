@@ -4,6 +4,10 @@
 //! when to repeat a goal, what a reboot means) is decided here from
 //! datagrams, bus commands, poses and `now`, so it is unit-tested without
 //! sockets or clocks, and the loop in [`super::run`] only moves bytes.
+//! Time is [`Micros`] since the shell's epoch, as for every core
+//! ([`bycoms_protocol::SansIo`]); the core is the robot side
+//! ([`super::session::RobotSide`]) of the session that implements that
+//! shape, [`super::session::GatewaySession`].
 //!
 //! Rules:
 //! * a hello is answered with a welcome in a fresh random session; the
@@ -26,18 +30,21 @@ use crate::angle::wrap;
 use bycoms_protocol::link::{DropCounters, MAX_FRAME_LEN};
 use bycoms_protocol::link::{DropReason, GatewayEvent, GatewayLink, LinkKey, Payload, RobotState, SessionId};
 use bycoms_protocol::msg::{FromAgent, LinkStatus, Pose, Status, StopDone, Telemetry, ToAgent};
-use bycoms_protocol::RobotId;
+use bycoms_protocol::{Micros, RobotId};
+use bycoms_runtime::epoch::micros_ceil;
 use rand::{RngCore, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use std::collections::VecDeque;
 use std::net::SocketAddr;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-/// How often refused-frame counts are reported at most.
-const REFUSED_REPORT_EVERY: Duration = Duration::from_secs(1);
+/// How often refused-frame counts are reported at most, µs.
+const REFUSED_REPORT_EVERY: Micros = 1_000_000;
 
 /// The gateway's timers (wall time; divide by the lab's speed-up to run
-/// with an emulated lab faster than real time).
+/// with an emulated lab faster than real time). Durations, as a command
+/// line gives them; the core counts them in whole µs, rounded up (at
+/// least this long since, as on `Instant`s).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Timers {
     /// Resend the goal at least this often while enabled.
@@ -55,6 +62,35 @@ impl Timers {
         let ms = |m: f64| Duration::from_secs_f64(m / 1000.0 / speed);
         Self { goal_every: ms(100.0), heartbeat_every: ms(100.0), link_timeout: ms(300.0) }
     }
+}
+
+impl Timers {
+    /// The timers in the core's µs (rounded up).
+    fn micros(&self) -> TimersUs {
+        TimersUs {
+            goal_every: micros_ceil(self.goal_every),
+            heartbeat_every: micros_ceil(self.heartbeat_every),
+            link_timeout: micros_ceil(self.link_timeout),
+        }
+    }
+}
+
+/// [`Timers`] in µs.
+#[derive(Clone, Copy, Debug)]
+struct TimersUs {
+    goal_every: Micros,
+    heartbeat_every: Micros,
+    link_timeout: Micros,
+}
+
+/// A datagram from the robot's side of the link, with its source: the
+/// gateway's link input ([`super::session::RobotSide::Link`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Datagram<'a> {
+    /// Its bytes.
+    pub bytes: &'a [u8],
+    /// Where it came from.
+    pub from: SocketAddr,
 }
 
 /// What the core wants done.
@@ -89,33 +125,34 @@ pub enum Refused {
 pub struct GatewayCore {
     link: GatewayLink,
     robot: RobotId,
-    timers: Timers,
+    timers: TimersUs,
     rng: Xoshiro256PlusPlus,
-    started: Instant,
+    started: Micros,
     peer: Option<SocketAddr>,
-    last_valid: Option<Instant>,
+    last_valid: Option<Micros>,
     up: bool,
     enabled: bool,
     stopped: bool,
     goal_world: Option<f64>,
     heading: Option<f64>,
     robot_state: Option<RobotState>,
-    last_sent: Option<Instant>,
-    last_goal: Option<Instant>,
-    last_repair: Option<Instant>,
+    last_sent: Option<Micros>,
+    last_goal: Option<Micros>,
+    last_repair: Option<Micros>,
     refused_reported: u32,
-    last_refused_report: Option<Instant>,
+    last_refused_report: Option<Micros>,
     out: VecDeque<Output>,
 }
 
 impl GatewayCore {
     /// A gateway for `robot` with `key`; `seed` seeds the session ids
-    /// (from the OS in the binary, fixed in tests).
-    pub fn new(robot: RobotId, key: LinkKey, timers: Timers, seed: u64, now: Instant) -> Self {
+    /// (from the OS in the binary, fixed in tests); it starts at `now`
+    /// (its link heartbeats say the time since).
+    pub fn new(robot: RobotId, key: LinkKey, timers: Timers, seed: u64, now: Micros) -> Self {
         Self {
             link: GatewayLink::new(robot, key),
             robot,
-            timers,
+            timers: timers.micros(),
             rng: Xoshiro256PlusPlus::seed_from_u64(seed),
             started: now,
             peer: None,
@@ -156,13 +193,13 @@ impl GatewayCore {
     }
 
     /// The next thing to do, if any.
-    pub fn poll_output(&mut self) -> Option<Output> {
+    pub fn poll(&mut self) -> Option<Output> {
         self.out.pop_front()
     }
 
-    /// One datagram from `from`. A refused one is counted (and its reason
-    /// returned); it changes nothing else.
-    pub fn on_datagram(&mut self, bytes: &[u8], from: SocketAddr, now: Instant) -> Result<(), DropReason> {
+    /// One datagram from `from` at `now`. A refused one is counted (and
+    /// its reason returned); it changes nothing else.
+    pub fn on_datagram(&mut self, now: Micros, bytes: &[u8], from: SocketAddr) -> Result<(), DropReason> {
         let accepted = self.link.receive(bytes)?;
         self.peer = Some(from);
         let silent = self.silent_ms(now);
@@ -204,9 +241,9 @@ impl GatewayCore {
         Ok(())
     }
 
-    /// One command from the orchestrator. `Ok(true)` means: shut down now
-    /// (after sending what is queued).
-    pub fn on_command(&mut self, cmd: &ToAgent, now: Instant) -> Result<bool, Refused> {
+    /// One command from the orchestrator at `now`. `Ok(true)` means: shut
+    /// down now (after sending what is queued).
+    pub fn on_command(&mut self, now: Micros, cmd: &ToAgent) -> Result<bool, Refused> {
         let mine = self.robot.0;
         match cmd {
             ToAgent::Deploy(d) if d.robot != self.robot => {
@@ -252,27 +289,27 @@ impl GatewayCore {
         }
     }
 
-    /// Runs the timers.
-    pub fn poll(&mut self, now: Instant) {
-        if self.up && self.last_valid.is_some_and(|t| now.duration_since(t) >= self.timers.link_timeout) {
+    /// Runs the timers due by `now`.
+    pub fn advance(&mut self, now: Micros) {
+        if self.up && self.last_valid.is_some_and(|t| now.saturating_sub(t) >= self.timers.link_timeout) {
             self.up = false;
             let silent = self.silent_ms(now);
             tracing::warn!(robot = self.robot.0, silent_ms = silent, "robot link lost");
             let status = self.link_status(false, silent);
             self.report(FromAgent::Link(status));
         }
-        if self.enabled && self.last_goal.is_none_or(|t| now.duration_since(t) >= self.timers.goal_every) {
+        if self.enabled && self.last_goal.is_none_or(|t| now.saturating_sub(t) >= self.timers.goal_every) {
             self.send_goal(now);
         }
         if self.link.session().is_some()
-            && self.last_sent.is_none_or(|t| now.duration_since(t) >= self.timers.heartbeat_every)
+            && self.last_sent.is_none_or(|t| now.saturating_sub(t) >= self.timers.heartbeat_every)
         {
-            let uptime_ms = now.duration_since(self.started).as_millis() as u32;
+            let uptime_ms = (now.saturating_sub(self.started) / 1000) as u32;
             self.send(Payload::GatewayHeartbeat { uptime_ms }, now);
         }
         let refused = self.link.drops().total();
         if refused != self.refused_reported
-            && self.last_refused_report.is_none_or(|t| now.duration_since(t) >= REFUSED_REPORT_EVERY)
+            && self.last_refused_report.is_none_or(|t| now.saturating_sub(t) >= REFUSED_REPORT_EVERY)
         {
             let silent = self.silent_ms(now);
             self.last_refused_report = Some(now);
@@ -281,12 +318,14 @@ impl GatewayCore {
         }
     }
 
-    /// When [`GatewayCore::poll`] next has something to do (none: only
-    /// when something comes in). A past instant means: now.
-    pub fn deadline(&self) -> Option<Instant> {
-        let after = |last: Option<Instant>, every: Duration| Some(last.map_or(self.started, |t| t + every));
+    /// When [`GatewayCore::advance`] next has something to do (none: only
+    /// when something comes in). A past time means: now.
+    pub fn deadline(&self) -> Option<Micros> {
+        let after = |last: Option<Micros>, every: Micros| {
+            Some(last.map_or(self.started, |t| t.saturating_add(every)))
+        };
         let link = match self.last_valid {
-            Some(t) if self.up => Some(t + self.timers.link_timeout),
+            Some(t) if self.up => Some(t.saturating_add(self.timers.link_timeout)),
             _ => None,
         };
         let goal = if self.enabled && self.goal_world.is_some() && self.heading.is_some() {
@@ -318,12 +357,12 @@ impl GatewayCore {
 
     /// Stops the robot for good, on the gateway's own account (its
     /// failsafe, a refusal, its end): nobody to answer.
-    pub fn stop_robot(&mut self, now: Instant) {
+    pub fn stop_robot(&mut self, now: Micros) {
         self.stop(now);
     }
 
     /// Stops the robot for good; whether the stop frame went out.
-    fn stop(&mut self, now: Instant) -> bool {
+    fn stop(&mut self, now: Micros) -> bool {
         self.enabled = false;
         self.stopped = true;
         self.send(Payload::Stop, now)
@@ -331,8 +370,8 @@ impl GatewayCore {
 
     /// Re-sends Enable or Stop when the robot's state contradicts them
     /// (a lost datagram), at most once per goal period.
-    fn repair(&mut self, state: RobotState, now: Instant) {
-        if self.last_repair.is_some_and(|t| now.duration_since(t) < self.timers.goal_every) {
+    fn repair(&mut self, state: RobotState, now: Micros) {
+        if self.last_repair.is_some_and(|t| now.saturating_sub(t) < self.timers.goal_every) {
             return;
         }
         let fix = match state {
@@ -344,7 +383,7 @@ impl GatewayCore {
         self.send(fix, now);
     }
 
-    fn send_goal(&mut self, now: Instant) {
+    fn send_goal(&mut self, now: Micros) {
         let (Some(goal), Some(heading)) = (self.goal_world, self.heading) else { return };
         if !self.enabled {
             return;
@@ -355,7 +394,7 @@ impl GatewayCore {
     }
 
     /// Sends `payload` to the robot; whether it went out.
-    fn send(&mut self, payload: Payload, now: Instant) -> bool {
+    fn send(&mut self, payload: Payload, now: Micros) -> bool {
         let Some(peer) = self.peer else { return false };
         let mut buf = [0u8; MAX_FRAME_LEN];
         match self.link.send(payload, &mut buf) {
@@ -372,9 +411,9 @@ impl GatewayCore {
         }
     }
 
-    fn silent_ms(&self, now: Instant) -> u32 {
+    fn silent_ms(&self, now: Micros) -> u32 {
         let since = self.last_valid.unwrap_or(self.started);
-        u32::try_from(now.duration_since(since).as_millis()).unwrap_or(u32::MAX)
+        u32::try_from(now.saturating_sub(since) / 1000).unwrap_or(u32::MAX)
     }
 
     fn link_status(&mut self, up: bool, silent_ms: u32) -> LinkStatus {

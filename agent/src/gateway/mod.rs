@@ -12,10 +12,12 @@
 //! (lost within 500 ms of silence, restored, frames refused).
 //!
 //! * [`core`] — the gateway as a sans-IO state machine (datagrams, bus
-//!   commands, poses and `now` in; datagrams and bus reports out);
+//!   commands, poses and `now` in; datagrams and bus reports out), the
+//!   robot side of its session;
 //! * [`session`] — the bus-side rules around it, sans-IO too (register
 //!   until heard, heartbeats, the orchestrator-liveliness failsafe,
-//!   shutdown and refusal);
+//!   shutdown and refusal): [`GatewaySession`], a
+//!   [`SansIo`](bycoms_protocol::SansIo) core in µs;
 //! * [`run`] — the single-threaded loop around them: a UDP socket and the
 //!   bus (iceoryx2, or zenoh from a bridge host), moving bytes only;
 //! * [`cli`] — the command line and `main`;
@@ -38,5 +40,5 @@ pub mod run;
 pub mod session;
 
 pub use cli::{main_with, GatewayArgs, GatewayError};
-pub use core::{GatewayCore, Output, Refused, Timers};
-pub use session::{RobotSide, Session};
+pub use core::{Datagram, GatewayCore, Output, Refused, Timers};
+pub use session::{GatewaySession, Input, Rejected, RobotSide, Session};

@@ -12,17 +12,21 @@
 //! as it comes, and between datagrams drains the bus (commands, the robot's
 //! own pose), runs the core's timers and checks its [`Lifeline`]. A
 //! command therefore waits at most one slice before it goes to the robot.
+//!
+//! The session's time is µs since the loop's [`Epoch`] (the one
+//! conversion of the wall clock, `bycoms_runtime::epoch`), which the
+//! ROS 2 robot's loop shares through [`BusSide`].
 
-use super::core::{GatewayCore, Output};
-use super::session::{RobotSide, Session};
+use super::core::{Datagram, GatewayCore, Output};
+use super::session::{GatewaySession, Input, Rejected, RobotSide, Session};
 use bycoms_protocol::bus::zenoh::clock::{self, ClockProbe};
 use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
 use bycoms_protocol::msg::{FromAgent, Pose, ToAgent};
 use bycoms_protocol::naming::Member;
-use bycoms_protocol::{RobotId, Swarm};
+use bycoms_protocol::{RobotId, SansIo, Swarm};
 use bycoms_runtime::failsafe::Failsafe;
-use bycoms_runtime::{instance, BadKind, ExitCause, Lifeline, Traffic};
+use bycoms_runtime::{instance, BadKind, Epoch, ExitCause, Lifeline, Traffic};
 use std::io;
 use std::net::UdpSocket;
 use std::time::{Duration, Instant};
@@ -72,11 +76,13 @@ pub struct GatewayStats {
 /// The bus side of a real robot's agent, whatever its robot side (a
 /// gateway's UDP link, a ROS 2 robot's `cmd_vel`): its ports, the
 /// orchestrator's liveliness and clock over zenoh, and the bad traffic
-/// counted. Written once, for every [`Session`].
+/// counted, and the epoch its session's time counts from. Written once,
+/// for every [`Session`].
 pub struct BusSide<B: Bus> {
     ports: GatewayPorts<B>,
     who: String,
     traffic: Traffic,
+    epoch: Epoch,
     /// zenoh: the liveliness watch that feeds the session's failsafe.
     watch: Option<AliveWatch>,
     /// zenoh: the measurement of this host's clock offset to the
@@ -85,11 +91,22 @@ pub struct BusSide<B: Bus> {
 }
 
 impl<B: Bus> BusSide<B> {
-    /// The bus side of `robot`'s agent on `ports`; over zenoh `watch` feeds
-    /// the session's failsafe.
-    pub fn new(ports: GatewayPorts<B>, robot: RobotId, watch: Option<AliveWatch>) -> Self {
+    /// The bus side of `robot`'s agent on `ports`, its session's time
+    /// counted from `epoch`; over zenoh `watch` feeds the session's
+    /// failsafe.
+    pub fn new(ports: GatewayPorts<B>, robot: RobotId, watch: Option<AliveWatch>, epoch: Epoch) -> Self {
         let who = format!("agent[robot {}]", robot.0);
-        Self { ports, who, traffic: Traffic::default(), watch, clock: None }
+        Self { ports, who, traffic: Traffic::default(), epoch, watch, clock: None }
+    }
+
+    /// The epoch of its session's time.
+    pub fn epoch(&self) -> Epoch {
+        self.epoch
+    }
+
+    /// Its session's time now.
+    pub fn now(&self) -> bycoms_protocol::Micros {
+        self.epoch.elapsed()
     }
 
     /// Bad bus messages counted so far.
@@ -124,7 +141,9 @@ impl<B: Bus> BusSide<B> {
         let Some(watch) = self.watch.as_mut() else { return };
         while let Some(event) = watch.try_recv() {
             if event.member == Member::Orchestrator {
-                session.orchestrator(event.presence == Presence::Alive, event.at);
+                let alive = event.presence == Presence::Alive;
+                // Liveliness is taken as it came: no refusal to act on.
+                let _ = session.handle(self.epoch.micros(event.at), Input::Orchestrator { alive });
             }
         }
     }
@@ -149,7 +168,10 @@ impl<B: Bus> BusSide<B> {
                 None => self.ports.own_pose.try_recv(),
             };
             match next {
-                Ok(Some(pose)) => session.on_pose(&pose),
+                Ok(Some(pose)) => {
+                    // A pose is taken as it came: no refusal to act on.
+                    let _ = session.handle(self.epoch.elapsed(), Input::Pose(&pose));
+                }
                 Ok(None) => break,
                 Err(e) => self.absorb("pose", e)?,
             }
@@ -160,9 +182,9 @@ impl<B: Bus> BusSide<B> {
                 None => self.ports.commands.try_recv(),
             };
             match next {
-                Ok(Some(cmd)) => match session.on_command(&cmd, Instant::now()) {
-                    Ok(None) => {}
-                    Ok(Some(cause)) => return Ok(Some(cause)),
+                Ok(Some(cmd)) => match session.handle(self.epoch.elapsed(), Input::Command(&cmd)) {
+                    Ok(()) if session.exit().is_some() => return Ok(session.exit()),
+                    Ok(()) => {}
                     Err(r) => self.traffic.count(&self.who, BadKind::Refused, &r),
                 },
                 Ok(None) => return Ok(None),
@@ -193,7 +215,7 @@ impl<B: Bus> BusSide<B> {
 
 /// One gateway process's loop.
 pub struct Gateway<B: Bus> {
-    session: Session,
+    session: GatewaySession,
     bus: BusSide<B>,
     socket: UdpSocket,
     stats: GatewayStats,
@@ -205,17 +227,20 @@ impl<B: Bus> Gateway<B> {
     /// liveliness with `failsafe` (see [`Session`]: once gone past the
     /// grace, the robot is stopped — its firmware told `Stop`, its own
     /// 500 ms failsafe holding it if that is lost — and the loop ends with
-    /// [`ExitCause::OrchestratorLost`] or goes on, by policy).
+    /// [`ExitCause::OrchestratorLost`] or goes on, by policy). The
+    /// session's time counts from `epoch` (the one `core` was made at a
+    /// time of).
     pub fn new(
         core: GatewayCore,
         ports: GatewayPorts<B>,
         socket: UdpSocket,
         heartbeat_every: Duration,
         failsafe: Option<(Failsafe, AliveWatch)>,
+        epoch: Epoch,
     ) -> io::Result<Self> {
         socket.set_read_timeout(Some(SLICE))?;
         let (failsafe, watch) = failsafe.unzip();
-        let bus = BusSide::new(ports, core.robot(), watch);
+        let bus = BusSide::new(ports, core.robot(), watch, epoch);
         let session = Session::new(core, heartbeat_every, instance(), failsafe);
         Ok(Self { session, bus, socket, stats: GatewayStats::default() })
     }
@@ -246,25 +271,27 @@ impl<B: Bus> Gateway<B> {
     pub fn run(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, RunError> {
         let robot = self.core().robot();
         self.bus.clock_reports(robot, Some(clock::FIRST_WAIT))?;
-        self.session.start(Instant::now());
+        let _ = self.session.handle(self.bus.now(), Input::Start);
         let mut buf = [0u8; 2048];
         loop {
             self.bus.clock_reports(robot, None)?;
             if let Some(cause) = lifeline.check() {
-                self.session.end(Instant::now());
+                let _ = self.session.handle(self.bus.now(), Input::End);
                 self.flush(None)?;
                 return Ok(cause);
             }
             self.bus.watch_orchestrator(&mut self.session);
-            let exit = self.session.poll(Instant::now());
+            self.session.advance(self.bus.now());
             self.flush(None)?;
-            if let Some(cause) = exit {
+            if let Some(cause) = self.session.exit() {
                 return Ok(cause);
             }
             match self.socket.recv_from(&mut buf) {
                 Ok((n, from)) => {
                     let got = Instant::now();
-                    if let Err(reason) = self.session.on_datagram(&buf[..n], from, got) {
+                    let datagram = Datagram { bytes: &buf[..n], from };
+                    let now = self.bus.epoch().micros(got);
+                    if let Err(Rejected::Frame(reason)) = self.session.handle(now, Input::Link(datagram)) {
                         tracing::debug!(robot = self.core().robot().0, %from, %reason, "link frame refused");
                     }
                     self.flush(Some(got))?;
@@ -287,7 +314,7 @@ impl<B: Bus> Gateway<B> {
     /// the datagram that caused it arrived (for the relay latency).
     fn flush(&mut self, received: Option<Instant>) -> Result<(), RunError> {
         let mut relayed = false;
-        while let Some(out) = self.session.poll_output() {
+        while let Some(out) = self.session.poll() {
             match out {
                 Output::Datagram(bytes, to) => match self.socket.send_to(&bytes, to) {
                     Ok(_) => {}

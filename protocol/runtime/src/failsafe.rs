@@ -18,12 +18,15 @@
 //! The watch arms only once the orchestrator was seen alive: a remote agent
 //! started before its orchestrator waits for it rather than giving up.
 //!
-//! Sans-IO: the shell feeds liveliness changes and the time in, and acts
-//! on the [`Verdict`]; the tests below drive it with made-up instants.
+//! Sans-IO: the shell feeds liveliness changes and the time in, as
+//! [`Micros`] since its epoch (`crate::epoch`), and acts on the
+//! [`Verdict`]; it runs inside the gateway's session core, whose time it
+//! takes; the tests below drive it with made-up times.
 
+use crate::epoch::micros_of;
 use bycoms_protocol::msg::{FailsafeFired, FromAgent};
-use bycoms_protocol::RobotId;
-use std::time::{Duration, Instant};
+use bycoms_protocol::{Micros, RobotId};
+use std::time::Duration;
 
 /// The failsafe's flags (zenoh only: over iceoryx2 the agent's lifeline
 /// already ties it to the orchestrator's process).
@@ -129,9 +132,12 @@ impl Verdict {
 #[derive(Clone, Debug)]
 pub struct Failsafe {
     grace: Duration,
+    /// The grace in whole µs (truncated: gone for `grace_us + 1` µs is
+    /// past it, as it was on `Instant`s).
+    grace_us: Micros,
     policy: OnOrchestratorLost,
     armed: bool,
-    lost_since: Option<Instant>,
+    lost_since: Option<Micros>,
     tripped: bool,
     /// How long the orchestrator had been gone when the failsafe fired.
     fired_after: Duration,
@@ -145,6 +151,7 @@ impl Failsafe {
     pub fn new(grace: Duration, policy: OnOrchestratorLost) -> Self {
         Self {
             grace,
+            grace_us: micros_of(grace),
             policy,
             armed: false,
             lost_since: None,
@@ -161,9 +168,9 @@ impl Failsafe {
     }
 
     /// The orchestrator's token appeared (or reappeared) at `at`.
-    pub fn orchestrator_alive(&mut self, at: Instant) {
+    pub fn orchestrator_alive(&mut self, at: Micros) {
         if self.lost_since.is_some() && !self.tripped {
-            tracing::info!(after = ?self.lost_since.map(|t| at.saturating_duration_since(t)), "orchestrator back within the grace period");
+            tracing::info!(after = ?self.lost_since.map(|t| Duration::from_micros(at.saturating_sub(t))), "orchestrator back within the grace period");
         }
         self.armed = true;
         self.lost_since = None;
@@ -171,7 +178,7 @@ impl Failsafe {
     }
 
     /// The orchestrator's token disappeared at `at`.
-    pub fn orchestrator_lost(&mut self, at: Instant) {
+    pub fn orchestrator_lost(&mut self, at: Micros) {
         // A reminder sent now would go into the cut link: wait for the next return.
         self.remind = false;
         if self.armed && self.lost_since.is_none() {
@@ -186,26 +193,27 @@ impl Failsafe {
     }
 
     /// When [`Failsafe::check`] next has something to do on its own: the
-    /// first instant past the grace period, while the orchestrator is gone
-    /// and the failsafe has not fired (none otherwise).
-    pub fn deadline(&self) -> Option<Instant> {
+    /// first microsecond past the grace period, while the orchestrator is
+    /// gone and the failsafe has not fired (none otherwise).
+    pub fn deadline(&self) -> Option<Micros> {
         let since = self.lost_since.filter(|_| !self.tripped)?;
-        Some(since + self.grace + Duration::from_nanos(1))
+        Some(since.saturating_add(self.grace_us).saturating_add(1))
     }
 
     /// What to do at `now`. `Stop` / `StopAndExit` is returned once, when
     /// the grace period has run out; `Remind` once each time the
     /// orchestrator came back after that; `Run` otherwise.
-    pub fn check(&mut self, now: Instant) -> Verdict {
+    pub fn check(&mut self, now: Micros) -> Verdict {
         if self.remind {
             self.remind = false;
             return Verdict::Remind { lost_for: self.fired_after };
         }
         let Some(since) = self.lost_since else { return Verdict::Run };
-        let lost_for = now.saturating_duration_since(since);
-        if self.tripped || lost_for <= self.grace {
+        let lost_us = now.saturating_sub(since);
+        if self.tripped || lost_us <= self.grace_us {
             return Verdict::Run;
         }
+        let lost_for = Duration::from_micros(lost_us);
         self.tripped = true;
         self.fired_after = lost_for;
         match self.policy {
@@ -225,60 +233,65 @@ mod tests {
         Duration::from_millis(n)
     }
 
+    /// `n` ms after the start, in µs.
+    fn at(n: u64) -> Micros {
+        n * 1000
+    }
+
     #[test]
     fn trips_once_after_the_grace_period() {
-        let t0 = Instant::now();
+        let t0: Micros = 0;
         let mut f = Failsafe::new(GRACE, OnOrchestratorLost::Wait);
         f.orchestrator_alive(t0);
-        f.orchestrator_lost(t0 + ms(100));
-        assert_eq!(f.check(t0 + ms(1100)), Verdict::Run, "exactly the grace period is still fine");
-        assert_eq!(f.check(t0 + ms(1101)), Verdict::Stop { lost_for: ms(1001) });
+        f.orchestrator_lost(at(100));
+        assert_eq!(f.check(at(1100)), Verdict::Run, "exactly the grace period is still fine");
+        assert_eq!(f.check(at(1101)), Verdict::Stop { lost_for: ms(1001) });
         assert!(f.tripped());
-        assert_eq!(f.check(t0 + ms(5000)), Verdict::Run, "reported once");
+        assert_eq!(f.check(at(5000)), Verdict::Run, "reported once");
     }
 
     #[test]
     fn exit_policy_says_exit() {
-        let t0 = Instant::now();
+        let t0: Micros = 0;
         let mut f = Failsafe::new(GRACE, OnOrchestratorLost::Exit);
         f.orchestrator_alive(t0);
         f.orchestrator_lost(t0);
-        assert_eq!(f.check(t0 + ms(1500)), Verdict::StopAndExit { lost_for: ms(1500) });
+        assert_eq!(f.check(at(1500)), Verdict::StopAndExit { lost_for: ms(1500) });
     }
 
     #[test]
     fn a_return_within_the_grace_period_cancels() {
-        let t0 = Instant::now();
+        let t0: Micros = 0;
         let mut f = Failsafe::new(GRACE, OnOrchestratorLost::Exit);
         f.orchestrator_alive(t0);
-        f.orchestrator_lost(t0 + ms(10));
-        f.orchestrator_alive(t0 + ms(900));
-        assert_eq!(f.check(t0 + ms(3000)), Verdict::Run);
+        f.orchestrator_lost(at(10));
+        f.orchestrator_alive(at(900));
+        assert_eq!(f.check(at(3000)), Verdict::Run);
         // A second loss starts a new grace period.
-        f.orchestrator_lost(t0 + ms(3000));
-        assert_eq!(f.check(t0 + ms(3900)), Verdict::Run);
-        assert_eq!(f.check(t0 + ms(4100)), Verdict::StopAndExit { lost_for: ms(1100) });
+        f.orchestrator_lost(at(3000));
+        assert_eq!(f.check(at(3900)), Verdict::Run);
+        assert_eq!(f.check(at(4100)), Verdict::StopAndExit { lost_for: ms(1100) });
     }
 
     #[test]
     fn a_return_after_tripping_does_not_resume() {
-        let t0 = Instant::now();
+        let t0: Micros = 0;
         let mut f = Failsafe::new(GRACE, OnOrchestratorLost::Wait);
         f.orchestrator_alive(t0);
         f.orchestrator_lost(t0);
-        assert!(matches!(f.check(t0 + ms(2000)), Verdict::Stop { .. }));
-        f.orchestrator_alive(t0 + ms(2500));
+        assert!(matches!(f.check(at(2000)), Verdict::Stop { .. }));
+        f.orchestrator_alive(at(2500));
         assert!(f.tripped(), "latched");
-        assert_eq!(f.check(t0 + ms(2600)), Verdict::Remind { lost_for: ms(2000) }, "told again once back");
-        assert_eq!(f.check(t0 + ms(2700)), Verdict::Run, "once per return");
-        f.orchestrator_lost(t0 + ms(3000));
-        assert_eq!(f.check(t0 + ms(9000)), Verdict::Run, "never stopped twice");
+        assert_eq!(f.check(at(2600)), Verdict::Remind { lost_for: ms(2000) }, "told again once back");
+        assert_eq!(f.check(at(2700)), Verdict::Run, "once per return");
+        f.orchestrator_lost(at(3000));
+        assert_eq!(f.check(at(9000)), Verdict::Run, "never stopped twice");
         // Back and gone again before the shell looked: no reminder into the cut.
-        f.orchestrator_alive(t0 + ms(9100));
-        f.orchestrator_lost(t0 + ms(9200));
-        assert_eq!(f.check(t0 + ms(9300)), Verdict::Run);
-        f.orchestrator_alive(t0 + ms(9400));
-        let remind = f.check(t0 + ms(9500));
+        f.orchestrator_alive(at(9100));
+        f.orchestrator_lost(at(9200));
+        assert_eq!(f.check(at(9300)), Verdict::Run);
+        f.orchestrator_alive(at(9400));
+        let remind = f.check(at(9500));
         assert_eq!(remind, Verdict::Remind { lost_for: ms(2000) });
         let report = remind.report(RobotId(4));
         assert_eq!(report, Some(FromAgent::Failsafe(FailsafeFired { robot: RobotId(4), silent_ms: 2000 })));
@@ -294,12 +307,12 @@ mod tests {
 
     #[test]
     fn unarmed_until_the_orchestrator_was_seen() {
-        let t0 = Instant::now();
+        let t0: Micros = 0;
         let mut f = Failsafe::new(GRACE, OnOrchestratorLost::Exit);
         f.orchestrator_lost(t0);
-        assert_eq!(f.check(t0 + ms(60_000)), Verdict::Run);
-        f.orchestrator_alive(t0 + ms(60_000));
-        f.orchestrator_lost(t0 + ms(60_001));
-        assert!(matches!(f.check(t0 + ms(61_002)), Verdict::StopAndExit { .. }));
+        assert_eq!(f.check(at(60_000)), Verdict::Run);
+        f.orchestrator_alive(at(60_000));
+        f.orchestrator_lost(at(60_001));
+        assert!(matches!(f.check(at(61_002)), Verdict::StopAndExit { .. }));
     }
 }

@@ -12,6 +12,8 @@
 //!   readers of key files, zenoh configs and certificates use it too);
 //! * [`words`] — counts ("1 robot"), signed figures and foreign text in
 //!   the words a terminal shows (always built);
+//! * [`epoch`] — the one conversion of a shell's wall clock into a
+//!   sans-IO core's time, µs since an epoch it picks (always built);
 //! * [`logging`] (feature `logging`) — one logging setup: `tracing` on
 //!   stderr, `RUST_LOG`, `--log-format text|json`, status lines, the text
 //!   of an error;
@@ -51,6 +53,8 @@
 pub mod bad;
 pub use bad::BadKind;
 pub use bycoms_protocol::capped;
+pub mod epoch;
+pub use epoch::Epoch;
 #[cfg(feature = "logging")]
 pub mod logging;
 pub mod seconds;

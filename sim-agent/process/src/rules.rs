@@ -9,11 +9,17 @@
 //! beacons, `Stop`, `Shutdown`, a refusal of this instance) used to live
 //! inside the bus loop, and the launch harness restated them by hand —
 //! and drifted. Here they take one command (or the time) at a time, with
-//! `now` given, and answer with what to send; the bus loop (`run`) only
+//! `now` given, and queue what to send; the bus loop (`run`) only
 //! carries that out, and the harness drives this same core in virtual time.
+//! It has the shape of every sans-IO core ([`SansIo`]): a command with
+//! [`SansIo::handle`] (which says at once whether the agent leaves), its
+//! timers with [`SansIo::advance`], what it says with [`SansIo::poll`],
+//! [`SansIo::deadline`].
 //!
-//! Time is in microseconds of the caller's clock (the bus loop's since it
-//! started, the harness's virtual time); the core never reads a clock.
+//! Time is [`Micros`] of the caller's clock (the bus loop's since it
+//! started, the harness's virtual time); the core never reads a clock. A
+//! command's rules do not depend on the time: [`SansIo::handle`] takes it
+//! for the shape's sake and leaves every timer as it was.
 //! The robot itself (body, controller, field) is the [`RobotCore`].
 
 use super::core::{Reject, RobotCore, RobotPhase};
@@ -21,7 +27,8 @@ use super::options::Clock;
 use bycoms_protocol::msg::{
     Deploy, FromAgent, Heartbeat, Parked, Pose, Register, RobotKind, Status, StopDone, TickDone, ToAgent,
 };
-use bycoms_protocol::{RobotId, PROTOCOL_VERSION};
+use bycoms_protocol::{Micros, RobotId, SansIo, PROTOCOL_VERSION};
+use std::collections::VecDeque;
 
 /// The timing and identity an agent runs with.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -111,6 +118,8 @@ pub struct SimAgentCore {
     heard: bool,
     /// The `Deploy` taken (a repeat of it is answered, another refused).
     deployed: Option<Deploy>,
+    /// What it said and the shell has not polled yet, in order.
+    out: VecDeque<Said>,
 }
 
 impl SimAgentCore {
@@ -128,6 +137,7 @@ impl SimAgentCore {
             ran_from: None,
             heard: false,
             deployed: None,
+            out: VecDeque::new(),
         }
     }
 
@@ -158,10 +168,10 @@ impl SimAgentCore {
 
     /// Starts at `now`: registers and beats. A real-time clock starts at
     /// the robot's deployment ([`Periods`]).
-    pub fn start(&mut self, now: u64, out: &mut Vec<Said>) {
-        out.push(Said::Report(FromAgent::Register(self.register())));
+    pub fn start(&mut self, now: Micros) {
+        self.out.push_back(Said::Report(FromAgent::Register(self.register())));
         self.next_heartbeat = Some(now);
-        self.beat_if_due(now, out);
+        self.beat_if_due(now);
     }
 
     /// When its next heartbeat is due (none: not started).
@@ -182,25 +192,14 @@ impl SimAgentCore {
         }
     }
 
-    /// Its next timer: a heartbeat or a real-time period.
-    pub fn deadline(&self) -> Option<u64> {
-        [self.next_heartbeat, self.next_period()].into_iter().flatten().min()
-    }
-
     /// Whether its robot will never move again (it then beats slower).
     pub fn parked(&self) -> bool {
         self.robot.parked()
     }
 
-    /// Whatever is due at `now`: a heartbeat, a real-time period.
-    pub fn advance(&mut self, now: u64, out: &mut Vec<Said>) {
-        self.beat_if_due(now, out);
-        self.period_if_due(now, out);
-    }
-
     /// A heartbeat if one is due at `now` (with a `Register` before it
     /// while the orchestrator has said nothing: it may have been lost).
-    pub fn beat_if_due(&mut self, now: u64, out: &mut Vec<Said>) {
+    pub fn beat_if_due(&mut self, now: Micros) {
         self.seen = self.seen.max(now);
         match self.next_heartbeat {
             Some(due) if now >= due => {}
@@ -210,10 +209,10 @@ impl SimAgentCore {
         self.next_heartbeat = Some(now.saturating_add(period.max(1)));
         self.heartbeat_seq += 1;
         if !self.heard && self.heartbeat_seq > 1 {
-            out.push(Said::Report(FromAgent::Register(self.register())));
+            self.out.push_back(Said::Report(FromAgent::Register(self.register())));
         }
         let beat = Heartbeat { robot: self.id(), seq: self.heartbeat_seq };
-        out.push(Said::Report(FromAgent::Heartbeat(beat)));
+        self.out.push_back(Said::Report(FromAgent::Heartbeat(beat)));
     }
 
     /// Real time: the period due at `now`, if one is, numbered by the time
@@ -221,7 +220,7 @@ impl SimAgentCore {
     /// 0); the periods it was late for are skipped and counted as missed
     /// (the frame number in the pose jumps), as on a real robot. Returns
     /// whether a period ran.
-    pub fn period_if_due(&mut self, now: u64, out: &mut Vec<Said>) -> bool {
+    pub fn period_if_due(&mut self, now: Micros) -> bool {
         self.seen = self.seen.max(now);
         let (t0, next) = match self.periods {
             Periods::Off => return false,
@@ -237,13 +236,13 @@ impl SimAgentCore {
         let index = (now - t0) / self.rules.period_us.max(1);
         self.counts.missed += index.saturating_sub(next);
         self.counts.periods += 1;
-        self.period(index, out);
+        self.period(index);
         self.periods = Periods::Running { t0, next: index.saturating_add(1) };
         true
     }
 
-    /// Takes command `cmd` at `now`; says why the agent leaves if it does.
-    pub fn handle(&mut self, cmd: &ToAgent, out: &mut Vec<Said>) -> Option<Leave> {
+    /// Takes command `cmd`; says why the agent leaves if it does.
+    fn command(&mut self, cmd: &ToAgent) -> Option<Leave> {
         if let ToAgent::Refused(r) = cmd {
             // Every agent on this robot's topic hears a refusal; only the
             // refused instance leaves, the one the orchestrator kept stays.
@@ -251,25 +250,26 @@ impl SimAgentCore {
         }
         self.heard = true;
         match cmd {
-            ToAgent::Deploy(d) => self.deploy(d, out),
+            ToAgent::Deploy(d) => self.deploy(d),
             ToAgent::GoalBearing(b) => {
                 if let Err(r) = self.robot.set_bearing(b) {
-                    out.push(Said::Refused(r));
+                    self.out.push_back(Said::Refused(r));
                 }
             }
-            ToAgent::Tick(t) => self.tick(t.step, out),
-            ToAgent::Ticks(t) => self.ticks(t.step, t.count.max(1), out),
+            ToAgent::Tick(t) => self.tick(t.step),
+            ToAgent::Ticks(t) => self.ticks(t.step, t.count.max(1)),
             // Answered every time: the orchestrator re-sends `Stop` until
             // it hears this.
             ToAgent::Stop => {
                 self.robot.stop();
-                out.push(Said::Report(FromAgent::StopDone(StopDone { robot: self.id(), on_link: false })));
+                let done = StopDone { robot: self.id(), on_link: false };
+                self.out.push_back(Said::Report(FromAgent::StopDone(done)));
             }
             ToAgent::Shutdown => return Some(Leave::Shutdown),
             ToAgent::Refused(_) => {}
             ToAgent::Beacon(b) => {
                 if let Err(r) = self.robot.beacon(b) {
-                    out.push(Said::Refused(r));
+                    self.out.push_back(Said::Refused(r));
                 }
             }
         }
@@ -281,7 +281,7 @@ impl SimAgentCore {
         self.robot.stop();
     }
 
-    fn deploy(&mut self, d: &Deploy, out: &mut Vec<Said>) {
+    fn deploy(&mut self, d: &Deploy) {
         match self.robot.deploy(d) {
             // Motion capture sees the robot at its start at once: this pose
             // is the gate's "deployed" acknowledgement, and the status after
@@ -291,38 +291,38 @@ impl SimAgentCore {
                 if self.rules.clock == Clock::Realtime {
                     self.periods = Periods::Starting;
                 }
-                self.answer_deploy(out);
+                self.answer_deploy();
             }
             // The same `Deploy` again (re-sent when its answer was lost):
             // answered again with where the robot is. Another is refused.
-            Err(Reject::AlreadyDeployed) if self.deployed == Some(*d) => self.answer_deploy(out),
-            Err(r) => out.push(Said::Refused(r)),
+            Err(Reject::AlreadyDeployed) if self.deployed == Some(*d) => self.answer_deploy(),
+            Err(r) => self.out.push_back(Said::Refused(r)),
         }
     }
 
-    fn answer_deploy(&mut self, out: &mut Vec<Said>) {
-        self.pose(self.tick, out);
-        out.push(Said::Report(FromAgent::Status(self.status(self.tick))));
+    fn answer_deploy(&mut self) {
+        self.pose(self.tick);
+        self.out.push_back(Said::Report(FromAgent::Status(self.status(self.tick))));
     }
 
-    fn tick(&mut self, step: u64, out: &mut Vec<Said>) {
+    fn tick(&mut self, step: u64) {
         match self.rules.clock {
-            Clock::Realtime => out.push(Said::Refused(Reject::TickInRealTime)),
+            Clock::Realtime => self.out.push_back(Said::Refused(Reject::TickInRealTime)),
             // A tick already stepped is a repeat (the orchestrator re-sends
             // what went unanswered, e.g. across a cut link): answered again,
             // never stepped twice.
             Clock::Lockstep if step <= self.tick => {
                 if step == self.tick {
-                    self.pose(step, out);
-                    out.extend(self.robot.tick_answer(step).map(Said::Report));
+                    self.pose(step);
+                    self.out.extend(self.robot.tick_answer(step).map(Said::Report));
                 } else {
                     tracing::debug!(robot = self.id().0, step, at = self.tick, "an old tick, ignored");
                 }
             }
             Clock::Lockstep => {
                 self.stale_if(step);
-                self.period(step, out);
-                out.extend(self.robot.tick_answer(step).map(Said::Report));
+                self.period(step);
+                self.out.extend(self.robot.tick_answer(step).map(Said::Report));
             }
         }
     }
@@ -330,14 +330,14 @@ impl SimAgentCore {
     /// `count` periods from `step` at once, answered once (`ToAgent::Ticks`):
     /// each period as a `Tick`'s, a robot that parks stops there (its
     /// `Parked` says the step), and a run already done is answered again.
-    fn ticks(&mut self, step: u64, count: u32, out: &mut Vec<Said>) {
+    fn ticks(&mut self, step: u64, count: u32) {
         let robot = self.id();
         let done = FromAgent::TickDone(TickDone { robot, step });
         match self.rules.clock {
-            Clock::Realtime => out.push(Said::Refused(Reject::TickInRealTime)),
+            Clock::Realtime => self.out.push_back(Said::Refused(Reject::TickInRealTime)),
             Clock::Lockstep if step <= self.tick => {
                 if self.ran_from == Some(step) {
-                    out.push(Said::Report(done));
+                    self.out.push_back(Said::Report(done));
                 } else {
                     tracing::debug!(robot = robot.0, step, at = self.tick, "an old run of ticks, ignored");
                 }
@@ -347,22 +347,22 @@ impl SimAgentCore {
                 let mut mode = self.robot.mode() as u8;
                 for s in step..step.saturating_add(u64::from(count)) {
                     self.stale_if(s);
-                    self.period(s, out);
+                    self.period(s);
                     // A status whose mode the last one said already is
                     // left out: the launch's record of the mode is the same
                     // at every tick without it, and a run is 32 periods.
-                    if let Some(Said::Report(FromAgent::Status(st))) = out.last() {
+                    if let Some(Said::Report(FromAgent::Status(st))) = self.out.back() {
                         if st.mode == mode {
-                            out.pop();
+                            self.out.pop_back();
                         }
                         mode = self.robot.mode() as u8;
                     }
                     if self.robot.parked() {
-                        out.push(Said::Report(FromAgent::Parked(Parked { robot, step: s })));
+                        self.out.push_back(Said::Report(FromAgent::Parked(Parked { robot, step: s })));
                         break;
                     }
                 }
-                out.push(Said::Report(done));
+                self.out.push_back(Said::Report(done));
             }
         }
     }
@@ -376,18 +376,18 @@ impl SimAgentCore {
     }
 
     /// One control period numbered `step`: step, the pose, a status if it stepped.
-    fn period(&mut self, step: u64, out: &mut Vec<Said>) {
+    fn period(&mut self, step: u64) {
         self.tick = step;
         let stepped = self.robot.step();
-        self.pose(step, out);
+        self.pose(step);
         if stepped {
-            out.push(Said::Report(FromAgent::Status(self.status(step))));
+            self.out.push_back(Said::Report(FromAgent::Status(self.status(step))));
         }
     }
 
-    fn pose(&self, step: u64, out: &mut Vec<Said>) {
+    fn pose(&mut self, step: u64) {
         if let Some(p) = self.robot.pose(step, step.saturating_mul(self.rules.dt_us)) {
-            out.push(Said::Pose(p));
+            self.out.push_back(Said::Pose(p));
         }
     }
 
@@ -404,6 +404,35 @@ impl SimAgentCore {
             settings: self.rules.settings,
             failsafe_grace_ms: self.rules.failsafe_grace_ms,
         }
+    }
+}
+
+impl SansIo for SimAgentCore {
+    type Input<'a> = &'a ToAgent;
+    /// Why the agent leaves, if it does (`Shutdown`, its instance refused):
+    /// the shell sends what is queued, then ends.
+    type Handled = Option<Leave>;
+    type Output<'a> = Said;
+
+    /// Takes command `cmd` (its rules do not depend on `now`).
+    fn handle(&mut self, _now: Micros, cmd: &ToAgent) -> Option<Leave> {
+        self.command(cmd)
+    }
+
+    /// Whatever is due at `now`: a heartbeat, a real-time period.
+    fn advance(&mut self, now: Micros) {
+        self.beat_if_due(now);
+        self.period_if_due(now);
+    }
+
+    /// The next thing it says, in order.
+    fn poll(&mut self) -> Option<Said> {
+        self.out.pop_front()
+    }
+
+    /// Its next timer: a heartbeat or a real-time period.
+    fn deadline(&self) -> Option<Micros> {
+        [self.next_heartbeat, self.next_period()].into_iter().flatten().min()
     }
 }
 

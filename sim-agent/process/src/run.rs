@@ -40,7 +40,8 @@ use bycoms_protocol::bus::zenoh::{AliveWatch, Presence};
 use bycoms_protocol::bus::{Bus, BusError, BusExt, TypedPublisher, TypedSubscriber};
 use bycoms_protocol::msg::{FromAgent, Pose, ToAgent};
 use bycoms_protocol::naming::Member;
-use bycoms_protocol::{RobotId, Swarm};
+use bycoms_protocol::{Micros, RobotId, SansIo, Swarm};
+use bycoms_runtime::epoch::{micros_of, Epoch};
 use bycoms_runtime::failsafe::{Failsafe, Verdict};
 use bycoms_runtime::lifeline::{ExitCause, Lifeline};
 use bycoms_runtime::traffic::{BadKind, Traffic};
@@ -97,7 +98,7 @@ impl Timing {
     /// The core's rules for an agent of this timing, process `instance`,
     /// run settings of fingerprint `settings` (0: none), no failsafe.
     pub fn rules(&self, instance: u64, settings: u64) -> Rules {
-        let micros = |d: Duration| u64::try_from(d.as_micros()).unwrap_or(u64::MAX);
+        let micros = micros_of;
         Rules {
             clock: self.clock,
             dt_us: self.dt_us,
@@ -141,14 +142,12 @@ pub struct Agent<B: Bus> {
     who: String,
     traffic: Traffic,
     /// The loop's clock: the core's time is µs since this.
-    epoch: Instant,
+    epoch: Epoch,
     /// zenoh: the failsafe and the liveliness watch that feeds it.
     failsafe: Option<(Failsafe, AliveWatch)>,
     /// zenoh: the measurement of this host's clock offset to the
     /// orchestrator's, reported as it comes (`FromAgent::Clock`).
     clock: Option<ClockProbe>,
-    /// What the core said and the loop has not sent yet.
-    said: Vec<Said>,
 }
 
 impl<B: Bus> Agent<B> {
@@ -161,10 +160,9 @@ impl<B: Bus> Agent<B> {
             timing,
             who,
             traffic: Traffic::default(),
-            epoch: Instant::now(),
+            epoch: Epoch::now(),
             failsafe: None,
             clock: None,
-            said: Vec::new(),
         }
     }
 
@@ -183,28 +181,29 @@ impl<B: Bus> Agent<B> {
         self.failsafe = Some((failsafe, watch));
     }
 
-    /// The core's time now, µs.
-    fn now(&self) -> u64 {
-        u64::try_from(self.epoch.elapsed().as_micros()).unwrap_or(u64::MAX)
+    /// The core's time now.
+    fn now(&self) -> Micros {
+        self.epoch.elapsed()
     }
 
     /// The wall instant of core time `at`.
-    fn instant(&self, at: u64) -> Instant {
-        self.epoch + Duration::from_micros(at)
+    fn instant(&self, at: Micros) -> Instant {
+        self.epoch.instant(at)
     }
 
     /// Feeds the failsafe what zenoh saw and acts on its verdict.
     fn check_failsafe(&mut self) -> Option<ExitCause> {
+        let epoch = self.epoch;
         let (failsafe, watch) = self.failsafe.as_mut()?;
         while let Some(event) = watch.try_recv() {
             if event.member == Member::Orchestrator {
                 match event.presence {
-                    Presence::Alive => failsafe.orchestrator_alive(event.at),
-                    Presence::Lost => failsafe.orchestrator_lost(event.at),
+                    Presence::Alive => failsafe.orchestrator_alive(epoch.micros(event.at)),
+                    Presence::Lost => failsafe.orchestrator_lost(epoch.micros(event.at)),
                 }
             }
         }
-        let verdict = failsafe.check(Instant::now());
+        let verdict = failsafe.check(epoch.elapsed());
         if let Some(report) = verdict.report(self.core.id()) {
             // Best effort: the link may be cut (a reminder follows its return).
             let _ = self.report(report);
@@ -264,7 +263,7 @@ impl<B: Bus> Agent<B> {
     pub fn run(&mut self, lifeline: &mut Lifeline) -> Result<ExitCause, BusError> {
         self.clock_reports(Some(clock::FIRST_WAIT))?;
         let now = self.now();
-        self.core.start(now, &mut self.said);
+        self.core.start(now);
         self.send()?;
         match self.timing.clock {
             Clock::Lockstep => self.run_lockstep(lifeline),
@@ -309,7 +308,7 @@ impl<B: Bus> Agent<B> {
             }
             self.heartbeat_if_due()?;
             let now = self.now();
-            if self.core.period_if_due(now, &mut self.said) {
+            if self.core.period_if_due(now) {
                 self.send()?;
                 // An agent that is always late would otherwise never read
                 // its commands (no bearing, no `Shutdown`): take what came.
@@ -369,7 +368,7 @@ impl<B: Bus> Agent<B> {
         };
         match next {
             Ok(Some(cmd)) => {
-                let leave = self.core.handle(&cmd, &mut self.said);
+                let leave = self.core.handle(self.now(), &cmd);
                 self.send()?;
                 Ok(match leave {
                     Some(Leave::Shutdown) => Received::Exit(ExitCause::Shutdown),
@@ -398,16 +397,16 @@ impl<B: Bus> Agent<B> {
     fn heartbeat_if_due(&mut self) -> Result<(), BusError> {
         self.clock_reports(None)?;
         let now = self.now();
-        self.core.beat_if_due(now, &mut self.said);
+        self.core.beat_if_due(now);
         self.send()
     }
 
-    /// Carries out what the core said: publishes, counts refusals.
-    /// Publishes what the core said. Only the last message to each topic
+    /// Carries out what the core said (all it has to poll): publishes,
+    /// counts refusals. Only the last message to each topic
     /// wakes its readers, who find the ones before it too: a run of ticks
     /// says 32 poses at once, and each wake-up is a system call.
     fn send(&mut self) -> Result<(), BusError> {
-        let said = std::mem::take(&mut self.said);
+        let said: Vec<Said> = std::iter::from_fn(|| self.core.poll()).collect();
         let last_pose = said.iter().rposition(|s| matches!(s, Said::Pose(_)));
         let last_report = said.iter().rposition(|s| matches!(s, Said::Report(_)));
         for (i, said) in said.into_iter().enumerate() {

@@ -11,6 +11,7 @@ use bycoms_protocol::{RobotId, Swarm};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{channel, Receiver, Sender};
 use std::sync::{Arc, Mutex};
+use std::time::Instant;
 
 const ROBOT: RobotId = RobotId(2);
 const WAIT: Duration = Duration::from_secs(10);

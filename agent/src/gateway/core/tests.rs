@@ -15,22 +15,23 @@ fn key(b: u8) -> LinkKey {
 struct Bench {
     gw: GatewayCore,
     robot: RobotLink,
-    t0: Instant,
+    t0: Micros,
 }
 
 impl Bench {
     fn new() -> Self {
-        let t0 = Instant::now();
+        let t0: Micros = 0;
         let gw = GatewayCore::new(RobotId(1), key(7), Timers::paper(1.0), 42, t0);
         Self { gw, robot: RobotLink::new(RobotId(1), key(7)), t0 }
     }
 
-    fn at(&self, ms: u64) -> Instant {
-        self.t0 + Duration::from_millis(ms)
+    /// `ms` after the start, in the core's µs.
+    fn at(&self, ms: u64) -> Micros {
+        self.t0 + ms * 1000
     }
 
     fn outputs(&mut self) -> Vec<Output> {
-        std::iter::from_fn(|| self.gw.poll_output()).collect()
+        std::iter::from_fn(|| self.gw.poll()).collect()
     }
 
     /// Delivers every queued datagram to the robot; returns its events and
@@ -52,13 +53,13 @@ impl Bench {
     fn robot_sends(&mut self, payload: Payload, ms: u64) -> Result<(), DropReason> {
         let mut buf = [0u8; MAX_FRAME_LEN];
         let frame = self.robot.send(payload, &mut buf).expect("robot frame").to_vec();
-        self.gw.on_datagram(&frame, ROBOT, self.at(ms))
+        self.gw.on_datagram(self.at(ms), &frame, ROBOT)
     }
 
     fn connect(&mut self) {
         let mut buf = [0u8; MAX_FRAME_LEN];
         let hello = self.robot.hello([9; 16], &mut buf).unwrap().to_vec();
-        self.gw.on_datagram(&hello, ROBOT, self.at(0)).unwrap();
+        self.gw.on_datagram(self.at(0), &hello, ROBOT).unwrap();
         let (events, reports) = self.deliver();
         assert!(matches!(events[..], [RobotEvent::Connected(_)]), "{events:?}");
         assert!(matches!(reports[..], [FromAgent::Link(LinkStatus { up: true, .. })]), "{reports:?}");
@@ -99,13 +100,13 @@ fn deploy_enables_and_goal_bearings_reach_the_robot_in_its_own_frame() {
     b.robot_sends(telemetry(RobotState::Idle), 10).unwrap();
     b.deliver();
     let deploy = Deploy { robot: RobotId(1), x: 0.4, y: 1.0, heading: 0.0 };
-    assert_eq!(b.gw.on_command(&ToAgent::Deploy(deploy), b.at(20)), Ok(false));
+    assert_eq!(b.gw.on_command(b.at(20), &ToAgent::Deploy(deploy)), Ok(false));
     // No pose yet: the goal waits (the robot's failsafe keeps it still).
-    b.gw.on_command(&ToAgent::GoalBearing(GoalBearing { robot: RobotId(1), bearing: PI, step: 1 }), b.at(21))
+    b.gw.on_command(b.at(21), &ToAgent::GoalBearing(GoalBearing { robot: RobotId(1), bearing: PI, step: 1 }))
         .unwrap();
     assert_eq!(b.deliver().0, [RobotEvent::Enable]);
     b.gw.on_pose(&Pose { robot: RobotId(1), x: 0.4, y: 1.0, heading: FRAC_PI_2, step: 1, time_us: 0 });
-    b.gw.poll(b.at(22));
+    b.gw.advance(b.at(22));
     let (events, _) = b.deliver();
     let [RobotEvent::Goal(g)] = events[..] else { panic!("{events:?}") };
     assert!(
@@ -114,17 +115,17 @@ fn deploy_enables_and_goal_bearings_reach_the_robot_in_its_own_frame() {
     );
     // Repeated every 100 ms while enabled, with the newest heading.
     b.gw.on_pose(&Pose { robot: RobotId(1), x: 0.4, y: 1.0, heading: PI, step: 2, time_us: 0 });
-    b.gw.poll(b.at(100));
+    b.gw.advance(b.at(100));
     assert!(b.deliver().0.is_empty(), "not yet due");
-    b.gw.poll(b.at(122));
+    b.gw.advance(b.at(122));
     assert_eq!(b.deliver().0, [RobotEvent::Goal(0.0)]);
     // Stop: no more goals, Stop on the wire; Shutdown stops too and says exit.
-    b.gw.on_command(&ToAgent::Stop, b.at(130)).unwrap();
+    b.gw.on_command(b.at(130), &ToAgent::Stop).unwrap();
     let stop_done = FromAgent::StopDone(StopDone { robot: RobotId(1), on_link: true });
     assert_eq!(b.deliver(), (vec![RobotEvent::Stop], vec![stop_done]), "answered once the stop frame is out");
-    b.gw.poll(b.at(300));
+    b.gw.advance(b.at(300));
     assert!(!b.deliver().0.contains(&RobotEvent::Goal(0.0)));
-    assert_eq!(b.gw.on_command(&ToAgent::Shutdown, b.at(310)), Ok(true));
+    assert_eq!(b.gw.on_command(b.at(310), &ToAgent::Shutdown), Ok(true));
     assert_eq!(b.deliver().0, [RobotEvent::Stop]);
 }
 
@@ -132,7 +133,7 @@ fn deploy_enables_and_goal_bearings_reach_the_robot_in_its_own_frame() {
 fn a_robot_that_reports_idle_while_enabled_is_enabled_again() {
     let mut b = Bench::new();
     b.connect();
-    b.gw.on_command(&ToAgent::Deploy(Deploy { robot: RobotId(1), x: 0.0, y: 0.0, heading: 0.0 }), b.at(5))
+    b.gw.on_command(b.at(5), &ToAgent::Deploy(Deploy { robot: RobotId(1), x: 0.0, y: 0.0, heading: 0.0 }))
         .unwrap();
     b.outputs(); // the Enable is lost on the way
     b.robot_sends(telemetry(RobotState::Idle), 130).unwrap();
@@ -145,9 +146,9 @@ fn silence_is_reported_as_a_lost_link_at_the_timeout_and_the_next_frame_restores
     b.connect();
     b.robot_sends(Payload::RobotHeartbeat { uptime_ms: 1 }, 100).unwrap();
     b.deliver();
-    b.gw.poll(b.at(399));
+    b.gw.advance(b.at(399));
     assert!(b.deliver().1.is_empty(), "299 ms of silence is not yet lost");
-    b.gw.poll(b.at(400));
+    b.gw.advance(b.at(400));
     let (_, reports) = b.deliver();
     assert!(
         matches!(reports[..], [FromAgent::Link(LinkStatus { up: false, silent_ms: 300, .. })]),
@@ -168,17 +169,17 @@ fn forged_replayed_and_foreign_frames_are_refused_counted_and_reported_once_a_se
     b.connect();
     let mut buf = [0u8; MAX_FRAME_LEN];
     let frame = b.robot.send(telemetry(RobotState::Idle), &mut buf).unwrap().to_vec();
-    b.gw.on_datagram(&frame, ROBOT, b.at(10)).unwrap();
-    assert_eq!(b.gw.on_datagram(&frame, ROBOT, b.at(11)), Err(DropReason::Replayed));
+    b.gw.on_datagram(b.at(10), &frame, ROBOT).unwrap();
+    assert_eq!(b.gw.on_datagram(b.at(11), &frame, ROBOT), Err(DropReason::Replayed));
     let mut forged = frame.clone();
     forged[30] ^= 1;
-    assert_eq!(b.gw.on_datagram(&forged, ROBOT, b.at(12)), Err(DropReason::BadTag));
+    assert_eq!(b.gw.on_datagram(b.at(12), &forged, ROBOT), Err(DropReason::BadTag));
     let mut other = RobotLink::new(RobotId(2), key(8));
     let foreign = other.hello([1; 16], &mut buf).unwrap().to_vec();
-    assert_eq!(b.gw.on_datagram(&foreign, ROBOT, b.at(13)), Err(DropReason::ForeignRobot));
-    assert_eq!(b.gw.on_datagram(b"garbage", ROBOT, b.at(14)), Err(DropReason::Truncated));
+    assert_eq!(b.gw.on_datagram(b.at(13), &foreign, ROBOT), Err(DropReason::ForeignRobot));
+    assert_eq!(b.gw.on_datagram(b.at(14), b"garbage", ROBOT), Err(DropReason::Truncated));
     b.outputs();
-    b.gw.poll(b.at(15));
+    b.gw.advance(b.at(15));
     let reports: Vec<_> = b.outputs();
     let link = |o: &Output| match o {
         Output::Report(FromAgent::Link(l)) => Some(*l),
@@ -186,12 +187,12 @@ fn forged_replayed_and_foreign_frames_are_refused_counted_and_reported_once_a_se
     };
     let got: Vec<LinkStatus> = reports.iter().filter_map(link).collect();
     assert_eq!(got, [LinkStatus { robot: RobotId(1), up: true, silent_ms: 5, refused: 4 }]);
-    b.gw.on_datagram(&forged, ROBOT, b.at(20)).unwrap_err();
+    b.gw.on_datagram(b.at(20), &forged, ROBOT).unwrap_err();
     b.robot_sends(Payload::RobotHeartbeat { uptime_ms: 1 }, 890).unwrap();
-    b.gw.poll(b.at(900));
+    b.gw.advance(b.at(900));
     assert!(b.outputs().iter().filter_map(link).next().is_none(), "at most once a second");
     b.robot_sends(Payload::RobotHeartbeat { uptime_ms: 2 }, 1010).unwrap();
-    b.gw.poll(b.at(1015));
+    b.gw.advance(b.at(1015));
     assert_eq!(b.outputs().iter().filter_map(link).map(|l| l.refused).collect::<Vec<_>>(), [5]);
     assert_eq!(b.gw.drops().count(DropReason::Replayed), 1);
 }
@@ -201,8 +202,8 @@ fn commands_for_another_robot_ticks_and_non_finite_bearings_are_refused() {
     let mut b = Bench::new();
     let now = b.at(0);
     let other = Deploy { robot: RobotId(2), x: 0.0, y: 0.0, heading: 0.0 };
-    assert_eq!(b.gw.on_command(&ToAgent::Deploy(other), now), Err(Refused::WrongRobot { got: 2, mine: 1 }));
-    assert_eq!(b.gw.on_command(&ToAgent::Tick(Tick { step: 1 }), now), Err(Refused::Tick));
+    assert_eq!(b.gw.on_command(now, &ToAgent::Deploy(other)), Err(Refused::WrongRobot { got: 2, mine: 1 }));
+    assert_eq!(b.gw.on_command(now, &ToAgent::Tick(Tick { step: 1 })), Err(Refused::Tick));
     let nan = GoalBearing { robot: RobotId(1), bearing: f64::NAN, step: 1 };
-    assert_eq!(b.gw.on_command(&ToAgent::GoalBearing(nan), now), Err(Refused::NotFinite));
+    assert_eq!(b.gw.on_command(now, &ToAgent::GoalBearing(nan)), Err(Refused::NotFinite));
 }

@@ -34,9 +34,11 @@ fn a_gateway_reports_its_hosts_clock_offset_before_it_registers() {
         ZenohBus::open(ZenohConfig { mode: Mode::Client, connect: vec![listen], ..ZenohConfig::default() })
             .expect("client");
     let ports = GatewayPorts::open(&bus, &swarm, robot).expect("ports");
-    let core = GatewayCore::new(robot, LinkKey::new(&[7; 32]), Timers::paper(1.0), 1, Instant::now());
+    let epoch = Epoch::now();
+    let core = GatewayCore::new(robot, LinkKey::new(&[7; 32]), Timers::paper(1.0), 1, epoch.elapsed());
     let socket = UdpSocket::bind((Ipv4Addr::LOCALHOST, 0)).expect("socket");
-    let mut gateway = Gateway::new(core, ports, socket, Duration::from_millis(50), None).expect("gateway");
+    let mut gateway =
+        Gateway::new(core, ports, socket, Duration::from_millis(50), None, epoch).expect("gateway");
     gateway.report_clock(bus.clock_probe(&swarm, HostClock { skew_us: SKEW_US }));
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);

@@ -9,8 +9,11 @@
 //! how the launch's agents join and its run settings, as a spawned agent builds
 //! them (`bycoms_sim_agent::timing`). What this file adds is only what
 //! a process is: it starts at a time (or never registers), and it is
-//! alive until it leaves, crashes or is killed.
+//! alive until it leaves, crashes or is killed. Like the process's loop it
+//! drives the core as every sans-IO core is driven ([`SansIo`]), then
+//! polls everything it said into the world's list.
 
+use bycoms_protocol::SansIo;
 use bycoms_sim_agent::{Said, SimAgentCore};
 
 /// One simulated agent: the process around a [`SimAgentCore`].
@@ -21,13 +24,16 @@ pub struct Agent {
     /// When it registers (none: never), until it has.
     register_at: Option<u64>,
     started: bool,
+    /// The latest virtual time it was given (a command comes without one;
+    /// its rules do not depend on it).
+    at: u64,
 }
 
 impl Agent {
     /// An agent around `core`, registering first at `register_at` (never
     /// if none).
     pub fn new(core: SimAgentCore, register_at: Option<u64>) -> Self {
-        Self { core, alive: true, register_at, started: false }
+        Self { core, alive: true, register_at, started: false, at: 0 }
     }
 
     /// The robot.
@@ -60,21 +66,34 @@ impl Agent {
         if !self.alive {
             return;
         }
+        self.at = self.at.max(now);
         if !self.started {
             if self.register_at.is_some_and(|t| t <= now) {
                 self.started = true;
-                self.core.start(now, out);
+                self.core.start(now);
+                self.said(out);
             }
             return;
         }
-        self.core.advance(now, out);
+        self.core.advance(now);
+        self.said(out);
     }
 
     /// A command from the orchestrator; it leaves on `Shutdown` and when
     /// its instance is refused.
     pub fn command(&mut self, cmd: &bycoms_protocol::msg::ToAgent, out: &mut Vec<Said>) {
-        if self.alive && self.core.handle(cmd, out).is_some() {
+        if !self.alive {
+            return;
+        }
+        let leave = self.core.handle(self.at, cmd);
+        self.said(out);
+        if leave.is_some() {
             self.alive = false;
         }
+    }
+
+    /// Everything the core said, in order, into `out`.
+    fn said(&mut self, out: &mut Vec<Said>) {
+        out.extend(std::iter::from_fn(|| self.core.poll()));
     }
 }

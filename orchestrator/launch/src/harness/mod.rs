@@ -11,7 +11,10 @@
 //! The harness runs production code on both sides: the core's [`Setup`] is
 //! the launch's own (`launch::setup::setup_of`, [`Launch`]), each agent is
 //! the `sim-agent` process's own [`SimAgentCore`] (its message rules, real
-//! heartbeat periods), and the summary's verdict is `summary::of`.
+//! heartbeat periods), each real robot the `gateway`'s own session
+//! (`bycoms_agent::gateway::GatewaySession`), both driven as their shells
+//! drive them, through [`bycoms_protocol::SansIo`] on the virtual clock's
+//! µs, and the summary's verdict is `summary::of`.
 //! [`check`] states the properties every schedule must keep; the
 //! differential properties (parity with `simulate`, forgeries and short
 //! partitions change nothing) compare two runs. A failing schedule is

@@ -1,5 +1,6 @@
 //! A real robot behind its gateway, in virtual time: the `gateway` binary's
-//! own rules ([`Session`] around `GatewayCore`) on the bus side, the
+//! own rules ([`GatewaySession`], the [`SansIo`] core around
+//! `GatewayCore`, on the virtual clock's µs) on the bus side, the
 //! robot's own firmware core ([`Firmware`]) on the far side of the UDP
 //! link, and a body the world moves from the firmware's motor commands
 //! (what motion capture then sees).
@@ -23,16 +24,16 @@
 
 use bycoms_agent::acoustic::{Frame, FRAME_LEN};
 use bycoms_agent::firmware::{Firmware, FirmwareConfig};
-use bycoms_agent::gateway::{GatewayCore, Output, Session, Timers};
+use bycoms_agent::gateway::{Datagram, GatewayCore, GatewaySession, Input, Output, Session, Timers};
 use bycoms_protocol::link::{LinkKey, RobotEvent, RobotState, MAX_FRAME_LEN};
 use bycoms_protocol::msg::{FromAgent, Pose, ToAgent};
-use bycoms_protocol::RobotId;
+use bycoms_protocol::{RobotId, SansIo};
 use bycoms_runtime::failsafe::Failsafe;
 use bycoms_sim::terrain::Terrain;
 use bycoms_sim::Vec2;
 use std::collections::VecDeque;
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// The firmware's control period (one microphone frame), µs.
 const CONTROL_US: u64 = 125_000;
@@ -61,9 +62,10 @@ pub struct Body {
 /// One real robot and its gateway; see the module docs.
 pub struct RealRobot {
     id: u32,
-    session: Session,
+    session: GatewaySession,
+    /// The latest virtual time it was given (a pose comes without one).
+    at: u64,
     firmware: Firmware<1>,
-    base: Instant,
     /// The gateway process runs (not crashed, killed or ended).
     pub alive: bool,
     started: bool,
@@ -102,10 +104,9 @@ impl RealRobot {
         body: Body,
         cuts: Vec<(u64, u64)>,
     ) -> Self {
-        let base = Instant::now();
         let key = LinkKey::new(&[id as u8; 32]);
         let timers = Timers::paper(1.0);
-        let core = GatewayCore::new(RobotId(id), key.clone(), timers, instance, base);
+        let core = GatewayCore::new(RobotId(id), key.clone(), timers, instance, 0);
         let grace_us = failsafe.as_ref().map_or(u64::MAX, |f| u64::from(f.grace_ms()) * 1000);
         let session = Session::new(core, Duration::from_millis(100), instance, failsafe);
         let config = FirmwareConfig::paper(RobotId(id), 320.0, [512.0]);
@@ -116,8 +117,8 @@ impl RealRobot {
         Self {
             id,
             session,
+            at: 0,
             firmware,
-            base,
             alive: true,
             started: false,
             register_at,
@@ -155,15 +156,6 @@ impl RealRobot {
         self.firmware.state()
     }
 
-    fn instant(&self, us: u64) -> Instant {
-        self.base + Duration::from_micros(us)
-    }
-
-    fn us(&self, at: Instant) -> u64 {
-        let d = at.saturating_duration_since(self.base);
-        d.as_micros() as u64 + u64::from(!d.subsec_nanos().is_multiple_of(1000))
-    }
-
     fn cut(&self, at: u64) -> bool {
         self.cuts.iter().any(|&(from, until)| (from..until).contains(&at))
     }
@@ -172,7 +164,7 @@ impl RealRobot {
     pub fn deadline(&self) -> u64 {
         let gateway = match (self.alive, self.started) {
             (true, false) => self.register_at,
-            (true, true) => self.session.deadline().map(|t| self.us(t)),
+            (true, true) => self.session.deadline(),
             (false, _) => None,
         };
         let firmware = self.firmware.poll_timeout().map(|d| d.as_micros() as u64);
@@ -182,17 +174,18 @@ impl RealRobot {
 
     /// Everything due at `now`; the gateway's reports go into `out`.
     pub fn advance(&mut self, now: u64, terrain: &Terrain, out: &mut Vec<FromAgent>) {
+        self.at = self.at.max(now);
         while self.in_flight.front().is_some_and(|d| d.0 <= now) {
             let Some((_, to_robot, bytes)) = self.in_flight.pop_front() else { break };
             self.datagram(now, to_robot, &bytes);
         }
         if self.alive && !self.started && self.register_at.is_some_and(|t| t <= now) {
             self.started = true;
-            self.session.start(self.instant(now));
+            let _ = self.session.handle(now, Input::Start);
             // zenoh tells a new session who is alive: the orchestrator.
-            self.session.orchestrator(true, self.instant(now));
+            let _ = self.session.handle(now, Input::Orchestrator { alive: true });
         }
-        if self.alive && self.started && self.session.poll(self.instant(now)).is_some() {
+        if self.alive && self.started && self.advance_session(now) {
             self.end(now);
         }
         if now >= self.next_period {
@@ -210,7 +203,7 @@ impl RealRobot {
                     .push(format!("robot {}: a goal at {now} µs, its gateway had no pose", self.id));
             }
         } else if self.alive && self.started {
-            let _ = self.session.on_datagram(bytes, addr(self.id), self.instant(now));
+            let _ = self.session.handle(now, Input::Link(Datagram { bytes, from: addr(self.id) }));
         }
     }
 
@@ -264,7 +257,7 @@ impl RealRobot {
                 self.in_flight.push_back((now + LINK_DELAY_US, false, frame.to_vec()));
             }
         }
-        while let Some(o) = self.session.poll_output() {
+        while let Some(o) = self.session.poll() {
             match o {
                 Output::Datagram(bytes, _) if !self.cut(now) => {
                     self.in_flight.push_back((now + LINK_DELAY_US, true, bytes));
@@ -280,10 +273,11 @@ impl RealRobot {
 
     /// A command from the orchestrator.
     pub fn command(&mut self, now: u64, cmd: &ToAgent, out: &mut Vec<FromAgent>) {
+        self.at = self.at.max(now);
         if !(self.alive && self.started) {
             return;
         }
-        if let Ok(Some(_)) = self.session.on_command(cmd, self.instant(now)) {
+        if self.session.handle(now, Input::Command(cmd)).is_ok() && self.session.exit().is_some() {
             self.flush(now, out);
             self.end(now);
         }
@@ -294,21 +288,28 @@ impl RealRobot {
     pub fn pose(&mut self, pose: &Pose) {
         if self.alive && self.started {
             self.posed |= pose.robot.0 == self.id && pose.heading.is_finite();
-            self.session.on_pose(pose);
+            let _ = self.session.handle(self.at, Input::Pose(pose));
         }
     }
 
     /// The orchestrator's liveliness token came or went at `now`.
     pub fn orchestrator(&mut self, now: u64, alive: bool, out: &mut Vec<FromAgent>) {
+        self.at = self.at.max(now);
         if !(self.alive && self.started) {
             return;
         }
         self.lost_since = if alive { None } else { self.lost_since.or(Some(now)) };
-        self.session.orchestrator(alive, self.instant(now));
-        if self.session.poll(self.instant(now)).is_some() {
+        let _ = self.session.handle(now, Input::Orchestrator { alive });
+        if self.advance_session(now) {
             self.end(now);
         }
         self.flush(now, out);
+    }
+
+    /// Runs the session's timers at `now`: whether the session ended.
+    fn advance_session(&mut self, now: u64) -> bool {
+        self.session.advance(now);
+        self.session.exit().is_some()
     }
 
     /// The gateway process ends (crashed, killed, or its session over).
