@@ -114,7 +114,9 @@ impl Robot {
     fn transmit(&mut self, now: Duration) -> bool {
         self.record(tag::TRANSMIT, now);
         let mut sent = vec![];
-        self.shell.transmit(micros(now), &mut NoMeter, &mut self.live, |f| sent.push(f.to_vec())).expect("live tx");
+        self.shell
+            .transmit(micros(now), &mut NoMeter, &mut self.live, |f| sent.push(f.to_vec()))
+            .expect("live tx");
         let mut started = false;
         for frame in sent {
             let Ok(accepted) = self.link.receive(&frame) else { continue };
