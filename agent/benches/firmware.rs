@@ -1,15 +1,14 @@
 //! Host cost of the firmware core's work per control period: one
-//! `handle_mics` (six frames' integer tone isolation, the ring estimate, the drive law,
-//! telemetry) and one telemetry `poll_transmit` (HMAC-SHA256 tag). The
+//! `handle` of the microphone frames (six frames' integer tone isolation, the ring estimate, the drive law,
+//! telemetry) and one `poll` of a frame (HMAC-SHA256 tag). The
 //! ESP32 must fit this in its 125 ms period; measure there before trusting
 //! it (see deploy/esp32/README.md).
 //!
 //! Run: `cargo bench -p bycoms-agent --bench firmware`.
 
-use bycoms_agent::firmware::{Firmware, FirmwareConfig, MicFrames};
-use bycoms_protocol::link::{LinkKey, MAX_FRAME_LEN};
-use bycoms_protocol::RobotId;
-use core::time::Duration;
+use bycoms_agent::firmware::{Firmware, FirmwareConfig, FirmwareInput, MicFrames};
+use bycoms_protocol::link::LinkKey;
+use bycoms_protocol::{RobotId, SansIo};
 use divan::black_box;
 
 fn main() {
@@ -40,18 +39,18 @@ fn handle_mics(bencher: divan::Bencher) {
     let input = frames();
     let mut t = 0u64;
     bencher.bench_local(|| {
-        t += 125;
-        fw.handle_mics(black_box(&input), Duration::from_millis(t));
+        t += 125_000;
+        fw.handle(t, FirmwareInput::Mics(black_box(&input)))
     });
 }
 
 #[divan::bench]
-fn hello_poll_transmit(bencher: divan::Bencher) {
+fn hello_poll(bencher: divan::Bencher) {
     let mut fw = firmware();
-    let mut buf = [0u8; MAX_FRAME_LEN];
     let mut t = 0u64;
     bencher.bench_local(|| {
-        t += 250;
-        fw.poll_transmit(Duration::from_millis(t), &mut buf).map(|f| f.len())
+        t += 250_000;
+        fw.advance(t);
+        fw.poll().map(|f| f.len())
     });
 }

@@ -5,11 +5,10 @@
 //! linked, not optimised away.
 #![no_std]
 
-use bycoms_agent::firmware::{Firmware, FirmwareConfig, MicFrames};
+use bycoms_agent::firmware::{Firmware, FirmwareConfig, FirmwareInput, MicFrames};
 use bycoms_agent::{Controller, ControllerConfig, Input};
 use bycoms_protocol::link::{self, Direction, LinkKey, MAX_FRAME_LEN};
-use bycoms_protocol::RobotId;
-use core::time::Duration;
+use bycoms_protocol::{RobotId, SansIo};
 
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo) -> ! {
@@ -49,11 +48,11 @@ pub extern "C" fn bycoms_nostd_link_decode(
 pub extern "C" fn bycoms_nostd_firmware(key: &[u8; 32], robot: u32, level: u16, now_ms: u64) -> usize {
     let config = FirmwareConfig::paper(RobotId(robot), 320.0, [224.0, 512.0]);
     let Ok(mut fw) = Firmware::new(config, LinkKey::new(key), *key) else { return 0 };
-    let now = Duration::from_millis(now_ms);
-    let _ = fw.handle_datagram(&key[..], now);
+    let now = now_ms.saturating_mul(1000);
+    let _ = fw.handle(now, FirmwareInput::Datagram(&key[..]));
     let frames: MicFrames = [[level; 512]; 6];
-    fw.handle_mics(&frames, now);
-    let mut buf = [0u8; MAX_FRAME_LEN];
-    let sent = fw.poll_transmit(now, &mut buf).map_or(0, |f| f.len());
+    let _ = fw.handle(now, FirmwareInput::Mics(&frames));
+    fw.advance(now);
+    let sent = fw.poll().map_or(0, |f| f.len());
     sent + fw.state() as usize + fw.motors().left as usize
 }

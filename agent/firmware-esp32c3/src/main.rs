@@ -12,10 +12,11 @@
 //!   samples each, one 125 ms control period) goes to the main loop, which
 //!   hands it back when done;
 //! * the main loop: waits for a datagram, a full buffer or the core's
-//!   deadline (`poll_timeout`), calls the core, applies its motors and
-//!   tone, and sends what it has to send to the gateway. The 500 ms
-//!   failsafe lives in the core; this loop makes sure `handle_timeout` runs
-//!   when the core asks.
+//!   `deadline`, hands the core what came (`handle`) at the time since
+//!   boot in µs (`since_boot`, the core's clock), applies its motors and
+//!   tone, and sends what it has to send to the gateway (`advance`, then
+//!   `poll` until nothing is left). The 500 ms failsafe lives in the core;
+//!   this loop makes sure `advance` runs when the core asks.
 //!
 //! Build (deploy/esp32/README.md): `RUSTC=/usr/bin/rustc RUSTC_BOOTSTRAP=1
 //! /usr/bin/cargo build --release -Zbuild-std=core,alloc --target
@@ -30,8 +31,9 @@ mod board;
 mod config;
 
 use board::{Board, Mics, Samples, SAMPLE_RATE};
-use bycoms_agent::firmware::Firmware;
-use bycoms_protocol::link::{LinkKey, MAX_FRAME_LEN};
+use bycoms_agent::firmware::{Firmware, FirmwareInput};
+use bycoms_protocol::link::LinkKey;
+use bycoms_protocol::{Micros, SansIo};
 use core::sync::atomic::{AtomicU32, Ordering};
 use embassy_executor::Spawner;
 use embassy_futures::select::{select3, Either3};
@@ -156,46 +158,46 @@ async fn main(spawner: Spawner) -> ! {
         halt(&mut rtc, format_args!("UDP port {}: {e:?}", config.port));
     }
     let mut datagram = [0u8; 512];
-    let mut out = [0u8; MAX_FRAME_LEN];
     motors.enable();
     println!("bycoms robot {}: running; gateway {}", config.robot, config.gateway);
 
     loop {
         rtc.rwdt.feed();
-        let now = since_boot();
         // Wake at the core's deadline, and at least every 100 ms for the watchdog.
-        let deadline = fw.poll_timeout().map_or(now + Duration::from_millis(100), |d| {
-            Instant::from_micros(d.as_micros() as u64).min(now + Duration::from_millis(100))
-        });
+        let wake = Instant::now() + Duration::from_millis(100);
+        let deadline = fw.deadline().map_or(wake, |d| Instant::from_micros(d).min(wake));
         let event = select3(socket.recv_from(&mut datagram), FULL.receive(), Timer::at(deadline)).await;
-        let now = core::time::Duration::from_micros(since_boot().as_micros());
+        let now = since_boot();
         match event {
             Either3::First(Ok((n, _from))) => {
                 // Any sender: a frame that does not authenticate is counted and dropped.
-                let _ = fw.handle_datagram(&datagram[..n], now);
+                let _ = fw.handle(now, FirmwareInput::Datagram(&datagram[..n]));
             }
             Either3::First(Err(_)) => {}
             Either3::Second(samples) => {
                 // The core takes the ADC's 12-bit integers as they are; the
                 // sampler fills the other buffer meanwhile (a control
                 // period's work is a few ms of its 125 ms).
-                fw.handle_mics(samples, now);
+                let _ = fw.handle(now, FirmwareInput::Mics(samples));
                 let _ = EMPTY.try_send(samples);
             }
-            Either3::Third(()) => fw.handle_timeout(now),
+            Either3::Third(()) => fw.advance(now),
         }
         let m = fw.motors();
         motors.apply(m.left, m.right);
         speaker.play(fw.tone().is_some());
-        while let Some(frame) = fw.poll_transmit(now, &mut out) {
+        // What is due now (a hello, telemetry, a heartbeat), in the core's buffer.
+        fw.advance(now);
+        while let Some(frame) = fw.poll() {
             // WiFi drops datagrams too; the link protocol copes.
             let _ = socket.send_to(frame, gateway).await;
         }
     }
 }
 
-fn since_boot() -> Instant {
-    Instant::now()
+/// The core's clock: µs since boot (embassy-time's ticks are µs since boot).
+fn since_boot() -> Micros {
+    Instant::now().as_micros()
 }
 
 /// Prints why and waits for the watchdog to reset the chip (motors stay in standby).

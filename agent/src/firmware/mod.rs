@@ -3,18 +3,29 @@
 //! Why sans-IO: the same code must run on the ESP32 (esp-hal timers, I2S
 //! microphones, a WiFi UDP socket), in the emulated lab (a thread per robot
 //! with a UDP socket on localhost) and in unit tests (no sockets, virtual
-//! time). So this type owns no clock, socket or RNG: the shell feeds it
+//! time). So this type owns no clock, socket or RNG. It has the one shape
+//! of every bycoms core, [`SansIo`], with time as [`Micros`] since boot
+//! (the shell's clock; the core never reads one). The shell feeds it
 //!
-//! * link datagrams ([`Firmware::handle_datagram`]),
-//! * one frame of samples per microphone ([`Firmware::handle_mics`]) —
-//!   each frame is one control period,
-//! * the time since boot (`now`) with every call, and
-//!   [`Firmware::handle_timeout`] when [`Firmware::poll_timeout`] is due,
+//! * link datagrams and one frame of samples per microphone (each frame
+//!   set is one control period) with [`SansIo::handle`]
+//!   ([`FirmwareInput`]); a datagram's event or refusal comes back at once,
+//! * the time with every call, and [`SansIo::advance`] when
+//!   [`SansIo::deadline`] is due (the failsafe, the relink timer, a hello
+//!   or heartbeat to send),
 //!
 //! and reads back the motor commands ([`Firmware::motors`]), its own tone
-//! ([`Firmware::tone`]) and the link frames to send
-//! ([`Firmware::poll_transmit`]). Entropy comes in once, at boot, as 32
-//! bytes from the hardware RNG; hello nonces are SHA-256(entropy ‖ counter).
+//! ([`Firmware::tone`]) and the link frames to send ([`SansIo::poll`],
+//! until `None`; each frame is built, when polled, in a buffer the core
+//! owns, for the time of the latest `handle` or `advance`: no allocator).
+//! Entropy comes in once, at boot, as 32 bytes from the hardware RNG;
+//! hello nonces are SHA-256(entropy ‖ counter).
+//!
+//! Why the frames are built in `poll` and not in `advance`: a frame's
+//! bytes (its heartbeat's uptime) and the link's timers depend on when it
+//! is sent, and a shell may run the timers at one time and send at a later
+//! one (the replay's separate timeout and transmit records); built when
+//! polled, it carries the time it leaves at, as it always has.
 //!
 //! Per control period: tone isolation (the other robots' tones per
 //! microphone, [`crate::acoustic::tones`]) → V_ave and the gradient
@@ -44,10 +55,9 @@ use crate::acoustic::{Frame, FRAME_LEN};
 use crate::point::Mode;
 use bycoms_protocol::link::{
     DropCounters, DropReason, Health, LinkKey, Payload, RobotEvent, RobotLink, RobotState, Telemetry,
-    NONCE_LEN,
+    MAX_FRAME_LEN, NONCE_LEN,
 };
-use bycoms_protocol::RobotId;
-use core::time::Duration;
+use bycoms_protocol::{Micros, RobotId, SansIo};
 use sha2::{Digest, Sha256};
 
 /// Microphones on the robot (the paper's ring).
@@ -58,7 +68,8 @@ pub const MICS: usize = 6;
 pub type MicFrames = [Frame; MICS];
 
 /// Everything the firmware is configured with; [`FirmwareConfig::paper`]
-/// gives the paper robot's values.
+/// gives the paper robot's values. Its spans are [`Micros`], the core's
+/// one time unit (plain `u64` sums on a chip without 64-bit division).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FirmwareConfig<const K: usize> {
     /// This robot's id.
@@ -77,14 +88,14 @@ pub struct FirmwareConfig<const K: usize> {
     pub adc_full_scale: u16,
     /// Below this battery voltage (mV) the low-battery flag is set.
     pub low_battery_mv: u16,
-    /// No valid Enable/Goal for this long → motors off.
-    pub failsafe: Duration,
-    /// Send a heartbeat when nothing was sent for this long.
-    pub heartbeat: Duration,
-    /// Repeat an unanswered hello after this long.
-    pub hello_retry: Duration,
-    /// Start a new session after this long without a valid gateway frame.
-    pub relink_after: Duration,
+    /// No valid Enable/Goal for this long (µs) → motors off.
+    pub failsafe: Micros,
+    /// Send a heartbeat when nothing was sent for this long (µs).
+    pub heartbeat: Micros,
+    /// Repeat an unanswered hello after this long (µs).
+    pub hello_retry: Micros,
+    /// Start a new session after this long (µs) without a valid gateway frame.
+    pub relink_after: Micros,
 }
 
 impl<const K: usize> FirmwareConfig<K> {
@@ -104,10 +115,10 @@ impl<const K: usize> FirmwareConfig<K> {
             drive: DriveConfig { voltage_limit: Some(255.0), ..DriveConfig::paper(120.0) },
             adc_full_scale: ADC_MAX,
             low_battery_mv: 4700,
-            failsafe: Duration::from_millis(500),
-            heartbeat: Duration::from_millis(100),
-            hello_retry: Duration::from_millis(250),
-            relink_after: Duration::from_millis(1000),
+            failsafe: 500_000,
+            heartbeat: 100_000,
+            hello_retry: 250_000,
+            relink_after: 1_000_000,
         }
     }
 }
@@ -120,6 +131,22 @@ pub struct Motors {
     /// Right track.
     pub right: f64,
 }
+
+/// What the firmware core takes in ([`SansIo::handle`]), borrowed from the
+/// shell's buffers.
+#[derive(Clone, Copy, Debug)]
+pub enum FirmwareInput<'a> {
+    /// One received datagram, from any sender: a refused one changes
+    /// nothing but a counter.
+    Datagram(&'a [u8]),
+    /// One control period: a frame of samples per microphone.
+    Mics(&'a MicFrames),
+}
+
+/// What [`SansIo::handle`] says at once: an accepted datagram's event
+/// (`Ok(Some(_))`), a refused one's reason (`Err`, counted, never acted
+/// on; the shells log it), or `Ok(None)` for a microphone frame set.
+pub type Handled = Result<Option<RobotEvent>, DropReason>;
 
 /// The robot's firmware core. `K` is the number of other tones it listens for.
 #[derive(Clone, Debug)]
@@ -134,12 +161,16 @@ pub struct Firmware<const K: usize> {
     deployed: bool,
     stopped: bool,
     goal: Option<f32>,
-    last_command: Option<Duration>,
-    last_rx: Option<Duration>,
-    last_tx: Option<Duration>,
-    hello: Option<([u8; NONCE_LEN], Duration)>,
+    last_command: Option<Micros>,
+    last_rx: Option<Micros>,
+    last_tx: Option<Micros>,
+    hello: Option<([u8; NONCE_LEN], Micros)>,
     /// The latest `now` seen (time never runs backwards here).
-    now: Duration,
+    now: Micros,
+    /// The `now` of the latest `handle` or `advance`: what `poll` sends at.
+    at: Micros,
+    /// The frame `poll` hands out.
+    tx: [u8; MAX_FRAME_LEN],
     motors: Motors,
     step: u32,
     telemetry: Option<Telemetry>,
@@ -167,7 +198,9 @@ impl<const K: usize> Firmware<K> {
             last_rx: None,
             last_tx: None,
             hello: None,
-            now: Duration::ZERO,
+            now: 0,
+            at: 0,
+            tx: [0; MAX_FRAME_LEN],
             motors: Motors::default(),
             step: 0,
             telemetry: None,
@@ -232,8 +265,8 @@ impl<const K: usize> Firmware<K> {
     }
 
     /// One received datagram. A refused one changes nothing but a counter.
-    pub fn handle_datagram(&mut self, bytes: &[u8], now: Duration) -> Result<RobotEvent, DropReason> {
-        self.handle_timeout(now);
+    fn datagram(&mut self, bytes: &[u8], now: Micros) -> Result<RobotEvent, DropReason> {
+        self.timers(now);
         let event = self.link.receive(bytes)?;
         self.last_rx = Some(now);
         match event {
@@ -263,9 +296,9 @@ impl<const K: usize> Firmware<K> {
         Ok(event)
     }
 
-    /// Applies the failsafe and the relink timer; call when
-    /// [`Firmware::poll_timeout`] is due (calling more often is harmless).
-    pub fn handle_timeout(&mut self, now: Duration) {
+    /// Applies the failsafe and the relink timer at `now` (calling more
+    /// often than [`SansIo::deadline`] asks is harmless).
+    fn timers(&mut self, now: Micros) {
         self.now = self.now.max(now);
         self.apply_failsafe();
         let silent = match self.last_rx {
@@ -273,7 +306,7 @@ impl<const K: usize> Firmware<K> {
             None => false,
         };
         if self.connected() && silent {
-            // Forget the session; `poll_transmit` starts a new hello.
+            // Forget the session; `poll` starts a new hello.
             self.hello = None;
             self.link.leave();
         }
@@ -286,28 +319,11 @@ impl<const K: usize> Firmware<K> {
         }
     }
 
-    /// The earliest time at which [`Firmware::handle_timeout`] or
-    /// [`Firmware::poll_transmit`] has something to do.
-    pub fn poll_timeout(&self) -> Option<Duration> {
-        let failsafe = match self.last_command {
-            Some(at) if self.state() == RobotState::Driving => Some(at + self.config.failsafe),
-            _ => None,
-        };
-        let link = if self.connected() {
-            let heartbeat = self.last_tx.map(|t| t + self.config.heartbeat);
-            let relink = self.last_rx.map(|t| t + self.config.relink_after);
-            min(heartbeat, relink)
-        } else {
-            Some(self.hello.map_or(Duration::ZERO, |(_, at)| at + self.config.hello_retry))
-        };
-        min(failsafe, link)
-    }
-
     /// One control period: isolates the tones in each microphone's frame,
     /// estimates V_ave and the gradient, runs the drive law if allowed and
     /// queues telemetry.
-    pub fn handle_mics(&mut self, frames: &MicFrames, now: Duration) {
-        self.handle_timeout(now);
+    fn mics(&mut self, frames: &MicFrames, now: Micros) {
+        self.timers(now);
         let full = self.config.adc_full_scale;
         self.clipping = frames.iter().flatten().any(|&s| s == 0 || s >= full);
         let v: [f64; MICS] = core::array::from_fn(|n| self.isolator.amplitude(&frames[n]));
@@ -349,12 +365,12 @@ impl<const K: usize> Firmware<K> {
         self.step = self.step.wrapping_add(1);
     }
 
-    /// The next link frame to send, if any: a hello while unconnected (every
-    /// [`FirmwareConfig::hello_retry`]), queued telemetry, or a heartbeat
-    /// when nothing was sent for [`FirmwareConfig::heartbeat`]. Call until
-    /// it returns `None`.
-    pub fn poll_transmit<'b>(&mut self, now: Duration, buf: &'b mut [u8]) -> Option<&'b [u8]> {
-        self.handle_timeout(now);
+    /// The next link frame to send at `now`, if any: a hello while
+    /// unconnected (every [`FirmwareConfig::hello_retry`]), queued
+    /// telemetry, or a heartbeat when nothing was sent for
+    /// [`FirmwareConfig::heartbeat`]. Built in the core's own buffer.
+    fn transmit(&mut self, now: Micros) -> Option<&[u8]> {
+        self.timers(now);
         if !self.connected() {
             let nonce = match self.hello {
                 Some((_, at)) if now < at + self.config.hello_retry => return None,
@@ -364,17 +380,17 @@ impl<const K: usize> Firmware<K> {
             self.hello = Some((nonce, now));
             self.telemetry = None;
             self.last_tx = Some(now);
-            return self.link.hello(nonce, buf).ok();
+            return self.link.hello(nonce, &mut self.tx).ok();
         }
         let payload = if let Some(t) = self.telemetry.take() {
             Payload::Telemetry(t)
         } else if self.last_tx.is_none_or(|t| now >= t + self.config.heartbeat) {
-            Payload::RobotHeartbeat { uptime_ms: now.as_millis() as u32 }
+            Payload::RobotHeartbeat { uptime_ms: (now / 1000) as u32 }
         } else {
             return None;
         };
         self.last_tx = Some(now);
-        self.link.send(payload, buf).ok()
+        self.link.send(payload, &mut self.tx).ok()
     }
 
     fn fresh_nonce(&mut self) -> [u8; NONCE_LEN] {
@@ -387,7 +403,62 @@ impl<const K: usize> Firmware<K> {
     }
 }
 
-fn min(a: Option<Duration>, b: Option<Duration>) -> Option<Duration> {
+/// The firmware's shape: see the module docs.
+impl<const K: usize> SansIo for Firmware<K> {
+    type Input<'a> = FirmwareInput<'a>;
+    type Handled = Handled;
+    type Output<'a>
+        = &'a [u8]
+    where
+        Self: 'a;
+
+    /// A datagram or a control period's microphone frames at `now`; the
+    /// frames it makes due (telemetry) go out by [`SansIo::poll`].
+    fn handle(&mut self, now: Micros, input: FirmwareInput<'_>) -> Handled {
+        self.at = now;
+        match input {
+            FirmwareInput::Datagram(bytes) => self.datagram(bytes, now).map(Some),
+            FirmwareInput::Mics(frames) => {
+                self.mics(frames, now);
+                Ok(None)
+            }
+        }
+    }
+
+    /// The failsafe and the relink timer at `now`, which becomes the time
+    /// the frames polled next are sent at.
+    fn advance(&mut self, now: Micros) {
+        self.at = now;
+        self.timers(now);
+    }
+
+    /// The next frame due at the time of the latest `handle` or `advance`
+    /// (a hello, telemetry, a heartbeat), in the core's own buffer; call
+    /// until `None`.
+    fn poll(&mut self) -> Option<&[u8]> {
+        self.transmit(self.at)
+    }
+
+    /// The earliest time at which [`SansIo::advance`] (the failsafe, the
+    /// relink timer) or [`SansIo::poll`] (a hello or heartbeat) has
+    /// something to do.
+    fn deadline(&self) -> Option<Micros> {
+        let failsafe = match self.last_command {
+            Some(at) if self.state() == RobotState::Driving => Some(at + self.config.failsafe),
+            _ => None,
+        };
+        let link = if self.connected() {
+            let heartbeat = self.last_tx.map(|t| t + self.config.heartbeat);
+            let relink = self.last_rx.map(|t| t + self.config.relink_after);
+            min(heartbeat, relink)
+        } else {
+            Some(self.hello.map_or(0, |(_, at)| at + self.config.hello_retry))
+        };
+        min(failsafe, link)
+    }
+}
+
+fn min(a: Option<Micros>, b: Option<Micros>) -> Option<Micros> {
     match (a, b) {
         (Some(a), Some(b)) => Some(a.min(b)),
         (a, b) => a.or(b),

@@ -8,8 +8,19 @@ use core::f64::consts::TAU;
 const ROBOT: RobotId = RobotId(2);
 const KEY: [u8; 32] = [0x42; 32];
 
-fn ms(t: u64) -> Duration {
-    Duration::from_millis(t)
+fn ms(t: u64) -> Micros {
+    t * 1000
+}
+
+/// What the firmware sends first at `now` (one `poll` after `advance`).
+fn send_at(fw: &mut Firmware<2>, now: Micros) -> Option<Vec<u8>> {
+    fw.advance(now);
+    fw.poll().map(<[u8]>::to_vec)
+}
+
+/// One datagram into the firmware at `now`: its event or refusal.
+fn receive(fw: &mut Firmware<2>, bytes: &[u8], now: Micros) -> Handled {
+    fw.handle(now, FirmwareInput::Datagram(bytes))
 }
 
 /// One microphone frame: ADC mid-scale plus sines (Hz, amplitude in
@@ -46,9 +57,10 @@ impl Rig {
     }
 
     /// Everything the firmware wants to send at `now`, delivered to the gateway.
-    fn robot_to_gateway(&mut self, now: Duration) -> Vec<GatewayEvent> {
+    fn robot_to_gateway(&mut self, now: Micros) -> Vec<GatewayEvent> {
         let mut events = vec![];
-        while let Some(frame) = self.fw.poll_transmit(now, &mut self.buf) {
+        self.fw.advance(now);
+        while let Some(frame) = self.fw.poll() {
             let frame = frame.to_vec();
             if let Ok(accepted) = self.gw.receive(&frame) {
                 events.push(accepted.event);
@@ -57,11 +69,11 @@ impl Rig {
         events
     }
 
-    fn connect(&mut self, now: Duration) {
+    fn connect(&mut self, now: Micros) {
         let events = self.robot_to_gateway(now);
         let Some(GatewayEvent::Hello(nonce)) = events.first().copied() else { panic!("{events:?}") };
         let welcome = self.gw.welcome(nonce, SessionId(99), &mut self.buf).unwrap().to_vec();
-        assert!(matches!(self.fw.handle_datagram(&welcome, now), Ok(RobotEvent::Connected(_))));
+        assert!(matches!(receive(&mut self.fw, &welcome, now), Ok(Some(RobotEvent::Connected(_)))));
         self.robot_to_gateway(now + ms(100)); // the first frame in session confirms it
         assert_eq!(self.gw.session(), Some(SessionId(99)));
     }
@@ -71,15 +83,15 @@ impl Rig {
         self.gw.send(payload, &mut self.buf).unwrap().to_vec()
     }
 
-    fn deliver(&mut self, payload: Payload, now: Duration) -> Vec<u8> {
+    fn deliver(&mut self, payload: Payload, now: Micros) -> Vec<u8> {
         let bytes = self.command(payload);
-        self.fw.handle_datagram(&bytes, now).unwrap();
+        receive(&mut self.fw, &bytes, now).unwrap();
         bytes
     }
 
-    fn control(&mut self, now: Duration, mean: f64, slope: f64, towards: f64) {
+    fn control(&mut self, now: Micros, mean: f64, slope: f64, towards: f64) {
         let frames = mics(mean, slope, towards);
-        self.fw.handle_mics(&frames, now);
+        assert_eq!(self.fw.handle(now, FirmwareInput::Mics(&frames)), Ok(None));
     }
 }
 
@@ -87,14 +99,14 @@ impl Rig {
 fn hello_is_repeated_until_welcomed_then_telemetry_flows() {
     let mut rig = Rig::new();
     let mut b = [0u8; MAX_FRAME_LEN];
-    let first = rig.fw.poll_transmit(ms(0), &mut b).unwrap().to_vec();
-    assert!(rig.fw.poll_transmit(ms(100), &mut b).is_none(), "retry not yet due");
-    assert_eq!(rig.fw.poll_timeout(), Some(ms(250)));
-    let again = rig.fw.poll_transmit(ms(250), &mut b).unwrap().to_vec();
+    let first = send_at(&mut rig.fw, ms(0)).unwrap();
+    assert!(send_at(&mut rig.fw, ms(100)).is_none(), "retry not yet due");
+    assert_eq!(rig.fw.deadline(), Some(ms(250)));
+    let again = send_at(&mut rig.fw, ms(250)).unwrap();
     assert_eq!(first, again, "the same hello (same nonce) until answered");
     let GatewayEvent::Hello(nonce) = rig.gw.receive(&again).unwrap().event else { panic!("hello expected") };
     let welcome = rig.gw.welcome(nonce, SessionId(1), &mut b).unwrap().to_vec();
-    assert_eq!(rig.fw.handle_datagram(&welcome, ms(300)), Ok(RobotEvent::Connected(SessionId(1))));
+    assert_eq!(receive(&mut rig.fw, &welcome, ms(300)), Ok(Some(RobotEvent::Connected(SessionId(1)))));
     rig.control(ms(500), 50.0, 0.0, 0.0);
     let events = rig.robot_to_gateway(ms(500));
     let [GatewayEvent::Telemetry(t)] = events[..] else { panic!("{events:?}") };
@@ -129,14 +141,14 @@ fn failsafe_turns_the_motors_off_500_ms_after_the_last_valid_command() {
     rig.control(ms(200), 40.0, 0.0, 0.0);
     assert_eq!(rig.fw.motors(), Motors { left: 120.0, right: 120.0 });
     for t in [200, 300, 400, 500] {
-        assert_eq!(rig.fw.poll_timeout(), Some(ms(t)), "heartbeat (or telemetry) due");
+        assert_eq!(rig.fw.deadline(), Some(ms(t)), "heartbeat (or telemetry) due");
         rig.robot_to_gateway(ms(t));
     }
-    assert_eq!(rig.fw.poll_timeout(), Some(ms(600)), "the failsafe deadline (and a heartbeat)");
-    rig.fw.handle_timeout(ms(599));
+    assert_eq!(rig.fw.deadline(), Some(ms(600)), "the failsafe deadline (and a heartbeat)");
+    rig.fw.advance(ms(599));
     assert_eq!(rig.fw.state(), RobotState::Driving);
     assert_ne!(rig.fw.motors(), Motors::default());
-    rig.fw.handle_timeout(ms(600));
+    rig.fw.advance(ms(600));
     assert_eq!(rig.fw.state(), RobotState::Failsafe);
     assert_eq!(rig.fw.motors(), Motors::default());
     rig.control(ms(700), 40.0, 0.0, 0.0);
@@ -144,7 +156,7 @@ fn failsafe_turns_the_motors_off_500_ms_after_the_last_valid_command() {
     assert_eq!(rig.fw.last_telemetry().map(|t| t.state), Some(RobotState::Failsafe));
     // Heartbeats are not commands; a fresh goal is.
     let hb = rig.command(Payload::GatewayHeartbeat { uptime_ms: 1 });
-    rig.fw.handle_datagram(&hb, ms(750)).unwrap();
+    receive(&mut rig.fw, &hb, ms(750)).unwrap();
     rig.control(ms(800), 40.0, 0.0, 0.0);
     assert_eq!(rig.fw.motors(), Motors::default());
     rig.deliver(Payload::Goal { bearing: 0.0 }, ms(850));
@@ -180,16 +192,16 @@ fn replayed_and_forged_commands_never_move_the_robot() {
     let goal = rig.deliver(Payload::Goal { bearing: 0.0 }, ms(100));
     rig.deliver(Payload::Stop, ms(200));
     // A sniffer replays the captured enable and goal.
-    assert_eq!(rig.fw.handle_datagram(&enable, ms(300)), Err(DropReason::Replayed));
-    assert_eq!(rig.fw.handle_datagram(&goal, ms(300)), Err(DropReason::Replayed));
+    assert_eq!(receive(&mut rig.fw, &enable, ms(300)), Err(DropReason::Replayed));
+    assert_eq!(receive(&mut rig.fw, &goal, ms(300)), Err(DropReason::Replayed));
     // A forger without the key, and a frame for another robot.
     let mut forged = rig.command(Payload::Enable);
     forged[20 - 2] ^= 1;
-    assert_eq!(rig.fw.handle_datagram(&forged, ms(300)), Err(DropReason::BadTag));
+    assert_eq!(receive(&mut rig.fw, &forged, ms(300)), Err(DropReason::BadTag));
     let mut foreign = enable.clone();
     foreign[2] = 3;
-    assert_eq!(rig.fw.handle_datagram(&foreign, ms(300)), Err(DropReason::ForeignRobot));
-    assert_eq!(rig.fw.handle_datagram(b"garbage", ms(300)), Err(DropReason::Truncated));
+    assert_eq!(receive(&mut rig.fw, &foreign, ms(300)), Err(DropReason::ForeignRobot));
+    assert_eq!(receive(&mut rig.fw, b"garbage", ms(300)), Err(DropReason::Truncated));
     rig.control(ms(350), 40.0, 0.0, 0.0);
     assert_eq!(rig.fw.motors(), Motors::default());
     assert_eq!(rig.fw.state(), RobotState::Stopped);
@@ -207,17 +219,17 @@ fn a_silent_link_is_left_and_a_new_session_starts_disabled() {
     let old = rig.command(Payload::Goal { bearing: 0.0 });
     // The gateway goes silent; heartbeats keep going out, no frames come in.
     for t in (200..1100).step_by(100) {
-        rig.fw.poll_transmit(ms(t), &mut b);
+        send_at(&mut rig.fw, ms(t));
     }
     assert!(rig.fw.connected());
-    let hello = rig.fw.poll_transmit(ms(1100), &mut b).unwrap().to_vec();
+    let hello = send_at(&mut rig.fw, ms(1100)).unwrap();
     assert!(!rig.fw.connected());
     assert_eq!(hello[1], 0x01, "a hello");
-    assert_eq!(rig.fw.handle_datagram(&old, ms(1150)), Err(DropReason::NoSession));
+    assert_eq!(receive(&mut rig.fw, &old, ms(1150)), Err(DropReason::NoSession));
     let accepted = rig.gw.receive(&hello).unwrap();
     let GatewayEvent::Hello(nonce) = accepted.event else { panic!() };
     let welcome = rig.gw.welcome(nonce, SessionId(100), &mut b).unwrap().to_vec();
-    assert_eq!(rig.fw.handle_datagram(&welcome, ms(1200)), Ok(RobotEvent::Connected(SessionId(100))));
+    assert_eq!(receive(&mut rig.fw, &welcome, ms(1200)), Ok(Some(RobotEvent::Connected(SessionId(100)))));
     assert_eq!(rig.fw.state(), RobotState::Idle, "a new session must be enabled again");
 }
 
@@ -251,7 +263,7 @@ fn health_flags_report_clipping_and_low_battery() {
     rig.fw.set_battery(4500);
     let mut frames = mics(40.0, 0.0, 0.0);
     frames[3][10] = 4095;
-    rig.fw.handle_mics(&frames, ms(10));
+    rig.fw.handle(ms(10), FirmwareInput::Mics(&frames)).unwrap();
     let h = rig.fw.last_telemetry().unwrap().health.0;
     assert_eq!(h, Health::LOW_BATTERY | Health::MIC_CLIPPING);
 }
@@ -261,7 +273,7 @@ fn nonces_differ_across_boots_and_attempts() {
     let config = FirmwareConfig::paper(ROBOT, 320.0, [224.0, 512.0]);
     let hello_nonce = |entropy: [u8; 32]| {
         let mut fw = Firmware::new(config, LinkKey::new(&KEY), entropy).unwrap();
-        fw.poll_transmit(ms(0), &mut [0u8; MAX_FRAME_LEN]).unwrap()[18..34].to_vec()
+        send_at(&mut fw, ms(0)).unwrap()[18..34].to_vec()
     };
     assert_ne!(hello_nonce([1; 32]), hello_nonce([2; 32]));
     assert_eq!(hello_nonce([1; 32]), hello_nonce([1; 32]), "deterministic for a given entropy");
@@ -292,6 +304,6 @@ fn an_enable_goes_idle_to_driving_without_a_failsafe_in_between() {
     let mut rig = Rig::new();
     rig.connect(ms(0));
     rig.deliver(Payload::Enable, ms(100));
-    rig.fw.handle_timeout(ms(600));
+    rig.fw.advance(ms(600));
     assert_eq!(rig.fw.state(), RobotState::Failsafe);
 }

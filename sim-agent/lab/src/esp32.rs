@@ -6,10 +6,14 @@
 //! shell is the one `deploy/esp32/README.md` describes — datagrams in,
 //! microphone frames in, motors, tone and datagrams out — with the lab's
 //! clock as `now` instead of a hardware timer, so the lab can run faster
-//! than real time.
+//! than real time. The lab clock's time since the lab started is the
+//! firmware's time since boot (every robot boots with the lab), in the
+//! core's [`Micros`] by [`micros`], the one conversion the lab's shells
+//! make (the firmware recorder's too).
 
-use bycoms_agent::firmware::{Firmware, FirmwareConfig, MicFrames, Motors};
-use bycoms_protocol::link::{LinkKey, MAX_FRAME_LEN};
+use bycoms_agent::firmware::{Firmware, FirmwareConfig, FirmwareInput, MicFrames, Motors};
+use bycoms_protocol::link::LinkKey;
+use bycoms_protocol::{Micros, SansIo};
 use core::time::Duration;
 use std::io;
 use std::net::{SocketAddr, UdpSocket};
@@ -17,6 +21,13 @@ use std::net::{SocketAddr, UdpSocket};
 /// Other tones each emulated robot listens for (the lab's robots know the
 /// whole swarm's tones except their own; up to three robots).
 pub const LISTENED: usize = 2;
+
+/// The lab clock (time since the lab started) as the firmware's time since
+/// boot. The lab's clock moves in whole physics steps (5 ms), so nothing
+/// is rounded.
+pub fn micros(lab: Duration) -> Micros {
+    lab.as_micros() as Micros
+}
 
 /// One emulated robot's microcontroller.
 #[derive(Debug)]
@@ -72,12 +83,13 @@ impl EmulatedEsp32 {
 
     /// Takes every pending datagram, runs the timers, sends what is due.
     pub fn pump(&mut self, now: Duration) -> io::Result<()> {
+        let now = micros(now);
         let mut buf = [0u8; 512];
         loop {
             match self.socket.recv_from(&mut buf) {
                 Ok((n, _from)) => {
                     self.received += 1;
-                    if let Err(reason) = self.firmware.handle_datagram(&buf[..n], now) {
+                    if let Err(reason) = self.firmware.handle(now, FirmwareInput::Datagram(&buf[..n])) {
                         tracing::debug!(%reason, "emulated robot dropped a datagram");
                     }
                 }
@@ -87,19 +99,19 @@ impl EmulatedEsp32 {
                 Err(e) => return Err(e),
             }
         }
-        self.firmware.handle_timeout(now);
-        self.transmit(now)
+        self.firmware.advance(now);
+        self.transmit()
     }
 
     /// One control period's microphone frames.
     pub fn control(&mut self, frames: &MicFrames, now: Duration) -> io::Result<()> {
-        self.firmware.handle_mics(frames, now);
-        self.transmit(now)
+        let _ = self.firmware.handle(micros(now), FirmwareInput::Mics(frames));
+        self.transmit()
     }
 
-    fn transmit(&mut self, now: Duration) -> io::Result<()> {
-        let mut out = [0u8; MAX_FRAME_LEN];
-        while let Some(frame) = self.firmware.poll_transmit(now, &mut out) {
+    /// Sends what the firmware has to send at the time of its latest call.
+    fn transmit(&mut self) -> io::Result<()> {
+        while let Some(frame) = self.firmware.poll() {
             match self.socket.send_to(frame, self.gateway) {
                 Ok(_) => {}
                 // WiFi drops datagrams too; the link protocol copes.

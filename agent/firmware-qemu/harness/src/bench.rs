@@ -108,8 +108,8 @@ impl Stats {
 /// Reads the counters around every core call.
 pub struct CsrMeter {
     calls: [Stats; 4],
-    /// A control period's work: `handle_mics` and the `poll_transmit`
-    /// calls right after it (its telemetry frame).
+    /// A control period's work: `handle` of the microphone frames and the
+    /// `poll` calls right after it (its telemetry frame).
     periods: Stats,
     period: Option<(u64, u64)>,
     start: (u64, u64, usize),
@@ -152,10 +152,10 @@ impl CsrMeter {
         println!("bench: {tracks} firmware tracks, {} control periods", p.count);
         println!("bench: counters: minstret (instructions) and mcycle; under QEMU -icount shift=0 mcycle = minstret (1 instruction per cycle)");
         for (name, call) in [
-            ("handle_mics    ", Call::Mics),
-            ("poll_transmit  ", Call::Transmit),
-            ("handle_datagram", Call::Datagram),
-            ("handle_timeout ", Call::Timeout),
+            ("handle mics    ", Call::Mics),
+            ("poll           ", Call::Transmit),
+            ("handle datagram", Call::Datagram),
+            ("advance        ", Call::Timeout),
         ] {
             let s = self.calls[index(call)];
             let stack = (call != Call::Timeout).then_some(s.max_stack);
@@ -169,7 +169,7 @@ impl CsrMeter {
             );
         }
         println!(
-            "bench: control period (handle_mics + its telemetry frame): mean={} max={} instructions, max {} cycles",
+            "bench: control period (handle mics + its telemetry frame): mean={} max={} instructions, max {} cycles",
             p.mean(),
             p.max_instructions,
             p.max_cycles

@@ -1,4 +1,4 @@
-//! Where a control period's instructions go: the pieces of `handle_mics`
+//! Where a control period's instructions go: the pieces of `handle` (mics)
 //! measured alone on one recorded-like frame, and the price of single
 //! soft-float operations (riscv32imc has no FPU: every `f32`/`f64`
 //! operation is a call into compiler_builtins; tone isolation is integer

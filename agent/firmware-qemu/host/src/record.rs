@@ -6,8 +6,9 @@
 //! its scenario, its sound (`sample_frames`: 1/d, propagation delay, wall
 //! echoes, motor vibration, ADC noise), its crawler bodies, its 5 ms
 //! physics step and 125 ms control period, the shell calls of its
-//! `EmulatedEsp32` (datagrams, then `handle_timeout`, then transmit, every
-//! step; microphones, then transmit, every period) — with the link
+//! `EmulatedEsp32` (datagrams, then `advance`, then transmit, every
+//! step; microphones, then transmit, every period; its clock as the
+//! firmware's by the lab's `esp32::micros`) — with the link
 //! delivered in memory one step later, as the sockets do, and every call
 //! going through the shared shell so that it is recorded.
 //!
@@ -24,6 +25,7 @@ use bycoms_agent::acoustic::ADC_MAX;
 use bycoms_agent::angle::wrap;
 use bycoms_fw_replay::{tag, Boot, NoMeter, Shell, LISTENED, MAGIC, MIC_BYTES};
 use bycoms_lab::body::{arena_walls, Crawler, Obstacle};
+use bycoms_lab::esp32::micros;
 use bycoms_lab::scenario::{Point, Scenario};
 use bycoms_lab::sound::{mic_positions, sample_frames, Room, Speaker};
 use bycoms_protocol::link::{GatewayEvent, GatewayLink, LinkKey, Payload, SessionId};
@@ -83,7 +85,7 @@ impl Robot {
 
     fn record(&mut self, tag: u8, now: Duration) {
         self.records.push(tag);
-        self.records.extend_from_slice(&(now.as_micros() as u64).to_le_bytes());
+        self.records.extend_from_slice(&micros(now).to_le_bytes());
     }
 
     /// The gateway sends `payload` in the current session, if any.
@@ -102,17 +104,19 @@ impl Robot {
             self.record(tag::DATAGRAM, now);
             self.records.extend_from_slice(&(d.len() as u16).to_le_bytes());
             self.records.extend_from_slice(&d);
-            self.shell.datagram(&d, now, &mut NoMeter, &mut self.live).expect("live datagram");
+            self.shell.datagram(&d, micros(now), &mut NoMeter, &mut self.live).expect("live datagram");
         }
         self.record(tag::TIMEOUT, now);
-        self.shell.timeout(now, &mut NoMeter, &mut self.live).expect("live timeout");
+        self.shell.timeout(micros(now), &mut NoMeter, &mut self.live).expect("live timeout");
         self.transmit(now)
     }
 
     fn transmit(&mut self, now: Duration) -> bool {
         self.record(tag::TRANSMIT, now);
         let mut sent = vec![];
-        self.shell.transmit(now, &mut NoMeter, &mut self.live, |f| sent.push(f.to_vec())).expect("live tx");
+        self.shell
+            .transmit(micros(now), &mut NoMeter, &mut self.live, |f| sent.push(f.to_vec()))
+            .expect("live tx");
         let mut started = false;
         for frame in sent {
             let Ok(accepted) = self.link.receive(&frame) else { continue };
@@ -130,7 +134,7 @@ impl Robot {
     fn control(&mut self, samples: &[u8; MIC_BYTES], now: Duration) -> bool {
         self.record(tag::MICS, now);
         self.records.extend_from_slice(samples);
-        self.shell.mics(samples, now, &mut NoMeter, &mut self.live).expect("live mics");
+        self.shell.mics(samples, micros(now), &mut NoMeter, &mut self.live).expect("live mics");
         self.transmit(now)
     }
 

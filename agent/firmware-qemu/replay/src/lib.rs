@@ -33,11 +33,10 @@
 #![no_std]
 
 use bycoms_agent::acoustic::FRAME_LEN;
-use bycoms_agent::firmware::{Firmware, FirmwareConfig, MicFrames, Motors, MICS};
-use bycoms_protocol::link::{LinkKey, RobotState, MAX_FRAME_LEN};
-use bycoms_protocol::RobotId;
+use bycoms_agent::firmware::{Firmware, FirmwareConfig, FirmwareInput, MicFrames, Motors, MICS};
+use bycoms_protocol::link::{LinkKey, RobotState};
+use bycoms_protocol::{Micros, RobotId, SansIo};
 use core::fmt::{self, Write};
-use core::time::Duration;
 
 /// First bytes of an input file (format version 1).
 pub const MAGIC: [u8; 8] = *b"BYCFWIN1";
@@ -65,9 +64,9 @@ pub mod tag {
     pub const DATAGRAM: u8 = 2;
     /// One control period's microphone frames.
     pub const MICS: u8 = 3;
-    /// `handle_timeout`.
+    /// `advance`.
     pub const TIMEOUT: u8 = 4;
-    /// `poll_transmit` until it returns `None`.
+    /// `advance`, then `poll` until it returns `None`.
     pub const TRANSMIT: u8 = 5;
     /// `set_battery`.
     pub const BATTERY: u8 = 6;
@@ -188,13 +187,15 @@ impl Source for &[u8] {
 /// Which core call a measurement is about.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Call {
-    /// `handle_datagram`.
+    /// `handle` of a datagram.
     Datagram,
-    /// `handle_mics`: one control period (six frames' tone isolation, the gradient, the drive law).
+    /// `handle` of microphone frames: one control period (six frames' tone isolation, the gradient, the drive law).
     Mics,
-    /// `handle_timeout`.
+    /// `advance` (a timeout record).
     Timeout,
-    /// One `poll_transmit` (a frame with its HMAC-SHA256 tag, or nothing due).
+    /// One `poll` (a frame with its HMAC-SHA256 tag, or nothing due; the
+    /// transmit record's `advance` before the first is not measured: each
+    /// `poll` runs the timers again).
     Transmit,
 }
 
@@ -223,7 +224,7 @@ struct Status {
     motors: Motors,
     tone: Option<f64>,
     connected: bool,
-    next: Option<Duration>,
+    next: Option<Micros>,
     drops: u32,
 }
 
@@ -233,7 +234,6 @@ struct Status {
 pub struct Shell {
     fw: Option<Core>,
     frames: MicFrames,
-    buf: [u8; MAX_FRAME_LEN],
     status: Option<Status>,
     /// Tracks booted so far.
     pub tracks: u32,
@@ -248,7 +248,7 @@ impl Default for Shell {
 impl Shell {
     /// No firmware yet: the first record must be a boot.
     pub const fn new() -> Self {
-        Self { fw: None, frames: [[0; FRAME_LEN]; MICS], buf: [0; MAX_FRAME_LEN], status: None, tracks: 0 }
+        Self { fw: None, frames: [[0; FRAME_LEN]; MICS], status: None, tracks: 0 }
     }
 
     /// The running firmware.
@@ -272,34 +272,36 @@ impl Shell {
             "boot robot={} tone={:?} others={:?} rate={:?} gain={:?}",
             boot.robot, boot.own_tone, boot.other_tones, boot.sample_rate, boot.gain
         )?;
-        self.print_status(Duration::ZERO, out)
+        self.print_status(0, out)
     }
 
     /// One received datagram.
     pub fn datagram(
         &mut self,
         bytes: &[u8],
-        now: Duration,
+        now: Micros,
         meter: &mut impl Meter,
         out: &mut impl Write,
     ) -> Result<(), Error> {
         let fw = self.core()?;
         meter.start(Call::Datagram);
-        let result = fw.handle_datagram(bytes, now);
+        let result = fw.handle(now, FirmwareInput::Datagram(bytes));
         meter.stop(Call::Datagram);
-        write!(out, "t={} rx {}B -> ", now.as_micros(), bytes.len())?;
+        write!(out, "t={now} rx {}B -> ", bytes.len())?;
         match result {
-            Ok(event) => writeln!(out, "{event:?}")?,
+            Ok(Some(event)) => writeln!(out, "{event:?}")?,
+            // A datagram always has an event or a reason.
+            Ok(None) => writeln!(out, "no event")?,
             Err(reason) => writeln!(out, "drop {reason:?}")?,
         }
         self.print_status(now, out)
     }
 
-    /// One control period: ADC samples → the core's frames → `handle_mics`.
+    /// One control period: ADC samples → the core's frames → `handle`.
     pub fn mics(
         &mut self,
         samples: &[u8; MIC_BYTES],
-        now: Duration,
+        now: Micros,
         meter: &mut impl Meter,
         out: &mut impl Write,
     ) -> Result<(), Error> {
@@ -311,10 +313,11 @@ impl Shell {
         }
         let fw = self.fw.as_mut().ok_or(Error::NoFirmware)?;
         meter.start(Call::Mics);
-        fw.handle_mics(&self.frames, now);
+        // Microphone frames are never refused: nothing to say at once.
+        let _ = fw.handle(now, FirmwareInput::Mics(&self.frames));
         meter.stop(Call::Mics);
         let m = fw.motors();
-        write!(out, "t={} mics motors={:?},{:?} ", now.as_micros(), m.left, m.right)?;
+        write!(out, "t={now} mics motors={:?},{:?} ", m.left, m.right)?;
         match fw.last_telemetry() {
             Some(t) => writeln!(out, "{t:?}")?,
             None => writeln!(out, "no telemetry")?,
@@ -322,35 +325,36 @@ impl Shell {
         self.print_status(now, out)
     }
 
-    /// `handle_timeout`.
+    /// `advance`.
     pub fn timeout(
         &mut self,
-        now: Duration,
+        now: Micros,
         meter: &mut impl Meter,
         out: &mut impl Write,
     ) -> Result<(), Error> {
         let fw = self.core()?;
         meter.start(Call::Timeout);
-        fw.handle_timeout(now);
+        fw.advance(now);
         meter.stop(Call::Timeout);
         self.print_status(now, out)
     }
 
-    /// `poll_transmit` until nothing is due; `sent` gets every frame.
+    /// `advance`, then `poll` until nothing is due; `sent` gets every frame.
     pub fn transmit(
         &mut self,
-        now: Duration,
+        now: Micros,
         meter: &mut impl Meter,
         out: &mut impl Write,
         mut sent: impl FnMut(&[u8]),
     ) -> Result<(), Error> {
         let fw = self.fw.as_mut().ok_or(Error::NoFirmware)?;
+        fw.advance(now);
         loop {
             meter.start(Call::Transmit);
-            let frame = fw.poll_transmit(now, &mut self.buf);
+            let frame = fw.poll();
             meter.stop(Call::Transmit);
             let Some(frame) = frame else { break };
-            write!(out, "t={} tx ", now.as_micros())?;
+            write!(out, "t={now} tx ")?;
             for b in frame.iter() {
                 write!(out, "{b:02x}")?;
             }
@@ -367,28 +371,27 @@ impl Shell {
         Ok(())
     }
 
-    fn print_status(&mut self, now: Duration, out: &mut impl Write) -> Result<(), Error> {
+    fn print_status(&mut self, now: Micros, out: &mut impl Write) -> Result<(), Error> {
         let Some(fw) = self.fw.as_ref() else { return Ok(()) };
         let status = Status {
             state: fw.state(),
             motors: fw.motors(),
             tone: fw.tone(),
             connected: fw.connected(),
-            next: fw.poll_timeout(),
+            next: fw.deadline(),
             drops: fw.drops().total(),
         };
         if self.status != Some(status) {
             self.status = Some(status);
             writeln!(
                 out,
-                "t={} status {:?} motors={:?},{:?} tone={:?} connected={} next={:?} drops={}",
-                now.as_micros(),
+                "t={now} status {:?} motors={:?},{:?} tone={:?} connected={} next={:?} drops={}",
                 status.state,
                 status.motors.left,
                 status.motors.right,
                 status.tone,
                 status.connected,
-                status.next.map(|d| d.as_micros()),
+                status.next,
                 status.drops
             )?;
         }
@@ -428,7 +431,7 @@ impl Shell {
                 tag @ (tag::DATAGRAM | tag::MICS | tag::TIMEOUT | tag::TRANSMIT) => {
                     let mut b = [0u8; 8];
                     input.read_exact(&mut b)?;
-                    let now = Duration::from_micros(u64::from_le_bytes(b));
+                    let now: Micros = u64::from_le_bytes(b);
                     match tag {
                         tag::DATAGRAM => {
                             let mut len = [0u8; 2];

@@ -23,9 +23,9 @@
 //! never had its pose.
 
 use bycoms_agent::acoustic::{Frame, FRAME_LEN};
-use bycoms_agent::firmware::{Firmware, FirmwareConfig};
+use bycoms_agent::firmware::{Firmware, FirmwareConfig, FirmwareInput};
 use bycoms_agent::gateway::{Datagram, GatewayCore, GatewaySession, Input, Output, Session, Timers};
-use bycoms_protocol::link::{LinkKey, RobotEvent, RobotState, MAX_FRAME_LEN};
+use bycoms_protocol::link::{LinkKey, RobotEvent, RobotState};
 use bycoms_protocol::msg::{FromAgent, Pose, ToAgent};
 use bycoms_protocol::{RobotId, SansIo};
 use bycoms_runtime::failsafe::Failsafe;
@@ -167,7 +167,7 @@ impl RealRobot {
             (true, true) => self.session.deadline(),
             (false, _) => None,
         };
-        let firmware = self.firmware.poll_timeout().map(|d| d.as_micros() as u64);
+        let firmware = self.firmware.deadline();
         let datagram = self.in_flight.front().map(|d| d.0);
         [gateway, firmware, datagram, Some(self.next_period)].into_iter().flatten().min().unwrap_or(u64::MAX)
     }
@@ -191,14 +191,14 @@ impl RealRobot {
         if now >= self.next_period {
             self.period(now, terrain);
         }
-        self.firmware.handle_timeout(Duration::from_micros(now));
+        self.firmware.advance(now);
         self.flush(now, out);
     }
 
     fn datagram(&mut self, now: u64, to_robot: bool, bytes: &[u8]) {
         if to_robot {
-            let event = self.firmware.handle_datagram(bytes, Duration::from_micros(now));
-            if matches!(event, Ok(RobotEvent::Goal(_))) && !self.posed {
+            let event = self.firmware.handle(now, FirmwareInput::Datagram(bytes));
+            if matches!(event, Ok(Some(RobotEvent::Goal(_)))) && !self.posed {
                 self.violations
                     .push(format!("robot {}: a goal at {now} µs, its gateway had no pose", self.id));
             }
@@ -211,7 +211,7 @@ impl RealRobot {
     fn period(&mut self, now: u64, terrain: &Terrain) {
         self.next_period = now + CONTROL_US;
         let quiet: Frame = [2048; FRAME_LEN];
-        self.firmware.handle_mics(&[quiet; 6], Duration::from_micros(now));
+        let _ = self.firmware.handle(now, FirmwareInput::Mics(&[quiet; 6]));
         let m = self.firmware.motors();
         let dt = CONTROL_US as f64 / 1e6;
         let (v, w) =
@@ -251,9 +251,10 @@ impl RealRobot {
 
     /// Sends what the firmware and the gateway queued.
     fn flush(&mut self, now: u64, out: &mut Vec<FromAgent>) {
-        let mut buf = [0u8; MAX_FRAME_LEN];
-        while let Some(frame) = self.firmware.poll_transmit(Duration::from_micros(now), &mut buf) {
-            if !self.cut(now) {
+        let cut = self.cut(now);
+        self.firmware.advance(now);
+        while let Some(frame) = self.firmware.poll() {
+            if !cut {
                 self.in_flight.push_back((now + LINK_DELAY_US, false, frame.to_vec()));
             }
         }

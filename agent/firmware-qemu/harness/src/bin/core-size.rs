@@ -5,11 +5,10 @@
 #![no_std]
 #![no_main]
 
-use bycoms_agent::firmware::{Firmware, FirmwareConfig};
-use bycoms_protocol::link::{LinkKey, MAX_FRAME_LEN};
-use bycoms_protocol::RobotId;
+use bycoms_agent::firmware::{Firmware, FirmwareConfig, FirmwareInput};
+use bycoms_protocol::link::LinkKey;
+use bycoms_protocol::{RobotId, SansIo};
 use core::hint::black_box;
-use core::time::Duration;
 
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo) -> ! {
@@ -22,17 +21,16 @@ fn main() -> ! {
     let config = FirmwareConfig::paper(RobotId(black_box(1)), black_box(320.0), black_box([224.0, 512.0]));
     let Ok(mut fw) = Firmware::new(config, LinkKey::new(&key), key) else { loop {} };
     let frames = [[0u16; 512]; 6];
-    let mut buf = [0u8; MAX_FRAME_LEN];
     let rx = [0u8; 128];
     loop {
-        let now = Duration::from_micros(black_box(0));
-        let _ = black_box(fw.handle_datagram(&rx[..black_box(40)], now));
-        fw.handle_mics(black_box(&frames), now);
-        fw.handle_timeout(black_box(now));
-        if let Some(frame) = fw.poll_transmit(now, &mut buf) {
+        let now = black_box(0);
+        let _ = black_box(fw.handle(now, FirmwareInput::Datagram(&rx[..black_box(40)])));
+        let _ = black_box(fw.handle(now, FirmwareInput::Mics(black_box(&frames))));
+        fw.advance(black_box(now));
+        if let Some(frame) = fw.poll() {
             black_box(frame);
         }
         fw.set_battery(black_box(4000));
-        black_box((fw.motors(), fw.tone(), fw.poll_timeout(), fw.state(), fw.last_telemetry(), fw.drops()));
+        black_box((fw.motors(), fw.tone(), fw.deadline(), fw.state(), fw.last_telemetry(), fw.drops()));
     }
 }
