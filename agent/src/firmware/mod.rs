@@ -89,13 +89,13 @@ pub struct FirmwareConfig<const K: usize> {
     /// Below this battery voltage (mV) the low-battery flag is set.
     pub low_battery_mv: u16,
     /// No valid Enable/Goal for this long (µs) → motors off.
-    pub failsafe: Micros,
+    pub failsafe_us: Micros,
     /// Send a heartbeat when nothing was sent for this long (µs).
-    pub heartbeat: Micros,
+    pub heartbeat_us: Micros,
     /// Repeat an unanswered hello after this long (µs).
-    pub hello_retry: Micros,
+    pub hello_retry_us: Micros,
     /// Start a new session after this long (µs) without a valid gateway frame.
-    pub relink_after: Micros,
+    pub relink_after_us: Micros,
 }
 
 impl<const K: usize> FirmwareConfig<K> {
@@ -115,10 +115,10 @@ impl<const K: usize> FirmwareConfig<K> {
             drive: DriveConfig { voltage_limit: Some(255.0), ..DriveConfig::paper(120.0) },
             adc_full_scale: ADC_MAX,
             low_battery_mv: 4700,
-            failsafe: 500_000,
-            heartbeat: 100_000,
-            hello_retry: 250_000,
-            relink_after: 1_000_000,
+            failsafe_us: 500_000,
+            heartbeat_us: 100_000,
+            hello_retry_us: 250_000,
+            relink_after_us: 1_000_000,
         }
     }
 }
@@ -230,7 +230,7 @@ impl<const K: usize> Firmware<K> {
 
     /// A valid Enable/Goal arrived less than the failsafe time ago.
     fn command_fresh(&self) -> bool {
-        self.last_command.is_some_and(|at| self.now.saturating_sub(at) < self.config.failsafe)
+        self.last_command.is_some_and(|at| self.now.saturating_sub(at) < self.config.failsafe_us)
     }
 
     /// The motor commands to apply now.
@@ -302,7 +302,7 @@ impl<const K: usize> Firmware<K> {
         self.now = self.now.max(now);
         self.apply_failsafe();
         let silent = match self.last_rx {
-            Some(at) => now.saturating_sub(at) >= self.config.relink_after,
+            Some(at) => now.saturating_sub(at) >= self.config.relink_after_us,
             None => false,
         };
         if self.connected() && silent {
@@ -373,7 +373,7 @@ impl<const K: usize> Firmware<K> {
         self.timers(now);
         if !self.connected() {
             let nonce = match self.hello {
-                Some((_, at)) if now < at + self.config.hello_retry => return None,
+                Some((_, at)) if now < at + self.config.hello_retry_us => return None,
                 Some((nonce, _)) => nonce,
                 None => self.fresh_nonce(),
             };
@@ -384,7 +384,7 @@ impl<const K: usize> Firmware<K> {
         }
         let payload = if let Some(t) = self.telemetry.take() {
             Payload::Telemetry(t)
-        } else if self.last_tx.is_none_or(|t| now >= t + self.config.heartbeat) {
+        } else if self.last_tx.is_none_or(|t| now >= t + self.config.heartbeat_us) {
             Payload::RobotHeartbeat { uptime_ms: (now / 1000) as u32 }
         } else {
             return None;
@@ -444,15 +444,15 @@ impl<const K: usize> SansIo for Firmware<K> {
     /// something to do.
     fn deadline(&self) -> Option<Micros> {
         let failsafe = match self.last_command {
-            Some(at) if self.state() == RobotState::Driving => Some(at + self.config.failsafe),
+            Some(at) if self.state() == RobotState::Driving => Some(at + self.config.failsafe_us),
             _ => None,
         };
         let link = if self.connected() {
-            let heartbeat = self.last_tx.map(|t| t + self.config.heartbeat);
-            let relink = self.last_rx.map(|t| t + self.config.relink_after);
+            let heartbeat = self.last_tx.map(|t| t + self.config.heartbeat_us);
+            let relink = self.last_rx.map(|t| t + self.config.relink_after_us);
             min(heartbeat, relink)
         } else {
-            Some(self.hello.map_or(0, |(_, at)| at + self.config.hello_retry))
+            Some(self.hello.map_or(0, |(_, at)| at + self.config.hello_retry_us))
         };
         min(failsafe, link)
     }
