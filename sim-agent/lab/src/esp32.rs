@@ -13,7 +13,7 @@
 
 use bycoms_agent::firmware::{Firmware, FirmwareConfig, FirmwareInput, MicFrames, Motors};
 use bycoms_protocol::link::LinkKey;
-use bycoms_protocol::{Micros, SansIo};
+use bycoms_protocol::SansIo;
 use core::time::Duration;
 use std::io;
 use std::net::{SocketAddr, UdpSocket};
@@ -23,11 +23,9 @@ use std::net::{SocketAddr, UdpSocket};
 pub const LISTENED: usize = 2;
 
 /// The lab clock (time since the lab started) as the firmware's time since
-/// boot. The lab's clock moves in whole physics steps (5 ms), so nothing
-/// is rounded.
-pub fn micros(lab: Duration) -> Micros {
-    lab.as_micros() as Micros
-}
+/// boot: the runtime's one conversion (the lab's clock moves in whole
+/// physics steps, 5 ms, so nothing is rounded).
+pub use bycoms_runtime::epoch::micros_of as micros;
 
 /// One emulated robot's microcontroller.
 #[derive(Debug)]

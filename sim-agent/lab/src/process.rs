@@ -301,7 +301,7 @@ impl<B: Bus> MocapOut<B> {
             let (Some(b), Some(out)) = (b, self.poses.get(&robot)) else {
                 continue;
             };
-            let time_us = u64::try_from(now.as_micros()).unwrap_or(u64::MAX);
+            let time_us = bycoms_runtime::epoch::micros_of(now);
             out.publish(&Pose { robot, x: b.x, y: b.y, heading: b.heading, step: self.frame, time_us })?;
         }
         Ok(())

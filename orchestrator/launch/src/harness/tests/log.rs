@@ -199,7 +199,7 @@ fn a_version_1_logs_reach_upgrades_to_the_token_and_to_being_heard() {
     let old = vec![
         v1::Call::Advance(10),
         v1::Call::Handle(20, v1::Input::Reach(2, v1::Reach::Lost)),
-        v1::Call::Handle(30, v1::Input::Report(beat.clone())),
+        v1::Call::Handle(30, v1::Input::Report(beat)),
         v1::Call::Handle(30, v1::Input::Reach(2, v1::Reach::Back)),
         v1::Call::Handle(40, v1::Input::Token(3, true)),
         v1::Call::Handle(50, v1::Input::Interrupt),
