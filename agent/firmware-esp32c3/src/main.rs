@@ -109,17 +109,7 @@ async fn main(spawner: Spawner) -> ! {
     }
 
     // WiFi station and the IP stack.
-    let mut station = StationConfig::default();
-    station = match config.ssid.as_str().try_into() {
-        Ok(ssid) => station.with_ssid(ssid),
-        Err(e) => halt(&mut rtc, format_args!("ssid: {e:?}")),
-    };
-    if !config.password.is_empty() {
-        match config.password.as_str().try_into() {
-            Ok(p) => station = station.with_authentication(AuthenticationMethodConfig::Wpa2Personal(p)),
-            Err(e) => halt(&mut rtc, format_args!("password: {e:?}")),
-        }
-    }
+    let station = station(&config, &mut rtc);
     let interface = Interface::station();
     let controller = match WifiController::new(
         system.wifi,
@@ -157,10 +147,42 @@ async fn main(spawner: Spawner) -> ! {
     if let Err(e) = socket.bind(config.port) {
         halt(&mut rtc, format_args!("UDP port {}: {e:?}", config.port));
     }
-    let mut datagram = [0u8; 512];
     motors.enable();
     println!("bycoms robot {}: running; gateway {}", config.robot, config.gateway);
 
+    serve(&mut fw, &mut socket, gateway, &mut motors, &mut speaker, &mut rtc).await
+}
+
+/// The WiFi station of the robot's configuration (its network and, if
+/// any, its WPA2 password).
+fn station(config: &config::Config, rtc: &mut Rtc<'_>) -> StationConfig {
+    let mut station = StationConfig::default();
+    station = match config.ssid.as_str().try_into() {
+        Ok(ssid) => station.with_ssid(ssid),
+        Err(e) => halt(rtc, format_args!("ssid: {e:?}")),
+    };
+    if !config.password.is_empty() {
+        match config.password.as_str().try_into() {
+            Ok(p) => station = station.with_authentication(AuthenticationMethodConfig::Wpa2Personal(p)),
+            Err(e) => halt(rtc, format_args!("password: {e:?}")),
+        }
+    }
+    station
+}
+
+/// The control loop: wakes at the core's deadline (and at least every
+/// 100 ms, to feed the watchdog), hands the core a datagram, a microphone
+/// buffer or the time, applies its motors and tone, and sends what it has
+/// to send.
+async fn serve(
+    fw: &mut Firmware<{ config::LISTENED }>,
+    socket: &mut UdpSocket<'_>,
+    gateway: IpEndpoint,
+    motors: &mut board::Motors,
+    speaker: &mut board::Speaker,
+    rtc: &mut Rtc<'_>,
+) -> ! {
+    let mut datagram = [0u8; 512];
     loop {
         rtc.rwdt.feed();
         // Wake at the core's deadline, and at least every 100 ms for the watchdog.
